@@ -1,0 +1,3 @@
+from inclino.cli import main
+
+raise SystemExit(main())

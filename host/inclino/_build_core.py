@@ -1,0 +1,63 @@
+"""cffi builder (API, out-of-line) for the firmware core: compiles the very
+same firmware/src/*.c that the probe runs, plus the host-only batch loops.
+
+Used by setup.py (cffi_modules); `python host/inclino/_build_core.py` builds in
+place for development."""
+from __future__ import annotations
+
+import pathlib
+
+from cffi import FFI
+
+ROOT = pathlib.Path(__file__).resolve().parents[2]
+FW = ROOT / "firmware"
+HERE = pathlib.Path(__file__).resolve().parent
+
+CORE_SOURCES = ["fx_ops.c", "fx_math.c", "fx_atan_table.c", "correct.c", "attitude.c", "survey.c"]
+
+CDEF = """
+typedef struct { int32_t m[9]; int32_t bias[3]; } corr_triad_t;
+typedef struct { corr_triad_t acc; corr_triad_t mag; } corr_cal_t;
+typedef struct { int32_t inc; int32_t azi; int32_t gtf; int32_t mtf; int32_t gt; int32_t bt;
+                 int32_t dip; uint16_t flags; } att_t;
+typedef struct { int32_t g[3]; int32_t b[3]; att_t att; } survey_t;
+
+extern const int32_t fx_atan_table[257];
+int32_t fx_mul16(int16_t a, int16_t b);
+int32_t fx_asr32(int32_t x, uint8_t n);
+int32_t fx_asr32_rnd(int32_t x, uint8_t n);
+int32_t fx_shl32_sat(int32_t x, uint8_t n, uint8_t *sat);
+int32_t fx_add32_sat(int32_t a, int32_t b, uint8_t *sat);
+int32_t fx_sub32_sat(int32_t a, int32_t b, uint8_t *sat);
+int32_t fx_mul32_q31(int32_t a, int32_t b, uint8_t *sat);
+uint32_t fx_div_frac_q20(uint32_t num, uint32_t den);
+uint16_t fx_isqrt_u32(uint32_t x);
+uint32_t fx_sqrt_u32_q8(uint32_t x);
+int32_t fx_atan2_q16(int32_t y, int32_t x);
+uint8_t corr_triad(const int32_t x[3], const corr_triad_t *c, int32_t out[3]);
+void corr_identity(corr_triad_t *c);
+int8_t att_norm3(const int32_t v[3], int32_t out[3]);
+void att_compute(const int32_t g[3], const int32_t b[3], att_t *a);
+void survey_compute(const int16_t acc[3], const int32_t mag[3], const corr_cal_t *cal, survey_t *s);
+"""
+
+
+def _rel(p: pathlib.Path) -> str:
+    try:
+        return str(p.relative_to(pathlib.Path.cwd()))
+    except ValueError:
+        return str(p)
+
+
+ffibuilder = FFI()
+ffibuilder.cdef(CDEF + (HERE / "_core_batch.h").read_text())
+ffibuilder.set_source(
+    "inclino._core",
+    '#include "inclino/survey.h"\n#include "inclino/fx_math.h"\n#include "inclino/fx_ops.h"\n#include "_core_batch.h"\n',
+    sources=[_rel(FW / "src" / s) for s in CORE_SOURCES] + [_rel(HERE / "_core_batch.c")],
+    include_dirs=[_rel(FW / "include"), _rel(HERE)],
+    extra_compile_args=["-std=c99", "-O2", "-Wall", "-Wextra"],
+)
+
+if __name__ == "__main__":
+    ffibuilder.compile(tmpdir=str(HERE.parent), verbose=False)

@@ -1,0 +1,123 @@
+"""Calibration coefficients: float model, fixed-point image, JSON file.
+
+The model, per triad, is the 12-parameter correction both papers fit:
+corrected = M @ (raw - b), raw in nominal units (g for the accelerometer,
+nT for the fluxgate), M a 3x3 and b a 3-vector in the same units.
+The firmware holds M in Q29 (|m| < 4) and b in Q29 g / Q10 nT
+(firmware/include/inclino/correct.h).
+"""
+from __future__ import annotations
+
+import json
+import math
+from dataclasses import asdict, dataclass, field
+
+import numpy as np
+
+from inclino.core import FixedCal
+from inclino.errors import CalibrationError
+
+FORMAT_VERSION = 1
+M_FRAC = 29
+ACC_B_FRAC = 29  # Q29 g
+MAG_B_FRAC = 10  # Q10 nT
+M_LIMIT = 4.0
+ACC_B_LIMIT = 2.0  # g
+MAG_B_LIMIT = 2.0**20  # nT
+COND_LIMIT = 1e3
+
+
+def _q(x, frac, lo, hi, what):
+    v = np.round(np.asarray(x, dtype=float) * 2.0**frac)
+    if not np.all(np.isfinite(v)) or v.min() < lo or v.max() > hi:
+        raise CalibrationError(f"{what} out of the firmware's range")
+    return tuple(int(t) for t in v.ravel())
+
+
+@dataclass
+class Calibration:
+    acc_m: list = field(default_factory=lambda: np.eye(3).tolist())
+    acc_b: list = field(default_factory=lambda: [0.0, 0.0, 0.0])
+    mag_m: list = field(default_factory=lambda: np.eye(3).tolist())
+    mag_b: list = field(default_factory=lambda: [0.0, 0.0, 0.0])
+    method: str = "identity"
+    probe_serial: str = ""
+    format: int = FORMAT_VERSION
+
+    def check(self) -> None:
+        """Raise CalibrationError for a matrix that is not 3x3, not finite,
+        singular or ill-conditioned, or out of the firmware's range."""
+        for name in ("acc_m", "mag_m"):
+            m = np.asarray(getattr(self, name), dtype=float)
+            if m.shape != (3, 3) or not np.all(np.isfinite(m)):
+                raise CalibrationError(f"{name} must be a finite 3x3 matrix")
+            c = np.linalg.cond(m)
+            if not math.isfinite(c) or c > COND_LIMIT:
+                raise CalibrationError(f"{name} is singular or ill-conditioned (cond {c:.3g})")
+            if np.abs(m).max() >= M_LIMIT:
+                raise CalibrationError(f"{name} has an element beyond +-{M_LIMIT:g}")
+        for name, lim in (("acc_b", ACC_B_LIMIT), ("mag_b", MAG_B_LIMIT)):
+            b = np.asarray(getattr(self, name), dtype=float)
+            if b.shape != (3,) or not np.all(np.isfinite(b)):
+                raise CalibrationError(f"{name} must be 3 finite numbers")
+            if np.abs(b).max() >= lim:
+                raise CalibrationError(f"{name} beyond +-{lim:g}")
+
+    def to_fixed(self) -> FixedCal:
+        self.check()
+        lim = 2**31 - 1
+        return FixedCal(
+            acc_m=_q(self.acc_m, M_FRAC, -lim, lim, "acc_m"),
+            acc_b=_q(self.acc_b, ACC_B_FRAC, -lim, lim, "acc_b"),
+            mag_m=_q(self.mag_m, M_FRAC, -lim, lim, "mag_m"),
+            mag_b=_q(self.mag_b, MAG_B_FRAC, -lim, lim, "mag_b"),
+        )
+
+    @staticmethod
+    def from_fixed(fc: FixedCal, **kw) -> "Calibration":
+        """The float values a fixed-point image stands for (dequantised)."""
+        return Calibration(
+            acc_m=(np.array(fc.acc_m, float) / 2**M_FRAC).reshape(3, 3).tolist(),
+            acc_b=(np.array(fc.acc_b, float) / 2**ACC_B_FRAC).tolist(),
+            mag_m=(np.array(fc.mag_m, float) / 2**M_FRAC).reshape(3, 3).tolist(),
+            mag_b=(np.array(fc.mag_b, float) / 2**MAG_B_FRAC).tolist(),
+            **kw,
+        )
+
+    def to_json(self) -> str:
+        d = asdict(self)
+        d["fixed"] = asdict(self.to_fixed())
+        return json.dumps(d, indent=2)
+
+    @staticmethod
+    def from_json(text: str) -> "Calibration":
+        try:
+            d = json.loads(text)
+        except json.JSONDecodeError as e:
+            raise CalibrationError(f"calibration file is not valid JSON ({e.msg} at line {e.lineno})")
+        if not isinstance(d, dict):
+            raise CalibrationError("calibration file must hold a JSON object")
+        if d.get("format") != FORMAT_VERSION:
+            raise CalibrationError(f"calibration format {d.get('format')!r} is not {FORMAT_VERSION}")
+        try:
+            cal = Calibration(
+                acc_m=[[float(v) for v in row] for row in d["acc_m"]],
+                acc_b=[float(v) for v in d["acc_b"]],
+                mag_m=[[float(v) for v in row] for row in d["mag_m"]],
+                mag_b=[float(v) for v in d["mag_b"]],
+                method=str(d.get("method", "")),
+                probe_serial=str(d.get("probe_serial", "")),
+            )
+        except (KeyError, TypeError, ValueError) as e:
+            raise CalibrationError(f"calibration file lacks or mangles a coefficient ({e})")
+        cal.check()
+        return cal
+
+    @staticmethod
+    def load(path: str) -> "Calibration":
+        try:
+            with open(path, encoding="utf-8") as f:
+                text = f.read()
+        except OSError as e:
+            raise CalibrationError(f"cannot read calibration {path}: {e.strerror}")
+        return Calibration.from_json(text)

@@ -1,0 +1,315 @@
+"""NumPy golden model of the firmware's fixed-point core.
+
+Each function mirrors, step for step, the C function of the same name in
+firmware/src (same shifts, same rounding, same saturation, same table), over
+arrays of any length.  Values are carried in int64 arrays; every result is
+checked to be what the C computes in 32 bits.  The contracts (Q formats,
+rounding, error bounds) are in the C headers and docs/fixed-point.md.
+
+Saturation flags are returned as boolean arrays alongside the values.
+"""
+from __future__ import annotations
+
+import math
+
+import numpy as np
+
+INT32_MAX = 2**31 - 1
+INT32_MIN = -(2**31)
+U32 = 2**32
+
+# attitude.h flags
+F_NEAR_VERTICAL = 0x0001
+F_ACC_OVERRANGE = 0x0002
+F_MAG_OVERRANGE = 0x0004
+F_ACC_SATURATED = 0x0008
+F_MAG_SATURATED = 0x0010
+F_ARITH_SATURATED = 0x0020
+F_ZERO_GRAVITY = 0x0040
+F_ZERO_FIELD = 0x0080
+FLAG_NAMES = {
+    F_NEAR_VERTICAL: "near-vertical",
+    F_ACC_OVERRANGE: "acc-overrange",
+    F_MAG_OVERRANGE: "mag-overrange",
+    F_ACC_SATURATED: "acc-saturated",
+    F_MAG_SATURATED: "mag-saturated",
+    F_ARITH_SATURATED: "arith-saturated",
+    F_ZERO_GRAVITY: "zero-gravity",
+    F_ZERO_FIELD: "zero-field",
+}
+
+NEAR_VERTICAL_Q16 = 32768
+ACC_RANGE_COUNTS = 27853
+MAG_RANGE_COUNTS = 100000
+MAG_RAW_MAX = 2**20 - 1
+MAG_RAW_MIN = -(2**20)
+ACC_IN_SHIFT = 15
+MAG_IN_SHIFT = 10
+M_ONE = 2**29
+ATAN_N = 256
+DIV_BITS = 20
+ATAN_FRAC_BITS = 12
+
+
+def deg_q16(d):
+    return int(d) * 65536
+
+
+def _i64(x):
+    return np.asarray(x, dtype=np.int64)
+
+
+def flag_names(flags: int) -> list[str]:
+    return [name for bit, name in FLAG_NAMES.items() if flags & bit]
+
+
+# --------------------------------------------------------------- fx_ops
+def fx_mul16(a, b):
+    return _i64(a) * _i64(b)
+
+
+def fx_asr32(x, n):
+    return np.right_shift(_i64(x), _i64(n))  # int64 >> is floor
+
+
+def fx_asr32_rnd(x, n):
+    x = _i64(x)
+    n = np.broadcast_to(_i64(n), x.shape)
+    q = np.right_shift(x, n)
+    bit = np.right_shift(x & 0xFFFFFFFF, np.maximum(n - 1, 0)) & 1
+    return np.where(n == 0, x, q + bit)
+
+
+def _sat32(v):
+    sat = (v > INT32_MAX) | (v < INT32_MIN)
+    return np.clip(v, INT32_MIN, INT32_MAX), sat
+
+
+def fx_shl32_sat(x, n):
+    return _sat32(_i64(x) * np.left_shift(np.int64(1), _i64(n)))
+
+
+def fx_add32_sat(a, b):
+    return _sat32(_i64(a) + _i64(b))
+
+
+def fx_sub32_sat(a, b):
+    return _sat32(_i64(a) - _i64(b))
+
+
+def fx_mul32_q31(a, b):
+    """Returns (result, saturated)."""
+    a = _i64(a)
+    b = _i64(b)
+    ah = a >> 16
+    bh = b >> 16
+    al = (a & 0xFFFF) >> 1
+    bl = (b & 0xFFFF) >> 1
+    s = fx_mul16(ah, bh) + (fx_mul16(ah, bl) >> 15) + (fx_mul16(al, bh) >> 15)
+    hi = s > 0x3FFFFFFF
+    lo = s < -0x40000000
+    r = np.where(hi, INT32_MAX, np.where(lo, INT32_MIN, s * 2))
+    return r, hi | lo
+
+
+# --------------------------------------------------------------- fx_math
+def atan_table() -> np.ndarray:
+    """round(atan(k/256) * 180/pi * 65536), k = 0..256 (Python's round, as
+    tools/gen_atan_table.py writes it)."""
+    return np.array([round(math.degrees(math.atan(k / ATAN_N)) * 65536)
+                     for k in range(ATAN_N + 1)], dtype=np.int64)
+
+
+_ATAN = atan_table()
+
+
+def fx_div_frac_q20(num, den):
+    num = _i64(num)
+    den = _i64(den)
+    num, den = np.broadcast_arrays(num, den)
+    rem = num.copy()
+    q = np.zeros_like(num)
+    for _ in range(DIV_BITS):
+        rem = rem * 2  # exact in int64; the C keeps the 33rd bit as `top`
+        q = q * 2
+        ge = rem >= den
+        rem = np.where(ge, rem - den, rem)
+        q = q + ge
+    q = q + (rem >= den - rem)
+    q = np.where(num >= den, 1 << DIV_BITS, q)
+    return np.where(den == 0, 0, q)
+
+
+def fx_isqrt_u32(x):
+    x = _i64(x).copy()
+    res = np.zeros_like(x)
+    bit = np.int64(1 << 30)
+    for _ in range(16):
+        ge = x >= res + bit
+        x = np.where(ge, x - (res + bit), x)
+        res = np.where(ge, (res >> 1) + bit, res >> 1)
+        bit >>= 2
+    return res
+
+
+def fx_sqrt_u32_q8(x):
+    x = _i64(x)
+    y = fx_isqrt_u32(x)
+    r = x - y * y
+    return (y << 8) + ((r << 8) + y) // (2 * y + 1)
+
+
+def fx_atan2_q16(y, x):
+    y = _i64(y)
+    x = _i64(x)
+    y, x = np.broadcast_arrays(y, x)
+    ux = np.abs(x)
+    uy = np.abs(y)
+    swap = uy > ux
+    num = np.where(swap, ux, uy)
+    den = np.where(swap, uy, ux)
+    q = fx_div_frac_q20(num, den)
+    idx = q >> ATAN_FRAC_BITS
+    frac = q & ((1 << ATAN_FRAC_BITS) - 1)
+    t0 = _ATAN[idx]
+    t1 = _ATAN[np.minimum(idx + 1, ATAN_N)]
+    a = np.where(frac != 0, t0 + fx_asr32_rnd(fx_mul16(t1 - t0, frac), ATAN_FRAC_BITS), t0)
+    a = np.where(swap, deg_q16(90) - a, a)
+    a = np.where(x < 0, deg_q16(180) - a, a)
+    a = np.where(y < 0, deg_q16(360) - a, a)
+    a = np.where(a == deg_q16(360), 0, a)
+    return np.where((x == 0) & (y == 0), 0, a)
+
+
+# --------------------------------------------------------------- correct
+def corr_triad(x, m, bias):
+    """x: (..., 3) scaled raw; m: (..., 9) Q29; bias: (..., 3).
+    Returns (out (..., 3), saturated (...))."""
+    x = _i64(x)
+    m = _i64(m)
+    bias = _i64(bias)
+    d, sat = fx_sub32_sat(x, bias)
+    sat = sat.any(axis=-1)
+    out = []
+    for i in range(3):
+        acc, s = fx_mul32_q31(m[..., 3 * i], d[..., 0])
+        sat = sat | s
+        for j in (1, 2):
+            p, s1 = fx_mul32_q31(m[..., 3 * i + j], d[..., j])
+            acc, s2 = fx_add32_sat(acc, p)
+            sat = sat | s1 | s2
+        out.append(acc)
+    return np.stack(out, axis=-1), sat
+
+
+# --------------------------------------------------------------- attitude
+def att_norm3(v):
+    """Returns (out (..., 3), s (...))."""
+    v = _i64(v)
+    m = np.abs(v).max(axis=-1)
+    s = np.zeros(m.shape, dtype=np.int64)
+    mm = m.copy()
+    for _ in range(2):
+        big = mm >= (1 << 30)
+        mm = np.where(big, mm >> 1, mm)
+        s = s - big
+    for _ in range(30):
+        small = (mm < (1 << 29)) & (mm > 0)
+        mm = np.where(small, mm << 1, mm)
+        s = s + small
+    se = s[..., None]
+    left, _ = fx_shl32_sat(v, np.maximum(se, 0))
+    right = fx_asr32_rnd(v, np.maximum(-se, 0))
+    out = np.where(se >= 0, left, right)
+    return out, s
+
+
+def _mag_from_sq(q):
+    q = np.maximum(_i64(q), 0)
+    return fx_sqrt_u32_q8(2 * q) * 128
+
+
+def _denorm(v, s):
+    right = fx_asr32_rnd(v, np.maximum(s, 0))
+    left, sat = fx_shl32_sat(v, np.maximum(-s, 0))
+    return np.where(s >= 0, right, left), (s < 0) & sat
+
+
+def att_compute(g, b):
+    """g: (..., 3) Q27 g; b: (..., 3) Q8 nT.  Returns a dict of int64 arrays:
+    inc, azi, gtf, mtf, gt, bt, dip, flags."""
+    G, sg = att_norm3(g)
+    B, sb = att_norm3(b)
+    flags = np.zeros(sg.shape, dtype=np.int64)
+    flags |= np.where((G == 0).all(axis=-1), F_ZERO_GRAVITY, 0)
+    flags |= np.where((B == 0).all(axis=-1), F_ZERO_FIELD, 0)
+    Gh = G.copy()
+    Gh[..., 2] = 0
+    H, sh = att_norm3(Gh)
+    sat = np.zeros(sg.shape, dtype=bool)
+
+    def mul(a, c):
+        nonlocal sat
+        r, s = fx_mul32_q31(a, c)
+        sat = sat | s
+        return r
+
+    Gx, Gy, Gz = G[..., 0], G[..., 1], G[..., 2]
+    Bx, By, Bz = B[..., 0], B[..., 1], B[..., 2]
+    Hx, Hy = H[..., 0], H[..., 1]
+    g2 = mul(Gx, Gx) + mul(Gy, Gy) + mul(Gz, Gz)
+    gmag = _mag_from_sq(g2)
+    h2 = mul(Hx, Hx) + mul(Hy, Hy)
+    hmag = _mag_from_sq(h2)
+    r = fx_asr32_rnd(hmag, sh + 1)
+    out = {}
+    out["inc"] = fx_atan2_q16(r, fx_asr32_rnd(Gz, 1))
+    out["gtf"] = fx_atan2_q16(Gy, -Gx)
+    cross = mul(Hx, By) - mul(Hy, Bx)
+    doth = mul(Hx, Bx) + mul(Hy, By)
+    num = mul(gmag, cross)
+    den = fx_asr32_rnd(mul(Bz, h2), sh + 1) - fx_asr32_rnd(mul(Gz, doth), 1)
+    out["azi"] = fx_atan2_q16(fx_asr32_rnd(num, 1), den)
+    out["mtf"] = fx_atan2_q16(-By, Bx)
+    gdotb = mul(Gx, Bx) + mul(Gy, By) + mul(Gz, Bz)
+    cx = mul(Gy, Bz) - mul(Gz, By)
+    cy = mul(Gz, Bx) - mul(Gx, Bz)
+    cz = mul(Gx, By) - mul(Gy, Bx)
+    c2 = mul(cx, cx) + mul(cy, cy) + mul(cz, cz)
+    cmag = _mag_from_sq(c2)
+    dip = fx_atan2_q16(gdotb, cmag)
+    out["dip"] = np.where(dip > deg_q16(180), dip - deg_q16(360), dip)
+    b2 = mul(Bx, Bx) + mul(By, By) + mul(Bz, Bz)
+    bmag = _mag_from_sq(b2)
+    out["gt"], s1 = _denorm(gmag, sg)
+    out["bt"], s2 = _denorm(bmag, sb)
+    sat = sat | s1 | s2
+    inc = out["inc"]
+    flags |= np.where((inc < NEAR_VERTICAL_Q16) | (inc > deg_q16(180) - NEAR_VERTICAL_Q16),
+                      F_NEAR_VERTICAL, 0)
+    flags |= np.where(sat, F_ARITH_SATURATED, 0)
+    out["flags"] = flags
+    return out
+
+
+# --------------------------------------------------------------- survey
+def survey_compute(acc, mag, cal_acc_m, cal_acc_b, cal_mag_m, cal_mag_b):
+    """acc: (n, 3) int16 counts; mag: (n, 3) int32 counts; coefficients as
+    int arrays (9,), (3,) broadcast over n.  Returns dict with g, b (n, 3)
+    and the att_compute keys."""
+    acc = _i64(acc)
+    mag = _i64(mag)
+    flags = np.zeros(acc.shape[:-1], dtype=np.int64)
+    flags |= np.where((np.abs(acc) > ACC_RANGE_COUNTS).any(axis=-1), F_ACC_OVERRANGE, 0)
+    flags |= np.where(((acc == 32767) | (acc == -32768)).any(axis=-1), F_ACC_SATURATED, 0)
+    g, sa = corr_triad(acc << ACC_IN_SHIFT, cal_acc_m, cal_acc_b)
+    flags |= np.where((np.abs(mag) > MAG_RANGE_COUNTS).any(axis=-1), F_MAG_OVERRANGE, 0)
+    flags |= np.where(((mag >= MAG_RAW_MAX) | (mag <= MAG_RAW_MIN)).any(axis=-1), F_MAG_SATURATED, 0)
+    magc = np.clip(mag, MAG_RAW_MIN, MAG_RAW_MAX)
+    b, sm = corr_triad(magc << MAG_IN_SHIFT, cal_mag_m, cal_mag_b)
+    flags |= np.where(sa | sm, F_ARITH_SATURATED, 0)
+    out = att_compute(g, b)
+    out["flags"] = out["flags"] | flags
+    out["g"] = g
+    out["b"] = b
+    return out
