@@ -54,9 +54,24 @@ uint16_t fx_isqrt_u32(uint32_t x)
 
 uint32_t fx_sqrt_u32_q8(uint32_t x)
 {
-    uint32_t y = fx_isqrt_u32(x);
-    uint32_t r = x - y * y; /* 0 <= r <= 2y <= 131070 */
-    return (y << 8) + ((r << 8) + y) / (2u * y + 1u);
+    uint32_t y, r, s;
+    uint8_t k = 0u;
+
+    if (x == 0u) {
+        return 0u;
+    }
+    /* normalise by 4^k into [2^30, 2^32) so that y >= 2^15 */
+    while (x < ((uint32_t)1u << 30)) {
+        x <<= 2;
+        k++;
+    }
+    y = fx_isqrt_u32(x);
+    r = x - y * y; /* 0 <= r <= 2y <= 131070 */
+    s = (y << 8) + ((r << 8) + y) / (2u * y + 1u);
+    if (k == 0u) {
+        return s;
+    }
+    return (s + ((uint32_t)1u << (k - 1u))) >> k; /* round half up; s < 2^24 */
 }
 
 int32_t fx_atan2_q16(int32_t y, int32_t x)

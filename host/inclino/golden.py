@@ -154,9 +154,18 @@ def fx_isqrt_u32(x):
 
 def fx_sqrt_u32_q8(x):
     x = _i64(x)
-    y = fx_isqrt_u32(x)
-    r = x - y * y
-    return (y << 8) + ((r << 8) + y) // (2 * y + 1)
+    k = np.zeros(x.shape, dtype=np.int64)
+    xn = x.copy()
+    for _ in range(15):
+        small = (xn < (1 << 30)) & (xn > 0)
+        xn = np.where(small, xn << 2, xn)
+        k = k + small
+    y = fx_isqrt_u32(xn)
+    r = xn - y * y
+    s = (y << 8) + ((r << 8) + y) // (2 * y + 1)
+    half = np.where(k > 0, np.left_shift(1, np.maximum(k - 1, 0)), 0)
+    out = np.where(k > 0, (s + half) >> k, s)
+    return np.where(x == 0, 0, out)
 
 
 def fx_atan2_q16(y, x):

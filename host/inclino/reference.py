@@ -80,10 +80,11 @@ def attitude(g, b):
     h = np.hypot(gx, gy)
     out = {
         "inc": np.degrees(np.arctan2(h, gz)),
-        "gtf": _wrap360(np.degrees(np.arctan2(gy, -gx))),
+        # "+ 0.0" turns -0.0 into +0.0: atan2(0, 0) is 0, as in the firmware
+        "gtf": _wrap360(np.degrees(np.arctan2(gy, -gx + 0.0))),
         "azi": _wrap360(np.degrees(np.arctan2(gn * (gx * by - gy * bx),
                                               bz * (gx * gx + gy * gy) - gz * (gx * bx + gy * by)))),
-        "mtf": _wrap360(np.degrees(np.arctan2(-by, bx))),
+        "mtf": _wrap360(np.degrees(np.arctan2(-by + 0.0, bx))),
         "gt": gn,
         "bt": bn,
     }

@@ -42,10 +42,12 @@ uint16_t fx_isqrt_u32(uint32_t x);
 
 /*
  * fx_sqrt_u32_q8 - sqrt(x) * 2^8 for x in [0, 2^32).  Out: Q8, [0, 2^24).
- *   Method: y = floor(sqrt(x)), r = x - y^2, result = 256*y +
- *   floor((256*r + y) / (2*y + 1)).
- *   Error bound: |result - 256*sqrt(x)| < 1 for all x (the correction term
- *   r / (2y + 1) underestimates sqrt(x) - y by less than 1/(2y) + 1/256).
+ *   Method: normalise x' = x * 4^k into [2^30, 2^32); y = floor(sqrt(x')),
+ *   r = x' - y^2, s = 256*y + floor((256*r + y) / (2*y + 1)); result =
+ *   round(s / 2^k) (half up).
+ *   Error bound: |result - 256*sqrt(x)| < 1 for all x (with y >= 2^15 the
+ *   correction term is within 128/y < 2^-8 of 256 (sqrt(x') - y), plus
+ *   the truncation and the final rounding).
  */
 uint32_t fx_sqrt_u32_q8(uint32_t x);
 

@@ -1,0 +1,142 @@
+"""The `inclino` command: a thin shell over the library.
+
+Exit statuses: 0 success; 1 a check ran and failed; 2 bad input (file,
+column, value, option); 3 calibration refused; 4 probe or port problem.
+Every error is one line on stderr, never a traceback.
+"""
+from __future__ import annotations
+
+import argparse
+import csv
+import sys
+
+import numpy as np
+
+from inclino import __version__
+from inclino.errors import DataError, InclinoError
+
+
+def _cmd_demo(args) -> int:
+    from inclino import demo
+
+    print(demo.render(demo.run(field_nT=args.field, dip_deg=args.dip)))
+    return 0
+
+
+def _cmd_bitexact(args) -> int:
+    from inclino import bitexact
+
+    if args.vectors < 0:
+        raise DataError("--vectors must be >= 0")
+    r = bitexact.run(args.vectors, args.seed)
+    print(r.line)
+    return 0 if r.mismatches == 0 else 1
+
+
+def _cmd_attitude(args) -> int:
+    from inclino import dataset, engines
+    from inclino.calfile import Calibration
+
+    ds = dataset.read_raw(args.input)
+    cal = Calibration.load(args.cal) if args.cal else Calibration()
+    out = engines.run(ds.acc, ds.mag, cal, args.engine)
+    cols = ["inc_deg", "azi_deg", "tf_deg", "gt_g", "bt_nT", "dip_deg", "flags", "mtf_deg"]
+    try:
+        f = open(args.output, "w", newline="", encoding="utf-8") if args.output != "-" else sys.stdout
+    except OSError as e:
+        raise DataError(f"cannot write {args.output}: {e.strerror}")
+    try:
+        w = csv.writer(f)
+        w.writerow(cols)
+        for i in range(len(ds)):
+            w.writerow([int(out[c][i]) if c == "flags" else f"{float(out[c][i]):.6f}" for c in cols])
+    finally:
+        if f is not sys.stdout:
+            f.close()
+    return 0
+
+
+def _cmd_bench(args) -> int:
+    from inclino import bench
+
+    if args.what == "accuracy":
+        r = bench.accuracy(field_nT=args.field, dip_deg=args.dip)
+        print(r.to_json() if args.json else _accuracy_text(r))
+        return 0
+    if args.what == "speed":
+        r = bench.speed(vectors=args.vectors)
+        print(r.to_json() if args.json else
+              f"batched C: {r.batched_vectors_per_s:,.0f} vectors/s; golden: {r.golden_vectors_per_s:,.0f}"
+              f" vectors/s; per call: {r.per_call_vectors_per_s:,.0f} vectors/s"
+              f" (cost ratio {r.per_call_to_batched_cost_ratio:.0f})")
+        return 0
+    if args.what == "mcu":
+        try:
+            from inclino import mcu
+        except ImportError:
+            raise InclinoError("the S08 simulator bench is not part of this build")
+        r = mcu.bench()
+        print(r.to_json())
+        return 0
+    raise DataError(f"unknown benchmark {args.what!r}")
+
+
+def _accuracy_text(r) -> str:
+    f = r.figures
+    lines = [f"fixed point vs float64 on the same counts, {r.poses} poses (F={r.field_nT:g} nT, dip={r.dip_deg:g})"]
+    for k, v in f.items():
+        t = r.targets.get(k)
+        lines.append(f"  {k:22s} {v:.6g}" + (f"   (target <= {t:g})" if t is not None else ""))
+    lines.append("  verdict: " + ("pass" if r.passed else "FAIL"))
+    return "\n".join(lines)
+
+
+def build_parser() -> argparse.ArgumentParser:
+    p = argparse.ArgumentParser(prog="inclino", description="Toolkit for magnetic borehole inclinometer probes.")
+    p.add_argument("--version", action="version", version=f"inclino {__version__}")
+    sub = p.add_subparsers(dest="command", required=True)
+
+    d = sub.add_parser("demo", help="attitude of a table of poses through the firmware C, next to float64")
+    d.add_argument("--field", type=float, default=50000.0, help="field total, nT (default 50000)")
+    d.add_argument("--dip", type=float, default=60.0, help="dip, degrees (default 60)")
+    d.set_defaults(func=_cmd_demo)
+
+    b = sub.add_parser("bitexact", help="firmware C against the golden model, bit for bit")
+    b.add_argument("--vectors", type=int, default=1_000_000, help="random vectors besides the edge cases")
+    b.add_argument("--seed", type=int, default=1)
+    b.set_defaults(func=_cmd_bitexact)
+
+    a = sub.add_parser("attitude", help="attitude of every row of a raw dataset")
+    a.add_argument("input", help="raw dataset CSV")
+    a.add_argument("--cal", help="calibration JSON (default: identity)")
+    a.add_argument("--engine", choices=("firmware", "golden", "reference"), default="firmware")
+    a.add_argument("-o", "--output", required=True, help="output CSV ('-' for stdout)")
+    a.set_defaults(func=_cmd_attitude)
+
+    be = sub.add_parser("bench", help="benchmarks (figures, JSON with --json)")
+    be.add_argument("what", choices=("accuracy", "speed", "mcu"))
+    be.add_argument("--json", action="store_true", help="print one JSON object")
+    be.add_argument("--field", type=float, default=50000.0, help="accuracy: field total, nT")
+    be.add_argument("--dip", type=float, default=60.0, help="accuracy: dip, degrees")
+    be.add_argument("--vectors", type=int, default=1_000_000, help="speed: batch size")
+    be.set_defaults(func=_cmd_bench)
+    return p
+
+
+def main(argv: list[str] | None = None) -> int:
+    parser = build_parser()
+    args = parser.parse_args(argv)
+    try:
+        return int(args.func(args))
+    except InclinoError as e:
+        print(f"inclino: error: {e}", file=sys.stderr)
+        return e.exit_code
+    except KeyboardInterrupt:
+        print("inclino: interrupted", file=sys.stderr)
+        return 130
+    except BrokenPipeError:
+        return 0
+
+
+if __name__ == "__main__":  # pragma: no cover
+    raise SystemExit(main())
