@@ -13,7 +13,7 @@ ROOT = pathlib.Path(__file__).resolve().parents[2]
 FW = ROOT / "firmware"
 HERE = pathlib.Path(__file__).resolve().parent
 
-CORE_SOURCES = ["fx_ops.c", "fx_math.c", "fx_atan_table.c", "correct.c", "attitude.c", "survey.c"]
+CORE_SOURCES = ["fx_ops.c", "fx_math.c", "fx_atan_table.c", "correct.c", "attitude.c", "survey.c", "qc.c"]
 
 CDEF = """
 typedef struct { int32_t m[9]; int32_t bias[3]; } corr_triad_t;
@@ -39,6 +39,10 @@ void corr_identity(corr_triad_t *c);
 int8_t att_norm3(const int32_t v[3], int32_t out[3]);
 void att_compute(const int32_t g[3], const int32_t b[3], att_t *a);
 void survey_compute(const int16_t acc[3], const int32_t mag[3], const corr_cal_t *cal, survey_t *s);
+typedef struct { int32_t gt_ref; int32_t gt_tol; int32_t bt_ref; int32_t bt_tol; int32_t dip_ref;
+                 int32_t dip_tol; } qc_ref_t;
+uint8_t qc_check(const att_t *a, const qc_ref_t *r);
+void qc_default(qc_ref_t *r, int32_t bt_ref, int32_t dip_ref);
 """
 
 
@@ -53,7 +57,7 @@ ffibuilder = FFI()
 ffibuilder.cdef(CDEF + (HERE / "_core_batch.h").read_text())
 ffibuilder.set_source(
     "inclino._core",
-    '#include "inclino/survey.h"\n#include "inclino/fx_math.h"\n#include "inclino/fx_ops.h"\n#include "_core_batch.h"\n',
+    '#include "inclino/survey.h"\n#include "inclino/fx_math.h"\n#include "inclino/fx_ops.h"\n#include "inclino/qc.h"\n#include "_core_batch.h"\n',
     sources=[_rel(FW / "src" / s) for s in CORE_SOURCES] + [_rel(HERE / "_core_batch.c")],
     include_dirs=[_rel(FW / "include"), _rel(HERE)],
     extra_compile_args=["-std=c99", "-O2", "-Wall", "-Wextra"],

@@ -8,6 +8,7 @@
 #include "inclino/correct.h"
 #include "inclino/fx_math.h"
 #include "inclino/fx_ops.h"
+#include "inclino/qc.h"
 #include "inclino/survey.h"
 #include "_core_batch.h"
 
@@ -87,5 +88,23 @@ void inc_batch_survey(const int16_t *acc, const int32_t *mag, const corr_cal_t *
             o[3 + k] = s.b[k];
         }
         att_row(&s.att, &o[6]);
+    }
+}
+
+void inc_batch_qc(const int32_t *att, const qc_ref_t *ref, uint8_t *out, size_t n)
+{
+    size_t i;
+    att_t a;
+    for (i = 0; i < n; i++) {
+        const int32_t *r = &att[INC_ATT_COLS * i];
+        a.inc = r[0];
+        a.azi = r[1];
+        a.gtf = r[2];
+        a.mtf = r[3];
+        a.gt = r[4];
+        a.bt = r[5];
+        a.dip = r[6];
+        a.flags = (uint16_t)r[7];
+        out[i] = qc_check(&a, ref);
     }
 }

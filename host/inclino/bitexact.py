@@ -1,7 +1,7 @@
 """Bit-exactness of the firmware C against the golden model.
 
 `inclino bitexact --vectors N --seed S` runs the whole survey computation
-(range checks, correction of both triads, attitude) on N random vectors plus
+(range checks, correction of both triads, attitude, survey QC) on N random vectors plus
 every edge case below, in the C (one batched cffi call per chunk) and in the
 golden model, and counts the vectors where any output word differs.
 """
@@ -119,6 +119,14 @@ def compare(acc, mag, cals: list[FixedCal]) -> tuple[int, int | None]:
     for k in SURVEY_COLS[6:]:
         bad |= c[k].astype(np.int64) != g[k]
     bad |= (c["g"] != g["g"]).any(-1) | (c["b"] != g["b"]).any(-1)
+    # survey QC against a reference near the vectors' own values (so that
+    # both verdicts occur) and against an extreme one (saturating differences)
+    for ref in (core.QcRef(bt_ref=50000 * 256, dip_ref=60 * 65536),
+                core.QcRef(gt_ref=-(2**31), gt_tol=0, bt_ref=2**31 - 1, bt_tol=2**30, dip_ref=-(2**31),
+                           dip_tol=2**31 - 1)):
+        qc = golden.qc_check(g, *(getattr(ref, k) for k in ("gt_ref", "gt_tol", "bt_ref", "bt_tol",
+                                                             "dip_ref", "dip_tol")))
+        bad |= core.qc_check(c, ref) != qc
     first = int(np.argmax(bad)) if bad.any() else None
     return int(bad.sum()), first
 

@@ -151,3 +151,27 @@ def survey_one(acc, mag, cal: FixedCal | None = None):
     att = s.att
     return {"g": list(s.g), "b": list(s.b), "inc": att.inc, "azi": att.azi, "gtf": att.gtf,
             "mtf": att.mtf, "gt": att.gt, "bt": att.bt, "dip": att.dip, "flags": att.flags}
+
+
+@dataclass(frozen=True)
+class QcRef:
+    """Survey QC reference (qc_ref_t): G total Q27 g, B total Q8 nT, dip Q16
+    degrees, each with its tolerance in the same format."""
+
+    gt_ref: int = 2**27
+    gt_tol: int = 335544
+    bt_ref: int = 0
+    bt_tol: int = 76800
+    dip_ref: int = 0
+    dip_tol: int = 16384
+
+
+def qc_check(att: dict, ref: QcRef):
+    """QC bits (qc.h QC_F_*) for a dict of attitude arrays (ATT_COLS)."""
+    rows = np.stack([np.asarray(att[k], dtype=np.int64) for k in ATT_COLS], axis=-1)
+    a_, pa = _c(rows, np.int32)
+    r = ffi.new("qc_ref_t *", {k: int(getattr(ref, k)) for k in
+                               ("gt_ref", "gt_tol", "bt_ref", "bt_tol", "dip_ref", "dip_tol")})
+    out = np.empty(a_.shape[0], np.uint8)
+    lib.inc_batch_qc(pa, r, _p(out), a_.shape[0])
+    return out

@@ -322,3 +322,21 @@ def survey_compute(acc, mag, cal_acc_m, cal_acc_b, cal_mag_m, cal_mag_b):
     out["g"] = g
     out["b"] = b
     return out
+
+
+# --------------------------------------------------------------- qc
+QC_F_GT, QC_F_BT, QC_F_DIP, QC_F_UNDEFINED = 0x01, 0x02, 0x04, 0x08
+
+
+def _outside(v, ref, tol):
+    d, _ = fx_sub32_sat(v, ref)
+    d = np.where(d < 0, np.where(d == INT32_MIN, INT32_MAX, -d), d)
+    return d > tol
+
+
+def qc_check(att, gt_ref, gt_tol, bt_ref, bt_tol, dip_ref, dip_tol):
+    f = np.where(_outside(att["gt"], gt_ref, gt_tol), QC_F_GT, 0)
+    f |= np.where(_outside(att["bt"], bt_ref, bt_tol), QC_F_BT, 0)
+    f |= np.where(_outside(att["dip"], dip_ref, dip_tol), QC_F_DIP, 0)
+    bad = (_i64(att["flags"]) & (F_ZERO_GRAVITY | F_ZERO_FIELD | F_ARITH_SATURATED)) != 0
+    return f | np.where(bad, QC_F_UNDEFINED, 0)
