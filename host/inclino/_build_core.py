@@ -13,7 +13,8 @@ ROOT = pathlib.Path(__file__).resolve().parents[2]
 FW = ROOT / "firmware"
 HERE = pathlib.Path(__file__).resolve().parent
 
-CORE_SOURCES = ["fx_ops.c", "fx_math.c", "fx_atan_table.c", "correct.c", "attitude.c", "survey.c", "qc.c"]
+CORE_SOURCES = ["fx_ops.c", "fx_math.c", "fx_atan_table.c", "correct.c", "attitude.c", "survey.c", "qc.c", "crc16.c",
+                "calimg.c"]
 
 CDEF = """
 typedef struct { int32_t m[9]; int32_t bias[3]; } corr_triad_t;
@@ -43,6 +44,10 @@ typedef struct { int32_t gt_ref; int32_t gt_tol; int32_t bt_ref; int32_t bt_tol;
                  int32_t dip_tol; } qc_ref_t;
 uint8_t qc_check(const att_t *a, const qc_ref_t *r);
 void qc_default(qc_ref_t *r, int32_t bt_ref, int32_t dip_ref);
+uint16_t crc16_update(uint16_t crc, const uint8_t *data, uint16_t n);
+typedef struct { uint32_t serial; uint32_t time; uint8_t method; } calimg_info_t;
+uint8_t calimg_parse(const uint8_t *buf, uint16_t len, corr_cal_t *cal, calimg_info_t *info);
+void calimg_build(const corr_cal_t *cal, const calimg_info_t *info, uint8_t buf[120]);
 """
 
 
@@ -57,7 +62,7 @@ ffibuilder = FFI()
 ffibuilder.cdef(CDEF + (HERE / "_core_batch.h").read_text())
 ffibuilder.set_source(
     "inclino._core",
-    '#include "inclino/survey.h"\n#include "inclino/fx_math.h"\n#include "inclino/fx_ops.h"\n#include "inclino/qc.h"\n#include "_core_batch.h"\n',
+    '#include "inclino/survey.h"\n#include "inclino/fx_math.h"\n#include "inclino/fx_ops.h"\n#include "inclino/qc.h"\n#include "inclino/calimg.h"\n#include "inclino/crc16.h"\n#include "_core_batch.h"\n',
     sources=[_rel(FW / "src" / s) for s in CORE_SOURCES] + [_rel(HERE / "_core_batch.c")],
     include_dirs=[_rel(FW / "include"), _rel(HERE)],
     extra_compile_args=["-std=c99", "-O2", "-Wall", "-Wextra"],
