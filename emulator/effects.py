@@ -1,0 +1,468 @@
+"""The one library of sensor-error effects.
+
+Both the emulator (to make readings) and the model-discrepancy ("diagnose")
+tool (to fit readings) import these classes, so an effect has exactly one
+definition.  Every effect is a plain dataclass holding its parameters (units
+in the field comments) with an ``apply`` method working on NumPy arrays of
+shape (..., 3) (one row per sample, columns = sensor x, y, z) and a docstring
+giving its equation.  Each can be used alone; `TriadModel` chains them in the
+documented order.
+
+Units: a triad works in its *nominal* unit -- g for the accelerometer, nT
+for the fluxgate.  Temperatures in degrees C, times in seconds.
+
+Order of the chain (TriadModel.apply), v = true body-frame vector::
+
+    v1 = SoftIron.S @ v + HardIron.h              (fluxgate only; body frame)
+    v2 = Misalignment.M @ v1                       (sensor axes)
+    v3 = diag(Scale.k) diag(1 + ScaleTempco) @ v2
+    v4 = v3 + ScaleNonlinearity.k2 * v3**2
+    v5 = v4 + Bias.b + BiasTempco.c (T - T_ref)
+    v6 = v5 + WhiteNoise                           (seeded Generator)
+    v7 = Saturation(v6)                            (analog range)
+    out = Quantisation(v7)                         (optional; the register
+                                                    models quantise themselves)
+
+SamplingSkew and FieldDrift act on time and on the world, not on a vector;
+they live here so that the same parameters are fitted and simulated.
+"""
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+from typing import Optional
+
+import numpy as np
+
+
+def _vec3(x, name="value"):
+    a = np.asarray(x, dtype=float)
+    if a.shape == ():
+        a = np.full(3, float(a))
+    if a.shape != (3,):
+        raise ValueError(f"{name} must be a scalar or 3 numbers, got shape {a.shape}")
+    return a
+
+
+def _mat3(x, name="matrix"):
+    a = np.asarray(x, dtype=float)
+    if a.shape != (3, 3):
+        raise ValueError(f"{name} must be 3x3, got shape {a.shape}")
+    return a
+
+
+def _temp(temp_c, v):
+    """Temperature as an array broadcastable against v[..., 0]."""
+    t = np.asarray(temp_c, dtype=float)
+    return np.broadcast_to(t, np.shape(v)[:-1])[..., None]
+
+
+# --------------------------------------------------------------------------
+# Additive / multiplicative per-axis effects
+@dataclass
+class Bias:
+    """Constant zero offset per sensor axis.
+
+        y_i = x_i + b_i
+
+    b: (3,) in the triad unit (g or nT)."""
+    b: np.ndarray = field(default_factory=lambda: np.zeros(3))
+
+    def __post_init__(self):
+        self.b = _vec3(self.b, "Bias.b")
+
+    def apply(self, v):
+        return np.asarray(v, dtype=float) + self.b
+
+
+@dataclass
+class Scale:
+    """Scale factor (sensitivity) per sensor axis, 1 = nominal.
+
+        y_i = k_i x_i
+
+    k: (3,) dimensionless."""
+    k: np.ndarray = field(default_factory=lambda: np.ones(3))
+
+    def __post_init__(self):
+        self.k = _vec3(self.k, "Scale.k")
+
+    def apply(self, v):
+        return np.asarray(v, dtype=float) * self.k
+
+
+@dataclass
+class Misalignment:
+    """Misalignment and non-orthogonality of the sensor axes: a full 3x3.
+
+        y = M x,   M = I + E
+
+    Row i of M is the direction (in the body frame, not necessarily unit
+    length once scale is folded in) along which sensor axis i measures.  A
+    small rotation by angles (rx, ry, rz) rad is M = I + [[0, rz, -ry],
+    [-rz, 0, rx], [ry, -rx, 0]] (frame rotation, the same sign convention as
+    reference.rz / ry); a non-orthogonality leaves M non-orthogonal.
+    M: (3, 3) dimensionless."""
+    M: np.ndarray = field(default_factory=lambda: np.eye(3))
+
+    def __post_init__(self):
+        self.M = _mat3(self.M, "Misalignment.M")
+
+    def apply(self, v):
+        return np.asarray(v, dtype=float) @ self.M.T
+
+    @classmethod
+    def from_small_angles(cls, rx, ry, rz, nonorth=(0.0, 0.0, 0.0)):
+        """Small frame rotation (rx, ry, rz rad) plus non-orthogonality
+        (nxy, nxz, nyz rad): sensor y leans by nxy towards x, sensor z by
+        nxz towards x and nyz towards y (lower-triangular terms)."""
+        nxy, nxz, nyz = nonorth
+        M = np.array([[1.0, rz, -ry],
+                      [-rz + nxy, 1.0, rx],
+                      [ry + nxz, -rx + nyz, 1.0]])
+        return cls(M)
+
+
+@dataclass
+class HardIron:
+    """Fluxgate hard iron: a constant field from magnetised parts of the
+    probe, fixed in the body frame.
+
+        b' = b + h
+
+    h: (3,) nT, body frame (added before misalignment/scale)."""
+    h: np.ndarray = field(default_factory=lambda: np.zeros(3))
+
+    def __post_init__(self):
+        self.h = _vec3(self.h, "HardIron.h")
+
+    def apply(self, v):
+        return np.asarray(v, dtype=float) + self.h
+
+
+@dataclass
+class SoftIron:
+    """Fluxgate soft iron: induced magnetisation of permeable parts of the
+    probe, linear in the ambient field, fixed in the body frame.
+
+        b' = S b,   S = I + D  (D usually small and symmetric)
+
+    S: (3, 3) dimensionless."""
+    S: np.ndarray = field(default_factory=lambda: np.eye(3))
+
+    def __post_init__(self):
+        self.S = _mat3(self.S, "SoftIron.S")
+
+    def apply(self, v):
+        return np.asarray(v, dtype=float) @ self.S.T
+
+
+@dataclass
+class BiasTempco:
+    """Temperature coefficient of the bias.
+
+        y_i = x_i + c_i (T - T_ref)
+
+    c: (3,) triad unit per degree C; t_ref_c: degrees C."""
+    c: np.ndarray = field(default_factory=lambda: np.zeros(3))
+    t_ref_c: float = 25.0
+
+    def __post_init__(self):
+        self.c = _vec3(self.c, "BiasTempco.c")
+
+    def apply(self, v, temp_c):
+        v = np.asarray(v, dtype=float)
+        return v + self.c * (_temp(temp_c, v) - self.t_ref_c)
+
+
+@dataclass
+class ScaleTempco:
+    """Temperature coefficient of the scale factor.
+
+        y_i = x_i (1 + 1e-6 ppm_i (T - T_ref))
+
+    ppm: (3,) parts per million per degree C; t_ref_c: degrees C."""
+    ppm: np.ndarray = field(default_factory=lambda: np.zeros(3))
+    t_ref_c: float = 25.0
+
+    def __post_init__(self):
+        self.ppm = _vec3(self.ppm, "ScaleTempco.ppm")
+
+    def apply(self, v, temp_c):
+        v = np.asarray(v, dtype=float)
+        return v * (1.0 + 1e-6 * self.ppm * (_temp(temp_c, v) - self.t_ref_c))
+
+
+@dataclass
+class ScaleNonlinearity:
+    """Second-order scale nonlinearity per axis.
+
+        y_i = x_i + k2_i x_i^2
+
+    k2: (3,) per triad unit (1/g or 1/nT).  A reading of full-scale X is off
+    by k2 X^2 (e.g. k2 = 1e-9 /nT gives +10 nT at 100 000 nT)."""
+    k2: np.ndarray = field(default_factory=lambda: np.zeros(3))
+
+    def __post_init__(self):
+        self.k2 = _vec3(self.k2, "ScaleNonlinearity.k2")
+
+    def apply(self, v):
+        v = np.asarray(v, dtype=float)
+        return v + self.k2 * v * v
+
+
+@dataclass
+class WhiteNoise:
+    """Zero-mean Gaussian white noise, independent per axis and sample.
+
+        y_i = x_i + sigma_i sqrt(n_ref / n_avg) N(0, 1)
+
+    sigma: (3,) triad unit, the standard deviation of one output sample
+    when the part averages n_ref internal samples; a part averaging n_avg
+    samples instead (ADIS16210 AVG_CNT) sees it scaled by sqrt(n_ref/n_avg).
+    Draws come from the caller's seeded numpy Generator, so runs repeat."""
+    sigma: np.ndarray = field(default_factory=lambda: np.zeros(3))
+    n_ref: int = 1
+
+    def __post_init__(self):
+        self.sigma = _vec3(self.sigma, "WhiteNoise.sigma")
+
+    def apply(self, v, rng: np.random.Generator, n_avg: int = None):
+        v = np.asarray(v, dtype=float)
+        s = self.sigma * (np.sqrt(self.n_ref / n_avg) if n_avg else 1.0)
+        return v + rng.standard_normal(v.shape) * s
+
+
+@dataclass
+class Saturation:
+    """Range saturation of the analog signal chain.
+
+        y_i = clip(x_i, lo_i, hi_i)
+
+    lo, hi: (3,) triad unit (ADIS16210: +-1.7 g specified range; fluxgate:
+    +-100 000 nT)."""
+    lo: np.ndarray = field(default_factory=lambda: np.full(3, -np.inf))
+    hi: np.ndarray = field(default_factory=lambda: np.full(3, np.inf))
+
+    def __post_init__(self):
+        self.lo = _vec3(self.lo, "Saturation.lo")
+        self.hi = _vec3(self.hi, "Saturation.hi")
+
+    @classmethod
+    def symmetric(cls, limit):
+        lim = _vec3(limit, "limit")
+        return cls(-lim, lim)
+
+    def apply(self, v):
+        return np.clip(np.asarray(v, dtype=float), self.lo, self.hi)
+
+
+@dataclass
+class Quantisation:
+    """Quantisation to the converter's LSB with its integer rails.
+
+        counts_i = clip(round(x_i / lsb), cmin, cmax);  y_i = counts_i lsb
+
+    lsb: triad unit per count (ADIS16210: 1/16384 g; fluxgate ADC: 1 nT);
+    cmin, cmax: the register rails (int16; signed 24-bit).  Rounding is
+    round-half-to-even (numpy), as in reference.quantise_acc/_mag."""
+    lsb: float = 1.0
+    cmin: int = -(2**23)
+    cmax: int = 2**23 - 1
+
+    def counts(self, v):
+        return np.clip(np.round(np.asarray(v, dtype=float) / self.lsb),
+                       self.cmin, self.cmax).astype(np.int64)
+
+    def apply(self, v):
+        return self.counts(v) * self.lsb
+
+
+# --------------------------------------------------------------------------
+# Effects on time and on the world
+@dataclass
+class SamplingSkew:
+    """Sampling-time skew of a triad relative to the accelerometer.
+
+        t_sample = t + skew_s
+
+    While the probe rotates, a triad sampled skew_s later sees the pose at
+    t + skew_s: for a toolface rate w (deg/s) its reading equals the
+    skew-free reading at toolface T + w skew_s.  skew_s: seconds."""
+    skew_s: float = 0.0
+
+    def apply(self, t):
+        return np.asarray(t, dtype=float) + self.skew_s
+
+
+@dataclass
+class FieldDrift:
+    """Slow drift of the Earth field (secular/diurnal variation, a magnetic
+    storm) as linear rates from t = 0.
+
+        F(t)   = F0   + rate_nT_per_s t
+        dip(t) = dip0 + dip_rate_deg_per_s t
+        dec(t) = dec0 + declination_rate_deg_per_s t
+    """
+    rate_nT_per_s: float = 0.0
+    dip_rate_deg_per_s: float = 0.0
+    declination_rate_deg_per_s: float = 0.0
+
+    def apply(self, field_nT, dip_deg, declination_deg, t):
+        t = np.asarray(t, dtype=float)
+        return (field_nT + self.rate_nT_per_s * t,
+                dip_deg + self.dip_rate_deg_per_s * t,
+                declination_deg + self.declination_rate_deg_per_s * t)
+
+
+# --------------------------------------------------------------------------
+# A triad's chain
+@dataclass
+class TriadModel:
+    """All the effects of one triad; any of them may be None (= absent).
+
+    apply(v, temp_c, rng, n_avg, quantise) runs the chain in the order given
+    in the module docstring.  `linear()` gives the equivalent y = A x + c of
+    the linear part (soft iron, hard iron, misalignment, scale, bias) at the
+    reference temperature."""
+    soft_iron: Optional[SoftIron] = None
+    hard_iron: Optional[HardIron] = None
+    misalignment: Optional[Misalignment] = None
+    scale: Optional[Scale] = None
+    scale_tempco: Optional[ScaleTempco] = None
+    nonlinearity: Optional[ScaleNonlinearity] = None
+    bias: Optional[Bias] = None
+    bias_tempco: Optional[BiasTempco] = None
+    noise: Optional[WhiteNoise] = None
+    saturation: Optional[Saturation] = None
+    quantisation: Optional[Quantisation] = None
+
+    EFFECTS = ("soft_iron", "hard_iron", "misalignment", "scale", "scale_tempco",
+               "nonlinearity", "bias", "bias_tempco", "noise", "saturation",
+               "quantisation")
+
+    def apply(self, v, temp_c=25.0, rng: np.random.Generator = None, n_avg=None,
+              quantise=True):
+        y = np.asarray(v, dtype=float)
+        if self.soft_iron is not None:
+            y = self.soft_iron.apply(y)
+        if self.hard_iron is not None:
+            y = self.hard_iron.apply(y)
+        if self.misalignment is not None:
+            y = self.misalignment.apply(y)
+        if self.scale is not None:
+            y = self.scale.apply(y)
+        if self.scale_tempco is not None:
+            y = self.scale_tempco.apply(y, temp_c)
+        if self.nonlinearity is not None:
+            y = self.nonlinearity.apply(y)
+        if self.bias is not None:
+            y = self.bias.apply(y)
+        if self.bias_tempco is not None:
+            y = self.bias_tempco.apply(y, temp_c)
+        if self.noise is not None:
+            if rng is None:
+                raise ValueError("WhiteNoise needs a seeded numpy Generator (rng)")
+            y = self.noise.apply(y, rng, n_avg)
+        if self.saturation is not None:
+            y = self.saturation.apply(y)
+        if quantise and self.quantisation is not None:
+            y = self.quantisation.apply(y)
+        return y
+
+    def linear(self):
+        """(A, c) with y = A x + c for the linear effects (no temperature,
+        nonlinearity, noise, saturation or quantisation)."""
+        A = np.eye(3)
+        c = np.zeros(3)
+        if self.soft_iron is not None:
+            A = self.soft_iron.S @ A
+        if self.hard_iron is not None:
+            c = c + self.hard_iron.h
+        if self.misalignment is not None:
+            A = self.misalignment.M @ A
+            c = self.misalignment.M @ c
+        if self.scale is not None:
+            A = self.scale.k[:, None] * A
+            c = self.scale.k * c
+        if self.bias is not None:
+            c = c + self.bias.b
+        return A, c
+
+    def only(self, name):
+        """A copy keeping only the named effect (for one-at-a-time studies)."""
+        if name not in self.EFFECTS:
+            raise KeyError(name)
+        return TriadModel(**{name: getattr(self, name)})
+
+
+# --------------------------------------------------------------------------
+# Li 2021 (Drilling Engineering 48(5):76-82), error model (3)/(4), Table 2
+def li2021_matrix(K, e):
+    """The 3x3 A = diag(K) (I + E) of Li 2021 eq. (3)/(4).
+
+    Li 2021 eq. (3):  H_x = K_x (M_x + e_yx M_y + e_zx M_z) + B_x
+                      H_y = K_y (e_xy M_x + M_y + e_zy M_z) + B_y
+                      H_z = K_z (e_xz M_x + e_yz M_y + M_z) + B_z
+    i.e. H = diag(K) (I + E) M + B with
+        I + E = [[1, e_yx, e_zx], [e_xy, 1, e_zy], [e_xz, e_yz, 1]].
+
+    `e` is Table 2's "installation error" block as printed: one row per
+    sensor axis X, Y, Z with two numbers each.  The row of axis X holds the
+    two coefficients that eqs. (7)/(8) solve from positions 1-4 (X vertical),
+    e_xy and e_xz -- the coupling of the X field component into the Y and Z
+    sensors, i.e. column x of E; row Y holds (e_yx, e_yz), row Z (e_zx,
+    e_zy).  This reading is checked, not assumed: inverting A with Table 2's
+    magnetometer numbers reproduces Table 3's printed correction
+    coefficients A_i, B_i, C_i, D_i to their last digit, while the transposed
+    reading does not (tests/test_emulator_effects.py)."""
+    K = _vec3(K, "K")
+    e = np.asarray(e, dtype=float)
+    if e.shape != (3, 2):
+        raise ValueError("e must be Table 2's 3x2 block (rows X, Y, Z)")
+    IE = np.eye(3)
+    (exy, exz), (eyx, eyz), (ezx, ezy) = e
+    IE[1, 0], IE[2, 0] = exy, exz
+    IE[0, 1], IE[2, 1] = eyx, eyz
+    IE[0, 2], IE[1, 2] = ezx, ezy
+    return K[:, None] * IE
+
+
+def from_li2021(K, B_counts, e, lsb, **extra) -> TriadModel:
+    """TriadModel with Li 2021's scale K, bias B and installation errors e.
+
+    Mapping into our chain: Misalignment.M = I + E (see li2021_matrix),
+    Scale.k = K, Bias.b = B_counts * lsb.  Li applies K after the coupling,
+    as our chain does (misalignment, then scale, then bias), so the product
+    is exactly Li's diag(K)(I + E).
+
+    Axes and signs: Li 2021 section 1 puts X, Y, Z along north, east, down
+    at the level, zero-azimuth pose with Z down the tool axis, right-handed
+    -- the same body axes as reference.py at I = A = T = 0 -- so no axis is
+    permuted or negated.  Li's sensor outputs (gravity +g on the down axis,
+    Table 1 position 9 G = (g_n, g_e, g_d)) carry the same sign as ours.
+    Table 2's note says the values are "after A/D conversion", i.e. counts:
+    the bias becomes B_counts * lsb in nominal units, taking Li's probe LSBs
+    to be this probe's (1/16384 g, 1 nT) -- an assumption; Li does not give
+    its converters.  K and e are dimensionless and need no conversion.
+    `extra` adds further effects (noise, quantisation...) to the model."""
+    A = li2021_matrix(K, e)
+    K = _vec3(K, "K")
+    M = A / K[:, None]
+    return TriadModel(misalignment=Misalignment(M), scale=Scale(K),
+                      bias=Bias(_vec3(B_counts, "B") * lsb), **extra)
+
+
+# Li 2021 Table 2, as printed (bias in A/D counts).
+LI2021_TABLE2 = {
+    "mag": {"B": [-188.795, 129.94, -314.095], "K": [0.9514, 0.9716, 0.9067],
+            "e": [[0.0312, 0.0306], [-0.0076, 0.0399], [0.0062, -0.0566]]},
+    "acc": {"B": [-17.5863, -46.3725, -6.8975], "K": [0.9998, 0.9977, 0.9977],
+            "e": [[0.0046, -0.0013], [-0.0074, -0.0606], [0.0019, 0.0585]]},
+}
+# Li 2021 Table 3 (inverse coefficients M = [A B C] H + D), for checking.
+LI2021_TABLE3 = {
+    "mag": {"ABC": [[1.051, 0.0081, -0.0063], [-0.0345, 1.0266, 0.0625],
+                    [-0.0308, -0.0412, 1.1006]], "D": [195, -120, 345]},
+    "acc": {"ABC": [[1.0002, 0.0072, -0.0023], [-0.0047, 0.9987, -0.0584],
+                    [0.001, 0.0605, 0.9988]], "D": [18, 46, 10]},
+}

@@ -1,0 +1,280 @@
+"""Scenarios: a world plus a probe's sensor truth, read from TOML, and the
+raw datasets they generate.
+
+A scenario file (emulator/scenarios/*.toml) looks like::
+
+    name = "typical"
+    seed = 1234                      # every random draw derives from it
+    [world]
+    field_nT = 50000.0               # or lat_deg/lon_deg/date[/alt_km] -> IGRF
+    dip_deg = 60.0
+    declination_deg = 0.0
+    gravity_g = 1.0
+    temperature_c = 25.0
+    temperature_rate_c_per_s = 0.0
+    [world.encoder]                  # optional turntable encoder errors
+    offset_deg = [0.0, 0.0, 0.0]     # inc, azi, tf
+    scale = [0.0, 0.0, 0.0]
+    [world.field_drift]              # optional (effects.FieldDrift)
+    rate_nT_per_s = 0.0
+    [acc.bias]                       # one table per effect, any subset
+    value = [0.001, 0.0, 0.0]        # g
+    [mag.hard_iron]
+    value = [200.0, 0.0, 0.0]        # nT
+    [timing]
+    mag_skew_s = 0.0                 # effects.SamplingSkew
+
+Effect tables of a triad (units: g for acc, nT for mag):
+bias.value, scale.value, misalignment.matrix | misalignment.angles_rad
+(rx, ry, rz) + misalignment.nonorth_rad (nxy, nxz, nyz), hard_iron.value,
+soft_iron.matrix, bias_tempco.value (+ t_ref_c), scale_tempco.ppm (+
+t_ref_c), nonlinearity.k2, noise.sigma (+ n_ref), saturation.limit,
+li2021 {K, B_counts, e} (effects.from_li2021).  Quantisation is always on
+(nominal LSB and register rails of the part); `quantise = false` in the
+triad table turns it off.
+"""
+from __future__ import annotations
+
+import tomllib
+from dataclasses import dataclass, field
+from importlib import resources
+from pathlib import Path
+from typing import Optional
+
+import numpy as np
+
+from inclino import reference as ref
+from inclino.dataset import RawDataset
+
+from . import effects as fx
+from .world import EarthField, EncoderErrors, Temperature, Trajectory, Turntable, World
+
+ACC_RANGE_G = 1.7  # ADIS16210 specified measurement range
+MAG_RANGE_NT = 100000.0  # fluxgate range (Ren 2014)
+
+
+def default_quantisation(kind):
+    if kind == "acc":
+        return fx.Quantisation(ref.ACC_LSB_G, ref.ACC_RAW_MIN, ref.ACC_RAW_MAX)
+    return fx.Quantisation(ref.MAG_LSB_NT, ref.MAG_RAW_MIN, ref.MAG_RAW_MAX)
+
+
+@dataclass
+class Scenario:
+    name: str
+    seed: int
+    world: World
+    acc: fx.TriadModel
+    mag: fx.TriadModel
+    mag_skew: fx.SamplingSkew = field(default_factory=fx.SamplingSkew)
+    description: str = ""
+    serial: int = 1
+    meta: dict = field(default_factory=dict)  # lat/lon/date for the dataset header
+
+    def probe(self, seed: Optional[int] = None) -> "Probe":
+        return Probe(self, self.seed if seed is None else seed)
+
+
+class Probe:
+    """The physical probe in the world: sensor truth for the register-level
+    models and the dataset generator.
+
+    Two independent random streams (accelerometer, fluxgate) are derived
+    from the seed, so the order in which a driver reads the parts does not
+    change either part's noise sequence."""
+
+    def __init__(self, scenario: Scenario, seed: int):
+        self.scenario = scenario
+        self.seed = int(seed)
+        self.rng_acc = np.random.default_rng([self.seed, 0])
+        self.rng_mag = np.random.default_rng([self.seed, 1])
+        self.trajectory = Trajectory.static(0.0, 0.0, 0.0)
+        self.temp_override: Optional[float] = None
+
+    # ---- control ----------------------------------------------------------
+    def move_to(self, inc, azi, tf):
+        """Put the turntable at an indicated pose (instantaneous move)."""
+        self.scenario.world.turntable.check(inc, azi, tf)
+        self.trajectory = Trajectory.static(inc, azi, tf)
+
+    def set_temperature(self, temp_c: Optional[float]):
+        """Hold the probe at temp_c (None: back to the scenario's model)."""
+        self.temp_override = temp_c
+
+    def temperature(self, t):
+        if self.temp_override is not None:
+            return np.broadcast_to(float(self.temp_override), np.shape(t)).astype(float)
+        return self.scenario.world.temperature(t)
+
+    # ---- truth ------------------------------------------------------------
+    def true_acc(self, t):
+        g, _ = self.scenario.world.truth(*self.trajectory(t), t)
+        return g
+
+    def true_mag(self, t):
+        """True field at the fluxgate's sampling instant (t + skew)."""
+        ts = self.scenario.mag_skew.apply(t)
+        _, b = self.scenario.world.truth(*self.trajectory(ts), ts)
+        return b
+
+    # ---- analog sensor outputs (all effects but quantisation) -------------
+    def acc_analog(self, t, n_avg=None, temp_c=None):
+        temp = self.temperature(t) if temp_c is None else temp_c
+        return self.scenario.acc.apply(self.true_acc(t), temp, self.rng_acc, n_avg, quantise=False)
+
+    def mag_analog(self, t, temp_c=None):
+        temp = self.temperature(t) if temp_c is None else temp_c
+        return self.scenario.mag.apply(self.true_mag(t), temp, self.rng_mag, None, quantise=False)
+
+
+# --------------------------------------------------------------------------
+# TOML loading
+def _triad(kind, tab: dict) -> fx.TriadModel:
+    tab = dict(tab or {})
+    kw = {}
+    quantise = tab.pop("quantise", True)
+    if "li2021" in tab:
+        li = tab.pop("li2021")
+        lsb = ref.ACC_LSB_G if kind == "acc" else ref.MAG_LSB_NT
+        base = fx.from_li2021(li["K"], li["B_counts"], li["e"], lsb)
+        kw.update(misalignment=base.misalignment, scale=base.scale, bias=base.bias)
+    for key, sub in tab.items():
+        if key == "bias":
+            kw["bias"] = fx.Bias(sub["value"])
+        elif key == "scale":
+            kw["scale"] = fx.Scale(sub["value"])
+        elif key == "misalignment":
+            if "matrix" in sub:
+                kw["misalignment"] = fx.Misalignment(sub["matrix"])
+            else:
+                kw["misalignment"] = fx.Misalignment.from_small_angles(
+                    *sub.get("angles_rad", (0.0, 0.0, 0.0)), nonorth=sub.get("nonorth_rad", (0.0, 0.0, 0.0)))
+        elif key == "hard_iron":
+            kw["hard_iron"] = fx.HardIron(sub["value"])
+        elif key == "soft_iron":
+            kw["soft_iron"] = fx.SoftIron(sub["matrix"])
+        elif key == "bias_tempco":
+            kw["bias_tempco"] = fx.BiasTempco(sub["value"], sub.get("t_ref_c", 25.0))
+        elif key == "scale_tempco":
+            kw["scale_tempco"] = fx.ScaleTempco(sub["ppm"], sub.get("t_ref_c", 25.0))
+        elif key == "nonlinearity":
+            kw["nonlinearity"] = fx.ScaleNonlinearity(sub["k2"])
+        elif key == "noise":
+            kw["noise"] = fx.WhiteNoise(sub["sigma"], int(sub.get("n_ref", 1)))
+        elif key == "saturation":
+            kw["saturation"] = fx.Saturation.symmetric(sub["limit"])
+        else:
+            raise ValueError(f"unknown {kind} effect [{kind}.{key}]")
+    if kind == "acc" and ("soft_iron" in kw or "hard_iron" in kw):
+        raise ValueError("hard/soft iron are fluxgate effects")
+    if quantise:
+        kw["quantisation"] = default_quantisation(kind)
+    return fx.TriadModel(**kw)
+
+
+def scenario_from_dict(d: dict, name: str = "") -> Scenario:
+    w = dict(d.get("world", {}))
+    if "lat_deg" in w and "lon_deg" in w and "date" in w:
+        earth = EarthField.from_igrf(w["lat_deg"], w["lon_deg"], str(w["date"]), w.get("alt_km", 0.0))
+        # explicit values still win (e.g. Li 2021's measured dip)
+        for k in ("field_nT", "dip_deg", "declination_deg"):
+            if k in w:
+                setattr(earth, k, float(w[k]))
+                earth.source += f"; {k} overridden"
+    else:
+        earth = EarthField(float(w.get("field_nT", 50000.0)), float(w.get("dip_deg", 60.0)),
+                           float(w.get("declination_deg", 0.0)))
+    enc = w.get("encoder", {})
+    drift = w.get("field_drift")
+    world = World(
+        turntable=Turntable(EncoderErrors(enc.get("offset_deg", [0.0] * 3), enc.get("scale", [0.0] * 3))),
+        earth=earth,
+        gravity_g=float(w.get("gravity_g", 1.0)),
+        temperature=Temperature(float(w.get("temperature_c", 25.0)), float(w.get("temperature_rate_c_per_s", 0.0))),
+        drift=fx.FieldDrift(**drift) if drift else None,
+    )
+    meta = {k: w[k] for k in ("lat_deg", "lon_deg") if k in w}
+    if "date" in w:
+        meta["date"] = str(w["date"])
+    return Scenario(
+        name=d.get("name", name),
+        seed=int(d.get("seed", 0)),
+        world=world,
+        acc=_triad("acc", d.get("acc")),
+        mag=_triad("mag", d.get("mag")),
+        mag_skew=fx.SamplingSkew(float(d.get("timing", {}).get("mag_skew_s", 0.0))),
+        description=d.get("description", ""),
+        serial=int(d.get("serial", 1)),
+        meta=meta,
+    )
+
+
+def builtin_scenarios():
+    """Names of the scenarios shipped in emulator/scenarios/."""
+    return sorted(p.name[:-5] for p in resources.files("inclino_emu").joinpath("scenarios").iterdir()
+                  if p.name.endswith(".toml"))
+
+
+def load_scenario(path_or_name) -> Scenario:
+    """Load a scenario from a TOML path, or a built-in one by name
+    ("ideal", "typical", "li2021")."""
+    p = Path(str(path_or_name))
+    if p.suffix == ".toml" or p.exists():
+        text = p.read_text(encoding="utf-8")
+        name = p.stem
+    else:
+        res = resources.files("inclino_emu").joinpath("scenarios", f"{path_or_name}.toml")
+        if not res.is_file():
+            raise FileNotFoundError(f"no scenario {path_or_name!r} (built-in: {', '.join(builtin_scenarios())})")
+        text = res.read_text(encoding="utf-8")
+        name = str(path_or_name)
+    return scenario_from_dict(tomllib.loads(text), name)
+
+
+# --------------------------------------------------------------------------
+# Raw datasets
+def generate_raw(scenario: Scenario, inc=None, azi=None, tf=None, t_s=None, temp_c=None,
+                 trajectory: Optional[Trajectory] = None, seed: Optional[int] = None,
+                 acc_n_avg=None) -> RawDataset:
+    """A raw dataset (inclino.dataset format) for a list of indicated poses.
+
+    Either give the poses (inc, azi, tf arrays; each row a static pose,
+    t_s default 0, 1, 2... s) or a `trajectory` plus the sample times t_s
+    (continuous rotation; the fluxgate samples at t + mag_skew_s).  temp_c
+    (per row or scalar) overrides the scenario's temperature model.  Sensor
+    columns are quantised counts x nominal LSB, as the firmware reports.
+    The same scenario, seed and inputs give the same dataset, bit for bit."""
+    probe = scenario.probe(seed)
+    if trajectory is None:
+        inc, azi, tf = (np.atleast_1d(np.asarray(a, float)) for a in (inc, azi, tf))
+        n = len(inc)
+        t = np.arange(n, dtype=float) if t_s is None else np.broadcast_to(np.asarray(t_s, float), (n,))
+        scenario.world.turntable.check(inc, azi, tf)
+        ts_mag = scenario.mag_skew.apply(t)
+        g, _ = scenario.world.truth(inc, azi, tf, t)
+        _, b = scenario.world.truth(inc, azi, tf, ts_mag)
+    else:
+        if t_s is None:
+            raise ValueError("a trajectory needs sample times t_s")
+        t = np.atleast_1d(np.asarray(t_s, float))
+        inc, azi, tf = trajectory(t)
+        ts_mag = scenario.mag_skew.apply(t)
+        g, _ = scenario.world.truth(inc, azi, tf, t)
+        _, b = scenario.world.truth(*trajectory(ts_mag), ts_mag)
+        azi, tf = np.mod(azi, 360.0), np.mod(tf, 360.0)
+    n = len(t)
+    temp = probe.temperature(t) if temp_c is None else np.broadcast_to(np.asarray(temp_c, float), (n,))
+    acc = scenario.acc.apply(g, temp, probe.rng_acc, acc_n_avg)
+    mag = scenario.mag.apply(b, temp, probe.rng_mag)
+    cols = {"t_s": t.copy(), "inc_deg": np.asarray(inc, float).copy(), "azi_deg": np.asarray(azi, float).copy(),
+            "tf_deg": np.asarray(tf, float).copy(), "temp_c": np.asarray(temp, float).copy()}
+    for k, c in enumerate(("ax_g", "ay_g", "az_g")):
+        cols[c] = acc[:, k].copy()
+    for k, c in enumerate(("mx_nT", "my_nT", "mz_nT")):
+        cols[c] = mag[:, k].copy()
+    e = scenario.world.earth
+    meta = {"field_nT": e.field_nT, "dip_deg": e.dip_deg, "declination_deg": e.declination_deg,
+            "gravity_g": scenario.world.gravity_g, "probe_serial": str(scenario.serial),
+            "source": f"inclino_emu scenario={scenario.name} seed={probe.seed}"}
+    meta.update(scenario.meta)
+    return RawDataset(cols, meta)
