@@ -34,6 +34,10 @@ int8_t att_norm3(const int32_t v[3], int32_t out[3])
         m >>= 1;
         s--;
     }
+    while (m < (NORM_LO >> 8)) { /* whole bytes first: same s, fewer steps */
+        m <<= 8;
+        s = (int8_t)(s + 8);
+    }
     while (m < NORM_LO) {
         m <<= 1;
         s++;

@@ -12,9 +12,10 @@ uint8_t corr_triad(const int32_t x[3], const corr_triad_t *c, int32_t out[3])
         d[j] = fx_sub32_sat(x[j], c->bias[j], &sat);
     }
     for (i = 0u; i < 3u; i++) {
-        int32_t acc = fx_mul32_q31(c->m[3u * i], d[0], &sat);
+        const int32_t *row = &c->m[i + i + i]; /* no multiply: a library call on the S08 */
+        int32_t acc = fx_mul32_q31(row[0], d[0], &sat);
         for (j = 1u; j < 3u; j++) {
-            acc = fx_add32_sat(acc, fx_mul32_q31(c->m[3u * i + j], d[j], &sat), &sat);
+            acc = fx_add32_sat(acc, fx_mul32_q31(row[j], d[j], &sat), &sat);
         }
         out[i] = acc;
     }

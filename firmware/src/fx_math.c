@@ -34,40 +34,67 @@ uint32_t fx_div_frac_q20(uint32_t num, uint32_t den)
     return q;
 }
 
-uint16_t fx_isqrt_u32(uint32_t x)
+/* floor(sqrt(x)) by the bitwise method (16 fixed steps); *rem receives
+ * x - floor(sqrt(x))^2, what is left of x. */
+static uint16_t isqrt_rem(uint32_t x, uint32_t *rem)
 {
     uint32_t res = 0u;
     uint32_t bit = (uint32_t)1u << 30;
     uint8_t i;
 
     for (i = 0u; i < 16u; i++) {
-        if (x >= res + bit) {
-            x -= res + bit;
-            res = (res >> 1) + bit;
-        } else {
-            res >>= 1;
+        uint32_t t = res + bit;
+        res >>= 1;
+        if (x >= t) {
+            x -= t;
+            res += bit;
         }
         bit >>= 2;
     }
+    *rem = x;
     return (uint16_t)res;
+}
+
+uint16_t fx_isqrt_u32(uint32_t x)
+{
+    uint32_t r;
+    return isqrt_rem(x, &r);
 }
 
 uint32_t fx_sqrt_u32_q8(uint32_t x)
 {
-    uint32_t y, r, s;
+    uint32_t y, r, s, num, den;
+    uint16_t q = 0u;
+    uint16_t bit = 0x100u;
     uint8_t k = 0u;
 
     if (x == 0u) {
         return 0u;
     }
-    /* normalise by 4^k into [2^30, 2^32) so that y >= 2^15 */
+    /* normalise by 4^k into [2^30, 2^32) so that y >= 2^15 (whole bytes
+     * first: the same k in fewer steps) */
+    while (x < ((uint32_t)1u << 22)) {
+        x <<= 8;
+        k = (uint8_t)(k + 4u);
+    }
     while (x < ((uint32_t)1u << 30)) {
         x <<= 2;
         k++;
     }
-    y = fx_isqrt_u32(x);
-    r = x - y * y; /* 0 <= r <= 2y <= 131070 */
-    s = (y << 8) + ((r << 8) + y) / (2u * y + 1u);
+    y = isqrt_rem(x, &r); /* r = x - y^2, 0 <= r <= 2y <= 131070 */
+    /* floor((256 r + y) / (2y + 1)) <= 256 (r <= 2y gives 256 r + y <=
+     * 513 y): 9 steps of restoring division, exact, no library divide */
+    num = (r << 8) + y;
+    den = (2u * y + 1u) << 8;
+    while (bit != 0u) {
+        if (num >= den) {
+            num -= den;
+            q |= bit;
+        }
+        den >>= 1;
+        bit >>= 1;
+    }
+    s = (y << 8) + q;
     if (k == 0u) {
         return s;
     }
@@ -96,7 +123,10 @@ int32_t fx_atan2_q16(int32_t y, int32_t x)
     a = fx_atan_table[idx];
     if (frac != 0u) {
         int16_t d = (int16_t)(fx_atan_table[idx + 1u] - fx_atan_table[idx]);
-        a += fx_asr32_rnd(fx_mul16(d, (int16_t)frac), FX_ATAN_FRAC_BITS);
+        /* d > 0 (the table increases) and frac > 0: the product p is in
+         * (0, 2^26), and fx_asr32_rnd(p, 12) = floor((p + 2^11) / 2^12) */
+        uint32_t p = (uint32_t)fx_mul16(d, (int16_t)frac);
+        a += (int32_t)((p + ((uint32_t)1u << (FX_ATAN_FRAC_BITS - 1u))) >> FX_ATAN_FRAC_BITS);
     }
     if (swap) {
         a = FX_DEG(90) - a;

@@ -1,9 +1,37 @@
 /* fx_ops.c - basic fixed-point operators; contracts in fx_ops.h. */
 #include "inclino/fx_ops.h"
 
+/* A port may supply fx_mul16 in its own file (firmware/port/<mcu>/) and
+ * build this one with -DFX_PORT_MUL16: the S08 port has it in assembly, since
+ * SDCC turns the product below into a 32 x 32 library call. */
+#ifndef FX_PORT_MUL16
 int32_t fx_mul16(int16_t a, int16_t b)
 {
     return (int32_t)a * (int32_t)b;
+}
+#endif
+
+/* The int32 whose two's complement bits are u (no implementation-defined
+ * conversion of an out-of-range unsigned value). */
+static int32_t s32_of_bits(uint32_t u)
+{
+    return (u <= (uint32_t)FX_INT32_MAX) ? (int32_t)u : -(int32_t)(~u) - 1;
+}
+
+/* floor(x / 2^16) as int16, for the int32 x whose bits are u. */
+static int16_t hi16_of_bits(uint32_t u)
+{
+    uint16_t h = (uint16_t)(u >> 16);
+    return (h <= (uint16_t)INT16_MAX) ? (int16_t)h
+                                      : (int16_t)((int16_t)(h & 0x7FFFu) - INT16_MAX - 1);
+}
+
+/* floor(p / 2^15) for |p| < 2^30, in 16-bit arithmetic:
+ * 2 * floor(p / 2^16) + bit 15 of p. */
+static int16_t floor_div_2p15(int32_t p)
+{
+    uint32_t u = (uint32_t)p;
+    return (int16_t)(2 * hi16_of_bits(u) + (int16_t)((uint16_t)u >> 15));
 }
 
 int32_t fx_asr32(int32_t x, uint8_t n)
@@ -38,7 +66,8 @@ int32_t fx_shl32_sat(int32_t x, uint8_t n, uint8_t *sat)
         *sat = 1u;
         return FX_INT32_MIN;
     }
-    return x * (int32_t)((uint32_t)1u << n);
+    /* in range: the bits of x * 2^n are those of x shifted left */
+    return s32_of_bits((uint32_t)x << n);
 }
 
 int32_t fx_add32_sat(int32_t a, int32_t b, uint8_t *sat)
@@ -69,15 +98,16 @@ int32_t fx_sub32_sat(int32_t a, int32_t b, uint8_t *sat)
 
 int32_t fx_mul32_q31(int32_t a, int32_t b, uint8_t *sat)
 {
-    int16_t ah = (int16_t)fx_asr32(a, 16u);
-    int16_t bh = (int16_t)fx_asr32(b, 16u);
-    int16_t al = (int16_t)(((uint32_t)a & 0xFFFFu) >> 1);
-    int16_t bl = (int16_t)(((uint32_t)b & 0xFFFFu) >> 1);
+    int16_t ah = hi16_of_bits((uint32_t)a); /* floor(a / 2^16) */
+    int16_t bh = hi16_of_bits((uint32_t)b);
+    int16_t al = (int16_t)((uint16_t)(uint32_t)a >> 1); /* ((a mod 2^16) >> 1) */
+    int16_t bl = (int16_t)((uint16_t)(uint32_t)b >> 1);
     int32_t s;
 
     /* |ah*bh| <= 2^30, each cross term in [-2^15, 2^15): no overflow */
-    s = fx_mul16(ah, bh) + fx_asr32(fx_mul16(ah, bl), 15u) +
-        fx_asr32(fx_mul16(al, bh), 15u);
+    s = fx_mul16(ah, bh);
+    s += floor_div_2p15(fx_mul16(ah, bl));
+    s += floor_div_2p15(fx_mul16(al, bh));
     if (s > (int32_t)0x3FFFFFFFL) {
         *sat = 1u;
         return FX_INT32_MAX;
