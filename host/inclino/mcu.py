@@ -579,3 +579,32 @@ def bench(vectors: int = 100, seed: int = 11, workdir: str | os.PathLike | None 
         meets_ratio_target=meets_r,
         passed=meets_c and meets_r,
     )
+
+
+def main(argv=None) -> int:
+    """`python -m inclino.mcu build OUTDIR` (what CMake's s08 target runs) or
+    `python -m inclino.mcu bench`."""
+    import argparse
+
+    p = argparse.ArgumentParser(prog="python -m inclino.mcu")
+    sub = p.add_subparsers(dest="cmd", required=True)
+    pb = sub.add_parser("build", help="build the S08 harness image and print its sizes")
+    pb.add_argument("outdir")
+    pb.add_argument("--program", choices=("harness", "float"), default="harness")
+    sub.add_parser("bench", help="print the figures of `inclino bench mcu --json`")
+    a = p.parse_args(argv)
+    reason = tools_missing()
+    if reason:
+        print(reason)
+        return 2
+    if a.cmd == "build":
+        b = build(a.outdir, program=a.program)
+        print(b.ihx)
+        print(json.dumps(asdict(sizes(b)), indent=2))
+    else:
+        print(bench().to_json())
+    return 0
+
+
+if __name__ == "__main__":
+    raise SystemExit(main())
