@@ -3,12 +3,13 @@
 #include "inclino/crc16.h"
 
 #define OFF_COEF 20u
-#define BIAS_LIMIT ((int32_t)0x40000000L)  /* 2^30 */
-#define DIAG_MIN ((int32_t)0x08000000L)    /* 1/4 in Q29 */
+#define BIAS_LIMIT ((int32_t)0x40000000L) /* 2^30 */
+#define DIAG_MIN ((int32_t)0x08000000L)   /* 1/4 in Q29 */
 
 static uint32_t get_u32(const uint8_t *p)
 {
-    return ((uint32_t)p[0] << 24) | ((uint32_t)p[1] << 16) | ((uint32_t)p[2] << 8) | (uint32_t)p[3];
+    return ((uint32_t)p[0] << 24) | ((uint32_t)p[1] << 16) | ((uint32_t)p[2] << 8) |
+           (uint32_t)p[3];
 }
 
 static int32_t get_i32(const uint8_t *p)

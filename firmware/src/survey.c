@@ -2,8 +2,7 @@
 #include "inclino/survey.h"
 #include "inclino/fx_ops.h"
 
-void survey_compute(const int16_t acc[3], const int32_t mag[3], const corr_cal_t *cal,
-                    survey_t *s)
+void survey_compute(const int16_t acc[3], const int32_t mag[3], const corr_cal_t *cal, survey_t *s)
 {
     int32_t x[3];
     uint16_t flags = 0u;

@@ -18,26 +18,26 @@
 #include <stdint.h>
 
 /* Status flags (att_t.flags, survey output). */
-#define ATT_F_NEAR_VERTICAL 0x0001u /* I < 0.5 deg or I > 179.5 deg: A, GTF undefined */
-#define ATT_F_ACC_OVERRANGE 0x0002u /* an accelerometer raw count beyond +-1.7 g */
-#define ATT_F_MAG_OVERRANGE 0x0004u /* a fluxgate raw count beyond +-100 000 nT */
-#define ATT_F_ACC_SATURATED 0x0008u /* an accelerometer count at the int16 rail */
-#define ATT_F_MAG_SATURATED 0x0010u /* a fluxgate count clamped to +-2^20 (CORR_MAG_RAW_*) */
+#define ATT_F_NEAR_VERTICAL 0x0001u   /* I < 0.5 deg or I > 179.5 deg: A, GTF undefined */
+#define ATT_F_ACC_OVERRANGE 0x0002u   /* an accelerometer raw count beyond +-1.7 g */
+#define ATT_F_MAG_OVERRANGE 0x0004u   /* a fluxgate raw count beyond +-100 000 nT */
+#define ATT_F_ACC_SATURATED 0x0008u   /* an accelerometer count at the int16 rail */
+#define ATT_F_MAG_SATURATED 0x0010u   /* a fluxgate count clamped to +-2^20 (CORR_MAG_RAW_*) */
 #define ATT_F_ARITH_SATURATED 0x0020u /* a saturating operation clipped */
-#define ATT_F_ZERO_GRAVITY 0x0040u /* corrected g is the zero vector: nothing is defined */
-#define ATT_F_ZERO_FIELD 0x0080u /* corrected b is the zero vector: A, MTF, dip undefined */
+#define ATT_F_ZERO_GRAVITY 0x0040u    /* corrected g is the zero vector: nothing is defined */
+#define ATT_F_ZERO_FIELD 0x0080u      /* corrected b is the zero vector: A, MTF, dip undefined */
 
 /* Near-vertical threshold: 0.5 degree in Q16 degrees. */
 #define ATT_NEAR_VERTICAL_Q16 ((int32_t)32768L)
 
 typedef struct {
-    int32_t inc;  /* inclination, Q16 degrees, [0, 180] */
-    int32_t azi;  /* azimuth, Q16 degrees, [0, 360) */
-    int32_t gtf;  /* gravity toolface, Q16 degrees, [0, 360) */
-    int32_t mtf;  /* magnetic toolface, Q16 degrees, [0, 360) */
-    int32_t gt;   /* G total |g|, Q27 g */
-    int32_t bt;   /* B total |b|, Q8 nT */
-    int32_t dip;  /* dip, Q16 degrees, [-90, 90] */
+    int32_t inc; /* inclination, Q16 degrees, [0, 180] */
+    int32_t azi; /* azimuth, Q16 degrees, [0, 360) */
+    int32_t gtf; /* gravity toolface, Q16 degrees, [0, 360) */
+    int32_t mtf; /* magnetic toolface, Q16 degrees, [0, 360) */
+    int32_t gt;  /* G total |g|, Q27 g */
+    int32_t bt;  /* B total |b|, Q8 nT */
+    int32_t dip; /* dip, Q16 degrees, [-90, 90] */
     uint16_t flags;
 } att_t;
 

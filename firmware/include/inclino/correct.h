@@ -21,10 +21,10 @@
 
 #include <stdint.h>
 
-#define CORR_ACC_IN_SHIFT 15u /* raw accel counts -> Q29 g */
-#define CORR_MAG_IN_SHIFT 10u /* raw fluxgate counts -> Q10 nT */
-#define CORR_M_ONE ((int32_t)1L << 29) /* 1.0 in Q29 */
-#define CORR_MAG_RAW_MAX ((int32_t)0xFFFFFL)       /* 2^20 - 1 */
+#define CORR_ACC_IN_SHIFT 15u                       /* raw accel counts -> Q29 g */
+#define CORR_MAG_IN_SHIFT 10u                       /* raw fluxgate counts -> Q10 nT */
+#define CORR_M_ONE ((int32_t)1L << 29)              /* 1.0 in Q29 */
+#define CORR_MAG_RAW_MAX ((int32_t)0xFFFFFL)        /* 2^20 - 1 */
 #define CORR_MAG_RAW_MIN ((int32_t)(-0xFFFFFL - 1)) /* -2^20 */
 
 /* One triad's coefficients. */

@@ -12,7 +12,7 @@
 
 #include <stdint.h>
 
-#define FX_DEG(d) ((int32_t)(d) * 65536L) /* whole degrees -> Q16 degrees */
+#define FX_DEG(d) (65536L * (int32_t)(d)) /* whole degrees -> Q16 degrees */
 
 /* Number of intervals of the arctangent table over [0, 1]; the table has
  * FX_ATAN_N + 1 entries. */

@@ -17,9 +17,9 @@
 #define QC_F_UNDEFINED 0x08u /* zero gravity/field or saturation: not checkable */
 
 /* Default tolerances. */
-#define QC_GT_TOL_DEFAULT ((int32_t)335544L)   /* 2.5 mg in Q27 g (0.0025 * 2^27) */
-#define QC_BT_TOL_DEFAULT ((int32_t)76800L)    /* 300 nT in Q8 nT */
-#define QC_DIP_TOL_DEFAULT ((int32_t)16384L)   /* 0.25 degree in Q16 degrees */
+#define QC_GT_TOL_DEFAULT ((int32_t)335544L) /* 2.5 mg in Q27 g (0.0025 * 2^27) */
+#define QC_BT_TOL_DEFAULT ((int32_t)76800L)  /* 300 nT in Q8 nT */
+#define QC_DIP_TOL_DEFAULT ((int32_t)16384L) /* 0.25 degree in Q16 degrees */
 
 typedef struct {
     int32_t gt_ref;  /* Q27 g */

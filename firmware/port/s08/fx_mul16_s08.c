@@ -29,6 +29,7 @@
 int32_t fx_mul16(int16_t a, int16_t b) __naked
 {
     a, b; /* referenced in the assembly */
+    /* clang-format off */
     __asm
     psha                        ; 4,s = al (after the next three pushes)
     pshx                        ; 3,s = ah
@@ -88,6 +89,7 @@ int32_t fx_mul16(int16_t a, int16_t b) __naked
     ais     #2
     rts
     __endasm;
+    /* clang-format on */
 }
 #pragma restore
 
