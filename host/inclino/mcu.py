@@ -513,10 +513,13 @@ def bench_vectors(n: int = 200, seed: int = 11):
 
 def bench(vectors: int = 100, seed: int = 11, workdir: str | os.PathLike | None = None) -> McuBench:
     """Cycles, sizes and the fixed/float ratio on the S08 (ucsim's cycle
-    counter: exact and repeatable).  `vectors` plausible survey inputs; each
-    function is timed on the arguments it receives inside those surveys'
-    golden-model runs is not needed: it is timed on representative inputs
-    derived from the same vectors."""
+    counter: exact and repeatable).  `vectors` plausible survey inputs
+    (bench_vectors) are timed through survey_compute and through the float
+    baseline; each core function is timed on the arguments the survey gives
+    it (from the golden model's intermediate values of the same vectors).
+    Targets: a whole survey <= 60 000 bus cycles (the max over the vectors)
+    and mean fixed/float <= 0.25.  `inclino bench mcu --json` prints
+    bench().to_json()."""
     from inclino import golden
 
     if tools_missing():
