@@ -14,7 +14,7 @@ FW = ROOT / "firmware"
 HERE = pathlib.Path(__file__).resolve().parent
 
 CORE_SOURCES = ["fx_ops.c", "fx_math.c", "fx_atan_table.c", "correct.c", "attitude.c", "survey.c", "qc.c", "crc16.c",
-                "calimg.c"]
+                "calimg.c", "proto_frame.c"]
 
 CDEF = """
 typedef struct { int32_t m[9]; int32_t bias[3]; } corr_triad_t;
@@ -48,6 +48,14 @@ uint16_t crc16_update(uint16_t crc, const uint8_t *data, uint16_t n);
 typedef struct { uint32_t serial; uint32_t time; uint8_t method; } calimg_info_t;
 uint8_t calimg_parse(const uint8_t *buf, uint16_t len, corr_cal_t *cal, calimg_info_t *info);
 void calimg_build(const corr_cal_t *cal, const calimg_info_t *info, uint8_t buf[120]);
+typedef struct { uint8_t state; uint16_t pos; uint16_t crc; uint8_t ver; uint8_t seq; uint8_t cmd;
+                 uint16_t len; uint8_t crc_hi; uint8_t payload[200]; uint8_t line[33]; uint8_t line_len;
+               } proto_parser_t;
+void proto_parser_init(proto_parser_t *p);
+uint8_t proto_frame_feed(proto_parser_t *p, uint8_t byte);
+uint8_t proto_parser_idle(proto_parser_t *p);
+uint16_t proto_frame_encode(uint8_t seq, uint8_t cmd, const uint8_t *payload, uint16_t len,
+                            uint8_t *out, uint16_t cap);
 """
 
 
@@ -62,7 +70,7 @@ ffibuilder = FFI()
 ffibuilder.cdef(CDEF + (HERE / "_core_batch.h").read_text())
 ffibuilder.set_source(
     "inclino._core",
-    '#include "inclino/survey.h"\n#include "inclino/fx_math.h"\n#include "inclino/fx_ops.h"\n#include "inclino/qc.h"\n#include "inclino/calimg.h"\n#include "inclino/crc16.h"\n#include "_core_batch.h"\n',
+    '#include "inclino/survey.h"\n#include "inclino/fx_math.h"\n#include "inclino/fx_ops.h"\n#include "inclino/qc.h"\n#include "inclino/calimg.h"\n#include "inclino/crc16.h"\n#include "inclino/proto_frame.h"\n#include "_core_batch.h"\n',
     sources=[_rel(FW / "src" / s) for s in CORE_SOURCES] + [_rel(HERE / "_core_batch.c")],
     include_dirs=[_rel(FW / "include"), _rel(HERE)],
     extra_compile_args=["-std=c99", "-O2", "-Wall", "-Wextra"],
