@@ -14,7 +14,7 @@ FW = ROOT / "firmware"
 HERE = pathlib.Path(__file__).resolve().parent
 
 CORE_SOURCES = ["fx_ops.c", "fx_math.c", "fx_atan_table.c", "correct.c", "attitude.c", "survey.c", "qc.c", "crc16.c",
-                "calimg.c", "proto_frame.c"]
+                "calimg.c", "proto_frame.c", "proto_cmd.c"]
 
 CDEF = """
 typedef struct { int32_t m[9]; int32_t bias[3]; } corr_triad_t;
@@ -56,6 +56,26 @@ uint8_t proto_frame_feed(proto_parser_t *p, uint8_t byte);
 uint8_t proto_parser_idle(proto_parser_t *p);
 uint16_t proto_frame_encode(uint8_t seq, uint8_t cmd, const uint8_t *payload, uint16_t len,
                             uint8_t *out, uint16_t cap);
+typedef struct {
+    uint8_t (*identity)(uint8_t *out);
+    uint8_t (*survey)(uint8_t *out);
+    uint8_t (*raw)(uint8_t *out);
+    uint8_t (*qcref_read)(uint8_t *out);
+    uint8_t (*qcref_write)(const uint8_t *in);
+    uint8_t (*cal_read)(uint8_t slot, uint8_t *out);
+    uint16_t (*cal_write)(const uint8_t *image, uint8_t force, uint8_t *out);
+    uint8_t (*cal_activate)(uint8_t slot, uint32_t sequence, uint8_t *out);
+    void (*reset)(void);
+    void (*bootloader)(void);
+    void (*text_identity)(char *out);
+    void (*text_survey)(char *out);
+    void (*send)(const uint8_t *data, uint16_t n);
+} proto_app_t;
+typedef struct { const proto_app_t *app; proto_parser_t parser; ...; } proto_t;
+void proto_init(proto_t *p, const proto_app_t *app);
+void proto_rx(proto_t *p, const uint8_t *data, uint16_t n);
+void proto_idle(proto_t *p);
+void proto_tick(proto_t *p, uint32_t now_ms);
 """
 
 
@@ -70,7 +90,7 @@ ffibuilder = FFI()
 ffibuilder.cdef(CDEF + (HERE / "_core_batch.h").read_text())
 ffibuilder.set_source(
     "inclino._core",
-    '#include "inclino/survey.h"\n#include "inclino/fx_math.h"\n#include "inclino/fx_ops.h"\n#include "inclino/qc.h"\n#include "inclino/calimg.h"\n#include "inclino/crc16.h"\n#include "inclino/proto_frame.h"\n#include "_core_batch.h"\n',
+    '#include "inclino/survey.h"\n#include "inclino/fx_math.h"\n#include "inclino/fx_ops.h"\n#include "inclino/qc.h"\n#include "inclino/calimg.h"\n#include "inclino/crc16.h"\n#include "inclino/proto_frame.h"\n#include "inclino/proto_cmd.h"\n#include "_core_batch.h"\n',
     sources=[_rel(FW / "src" / s) for s in CORE_SOURCES] + [_rel(HERE / "_core_batch.c")],
     include_dirs=[_rel(FW / "include"), _rel(HERE)],
     extra_compile_args=["-std=c99", "-O2", "-Wall", "-Wextra"],
