@@ -1,0 +1,346 @@
+"""The firmware's hardware abstraction layer (firmware/include/inclino/hal.h)
+in the emulator: cffi `extern "Python+C"` callbacks of the module
+`inclino_emu._fw` (emulator/_build_fw.py), bound to one `Board` at a time.
+
+A Board wires the HAL to the register models and the emulator clock:
+
+* SPI: HAL_DEV_ADIS -> ADIS16210.transfer16, HAL_DEV_ADC -> ADS1256.transfer8;
+  each frame happens at clock.now, then the clock advances by the frame's
+  bit times (781.25 kHz SCLK: 20.48 us per 16-bit frame, 10.24 us per byte).
+  Deselecting the ADC calls ADS1256.cs_high().  Nothing selected, or the
+  wrong frame size for the device, reads as an undriven MISO (all ones); a
+  byte frame to the ADIS16210 is a malformed frame (ADIS16210.frame_error).
+* DRDY: ADS1256.drdy().
+* time: hal_millis = floor(clock.now * 1000) mod 2^32; hal_delay_us
+  advances the clock.
+* flash: S12XFlash (emulator/flash.py) with its FSTAT bits mapped to
+  HAL_FLASH_*; each program / erase charges its duration to the clock.
+* SCI: `SciPort`, one byte queue per direction (see its docstring).
+
+When the flash loses power (a power cut injected at the n-th program or
+erase), the board goes dead: from then on SPI reads all ones, DRDY stays
+high, flash commands fail with HAL_FLASH_E_TIMEOUT and SCI is silent, so
+the interrupted firmware call runs to its end quickly without changing
+anything; EmulatedProbe then restarts the firmware.
+
+An exception inside a callback cannot cross the C stack: it is stored in
+Board.error (the first one) and the callback returns a safe value;
+EmulatedProbe re-raises it when the C call returns.
+"""
+from __future__ import annotations
+
+import math
+from collections import deque
+from typing import Optional
+
+from . import flash as fl
+from ._fw import ffi, lib
+
+# hal.h constants
+HAL_DEV_ADIS = 0
+HAL_DEV_ADC = 1
+HAL_FLASH_OK = 0
+HAL_FLASH_E_ACCESS = 1
+HAL_FLASH_E_PROTECT = 2
+HAL_FLASH_E_VERIFY = 3
+HAL_FLASH_E_TIMEOUT = 4
+HAL_SCI_RX_BUF = 64
+
+SPI_HZ = 781250.0
+
+
+def fstat_to_hal(st) -> int:
+    """S12XFlash FSTAT error bits (None = unpowered) to a HAL_FLASH_* code."""
+    if st is None:
+        return HAL_FLASH_E_TIMEOUT
+    if st & fl.ACCERR:
+        return HAL_FLASH_E_ACCESS
+    if st & fl.FPVIOL:
+        return HAL_FLASH_E_PROTECT
+    if st & (fl.MGSTAT1 | fl.MGSTAT0):
+        return HAL_FLASH_E_VERIFY
+    return HAL_FLASH_OK
+
+
+class SciPort:
+    """The probe's SCI as two byte queues.
+
+    Host -> probe: `push(data)` puts bytes on the line; byte k of a push
+    arrives 10 bit times after the previous one (8N1) when `baud` is set,
+    at once when `baud` is None (unthrottled).  The firmware takes arrived
+    bytes with hal_sci_getc.  With a baud rate the probe's receive buffer
+    holds `rx_capacity` (HAL_SCI_RX_BUF) arrived, unread bytes; bytes
+    arriving beyond that are lost and counted in `overruns` (as the
+    interrupt-filled ring of the real probe).  Unthrottled input waits on
+    the line and is never lost.
+
+    Probe -> host: hal_sci_putc hands a byte to the transmitter; with a
+    baud rate the transmitter holds `tx_depth` bytes (2: data register and
+    shift register) and each byte leaves 10 bit times after the previous
+    one; when it is full putc reports 0.  Unthrottled, every byte leaves at
+    once.  `pull()` returns the bytes that have left by clock.now.
+    """
+
+    def __init__(self, clock, baud: Optional[float] = None, rx_capacity: int = HAL_SCI_RX_BUF,
+                 tx_depth: int = 2):
+        self.clock = clock
+        self.baud = baud
+        self.rx_capacity = rx_capacity
+        self.tx_depth = tx_depth
+        self.reset()
+
+    def reset(self):
+        self.rx = deque()           # (t_arrival, byte) on the line / in the buffer
+        self.tx = deque()           # (t_leaves, byte) in the transmitter
+        self.out = bytearray()      # bytes that have left, waiting for pull()
+        self.overruns = 0
+        self._rx_last = -math.inf
+        self._tx_last = -math.inf
+
+    @property
+    def byte_time(self) -> float:
+        return 0.0 if self.baud is None else 10.0 / float(self.baud)
+
+    # host side
+    def push(self, data: bytes):
+        now = self.clock.now
+        for b in bytes(data):
+            t = max(now, self._rx_last + self.byte_time) if self.baud else now
+            self._rx_last = t
+            self.rx.append((t, b))
+
+    def pull(self, max_bytes: Optional[int] = None) -> bytes:
+        self._drain_tx()
+        n = len(self.out) if max_bytes is None else min(max_bytes, len(self.out))
+        data = bytes(self.out[:n])
+        del self.out[:n]
+        return data
+
+    def next_event(self) -> float:
+        """Time of the next byte arrival or departure (inf if none)."""
+        t = math.inf
+        if self.rx and self.rx[0][0] > self.clock.now:
+            t = self.rx[0][0]
+        if self.tx:
+            t = min(t, self.tx[0][0])
+        return t
+
+    # firmware side
+    def _overrun(self):
+        if self.baud is None:
+            return
+        now = self.clock.now
+        arrived = 0
+        for t, _ in self.rx:
+            if t > now:
+                break
+            arrived += 1
+        if arrived > self.rx_capacity:
+            keep = list(self.rx)
+            # the oldest rx_capacity arrived bytes are in the buffer; later arrivals were lost
+            lost = arrived - self.rx_capacity
+            self.overruns += lost
+            self.rx = deque(keep[:self.rx_capacity] + keep[arrived:])
+
+    def getc(self) -> int:
+        self._overrun()
+        if self.rx and self.rx[0][0] <= self.clock.now:
+            return self.rx.popleft()[1]
+        return -1
+
+    def _drain_tx(self):
+        now = self.clock.now
+        while self.tx and self.tx[0][0] <= now:
+            self.out.append(self.tx.popleft()[1])
+
+    def putc(self, b: int) -> int:
+        if self.baud is None:
+            self.out.append(b & 0xFF)
+            return 1
+        self._drain_tx()
+        if len(self.tx) >= self.tx_depth:
+            return 0
+        t = max(self.clock.now, self._tx_last) + self.byte_time
+        self._tx_last = t
+        self.tx.append((t, b & 0xFF))
+        return 1
+
+
+class Board:
+    """Everything the HAL of one emulated probe reaches."""
+
+    def __init__(self, clock, adis, adc, flash: fl.S12XFlash, sci: SciPort, spi_hz: float = SPI_HZ):
+        self.clock = clock
+        self.adis = adis
+        self.adc = adc
+        self.flash = flash
+        self.sci = sci
+        self.bit_s = 1.0 / spi_hz
+        self.selected = None
+        self.error: Optional[BaseException] = None
+        self.calls = 0          # HAL callbacks made (cost accounting)
+        self.spi_frames = 0
+
+    @property
+    def dead(self) -> bool:
+        return not self.flash.powered
+
+    # ---- the HAL ----------------------------------------------------------
+    def spi_select(self, dev):
+        if self.selected == HAL_DEV_ADC and dev != HAL_DEV_ADC:
+            self.adc.cs_high()
+        self.selected = dev if dev in (HAL_DEV_ADIS, HAL_DEV_ADC) else None
+
+    def spi_deselect(self):
+        if self.selected == HAL_DEV_ADC:
+            self.adc.cs_high()
+        self.selected = None
+
+    def spi_xfer16(self, out):
+        self.spi_frames += 1
+        r = 0xFFFF
+        if not self.dead:
+            if self.selected == HAL_DEV_ADIS:
+                r = self.adis.transfer16(out)
+            elif self.selected == HAL_DEV_ADC:
+                self.adc.cs_high()      # 16 clocks into a byte-command part: the command is lost
+        self.clock.advance(16 * self.bit_s)
+        return r & 0xFFFF
+
+    def spi_xfer8(self, out):
+        self.spi_frames += 1
+        r = 0xFF
+        if not self.dead:
+            if self.selected == HAL_DEV_ADC:
+                r = self.adc.transfer8(out)
+            elif self.selected == HAL_DEV_ADIS:
+                self.adis.frame_error()  # 8 clocks under CS: malformed frame
+        self.clock.advance(8 * self.bit_s)
+        return r & 0xFF
+
+    def adc_drdy(self):
+        if self.dead:
+            return 1
+        return 1 if self.adc.drdy() else 0
+
+    def millis(self):
+        return int(math.floor(self.clock.now * 1000.0 + 1e-9)) & 0xFFFFFFFF
+
+    def delay_us(self, us):
+        self.clock.advance(us * 1e-6)
+
+    def sci_getc(self):
+        return -1 if self.dead else self.sci.getc()
+
+    def sci_putc(self, b):
+        return 0 if self.dead else self.sci.putc(b)
+
+    def flash_read(self, addr, dst, n):
+        data = self.flash.read(addr, n)
+        if data is None:
+            return HAL_FLASH_E_TIMEOUT if self.dead else HAL_FLASH_E_ACCESS
+        ffi.memmove(dst, data, n)
+        return HAL_FLASH_OK
+
+    def flash_program(self, addr, data):
+        st = self.flash.program(addr, bytes(ffi.buffer(data, fl.PHRASE)))
+        self.clock.advance(self.flash.timing.program_s)
+        return fstat_to_hal(st)
+
+    def flash_erase(self, addr):
+        st = self.flash.erase(addr)
+        self.clock.advance(self.flash.timing.erase_s)
+        return fstat_to_hal(st)
+
+
+_board: Optional[Board] = None
+
+
+def attach(board: Optional[Board]):
+    """Bind the HAL callbacks to `board` (None: detach)."""
+    global _board
+    _board = board
+
+
+def current() -> Optional[Board]:
+    return _board
+
+
+def _onerror(exc_type, exc_value, tb):
+    if _board is not None and _board.error is None:
+        _board.error = exc_value if exc_value is not None else exc_type()
+
+
+def _b() -> Board:
+    if _board is None:
+        raise RuntimeError("no emulated board attached to the firmware HAL")
+    _board.calls += 1
+    return _board
+
+
+@ffi.def_extern(onerror=_onerror)
+def hal_init():
+    _b()
+
+
+@ffi.def_extern(onerror=_onerror)
+def hal_spi_select(dev):
+    _b().spi_select(dev)
+
+
+@ffi.def_extern(onerror=_onerror)
+def hal_spi_deselect():
+    _b().spi_deselect()
+
+
+@ffi.def_extern(onerror=_onerror)
+def hal_spi_xfer16(out):
+    return _b().spi_xfer16(out)
+
+
+@ffi.def_extern(onerror=_onerror)
+def hal_spi_xfer8(out):
+    return _b().spi_xfer8(out)
+
+
+@ffi.def_extern(onerror=_onerror)
+def hal_adc_drdy():
+    return _b().adc_drdy()
+
+
+@ffi.def_extern(onerror=_onerror)
+def hal_millis():
+    return _b().millis()
+
+
+@ffi.def_extern(onerror=_onerror)
+def hal_delay_us(us):
+    _b().delay_us(us)
+
+
+@ffi.def_extern(onerror=_onerror)
+def hal_sci_getc():
+    return _b().sci_getc()
+
+
+@ffi.def_extern(onerror=_onerror)
+def hal_sci_putc(byte):
+    return _b().sci_putc(byte)
+
+
+@ffi.def_extern(onerror=_onerror)
+def hal_flash_read(addr, dst, n):
+    return _b().flash_read(addr, dst, n)
+
+
+@ffi.def_extern(onerror=_onerror)
+def hal_flash_program(addr, data):
+    return _b().flash_program(addr, data)
+
+
+@ffi.def_extern(onerror=_onerror)
+def hal_flash_erase(addr):
+    return _b().flash_erase(addr)
+
+
+__all__ = ["Board", "SciPort", "attach", "current", "ffi", "lib", "fstat_to_hal"]
