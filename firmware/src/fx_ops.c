@@ -18,22 +18,6 @@ static int32_t s32_of_bits(uint32_t u)
     return (u <= (uint32_t)FX_INT32_MAX) ? (int32_t)u : -(int32_t)(~u) - 1;
 }
 
-/* floor(x / 2^16) as int16, for the int32 x whose bits are u. */
-static int16_t hi16_of_bits(uint32_t u)
-{
-    uint16_t h = (uint16_t)(u >> 16);
-    return (h <= (uint16_t)INT16_MAX) ? (int16_t)h
-                                      : (int16_t)((int16_t)(h & 0x7FFFu) - INT16_MAX - 1);
-}
-
-/* floor(p / 2^15) for |p| < 2^30, in 16-bit arithmetic:
- * 2 * floor(p / 2^16) + bit 15 of p. */
-static int16_t floor_div_2p15(int32_t p)
-{
-    uint32_t u = (uint32_t)p;
-    return (int16_t)(2 * hi16_of_bits(u) + (int16_t)((uint16_t)u >> 15));
-}
-
 int32_t fx_asr32(int32_t x, uint8_t n)
 {
     if (x >= 0) {
@@ -96,6 +80,26 @@ int32_t fx_sub32_sat(int32_t a, int32_t b, uint8_t *sat)
     return a - b;
 }
 
+/* A port may supply fx_mul32_q31 (same result bits) and build this file with
+ * -DFX_PORT_MUL32: the S08 port has it in assembly (firmware/port/s08). */
+#ifndef FX_PORT_MUL32
+
+/* floor(x / 2^16) as int16, for the int32 x whose bits are u. */
+static int16_t hi16_of_bits(uint32_t u)
+{
+    uint16_t h = (uint16_t)(u >> 16);
+    return (h <= (uint16_t)INT16_MAX) ? (int16_t)h
+                                      : (int16_t)((int16_t)(h & 0x7FFFu) - INT16_MAX - 1);
+}
+
+/* floor(p / 2^15) for |p| < 2^30, in 16-bit arithmetic:
+ * 2 * floor(p / 2^16) + bit 15 of p. */
+static int16_t floor_div_2p15(int32_t p)
+{
+    uint32_t u = (uint32_t)p;
+    return (int16_t)(2 * hi16_of_bits(u) + (int16_t)((uint16_t)u >> 15));
+}
+
 int32_t fx_mul32_q31(int32_t a, int32_t b, uint8_t *sat)
 {
     int16_t ah = hi16_of_bits((uint32_t)a); /* floor(a / 2^16) */
@@ -118,3 +122,4 @@ int32_t fx_mul32_q31(int32_t a, int32_t b, uint8_t *sat)
     }
     return s * 2;
 }
+#endif /* FX_PORT_MUL32 */

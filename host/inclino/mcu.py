@@ -41,19 +41,23 @@ MISSING_REASON = ("S08 simulator tools not found (sdcc, shc08): "
                   "install the Debian packages sdcc and sdcc-ucsim")
 
 CORE_SOURCES = ("fx_ops.c", "fx_math.c", "fx_atan_table.c", "correct.c", "attitude.c", "survey.c")
-PORT_SOURCES = ("fx_mul16_s08.c",)  # the port's part of the core
+PORT_SOURCES = ("fx_mul16_s08.c", "fx_mul32_s08.c")  # the port's part of the core
 HARNESS_SOURCES = ("harness.c",)
-PORT_DEFINES = ("-DFX_PORT_MUL16",)  # fx_mul16 from firmware/port/s08
+PORT_DEFINES = ("-DFX_PORT_MUL16", "-DFX_PORT_MUL32")  # these from firmware/port/s08
 FLOAT_SOURCES = ("survey_float.c",)
 SIMIF = "rom[0xff00]"
-CFLAGS = ("-ms08", "--std-c99", "--opt-code-speed")
+CFLAGS = ("-ms08", "--std-c99", "--opt-code-speed", "--stack-auto")
+FLOAT_CFLAGS = ("-ms08", "--std-c99", "--opt-code-speed")
 # SDCC keeps spill locations and its helper registers in the direct page
 # (areas DSEG, OSEG).  A real S08 has registers at 0x00-0x7f and direct-page
-# RAM at 0x80-0xff only, and both programs here need more than those 128
-# bytes (sizes() reports how much); the simulator's memory is flat, so the
-# images start their direct page at 0x10.  See _check_page0 for why the
-# page must not overflow.
-LDFLAGS = ("--data-loc", "0x10")
+# RAM at 0x80-0xff only.  Built with --stack-auto, the harness image keeps
+# only the return registers and the port's few scratch bytes there, and its
+# direct page starts at 0x80 as on a real part.  The non-reentrant float
+# baseline needs more than those 128 bytes; the simulator's memory is flat,
+# so its direct page starts at 0x10.  See _check_page0 for why the page must
+# not overflow.
+LDFLAGS = ("--data-loc", "0x80")
+FLOAT_LDFLAGS = ("--data-loc", "0x10")
 S08_DIRECT_PAGE_RAM = 128  # 0x80-0xff on a real part
 TIMED = 0x80
 BUS_HZ = 20_000_000  # the HCS12X/S08 bus the cycle target is stated for
@@ -115,15 +119,20 @@ def _sdcc(args, cwd):
 
 
 def build(workdir: str | os.PathLike | None = None, program: str = "harness",
-          cflags: tuple = CFLAGS, root: str | os.PathLike | None = None) -> McuBuild:
+          cflags: tuple | None = None, root: str | os.PathLike | None = None) -> McuBuild:
     """Compile each source with `sdcc -ms08` and link an Intel-hex image.
 
     program "harness": the fixed-point core (firmware/src) and the test
-    harness (firmware/port/s08); "float": the float baseline
-    (tools/s08/survey_float.c).  Not --stack-auto: SDCC's shipped helpers are
-    the non-reentrant builds, and mixing the two gives wrong products."""
+    harness (firmware/port/s08), by default with CFLAGS (--stack-auto: locals
+    and spill locations on the stack, not in the 128-byte direct page);
+    "float": the float baseline (tools/s08/survey_float.c), by default with
+    FLOAT_CFLAGS (not --stack-auto: it calls SDCC's float library, whose
+    shipped build is the non-reentrant one).  A --stack-auto image that
+    links any SDCC helper library module is refused (_check_helpers)."""
     if tools_missing():
         raise McuError(tools_missing())
+    if cflags is None:
+        cflags = FLOAT_CFLAGS if program == "float" else CFLAGS
     root = Path(root) if root else repo_root()
     wd = Path(workdir) if workdir else Path(tempfile.mkdtemp(prefix=f"inclino-s08-{program}-"))
     wd.mkdir(parents=True, exist_ok=True)
@@ -147,8 +156,11 @@ def build(workdir: str | os.PathLike | None = None, program: str = "harness",
     # the object with main() first: SDCC's linker takes its start-up from it
     order = [rels[s] for s in other] + [rels[s] for s in core]
     ihx = wd / f"{program}.ihx"
-    _sdcc([*cflags, *LDFLAGS, "--out-fmt-ihx", "-o", str(ihx), *map(str, order)], wd)
+    ldflags = FLOAT_LDFLAGS if program == "float" else LDFLAGS
+    _sdcc([*cflags, *ldflags, "--out-fmt-ihx", "-o", str(ihx), *map(str, order)], wd)
     _check_page0(ihx.with_suffix(".map"))
+    if "--stack-auto" in cflags:
+        _check_helpers(ihx.with_suffix(".map"), {Path(r).stem for r in rels.values()})
     return McuBuild(program, str(wd), str(ihx), str(ihx.with_suffix(".map")),
                     [str(rels[s]) for s in core], [str(rels[s]) for s in other], list(cflags))
 
@@ -166,6 +178,25 @@ def _check_page0(map_path: Path) -> None:
                 raise McuError(f"{m.group(1)} ends at {end:#x}, beyond the direct page (0x100): "
                                "too many page-zero spill locations; simplify the code or "
                                "move data out of the direct page")
+
+
+# SDCC library modules a --stack-auto image may link: start-up code and the
+# return registers, no arithmetic
+STACK_AUTO_SAFE_MODULES = ("_startup", "_ret")
+
+
+def _check_helpers(map_path: Path, ours: set) -> None:
+    """With --stack-auto, SDCC calls its helpers (__mullong, __divulong,
+    __mulint, the float routines, ...) with the reentrant convention, but the
+    libraries Debian ships are the non-reentrant builds: the products come
+    out wrong without a link error.  The core needs none of them (fx_mul16
+    is the port's own); refuse an image that links one."""
+    mods = _linked_modules(map_path) - ours
+    bad = sorted(m for m in mods if m not in STACK_AUTO_SAFE_MODULES)
+    if bad:
+        raise McuError(f"--stack-auto image links SDCC helper modules {bad}: the shipped "
+                       "helpers are not reentrant; avoid the operation or rebuild the "
+                       "helpers from /usr/share/sdcc/lib/src with the same flags")
 
 
 # ------------------------------------------------------------------ run
@@ -390,6 +421,18 @@ _AREA_REL = re.compile(r"^A (\S+) size ([0-9A-Fa-f]+) ")
 _AREA_MAP = re.compile(r"^(\S+)\s+([0-9A-Fa-f]{8})\s+([0-9A-Fa-f]{8}) =\s+(\d+)\. bytes")
 
 
+def _linked_modules(map_path: Path) -> set:
+    """Names of the modules whose symbols the linker map lists."""
+    mods = set()
+    for line in Path(map_path).read_text(errors="replace").splitlines():
+        parts = line.split()
+        if len(parts) == 4 and parts[0] == "C:" and parts[2].startswith("_"):
+            mods.add(parts[3])
+        elif len(parts) == 3 and re.fullmatch(r"[0-9A-Fa-f]{8}", parts[0]):
+            mods.add(parts[2])
+    return mods
+
+
 def _rel_areas(path) -> dict:
     out = {}
     for line in Path(path).read_text(errors="replace").splitlines():
@@ -420,18 +463,12 @@ def sizes(b: McuBuild) -> McuSizes:
                              "const": a.get("CONST", 0),
                              "ram": sum(a.get(k, 0) for k in RAM_AREAS)}
     img = {}
-    mods = set()
     ours = {Path(r).stem for r in b.core_rels + b.other_rels}
+    mods = _linked_modules(Path(b.map))
     for line in Path(b.map).read_text(errors="replace").splitlines():
         m = _AREA_MAP.match(line)
         if m:
             img[m.group(1)] = img.get(m.group(1), 0) + int(m.group(4))
-        else:
-            parts = line.split()
-            if len(parts) == 4 and parts[0] == "C:" and parts[2].startswith("_"):
-                mods.add(parts[3])
-            elif len(parts) == 3 and re.fullmatch(r"[0-9A-Fa-f]{8}", parts[0]):
-                mods.add(parts[2])
     return McuSizes(
         core_code_bytes=sum(v["code"] for v in per.values()),
         core_table_bytes=sum(v["const"] for v in per.values()),

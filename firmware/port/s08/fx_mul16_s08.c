@@ -8,11 +8,12 @@
  * (about 600 bus cycles); this is four MULs and the two sign corrections,
  * about 90 cycles with the call.  The HCS12X port maps fx_mul16 to EMULS.
  *
- * Built only by SDCC for hc08/s08, with the core compiled with
- * -DFX_PORT_MUL16 (host/inclino/mcu.py).  SDCC's non-reentrant calling
- * convention: a in X (high byte) and A (low byte), b in _fx_mul16_PARM_2
- * (big-endian); the result in ___SDCC_hc08_ret3, ___SDCC_hc08_ret2, X, A
- * (most to least significant byte).
+ * Built only by SDCC for hc08/s08 with --stack-auto, the core compiled with
+ * -DFX_PORT_MUL16 (host/inclino/mcu.py).  SDCC's reentrant calling
+ * convention: a in X (high byte) and A (low byte), b on the stack at 3..4,s
+ * on entry, 7..8,s after the four bytes this function pushes (big-endian);
+ * the result in ___SDCC_hc08_ret3, ___SDCC_hc08_ret2, X, A (most to least
+ * significant byte).
  *
  * Method: with a = ah*256 + al and b = bh*256 + bl read as unsigned,
  *   p = al*bl + (ah*bl + al*bh)*256 + ah*bh*65536  (mod 2^32)
@@ -24,6 +25,10 @@
 
 #if defined(__SDCC_s08) || defined(__SDCC_hc08)
 
+#ifndef __SDCC_STACK_AUTO
+#error "the S08 port's assembly expects the reentrant (--stack-auto) calling convention"
+#endif
+
 #pragma save
 #pragma less_pedantic
 int32_t fx_mul16(int16_t a, int16_t b) __naked
@@ -34,17 +39,17 @@ int32_t fx_mul16(int16_t a, int16_t b) __naked
     psha                        ; 4,s = al (after the next three pushes)
     pshx                        ; 3,s = ah
     ais     #-2                 ; 1,s = p1, 2,s = p0
-    ldx     (_fx_mul16_PARM_2 + 1)
+    ldx     8,s
     lda     4,s
     mul                         ; al*bl
     sta     2,s
     stx     1,s
-    ldx     _fx_mul16_PARM_2
+    ldx     7,s
     lda     3,s
     mul                         ; ah*bh
     sta     *___SDCC_hc08_ret2
     stx     *___SDCC_hc08_ret3
-    ldx     (_fx_mul16_PARM_2 + 1)
+    ldx     8,s
     lda     3,s
     mul                         ; ah*bl, at byte 1
     add     1,s
@@ -55,7 +60,7 @@ int32_t fx_mul16(int16_t a, int16_t b) __naked
     bcc     1$
     inc     *___SDCC_hc08_ret3
 1$:
-    ldx     _fx_mul16_PARM_2
+    ldx     7,s
     lda     4,s
     mul                         ; al*bh, at byte 1
     add     1,s
@@ -69,13 +74,13 @@ int32_t fx_mul16(int16_t a, int16_t b) __naked
     tst     3,s                 ; a < 0: subtract b * 65536
     bpl     3$
     lda     *___SDCC_hc08_ret2
-    sub     (_fx_mul16_PARM_2 + 1)
+    sub     8,s
     sta     *___SDCC_hc08_ret2
     lda     *___SDCC_hc08_ret3
-    sbc     _fx_mul16_PARM_2
+    sbc     7,s
     sta     *___SDCC_hc08_ret3
 3$:
-    lda     _fx_mul16_PARM_2    ; b < 0: subtract a * 65536
+    lda     7,s                 ; b < 0: subtract a * 65536
     bpl     4$
     lda     *___SDCC_hc08_ret2
     sub     4,s
