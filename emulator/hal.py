@@ -65,8 +65,9 @@ def fstat_to_hal(st) -> int:
 class SciPort:
     """The probe's SCI as two byte queues.
 
-    Host -> probe: `push(data)` puts bytes on the line; byte k of a push
-    arrives 10 bit times after the previous one (8N1) when `baud` is set,
+    Host -> probe: `push(data)` puts bytes on the line; each byte arrives
+    10 bit times (8N1) after the previous one, or after the push for the
+    first byte on an idle line, when `baud` is set,
     at once when `baud` is None (unthrottled).  The firmware takes arrived
     bytes with hal_sci_getc.  With a baud rate the probe's receive buffer
     holds `rx_capacity` (HAL_SCI_RX_BUF) arrived, unread bytes; bytes
@@ -105,7 +106,7 @@ class SciPort:
     def push(self, data: bytes):
         now = self.clock.now
         for b in bytes(data):
-            t = max(now, self._rx_last + self.byte_time) if self.baud else now
+            t = max(now, self._rx_last) + self.byte_time if self.baud else now
             self._rx_last = t
             self.rx.append((t, b))
 

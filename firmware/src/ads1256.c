@@ -63,6 +63,10 @@ uint8_t ads_init(void)
     uint8_t rb[4];
     uint8_t st;
 
+    /* the part ignores commands while it calibrates (after power-on):
+     * let a running calibration end first (bounded; a missing part is
+     * found by the ID check below) */
+    (void)ads_wait_drdy(ADS_CAL_TIMEOUT_US);
     ads_command(ADS_CMD_RESET);
     st = ads_wait_drdy(ADS_CAL_TIMEOUT_US);
     (void)ads_read_regs(ADS_REG_STATUS, 1u, rb);

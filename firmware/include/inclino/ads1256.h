@@ -84,11 +84,12 @@ uint8_t ads_write_regs(uint8_t reg, uint8_t n, const uint8_t *in);
 void ads_command(uint8_t cmd);
 
 /*
- * ads_init - RESET, wait for the reset calibration, check the ID (STATUS
+ * ads_init - wait for a running (power-on) calibration to end, RESET,
+ *   wait for the reset calibration, check the ID (STATUS
  *   0xFF -> ADS_E_ABSENT, ID != 3 -> ADS_E_ID), write STATUS/MUX/ADCON/DRATE
  *   (0x00, ADS_MUX_X, 0x00, ADS_DRATE_1000) and check them by RREG, run
  *   SELFCAL and wait for it.  Returns ADS_OK or an ADS_E_* status.  Takes
- *   about 5 ms.
+ *   about 5 ms (45 ms for a missing part: two bounded DRDY waits).
  */
 uint8_t ads_init(void);
 
