@@ -5,6 +5,9 @@
 #define FX_DIV_BITS 20u
 #define FX_ATAN_FRAC_BITS 12u /* FX_DIV_BITS - log2(FX_ATAN_N) */
 
+/* A port may supply fx_div_frac_q20 (same result bits) and build this file
+ * with -DFX_PORT_DIV: the S08 port has it in assembly (firmware/port/s08). */
+#ifndef FX_PORT_DIV
 uint32_t fx_div_frac_q20(uint32_t num, uint32_t den)
 {
     uint32_t rem = num;
@@ -33,6 +36,7 @@ uint32_t fx_div_frac_q20(uint32_t num, uint32_t den)
     }
     return q;
 }
+#endif /* FX_PORT_DIV */
 
 /* floor(sqrt(x)) by the bitwise method (16 fixed steps); *rem receives
  * x - floor(sqrt(x))^2, what is left of x. */
