@@ -4,15 +4,20 @@
  * checker.  Built with -fsanitize=fuzzer,address,undefined by
  * tests/test_fuzz.py; docs/fuzzing.md has a longer run's figures.
  *
- * Input layout: byte 0 selects how the rest is cut into reads (each cut is
- * followed by a 20 ms silence, proto_idle); the rest is the line.  The
- * application below answers every command like a probe would, checking
- * images with calimg_parse. */
+ * Input layout: byte 0 selects the mode.  Bit 7 clear: the rest is the raw
+ * line, cut into reads of (byte 0 | 1) bytes, each followed by a 20 ms
+ * silence (proto_idle) and a stream tick.  Bit 7 set: the rest is a list of
+ * requests {seq, cmd, len, payload[len]} that the target frames with a
+ * correct CRC first, so that the fuzzer reaches every command rather than
+ * stopping at the CRC.  Bit 6 set: the 120 bytes given to calimg_parse get a
+ * correct CRC too.  The application below answers every command like a
+ * probe would, checking images with calimg_parse. */
 #include <stddef.h>
 #include <stdint.h>
 #include <string.h>
 
 #include "inclino/calimg.h"
+#include "inclino/crc16.h"
 #include "inclino/proto_cmd.h"
 
 static uint8_t sink[4096];
@@ -72,6 +77,31 @@ static void send(const uint8_t *data, uint16_t n)
 static const proto_app_t app = {identity, survey, raw, qcref_read, qcref_write, cal_read,
                                 cal_write, cal_activate, nothing, nothing, text, text, send};
 
+static void framed_requests(proto_t *p, const uint8_t *data, size_t size)
+{
+    static uint8_t frame[PROTO_MAX_PAYLOAD + PROTO_OVERHEAD];
+    size_t i = 0;
+    uint32_t t = 0;
+    while (i + 3 <= size) {
+        uint8_t seq = data[i], cmd = data[i + 1];
+        size_t len = data[i + 2];
+        uint16_t n;
+        i += 3;
+        if (len > size - i) {
+            len = size - i;
+        }
+        n = proto_frame_encode(seq, cmd, data + i, (uint16_t)len, frame, (uint16_t)sizeof frame);
+        if (n == 0u) { /* longer than PROTO_MAX_PAYLOAD: send it unframed */
+            proto_rx(p, data + i, (uint16_t)len);
+        } else {
+            proto_rx(p, frame, n);
+        }
+        i += len;
+        t += 7u;
+        proto_tick(p, t);
+    }
+}
+
 int LLVMFuzzerTestOneInput(const uint8_t *data, size_t size)
 {
     static proto_t p;
@@ -81,19 +111,30 @@ int LLVMFuzzerTestOneInput(const uint8_t *data, size_t size)
         return 0;
     }
     proto_init(&p, &app);
-    cut = (uint8_t)(data[0] | 1u);
-    for (i = 1; i <= size; i++) {
-        if (i == size || (i - start) == cut) {
-            proto_rx(&p, data + start, (uint16_t)(i - start));
-            proto_tick(&p, (uint32_t)i);
-            proto_idle(&p);
-            start = i;
+    if ((data[0] & 0x80u) != 0u) {
+        framed_requests(&p, data + 1, size - 1);
+    } else {
+        cut = (uint8_t)(data[0] | 1u);
+        for (i = 1; i <= size; i++) {
+            if (i == size || (i - start) == cut) {
+                proto_rx(&p, data + start, (uint16_t)(i - start));
+                proto_tick(&p, (uint32_t)i);
+                proto_idle(&p);
+                start = i;
+            }
         }
     }
     if (size >= 1 + CALIMG_SIZE) {
+        static uint8_t img[CALIMG_SIZE];
         corr_cal_t cal;
         calimg_info_t info;
-        (void)calimg_parse(data + 1, CALIMG_SIZE, &cal, &info);
+        memcpy(img, data + 1, CALIMG_SIZE);
+        if ((data[0] & 0x40u) != 0u) {
+            uint16_t crc = crc16_update(CRC16_INIT, img, CALIMG_CRC_OFFSET);
+            img[CALIMG_CRC_OFFSET] = (uint8_t)(crc >> 8);
+            img[CALIMG_CRC_OFFSET + 1u] = (uint8_t)crc;
+        }
+        (void)calimg_parse(img, CALIMG_SIZE, &cal, &info);
     }
     return 0;
 }
