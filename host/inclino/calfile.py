@@ -5,11 +5,23 @@ corrected = M @ (raw - b), raw in nominal units (g for the accelerometer,
 nT for the fluxgate), M a 3x3 and b a 3-vector in the same units.
 The firmware holds M in Q29 (|m| < 4) and b in Q29 g / Q10 nT
 (firmware/include/inclino/correct.h).
+
+CAL.json (format 1) holds the float coefficients (acc_m, acc_b, mag_m,
+mag_b), their fixed-point image ("fixed", written from the floats), the
+method, the probe serial and, for a fitted calibration, "data" (the hash of
+the dataset it was fitted from) and "report" (the fit report,
+inclino.calib.report.FitReport as a JSON object).  "data" and "report" are
+optional and were added without changing the format number: a reader of the
+first files ignores them, and this reader accepts files without them.  When
+a file carries "fixed", it must equal the image of its floats (a hand-edited
+float with a stale image is refused).
 """
 from __future__ import annotations
 
 import json
 import math
+import os
+import tempfile
 from dataclasses import asdict, dataclass, field
 
 import numpy as np
@@ -43,6 +55,10 @@ class Calibration:
     method: str = "identity"
     probe_serial: str = ""
     format: int = FORMAT_VERSION
+    # {"sha256": hex digest, "of": what was hashed, "rows": n} (optional)
+    data: dict | None = None
+    # the fit report as a JSON object (inclino.calib.report.FitReport) (optional)
+    report: dict | None = None
 
     def check(self) -> None:
         """Raise CalibrationError for a matrix that is not 3x3, not finite,
@@ -86,8 +102,31 @@ class Calibration:
 
     def to_json(self) -> str:
         d = asdict(self)
+        for k in ("data", "report"):
+            if d[k] is None:
+                del d[k]
         d["fixed"] = asdict(self.to_fixed())
         return json.dumps(d, indent=2)
+
+    def save(self, path: str) -> None:
+        """Write CAL.json atomically: a temporary file in the same directory,
+        then a rename, so a failure never leaves a half-written file."""
+        text = self.to_json() + "\n"  # checks and quantises before any write
+        d = os.path.dirname(os.path.abspath(path))
+        try:
+            fd, tmp = tempfile.mkstemp(prefix=".cal-", suffix=".tmp", dir=d)
+        except OSError as e:
+            raise CalibrationError(f"cannot write {path}: {e.strerror}")
+        try:
+            with os.fdopen(fd, "w", encoding="utf-8") as f:
+                f.write(text)
+            os.replace(tmp, path)
+        except OSError as e:
+            try:
+                os.unlink(tmp)
+            except OSError:
+                pass
+            raise CalibrationError(f"cannot write {path}: {e.strerror}")
 
     @staticmethod
     def from_json(text: str) -> "Calibration":
@@ -107,10 +146,20 @@ class Calibration:
                 mag_b=[float(v) for v in d["mag_b"]],
                 method=str(d.get("method", "")),
                 probe_serial=str(d.get("probe_serial", "")),
+                data=d.get("data") if isinstance(d.get("data"), dict) else None,
+                report=d.get("report") if isinstance(d.get("report"), dict) else None,
             )
         except (KeyError, TypeError, ValueError) as e:
             raise CalibrationError(f"calibration file lacks or mangles a coefficient ({e})")
         cal.check()
+        if "fixed" in d:
+            try:
+                fixed = FixedCal(**{k: tuple(int(v) for v in d["fixed"][k])
+                                    for k in ("acc_m", "acc_b", "mag_m", "mag_b")})
+            except (KeyError, TypeError, ValueError) as e:
+                raise CalibrationError(f"calibration file's fixed-point image is mangled ({e})")
+            if fixed != cal.to_fixed():
+                raise CalibrationError("calibration file's fixed-point image does not match its float coefficients")
         return cal
 
     @staticmethod

@@ -14,6 +14,7 @@ import numpy as np
 
 from inclino import __version__
 from inclino.errors import DataError, InclinoError
+from inclino.calib.cli import add_parser as _add_calibrate
 
 
 def _cmd_demo(args) -> int:
@@ -120,6 +121,7 @@ def build_parser() -> argparse.ArgumentParser:
     be.add_argument("--dip", type=float, default=60.0, help="accuracy: dip, degrees")
     be.add_argument("--vectors", type=int, default=1_000_000, help="speed: batch size")
     be.set_defaults(func=_cmd_bench)
+    _add_calibrate(sub)
     return p
 
 

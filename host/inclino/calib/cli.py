@@ -1,0 +1,59 @@
+"""`inclino calibrate RUN.csv --method M -o CAL.json [--json]`.
+
+Fits the raw dataset with one method, writes CAL.json (atomically: a
+temporary file renamed into place, so a failure leaves no partial file) and
+prints the fit report (text, or one JSON object with --json).  Exit status:
+0 the fit passed its checks; 1 written, but the report's verdict is FAIL
+(the reasons are printed); 2 bad input (DataError); 3 calibration refused
+(CalibrationError: singular, out of the firmware's range)."""
+from __future__ import annotations
+
+import json
+
+from inclino.errors import DataError
+
+from . import DEFAULT_METHOD, METHODS
+
+
+def calibrate_main(args) -> int:
+    from inclino import dataset
+
+    from . import common, fit
+
+    ds = dataset.read_raw(args.input)
+    opts = {}
+    if getattr(args, "no_poses", False):
+        opts["use_poses"] = False
+    if getattr(args, "prior", None):
+        from inclino.calfile import Calibration
+
+        opts["prior"] = Calibration.load(args.prior)
+    if getattr(args, "bootstrap", None) is not None:
+        if args.bootstrap < 2:
+            raise DataError("--bootstrap must be >= 2")
+        opts["bootstrap"] = args.bootstrap
+    cal, rep = fit(ds, args.method, data_hash=common.file_hash(args.input, ds), **opts)
+    cal.save(args.output)
+    if args.json:
+        print(json.dumps({"output": args.output, "method": cal.method, "probe_serial": cal.probe_serial,
+                          "data": cal.data, "report": rep.to_dict()}, indent=2))
+    else:
+        print(f"{args.output}: {cal.method} calibration of probe {cal.probe_serial or '(no serial)'} "
+              f"from {args.input} (sha256 {cal.data['sha256'][:16]}...)")
+        print(rep.summary())
+    return 0 if rep.passed else 1
+
+
+def add_parser(subparsers):
+    c = subparsers.add_parser("calibrate", help="fit a calibration to a raw dataset (writes CAL.json)")
+    c.add_argument("input", help="raw dataset CSV (docs/dataset.md)")
+    c.add_argument("--method", choices=tuple(METHODS), default=DEFAULT_METHOD,
+                   help=f"fitting method (default {DEFAULT_METHOD})")
+    c.add_argument("-o", "--output", required=True, help="calibration file to write (CAL.json)")
+    c.add_argument("--json", action="store_true", help="print the fit report as one JSON object")
+    c.add_argument("--no-poses", action="store_true",
+                   help="joint: ignore the pose columns (field recalibration from the invariants)")
+    c.add_argument("--prior", help="joint without poses: keep this calibration's body frame")
+    c.add_argument("--bootstrap", type=int, help="paper methods: refits for the uncertainty (default 40)")
+    c.set_defaults(func=calibrate_main)
+    return c

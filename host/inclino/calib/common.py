@@ -1,0 +1,127 @@
+"""Shared pieces of the calibration methods: the world the dataset was taken
+in, the turntable poses, the dataset hash, the parameter layout.
+
+Model direction.  The firmware applies corrected = M @ (raw - b) per triad.
+The papers fit the forward form raw = A @ true + c (Li eq. 3/4:
+A = diag(K)(I + E), c = B; Guo eq. 1/3: row i of A = SF_i * direction
+cosines, c_i = SF_i * Bias_i; Ren eq. 8 and 11 are already in the correcting
+direction).  The two are converted exactly by M = inv(A), b = c
+(forward_to_correction / correction_to_forward).
+"""
+from __future__ import annotations
+
+import hashlib
+import json
+
+import numpy as np
+
+from inclino import reference as ref
+from inclino.calfile import Calibration
+from inclino.dataset import POSE_COLS, RawDataset
+from inclino.errors import CalibrationError, DataError
+
+PARAM_NAMES = ([f"acc_m{i}{j}" for i in range(3) for j in range(3)] + [f"acc_b{i}" for i in range(3)]
+               + [f"mag_m{i}{j}" for i in range(3) for j in range(3)] + [f"mag_b{i}" for i in range(3)])
+DEFAULT_FIELD_NT = 50000.0
+
+
+def world_of(ds: RawDataset) -> dict:
+    """Field total (nT), dip and declination (deg), gravity (g) from the
+    dataset header; the field total defaults to the median raw norm when the
+    header lacks it (it only sets the unit of the corrected field)."""
+    m = ds.meta
+    F = m.get("field_nT")
+    if F is None:
+        F = float(np.median(np.linalg.norm(ds.mag, axis=1))) or DEFAULT_FIELD_NT
+    return {"field_nT": float(F), "dip_deg": m.get("dip_deg"),
+            "declination_deg": float(m.get("declination_deg", 0.0)),
+            "gravity_g": float(m.get("gravity_g", 1.0))}
+
+
+def need_poses(ds: RawDataset, method: str) -> None:
+    if not ds.has_pose:
+        missing = [c for c in POSE_COLS if c not in ds.columns]
+        raise DataError(f"{method} needs the turntable pose columns; missing: {', '.join(missing)}")
+
+
+def pose_matrices(ds: RawDataset) -> np.ndarray:
+    return ref.pose_matrix(ds.columns["inc_deg"], ds.columns["azi_deg"], ds.columns["tf_deg"])
+
+
+def true_vectors(ds: RawDataset, dip_deg: float, field_nT: float, declination_deg=0.0, gravity_g=1.0):
+    """Body-frame gravity (g) and field (nT) at the dataset's poses."""
+    return ref.body_vectors(ds.columns["inc_deg"], ds.columns["azi_deg"], ds.columns["tf_deg"],
+                            field_nT, dip_deg, declination_deg, gravity_g)
+
+
+def require_dip(ds: RawDataset, method: str) -> float:
+    d = ds.meta.get("dip_deg")
+    if d is None:
+        raise DataError(f"{method} needs the field's dip: add a '# dip_deg=...' header line")
+    return float(d)
+
+
+def forward_to_correction(A, c):
+    """raw = A @ true + c  ->  (M, b) with true = M @ (raw - b)."""
+    A = np.asarray(A, float)
+    if not np.all(np.isfinite(A)) or abs(np.linalg.det(A)) < 1e-12 * max(1.0, np.abs(A).max()) ** 3:
+        raise CalibrationError("the fitted sensor matrix is singular")
+    return np.linalg.inv(A), np.asarray(c, float).copy()
+
+
+def correction_to_forward(M, b):
+    return np.linalg.inv(np.asarray(M, float)), np.asarray(b, float).copy()
+
+
+def make_cal(acc_m, acc_b, mag_m, mag_b, method, ds: RawDataset) -> Calibration:
+    for name, v in (("acc_m", acc_m), ("acc_b", acc_b), ("mag_m", mag_m), ("mag_b", mag_b)):
+        if not np.all(np.isfinite(np.asarray(v, float))):
+            raise CalibrationError(f"the fit gave non-finite {name} (singular or degenerate data)")
+    cal = Calibration(acc_m=np.asarray(acc_m, float).tolist(), acc_b=np.asarray(acc_b, float).tolist(),
+                      mag_m=np.asarray(mag_m, float).tolist(), mag_b=np.asarray(mag_b, float).tolist(),
+                      method=method, probe_serial=str(ds.meta.get("probe_serial", "")))
+    cal.check()
+    return cal
+
+
+def cal_vector(cal: Calibration) -> np.ndarray:
+    """The 24 coefficients in PARAM_NAMES order."""
+    return np.concatenate([np.ravel(cal.acc_m), cal.acc_b, np.ravel(cal.mag_m), cal.mag_b]).astype(float)
+
+
+def cal_from_vector(v, method="", serial="") -> Calibration:
+    v = np.asarray(v, float)
+    return Calibration(acc_m=v[0:9].reshape(3, 3).tolist(), acc_b=v[9:12].tolist(),
+                       mag_m=v[12:21].reshape(3, 3).tolist(), mag_b=v[21:24].tolist(),
+                       method=method, probe_serial=serial)
+
+
+def dataset_hash(ds: RawDataset) -> dict:
+    """SHA-256 of the dataset's content (column names and float64 values in
+    file order, then the header as sorted JSON): the same data give the same
+    hash however the CSV was formatted."""
+    h = hashlib.sha256()
+    for c in sorted(ds.columns):
+        h.update(c.encode())
+        h.update(np.ascontiguousarray(ds.columns[c], dtype="<f8").tobytes())
+    h.update(json.dumps(ds.meta, sort_keys=True, default=str).encode())
+    return {"sha256": h.hexdigest(), "of": "dataset content (columns as float64, header)", "rows": len(ds)}
+
+
+def file_hash(path: str, ds: RawDataset) -> dict:
+    with open(path, "rb") as f:
+        digest = hashlib.sha256(f.read()).hexdigest()
+    return {"sha256": digest, "of": "file bytes", "rows": len(ds)}
+
+
+def subset(ds: RawDataset, rows) -> RawDataset:
+    rows = np.asarray(rows)
+    return RawDataset({k: v[rows] for k, v in ds.columns.items()}, dict(ds.meta))
+
+
+def body_axis_groups(C: np.ndarray, tol_deg: float = 3.0):
+    """For each body axis k (0 x, 1 y, 2 z) and sense s (+1 down, -1 up),
+    the rows whose axis k points within tol_deg of straight down/up."""
+    down = C[:, :, 2]  # down component of each body axis, (n, 3)
+    c = np.cos(np.radians(tol_deg))
+    return {(k, s): np.flatnonzero(s * down[:, k] >= c) for k in range(3) for s in (1, -1)}

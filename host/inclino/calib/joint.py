@@ -1,0 +1,324 @@
+"""`joint`: our method, the default.
+
+Both triads at once, a full 3x3 and a bias each (the firmware's model
+corrected = M (raw - b)), by maximum likelihood under the emulator's noise
+model, robust to outlier readings, with a covariance for every parameter.
+
+* With the turntable's poses (inc_deg, azi_deg, tf_deg): every row gives six
+  equations, corrected acc = C(pose) [0, 0, G] and corrected mag =
+  C(pose) f(F, dip, dec).  The unknowns are M_a, M_a b_a, M_m, M_m b_m (the
+  residual is linear in them) and the dip (F is fixed: it only sets the unit,
+  and is not separable from the scale of M_m).  Each row's 6x6 covariance is
+  the sensor noise through M (sigma_acc^2 M_a M_a^T, sigma_mag^2 M_m M_m^T)
+  plus the turntable readout error sigma_pose (deg, on each of I, A, T)
+  through the pose Jacobian -- correlated between the two triads, since both
+  see the same pose error.  The residuals are whitened with it (generalised
+  least squares, the maximum-likelihood estimate to first order).
+* Without poses (field recalibration, no turntable): the invariants
+  |g| = G, |b| = F and the dip (g.b / |g||b| = sin dip, one unknown dip)
+  constrain everything but one common rotation of both triads, which cannot
+  be observed without a reference; it is fixed by taking M_a symmetric (the
+  body frame is the accelerometer's own axes).  Started from an algebraic
+  ellipsoid fit of each triad.
+
+Robustness: a first pass with the soft-L1 loss on the whitened residuals;
+rows whose whitened squared norm exceeds the chi-square 99.9 % point are
+dropped as outliers; a final Gauss-Newton pass on the kept rows gives the
+estimate and the covariance s^2 (J^T J)^-1 (s^2 = chi^2/dof, reported).
+"""
+from __future__ import annotations
+
+import numpy as np
+from scipy import optimize, stats
+
+from inclino import reference as ref
+from inclino.dataset import RawDataset
+from inclino.errors import CalibrationError, DataError
+
+from . import common
+
+SIGMA_ACC = 1.5e-4  # g, ADIS16210-class noise of one reading
+SIGMA_MAG = 5.0  # nT
+SIGMA_POSE_DEG = 0.05  # turntable readout
+MIN_ROWS_POSES = 8
+MIN_ROWS_INVARIANTS = 30
+
+
+# --------------------------------------------------------------------------
+# with poses
+def _pose_jacobian(inc, azi, tf, F, dip, dec, G, h=1e-3):
+    """d[g; f]/d(I, A, T) per row, (n, 6, 3), per degree."""
+    base = np.concatenate(ref.body_vectors(inc, azi, tf, F, dip, dec, G), -1)
+    cols = []
+    for k in range(3):
+        p = [np.asarray(inc, float).copy(), np.asarray(azi, float).copy(), np.asarray(tf, float).copy()]
+        p[k] = p[k] + h
+        cols.append((np.concatenate(ref.body_vectors(*p, F, dip, dec, G), -1) - base) / h)
+    return np.stack(cols, -1)
+
+
+def _whiteners(Ma, Mm, Jp, sa, sm, sp):
+    n = Jp.shape[0]
+    S = np.zeros((n, 6, 6))
+    S[:, :3, :3] = sa * sa * (Ma @ Ma.T)
+    S[:, 3:, 3:] = sm * sm * (Mm @ Mm.T)
+    S += (sp * sp) * Jp @ np.swapaxes(Jp, -1, -2)
+    L = np.linalg.cholesky(S)
+    return np.linalg.inv(L)  # (n, 6, 6): whitened r = Linv @ r
+
+
+def _unpack_pose(x):
+    Ma, ca = x[0:9].reshape(3, 3), x[9:12]
+    Mm, cm = x[12:21].reshape(3, 3), x[21:24]
+    return Ma, ca, Mm, cm, x[24]
+
+
+def _pose_residuals(x, acc, mag, poses, F, dec, G, Linv):
+    Ma, ca, Mm, cm, dip = _unpack_pose(x)
+    g, f = ref.body_vectors(*poses, F, dip, dec, G)
+    r = np.concatenate([acc @ Ma.T - ca - g, mag @ Mm.T - cm - f], -1)
+    return np.einsum("nij,nj->ni", Linv, r).ravel()
+
+
+def _linear_start(acc, mag, g, f):
+    out = []
+    for raw, true in ((acc, g), (mag, f)):
+        X = np.column_stack([raw, -np.ones(len(raw))])
+        sol, *_ = np.linalg.lstsq(X, true, rcond=None)
+        out += [sol[:3].T.ravel(), sol[3]]
+    return np.concatenate(out)
+
+
+def _fit_poses(ds, w, sa, sm, sp, fix_dip):
+    poses = tuple(ds.columns[c] for c in ("inc_deg", "azi_deg", "tf_deg"))
+    F, dec, G = w["field_nT"], w["declination_deg"], w["gravity_g"]
+    dip0 = w["dip_deg"] if w["dip_deg"] is not None else None
+    if dip0 is None:
+        # a coarse search: the dip that best fits a linear calibration
+        best = None
+        for d in np.arange(-85.0, 86.0, 5.0):
+            g, f = ref.body_vectors(*poses, F, d, dec, G)
+            x = _linear_start(ds.acc, ds.mag, g, f)
+            Mm, cm = x[12:21].reshape(3, 3), x[21:24]
+            cost = np.sum((ds.mag @ Mm.T - cm - f) ** 2)
+            if best is None or cost < best[0]:
+                best = (cost, d)
+        dip0 = best[1]
+    g, f = ref.body_vectors(*poses, F, dip0, dec, G)
+    x0 = np.concatenate([_linear_start(ds.acc, ds.mag, g, f), [dip0]])
+    keep = np.ones(len(ds), bool)
+    def fun(xf, *args):
+        xx = np.concatenate([xf, [dip0]]) if fix_dip else xf
+        return _pose_residuals(xx, *args)
+    x = x0[:24] if fix_dip else x0
+    for loss in ("soft_l1", "linear"):
+        xx = np.concatenate([x, [dip0]]) if fix_dip else x
+        Ma, _, Mm, _, dip_now = _unpack_pose(xx)
+        Jp = _pose_jacobian(*poses, F, dip_now, dec, G)
+        Linv = _whiteners(Ma, Mm, Jp, sa, sm, sp)
+        args = (ds.acc[keep], ds.mag[keep], tuple(p[keep] for p in poses), F, dec, G, Linv[keep])
+        res = optimize.least_squares(fun, x, args=args, loss=loss, f_scale=3.0,
+                                     method="lm" if loss == "linear" else "trf", x_scale="jac")
+        x = res.x
+        if loss == "soft_l1":
+            rall = fun(x, ds.acc, ds.mag, poses, F, dec, G, Linv)
+            d2 = (rall.reshape(-1, 6) ** 2).sum(-1)
+            keep = d2 <= stats.chi2.ppf(0.999, 6)
+            if keep.sum() < MIN_ROWS_POSES:
+                raise CalibrationError("joint: too many readings rejected as outliers to fit")
+    x = np.concatenate([x, [dip0]]) if fix_dip else x
+    J = res.jac
+    dof = max(1, J.shape[0] - J.shape[1])
+    chi2 = float((res.fun ** 2).sum())
+    s2 = chi2 / dof
+    JtJ = J.T @ J
+    cond = float(np.linalg.cond(JtJ))
+    if not np.isfinite(cond) or cond > 1e16:
+        raise CalibrationError("joint: the poses do not determine all parameters (singular fit)")
+    cov_lin = s2 * np.linalg.inv(JtJ)
+    Ma, ca, Mm, cm, dip = _unpack_pose(x)
+    ba = np.linalg.solve(Ma, ca)
+    bm = np.linalg.solve(Mm, cm)
+    # covariance of (M, b) from that of (M, c = M b): b = M^-1 c
+    T = np.eye(len(x) - (1 if fix_dip else 0))
+    for off in (0, 12):
+        M = x[off:off + 9].reshape(3, 3)
+        Minv = np.linalg.inv(M)
+        b = np.linalg.solve(M, x[off + 9:off + 12])
+        # db = Minv (dc - dM b)
+        for i in range(3):
+            for j in range(3):
+                E = np.zeros((3, 3))
+                E[i, j] = 1.0
+                T[off + 9:off + 12, off + 3 * i + j] = -Minv @ (E @ b)
+        T[off + 9:off + 12, off + 9:off + 12] = Minv
+    cov = T @ cov_lin @ T.T
+    outliers = np.flatnonzero(~keep)
+    return (Ma, ba, Mm, bm, float(dip)), cov, {
+        "mode": "poses", "s2": s2, "chi2": chi2, "dof": dof, "outliers": outliers.tolist(),
+        "normal_matrix_cond": cond, "dip_fitted": not fix_dip,
+        "dip_sigma_deg": None if fix_dip else float(np.sqrt(cov[24, 24])),
+        "sigmas": {"acc_g": sa, "mag_nT": sm, "pose_deg": sp}}
+
+
+def fisher_covariance(cal, dip, F, dec, G, poses, sa=SIGMA_ACC, sm=SIGMA_MAG, sp=SIGMA_POSE_DEG):
+    """Cramer-Rao bound of the 24 coefficients (M_a, b_a, M_m, b_m; dip
+    known) for a turntable run at `poses` (tuple of inc, azi, tf arrays),
+    under the joint model's noise (sensor white noise, turntable readout
+    error): the inverse Fisher information at the true coefficients `cal`."""
+    Ma, ba = np.asarray(cal.acc_m), np.asarray(cal.acc_b)
+    Mm, bm = np.asarray(cal.mag_m), np.asarray(cal.mag_b)
+    g, f = ref.body_vectors(*poses, F, dip, dec, G)
+    acc = g @ np.linalg.inv(Ma).T + ba  # noise-free readings of the true probe
+    mag = f @ np.linalg.inv(Mm).T + bm
+    Jp = _pose_jacobian(*poses, F, dip, dec, G)
+    Linv = _whiteners(Ma, Mm, Jp, sa, sm, sp)
+    # residual r = [Ma (acc - ba) - g; Mm (mag - bm) - f] in terms of (M, b)
+    n = len(acc)
+    J = np.zeros((n, 6, 24))
+    for off, raw, M, b, sl in ((0, acc, Ma, ba, slice(0, 3)), (12, mag, Mm, bm, slice(3, 6))):
+        d = raw - b
+        for i in range(3):
+            for j in range(3):
+                J[:, sl.start + i, off + 3 * i + j] = d[:, j]
+        J[:, sl, off + 9:off + 12] = -M
+    Jw = np.einsum("nij,njk->nik", Linv, J).reshape(-1, 24)
+    return np.linalg.inv(Jw.T @ Jw)
+
+
+# --------------------------------------------------------------------------
+# without poses
+def _sym(v):
+    a, b, c, d, e, f = v
+    return np.array([[a, b, c], [b, d, e], [c, e, f]])
+
+
+def ellipsoid_start(raw, R):
+    """Algebraic general ellipsoid fit: (M symmetric, b) with |M (raw - b)| ~ R."""
+    x, y, z = np.asarray(raw, float).T
+    D = np.column_stack([x * x, y * y, z * z, 2 * x * y, 2 * x * z, 2 * y * z, 2 * x, 2 * y, 2 * z,
+                         np.ones_like(x)])
+    _, _, Vt = np.linalg.svd(D / np.abs(D).max(0), full_matrices=False)
+    v = Vt[-1] / np.abs(D).max(0)
+    Q = np.array([[v[0], v[3], v[4]], [v[3], v[1], v[5]], [v[4], v[5], v[2]]])
+    if np.linalg.eigvalsh(Q).min() * np.linalg.eigvalsh(Q).max() <= 0:
+        raise DataError("joint: the readings do not lie on an ellipsoid (too few orientations)")
+    if np.trace(Q) < 0:
+        Q, v = -Q, -v
+    c = -np.linalg.solve(Q, v[6:9])
+    k = c @ Q @ c - v[9]
+    if k <= 0:
+        raise DataError("joint: degenerate ellipsoid fit")
+    w, U = np.linalg.eigh(Q / k)
+    M = U @ np.diag(np.sqrt(w)) @ U.T * R
+    return M, c
+
+
+def _inv_residuals(x, acc, mag, G, F, sa, sm, R0):
+    Ma = _sym(x[0:6]) @ R0
+    ba = x[6:9]
+    Mm = x[9:18].reshape(3, 3)
+    bm = x[18:21]
+    dip = x[21]
+    g = (acc - ba) @ Ma.T
+    b = (mag - bm) @ Mm.T
+    ng = np.linalg.norm(g, axis=1)
+    nb = np.linalg.norm(b, axis=1)
+    sdip = (g * b).sum(1) / (ng * nb)
+    sd = np.cos(np.radians(dip)) * np.hypot(sa / G, sm / F)
+    return np.concatenate([(ng - G) / sa, (nb - F) / sm, (sdip - np.sin(np.radians(dip))) / sd])
+
+
+def _polar_rotation(M):
+    U, _, Vt = np.linalg.svd(np.asarray(M, float))
+    R = U @ Vt
+    return R if np.linalg.det(R) > 0 else U @ np.diag([1, 1, -1]) @ Vt
+
+
+def _fit_invariants(ds, w, sa, sm, fix_dip, prior=None):
+    G, F = w["gravity_g"], w["field_nT"]
+    # the unobservable common rotation: none (accelerometer axes), or the
+    # prior calibration's accelerometer rotation (keeps its body frame)
+    R0 = np.eye(3) if prior is None else _polar_rotation(prior.acc_m)
+    if len(ds) < MIN_ROWS_INVARIANTS:
+        raise DataError(f"joint without poses needs >= {MIN_ROWS_INVARIANTS} readings in varied orientations; "
+                        f"the data have {len(ds)}")
+    Ma0, ba0 = ellipsoid_start(ds.acc, G)
+    Mm0, bm0 = ellipsoid_start(ds.mag, F)
+    Mm0 = R0 @ Mm0
+    g0 = (ds.acc - ba0) @ (R0 @ Ma0).T
+    b0 = (ds.mag - bm0) @ Mm0.T
+    dip0 = w["dip_deg"] if (fix_dip and w["dip_deg"] is not None) else float(
+        np.degrees(np.arcsin(np.median((g0 * b0).sum(1) / (np.linalg.norm(g0, axis=1) * np.linalg.norm(b0, axis=1))))))
+    x = np.concatenate([(R0 @ Ma0 @ R0.T)[np.triu_indices(3)], ba0, Mm0.ravel(), bm0, [dip0]])
+    n = len(ds)
+    keep = np.ones(n, bool)
+    def fun(xf, *args):
+        return _inv_residuals(np.concatenate([xf, [dip0]]) if fix_dip else xf, *args)
+    if fix_dip:
+        x = x[:21]
+    for loss in ("soft_l1", "linear"):
+        res = optimize.least_squares(fun, x, args=(ds.acc[keep], ds.mag[keep], G, F, sa, sm, R0),
+                                     loss=loss, f_scale=3.0, x_scale="jac")
+        x = res.x
+        if loss == "soft_l1":
+            r = fun(x, ds.acc, ds.mag, G, F, sa, sm, R0).reshape(3, n)
+            keep = (r ** 2).sum(0) <= stats.chi2.ppf(0.999, 3)
+            if keep.sum() < MIN_ROWS_INVARIANTS:
+                raise CalibrationError("joint: too many readings rejected as outliers to fit")
+    if fix_dip:
+        x = np.concatenate([x, [dip0]])
+    J = res.jac
+    dof = max(1, J.shape[0] - J.shape[1])
+    chi2 = float((res.fun ** 2).sum())
+    s2 = chi2 / dof
+    JtJ = J.T @ J
+    cond = float(np.linalg.cond(JtJ))
+    if not np.isfinite(cond) or cond > 1e16:
+        raise CalibrationError("joint: the orientations do not determine all parameters (singular fit)")
+    cov_x = s2 * np.linalg.inv(JtJ)
+    # map (sym 6, ba, Mm 9, bm [, dip]) -> 24-layout (+ dip)
+    iu = np.triu_indices(3)
+    T = np.zeros((25 if not fix_dip else 24, J.shape[1]))
+    for k, (i, j) in enumerate(zip(*iu)):
+        E = np.zeros((3, 3))
+        E[i, j] = E[j, i] = 1.0
+        T[0:9, k] = (E @ R0).ravel()
+    T[9:12, 6:9] = np.eye(3)
+    T[12:24, 9:21] = np.eye(12)
+    if not fix_dip:
+        T[24, 21] = 1.0
+    cov = T @ cov_x @ T.T
+    Ma, ba, Mm, bm, dip = _sym(x[0:6]) @ R0, x[6:9], x[9:18].reshape(3, 3), x[18:21], float(x[21])
+    return (Ma, ba, Mm, bm, dip), cov, {
+        "mode": "invariants", "s2": s2, "chi2": chi2, "dof": dof, "outliers": np.flatnonzero(~keep).tolist(),
+        "normal_matrix_cond": cond, "dip_fitted": not fix_dip,
+        "dip_sigma_deg": None if fix_dip else float(np.sqrt(cov[24, 24])),
+        "sigmas": {"acc_g": sa, "mag_nT": sm},
+        "gauge": ("no poses: the body frame is the accelerometer's axes (M_a symmetric)" if prior is None else
+                  "no poses: the body frame is the prior calibration's (M_a = S R_prior, S symmetric)")}
+
+
+def fit(ds: RawDataset, use_poses: bool | None = None, sigma_acc: float = SIGMA_ACC,
+        sigma_mag: float = SIGMA_MAG, sigma_pose_deg: float = SIGMA_POSE_DEG, fix_dip: bool = False,
+        prior=None, **_):
+    """prior: a Calibration whose body frame (accelerometer rotation) a
+    fit without poses keeps; without it the accelerometer's axes are the
+    body frame."""
+    w = common.world_of(ds)
+    if use_poses is None:
+        use_poses = ds.has_pose
+    if use_poses:
+        common.need_poses(ds, "joint with poses")
+        if len(ds) < MIN_ROWS_POSES:
+            raise DataError(f"joint needs >= {MIN_ROWS_POSES} readings; the data have {len(ds)}")
+        if fix_dip and w["dip_deg"] is None:
+            raise DataError("joint --fix-dip needs a '# dip_deg=...' header line")
+        (Ma, ba, Mm, bm, dip), cov, info = _fit_poses(ds, w, sigma_acc, sigma_mag, sigma_pose_deg, fix_dip)
+    else:
+        (Ma, ba, Mm, bm, dip), cov, info = _fit_invariants(ds, w, sigma_acc, sigma_mag, fix_dip, prior)
+    cal = common.make_cal(Ma, ba, Mm, bm, "joint", ds)
+    info.update({"rows_used": np.setdiff1d(np.arange(len(ds)), info["outliers"]), "covariance": cov[:24, :24],
+                 "dip_deg": dip, "notes": [f"mode {info['mode']}; s^2 = {info['s2']:.3g} (chi^2/dof; 1 when the "
+                                           f"noise model is right)"]})
+    return cal, info

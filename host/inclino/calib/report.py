@@ -1,0 +1,326 @@
+"""The fit report every method produces (FitReport, JSON round trip).
+
+* residuals -- after the fit, on the calibration rows: the invariants (|g|
+  against G in mg, |b| against F in nT, the dip's spread in deg) and, with
+  poses, the corrected vectors against the poses' truth (mg, nT) and the
+  attitude against the poses (inclination; azimuth where 5 <= I <= 175).
+* coverage -- how much of the sphere the corrected gravity and field
+  directions cover: the fraction of 26 direction cells (cube faces, edges,
+  corners) holding a reading, and the smallest eigenvalue of the directions'
+  scatter matrix (1/3 for a uniform sphere, 0 for a plane or a single circle).
+* conditioning -- cond(M) per triad and of the fit's normal matrix.
+* uncertainty -- 1-sigma of every coefficient (24, names as in
+  common.PARAM_NAMES) and what it means for the attitude: the predicted
+  azimuth/inclination RMS over the Li 2021 grid.  `joint` gives its GLS
+  covariance; the paper methods (closed forms without a covariance) a
+  parametric bootstrap: the fit repeated on the same rows with the nominal
+  noise (sensor sigma, turntable readout sigma) added, seeded.
+* quantisation -- the attitude lost to the firmware's fixed point, on the
+  calibration rows and the Li grid: by the coefficients' Q formats alone
+  (float64 with dequantised against float coefficients), and end to end
+  (firmware engine, C fixed point, against the float64 reference engine with
+  the same float coefficients).
+* verdict -- passed, and the reasons when not (thresholds in THRESHOLDS).
+"""
+from __future__ import annotations
+
+import itertools
+import json
+from dataclasses import asdict, dataclass, field
+
+import numpy as np
+
+from inclino import engines, reference as ref
+from inclino.calfile import Calibration
+from inclino.dataset import RawDataset
+
+from . import common
+from .runs import li2021_grid
+
+THRESHOLDS = {
+    "inc_rms_deg": 0.1,  # residual on the calibration poses (Ren 2014: +-0.1 deg)
+    "azi_rms_deg": 0.5,  # residual on the calibration poses (Li 2021: 0.82 deg RMS after)
+    "acc_norm_rms_mg": 5.0,
+    "mag_norm_rms_nT": 250.0,
+    "dip_std_deg": 0.5,
+    "predicted_azi_rms_deg": 0.25,  # 1-sigma, Li grid, from the coefficients' uncertainty
+    "coef_quantisation_azi_max_deg": 0.002,  # Q29 M, Q29/Q10 b alone
+    "fw_quantisation_azi_max_deg": 0.02,  # whole firmware path (its own budget: docs/fixed-point.md)
+    "fw_quantisation_inc_max_deg": 0.01,
+    "outlier_fraction": 0.1,
+    "coverage_min_eig": 0.02,  # invariants only: directions must not lie in a plane
+    "m_cond": 2.0,
+}
+
+_CELLS = np.array([v for v in itertools.product((-1, 0, 1), repeat=3) if any(v)], float)
+_CELLS /= np.linalg.norm(_CELLS, axis=1, keepdims=True)
+
+
+@dataclass
+class FitReport:
+    method: str
+    mode: str
+    rows: int
+    rows_used: int
+    outliers: list = field(default_factory=list)
+    residuals: dict = field(default_factory=dict)
+    coverage: dict = field(default_factory=dict)
+    conditioning: dict = field(default_factory=dict)
+    uncertainty: dict = field(default_factory=dict)
+    quantisation: dict = field(default_factory=dict)
+    passed: bool = True
+    reasons: list = field(default_factory=list)
+    notes: list = field(default_factory=list)
+    paper_parameters: dict | None = None
+    fit_time_s: float = 0.0
+
+    def to_dict(self) -> dict:
+        return _clean(asdict(self))
+
+    def to_json(self) -> str:
+        return json.dumps(self.to_dict(), indent=2)
+
+    @staticmethod
+    def from_json(text) -> "FitReport":
+        d = json.loads(text) if isinstance(text, str) else dict(text)
+        return FitReport(**d)
+
+    def summary(self) -> str:
+        r = self.residuals
+        lines = [f"method {self.method} ({self.mode}): {self.rows_used} of {self.rows} rows used"
+                 + (f", {len(self.outliers)} outlier(s) rejected" if self.outliers else "")]
+        if "azi_rms_deg" in r:
+            lines.append(f"  residual on the poses: inclination RMS {r['inc_rms_deg']:.4f} deg (max "
+                         f"{r['inc_max_deg']:.4f}), azimuth RMS {r['azi_rms_deg']:.4f} deg (max {r['azi_max_deg']:.4f})")
+        lines.append(f"  invariants: |g| RMS {r.get('acc_norm_rms_mg', float('nan')):.3f} mg, |b| RMS "
+                     f"{r.get('mag_norm_rms_nT', float('nan')):.1f} nT, dip spread {r.get('dip_std_deg', float('nan')):.4f} deg")
+        u = self.uncertainty
+        if "predicted_azi_rms_deg" in u:
+            lines.append(f"  uncertainty ({u.get('source', '')}): predicted azimuth RMS {u['predicted_azi_rms_deg']:.4f} deg, "
+                         f"inclination {u['predicted_inc_rms_deg']:.4f} deg over the Li grid")
+        c = self.coverage
+        lines.append(f"  coverage: gravity {c.get('acc_cells', 0)}/26 cells (min eig {c.get('acc_min_eig', 0):.3f}), "
+                     f"field {c.get('mag_cells', 0)}/26 (min eig {c.get('mag_min_eig', 0):.3f})")
+        q = self.quantisation
+        lines.append(f"  fixed point: coefficients cost azimuth max {q.get('coef_azi_max_deg', float('nan')):.2g} deg; "
+                     f"firmware vs float azimuth max {q.get('fw_azi_max_deg', float('nan')):.5f} deg, "
+                     f"inclination max {q.get('fw_inc_max_deg', float('nan')):.5f} deg")
+        lines.append("  verdict: " + ("pass" if self.passed else "FAIL: " + "; ".join(self.reasons)))
+        return "\n".join(lines)
+
+
+def _clean(o):
+    if isinstance(o, dict):
+        return {str(k): _clean(v) for k, v in o.items()}
+    if isinstance(o, (list, tuple)):
+        return [_clean(v) for v in o]
+    if isinstance(o, np.ndarray):
+        return _clean(o.tolist())
+    if isinstance(o, (np.floating, float)):
+        v = float(o)
+        return v if np.isfinite(v) else None
+    if isinstance(o, (np.integer,)):
+        return int(o)
+    return o
+
+
+def _rms(x):
+    x = np.asarray(x, float)
+    return float(np.sqrt(np.mean(x * x))) if x.size else float("nan")
+
+
+def _coverage(v):
+    u = v / np.linalg.norm(v, axis=1, keepdims=True)
+    cells = len(np.unique(np.argmax(u @ _CELLS.T, axis=1)))
+    S = (u[:, :, None] * u[:, None, :]).mean(0)
+    return cells, float(np.linalg.eigvalsh(S).min())
+
+
+def residuals(ds: RawDataset, cal: Calibration, dip_deg=None) -> dict:
+    w = common.world_of(ds)
+    g = ref.correct(ds.acc, cal.acc_m, cal.acc_b)
+    b = ref.correct(ds.mag, cal.mag_m, cal.mag_b)
+    a = ref.attitude(g, b)
+    out = {"acc_norm_rms_mg": 1e3 * _rms(a["gt"] - w["gravity_g"]),
+           "mag_norm_rms_nT": _rms(a["bt"] - w["field_nT"]),
+           "dip_mean_deg": float(np.mean(a["dip"])), "dip_std_deg": float(np.std(a["dip"]))}
+    if ds.has_pose:
+        dip = dip_deg if dip_deg is not None else (w["dip_deg"] if w["dip_deg"] is not None else out["dip_mean_deg"])
+        gt, ft = common.true_vectors(ds, dip, w["field_nT"], w["declination_deg"], w["gravity_g"])
+        inc = ds.columns["inc_deg"]
+        di = a["inc"] - inc
+        ok = (inc >= 5.0) & (inc <= 175.0)
+        da = ref.angle_diff(a["azi"], ds.columns["azi_deg"])[ok]
+        out.update({"acc_vec_rms_mg": 1e3 * _rms(g - gt), "mag_vec_rms_nT": _rms(b - ft),
+                    "inc_rms_deg": _rms(di), "inc_max_deg": float(np.abs(di).max()),
+                    "azi_rms_deg": _rms(da), "azi_max_deg": float(np.abs(da).max()) if da.size else float("nan")})
+    return out
+
+
+def grid_readings(cal: Calibration, w: dict, dip: float, toolfaces=(0.0, 120.0, 240.0)):
+    """Noise-free raw readings a probe with exactly these coefficients gives
+    on the Li grid (raw = M^-1 true + b), quantised to sensor counts as the
+    parts would (so that the firmware and float engines see the same input)."""
+    I, A, T = li2021_grid(toolfaces)
+    g, f = ref.body_vectors(I, A, T, w["field_nT"], dip, 0.0, w["gravity_g"])
+    acc = g @ np.linalg.inv(np.asarray(cal.acc_m)).T + np.asarray(cal.acc_b)
+    mag = f @ np.linalg.inv(np.asarray(cal.mag_m)).T + np.asarray(cal.mag_b)
+    return (I, A, T), ref.quantise_acc(acc) * ref.ACC_LSB_G, ref.quantise_mag(mag) * ref.MAG_LSB_NT
+
+
+def attitude_sensitivity(cal: Calibration, acc, mag):
+    """d(azimuth, inclination)/d(24 coefficients) at the given raw readings
+    (deg per unit), by central differences."""
+    v0 = common.cal_vector(cal)
+    steps = np.where(np.arange(24) % 12 < 9, 1e-6, 0.0)
+    steps[9:12] = 1e-6  # g
+    steps[21:24] = 0.05  # nT
+    Ja, Ji = [], []
+    for k in range(24):
+        outs = []
+        for s in (1, -1):
+            v = v0.copy()
+            v[k] += s * steps[k]
+            c = common.cal_from_vector(v)
+            a = ref.attitude(ref.correct(acc, c.acc_m, c.acc_b), ref.correct(mag, c.mag_m, c.mag_b))
+            outs.append(a)
+        Ja.append(ref.angle_diff(outs[0]["azi"], outs[1]["azi"]) / (2 * steps[k]))
+        Ji.append((outs[0]["inc"] - outs[1]["inc"]) / (2 * steps[k]))
+    return np.array(Ja).T, np.array(Ji).T
+
+
+def predicted_attitude_rms(cal: Calibration, cov, w: dict, dip: float) -> tuple[float, float]:
+    _, acc, mag = grid_readings(cal, w, dip)
+    Ja, Ji = attitude_sensitivity(cal, acc, mag)
+    va = np.einsum("nk,kl,nl->n", Ja, cov, Ja)
+    vi = np.einsum("nk,kl,nl->n", Ji, cov, Ji)
+    return float(np.sqrt(va.mean())), float(np.sqrt(vi.mean()))
+
+
+def bootstrap_cov(ds: RawDataset, refit, rows, sigma_acc, sigma_mag, sigma_pose_deg, n=40, seed=12345):
+    """Covariance of the 24 coefficients by refitting with the nominal noise
+    added to the readings (and to the pose columns)."""
+    rng = np.random.default_rng(seed)
+    vs = []
+    base = common.subset(ds, rows)
+    for _ in range(n):
+        cols = {k: v.copy() for k, v in base.columns.items()}
+        for c in ("ax_g", "ay_g", "az_g"):
+            cols[c] += rng.normal(0, sigma_acc, len(base))
+        for c in ("mx_nT", "my_nT", "mz_nT"):
+            cols[c] += rng.normal(0, sigma_mag, len(base))
+        if base.has_pose and sigma_pose_deg > 0:
+            for c in ("inc_deg", "azi_deg", "tf_deg"):
+                cols[c] = cols[c] + rng.normal(0, sigma_pose_deg, len(base))
+            cols["inc_deg"] = np.clip(cols["inc_deg"], 0.0, 180.0)
+        try:
+            vs.append(common.cal_vector(refit(RawDataset(cols, dict(base.meta)))))
+        except Exception:  # a perturbed run the method cannot fit: counted below
+            continue
+    if len(vs) < n // 2:
+        return None, len(vs)
+    return np.cov(np.array(vs).T), len(vs)
+
+
+def quantisation_loss(ds: RawDataset, cal: Calibration, w: dict, dip: float) -> dict:
+    """Two figures, on the calibration rows plus the Li grid:
+    coefficients -- float64 attitude with the coefficients as quantised
+    (dequantised back) against the float coefficients: what the Q formats
+    of M and b cost; firmware -- the firmware engine (C, fixed point, the
+    readings quantised to counts) against float64: the whole fixed-point
+    path, coefficients and arithmetic.  Azimuth where 5 <= I <= 175."""
+    (I, A, T), gacc, gmag = grid_readings(cal, w, dip)
+    acc = np.concatenate([ds.acc, gacc])
+    mag = np.concatenate([ds.mag, gmag])
+    fl = engines.run(acc, mag, cal, "reference")
+    dq = engines.run(acc, mag, Calibration.from_fixed(cal.to_fixed()), "reference")
+    fw = engines.run(acc, mag, cal, "firmware")
+    ok = (fl["inc_deg"] >= 5.0) & (fl["inc_deg"] <= 175.0)
+    out = {"evaluated_on": f"{len(ds)} calibration rows + {len(I)} Li-grid poses"}
+    for name, o in (("coef", dq), ("fw", fw)):
+        di = np.abs(o["inc_deg"] - fl["inc_deg"])
+        da = np.abs(ref.angle_diff(o["azi_deg"], fl["azi_deg"]))[ok]
+        out[f"{name}_inc_max_deg"] = float(di.max())
+        out[f"{name}_azi_max_deg"] = float(da.max())
+        out[f"{name}_azi_rms_deg"] = _rms(da)
+    return out
+
+
+def build(ds: RawDataset, cal: Calibration, method: str, info: dict, refit=None, opts=None) -> FitReport:
+    from .joint import SIGMA_ACC, SIGMA_MAG, SIGMA_POSE_DEG
+
+    opts = opts or {}
+    w = common.world_of(ds)
+    dip = info.get("dip_deg")
+    if dip is None:
+        dip = w["dip_deg"] if w["dip_deg"] is not None else float(np.mean(ref.attitude(
+            ref.correct(ds.acc, cal.acc_m, cal.acc_b), ref.correct(ds.mag, cal.mag_m, cal.mag_b))["dip"]))
+    rows_used = np.asarray(info.get("rows_used", np.arange(len(ds))))
+    used = common.subset(ds, rows_used)
+    rep = FitReport(method=method, mode=info.get("mode", "turntable poses"), rows=len(ds),
+                    rows_used=int(len(rows_used)), outliers=list(info.get("outliers", [])),
+                    notes=list(info.get("notes", [])), paper_parameters=info.get("paper_parameters"))
+    rep.residuals = residuals(used, cal, dip)
+    g = ref.correct(used.acc, cal.acc_m, cal.acc_b)
+    b = ref.correct(used.mag, cal.mag_m, cal.mag_b)
+    ca, ea = _coverage(g)
+    cm, em = _coverage(b)
+    rep.coverage = {"acc_cells": ca, "acc_min_eig": ea, "mag_cells": cm, "mag_min_eig": em}
+    rep.conditioning = {"acc_m_cond": float(np.linalg.cond(cal.acc_m)), "mag_m_cond": float(np.linalg.cond(cal.mag_m))}
+    if "normal_matrix_cond" in info:
+        rep.conditioning["normal_matrix_cond"] = info["normal_matrix_cond"]
+    sa = opts.get("sigma_acc", SIGMA_ACC)
+    sm = opts.get("sigma_mag", SIGMA_MAG)
+    sp = opts.get("sigma_pose_deg", SIGMA_POSE_DEG)
+    cov = info.get("covariance")
+    if cov is not None:
+        src = f"GLS covariance, scaled by s^2 = {info.get('s2', 1.0):.3g}"
+    elif refit is not None:
+        cov, nok = bootstrap_cov(ds, refit, rows_used, sa, sm, sp if ds.has_pose else 0.0,
+                                 n=int(opts.get("bootstrap", 40)))
+        src = f"bootstrap of {nok} refits, nominal noise (acc {sa:g} g, mag {sm:g} nT, pose {sp:g} deg)"
+    if cov is not None:
+        sig = np.sqrt(np.clip(np.diag(cov), 0, None))
+        pa, pi = predicted_attitude_rms(cal, cov, w, dip)
+        rep.uncertainty = {"source": src, "sigma": dict(zip(common.PARAM_NAMES, sig.tolist())),
+                           "predicted_azi_rms_deg": pa, "predicted_inc_rms_deg": pi}
+        if info.get("dip_sigma_deg") is not None:
+            rep.uncertainty["dip_deg"] = dip
+            rep.uncertainty["dip_sigma_deg"] = info["dip_sigma_deg"]
+    else:
+        rep.uncertainty = {"source": "not available (the method could not be refitted on perturbed data)"}
+    rep.quantisation = quantisation_loss(used, cal, w, dip)
+    for k in ("s2", "chi2", "dof"):
+        if k in info:
+            rep.residuals[k] = info[k]
+    _verdict(rep, info)
+    return rep
+
+
+def _verdict(rep: FitReport, info: dict) -> None:
+    t = THRESHOLDS
+    r, reasons = rep.residuals, []
+    def over(value, key, what):
+        if value is not None and np.isfinite(value) and value > t[key]:
+            reasons.append(f"{what} {value:.4g} exceeds {t[key]:g}")
+    over(r.get("inc_rms_deg"), "inc_rms_deg", "inclination residual RMS (deg)")
+    over(r.get("azi_rms_deg"), "azi_rms_deg", "azimuth residual RMS (deg)")
+    over(r.get("acc_norm_rms_mg"), "acc_norm_rms_mg", "|g| residual RMS (mg)")
+    over(r.get("mag_norm_rms_nT"), "mag_norm_rms_nT", "|b| residual RMS (nT)")
+    over(r.get("dip_std_deg"), "dip_std_deg", "dip spread (deg)")
+    over(rep.uncertainty.get("predicted_azi_rms_deg"), "predicted_azi_rms_deg",
+         "coefficients poorly determined: predicted azimuth 1-sigma (deg)")
+    q = rep.quantisation
+    over(q.get("coef_azi_max_deg"), "coef_quantisation_azi_max_deg", "azimuth lost to coefficient quantisation (deg)")
+    over(q.get("fw_azi_max_deg"), "fw_quantisation_azi_max_deg", "firmware fixed-point azimuth loss (deg)")
+    over(q.get("fw_inc_max_deg"), "fw_quantisation_inc_max_deg", "firmware fixed-point inclination loss (deg)")
+    over(max(rep.conditioning["acc_m_cond"], rep.conditioning["mag_m_cond"]), "m_cond", "cond(M)")
+    if rep.rows and len(rep.outliers) / rep.rows > t["outlier_fraction"]:
+        reasons.append(f"{len(rep.outliers)} of {rep.rows} readings rejected as outliers")
+    if info.get("mode") == "invariants":
+        over_cov = min(rep.coverage["acc_min_eig"], rep.coverage["mag_min_eig"])
+        if over_cov < t["coverage_min_eig"]:
+            reasons.append(f"orientations cover too little of the sphere (min eigenvalue {over_cov:.3g} < "
+                           f"{t['coverage_min_eig']:g})")
+    rep.reasons = reasons
+    rep.passed = not reasons
