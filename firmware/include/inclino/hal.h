@@ -28,9 +28,9 @@ void hal_init(void);
 /* ---- SPI ---------------------------------------------------------------
  * One SPI master, one chip select per device.  The HAL selects the clock
  * mode of the device on hal_spi_select: the ADIS16210 runs in SPI mode 3
- * with 16-bit frames, the ADS1256 in mode 1 with bytes.  Bit rate 781 kHz
- * on the probe (the emulator charges 16 / 8 bit times of 1.28 us per
- * frame to its clock). */
+ * with 16-bit frames, the ADS1256 in mode 1 with bytes.  Bit rate 833 kHz
+ * on the probe (40 MHz bus / 48); the emulator charges 16 / 8 bit times of
+ * 1.28 us (781.25 kHz) per frame to its clock. */
 #define HAL_DEV_ADIS 0u /* ADIS16210 accelerometer, 16-bit frames */
 #define HAL_DEV_ADC 1u  /* ADS1256 fluxgate ADC, byte frames */
 
