@@ -38,6 +38,10 @@ uint32_t fx_div_frac_q20(uint32_t num, uint32_t den)
 }
 #endif /* FX_PORT_DIV */
 
+/* A port may supply fx_isqrt_u32 and fx_sqrt_u32_q8 (same result bits) and
+ * build this file with -DFX_PORT_SQRT: the S08 port has them in assembly
+ * (firmware/port/s08). */
+#ifndef FX_PORT_SQRT
 /* floor(sqrt(x)) by the bitwise method (16 fixed steps); *rem receives
  * x - floor(sqrt(x))^2, what is left of x. */
 static uint16_t isqrt_rem(uint32_t x, uint32_t *rem)
@@ -102,8 +106,9 @@ uint32_t fx_sqrt_u32_q8(uint32_t x)
     if (k == 0u) {
         return s;
     }
-    return (s + ((uint32_t)1u << (k - 1u))) >> k; /* round half up; s < 2^24 */
+    return (s + ((uint32_t)1u << (k - 1u))) >> k; /* round half up; s <= 2^24 */
 }
+#endif /* FX_PORT_SQRT */
 
 int32_t fx_atan2_q16(int32_t y, int32_t x)
 {

@@ -41,7 +41,7 @@ uint32_t fx_div_frac_q20(uint32_t num, uint32_t den);
 uint16_t fx_isqrt_u32(uint32_t x);
 
 /*
- * fx_sqrt_u32_q8 - sqrt(x) * 2^8 for x in [0, 2^32).  Out: Q8, [0, 2^24).
+ * fx_sqrt_u32_q8 - sqrt(x) * 2^8 for x in [0, 2^32).  Out: Q8, [0, 2^24].
  *   Method: normalise x' = x * 4^k into [2^30, 2^32); y = floor(sqrt(x')),
  *   r = x' - y^2, s = 256*y + floor((256*r + y) / (2*y + 1)); result =
  *   round(s / 2^k) (half up).
