@@ -120,9 +120,11 @@ class EmulatedProbe:
         self.flash.load(PROBE_ID_ADDR, bytes(buf))
 
     def boot(self) -> int:
-        """Run the firmware's start-up (probe_init) on the present state."""
+        """Run the firmware's reset path (hal_init, probe_init) on the
+        present state."""
         self._own()
         self.board.selected = None
+        lib.hal_init()
         self.boot_status = int(lib.probe_init())
         self._check()
         return self.boot_status

@@ -327,3 +327,25 @@ def test_identity_record():
     assert struct.unpack_from(">H", rec, 14)[0] == binascii.crc_hqx(rec[:14], 0xFFFF)
     q = EmulatedProbe("typical", serial=0)
     assert q.identity()["serial"] == 0
+
+
+def test_power_cut_at_every_step_of_a_qc_reference_write():
+    base = EmulatedProbe("ideal")
+    old = (2**27, 335544, 50000 * 256, 76800, 60 * 65536, 16384)
+    new = (2**27, 335544, 48000 * 256, 76800, 58 * 65536, 16384)
+    assert base.qc_set(*old).status == 0
+    snapshot = bytes(base.flash.mem)
+    seen = set()
+    for n in range(1, 1 + 1 + 3 + 1 + 1):          # erase, header, 3 payload phrases, commit
+        for seed in (n, 100 + n):
+            f = fl.S12XFlash(seed=seed)
+            f.mem[:] = snapshot
+            p = EmulatedProbe("ideal", flash=f)
+            p.cut_power_at(n, "random")
+            r = p.qc_set(*new)
+            assert r.power_cut
+            st, got = p.qc_get()
+            assert st == 0 and got in (old, new), n
+            assert p.identity()["qc_slot"] == ("A" if got == old else "B")
+            seen.add(got)
+    assert old in seen
