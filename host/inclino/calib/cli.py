@@ -10,7 +10,9 @@ from __future__ import annotations
 
 import json
 
-from inclino.errors import DataError
+import numpy as np
+
+from inclino.errors import CalibrationError, DataError
 
 from . import DEFAULT_METHOD, METHODS
 
@@ -32,7 +34,10 @@ def calibrate_main(args) -> int:
         if args.bootstrap < 2:
             raise DataError("--bootstrap must be >= 2")
         opts["bootstrap"] = args.bootstrap
-    cal, rep = fit(ds, args.method, data_hash=common.file_hash(args.input, ds), **opts)
+    try:
+        cal, rep = fit(ds, args.method, data_hash=common.file_hash(args.input, ds), **opts)
+    except (ArithmeticError, ValueError, np.linalg.LinAlgError) as e:  # one line, never a traceback
+        raise CalibrationError(f"{args.method}: the fit failed ({type(e).__name__}: {e})")
     cal.save(args.output)
     if args.json:
         print(json.dumps({"output": args.output, "method": cal.method, "probe_serial": cal.probe_serial,

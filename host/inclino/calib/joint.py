@@ -80,6 +80,23 @@ def _pose_residuals(x, acc, mag, poses, F, dec, G, Linv):
     return np.einsum("nij,nj->ni", Linv, r).ravel()
 
 
+def _pose_jacobian_params(x, acc, mag, poses, F, dec, G, Linv):
+    """Analytic Jacobian of _pose_residuals, (6n, 25)."""
+    n = len(acc)
+    Jr = np.zeros((n, 6, 25))
+    for i in range(3):
+        Jr[:, i, 3 * i:3 * i + 3] = acc
+        Jr[:, i, 9 + i] = -1.0
+        Jr[:, 3 + i, 12 + 3 * i:12 + 3 * i + 3] = mag
+        Jr[:, 3 + i, 21 + i] = -1.0
+    h = 1e-4
+    dip = x[24]
+    _, f1 = ref.body_vectors(*poses, F, dip + h, dec, G)
+    _, f0 = ref.body_vectors(*poses, F, dip - h, dec, G)
+    Jr[:, 3:, 24] = -(f1 - f0) / (2 * h)
+    return np.einsum("nij,njk->nik", Linv, Jr).reshape(6 * n, 25)
+
+
 def _linear_start(acc, mag, g, f):
     out = []
     for raw, true in ((acc, g), (mag, f)):
@@ -110,6 +127,11 @@ def _fit_poses(ds, w, sa, sm, sp, fix_dip):
     def fun(xf, *args):
         xx = np.concatenate([xf, [dip0]]) if fix_dip else xf
         return _pose_residuals(xx, *args)
+
+    def jac(xf, *args):
+        xx = np.concatenate([xf, [dip0]]) if fix_dip else xf
+        J = _pose_jacobian_params(xx, *args)
+        return J[:, :24] if fix_dip else J
     x = x0[:24] if fix_dip else x0
     for loss in ("soft_l1", "linear"):
         xx = np.concatenate([x, [dip0]]) if fix_dip else x
@@ -117,7 +139,7 @@ def _fit_poses(ds, w, sa, sm, sp, fix_dip):
         Jp = _pose_jacobian(*poses, F, dip_now, dec, G)
         Linv = _whiteners(Ma, Mm, Jp, sa, sm, sp)
         args = (ds.acc[keep], ds.mag[keep], tuple(p[keep] for p in poses), F, dec, G, Linv[keep])
-        res = optimize.least_squares(fun, x, args=args, loss=loss, f_scale=3.0,
+        res = optimize.least_squares(fun, x, jac=jac, args=args, loss=loss, f_scale=3.0,
                                      method="lm" if loss == "linear" else "trf", x_scale="jac")
         x = res.x
         if loss == "soft_l1":

@@ -1,0 +1,109 @@
+"""`inclino calibrate`: output file, report, errors and exit statuses."""
+import hashlib
+import json
+import subprocess
+import sys
+
+import numpy as np
+import pytest
+
+from inclino.calfile import Calibration
+from inclino.calib import bench, runs
+from inclino.cli import main
+from inclino.dataset import write_raw
+from inclino_emu.scenario import generate_raw, load_scenario
+
+
+@pytest.fixture(scope="module")
+def data(tmp_path_factory):
+    d = tmp_path_factory.mktemp("cal")
+    s = bench.bench_probe(linear=True)
+    run = bench.emulated_run(s, bench.calibration_poses(), seed=21)
+    write_raw(str(d / "run.csv"), run)
+    nopose = bench.emulated_run(s, runs.multi_position(80), seed=22)
+    for c in ("inc_deg", "azi_deg", "tf_deg"):
+        del nopose.columns[c]
+    write_raw(str(d / "nopose.csv"), nopose)
+    few = generate_raw(s, *[p[:5] for p in runs.multi_position(60)])
+    write_raw(str(d / "few.csv"), few)
+    same = generate_raw(load_scenario("ideal"), [30.0] * 20, [40.0] * 20, [50.0] * 20)
+    write_raw(str(d / "same.csv"), same)
+    return d
+
+
+@pytest.mark.parametrize("method", ["joint", "ren2014", "li2021", "guo2009"])
+def test_calibrate_writes_a_loadable_file(data, method, capsys):
+    out = data / f"cal-{method}.json"
+    rc = main(["calibrate", str(data / "run.csv"), "--method", method, "-o", str(out), "--bootstrap", "8"])
+    text = capsys.readouterr().out
+    assert rc == 0, text
+    cal = Calibration.load(str(out))
+    d = json.loads(out.read_text())
+    assert cal.method == method and d["probe_serial"] == "1001"
+    assert d["data"]["sha256"] == hashlib.sha256((data / "run.csv").read_bytes()).hexdigest()
+    assert d["fixed"]["acc_m"][0] == round(d["acc_m"][0][0] * 2**29)
+    assert d["report"]["method"] == method and d["report"]["passed"] is True
+    assert "verdict: pass" in text
+
+
+def test_calibrate_json_output(data, capsys):
+    out = data / "cal.json"
+    rc = main(["calibrate", str(data / "run.csv"), "-o", str(out), "--json"])
+    d = json.loads(capsys.readouterr().out)
+    assert rc == 0 and d["method"] == "joint" and d["report"]["mode"] == "poses"
+    assert len(d["report"]["uncertainty"]["sigma"]) == 24
+
+
+def test_calibrate_without_poses_uses_the_invariants(data, capsys):
+    rc = main(["calibrate", str(data / "nopose.csv"), "-o", str(data / "np.json"), "--json"])
+    d = json.loads(capsys.readouterr().out)
+    assert rc == 0 and d["report"]["mode"] == "invariants"
+
+
+@pytest.mark.parametrize("args, code, message", [
+    (["nopose.csv", "--method", "li2021"], 2, "li2021 needs the turntable pose columns"),
+    (["nopose.csv", "--method", "guo2009"], 2, "guo2009 needs the turntable pose columns"),
+    (["few.csv"], 2, "joint needs >= 8 readings"),
+    (["few.csv", "--method", "li2021"], 2, "missing position"),
+    (["same.csv"], 3, "singular"),
+    (["absent.csv"], 2, "cannot read"),
+])
+def test_calibrate_errors(data, args, code, message, capsys):
+    out = data / "err.json"
+    out.write_text("previous")
+    argv = ["calibrate", str(data / args[0]), *args[1:], "-o", str(out)]
+    rc = main(argv)
+    err = capsys.readouterr().err
+    assert rc == code
+    assert err.count("\n") == 1 and message in err and "Traceback" not in err
+    assert out.read_text() == "previous"  # never half-written, never clobbered
+    assert not list(data.glob(".cal-*"))  # no temporary left behind
+
+
+def test_calibrate_subprocess_one_line_error(data):
+    p = subprocess.run([sys.executable, "-m", "inclino", "calibrate", str(data / "same.csv"), "-o",
+                        str(data / "x.json")], capture_output=True, text=True)
+    assert p.returncode == 3 and p.stderr.startswith("inclino: error:") and p.stderr.count("\n") == 1
+    assert not (data / "x.json").exists()
+
+
+def test_calfile_rejects_a_stale_fixed_image(data):
+    d = json.loads((data / "cal.json").read_text())
+    d["acc_m"][0][0] += 1e-3
+    from inclino.errors import CalibrationError
+
+    with pytest.raises(CalibrationError, match="fixed-point image does not match"):
+        Calibration.from_json(json.dumps(d))
+    del d["fixed"], d["report"], d["data"]  # a format-1 file of the first kind still loads
+    assert Calibration.from_json(json.dumps(d)).acc_m[0][0] == d["acc_m"][0][0]
+
+
+def test_bench_calibration_small():
+    r = bench.bench_calibration(n_runs=1, include_peer=False)
+    d = json.loads(r.to_json())
+    m = d["methods"]
+    for k in ("joint", "ren2014", "li2021", "guo2009"):
+        assert m[k]["runs"] == 1 and m[k]["azi_rms_deg"] > 0
+    assert m["joint"]["azi_rms_deg"] < min(m[k]["azi_rms_deg"] for k in ("ren2014", "li2021", "guo2009"))
+    assert 0.5 < d["met"]["ratio_to_cramer_rao"] < 2.0
+    assert d["papers_measured"]["li2021"].startswith("azimuth RMS 0.82")
