@@ -16,10 +16,10 @@ pose.
 
 Accuracy is measured on the Li 2021 grid (inclinations 2, 5, 10, 20 ... 90
 deg, azimuths 0-300 every 60 deg, toolfaces 0, 120, 240 deg) with the same
-probe's noise-free readings (quantised to counts) at exact poses, through the
-float64 engine: it is the error the calibration leaves, not the grid's
-reading noise (which no calibration can remove and which would hide the
-differences).  RMS over the grid and the runs; max over both.
+probe's noise-free, unquantised readings at exact poses, through the float64
+engine: it is the error the calibration leaves, not the grid's reading noise
+or quantisation (which no calibration can remove: 1/16384 g alone is ~0.03
+deg of azimuth at I = 2 deg, more than the differences measured here).  RMS over the grid and the runs; max over both.
 
 Cramer-Rao floor: the inverse Fisher information of the 24 coefficients for
 one calibration run (all its rows) under the noise model (sensor white
@@ -136,6 +136,8 @@ def grid_truth(s):
     quiet = copy.deepcopy(s)
     quiet.acc.noise = None
     quiet.mag.noise = None
+    quiet.acc.quantisation = None  # the grid's own quantisation (1/16384 g) would add ~0.03 deg
+    quiet.mag.quantisation = None  # of azimuth at I = 2 deg, whatever the calibration
     g = runs.li2021_grid((0.0, 120.0, 240.0))
     return g, generate_raw(quiet, *g)
 
@@ -233,7 +235,7 @@ def _run_methods(s, n_runs, seed0, include_peer):
     return out, floor
 
 
-def bench_calibration(n_runs: int = 5, seed: int = 100, include_peer: bool | None = None) -> CalibrationBench:
+def bench_calibration(n_runs: int = 20, seed: int = 100, include_peer: bool | None = None) -> CalibrationBench:
     if include_peer is None:
         try:
             import magcal.core  # noqa: F401
@@ -263,7 +265,8 @@ def bench_calibration(n_runs: int = 5, seed: int = 100, include_peer: bool | Non
     paper = min(azi.get(m, float("inf")) for m in ("ren2014", "li2021", "guo2009"))
     peers = [v for k, v in azi.items() if k.startswith("magcal")]
     res.met = {
-        "joint_lowest_azi_rms": all(j <= v for v in azi.values()),
+        # against the papers' methods and the peers (joint@... are ours, on fewer rows)
+        "joint_lowest_azi_rms": all(j <= v for k, v in azi.items() if not k.startswith("joint")),
         "ratio_to_best_paper": j / paper,
         "ratio_to_best_paper_ok": j / paper <= TARGETS["ratio_to_best_paper_max"],
         "ratio_to_best_peer": (j / min(peers)) if peers else None,
