@@ -235,7 +235,7 @@ def _run_methods(s, n_runs, seed0, include_peer):
     return out, floor
 
 
-def bench_calibration(n_runs: int = 20, seed: int = 100, include_peer: bool | None = None) -> CalibrationBench:
+def bench_calibration(n_runs: int = 100, seed: int = 100, include_peer: bool | None = None) -> CalibrationBench:
     if include_peer is None:
         try:
             import magcal.core  # noqa: F401
