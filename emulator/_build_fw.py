@@ -21,14 +21,23 @@ FW = ROOT / "firmware"
 
 CORE_SOURCES = ["fx_ops.c", "fx_math.c", "fx_atan_table.c", "correct.c", "attitude.c", "survey.c",
                 "qc.c", "crc16.c", "calimg.c"]
-APP_SOURCES = ["adis16210.c", "ads1256.c", "acquire.c", "calstore.c", "probe.c"]
+APP_SOURCES = ["adis16210.c", "ads1256.c", "acquire.c", "calstore.c", "probe.c", "proto_frame.c",
+               "proto_cmd.c", "app_main.c"]
 FW_SOURCES = CORE_SOURCES + APP_SOURCES
 
 INCLUDES = ["inclino/hal.h", "inclino/survey.h", "inclino/qc.h", "inclino/calimg.h",
             "inclino/crc16.h", "inclino/adis16210.h", "inclino/ads1256.h", "inclino/acquire.h",
             "inclino/calstore.h", "inclino/probe.h"]
-EXTRA_INCLUDES: list[str] = []
-EXTRA_CDEF = ""
+EXTRA_INCLUDES: list[str] = ["inclino/app_main.h"]
+EXTRA_CDEF = """
+/* app_main.h: the main loop (SCI protocol on top of probe.h) */
+uint8_t app_main_init(void);
+void app_main_poll(void);
+uint32_t app_main_tx_dropped(void);
+uint8_t app_main_restart_requested(void);
+uint8_t probe_cal_slot(uint8_t slot, uint8_t *valid, uint32_t *seq);
+uint8_t probe_cal_pending(uint8_t *slot, uint32_t *seq);
+"""
 
 HAL_CDEF = """
 extern "Python+C" void hal_init(void);

@@ -78,6 +78,7 @@ class EmulatedProbe:
         self.poll: Optional[Callable[[], object]] = None   # firmware main-loop body for step()
         self.ffi, self.lib = ffi, lib
         self.power_cuts = 0
+        self.restarts = 0
         self.boot_status: Optional[int] = None
         _owner = self
         attach(self.board)
@@ -124,8 +125,8 @@ class EmulatedProbe:
         present state."""
         self._own()
         self.board.selected = None
-        lib.hal_init()
-        self.boot_status = int(lib.probe_init())
+        # the probe's reset path: hal_init, probe_init, protocol reset (app_main.c)
+        self.boot_status = int(lib.app_main_init())
         self._check()
         return self.boot_status
 
@@ -169,6 +170,9 @@ class EmulatedProbe:
             if self.poll is not None:
                 self.poll()
                 self._check()
+                if lib.app_main_restart_requested():
+                    self.restarts += 1
+                    self.boot()  # RESET / BOOTLOADER answered: the firmware restarts
                 if not self.flash.powered:
                     self.power_cuts += 1
                     self.power_cycle()

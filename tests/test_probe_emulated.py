@@ -234,16 +234,3 @@ def test_callback_errors_surface_and_ownership():
     with pytest.raises(RuntimeError):
         p.survey()
     assert q.survey()["status"] == 0
-
-
-def test_emulation_speed():
-    """Cost guard: a 16-sample survey (about 80 ms of probe time) must run
-    faster than real time by a wide margin."""
-    import time
-    p = EmulatedProbe("typical")
-    p.move_to(30.0, 60.0, 90.0)
-    t0, w0 = p.clock.now, time.perf_counter()
-    for _ in range(5):
-        assert p.survey()["status"] == 0
-    sim, wall = p.clock.now - t0, time.perf_counter() - w0
-    assert sim / wall > 3.0, (sim, wall)

@@ -301,6 +301,26 @@ uint8_t probe_cal_read(uint8_t slot, uint8_t img[CALIMG_SIZE])
     return calstore_read(&P.cal_store, slot, img);
 }
 
+uint8_t probe_cal_slot(uint8_t slot, uint8_t *valid, uint32_t *seq)
+{
+    if (slot > PROBE_SLOT_B) {
+        return PROBE_E_ARG;
+    }
+    *valid = (uint8_t)(P.cal_store.state[slot] == CALSTORE_ST_VALID);
+    *seq = P.cal_store.seq[slot];
+    return PROBE_OK;
+}
+
+uint8_t probe_cal_pending(uint8_t *slot, uint32_t *seq)
+{
+    if (P.cal_store.pending == CALSTORE_SLOT_NONE) {
+        return 0u;
+    }
+    *slot = P.cal_store.pending;
+    *seq = P.cal_store.pending_seq;
+    return 1u;
+}
+
 uint8_t probe_qc_get(qc_ref_t *r)
 {
     *r = P.qc;

@@ -71,6 +71,14 @@ def _cmd_bench(args) -> int:
               f" vectors/s; per call: {r.per_call_vectors_per_s:,.0f} vectors/s"
               f" (cost ratio {r.per_call_to_batched_cost_ratio:.0f})")
         return 0
+    if args.what == "emulator":
+        from inclino import bench_emulator
+
+        r = bench_emulator.bench()
+        print(r.to_json() if args.json else
+              f"emulator: {r.realtime_factor:.1f} x real time ({r.samples_per_wall_s:.0f} samples/s), "
+              f"target >= {r.target_realtime_factor:g}")
+        return 0
     if args.what == "mcu":
         try:
             from inclino import mcu
@@ -80,6 +88,44 @@ def _cmd_bench(args) -> int:
         print(r.to_json())
         return 0
     raise DataError(f"unknown benchmark {args.what!r}")
+
+
+def _cmd_emulate(args) -> int:
+    import signal
+    import time
+
+    try:
+        from inclino_emu.runner import Emulator
+    except ImportError as e:
+        raise InclinoError(f"the emulator is not installed: {e}")
+    try:
+        emu = Emulator(scenario=args.scenario, seed=args.seed, baud=args.baud, link=args.link,
+                       control_port=args.control, realtime=not args.unthrottled)
+    except FileNotFoundError as e:
+        raise DataError(f"scenario not found: {e.filename or e}")
+    except (OSError, ValueError, KeyError) as e:
+        raise DataError(f"cannot start the emulator: {e}")
+    print(f"inclino emulator: probe on {emu.path}" + (f" (link {args.link})" if args.link else ""), flush=True)
+    if emu.control_port is not None:
+        print(f"control channel: 127.0.0.1:{emu.control_port} (JSON lines, docs/emulator.md)", flush=True)
+    stop = {"now": False}
+
+    def _term(*_):
+        stop["now"] = True
+
+    signal.signal(signal.SIGTERM, _term)
+    emu.start()
+    try:
+        while not stop["now"] and emu.error is None:
+            time.sleep(0.1)
+    except KeyboardInterrupt:
+        pass
+    try:
+        emu.stop()
+    except RuntimeError as e:
+        raise InclinoError(str(e))
+    print("inclino emulator: stopped", flush=True)
+    return 0
 
 
 def _accuracy_text(r) -> str:
@@ -114,8 +160,18 @@ def build_parser() -> argparse.ArgumentParser:
     a.add_argument("-o", "--output", required=True, help="output CSV ('-' for stdout)")
     a.set_defaults(func=_cmd_attitude)
 
+    em = sub.add_parser("emulate", help="run the emulated probe on a pseudo-terminal until interrupted")
+    em.add_argument("--scenario", default="typical", help="built-in scenario name or TOML file (default typical)")
+    em.add_argument("--seed", type=int, default=None, help="override the scenario's seed")
+    em.add_argument("--baud", type=int, default=115200)
+    em.add_argument("--link", help="also make this path a symlink to the pseudo-terminal")
+    em.add_argument("--control", type=int, default=0,
+                    help="control channel TCP port on 127.0.0.1 (default: any free port)")
+    em.add_argument("--unthrottled", action="store_true", help="run faster than real time")
+    em.set_defaults(func=_cmd_emulate)
+
     be = sub.add_parser("bench", help="benchmarks (figures, JSON with --json)")
-    be.add_argument("what", choices=("accuracy", "speed", "mcu"))
+    be.add_argument("what", choices=("accuracy", "speed", "mcu", "emulator"))
     be.add_argument("--json", action="store_true", help="print one JSON object")
     be.add_argument("--field", type=float, default=50000.0, help="accuracy: field total, nT")
     be.add_argument("--dip", type=float, default=60.0, help="accuracy: dip, degrees")

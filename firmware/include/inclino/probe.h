@@ -167,6 +167,20 @@ uint8_t probe_cal_activate(void);
 uint8_t probe_cal_read(uint8_t slot, uint8_t img[CALIMG_SIZE]);
 
 /*
+ * probe_cal_slot - what slot PROBE_SLOT_A or PROBE_SLOT_B holds: *valid = 1
+ *   when it is complete and committed (CALSTORE_ST_VALID at boot or after
+ *   activation), *seq its header sequence (0 when empty).  Returns PROBE_OK
+ *   or PROBE_E_ARG.
+ */
+uint8_t probe_cal_slot(uint8_t slot, uint8_t *valid, uint32_t *seq);
+
+/*
+ * probe_cal_pending - the slot and sequence written by the last successful
+ *   probe_cal_write and not yet activated.  Returns 1 when there is one.
+ */
+uint8_t probe_cal_pending(uint8_t *slot, uint32_t *seq);
+
+/*
  * probe_qc_get - the QC reference in use.  Returns PROBE_OK, or
  *   PROBE_E_NO_CAL when none is stored (*r then holds qc_default(r, 0, 0)).
  */
