@@ -75,6 +75,20 @@ def test_primitives_bit_exact_on_s08(fw):
     assert (r != gr).sum() == 0 and (s != gs).sum() == 0
     assert s.any() and not s.all()
 
+    # fx_dot3_q31 (the port's assembly): edge triples, zero first operands
+    # (skipped by the port), saturating products and sums + random
+    t = rng.choice(e, (2000, 6))
+    t[:200, 0] = 0
+    t[200:400, :3] = 2**31 - 1
+    t[200:300, 3:] = 2**31 - 1
+    t[300:400, 3:] = -(2**31)
+    t[400:450] = -(2**31)
+    t = np.concatenate([t, rng.integers(*I32, (n, 6), endpoint=True)])
+    r, s = mcu.dot3_q31(fw, t[:, :3], t[:, 3:])
+    gr, gs = golden.fx_dot3_q31(t[:, :3], t[:, 3:])
+    assert (r != gr).sum() == 0 and (s != gs).sum() == 0
+    assert s.any() and not s.all()
+
     # fx_atan2_q16: axes, diagonals, zero, rails + random
     y = np.concatenate([ey, rng.integers(*I32, n, endpoint=True), [5, -5, 5, -5, 0]])
     x = np.concatenate([ex, rng.integers(*I32, n, endpoint=True), [5, 5, -5, -5, 0]])

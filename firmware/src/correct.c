@@ -6,19 +6,13 @@ uint8_t corr_triad(const int32_t x[3], const corr_triad_t *c, int32_t out[3])
 {
     int32_t d[3];
     uint8_t sat = 0u;
-    uint8_t i, j;
 
-    for (j = 0u; j < 3u; j++) {
-        d[j] = fx_sub32_sat(x[j], c->bias[j], &sat);
-    }
-    for (i = 0u; i < 3u; i++) {
-        const int32_t *row = &c->m[i + i + i]; /* no multiply: a library call on the S08 */
-        int32_t acc = fx_mul32_q31(row[0], d[0], &sat);
-        for (j = 1u; j < 3u; j++) {
-            acc = fx_add32_sat(acc, fx_mul32_q31(row[j], d[j], &sat), &sat);
-        }
-        out[i] = acc;
-    }
+    d[0] = fx_sub32_sat(x[0], c->bias[0], &sat);
+    d[1] = fx_sub32_sat(x[1], c->bias[1], &sat);
+    d[2] = fx_sub32_sat(x[2], c->bias[2], &sat);
+    out[0] = fx_dot3_q31(&c->m[0], d, &sat);
+    out[1] = fx_dot3_q31(&c->m[3], d, &sat);
+    out[2] = fx_dot3_q31(&c->m[6], d, &sat);
     return sat;
 }
 

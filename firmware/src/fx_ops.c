@@ -80,8 +80,9 @@ int32_t fx_sub32_sat(int32_t a, int32_t b, uint8_t *sat)
     return a - b;
 }
 
-/* A port may supply fx_mul32_q31 (same result bits) and build this file with
- * -DFX_PORT_MUL32: the S08 port has it in assembly (firmware/port/s08). */
+/* A port may supply fx_mul32_q31 and fx_dot3_q31 (same result bits) and
+ * build this file with -DFX_PORT_MUL32: the S08 port has them in assembly
+ * (firmware/port/s08). */
 #ifndef FX_PORT_MUL32
 
 /* floor(x / 2^16) as int16, for the int32 x whose bits are u. */
@@ -121,5 +122,11 @@ int32_t fx_mul32_q31(int32_t a, int32_t b, uint8_t *sat)
         return FX_INT32_MIN;
     }
     return s * 2;
+}
+
+int32_t fx_dot3_q31(const int32_t a[3], const int32_t b[3], uint8_t *sat)
+{
+    int32_t s = fx_add32_sat(fx_mul32_q31(a[0], b[0], sat), fx_mul32_q31(a[1], b[1], sat), sat);
+    return fx_add32_sat(s, fx_mul32_q31(a[2], b[2], sat), sat);
 }
 #endif /* FX_PORT_MUL32 */

@@ -112,6 +112,19 @@ def fx_mul32_q31(a, b):
     return r, hi | lo
 
 
+def fx_dot3_q31(a, b):
+    """a, b: (..., 3).  sat(sat(p0 + p1) + p2) with p_i = fx_mul32_q31(a_i, b_i).
+    Returns (result, saturated)."""
+    a = _i64(a)
+    b = _i64(b)
+    p0, s0 = fx_mul32_q31(a[..., 0], b[..., 0])
+    p1, s1 = fx_mul32_q31(a[..., 1], b[..., 1])
+    p2, s2 = fx_mul32_q31(a[..., 2], b[..., 2])
+    acc, s3 = fx_add32_sat(p0, p1)
+    acc, s4 = fx_add32_sat(acc, p2)
+    return acc, s0 | s1 | s2 | s3 | s4
+
+
 # --------------------------------------------------------------- fx_math
 def atan_table() -> np.ndarray:
     """round(atan(k/256) * 180/pi * 65536), k = 0..256 (Python's round, as
@@ -201,12 +214,8 @@ def corr_triad(x, m, bias):
     sat = sat.any(axis=-1)
     out = []
     for i in range(3):
-        acc, s = fx_mul32_q31(m[..., 3 * i], d[..., 0])
+        acc, s = fx_dot3_q31(m[..., 3 * i:3 * i + 3], d)
         sat = sat | s
-        for j in (1, 2):
-            p, s1 = fx_mul32_q31(m[..., 3 * i + j], d[..., j])
-            acc, s2 = fx_add32_sat(acc, p)
-            sat = sat | s1 | s2
         out.append(acc)
     return np.stack(out, axis=-1), sat
 
@@ -263,32 +272,36 @@ def att_compute(g, b):
         sat = sat | s
         return r
 
-    Gx, Gy, Gz = G[..., 0], G[..., 1], G[..., 2]
+    def dot(a, c):
+        nonlocal sat
+        r, s = fx_dot3_q31(a, c)
+        sat = sat | s
+        return r
+
+    Gz = G[..., 2]
     Bx, By, Bz = B[..., 0], B[..., 1], B[..., 2]
     Hx, Hy = H[..., 0], H[..., 1]
-    g2 = mul(Gx, Gx) + mul(Gy, Gy) + mul(Gz, Gz)
+    g2 = dot(G, G)
     gmag = _mag_from_sq(g2)
-    h2 = mul(Hx, Hx) + mul(Hy, Hy)
+    h2 = dot(H, H)
     hmag = _mag_from_sq(h2)
     r = fx_asr32_rnd(hmag, sh + 1)
     out = {}
     out["inc"] = fx_atan2_q16(r, fx_asr32_rnd(Gz, 1))
-    out["gtf"] = fx_atan2_q16(Gy, -Gx)
+    out["gtf"] = fx_atan2_q16(G[..., 1], -G[..., 0])
     cross = mul(Hx, By) - mul(Hy, Bx)
-    doth = mul(Hx, Bx) + mul(Hy, By)
+    doth = dot(H, B)
     num = mul(gmag, cross)
     den = fx_asr32_rnd(mul(Bz, h2), sh + 1) - fx_asr32_rnd(mul(Gz, doth), 1)
     out["azi"] = fx_atan2_q16(fx_asr32_rnd(num, 1), den)
     out["mtf"] = fx_atan2_q16(-By, Bx)
-    gdotb = mul(Gx, Bx) + mul(Gy, By) + mul(Gz, Bz)
-    cx = mul(Gy, Bz) - mul(Gz, By)
-    cy = mul(Gz, Bx) - mul(Gx, Bz)
-    cz = mul(Gx, By) - mul(Gy, Bx)
-    c2 = mul(cx, cx) + mul(cy, cy) + mul(cz, cz)
+    # dip = atan2(G.B, |G x B|), |G x B|^2 = |G|^2 |B|^2 - (G.B)^2
+    gdotb = dot(G, B)
+    b2 = dot(B, B)
+    c2 = mul(g2, b2) - mul(gdotb, gdotb)
     cmag = _mag_from_sq(c2)
     dip = fx_atan2_q16(gdotb, cmag)
     out["dip"] = np.where(dip > deg_q16(180), dip - deg_q16(360), dip)
-    b2 = mul(Bx, Bx) + mul(By, By) + mul(Bz, Bz)
     bmag = _mag_from_sq(b2)
     out["gt"], s1 = _denorm(gmag, sg)
     out["bt"], s2 = _denorm(bmag, sb)

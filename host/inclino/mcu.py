@@ -356,6 +356,13 @@ def mul32_q31(b, x, y):
     return r["r"].astype(np.int64), r["sat"].astype(bool)
 
 
+def dot3_q31(b, x, y):
+    """fx_dot3_q31 of the rows of x and y (n, 3)."""
+    xy = np.concatenate([np.asarray(x, dtype=np.int64), np.asarray(y, dtype=np.int64)], axis=1)
+    r = _prim(b, b"3", [(xy, ">i4")], [("r", ">i4"), ("sat", "u1")])
+    return r["r"].astype(np.int64), r["sat"].astype(bool)
+
+
 def div_frac_q20(b, num, den):
     return _prim(b, b"D", [(num, ">u4"), (den, ">u4")], [("r", ">u4")])["r"].astype(np.int64)
 

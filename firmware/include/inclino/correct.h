@@ -44,8 +44,8 @@ typedef struct {
  *   In: x[3] scaled raw input (see formats above), c coefficients.
  *   Out: out[3] in Q(qx - 2): Q27 g for the accelerometer, Q8 nT for the
  *   fluxgate.
- *   Method: d_j = sat(x_j - b_j); out_i = sat(sat(p_i0 + p_i1) + p_i2) with
- *   p_ij = fx_mul32_q31(m_ij, d_j).
+ *   Method: d_j = sat(x_j - b_j); out_i = fx_dot3_q31(row i of M, d) =
+ *   sat(sat(p_i0 + p_i1) + p_i2) with p_ij = fx_mul32_q31(m_ij, d_j).
  *   Rounding: truncation inside fx_mul32_q31; error bound per output
  *   -24 < out - exact < 6 LSB (three products, see fx_mul32_q31).
  *   Saturation: each subtraction, product and sum saturates to int32;

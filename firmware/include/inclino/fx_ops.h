@@ -73,4 +73,16 @@ int32_t fx_sub32_sat(int32_t a, int32_t b, uint8_t *sat);
  */
 int32_t fx_mul32_q31(int32_t a, int32_t b, uint8_t *sat);
 
+/*
+ * fx_dot3_q31 - a[0]*b[0] + a[1]*b[1] + a[2]*b[2], scaled by 2^-31.
+ *   In: a[3], b[3] int32 in any Q; out: Q(qa + qb - 31).
+ *   Method: sat(sat(p0 + p1) + p2), p_i = fx_mul32_q31(a[i], b[i]), the sums
+ *   by fx_add32_sat (so, where no sum can overflow, it is the plain sum of
+ *   the three products).
+ *   Saturation: sets *sat to 1 when a product or a sum saturates.
+ *   Error bound: -24 < result - sum(a_i*b_i)/2^31 < 6 (LSB) when nothing
+ *   saturates (three products, see fx_mul32_q31).
+ */
+int32_t fx_dot3_q31(const int32_t a[3], const int32_t b[3], uint8_t *sat);
+
 #endif /* INCLINO_FX_OPS_H */

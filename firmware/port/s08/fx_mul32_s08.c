@@ -1,14 +1,18 @@
 /*
- * fx_mul32_s08.c - fx_mul32_q31 for the S08/HC08 (the port's 32-bit product).
+ * fx_mul32_s08.c - fx_mul32_q31 and fx_dot3_q31 for the S08/HC08 (the port's
+ * 32-bit products).
  *
- * Same contract and the same result bits as the portable fx_mul32_q31 in
- * firmware/src/fx_ops.c (fx_ops.h): with ah = floor(a / 2^16),
+ * Same contracts and the same result bits as the portable functions in
+ * firmware/src/fx_ops.c (fx_ops.h).  fx_mul32_q31: with ah = floor(a / 2^16),
  * al = (a mod 2^16) >> 1 and likewise bh, bl,
  *   s = ah*bh + floor(ah*bl / 2^15) + floor(al*bh / 2^15),
  * the result is 2*s, or FX_INT32_MAX / FX_INT32_MIN with *sat = 1 when s is
  * outside [-2^30, 2^30 - 1].  The portable C makes three fx_mul16 calls and
  * splits and floors 32-bit values in SDCC's code (about 1 300 bus cycles on
- * the S08); this is twelve 8 x 8 MULs on unsigned bytes, about 450 cycles.
+ * the S08); the core here is twelve 8 x 8 MULs on unsigned bytes, about 400.
+ * fx_dot3_q31 runs the same core on a[i], b[i] read through the pointers and
+ * sums with the saturating addition of fx_add32_sat, without the argument
+ * passing of three calls (a zero a[i] contributes an exact 0 and is skipped).
  *
  * Method (all unsigned, modulo 2^32; s fits 32 bits, so its bits are exact):
  * with ah_u, bh_u the unsigned readings of ah, bh (ah = ah_u - 2^16 [a < 0]),
@@ -20,12 +24,14 @@
  * < 2^16).  s saturates when its bits 31 and 30 differ.
  *
  * Built only by SDCC for hc08/s08 with --stack-auto, the core compiled with
- * -DFX_PORT_MUL32 (host/inclino/mcu.py).  Reentrant calling convention: a at
- * 3..6,s, b at 7..10,s (big-endian), sat at 11..12,s; the result in
- * ___SDCC_hc08_ret3, ___SDCC_hc08_ret2, X, A (most to least significant
- * byte).  It keeps its partial sums in three direct-page bytes of its own
- * and in the return registers, so, like those, it must not be called from
- * an interrupt handler while the main program may be in it.
+ * -DFX_PORT_MUL32 (host/inclino/mcu.py).  Reentrant calling convention:
+ * fx_mul32_q31: a at 3..6,s, b at 7..10,s (big-endian), sat at 11..12,s;
+ * fx_dot3_q31: a in X (high byte) and A, b at 3..4,s, sat at 5..6,s; the
+ * results in ___SDCC_hc08_ret3, ___SDCC_hc08_ret2, X, A (most to least
+ * significant byte).  The operands, partial sums and the dot product's sum
+ * live in direct-page bytes of this module and in the return registers, so,
+ * like those, these must not be called from an interrupt handler while the
+ * main program may be in one of them.
  */
 #include <stdint.h>
 
@@ -37,8 +43,16 @@
 #error "the S08 port's assembly expects the reentrant (--stack-auto) calling convention"
 #endif
 
-/* direct-page scratch: w[0] the fraction byte, w[1..2] FX, later FY */
-static __data uint8_t fx_mul32_w[4];
+/* direct-page work of the core: the operands a, b (most significant byte
+ * first), the low half of s (its high half is ___SDCC_hc08_ret3, ret2), FX or
+ * FY (2 bytes), the fraction byte; and fx_dot3_q31's sum and step count */
+static __data uint8_t fx_m_a[4];
+static __data uint8_t fx_m_b[4];
+static __data uint8_t fx_m_s[2];
+static __data uint8_t fx_m_t[2];
+static __data uint8_t fx_m_f;
+static __data uint8_t fx_m_acc[4];
+static __data uint8_t fx_m_n;
 
 #pragma save
 #pragma less_pedantic
@@ -47,201 +61,327 @@ int32_t fx_mul32_q31(int32_t a, int32_t b, uint8_t *sat) __naked
     a, b, sat; /* referenced in the assembly */
     /* clang-format off */
     __asm
-    ; ---- s = ah_u * bh_u into ret3 ret2 w+2 w+3 (s0 s1 s2 s3)
-    lda     4,s                 ; A1
-    ldx     8,s                 ; B1
+    lda     3,s
+    sta     *_fx_m_a
+    lda     4,s
+    sta     *(_fx_m_a + 1)
+    lda     5,s
+    sta     *(_fx_m_a + 2)
+    lda     6,s
+    sta     *(_fx_m_a + 3)
+    lda     7,s
+    sta     *_fx_m_b
+    lda     8,s
+    sta     *(_fx_m_b + 1)
+    lda     9,s
+    sta     *(_fx_m_b + 2)
+    lda     10,s
+    sta     *(_fx_m_b + 3)
+    jsr     fx_m_core
+    bcc     1$
+    ldhx    11,s                ; *sat = 1
+    lda     #1
+    sta     ,x
+1$:
+    lda     *(_fx_m_s + 1)
+    ldx     *_fx_m_s
+    rts
+
+    ; ---- the core: s = fx_mul32_q31(fx_m_a, fx_m_b) in ret3 ret2 fx_m_s
+    ; (s0 s1 s2 s3); C set when it saturated (s is then the limit)
+fx_m_core:
+    ; s = ah_u * bh_u
+    lda     *(_fx_m_a + 1)      ; A1 * B1
+    ldx     *(_fx_m_b + 1)
     mul
-    sta     *(_fx_mul32_w + 3)
-    stx     *(_fx_mul32_w + 2)
-    lda     3,s                 ; A0
-    ldx     7,s                 ; B0
+    sta     *(_fx_m_s + 1)
+    stx     *_fx_m_s
+    lda     *_fx_m_a            ; A0 * B0
+    ldx     *_fx_m_b
     mul
     sta     *___SDCC_hc08_ret2
     stx     *___SDCC_hc08_ret3
-    lda     3,s                 ; A0 * B1, at byte 2
-    ldx     8,s
+    lda     *_fx_m_a            ; A0 * B1, at byte 2
+    ldx     *(_fx_m_b + 1)
     mul
-    add     *(_fx_mul32_w + 2)
-    sta     *(_fx_mul32_w + 2)
+    add     *_fx_m_s
+    sta     *_fx_m_s
     txa
     adc     *___SDCC_hc08_ret2
     sta     *___SDCC_hc08_ret2
     bcc     1$
     inc     *___SDCC_hc08_ret3
 1$:
-    lda     4,s                 ; A1 * B0, at byte 2
-    ldx     7,s
+    lda     *(_fx_m_a + 1)      ; A1 * B0, at byte 2
+    ldx     *_fx_m_b
     mul
-    add     *(_fx_mul32_w + 2)
-    sta     *(_fx_mul32_w + 2)
+    add     *_fx_m_s
+    sta     *_fx_m_s
     txa
     adc     *___SDCC_hc08_ret2
     sta     *___SDCC_hc08_ret2
     bcc     2$
     inc     *___SDCC_hc08_ret3
 2$:
-    ; ---- FX = floor((A0:A1) * (B2:B3e) / 2^16), B3e = B3 & 0xfe; f = w+0
-    lda     10,s
+    ; FX = floor((A0:A1) * (B2:B3e) / 2^16), B3e = B3 & 0xfe
+    lda     *(_fx_m_b + 3)      ; A1 * B3e: only its high byte counts
     and     #0xfe
-    ldx     4,s                 ; A1 * B3e: only its high byte counts
+    ldx     *(_fx_m_a + 1)
     mul
-    stx     *_fx_mul32_w
-    lda     10,s
+    stx     *_fx_m_f
+    lda     *(_fx_m_b + 3)      ; A0 * B3e, at the fraction byte
     and     #0xfe
-    ldx     3,s                 ; A0 * B3e, at the fraction byte
+    ldx     *_fx_m_a
     mul
-    add     *_fx_mul32_w
-    sta     *_fx_mul32_w
+    add     *_fx_m_f
+    sta     *_fx_m_f
     txa
     adc     #0                  ; a high byte is at most 0xfe: no carry out
-    psha                        ; FX low byte, 1,s (the offsets above shift by 1)
-    lda     5,s                 ; A1 * B2, at the fraction byte
-    ldx     10,s
+    sta     *(_fx_m_t + 1)
+    lda     *(_fx_m_a + 1)      ; A1 * B2, at the fraction byte
+    ldx     *(_fx_m_b + 2)
     mul
-    add     *_fx_mul32_w        ; only the carry counts now
+    add     *_fx_m_f            ; only the carry counts now
     txa
-    adc     1,s
-    sta     1,s
+    adc     *(_fx_m_t + 1)
+    sta     *(_fx_m_t + 1)
     clra
     rola
-    psha                        ; FX high byte, 1,s; FX low 2,s (offsets +2)
-    lda     5,s                 ; A0 * B2, whole
-    ldx     11,s
+    sta     *_fx_m_t
+    lda     *_fx_m_a            ; A0 * B2, whole
+    ldx     *(_fx_m_b + 2)
     mul
-    add     2,s
-    sta     2,s
+    add     *(_fx_m_t + 1)
+    sta     *(_fx_m_t + 1)
     txa
-    adc     1,s
-    sta     1,s                 ; FX < 2^16: no carry out
-    ; ---- s += FX
-    lda     *(_fx_mul32_w + 3)
-    add     2,s
-    sta     *(_fx_mul32_w + 3)
-    lda     *(_fx_mul32_w + 2)
-    adc     1,s
-    sta     *(_fx_mul32_w + 2)
+    adc     *_fx_m_t
+    sta     *_fx_m_t            ; FX < 2^16: no carry out
+    lda     *(_fx_m_s + 1)      ; s += FX
+    add     *(_fx_m_t + 1)
+    sta     *(_fx_m_s + 1)
+    lda     *_fx_m_s
+    adc     *_fx_m_t
+    sta     *_fx_m_s
     bcc     3$
     inc     *___SDCC_hc08_ret2
     bne     3$
     inc     *___SDCC_hc08_ret3
 3$:
-    ; ---- FY = floor((A2:A3e) * (B0:B1) / 2^16), A3e = A3 & 0xfe (offsets +2)
-    lda     8,s
+    ; FY = floor((A2:A3e) * (B0:B1) / 2^16), A3e = A3 & 0xfe
+    lda     *(_fx_m_a + 3)      ; A3e * B1: only its high byte counts
     and     #0xfe
-    ldx     10,s                ; A3e * B1: only its high byte counts
+    ldx     *(_fx_m_b + 1)
     mul
-    stx     *_fx_mul32_w
-    lda     8,s
+    stx     *_fx_m_f
+    lda     *(_fx_m_a + 3)      ; A3e * B0, at the fraction byte
     and     #0xfe
-    ldx     9,s                 ; A3e * B0, at the fraction byte
+    ldx     *_fx_m_b
     mul
-    add     *_fx_mul32_w
-    sta     *_fx_mul32_w
+    add     *_fx_m_f
+    sta     *_fx_m_f
     txa
     adc     #0
-    sta     2,s                 ; FY low byte
-    lda     7,s                 ; A2 * B1, at the fraction byte
-    ldx     10,s
+    sta     *(_fx_m_t + 1)
+    lda     *(_fx_m_a + 2)      ; A2 * B1, at the fraction byte
+    ldx     *(_fx_m_b + 1)
     mul
-    add     *_fx_mul32_w
+    add     *_fx_m_f
     txa
-    adc     2,s
-    sta     2,s
+    adc     *(_fx_m_t + 1)
+    sta     *(_fx_m_t + 1)
     clra
     rola
-    sta     1,s                 ; FY high byte
-    lda     7,s                 ; A2 * B0, whole
-    ldx     9,s
+    sta     *_fx_m_t
+    lda     *(_fx_m_a + 2)      ; A2 * B0, whole
+    ldx     *_fx_m_b
     mul
-    add     2,s
-    sta     2,s
+    add     *(_fx_m_t + 1)
+    sta     *(_fx_m_t + 1)
     txa
-    adc     1,s
-    sta     1,s
-    ; ---- s += FY
-    lda     *(_fx_mul32_w + 3)
-    add     2,s
-    sta     *(_fx_mul32_w + 3)
-    lda     *(_fx_mul32_w + 2)
-    adc     1,s
-    sta     *(_fx_mul32_w + 2)
+    adc     *_fx_m_t
+    sta     *_fx_m_t
+    lda     *(_fx_m_s + 1)      ; s += FY
+    add     *(_fx_m_t + 1)
+    sta     *(_fx_m_s + 1)
+    lda     *_fx_m_s
+    adc     *_fx_m_t
+    sta     *_fx_m_s
     bcc     4$
     inc     *___SDCC_hc08_ret2
     bne     4$
     inc     *___SDCC_hc08_ret3
 4$:
-    ais     #2                  ; offsets back to those of the entry
-    ; ---- a < 0: s -= b & ~1
-    lda     3,s
+    lda     *_fx_m_a            ; a < 0: s -= b & ~1
     bpl     5$
-    lda     10,s
+    lda     *(_fx_m_b + 3)
     and     #0xfe
-    psha
-    lda     *(_fx_mul32_w + 3)
-    sub     1,s
-    sta     *(_fx_mul32_w + 3)
-    pula
-    lda     *(_fx_mul32_w + 2)
-    sbc     9,s
-    sta     *(_fx_mul32_w + 2)
+    sta     *_fx_m_f
+    lda     *(_fx_m_s + 1)
+    sub     *_fx_m_f
+    sta     *(_fx_m_s + 1)
+    lda     *_fx_m_s
+    sbc     *(_fx_m_b + 2)
+    sta     *_fx_m_s
     lda     *___SDCC_hc08_ret2
-    sbc     8,s
+    sbc     *(_fx_m_b + 1)
     sta     *___SDCC_hc08_ret2
     lda     *___SDCC_hc08_ret3
-    sbc     7,s
+    sbc     *_fx_m_b
     sta     *___SDCC_hc08_ret3
 5$:
-    ; ---- b < 0: s -= a & ~1
-    lda     7,s
+    lda     *_fx_m_b            ; b < 0: s -= a & ~1
     bpl     6$
-    lda     6,s
+    lda     *(_fx_m_a + 3)
     and     #0xfe
-    psha
-    lda     *(_fx_mul32_w + 3)
-    sub     1,s
-    sta     *(_fx_mul32_w + 3)
-    pula
-    lda     *(_fx_mul32_w + 2)
-    sbc     5,s
-    sta     *(_fx_mul32_w + 2)
+    sta     *_fx_m_f
+    lda     *(_fx_m_s + 1)
+    sub     *_fx_m_f
+    sta     *(_fx_m_s + 1)
+    lda     *_fx_m_s
+    sbc     *(_fx_m_a + 2)
+    sta     *_fx_m_s
     lda     *___SDCC_hc08_ret2
-    sbc     4,s
+    sbc     *(_fx_m_a + 1)
     sta     *___SDCC_hc08_ret2
     lda     *___SDCC_hc08_ret3
-    sbc     3,s
+    sbc     *_fx_m_a
     sta     *___SDCC_hc08_ret3
 6$:
-    ; ---- s outside [-2^30, 2^30): bits 31 and 30 differ, that is
-    ; bit 7 of (top byte + 0x40) is set
+    ; s outside [-2^30, 2^30): bits 31 and 30 differ, that is bit 7 of
+    ; (top byte + 0x40) is set
     lda     *___SDCC_hc08_ret3
     add     #0x40
     bmi     7$
-    lsl     *(_fx_mul32_w + 3)  ; result 2*s
-    rol     *(_fx_mul32_w + 2)
+    lsl     *(_fx_m_s + 1)      ; result 2*s
+    rol     *_fx_m_s
     rol     *___SDCC_hc08_ret2
     rol     *___SDCC_hc08_ret3
-    lda     *(_fx_mul32_w + 3)
-    ldx     *(_fx_mul32_w + 2)
+    clc
     rts
 7$:
-    ldhx    11,s                ; *sat = 1
-    lda     #1
-    sta     ,x
     lda     *___SDCC_hc08_ret3
     bmi     8$
     lda     #0x7f               ; FX_INT32_MAX
     sta     *___SDCC_hc08_ret3
     lda     #0xff
     sta     *___SDCC_hc08_ret2
-    tax
+    sta     *_fx_m_s
+    sta     *(_fx_m_s + 1)
+    sec
     rts
 8$:
     lda     #0x80               ; FX_INT32_MIN
     sta     *___SDCC_hc08_ret3
     clra
     sta     *___SDCC_hc08_ret2
-    tax
+    sta     *_fx_m_s
+    sta     *(_fx_m_s + 1)
+    sec
     rts
+    __endasm;
+    /* clang-format on */
+}
+
+int32_t fx_dot3_q31(const int32_t a[3], const int32_t b[3], uint8_t *sat) __naked
+{
+    a, b, sat; /* referenced in the assembly */
+    /* clang-format off */
+    __asm
+    psha                        ; a at 1..2,s; b at 5..6,s; sat at 7..8,s
+    pshx
+    clra
+    sta     *_fx_m_acc
+    sta     *(_fx_m_acc + 1)
+    sta     *(_fx_m_acc + 2)
+    sta     *(_fx_m_acc + 3)
+    lda     #3
+    sta     *_fx_m_n
+1$:
+    ldhx    1,s                 ; fx_m_a = a[i]
+    lda     ,x
+    sta     *_fx_m_a
+    lda     1,x
+    sta     *(_fx_m_a + 1)
+    lda     2,x
+    sta     *(_fx_m_a + 2)
+    lda     3,x
+    sta     *(_fx_m_a + 3)
+    aix     #4
+    sthx    1,s
+    ora     *(_fx_m_a + 2)
+    ora     *(_fx_m_a + 1)
+    ora     *_fx_m_a
+    beq     4$                  ; a[i] == 0: the product is an exact 0
+    ldhx    5,s                 ; fx_m_b = b[i]
+    lda     ,x
+    sta     *_fx_m_b
+    lda     1,x
+    sta     *(_fx_m_b + 1)
+    lda     2,x
+    sta     *(_fx_m_b + 2)
+    lda     3,x
+    sta     *(_fx_m_b + 3)
+    aix     #4
+    sthx    5,s
+    jsr     fx_m_core
+    bcc     2$
+    ldhx    7,s                 ; *sat = 1
+    lda     #1
+    sta     ,x
+2$:
+    lda     *(_fx_m_acc + 3)    ; sum += s, saturating like fx_add32_sat
+    add     *(_fx_m_s + 1)
+    sta     *(_fx_m_acc + 3)
+    lda     *(_fx_m_acc + 2)
+    adc     *_fx_m_s
+    sta     *(_fx_m_acc + 2)
+    lda     *(_fx_m_acc + 1)
+    adc     *___SDCC_hc08_ret2
+    sta     *(_fx_m_acc + 1)
+    lda     *_fx_m_acc
+    adc     *___SDCC_hc08_ret3
+    tax
+    tpa                         ; V (bit 7 of the CCR): signed overflow
+    stx     *_fx_m_acc
+    tsta
+    bpl     3$
+    ldhx    7,s                 ; *sat = 1 and the limit of the sign of s
+    lda     #1
+    sta     ,x
+    lda     *___SDCC_hc08_ret3
+    bmi     5$
+    lda     #0x7f
+    sta     *_fx_m_acc
+    lda     #0xff
+    sta     *(_fx_m_acc + 1)
+    sta     *(_fx_m_acc + 2)
+    sta     *(_fx_m_acc + 3)
+    bra     3$
+5$:
+    lda     #0x80
+    sta     *_fx_m_acc
+    clra
+    sta     *(_fx_m_acc + 1)
+    sta     *(_fx_m_acc + 2)
+    sta     *(_fx_m_acc + 3)
+3$:
+    dec     *_fx_m_n            ; (the loop is too long for dbnz)
+    beq     6$
+    jmp     1$
+6$:
+    lda     *_fx_m_acc
+    sta     *___SDCC_hc08_ret3
+    lda     *(_fx_m_acc + 1)
+    sta     *___SDCC_hc08_ret2
+    lda     *(_fx_m_acc + 3)
+    ldx     *(_fx_m_acc + 2)
+    ais     #2
+    rts
+4$:
+    ldhx    5,s                 ; skip b[i]
+    aix     #4
+    sthx    5,s
+    bra     3$
     __endasm;
     /* clang-format on */
 }
@@ -249,7 +389,7 @@ int32_t fx_mul32_q31(int32_t a, int32_t b, uint8_t *sat) __naked
 
 #else
 
-/* Other compilers use the portable fx_mul32_q31 of firmware/src/fx_ops.c. */
+/* Other compilers use the portable functions of firmware/src/fx_ops.c. */
 typedef int fx_mul32_s08_unused_t;
 
 #endif

@@ -262,7 +262,7 @@ uint32_t fx_sqrt_u32_q8(uint32_t x) __naked
     rol     *_fx_sq_x
     bra     5$
 9$:
-    ; ---- s = 256 y + q (<= 2^24: 2^24 for x' near 2^32) in fx_sq_x
+    ; ---- s = 256 y + q (<= 2^24: 2^24 for x near 2^32) in fx_sq_x
     lda     *_fx_sq_n
     sta     *(_fx_sq_x + 3)
     lda     *(_fx_sq_t + 2)

@@ -20,6 +20,7 @@
  *   'T' g[3] b[3] (i32)                -> att_compute: inc azi gtf mtf gt bt
  *                                         dip (i32) flags (u16)
  *   'M' a b (i32)                      -> fx_mul32_q31: r (i32) sat (u8)
+ *   '3' a[3] b[3] (i32)                -> fx_dot3_q31: r (i32) sat (u8)
  *   'D' num den (u32)                  -> fx_div_frac_q20 (u32)
  *   'Q' x (u32)                        -> fx_sqrt_u32_q8 (u32)
  *   'R' x (u32)                        -> fx_isqrt_u32 (u16)
@@ -205,6 +206,15 @@ int main(void)
             out_sat = 0u;
             mark();
             out_v[0] = fx_mul32_q31(in_v[0], in_v[1], &out_sat);
+            mark();
+            wr_i32(out_v[0]);
+            sif_wr8(out_sat);
+            break;
+        case '3':
+            rd_vec(in_v, 6u);
+            out_sat = 0u;
+            mark();
+            out_v[0] = fx_dot3_q31(&in_v[0], &in_v[3], &out_sat);
             mark();
             wr_i32(out_v[0]);
             sif_wr8(out_sat);
