@@ -47,7 +47,7 @@ def seed_corpus(d: pathlib.Path) -> None:
     reqs = [(1, 0x01, b""), (2, 0x02, b""), (3, 0x03, b"\x00\x05\x00\x03"), (4, 0x04, b""), (5, 0x05, b""),
             (6, 0x06, b""), (7, 0x07, bytes(24)), (8, 0x10, b"\x01"), (9, 0x11, b"\x00ICAL" + bytes(116)),
             (10, 0x12, b"\x01\x00\x00\x00\x07"), (11, 0x21, b"BOOT"), (12, 0x20, b""), (12, 0x20, b"")]
-    (d / "framed").write_bytes(b"\xc0" + b"".join(bytes([s, c, len(p)]) + p for s, c, p in reqs))
+    (d / "framed").write_bytes(b"\xc0" + b"".join(bytes([s, c, len(p)]) + p for s, c, p in reqs + [(13, 0x08, b"")]))
 
 
 def test_fuzz_bounded_run(tmp_path):

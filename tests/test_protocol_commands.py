@@ -26,6 +26,7 @@ class App:
         self._cbs = dict(
             identity=cb("uint8_t(uint8_t *)", self.identity),
             survey=cb("uint8_t(uint8_t *)", self.survey),
+            survey_raw=cb("uint8_t(uint8_t *)", self.survey_raw),
             raw=cb("uint8_t(uint8_t *)", self.raw),
             qcref_read=cb("uint8_t(uint8_t *)", self.qcref_read),
             qcref_write=cb("uint8_t(const uint8_t *)", self.qcref_write),
@@ -56,6 +57,12 @@ class App:
         rec = SurveyRecord(self.survey_n, 30 << 16, 120 << 16, 45 << 16, 165 << 16, 1 << 27, 50000 << 8,
                            60 << 16, 0, 0, 8)
         ffi.memmove(out, rec.pack(), 36)
+        return 0
+
+    def survey_raw(self, out):
+        if self.survey(out) != 0:
+            return 7
+        ffi.memmove(out + 36, protocol.RawRecord(1, -2, 16384, 100, -200, 40000, 2512, 8).pack(), 21)
         return 0
 
     def raw(self, out):
@@ -121,6 +128,9 @@ def test_identify_survey_raw_qcref():
     assert f.cmd == 0x82 and SurveyRecord.unpack(f.payload).azi == 120 << 16
     f = a.ask(3, "RAW")
     assert protocol.RawRecord.unpack(f.payload).mz == 40000
+    f = a.ask(30, "SURVEY_RAW")
+    assert f.cmd == 0x88 and SurveyRecord.unpack(f.payload[:36]).t_ms == 2
+    assert protocol.RawRecord.unpack(f.payload[36:]).az == 16384
     ref = protocol.QCREF.pack(1 << 27, 335544, 50000 << 8, 76800, 60 << 16, 16384)
     assert a.ask(4, "QCREF_WRITE", ref).cmd == 0x87
     assert a.ask(5, "QCREF_READ").payload == ref

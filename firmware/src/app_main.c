@@ -136,27 +136,43 @@ static uint8_t a_survey(uint8_t out[PROTO_SURVEY_LEN])
     return 0u;
 }
 
-static uint8_t a_raw(uint8_t out[PROTO_RAW_LEN])
+static void raw_record(const probe_raw_t *r, uint8_t out[PROTO_RAW_LEN])
 {
-    probe_raw_t r;
     uint8_t i;
-    int32_t t;
-    uint8_t st = probe_raw(&r);
-    if (st != PROBE_OK) {
-        return err_code(st);
-    }
+    int32_t t = r->temp_cc;
     for (i = 0u; i < 3u; i++) {
-        put_u16(out + 2u * i, (uint16_t)r.acc[i]);
-        put_u32(out + 6u + 4u * i, (uint32_t)r.mag[i]);
+        put_u16(out + 2u * i, (uint16_t)r->acc[i]);
+        put_u32(out + 6u + 4u * i, (uint32_t)r->mag[i]);
     }
-    t = r.temp_cc;
     if (t > 32767) {
         t = 32767;
     } else if (t < -32768) {
         t = -32768;
     }
     put_u16(out + 18, (uint16_t)(int16_t)t);
-    out[20] = r.n;
+    out[20] = r->n;
+}
+
+static uint8_t a_survey_raw(uint8_t out[PROTO_SURVEY_RAW_LEN])
+{
+    probe_raw_t r;
+    uint8_t st = a_survey(out);
+    if (st != 0u) {
+        return st;
+    }
+    probe_last_raw(&r);
+    raw_record(&r, out + PROTO_SURVEY_LEN);
+    return 0u;
+}
+
+static uint8_t a_raw(uint8_t out[PROTO_RAW_LEN])
+{
+    probe_raw_t r;
+    uint8_t st = probe_raw(&r);
+    if (st != PROBE_OK) {
+        return err_code(st);
+    }
+    raw_record(&r, out);
     return 0u;
 }
 
@@ -365,9 +381,10 @@ static void t_survey(char *out)
 /* compile-time check (C99): the product string fits its 16 bytes */
 typedef char app_product_fits[(sizeof(APP_PRODUCT) <= 17u) ? 1 : -1];
 
-static const proto_app_t app = {
-    a_identity,     a_survey, a_raw,        a_qcref_read, a_qcref_write, a_cal_read, a_cal_write,
-    a_cal_activate, a_reset,  a_bootloader, t_identity,   t_survey,      send};
+static const proto_app_t app = {a_identity,     a_survey,      a_survey_raw, a_raw,
+                                a_qcref_read,   a_qcref_write, a_cal_read,   a_cal_write,
+                                a_cal_activate, a_reset,       a_bootloader, t_identity,
+                                t_survey,       send};
 
 /* ------------------------------------------------------------ main loop */
 uint8_t app_main_init(void)

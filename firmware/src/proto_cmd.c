@@ -112,6 +112,7 @@ static void execute(proto_t *p, uint8_t seq, uint8_t cmd, const uint8_t *pl, uin
     case PCMD_SURVEY:
     case PCMD_RAW:
     case PCMD_QCREF_READ:
+    case PCMD_SURVEY_RAW:
         if (len != 0u) {
             nak(p, seq, cmd, PERR_LENGTH, 0u);
             return;
@@ -122,6 +123,9 @@ static void execute(proto_t *p, uint8_t seq, uint8_t cmd, const uint8_t *pl, uin
         } else if (cmd == PCMD_SURVEY) {
             rc = p->app->survey(out);
             len = PROTO_SURVEY_LEN;
+        } else if (cmd == PCMD_SURVEY_RAW) {
+            rc = p->app->survey_raw(out);
+            len = PROTO_SURVEY_RAW_LEN;
         } else if (cmd == PCMD_RAW) {
             rc = p->app->raw(out);
             len = PROTO_RAW_LEN;

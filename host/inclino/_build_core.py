@@ -59,6 +59,7 @@ uint16_t proto_frame_encode(uint8_t seq, uint8_t cmd, const uint8_t *payload, ui
 typedef struct {
     uint8_t (*identity)(uint8_t *out);
     uint8_t (*survey)(uint8_t *out);
+    uint8_t (*survey_raw)(uint8_t *out);
     uint8_t (*raw)(uint8_t *out);
     uint8_t (*qcref_read)(uint8_t *out);
     uint8_t (*qcref_write)(const uint8_t *in);

@@ -31,6 +31,7 @@ static uint8_t ok_fill(uint8_t *out, size_t n)
 static uint8_t identity(uint8_t *out) { return ok_fill(out, PROTO_IDENTITY_LEN); }
 static uint8_t survey(uint8_t *out) { return ok_fill(out, PROTO_SURVEY_LEN); }
 static uint8_t raw(uint8_t *out) { return ok_fill(out, PROTO_RAW_LEN); }
+static uint8_t survey_raw(uint8_t *out) { return ok_fill(out, PROTO_SURVEY_RAW_LEN); }
 static uint8_t qcref_read(uint8_t *out) { return ok_fill(out, PROTO_QCREF_LEN); }
 static uint8_t qcref_write(const uint8_t *in)
 {
@@ -74,7 +75,7 @@ static void send(const uint8_t *data, uint16_t n)
     sink_len += n;
 }
 
-static const proto_app_t app = {identity, survey, raw, qcref_read, qcref_write, cal_read,
+static const proto_app_t app = {identity, survey, survey_raw, raw, qcref_read, qcref_write, cal_read,
                                 cal_write, cal_activate, nothing, nothing, text, text, send};
 
 static void framed_requests(proto_t *p, const uint8_t *data, size_t size)

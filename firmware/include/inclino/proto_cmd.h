@@ -21,6 +21,7 @@
 #define PCMD_RAW 0x05u
 #define PCMD_QCREF_READ 0x06u
 #define PCMD_QCREF_WRITE 0x07u
+#define PCMD_SURVEY_RAW 0x08u
 #define PCMD_CAL_READ 0x10u
 #define PCMD_CAL_WRITE 0x11u
 #define PCMD_CAL_ACTIVATE 0x12u
@@ -45,6 +46,7 @@
 #define PROTO_SURVEY_LEN 36u
 #define PROTO_RAW_LEN 21u
 #define PROTO_QCREF_LEN 24u
+#define PROTO_SURVEY_RAW_LEN (PROTO_SURVEY_LEN + PROTO_RAW_LEN)
 #define PROTO_BOOT_KEY 0x424F4F54UL
 
 /*
@@ -56,6 +58,8 @@
 typedef struct {
     uint8_t (*identity)(uint8_t out[PROTO_IDENTITY_LEN]);
     uint8_t (*survey)(uint8_t out[PROTO_SURVEY_LEN]);
+    /* a survey record followed by the raw record of the same acquisition */
+    uint8_t (*survey_raw)(uint8_t out[PROTO_SURVEY_RAW_LEN]);
     uint8_t (*raw)(uint8_t out[PROTO_RAW_LEN]);
     uint8_t (*qcref_read)(uint8_t out[PROTO_QCREF_LEN]);
     uint8_t (*qcref_write)(const uint8_t in[PROTO_QCREF_LEN]);
