@@ -89,6 +89,20 @@ def test_primitives_bit_exact_on_s08(fw):
     assert (r != gr).sum() == 0 and (s != gs).sum() == 0
     assert s.any() and not s.all()
 
+    # att_norm3 (the port's assembly): zero, the rails, every leading-bit
+    # position of the largest component (s from -2 to 29), both signs + random
+    k = np.arange(32)
+    top = np.concatenate([(2**k) - 1, 2**k, 2**k + 1]).clip(0, 2**31 - 1)
+    v = rng.integers(-1, 2, (len(top), 3)) * (top[:, None] >> rng.integers(0, 3, (len(top), 3)))
+    v[:, 0] = top * np.where(np.arange(len(top)) % 2, 1, -1)
+    v = np.concatenate([v, [[0, 0, 0], [-(2**31), 0, 0], [2**31 - 1, -(2**31), 1], [0, 0, -1]],
+                        rng.integers(*I32, (n, 3), endpoint=True),
+                        rng.integers(-2**20, 2**20, (n, 3))])
+    out, sh = mcu.norm3(fw, v)
+    gout, gsh = golden.att_norm3(v)
+    assert (out != gout).sum() == 0 and (sh != gsh).sum() == 0
+    assert set(range(-2, 30)) <= set(sh.tolist())
+
     # fx_atan2_q16: axes, diagonals, zero, rails + random
     y = np.concatenate([ey, rng.integers(*I32, n, endpoint=True), [5, -5, 5, -5, 0]])
     x = np.concatenate([ex, rng.integers(*I32, n, endpoint=True), [5, 5, -5, -5, 0]])

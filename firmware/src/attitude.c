@@ -6,6 +6,9 @@
 #define NORM_LO ((uint32_t)1u << 29)
 #define NORM_HI ((uint32_t)1u << 30)
 
+/* A port may supply att_norm3 (same result bits) and build this file with
+ * -DATT_PORT_NORM3: the S08 port has it in assembly (firmware/port/s08). */
+#ifndef ATT_PORT_NORM3
 static uint32_t abs_u32(int32_t v)
 {
     return (v < 0) ? (0u - (uint32_t)v) : (uint32_t)v;
@@ -59,6 +62,7 @@ int8_t att_norm3(const int32_t v[3], int32_t out[3])
     }
     return s;
 }
+#endif /* ATT_PORT_NORM3 */
 
 /* |v| from the sum of fx_mul32_q31 squares q = |v|^2 / 2^31 (q < 2^31):
  * |v| = sqrt(2q) * 2^15 = fx_sqrt_u32_q8(2q) * 2^7.  A tiny negative q (the

@@ -21,6 +21,7 @@
  *                                         dip (i32) flags (u16)
  *   'M' a b (i32)                      -> fx_mul32_q31: r (i32) sat (u8)
  *   '3' a[3] b[3] (i32)                -> fx_dot3_q31: r (i32) sat (u8)
+ *   'N' v[3] (i32)                     -> att_norm3: out[3] (i32) s (i8)
  *   'D' num den (u32)                  -> fx_div_frac_q20 (u32)
  *   'Q' x (u32)                        -> fx_sqrt_u32_q8 (u32)
  *   'R' x (u32)                        -> fx_isqrt_u32 (u16)
@@ -217,6 +218,16 @@ int main(void)
             out_v[0] = fx_dot3_q31(&in_v[0], &in_v[3], &out_sat);
             mark();
             wr_i32(out_v[0]);
+            sif_wr8(out_sat);
+            break;
+        case 'N':
+            rd_vec(in_v, 3u);
+            mark();
+            out_sat = (uint8_t)att_norm3(in_v, out_v);
+            mark();
+            wr_i32(out_v[0]);
+            wr_i32(out_v[1]);
+            wr_i32(out_v[2]);
             sif_wr8(out_sat);
             break;
         case 'D':
