@@ -110,6 +110,9 @@ uint32_t fx_sqrt_u32_q8(uint32_t x)
 }
 #endif /* FX_PORT_SQRT */
 
+/* A port may supply fx_atan2_q16 (same result bits) and build this file
+ * with -DFX_PORT_ATAN2: the S08 port has it in assembly (firmware/port/s08). */
+#ifndef FX_PORT_ATAN2
 int32_t fx_atan2_q16(int32_t y, int32_t x)
 {
     uint32_t ux, uy, num, den, q;
@@ -151,3 +154,4 @@ int32_t fx_atan2_q16(int32_t y, int32_t x)
     }
     return a;
 }
+#endif /* FX_PORT_ATAN2 */

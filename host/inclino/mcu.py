@@ -42,10 +42,10 @@ MISSING_REASON = ("S08 simulator tools not found (sdcc, shc08): "
 
 CORE_SOURCES = ("fx_ops.c", "fx_math.c", "fx_atan_table.c", "correct.c", "attitude.c", "survey.c")
 PORT_SOURCES = ("fx_mul16_s08.c", "fx_mul32_s08.c", "fx_div_s08.c", "fx_sqrt_s08.c",
-                "att_norm3_s08.c")  # the port's part of the core
+                "fx_atan2_s08.c", "att_norm3_s08.c")  # the port's part of the core
 HARNESS_SOURCES = ("harness.c",)
 PORT_DEFINES = ("-DFX_PORT_MUL16", "-DFX_PORT_MUL32", "-DFX_PORT_DIV", "-DFX_PORT_SQRT",
-                "-DATT_PORT_NORM3")  # these from firmware/port/s08
+                "-DFX_PORT_ATAN2", "-DATT_PORT_NORM3")  # these from firmware/port/s08
 FLOAT_SOURCES = ("survey_float.c",)
 SIMIF = "rom[0xff00]"
 CFLAGS = ("-ms08", "--std-c99", "--opt-code-speed", "--stack-auto")
