@@ -23,12 +23,14 @@ CORE_SOURCES = ["fx_ops.c", "fx_math.c", "fx_atan_table.c", "correct.c", "attitu
                 "qc.c", "crc16.c", "calimg.c"]
 APP_SOURCES = ["adis16210.c", "ads1256.c", "acquire.c", "calstore.c", "probe.c", "proto_frame.c",
                "proto_cmd.c", "app_main.c"]
-FW_SOURCES = CORE_SOURCES + APP_SOURCES
+# the serial bootloader (docs/bootloader.md): boot_select() / boot_main_* run it
+BOOT_SOURCES = ["boot.c", "boot_main.c"]
+FW_SOURCES = CORE_SOURCES + APP_SOURCES + BOOT_SOURCES
 
 INCLUDES = ["inclino/hal.h", "inclino/survey.h", "inclino/qc.h", "inclino/calimg.h",
             "inclino/crc16.h", "inclino/adis16210.h", "inclino/ads1256.h", "inclino/acquire.h",
             "inclino/calstore.h", "inclino/probe.h"]
-EXTRA_INCLUDES: list[str] = ["inclino/app_main.h"]
+EXTRA_INCLUDES: list[str] = ["inclino/app_main.h", "inclino/boot.h", "inclino/boot_main.h"]
 EXTRA_CDEF = """
 /* app_main.h: the main loop (SCI protocol on top of probe.h) */
 uint8_t app_main_init(void);
@@ -37,6 +39,21 @@ uint32_t app_main_tx_dropped(void);
 uint8_t app_main_restart_requested(void);
 uint8_t probe_cal_slot(uint8_t slot, uint8_t *valid, uint32_t *seq);
 uint8_t probe_cal_pending(uint8_t *slot, uint32_t *seq);
+
+/* boot.h, boot_main.h: the serial bootloader */
+typedef struct { uint32_t addr; uint32_t len; uint32_t crc; } boot_range_t;
+typedef struct { uint32_t entry; uint32_t total; uint32_t hdr_crc; uint8_t count;
+                 boot_range_t range[8]; } boot_app_t;
+uint32_t boot_crc32(uint32_t crc, const uint8_t *data, uint16_t n);
+uint8_t boot_crc32_flash(uint32_t addr, uint32_t len, uint32_t *crc);
+uint8_t boot_area(uint32_t addr, uint32_t len);
+uint16_t boot_desc_build(boot_app_t *app, uint8_t *out, uint8_t *commit);
+uint8_t boot_app_check(boot_app_t *app);
+uint8_t boot_select(uint8_t request);
+uint8_t boot_main_init(void);
+void boot_main_poll(void);
+uint32_t boot_main_tx_dropped(void);
+uint8_t boot_main_restart_requested(void);
 """
 
 HAL_CDEF = """

@@ -12,6 +12,18 @@ module inclino_emu._fw) running on them.
     p.step(0.01)                         # run 10 ms of emulated time
     p.sci_pull()                         # probe -> host bytes (hal_sci_putc)
 
+The bootloader (firmware/src/boot*.c, docs/bootloader.md) decides at every
+boot, as on the probe: `boot()` asks `boot_select()` whether the application
+image in flash is valid (and whether BOOTLOADER was answered); if so the
+application runs (`app_main_init`, `mode == "app"`), else the bootloader
+(`boot_main_init`, `mode == "boot"`, and step() calls `boot_main_poll`
+instead of `poll`).  What is emulated: the application that runs is the host
+build of firmware/src; the application *image* in flash is data whose
+descriptor and CRCs the bootloader checks.  A fresh probe gets the factory's
+bootloader area (placeholder bytes, protected like FPROT does on the part)
+and a small factory application image (`factory_app=False`: none, so it
+boots into the bootloader).
+
 The firmware's C state is global in the extension module, so one
 EmulatedProbe owns the firmware at a time: creating another takes it over
 and the older object refuses further firmware calls.  Everything is
@@ -39,6 +51,26 @@ PROBE_QC_B_ADDR = 0x7A1000
 PROBE_SLOT_A, PROBE_SLOT_B, PROBE_SLOT_ACTIVE, PROBE_SLOT_NONE = 0, 1, 2, 0xFF
 PROBE_QC_NO_REF = 0x80
 CALIMG_SIZE = 120
+# boot.h (docs/bootloader.md)
+BOOT_LOADER_START, BOOT_LOADER_END = 0x7FF000, 0x800000
+BOOT_DESC_ADDR = 0x7FEC00
+BOOT_COMMIT_OFFSET = 0x3F8
+BOOT_SEL_APP, BOOT_SEL_LOADER = 0, 1
+FACTORY_APP_ADDR = 0x7C0000
+FACTORY_APP_SIZE = 2048
+
+
+def factory_app_image() -> bytes:
+    """The factory application image (stands for the application's code)."""
+    text = b"INCLINO-PROBE application image (emulated: the host build of firmware/src runs)\0"
+    return (text + bytes((i * 37 + 11) & 0xFF for i in range(FACTORY_APP_SIZE)))[:FACTORY_APP_SIZE]
+
+
+def bootloader_placeholder() -> bytes:
+    """Bytes standing for the bootloader's code in its protected 4 KiB."""
+    text = b"INCLINO-BOOT 1.0 (emulated: the host build of firmware/src/boot*.c runs)\0"
+    n = BOOT_LOADER_END - BOOT_LOADER_START
+    return (text + bytes((i * 101 + 7) & 0xFF for i in range(n)))[:n]
 
 _owner = None
 
@@ -62,7 +94,8 @@ class EmulatedProbe:
     def __init__(self, scenario="ideal", seed: Optional[int] = None, serial: Optional[int] = None,
                  adis_faults: Optional[AdisFaults] = None, adc_absent: bool = False,
                  baud: Optional[float] = None, flash: Optional[S12XFlash] = None, flash_seed: int = 0,
-                 strict_stall: bool = False, boot: bool = True, off_time_s: float = 0.5):
+                 strict_stall: bool = False, boot: bool = True, off_time_s: float = 0.5,
+                 factory_app: bool = True):
         global _owner
         self.scenario: Scenario = scenario if isinstance(scenario, Scenario) else load_scenario(scenario)
         self.clock = Clock()
@@ -80,11 +113,13 @@ class EmulatedProbe:
         self.power_cuts = 0
         self.restarts = 0
         self.boot_status: Optional[int] = None
+        self.mode = "app"          # "app" or "boot": what boot() started
         _owner = self
         attach(self.board)
         serial = self.scenario.serial if serial is None else serial
         if serial and all(b == 0xFF for b in self.flash.peek(PROBE_ID_ADDR, 16)):
             self.factory_program(serial)
+        self.factory_bootloader(factory_app)
         if boot:
             self.boot()
 
@@ -120,13 +155,47 @@ class EmulatedProbe:
         lib.probe_id_build(serial & 0xFFFFFFFF, hw_rev, buf)
         self.flash.load(PROBE_ID_ADDR, bytes(buf))
 
-    def boot(self) -> int:
-        """Run the firmware's reset path (hal_init, probe_init) on the
-        present state."""
+    def factory_bootloader(self, app: bool = True):
+        """What the factory programmer leaves on a fresh part: the bootloader
+        area (placeholder bytes; protected, as its FPROT setting does on the
+        probe) and, with `app`, the factory application image and its
+        descriptor.  Areas that are not blank are left as they are."""
+        self._own()
+        if (BOOT_LOADER_START, BOOT_LOADER_END) not in self.flash.protected:
+            self.flash.protected.append((BOOT_LOADER_START, BOOT_LOADER_END))
+        n = BOOT_LOADER_END - BOOT_LOADER_START
+        if self.flash.peek(BOOT_LOADER_START, n) == b"\xff" * n:
+            self.flash.load(BOOT_LOADER_START, bootloader_placeholder())
+        if not app or self.flash.peek(BOOT_DESC_ADDR, 1024) != b"\xff" * 1024 or \
+                self.flash.peek(FACTORY_APP_ADDR, FACTORY_APP_SIZE) != b"\xff" * FACTORY_APP_SIZE:
+            return
+        img = factory_app_image()
+        a = ffi.new("boot_app_t *")
+        a.entry, a.count = FACTORY_APP_ADDR, 1
+        a.range[0].addr, a.range[0].len = FACTORY_APP_ADDR, len(img)
+        a.range[0].crc = lib.boot_crc32(0, img, len(img))
+        hdr, commit = ffi.new("uint8_t[120]"), ffi.new("uint8_t[8]")
+        n_hdr = lib.boot_desc_build(a, hdr, commit)
+        self.flash.load(FACTORY_APP_ADDR, img)
+        self.flash.load(BOOT_DESC_ADDR, bytes(hdr)[:n_hdr])
+        self.flash.load(BOOT_DESC_ADDR + BOOT_COMMIT_OFFSET, bytes(commit))
+
+    def boot(self, bootloader: bool = False) -> int:
+        """Run the firmware's reset path on the present state: the
+        bootloader's choice (boot_select), then the application's start
+        (hal_init, probe_init, protocol reset: app_main_init) or the
+        bootloader's (boot_main_init).  `bootloader`: the application asked
+        for it (BOOTLOADER answered).  Returns the started one's status."""
         self._own()
         self.board.selected = None
-        # the probe's reset path: hal_init, probe_init, protocol reset (app_main.c)
-        self.boot_status = int(lib.app_main_init())
+        sel = int(lib.boot_select(1 if bootloader else 0))
+        self._check()
+        if sel == BOOT_SEL_APP:
+            self.mode = "app"
+            self.boot_status = int(lib.app_main_init())
+        else:
+            self.mode = "boot"
+            self.boot_status = int(lib.boot_main_init())
         self._check()
         return self.boot_status
 
@@ -161,18 +230,27 @@ class EmulatedProbe:
     # ---- time and SCI ----------------------------------------------------------
     def step(self, dt: float, quantum: float = 1e-3):
         """Run dt seconds of emulated time: call `poll` (the firmware's
-        main-loop body, if set) repeatedly; between calls the clock jumps to
+        main-loop body, if set; boot_main_poll instead while the bootloader
+        runs) repeatedly; between calls the clock jumps to
         the next SCI event or by `quantum`, whichever is sooner."""
         self._own()
         t_end = self.clock.now + dt
         while self.clock.now < t_end:
             t0 = self.clock.now
             if self.poll is not None:
-                self.poll()
-                self._check()
-                if lib.app_main_restart_requested():
+                if self.mode == "boot":  # the bootloader runs its own loop
+                    lib.boot_main_poll()
+                    self._check()
+                    req = int(lib.boot_main_restart_requested())
+                else:
+                    self.poll()
+                    self._check()
+                    req = int(lib.app_main_restart_requested())
+                if req:
                     self.restarts += 1
-                    self.boot()  # RESET / BOOTLOADER answered: the firmware restarts
+                    # RESET / RUN / BOOTLOADER answered: the firmware restarts (2 from
+                    # the application: BOOTLOADER, stay in the bootloader)
+                    self.boot(bootloader=(self.mode == "app" and req == 2))
                 if not self.flash.powered:
                     self.power_cuts += 1
                     self.power_cycle()
@@ -266,5 +344,5 @@ class EmulatedProbe:
         return st, (r.gt_ref, r.gt_tol, r.bt_ref, r.bt_tol, r.dip_ref, r.dip_tol)
 
 
-__all__ = ["EmulatedProbe", "CallResult", "PROBE_ID_ADDR", "PROBE_CAL_A_ADDR", "PROBE_CAL_B_ADDR",
+__all__ = ["EmulatedProbe", "CallResult", "factory_app_image", "bootloader_placeholder", "PROBE_ID_ADDR", "PROBE_CAL_A_ADDR", "PROBE_CAL_B_ADDR",
            "PROBE_QC_A_ADDR", "PROBE_QC_B_ADDR"]

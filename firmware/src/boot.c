@@ -1,0 +1,769 @@
+/* boot.c - the serial bootloader's core; contract in boot.h, design and
+ * power-cut argument in docs/bootloader.md, commands in docs/protocol.md. */
+#include "inclino/boot.h"
+#include "inclino/crc16.h"
+#include "inclino/hal.h"
+#include "inclino/probe.h"
+#include "inclino/proto_cmd.h"
+
+#define CHUNK 128u    /* bytes per flash read */
+#define TEXT_MAX 64u  /* console answer line */
+#define HDR_FIXED 16u /* descriptor bytes before the ranges */
+
+/* ------------------------------------------------------------ byte helpers */
+static uint32_t get_u32(const uint8_t *p)
+{
+    return ((uint32_t)p[0] << 24) | ((uint32_t)p[1] << 16) | ((uint32_t)p[2] << 8) |
+           (uint32_t)p[3];
+}
+
+static uint16_t get_u16(const uint8_t *p)
+{
+    return (uint16_t)(((uint16_t)p[0] << 8) | (uint16_t)p[1]);
+}
+
+static void put_u32(uint8_t *p, uint32_t v)
+{
+    p[0] = (uint8_t)(v >> 24);
+    p[1] = (uint8_t)(v >> 16);
+    p[2] = (uint8_t)(v >> 8);
+    p[3] = (uint8_t)v;
+}
+
+static void put_u16(uint8_t *p, uint16_t v)
+{
+    p[0] = (uint8_t)(v >> 8);
+    p[1] = (uint8_t)v;
+}
+
+/* ------------------------------------------------------------ CRC-32 */
+static const uint32_t crc32_nibble[16] = {0x00000000UL, 0x1DB71064UL, 0x3B6E20C8UL, 0x26D930ACUL,
+                                          0x76DC4190UL, 0x6B6B51F4UL, 0x4DB26158UL, 0x5005713CUL,
+                                          0xEDB88320UL, 0xF00F9344UL, 0xD6D6A3E8UL, 0xCB61B38CUL,
+                                          0x9B64C2B0UL, 0x86D3D2D4UL, 0xA00AE278UL, 0xBDBDF21CUL};
+
+uint32_t boot_crc32(uint32_t crc, const uint8_t *data, uint16_t n)
+{
+    uint16_t i;
+    uint32_t c = ~crc;
+    for (i = 0u; i < n; i++) {
+        c ^= (uint32_t)data[i];
+        c = (c >> 4) ^ crc32_nibble[c & 0x0FUL];
+        c = (c >> 4) ^ crc32_nibble[c & 0x0FUL];
+    }
+    return ~c;
+}
+
+uint8_t boot_crc32_flash(uint32_t addr, uint32_t len, uint32_t *crc)
+{
+    uint8_t buf[CHUNK];
+    uint32_t c = 0u;
+    uint32_t left = len;
+    uint32_t k;
+    if (boot_area(addr, len) == BOOT_AREA_OUTSIDE) {
+        return HAL_FLASH_E_ACCESS;
+    }
+    /* at most 1 MiB / CHUNK = 8192 passes: the range lies inside the P-Flash */
+    for (k = 0u; k < (BOOT_FLASH_END - BOOT_FLASH_START) / CHUNK && left != 0u; k++) {
+        uint16_t n = (left > CHUNK) ? (uint16_t)CHUNK : (uint16_t)left;
+        uint8_t st = hal_flash_read(addr, buf, n);
+        if (st != HAL_FLASH_OK) {
+            return st;
+        }
+        c = boot_crc32(c, buf, n);
+        addr += n;
+        left -= n;
+    }
+    *crc = c;
+    return HAL_FLASH_OK;
+}
+
+/* ------------------------------------------------------------ flash map */
+static uint8_t overlaps(uint32_t addr, uint32_t len, uint32_t start, uint32_t end)
+{
+    /* [addr, addr+len) and [start, end) share a byte; addr+len cannot wrap
+     * (the caller checked it lies inside the P-Flash) */
+    return (uint8_t)(addr < end && start < addr + len);
+}
+
+uint8_t boot_area(uint32_t addr, uint32_t len)
+{
+    if (len == 0u || addr < BOOT_FLASH_START || addr >= BOOT_FLASH_END ||
+        len > BOOT_FLASH_END - addr) {
+        return BOOT_AREA_OUTSIDE;
+    }
+    if (overlaps(addr, len, BOOT_DATA_START, BOOT_DATA_END) ||
+        overlaps(addr, len, BOOT_DESC_ADDR, BOOT_LOADER_END)) {
+        return BOOT_AREA_PROTECTED;
+    }
+    return BOOT_AREA_APP;
+}
+
+/* ------------------------------------------------------------ descriptor */
+static uint16_t hdr_len(uint8_t count)
+{
+    return (uint16_t)(HDR_FIXED + 12u * (uint16_t)count + 4u);
+}
+
+uint16_t boot_desc_build(boot_app_t *app, uint8_t out[BOOT_DESC_MAX], uint8_t commit[8])
+{
+    uint16_t i, n, padded;
+    uint32_t total = 0u;
+    if (app->count == 0u || app->count > BOOT_MAX_RANGES) {
+        return 0u;
+    }
+    for (i = 0u; i < BOOT_DESC_MAX; i++) {
+        out[i] = 0xFFu;
+    }
+    put_u32(out, BOOT_DESC_MAGIC);
+    out[4] = BOOT_DESC_VERSION;
+    out[5] = app->count;
+    put_u32(out + 8, app->entry);
+    for (i = 0u; i < app->count; i++) {
+        uint8_t *r = out + HDR_FIXED + 12u * i;
+        put_u32(r, app->range[i].addr);
+        put_u32(r + 4, app->range[i].len);
+        put_u32(r + 8, app->range[i].crc);
+        total += app->range[i].len;
+    }
+    app->total = total;
+    put_u32(out + 12, total);
+    n = (uint16_t)(hdr_len(app->count) - 4u);
+    app->hdr_crc = boot_crc32(0u, out, n);
+    put_u32(out + n, app->hdr_crc);
+    put_u32(commit, BOOT_COMMIT_MAGIC);
+    put_u32(commit + 4, app->hdr_crc);
+    padded = (uint16_t)((hdr_len(app->count) + BOOT_PHRASE - 1u) / BOOT_PHRASE * BOOT_PHRASE);
+    return padded;
+}
+
+/* Ranges as a descriptor or a COMMIT gives them: aligned, ascending, apart,
+ * in the application area.  Returns BOOT_OK or BOOT_E_RANGES. */
+static uint8_t check_ranges(const boot_app_t *app)
+{
+    uint8_t i;
+    uint32_t next = BOOT_FLASH_START;
+    for (i = 0u; i < app->count; i++) {
+        const boot_range_t *r = &app->range[i];
+        if ((r->addr % BOOT_PHRASE) != 0u || (r->len % BOOT_PHRASE) != 0u ||
+            boot_area(r->addr, r->len) != BOOT_AREA_APP || r->addr < next) {
+            return BOOT_E_RANGES;
+        }
+        next = r->addr + r->len;
+    }
+    return BOOT_OK;
+}
+
+static uint8_t check_images(const boot_app_t *app, uint8_t *bad)
+{
+    uint8_t i;
+    for (i = 0u; i < app->count; i++) {
+        uint32_t c = 0u;
+        if (boot_crc32_flash(app->range[i].addr, app->range[i].len, &c) != HAL_FLASH_OK) {
+            *bad = i;
+            return BOOT_E_READ;
+        }
+        if (c != app->range[i].crc) {
+            *bad = i;
+            return BOOT_E_IMAGE;
+        }
+    }
+    return BOOT_OK;
+}
+
+uint8_t boot_app_check(boot_app_t *app)
+{
+    uint8_t hdr[BOOT_DESC_MAX];
+    uint8_t commit[8];
+    uint8_t i, bad = 0u;
+    uint16_t n;
+    uint32_t total = 0u;
+    if (hal_flash_read(BOOT_DESC_ADDR + BOOT_COMMIT_OFFSET, commit, 8u) != HAL_FLASH_OK ||
+        hal_flash_read(BOOT_DESC_ADDR, hdr, HDR_FIXED) != HAL_FLASH_OK) {
+        return BOOT_E_READ;
+    }
+    if (get_u32(commit) != BOOT_COMMIT_MAGIC) {
+        return BOOT_E_NO_COMMIT;
+    }
+    if (get_u32(hdr) != BOOT_DESC_MAGIC || hdr[4] != BOOT_DESC_VERSION || hdr[5] == 0u ||
+        hdr[5] > BOOT_MAX_RANGES) {
+        return BOOT_E_HEADER;
+    }
+    app->count = hdr[5];
+    n = (uint16_t)(hdr_len(app->count) - 4u);
+    if (hal_flash_read(BOOT_DESC_ADDR + HDR_FIXED, hdr + HDR_FIXED,
+                       (uint16_t)(n + 4u - HDR_FIXED)) != HAL_FLASH_OK) {
+        return BOOT_E_READ;
+    }
+    app->hdr_crc = get_u32(hdr + n);
+    if (boot_crc32(0u, hdr, n) != app->hdr_crc || get_u32(commit + 4) != app->hdr_crc) {
+        return BOOT_E_HEADER;
+    }
+    app->entry = get_u32(hdr + 8);
+    app->total = get_u32(hdr + 12);
+    for (i = 0u; i < app->count; i++) {
+        const uint8_t *r = hdr + HDR_FIXED + 12u * i;
+        app->range[i].addr = get_u32(r);
+        app->range[i].len = get_u32(r + 4);
+        app->range[i].crc = get_u32(r + 8);
+        if (app->range[i].len > BOOT_FLASH_END - BOOT_FLASH_START) {
+            return BOOT_E_RANGES;
+        }
+        total += app->range[i].len; /* at most 8 MiB: no wrap */
+    }
+    if (check_ranges(app) != BOOT_OK || total != app->total) {
+        return BOOT_E_RANGES;
+    }
+    return check_images(app, &bad);
+}
+
+uint8_t boot_select(uint8_t request)
+{
+    boot_app_t app;
+    if (request != 0u) {
+        return BOOT_SEL_LOADER;
+    }
+    return (uint8_t)((boot_app_check(&app) == BOOT_OK) ? BOOT_SEL_APP : BOOT_SEL_LOADER);
+}
+
+/* ------------------------------------------------------------ flash helpers */
+static uint8_t is_blank(uint32_t addr, uint16_t len)
+{
+    uint8_t buf[CHUNK];
+    uint16_t done = 0u, i;
+    while (done < len) { /* len / CHUNK passes */
+        uint16_t n = (uint16_t)(len - done);
+        if (n > CHUNK) {
+            n = CHUNK;
+        }
+        if (hal_flash_read(addr + done, buf, n) != HAL_FLASH_OK) {
+            return 0u;
+        }
+        for (i = 0u; i < n; i++) {
+            if (buf[i] != 0xFFu) {
+                return 0u;
+            }
+        }
+        done = (uint16_t)(done + n);
+    }
+    return 1u;
+}
+
+/* Erase one sector and check it reads erased.  Returns 0 or a HAL code. */
+static uint8_t erase_checked(uint32_t addr)
+{
+    uint8_t st = hal_flash_erase(addr);
+    if (st != HAL_FLASH_OK) {
+        return st;
+    }
+    return is_blank(addr, BOOT_SECTOR) ? HAL_FLASH_OK : HAL_FLASH_E_VERIFY;
+}
+
+/* Program one phrase and read it back.  Returns 0 or a HAL code. */
+static uint8_t program_checked(uint32_t addr, const uint8_t *data)
+{
+    uint8_t back[BOOT_PHRASE];
+    uint8_t i;
+    uint8_t st = hal_flash_program(addr, data);
+    if (st != HAL_FLASH_OK) {
+        return st;
+    }
+    st = hal_flash_read(addr, back, BOOT_PHRASE);
+    if (st != HAL_FLASH_OK) {
+        return st;
+    }
+    for (i = 0u; i < BOOT_PHRASE; i++) {
+        if (back[i] != data[i]) {
+            return HAL_FLASH_E_VERIFY;
+        }
+    }
+    return HAL_FLASH_OK;
+}
+
+/* Before the first change of the application area: erase the descriptor, so
+ * the old application stops being valid before any of its bytes change. */
+static uint8_t invalidate(boot_t *b)
+{
+    uint8_t st;
+    if (b->desc_blank) {
+        return HAL_FLASH_OK;
+    }
+    b->app_status = BOOT_E_NO_COMMIT;
+    st = erase_checked(BOOT_DESC_ADDR);
+    if (st == HAL_FLASH_OK) {
+        b->desc_blank = 1u;
+    }
+    return st;
+}
+
+/* ------------------------------------------------------------ answers */
+static void answer(boot_t *b, uint8_t seq, uint8_t cmd, const uint8_t *payload, uint16_t len)
+{
+    b->last_len = proto_frame_encode(seq, cmd, payload, len, b->last_answer,
+                                     (uint16_t)sizeof b->last_answer);
+    b->send(b->last_answer, b->last_len);
+}
+
+static void nak(boot_t *b, uint8_t seq, uint8_t cmd, uint8_t code, uint8_t detail)
+{
+    uint8_t p[3];
+    p[0] = cmd;
+    p[1] = code;
+    p[2] = detail;
+    answer(b, seq, PCMD_NAK, p, (uint16_t)((detail != 0u) ? 3u : 2u));
+}
+
+/* Refusal code for a target range: 0 when it is in the application area. */
+static uint8_t target_error(uint32_t addr, uint32_t len)
+{
+    uint8_t a = boot_area(addr, len);
+    if (a == BOOT_AREA_OUTSIDE) {
+        return PERR_ARGUMENT;
+    }
+    return (a == BOOT_AREA_PROTECTED) ? BOOT_E_PROTECTED : 0u;
+}
+
+static void c_identify(boot_t *b, uint8_t seq)
+{
+    static const char prod[] = BOOT_PRODUCT;
+    uint8_t out[BOOT_IDENTITY_LEN];
+    uint8_t i;
+    uint8_t valid = (uint8_t)(b->app_status == BOOT_OK);
+    for (i = 0u; i < 16u; i++) {
+        out[i] = (i < (uint8_t)(sizeof prod - 1u)) ? (uint8_t)prod[i] : 0u;
+    }
+    out[16] = BOOT_VERSION_MAJOR;
+    out[17] = BOOT_VERSION_MINOR;
+    out[18] = PROTO_VERSION;
+    out[19] = b->app_status;
+    put_u32(out + 20, b->serial);
+    put_u32(out + 24, BOOT_FLASH_START);
+    put_u32(out + 28, BOOT_FLASH_END);
+    put_u16(out + 32, BOOT_PHRASE);
+    put_u16(out + 34, BOOT_SECTOR);
+    put_u16(out + 36, BOOT_MAX_DATA);
+    put_u32(out + 38, BOOT_LOADER_START);
+    put_u32(out + 42, BOOT_LOADER_END);
+    put_u32(out + 46, BOOT_DESC_ADDR);
+    put_u32(out + 50, BOOT_DATA_START);
+    put_u32(out + 54, BOOT_DATA_END);
+    put_u32(out + 58, valid ? b->app.entry : BOOT_NO_ENTRY);
+    put_u32(out + 62, valid ? b->app.total : 0u);
+    put_u32(out + 66, valid ? b->app.hdr_crc : 0u);
+    put_u32(out + 70, b->executed);
+    answer(b, seq, (uint8_t)(BCMD_IDENTIFY | 0x80u), out, BOOT_IDENTITY_LEN);
+}
+
+static void c_erase(boot_t *b, uint8_t seq, const uint8_t *pl, uint16_t len)
+{
+    uint8_t out[4];
+    uint32_t addr;
+    uint8_t st;
+    if (len != 4u) {
+        nak(b, seq, BCMD_ERASE, PERR_LENGTH, 0u);
+        return;
+    }
+    addr = get_u32(pl);
+    st = target_error(addr, BOOT_SECTOR);
+    if (st == 0u && (addr % BOOT_SECTOR) != 0u) {
+        st = PERR_ARGUMENT;
+    }
+    if (st != 0u) {
+        nak(b, seq, BCMD_ERASE, st, 0u);
+        return;
+    }
+    st = invalidate(b);
+    if (st == HAL_FLASH_OK) {
+        st = erase_checked(addr);
+    }
+    if (st != HAL_FLASH_OK) {
+        nak(b, seq, BCMD_ERASE, PERR_FLASH, st);
+        return;
+    }
+    put_u32(out, addr);
+    answer(b, seq, (uint8_t)(BCMD_ERASE | 0x80u), out, 4u);
+}
+
+static void c_program(boot_t *b, uint8_t seq, const uint8_t *pl, uint16_t len)
+{
+    uint8_t out[6];
+    uint8_t cur[BOOT_PHRASE];
+    uint32_t addr;
+    uint16_t n, off;
+    uint8_t st, i;
+    if (len < 4u + BOOT_PHRASE || len > 4u + BOOT_MAX_DATA || ((len - 4u) % BOOT_PHRASE) != 0u) {
+        nak(b, seq, BCMD_PROGRAM, PERR_LENGTH, 0u);
+        return;
+    }
+    addr = get_u32(pl);
+    n = (uint16_t)(len - 4u);
+    st = target_error(addr, n);
+    if (st == 0u && (addr % BOOT_PHRASE) != 0u) {
+        st = PERR_ARGUMENT;
+    }
+    if (st != 0u) {
+        nak(b, seq, BCMD_PROGRAM, st, 0u);
+        return;
+    }
+    st = invalidate(b);
+    if (st != HAL_FLASH_OK) {
+        nak(b, seq, BCMD_PROGRAM, PERR_FLASH, st);
+        return;
+    }
+    for (off = 0u; off < n; off = (uint16_t)(off + BOOT_PHRASE)) {
+        const uint8_t *d = pl + 4u + off;
+        uint8_t same = 1u, blank = 1u;
+        st = hal_flash_read(addr + off, cur, BOOT_PHRASE);
+        if (st != HAL_FLASH_OK) {
+            nak(b, seq, BCMD_PROGRAM, PERR_FLASH, st);
+            return;
+        }
+        for (i = 0u; i < BOOT_PHRASE; i++) {
+            same = (uint8_t)(same && cur[i] == d[i]);
+            blank = (uint8_t)(blank && cur[i] == 0xFFu);
+        }
+        if (same) {
+            continue; /* already there (a retry after a lost answer): nothing to do */
+        }
+        if (!blank) { /* programming over old bits would damage the phrase: erase first */
+            nak(b, seq, BCMD_PROGRAM, PERR_STATE, (uint8_t)(1u + off / BOOT_PHRASE));
+            return;
+        }
+        st = program_checked(addr + off, d);
+        if (st != HAL_FLASH_OK) {
+            nak(b, seq, BCMD_PROGRAM, PERR_FLASH, st);
+            return;
+        }
+    }
+    put_u32(out, addr);
+    put_u16(out + 4, n);
+    answer(b, seq, (uint8_t)(BCMD_PROGRAM | 0x80u), out, 6u);
+}
+
+static void c_read(boot_t *b, uint8_t seq, const uint8_t *pl, uint16_t len)
+{
+    uint8_t out[4u + BOOT_MAX_DATA];
+    uint32_t addr;
+    uint16_t n;
+    uint8_t st;
+    if (len != 6u) {
+        nak(b, seq, BCMD_READ, PERR_LENGTH, 0u);
+        return;
+    }
+    addr = get_u32(pl);
+    n = get_u16(pl + 4);
+    if (n == 0u || n > BOOT_MAX_DATA || boot_area(addr, n) == BOOT_AREA_OUTSIDE) {
+        nak(b, seq, BCMD_READ, PERR_ARGUMENT, 0u);
+        return;
+    }
+    st = hal_flash_read(addr, out + 4, n);
+    if (st != HAL_FLASH_OK) {
+        nak(b, seq, BCMD_READ, PERR_FLASH, st);
+        return;
+    }
+    put_u32(out, addr);
+    answer(b, seq, (uint8_t)(BCMD_READ | 0x80u), out, (uint16_t)(4u + n));
+}
+
+static void c_crc(boot_t *b, uint8_t seq, const uint8_t *pl, uint16_t len)
+{
+    uint8_t out[12];
+    uint32_t addr, n, c = 0u;
+    uint8_t st;
+    if (len != 8u) {
+        nak(b, seq, BCMD_CRC, PERR_LENGTH, 0u);
+        return;
+    }
+    addr = get_u32(pl);
+    n = get_u32(pl + 4);
+    if (boot_area(addr, n) == BOOT_AREA_OUTSIDE) {
+        nak(b, seq, BCMD_CRC, PERR_ARGUMENT, 0u);
+        return;
+    }
+    st = boot_crc32_flash(addr, n, &c);
+    if (st != HAL_FLASH_OK) {
+        nak(b, seq, BCMD_CRC, PERR_FLASH, st);
+        return;
+    }
+    put_u32(out, addr);
+    put_u32(out + 4, n);
+    put_u32(out + 8, c);
+    answer(b, seq, (uint8_t)(BCMD_CRC | 0x80u), out, 12u);
+}
+
+/* Is the descriptor in flash exactly hdr[0..n) and commit? */
+static uint8_t desc_equals(const uint8_t *hdr, uint16_t n, const uint8_t *commit)
+{
+    uint8_t cur[BOOT_DESC_MAX];
+    uint16_t i;
+    if (hal_flash_read(BOOT_DESC_ADDR, cur, n) != HAL_FLASH_OK) {
+        return 0u;
+    }
+    for (i = 0u; i < n; i++) {
+        if (cur[i] != hdr[i]) {
+            return 0u;
+        }
+    }
+    if (hal_flash_read(BOOT_DESC_ADDR + BOOT_COMMIT_OFFSET, cur, 8u) != HAL_FLASH_OK) {
+        return 0u;
+    }
+    for (i = 0u; i < 8u; i++) {
+        if (cur[i] != commit[i]) {
+            return 0u;
+        }
+    }
+    return 1u;
+}
+
+static void c_commit(boot_t *b, uint8_t seq, const uint8_t *pl, uint16_t len)
+{
+    boot_app_t app = {0u, 0u, 0u, 0u, {{0u, 0u, 0u}}};
+    uint8_t hdr[BOOT_DESC_MAX];
+    uint8_t commit[8];
+    uint8_t out[8];
+    uint16_t n;
+    uint8_t i, st, bad = 0u;
+    if (len < 5u || pl[4] == 0u || pl[4] > BOOT_MAX_RANGES ||
+        len != (uint16_t)(5u + 12u * (uint16_t)pl[4])) {
+        nak(b, seq, BCMD_COMMIT, PERR_LENGTH, 0u);
+        return;
+    }
+    app.entry = get_u32(pl);
+    app.count = pl[4];
+    for (i = 0u; i < app.count; i++) {
+        const uint8_t *r = pl + 5u + 12u * i;
+        app.range[i].addr = get_u32(r);
+        app.range[i].len = get_u32(r + 4);
+        app.range[i].crc = get_u32(r + 8);
+    }
+    if (check_ranges(&app) != BOOT_OK) {
+        nak(b, seq, BCMD_COMMIT, PERR_ARGUMENT, 0u);
+        return;
+    }
+    st = check_images(&app, &bad);
+    if (st != BOOT_OK) { /* the flash does not hold what the host says: no commit */
+        nak(b, seq, BCMD_COMMIT, (st == BOOT_E_IMAGE) ? PERR_IMAGE : PERR_FLASH,
+            (uint8_t)(bad + 1u));
+        return;
+    }
+    n = boot_desc_build(&app, hdr, commit);
+    if (!desc_equals(hdr, n, commit)) {
+        st = invalidate(b); /* erases a different descriptor first */
+        /* the header first, the commit phrase last of all */
+        for (uint16_t off = 0u; off < n && st == HAL_FLASH_OK;
+             off = (uint16_t)(off + BOOT_PHRASE)) {
+            st = program_checked(BOOT_DESC_ADDR + off, hdr + off);
+        }
+        if (st == HAL_FLASH_OK) {
+            b->desc_blank = 0u;
+            st = program_checked(BOOT_DESC_ADDR + BOOT_COMMIT_OFFSET, commit);
+        }
+        if (st != HAL_FLASH_OK) {
+            b->desc_blank = 0u;
+            b->app_status = BOOT_E_NO_COMMIT;
+            nak(b, seq, BCMD_COMMIT, PERR_FLASH, st);
+            return;
+        }
+    }
+    b->desc_blank = 0u;
+    b->app_status = boot_app_check(&b->app);
+    if (b->app_status != BOOT_OK) {
+        nak(b, seq, BCMD_COMMIT, PERR_FLASH, HAL_FLASH_E_VERIFY);
+        return;
+    }
+    put_u32(out, app.hdr_crc);
+    put_u32(out + 4, app.total);
+    answer(b, seq, (uint8_t)(BCMD_COMMIT | 0x80u), out, 8u);
+}
+
+static void execute(boot_t *b, uint8_t seq, uint8_t cmd, const uint8_t *pl, uint16_t len)
+{
+    uint8_t none[1] = {0u};
+    switch (cmd) {
+    case BCMD_IDENTIFY:
+        if (len != 0u) {
+            nak(b, seq, cmd, PERR_LENGTH, 0u);
+        } else {
+            c_identify(b, seq);
+        }
+        return;
+    case BCMD_ERASE:
+        c_erase(b, seq, pl, len);
+        return;
+    case BCMD_PROGRAM:
+        c_program(b, seq, pl, len);
+        return;
+    case BCMD_READ:
+        c_read(b, seq, pl, len);
+        return;
+    case BCMD_CRC:
+        c_crc(b, seq, pl, len);
+        return;
+    case BCMD_COMMIT:
+        c_commit(b, seq, pl, len);
+        return;
+    case BCMD_RUN:
+        if (len != 0u) {
+            nak(b, seq, cmd, PERR_LENGTH, 0u);
+        } else if (b->app_status != BOOT_OK) {
+            nak(b, seq, cmd, PERR_STATE, b->app_status);
+        } else {
+            answer(b, seq, (uint8_t)(cmd | 0x80u), none, 0u);
+            b->after = BOOT_AFTER_RUN;
+        }
+        return;
+    case PCMD_RESET:
+        if (len != 0u) {
+            nak(b, seq, cmd, PERR_LENGTH, 0u);
+        } else {
+            answer(b, seq, (uint8_t)(cmd | 0x80u), none, 0u);
+            b->after = BOOT_AFTER_RESET;
+        }
+        return;
+    case PCMD_BOOTLOADER: /* already here: answered, nothing else */
+        if (len != 4u) {
+            nak(b, seq, cmd, PERR_LENGTH, 0u);
+        } else if (get_u32(pl) != PROTO_BOOT_KEY) {
+            nak(b, seq, cmd, PERR_ARGUMENT, 0u);
+        } else {
+            answer(b, seq, (uint8_t)(cmd | 0x80u), none, 0u);
+        }
+        return;
+    default:
+        /* the application's commands are not available here */
+        nak(b, seq, cmd, (cmd < BCMD_IDENTIFY) ? PERR_STATE : PERR_COMMAND, 0u);
+        return;
+    }
+}
+
+/* ------------------------------------------------------------ text console */
+static char *put_str(char *o, const char *s)
+{
+    while (*s != '\0') {
+        *o++ = *s++;
+    }
+    return o;
+}
+
+static char *put_uint(char *o, uint32_t v)
+{
+    char tmp[10];
+    uint8_t n = 0u;
+    do {
+        tmp[n++] = (char)('0' + (v % 10u));
+        v /= 10u;
+    } while (v != 0u);
+    while (n != 0u) {
+        *o++ = tmp[--n];
+    }
+    return o;
+}
+
+static uint8_t upper(uint8_t c)
+{
+    return (c >= (uint8_t)'a' && c <= (uint8_t)'z') ? (uint8_t)(c - 32u) : c;
+}
+
+static void text_command(boot_t *b)
+{
+    char buf[TEXT_MAX];
+    char *o = buf;
+    const uint8_t *line = b->parser.line;
+    if (upper(line[0]) == (uint8_t)'I' && upper(line[1]) == (uint8_t)'D' && line[2] == 0u) {
+        o = put_str(o, BOOT_PRODUCT " bl ");
+        o = put_uint(o, BOOT_VERSION_MAJOR);
+        *o++ = '.';
+        o = put_uint(o, BOOT_VERSION_MINOR);
+        o = put_str(o, " serial ");
+        o = put_uint(o, b->serial);
+        if (b->app_status == BOOT_OK) {
+            o = put_str(o, " app valid");
+        } else {
+            o = put_str(o, " app none (");
+            o = put_uint(o, b->app_status);
+            *o++ = ')';
+        }
+    } else {
+        o = put_str(o, "? bootloader: ID, or program with inclino flash");
+    }
+    o = put_str(o, "\r\n");
+    b->send((const uint8_t *)buf, (uint16_t)(o - buf));
+}
+
+/* ------------------------------------------------------------ entry points */
+static uint32_t read_serial(void)
+{
+    uint8_t rec[PROBE_ID_SIZE];
+    if (hal_flash_read(PROBE_ID_ADDR, rec, PROBE_ID_SIZE) != HAL_FLASH_OK ||
+        get_u32(rec) != PROBE_ID_MAGIC ||
+        crc16_update(CRC16_INIT, rec, 14u) != get_u16(rec + 14)) {
+        return 0u;
+    }
+    return get_u32(rec + 4);
+}
+
+void boot_init(boot_t *b, void (*send)(const uint8_t *data, uint16_t n))
+{
+    proto_parser_init(&b->parser);
+    b->send = send;
+    b->have_last = 0u;
+    b->last_seq = 0u;
+    b->last_crc = 0u;
+    b->last_len = 0u;
+    b->executed = 0u;
+    b->after = BOOT_AFTER_NONE;
+    b->serial = read_serial();
+    b->app_status = boot_app_check(&b->app);
+    b->desc_blank = is_blank(BOOT_DESC_ADDR, BOOT_SECTOR);
+}
+
+static void on_frame(boot_t *b)
+{
+    proto_parser_t *f = &b->parser;
+    uint16_t crc = f->crc; /* the request's identity: its SEQ and its CRC */
+    if (b->have_last && f->seq == b->last_seq && crc == b->last_crc) {
+        b->send(b->last_answer, b->last_len); /* a retry: answer again, run nothing */
+        return;
+    }
+    if (f->ver != PROTO_VERSION) {
+        nak(b, f->seq, f->cmd, PERR_VERSION, 0u);
+    } else {
+        execute(b, f->seq, f->cmd, f->payload, f->len);
+    }
+    b->executed++;
+    b->have_last = 1u;
+    b->last_seq = f->seq;
+    b->last_crc = crc;
+}
+
+void boot_rx(boot_t *b, const uint8_t *data, uint16_t n)
+{
+    uint16_t i;
+    for (i = 0u; i < n && b->after == BOOT_AFTER_NONE; i++) {
+        uint8_t r = proto_frame_feed(&b->parser, data[i]);
+        if (r == PF_FRAME) {
+            on_frame(b);
+        } else if (r == PF_BAD_CRC) {
+            uint8_t p[2];
+            uint8_t tmp[PROTO_OVERHEAD + 2u];
+            uint16_t m;
+            p[0] = b->parser.cmd;
+            p[1] = PERR_CRC;
+            /* not cached: a corrupt request never replaces the last answer */
+            m = proto_frame_encode(b->parser.seq, PCMD_NAK, p, 2u, tmp, (uint16_t)sizeof tmp);
+            b->send(tmp, m);
+        } else if (r == PF_LINE) {
+            text_command(b);
+        }
+    }
+}
+
+void boot_idle(boot_t *b)
+{
+    (void)proto_parser_idle(&b->parser);
+}
+
+uint8_t boot_after(const boot_t *b)
+{
+    return b->after;
+}
