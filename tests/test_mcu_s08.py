@@ -103,6 +103,19 @@ def test_primitives_bit_exact_on_s08(fw):
     assert (out != gout).sum() == 0 and (sh != gsh).sum() == 0
     assert set(range(-2, 30)) <= set(sh.tolist())
 
+    # fx_asr32, fx_asr32_rnd, fx_add32_sat, fx_sub32_sat (the port's assembly):
+    # every shift count, the rails, ties, both saturations + random
+    x = np.concatenate([np.repeat(e, 32), rng.integers(*I32, n, endpoint=True)])
+    k = np.concatenate([np.tile(np.arange(32), len(e)), rng.integers(0, 32, n)])
+    assert (mcu.asr32(fw, x, k) != golden.fx_asr32(x, k)).sum() == 0
+    assert (mcu.asr32(fw, x, k, rnd=True) != golden.fx_asr32_rnd(x, k)).sum() == 0
+    a = np.concatenate([ex, rng.integers(*I32, n, endpoint=True)])
+    b = np.concatenate([ey, rng.integers(*I32, n, endpoint=True)])
+    for sub, fn in ((False, golden.fx_add32_sat), (True, golden.fx_sub32_sat)):
+        r, s = mcu.add32_sat(fw, a, b, sub=sub)
+        gr, gs = fn(a, b)
+        assert (r != gr).sum() == 0 and (s != gs).sum() == 0 and s.any()
+
     # fx_atan2_q16: axes, diagonals, zero, rails + random
     y = np.concatenate([ey, rng.integers(*I32, n, endpoint=True), [5, -5, 5, -5, 0]])
     x = np.concatenate([ex, rng.integers(*I32, n, endpoint=True), [5, 5, -5, -5, 0]])

@@ -18,6 +18,10 @@ static int32_t s32_of_bits(uint32_t u)
     return (u <= (uint32_t)FX_INT32_MAX) ? (int32_t)u : -(int32_t)(~u) - 1;
 }
 
+/* A port may supply fx_asr32, fx_asr32_rnd, fx_add32_sat and fx_sub32_sat
+ * (same result bits) and build this file with -DFX_PORT_OPS: the S08 port
+ * has them in assembly (firmware/port/s08). */
+#ifndef FX_PORT_OPS
 int32_t fx_asr32(int32_t x, uint8_t n)
 {
     if (x >= 0) {
@@ -37,21 +41,6 @@ int32_t fx_asr32_rnd(int32_t x, uint8_t n)
     /* add the bit just below the cut: round half up, never overflows since
      * q <= FX_INT32_MAX / 2 for n >= 1 */
     return q + (int32_t)(((uint32_t)x >> (n - 1u)) & 1u);
-}
-
-int32_t fx_shl32_sat(int32_t x, uint8_t n, uint8_t *sat)
-{
-    int32_t lim = (int32_t)(FX_INT32_MAX >> n); /* positive: defined */
-    if (x > lim) {
-        *sat = 1u;
-        return FX_INT32_MAX;
-    }
-    if (x < -lim - 1) {
-        *sat = 1u;
-        return FX_INT32_MIN;
-    }
-    /* in range: the bits of x * 2^n are those of x shifted left */
-    return s32_of_bits((uint32_t)x << n);
 }
 
 int32_t fx_add32_sat(int32_t a, int32_t b, uint8_t *sat)
@@ -78,6 +67,22 @@ int32_t fx_sub32_sat(int32_t a, int32_t b, uint8_t *sat)
         return FX_INT32_MIN;
     }
     return a - b;
+}
+#endif /* FX_PORT_OPS */
+
+int32_t fx_shl32_sat(int32_t x, uint8_t n, uint8_t *sat)
+{
+    int32_t lim = (int32_t)(FX_INT32_MAX >> n); /* positive: defined */
+    if (x > lim) {
+        *sat = 1u;
+        return FX_INT32_MAX;
+    }
+    if (x < -lim - 1) {
+        *sat = 1u;
+        return FX_INT32_MIN;
+    }
+    /* in range: the bits of x * 2^n are those of x shifted left */
+    return s32_of_bits((uint32_t)x << n);
 }
 
 /* A port may supply fx_mul32_q31 and fx_dot3_q31 (same result bits) and

@@ -41,11 +41,12 @@ MISSING_REASON = ("S08 simulator tools not found (sdcc, shc08): "
                   "install the Debian packages sdcc and sdcc-ucsim")
 
 CORE_SOURCES = ("fx_ops.c", "fx_math.c", "fx_atan_table.c", "correct.c", "attitude.c", "survey.c")
-PORT_SOURCES = ("fx_mul16_s08.c", "fx_mul32_s08.c", "fx_div_s08.c", "fx_sqrt_s08.c",
-                "fx_atan2_s08.c", "att_norm3_s08.c")  # the port's part of the core
+PORT_SOURCES = ("fx_mul16_s08.c", "fx_ops_s08.c", "fx_mul32_s08.c", "fx_div_s08.c",
+                "fx_sqrt_s08.c", "fx_atan2_s08.c", "att_norm3_s08.c")  # the port's part of the core
 HARNESS_SOURCES = ("harness.c",)
-PORT_DEFINES = ("-DFX_PORT_MUL16", "-DFX_PORT_MUL32", "-DFX_PORT_DIV", "-DFX_PORT_SQRT",
-                "-DFX_PORT_ATAN2", "-DATT_PORT_NORM3")  # these from firmware/port/s08
+# each replaces the portable C of the same functions (firmware/port/s08/*.c)
+PORT_DEFINES = ("-DFX_PORT_MUL16", "-DFX_PORT_OPS", "-DFX_PORT_MUL32", "-DFX_PORT_DIV",
+                "-DFX_PORT_SQRT", "-DFX_PORT_ATAN2", "-DATT_PORT_NORM3")
 FLOAT_SOURCES = ("survey_float.c",)
 SIMIF = "rom[0xff00]"
 CFLAGS = ("-ms08", "--std-c99", "--opt-code-speed", "--stack-auto")
@@ -369,6 +370,17 @@ def norm3(b, v):
     """att_norm3 of the rows of v (n, 3): (out (n, 3), s (n,))."""
     r = _prim(b, b"N", [(np.asarray(v, dtype=np.int64), ">i4")], [("out", ">i4", (3,)), ("s", "i1")])
     return r["out"].astype(np.int64), r["s"].astype(np.int64)
+
+
+def asr32(b, x, n, rnd: bool = False):
+    """fx_asr32 (or fx_asr32_rnd) of x by n (arrays)."""
+    return _prim(b, b"U" if rnd else b"S", [(x, ">i4"), (n, "u1")], [("r", ">i4")])["r"].astype(np.int64)
+
+
+def add32_sat(b, x, y, sub: bool = False):
+    """fx_add32_sat (or fx_sub32_sat): (result, saturated)."""
+    r = _prim(b, b"-" if sub else b"+", [(x, ">i4"), (y, ">i4")], [("r", ">i4"), ("sat", "u1")])
+    return r["r"].astype(np.int64), r["sat"].astype(bool)
 
 
 def div_frac_q20(b, num, den):

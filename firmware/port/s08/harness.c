@@ -22,6 +22,10 @@
  *   'M' a b (i32)                      -> fx_mul32_q31: r (i32) sat (u8)
  *   '3' a[3] b[3] (i32)                -> fx_dot3_q31: r (i32) sat (u8)
  *   'N' v[3] (i32)                     -> att_norm3: out[3] (i32) s (i8)
+ *   'S' x (i32) n (u8)                 -> fx_asr32 (i32)
+ *   'U' x (i32) n (u8)                 -> fx_asr32_rnd (i32)
+ *   '+' a b (i32)                      -> fx_add32_sat: r (i32) sat (u8)
+ *   '-' a b (i32)                      -> fx_sub32_sat: r (i32) sat (u8)
  *   'D' num den (u32)                  -> fx_div_frac_q20 (u32)
  *   'Q' x (u32)                        -> fx_sqrt_u32_q8 (u32)
  *   'R' x (u32)                        -> fx_isqrt_u32 (u16)
@@ -228,6 +232,27 @@ int main(void)
             wr_i32(out_v[0]);
             wr_i32(out_v[1]);
             wr_i32(out_v[2]);
+            sif_wr8(out_sat);
+            break;
+        case 'S':
+        case 'U':
+            rd_vec(in_v, 1u);
+            out_sat = sif_rd8();
+            mark();
+            out_v[0] = (cmd & 0x7Fu) == (uint8_t)'S' ? fx_asr32(in_v[0], out_sat)
+                                                     : fx_asr32_rnd(in_v[0], out_sat);
+            mark();
+            wr_i32(out_v[0]);
+            break;
+        case '+':
+        case '-':
+            rd_vec(in_v, 2u);
+            out_sat = 0u;
+            mark();
+            out_v[0] = (cmd & 0x7Fu) == (uint8_t)'+' ? fx_add32_sat(in_v[0], in_v[1], &out_sat)
+                                                     : fx_sub32_sat(in_v[0], in_v[1], &out_sat);
+            mark();
+            wr_i32(out_v[0]);
             sif_wr8(out_sat);
             break;
         case 'D':
