@@ -88,6 +88,11 @@ def test_primitives_bit_exact_on_s08(fw):
     gr, gs = golden.fx_dot3_q31(t[:, :3], t[:, 3:])
     assert (r != gr).sum() == 0 and (s != gs).sum() == 0
     assert s.any() and not s.all()
+    # ... and of a vector with itself (the port's path for squares)
+    r, s = mcu.dot3_q31(fw, t[:, :3])
+    gr, gs = golden.fx_dot3_q31(t[:, :3], t[:, :3])
+    assert (r != gr).sum() == 0 and (s != gs).sum() == 0
+    assert s.any() and not s.all()
 
     # att_norm3 (the port's assembly): zero, the rails, every leading-bit
     # position of the largest component (s from -2 to 29), both signs + random

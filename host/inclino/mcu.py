@@ -359,8 +359,12 @@ def mul32_q31(b, x, y):
     return r["r"].astype(np.int64), r["sat"].astype(bool)
 
 
-def dot3_q31(b, x, y):
-    """fx_dot3_q31 of the rows of x and y (n, 3)."""
+def dot3_q31(b, x, y=None):
+    """fx_dot3_q31 of the rows of x and y (n, 3); y None: of x with itself,
+    the same array passed twice (the port's path for squares)."""
+    if y is None:
+        r = _prim(b, b"W", [(np.asarray(x, dtype=np.int64), ">i4")], [("r", ">i4"), ("sat", "u1")])
+        return r["r"].astype(np.int64), r["sat"].astype(bool)
     xy = np.concatenate([np.asarray(x, dtype=np.int64), np.asarray(y, dtype=np.int64)], axis=1)
     r = _prim(b, b"3", [(xy, ">i4")], [("r", ">i4"), ("sat", "u1")])
     return r["r"].astype(np.int64), r["sat"].astype(bool)

@@ -12,7 +12,9 @@
  * the S08); the core here is twelve 8 x 8 MULs on unsigned bytes, about 400.
  * fx_dot3_q31 runs the same core on a[i], b[i] read through the pointers and
  * sums with the saturating addition of fx_add32_sat, without the argument
- * passing of three calls (a zero a[i] contributes an exact 0 and is skipped).
+ * passing of three calls (a zero a[i] contributes an exact 0 and is skipped;
+ * for b == a, the squares, the core's terms that are equal are computed
+ * once: 7 MULs instead of 12).
  *
  * Method (all unsigned, modulo 2^32; s fits 32 bits, so its bits are exact):
  * with ah_u, bh_u the unsigned readings of ah, bh (ah = ah_u - 2^16 [a < 0]),
@@ -53,6 +55,7 @@ static __data uint8_t fx_m_t[2];
 static __data uint8_t fx_m_f;
 static __data uint8_t fx_m_acc[4];
 static __data uint8_t fx_m_n;
+static __data uint8_t fx_m_sq;
 
 #pragma save
 #pragma less_pedantic
@@ -249,6 +252,7 @@ fx_m_core:
 6$:
     ; s outside [-2^30, 2^30): bits 31 and 30 differ, that is bit 7 of
     ; (top byte + 0x40) is set
+fx_m_tail:
     lda     *___SDCC_hc08_ret3
     add     #0x40
     bmi     7$
@@ -278,6 +282,120 @@ fx_m_core:
     sta     *(_fx_m_s + 1)
     sec
     rts
+
+    ; ---- the core for b = a: the same s with the bytes of a as those of b:
+    ; A0*B1 = A1*B0, FX = FY and the two corrections are equal:
+    ; s = ah_u^2 + 2 FX - 2 [a < 0] (a & ~1)  (7 MULs instead of 12)
+fx_m_sq_core:
+    lda     *(_fx_m_a + 1)      ; A1 * A1
+    tax
+    mul
+    sta     *(_fx_m_s + 1)
+    stx     *_fx_m_s
+    lda     *_fx_m_a            ; A0 * A0
+    tax
+    mul
+    sta     *___SDCC_hc08_ret2
+    stx     *___SDCC_hc08_ret3
+    lda     *_fx_m_a            ; 2 * A0 * A1, at byte 2
+    ldx     *(_fx_m_a + 1)
+    mul
+    lsla
+    rolx
+    bcc     1$
+    inc     *___SDCC_hc08_ret3
+1$:
+    add     *_fx_m_s
+    sta     *_fx_m_s
+    txa
+    adc     *___SDCC_hc08_ret2
+    sta     *___SDCC_hc08_ret2
+    bcc     2$
+    inc     *___SDCC_hc08_ret3
+2$:
+    ; FX = floor((A0:A1) * (A2:A3e) / 2^16), A3e = A3 & 0xfe
+    lda     *(_fx_m_a + 3)      ; A1 * A3e: only its high byte counts
+    and     #0xfe
+    ldx     *(_fx_m_a + 1)
+    mul
+    stx     *_fx_m_f
+    lda     *(_fx_m_a + 3)      ; A0 * A3e, at the fraction byte
+    and     #0xfe
+    ldx     *_fx_m_a
+    mul
+    add     *_fx_m_f
+    sta     *_fx_m_f
+    txa
+    adc     #0
+    sta     *(_fx_m_t + 1)
+    lda     *(_fx_m_a + 1)      ; A1 * A2, at the fraction byte
+    ldx     *(_fx_m_a + 2)
+    mul
+    add     *_fx_m_f
+    txa
+    adc     *(_fx_m_t + 1)
+    sta     *(_fx_m_t + 1)
+    clra
+    rola
+    sta     *_fx_m_t
+    lda     *_fx_m_a            ; A0 * A2, whole
+    ldx     *(_fx_m_a + 2)
+    mul
+    add     *(_fx_m_t + 1)
+    sta     *(_fx_m_t + 1)
+    txa
+    adc     *_fx_m_t
+    sta     *_fx_m_t
+    lsl     *(_fx_m_t + 1)      ; s += 2 FX (2 FX < 2^17)
+    rol     *_fx_m_t
+    bcc     3$
+    inc     *___SDCC_hc08_ret2
+    bne     3$
+    inc     *___SDCC_hc08_ret3
+3$:
+    lda     *(_fx_m_s + 1)
+    add     *(_fx_m_t + 1)
+    sta     *(_fx_m_s + 1)
+    lda     *_fx_m_s
+    adc     *_fx_m_t
+    sta     *_fx_m_s
+    bcc     4$
+    inc     *___SDCC_hc08_ret2
+    bne     4$
+    inc     *___SDCC_hc08_ret3
+4$:
+    lda     *_fx_m_a            ; a < 0: s -= 2 (a & ~1)
+    bpl     5$
+    lda     *(_fx_m_a + 3)
+    and     #0xfe
+    lsla
+    sta     *(_fx_m_t + 1)
+    lda     *(_fx_m_a + 2)
+    rola
+    sta     *_fx_m_t
+    lda     *(_fx_m_a + 1)
+    rola
+    sta     *_fx_m_f
+    lda     *_fx_m_a
+    rola                        ; 2 (a & ~1) modulo 2^32: bytes A, f, t, t+1
+    psha
+    lda     *(_fx_m_s + 1)
+    sub     *(_fx_m_t + 1)
+    sta     *(_fx_m_s + 1)
+    lda     *_fx_m_s
+    sbc     *_fx_m_t
+    sta     *_fx_m_s
+    lda     *___SDCC_hc08_ret2
+    sbc     *_fx_m_f
+    sta     *___SDCC_hc08_ret2
+    pula
+    psha
+    lda     *___SDCC_hc08_ret3
+    sbc     1,s
+    sta     *___SDCC_hc08_ret3
+    pula
+5$:
+    jmp     fx_m_tail
     __endasm;
     /* clang-format on */
 }
@@ -287,6 +405,13 @@ int32_t fx_dot3_q31(const int32_t a[3], const int32_t b[3], uint8_t *sat) __nake
     a, b, sat; /* referenced in the assembly */
     /* clang-format off */
     __asm
+    clr     *_fx_m_sq           ; b == a: the core of the squares
+    cmp     4,s
+    bne     9$
+    cpx     3,s
+    bne     9$
+    inc     *_fx_m_sq
+9$:
     psha                        ; a at 1..2,s; b at 5..6,s; sat at 7..8,s
     pshx
     clra
@@ -311,7 +436,14 @@ int32_t fx_dot3_q31(const int32_t a[3], const int32_t b[3], uint8_t *sat) __nake
     ora     *(_fx_m_a + 2)
     ora     *(_fx_m_a + 1)
     ora     *_fx_m_a
-    beq     4$                  ; a[i] == 0: the product is an exact 0
+    bne     12$
+    jmp     4$                  ; a[i] == 0: the product is an exact 0
+12$:
+    tst     *_fx_m_sq
+    beq     10$
+    jsr     fx_m_sq_core
+    bra     11$
+10$:
     ldhx    5,s                 ; fx_m_b = b[i]
     lda     ,x
     sta     *_fx_m_b
@@ -324,6 +456,7 @@ int32_t fx_dot3_q31(const int32_t a[3], const int32_t b[3], uint8_t *sat) __nake
     aix     #4
     sthx    5,s
     jsr     fx_m_core
+11$:
     bcc     2$
     ldhx    7,s                 ; *sat = 1
     lda     #1

@@ -21,6 +21,7 @@
  *                                         dip (i32) flags (u16)
  *   'M' a b (i32)                      -> fx_mul32_q31: r (i32) sat (u8)
  *   '3' a[3] b[3] (i32)                -> fx_dot3_q31: r (i32) sat (u8)
+ *   'W' a[3] (i32)                     -> fx_dot3_q31(a, a): r (i32) sat (u8)
  *   'N' v[3] (i32)                     -> att_norm3: out[3] (i32) s (i8)
  *   'S' x (i32) n (u8)                 -> fx_asr32 (i32)
  *   'U' x (i32) n (u8)                 -> fx_asr32_rnd (i32)
@@ -220,6 +221,15 @@ int main(void)
             out_sat = 0u;
             mark();
             out_v[0] = fx_dot3_q31(&in_v[0], &in_v[3], &out_sat);
+            mark();
+            wr_i32(out_v[0]);
+            sif_wr8(out_sat);
+            break;
+        case 'W':
+            rd_vec(in_v, 3u);
+            out_sat = 0u;
+            mark();
+            out_v[0] = fx_dot3_q31(in_v, in_v, &out_sat);
             mark();
             wr_i32(out_v[0]);
             sif_wr8(out_sat);
