@@ -199,14 +199,14 @@ def test_stream_counts_stops_and_blocks_other_commands():
     for t in range(0, 100):
         lib.proto_tick(a.p, t)
         frames += [e.frame for e in a.events()]
-    assert [f.cmd for f in frames] == [0x90] * 3
+    assert [f.cmd for f in frames] == [0x70] * 3
     assert [SurveyRecord.unpack(f.payload).t_ms for f in frames] == [1, 2, 3]
     assert [f.seq for f in frames] == [0, 1, 2]
     assert a.ask(3, "SURVEY").cmd == 0x82  # the stream ended by itself
     assert a.ask(4, "STREAM", struct.pack(">HH", 5, 0)).cmd == 0x83
     for t in range(1000, 1050):
         lib.proto_tick(a.p, t)
-    n = len([e for e in a.events() if e.frame.cmd == 0x90])
+    n = len([e for e in a.events() if e.frame.cmd == 0x70])
     assert n == 10
     f = a.ask(5, "STOP")
     assert struct.unpack(">H", f.payload)[0] == 10

@@ -323,7 +323,7 @@ static uint8_t target_error(uint32_t addr, uint32_t len)
     return (a == BOOT_AREA_PROTECTED) ? BOOT_E_PROTECTED : 0u;
 }
 
-static void c_identify(boot_t *b, uint8_t seq)
+static void c_identify(boot_t *b, uint8_t seq, const uint8_t *pl, uint16_t len)
 {
     static const char prod[] = BOOT_PRODUCT;
     uint8_t out[BOOT_IDENTITY_LEN];
@@ -351,6 +351,10 @@ static void c_identify(boot_t *b, uint8_t seq)
     put_u32(out + 62, valid ? b->app.total : 0u);
     put_u32(out + 66, valid ? b->app.hdr_crc : 0u);
     put_u32(out + 70, b->executed);
+    put_u32(out + 74, b->mark);
+    if (len == 4u) {
+        b->mark = get_u32(pl); /* reported by the next IDENTIFY unless the probe restarts */
+    }
     answer(b, seq, (uint8_t)(BCMD_IDENTIFY | 0x80u), out, BOOT_IDENTITY_LEN);
 }
 
@@ -581,10 +585,10 @@ static void execute(boot_t *b, uint8_t seq, uint8_t cmd, const uint8_t *pl, uint
     uint8_t none[1] = {0u};
     switch (cmd) {
     case BCMD_IDENTIFY:
-        if (len != 0u) {
+        if (len != 0u && len != 4u) {
             nak(b, seq, cmd, PERR_LENGTH, 0u);
         } else {
-            c_identify(b, seq);
+            c_identify(b, seq, pl, len);
         }
         return;
     case BCMD_ERASE:
@@ -711,6 +715,7 @@ void boot_init(boot_t *b, void (*send)(const uint8_t *data, uint16_t n))
     b->last_crc = 0u;
     b->last_len = 0u;
     b->executed = 0u;
+    b->mark = 0u;
     b->after = BOOT_AFTER_NONE;
     b->serial = read_serial();
     b->app_status = boot_app_check(&b->app);

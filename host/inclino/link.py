@@ -46,6 +46,9 @@ class LinkStats:
     log: list = field(default_factory=list)
 
 
+FLASH_EXTRA_S = 0.5  # flash commands may take this much longer than other answers
+
+
 class ProbeLink:
     def __init__(self, port: str, baud: int = 115200, timeout: float = 0.5, retries: int = 4):
         import serial  # pyserial
@@ -171,18 +174,18 @@ class ProbeLink:
         self.request("QCREF_WRITE", protocol.QCREF.pack(*values))
 
     def cal_read(self, slot: int) -> tuple[int, bool, int, bytes]:
-        p = self.request("CAL_READ", bytes([slot]), timeout=max(self.timeout, 1.0))
+        p = self.request("CAL_READ", bytes([slot]))
         if len(p) < 6:
             raise ProbeError("short CAL_READ answer")
         s, valid, seqn = struct.unpack(">BBI", p[:6])
         return s, bool(valid), seqn, p[6:]
 
     def cal_write(self, image: bytes, force: bool = False) -> tuple[int, int, int]:
-        p = self.request("CAL_WRITE", bytes([1 if force else 0]) + image, timeout=max(self.timeout, 3.0))
+        p = self.request("CAL_WRITE", bytes([1 if force else 0]) + image, timeout=self.timeout + FLASH_EXTRA_S)
         return struct.unpack(">BIH", p)
 
     def cal_activate(self, slot: int, sequence: int) -> tuple[int, int]:
-        p = self.request("CAL_ACTIVATE", struct.pack(">BI", slot, sequence), timeout=max(self.timeout, 3.0))
+        p = self.request("CAL_ACTIVATE", struct.pack(">BI", slot, sequence), timeout=self.timeout + FLASH_EXTRA_S)
         return struct.unpack(">BI", p)
 
     def reset(self) -> None:

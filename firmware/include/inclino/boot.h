@@ -109,7 +109,7 @@ typedef struct {
 
 #define BOOT_E_PROTECTED 12u /* negative answer code: the range is protected */
 #define BOOT_MAX_DATA 192u   /* data bytes per PROGRAM / READ: 24 phrases */
-#define BOOT_IDENTITY_LEN 74u
+#define BOOT_IDENTITY_LEN 78u
 
 /* boot_after / boot_main_restart_requested */
 #define BOOT_AFTER_NONE 0u
@@ -133,6 +133,7 @@ typedef struct {
     boot_app_t app;
     uint32_t serial;   /* probe serial from the identity record, 0 if none */
     uint32_t executed; /* requests executed since boot_init (retries not counted) */
+    uint32_t mark;     /* the host's mark (IDENTIFY), 0 after boot_init: tells a restart */
     uint8_t after;
 } boot_t;
 

@@ -28,7 +28,7 @@
 #define PCMD_RESET 0x20u
 #define PCMD_BOOTLOADER 0x21u
 #define PCMD_NAK 0x7Fu
-#define PCMD_STREAM_FRAME 0x90u
+#define PCMD_STREAM_FRAME 0x70u /* not a request (those are < 0x70) nor an answer (>= 0x80) */
 
 #define PERR_CRC 1u
 #define PERR_LENGTH 2u
@@ -109,7 +109,7 @@ void proto_idle(proto_t *p);
 
 /*
  * proto_tick - run the survey stream: when now_ms has reached the next due
- *   time, send one 0x90 frame.  Call it from the main loop.
+ *   time, send one 0x70 frame.  Call it from the main loop.
  */
 void proto_tick(proto_t *p, uint32_t now_ms);
 

@@ -1,0 +1,182 @@
+"""Calibration download and verify over the probe's serial link.
+
+download: check the file, check the probe serial, write the image into the
+inactive flash slot, read it back and compare, activate, and confirm with
+IDENTIFY.  Nothing is written when the file is refused; a failure part-way
+leaves the probe on its previous calibration (the probe only switches at the
+activation, docs/flash.md).  A broken exchange is retried from the start once
+(`attempts`), and the result says what happened.
+
+verify: the stored bytes are the file's, and the probe's corrected output on
+raw readings it takes now equals, bit for bit, what the host predicts from the
+file through the same firmware C (inclino.core).
+"""
+from __future__ import annotations
+
+import json
+import time
+from dataclasses import asdict, dataclass, field
+
+from inclino import core, protocol
+from inclino.calfile import Calibration
+from inclino.calimage import CRC_OFFSET, SIZE, CalImage
+from inclino.errors import CalibrationError
+from inclino.link import ProbeError, ProbeLink, ProbeNak
+
+COEF = slice(20, CRC_OFFSET)  # the coefficient bytes of an image
+SLOT_NAMES = {0: "A", 1: "B", 0xFF: "none"}
+
+
+def _serial_of(cal: Calibration) -> int | None:
+    s = str(cal.probe_serial or "").strip()
+    if not s:
+        return None
+    try:
+        v = int(s, 0)
+    except ValueError:
+        raise CalibrationError(f"probe serial {s!r} in the calibration file is not a number")
+    if not 0 <= v < 2**32:
+        raise CalibrationError(f"probe serial {v} does not fit 32 bits")
+    return v
+
+
+def build_image(cal: Calibration, probe_serial: int, when: int | None = None) -> bytes:
+    """The 120-byte image for this probe (docs: calimg.h)."""
+    method = cal.method if cal.method in ("identity", "ren2014", "li2021", "guo2009", "joint") else "joint"
+    t = int(time.time()) if when is None else int(when)
+    return CalImage(cal.to_fixed(), probe_serial, t, method).pack()
+
+
+@dataclass
+class DownloadResult:
+    ok: bool
+    slot: str = ""
+    sequence: int = 0
+    image_crc: int = 0
+    attempts: int = 0
+    retries: int = 0
+    events: list = field(default_factory=list)
+
+    def to_json(self) -> str:
+        return json.dumps(asdict(self), indent=2)
+
+
+def download(link: ProbeLink, cal: Calibration, force: bool = False, when: int | None = None,
+             attempts: int = 2, progress=None) -> DownloadResult:
+    """Write, read back, activate and confirm a calibration.  Raises
+    CalibrationError (nothing written) for a refused file, ProbeError when
+    the probe cannot be reached or the last attempt failed."""
+    cal.check()
+    file_serial = _serial_of(cal)
+    res = DownloadResult(ok=False)
+    step = progress or (lambda name: None)
+    last_err: Exception | None = None
+    r0 = link.stats.retries
+    for attempt in range(1, attempts + 1):
+        res.attempts = attempt
+        try:
+            step("identify")
+            ident = link.identify()
+            if file_serial is not None and file_serial != ident.serial and not force:
+                raise CalibrationError(f"the file is for probe {file_serial}, this probe is {ident.serial}; "
+                                       "nothing written (use --force to override)")
+            image = build_image(cal, file_serial if file_serial is not None else ident.serial, when)
+            step("write")
+            try:
+                slot, seq, crc = link.cal_write(image, force=force)
+            except ProbeNak as e:
+                if e.code == 10:
+                    raise CalibrationError("the probe refused the file: it is for another probe serial; "
+                                           "nothing written (use --force to override)")
+                if e.code == 9:
+                    raise CalibrationError(f"the probe refused the image (check code {e.detail}); nothing written")
+                raise
+            step("read back")
+            rslot, _valid, rseq, stored = link.cal_read(slot)
+            if rslot != slot or rseq != seq or stored != image:
+                res.events.append(f"read-back of slot {SLOT_NAMES.get(slot)} differs: not activated")
+                raise ProbeError("the calibration read back from the probe differs from what was sent; "
+                                 "the probe keeps its previous calibration")
+            step("activate")
+            aslot, aseq = link.cal_activate(slot, seq)
+            step("confirm")
+            ident = link.identify()
+            if (ident.cal_slot, ident.cal_sequence) != (slot, seq) or ident.cal_crc != int.from_bytes(
+                    image[CRC_OFFSET:CRC_OFFSET + 2], "big"):
+                raise ProbeError("after activation the probe does not report the new calibration")
+            res.ok, res.slot, res.sequence, res.image_crc = True, SLOT_NAMES.get(slot, str(slot)), seq, crc
+            if attempt > 1:
+                res.events.append(f"attempt {attempt} succeeded")
+            res.retries = link.stats.retries - r0
+            return res
+        except CalibrationError:
+            raise
+        except ProbeNak as e:
+            res.events.append(f"attempt {attempt}: {e}")
+            last_err = e
+            if e.code != 11:  # E_STATE (e.g. the probe restarted between write and activate): retry
+                break
+        except ProbeError as e:
+            res.events.append(f"attempt {attempt}: {e}")
+            last_err = e
+    res.retries = link.stats.retries - r0
+    raise ProbeError(f"calibration download failed after {res.attempts} attempt(s): {last_err}; "
+                     "the probe keeps the calibration it reports with `inclino identify`") from None
+
+
+@dataclass
+class VerifyResult:
+    storage_ok: bool
+    correction_ok: bool
+    slot: str
+    sequence: int
+    checks: int
+    mismatches: list = field(default_factory=list)
+
+    @property
+    def ok(self) -> bool:
+        return self.storage_ok and self.correction_ok
+
+    def to_json(self) -> str:
+        return json.dumps({**asdict(self), "ok": self.ok}, indent=2)
+
+
+def survey_with_raw(link: ProbeLink) -> tuple[protocol.SurveyRecord, protocol.RawRecord]:
+    p = link.request("SURVEY_RAW", timeout=max(link.timeout, 2.0))
+    n = protocol.SurveyRecord.FMT.size
+    return protocol.SurveyRecord.unpack(p[:n]), protocol.RawRecord.unpack(p[n:])
+
+
+def verify(link: ProbeLink, cal: Calibration, surveys: int = 3) -> VerifyResult:
+    cal.check()
+    fixed = cal.to_fixed()
+    ident = link.identify()
+    res = VerifyResult(False, False, SLOT_NAMES.get(ident.cal_slot, "?"), ident.cal_sequence, 0)
+    if ident.cal_slot == 0xFF:
+        res.mismatches.append("the probe runs the identity calibration: no calibration is active")
+    else:
+        slot, valid, _seq, stored = link.cal_read(ident.cal_slot)
+        want = CalImage(fixed, 0, 0, "joint").pack()
+        if not valid:
+            res.mismatches.append(f"slot {res.slot} is not valid")
+        elif len(stored) != SIZE or stored[COEF] != want[COEF]:
+            res.mismatches.append(f"the coefficients stored in slot {res.slot} are not the file's")
+        else:
+            try:
+                CalImage.unpack(stored)
+                res.storage_ok = True
+            except CalibrationError as e:
+                res.mismatches.append(f"slot {res.slot}: {e}")
+    ok = True
+    for _ in range(surveys):
+        s, r = survey_with_raw(link)
+        want = core.survey_one([r.ax, r.ay, r.az], [r.mx, r.my, r.mz], fixed)
+        res.checks += 1
+        got = {"inc": s.inc, "azi": s.azi, "gtf": s.gtf, "mtf": s.mtf, "gt": s.gt, "bt": s.bt, "dip": s.dip,
+               "flags": s.flags}
+        for k, v in got.items():
+            if int(want[k]) != int(v):
+                ok = False
+                res.mismatches.append(f"{k}: probe {v}, file predicts {int(want[k])} (raw {r})")
+    res.correction_ok = ok
+    return res

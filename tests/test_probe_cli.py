@@ -1,0 +1,180 @@
+"""The technician's commands against the emulated probe over its
+pseudo-terminal: identify, survey (table, CSV, JSON, LAS), download and
+verify, refusals that write nothing, and a download that survives a noisy
+line, a disconnect and a power cut at every flash step."""
+import json
+
+import numpy as np
+import pytest
+
+from inclino import cli
+from inclino.calfile import Calibration
+from inclino.link import ProbeLink
+from inclino_emu.control import ControlClient
+from inclino_emu.runner import Emulator
+
+
+@pytest.fixture(scope="module")
+def emu():
+    e = Emulator("typical", control_port=0, realtime=False).start()
+    yield e
+    e.stop()
+
+
+@pytest.fixture
+def ctl(emu):
+    c = ControlClient(port=emu.control_port)
+    c.call("faults", bit_error_rate=0.0, drop_rate=0.0, dup_rate=0.0, disconnected=False)
+    yield c
+    c.call("faults", bit_error_rate=0.0, drop_rate=0.0, dup_rate=0.0, disconnected=False)
+    c.close()
+
+
+def inverse_cal(scn, serial=None, scale=1.0) -> Calibration:
+    """The calibration that undoes the scenario's linear sensor model."""
+    def tri(model):
+        A, c = model.linear()
+        return (np.linalg.inv(A) * scale).tolist(), list(map(float, c))
+    am, ab = tri(scn.acc)
+    mm, mb = tri(scn.mag)
+    return Calibration(acc_m=am, acc_b=ab, mag_m=mm, mag_b=mb, method="joint",
+                       probe_serial=str(scn.serial if serial is None else serial))
+
+
+def run(capsys, *argv):
+    rc = cli.main(list(argv))
+    out, err = capsys.readouterr()
+    return rc, out, err
+
+
+def test_identify_and_survey_formats(emu, ctl, capsys, tmp_path):
+    ctl.call("move", inc=30, azi=120, tf=45)
+    rc, out, _ = run(capsys, "identify", "--port", emu.path, "--json")
+    assert rc == 0 and json.loads(out)["product"] == "INCLINO-PROBE"
+    rc, out, _ = run(capsys, "survey", "--port", emu.path, "--count", "3", "--format", "csv")
+    lines = out.strip().splitlines()
+    assert rc == 0 and lines[0].startswith("t_s,inc_deg,azi_deg") and len(lines) == 4
+    rc, out, _ = run(capsys, "survey", "--port", emu.path, "--format", "json")
+    d = json.loads(out)
+    assert abs(d["inc_deg"] - 30) < 5 and d["qc_verdict"] in ("PASS",) or d["qc_verdict"].startswith("FAIL")
+    las = tmp_path / "run.las"
+    rc, out, _ = run(capsys, "survey", "--port", emu.path, "--stream", "--period", "20", "--count", "5",
+                     "--las", str(las))
+    assert rc == 0 and len(out.strip().splitlines()) == 6  # header + 5 rows
+    import lasio
+
+    log = lasio.read(str(las))
+    assert log.index.size == 5 and set(["INC", "AZI", "GTF", "GTOT", "BTOT", "DIP"]) <= set(log.keys())
+    assert np.all(np.diff(log.index) > 0) and abs(log["INC"][0] - 30) < 5
+
+
+def test_download_verify_and_the_correction(emu, ctl, capsys, tmp_path):
+    scn = emu.probe.scenario
+    cal = inverse_cal(scn)
+    f = tmp_path / "cal.json"
+    f.write_text(cal.to_json())
+    rc, out, _ = run(capsys, "download", "--port", emu.path, str(f), "--quiet")
+    assert rc == 0 and out.startswith("downloaded: slot")
+    rc, out, _ = run(capsys, "verify", "--port", emu.path, str(f), "--json")
+    v = json.loads(out)
+    assert rc == 0 and v["storage_ok"] and v["correction_ok"] and v["checks"] == 3
+    # the probe is now calibrated: surveys are near the turntable pose
+    ctl.call("move", inc=45, azi=200, tf=300)
+    rc, out, _ = run(capsys, "survey", "--port", emu.path, "--format", "json")
+    d = json.loads(out)
+    assert abs(d["inc_deg"] - 45) < 0.1 and abs(d["azi_deg"] - 200) < 0.5
+    # another file does not verify, and says why
+    other = inverse_cal(scn, scale=1.01)
+    g = tmp_path / "other.json"
+    g.write_text(other.to_json())
+    rc, out, _ = run(capsys, "verify", "--port", emu.path, str(g))
+    assert rc == 1 and "FAIL" in out and "not the file's" in out
+
+
+def _active(emu):
+    with ProbeLink(emu.path, timeout=2.0) as link:
+        i = link.identify()
+    return i.cal_slot, i.cal_sequence, i.cal_crc
+
+
+def test_refusals_write_nothing(emu, ctl, capsys, tmp_path):
+    before = _active(emu)
+    scn = emu.probe.scenario
+    wrong = tmp_path / "wrong.json"
+    wrong.write_text(inverse_cal(scn, serial=scn.serial + 1).to_json())
+    rc, _, err = run(capsys, "download", "--port", emu.path, str(wrong), "--quiet")
+    assert rc == 3 and "another probe" in err or "is for probe" in err
+    assert err.count("\n") == 1 and _active(emu) == before
+    corrupt = tmp_path / "corrupt.json"
+    corrupt.write_text('{"format": 1, "acc_m": [[1, 0')
+    rc, _, err = run(capsys, "download", "--port", emu.path, str(corrupt))
+    assert rc == 3 and "not valid JSON" in err and _active(emu) == before
+    singular = json.loads(inverse_cal(scn).to_json())
+    singular["mag_m"] = [[1, 0, 0], [1, 0, 0], [0, 0, 1]]
+    singular.pop("fixed", None)
+    s = tmp_path / "singular.json"
+    s.write_text(json.dumps(singular))
+    rc, _, err = run(capsys, "download", "--port", emu.path, str(s))
+    assert rc == 3 and "singular" in err and _active(emu) == before
+    rc, _, err = run(capsys, "identify", "--port", str(tmp_path / "no-such-port"))
+    assert rc == 4 and "cannot open port" in err
+    # --force accepts the other serial's file
+    rc, _, _ = run(capsys, "download", "--port", emu.path, str(wrong), "--force", "--quiet")
+    assert rc == 0 and _active(emu) != before
+
+
+def test_download_on_a_noisy_line(emu, ctl, capsys, tmp_path):
+    f = tmp_path / "cal.json"
+    f.write_text(inverse_cal(emu.probe.scenario).to_json())
+    ctl.call("faults", bit_error_rate=1e-4, drop_rate=1e-4, dup_rate=1e-4, seed=11)
+    for _ in range(3):
+        rc, out, err = run(capsys, "download", "--port", emu.path, str(f), "--quiet", "--json")
+        assert rc == 0, err
+        assert json.loads(out)["ok"] is True
+    rc, out, _ = run(capsys, "verify", "--port", emu.path, str(f))
+    assert rc == 0
+
+
+def test_disconnect_mid_download_then_retry(emu, ctl, capsys, tmp_path):
+    f = tmp_path / "cal.json"
+    f.write_text(inverse_cal(emu.probe.scenario, scale=0.999).to_json())
+    before = _active(emu)
+    ctl.call("faults", disconnected=True)
+    rc, _, err = run(capsys, "download", "--port", emu.path, str(f), "--quiet", "--timeout", "0.3")
+    assert rc == 4 and "no answer from the probe" in err and "keeps the calibration" in err
+    ctl.call("faults", disconnected=False)
+    assert _active(emu) == before  # nothing changed
+    rc, out, _ = run(capsys, "download", "--port", emu.path, str(f), "--quiet")
+    assert rc == 0 and _active(emu) != before
+
+
+def test_power_cut_at_every_flash_step_of_a_download(emu, ctl, capsys, tmp_path):
+    """Cut the power at the n-th flash program/erase of a download, for every
+    n: the probe always comes back on the old or the new calibration, never a
+    mixed one, and a second download succeeds."""
+    scn = emu.probe.scenario
+    old = tmp_path / "old.json"
+    new = tmp_path / "new.json"
+    old.write_text(inverse_cal(scn, scale=1.002).to_json())
+    new.write_text(inverse_cal(scn, scale=0.998).to_json())
+    assert run(capsys, "download", "--port", emu.path, str(old), "--quiet")[0] == 0
+    old_state = _active(emu)
+    n_ops = 18  # 1 erase + 16 programs + 1 commit (docs/flash.md)
+    for n in range(1, n_ops + 1):
+        assert run(capsys, "download", "--port", emu.path, str(old), "--quiet")[0] == 0
+        before = _active(emu)
+        ctl.call("power_cut", n=n, mode="random")
+        rc, out, err = run(capsys, "download", "--port", emu.path, str(new), "--quiet", "--json",
+                           "--timeout", "0.1")
+        after = _active(emu)
+        # verify against whichever file the probe now reports
+        rc_old = run(capsys, "verify", "--port", emu.path, str(old), "--surveys", "1")[0]
+        rc_new = run(capsys, "verify", "--port", emu.path, str(new), "--surveys", "1")[0]
+        assert (rc_old, rc_new) in ((0, 1), (1, 0)), (n, rc, err)
+        if rc == 0:
+            assert rc_new == 0 and json.loads(out)["ok"]
+        else:
+            assert "failed" in err or "no answer" in err
+        assert after != (0xFF, 0, 0)
+    assert ctl.call("status")["power_cuts"] >= n_ops
+    assert old_state[2] != 0
