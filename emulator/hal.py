@@ -26,6 +26,11 @@ anything; EmulatedProbe then restarts the firmware.
 An exception inside a callback cannot cross the C stack: it is stored in
 Board.error (the first one) and the callback returns a safe value;
 EmulatedProbe re-raises it when the C call returns.
+
+Cost: a survey makes ~1700 callbacks, so each one is kept to a single
+Python call: `attach(board)` binds the 13 `hal_*` externs directly to the
+board's bound methods (once per board change), and the methods do their
+work inline.
 """
 from __future__ import annotations
 
@@ -45,6 +50,7 @@ HAL_FLASH_E_PROTECT = 2
 HAL_FLASH_E_VERIFY = 3
 HAL_FLASH_E_TIMEOUT = 4
 HAL_SCI_RX_BUF = 64
+HAL_SCI_TX_BUF = 128
 
 SPI_HZ = 781250.0
 
@@ -76,14 +82,16 @@ class SciPort:
     the line and is never lost.
 
     Probe -> host: hal_sci_putc hands a byte to the transmitter; with a
-    baud rate the transmitter holds `tx_depth` bytes (2: data register and
-    shift register) and each byte leaves 10 bit times after the previous
-    one; when it is full putc reports 0.  Unthrottled, every byte leaves at
+    baud rate the transmitter holds `tx_depth` bytes (the HAL's
+    interrupt-emptied ring of HAL_SCI_TX_BUF bytes, less the one slot a ring
+    keeps free, plus the data and shift registers) and each byte leaves 10
+    bit times after the previous one, whatever the firmware is doing; when
+    it is full putc reports 0.  Unthrottled, every byte leaves at
     once.  `pull()` returns the bytes that have left by clock.now.
     """
 
     def __init__(self, clock, baud: Optional[float] = None, rx_capacity: int = HAL_SCI_RX_BUF,
-                 tx_depth: int = 2):
+                 tx_depth: int = HAL_SCI_TX_BUF + 1):
         self.clock = clock
         self.baud = baud
         self.rx_capacity = rx_capacity
@@ -168,7 +176,9 @@ class SciPort:
 
 
 class Board:
-    """Everything the HAL of one emulated probe reaches."""
+    """Everything the HAL of one emulated probe reaches.  Its methods are
+    the HAL callbacks (`attach`); each frame or wait advances the clock
+    exactly as Clock.advance would (same additions, in the same order)."""
 
     def __init__(self, clock, adis, adc, flash: fl.S12XFlash, sci: SciPort, spi_hz: float = SPI_HZ):
         self.clock = clock
@@ -179,18 +189,29 @@ class Board:
         self.bit_s = 1.0 / spi_hz
         self.selected = None
         self.error: Optional[BaseException] = None
-        self.calls = 0          # HAL callbacks made (cost accounting)
-        self.spi_frames = 0
+
+    @property
+    def bit_s(self) -> float:
+        return self._bit_s
+
+    @bit_s.setter
+    def bit_s(self, v: float):
+        self._bit_s = v
+        self._t8 = 8 * v        # one byte frame
+        self._t16 = 16 * v      # one word frame
 
     @property
     def dead(self) -> bool:
         return not self.flash.powered
 
     # ---- the HAL ----------------------------------------------------------
+    def init(self):
+        pass
+
     def spi_select(self, dev):
         if self.selected == HAL_DEV_ADC and dev != HAL_DEV_ADC:
             self.adc.cs_high()
-        self.selected = dev if dev in (HAL_DEV_ADIS, HAL_DEV_ADC) else None
+        self.selected = dev if dev == HAL_DEV_ADIS or dev == HAL_DEV_ADC else None
 
     def spi_deselect(self):
         if self.selected == HAL_DEV_ADC:
@@ -198,37 +219,37 @@ class Board:
         self.selected = None
 
     def spi_xfer16(self, out):
-        self.spi_frames += 1
         r = 0xFFFF
-        if not self.dead:
-            if self.selected == HAL_DEV_ADIS:
+        if self.flash.powered:
+            sel = self.selected
+            if sel == HAL_DEV_ADIS:
                 r = self.adis.transfer16(out)
-            elif self.selected == HAL_DEV_ADC:
+            elif sel == HAL_DEV_ADC:
                 self.adc.cs_high()      # 16 clocks into a byte-command part: the command is lost
-        self.clock.advance(16 * self.bit_s)
+        self.clock.now += self._t16
         return r & 0xFFFF
 
     def spi_xfer8(self, out):
-        self.spi_frames += 1
         r = 0xFF
-        if not self.dead:
-            if self.selected == HAL_DEV_ADC:
+        if self.flash.powered:
+            sel = self.selected
+            if sel == HAL_DEV_ADC:
                 r = self.adc.transfer8(out)
-            elif self.selected == HAL_DEV_ADIS:
+            elif sel == HAL_DEV_ADIS:
                 self.adis.frame_error()  # 8 clocks under CS: malformed frame
-        self.clock.advance(8 * self.bit_s)
+        self.clock.now += self._t8
         return r & 0xFF
 
     def adc_drdy(self):
-        if self.dead:
+        if not self.flash.powered:
             return 1
         return 1 if self.adc.drdy() else 0
 
     def millis(self):
-        return int(math.floor(self.clock.now * 1000.0 + 1e-9)) & 0xFFFFFFFF
+        return math.floor(self.clock.now * 1000.0 + 1e-9) & 0xFFFFFFFF
 
     def delay_us(self, us):
-        self.clock.advance(us * 1e-6)
+        self.clock.now += us * 1e-6
 
     def sci_getc(self):
         return -1 if self.dead else self.sci.getc()
@@ -256,15 +277,10 @@ class Board:
 
 _board: Optional[Board] = None
 
-
-def attach(board: Optional[Board]):
-    """Bind the HAL callbacks to `board` (None: detach)."""
-    global _board
-    _board = board
-
-
-def current() -> Optional[Board]:
-    return _board
+# the HAL functions of hal.h and the Board methods behind them
+HAL_FUNCTIONS = ("init", "spi_select", "spi_deselect", "spi_xfer16", "spi_xfer8", "adc_drdy",
+                 "millis", "delay_us", "sci_getc", "sci_putc", "flash_read", "flash_program",
+                 "flash_erase")
 
 
 def _onerror(exc_type, exc_value, tb):
@@ -272,76 +288,31 @@ def _onerror(exc_type, exc_value, tb):
         _board.error = exc_value if exc_value is not None else exc_type()
 
 
-def _b() -> Board:
-    if _board is None:
-        raise RuntimeError("no emulated board attached to the firmware HAL")
-    _board.calls += 1
+def _unattached(*args):
+    raise RuntimeError("no emulated board attached to the firmware HAL")
+
+
+def _bind(board: Optional[Board]):
+    for name in HAL_FUNCTIONS:
+        fn = _unattached if board is None else getattr(board, name)
+        ffi.def_extern(name="hal_" + name, onerror=_onerror)(fn)
+
+
+def attach(board: Optional[Board]):
+    """Bind the HAL callbacks to `board` (None: detach).  Cheap when
+    `board` is already attached."""
+    global _board
+    if board is _board:
+        return
+    _board = board
+    _bind(board)
+
+
+def current() -> Optional[Board]:
     return _board
 
 
-@ffi.def_extern(onerror=_onerror)
-def hal_init():
-    _b()
-
-
-@ffi.def_extern(onerror=_onerror)
-def hal_spi_select(dev):
-    _b().spi_select(dev)
-
-
-@ffi.def_extern(onerror=_onerror)
-def hal_spi_deselect():
-    _b().spi_deselect()
-
-
-@ffi.def_extern(onerror=_onerror)
-def hal_spi_xfer16(out):
-    return _b().spi_xfer16(out)
-
-
-@ffi.def_extern(onerror=_onerror)
-def hal_spi_xfer8(out):
-    return _b().spi_xfer8(out)
-
-
-@ffi.def_extern(onerror=_onerror)
-def hal_adc_drdy():
-    return _b().adc_drdy()
-
-
-@ffi.def_extern(onerror=_onerror)
-def hal_millis():
-    return _b().millis()
-
-
-@ffi.def_extern(onerror=_onerror)
-def hal_delay_us(us):
-    _b().delay_us(us)
-
-
-@ffi.def_extern(onerror=_onerror)
-def hal_sci_getc():
-    return _b().sci_getc()
-
-
-@ffi.def_extern(onerror=_onerror)
-def hal_sci_putc(byte):
-    return _b().sci_putc(byte)
-
-
-@ffi.def_extern(onerror=_onerror)
-def hal_flash_read(addr, dst, n):
-    return _b().flash_read(addr, dst, n)
-
-
-@ffi.def_extern(onerror=_onerror)
-def hal_flash_program(addr, data):
-    return _b().flash_program(addr, data)
-
-
-@ffi.def_extern(onerror=_onerror)
-def hal_flash_erase(addr):
-    return _b().flash_erase(addr)
+_bind(None)
 
 
 __all__ = ["Board", "SciPort", "attach", "current", "ffi", "lib", "fstat_to_hal"]

@@ -182,14 +182,18 @@ def test_sci_queues_through_the_c_hal():
     assert lib.hal_sci_getc() == ord("A") and lib.hal_sci_getc() == -1
     p.clock.advance(bt)
     assert lib.hal_sci_getc() == ord("B")
-    # the transmitter holds two bytes; then putc reports it full
-    assert [lib.hal_sci_putc(c) for c in b"xyz"] == [1, 1, 0]
+    # the transmitter (the HAL's interrupt-emptied ring and the SCI's data and
+    # shift registers) holds HAL_SCI_TX_BUF + 1 bytes; then putc reports it full
+    from inclino_emu.hal import HAL_SCI_TX_BUF
+    depth = HAL_SCI_TX_BUF + 1
+    data = bytes(i & 0xFF for i in range(depth + 1))
+    assert [lib.hal_sci_putc(c) for c in data] == [1] * depth + [0]
     assert p.sci_pull() == b""
     p.clock.advance(bt)
-    assert p.sci_pull() == b"x"
-    assert lib.hal_sci_putc(ord("z")) == 1
-    p.clock.advance(3 * bt)
-    assert p.sci_pull() == b"yz"
+    assert p.sci_pull() == data[:1]                # one byte time: one byte has left
+    assert lib.hal_sci_putc(data[-1]) == 1         # and there is room for one more
+    p.clock.advance((depth + 1) * bt)
+    assert p.sci_pull() == data[1:]                # the rest left at the line rate, in order
 
 
 def test_sci_receive_buffer_overrun_is_counted():

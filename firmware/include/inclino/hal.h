@@ -85,9 +85,12 @@ void hal_delay_us(uint16_t us);
 /* ---- SCI (the serial link to the PC) -------------------------------------
  * Byte queues: received bytes wait in a receive buffer (interrupt-filled on
  * the probe, HAL_SCI_RX_BUF bytes; bytes arriving on a full buffer are
- * lost and counted by the HAL), transmitted bytes go to the transmitter.
- * Line settings (baud, 8N1) belong to the HAL (hal_init). */
+ * lost and counted by the HAL); transmitted bytes wait in a transmit buffer
+ * of HAL_SCI_TX_BUF bytes that the transmit interrupt empties at the line
+ * rate, so the line stays busy while the firmware acquires.  Line settings
+ * (baud, 8N1) belong to the HAL (hal_init). */
 #define HAL_SCI_RX_BUF 64u
+#define HAL_SCI_TX_BUF 128u
 
 /*
  * hal_sci_getc - next received byte, 0..255, or -1 when none is waiting.

@@ -64,6 +64,9 @@ static volatile uint8_t rx_ring[HAL_SCI_RX_BUF];
 static volatile uint8_t rx_head; /* written by the ISR only */
 static volatile uint8_t rx_tail; /* written by hal_sci_getc only */
 static volatile uint16_t rx_lost;
+static volatile uint8_t tx_ring[HAL_SCI_TX_BUF];
+static volatile uint8_t tx_head; /* written by hal_sci_putc only */
+static volatile uint8_t tx_tail; /* written by the ISR only */
 static uint8_t spi_dev = 0xFFu;
 
 void hal_init(void)
@@ -112,20 +115,30 @@ S12X_ISR void hal_s12x_pit0_isr(void)
 S12X_ISR void hal_s12x_sci0_isr(void)
 {
     uint8_t st = SCI0SR1; /* reading SR1 then DRL clears RDRF and OR */
-    uint8_t b = SCI0DRL;
-    uint8_t next = (uint8_t)((rx_head + 1u) % HAL_SCI_RX_BUF);
-    if ((st & SCI_SR1_OR) != 0u) {
-        rx_lost = (uint16_t)(rx_lost + 1u);
+    if ((st & (SCI_SR1_RDRF | SCI_SR1_OR)) != 0u) {
+        uint8_t b = SCI0DRL;
+        uint8_t next = (uint8_t)((rx_head + 1u) % HAL_SCI_RX_BUF);
+        if ((st & SCI_SR1_OR) != 0u) {
+            rx_lost = (uint16_t)(rx_lost + 1u);
+        }
+        if ((st & SCI_SR1_RDRF) != 0u) {
+            if (next == rx_tail) {
+                rx_lost = (uint16_t)(rx_lost + 1u);
+            } else {
+                rx_ring[rx_head] = b;
+                rx_head = next;
+            }
+        }
     }
-    if ((st & SCI_SR1_RDRF) == 0u) {
-        return;
+    /* transmit: TDRE with TIE set -> next byte of the ring, or stop asking */
+    if ((st & SCI_SR1_TDRE) != 0u && (SCI0CR2 & SCI_CR2_TIE) != 0u) {
+        if (tx_tail != tx_head) {
+            SCI0DRL = tx_ring[tx_tail];
+            tx_tail = (uint8_t)((tx_tail + 1u) % HAL_SCI_TX_BUF);
+        } else {
+            SCI0CR2 = (uint8_t)(SCI0CR2 & (uint8_t)~SCI_CR2_TIE);
+        }
     }
-    if (next == rx_tail) {
-        rx_lost = (uint16_t)(rx_lost + 1u);
-        return;
-    }
-    rx_ring[rx_head] = b;
-    rx_head = next;
 }
 
 /* ---- SPI ------------------------------------------------------------------ */
@@ -240,10 +253,13 @@ int16_t hal_sci_getc(void)
 
 uint8_t hal_sci_putc(uint8_t byte)
 {
-    if ((SCI0SR1 & SCI_SR1_TDRE) == 0u) {
-        return 0u;
+    uint8_t next = (uint8_t)((tx_head + 1u) % HAL_SCI_TX_BUF);
+    if (next == tx_tail) {
+        return 0u; /* ring full */
     }
-    SCI0DRL = byte;
+    tx_ring[tx_head] = byte;
+    tx_head = next;
+    SCI0CR2 = (uint8_t)(SCI0CR2 | SCI_CR2_TIE); /* the ISR sends it */
     return 1u;
 }
 

@@ -32,6 +32,7 @@
 #define SCI0SR2 REG8(0x00CDu)
 #define SCI0DRH REG8(0x00CEu)
 #define SCI0DRL REG8(0x00CFu)
+#define SCI_CR2_TIE 0x80u
 #define SCI_CR2_RIE 0x20u
 #define SCI_CR2_TE 0x08u
 #define SCI_CR2_RE 0x04u
