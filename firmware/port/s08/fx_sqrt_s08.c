@@ -9,13 +9,14 @@
  * so far):
  *   rem = 4 rem + (next two bits of x); if rem > T: rem -= T + 1, bit = 1;
  *   T = 2 T + 4 bit                              (16 steps, y = T / 4)
- * (r <= 2y < 2^17 and T < 2^18 fit three bytes), about 95 bus cycles a step
- * instead of about 240 in SDCC's code for the 32-bit bitwise method.
- * fx_sqrt_u32_q8 then follows the C step for step: the same normalisation
- * x' = x * 4^k (whole bytes first), q = floor((256 r + y) / (2y + 1)) by the
- * same 9 restoring steps (the numerator shifted left instead of the divisor
- * right: the same quotient), s = 256 y + q and round(s / 2^k) half up,
- * computed as ((s >> (k - 1)) + 1) >> 1.
+ * (r <= 2y < 2^17 and T < 2^18 fit three bytes; the first 4 steps need one
+ * byte, the next 8 two), 40 to 95 bus cycles a step instead of about 240
+ * in SDCC's code for the 32-bit bitwise method.  fx_sqrt_u32_q8 then
+ * follows the C: the same normalisation x' = x * 4^k (whole bytes first),
+ * the same exact q = floor((256 r + y) / (2y + 1)) (an estimate from the
+ * S08's 16 / 8 DIV, corrected by at most a few steps, instead of 9
+ * restoring steps), s = 256 y + q and round(s / 2^k) half up, computed as
+ * ((s >> (k - 1)) + 1) >> 1.
  *
  * Built only by SDCC for hc08/s08 with --stack-auto, the core compiled with
  * -DFX_PORT_SQRT (host/inclino/mcu.py).  Reentrant calling convention: x at
@@ -77,14 +78,73 @@ fx_sq_core:
     sta     *_fx_sq_t
     sta     *(_fx_sq_t + 1)
     sta     *(_fx_sq_t + 2)
+    ; steps 1 to 4 (the bits of x0) on one byte: rem < 2^6, T < 2^7
+    ldx     #4
+    stx     *_fx_sq_n
     lda     *_fx_sq_x
-    bsr     fx_sq_byte
+1$:
+    lsla
+    rol     *(_fx_sq_r + 2)
+    lsla
+    rol     *(_fx_sq_r + 2)
+    tax                         ; the bits still to come
+    sec
+    lda     *(_fx_sq_r + 2)
+    sbc     *(_fx_sq_t + 2)
+    bcs     2$
+    sta     *(_fx_sq_r + 2)
+    lsl     *(_fx_sq_t + 2)
+    bset    #2,*(_fx_sq_t + 2)
+    txa
+    dbnz    *_fx_sq_n,1$
+    bra     3$
+2$:
+    lsl     *(_fx_sq_t + 2)
+    txa
+    dbnz    *_fx_sq_n,1$
+3$:
+    ; steps 5 to 12 (the bits of x1, x2) on two bytes: rem < 2^14, T < 2^13
     lda     *(_fx_sq_x + 1)
-    bsr     fx_sq_byte
+    bsr     fx_sq_two
     lda     *(_fx_sq_x + 2)
-    bsr     fx_sq_byte
+    bsr     fx_sq_two
+    ; steps 13 to 16 (the bits of x3) on three bytes
     lda     *(_fx_sq_x + 3)
-    ; four steps on the bits of A, then return
+    bra     fx_sq_byte
+    ; four steps on the bits of A, two bytes
+fx_sq_two:
+    ldx     #4
+    stx     *_fx_sq_n
+4$:
+    lsla
+    rol     *(_fx_sq_r + 2)
+    rol     *(_fx_sq_r + 1)
+    lsla
+    rol     *(_fx_sq_r + 2)
+    rol     *(_fx_sq_r + 1)
+    psha
+    sec
+    lda     *(_fx_sq_r + 2)
+    sbc     *(_fx_sq_t + 2)
+    tax
+    lda     *(_fx_sq_r + 1)
+    sbc     *(_fx_sq_t + 1)
+    bcs     5$
+    sta     *(_fx_sq_r + 1)
+    stx     *(_fx_sq_r + 2)
+    lsl     *(_fx_sq_t + 2)
+    rol     *(_fx_sq_t + 1)
+    bset    #2,*(_fx_sq_t + 2)
+    pula
+    dbnz    *_fx_sq_n,4$
+    rts
+5$:
+    lsl     *(_fx_sq_t + 2)
+    rol     *(_fx_sq_t + 1)
+    pula
+    dbnz    *_fx_sq_n,4$
+    rts
+    ; four steps on the bits of A, three bytes, then return
 fx_sq_byte:
     ldx     #4
     stx     *_fx_sq_n
@@ -220,47 +280,108 @@ uint32_t fx_sqrt_u32_q8(uint32_t x) __naked
     clra
     rola
     sta     *_fx_sq_r
-    ; ---- q = floor(num / (2y + 1)) <= 256: 9 restoring steps, the
-    ; numerator shifted left a step (remainder < 2 divisor < 2^26)
-    clr     *_fx_sq_t           ; q (9 bits) in fx_sq_t (high), fx_sq_n (low)
-    clr     *_fx_sq_n
-    ldx     #9
-5$:
-    lda     *_fx_sq_x           ; num >= divisor * 256 ?  (the low byte of
-    cmp     *_fx_sq_r           ; the divisor is 0: three bytes decide)
-    bhi     6$
-    blo     7$
+    ; ---- q = floor(num / (2y + 1)) <= 256 (exact): the estimate
+    ; qe = floor((num >> 9) / ((2y + 1) >> 9)) by DIV lies in [q - 1, q + 3]
+    ; (the top byte of the divisor is in [128, 255]; qe = 255 when DIV
+    ; overflows, q <= 256); then num - qe (2y + 1) is brought into
+    ; [0, 2y + 1) a divisor at a time
+    lda     *(_fx_sq_r + 1)     ; (2y + 1) >> 9 = 0x80 | (byte 1 >> 1)
+    lsra
+    ora     #0x80
+    tax
+    lda     *_fx_sq_x           ; num >> 9 into H:A
+    lsra
     lda     *(_fx_sq_x + 1)
-    cmp     *(_fx_sq_r + 1)
-    bhi     6$
-    blo     7$
+    rora
+    psha
+    pulh
+    lda     *(_fx_sq_x + 1)
+    lsra
     lda     *(_fx_sq_x + 2)
-    cmp     *(_fx_sq_r + 2)
-    blo     7$
-6$:
+    rora
+    div
+    bcc     5$
+    lda     #0xff
+5$:
+    sta     *_fx_sq_n           ; q (9 bits) in fx_sq_t (high), fx_sq_n (low)
+    clr     *_fx_sq_t
+    ais     #-4                 ; qe (2y + 1) at 1..4,s
+    ldx     *(_fx_sq_r + 2)
+    mul
+    sta     4,s
+    stx     3,s
+    lda     *_fx_sq_n
+    ldx     *(_fx_sq_r + 1)
+    mul
+    add     3,s
+    sta     3,s
+    txa
+    adc     *_fx_sq_n           ; + qe * 2^16 (bit 16 of the divisor)
+    sta     2,s
+    clra
+    rola
+    sta     1,s
+    lda     *(_fx_sq_x + 3)     ; num -= qe (2y + 1): the remainder, signed
+    sub     4,s
+    sta     *(_fx_sq_x + 3)
     lda     *(_fx_sq_x + 2)
-    sub     *(_fx_sq_r + 2)
+    sbc     3,s
     sta     *(_fx_sq_x + 2)
     lda     *(_fx_sq_x + 1)
-    sbc     *(_fx_sq_r + 1)
+    sbc     2,s
     sta     *(_fx_sq_x + 1)
     lda     *_fx_sq_x
-    sbc     *_fx_sq_r
+    sbc     1,s
     sta     *_fx_sq_x
-    sec
-    bra     8$
+    ais     #4
+6$:
+    lda     *_fx_sq_x           ; remainder < 0: + divisor, q - 1
+    bpl     7$
+    lda     *(_fx_sq_x + 3)
+    add     *(_fx_sq_r + 2)
+    sta     *(_fx_sq_x + 3)
+    lda     *(_fx_sq_x + 2)
+    adc     *(_fx_sq_r + 1)
+    sta     *(_fx_sq_x + 2)
+    lda     *(_fx_sq_x + 1)
+    adc     *_fx_sq_r
+    sta     *(_fx_sq_x + 1)
+    lda     *_fx_sq_x
+    adc     #0
+    sta     *_fx_sq_x
+    lda     *_fx_sq_n
+    sub     #1
+    sta     *_fx_sq_n
+    lda     *_fx_sq_t
+    sbc     #0
+    sta     *_fx_sq_t
+    bra     6$
 7$:
-    clc
+    lda     *(_fx_sq_x + 3)     ; remainder >= divisor: - divisor, q + 1
+    sub     *(_fx_sq_r + 2)
+    psha
+    lda     *(_fx_sq_x + 2)
+    sbc     *(_fx_sq_r + 1)
+    psha
+    lda     *(_fx_sq_x + 1)
+    sbc     *_fx_sq_r
+    psha
+    lda     *_fx_sq_x
+    sbc     #0
+    bcs     8$
+    sta     *_fx_sq_x
+    pula
+    sta     *(_fx_sq_x + 1)
+    pula
+    sta     *(_fx_sq_x + 2)
+    pula
+    sta     *(_fx_sq_x + 3)
+    inc     *_fx_sq_n
+    bne     7$
+    inc     *_fx_sq_t
+    bra     7$
 8$:
-    rol     *_fx_sq_n           ; q = 2 q + bit
-    rol     *_fx_sq_t
-    decx
-    beq     9$
-    lsl     *(_fx_sq_x + 3)     ; num <<= 1
-    rol     *(_fx_sq_x + 2)
-    rol     *(_fx_sq_x + 1)
-    rol     *_fx_sq_x
-    bra     5$
+    ais     #3
 9$:
     ; ---- s = 256 y + q (<= 2^24: 2^24 for x near 2^32) in fx_sq_x
     lda     *_fx_sq_n
