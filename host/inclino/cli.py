@@ -15,6 +15,7 @@ import numpy as np
 from inclino import __version__
 from inclino.errors import DataError, InclinoError
 from inclino.calib.cli import add_parser as _add_calibrate
+from inclino.diagnose.cli import add_parser as _add_diagnose
 from inclino.probe_cli import add_parser as _add_probe_commands
 
 
@@ -179,6 +180,7 @@ def build_parser() -> argparse.ArgumentParser:
     be.add_argument("--vectors", type=int, default=1_000_000, help="speed: batch size")
     be.set_defaults(func=_cmd_bench)
     _add_calibrate(sub)
+    _add_diagnose(sub)
     _add_probe_commands(sub)
     return p
 

@@ -1,0 +1,283 @@
+"""`diagnose(ds)`: baseline, residual study, effect selection, gains,
+structure test (the method is described in core.py and docs/diagnose.md)."""
+from __future__ import annotations
+
+import time
+
+import numpy as np
+
+from inclino import reference as ref
+from inclino.dataset import RawDataset
+from inclino.errors import DataError
+
+from . import core, study
+from ._blas import one_blas_thread
+from .core import CHANNELS, EFFECT_NAMES, SEPARABLE_MIN, TRIAD_UNITS, Design
+from .result import Diagnosis, Effect, Gain
+
+AZI_MIN_INC_DEG = 5.0  # azimuth is compared only where it is well defined
+AMBIGUOUS_CORR = 0.9
+
+
+def parse_effects(spec) -> list | None:
+    if spec is None:
+        return None
+    names = [s.strip() for s in (spec.split(",") if isinstance(spec, str) else spec) if s.strip()]
+    bad = [s for s in names if s not in EFFECT_NAMES]
+    if bad:
+        raise DataError(f"unknown effect(s) {', '.join(bad)} (the library has: {', '.join(EFFECT_NAMES)})")
+    if not names:
+        raise DataError("--effects names no effect")
+    return names
+
+
+class _Attitude:
+    def __init__(self, bl):
+        self.bl = bl
+        self.Ainv = {k: np.linalg.inv(v) for k, v in bl.A.items()}
+        self.a0 = ref.attitude(bl.G, bl.B)
+        self.azi_rows = (self.a0["inc"] >= AZI_MIN_INC_DEG) & (self.a0["inc"] <= 180.0 - AZI_MIN_INC_DEG)
+
+    def rms(self, R):
+        """(azimuth RMS, inclination RMS) in degrees of the attitude error the
+        residuals R (n, 6) amount to at the poses."""
+        g = self.bl.G + R[:, :3] @ self.Ainv["acc"].T
+        b = self.bl.B + R[:, 3:] @ self.Ainv["mag"].T
+        a = ref.attitude(g, b)
+        di = a["inc"] - self.a0["inc"]
+        inc = float(np.sqrt(np.mean(di ** 2)))
+        if not self.azi_rows.any():
+            return None, inc
+        da = ref.angle_diff(a["azi"], self.a0["azi"])[self.azi_rows]
+        return float(np.sqrt(np.mean(da ** 2))), inc
+
+
+def _rms_channels(R, chans):
+    return float(np.sqrt(np.mean(R[:, chans] ** 2)))
+
+
+def diagnose(ds: RawDataset, effects=None, alpha: float = core.DEFAULT_ALPHA, folds: int = core.DEFAULT_FOLDS,
+             keep_plot_data: bool = False) -> Diagnosis:
+    """Diagnose a raw dataset with turntable poses; raises DataError on bad
+    input.  effects: names (list or comma-separated) to test, default all."""
+    with one_blas_thread():
+        return _diagnose(ds, effects, alpha, folds, keep_plot_data)
+
+
+def _diagnose(ds, effects, alpha, folds, keep_plot_data) -> Diagnosis:
+    t_start = time.perf_counter()
+    if not (0.0 < alpha < 1.0):
+        raise DataError("alpha must be between 0 and 1")
+    wanted = parse_effects(effects)
+    d = core.prepare(ds)
+    K = int(folds)
+    if K < 2 or K > d.n // 4:
+        raise DataError(f"folds must be between 2 and {d.n // 4} for {d.n} readings")
+    bl, noise = core.fit_baseline(d)
+    noise_base = noise
+    base_cols, _ = core.baseline_columns(d, bl)
+    nb = len(base_cols)
+    base = list(range(nb))
+
+    cands = [c for c in core.all_candidates() if wanted is None or c.name in wanted]
+    testable, not_testable = [], []
+    for c in cands:
+        why = core.untestable_reason(d, c)
+        (not_testable.append((c, why)) if why else testable.append(c))
+    cols = [core.regressor(d, bl, c) for c in testable]
+    y0 = d.Y - bl.predict()
+    X = np.stack(base_cols + cols, -1)
+    fold_of = core.make_folds(d.n, K)
+
+    def design(nz):
+        return Design(y0, X, nz.whitener(bl.Jpose), fold_of, K)
+
+    des = design(noise)
+    idx = {c.key: nb + j for j, c in enumerate(testable)}
+    sep = {c.key: des.separability(base, idx[c.key]) for c in testable}
+    keep = []
+    for c in testable:
+        if sep[c.key] < SEPARABLE_MIN:
+            not_testable.append((c, f"on these poses it cannot be told from the 12-parameter baseline "
+                                    f"(only {100 * sep[c.key]:.2g} % of it is not absorbed)"))
+        else:
+            keep.append(c)
+    testable = keep
+    if wanted is not None:
+        for name in wanted:
+            if not any(c.name == name for c in testable):
+                why = "; ".join(sorted({r for c, r in not_testable if c.name == name}))
+                raise DataError(f"cannot test {name}: {why}")
+        for i, a in enumerate(testable):
+            for b in testable[i + 1:]:
+                r = des.partial_corr(base, idx[a.key], idx[b.key])
+                if abs(r) > 0.999:
+                    raise DataError(f"the poses cannot separate {a.name} ({a.sensor} {a.axis}) from {b.name} "
+                                    f"({b.sensor} {b.axis}): their signatures agree to a correlation of {r:.4f}")
+
+    # ---- forward selection under the false-alarm control, then backward
+    steps = []
+    kept: list = []
+    remaining = [c.key for c in testable]
+    by_key = {c.key: c for c in testable}
+    pvals = {}
+    while remaining:
+        S = base + [idx[k] for k in kept]
+        cv0 = des.cv(S)
+        m = len(remaining)
+        tests = sorted((des.ftest(S, [idx[k]])[0], k) for k in remaining)
+        chosen = None
+        for p, k in tests:
+            if p >= alpha / m:
+                break
+            cv1 = des.cv(S + [idx[k]])
+            if cv1 < cv0:
+                chosen = (k, p, cv0, cv1)
+                break
+            steps.append({"effect": k, "p": p, "threshold": alpha / m, "cv_before": cv0, "cv_after": cv1,
+                          "kept": False, "why": "no gain on held-out data"})
+        if chosen is None:
+            if tests:
+                steps.append({"effect": tests[0][1], "p": tests[0][0], "threshold": alpha / m, "kept": False,
+                              "why": "p above the threshold" if tests[0][0] >= alpha / m else "no CV gain"})
+            break
+        k, p, cv0, cv1 = chosen
+        steps.append({"effect": k, "p": p, "threshold": alpha / m, "cv_before": cv0, "cv_after": cv1, "kept": True})
+        kept.append(k)
+        pvals[k] = p
+        remaining.remove(k)
+        R = des.raw_residuals(base + [idx[j] for j in kept])
+        noise = core.fit_noise(R, bl.Jpose, dof_frac=1.0 - (4.5 + len(kept)) / d.n, start=noise)
+        des = design(noise)
+    while kept:
+        S = base + [idx[k] for k in kept]
+        drops = [(des.ftest([i for i in S if i != idx[k]], [idx[k]])[0], k) for k in kept]
+        p, k = max(drops)
+        if p <= alpha:
+            for p2, k2 in drops:
+                pvals[k2] = p2
+            break
+        kept.remove(k)
+        steps.append({"effect": k, "p": p, "threshold": alpha, "kept": False, "why": "dropped: not significant "
+                      "once the other effects were in"})
+        R = des.raw_residuals(base + [idx[j] for j in kept])
+        noise = core.fit_noise(R, bl.Jpose, dof_frac=1.0 - (4.5 + len(kept)) / d.n, start=noise)
+        des = design(noise)
+
+    S = base + [idx[k] for k in kept]
+    est, se, s2 = des.coef(S)
+    att = _Attitude(bl)
+    J = bl.Jpose
+
+    def sensor(Rr):  # the residual net of the turntable's readout error (see Noise.sensor_part)
+        return noise.sensor_part(Rr, J)
+
+    R_final = des.raw_residuals(S)
+    Rs_final, Rs_cv_final = sensor(R_final), sensor(des.cv_residuals(S))
+    R_base = des.raw_residuals(base)
+    Rs_base, Rs_base_cv = noise_base.sensor_part(R_base, J), noise_base.sensor_part(des.cv_residuals(base), J)
+
+    effects_out = []
+    plot_effects = []
+    notes = []
+    for j, k in enumerate(kept):
+        c = by_key[k]
+        Sb = [i for i in S if i != idx[k]]
+        Rb, Rbcv = sensor(des.raw_residuals(Sb)), sensor(des.cv_residuals(Sb))
+        ch = c.channels
+        azb, inb = att.rms(Rb)
+        aza, ina = att.rms(Rs_final)
+        gain = Gain(_rms_channels(Rb, ch), _rms_channels(Rs_final, ch), _rms_channels(Rbcv, ch),
+                    _rms_channels(Rs_cv_final, ch), azb, aza, inb, ina)
+        e = Effect(c.name, c.sensor, c.axis, float(est[nb + j]), float(se[nb + j]), c.units, gain,
+                   rms_units=TRIAD_UNITS[c.triad], p_value=float(pvals.get(k, np.nan)))
+        effects_out.append(e)
+        for other in testable:
+            if other.key in kept:
+                continue
+            r = des.partial_corr(Sb, idx[k], idx[other.key])
+            if abs(r) > AMBIGUOUS_CORR:
+                notes.append(f"{c.name} ({c.sensor} {c.axis}) and {other.name} ({other.sensor} {other.axis}) look "
+                             f"alike on these poses (correlation {r:.3f}): the data barely tell them apart")
+        if keep_plot_data:
+            plot_effects.append(_plot_entry(d, bl, c, X[:, :, idx[k]], noise, Rb, Rs_final))
+
+    # ---- residual study (baseline) and structure test (final)
+    var_final = noise.row_cov(bl.Jpose)[:, range(6), range(6)]
+    own_final = {ch: X[:, ch, [i for i in S if np.any(X[:, ch, i] != 0)]] for ch in range(6)}
+    final_study = study.study(d, bl, R_final, var_final, own_final)
+    verdict = study.structure_verdict(final_study, alpha)
+    var_base = noise_base.row_cov(bl.Jpose)[:, range(6), range(6)]
+    own_base = {ch: X[:, ch, [i for i in base if np.any(X[:, ch, i] != 0)]] for ch in range(6)}
+    base_study = study.study(d, bl, R_base, var_base, own_base)
+
+    azr, inr = att.rms(Rs_base)
+    dip_se = float(des.coef(base)[1][24])
+    baseline = {
+        "model": "per-triad 12-parameter model raw = A true + c referenced to the turntable poses, dip fitted",
+        "rows": d.n, "kind": d.kind, "orientations": d.orientations,
+        "field_nT": d.field_nT, "declination_deg": d.declination_deg, "gravity_g": d.gravity_g,
+        "dip_deg": bl.dip, "dip_stderr_deg": dip_se,
+        "acc": {"A": bl.A["acc"], "c": bl.c["acc"], "units": "g"},
+        "mag": {"A": bl.A["mag"], "c": bl.c["mag"], "units": "nT"},
+        "noise": noise_base.to_dict(),
+        "rms": {"acc_g": [_rms_channels(Rs_base, [i]) for i in range(3)],
+                "mag_nT": [_rms_channels(Rs_base, [i]) for i in range(3, 6)]},
+        "cv_rms": {"acc_g": [_rms_channels(Rs_base_cv, [i]) for i in range(3)],
+                   "mag_nT": [_rms_channels(Rs_base_cv, [i]) for i in range(3, 6)]},
+        "rms_with_turntable_error": {"acc_g": [_rms_channels(R_base, [i]) for i in range(3)],
+                                     "mag_nT": [_rms_channels(R_base, [i]) for i in range(3, 6)]},
+        "azi_rms_deg": azr, "inc_rms_deg": inr,
+        "residual_study": base_study,
+        "selection": {
+            "method": ("forward stepwise: keep the candidate with the smallest F-test p-value if p < alpha/m "
+                       "(Bonferroni over the m candidates left) and it lowers the K-fold cross-validated "
+                       "residual; noise re-estimated after each kept effect; backward pass at alpha"),
+            "alpha": alpha, "folds": K, "tested": [c.key for c in testable],
+            "not_testable": [{"effect": c.key, "reason": why} for c, why in not_testable],
+            "steps": steps, "final_noise": noise.to_dict(), "final_s2": s2, "notes": notes},
+        "structure": verdict,
+    }
+    out = Diagnosis(baseline=baseline, effects=effects_out, unexplained=verdict["unexplained"], structure=verdict)
+    if keep_plot_data:
+        out.plot_data = {"effects": plot_effects, "baseline": _baseline_plot(d, bl, base_study, Rs_base)}
+    out.elapsed_s = time.perf_counter() - t_start
+    return out
+
+
+# --------------------------------------------------------------------------
+# what the plots show: the residual against the winning regressor
+def _plot_entry(d, bl, c, col, noise, Rb, Ra):
+    if c.sensor in core.TRIADS and c.axis in core.AXES:
+        ch = (0 if c.sensor == "acc" else 3) + core.AXES.index(c.axis)
+    else:
+        w = (col ** 2 / noise.sigma ** 2).sum(0)
+        ch = int(np.argmax(w))
+    unit = TRIAD_UNITS[core.TRIADS[ch // 3]]
+    sig = bl.signal(core.TRIADS[ch // 3])[:, ch % 3]
+    if c.name == "temperature-bias":
+        x, xl = d.temp, "temperature (degC)"
+    elif c.name == "temperature-scale":
+        x, xl = (d.temp - d.temp.mean()) * sig, f"(T - mean T) x signal ({unit} degC)"
+    elif c.name == "scale-nonlinearity":
+        x, xl = sig, f"{CHANNELS[ch]} signal ({unit})"
+    else:
+        x, xl = col[:, ch], f"{c.name} signature on {CHANNELS[ch]} ({unit} per {c.units})"
+    return {"file": f"{c.name}_{c.sensor}_{c.axis}.png", "title": f"{c.name} ({c.sensor} {c.axis})",
+            "x": x, "xlabel": xl, "ylabel": f"{CHANNELS[ch]} residual ({unit})",
+            "before": Rb[:, ch], "after": Ra[:, ch]}
+
+
+def _baseline_plot(d, bl, st, R):
+    out = []
+    for ch, name in enumerate(CHANNELS):
+        fam = st[name]["strongest"]
+        cols = study.family_columns(d, bl, ch).get(fam) if fam else None
+        if cols is None:
+            x, xl = np.arange(d.n, dtype=float), "reading (time order)"
+        else:
+            x, xl = cols[:, 0], f"{fam} regressor (first column, scaled)"
+        out.append({"channel": name, "x": x, "xlabel": xl, "y": R[:, ch],
+                    "ylabel": f"{name} residual ({TRIAD_UNITS[core.TRIADS[ch // 3]]})",
+                    "p": st[name]["families"].get(fam, {}).get("p") if fam else None, "family": fam})
+    return out

@@ -1,0 +1,638 @@
+"""Model discrepancy: what the per-triad 12-parameter model leaves in a raw
+turntable dataset, which library effect explains it, and what it gains.
+
+Model.  Each row gives six readings y = [acc (g), mag (nT)] at an indicated
+turntable pose.  The baseline is the papers' per-triad 12-parameter model
+referenced to the poses (Li 2021 eq. 3/4, Ren 2014 eq. 8/11):
+
+    acc = A_a g(pose) + c_a,    mag = A_m f(pose, dip) + c_m
+
+g, f the true body-frame gravity and field at the indicated pose
+(inclino.reference), the dip fitted, the field total and declination from
+the header.  It is started from calib.joint (our calibration fit, with
+poses) and refined here together with the effects.  Every candidate effect
+of the library (inclino_emu.effects, the models the emulator simulates) adds
+columns to this linear model: the change of the six readings per unit of the
+effect's parameter, computed by applying the library's own model to the
+baseline's signal (BiasTempco, ScaleTempco, ScaleNonlinearity, the
+turntable's EncoderErrors, FieldDrift, SamplingSkew).  The baseline's
+coefficients are always re-estimated with the effects, so an effect is only
+what the 12 parameters cannot absorb.
+
+Noise.  Estimated from the residuals, never assumed: each row's 6x6
+covariance is diag(sigma_c^2) (white sensor noise per channel) plus
+J diag(sigma_pose^2) J^T (the turntable's readout error on inclination,
+azimuth and toolface through the pose Jacobian J: correlated between all six
+channels and different at every pose).  The nine variances are fitted to the
+residual products by non-negative least squares (method of moments) and the
+rows are whitened with the result (generalised least squares).
+
+Selection.  Forward stepwise over the testable candidates: the candidate
+with the smallest F-test p-value against the current model is kept when
+(a) p < alpha / m, m the number of candidates still in play (Bonferroni:
+the chance of naming any effect on data that have none is at most alpha,
+0.01 by default), and (b) it lowers the K-fold cross-validated residual
+(held-out rows, folds of interleaved time blocks).  The noise is
+re-estimated after every kept effect; a final backward pass drops any kept
+effect whose p-value rose above alpha once the others were in.
+"""
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+
+import numpy as np
+from scipy import optimize, stats
+
+from inclino import reference as ref
+from inclino.dataset import POSE_COLS, RawDataset
+from inclino.errors import CalibrationError, DataError
+from inclino_emu import effects as fx
+from inclino_emu.world import EncoderErrors
+
+EFFECT_NAMES = ("temperature-bias", "temperature-scale", "scale-nonlinearity",
+                "turntable-inclination-offset", "turntable-azimuth-offset", "field-drift", "sample-skew")
+TRIADS = ("acc", "mag")
+AXES = ("x", "y", "z")
+CHANNELS = ("acc_x", "acc_y", "acc_z", "mag_x", "mag_y", "mag_z")
+TRIAD_UNITS = {"acc": "g", "mag": "nT"}
+
+MIN_ROWS = 16
+MIN_ORIENTATIONS = 6
+DEFAULT_ALPHA = 0.01
+DEFAULT_FOLDS = 5
+TEMP_MIN_RANGE_C = 1.0
+MOVING_MIN_RATE_DEG_S = 1.0  # slower than this is a static pose for the skew
+MOVING_MAX_STEP_DEG = 30.0  # consecutive rows further apart are separate poses
+MOVE_DEADBAND_DEG = 0.5  # smaller pose changes are the turntable's readout jitter, not moves
+SEPARABLE_MIN = 1e-3  # fraction of a regressor left once the baseline is projected out
+POSE_STEP_DEG = 1e-3
+JOINT_START_ROWS = 240
+
+
+# --------------------------------------------------------------------------
+# candidates
+@dataclass(frozen=True)
+class Candidate:
+    name: str
+    sensor: str  # acc | mag | turntable | field
+    axis: str  # x y z | inc azi | total dip declination | xyz
+    units: str
+
+    @property
+    def key(self) -> str:
+        return f"{self.name}:{self.sensor}:{self.axis}"
+
+    @property
+    def triad(self) -> str:
+        """The triad whose residual RMS the gain is given in."""
+        if self.sensor in TRIADS:
+            return self.sensor
+        return "acc" if self.name == "turntable-inclination-offset" else "mag"
+
+    @property
+    def channels(self) -> list:
+        """Channels (indices into CHANNELS) the gain's RMS is taken over."""
+        off = 0 if self.triad == "acc" else 3
+        if self.sensor in TRIADS and self.axis in AXES:
+            return [off + AXES.index(self.axis)]
+        return [off, off + 1, off + 2]
+
+
+def all_candidates() -> list:
+    out = []
+    for tri in TRIADS:
+        u = TRIAD_UNITS[tri]
+        for ax in AXES:
+            out.append(Candidate("temperature-bias", tri, ax, f"{u}/degC"))
+    for tri in TRIADS:
+        for ax in AXES:
+            out.append(Candidate("temperature-scale", tri, ax, "ppm/degC"))
+    for tri in TRIADS:
+        for ax in AXES:
+            out.append(Candidate("scale-nonlinearity", tri, ax, f"1/{TRIAD_UNITS[tri]}"))
+    out.append(Candidate("turntable-inclination-offset", "turntable", "inc", "deg"))
+    out.append(Candidate("turntable-azimuth-offset", "turntable", "azi", "deg"))
+    out.append(Candidate("field-drift", "field", "total", "nT/s"))
+    out.append(Candidate("field-drift", "field", "dip", "deg/s"))
+    out.append(Candidate("field-drift", "field", "declination", "deg/s"))
+    out.append(Candidate("sample-skew", "mag", "xyz", "s"))
+    return out
+
+
+# --------------------------------------------------------------------------
+# the data
+@dataclass
+class Data:
+    n: int
+    Y: np.ndarray  # (n, 6) acc g, mag nT
+    inc: np.ndarray
+    azi: np.ndarray
+    tf: np.ndarray
+    t: np.ndarray | None  # s, time order
+    temp: np.ndarray | None  # degC
+    field_nT: float
+    dip_header: float | None
+    declination_deg: float
+    gravity_g: float
+    order: np.ndarray  # file row of each (time-ordered) row
+    rates: np.ndarray  # (n, 3) deg/s of inc, azi, tf while moving, else 0
+    moving: np.ndarray  # (n,) bool
+    last_move: np.ndarray  # (n, 3) sign of the last move of each turntable axis
+    orientations: int
+    kind: str  # static | continuous
+    meta: dict = field(default_factory=dict)
+
+
+def _wrapdiff(a, b):
+    return ref.angle_diff(a, b)
+
+
+def prepare(ds: RawDataset) -> Data:
+    if not ds.has_pose:
+        missing = [c for c in POSE_COLS if c not in ds.columns]
+        raise DataError("diagnose needs the turntable's pose for every reading; missing column(s): "
+                        + ", ".join(missing))
+    n = len(ds)
+    t = ds.columns.get("t_s")
+    order = np.argsort(t, kind="stable") if t is not None else np.arange(n)
+    col = {k: np.asarray(v, float)[order] for k, v in ds.columns.items()}
+    inc, azi, tf = col["inc_deg"], col["azi_deg"], col["tf_deg"]
+    C = ref.pose_matrix(inc, azi, tf)
+    orient = len(np.unique(np.round(C.reshape(n, 9), 2), axis=0))
+    if n < MIN_ROWS or orient < MIN_ORIENTATIONS:
+        raise DataError(f"too few poses to fit: diagnose needs at least {MIN_ROWS} readings at "
+                        f"{MIN_ORIENTATIONS} or more distinct orientations; the data have {n} reading(s) "
+                        f"at {orient} orientation(s)")
+    Y = np.column_stack([ds.acc[order], ds.mag[order]])
+    m = ds.meta
+    F = m.get("field_nT")
+    if F is None:
+        F = float(np.median(np.linalg.norm(ds.mag, axis=1))) or 50000.0
+    t = col.get("t_s")
+    temp = col.get("temp_c")
+    rates = np.zeros((n, 3))
+    moving = np.zeros(n, bool)
+    last = np.zeros((n, 3))
+    d = np.column_stack([np.diff(inc), _wrapdiff(azi[1:], azi[:-1]), _wrapdiff(tf[1:], tf[:-1])])
+    # direction of the last move of each axis, carried forward
+    cur = np.zeros(3)
+    for i in range(1, n):
+        s = np.sign(np.where(np.abs(d[i - 1]) > MOVE_DEADBAND_DEG, d[i - 1], 0.0))
+        cur = np.where(s != 0, s, cur)
+        last[i] = cur
+    if t is not None and n > 1:
+        dt = np.diff(t)
+        with np.errstate(divide="ignore", invalid="ignore"):
+            r = np.where(dt[:, None] > 0, d / dt[:, None], 0.0)
+        pair = (dt > 0) & (np.abs(d).max(1) <= MOVING_MAX_STEP_DEG) & (np.abs(r).max(1) >= MOVING_MIN_RATE_DEG_S)
+        cnt = np.zeros(n)
+        for sl in (slice(0, n - 1), slice(1, n)):  # each pair counts for both of its rows
+            rates[sl] += np.where(pair[:, None], r, 0.0)
+            cnt[sl] += pair
+        moving = cnt > 0
+        rates[moving] /= cnt[moving, None]
+        rates[np.abs(rates) < MOVING_MIN_RATE_DEG_S] = 0.0  # an axis that is not turning: readout jitter
+    kind = "continuous" if moving.mean() >= 0.5 else "static"
+    return Data(n=n, Y=Y, inc=inc, azi=azi, tf=tf, t=t, temp=temp, field_nT=float(F),
+                dip_header=m.get("dip_deg"), declination_deg=float(m.get("declination_deg", 0.0)),
+                gravity_g=float(m.get("gravity_g", 1.0)), order=order, rates=rates, moving=moving,
+                last_move=last, orientations=orient, kind=kind, meta=dict(m))
+
+
+# --------------------------------------------------------------------------
+# baseline and regressors
+@dataclass
+class Baseline:
+    A: dict  # triad -> (3, 3)
+    c: dict  # triad -> (3,)
+    dip: float
+    G: np.ndarray  # (n, 3) true gravity at the poses, g
+    B: np.ndarray  # (n, 3) true field, nT
+    Jpose: np.ndarray  # (n, 6, 3) readings per degree of inc, azi, tf
+
+    def predict(self) -> np.ndarray:
+        return np.column_stack([self.G @ self.A["acc"].T + self.c["acc"], self.B @ self.A["mag"].T + self.c["mag"]])
+
+    def signal(self, triad) -> np.ndarray:
+        """The triad's signal after scale, before bias (A @ true)."""
+        return (self.G if triad == "acc" else self.B) @ self.A[triad].T
+
+
+def _truth(d: Data, inc, azi, tf, dip, field_params=None):
+    if field_params is None:
+        return ref.body_vectors(inc, azi, tf, d.field_nT, dip, d.declination_deg, d.gravity_g)
+    F, dp, dc = field_params
+    C = ref.pose_matrix(inc, azi, tf)
+    f = np.stack([np.broadcast_to(v, np.shape(inc)) for v in (F, dp, dc)], -1)
+    dpr, dcr = np.radians(f[..., 1]), np.radians(f[..., 2])
+    ned = np.stack([f[..., 0] * np.cos(dpr) * np.cos(dcr), f[..., 0] * np.cos(dpr) * np.sin(dcr),
+                    f[..., 0] * np.sin(dpr)], -1)
+    g = C @ ref.gravity_ned(d.gravity_g)
+    return g, (C @ ned[..., None])[..., 0]
+
+
+def _map(A, v):
+    return v @ A.T
+
+
+def pose_jacobian(d: Data, A_a, A_m, dip) -> np.ndarray:
+    """Readings per degree of turntable encoder offset on inc, azi, tf:
+    (n, 6, 3), through the emulator's EncoderErrors (true = offset +
+    indicated), central differences."""
+    out = np.zeros((d.n, 6, 3))
+    for k in range(3):
+        vs = []
+        for s in (1.0, -1.0):
+            off = np.zeros(3)
+            off[k] = s * POSE_STEP_DEG
+            I, A, T = EncoderErrors(off).true_pose(d.inc, d.azi, d.tf)
+            vs.append(_truth(d, I, A, T, dip))
+        out[:, 0:3, k] = _map(A_a, (vs[0][0] - vs[1][0]) / (2 * POSE_STEP_DEG))
+        out[:, 3:6, k] = _map(A_m, (vs[0][1] - vs[1][1]) / (2 * POSE_STEP_DEG))
+    return out
+
+
+def dip_column(d: Data, A_m, dip) -> np.ndarray:
+    h = 1e-3
+    _, b1 = _truth(d, d.inc, d.azi, d.tf, dip + h)
+    _, b0 = _truth(d, d.inc, d.azi, d.tf, dip - h)
+    col = np.zeros((d.n, 6))
+    col[:, 3:] = _map(A_m, (b1 - b0) / (2 * h))
+    return col
+
+
+def baseline_columns(d: Data, bl: Baseline) -> tuple[list, list]:
+    """The 25 baseline columns (n, 6) each: per channel the triad's true
+    vector (3) and a constant; the dip."""
+    cols, names = [], []
+    for ti, tri in enumerate(TRIADS):
+        v = bl.G if tri == "acc" else bl.B
+        for ax in range(3):
+            ch = 3 * ti + ax
+            for k in range(3):
+                c = np.zeros((d.n, 6))
+                c[:, ch] = v[:, k]
+                cols.append(c)
+                names.append(f"{tri}_A{ax}{k}")
+            c = np.zeros((d.n, 6))
+            c[:, ch] = 1.0
+            cols.append(c)
+            names.append(f"{tri}_c{ax}")
+    cols.append(dip_column(d, bl.A["mag"], bl.dip))
+    names.append("dip")
+    return cols, names
+
+
+def _tau(d: Data):
+    return d.t - d.t[0]
+
+
+def regressor(d: Data, bl: Baseline, cand: Candidate) -> np.ndarray:
+    """(n, 6): the change of the readings per unit of the candidate's
+    parameter (in cand.units), from the library's model."""
+    n = d.n
+    out = np.zeros((n, 6))
+    if cand.sensor in TRIADS and cand.axis in AXES:
+        tri, i = cand.sensor, AXES.index(cand.axis)
+        off = 0 if tri == "acc" else 3
+        e = np.zeros(3)
+        e[i] = 1.0
+        x = bl.signal(tri)
+        tm = float(np.mean(d.temp)) if d.temp is not None else 25.0
+        if cand.name == "temperature-bias":
+            r = fx.BiasTempco(e, t_ref_c=tm).apply(np.zeros((n, 3)), d.temp)
+        elif cand.name == "temperature-scale":
+            r = fx.ScaleTempco(e, t_ref_c=tm).apply(x, d.temp) - x
+        elif cand.name == "scale-nonlinearity":
+            r = fx.ScaleNonlinearity(e).apply(x) - x
+        else:
+            raise KeyError(cand.key)
+        out[:, off:off + 3] = r
+        return out
+    if cand.name == "turntable-inclination-offset":
+        return bl.Jpose[:, :, 0].copy()
+    if cand.name == "turntable-azimuth-offset":
+        return bl.Jpose[:, :, 1].copy()
+    if cand.name == "field-drift":
+        tau = _tau(d)
+        span = max(float(tau.max()), 1e-9)
+        if cand.axis == "total":
+            unit = 1.0  # exact: F is linear in the rate
+            drifts = [fx.FieldDrift(rate_nT_per_s=unit), fx.FieldDrift(rate_nT_per_s=-unit)]
+        else:
+            unit = 1e-3 / span  # 1e-3 deg over the run
+            kw = "dip_rate_deg_per_s" if cand.axis == "dip" else "declination_rate_deg_per_s"
+            drifts = [fx.FieldDrift(**{kw: unit}), fx.FieldDrift(**{kw: -unit})]
+        bs = [_truth(d, d.inc, d.azi, d.tf, bl.dip,
+                     dr.apply(d.field_nT, bl.dip, d.declination_deg, tau))[1] for dr in drifts]
+        out[:, 3:] = _map(bl.A["mag"], (bs[0] - bs[1]) / (2 * unit))
+        return out
+    if cand.name == "sample-skew":
+        h = 1e-4
+        bs = []
+        for s in (h, -h):
+            tm = fx.SamplingSkew(s).apply(d.t)
+            dt = (tm - d.t)[:, None]
+            p = np.column_stack([d.inc, d.azi, d.tf]) + d.rates * dt  # the pose at the fluxgate's instant
+            bs.append(_truth(d, p[:, 0], p[:, 1], p[:, 2], bl.dip)[1])
+        out[:, 3:] = _map(bl.A["mag"], (bs[0] - bs[1]) / (2 * h))
+        return out
+    raise KeyError(cand.key)
+
+
+def untestable_reason(d: Data, cand: Candidate) -> str | None:
+    if cand.name.startswith("temperature-"):
+        if d.temp is None:
+            return "the data have no temperature column (temp_c)"
+        rng = float(d.temp.max() - d.temp.min())
+        if rng < TEMP_MIN_RANGE_C:
+            return (f"the temperature never changes ({d.temp.min():.1f} to {d.temp.max():.1f} degC; "
+                    f"needs a range of at least {TEMP_MIN_RANGE_C:g} degC)")
+    if cand.name in ("field-drift", "sample-skew"):
+        if d.t is None:
+            return "the data have no time column (t_s)"
+        if float(d.t.max() - d.t.min()) <= 0:
+            return "every reading has the same time stamp"
+    if cand.name == "sample-skew" and d.moving.sum() < 10:
+        return ("no continuous rotation in the data (a skew shows only while the probe turns: "
+                f"consecutive readings <= {MOVING_MAX_STEP_DEG:g} deg apart at >= {MOVING_MIN_RATE_DEG_S:g} deg/s)")
+    return None
+
+
+# --------------------------------------------------------------------------
+# noise model
+@dataclass
+class Noise:
+    sigma: np.ndarray  # (6,) per channel, raw units
+    sigma_pose: np.ndarray  # (3,) deg on inc, azi, tf
+
+    def row_cov(self, J) -> np.ndarray:
+        S = np.einsum("nik,k,njk->nij", J, self.sigma_pose ** 2, J)
+        S[:, range(6), range(6)] += self.sigma ** 2
+        return S
+
+    def whitener(self, J) -> np.ndarray:
+        L = np.linalg.cholesky(self.row_cov(J))
+        return np.linalg.inv(L)
+
+    def sensor_part(self, R, J) -> np.ndarray:
+        """R minus each row's turntable readout error, estimated from R by
+        its conditional mean given the noise model (P J^T Sigma^-1 r): the
+        error the probe makes against the pose it really sat at."""
+        S = self.row_cov(J)
+        u = np.linalg.solve(S, R[..., None])[..., 0]
+        delta = np.einsum("k,nik,ni->nk", self.sigma_pose ** 2, J, u)
+        return R - np.einsum("nik,nk->ni", J, delta)
+
+    def to_dict(self):
+        return {"acc_g": self.sigma[:3].tolist(), "mag_nT": self.sigma[3:].tolist(),
+                "pose_deg": {"inc": float(self.sigma_pose[0]), "azi": float(self.sigma_pose[1]),
+                             "tf": float(self.sigma_pose[2])}}
+
+
+_IU = np.triu_indices(6)
+
+
+def fit_noise(R: np.ndarray, J: np.ndarray, dof_frac: float = 1.0, start: "Noise | None" = None,
+              ml: bool = True) -> Noise:
+    """Variance components from the residuals R (n, 6): E[r r^T] =
+    diag(s_c^2) + J diag(p_k^2) J^T.  A method-of-moments start (non-negative
+    least squares on the 21 distinct products of every row, each pair scaled
+    by its typical size; or `start`), then Gaussian maximum likelihood."""
+    n = len(R)
+    scale = np.sqrt(np.maximum(np.mean(R ** 2, 0), 1e-300))
+    if start is not None:
+        v0, q0 = (start.sigma ** 2) * dof_frac, (start.sigma_pose ** 2) * dof_frac
+    else:
+        prod = (R[:, :, None] * R[:, None, :])[:, _IU[0], _IU[1]]  # (n, 21)
+        w = 1.0 / (scale[_IU[0]] * scale[_IU[1]])
+        X = np.zeros((n, 21, 9))
+        diag = _IU[0] == _IU[1]
+        for c in range(6):
+            X[:, np.flatnonzero(diag & (_IU[0] == c))[0], c] = 1.0
+        X[:, :, 6:] = J[:, _IU[0], :] * J[:, _IU[1], :]
+        A = (X * w[None, :, None]).reshape(-1, 9)
+        b = (prod * w[None, :]).ravel()
+        colscale = np.maximum(np.abs(A).max(0), 1e-300)
+        sol = np.linalg.lstsq(A / colscale, b, rcond=None)[0] / colscale  # a start: clipped below
+        # a moment estimate can be 0: start every sensor variance at least at
+        # a tenth of what the channel shows
+        v0 = np.maximum(sol[:6], (0.1 * scale) ** 2)
+        q0 = np.maximum(sol[6:], 1e-12)
+    if ml:
+        v, q = _ml_variances(R, J, v0, q0, scale)
+    else:
+        v, q = v0, q0
+    return Noise(sigma=np.sqrt(v / dof_frac), sigma_pose=np.sqrt(q / dof_frac))
+
+
+def _ml_variances(R, J, v0, q0, scale):
+    """Gaussian maximum likelihood of the nine variance components (sensor
+    per channel, turntable per axis), L-BFGS on their logarithms with the
+    analytic gradient.  Each sensor variance is kept above (1e-3 x the
+    channel's residual RMS)^2 so that no channel gets an absurd weight."""
+    n = len(R)
+    lo = np.log(np.concatenate([(1e-3 * scale) ** 2, np.full(3, 1e-16)]))
+    Rs = R / scale  # work in units of each channel's RMS
+    Js = J / scale[None, :, None]
+
+    def nll(theta):
+        e = np.exp(theta)
+        v, q = e[:6] / scale ** 2, e[6:]
+        S = np.einsum("nik,k,njk->nij", Js, q, Js)
+        S[:, range(6), range(6)] += v
+        L = np.linalg.cholesky(S)
+        Si = np.linalg.inv(S)
+        u = np.einsum("nij,nj->ni", Si, Rs)
+        val = 2 * np.log(np.diagonal(L, axis1=1, axis2=2)).sum() + float((u * Rs).sum())
+        W = Si - u[:, :, None] * u[:, None, :]
+        gv = np.diagonal(W, axis1=1, axis2=2).sum(0) / scale ** 2
+        gq = np.einsum("nik,nij,njk->k", Js, W, Js)
+        grad = np.concatenate([gv, gq]) * e
+        return 0.5 * val / n, 0.5 * grad / n
+
+    theta0 = np.maximum(np.log(np.concatenate([v0, q0])), lo)
+    try:
+        res = optimize.minimize(nll, theta0, jac=True, method="L-BFGS-B",
+                                bounds=[(a, None) for a in lo], options={"maxiter": 200})
+        th = res.x
+    except np.linalg.LinAlgError:
+        th = theta0
+    e = np.exp(th)
+    return e[:6], e[6:]
+
+
+# --------------------------------------------------------------------------
+# the whitened linear model on Gram matrices
+class Design:
+    """Whitened stacked model y = X beta + e, kept as Gram matrices of the
+    whole data and of each cross-validation fold."""
+
+    def __init__(self, y, X, Linv, folds, K):
+        n, _, p = X.shape
+        self.Xraw, self.yraw = X, y
+        Xw = np.einsum("nij,njp->nip", Linv, X)
+        yw = np.einsum("nij,nj->ni", Linv, y)
+        s = np.sqrt((Xw ** 2).sum((0, 1)))
+        s[s == 0] = 1.0
+        self.colscale = s
+        Xw = Xw / s
+        self.Xw, self.yw = Xw, yw
+        self.N = 6 * n
+        self.K = K
+        self.folds = folds
+        self.Gf = np.zeros((K, p, p))
+        self.bf = np.zeros((K, p))
+        self.yyf = np.zeros(K)
+        for f in range(K):
+            m = folds == f
+            A = Xw[m].reshape(-1, p)
+            yy = yw[m].ravel()
+            self.Gf[f] = A.T @ A
+            self.bf[f] = A.T @ yy
+            self.yyf[f] = yy @ yy
+        self.G = self.Gf.sum(0)
+        self.b = self.bf.sum(0)
+        self.yy = self.yyf.sum()
+
+    @staticmethod
+    def _solve(G, b):
+        try:
+            L = np.linalg.cholesky(G)
+            return np.linalg.solve(L.T, np.linalg.solve(L, b))
+        except np.linalg.LinAlgError:
+            return np.linalg.lstsq(G, b, rcond=None)[0]
+
+    def fit(self, S):
+        S = np.asarray(S)
+        beta = self._solve(self.G[np.ix_(S, S)], self.b[S])
+        rss = float(self.yy - beta @ self.b[S])
+        return beta, max(rss, 0.0)
+
+    def cv(self, S) -> float:
+        S = np.asarray(S)
+        tot = 0.0
+        for f in range(self.K):
+            G = self.G[np.ix_(S, S)] - self.Gf[f][np.ix_(S, S)]
+            beta = self._solve(G, self.b[S] - self.bf[f][S])
+            Gf = self.Gf[f][np.ix_(S, S)]
+            tot += self.yyf[f] - 2 * beta @ self.bf[f][S] + beta @ Gf @ beta
+        return float(tot) / self.N
+
+    def ftest(self, S, extra):
+        """p-value of adding the columns `extra` to S."""
+        _, r0 = self.fit(S)
+        _, r1 = self.fit(list(S) + list(extra))
+        q = len(extra)
+        dof = self.N - len(S) - q
+        if r1 <= 0 or dof <= 0:
+            return 0.0, np.inf
+        F = ((r0 - r1) / q) / (r1 / dof)
+        return float(stats.f.sf(F, q, dof)), float(F)
+
+    def coef(self, S):
+        """Estimates and standard errors of the columns S (unscaled)."""
+        S = np.asarray(S)
+        beta, rss = self.fit(S)
+        s2 = rss / max(self.N - len(S), 1)
+        cov = s2 * np.linalg.pinv(self.G[np.ix_(S, S)])
+        return beta / self.colscale[S], np.sqrt(np.diag(cov)) / self.colscale[S], s2
+
+    def raw_residuals(self, S, train=None) -> np.ndarray:
+        """Residuals (n, 6) in raw units for the model S, fitted on all rows
+        or on the training rows of fold `train` (held out)."""
+        S = np.asarray(S)
+        if train is None:
+            beta, _ = self.fit(S)
+        else:
+            beta = self._solve(self.G[np.ix_(S, S)] - self.Gf[train][np.ix_(S, S)],
+                               self.b[S] - self.bf[train][S])
+        return self.yraw - np.einsum("nip,p->ni", self.Xraw[:, :, S], beta / self.colscale[S])
+
+    def cv_residuals(self, S) -> np.ndarray:
+        R = np.zeros_like(self.yraw)
+        for f in range(self.K):
+            m = self.folds == f
+            R[m] = self.raw_residuals(S, train=f)[m]
+        return R
+
+    def separability(self, base, k) -> float:
+        """Fraction of column k's (whitened) norm outside the span of `base`."""
+        base = np.asarray(base)
+        Gbb = self.G[np.ix_(base, base)]
+        gbk = self.G[base, k]
+        proj = gbk @ self._solve(Gbb, gbk)
+        return float(np.sqrt(max(self.G[k, k] - proj, 0.0) / self.G[k, k]))
+
+    def partial_corr(self, base, j, k) -> float:
+        base = np.asarray(base)
+        Gbb = self.G[np.ix_(base, base)]
+        def res(a, b):
+            return self.G[a, b] - self.G[base, a] @ self._solve(Gbb, self.G[base, b])
+        den = np.sqrt(max(res(j, j), 1e-300) * max(res(k, k), 1e-300))
+        return float(res(j, k) / den)
+
+
+def make_folds(n: int, K: int) -> np.ndarray:
+    """Fold of each (time-ordered) row: interleaved blocks of consecutive
+    rows, so that every fold spans the whole run and repeated readings at a
+    pose stay together."""
+    nb = min(n, 10 * K)
+    block = (np.arange(n) * nb) // n
+    return block % K
+
+
+# --------------------------------------------------------------------------
+# the fit
+def fit_baseline(d: Data, iterations: int = 3) -> tuple[Baseline, Noise]:
+    """Start from calib.joint (with poses), then re-fit the 25 baseline
+    parameters by generalised least squares under the noise estimated from
+    the residuals."""
+    from inclino.calib import joint
+
+    # the start needs no more than a couple of hundred rows spread over the run
+    rows = np.arange(d.n) if d.n <= JOINT_START_ROWS else np.linspace(0, d.n - 1, JOINT_START_ROWS).astype(int)
+    ds = RawDataset({"inc_deg": d.inc[rows], "azi_deg": d.azi[rows], "tf_deg": d.tf[rows],
+                     "ax_g": d.Y[rows, 0], "ay_g": d.Y[rows, 1], "az_g": d.Y[rows, 2],
+                     "mx_nT": d.Y[rows, 3], "my_nT": d.Y[rows, 4], "mz_nT": d.Y[rows, 5]},
+                    {k: v for k, v in d.meta.items()})
+    ds.meta["field_nT"] = d.field_nT
+    try:
+        with np.errstate(all="ignore"):
+            cal, info = joint.fit(ds, use_poses=True)
+    except CalibrationError as e:
+        raise DataError(f"poses cannot separate the baseline's 12 parameters per triad: {e}")
+    except (np.linalg.LinAlgError, ValueError) as e:
+        raise DataError(f"the baseline fit failed on these poses ({e})")
+    A = {"acc": np.linalg.inv(np.asarray(cal.acc_m)), "mag": np.linalg.inv(np.asarray(cal.mag_m))}
+    c = {"acc": np.asarray(cal.acc_b, float), "mag": np.asarray(cal.mag_b, float)}
+    dip = float(info["dip_deg"])
+    noise = None
+    for it in range(iterations):
+        G, Bv = _truth(d, d.inc, d.azi, d.tf, dip)
+        J = pose_jacobian(d, A["acc"], A["mag"], dip)
+        bl = Baseline(A, c, dip, G, Bv, J)
+        R = d.Y - bl.predict()
+        cols, _ = baseline_columns(d, bl)
+        X = np.stack(cols, -1)
+        if noise is None:
+            noise = fit_noise(R, J, dof_frac=1.0 - 4.5 / d.n, ml=False)
+        folds = np.zeros(d.n, int)
+        des = Design(R, X, noise.whitener(J), folds, 1)
+        rank = np.linalg.matrix_rank(des.G, tol=1e-9 * np.abs(des.G).max())
+        if rank < X.shape[-1]:
+            raise DataError("poses cannot separate the baseline's 12 parameters per triad: the gravity or "
+                            "field directions do not span three dimensions")
+        beta, _ = des.fit(np.arange(X.shape[-1]))
+        beta = beta / des.colscale
+        for ti, tri in enumerate(TRIADS):
+            blk = beta[12 * ti: 12 * ti + 12].reshape(3, 4)
+            A[tri] = A[tri] + blk[:, :3]
+            c[tri] = c[tri] + blk[:, 3]
+        dip = dip + float(beta[24])
+        G, Bv = _truth(d, d.inc, d.azi, d.tf, dip)
+        J = pose_jacobian(d, A["acc"], A["mag"], dip)
+        bl = Baseline(A, c, dip, G, Bv, J)
+        noise = fit_noise(d.Y - bl.predict(), J, dof_frac=1.0 - 4.5 / d.n, start=noise,
+                          ml=it == iterations - 1)
+    return bl, noise

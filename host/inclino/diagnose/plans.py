@@ -1,0 +1,192 @@
+"""Acquisition plans a real bench could run, and emulated datasets with one
+effect hidden in them (for the tests and `bench diagnose`).
+
+* `oven_plan`: a few hundred static poses -- 48 quasi-uniform orientations,
+  visited six times in a fresh order each pass, one reading a minute --
+  while an oven cycles the probe between -5 and 55 degC (2.5 cycles over the
+  run, so temperature and time are not confounded).
+* `rotation_plan`: continuous rotations with time stamps -- at three
+  inclinations and two azimuths the toolface turns once clockwise and once
+  back, and at two inclinations the azimuth does the same, at 45 or 90
+  deg/s, read at 10 Hz; room temperature.
+
+The probe (`PROBE`) is the emulator's typical uncalibrated probe without the
+effects the library can hide (its biases, scales, misalignment, hard and soft
+iron, ADIS16210-level accelerometer noise 1.5e-4 g, fluxgate noise 5 nT,
+quantisation), so that a null dataset is exactly the 12-parameter model plus
+noise.  The turntable's readout error is 0.05 deg (1 sigma) on each of
+inclination, azimuth and toolface, as in the calibration bench: the probe
+sits at the indicated pose plus that error while the dataset records the
+indicated pose.
+
+`hide(effect, sensor, axis, value)` puts one library effect into the
+scenario through the emulator's own scenario tables (emulator/scenario.py),
+with the emulator's parameter (the one the diagnosis estimates)."""
+from __future__ import annotations
+
+import copy
+
+import numpy as np
+
+from inclino.calib import runs
+from inclino.dataset import RawDataset
+
+from . import core
+
+TURNTABLE_SIGMA_DEG = 0.05
+ACC_SIGMA_G = 1.5e-4
+MAG_SIGMA_NT = 5.0
+
+PROBE = {
+    "name": "diagnose-bench",
+    "seed": 0,
+    "world": {"field_nT": 50000.0, "dip_deg": 60.0, "declination_deg": 0.0, "gravity_g": 1.0,
+              "temperature_c": 25.0},
+    "acc": {"bias": {"value": [1.5e-3, -1.0e-3, 2.0e-3]}, "scale": {"value": [1.002, 0.998, 1.001]},
+            "misalignment": {"angles_rad": [1.0e-3, -2.0e-3, 1.5e-3], "nonorth_rad": [0.5e-3, -0.8e-3, 0.3e-3]},
+            "noise": {"sigma": [ACC_SIGMA_G] * 3}, "saturation": {"limit": 1.7}},
+    "mag": {"bias": {"value": [150.0, -120.0, 300.0]}, "scale": {"value": [0.99, 1.01, 0.985]},
+            "misalignment": {"angles_rad": [3.0e-3, -4.0e-3, 5.0e-3], "nonorth_rad": [2.0e-3, -1.5e-3, 2.5e-3]},
+            "hard_iron": {"value": [200.0, -150.0, 80.0]},
+            "soft_iron": {"matrix": [[1.005, 0.002, -0.001], [0.002, 0.997, 0.0015], [-0.001, 0.0015, 1.003]]},
+            "noise": {"sigma": [MAG_SIGMA_NT] * 3}, "saturation": {"limit": 100000.0}},
+}
+
+
+def oven_plan(orientations: int = 48, passes: int = 6, dwell_s: float = 60.0, t_mean: float = 25.0,
+              t_amp: float = 30.0, cycles: float = 2.5, seed: int = 0) -> dict:
+    I, A, T = runs.multi_position(orientations)
+    rng = np.random.default_rng([seed, 11])
+    order = np.concatenate([rng.permutation(orientations) for _ in range(passes)])
+    n = len(order)
+    t = np.arange(n) * dwell_s
+    temp = t_mean + t_amp * np.sin(2 * np.pi * cycles * t / (n * dwell_s))
+    return {"kind": "static", "inc": I[order], "azi": A[order], "tf": T[order], "t_s": t, "temp_c": temp}
+
+
+def rotation_plan(rates=(90.0, 45.0), sample_hz: float = 10.0, tf_poses=((45, 30), (90, 200), (135, 30)),
+                  azi_incs=(60, 120), move_s: float = 3.0) -> dict:
+    """Keyframes of a continuous run and its sample times (only while a
+    rotation is under way)."""
+    from inclino_emu.world import Trajectory
+
+    key = [(0.0, 45.0, 30.0, 0.0)]
+    samples = []
+    t = 0.0
+    segs = [("tf", i, a) for i, a in tf_poses] + [("azi", i, 0.0) for i in azi_incs]
+    for j, (what, inc, azi) in enumerate(segs):
+        rate = rates[j % len(rates)]
+        t += move_s  # move to the start pose (not read)
+        key.append((t, inc, azi, 0.0))
+        dur = 360.0 / rate
+        for sgn in (1.0, -1.0):
+            t0 = t
+            t += dur
+            if what == "tf":
+                key.append((t, inc, azi, 360.0 if sgn > 0 else 0.0))
+            else:
+                key.append((t, inc, azi + (360.0 if sgn > 0 else 0.0), 0.0))
+            k = np.arange(1, int(dur * sample_hz))
+            samples.append(t0 + k / sample_hz)
+    ts, inc, azi, tf = (np.array(c, float) for c in zip(*key))
+    return {"kind": "continuous", "trajectory": Trajectory(ts, inc, azi, tf), "t_s": np.concatenate(samples),
+            "temp_c": 25.0}
+
+
+PLANS = {"static": oven_plan, "continuous": rotation_plan}
+
+
+def hide(probe: dict, effect: str, sensor: str, axis: str, value: float) -> dict:
+    """A copy of the scenario dict with one library effect of the given
+    size (the emulator's parameter, in the diagnosis's units)."""
+    d = copy.deepcopy(probe)
+    if sensor in core.TRIADS:
+        e = [0.0, 0.0, 0.0]
+        if axis in core.AXES:
+            e[core.AXES.index(axis)] = float(value)
+        tab = d.setdefault(sensor, {})
+        if effect == "temperature-bias":
+            tab["bias_tempco"] = {"value": e, "t_ref_c": 25.0}
+        elif effect == "temperature-scale":
+            tab["scale_tempco"] = {"ppm": e, "t_ref_c": 25.0}
+        elif effect == "scale-nonlinearity":
+            tab["nonlinearity"] = {"k2": e}
+        elif effect == "sample-skew":
+            d.setdefault("timing", {})["mag_skew_s"] = float(value)
+        else:
+            raise KeyError(effect)
+    elif effect == "turntable-inclination-offset":
+        d["world"]["encoder"] = {"offset_deg": [float(value), 0.0, 0.0]}
+    elif effect == "turntable-azimuth-offset":
+        d["world"]["encoder"] = {"offset_deg": [0.0, float(value), 0.0]}
+    elif effect == "field-drift":
+        kw = {"total": "rate_nT_per_s", "dip": "dip_rate_deg_per_s", "declination": "declination_rate_deg_per_s"}
+        d["world"]["field_drift"] = {kw[axis]: float(value)}
+    else:
+        raise KeyError(effect)
+    return d
+
+
+def generate(probe: dict, plan: dict, seed: int, sigma_pose_deg: float = TURNTABLE_SIGMA_DEG,
+             noise: bool = True) -> RawDataset:
+    """The emulated dataset of `plan` for the scenario dict `probe`: the
+    probe sits at the indicated pose plus the readout error, the pose
+    columns record the indicated pose."""
+    from inclino_emu.scenario import generate_raw, scenario_from_dict
+
+    p = copy.deepcopy(probe)
+    p["seed"] = int(seed)
+    if not noise:
+        for tri in core.TRIADS:
+            p[tri].pop("noise", None)
+            p[tri]["quantise"] = False
+    s = scenario_from_dict(p)
+    rng = np.random.default_rng([int(seed), 7])
+    if plan["kind"] == "static":
+        I, A, T = (np.asarray(plan[k], float) for k in ("inc", "azi", "tf"))
+        e = rng.normal(0.0, sigma_pose_deg, (3, len(I))) if sigma_pose_deg > 0 else np.zeros((3, len(I)))
+        # the true pose: indicated + readout error (kept inside the turntable's range)
+        Ti = np.clip(I + e[0], 0.0, 180.0)
+        Ta, Tt = np.mod(A + e[1], 360.0), np.mod(T + e[2], 360.0)
+        ds = generate_raw(s, Ti, Ta, Tt, t_s=plan["t_s"], temp_c=plan["temp_c"], seed=int(seed))
+        ds.columns["inc_deg"], ds.columns["azi_deg"], ds.columns["tf_deg"] = I.copy(), A.copy(), T.copy()
+        return ds
+    ds = generate_raw(s, trajectory=plan["trajectory"], t_s=plan["t_s"], temp_c=plan["temp_c"], seed=int(seed))
+    n = len(ds)
+    if sigma_pose_deg > 0:
+        e = rng.normal(0.0, sigma_pose_deg, (3, n))
+        ds.columns["inc_deg"] = np.clip(ds.columns["inc_deg"] - e[0], 0.0, 180.0)
+        ds.columns["azi_deg"] = np.mod(ds.columns["azi_deg"] - e[1], 360.0)
+        ds.columns["tf_deg"] = np.mod(ds.columns["tf_deg"] - e[2], 360.0)
+    return ds
+
+
+def signature_z(probe: dict, plan: dict, cand: core.Candidate, sigma_pose_deg: float = TURNTABLE_SIGMA_DEG,
+                with_peak: bool = False):
+    """How many noise standard deviations one unit of the candidate's
+    parameter is on this plan, once the baseline has absorbed what it can:
+    the norm of its whitened regressor outside the baseline's span, under the
+    true noise (the probe's sensor noise and the turntable's readout error).
+    with_peak: also the largest change of any reading per unit, in that
+    channel's sensor noise sigmas."""
+    from inclino_emu.scenario import scenario_from_dict
+
+    ds = generate(probe, plan, seed=0, sigma_pose_deg=0.0, noise=False)
+    d = core.prepare(ds)
+    s = scenario_from_dict(probe)
+    A, c = {}, {}
+    for tri in core.TRIADS:
+        A[tri], c[tri] = getattr(s, tri).linear()
+    dip = s.world.earth.dip_deg
+    G, B = core._truth(d, d.inc, d.azi, d.tf, dip)
+    bl = core.Baseline(A, c, dip, G, B, core.pose_jacobian(d, A["acc"], A["mag"], dip))
+    cols, _ = core.baseline_columns(d, bl)
+    X = np.stack(cols + [core.regressor(d, bl, cand)], -1)
+    noise = core.Noise(np.array([ACC_SIGMA_G] * 3 + [MAG_SIGMA_NT] * 3) * np.sqrt(1 + 1 / (12 * np.array(
+        [(ACC_SIGMA_G * 16384) ** 2] * 3 + [MAG_SIGMA_NT ** 2] * 3))), np.full(3, sigma_pose_deg))
+    des = core.Design(np.zeros((d.n, 6)), X, noise.whitener(bl.Jpose), np.zeros(d.n, int), 1)
+    k = X.shape[-1] - 1
+    z = float(des.colscale[k] * des.separability(list(range(k)), k))
+    if with_peak:
+        return z, float(np.abs(X[:, :, k] / noise.sigma).max())
+    return z

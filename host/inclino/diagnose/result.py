@@ -1,0 +1,134 @@
+"""The diagnosis as data: `Diagnosis.to_json()` prints exactly
+
+    {"baseline": {...},
+     "effects": [{"name", "sensor", "axis", "estimate", "stderr", "units",
+                  "gain": {"rms_before", "rms_after", "cv_rms_before", "cv_rms_after",
+                           "azi_rms_before_deg", "azi_rms_after_deg",
+                           "inc_rms_before_deg", "inc_rms_after_deg"}}],
+     "unexplained": true|false}
+
+(docs/diagnose.md describes the baseline object's keys)."""
+from __future__ import annotations
+
+import json
+import math
+from dataclasses import dataclass, field
+
+import numpy as np
+
+
+def clean(o):
+    """JSON-safe: numpy to Python, NaN/inf to null."""
+    if isinstance(o, dict):
+        return {str(k): clean(v) for k, v in o.items()}
+    if isinstance(o, (list, tuple)):
+        return [clean(v) for v in o]
+    if isinstance(o, np.ndarray):
+        return clean(o.tolist())
+    if isinstance(o, (np.bool_, bool)):
+        return bool(o)
+    if isinstance(o, (np.integer,)):
+        return int(o)
+    if isinstance(o, (np.floating, float)):
+        v = float(o)
+        return v if math.isfinite(v) else None
+    return o
+
+
+@dataclass
+class Gain:
+    rms_before: float
+    rms_after: float
+    cv_rms_before: float
+    cv_rms_after: float
+    azi_rms_before_deg: float | None
+    azi_rms_after_deg: float | None
+    inc_rms_before_deg: float
+    inc_rms_after_deg: float
+
+    def to_dict(self):
+        return clean({k: getattr(self, k) for k in ("rms_before", "rms_after", "cv_rms_before", "cv_rms_after",
+                                                    "azi_rms_before_deg", "azi_rms_after_deg",
+                                                    "inc_rms_before_deg", "inc_rms_after_deg")})
+
+
+@dataclass
+class Effect:
+    name: str
+    sensor: str
+    axis: str
+    estimate: float
+    stderr: float
+    units: str
+    gain: Gain
+    # not in the JSON: what the text report and the plots use
+    rms_units: str = ""
+    p_value: float = 1.0
+
+    def to_dict(self):
+        return clean({"name": self.name, "sensor": self.sensor, "axis": self.axis, "estimate": self.estimate,
+                      "stderr": self.stderr, "units": self.units, "gain": self.gain.to_dict()})
+
+
+@dataclass
+class Diagnosis:
+    baseline: dict
+    effects: list = field(default_factory=list)
+    unexplained: bool = False
+    # kept for the report and the plots, not in the JSON
+    structure: dict = field(default_factory=dict)
+    plot_data: dict = field(default_factory=dict, repr=False)
+    elapsed_s: float = 0.0
+
+    def to_dict(self) -> dict:
+        return {"baseline": clean(self.baseline), "effects": [e.to_dict() for e in self.effects],
+                "unexplained": bool(self.unexplained)}
+
+    def to_json(self, indent=2) -> str:
+        return json.dumps(self.to_dict(), indent=indent)
+
+    def names(self) -> list:
+        return [(e.name, e.sensor, e.axis) for e in self.effects]
+
+    def summary(self) -> str:
+        b = self.baseline
+        nz = b["noise"]
+        lines = [f"baseline: {b['model']}; {b['rows']} readings ({b['kind']}), {b['orientations']} orientations, "
+                 f"dip {b['dip_deg']:.3f} deg",
+                 "  noise from the data: acc " + ", ".join(f"{s * 1e6:.0f}" for s in nz["acc_g"]) + " ug; mag "
+                 + ", ".join(f"{s:.2f}" for s in nz["mag_nT"]) + " nT; turntable "
+                 + ", ".join(f"{k} {v:.3f}" for k, v in nz["pose_deg"].items()) + " deg",
+                 "  residual RMS: acc " + ", ".join(f"{s * 1e6:.0f}" for s in b["rms"]["acc_g"]) + " ug; mag "
+                 + ", ".join(f"{s:.2f}" for s in b["rms"]["mag_nT"]) + " nT; "
+                 + (f"azimuth {b['azi_rms_deg']:.4f} deg, " if b.get("azi_rms_deg") is not None else "")
+                 + f"inclination {b['inc_rms_deg']:.4f} deg"]
+        sel = b["selection"]
+        lines.append(f"effects tested: {len(sel['tested'])} (F-test at alpha = {sel['alpha']:g}, Bonferroni over the "
+                     f"candidates, and {sel['folds']}-fold cross-validation)")
+        groups = {}
+        for nt in sel["not_testable"]:
+            name, sensor, axis = nt["effect"].split(":")
+            groups.setdefault((name, nt["reason"]), []).append(f"{sensor} {axis}")
+        for (name, reason), where in groups.items():
+            lines.append(f"  not testable: {name} ({', '.join(where)}): {reason}")
+        if not self.effects:
+            lines.append("effects found: none")
+        for e in self.effects:
+            g = e.gain
+            lines.append(f"effect: {e.name} ({e.sensor} {e.axis}) = {e.estimate:.4g} +- {e.stderr:.2g} {e.units}"
+                         f"  (p = {e.p_value:.2g})")
+            lines.append(f"  residual RMS {g.rms_before:.4g} -> {g.rms_after:.4g} {e.rms_units} (cross-validated "
+                         f"{g.cv_rms_before:.4g} -> {g.cv_rms_after:.4g}); inclination {g.inc_rms_before_deg:.4f} -> "
+                         f"{g.inc_rms_after_deg:.4f} deg"
+                         + (f", azimuth {g.azi_rms_before_deg:.4f} -> {g.azi_rms_after_deg:.4f} deg"
+                            if g.azi_rms_before_deg is not None else ""))
+        for note in sel.get("notes", []):
+            lines.append(f"  note: {note}")
+        s = self.structure
+        if self.unexplained:
+            sig = ", ".join(f"{x['channel']} vs {x['test']} (p = {x['p']:.2g})" for x in s["significant"][:4])
+            lines.append(f"unexplained: YES -- structure no library effect explains: {sig}")
+        else:
+            lines.append(f"unexplained: no (smallest of {s['tests']} structure-test p-values {s['min_p']:.2g}, "
+                         f"threshold {s['threshold']:.2g})")
+        return "\n".join(lines)
