@@ -178,3 +178,15 @@ def test_power_cut_at_every_flash_step_of_a_download(emu, ctl, capsys, tmp_path)
         assert after != (0xFF, 0, 0)
     assert ctl.call("status")["power_cuts"] >= n_ops
     assert old_state[2] != 0
+
+
+
+def test_set_average(emu, ctl):
+    from inclino.link import ProbeNak
+
+    with ProbeLink(emu.path, timeout=2.0) as link:
+        assert link.set_average(4) == 4
+        assert link.survey().count == 4
+        with pytest.raises(ProbeNak, match="E_ARGUMENT"):
+            link.set_average(0)
+        assert link.set_average(16) == 16

@@ -30,6 +30,7 @@ class App:
             raw=cb("uint8_t(uint8_t *)", self.raw),
             qcref_read=cb("uint8_t(uint8_t *)", self.qcref_read),
             qcref_write=cb("uint8_t(const uint8_t *)", self.qcref_write),
+            set_average=cb("uint8_t(uint8_t)", lambda n: 0 if 1 <= n <= 64 else 5),
             cal_read=cb("uint8_t(uint8_t, uint8_t *)", self.cal_read),
             cal_write=cb("uint16_t(const uint8_t *, uint8_t, uint8_t *)", self.cal_write),
             cal_activate=cb("uint8_t(uint8_t, uint32_t, uint8_t *)", self.cal_activate),
@@ -139,6 +140,7 @@ def test_identify_survey_raw_qcref():
 @pytest.mark.parametrize("cmd,payload,code", [
     ("SURVEY", b"\x00", 2), ("QCREF_WRITE", bytes(23), 2), ("CAL_READ", b"\x02", 5), ("CAL_WRITE", bytes(120), 2),
     ("STREAM", b"\x00\x00\x00\x01", 5), ("BOOTLOADER", b"BOOX", 5), (0x55, b"", 4),
+    ("SET_AVERAGE", b"\x00", 5), ("SET_AVERAGE", b"\x41", 5), ("SET_AVERAGE", b"", 2),
 ])
 def test_negative_answers(cmd, payload, code):
     a = App()

@@ -203,6 +203,11 @@ static uint8_t a_qcref_write(const uint8_t in[PROTO_QCREF_LEN])
     return (st == PROBE_OK) ? 0u : err_code(st);
 }
 
+static uint8_t a_set_average(uint8_t n)
+{
+    return (probe_set_average(n) == PROBE_OK) ? 0u : PERR_ARGUMENT;
+}
+
 static uint8_t a_cal_read(uint8_t slot, uint8_t out[126])
 {
     uint8_t valid = 0u;
@@ -381,10 +386,10 @@ static void t_survey(char *out)
 /* compile-time check (C99): the product string fits its 16 bytes */
 typedef char app_product_fits[(sizeof(APP_PRODUCT) <= 17u) ? 1 : -1];
 
-static const proto_app_t app = {a_identity,     a_survey,      a_survey_raw, a_raw,
-                                a_qcref_read,   a_qcref_write, a_cal_read,   a_cal_write,
-                                a_cal_activate, a_reset,       a_bootloader, t_identity,
-                                t_survey,       send};
+static const proto_app_t app = {a_identity,   a_survey,       a_survey_raw,  a_raw,
+                                a_qcref_read, a_qcref_write,  a_set_average, a_cal_read,
+                                a_cal_write,  a_cal_activate, a_reset,       a_bootloader,
+                                t_identity,   t_survey,       send};
 
 /* ------------------------------------------------------------ main loop */
 uint8_t app_main_init(void)

@@ -151,6 +151,19 @@ static void execute(proto_t *p, uint8_t seq, uint8_t cmd, const uint8_t *pl, uin
             answer(p, seq, (uint8_t)(cmd | 0x80u), out, 0u);
         }
         return;
+    case PCMD_SET_AVERAGE:
+        if (len != 1u) {
+            nak(p, seq, cmd, PERR_LENGTH, 0u);
+            return;
+        }
+        rc = p->app->set_average(pl[0]);
+        if (rc != 0u) {
+            nak(p, seq, cmd, rc, 0u);
+        } else {
+            out[0] = pl[0];
+            answer(p, seq, (uint8_t)(cmd | 0x80u), out, 1u);
+        }
+        return;
     case PCMD_STREAM:
         if (len != 4u) {
             nak(p, seq, cmd, PERR_LENGTH, 0u);

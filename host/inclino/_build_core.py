@@ -63,6 +63,7 @@ typedef struct {
     uint8_t (*raw)(uint8_t *out);
     uint8_t (*qcref_read)(uint8_t *out);
     uint8_t (*qcref_write)(const uint8_t *in);
+    uint8_t (*set_average)(uint8_t n);
     uint8_t (*cal_read)(uint8_t slot, uint8_t *out);
     uint16_t (*cal_write)(const uint8_t *image, uint8_t force, uint8_t *out);
     uint8_t (*cal_activate)(uint8_t slot, uint32_t sequence, uint8_t *out);

@@ -73,6 +73,14 @@ def _cmd_bench(args) -> int:
               f" vectors/s; per call: {r.per_call_vectors_per_s:,.0f} vectors/s"
               f" (cost ratio {r.per_call_to_batched_cost_ratio:.0f})")
         return 0
+    if args.what == "link":
+        from inclino import bench_link
+
+        r = bench_link.bench()
+        print(r.to_json() if args.json else
+              f"stream: {r.stream_link_fraction:.1%} of the link; download: {r.download_ratio:.2f} x the minimum "
+              f"bytes ({r.download_verify_ratio:.2f} x with verify)")
+        return 0
     if args.what == "emulator":
         from inclino import bench_emulator
 
@@ -173,7 +181,7 @@ def build_parser() -> argparse.ArgumentParser:
     em.set_defaults(func=_cmd_emulate)
 
     be = sub.add_parser("bench", help="benchmarks (figures, JSON with --json)")
-    be.add_argument("what", choices=("accuracy", "speed", "mcu", "emulator"))
+    be.add_argument("what", choices=("accuracy", "speed", "mcu", "emulator", "link"))
     be.add_argument("--json", action="store_true", help="print one JSON object")
     be.add_argument("--field", type=float, default=50000.0, help="accuracy: field total, nT")
     be.add_argument("--dip", type=float, default=60.0, help="accuracy: dip, degrees")

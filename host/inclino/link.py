@@ -188,6 +188,10 @@ class ProbeLink:
         p = self.request("CAL_ACTIVATE", struct.pack(">BI", slot, sequence), timeout=self.timeout + FLASH_EXTRA_S)
         return struct.unpack(">BI", p)
 
+    def set_average(self, n: int) -> int:
+        """Samples the probe averages per survey (1..64)."""
+        return self.request("SET_AVERAGE", bytes([n & 0xFF]))[0]
+
     def reset(self) -> None:
         self.request("RESET")
 

@@ -37,6 +37,7 @@ static uint8_t qcref_write(const uint8_t *in)
 {
     return (uint8_t)(in[0] == 0xFFu ? PERR_ARGUMENT : 0u);
 }
+static uint8_t set_average(uint8_t n) { return (uint8_t)((n == 0u || n > 64u) ? PERR_ARGUMENT : 0u); }
 static uint8_t cal_read(uint8_t slot, uint8_t *out)
 {
     out[0] = slot;
@@ -75,7 +76,7 @@ static void send(const uint8_t *data, uint16_t n)
     sink_len += n;
 }
 
-static const proto_app_t app = {identity, survey, survey_raw, raw, qcref_read, qcref_write, cal_read,
+static const proto_app_t app = {identity, survey, survey_raw, raw, qcref_read, qcref_write, set_average, cal_read,
                                 cal_write, cal_activate, nothing, nothing, text, text, send};
 
 static void framed_requests(proto_t *p, const uint8_t *data, size_t size)

@@ -22,6 +22,7 @@
 #define PCMD_QCREF_READ 0x06u
 #define PCMD_QCREF_WRITE 0x07u
 #define PCMD_SURVEY_RAW 0x08u
+#define PCMD_SET_AVERAGE 0x09u
 #define PCMD_CAL_READ 0x10u
 #define PCMD_CAL_WRITE 0x11u
 #define PCMD_CAL_ACTIVATE 0x12u
@@ -63,6 +64,8 @@ typedef struct {
     uint8_t (*raw)(uint8_t out[PROTO_RAW_LEN]);
     uint8_t (*qcref_read)(uint8_t out[PROTO_QCREF_LEN]);
     uint8_t (*qcref_write)(const uint8_t in[PROTO_QCREF_LEN]);
+    /* samples averaged per survey and raw reading, 1..64 */
+    uint8_t (*set_average)(uint8_t n);
     /* out: u8 slot, u8 valid, u32 sequence, then the 120-byte image */
     uint8_t (*cal_read)(uint8_t slot, uint8_t out[126]);
     /* image: 120 bytes; out: u8 slot, u32 sequence, u16 CRC */
