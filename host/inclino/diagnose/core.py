@@ -284,7 +284,12 @@ def baseline_columns(d: Data, bl: Baseline) -> tuple[list, list]:
 
 
 def _tau(d: Data):
-    return d.t - d.t[0]
+    """Time about the run's mean: the drift candidates are trends, the mean
+    value being the baseline's (F: the scale, dip: the fitted dip) or the
+    azimuth-offset candidate's (declination: a declination that differs
+    from the header's on average is the same rotation as the turntable's
+    north reference being off)."""
+    return d.t - d.t.mean()
 
 
 def regressor(d: Data, bl: Baseline, cand: Candidate) -> np.ndarray:
@@ -315,7 +320,7 @@ def regressor(d: Data, bl: Baseline, cand: Candidate) -> np.ndarray:
         return bl.Jpose[:, :, 1].copy()
     if cand.name == "field-drift":
         tau = _tau(d)
-        span = max(float(tau.max()), 1e-9)
+        span = max(float(np.abs(tau).max()), 1e-9)
         if cand.axis == "total":
             unit = 1.0  # exact: F is linear in the rate
             drifts = [fx.FieldDrift(rate_nT_per_s=unit), fx.FieldDrift(rate_nT_per_s=-unit)]

@@ -21,7 +21,12 @@ indicated pose.
 
 `hide(effect, sensor, axis, value)` puts one library effect into the
 scenario through the emulator's own scenario tables (emulator/scenario.py),
-with the emulator's parameter (the one the diagnosis estimates)."""
+with the emulator's parameter (the one the diagnosis estimates).  A field
+drift (effects.FieldDrift, linear from t = 0) is set so that the field at
+the run's mean time is the header's: the dataset's header holds the field a
+reference measurement or model gives for the session, the drift is a trend
+about it (a declination off the header's on average is the turntable's
+azimuth offset: the two are one rotation)."""
 from __future__ import annotations
 
 import copy
@@ -140,6 +145,15 @@ def generate(probe: dict, plan: dict, seed: int, sigma_pose_deg: float = TURNTAB
         for tri in core.TRIADS:
             p[tri].pop("noise", None)
             p[tri]["quantise"] = False
+    drift = p["world"].get("field_drift", {})
+    t_mid = float(np.mean(plan["t_s"]))
+    if drift:
+        # the header holds the field at the run's mean time (what a reference
+        # measurement or model for the session gives), the drift is about it
+        w = p["world"]
+        w["field_nT"] = w["field_nT"] - drift.get("rate_nT_per_s", 0.0) * t_mid
+        w["dip_deg"] = w["dip_deg"] - drift.get("dip_rate_deg_per_s", 0.0) * t_mid
+        w["declination_deg"] = w["declination_deg"] - drift.get("declination_rate_deg_per_s", 0.0) * t_mid
     s = scenario_from_dict(p)
     rng = np.random.default_rng([int(seed), 7])
     if plan["kind"] == "static":
@@ -150,8 +164,10 @@ def generate(probe: dict, plan: dict, seed: int, sigma_pose_deg: float = TURNTAB
         Ta, Tt = np.mod(A + e[1], 360.0), np.mod(T + e[2], 360.0)
         ds = generate_raw(s, Ti, Ta, Tt, t_s=plan["t_s"], temp_c=plan["temp_c"], seed=int(seed))
         ds.columns["inc_deg"], ds.columns["azi_deg"], ds.columns["tf_deg"] = I.copy(), A.copy(), T.copy()
+        ds.meta.update({k: probe["world"][k] for k in ("field_nT", "dip_deg", "declination_deg")})
         return ds
     ds = generate_raw(s, trajectory=plan["trajectory"], t_s=plan["t_s"], temp_c=plan["temp_c"], seed=int(seed))
+    ds.meta.update({k: probe["world"][k] for k in ("field_nT", "dip_deg", "declination_deg")})
     n = len(ds)
     if sigma_pose_deg > 0:
         e = rng.normal(0.0, sigma_pose_deg, (3, n))

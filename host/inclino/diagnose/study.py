@@ -9,7 +9,9 @@ any one library effect:
 * temperature: dT, dT^2, dT x (x = the axis's own signal);
 * time: tau, tau^2, tau x (tau = time since the first reading);
 * field: x^2, x^3 -- the component the axis measures;
-* move: the direction (+1/-1) of the last move of each turntable axis;
+* move: the direction (+1/-1) of the last move of each turntable axis,
+  alone and times the axis's change per degree of that turntable axis
+  (backlash: the probe lags behind the move);
 * rate: the axis's signal change per second through each turntable axis'
   rotation rate (continuous data only).
 
@@ -53,7 +55,11 @@ def family_columns(d: Data, bl, ch: int) -> dict:
         tau = (d.t - d.t[0]) / np.ptp(d.t)
         out["time"] = np.column_stack([tau, tau ** 2, tau * xs])
     out["field"] = np.column_stack([xs ** 2, xs ** 3])
-    mv = [d.last_move[:, k] for k in range(3) if np.ptp(d.last_move[:, k]) > 0]
+    # direction of the last move of each turntable axis: alone (a direction-
+    # dependent reading) and times the reading's change per degree of that
+    # axis (a pose that lags behind the move: backlash)
+    mv = [c for k in range(3) if np.ptp(d.last_move[:, k]) > 0
+          for c in (d.last_move[:, k], d.last_move[:, k] * bl.Jpose[:, ch, k])]
     if mv:
         out["move"] = np.column_stack(mv)
     if d.moving.sum() >= 10:

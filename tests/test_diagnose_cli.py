@@ -1,0 +1,149 @@
+"""`inclino diagnose DATA.csv [--json] [--plot DIR]` through the command's
+main(): output shapes, PNGs, and bad input as one plain error line with exit
+status 2 (never a traceback); `python -m inclino.diagnose.bench` on a tiny
+seeded set."""
+import json
+
+import numpy as np
+import pytest
+
+from inclino.cli import main
+from inclino.dataset import RawDataset, write_raw
+from inclino.diagnose import bench as dbench
+from inclino.diagnose import plans
+from inclino_emu.world import Trajectory
+
+
+def _write(tmp_path, ds, name="run.csv"):
+    p = tmp_path / name
+    write_raw(str(p), ds)
+    return str(p)
+
+
+def _run(capsys, *argv):
+    rc = main(list(argv))
+    out, err = capsys.readouterr()
+    return rc, out, err
+
+
+def _one_error_line(err):
+    lines = err.strip().splitlines()
+    assert len(lines) == 1 and lines[0].startswith("inclino: error: "), err
+    assert "Traceback" not in err
+    return lines[0]
+
+
+@pytest.fixture(scope="module")
+def tb_dataset():
+    p = plans.hide(plans.PROBE, "temperature-bias", "mag", "y", 0.3)
+    return plans.generate(p, plans.oven_plan(seed=5), 5)
+
+
+def test_json_output_has_exactly_the_issue_keys(tmp_path, capsys, tb_dataset):
+    rc, out, err = _run(capsys, "diagnose", _write(tmp_path, tb_dataset), "--json")
+    assert rc == 0, err
+    d = json.loads(out)
+    assert list(d) == ["baseline", "effects", "unexplained"]
+    (e,) = d["effects"]
+    assert (e["name"], e["sensor"], e["axis"], e["units"]) == ("temperature-bias", "mag", "y", "nT/degC")
+    assert abs(e["estimate"] - 0.3) <= 3 * e["stderr"]
+    assert d["unexplained"] is False
+
+
+def test_text_report_and_plots(tmp_path, capsys, tb_dataset):
+    out_dir = tmp_path / "plots"
+    rc, out, err = _run(capsys, "diagnose", _write(tmp_path, tb_dataset), "--plot", str(out_dir))
+    assert rc == 0, err
+    assert "effect: temperature-bias (mag y)" in out
+    assert "unexplained: no" in out
+    assert "not testable: sample-skew" in out  # static data: said, not guessed
+    for name in ("temperature-bias_mag_y.png", "baseline.png"):
+        data = (out_dir / name).read_bytes()
+        assert data[:8] == b"\x89PNG\r\n\x1a\n" and len(data) > 5000
+
+
+def test_null_dataset_text_says_none(tmp_path, capsys):
+    ds = plans.generate(plans.PROBE, plans.rotation_plan(), 21)
+    rc, out, err = _run(capsys, "diagnose", _write(tmp_path, ds))
+    assert rc == 0, err
+    assert "effects found: none" in out and "(continuous)" in out
+
+
+def test_too_few_poses(tmp_path, capsys, tb_dataset):
+    small = RawDataset({k: v[:10] for k, v in tb_dataset.columns.items()}, dict(tb_dataset.meta))
+    rc, _, err = _run(capsys, "diagnose", _write(tmp_path, small))
+    assert rc == 2
+    assert "too few poses" in _one_error_line(err)
+
+
+def test_no_pose_columns(tmp_path, capsys, tb_dataset):
+    cols = {k: v for k, v in tb_dataset.columns.items() if k != "azi_deg"}
+    rc, _, err = _run(capsys, "diagnose", _write(tmp_path, RawDataset(cols, dict(tb_dataset.meta))))
+    assert rc == 2
+    assert "azi_deg" in _one_error_line(err)
+
+
+def test_temperature_effect_asked_of_a_constant_temperature(tmp_path, capsys):
+    plan = dict(plans.oven_plan(seed=2), temp_c=np.full(288, 24.0))
+    ds = plans.generate(plans.PROBE, plan, 2)
+    rc, _, err = _run(capsys, "diagnose", _write(tmp_path, ds), "--effects", "temperature-bias")
+    assert rc == 2
+    line = _one_error_line(err)
+    assert "temperature-bias" in line and "temperature never changes" in line
+    # not asked about: the other effects are tested and the temperature ones reported as not testable
+    rc, out, err = _run(capsys, "diagnose", _write(tmp_path, ds))
+    assert rc == 0 and "not testable: temperature-bias" in out
+
+
+def test_skew_asked_of_a_one_way_rotation_cannot_be_separated(tmp_path, capsys):
+    """Turning the toolface always the same way at one rate, a fluxgate
+    sampled late is a fixed rotation about the tool axis: the 12-parameter
+    misalignment absorbs it and no skew can be estimated."""
+    key = [(0.0, 30.0, 10.0, 0.0)]
+    t, ts = 0.0, []
+    for inc, azi in ((30, 10), (60, 100), (90, 200), (120, 300), (150, 50)):
+        t += 2.0
+        key.append((t, inc, azi, 0.0))
+        t0, t = t, t + 4.0
+        key.append((t, inc, azi, 360.0))
+        ts.append(t0 + np.arange(1, 40) / 10.0)
+    traj = Trajectory(*(np.array(c) for c in zip(*key)))
+    plan = {"kind": "continuous", "trajectory": traj, "t_s": np.concatenate(ts), "temp_c": 25.0}
+    ds = plans.generate(plans.hide(plans.PROBE, "sample-skew", "mag", "xyz", 2e-3), plan, 3, sigma_pose_deg=0.0)
+    rc, _, err = _run(capsys, "diagnose", _write(tmp_path, ds), "--effects", "sample-skew")
+    assert rc == 2
+    assert "cannot be told from the 12-parameter baseline" in _one_error_line(err)
+
+
+def test_poses_that_cannot_separate_the_baseline(tmp_path, capsys):
+    """Every pose horizontal: gravity never has a z component, so the
+    accelerometer's z row cannot be fitted."""
+    rng = np.random.default_rng(0)
+    n = 60
+    plan = {"kind": "static", "inc": np.full(n, 90.0), "azi": rng.uniform(0, 360, n), "tf": rng.uniform(0, 360, n),
+            "t_s": np.arange(n) * 60.0, "temp_c": 25 + 20 * np.sin(np.arange(n) / 7)}
+    ds = plans.generate(plans.PROBE, plan, 4)
+    rc, _, err = _run(capsys, "diagnose", _write(tmp_path, ds))
+    assert rc == 2
+    assert "cannot separate the baseline" in _one_error_line(err)
+
+
+def test_unknown_effect_and_missing_input(tmp_path, capsys, tb_dataset):
+    rc, _, err = _run(capsys, "diagnose", _write(tmp_path, tb_dataset), "--effects", "gremlins")
+    assert rc == 2 and "unknown effect" in _one_error_line(err)
+    rc, _, err = _run(capsys, "diagnose")
+    assert rc == 2 and "needs a raw dataset" in _one_error_line(err)
+    rc, _, err = _run(capsys, "diagnose", str(tmp_path / "absent.csv"))
+    assert rc == 2 and "cannot read" in _one_error_line(err)
+
+
+def test_bench_module_small_seeded_set(capsys):
+    rc = dbench.main(["--json", "--per-effect", "1", "--nulls", "2", "--seed", "77"])
+    out = capsys.readouterr().out
+    d = json.loads(out)
+    assert d["datasets"] == 9 and set(d["effects"]) == set(dbench.core.EFFECT_NAMES)
+    for e in d["effects"].values():
+        assert e["detection_rate"] == 1.0
+    assert d["null"]["false_alarms"] == 0
+    assert d["time_s"]["max"] < 5.0
+    assert d["met"]["datasets"] is False and rc == 1  # 9 < 200: the full bench is `bench diagnose`

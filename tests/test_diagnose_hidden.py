@@ -1,0 +1,103 @@
+"""Tests that hide an effect: emulated bench datasets (inclino_emu, through
+inclino.diagnose.plans) with one library effect at a random sensor, axis and
+sign, its signature 6-9 noise sigmas once the baseline has absorbed what it
+can (peak change of a reading about 1-4 sigma of the sensor noise) -- near
+the detection limit (~3.6 sigma at alpha = 0.01 over two dozen candidates).
+The diagnosis must name exactly that effect and estimate it within its
+stated uncertainty; on null datasets it must name nothing.  A smaller
+seeded set than `bench diagnose` (docs/diagnose.md)."""
+import json
+
+import numpy as np
+import pytest
+
+from inclino import reference as ref
+from inclino.diagnose import bench, core, plans
+from inclino.diagnose.analysis import diagnose
+
+CASES = [(name, seed) for i, name in enumerate(core.EFFECT_NAMES) for seed in (500 + 10 * i, 501 + 10 * i,
+                                                                                 502 + 10 * i)]
+
+
+@pytest.mark.parametrize("effect,seed", CASES)
+def test_hidden_effect_is_named_and_estimated_within_its_stderr(effect, seed):
+    kinds = bench.EFFECT_PLANS[effect]
+    c = bench.run_case(effect, kinds[seed % len(kinds)], seed)
+    h = c["hidden"]
+    assert 6.0 <= h["z"] <= 9.0 and h["peak_over_noise"] < 5.0  # near the limit, not a gross error
+    named = [(f["name"], f["sensor"], f["axis"]) for f in c["found"]]
+    assert named == [(h["name"], h["sensor"], h["axis"])], f"hid {h}, named {named}"
+    f = c["found"][0]
+    assert abs(f["estimate"] - h["value"]) <= 3.0 * f["stderr"], (f, h)
+    assert f["stderr"] < abs(h["value"]) / 3.0  # the uncertainty is informative, not a blanket
+    assert not c["unexplained"]
+
+
+@pytest.mark.parametrize("kind,seed", [("static", 900), ("static", 901), ("static", 902),
+                                       ("continuous", 903), ("continuous", 904), ("continuous", 905)])
+def test_null_dataset_names_nothing(kind, seed):
+    c = bench.run_case(None, kind, seed)
+    assert c["found"] == []
+    assert not c["unexplained"]
+
+
+def test_signature_below_the_detection_limit_is_not_named():
+    """2 sigma is below the Bonferroni threshold: the control does not let
+    it through (while 6-9 sigma is found above)."""
+    c = bench.run_case("temperature-bias", "static", 950, z=2.0)
+    assert c["found"] == []
+
+
+def test_two_effects_at_once_are_both_named():
+    p = plans.hide(plans.PROBE, "temperature-bias", "acc", "y", 6e-6)
+    p = plans.hide(p, "field-drift", "field", "total", 5e-4)
+    r = diagnose(plans.generate(p, plans.oven_plan(seed=3), 3))
+    got = {(e.name, e.sensor, e.axis): e for e in r.effects}
+    assert set(got) == {("temperature-bias", "acc", "y"), ("field-drift", "field", "total")}
+    for key, truth in ((("temperature-bias", "acc", "y"), 6e-6), (("field-drift", "field", "total"), 5e-4)):
+        assert abs(got[key].estimate - truth) <= 3 * got[key].stderr
+    assert not r.unexplained
+
+
+def _backlash_dataset(seed, lag_deg):
+    """The toolface lags lag_deg behind each move (backlash): not a library
+    effect, so it must come out as unexplained structure."""
+    plan = plans.oven_plan(seed=seed)
+    d = np.concatenate([[0.0], ref.angle_diff(plan["tf"][1:], plan["tf"][:-1])])
+    last, cur = np.zeros(len(d)), 0.0
+    for i, x in enumerate(d):
+        cur = np.sign(x) if abs(x) > 0.5 else cur
+        last[i] = cur
+    true = dict(plan, tf=np.mod(plan["tf"] - lag_deg * last, 360.0))
+    ds = plans.generate(plans.PROBE, true, seed)
+    ds.columns["tf_deg"] = plan["tf"].copy()
+    return ds
+
+
+def test_structure_no_library_effect_explains_is_unexplained():
+    r = diagnose(_backlash_dataset(7, 0.05))
+    assert r.unexplained
+    assert any(s["test"] == "move" for s in r.structure["significant"])
+    # the same plan without the backlash is clean
+    r0 = diagnose(_backlash_dataset(7, 0.0))
+    assert not r0.unexplained and r0.effects == []
+
+
+def test_gain_and_json_shape():
+    p = plans.hide(plans.PROBE, "scale-nonlinearity", "acc", "z", 5e-4)
+    r = diagnose(plans.generate(p, plans.oven_plan(seed=4), 4))
+    d = json.loads(r.to_json())
+    assert list(d) == ["baseline", "effects", "unexplained"]
+    assert isinstance(d["unexplained"], bool)
+    (e,) = d["effects"]
+    assert list(e) == ["name", "sensor", "axis", "estimate", "stderr", "units", "gain"]
+    assert list(e["gain"]) == ["rms_before", "rms_after", "cv_rms_before", "cv_rms_after", "azi_rms_before_deg",
+                               "azi_rms_after_deg", "inc_rms_before_deg", "inc_rms_after_deg"]
+    assert (e["name"], e["sensor"], e["axis"], e["units"]) == ("scale-nonlinearity", "acc", "z", "1/g")
+    g = e["gain"]
+    assert g["rms_after"] < g["rms_before"] and g["cv_rms_after"] < g["cv_rms_before"]
+    assert g["inc_rms_after_deg"] < g["inc_rms_before_deg"]
+    b = d["baseline"]
+    assert b["selection"]["alpha"] == 0.01 and b["rows"] == 288
+    assert abs(b["noise"]["pose_deg"]["inc"] - plans.TURNTABLE_SIGMA_DEG) < 0.01  # noise from the data
+    assert abs(b["noise"]["acc_g"][0] - plans.ACC_SIGMA_G) < 4e-5
