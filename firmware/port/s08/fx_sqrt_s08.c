@@ -256,7 +256,7 @@ uint32_t fx_sqrt_u32_q8(uint32_t x) __naked
     lsr     *_fx_sq_t
     ror     *(_fx_sq_t + 1)
     ror     *(_fx_sq_t + 2)
-    ; ---- numerator 256 r + y into fx_sq_x (4 bytes, < 2^25)
+    ; ---- numerator 256 r + y into fx_sq_x (4 bytes, <= 513 y < 2^26)
     lda     *(_fx_sq_t + 2)
     sta     *(_fx_sq_x + 3)
     lda     *(_fx_sq_r + 2)
@@ -283,13 +283,17 @@ uint32_t fx_sqrt_u32_q8(uint32_t x) __naked
     ; ---- q = floor(num / (2y + 1)) <= 256 (exact): the estimate
     ; qe = floor((num >> 9) / ((2y + 1) >> 9)) by DIV lies in [q - 1, q + 3]
     ; (the top byte of the divisor is in [128, 255]; qe = 255 when DIV
-    ; overflows, q <= 256); then num - qe (2y + 1) is brought into
-    ; [0, 2y + 1) a divisor at a time
+    ; overflows or num >= 2^25, q <= 256); then num - qe (2y + 1) is brought
+    ; into [0, 2y + 1) a divisor at a time
+    lda     #0xff               ; num >= 2^25 (up to 513 y): q = 256, qe = 255
+    ldx     *_fx_sq_x
+    cpx     #2
+    bhs     5$
     lda     *(_fx_sq_r + 1)     ; (2y + 1) >> 9 = 0x80 | (byte 1 >> 1)
     lsra
     ora     #0x80
     tax
-    lda     *_fx_sq_x           ; num >> 9 into H:A
+    lda     *_fx_sq_x           ; num >> 9 (< 2^16) into H:A
     lsra
     lda     *(_fx_sq_x + 1)
     rora
