@@ -122,7 +122,7 @@ def test_attitude_with_calibration_file(tmp_path):
 
 
 def test_demo_and_bench_cli(capsys):
-    assert cli.main(["demo"]) == 0
+    assert cli.main(["demo", "--core"]) == 0
     out = capsys.readouterr().out
     assert "near-vertical" in out and " 90.0    0.0  180.0 |" in out
     assert cli.main(["bench", "accuracy", "--json"]) == 0

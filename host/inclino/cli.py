@@ -14,16 +14,13 @@ import numpy as np
 
 from inclino import __version__
 from inclino.errors import DataError, InclinoError
+from inclino.accept import add_parser as _add_accept
+from inclino.acquire import add_parser as _add_acquire
 from inclino.calib.cli import add_parser as _add_calibrate
+from inclino.demo import add_parser as _add_demo
 from inclino.diagnose.cli import add_parser as _add_diagnose
+from inclino.plots import add_parser as _add_plot
 from inclino.probe_cli import add_parser as _add_probe_commands
-
-
-def _cmd_demo(args) -> int:
-    from inclino import demo
-
-    print(demo.render(demo.run(field_nT=args.field, dip_deg=args.dip)))
-    return 0
 
 
 def _cmd_bitexact(args) -> int:
@@ -66,6 +63,19 @@ def _cmd_bench(args) -> int:
         r = bench.accuracy(field_nT=args.field, dip_deg=args.dip)
         print(r.to_json() if args.json else _accuracy_text(r))
         return 0
+    if args.what == "calibration":
+        from inclino.calib.bench import bench_calibration
+
+        r = bench_calibration()
+        if args.json:
+            print(r.to_json())
+        else:
+            for k, v in r.methods.items():
+                print(f"{k:20s} " + (f"azimuth RMS {v['azi_rms_deg']:.4f} deg, inclination RMS {v['inc_rms_deg']:.4f}"
+                                     f" deg" if "azi_rms_deg" in v else f"failed: {v.get('error', '')}"))
+            print(f"{'Cramer-Rao floor':20s} azimuth RMS {r.cramer_rao['azi_rms_deg']:.4f} deg; targets "
+                  + ("met" if r.passed else "NOT met: " + ", ".join(k for k, v in r.met.items() if v is False)))
+        return 0 if r.passed else 1
     if args.what == "speed":
         r = bench.speed(vectors=args.vectors)
         print(r.to_json() if args.json else
@@ -153,10 +163,7 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--version", action="version", version=f"inclino {__version__}")
     sub = p.add_subparsers(dest="command", required=True)
 
-    d = sub.add_parser("demo", help="attitude of a table of poses through the firmware C, next to float64")
-    d.add_argument("--field", type=float, default=50000.0, help="field total, nT (default 50000)")
-    d.add_argument("--dip", type=float, default=60.0, help="dip, degrees (default 60)")
-    d.set_defaults(func=_cmd_demo)
+    _add_demo(sub)
 
     b = sub.add_parser("bitexact", help="firmware C against the golden model, bit for bit")
     b.add_argument("--vectors", type=int, default=1_000_000, help="random vectors besides the edge cases")
@@ -181,7 +188,7 @@ def build_parser() -> argparse.ArgumentParser:
     em.set_defaults(func=_cmd_emulate)
 
     be = sub.add_parser("bench", help="benchmarks (figures, JSON with --json)")
-    be.add_argument("what", choices=("accuracy", "speed", "mcu", "emulator", "link"))
+    be.add_argument("what", choices=("accuracy", "speed", "mcu", "emulator", "link", "calibration"))
     be.add_argument("--json", action="store_true", help="print one JSON object")
     be.add_argument("--field", type=float, default=50000.0, help="accuracy: field total, nT")
     be.add_argument("--dip", type=float, default=60.0, help="accuracy: dip, degrees")
@@ -190,6 +197,9 @@ def build_parser() -> argparse.ArgumentParser:
     _add_calibrate(sub)
     _add_diagnose(sub)
     _add_probe_commands(sub)
+    _add_acquire(sub)
+    _add_accept(sub)
+    _add_plot(sub)
     return p
 
 
