@@ -46,12 +46,43 @@ class EncoderErrors:
                      for k, a in enumerate((inc, azi, tf)))
 
 
+def _rx(a_deg):
+    a = np.radians(np.asarray(a_deg, float))
+    c, s = np.cos(a), np.sin(a)
+    z, o = np.zeros_like(a), np.ones_like(a)
+    return np.stack([np.stack([o, z, z], -1), np.stack([z, c, s], -1), np.stack([z, -s, c], -1)], -2)
+
+
+@dataclass
+class TurntableGeometry:
+    """Errors of the turntable's axes themselves (degrees), beyond the
+    encoders (added for inclino diagnose: Li 2021's checks ask for them).
+
+        C = Rz(T) Rx(-skew) Ry(I) Rx(skew) Rz(A) Rx(-tilt_east) Ry(tilt_north)
+
+    tilt_north_deg, tilt_east_deg: the azimuth axis is off the vertical, its
+    downward direction displaced toward north / east (inclination error
+    ~ tilt_north cos A + tilt_east sin A, azimuth error ~ cot I times the
+    crossed term).  skew_deg: the inclination axis is out of square with the
+    azimuth axis; the tool axis is vertical at I = 0 and swings sideways as
+    it tilts, its azimuth off by ~ skew tan(I/2) (skew at I = 90)."""
+    tilt_north_deg: float = 0.0
+    tilt_east_deg: float = 0.0
+    skew_deg: float = 0.0
+
+    def pose_matrix(self, I, A, T):
+        """body = C @ world for the (encoder-corrected) axis angles."""
+        W = _rx(-self.tilt_east_deg) @ ref.ry(self.tilt_north_deg)
+        return (ref.rz(T) @ _rx(-self.skew_deg) @ ref.ry(I) @ _rx(self.skew_deg) @ ref.rz(A)) @ W
+
+
 @dataclass
 class Turntable:
     """Non-magnetic three-axis turntable: inclination 0-180 deg, azimuth and
     toolface 0-360 deg (checked on the indicated pose; a trajectory may
     unwrap azimuth/toolface beyond 360 for continuous rotation)."""
     encoder: EncoderErrors = field(default_factory=EncoderErrors)
+    geometry: Optional[TurntableGeometry] = None
 
     INC_RANGE = (0.0, 180.0)
 
@@ -67,6 +98,11 @@ class Turntable:
 
     def true_pose(self, inc, azi, tf):
         return self.encoder.true_pose(inc, azi, tf)
+
+    def pose_matrix(self, inc, azi, tf):
+        """body = C @ world at an indicated pose: encoder errors, then the axes' geometry."""
+        I, A, T = self.true_pose(inc, azi, tf)
+        return ref.pose_matrix(I, A, T) if self.geometry is None else self.geometry.pose_matrix(I, A, T)
 
 
 @dataclass
@@ -161,8 +197,7 @@ class World:
     def truth(self, inc, azi, tf, t=0.0):
         """True body-frame gravity reading (g) and field (nT) for an
         *indicated* pose at time t: (g (..., 3), b (..., 3))."""
-        I, A, T = self.turntable.true_pose(inc, azi, tf)
-        C = ref.pose_matrix(I, A, T)
+        C = self.turntable.pose_matrix(inc, azi, tf)
         g = C @ ref.gravity_ned(self.gravity_g)
         b = (C @ self.field_ned(t)[..., None])[..., 0]
         return g, b

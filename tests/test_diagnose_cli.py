@@ -141,9 +141,9 @@ def test_bench_module_small_seeded_set(capsys):
     rc = dbench.main(["--json", "--per-effect", "1", "--nulls", "2", "--seed", "77"])
     out = capsys.readouterr().out
     d = json.loads(out)
-    assert d["datasets"] == 9 and set(d["effects"]) == set(dbench.core.EFFECT_NAMES)
+    assert d["datasets"] == len(dbench.core.EFFECT_NAMES) + 2 and set(d["effects"]) == set(dbench.core.EFFECT_NAMES)
     for e in d["effects"].values():
         assert e["detection_rate"] == 1.0
     assert d["null"]["false_alarms"] == 0
     assert d["time_s"]["max"] < 5.0
-    assert d["met"]["datasets"] is False and rc == 1  # 9 < 200: the full bench is `bench diagnose`
+    assert d["met"]["datasets"] is False and rc == 1  # 11 < 200: the full bench is `bench diagnose`

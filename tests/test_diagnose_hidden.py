@@ -101,3 +101,30 @@ def test_gain_and_json_shape():
     assert b["selection"]["alpha"] == 0.01 and b["rows"] == 288
     assert abs(b["noise"]["pose_deg"]["inc"] - plans.TURNTABLE_SIGMA_DEG) < 0.01  # noise from the data
     assert abs(b["noise"]["acc_g"][0] - plans.ACC_SIGMA_G) < 4e-5
+
+
+def test_turntable_geometry_model_of_the_emulator():
+    """world.TurntableGeometry (added for the Li 2021 checks): the tilted
+    azimuth axis and the skewed inclination axis move the tool axis as
+    documented, and no geometry is the plain pose matrix."""
+    from inclino_emu.world import Turntable, TurntableGeometry, World
+
+    I = np.array([2.0, 20, 45, 90, 90, 60])
+    A = np.array([0.0, 90, 30, 0, 200, 300])
+    T = np.array([0.0, 30, 60, 90, 10, 200])
+    np.testing.assert_allclose(TurntableGeometry().pose_matrix(I, A, T), ref.pose_matrix(I, A, T), atol=1e-15)
+    e = 0.1
+
+    def attitude_error(**kw):
+        g, b = World(turntable=Turntable(geometry=TurntableGeometry(**kw))).truth(I, A, T)
+        a = ref.attitude(g, b)
+        return a["inc"] - I, ref.angle_diff(a["azi"], A)
+
+    di, da = attitude_error(tilt_north_deg=e)
+    np.testing.assert_allclose(di, e * np.cos(np.radians(A)), atol=3e-3)
+    np.testing.assert_allclose(da[1:], -e * np.sin(np.radians(A[1:])) / np.tan(np.radians(I[1:])), atol=3e-3)
+    di, da = attitude_error(tilt_east_deg=e)
+    np.testing.assert_allclose(di, e * np.sin(np.radians(A)), atol=3e-3)
+    di, da = attitude_error(skew_deg=e)
+    np.testing.assert_allclose(di, 0.0, atol=1e-3)
+    np.testing.assert_allclose(da, e * np.tan(np.radians(I / 2)), atol=1e-3)

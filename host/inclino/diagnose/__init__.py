@@ -11,7 +11,8 @@ that the `inclino` command, which registers `diagnose`, starts quickly.
 from __future__ import annotations
 
 EFFECT_NAMES = ("temperature-bias", "temperature-scale", "scale-nonlinearity",
-                "turntable-inclination-offset", "turntable-azimuth-offset", "field-drift", "sample-skew")
+                "turntable-inclination-offset", "turntable-azimuth-offset", "field-drift", "sample-skew",
+                "turntable-azimuth-axis-tilt", "turntable-inclination-axis-skew")
 
 __all__ = ["diagnose", "Diagnosis", "EFFECT_NAMES"]
 

@@ -43,6 +43,8 @@ EFFECT_PLANS = {
     "turntable-azimuth-offset": ("static", "continuous"),
     "field-drift": ("static",),
     "sample-skew": ("continuous",),
+    "turntable-azimuth-axis-tilt": ("static", "continuous"),
+    "turntable-inclination-axis-skew": ("static", "continuous"),
 }
 Z_RANGE = (6.0, 9.0)
 TARGETS = {"detection_min": 0.95, "false_alarm_max": 0.05, "seconds_per_dataset_max": 5.0, "datasets_min": 200}

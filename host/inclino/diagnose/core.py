@@ -47,10 +47,11 @@ from inclino import reference as ref
 from inclino.dataset import POSE_COLS, RawDataset
 from inclino.errors import CalibrationError, DataError
 from inclino_emu import effects as fx
-from inclino_emu.world import EncoderErrors
+from inclino_emu.world import EncoderErrors, TurntableGeometry
 
 EFFECT_NAMES = ("temperature-bias", "temperature-scale", "scale-nonlinearity",
-                "turntable-inclination-offset", "turntable-azimuth-offset", "field-drift", "sample-skew")
+                "turntable-inclination-offset", "turntable-azimuth-offset", "field-drift", "sample-skew",
+                "turntable-azimuth-axis-tilt", "turntable-inclination-axis-skew")
 TRIADS = ("acc", "mag")
 AXES = ("x", "y", "z")
 CHANNELS = ("acc_x", "acc_y", "acc_z", "mag_x", "mag_y", "mag_z")
@@ -87,7 +88,7 @@ class Candidate:
         """The triad whose residual RMS the gain is given in."""
         if self.sensor in TRIADS:
             return self.sensor
-        return "acc" if self.name == "turntable-inclination-offset" else "mag"
+        return "acc" if self.name in ("turntable-inclination-offset", "turntable-azimuth-axis-tilt") else "mag"
 
     @property
     def channels(self) -> list:
@@ -116,6 +117,9 @@ def all_candidates() -> list:
     out.append(Candidate("field-drift", "field", "dip", "deg/s"))
     out.append(Candidate("field-drift", "field", "declination", "deg/s"))
     out.append(Candidate("sample-skew", "mag", "xyz", "s"))
+    out.append(Candidate("turntable-azimuth-axis-tilt", "turntable", "north", "deg"))
+    out.append(Candidate("turntable-azimuth-axis-tilt", "turntable", "east", "deg"))
+    out.append(Candidate("turntable-inclination-axis-skew", "turntable", "inc", "deg"))
     return out
 
 
@@ -191,7 +195,11 @@ def prepare(ds: RawDataset) -> Data:
             cnt[sl] += pair
         moving = cnt > 0
         rates[moving] /= cnt[moving, None]
-        rates[np.abs(rates) < MOVING_MIN_RATE_DEG_S] = 0.0  # an axis that is not turning: readout jitter
+        # an axis that is not turning shows only the readout jitter of the
+        # poses (0.05 deg / 0.1 s is 0.5 deg/s): below 1 deg/s, or below a
+        # tenth of the fastest axis of that row, its rate is taken as 0
+        fastest = np.abs(rates).max(1, keepdims=True)
+        rates[np.abs(rates) < np.maximum(MOVING_MIN_RATE_DEG_S, 0.1 * fastest)] = 0.0
     kind = "continuous" if moving.mean() >= 0.5 else "static"
     return Data(n=n, Y=Y, inc=inc, azi=azi, tf=tf, t=t, temp=temp, field_nT=float(F),
                 dip_header=m.get("dip_deg"), declination_deg=float(m.get("declination_deg", 0.0)),
@@ -331,6 +339,16 @@ def regressor(d: Data, bl: Baseline, cand: Candidate) -> np.ndarray:
         bs = [_truth(d, d.inc, d.azi, d.tf, bl.dip,
                      dr.apply(d.field_nT, bl.dip, d.declination_deg, tau))[1] for dr in drifts]
         out[:, 3:] = _map(bl.A["mag"], (bs[0] - bs[1]) / (2 * unit))
+        return out
+    if cand.name in ("turntable-azimuth-axis-tilt", "turntable-inclination-axis-skew"):
+        kw = {"north": "tilt_north_deg", "east": "tilt_east_deg", "inc": "skew_deg"}[cand.axis]
+        vs = []
+        for sgn in (1.0, -1.0):
+            C = TurntableGeometry(**{kw: sgn * POSE_STEP_DEG}).pose_matrix(d.inc, d.azi, d.tf)
+            vs.append((C @ ref.gravity_ned(d.gravity_g),
+                       (C @ ref.field_ned(d.field_nT, bl.dip, d.declination_deg)[:, None])[..., 0]))
+        out[:, :3] = _map(bl.A["acc"], (vs[0][0] - vs[1][0]) / (2 * POSE_STEP_DEG))
+        out[:, 3:] = _map(bl.A["mag"], (vs[0][1] - vs[1][1]) / (2 * POSE_STEP_DEG))
         return out
     if cand.name == "sample-skew":
         h = 1e-4

@@ -124,6 +124,10 @@ def hide(probe: dict, effect: str, sensor: str, axis: str, value: float) -> dict
         d["world"]["encoder"] = {"offset_deg": [float(value), 0.0, 0.0]}
     elif effect == "turntable-azimuth-offset":
         d["world"]["encoder"] = {"offset_deg": [0.0, float(value), 0.0]}
+    elif effect in ("turntable-azimuth-axis-tilt", "turntable-inclination-axis-skew"):
+        # world.TurntableGeometry: not (yet) a scenario-file table; generate() sets it
+        kw = {"north": "tilt_north_deg", "east": "tilt_east_deg", "inc": "skew_deg"}[axis]
+        d["world"].setdefault("turntable_geometry", {})[kw] = float(value)
     elif effect == "field-drift":
         kw = {"total": "rate_nT_per_s", "dip": "dip_rate_deg_per_s", "declination": "declination_rate_deg_per_s"}
         d["world"]["field_drift"] = {kw[axis]: float(value)}
@@ -154,7 +158,12 @@ def generate(probe: dict, plan: dict, seed: int, sigma_pose_deg: float = TURNTAB
         w["field_nT"] = w["field_nT"] - drift.get("rate_nT_per_s", 0.0) * t_mid
         w["dip_deg"] = w["dip_deg"] - drift.get("dip_rate_deg_per_s", 0.0) * t_mid
         w["declination_deg"] = w["declination_deg"] - drift.get("declination_rate_deg_per_s", 0.0) * t_mid
+    geometry = p["world"].pop("turntable_geometry", None)
     s = scenario_from_dict(p)
+    if geometry:
+        from inclino_emu.world import TurntableGeometry
+
+        s.world.turntable.geometry = TurntableGeometry(**geometry)
     rng = np.random.default_rng([int(seed), 7])
     if plan["kind"] == "static":
         I, A, T = (np.asarray(plan[k], float) for k in ("inc", "azi", "tf"))
