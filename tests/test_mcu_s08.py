@@ -178,6 +178,35 @@ def test_cycle_counts_are_exact_and_repeatable(fw):
     assert all(c > 1000 for c in c1)
 
 
+def test_stack_use_is_measured_and_repeatable(fw):
+    """With --stack-auto the core's locals live on the stack: its depth is
+    measured by filling the free stack with a pattern (a figure of the
+    bench, not a budget checked here)."""
+    acc, mag, fc = mcu.bench_vectors(2)
+    recs = mcu._records(b"V", (acc, ">i2"), (mag, ">i4"))
+    d = [mcu.stack_bytes(fw, r, setup=mcu.enc_cal(fc)) for r in recs]
+    assert d[0] > 16 and d[0] == mcu.stack_bytes(fw, recs[0], setup=mcu.enc_cal(fc))
+    z = mcu.stack_bytes(fw, b"Z")
+    assert z < d[0]
+
+
+def test_build_refuses_helper_libraries_with_stack_auto(tmp_path):
+    """SDCC's shipped helpers are not reentrant: a --stack-auto image that
+    links one (here __mullong, from a 32 x 32 product) is refused."""
+    src = tmp_path / "firmware"
+    (src / "src").mkdir(parents=True)
+    root = mcu.repo_root()
+    import shutil
+    shutil.copytree(root / "firmware" / "include", src / "include")
+    shutil.copytree(root / "firmware" / "port", src / "port")
+    for f in mcu.CORE_SOURCES:
+        shutil.copy(root / "firmware" / "src" / f, src / "src" / f)
+    with open(src / "src" / "survey.c", "a") as fh:
+        fh.write("\nint32_t survey_mul_for_test(int32_t a, int32_t b) { return a * b; }\n")
+    with pytest.raises(mcu.McuError, match="helper modules"):
+        mcu.build(tmp_path / "b", root=tmp_path)
+
+
 def test_float_baseline_computes_the_same_survey(tmp_path):
     fl = mcu.build(tmp_path, program="float")
     acc, mag, fc = mcu.bench_vectors(12)

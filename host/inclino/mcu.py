@@ -273,6 +273,53 @@ def timed(b: McuBuild, cmds: list[bytes], timeout: float = 300.0, setup: bytes =
     return [c - over for c in cyc[n0:]]
 
 
+_SP = re.compile(rb"SP= \$([0-9a-fA-F]+)")
+STACK_FLOOR = 0x7000  # SDCC's S08 start-up: stack from 0x7fff down (ucsim's limit)
+
+
+def _stack_run(b: McuBuild, data: bytes, middle: str, timeout: float) -> bytes:
+    with tempfile.TemporaryDirectory(prefix="inclino-sim-") as td:
+        fin = Path(td) / "in.bin"
+        fout = Path(td) / "out.bin"
+        fin.write_bytes(data)
+        script = "run\n" + middle + "run\nquit\n"
+        cmd = ["timeout", str(int(timeout)), "shc08", "-t", "HCS08", "-b",
+               "-I", f"if={SIMIF},in={fin},out={fout}", b.ihx]
+        r = subprocess.run(cmd, input=script.encode(), capture_output=True, timeout=timeout + 30)
+    if r.returncode == 124:
+        raise McuError(f"simulator timed out after {timeout} s")
+    return r.stdout
+
+
+def stack_bytes(b: McuBuild, cmd: bytes, setup: bytes = b"", timeout: float = 120.0) -> int:
+    """Deepest stack use of one call (command bytes without the timed bit):
+    at the stop before the call the free stack below SP is filled with a
+    pattern; at the stop after it, the lowest byte that changed gives the
+    depth (SP at the first stop is found by a first run; it is the same in
+    the second, the program being deterministic)."""
+    data = setup + bytes([cmd[0] | TIMED]) + cmd[1:] + b"E"
+    sps = _SP.findall(_stack_run(b, data, "info registers\nrun\nrun\n", timeout))
+    if not sps:
+        raise McuError("stack measurement: no SP in the simulator's output")
+    sp = int(sps[0], 16)
+    out = _stack_run(b, data, f"fill rom {STACK_FLOOR:#x} {sp:#x} 0xa5\nrun\n"
+                              f"dump rom {STACK_FLOOR:#x} {sp:#x} 16\nrun\n", timeout)
+    mem = {}
+    for line in out.splitlines():
+        t = line.split()
+        if not t or not re.fullmatch(rb"0x[0-9a-f]+", t[0]):
+            continue
+        base = int(t[0], 16)
+        if not STACK_FLOOR <= base <= sp:
+            continue
+        for i, tok in enumerate(t[1:1 + min(16, sp - base + 1)]):
+            mem[base + i] = int(tok, 16)
+    if len(mem) != sp - STACK_FLOOR + 1:
+        raise McuError(f"stack measurement: dumped {len(mem)} bytes of {sp - STACK_FLOOR + 1}")
+    used = [a for a, v in mem.items() if v != 0xA5]
+    return sp - min(used) + 1 if used else 0
+
+
 # ------------------------------------------------------------------ encoders
 def _be(a, dt):
     return np.ascontiguousarray(np.asarray(a, dtype=np.int64).astype(dt)).tobytes()
@@ -537,6 +584,7 @@ class McuBench:
     survey_float: CycleStats  # the same survey in float (SDCC software float)
     fixed_to_float_ratio: float  # mean cycles, fixed / float
     survey_ms_at_20mhz: float  # mean survey time at a 20 MHz bus
+    survey_stack_bytes: int  # deepest stack use of survey_compute (--stack-auto: its RAM)
     sizes: McuSizes
     float_sizes: dict
     float_max_abs_err_deg: float  # float baseline vs the golden model (sanity)
@@ -626,6 +674,7 @@ def bench(vectors: int = 100, seed: int = 11, workdir: str | os.PathLike | None 
         for k in ("azi", "gtf", "mtf"):
             d = (res_f[k] - gs[k] / 65536.0 + 180.0) % 360.0 - 180.0
             err = max(err, float(np.abs(d).max()))
+        stack = max(stack_bytes(fx, r, setup=enc_cal(fc)) for r in recs[:3])
         sz = sizes(fx)
         fsz = sizes(fl)
     s = _stats(cyc_s)
@@ -642,6 +691,7 @@ def bench(vectors: int = 100, seed: int = 11, workdir: str | os.PathLike | None 
         survey_float=f,
         fixed_to_float_ratio=ratio,
         survey_ms_at_20mhz=s.mean / BUS_HZ * 1e3,
+        survey_stack_bytes=stack,
         sizes=sz,
         float_sizes={"image_code_bytes": fsz.image_code_bytes, "image_ram_bytes": fsz.image_ram_bytes},
         float_max_abs_err_deg=err,
