@@ -4,6 +4,7 @@ pty, the turntable moved over the control channel), and their refusals."""
 import copy
 import io
 import json
+import re
 import numpy as np
 import pytest
 
@@ -182,6 +183,58 @@ def test_operator_mode_guides_position_by_position(emu, tmp_path):
     assert ds.meta["dip_deg"] == 60.0
     g, _ = ref.body_vectors(ds.columns["inc_deg"], ds.columns["azi_deg"], ds.columns["tf_deg"], 50000, 60)
     assert np.abs(ds.acc - g).max() < 0.01
+
+
+class TurningHand:
+    """Wraps the real link: an operator turning the toolface by hand, 9 deg
+    further before every reading (the emulated table moved over the control
+    channel); readline sets the rotation's start as instructed."""
+
+    def __init__(self, link, ctl):
+        self.link, self.ctl, self.timeout = link, ctl, link.timeout
+        self.pose, self.said, self.tfs = None, [], []
+
+    def __getattr__(self, name):
+        return getattr(self.link, name)
+
+    def say(self, m):
+        self.said.append(m)
+
+    def readline(self):
+        m = re.search(r"set inclination ([0-9.]+) deg, azimuth ([0-9.]+) deg, toolface 0", self.said[-1])
+        self.pose = [float(m.group(1)), float(m.group(2)), 0.0]
+        self.ctl.call("move", inc=self.pose[0], azi=self.pose[1], tf=0.0)
+        return "\n"
+
+    def request(self, cmd, payload=b"", timeout=None):
+        if cmd == "SURVEY_RAW" and self.pose is not None:
+            self.pose[2] = (self.pose[2] + 9.0) % 360.0
+            self.ctl.call("move", inc=self.pose[0], azi=self.pose[1], tf=self.pose[2])
+            self.tfs.append(self.pose[2])
+        return self.link.request(cmd, payload, timeout)
+
+
+def test_operator_turns_the_toolface_by_hand(emu, capsys, tmp_path):
+    ctl = ControlClient(port=emu.control_port)
+    out = tmp_path / "cont.csv"
+    with ProbeLink(emu.path, timeout=2.0) as link:
+        hand = TurningHand(link, ctl)
+        r = acq.acquire(hand, "continuous", str(out), acq.Operator(stdin=hand, say=hand.say),
+                        world={"field_nT": 50000, "dip_deg": 60}, quiet=True)
+    ctl.close()
+    assert "turn the toolface slowly" in hand.said[0] and "inclination 120" in hand.said[1]
+    ds = dataset.read_raw(str(out))
+    assert r.rows == len(ds) >= 2 * 41 and set(np.round(ds.columns["inc_deg"], 6)) == {30.0, 120.0}
+    # each row's toolface is the probe's own (uncalibrated) gravity toolface: within Guo's +-1 deg of
+    # the table's (0.52 deg at I = 30 deg on the typical probe)
+    assert len(hand.tfs) == len(ds)
+    assert np.abs(ref.angle_diff(ds.columns["tf_deg"], hand.tfs)).max() < 1.0
+    g, _ = ref.body_vectors(ds.columns["inc_deg"], ds.columns["azi_deg"], ds.columns["tf_deg"], 50000, 60)
+    assert np.abs(ds.acc - g).max() < 0.01
+    rc, _, err = run(capsys, "calibrate", out, "--method", "guo2009", "-o", tmp_path / "cal.json")
+    assert rc in (0, 1), err
+    azi_id, _ = grid_errors(None)
+    assert grid_errors(Calibration.load(str(tmp_path / "cal.json")))[0] < azi_id / 3
 
 
 def test_operator_instructions_and_quit(emu, tmp_path):

@@ -24,8 +24,9 @@ Who turns the table:
   operator sets inclination and azimuth, presses Enter and turns the
   toolface slowly through a full turn; the toolface of each reading is the
   probe's own gravity toolface from the raw accelerometer (its error is the
-  uncalibrated accelerometer's, ~0.2 deg at 30 deg inclination for a
-  milli-g bias: inside the +-1 deg Guo's method is simulated with).
+  uncalibrated accelerometer's bias and misalignment: up to 0.52 deg at 30
+  deg inclination on the emulator's typical probe, inside the +-1 deg Guo's
+  method is simulated with).
 * the emulator's turntable (--bench HOST:PORT, `inclino emulate` prints the
   port): moved over its control channel, unattended.  The control channel
   only has static moves, so the continuous rotation is a toolface step every
