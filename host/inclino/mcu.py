@@ -657,6 +657,8 @@ def bench(vectors: int = 100, seed: int = 11, workdir: str | os.PathLike | None 
         funcs = {}
         funcs["fx_mul16"] = timed(fx, _records(b"P", ((G[:, 0] >> 16), ">i2"), ((B[:, 1] >> 16), ">i2")))
         funcs["fx_mul32_q31"] = timed(fx, _records(b"M", (G[:, 0], ">i4"), (B[:, 1], ">i4")))
+        funcs["fx_dot3_q31"] = timed(fx, _records(b"3", (np.concatenate([G, B], 1), ">i4")))
+        funcs["fx_dot3_q31 (a, a)"] = timed(fx, _records(b"W", (B, ">i4")))
         funcs["fx_div_frac_q20"] = timed(fx, _records(
             b"D", (np.minimum(np.abs(G[:, 0]), np.abs(G[:, 2])), ">u4"),
             (np.maximum(np.abs(G[:, 0]), np.abs(G[:, 2])), ">u4")))
@@ -664,6 +666,7 @@ def bench(vectors: int = 100, seed: int = 11, workdir: str | os.PathLike | None 
         funcs["fx_isqrt_u32"] = timed(fx, _records(b"R", (sq, ">u4")))
         funcs["fx_sqrt_u32_q8"] = timed(fx, _records(b"Q", (sq, ">u4")))
         funcs["fx_atan2_q16"] = timed(fx, _records(b"A", (G[:, 1], ">i4"), (-G[:, 0], ">i4")))
+        funcs["att_norm3"] = timed(fx, _records(b"N", (gs["b"], ">i4")))
         funcs["corr_triad"] = timed(fx, _records(b"K", (np.zeros(len(acc)), "u1"), (x_acc, ">i4")),
                                     setup=enc_cal(fc))
         funcs["att_compute"] = timed(fx, _records(b"T", (np.concatenate([gs["g"], gs["b"]], 1), ">i4")))

@@ -10,6 +10,7 @@
  *               bz (gx^2 + gy^2) - gz (gx bx + gy by))        [0, 360)
  *   MTF = atan2(-by, bx)                                      [0, 360)
  *   dip = atan2(g.b, |g x b|)  (= asin(g.b / (|g||b|)))       [-90, 90]
+ *         with |g x b|^2 = |g|^2 |b|^2 - (g.b)^2
  * Angles are Q16 degrees (degrees * 2^16).
  */
 #ifndef INCLINO_ATTITUDE_H
