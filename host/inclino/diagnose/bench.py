@@ -164,7 +164,8 @@ def _bench(per_effect, nulls, seed0, alpha, progress) -> DiagnoseBench:
                         probe="plans.PROBE (typical probe's 12-parameter errors; noise 1.5e-4 g, 5 nT; turntable "
                               f"readout {plans.TURNTABLE_SIGMA_DEG} deg)",
                         plans={"static": "oven_plan: 48 orientations x 6 passes, 1/min, -5..55 degC",
-                               "continuous": "rotation_plan: toolface/azimuth turns both ways at 45 and 90 deg/s, 10 Hz"},
+                               "continuous": "rotation_plan: toolface/azimuth turns both ways at 45 and 90 deg/s, "
+                                             "10 Hz"},
                         cases=cases)
     for name in core.EFFECT_NAMES:
         cs = [c for c in cases if c["hidden"] and c["hidden"]["name"] == name]
