@@ -15,7 +15,7 @@ of the library (inclino_emu.effects, the models the emulator simulates) adds
 columns to this linear model: the change of the six readings per unit of the
 effect's parameter, computed by applying the library's own model to the
 baseline's signal (BiasTempco, ScaleTempco, ScaleNonlinearity, the
-turntable's EncoderErrors, FieldDrift, SamplingSkew).  The baseline's
+turntable's EncoderErrors and TurntableGeometry, FieldDrift, SamplingSkew).  The baseline's
 coefficients are always re-estimated with the effects, so an effect is only
 what the 12 parameters cannot absorb.
 
