@@ -608,7 +608,7 @@ def _tqdm_progress():
                 b.close()
             unit = "sector" if phase == "erase" else "B"
             bar = bars[phase] = tqdm(total=total, desc=phase, unit=unit, unit_scale=(unit == "B"),
-                                     leave=False, disable=None, file=sys.stderr)
+                                     leave=True, disable=None, file=sys.stderr)
         bar.update(done - bar.n)
 
     def close():
