@@ -83,6 +83,10 @@ def _cmd_bench(args) -> int:
               f" vectors/s; per call: {r.per_call_vectors_per_s:,.0f} vectors/s"
               f" (cost ratio {r.per_call_to_batched_cost_ratio:.0f})")
         return 0
+    if args.what == "diagnose":
+        from inclino.diagnose.bench import bench_command
+
+        return bench_command(args)
     if args.what == "link":
         from inclino import bench_link
 
@@ -188,7 +192,7 @@ def build_parser() -> argparse.ArgumentParser:
     em.set_defaults(func=_cmd_emulate)
 
     be = sub.add_parser("bench", help="benchmarks (figures, JSON with --json)")
-    be.add_argument("what", choices=("accuracy", "speed", "mcu", "emulator", "link", "calibration"))
+    be.add_argument("what", choices=("accuracy", "speed", "mcu", "emulator", "link", "calibration", "diagnose"))
     be.add_argument("--json", action="store_true", help="print one JSON object")
     be.add_argument("--field", type=float, default=50000.0, help="accuracy: field total, nT")
     be.add_argument("--dip", type=float, default=60.0, help="accuracy: dip, degrees")
