@@ -170,21 +170,28 @@ class ADIS16210:
         return self.n_avg() / self.timing.internal_rate_hz
 
     def _acc_g(self):
-        """Acceleration in the output registers now: the sample of the last
-        completed averaging window (taken once per window)."""
+        """Acceleration in the output registers now (3 floats, g): the
+        sample of the last completed averaging window (taken once per
+        window), plus the self-test force while a self-test runs."""
         t = self.clock.now
-        T = self.output_period_s()
+        n = 1 << min(self.regs[AVG_CNT] & 0xF, AVG_CNT_MAX)   # n_avg()
+        T = n / self.timing.internal_rate_hz                  # output_period_s()
         k = math.floor((t - self._filter_start) / T)
         if k < 0:
-            return np.zeros(3)
+            return (0.0, 0.0, 0.0)
         if k != self._sample_k:
             tk = self._filter_start + k * T
-            self._sample = np.asarray(self.acc_source(tk, self.n_avg()), float).reshape(3)
+            a = self.acc_source(tk, n)
+            if type(a) is not tuple:
+                a = tuple(np.asarray(a, float).reshape(3).tolist())
+            self._sample = a
             self._sample_k = k
         a = self._sample
-        if self.regs[MSC_CTRL] & MSC_SELF_TEST_MANUAL or self._auto_test_running():
+        if self.regs[MSC_CTRL] & MSC_SELF_TEST_MANUAL or (
+                self._auto_test_end is not None and t < self._auto_test_end):  # _auto_test_running()
             if not self.faults.self_test_fails:
-                a = a + self.self_test_delta_g
+                d = self.self_test_delta_g
+                a = (a[0] + float(d[0]), a[1] + float(d[1]), a[2] + float(d[2]))
         return a
 
     def _auto_test_running(self):
@@ -197,14 +204,25 @@ class ADIS16210:
             if self.faults.self_test_fails:
                 self.diag |= DIAG_SELF_TEST_FAIL
 
+    def _acc_count(self, a: float, null_reg: int) -> int:
+        """One ACCL_OUT value: clip(clip(round(a / LSB)) + NULL), int16."""
+        try:
+            raw = round(a / ACC_LSB_G)           # round half to even, as np.round
+        except (OverflowError, ValueError):     # inf clips to the rail; nan reads -32768
+            raw = -32768 if a != a else (32767 if a > 0 else -32768)
+        raw = -32768 if raw < -32768 else (32767 if raw > 32767 else raw)
+        v = self.regs[null_reg]
+        raw += v - 0x10000 if v & 0x8000 else v
+        return -32768 if raw < -32768 else (32767 if raw > 32767 else raw)
+
     def acc_counts(self):
+        """[x, y, z] ACCL_OUT counts (ints)."""
         a = self._acc_g()
-        raw = np.clip(np.round(a / ACC_LSB_G), -32768, 32767).astype(np.int64)
-        nulls = np.array([_s16(self.regs[r]) for r in (XACCL_NULL, YACCL_NULL, ZACCL_NULL)])
-        return np.clip(raw + nulls, -32768, 32767)
+        return [self._acc_count(a[0], XACCL_NULL), self._acc_count(a[1], YACCL_NULL),
+                self._acc_count(a[2], ZACCL_NULL)]
 
     def incl_counts(self):
-        ax, ay, az = self.acc_counts() * ACC_LSB_G
+        ax, ay, az = (c * ACC_LSB_G for c in self.acc_counts())
         ang = (math.degrees(math.atan2(ay, az)), math.degrees(math.atan2(az, ax)),
                math.degrees(math.atan2(ax, ay)))
         return [int(np.clip(round(a / INCL_LSB_DEG), -32768, 32767)) for a in ang]
@@ -213,18 +231,27 @@ class ADIS16210:
     def read_register(self, addr: int) -> int:
         """The 16-bit value of the register holding byte `addr` (now)."""
         reg = addr & 0x7E
-        self._update_auto_test()
-        if reg in (XACCL_OUT, YACCL_OUT, ZACCL_OUT):
-            return _u16(self.acc_counts()[(reg - XACCL_OUT) // 2])
-        if reg in (XINCL_OUT, YINCL_OUT, ZINCL_OUT):
-            return _u16(self.incl_counts()[(reg - XINCL_OUT) // 2])
+        if self._auto_test_end is not None:
+            self._update_auto_test()
+        # (most frequent first: the firmware's burst reads ACCL x3, TEMP,
+        # PROD_ID, FLASH_CNT)
+        if XACCL_OUT <= reg <= ZACCL_OUT:
+            i = (reg - XACCL_OUT) >> 1
+            return self._acc_count(self._acc_g()[i], XACCL_NULL + 2 * i) & 0xFFFF
         if reg == TEMP_OUT:
-            temp = float(np.asarray(self.temp_source(self.clock.now)))
-            return int(np.clip(round(TEMP_RAW_AT_0C + temp / TEMP_LSB_C), 0, 4095))
-        if reg == SUPPLY_OUT:
-            return int(np.clip(round(self.supply_v / SUPPLY_LSB_V), 0, 0x3FFF))
+            temp = self.temp_source(self.clock.now)
+            if type(temp) is not float:
+                temp = float(np.asarray(temp))
+            raw = round(TEMP_RAW_AT_0C + temp / TEMP_LSB_C)
+            return 0 if raw < 0 else (4095 if raw > 4095 else raw)
+        if reg == PROD_ID:
+            return self.faults.prod_id & 0xFFFF
         if reg == FLASH_CNT:
             return self.flash_cnt & 0xFFFF
+        if reg in (XINCL_OUT, YINCL_OUT, ZINCL_OUT):
+            return _u16(self.incl_counts()[(reg - XINCL_OUT) // 2])
+        if reg == SUPPLY_OUT:
+            return int(np.clip(round(self.supply_v / SUPPLY_LSB_V), 0, 0x3FFF))
         if reg == DIAG_STAT:
             v = self.diag & DIAG_LATCHED
             if self.supply_v < 3.0:
@@ -233,8 +260,6 @@ class ADIS16210:
                 v |= DIAG_SUPPLY_HIGH
             self.diag &= ~DIAG_LATCHED  # reading clears the latched flags
             return v
-        if reg == PROD_ID:
-            return self.faults.prod_id & 0xFFFF
         if reg == SERIAL_NUM:
             return self.serial
         if reg == LOT_ID1:

@@ -98,6 +98,17 @@ class FluxgateFrontEnd:
         v[:3] += np.asarray(self.mag_source(t), float).reshape(3) * self.volts_per_nT
         return v
 
+    def differential(self, t, p: int, n: int) -> float:
+        """V(AINp) - V(AINn) at t, p, n in 0..8 (8 = AINCOM): the same
+        number as v[p] - v[n] with v = __call__(t), from one mag_source
+        call, without the (9,) array."""
+        b = self.mag_source(t)
+        if type(b) is not tuple:
+            b = tuple(np.asarray(b, float).reshape(3).tolist())
+        k = 2.0 * self.vref / 2**23
+        vcm = self.vcm
+        return (vcm + b[p] * k if p < 3 else vcm) - (vcm + b[n] * k if n < 3 else vcm)
+
 
 def _to_u24(code: int) -> list:
     c = code & 0xFFFFFF
@@ -150,6 +161,11 @@ class ADS1256:
         self._sync_at = -math.inf
         self._start_cal(now, "self")
 
+    # _update() does nothing before `_guard` (no calibration end, first
+    # conversion or next conversion can fall before it); every state change
+    # that may move those instants sets it back to -inf.
+    _guard = -math.inf
+
     def _rate(self):
         return DRATES.get(self.regs[DRATE], DRATES[0xF0])
 
@@ -172,6 +188,7 @@ class ADS1256:
         self.regs[FSC0], self.regs[FSC1], self.regs[FSC2] = v & 0xFF, (v >> 8) & 0xFF, (v >> 16) & 0xFF
 
     def _start_cal(self, now, kind):
+        self._guard = -math.inf
         self.mode = "cal"
         self.unread = False
         self._cal_end = now + cal_time_s(self.regs[DRATE])
@@ -195,23 +212,39 @@ class ADS1256:
 
     def _vin(self, t, mux=None):
         mux = self.regs[MUX] if mux is None else mux
-        v = np.asarray(self.inputs(t), float)
         p, n = (mux >> 4) & 0xF, mux & 0xF
-        vp = v[8] if p & 0x8 else v[p]
-        vn = v[8] if n & 0x8 else v[n]
-        return (vp - vn) * (1.0 + self.gain_error) + self.offset_v
+        diff = getattr(self.inputs, "differential", None)
+        if diff is not None:     # FluxgateFrontEnd: floats, no (9,) array
+            d = diff(t, 8 if p & 0x8 else p, 8 if n & 0x8 else n)
+        else:
+            v = np.asarray(self.inputs(t), float)
+            d = (v[8] if p & 0x8 else v[p]) - (v[8] if n & 0x8 else v[n])
+        return d * (1.0 + self.gain_error) + self.offset_v
 
     def code_for(self, vin: float) -> int:
         """Output code for a differential input (volts), data sheet eq. 3."""
-        x = (self._pga() * vin / (2 * self.vref) - self._ofc() / ALPHA) * self._fsc() * BETA
-        return int(np.clip(round(x), CODE_MIN, CODE_MAX))
+        r = self.regs
+        a = r[ADCON] & 0x07
+        pga = 1 << (a if a < 7 else 6)                      # _pga()
+        ofc = r[OFC0] | (r[OFC1] << 8) | (r[OFC2] << 16)    # _ofc()
+        if ofc & 0x800000:
+            ofc -= 1 << 24
+        fsc = r[FSC0] | (r[FSC1] << 8) | (r[FSC2] << 16)    # _fsc()
+        x = (pga * vin / (2 * self.vref) - ofc / ALPHA) * fsc * BETA
+        c = round(x)
+        return CODE_MIN if c < CODE_MIN else (CODE_MAX if c > CODE_MAX else int(c))
 
     def _update(self):
         """Bring conversions up to clock.now."""
         now = self.clock.now
+        if now < self._guard:
+            return
         if self.mode == "cal" and now >= self._cal_end:
             self._finish_cal()
-        if self.mode != "convert" or now < self._conv_first:
+        mode = self.mode
+        if mode != "convert" or now < self._conv_first:
+            self._guard = self._cal_end if mode == "cal" else (
+                self._conv_first if mode == "convert" else math.inf)
             return
         period = 1.0 / self._rate()[0]
         k = math.floor((now - self._conv_first) / period + 1e-9)
@@ -224,13 +257,16 @@ class ADS1256:
             self.data_code = self.code_for(vin)
             self._last_tc = tc
             self.unread = True
+        # no conversion k + 1 before this (1e-6 periods early, beyond rounding)
+        self._guard = self._conv_first + (k + 1 - 1e-6) * period
 
     # ---- pins -------------------------------------------------------------
     def drdy(self) -> bool:
         """DRDY pin level: False (low) while unread conversion data wait."""
         if self.absent:
             return True
-        self._update()
+        if self.clock.now >= self._guard:
+            self._update()
         return not self.unread
 
     def next_drdy_time(self) -> float:
@@ -254,7 +290,8 @@ class ADS1256:
 
     # ---- SPI --------------------------------------------------------------
     def _data_bytes(self):
-        b = _to_u24(self.data_code)
+        c = self.data_code & 0xFFFFFF
+        b = [(c >> 16) & 0xFF, (c >> 8) & 0xFF, c & 0xFF]   # _to_u24
         if self.regs[STATUS] & 0x08:  # ORDER: LSB first within each byte
             b = [_bitrev8(x) for x in b]
         return b
@@ -265,14 +302,16 @@ class ADS1256:
         if self.absent:
             return 0xFF
         now = self.clock.now
-        self._update()
-        if self.out:
+        if now >= self._guard:
+            self._update()
+        out = self.out
+        if out:
             if now < self._out_ready_at:
                 self.t6_violations += 1
                 if self.strict_timing:
                     return 0x00
-            o = self.out.popleft()
-            if self.rdatac and byte in (SDATAC, RESET):
+            o = out.popleft()
+            if self.rdatac and (byte == SDATAC or byte == RESET):
                 self._command(byte, now)
             return o
         if self.mode == "cal":
@@ -291,10 +330,17 @@ class ADS1256:
                 self._out_ready_at = now
                 return data[0]
             return self._data_bytes()[0]  # no new data: stale MSB, DRDY unchanged
-        if self._expect is not None:
+        exp = self._expect
+        if exp is None:
+            self._command(byte, now)
+        elif exp[0] == "wdata":        # _continue, inline for the common cases
+            r, left = exp[1], exp[2]
+            self._write_reg(r % NREGS, byte, now)
+            self._expect = ("wdata", r + 1, left - 1) if left > 1 else None
+        elif exp[0] == "wreg":
+            self._expect = ("wdata", exp[1], (byte & 0x0F) + 1)
+        else:
             self._continue(byte, now)
-            return 0x00
-        self._command(byte, now)
         return 0x00
 
     def _continue(self, byte, now):
@@ -328,6 +374,7 @@ class ADS1256:
             self._conv_first = now + self._rate()[1]  # new rate: restart the filter
             self._last_tc = -math.inf
             self.unread = False
+            self._guard = -math.inf
         acal = self.regs[STATUS] & 0x04
         changed = ((r == ADCON and (byte ^ old) & 0x07) or (r == DRATE and byte != old)
                    or (r == STATUS and (byte ^ old) & 0x02))
@@ -335,7 +382,15 @@ class ADS1256:
             self._start_cal(now, "self")
 
     def _command(self, c, now):
-        if c in (WAKEUP, WAKEUP_FF):
+        # (the guard: SYNC and STANDBY only stop conversions, so only
+        # WAKEUP, DRATE, calibrations and RESET need _guard reset)
+        if (c & 0xF0) == WREG:
+            self._expect = ("wreg", c & 0x0F)
+        elif c == SYNC:
+            self.mode = "sync"
+            self.unread = False
+            self._sync_at = now
+        elif c == WAKEUP or c == WAKEUP_FF:
             if self.mode in ("sync", "standby"):
                 extra = STANDBY_WAKE_S if self.mode == "standby" else 0.0
                 if self.mode == "sync" and now - self._sync_at < T11_SYNC_S:
@@ -343,6 +398,7 @@ class ADS1256:
                 self.mode = "convert"
                 self._conv_first = now + self._rate()[1] + extra
                 self._last_tc = -math.inf
+                self._guard = -math.inf
         elif c == RDATA:
             self.out.extend(self._data_bytes())
             self._out_ready_at = now + T6_S
@@ -355,15 +411,9 @@ class ADS1256:
             self.out.clear()
         elif (c & 0xF0) == RREG:
             self._expect = ("rreg", c & 0x0F)
-        elif (c & 0xF0) == WREG:
-            self._expect = ("wreg", c & 0x0F)
         elif c in (SELFCAL, SELFOCAL, SELFGCAL, SYSOCAL, SYSGCAL):
             self._start_cal(now, {SELFCAL: "self", SELFOCAL: "selfo", SELFGCAL: "selfg",
                                   SYSOCAL: "syso", SYSGCAL: "sysg"}[c])
-        elif c == SYNC:
-            self.mode = "sync"
-            self.unread = False
-            self._sync_at = now
         elif c == STANDBY:
             self.mode = "standby"
             self.unread = False

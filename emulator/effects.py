@@ -231,6 +231,64 @@ class WhiteNoise:
         s = self.sigma * (np.sqrt(self.n_ref / n_avg) if n_avg else 1.0)
         return v + rng.standard_normal(v.shape) * s
 
+    def scale3(self, n_avg: int = None):
+        """sigma_i sqrt(n_ref / n_avg) as 3 floats (the factor `apply` uses),
+        cached per n_avg; the cache follows a reassigned sigma or n_ref (not
+        an in-place edit of the sigma array)."""
+        c = self.__dict__.get("_scale3")
+        if c is None or c[0] is not self.sigma or c[1] != self.n_ref:
+            c = self._scale3 = (self.sigma, self.n_ref, {})
+        s = c[2].get(n_avg)
+        if s is None:
+            s = c[2][n_avg] = tuple((self.sigma * (np.sqrt(self.n_ref / n_avg) if n_avg else 1.0)).tolist())
+        return s
+
+
+class NormalStream:
+    """N(0, 1) draws of a seeded numpy Generator, taken from blocks.
+
+    `standard_normal(shape)` (what WhiteNoise.apply calls) and `take3()`
+    (one sample of a triad, as floats) hand out the generator's
+    standard-normal sequence in order, exactly as one call per sample would:
+    numpy's Generator draws standard normals one after another with no
+    state carried between calls, so a block of n is the same n numbers as n
+    single draws.  The generator itself runs up to `block` draws ahead."""
+
+    def __init__(self, generator: np.random.Generator, block: int = 3 * 512):
+        self.generator = generator
+        self.block = int(block)
+        self._buf: list = []
+        self._i = 0
+
+    def _refill(self, need: int):
+        rest = self._buf[self._i:]
+        self._buf = rest + self.generator.standard_normal(max(self.block, need - len(rest))).tolist()
+        self._i = 0
+
+    def take(self, n: int) -> list:
+        """The next n draws (floats)."""
+        if self._i + n > len(self._buf):
+            self._refill(n)
+        i = self._i
+        self._i = i + n
+        return self._buf[i:i + n]
+
+    def take3(self):
+        i = self._i
+        if i + 3 > len(self._buf):
+            self._refill(3)
+            i = 0
+        self._i = i + 3
+        b = self._buf
+        return b[i], b[i + 1], b[i + 2]
+
+    def standard_normal(self, size=None):
+        if size is None:
+            return self.take(1)[0]
+        shape = (size,) if isinstance(size, (int, np.integer)) else tuple(size)
+        n = int(np.prod(shape, dtype=np.int64))
+        return np.array(self.take(n), dtype=float).reshape(shape)
+
 
 @dataclass
 class Saturation:
@@ -254,6 +312,14 @@ class Saturation:
 
     def apply(self, v):
         return np.clip(np.asarray(v, dtype=float), self.lo, self.hi)
+
+    def bounds6(self):
+        """(lo_x, lo_y, lo_z, hi_x, hi_y, hi_z) as floats (cached; follows a
+        reassigned lo/hi, not an in-place edit)."""
+        c = self.__dict__.get("_bounds6")
+        if c is None or c[0] is not self.lo or c[1] is not self.hi:
+            c = self._bounds6 = (self.lo, self.hi, tuple(self.lo.tolist() + self.hi.tolist()))
+        return c[2]
 
 
 @dataclass
@@ -342,6 +408,11 @@ class TriadModel:
 
     def apply(self, v, temp_c=25.0, rng: np.random.Generator = None, n_avg=None,
               quantise=True):
+        return self.random_part(self.deterministic(v, temp_c), rng, n_avg, quantise)
+
+    def deterministic(self, v, temp_c=25.0):
+        """The chain up to the bias tempco (v1..v5): everything that does not
+        draw noise.  apply = random_part(deterministic(v, T), ...)."""
         y = np.asarray(v, dtype=float)
         if self.soft_iron is not None:
             y = self.soft_iron.apply(y)
@@ -359,6 +430,11 @@ class TriadModel:
             y = self.bias.apply(y)
         if self.bias_tempco is not None:
             y = self.bias_tempco.apply(y, temp_c)
+        return y
+
+    def random_part(self, y, rng: np.random.Generator = None, n_avg=None, quantise=True):
+        """The rest of the chain (v6, v7, out): noise, saturation, quantisation."""
+        y = np.asarray(y, dtype=float)
         if self.noise is not None:
             if rng is None:
                 raise ValueError("WhiteNoise needs a seeded numpy Generator (rng)")
@@ -368,6 +444,58 @@ class TriadModel:
         if quantise and self.quantisation is not None:
             y = self.quantisation.apply(y)
         return y
+
+    def random_part3(self, y, normals, n_avg=None):
+        """random_part for one sample as plain floats, without quantisation:
+        y: 3 floats (from `deterministic`), normals: a NormalStream.
+        Returns a tuple of 3 floats."""
+        return self.sampler(normals, n_avg)(y)
+
+    def sampler(self, normals: "NormalStream", n_avg=None):
+        """A function y -> random_part3(y, normals, n_avg) with the noise
+        factors and saturation bounds bound in (build it once, call it per
+        sample).  It does the NumPy chain's operations in the same order --
+        y + z * s, then min(max(y, lo), hi) -- on floats, so the same bits,
+        and takes the draws from the stream's block in line (take3)."""
+        nz, sat = self.noise, self.saturation
+        if nz is None:
+            s0 = s1 = s2 = None
+        else:
+            s0, s1, s2 = nz.scale3(n_avg)
+        if sat is None:
+            l0 = l1 = l2 = -np.inf
+            h0 = h1 = h2 = np.inf
+        else:
+            l0, l1, l2, h0, h1, h2 = sat.bounds6()
+        st = normals
+
+        def f(y):
+            y0, y1, y2 = y
+            if s0 is not None:
+                i = st._i                   # NormalStream.take3, in line
+                b = st._buf
+                if i + 3 > len(b):
+                    st._refill(3)
+                    i = 0
+                    b = st._buf
+                st._i = i + 3
+                y0 = y0 + b[i] * s0
+                y1 = y1 + b[i + 1] * s1
+                y2 = y2 + b[i + 2] * s2
+            if y0 < l0:                     # np.clip: min(max(y, lo), hi)
+                y0 = l0
+            if y0 > h0:
+                y0 = h0
+            if y1 < l1:
+                y1 = l1
+            if y1 > h1:
+                y1 = h1
+            if y2 < l2:
+                y2 = l2
+            if y2 > h2:
+                y2 = h2
+            return y0, y1, y2
+        return f
 
     def linear(self):
         """(A, c) with y = A x + c for the linear effects (no temperature,

@@ -39,7 +39,7 @@ from .adis16210 import ADIS16210, AdisFaults
 from .ads1256 import ADS1256, FluxgateFrontEnd
 from .clock import Clock
 from .flash import S12XFlash
-from .hal import Board, SciPort, attach, ffi, lib
+from .hal import Board, SciPort, attach, ffi, gil_held_lib, lib
 from .scenario import Scenario, load_scenario
 
 # probe.h
@@ -100,9 +100,9 @@ class EmulatedProbe:
         self.scenario: Scenario = scenario if isinstance(scenario, Scenario) else load_scenario(scenario)
         self.clock = Clock()
         self.phys = self.scenario.probe(seed)
-        self.adis = ADIS16210(self.clock, self.phys.acc_analog, self.phys.temperature,
+        self.adis = ADIS16210(self.clock, self.phys.acc_sample, self.phys.temperature,
                               serial=self.scenario.serial, faults=adis_faults, strict_stall=strict_stall)
-        self.front = FluxgateFrontEnd(lambda t: self.phys.mag_analog(t))
+        self.front = FluxgateFrontEnd(self.phys.mag_sample)
         self.adc = ADS1256(self.clock, self.front, absent=adc_absent)
         self.flash = flash if flash is not None else S12XFlash(seed=flash_seed)
         self.sci = SciPort(self.clock, baud)
@@ -138,7 +138,7 @@ class EmulatedProbe:
         """Call firmware function `name`; if the flash lost power during it,
         restart the firmware (power off `off_time_s`, then boot)."""
         self._own()
-        r = getattr(lib, name)(*args)
+        r = getattr(gil_held_lib, name)(*args)   # lib's function, the GIL kept (hal.GilHeldLib)
         self._check()
         res = CallResult(int(r) if r is not None else 0)
         if not self.flash.powered:

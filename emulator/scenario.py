@@ -81,17 +81,50 @@ class Probe:
 
     Two independent random streams (accelerometer, fluxgate) are derived
     from the seed, so the order in which a driver reads the parts does not
-    change either part's noise sequence."""
+    change either part's noise sequence.  Both are `effects.NormalStream`s
+    over `np.random.default_rng([seed, 0])` / `([seed, 1])`: the same draws
+    as the generators, taken in blocks.
+
+    Single samples (`acc_sample`, `mag_sample`: scalar time, tuples of
+    floats) are what the register models read; they give the same numbers
+    as `acc_analog` / `mag_analog`, cheaply: while the turntable is static
+    (a one-keyframe trajectory, e.g. after `move_to`) the true vectors are
+    computed once, and the deterministic part of each triad's chain (up to
+    the bias tempco) is kept for the last temperature; only the noise and
+    the saturation are evaluated per sample, as plain floats.  The cache
+    follows `move_to`, `trajectory` assignments and the temperature (a
+    temperature ramp re-evaluates the chain at every sample); a field drift
+    or a moving trajectory re-evaluates the truth at every sample.  After
+    changing the scenario's world or effect parameters in place, call
+    `invalidate()`."""
 
     def __init__(self, scenario: Scenario, seed: int):
         self.scenario = scenario
         self.seed = int(seed)
-        self.rng_acc = np.random.default_rng([self.seed, 0])
-        self.rng_mag = np.random.default_rng([self.seed, 1])
+        self.rng_acc = fx.NormalStream(np.random.default_rng([self.seed, 0]))
+        self.rng_mag = fx.NormalStream(np.random.default_rng([self.seed, 1]))
         self.trajectory = Trajectory.static(0.0, 0.0, 0.0)
         self.temp_override: Optional[float] = None
 
     # ---- control ----------------------------------------------------------
+    @property
+    def trajectory(self) -> Trajectory:
+        return self._trajectory
+
+    @trajectory.setter
+    def trajectory(self, tr: Trajectory):
+        self._trajectory = tr
+        self.invalidate()
+
+    def invalidate(self):
+        """Forget the cached truth and chain values (see the class doc)."""
+        self._g_static = None        # true g (3,) array while static
+        self._b_static = None        # true b (3,) array while static and drift-free
+        self._acc_det = (None, None)  # (temperature, 3 floats): deterministic chain output
+        self._mag_det = (None, None)
+        self._acc_rand = {}           # n_avg -> TriadModel.sampler (noise, saturation)
+        self._mag_rand = None
+
     def move_to(self, inc, azi, tf):
         """Put the turntable at an indicated pose (instantaneous move)."""
         self.scenario.world.turntable.check(inc, azi, tf)
@@ -102,6 +135,12 @@ class Probe:
         self.temp_override = temp_c
 
     def temperature(self, t):
+        """Probe temperature at t (degC); a float for a float t."""
+        if type(t) is float:
+            if self.temp_override is not None:
+                return float(self.temp_override)
+            m = self.scenario.world.temperature
+            return m.t0_c + m.rate_c_per_s * t   # the same operations as Temperature()
         if self.temp_override is not None:
             return np.broadcast_to(float(self.temp_override), np.shape(t)).astype(float)
         return self.scenario.world.temperature(t)
@@ -117,12 +156,78 @@ class Probe:
         _, b = self.scenario.world.truth(*self.trajectory(ts), ts)
         return b
 
+    def _static(self) -> bool:
+        return len(self._trajectory.t_s) == 1
+
+    def _acc_chain(self, t, temp):
+        """Deterministic accelerometer chain output at t, 3 floats."""
+        key, y = self._acc_det
+        if key is not None and key == temp:
+            return y
+        if self._static():
+            if self._g_static is None:
+                self._g_static = self.true_acc(t)
+            y = tuple(self.scenario.acc.deterministic(self._g_static, temp).tolist())
+            self._acc_det = (temp, y)
+            return y
+        return tuple(self.scenario.acc.deterministic(self.true_acc(t), temp).tolist())
+
+    def _mag_chain(self, t, temp):
+        key, y = self._mag_det
+        if key is not None and key == temp:
+            return y
+        if self._static() and self.scenario.world.drift is None:
+            if self._b_static is None:
+                self._b_static = self.true_mag(t)
+            y = tuple(self.scenario.mag.deterministic(self._b_static, temp).tolist())
+            self._mag_det = (temp, y)
+            return y
+        return tuple(self.scenario.mag.deterministic(self.true_mag(t), temp).tolist())
+
     # ---- analog sensor outputs (all effects but quantisation) -------------
+    def acc_sample(self, t: float, n_avg=None, temp_c=None):
+        """One accelerometer sample at time t (float seconds): 3 floats, g."""
+        if temp_c is not None:
+            temp = temp_c
+        elif self.temp_override is not None:
+            temp = float(self.temp_override)
+        else:
+            m = self.scenario.world.temperature
+            temp = m.t0_c + m.rate_c_per_s * float(t)
+        key, y = self._acc_det
+        if key is None or key != temp:
+            y = self._acc_chain(t, temp)
+        f = self._acc_rand.get(n_avg)
+        if f is None:
+            f = self._acc_rand[n_avg] = self.scenario.acc.sampler(self.rng_acc, n_avg)
+        return f(y)
+
+    def mag_sample(self, t: float, temp_c=None):
+        """One fluxgate sample at time t (the skew applied inside): 3 floats, nT."""
+        if temp_c is not None:
+            temp = temp_c
+        elif self.temp_override is not None:
+            temp = float(self.temp_override)
+        else:
+            m = self.scenario.world.temperature
+            temp = m.t0_c + m.rate_c_per_s * float(t)
+        key, y = self._mag_det
+        if key is None or key != temp:
+            y = self._mag_chain(t, temp)
+        f = self._mag_rand
+        if f is None:
+            f = self._mag_rand = self.scenario.mag.sampler(self.rng_mag, None)
+        return f(y)
+
     def acc_analog(self, t, n_avg=None, temp_c=None):
+        if np.ndim(t) == 0 and np.ndim(temp_c) == 0:
+            return np.array(self.acc_sample(float(t), n_avg, temp_c))
         temp = self.temperature(t) if temp_c is None else temp_c
         return self.scenario.acc.apply(self.true_acc(t), temp, self.rng_acc, n_avg, quantise=False)
 
     def mag_analog(self, t, temp_c=None):
+        if np.ndim(t) == 0 and np.ndim(temp_c) == 0:
+            return np.array(self.mag_sample(float(t), temp_c))
         temp = self.temperature(t) if temp_c is None else temp_c
         return self.scenario.mag.apply(self.true_mag(t), temp, self.rng_mag, None, quantise=False)
 
