@@ -278,7 +278,7 @@ def test_power_cut_at_every_flash_step(emu, tmp_path, mode):
             p.cut_power_at(k, mode)
         r = flashing.flash(link, imgs[k % 2])
         with emu._lock:
-            cut = p.flash.cuts and not p.flash.armed and len(boots) > 0
+            cut = not p.flash.armed      # the k-th command came, and lost power
             if not cut:
                 p.flash.disarm()
                 ops_per_flash = p.flash.ops - ops0
@@ -294,7 +294,7 @@ def test_power_cut_at_every_flash_step(emu, tmp_path, mode):
         which = None
         if after_mode == "app":       # only a complete application may run: the old, or the new one
             assert desc is not None   # (decode_descriptor checked every range's CRC over the flash)
-            which = [k for k, w in (("old", old), ("new", new))
+            which = [name for name, w in (("old", old), ("new", new))
                      if desc["ranges"] == [(a, len(d), zlib.crc32(d)) for a, d in w]]
             assert len(which) == 1, desc
             which = which[0]
@@ -363,6 +363,17 @@ def test_disconnect_in_the_middle(emu, tmp_path):
     ctl.close()
 
 
+def test_flash_while_the_application_streams(emu, tmp_path):
+    """The application refuses everything but STOP while it streams surveys
+    (E_BUSY): the host stops the stream, then asks for the bootloader."""
+    chunks = random_chunks(9, [(0x7C0000, 100)])
+    with ProbeLink(emu.path, timeout=0.5) as link:
+        link.request(0x03, struct.pack(">HH", 20, 0))
+        r = flashing.flash(link, write_srec(tmp_path / "s.s19", chunks))
+    assert r.ok and r.app_running and r.events[0].startswith("the application was streaming surveys")
+    assert _flash_state(emu, expected_ranges(chunks))["data"] == [d for _, d in expected_ranges(chunks)]
+
+
 def test_image_checks_before_the_port(tmp_path):
     """load_image on its own: the merge of records into phrase-aligned ranges
     and the refusals, with no probe at all."""
@@ -383,7 +394,7 @@ def test_image_checks_before_the_port(tmp_path):
     (tmp_path / "e.s19").write_text("S0030000FC\nS5030000FC\n")
     with pytest.raises(DataError, match="no data records"):
         flashing.load_image(str(tmp_path / "e.s19"))
-    dup = write_srec(tmp_path / "d1.s19", [(0x7C0000, b"\x01" * 16)])
+    write_srec(tmp_path / "d1.s19", [(0x7C0000, b"\x01" * 16)])
     (tmp_path / "d.s19").write_text((tmp_path / "d1.s19").read_text() * 2)
     with pytest.raises(DataError, match="overlaps"):
         flashing.load_image(str(tmp_path / "d.s19"))

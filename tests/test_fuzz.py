@@ -107,6 +107,9 @@ def seed_corpus_boot(d: pathlib.Path) -> None:
         (4, 0x43, u32(0x7FFFF0) + b"\x00\x20"), (5, 0x44, u32(0x700000) + u32(0x100000))]))
     (d / "raw").write_bytes(b"\x40\x07" + b"ID\r" + struct.pack(">BBBBH", 0xA5, 1, 1, 0x40, 0) + b"\x00\x00")
     desc = struct.pack(">4sBBHII", b"IAPP", 1, 1, 0xFFFF, 0x7C0000, 2048) + u32(0x7C0000) + u32(2048) + u32(0)
+    app = bytes((i * 37 + 11) & 0xFF for i in range(2048))   # fuzz_boot.c's valid_app()
+    (d / "commit-same").write_bytes(b"\xc0\x00" + bytes([1, 0x45, 17]) + u32(0x7C0000) + b"\x01" + u32(0x7C0000)
+                                    + u32(2048) + u32(zlib.crc32(app)) + bytes([2, 0x46, 0]))
     (d / "desc").write_bytes(b"\x58\x00" + desc)
     (d / "desc-app").write_bytes(b"\x58\x00" + desc[:28] + u32(0))
 

@@ -38,8 +38,9 @@ from inclino.link import ProbeError, ProbeLink, ProbeNak
 B_IDENTIFY, B_ERASE, B_PROGRAM, B_READ, B_CRC, B_COMMIT, B_RUN = range(0x40, 0x47)
 CMD_BOOTLOADER = 0x21
 CMD_IDENTIFY = 0x01
+CMD_STOP = 0x04
 BOOT_KEY = 0x424F4F54
-E_COMMAND, E_ARGUMENT, E_FLASH, E_IMAGE, E_STATE, E_PROTECTED = 4, 5, 8, 9, 11, 12
+E_COMMAND, E_ARGUMENT, E_BUSY, E_FLASH, E_IMAGE, E_STATE, E_PROTECTED = 4, 5, 6, 8, 9, 11, 12
 APP_STATUS = {0: "valid", 1: "none (no commit record: empty, or a flash did not finish)",
               2: "descriptor header damaged", 3: "descriptor ranges invalid",
               4: "image CRC mismatch", 5: "flash unreadable"}
@@ -274,6 +275,11 @@ class _Retry(Exception):
     """An attempt failed in a way a new attempt may fix."""
 
 
+class _Refused(ProbeError):
+    """The bootloader refused an address the host thought allowed: the two
+    flash maps disagree; another attempt would not help."""
+
+
 Progress = Optional[Callable[[str, int, int], None]]
 
 
@@ -313,7 +319,11 @@ class _Flasher:
             try:
                 i = self.identify()
             except ProbeNak as e:
-                if e.code not in (E_COMMAND, E_STATE) or asked and e.code == E_STATE:
+                if e.code == E_BUSY:        # the application is streaming surveys: stop it first
+                    self.link.request(CMD_STOP)
+                    self.res.events.append("the application was streaming surveys: stopped the stream")
+                    continue
+                if e.code != E_COMMAND or asked:
                     raise
                 # the application answered: ask it to start the bootloader
                 self.res.events.append("the probe ran its application: asked it to start the bootloader")
@@ -339,7 +349,7 @@ class _Flasher:
                                 "on this probe; nothing was erased")
 
     # ------------------------------------------------------------ one attempt
-    def attempt(self, fmap: FlashMap, verify_only_ranges=None):
+    def attempt(self, fmap: FlashMap):
         img, res = self.image, self.res
         sect = fmap.sector
         sectors = sorted({a for r in img.ranges for a in range(r.addr - r.addr % sect, r.end, sect)})
@@ -426,7 +436,7 @@ class _Flasher:
             return self._req(cmd, payload, timeout=timeout)
         except ProbeNak as e:
             if e.code in (E_PROTECTED, E_ARGUMENT):   # a map disagreement: not worth another try
-                raise ProbeError(f"the bootloader refused command 0x{cmd:02X} at "
+                raise _Refused(f"the bootloader refused command 0x{cmd:02X} at "
                                  f"0x{struct.unpack('>I', payload[:4])[0]:06X}: "
                                  f"{'protected area' if e.code == E_PROTECTED else 'bad argument'}") from None
             raise _Retry(f"{_cmd_name(cmd)} refused: {_nak_text(e)}") from None
@@ -492,13 +502,11 @@ def flash(link_or_port, image_path: str, progress: Progress = None, *, attempts:
                     res.events.append(f"attempt {k} succeeded")
                 last = None
                 break
+            except _Refused:
+                raise
             except (_Retry, ProbeError) as e:
-                if isinstance(e, ProbeError) and "refused command" in str(e):
-                    raise
                 last = e
                 res.events.append(f"attempt {k} failed: {e}")
-                if isinstance(e, _Retry) and str(e) == "verify failed" and k == attempts:
-                    break
                 if k == attempts:
                     break
                 try:

@@ -16,6 +16,7 @@
  *   bit 4  the first 120 data bytes are written over the descriptor's
  *          header before boot_init (bit 3: with a correct header CRC and
  *          commit phrase, so that the range checks are reached).
+ * Byte 1 bit 7 clear: the data sectors hold a valid identity record.
  *
  * Invariants, each a trap when broken: the bootloader area and the data
  * sectors never change; no phrase is ever programmed over different
@@ -28,7 +29,9 @@
 #include <string.h>
 
 #include "inclino/boot.h"
+#include "inclino/crc16.h"
 #include "inclino/hal.h"
+#include "inclino/probe.h"
 
 #define FLASH_SIZE (BOOT_FLASH_END - BOOT_FLASH_START)
 
@@ -155,6 +158,20 @@ static void put_u32(uint8_t *p, uint32_t v)
     p[3] = (uint8_t)v;
 }
 
+static void identity_record(void)
+{
+    uint8_t *r = mem + (PROBE_ID_ADDR - BOOT_FLASH_START);
+    uint16_t crc;
+    put_u32(r, PROBE_ID_MAGIC);
+    put_u32(r + 4, 123456u);
+    r[8] = 0;
+    r[9] = 1;
+    memset(r + 10, 0xFF, 4);
+    crc = crc16_update(CRC16_INIT, r, 14u);
+    r[14] = (uint8_t)(crc >> 8);
+    r[15] = (uint8_t)crc;
+}
+
 static void valid_app(void)
 {
     boot_app_t app;
@@ -228,7 +245,10 @@ int LLVMFuzzerTestOneInput(const uint8_t *data, size_t size)
     size -= 2;
     memset(mem, 0xFF, sizeof mem);
     fill(BOOT_LOADER_START, sizeof loader0, 101u);
-    fill(BOOT_DATA_START, 64u, 7u); /* identity and a calibration's first bytes */
+    fill(BOOT_DATA_START + 0x400u, 64u, 7u); /* a calibration's first bytes */
+    if ((param & 0x80u) == 0u) {
+        identity_record();
+    }
     memcpy(loader0, mem + (BOOT_LOADER_START - BOOT_FLASH_START), sizeof loader0);
     memcpy(data0, mem + (BOOT_DATA_START - BOOT_FLASH_START), sizeof data0);
     ops = 0;
@@ -241,6 +261,7 @@ int LLVMFuzzerTestOneInput(const uint8_t *data, size_t size)
         forced_descriptor(data, size, (flags & 0x08u) != 0);
         (void)boot_app_check(&app);
         (void)boot_select(0u);
+        (void)boot_select(1u);
     }
     boot_init(&b, send);
     if (flags & 0x80u) {
