@@ -163,7 +163,8 @@ class ADS1256:
 
     # _update() does nothing before `_guard` (no calibration end, first
     # conversion or next conversion can fall before it); every state change
-    # that may move those instants sets it back to -inf.
+    # that may bring those instants earlier (WAKEUP, a DRATE change, a
+    # calibration, RESET) sets it again.
     _guard = -math.inf
 
     def _rate(self):
@@ -188,11 +189,11 @@ class ADS1256:
         self.regs[FSC0], self.regs[FSC1], self.regs[FSC2] = v & 0xFF, (v >> 8) & 0xFF, (v >> 16) & 0xFF
 
     def _start_cal(self, now, kind):
-        self._guard = -math.inf
         self.mode = "cal"
         self.unread = False
         self._cal_end = now + cal_time_s(self.regs[DRATE])
         self._cal_kind = kind
+        self._guard = self._cal_end   # nothing happens before the calibration ends
 
     def _finish_cal(self):
         pga = self._pga()
@@ -246,7 +247,7 @@ class ADS1256:
             self._guard = self._cal_end if mode == "cal" else (
                 self._conv_first if mode == "convert" else math.inf)
             return
-        period = 1.0 / self._rate()[0]
+        period = 1.0 / DRATES.get(self.regs[DRATE], DRATES[0xF0])[0]   # _rate()
         k = math.floor((now - self._conv_first) / period + 1e-9)
         tc = self._conv_first + k * period
         if tc > self._last_tc:
@@ -374,7 +375,7 @@ class ADS1256:
             self._conv_first = now + self._rate()[1]  # new rate: restart the filter
             self._last_tc = -math.inf
             self.unread = False
-            self._guard = -math.inf
+            self._guard = self._conv_first
         acal = self.regs[STATUS] & 0x04
         changed = ((r == ADCON and (byte ^ old) & 0x07) or (r == DRATE and byte != old)
                    or (r == STATUS and (byte ^ old) & 0x02))
@@ -398,7 +399,7 @@ class ADS1256:
                 self.mode = "convert"
                 self._conv_first = now + self._rate()[1] + extra
                 self._last_tc = -math.inf
-                self._guard = -math.inf
+                self._guard = self._conv_first   # no conversion before the first
         elif c == RDATA:
             self.out.extend(self._data_bytes())
             self._out_ready_at = now + T6_S

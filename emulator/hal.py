@@ -232,20 +232,17 @@ class Board:
         return r & 0xFFFF
 
     def spi_xfer8(self, out):
-        r = 0xFF
-        if self.flash.powered:
-            sel = self.selected
-            if sel == HAL_DEV_ADC:
-                r = self.adc.transfer8(out)
-            elif sel == HAL_DEV_ADIS:
+        if self.selected == HAL_DEV_ADC and self.flash.powered:   # the usual case first
+            r = self.adc.transfer8(out)
+        else:
+            r = 0xFF
+            if self.selected == HAL_DEV_ADIS and self.flash.powered:
                 self.adis.frame_error()  # 8 clocks under CS: malformed frame
         self.clock.now += self._t8
         return r & 0xFF
 
     def adc_drdy(self):
-        if not self.flash.powered:
-            return 1
-        return 1 if self.adc.drdy() else 0
+        return 1 if not self.flash.powered or self.adc.drdy() else 0
 
     def millis(self):
         return math.floor(self.clock.now * 1000.0 + 1e-9) & 0xFFFFFFFF
@@ -312,6 +309,35 @@ def attach(board: Optional[Board]):
 
 def current() -> Optional[Board]:
     return _board
+
+
+class counting:
+    """Context manager: count the HAL callbacks made while it is open (per
+    function name, in `.counts`), for cost accounting (bench emulator).
+    The counting wrappers cost time; do not time code inside it."""
+
+    def __init__(self, board: Board):
+        self.board = board
+        self.counts = {name: 0 for name in HAL_FUNCTIONS}
+
+    def __enter__(self):
+        def wrap(name, fn):
+            def counted(*args):
+                self.counts[name] += 1
+                return fn(*args)
+            return counted
+        global _board
+        _board = self.board
+        for name in HAL_FUNCTIONS:
+            ffi.def_extern(name="hal_" + name, onerror=_onerror)(wrap(name, getattr(self.board, name)))
+        return self
+
+    def __exit__(self, *exc):
+        _bind(_board)
+
+    @property
+    def total(self) -> int:
+        return sum(self.counts.values())
 
 
 _bind(None)
