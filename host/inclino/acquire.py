@@ -482,7 +482,7 @@ def add_common(p) -> None:
     p.add_argument("--tol-mag-nt", type=float, default=20.0, help="stability: fluxgate spread, nT (default 20)")
     p.add_argument("--max-reads", type=int, default=30, help="bench: readings before a position is given up")
     p.add_argument("--average", type=int, help="set the probe's samples per reading first (SET_AVERAGE, 1-64; "
-                                              "the probe's default is 16)")
+                                              "the probe's default is 16; it keeps it until it restarts)")
     p.add_argument("--quiet", action="store_true", help="no progress bar")
 
 
