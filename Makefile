@@ -1,5 +1,5 @@
 # Two commands do all the set-up (README):
-#   make demo   - the main job: attitude of a table of poses through the C core
+#   make demo   - the main job: the whole calibration bench on the emulated probe
 #   make test   - the whole test suite
 # Each creates and fills the local virtual environment .venv when it is
 # missing or older than the sources.
