@@ -19,6 +19,7 @@ from inclino.acquire import add_parser as _add_acquire
 from inclino.calib.cli import add_parser as _add_calibrate
 from inclino.demo import add_parser as _add_demo
 from inclino.diagnose.cli import add_parser as _add_diagnose
+from inclino.flashing import add_parser as _add_flash
 from inclino.plots import add_parser as _add_plot
 from inclino.probe_cli import add_parser as _add_probe_commands
 
@@ -200,6 +201,7 @@ def build_parser() -> argparse.ArgumentParser:
     be.set_defaults(func=_cmd_bench)
     _add_calibrate(sub)
     _add_diagnose(sub)
+    _add_flash(sub)
     _add_probe_commands(sub)
     _add_acquire(sub)
     _add_accept(sub)
