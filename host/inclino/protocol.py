@@ -23,6 +23,7 @@ CMD = {
 ERRORS = {
     1: "E_CRC", 2: "E_LENGTH", 3: "E_VERSION", 4: "E_COMMAND", 5: "E_ARGUMENT", 6: "E_BUSY",
     7: "E_SENSOR", 8: "E_FLASH", 9: "E_IMAGE", 10: "E_SERIAL", 11: "E_STATE",
+    12: "E_PROTECTED",
 }
 BOOT_KEY = 0x424F4F54
 
