@@ -3,6 +3,7 @@
 #include "inclino/app_main.h"
 #include "inclino/adis16210.h"
 #include "inclino/ads1256.h"
+#include "inclino/be_bytes.h"
 #include "inclino/calimg.h"
 #include "inclino/fx_ops.h"
 #include "inclino/hal.h"
@@ -17,31 +18,6 @@ static uint32_t last_rx_ms;
 static uint8_t restart;
 
 /* ------------------------------------------------------------ byte helpers */
-static void put_u16(uint8_t *p, uint16_t v)
-{
-    p[0] = (uint8_t)(v >> 8);
-    p[1] = (uint8_t)v;
-}
-
-static void put_u32(uint8_t *p, uint32_t v)
-{
-    p[0] = (uint8_t)(v >> 24);
-    p[1] = (uint8_t)(v >> 16);
-    p[2] = (uint8_t)(v >> 8);
-    p[3] = (uint8_t)v;
-}
-
-static uint32_t get_u32(const uint8_t *p)
-{
-    return ((uint32_t)p[0] << 24) | ((uint32_t)p[1] << 16) | ((uint32_t)p[2] << 8) |
-           (uint32_t)p[3];
-}
-
-static int32_t get_i32(const uint8_t *p)
-{
-    uint32_t u = get_u32(p);
-    return (u & 0x80000000UL) ? -(int32_t)(~u) - 1 : (int32_t)u;
-}
 
 /* ------------------------------------------------------------ transmit queue */
 static void send(const uint8_t *data, uint16_t n)
@@ -97,10 +73,10 @@ static uint8_t a_identity(uint8_t out[PROTO_IDENTITY_LEN])
     out[17] = (uint8_t)id.fw_version;
     out[18] = 0u;
     out[19] = PROTO_VERSION;
-    put_u32(out + 20, id.serial);
+    be_put_u32(out + 20, id.serial);
     out[24] = id.cal_slot;
-    put_u32(out + 25, id.cal_seq);
-    put_u16(out + 29, id.cal_crc);
+    be_put_u32(out + 25, id.cal_seq);
+    be_put_u16(out + 29, id.cal_crc);
     out[31] = id.cal_method;
     if (id.adis_status != ADIS_OK) {
         st |= (id.adis_status == ADIS_E_SELF_TEST) ? 0x0004u : 0x0001u;
@@ -108,7 +84,7 @@ static uint8_t a_identity(uint8_t out[PROTO_IDENTITY_LEN])
     if (id.ads_status != ADS_OK) {
         st |= 0x0002u;
     }
-    put_u16(out + 32, st);
+    be_put_u16(out + 32, st);
     return 0u;
 }
 
@@ -122,15 +98,15 @@ static uint8_t a_survey(uint8_t out[PROTO_SURVEY_LEN])
         return err_code(st);
     }
     probe_last_raw(&r);
-    put_u32(out, hal_millis());
-    put_u32(out + 4, (uint32_t)s.att.inc);
-    put_u32(out + 8, (uint32_t)s.att.azi);
-    put_u32(out + 12, (uint32_t)s.att.gtf);
-    put_u32(out + 16, (uint32_t)s.att.mtf);
-    put_u32(out + 20, (uint32_t)s.att.gt);
-    put_u32(out + 24, (uint32_t)s.att.bt);
-    put_u32(out + 28, (uint32_t)s.att.dip);
-    put_u16(out + 32, s.att.flags);
+    be_put_u32(out, hal_millis());
+    be_put_u32(out + 4, (uint32_t)s.att.inc);
+    be_put_u32(out + 8, (uint32_t)s.att.azi);
+    be_put_u32(out + 12, (uint32_t)s.att.gtf);
+    be_put_u32(out + 16, (uint32_t)s.att.mtf);
+    be_put_u32(out + 20, (uint32_t)s.att.gt);
+    be_put_u32(out + 24, (uint32_t)s.att.bt);
+    be_put_u32(out + 28, (uint32_t)s.att.dip);
+    be_put_u16(out + 32, s.att.flags);
     out[34] = qc;
     out[35] = r.n;
     return 0u;
@@ -141,15 +117,15 @@ static void raw_record(const probe_raw_t *r, uint8_t out[PROTO_RAW_LEN])
     uint8_t i;
     int32_t t = r->temp_cc;
     for (i = 0u; i < 3u; i++) {
-        put_u16(out + 2u * i, (uint16_t)r->acc[i]);
-        put_u32(out + 6u + 4u * i, (uint32_t)r->mag[i]);
+        be_put_u16(out + 2u * i, (uint16_t)r->acc[i]);
+        be_put_u32(out + 6u + 4u * i, (uint32_t)r->mag[i]);
     }
     if (t > 32767) {
         t = 32767;
     } else if (t < -32768) {
         t = -32768;
     }
-    put_u16(out + 18, (uint16_t)(int16_t)t);
+    be_put_u16(out + 18, (uint16_t)(int16_t)t);
     out[20] = r->n;
 }
 
@@ -180,12 +156,12 @@ static uint8_t a_qcref_read(uint8_t out[PROTO_QCREF_LEN])
 {
     qc_ref_t r;
     (void)probe_qc_get(&r); /* without a stored reference: the defaults */
-    put_u32(out, (uint32_t)r.gt_ref);
-    put_u32(out + 4, (uint32_t)r.gt_tol);
-    put_u32(out + 8, (uint32_t)r.bt_ref);
-    put_u32(out + 12, (uint32_t)r.bt_tol);
-    put_u32(out + 16, (uint32_t)r.dip_ref);
-    put_u32(out + 20, (uint32_t)r.dip_tol);
+    be_put_u32(out, (uint32_t)r.gt_ref);
+    be_put_u32(out + 4, (uint32_t)r.gt_tol);
+    be_put_u32(out + 8, (uint32_t)r.bt_ref);
+    be_put_u32(out + 12, (uint32_t)r.bt_tol);
+    be_put_u32(out + 16, (uint32_t)r.dip_ref);
+    be_put_u32(out + 20, (uint32_t)r.dip_tol);
     return 0u;
 }
 
@@ -193,12 +169,12 @@ static uint8_t a_qcref_write(const uint8_t in[PROTO_QCREF_LEN])
 {
     qc_ref_t r;
     uint8_t st;
-    r.gt_ref = get_i32(in);
-    r.gt_tol = get_i32(in + 4);
-    r.bt_ref = get_i32(in + 8);
-    r.bt_tol = get_i32(in + 12);
-    r.dip_ref = get_i32(in + 16);
-    r.dip_tol = get_i32(in + 20);
+    r.gt_ref = be_get_i32(in);
+    r.gt_tol = be_get_i32(in + 4);
+    r.bt_ref = be_get_i32(in + 8);
+    r.bt_tol = be_get_i32(in + 12);
+    r.dip_ref = be_get_i32(in + 16);
+    r.dip_tol = be_get_i32(in + 20);
     st = probe_qc_set(&r);
     return (st == PROBE_OK) ? 0u : err_code(st);
 }
@@ -221,7 +197,7 @@ static uint8_t a_cal_read(uint8_t slot, uint8_t out[126])
     }
     out[0] = slot;
     out[1] = valid;
-    put_u32(out + 2, seq);
+    be_put_u32(out + 2, seq);
     return 0u;
 }
 
@@ -244,7 +220,7 @@ static uint16_t a_cal_write(const uint8_t *image, uint8_t force, uint8_t out[7])
     }
     (void)probe_cal_pending(&slot, &seq);
     out[0] = slot;
-    put_u32(out + 1, seq);
+    be_put_u32(out + 1, seq);
     out[5] = image[CALIMG_CRC_OFFSET];
     out[6] = image[CALIMG_CRC_OFFSET + 1u];
     return 0u;
@@ -263,7 +239,7 @@ static uint8_t a_cal_activate(uint8_t slot, uint32_t seq, uint8_t out[5])
         return err_code(st);
     }
     out[0] = slot;
-    put_u32(out + 1, seq);
+    be_put_u32(out + 1, seq);
     return 0u;
 }
 

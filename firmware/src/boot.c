@@ -1,6 +1,7 @@
 /* boot.c - the serial bootloader's core; contract in boot.h, design and
  * power-cut argument in docs/bootloader.md, commands in docs/protocol.md. */
 #include "inclino/boot.h"
+#include "inclino/be_bytes.h"
 #include "inclino/crc16.h"
 #include "inclino/hal.h"
 #include "inclino/probe.h"
@@ -11,30 +12,6 @@
 #define HDR_FIXED 16u /* descriptor bytes before the ranges */
 
 /* ------------------------------------------------------------ byte helpers */
-static uint32_t get_u32(const uint8_t *p)
-{
-    return ((uint32_t)p[0] << 24) | ((uint32_t)p[1] << 16) | ((uint32_t)p[2] << 8) |
-           (uint32_t)p[3];
-}
-
-static uint16_t get_u16(const uint8_t *p)
-{
-    return (uint16_t)(((uint16_t)p[0] << 8) | (uint16_t)p[1]);
-}
-
-static void put_u32(uint8_t *p, uint32_t v)
-{
-    p[0] = (uint8_t)(v >> 24);
-    p[1] = (uint8_t)(v >> 16);
-    p[2] = (uint8_t)(v >> 8);
-    p[3] = (uint8_t)v;
-}
-
-static void put_u16(uint8_t *p, uint16_t v)
-{
-    p[0] = (uint8_t)(v >> 8);
-    p[1] = (uint8_t)v;
-}
 
 /* ------------------------------------------------------------ CRC-32 */
 static const uint32_t crc32_nibble[16] = {0x00000000UL, 0x1DB71064UL, 0x3B6E20C8UL, 0x26D930ACUL,
@@ -115,24 +92,24 @@ uint16_t boot_desc_build(boot_app_t *app, uint8_t out[BOOT_DESC_MAX], uint8_t co
     for (i = 0u; i < BOOT_DESC_MAX; i++) {
         out[i] = 0xFFu;
     }
-    put_u32(out, BOOT_DESC_MAGIC);
+    be_put_u32(out, BOOT_DESC_MAGIC);
     out[4] = BOOT_DESC_VERSION;
     out[5] = app->count;
-    put_u32(out + 8, app->entry);
+    be_put_u32(out + 8, app->entry);
     for (i = 0u; i < app->count; i++) {
         uint8_t *r = out + HDR_FIXED + 12u * i;
-        put_u32(r, app->range[i].addr);
-        put_u32(r + 4, app->range[i].len);
-        put_u32(r + 8, app->range[i].crc);
+        be_put_u32(r, app->range[i].addr);
+        be_put_u32(r + 4, app->range[i].len);
+        be_put_u32(r + 8, app->range[i].crc);
         total += app->range[i].len;
     }
     app->total = total;
-    put_u32(out + 12, total);
+    be_put_u32(out + 12, total);
     n = (uint16_t)(hdr_len(app->count) - 4u);
     app->hdr_crc = boot_crc32(0u, out, n);
-    put_u32(out + n, app->hdr_crc);
-    put_u32(commit, BOOT_COMMIT_MAGIC);
-    put_u32(commit + 4, app->hdr_crc);
+    be_put_u32(out + n, app->hdr_crc);
+    be_put_u32(commit, BOOT_COMMIT_MAGIC);
+    be_put_u32(commit + 4, app->hdr_crc);
     padded = (uint16_t)((hdr_len(app->count) + BOOT_PHRASE - 1u) / BOOT_PHRASE * BOOT_PHRASE);
     return padded;
 }
@@ -182,10 +159,10 @@ uint8_t boot_app_check(boot_app_t *app)
         hal_flash_read(BOOT_DESC_ADDR, hdr, HDR_FIXED) != HAL_FLASH_OK) {
         return BOOT_E_READ;
     }
-    if (get_u32(commit) != BOOT_COMMIT_MAGIC) {
+    if (be_get_u32(commit) != BOOT_COMMIT_MAGIC) {
         return BOOT_E_NO_COMMIT;
     }
-    if (get_u32(hdr) != BOOT_DESC_MAGIC || hdr[4] != BOOT_DESC_VERSION || hdr[5] == 0u ||
+    if (be_get_u32(hdr) != BOOT_DESC_MAGIC || hdr[4] != BOOT_DESC_VERSION || hdr[5] == 0u ||
         hdr[5] > BOOT_MAX_RANGES) {
         return BOOT_E_HEADER;
     }
@@ -195,17 +172,17 @@ uint8_t boot_app_check(boot_app_t *app)
                        (uint16_t)(n + 4u - HDR_FIXED)) != HAL_FLASH_OK) {
         return BOOT_E_READ;
     }
-    app->hdr_crc = get_u32(hdr + n);
-    if (boot_crc32(0u, hdr, n) != app->hdr_crc || get_u32(commit + 4) != app->hdr_crc) {
+    app->hdr_crc = be_get_u32(hdr + n);
+    if (boot_crc32(0u, hdr, n) != app->hdr_crc || be_get_u32(commit + 4) != app->hdr_crc) {
         return BOOT_E_HEADER;
     }
-    app->entry = get_u32(hdr + 8);
-    app->total = get_u32(hdr + 12);
+    app->entry = be_get_u32(hdr + 8);
+    app->total = be_get_u32(hdr + 12);
     for (i = 0u; i < app->count; i++) {
         const uint8_t *r = hdr + HDR_FIXED + 12u * i;
-        app->range[i].addr = get_u32(r);
-        app->range[i].len = get_u32(r + 4);
-        app->range[i].crc = get_u32(r + 8);
+        app->range[i].addr = be_get_u32(r);
+        app->range[i].len = be_get_u32(r + 4);
+        app->range[i].crc = be_get_u32(r + 8);
         if (app->range[i].len > BOOT_FLASH_END - BOOT_FLASH_START) {
             return BOOT_E_RANGES;
         }
@@ -336,24 +313,24 @@ static void c_identify(boot_t *b, uint8_t seq, const uint8_t *pl, uint16_t len)
     out[17] = BOOT_VERSION_MINOR;
     out[18] = PROTO_VERSION;
     out[19] = b->app_status;
-    put_u32(out + 20, b->serial);
-    put_u32(out + 24, BOOT_FLASH_START);
-    put_u32(out + 28, BOOT_FLASH_END);
-    put_u16(out + 32, BOOT_PHRASE);
-    put_u16(out + 34, BOOT_SECTOR);
-    put_u16(out + 36, BOOT_MAX_DATA);
-    put_u32(out + 38, BOOT_LOADER_START);
-    put_u32(out + 42, BOOT_LOADER_END);
-    put_u32(out + 46, BOOT_DESC_ADDR);
-    put_u32(out + 50, BOOT_DATA_START);
-    put_u32(out + 54, BOOT_DATA_END);
-    put_u32(out + 58, valid ? b->app.entry : BOOT_NO_ENTRY);
-    put_u32(out + 62, valid ? b->app.total : 0u);
-    put_u32(out + 66, valid ? b->app.hdr_crc : 0u);
-    put_u32(out + 70, b->executed);
-    put_u32(out + 74, b->mark);
+    be_put_u32(out + 20, b->serial);
+    be_put_u32(out + 24, BOOT_FLASH_START);
+    be_put_u32(out + 28, BOOT_FLASH_END);
+    be_put_u16(out + 32, BOOT_PHRASE);
+    be_put_u16(out + 34, BOOT_SECTOR);
+    be_put_u16(out + 36, BOOT_MAX_DATA);
+    be_put_u32(out + 38, BOOT_LOADER_START);
+    be_put_u32(out + 42, BOOT_LOADER_END);
+    be_put_u32(out + 46, BOOT_DESC_ADDR);
+    be_put_u32(out + 50, BOOT_DATA_START);
+    be_put_u32(out + 54, BOOT_DATA_END);
+    be_put_u32(out + 58, valid ? b->app.entry : BOOT_NO_ENTRY);
+    be_put_u32(out + 62, valid ? b->app.total : 0u);
+    be_put_u32(out + 66, valid ? b->app.hdr_crc : 0u);
+    be_put_u32(out + 70, b->executed);
+    be_put_u32(out + 74, b->mark);
     if (len == 4u) {
-        b->mark = get_u32(pl); /* reported by the next IDENTIFY unless the probe restarts */
+        b->mark = be_get_u32(pl); /* reported by the next IDENTIFY unless the probe restarts */
     }
     answer(b, seq, (uint8_t)(BCMD_IDENTIFY | 0x80u), out, BOOT_IDENTITY_LEN);
 }
@@ -367,7 +344,7 @@ static void c_erase(boot_t *b, uint8_t seq, const uint8_t *pl, uint16_t len)
         nak(b, seq, BCMD_ERASE, PERR_LENGTH, 0u);
         return;
     }
-    addr = get_u32(pl);
+    addr = be_get_u32(pl);
     st = target_error(addr, BOOT_SECTOR);
     if (st == 0u && (addr % BOOT_SECTOR) != 0u) {
         st = PERR_ARGUMENT;
@@ -384,7 +361,7 @@ static void c_erase(boot_t *b, uint8_t seq, const uint8_t *pl, uint16_t len)
         nak(b, seq, BCMD_ERASE, PERR_FLASH, st);
         return;
     }
-    put_u32(out, addr);
+    be_put_u32(out, addr);
     answer(b, seq, (uint8_t)(BCMD_ERASE | 0x80u), out, 4u);
 }
 
@@ -399,7 +376,7 @@ static void c_program(boot_t *b, uint8_t seq, const uint8_t *pl, uint16_t len)
         nak(b, seq, BCMD_PROGRAM, PERR_LENGTH, 0u);
         return;
     }
-    addr = get_u32(pl);
+    addr = be_get_u32(pl);
     n = (uint16_t)(len - 4u);
     st = target_error(addr, n);
     if (st == 0u && (addr % BOOT_PHRASE) != 0u) {
@@ -439,8 +416,8 @@ static void c_program(boot_t *b, uint8_t seq, const uint8_t *pl, uint16_t len)
             return;
         }
     }
-    put_u32(out, addr);
-    put_u16(out + 4, n);
+    be_put_u32(out, addr);
+    be_put_u16(out + 4, n);
     answer(b, seq, (uint8_t)(BCMD_PROGRAM | 0x80u), out, 6u);
 }
 
@@ -454,8 +431,8 @@ static void c_read(boot_t *b, uint8_t seq, const uint8_t *pl, uint16_t len)
         nak(b, seq, BCMD_READ, PERR_LENGTH, 0u);
         return;
     }
-    addr = get_u32(pl);
-    n = get_u16(pl + 4);
+    addr = be_get_u32(pl);
+    n = be_get_u16(pl + 4);
     if (n == 0u || n > BOOT_MAX_DATA || boot_area(addr, n) == BOOT_AREA_OUTSIDE) {
         nak(b, seq, BCMD_READ, PERR_ARGUMENT, 0u);
         return;
@@ -465,7 +442,7 @@ static void c_read(boot_t *b, uint8_t seq, const uint8_t *pl, uint16_t len)
         nak(b, seq, BCMD_READ, PERR_FLASH, st);
         return;
     }
-    put_u32(out, addr);
+    be_put_u32(out, addr);
     answer(b, seq, (uint8_t)(BCMD_READ | 0x80u), out, (uint16_t)(4u + n));
 }
 
@@ -478,8 +455,8 @@ static void c_crc(boot_t *b, uint8_t seq, const uint8_t *pl, uint16_t len)
         nak(b, seq, BCMD_CRC, PERR_LENGTH, 0u);
         return;
     }
-    addr = get_u32(pl);
-    n = get_u32(pl + 4);
+    addr = be_get_u32(pl);
+    n = be_get_u32(pl + 4);
     if (boot_area(addr, n) == BOOT_AREA_OUTSIDE) {
         nak(b, seq, BCMD_CRC, PERR_ARGUMENT, 0u);
         return;
@@ -489,9 +466,9 @@ static void c_crc(boot_t *b, uint8_t seq, const uint8_t *pl, uint16_t len)
         nak(b, seq, BCMD_CRC, PERR_FLASH, st);
         return;
     }
-    put_u32(out, addr);
-    put_u32(out + 4, n);
-    put_u32(out + 8, c);
+    be_put_u32(out, addr);
+    be_put_u32(out + 4, n);
+    be_put_u32(out + 8, c);
     answer(b, seq, (uint8_t)(BCMD_CRC | 0x80u), out, 12u);
 }
 
@@ -532,13 +509,13 @@ static void c_commit(boot_t *b, uint8_t seq, const uint8_t *pl, uint16_t len)
         nak(b, seq, BCMD_COMMIT, PERR_LENGTH, 0u);
         return;
     }
-    app.entry = get_u32(pl);
+    app.entry = be_get_u32(pl);
     app.count = pl[4];
     for (i = 0u; i < app.count; i++) {
         const uint8_t *r = pl + 5u + 12u * i;
-        app.range[i].addr = get_u32(r);
-        app.range[i].len = get_u32(r + 4);
-        app.range[i].crc = get_u32(r + 8);
+        app.range[i].addr = be_get_u32(r);
+        app.range[i].len = be_get_u32(r + 4);
+        app.range[i].crc = be_get_u32(r + 8);
     }
     if (check_ranges(&app) != BOOT_OK) {
         nak(b, seq, BCMD_COMMIT, PERR_ARGUMENT, 0u);
@@ -575,8 +552,8 @@ static void c_commit(boot_t *b, uint8_t seq, const uint8_t *pl, uint16_t len)
         nak(b, seq, BCMD_COMMIT, PERR_FLASH, HAL_FLASH_E_VERIFY);
         return;
     }
-    put_u32(out, app.hdr_crc);
-    put_u32(out + 4, app.total);
+    be_put_u32(out, app.hdr_crc);
+    be_put_u32(out + 4, app.total);
     answer(b, seq, (uint8_t)(BCMD_COMMIT | 0x80u), out, 8u);
 }
 
@@ -627,7 +604,7 @@ static void execute(boot_t *b, uint8_t seq, uint8_t cmd, const uint8_t *pl, uint
     case PCMD_BOOTLOADER: /* already here: answered, nothing else */
         if (len != 4u) {
             nak(b, seq, cmd, PERR_LENGTH, 0u);
-        } else if (get_u32(pl) != PROTO_BOOT_KEY) {
+        } else if (be_get_u32(pl) != PROTO_BOOT_KEY) {
             nak(b, seq, cmd, PERR_ARGUMENT, 0u);
         } else {
             answer(b, seq, (uint8_t)(cmd | 0x80u), none, 0u);
@@ -699,11 +676,11 @@ static uint32_t read_serial(void)
 {
     uint8_t rec[PROBE_ID_SIZE];
     if (hal_flash_read(PROBE_ID_ADDR, rec, PROBE_ID_SIZE) != HAL_FLASH_OK ||
-        get_u32(rec) != PROBE_ID_MAGIC ||
-        crc16_update(CRC16_INIT, rec, 14u) != get_u16(rec + 14)) {
+        be_get_u32(rec) != PROBE_ID_MAGIC ||
+        crc16_update(CRC16_INIT, rec, 14u) != be_get_u16(rec + 14)) {
         return 0u;
     }
-    return get_u32(rec + 4);
+    return be_get_u32(rec + 4);
 }
 
 void boot_init(boot_t *b, void (*send)(const uint8_t *data, uint16_t n))

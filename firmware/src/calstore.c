@@ -1,24 +1,11 @@
 /* calstore.c - A/B slot storage; contracts and layout in calstore.h. */
 #include "inclino/calstore.h"
+#include "inclino/be_bytes.h"
 #include "inclino/crc16.h"
 #include "inclino/hal.h"
 
 #define HDR_LEN 8u
 #define COMMIT_LEN 8u
-
-static uint32_t get_u32(const uint8_t *p)
-{
-    return ((uint32_t)p[0] << 24) | ((uint32_t)p[1] << 16) | ((uint32_t)p[2] << 8) |
-           (uint32_t)p[3];
-}
-
-static void put_u32(uint8_t *p, uint32_t v)
-{
-    p[0] = (uint8_t)(v >> 24);
-    p[1] = (uint8_t)(v >> 16);
-    p[2] = (uint8_t)(v >> 8);
-    p[3] = (uint8_t)v;
-}
 
 static uint8_t cfg_ok(const calstore_cfg_t *cfg)
 {
@@ -50,8 +37,8 @@ static uint8_t slot_check(const calstore_cfg_t *cfg, uint8_t slot, uint32_t *seq
         hal_flash_read(base + HDR_LEN + len, com, COMMIT_LEN) != HAL_FLASH_OK) {
         return CALSTORE_ST_UNREADABLE;
     }
-    s = get_u32(hdr + 4);
-    if (get_u32(hdr) != CALSTORE_HDR_MAGIC || s == 0u || s == 0xFFFFFFFFUL) {
+    s = be_get_u32(hdr + 4);
+    if (be_get_u32(hdr) != CALSTORE_HDR_MAGIC || s == 0u || s == 0xFFFFFFFFUL) {
         return CALSTORE_ST_EMPTY;
     }
     *seq = s;
@@ -60,7 +47,7 @@ static uint8_t slot_check(const calstore_cfg_t *cfg, uint8_t slot, uint32_t *seq
     }
     c = crc16_update(CRC16_INIT, hdr, HDR_LEN);
     c = crc16_update(c, buf, len);
-    if ((uint16_t)(((uint16_t)com[2] << 8) | com[3]) != c || get_u32(com + 4) != s) {
+    if ((uint16_t)(((uint16_t)com[2] << 8) | com[3]) != c || be_get_u32(com + 4) != s) {
         return CALSTORE_ST_BAD_CRC;
     }
     *crc = c;
@@ -166,8 +153,8 @@ uint8_t calstore_write(calstore_t *cs, const uint8_t *payload)
     if (r != CALSTORE_OK) {
         return (r == CALSTORE_E_VERIFY) ? CALSTORE_E_ERASE : r;
     }
-    put_u32(hdr, CALSTORE_HDR_MAGIC);
-    put_u32(hdr + 4, seq);
+    be_put_u32(hdr, CALSTORE_HDR_MAGIC);
+    be_put_u32(hdr + 4, seq);
     r = program(cs, base, hdr);
     for (off = 0u; r == CALSTORE_OK && off < len; off = (uint16_t)(off + HAL_FLASH_PHRASE)) {
         r = program(cs, base + HDR_LEN + off, payload + off);
@@ -206,7 +193,7 @@ uint8_t calstore_activate(calstore_t *cs)
     com[1] = (uint8_t)(CALSTORE_COMMIT_MAGIC & 0xFFu);
     com[2] = (uint8_t)(cs->pending_crc >> 8);
     com[3] = (uint8_t)(cs->pending_crc & 0xFFu);
-    put_u32(com + 4, cs->pending_seq);
+    be_put_u32(com + 4, cs->pending_seq);
     r = program(cs, cfg->base[slot] + HDR_LEN + cfg->payload_len, com);
     cs->state[slot] = slot_check(cfg, slot, &seq, &crc);
     cs->seq[slot] = seq;

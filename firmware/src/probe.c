@@ -3,6 +3,7 @@
 #include "inclino/acquire.h"
 #include "inclino/adis16210.h"
 #include "inclino/ads1256.h"
+#include "inclino/be_bytes.h"
 #include "inclino/calstore.h"
 #include "inclino/correct.h"
 #include "inclino/crc16.h"
@@ -33,26 +34,6 @@ static struct {
     probe_raw_t last_raw;
 } P;
 
-static uint32_t get_u32(const uint8_t *p)
-{
-    return ((uint32_t)p[0] << 24) | ((uint32_t)p[1] << 16) | ((uint32_t)p[2] << 8) |
-           (uint32_t)p[3];
-}
-
-static int32_t get_i32(const uint8_t *p)
-{
-    uint32_t u = get_u32(p);
-    return (u & 0x80000000UL) ? -(int32_t)(~u) - 1 : (int32_t)u;
-}
-
-static void put_u32(uint8_t *p, uint32_t v)
-{
-    p[0] = (uint8_t)(v >> 24);
-    p[1] = (uint8_t)(v >> 16);
-    p[2] = (uint8_t)(v >> 8);
-    p[3] = (uint8_t)v;
-}
-
 static uint8_t cal_check(const uint8_t *p, uint16_t len)
 {
     corr_cal_t c;
@@ -62,12 +43,12 @@ static uint8_t cal_check(const uint8_t *p, uint16_t len)
 
 static void qc_decode(const uint8_t *p, qc_ref_t *r)
 {
-    r->gt_ref = get_i32(p);
-    r->gt_tol = get_i32(p + 4);
-    r->bt_ref = get_i32(p + 8);
-    r->bt_tol = get_i32(p + 12);
-    r->dip_ref = get_i32(p + 16);
-    r->dip_tol = get_i32(p + 20);
+    r->gt_ref = be_get_i32(p);
+    r->gt_tol = be_get_i32(p + 4);
+    r->bt_ref = be_get_i32(p + 8);
+    r->bt_tol = be_get_i32(p + 12);
+    r->dip_ref = be_get_i32(p + 16);
+    r->dip_tol = be_get_i32(p + 20);
 }
 
 static uint8_t qc_rec_check(const uint8_t *p, uint16_t len)
@@ -84,8 +65,8 @@ void probe_id_build(uint32_t serial, uint16_t hw_rev, uint8_t buf[PROBE_ID_SIZE]
 {
     uint16_t crc;
     uint8_t i;
-    put_u32(buf, PROBE_ID_MAGIC);
-    put_u32(buf + 4, serial);
+    be_put_u32(buf, PROBE_ID_MAGIC);
+    be_put_u32(buf + 4, serial);
     buf[8] = (uint8_t)(hw_rev >> 8);
     buf[9] = (uint8_t)(hw_rev & 0xFFu);
     for (i = 10u; i < 14u; i++) {
@@ -104,11 +85,11 @@ static void load_identity(void)
     if (hal_flash_read(PROBE_ID_ADDR, b, PROBE_ID_SIZE) != HAL_FLASH_OK) {
         return;
     }
-    if (get_u32(b) != PROBE_ID_MAGIC ||
+    if (be_get_u32(b) != PROBE_ID_MAGIC ||
         crc16_update(CRC16_INIT, b, 14u) != (uint16_t)(((uint16_t)b[14] << 8) | b[15])) {
         return;
     }
-    P.serial = get_u32(b + 4);
+    P.serial = be_get_u32(b + 4);
     P.hw_rev = (uint16_t)(((uint16_t)b[8] << 8) | b[9]);
 }
 
@@ -334,12 +315,12 @@ uint8_t probe_qc_set(const qc_ref_t *r)
     if (r->gt_tol < 0 || r->bt_tol < 0 || r->dip_tol < 0) {
         return PROBE_E_ARG;
     }
-    put_u32(rec, (uint32_t)r->gt_ref);
-    put_u32(rec + 4, (uint32_t)r->gt_tol);
-    put_u32(rec + 8, (uint32_t)r->bt_ref);
-    put_u32(rec + 12, (uint32_t)r->bt_tol);
-    put_u32(rec + 16, (uint32_t)r->dip_ref);
-    put_u32(rec + 20, (uint32_t)r->dip_tol);
+    be_put_u32(rec, (uint32_t)r->gt_ref);
+    be_put_u32(rec + 4, (uint32_t)r->gt_tol);
+    be_put_u32(rec + 8, (uint32_t)r->bt_ref);
+    be_put_u32(rec + 12, (uint32_t)r->bt_tol);
+    be_put_u32(rec + 16, (uint32_t)r->dip_ref);
+    be_put_u32(rec + 20, (uint32_t)r->dip_tol);
     st = calstore_write(&P.qc_store, rec);
     if (st == CALSTORE_OK) {
         st = calstore_activate(&P.qc_store);

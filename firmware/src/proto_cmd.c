@@ -1,19 +1,9 @@
 /* proto_cmd.c - SCI command layer; contract in proto_cmd.h. */
 #include "inclino/proto_cmd.h"
+#include "inclino/be_bytes.h"
 #include "inclino/calimg.h"
 
 #define TEXT_MAX 96u
-
-static uint32_t get_u32(const uint8_t *b)
-{
-    return ((uint32_t)b[0] << 24) | ((uint32_t)b[1] << 16) | ((uint32_t)b[2] << 8) |
-           (uint32_t)b[3];
-}
-
-static uint16_t get_u16(const uint8_t *b)
-{
-    return (uint16_t)(((uint16_t)b[0] << 8) | (uint16_t)b[1]);
-}
 
 void proto_init(proto_t *p, const proto_app_t *app)
 {
@@ -169,13 +159,13 @@ static void execute(proto_t *p, uint8_t seq, uint8_t cmd, const uint8_t *pl, uin
             nak(p, seq, cmd, PERR_LENGTH, 0u);
             return;
         }
-        if (get_u16(pl) == 0u) {
+        if (be_get_u16(pl) == 0u) {
             nak(p, seq, cmd, PERR_ARGUMENT, 0u);
             return;
         }
         answer(p, seq, (uint8_t)(cmd | 0x80u), out, 0u);
-        p->stream_period_ms = get_u16(pl);
-        p->stream_left = get_u16(pl + 2);
+        p->stream_period_ms = be_get_u16(pl);
+        p->stream_left = be_get_u16(pl + 2);
         p->stream_sent = 0u;
         p->streaming = 1u;
         p->stream_next_ms = 0u; /* first frame at the next tick */
@@ -223,7 +213,7 @@ static void execute(proto_t *p, uint8_t seq, uint8_t cmd, const uint8_t *pl, uin
             nak(p, seq, cmd, PERR_LENGTH, 0u);
             return;
         }
-        rc = p->app->cal_activate(pl[0], get_u32(pl + 1), out);
+        rc = p->app->cal_activate(pl[0], be_get_u32(pl + 1), out);
         if (rc != 0u) {
             nak(p, seq, cmd, rc, 0u);
         } else {
@@ -243,7 +233,7 @@ static void execute(proto_t *p, uint8_t seq, uint8_t cmd, const uint8_t *pl, uin
             nak(p, seq, cmd, PERR_LENGTH, 0u);
             return;
         }
-        if (get_u32(pl) != PROTO_BOOT_KEY) {
+        if (be_get_u32(pl) != PROTO_BOOT_KEY) {
             nak(p, seq, cmd, PERR_ARGUMENT, 0u);
             return;
         }
