@@ -1,7 +1,13 @@
 """The firmware core on the S08 (SDCC -ms08, ucsim shc08): bit for bit equal to
 the golden model on >= 10 000 vectors, including every edge case of the host
 bit-exact suite (inclino.bitexact.edge_vectors and the saturating
-calibrations of random_cals)."""
+calibrations of random_cals).  The SCI frame parser and encoder and the
+calibration-image checker on the S08: the recorded byte streams of
+tests/vectors/frames.json give exactly their events, and random and corrupted
+streams and images give the host build's (inclino._core) results."""
+import json
+import pathlib
+
 import numpy as np
 import pytest
 
@@ -216,3 +222,239 @@ def test_float_baseline_computes_the_same_survey(tmp_path):
     assert np.abs((r["azi"] - g["azi"] / 65536 + 180) % 360 - 180).max() < 0.01
     assert np.abs(r["gt"] / (g["gt"] / 2**27) - 1).max() < 1e-4
     assert (r["flags"] == g["flags"]).all()
+
+
+# ------------------------------------------------------------------ frame parser
+FRAME_VECTORS = json.loads((pathlib.Path(__file__).parent / "vectors" / "frames.json")
+                           .read_text())["cases"]
+
+
+def _segments(case):
+    return [s if s == "idle" else bytes.fromhex(s) for s in case["stream"]]
+
+
+def host_events(segments):
+    """The host build of the same C (as tests/test_protocol_frames.py), with
+    proto_parser_idle's results."""
+    from inclino._core import ffi, lib
+
+    p = ffi.new("proto_parser_t *")
+    lib.proto_parser_init(p)
+    out, idle = [], []
+    for seg in segments:
+        if isinstance(seg, str):
+            idle.append(lib.proto_parser_idle(p))
+            continue
+        for byte in seg:
+            r = lib.proto_frame_feed(p, byte)
+            kind = mcu.PF_KINDS.get(r)
+            if kind == "frame":
+                out.append({"kind": kind, "ver": p.ver, "seq": p.seq, "cmd": p.cmd,
+                            "payload": bytes(p.payload[0:p.len]).hex()})
+            elif kind == "bad_crc":
+                out.append({"kind": kind, "seq": p.seq, "cmd": p.cmd})
+            elif kind == "line":
+                out.append({"kind": kind, "line": ffi.string(ffi.cast("char *", p.line)).decode()})
+            elif kind is not None:
+                out.append({"kind": kind})
+    return {"events": out, "idle": idle}
+
+
+def test_frame_vectors_on_s08(fw):
+    got = mcu.frame_events(fw, [_segments(c) for c in FRAME_VECTORS])
+    bad = [c["name"] for c, g in zip(FRAME_VECTORS, got) if g["events"] != c["events"]]
+    assert not bad, f"{len(bad)} of {len(FRAME_VECTORS)} recorded streams differ on the S08: {bad}"
+
+
+def _random_streams(rng, n):
+    """Frames with bit errors, dropped and duplicated bytes; byte soup rich in
+    0xA5, CR, LF and text; long lines; oversize length fields; other
+    versions; silences (idle) anywhere, also inside frames."""
+    from inclino import protocol
+
+    def frame():
+        pl = rng.integers(0, 256, int(rng.choice([0, 1, 5, 36, 60, 200])), dtype=np.uint8).tobytes()
+        f = bytearray(protocol.encode_frame(int(rng.integers(0, 256)), int(rng.integers(0, 256)), pl))
+        if rng.random() < 0.1:  # another version, CRC made to match
+            f[1] = int(rng.integers(0, 256))
+            f[-2:] = protocol.crc16(bytes(f[1:-2])).to_bytes(2, "big")
+        if rng.random() < 0.1:  # a length beyond PROTO_MAX_PAYLOAD
+            f[4:6] = int(rng.integers(201, 65536)).to_bytes(2, "big")
+        return bytes(f)
+
+    def soup():
+        alphabet = np.array([0xA5, 0x0D, 0x0A, 0x00, 0x7F, 0x20, 0x41, 0x7E, 0xFF, 0x1F], dtype=np.uint8)
+        k = int(rng.integers(1, 80))
+        if rng.random() < 0.5:
+            return rng.choice(alphabet, k).tobytes()
+        return rng.integers(0, 256, k, dtype=np.uint8).tobytes()
+
+    def text():
+        k = int(rng.integers(0, 45))
+        return bytes(rng.integers(0x20, 0x7F, k, dtype=np.uint8)) + rng.choice([b"\r", b"\n", b"\r\n", b""])
+
+    streams = []
+    for _ in range(n):
+        buf = bytearray()
+        for _ in range(int(rng.integers(1, 7))):
+            buf += (frame, soup, text)[int(rng.choice(3, p=[0.6, 0.2, 0.2]))]()
+        for _ in range(int(rng.integers(0, 4))):  # bit errors
+            if buf:
+                i = int(rng.integers(0, len(buf)))
+                buf[i] ^= 1 << int(rng.integers(0, 8))
+        if rng.random() < 0.3 and len(buf) > 3:  # a dropped byte
+            del buf[int(rng.integers(0, len(buf)))]
+        if rng.random() < 0.3 and buf:  # a duplicated byte
+            i = int(rng.integers(0, len(buf)))
+            buf.insert(i, buf[i])
+        cuts = sorted(int(c) for c in rng.integers(0, len(buf) + 1, int(rng.integers(0, 3))))
+        segs, last = [], 0
+        for c in cuts:
+            segs += [bytes(buf[last:c]), "idle"]
+            last = c
+        segs.append(bytes(buf[last:]))
+        streams.append(segs)
+    return streams
+
+
+def test_frame_parser_random_and_corrupted_streams_on_s08(fw):
+    rng = np.random.default_rng(77)
+    streams = _random_streams(rng, 400)
+    got = mcu.frame_events(fw, streams)
+    want = [host_events(s) for s in streams]
+    bad = [i for i, (g, w) in enumerate(zip(got, want)) if g != w]
+    assert not bad, f"{len(bad)} of {len(streams)} streams differ from the host build, first {bad[:5]}"
+    # the streams reached every event, chunking past 256 bytes and both idle results
+    kinds = {e["kind"] for w in want for e in w["events"]}
+    assert kinds == {"frame", "bad_crc", "bad_len", "line"}
+    assert {0, 1} <= {x for w in want for x in w["idle"]}
+    assert max(sum(len(x) for x in s if not isinstance(x, str)) for s in streams) > mcu.FEED_CHUNK
+
+
+def test_frame_encoder_on_s08(fw):
+    from inclino import protocol
+    from inclino._core import ffi, lib
+
+    rng = np.random.default_rng(78)
+    frames = [(int(rng.integers(0, 256)), int(rng.integers(0, 256)),
+               rng.integers(0, 256, int(n), dtype=np.uint8).tobytes(), 256)
+              for n in list(rng.integers(0, 201, 60)) + [0, 1, 200]]
+    frames += [(1, 2, bytes(201), 256), (1, 2, bytes(10), 17), (1, 2, bytes(10), 18), (3, 4, b"", 7),
+               (3, 4, b"", 8)]
+    got = mcu.frame_encode(fw, frames)
+    for (seq, cmd, pl, cap), g in zip(frames, got):
+        out = ffi.new("uint8_t[]", 256)
+        n = lib.proto_frame_encode(seq, cmd, ffi.new("uint8_t[]", pl or b"\0"), len(pl), out, cap)
+        assert g == bytes(out[0:n]), (seq, cmd, len(pl), cap)
+        if len(pl) <= 200 and cap >= len(pl) + 8:
+            assert g == protocol.encode_frame(seq, cmd, pl)
+        else:
+            assert g == b""
+
+
+# ------------------------------------------------------------------ calibration image
+def _rand_fixed_cal(rng):
+    from inclino.core import FixedCal
+
+    def triad():
+        m = rng.integers(-(2**31), 2**31, 9)
+        m[[0, 4, 8]] = rng.integers(2**27, 2**31, 3)
+        b = rng.integers(-(2**30) + 1, 2**30, 3)
+        return tuple(int(x) for x in m), tuple(int(x) for x in b)
+
+    am, ab = triad()
+    mm, mb = triad()
+    return FixedCal(am, ab, mm, mb)
+
+
+def host_calimg_parse(data: bytes):
+    """calimg_parse of the host build, outputs filled as the harness fills them."""
+    from inclino._core import ffi, lib
+
+    cal = ffi.new("corr_cal_t *")
+    info = ffi.new("calimg_info_t *")
+    fill, fill32, fill8 = mcu.CALIMG_UNTOUCHED
+    for t in (cal.acc, cal.mag):
+        for i in range(9):
+            t.m[i] = fill
+        for i in range(3):
+            t.bias[i] = fill
+    info.serial, info.time, info.method = fill32, fill32, fill8
+    st = lib.calimg_parse(ffi.new("uint8_t[]", data or b"\0"), len(data), cal, info)
+    return (st, list(cal.acc.m), list(cal.acc.bias), list(cal.mag.m), list(cal.mag.bias),
+            info.serial, info.time, info.method)
+
+
+def _rec(r):
+    return (int(r["status"]), r["acc_m"].tolist(), r["acc_b"].tolist(), r["mag_m"].tolist(),
+            r["mag_b"].tolist(), int(r["serial"]), int(r["time"]), int(r["method"]))
+
+
+def _crc_fixed(img: bytearray) -> bytes:
+    import binascii
+    img[116:118] = binascii.crc_hqx(bytes(img[:116]), 0xFFFF).to_bytes(2, "big")
+    return bytes(img)
+
+
+def test_calimg_parse_on_s08(fw):
+    from inclino.calimage import METHODS, CalImage
+
+    rng = np.random.default_rng(79)
+    good = [CalImage(_rand_fixed_cal(rng), int(rng.integers(0, 2**32)), int(rng.integers(0, 2**32)),
+                     str(rng.choice(list(METHODS)))).pack() for _ in range(20)]
+    base = bytearray(good[0])
+    images = list(good)
+    # every single-byte corruption of one image (the padding too: still OK)
+    for i in range(120):
+        for flip in (0x01, 0x80, 0xFF):
+            bad = bytearray(base)
+            bad[i] ^= flip
+            images.append(bytes(bad))
+            if i < 116:  # the same with the CRC made to match: the later checks
+                images.append(_crc_fixed(bad))
+    # truncated, erased, oversize buffer, the range limits with a good CRC
+    images += [bytes(base[:k]) for k in (0, 1, 6, 8, 116, 119)] + [b"\xff" * 120, bytes(base) + b"\0" * 8]
+    for off, val in ((20, 2**27), (20, 2**27 - 1), (20, 0), (20, -(2**27)), (68, 2**31 - 1),
+                     (68, -(2**31)), (56, 2**30 - 1), (56, 2**30), (56, -(2**30) + 1), (56, -(2**30)),
+                     (112, 2**30), (112, -(2**30) + 1)):
+        im = bytearray(base)
+        im[off:off + 4] = int(val).to_bytes(4, "big", signed=True)
+        images.append(_crc_fixed(im))
+    got = mcu.calimg_parse(fw, images)
+    want = [host_calimg_parse(d) for d in images]
+    bad = [i for i, (g, w) in enumerate(zip(got, want)) if _rec(g) != w]
+    assert not bad, f"{len(bad)} of {len(images)} images differ from the host build, first {bad[:5]}"
+    status = {int(s) for s in got["status"]}
+    assert status == {0, 1, 2, 3, 4, 5}
+    assert all(int(s) == 0 for s in got["status"][:20])
+    for r, d in zip(got[:20], good):  # the decoded fields are the packer's
+        im = CalImage.unpack(d)
+        assert tuple(r["acc_m"].tolist()) == im.cal.acc_m and tuple(r["mag_b"].tolist()) == im.cal.mag_b
+        assert int(r["serial"]) == im.serial and int(r["method"]) == METHODS[im.method]
+
+
+def test_calimg_build_on_s08(fw):
+    from inclino._core import ffi, lib
+    from inclino.calimage import METHODS, CalImage
+
+    rng = np.random.default_rng(80)
+    items = []
+    for k in range(24):
+        fc = _rand_fixed_cal(rng)
+        if k % 4 == 3:  # out of range and any method byte: build does not check
+            from inclino.core import FixedCal
+            fc = FixedCal(*(tuple(int(x) for x in rng.integers(-(2**31), 2**31, n)) for n in (9, 3, 9, 3)))
+        items.append((fc, int(rng.integers(0, 2**32)), int(rng.integers(0, 2**32)), int(rng.integers(0, 256))))
+    got = mcu.calimg_build(fw, items)
+    names = {v: k for k, v in METHODS.items()}
+    for (fc, serial, t, method), g in zip(items, got):
+        cal = ffi.new("corr_cal_t *")
+        for t_, m, bias in ((cal.acc, fc.acc_m, fc.acc_b), (cal.mag, fc.mag_m, fc.mag_b)):
+            t_.m[0:9] = list(m)
+            t_.bias[0:3] = list(bias)
+        info = ffi.new("calimg_info_t *", {"serial": serial, "time": t, "method": method})
+        out = ffi.new("uint8_t[120]")
+        lib.calimg_build(cal, info, out)
+        assert g == bytes(out)
+        if method in names:
+            assert g == CalImage(fc, serial, t, names[method]).pack()

@@ -14,14 +14,15 @@ harsher relative of the probe's HCS12X), and measures it there:
   bench()        the figures of `inclino bench mcu --json`
 
 The byte protocol is described at the top of firmware/port/s08/harness.c.
-The protocol frame parser and the calibration-image checker do not exist yet:
-each will get a harness command letter and an encoder here.
+The SCI frame parser (proto_frame.c) and the calibration-image checker
+(calimg.c, crc16.c) are in the same image: frame_events(), frame_encode(),
+calimg_parse(), calimg_build().
 
-Traps handled: functions are built non-reentrant (no --stack-auto), so the
-shipped helper libraries (__mullong, __divulong, ...) match the code calling
-them; no compound literals or VLAs in the harness; the simulator always runs
-under `timeout` and the harness stops it with simif 's' followed by the read
-of the answer.
+Traps handled: the image is built with --stack-auto and links no SDCC helper
+library (the shipped ones are the non-reentrant builds; the struct copy's
+__memcpy is the port's own, memcpy_s08.c); no compound literals or VLAs in
+the harness; the simulator always runs under `timeout` and the harness stops
+it with simif 's' followed by the read of the answer.
 """
 from __future__ import annotations
 
@@ -40,9 +41,11 @@ import numpy as np
 MISSING_REASON = ("S08 simulator tools not found (sdcc, shc08): "
                   "install the Debian packages sdcc and sdcc-ucsim")
 
-CORE_SOURCES = ("fx_ops.c", "fx_math.c", "fx_atan_table.c", "correct.c", "attitude.c", "survey.c")
+CORE_SOURCES = ("fx_ops.c", "fx_math.c", "fx_atan_table.c", "correct.c", "attitude.c", "survey.c",
+                "crc16.c", "proto_frame.c", "calimg.c")
 PORT_SOURCES = ("fx_mul16_s08.c", "fx_ops_s08.c", "fx_mul32_s08.c", "fx_div_s08.c",
-                "fx_sqrt_s08.c", "fx_atan2_s08.c", "att_norm3_s08.c")  # the port's part of the core
+                "fx_sqrt_s08.c", "fx_atan2_s08.c", "att_norm3_s08.c",
+                "memcpy_s08.c")  # the port's part of the core
 HARNESS_SOURCES = ("harness.c",)
 # each replaces the portable C of the same functions (firmware/port/s08/*.c)
 PORT_DEFINES = ("-DFX_PORT_MUL16", "-DFX_PORT_OPS", "-DFX_PORT_MUL32", "-DFX_PORT_DIV",
@@ -470,6 +473,145 @@ def corr_triad(b, x, cal, which: int):
     return r["out"].astype(np.int64), r["sat"].astype(bool)
 
 
+# ------------------------------------------------------------------ frames and images
+FEED_CHUNK = 256  # the harness's HBUF_SIZE: longer segments go as several 'F'
+PF_KINDS = {1: "frame", 2: "bad_crc", 3: "bad_len", 4: "line"}
+
+
+def _u16(n: int) -> bytes:
+    return int(n).to_bytes(2, "big")
+
+
+def enc_frame_case(segments) -> bytes:
+    """'I', then per segment 'F' n bytes (in chunks of FEED_CHUNK) or, for
+    the marker "idle", 'L' (the layout of tests/vectors/frames.json)."""
+    out = [b"I"]
+    for seg in segments:
+        if isinstance(seg, str):
+            if seg != "idle":
+                raise ValueError(f"unknown stream marker {seg!r}")
+            out.append(b"L")
+            continue
+        seg = bytes(seg)
+        for i in range(0, len(seg), FEED_CHUNK):
+            out.append(b"F" + _u16(len(seg[i:i + FEED_CHUNK])) + seg[i:i + FEED_CHUNK])
+    return b"".join(out)
+
+
+def _dec_events(out: bytes, pos: int, events: list) -> int:
+    """Event records of one 'F' up to its 0x00; appends dicts in the
+    vectors' format; returns the new position."""
+    while True:
+        k = out[pos]
+        pos += 1
+        if k == 0:
+            return pos
+        kind = PF_KINDS.get(k)
+        if kind == "frame":
+            ver, seq, cmd = out[pos:pos + 3]
+            n = int.from_bytes(out[pos + 3:pos + 5], "big")
+            pl = out[pos + 5:pos + 5 + n]
+            if len(pl) != n:
+                raise McuError("truncated frame event")
+            pos += 5 + n
+            events.append({"kind": kind, "ver": ver, "seq": seq, "cmd": cmd, "payload": pl.hex()})
+        elif kind == "bad_crc":
+            events.append({"kind": kind, "seq": out[pos], "cmd": out[pos + 1]})
+            pos += 2
+        elif kind == "bad_len":
+            events.append({"kind": kind})
+        elif kind == "line":
+            n = out[pos]
+            events.append({"kind": kind, "line": out[pos + 1:pos + 1 + n].decode("ascii")})
+            pos += 1 + n
+        else:
+            raise McuError(f"unknown parser event {k} at byte {pos - 1}")
+
+
+def frame_events(b: McuBuild, cases: list) -> list[dict]:
+    """proto_frame_feed on the S08: each case is a list of segments (bytes,
+    or "idle" for proto_parser_idle), run from a fresh parser.  Returns per
+    case {"events": [...] in the format of tests/vectors/frames.json,
+    "idle": [proto_parser_idle's result, ...]}."""
+    enc = [enc_frame_case(c) for c in cases]
+    n = len(cases)
+    k = max(1, min(n, _jobs(sum(map(len, enc)) // 50)))
+    bounds = np.linspace(0, n, k + 1).astype(int)
+    groups = [list(range(bounds[i], bounds[i + 1])) for i in range(k) if bounds[i] < bounds[i + 1]]
+    outs = run_streams(b, [b"".join(enc[i] for i in g) + b"E" for g in groups])
+    res = []
+    for g, out in zip(groups, outs):
+        pos = 0
+        for i in g:
+            ev, idle = [], []
+            for seg in cases[i]:
+                if isinstance(seg, str):
+                    idle.append(out[pos])
+                    pos += 1
+                    continue
+                for j in range(0, len(seg), FEED_CHUNK):
+                    pos = _dec_events(out, pos, ev)
+            res.append({"events": ev, "idle": idle})
+        if pos != len(out):
+            raise McuError(f"{len(out) - pos} result bytes left over")
+    return res
+
+
+def enc_frame_encode(seq: int, cmd: int, payload: bytes, cap: int = FEED_CHUNK) -> bytes:
+    return b"G" + bytes([seq & 0xFF, cmd & 0xFF]) + _u16(len(payload)) + bytes(payload) + _u16(cap)
+
+
+def frame_encode(b: McuBuild, frames: list) -> list[bytes]:
+    """proto_frame_encode on the S08 for each (seq, cmd, payload[, cap]);
+    b"" where it refuses.  payload and cap at most FEED_CHUNK bytes."""
+    cmds = [enc_frame_encode(*f) for f in frames]
+    outs = run_streams(b, _split(cmds, _jobs(len(cmds) // 4)))
+    raw = b"".join(outs)
+    res, pos = [], 0
+    for _ in frames:
+        m = int.from_bytes(raw[pos:pos + 2], "big")
+        res.append(raw[pos + 2:pos + 2 + m])
+        pos += 2 + m
+    if pos != len(raw):
+        raise McuError(f"{len(raw) - pos} result bytes left over")
+    return res
+
+
+CALIMG_DT = np.dtype([("status", "u1"), ("acc_m", ">i4", (9,)), ("acc_b", ">i4", (3,)),
+                      ("mag_m", ">i4", (9,)), ("mag_b", ">i4", (3,)), ("serial", ">u4"),
+                      ("time", ">u4"), ("method", "u1")])
+CALIMG_UNTOUCHED = (0x25A5A5A5, 0xA5A5A5A5, 0xA5)  # the harness's fill: coefficient, serial/time, method
+
+
+def enc_calimg_parse(data: bytes) -> bytes:
+    return b"X" + _u16(len(data)) + bytes(data)
+
+
+def calimg_parse(b: McuBuild, images: list) -> np.ndarray:
+    """calimg_parse on the S08 of each byte string (at most FEED_CHUNK bytes):
+    a CALIMG_DT record each: the status and the decoded fields (on an error
+    the harness's fill, CALIMG_UNTOUCHED, which the parser must not touch)."""
+    cmds = [enc_calimg_parse(d) for d in images]
+    outs = run_streams(b, _split(cmds, _jobs(len(cmds) // 2)))
+    return _decode(outs, CALIMG_DT, len(images)).copy()
+
+
+def enc_calimg_build(cal, serial: int, time: int, method: int) -> bytes:
+    words = list(cal.acc_m) + list(cal.acc_b) + list(cal.mag_m) + list(cal.mag_b)
+    return (b"B" + _be(words, ">i4") + int(serial).to_bytes(4, "big") + int(time).to_bytes(4, "big")
+            + bytes([method & 0xFF]))
+
+
+def calimg_build(b: McuBuild, items: list) -> list[bytes]:
+    """calimg_build on the S08 for each (FixedCal, serial, time, method code)."""
+    cmds = [enc_calimg_build(*it) for it in items]
+    outs = run_streams(b, _split(cmds, _jobs(len(cmds) // 2)))
+    raw = b"".join(outs)
+    if len(raw) != 120 * len(items):
+        raise McuError(f"expected {120 * len(items)} image bytes, got {len(raw)}")
+    return [raw[i * 120:(i + 1) * 120] for i in range(len(items))]
+
+
 # ------------------------------------------------------------------ float baseline
 FLOAT_DT = np.dtype([("inc", ">f4"), ("azi", ">f4"), ("gtf", ">f4"), ("mtf", ">f4"),
                      ("gt", ">f4"), ("bt", ">f4"), ("dip", ">f4"), ("flags", ">u2")])
@@ -588,6 +730,9 @@ class McuBench:
     sizes: McuSizes
     float_sizes: dict
     float_max_abs_err_deg: float  # float baseline vs the golden model (sanity)
+    frame_parser_cycles_per_byte: CycleStats  # proto_frame_feed, one call per byte of traffic_stream()
+    frame_parser_cpu_at_115200_baud: float  # mean cycles per byte / bus cycles per byte time (20 MHz)
+    calimg_parse_cycles: int  # calimg_parse of one good 120-byte image (the whole check, CRC included)
     targets: dict
     meets_cycle_target: bool
     meets_ratio_target: bool
@@ -625,6 +770,23 @@ def bench_vectors(n: int = 200, seed: int = 11):
         g[i], bb[i] = reference.body_vectors(inc[i:i + 1], azi[i:i + 1], tf[i:i + 1], F[i], dip[i])
     ga, bm = hbench._raw_for(cal, g, bb)
     return reference.quantise_acc(ga), reference.quantise_mag(bm), cal.to_fixed()
+
+
+def traffic_stream() -> bytes:
+    """Link traffic for the parser's figure: a request and its 36-byte survey
+    answer, a text line, the largest frame (200-byte payload)."""
+    from inclino import protocol
+
+    return (protocol.encode_frame(7, 0x05, b"") + protocol.encode_frame(7, 0x85, bytes(range(36)))
+            + b"status ok\r\n" + protocol.encode_frame(8, 0x11, bytes(range(200))))
+
+
+def bench_image() -> bytes:
+    """The typical calibration as a calibration image (CalImage.pack)."""
+    from inclino import bench as hbench
+    from inclino.calimage import CalImage
+
+    return CalImage(hbench.typical_calibration().to_fixed(), 123456, 1795000000, "joint").pack()
 
 
 def bench(vectors: int = 100, seed: int = 11, workdir: str | os.PathLike | None = None) -> McuBench:
@@ -670,6 +832,16 @@ def bench(vectors: int = 100, seed: int = 11, workdir: str | os.PathLike | None 
         funcs["corr_triad"] = timed(fx, _records(b"K", (np.zeros(len(acc)), "u1"), (x_acc, ">i4")),
                                     setup=enc_cal(fc))
         funcs["att_compute"] = timed(fx, _records(b"T", (np.concatenate([gs["g"], gs["b"]], 1), ">i4")))
+        # the frame parser: each byte of the traffic timed alone (per-byte cost,
+        # by parser state), and the image check on a good image
+        traffic = traffic_stream()
+        cyc_feed = timed(fx, [b"F" + _u16(1) + bytes([x]) for x in traffic], setup=b"I")
+        funcs["proto_frame_feed (per byte)"] = cyc_feed
+        funcs["proto_frame_encode (36-byte payload)"] = timed(fx, [enc_frame_encode(7, 0x85, bytes(range(36)))])
+        img = bench_image()
+        cyc_img = timed(fx, [enc_calimg_parse(img)])
+        funcs["calimg_parse"] = cyc_img
+        funcs["calimg_build"] = timed(fx, [enc_calimg_build(fc, 123456, 1795000000, 4)])
         res_f = survey_float(fl, acc, mag, fc)
         err = 0.0
         for k in ("inc", "dip"):
@@ -698,6 +870,9 @@ def bench(vectors: int = 100, seed: int = 11, workdir: str | os.PathLike | None 
         sizes=sz,
         float_sizes={"image_code_bytes": fsz.image_code_bytes, "image_ram_bytes": fsz.image_ram_bytes},
         float_max_abs_err_deg=err,
+        frame_parser_cycles_per_byte=_stats(cyc_feed),
+        frame_parser_cpu_at_115200_baud=float(np.mean(cyc_feed)) / (BUS_HZ * 10 / 115_200),
+        calimg_parse_cycles=int(cyc_img[0]),
         targets={"survey_max_cycles": TARGET_SURVEY_CYCLES, "fixed_to_float_ratio": TARGET_FLOAT_RATIO},
         meets_cycle_target=meets_c,
         meets_ratio_target=meets_r,

@@ -32,23 +32,51 @@
  *   'R' x (u32)                        -> fx_isqrt_u32 (u16)
  *   'A' y x (i32)                      -> fx_atan2_q16 (i32)
  *   'P' a b (i16)                      -> fx_mul16 (i32)
+ *   'I'                                -> nothing: proto_parser_init
+ *   'F' n (u16) bytes[n]               -> proto_frame_feed on each byte, in
+ *                                         order; one record per event (below),
+ *                                         then 0x00.  Timed: the bytes are fed
+ *                                         between the stops, the codes kept,
+ *                                         and only the count of events (u16)
+ *                                         is written.
+ *   'L'                                -> proto_parser_idle (u8)
+ *   'G' seq cmd (u8) n (u16) payload[n] cap (u16)
+ *                                      -> proto_frame_encode: m (u16) out[m]
+ *   'X' n (u16) bytes[n]               -> calimg_parse(bytes, n): status (u8),
+ *                                         then the outputs (set before the
+ *                                         call to 0x25A5A5A5 coefficients,
+ *                                         0xA5A5A5A5 serial and time, 0xA5
+ *                                         method: untouched on an error):
+ *                                         acc.m[9] acc.bias[3] mag.m[9]
+ *                                         mag.bias[3] (i32) serial time (u32)
+ *                                         method (u8)
+ *   'B' acc.m[9] acc.bias[3] mag.m[9] mag.bias[3] (i32) serial time (u32)
+ *       method (u8)                    -> calimg_build: image[120]
  *   'Z'                                -> nothing (timing overhead)
  *   'E'                                -> 'e', then stops the simulator
- * An unknown command writes '?' and stops.
+ * An unknown command writes '?' and stops.  n and cap are at most
+ * HBUF_SIZE (256); a longer stream is fed as several 'F' commands (the
+ * parser keeps its state between them).
  *
- * Room is left for the protocol frame parser and the calibration-image
- * checker: each gets a command letter here and an encoder in mcu.py.
+ * Event records of 'F' (the PF_* code, then the fields it makes valid):
+ *   PF_FRAME   1 ver seq cmd (u8) len (u16) payload[len]
+ *   PF_BAD_CRC 2 seq cmd (u8)
+ *   PF_BAD_LEN 3
+ *   PF_LINE    4 n (u8) line[n] (without the NUL)
  */
 #include <stdint.h>
 
 #include "inclino/attitude.h"
+#include "inclino/calimg.h"
 #include "inclino/correct.h"
 #include "inclino/fx_math.h"
 #include "inclino/fx_ops.h"
+#include "inclino/proto_frame.h"
 #include "inclino/survey.h"
 #include "simif.h"
 
 #define TIMED 0x80u
+#define HBUF_SIZE 256u
 
 static corr_cal_t cal;
 static survey_t sv;
@@ -60,6 +88,12 @@ static uint32_t in_u[2];
 static uint32_t out_u;
 static uint8_t out_sat;
 static uint8_t timed;
+static proto_parser_t pp;
+static uint8_t hbuf[HBUF_SIZE]; /* bytes in: stream, payload or image */
+static uint8_t hout[HBUF_SIZE]; /* bytes out: event codes or a frame */
+static corr_cal_t pcal;         /* calimg_parse / calimg_build */
+static calimg_info_t pinfo;
+static uint16_t hn;
 
 /* two's complement reinterpretation without implementation-defined casts */
 static int32_t s32(uint32_t u)
@@ -94,6 +128,14 @@ static void rd_vec(int32_t *v, uint8_t n)
     uint8_t i;
     for (i = 0u; i < n; i++) {
         v[i] = rd_i32();
+    }
+}
+
+static void wr_vec(const int32_t *v, uint8_t n)
+{
+    uint8_t i;
+    for (i = 0u; i < n; i++) {
+        wr_i32(v[i]);
     }
 }
 
@@ -183,6 +225,149 @@ static void rd_u(uint8_t n)
     uint8_t i;
     for (i = 0u; i < n; i++) {
         in_u[i] = sif_rd32();
+    }
+}
+
+/* n (u16), then n bytes into hbuf; n is clamped to HBUF_SIZE (the extra
+ * bytes are read and dropped, so the stream stays in step) */
+static void rd_bytes(void)
+{
+    uint16_t i;
+    uint16_t n = sif_rd16();
+    hn = (n <= HBUF_SIZE) ? n : HBUF_SIZE;
+    for (i = 0u; i < n; i++) {
+        uint8_t b = sif_rd8();
+        if (i < HBUF_SIZE) {
+            hbuf[i] = b;
+        }
+    }
+}
+
+static void wr_event(uint8_t ev)
+{
+    uint16_t i;
+    sif_wr8(ev);
+    if (ev == PF_FRAME) {
+        sif_wr8(pp.ver);
+        sif_wr8(pp.seq);
+        sif_wr8(pp.cmd);
+        sif_wr16(pp.len);
+        for (i = 0u; i < pp.len; i++) {
+            sif_wr8(pp.payload[i]);
+        }
+    } else if (ev == PF_BAD_CRC) {
+        sif_wr8(pp.seq);
+        sif_wr8(pp.cmd);
+    } else if (ev == PF_LINE) {
+        uint8_t n = 0u;
+        while (n < PROTO_LINE_MAX && pp.line[n] != 0u) {
+            n++;
+        }
+        sif_wr8(n);
+        for (i = 0u; i < n; i++) {
+            sif_wr8(pp.line[i]);
+        }
+    } else {
+        /* PF_BAD_LEN: no fields */
+    }
+}
+
+static void do_feed(void)
+{
+    uint16_t i;
+    rd_bytes();
+    if (timed != 0u) {
+        uint16_t events = 0u;
+        mark();
+        for (i = 0u; i < hn; i++) {
+            hout[i] = proto_frame_feed(&pp, hbuf[i]);
+        }
+        mark();
+        for (i = 0u; i < hn; i++) {
+            if (hout[i] != PF_NONE) {
+                events++;
+            }
+        }
+        sif_wr16(events);
+        return;
+    }
+    for (i = 0u; i < hn; i++) {
+        uint8_t ev = proto_frame_feed(&pp, hbuf[i]);
+        if (ev != PF_NONE) {
+            wr_event(ev);
+        }
+    }
+    sif_wr8(0u);
+}
+
+static void do_encode(void)
+{
+    uint16_t i, cap, m;
+    uint8_t seq = sif_rd8();
+    uint8_t fcmd = sif_rd8();
+    rd_bytes();
+    cap = sif_rd16();
+    if (cap > HBUF_SIZE) {
+        cap = HBUF_SIZE;
+    }
+    mark();
+    m = proto_frame_encode(seq, fcmd, hbuf, hn, hout, cap);
+    mark();
+    sif_wr16(m);
+    for (i = 0u; i < m; i++) {
+        sif_wr8(hout[i]);
+    }
+}
+
+static void fill_parsed(void)
+{
+    uint8_t i;
+    for (i = 0u; i < 9u; i++) {
+        pcal.acc.m[i] = (int32_t)0x25A5A5A5L;
+        pcal.mag.m[i] = (int32_t)0x25A5A5A5L;
+    }
+    for (i = 0u; i < 3u; i++) {
+        pcal.acc.bias[i] = (int32_t)0x25A5A5A5L;
+        pcal.mag.bias[i] = (int32_t)0x25A5A5A5L;
+    }
+    pinfo.serial = 0xA5A5A5A5UL;
+    pinfo.time = 0xA5A5A5A5UL;
+    pinfo.method = 0xA5u;
+}
+
+static void do_parse_image(void)
+{
+    uint8_t st;
+    rd_bytes();
+    fill_parsed();
+    mark();
+    st = calimg_parse(hbuf, hn, &pcal, &pinfo);
+    mark();
+    sif_wr8(st);
+    wr_vec(pcal.acc.m, 9u);
+    wr_vec(pcal.acc.bias, 3u);
+    wr_vec(pcal.mag.m, 9u);
+    wr_vec(pcal.mag.bias, 3u);
+    sif_wr32(pinfo.serial);
+    sif_wr32(pinfo.time);
+    sif_wr8(pinfo.method);
+}
+
+static void do_build_image(void)
+{
+    uint8_t i;
+    rd_vec(pcal.acc.m, 9u);
+    rd_vec(pcal.acc.bias, 3u);
+    rd_vec(pcal.mag.m, 9u);
+    rd_vec(pcal.mag.bias, 3u);
+    pinfo.serial = sif_rd32();
+    pinfo.time = sif_rd32();
+    pinfo.method = sif_rd8();
+    mark();
+    calimg_build(&pcal, &pinfo, hout);
+    mark();
+    for (i = 0u; i < (uint8_t)CALIMG_SIZE; i++) {
+        sif_wr8(hout[i]);
     }
 }
 
@@ -292,6 +477,24 @@ int main(void)
             out_v[0] = fx_atan2_q16(in_v[0], in_v[1]);
             mark();
             wr_i32(out_v[0]);
+            break;
+        case 'I':
+            proto_parser_init(&pp);
+            break;
+        case 'F':
+            do_feed();
+            break;
+        case 'L':
+            sif_wr8(proto_parser_idle(&pp));
+            break;
+        case 'G':
+            do_encode();
+            break;
+        case 'X':
+            do_parse_image();
+            break;
+        case 'B':
+            do_build_image();
             break;
         case 'Z':
             mark();
