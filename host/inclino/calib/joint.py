@@ -21,6 +21,12 @@ model, robust to outlier readings, with a covariance for every parameter.
   body frame is the accelerometer's own axes).  Started from an algebraic
   ellipsoid fit of each triad.
 
+Scale nonlinearity (with poses, default when the poses determine it): the
+model becomes corrected = M (raw + q raw^2 / S - b) per axis (S = G or F),
+q fitted as nuisance parameters; the calibration returned is the linear one
+that best represents the fitted probe over the working range (inclination
+0-90 deg, every azimuth and toolface), since the firmware holds only M, b.
+
 Robustness: a first pass with the soft-L1 loss on the whitened residuals;
 rows whose whitened squared norm exceeds the chi-square 99.9 % point are
 dropped as outliers; a final Gauss-Newton pass on the kept rows gives the
@@ -42,6 +48,7 @@ SIGMA_MAG = 5.0  # nT
 SIGMA_POSE_DEG = 0.05  # turntable readout
 MIN_ROWS_POSES = 8
 MIN_ROWS_INVARIANTS = 30
+NONLINEAR_MAX_SIGMA_RATIO = 1.5  # auto: fit the nonlinearity unless it inflates the predicted azimuth 1-sigma more
 
 
 # --------------------------------------------------------------------------
@@ -68,33 +75,129 @@ def _whiteners(Ma, Mm, Jp, sa, sm, sp):
 
 
 def _unpack_pose(x):
+    """x = [M_a (9), c_a = M_a b_a (3), M_m (9), c_m (3), (q_a (3), q_m (3)), dip]:
+    25 entries for the linear model, 31 with the scale nonlinearity."""
     Ma, ca = x[0:9].reshape(3, 3), x[9:12]
     Mm, cm = x[12:21].reshape(3, 3), x[21:24]
-    return Ma, ca, Mm, cm, x[24]
+    if len(x) == 31:
+        return Ma, ca, Mm, cm, x[30], x[24:27], x[27:30]
+    return Ma, ca, Mm, cm, x[24], np.zeros(3), np.zeros(3)
+
+
+def _linearised(raw, q, S):
+    """u = raw + q raw^2 / S per axis: the nonlinearity-corrected reading
+    (q dimensionless, S = G or F)."""
+    return raw + q * raw * raw / S
 
 
 def _pose_residuals(x, acc, mag, poses, F, dec, G, Linv):
-    Ma, ca, Mm, cm, dip = _unpack_pose(x)
+    Ma, ca, Mm, cm, dip, qa, qm = _unpack_pose(x)
     g, f = ref.body_vectors(*poses, F, dip, dec, G)
-    r = np.concatenate([acc @ Ma.T - ca - g, mag @ Mm.T - cm - f], -1)
+    r = np.concatenate([_linearised(acc, qa, G) @ Ma.T - ca - g, _linearised(mag, qm, F) @ Mm.T - cm - f], -1)
     return np.einsum("nij,nj->ni", Linv, r).ravel()
 
 
 def _pose_jacobian_params(x, acc, mag, poses, F, dec, G, Linv):
-    """Analytic Jacobian of _pose_residuals, (6n, 25)."""
-    n = len(acc)
-    Jr = np.zeros((n, 6, 25))
+    """Analytic Jacobian of _pose_residuals, (6n, 25) or (6n, 31)."""
+    n, p = len(acc), len(x)
+    Ma, _, Mm, _, dip, qa, qm = _unpack_pose(x)
+    ua, um = _linearised(acc, qa, G), _linearised(mag, qm, F)
+    Jr = np.zeros((n, 6, p))
     for i in range(3):
-        Jr[:, i, 3 * i:3 * i + 3] = acc
+        Jr[:, i, 3 * i:3 * i + 3] = ua
         Jr[:, i, 9 + i] = -1.0
-        Jr[:, 3 + i, 12 + 3 * i:12 + 3 * i + 3] = mag
+        Jr[:, 3 + i, 12 + 3 * i:12 + 3 * i + 3] = um
         Jr[:, 3 + i, 21 + i] = -1.0
+    if p == 31:
+        for j in range(3):
+            Jr[:, :3, 24 + j] = Ma[:, j][None, :] * (acc[:, j] ** 2 / G)[:, None]
+            Jr[:, 3:, 27 + j] = Mm[:, j][None, :] * (mag[:, j] ** 2 / F)[:, None]
     h = 1e-4
-    dip = x[24]
     _, f1 = ref.body_vectors(*poses, F, dip + h, dec, G)
     _, f0 = ref.body_vectors(*poses, F, dip - h, dec, G)
-    Jr[:, 3:, 24] = -(f1 - f0) / (2 * h)
-    return np.einsum("nij,njk->nik", Linv, Jr).reshape(6 * n, 25)
+    Jr[:, 3:, p - 1] = -(f1 - f0) / (2 * h)
+    return np.einsum("nij,njk->nik", Linv, Jr).reshape(6 * n, p)
+
+
+# --------------------------------------------------------------------------
+# the firmware-representable calibration of a nonlinear probe
+WORKING_INC_DEG = (0.0, 90.0)
+
+
+def working_range(inc_deg=WORKING_INC_DEG, step_inc=10.0, step_azi=45.0, step_tf=45.0):
+    """The orientations a best linear calibration is chosen for: inclination
+    inc_deg[0]..inc_deg[1] every step_inc, every azimuth and toolface (every
+    step_azi, step_tf) -- the borehole probe's working range, vertical to
+    horizontal.  Not the acceptance grid's points (those are what it is
+    checked on)."""
+    I, A, T = np.meshgrid(np.arange(inc_deg[0], inc_deg[1] + 1e-9, step_inc), np.arange(0.0, 360.0, step_azi),
+                          np.arange(0.0, 360.0, step_tf), indexing="ij")
+    return I.ravel(), A.ravel(), T.ravel()
+
+
+_WR_CACHE = {}
+
+
+def _body_vectors(poses, F, dip, dec, G):
+    """ref.body_vectors with the pose matrices cached (the working range is
+    evaluated many times for the Jacobian)."""
+    key = tuple(np.asarray(p, float).tobytes() for p in poses)
+    C = _WR_CACHE.get(key)
+    if C is None:
+        if len(_WR_CACHE) > 8:
+            _WR_CACHE.clear()
+        C = _WR_CACHE[key] = ref.pose_matrix(*poses)
+    return C @ ref.gravity_ned(G), C @ ref.field_ned(F, dip, dec)
+
+
+def nonlinear_readings(x, poses, F, dec, G):
+    """Noise-free raw readings of the probe described by the nonlinear model
+    x (31-layout) at `poses`: solves M (raw + q raw^2 / S) - c = true per
+    axis (the root near raw = u)."""
+    Ma, ca, Mm, cm, dip, qa, qm = _unpack_pose(x)
+    g, f = _body_vectors(poses, F, dip, dec, G)
+    out = []
+    for M, c, q, S, v in ((Ma, ca, qa, G, g), (Mm, cm, qm, F, f)):
+        u = np.linalg.solve(M, (v + c).T).T
+        d = np.sqrt(np.maximum(1.0 + 4.0 * q * u / S, 0.0))
+        out.append(2.0 * u / (1.0 + d))  # the small root of q/S raw^2 + raw - u = 0
+    return out[0], out[1]
+
+
+def best_linear(x, F, dec, G, poses=None):
+    """The linear calibration (the firmware's corrected = M (raw - b)) that
+    best represents the nonlinear model x over the working range: per triad,
+    least squares of M raw - M b against the true vector at the working
+    range's orientations, with the probe's readings predicted by x.
+    Returns the 24-vector (M_a, b_a, M_m, b_m)."""
+    poses = working_range() if poses is None else poses
+    Ma, ca, Mm, cm, dip, qa, qm = _unpack_pose(x)
+    g, f = _body_vectors(poses, F, dip, dec, G)
+    acc, mag = nonlinear_readings(x, poses, F, dec, G)
+    out = []
+    for raw, true in ((acc, g), (mag, f)):
+        X = np.column_stack([raw, -np.ones(len(raw))])
+        sol, *_ = np.linalg.lstsq(X, true, rcond=None)
+        M = sol[:3].T
+        out += [M.ravel(), np.linalg.solve(M, sol[3])]
+    return np.concatenate(out)
+
+
+def best_linear_jacobian(x, F, dec, G, poses=None):
+    """d best_linear / d x (24 x 31) by central differences."""
+    poses = working_range() if poses is None else poses
+    steps = np.full(len(x), 1e-7)
+    steps[9:12] = 1e-7  # g
+    steps[21:24] = 1e-3  # nT
+    steps[24:30] = 1e-6  # q, dimensionless
+    steps[30] = 1e-5  # dip, deg
+    J = np.zeros((24, len(x)))
+    for k in range(len(x)):
+        xp, xm = x.copy(), x.copy()
+        xp[k] += steps[k]
+        xm[k] -= steps[k]
+        J[:, k] = (best_linear(xp, F, dec, G, poses) - best_linear(xm, F, dec, G, poses)) / (2 * steps[k])
+    return J
 
 
 def _linear_start(acc, mag, g, f):
@@ -106,7 +209,7 @@ def _linear_start(acc, mag, g, f):
     return np.concatenate(out)
 
 
-def _fit_poses(ds, w, sa, sm, sp, fix_dip):
+def _fit_poses(ds, w, sa, sm, sp, fix_dip, nonlinear=False):
     poses = tuple(ds.columns[c] for c in ("inc_deg", "azi_deg", "tf_deg"))
     F, dec, G = w["field_nT"], w["declination_deg"], w["gravity_g"]
     dip0 = w["dip_deg"] if w["dip_deg"] is not None else None
@@ -122,7 +225,8 @@ def _fit_poses(ds, w, sa, sm, sp, fix_dip):
                 best = (cost, d)
         dip0 = best[1]
     g, f = ref.body_vectors(*poses, F, dip0, dec, G)
-    x0 = np.concatenate([_linear_start(ds.acc, ds.mag, g, f), [dip0]])
+    x0 = np.concatenate([_linear_start(ds.acc, ds.mag, g, f), np.zeros(6 if nonlinear else 0), [dip0]])
+    P = len(x0)
     keep = np.ones(len(ds), bool)
     def fun(xf, *args):
         xx = np.concatenate([xf, [dip0]]) if fix_dip else xf
@@ -131,11 +235,11 @@ def _fit_poses(ds, w, sa, sm, sp, fix_dip):
     def jac(xf, *args):
         xx = np.concatenate([xf, [dip0]]) if fix_dip else xf
         J = _pose_jacobian_params(xx, *args)
-        return J[:, :24] if fix_dip else J
-    x = x0[:24] if fix_dip else x0
+        return J[:, :P - 1] if fix_dip else J
+    x = x0[:P - 1] if fix_dip else x0
     for loss in ("soft_l1", "linear"):
         xx = np.concatenate([x, [dip0]]) if fix_dip else x
-        Ma, _, Mm, _, dip_now = _unpack_pose(xx)
+        Ma, _, Mm, _, dip_now, _, _ = _unpack_pose(xx)
         Jp = _pose_jacobian(*poses, F, dip_now, dec, G)
         Linv = _whiteners(Ma, Mm, Jp, sa, sm, sp)
         args = (ds.acc[keep], ds.mag[keep], tuple(p[keep] for p in poses), F, dec, G, Linv[keep])
@@ -158,7 +262,7 @@ def _fit_poses(ds, w, sa, sm, sp, fix_dip):
     if not np.isfinite(cond) or cond > 1e16:
         raise CalibrationError("joint: the poses do not determine all parameters (singular fit)")
     cov_lin = s2 * np.linalg.inv(JtJ)
-    Ma, ca, Mm, cm, dip = _unpack_pose(x)
+    Ma, ca, Mm, cm, dip, qa, qm = _unpack_pose(x)
     ba = np.linalg.solve(Ma, ca)
     bm = np.linalg.solve(Mm, cm)
     # covariance of (M, b) from that of (M, c = M b): b = M^-1 c
@@ -176,7 +280,45 @@ def _fit_poses(ds, w, sa, sm, sp, fix_dip):
         T[off + 9:off + 12, off + 9:off + 12] = Minv
     cov = T @ cov_lin @ T.T
     outliers = np.flatnonzero(~keep)
-    return (Ma, ba, Mm, bm, float(dip)), cov, {
+    extra = {}
+    if nonlinear:
+        # the firmware can only hold a linear calibration: the one that best
+        # represents the fitted (nonlinear) probe over the working range,
+        # with its covariance through that map (dip known when fixed)
+        Jb = best_linear_jacobian(x, F, dec, G)
+        Jb = Jb[:, :P - 1] if fix_dip else Jb
+        lin = best_linear(x, F, dec, G)
+        cov_nl, cov = cov, Jb @ cov_lin @ Jb.T
+        if not fix_dip:  # keep the dip's variance and covariances in the 25th row/column
+            Jx = np.zeros((25, P))
+            Jx[:24] = Jb
+            Jx[24, P - 1] = 1.0
+            cov = Jx @ cov_lin @ Jx.T
+        # what the linear model costs on this probe, noise-free, over the working range
+        wr = working_range()
+        acc_w, mag_w = nonlinear_readings(x, wr, F, dec, G)
+        gw, fw = ref.body_vectors(*wr, F, dip, dec, G)
+        La = lin[0:9].reshape(3, 3)
+        Lm = lin[12:21].reshape(3, 3)
+        att = ref.attitude((acc_w - lin[9:12]) @ La.T, (mag_w - lin[21:24]) @ Lm.T)
+        tru = ref.attitude(gw, fw)
+        da = ref.angle_diff(att["azi"], wr[1])[wr[0] >= 2.0]
+        extra = {"nonlinear": {
+            "model": "corrected = M (raw + q*raw^2/S - b), S = G (g) or F (nT); the CAL.json "
+                     "coefficients are the linear calibration that best represents it over the working range",
+            "working_range": f"inclination {WORKING_INC_DEG[0]:g}-{WORKING_INC_DEG[1]:g} deg every 10, "
+                             "azimuth and toolface every 45 deg",
+            "acc_q_per_g": (qa / G).tolist(), "mag_q_per_nT": (qm / F).tolist(),
+            "acc_q_sigma_per_g": (np.sqrt(np.diag(cov_nl)[24:27]) / G).tolist(),
+            "mag_q_sigma_per_nT": (np.sqrt(np.diag(cov_nl)[27:30]) / F).tolist(),
+            "model_acc_m": Ma.tolist(), "model_acc_b": ba.tolist(), "model_mag_m": Mm.tolist(),
+            "model_mag_b": bm.tolist(),
+            "linear_representation_azi_rms_deg": float(np.sqrt(np.mean(da ** 2))),
+            "linear_representation_inc_rms_deg": float(np.sqrt(np.mean((att["inc"] - tru["inc"]) ** 2))),
+            "covariance": cov_nl}}
+        Ma, ba = lin[0:9].reshape(3, 3), lin[9:12]
+        Mm, bm = lin[12:21].reshape(3, 3), lin[21:24]
+    return (Ma, ba, Mm, bm, float(dip)), cov, {**extra,
         "mode": "poses", "s2": s2, "chi2": chi2, "dof": dof, "outliers": outliers.tolist(),
         "normal_matrix_cond": cond, "dip_fitted": not fix_dip,
         "dip_sigma_deg": None if fix_dip else float(np.sqrt(cov[24, 24])),
@@ -323,10 +465,13 @@ def _fit_invariants(ds, w, sa, sm, fix_dip, prior=None):
 
 def fit(ds: RawDataset, use_poses: bool | None = None, sigma_acc: float = SIGMA_ACC,
         sigma_mag: float = SIGMA_MAG, sigma_pose_deg: float = SIGMA_POSE_DEG, fix_dip: bool = False,
-        prior=None, **_):
+        prior=None, nonlinear: bool | None = None, **_):
     """prior: a Calibration whose body frame (accelerometer rotation) a
     fit without poses keeps; without it the accelerometer's axes are the
-    body frame."""
+    body frame.  nonlinear (default: with poses): also fit each axis'
+    second-order scale term as a nuisance parameter, then return the linear
+    calibration that best represents the fitted probe over the working
+    range (info["nonlinear"] holds the model); False: the linear model."""
     w = common.world_of(ds)
     if use_poses is None:
         use_poses = ds.has_pose
@@ -336,11 +481,47 @@ def fit(ds: RawDataset, use_poses: bool | None = None, sigma_acc: float = SIGMA_
             raise DataError(f"joint needs >= {MIN_ROWS_POSES} readings; the data have {len(ds)}")
         if fix_dip and w["dip_deg"] is None:
             raise DataError("joint --fix-dip needs a '# dip_deg=...' header line")
-        (Ma, ba, Mm, bm, dip), cov, info = _fit_poses(ds, w, sigma_acc, sigma_mag, sigma_pose_deg, fix_dip)
+        args = (ds, w, sigma_acc, sigma_mag, sigma_pose_deg, fix_dip)
+        if nonlinear is None:
+            # the second-order terms only when the poses determine them: a run
+            # that leaves them poorly determined (e.g. Guo's two rotations at one
+            # azimuth) would trade a small bias for a large variance
+            from .report import predicted_attitude_rms
+            fits = {}
+            for nl in (True, False):
+                try:
+                    r = _fit_poses(*args, nl)
+                except CalibrationError:
+                    continue
+                (Ma, ba, Mm, bm, dip), cov, _ = r
+                c = common.make_cal(Ma, ba, Mm, bm, "joint", ds)
+                fits[nl] = (r, predicted_attitude_rms(c, cov[:24, :24], w, dip)[0])
+            if not fits:
+                raise CalibrationError("joint: the poses do not determine all parameters (singular fit)")
+            use_nl = True in fits and (False not in fits or fits[True][1] <= NONLINEAR_MAX_SIGMA_RATIO
+                                       * fits[False][1])
+            (Ma, ba, Mm, bm, dip), cov, info = fits[use_nl][0]
+            if not use_nl and True in fits:
+                info["notes_nonlinear"] = (f"scale nonlinearity not fitted: with it the predicted azimuth 1-sigma "
+                                           f"would be {fits[True][1]:.3g} deg against {fits[False][1]:.3g} "
+                                           f"(the poses do not determine it)")
+        else:
+            (Ma, ba, Mm, bm, dip), cov, info = _fit_poses(*args, bool(nonlinear))
     else:
+        if nonlinear:
+            raise DataError("joint: the scale nonlinearity is fitted only with turntable poses")
         (Ma, ba, Mm, bm, dip), cov, info = _fit_invariants(ds, w, sigma_acc, sigma_mag, fix_dip, prior)
     cal = common.make_cal(Ma, ba, Mm, bm, "joint", ds)
     info.update({"rows_used": np.setdiff1d(np.arange(len(ds)), info["outliers"]), "covariance": cov[:24, :24],
                  "dip_deg": dip, "notes": [f"mode {info['mode']}; s^2 = {info['s2']:.3g} (chi^2/dof; 1 when the "
                                            f"noise model is right)"]})
+    if "notes_nonlinear" in info:
+        info["notes"].append(info.pop("notes_nonlinear"))
+    if "nonlinear" in info:
+        nlm = info["nonlinear"]
+        info["notes"].append("scale nonlinearity fitted as nuisance: q_acc = "
+                             + ", ".join(f"{v:.3g}" for v in nlm["acc_q_per_g"]) + " /g, q_mag = "
+                             + ", ".join(f"{v:.3g}" for v in nlm["mag_q_per_nT"]) + " /nT; the linear "
+                             f"calibration written leaves {nlm['linear_representation_azi_rms_deg']:.4f} deg "
+                             "azimuth RMS of it over the working range (I >= 2 deg)")
     return cal, info
