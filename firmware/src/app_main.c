@@ -9,6 +9,7 @@
 #include "inclino/hal.h"
 #include "inclino/probe.h"
 #include "inclino/proto_cmd.h"
+#include "inclino/text_fmt.h"
 
 static proto_t proto;
 static uint8_t txq[APP_TX_QUEUE];
@@ -254,27 +255,6 @@ static void a_bootloader(void)
 }
 
 /* ------------------------------------------------------------ text console */
-static char *put_str(char *o, const char *s)
-{
-    while (*s != '\0') {
-        *o++ = *s++;
-    }
-    return o;
-}
-
-static char *put_uint(char *o, uint32_t v)
-{
-    char tmp[10];
-    uint8_t n = 0u;
-    do {
-        tmp[n++] = (char)('0' + (v % 10u));
-        v /= 10u;
-    } while (v != 0u);
-    while (n != 0u) {
-        *o++ = tmp[--n];
-    }
-    return o;
-}
 
 /* v / 2^q with `dec` decimals (dec <= 4, q <= 16), rounded half up. */
 static char *put_fixed(char *o, int32_t v, uint8_t q, uint8_t dec)
@@ -294,7 +274,7 @@ static char *put_fixed(char *o, int32_t v, uint8_t q, uint8_t dec)
         fr -= p10[dec];
         ip++;
     }
-    o = put_uint(o, ip);
+    o = txt_put_uint(o, ip);
     if (dec != 0u) {
         *o++ = '.';
         for (uint8_t k = dec; k != 0u; k--) {
@@ -311,24 +291,24 @@ static void t_identity(char *out)
     probe_identity_t id;
     char *o = out;
     probe_identity(&id);
-    o = put_str(o, APP_PRODUCT " fw ");
-    o = put_uint(o, (uint32_t)(id.fw_version >> 8));
+    o = txt_put_str(o, APP_PRODUCT " fw ");
+    o = txt_put_uint(o, (uint32_t)(id.fw_version >> 8));
     *o++ = '.';
-    o = put_uint(o, (uint32_t)(id.fw_version & 0xFFu));
-    o = put_str(o, " serial ");
-    o = put_uint(o, id.serial);
+    o = txt_put_uint(o, (uint32_t)(id.fw_version & 0xFFu));
+    o = txt_put_str(o, " serial ");
+    o = txt_put_uint(o, id.serial);
     if (id.cal_slot == PROBE_SLOT_NONE) {
-        o = put_str(o, " cal none");
+        o = txt_put_str(o, " cal none");
     } else {
-        o = put_str(o, (id.cal_slot == PROBE_SLOT_A) ? " cal A#" : " cal B#");
-        o = put_uint(o, id.cal_seq);
-        o = put_str(o, " crc ");
+        o = txt_put_str(o, (id.cal_slot == PROBE_SLOT_A) ? " cal A#" : " cal B#");
+        o = txt_put_uint(o, id.cal_seq);
+        o = txt_put_str(o, " crc ");
         for (uint8_t k = 0u; k < 4u; k++) {
             *o++ = hexd[(id.cal_crc >> (12u - 4u * k)) & 0xFu];
         }
     }
     if (id.adis_status != ADIS_OK || id.ads_status != ADS_OK) {
-        o = put_str(o, " SENSOR FAULT");
+        o = txt_put_str(o, " SENSOR FAULT");
     }
     *o = '\0';
 }
@@ -339,23 +319,23 @@ static void t_survey(char *out)
     uint8_t qc = 0u;
     char *o = out;
     if (probe_survey(&s, &qc) != PROBE_OK) {
-        (void)put_str(o, "ERROR sensor");
+        (void)txt_put_str(o, "ERROR sensor");
         o[12] = '\0';
         return;
     }
-    o = put_str(o, "INC ");
+    o = txt_put_str(o, "INC ");
     o = put_fixed(o, s.att.inc, 16u, 4u);
-    o = put_str(o, " AZI ");
+    o = txt_put_str(o, " AZI ");
     o = put_fixed(o, s.att.azi, 16u, 4u);
-    o = put_str(o, " TF ");
+    o = txt_put_str(o, " TF ");
     o = put_fixed(o, s.att.gtf, 16u, 4u);
-    o = put_str(o, " GT ");
+    o = txt_put_str(o, " GT ");
     o = put_fixed(o, fx_asr32_rnd(s.att.gt, 11u), 16u, 4u); /* Q27 -> Q16 g */
-    o = put_str(o, " BT ");
+    o = txt_put_str(o, " BT ");
     o = put_fixed(o, s.att.bt, 8u, 1u);
-    o = put_str(o, " DIP ");
+    o = txt_put_str(o, " DIP ");
     o = put_fixed(o, s.att.dip, 16u, 3u);
-    o = put_str(o, ((qc & 0x7Fu) == 0u) ? " QC PASS" : " QC FAIL");
+    o = txt_put_str(o, ((qc & 0x7Fu) == 0u) ? " QC PASS" : " QC FAIL");
     *o = '\0';
 }
 

@@ -6,6 +6,7 @@
 #include "inclino/hal.h"
 #include "inclino/probe.h"
 #include "inclino/proto_cmd.h"
+#include "inclino/text_fmt.h"
 
 #define CHUNK 128u    /* bytes per flash read */
 #define TEXT_MAX 64u  /* console answer line */
@@ -618,56 +619,31 @@ static void execute(boot_t *b, uint8_t seq, uint8_t cmd, const uint8_t *pl, uint
 }
 
 /* ------------------------------------------------------------ text console */
-static char *put_str(char *o, const char *s)
-{
-    while (*s != '\0') {
-        *o++ = *s++;
-    }
-    return o;
-}
-
-static char *put_uint(char *o, uint32_t v)
-{
-    char tmp[10];
-    uint8_t n = 0u;
-    do {
-        tmp[n++] = (char)('0' + (v % 10u));
-        v /= 10u;
-    } while (v != 0u);
-    while (n != 0u) {
-        *o++ = tmp[--n];
-    }
-    return o;
-}
-
-static uint8_t upper(uint8_t c)
-{
-    return (c >= (uint8_t)'a' && c <= (uint8_t)'z') ? (uint8_t)(c - 32u) : c;
-}
 
 static void text_command(boot_t *b)
 {
     char buf[TEXT_MAX];
     char *o = buf;
     const uint8_t *line = b->parser.line;
-    if (upper(line[0]) == (uint8_t)'I' && upper(line[1]) == (uint8_t)'D' && line[2] == 0u) {
-        o = put_str(o, BOOT_PRODUCT " bl ");
-        o = put_uint(o, BOOT_VERSION_MAJOR);
+    if (txt_upper(line[0]) == (uint8_t)'I' && txt_upper(line[1]) == (uint8_t)'D' &&
+        line[2] == 0u) {
+        o = txt_put_str(o, BOOT_PRODUCT " bl ");
+        o = txt_put_uint(o, BOOT_VERSION_MAJOR);
         *o++ = '.';
-        o = put_uint(o, BOOT_VERSION_MINOR);
-        o = put_str(o, " serial ");
-        o = put_uint(o, b->serial);
+        o = txt_put_uint(o, BOOT_VERSION_MINOR);
+        o = txt_put_str(o, " serial ");
+        o = txt_put_uint(o, b->serial);
         if (b->app_status == BOOT_OK) {
-            o = put_str(o, " app valid");
+            o = txt_put_str(o, " app valid");
         } else {
-            o = put_str(o, " app none (");
-            o = put_uint(o, b->app_status);
+            o = txt_put_str(o, " app none (");
+            o = txt_put_uint(o, b->app_status);
             *o++ = ')';
         }
     } else {
-        o = put_str(o, "? bootloader: ID, or program with inclino flash");
+        o = txt_put_str(o, "? bootloader: ID, or program with inclino flash");
     }
-    o = put_str(o, "\r\n");
+    o = txt_put_str(o, "\r\n");
     b->send((const uint8_t *)buf, (uint16_t)(o - buf));
 }
 

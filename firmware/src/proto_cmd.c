@@ -2,6 +2,7 @@
 #include "inclino/proto_cmd.h"
 #include "inclino/be_bytes.h"
 #include "inclino/calimg.h"
+#include "inclino/text_fmt.h"
 
 #define TEXT_MAX 96u
 
@@ -46,16 +47,11 @@ static void send_text(proto_t *p, const char *s)
     p->app->send((const uint8_t *)"\r\n", 2u);
 }
 
-static uint8_t upper(uint8_t c)
-{
-    return (c >= (uint8_t)'a' && c <= (uint8_t)'z') ? (uint8_t)(c - 32u) : c;
-}
-
 static uint8_t line_is(const uint8_t *line, const char *word)
 {
     uint8_t i = 0u;
     while (word[i] != '\0') {
-        if (upper(line[i]) != (uint8_t)word[i]) {
+        if (txt_upper(line[i]) != (uint8_t)word[i]) {
             return 0u;
         }
         i++;
