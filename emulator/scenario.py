@@ -185,15 +185,19 @@ class Probe:
         return tuple(self.scenario.mag.deterministic(self.true_mag(t), temp).tolist())
 
     # ---- analog sensor outputs (all effects but quantisation) -------------
+    def _sample_temp(self, t: float, temp_c=None) -> float:
+        """The temperature a single sample sees: the caller's, else the held
+        one, else the scenario's ramp at t."""
+        if temp_c is not None:
+            return temp_c
+        if self.temp_override is not None:
+            return float(self.temp_override)
+        m = self.scenario.world.temperature
+        return m.t0_c + m.rate_c_per_s * float(t)
+
     def acc_sample(self, t: float, n_avg=None, temp_c=None):
         """One accelerometer sample at time t (float seconds): 3 floats, g."""
-        if temp_c is not None:
-            temp = temp_c
-        elif self.temp_override is not None:
-            temp = float(self.temp_override)
-        else:
-            m = self.scenario.world.temperature
-            temp = m.t0_c + m.rate_c_per_s * float(t)
+        temp = self._sample_temp(t, temp_c)
         key, y = self._acc_det
         if key is None or key != temp:
             y = self._acc_chain(t, temp)
@@ -204,13 +208,7 @@ class Probe:
 
     def mag_sample(self, t: float, temp_c=None):
         """One fluxgate sample at time t (the skew applied inside): 3 floats, nT."""
-        if temp_c is not None:
-            temp = temp_c
-        elif self.temp_override is not None:
-            temp = float(self.temp_override)
-        else:
-            m = self.scenario.world.temperature
-            temp = m.t0_c + m.rate_c_per_s * float(t)
+        temp = self._sample_temp(t, temp_c)
         key, y = self._mag_det
         if key is None or key != temp:
             y = self._mag_chain(t, temp)
