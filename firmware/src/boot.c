@@ -277,18 +277,12 @@ static uint8_t invalidate(boot_t *b)
 /* ------------------------------------------------------------ answers */
 static void answer(boot_t *b, uint8_t seq, uint8_t cmd, const uint8_t *payload, uint16_t len)
 {
-    b->last_len = proto_frame_encode(seq, cmd, payload, len, b->last_answer,
-                                     (uint16_t)sizeof b->last_answer);
-    b->send(b->last_answer, b->last_len);
+    b->send(b->reply.buf, proto_reply_encode(&b->reply, seq, cmd, payload, len));
 }
 
 static void nak(boot_t *b, uint8_t seq, uint8_t cmd, uint8_t code, uint8_t detail)
 {
-    uint8_t p[3];
-    p[0] = cmd;
-    p[1] = code;
-    p[2] = detail;
-    answer(b, seq, PCMD_NAK, p, (uint16_t)((detail != 0u) ? 3u : 2u));
+    b->send(b->reply.buf, proto_reply_nak(&b->reply, seq, cmd, code, detail));
 }
 
 /* Refusal code for a target range: 0 when it is in the application area. */
@@ -663,10 +657,7 @@ void boot_init(boot_t *b, void (*send)(const uint8_t *data, uint16_t n))
 {
     proto_parser_init(&b->parser);
     b->send = send;
-    b->have_last = 0u;
-    b->last_seq = 0u;
-    b->last_crc = 0u;
-    b->last_len = 0u;
+    proto_reply_init(&b->reply);
     b->executed = 0u;
     b->mark = 0u;
     b->after = BOOT_AFTER_NONE;
@@ -678,9 +669,8 @@ void boot_init(boot_t *b, void (*send)(const uint8_t *data, uint16_t n))
 static void on_frame(boot_t *b)
 {
     proto_parser_t *f = &b->parser;
-    uint16_t crc = f->crc; /* the request's identity: its SEQ and its CRC */
-    if (b->have_last && f->seq == b->last_seq && crc == b->last_crc) {
-        b->send(b->last_answer, b->last_len); /* a retry: answer again, run nothing */
+    if (proto_reply_is_retry(&b->reply, f)) {
+        b->send(b->reply.buf, b->reply.len); /* a retry: answer again, run nothing */
         return;
     }
     if (f->ver != PROTO_VERSION) {
@@ -689,9 +679,7 @@ static void on_frame(boot_t *b)
         execute(b, f->seq, f->cmd, f->payload, f->len);
     }
     b->executed++;
-    b->have_last = 1u;
-    b->last_seq = f->seq;
-    b->last_crc = crc;
+    proto_reply_remember(&b->reply, f);
 }
 
 void boot_rx(boot_t *b, const uint8_t *data, uint16_t n)

@@ -10,8 +10,7 @@ void proto_init(proto_t *p, const proto_app_t *app)
 {
     p->app = app;
     proto_parser_init(&p->parser);
-    p->have_last = 0u;
-    p->last_len = 0u;
+    proto_reply_init(&p->reply);
     p->streaming = 0u;
     p->stream_left = 0u;
     p->stream_sent = 0u;
@@ -23,18 +22,12 @@ void proto_init(proto_t *p, const proto_app_t *app)
 /* Encode an answer into the retry cache and send it. */
 static void answer(proto_t *p, uint8_t seq, uint8_t cmd, const uint8_t *payload, uint16_t len)
 {
-    p->last_len = proto_frame_encode(seq, cmd, payload, len, p->last_answer,
-                                     (uint16_t)sizeof p->last_answer);
-    p->app->send(p->last_answer, p->last_len);
+    p->app->send(p->reply.buf, proto_reply_encode(&p->reply, seq, cmd, payload, len));
 }
 
 static void nak(proto_t *p, uint8_t seq, uint8_t cmd, uint8_t code, uint8_t detail)
 {
-    uint8_t b[3];
-    b[0] = cmd;
-    b[1] = code;
-    b[2] = detail;
-    answer(p, seq, PCMD_NAK, b, (uint16_t)((detail != 0u) ? 3u : 2u));
+    p->app->send(p->reply.buf, proto_reply_nak(&p->reply, seq, cmd, code, detail));
 }
 
 static void send_text(proto_t *p, const char *s)
@@ -245,10 +238,8 @@ static void execute(proto_t *p, uint8_t seq, uint8_t cmd, const uint8_t *pl, uin
 static void on_frame(proto_t *p)
 {
     proto_parser_t *f = &p->parser;
-    /* the request's identity: its SEQ and its CRC (the CRC covers every byte) */
-    uint16_t crc = f->crc;
-    if (p->have_last && f->seq == p->last_seq && crc == p->last_crc) {
-        p->app->send(p->last_answer, p->last_len); /* a retry: answer again, run nothing */
+    if (proto_reply_is_retry(&p->reply, f)) {
+        p->app->send(p->reply.buf, p->reply.len); /* a retry: answer again, run nothing */
         return;
     }
     if (f->ver != PROTO_VERSION) {
@@ -256,9 +247,7 @@ static void on_frame(proto_t *p)
     } else {
         execute(p, f->seq, f->cmd, f->payload, f->len);
     }
-    p->have_last = 1u;
-    p->last_seq = f->seq;
-    p->last_crc = crc;
+    proto_reply_remember(&p->reply, f);
 }
 
 void proto_rx(proto_t *p, const uint8_t *data, uint16_t n)

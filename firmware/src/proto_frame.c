@@ -128,3 +128,39 @@ uint16_t proto_frame_encode(uint8_t seq, uint8_t cmd, const uint8_t *payload, ui
     out[7u + len] = (uint8_t)crc;
     return (uint16_t)(len + PROTO_OVERHEAD);
 }
+
+void proto_reply_init(proto_reply_t *r)
+{
+    r->have = 0u;
+    r->seq = 0u;
+    r->crc = 0u;
+    r->len = 0u;
+}
+
+uint8_t proto_reply_is_retry(const proto_reply_t *r, const proto_parser_t *p)
+{
+    return (uint8_t)(r->have && p->seq == r->seq && p->crc == r->crc);
+}
+
+void proto_reply_remember(proto_reply_t *r, const proto_parser_t *p)
+{
+    r->have = 1u;
+    r->seq = p->seq;
+    r->crc = p->crc;
+}
+
+uint16_t proto_reply_encode(proto_reply_t *r, uint8_t seq, uint8_t cmd, const uint8_t *payload,
+                            uint16_t len)
+{
+    r->len = proto_frame_encode(seq, cmd, payload, len, r->buf, (uint16_t)sizeof r->buf);
+    return r->len;
+}
+
+uint16_t proto_reply_nak(proto_reply_t *r, uint8_t seq, uint8_t cmd, uint8_t code, uint8_t detail)
+{
+    uint8_t b[3];
+    b[0] = cmd;
+    b[1] = code;
+    b[2] = detail;
+    return proto_reply_encode(r, seq, PROTO_NAK, b, (uint16_t)((detail != 0u) ? 3u : 2u));
+}

@@ -123,13 +123,9 @@ typedef struct {
 typedef struct {
     proto_parser_t parser;
     void (*send)(const uint8_t *data, uint16_t n);
-    uint8_t have_last;
-    uint8_t last_seq;
-    uint16_t last_crc;
-    uint16_t last_len;
-    uint8_t last_answer[PROTO_MAX_PAYLOAD + PROTO_OVERHEAD];
-    uint8_t desc_blank; /* the descriptor sector is known to be erased */
-    uint8_t app_status; /* boot_app_check of the flash as it is now */
+    proto_reply_t reply; /* the last answer, for retries */
+    uint8_t desc_blank;  /* the descriptor sector is known to be erased */
+    uint8_t app_status;  /* boot_app_check of the flash as it is now */
     boot_app_t app;
     uint32_t serial;   /* probe serial from the identity record, 0 if none */
     uint32_t executed; /* requests executed since boot_init (retries not counted) */

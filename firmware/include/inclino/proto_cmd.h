@@ -28,7 +28,7 @@
 #define PCMD_CAL_ACTIVATE 0x12u
 #define PCMD_RESET 0x20u
 #define PCMD_BOOTLOADER 0x21u
-#define PCMD_NAK 0x7Fu
+#define PCMD_NAK PROTO_NAK
 #define PCMD_STREAM_FRAME 0x70u /* not a request (those are < 0x70) nor an answer (>= 0x80) */
 
 #define PERR_CRC 1u
@@ -83,11 +83,7 @@ typedef struct {
 typedef struct {
     const proto_app_t *app;
     proto_parser_t parser;
-    uint8_t last_seq;
-    uint16_t last_crc; /* CRC of the last executed request */
-    uint8_t have_last;
-    uint16_t last_len; /* bytes of the cached answer */
-    uint8_t last_answer[PROTO_MAX_PAYLOAD + PROTO_OVERHEAD];
+    proto_reply_t reply; /* the last answer, for retries */
     uint8_t streaming;
     uint16_t stream_period_ms;
     uint16_t stream_left; /* 0 with streaming = until STOP */

@@ -84,4 +84,39 @@ uint8_t proto_parser_idle(proto_parser_t *p);
 uint16_t proto_frame_encode(uint8_t seq, uint8_t cmd, const uint8_t *payload, uint16_t len,
                             uint8_t *out, uint16_t cap);
 
+/*
+ * The answer cache both command layers (application and bootloader) keep:
+ * the last answer sent, and the identity (SEQ and CRC) of the request it
+ * answered, so that a retried request is answered again without running
+ * twice (docs/protocol.md).
+ */
+#define PROTO_NAK 0x7Fu /* negative answer: payload {request CMD, error code[, detail]} */
+
+typedef struct {
+    uint8_t have; /* a request was executed since init */
+    uint8_t seq;  /* its SEQ */
+    uint16_t crc; /* its CRC */
+    uint16_t len; /* bytes of the cached answer */
+    uint8_t buf[PROTO_MAX_PAYLOAD + PROTO_OVERHEAD];
+} proto_reply_t;
+
+/* proto_reply_init - forget the last request and answer. */
+void proto_reply_init(proto_reply_t *r);
+
+/* proto_reply_is_retry - 1 when the frame the parser just completed is the
+ *   last executed request again (same SEQ and CRC). */
+uint8_t proto_reply_is_retry(const proto_reply_t *r, const proto_parser_t *p);
+
+/* proto_reply_remember - the frame the parser just completed was executed. */
+void proto_reply_remember(proto_reply_t *r, const proto_parser_t *p);
+
+/* proto_reply_encode - encode an answer into the cache; returns its length
+ *   (0 when the payload is too long).  The caller sends r->buf. */
+uint16_t proto_reply_encode(proto_reply_t *r, uint8_t seq, uint8_t cmd, const uint8_t *payload,
+                            uint16_t len);
+
+/* proto_reply_nak - encode a negative answer {cmd, code[, detail]} (the
+ *   detail byte only when non-zero) into the cache; returns its length. */
+uint16_t proto_reply_nak(proto_reply_t *r, uint8_t seq, uint8_t cmd, uint8_t code, uint8_t detail);
+
 #endif /* INCLINO_PROTO_FRAME_H */
