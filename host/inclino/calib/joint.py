@@ -53,6 +53,21 @@ NONLINEAR_MAX_SIGMA_RATIO = 1.5  # auto: fit the nonlinearity unless it inflates
 
 # --------------------------------------------------------------------------
 # with poses
+
+def _covariance(res, what: str):
+    """(chi2, dof, s2, cond, covariance) of a least-squares result, the
+    residuals scaled to unit variance; CalibrationError when `what` does
+    not determine all parameters."""
+    J = res.jac
+    dof = max(1, J.shape[0] - J.shape[1])
+    chi2 = float((res.fun ** 2).sum())
+    s2 = chi2 / dof
+    JtJ = J.T @ J
+    cond = float(np.linalg.cond(JtJ))
+    if not np.isfinite(cond) or cond > 1e16:
+        raise CalibrationError(f"joint: the {what} do not determine all parameters (singular fit)")
+    return chi2, dof, s2, cond, s2 * np.linalg.inv(JtJ)
+
 def _pose_jacobian(inc, azi, tf, F, dip, dec, G, h=1e-3):
     """d[g; f]/d(I, A, T) per row, (n, 6, 3), per degree."""
     base = np.concatenate(ref.body_vectors(inc, azi, tf, F, dip, dec, G), -1)
@@ -253,15 +268,7 @@ def _fit_poses(ds, w, sa, sm, sp, fix_dip, nonlinear=False):
             if keep.sum() < MIN_ROWS_POSES:
                 raise CalibrationError("joint: too many readings rejected as outliers to fit")
     x = np.concatenate([x, [dip0]]) if fix_dip else x
-    J = res.jac
-    dof = max(1, J.shape[0] - J.shape[1])
-    chi2 = float((res.fun ** 2).sum())
-    s2 = chi2 / dof
-    JtJ = J.T @ J
-    cond = float(np.linalg.cond(JtJ))
-    if not np.isfinite(cond) or cond > 1e16:
-        raise CalibrationError("joint: the poses do not determine all parameters (singular fit)")
-    cov_lin = s2 * np.linalg.inv(JtJ)
+    chi2, dof, s2, cond, cov_lin = _covariance(res, "poses")
     Ma, ca, Mm, cm, dip, qa, qm = _unpack_pose(x)
     ba = np.linalg.solve(Ma, ca)
     bm = np.linalg.solve(Mm, cm)
@@ -432,18 +439,10 @@ def _fit_invariants(ds, w, sa, sm, fix_dip, prior=None):
                 raise CalibrationError("joint: too many readings rejected as outliers to fit")
     if fix_dip:
         x = np.concatenate([x, [dip0]])
-    J = res.jac
-    dof = max(1, J.shape[0] - J.shape[1])
-    chi2 = float((res.fun ** 2).sum())
-    s2 = chi2 / dof
-    JtJ = J.T @ J
-    cond = float(np.linalg.cond(JtJ))
-    if not np.isfinite(cond) or cond > 1e16:
-        raise CalibrationError("joint: the orientations do not determine all parameters (singular fit)")
-    cov_x = s2 * np.linalg.inv(JtJ)
+    chi2, dof, s2, cond, cov_x = _covariance(res, "orientations")
     # map (sym 6, ba, Mm 9, bm [, dip]) -> 24-layout (+ dip)
     iu = np.triu_indices(3)
-    T = np.zeros((25 if not fix_dip else 24, J.shape[1]))
+    T = np.zeros((25 if not fix_dip else 24, cov_x.shape[0]))
     for k, (i, j) in enumerate(zip(*iu)):
         E = np.zeros((3, 3))
         E[i, j] = E[j, i] = 1.0
