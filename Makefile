@@ -2,20 +2,28 @@
 #   make demo   - the main job: the whole calibration bench on the emulated probe
 #   make test   - the whole test suite
 # Each creates and fills the local virtual environment .venv when it is
-# missing or older than the sources.
+# missing. The project is installed in editable (development) mode: the Python
+# packages host/inclino and emulator/ and their data files (scenarios, the
+# papers' tables) are imported straight from the checkout, so every change to
+# them is what the next command runs. Only the compiled parts, the firmware C
+# in the inclino._core and inclino_emu._fw extensions, need a rebuild: the
+# stamp below depends on every C source and header, the cffi build scripts and
+# the packaging files, and `pip install -e` rebuilds both extensions in place.
 
 PY ?= python3
 VENV := .venv
 VPY := $(VENV)/bin/python
 STAMP := $(VENV)/.installed
-SOURCES := $(shell find firmware host -name '*.c' -o -name '*.h' -o -name '*.py' 2>/dev/null) pyproject.toml setup.py
+SOURCES := $(shell find firmware host emulator \( -name '*.c' -o -name '*.h' -o -name '_build_*.py' \) -not -path '*/__pycache__/*' 2>/dev/null) \
+           pyproject.toml setup.py Makefile
 
 .PHONY: demo test clean
 
 $(STAMP): $(SOURCES)
 	@test -x $(VPY) || $(PY) -m venv $(VENV)
-	$(VPY) -m pip install --quiet --upgrade pip
-	$(VPY) -m pip install --quiet '.[test]'
+	@$(VPY) -m pip install -qq --upgrade pip
+	@echo "installing inclino (editable) and compiling the firmware C into .venv"
+	@$(VPY) -m pip install -qq -e '.[test]'
 	@touch $(STAMP)
 
 demo: $(STAMP)
@@ -25,4 +33,4 @@ test: $(STAMP)
 	$(VPY) -m pytest -q
 
 clean:
-	rm -rf $(VENV) build *.egg-info host/*.egg-info
+	rm -rf $(VENV) build *.egg-info host/*.egg-info host/inclino/_core.c host/inclino/*.so emulator/_fw.c emulator/*.so
