@@ -121,3 +121,22 @@ def test_random_corrupted_streams_same_events():
         for e in c:
             if e["kind"] == "frame":
                 assert protocol.encode_frame(e["seq"], e["cmd"], bytes.fromhex(e["payload"])).hex() in frames.hex()
+
+
+def test_table_crc_equals_bitwise_for_every_byte_and_register():
+    """crc16.c's table step against an independent bitwise CRC-16/CCITT
+    (binascii.crc_hqx): every byte value from 64 register values, so every
+    table entry is reached from many registers, and a few long buffers."""
+    import binascii
+
+    rng = np.random.default_rng()
+    regs = [0x0000, 0xFFFF, 0x8000, 0x00FF] + [int(x) for x in rng.integers(0, 1 << 16, 60)]
+    one = ffi.new("uint8_t[1]")
+    for r in regs:
+        for b in range(256):
+            one[0] = b
+            assert lib.crc16_update(r, one, 1) == binascii.crc_hqx(bytes([b]), r), (r, b)
+    for n in (2, 255, 256, 1000):
+        d = rng.integers(0, 256, n, dtype=np.uint8).tobytes()
+        r = int(rng.integers(0, 1 << 16))
+        assert lib.crc16_update(r, ffi.new("uint8_t[]", d), n) == binascii.crc_hqx(d, r)

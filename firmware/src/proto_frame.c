@@ -16,7 +16,7 @@ void proto_parser_init(proto_parser_t *p)
 
 static void crc_byte(proto_parser_t *p, uint8_t b)
 {
-    p->crc = crc16_update(p->crc, &b, 1u);
+    p->crc = crc16_byte(p->crc, b);
 }
 
 static uint8_t idle_byte(proto_parser_t *p, uint8_t byte)
@@ -41,6 +41,13 @@ static uint8_t idle_byte(proto_parser_t *p, uint8_t byte)
     }
     return PF_NONE;
 }
+
+#ifdef PROTO_PORT_FEED
+/* The S08 port's proto_frame_feed (firmware/port/s08/proto_feed_s08.c) takes
+ * the header and payload bytes and hands every other state to this one. */
+uint8_t proto_frame_feed_c(proto_parser_t *p, uint8_t byte);
+#define proto_frame_feed proto_frame_feed_c
+#endif
 
 uint8_t proto_frame_feed(proto_parser_t *p, uint8_t byte)
 {
@@ -97,6 +104,10 @@ uint8_t proto_frame_feed(proto_parser_t *p, uint8_t byte)
         return idle_byte(p, byte);
     }
 }
+
+#ifdef PROTO_PORT_FEED
+#undef proto_frame_feed
+#endif
 
 uint8_t proto_parser_idle(proto_parser_t *p)
 {
