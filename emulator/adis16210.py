@@ -39,6 +39,9 @@ ZINCL_OUT = 0x10
 XACCL_NULL = 0x12
 YACCL_NULL = 0x14
 ZACCL_NULL = 0x16
+X_ALIGN_REF = 0x18   # ADI's register map (iSensor-FX3-Eval RegMaps/ADIS16210_RegMap.csv)
+Y_ALIGN_REF = 0x1A
+Z_ALIGN_REF = 0x1C
 ALM_MAG_X = 0x20
 ALM_MAG_Y = 0x22
 ALM_MAG_Z = 0x24
@@ -58,12 +61,15 @@ LOT_ID1 = 0x52
 LOT_ID2 = 0x54
 PROD_ID = 0x56
 SERIAL_NUM = 0x58
+X_NULL_BIAS = 0x70   # ADI's register map
+Y_NULL_BIAS = 0x72
+Z_NULL_BIAS = 0x74
 
 PROD_ID_VALUE = 0x3F52  # 16210
 
 ACC_LSB_G = 1.0 / 16384.0
 INCL_LSB_DEG = 180.0 / 32768.0
-SUPPLY_LSB_V = 305.18e-6          # model choice (ADIS16209 scale), docs/sensors.md
+SUPPLY_LSB_V = 152.6e-6           # ADI's register map: 0.0001526 V/LSB, 16 bits
 TEMP_LSB_C = -0.47                # ADI's ADIS16210 FX3 example: T = (raw - 1331) * -0.47
 TEMP_RAW_AT_0C = 1331
 
@@ -87,17 +93,23 @@ WRITABLE = {XACCL_NULL: 0xFFFF, YACCL_NULL: 0xFFFF, ZACCL_NULL: 0xFFFF,
             ALM_MAG_X: 0xFFFF, ALM_MAG_Y: 0xFFFF, ALM_MAG_Z: 0xFFFF, ALM_MAG_S: 0xFFFF,
             ALM_SMPL_X: 0x00FF, ALM_SMPL_Y: 0x00FF, ALM_SMPL_Z: 0x00FF, ALM_CTRL: 0xFFFF,
             GPIO_CTRL: 0x00FF, MSC_CTRL: 0x05FF, DIO_CTRL: 0x00FF, AVG_CNT: 0x000F,
-            SLP_CNT: 0x00FF}
+            SLP_CNT: 0x00FF, X_NULL_BIAS: 0xFFFF, Y_NULL_BIAS: 0xFFFF, Z_NULL_BIAS: 0xFFFF}
+# Reset values: ADI's register map ("Default" column); the NULL_BIAS
+# registers have none there and reset to 0 (model).
 RESET_VALUES = {reg: 0 for reg in WRITABLE}
-RESET_VALUES[AVG_CNT] = 0x0008
-AVG_CNT_MAX = 8
+RESET_VALUES[MSC_CTRL] = 0x0002
+RESET_VALUES[DIO_CTRL] = 0x0007
+RESET_VALUES[AVG_CNT] = 0x0009
+AVG_CNT_MAX = 9   # model: the reset value 9 is the largest setting; larger values act as 9
+ALIGN_REF = (X_ALIGN_REF, Y_ALIGN_REF, Z_ALIGN_REF)  # read-only, reset 0; model: stay 0
 
 
 @dataclass
 class AdisTiming:
     """Timing of the model (seconds / hertz).  Defaults: docs/sensors.md."""
     stall_s: float = 40e-6            # minimum CS-high time between frames
-    startup_s: float = 0.160          # power-on / reset until the SPI answers
+    startup_s: float = 0.220          # power-on / reset until the SPI answers (model: the
+                                      # ADIS16201/16203/16209 Linux drivers' wait)
     internal_rate_hz: float = 4250.0  # internal sample rate; ODR = rate / 2**AVG_CNT
     self_test_s: float = 0.040        # automatic self-test duration
     flash_update_s: float = 0.050     # GLOB_CMD flash update busy time
@@ -251,7 +263,7 @@ class ADIS16210:
         if reg in (XINCL_OUT, YINCL_OUT, ZINCL_OUT):
             return _u16(self.incl_counts()[(reg - XINCL_OUT) // 2])
         if reg == SUPPLY_OUT:
-            return int(np.clip(round(self.supply_v / SUPPLY_LSB_V), 0, 0x3FFF))
+            return int(np.clip(round(self.supply_v / SUPPLY_LSB_V), 0, 0xFFFF))
         if reg == DIAG_STAT:
             v = self.diag & DIAG_LATCHED
             if self.supply_v < 3.0:
@@ -266,7 +278,7 @@ class ADIS16210:
             return 0x1234
         if reg == LOT_ID2:
             return 0x5678
-        if reg == GLOB_CMD:
+        if reg == GLOB_CMD or reg in ALIGN_REF:
             return 0x0000
         if reg in WRITABLE:
             return self.regs[reg]

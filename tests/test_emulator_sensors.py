@@ -27,7 +27,7 @@ def make_adis(v=(0.25, -0.5, 0.75), **kw):
     c = Clock()
     src = Const(v)
     dev = ad.ADIS16210(c, src, lambda t: 25.0, serial=0x1234, **kw)
-    c.advance(0.2)  # past start-up
+    c.advance(0.23)  # past start-up (220 ms)
     return c, dev, src
 
 
@@ -56,7 +56,9 @@ def test_startup_blanking_and_missing_part():
     dev = ad.ADIS16210(c, Const((0, 0, 1)))
     c.advance(0.01)
     assert dev.transfer16(0x5600) == 0 and (c.advance(STALL), dev.transfer16(0))[1] == 0
-    c.advance(0.2)
+    c.advance(0.2)                              # 210 ms: still starting (220 ms, model)
+    assert read(c, dev, ad.PROD_ID) == 0
+    c.advance(0.01)
     assert read(c, dev, ad.PROD_ID) == 0x3F52
     c2 = Clock()
     gone = ad.ADIS16210(c2, Const((0, 0, 1)), faults=ad.AdisFaults(absent=True))
@@ -107,7 +109,9 @@ def test_incl_temp_supply_scales():
     x = ad._s16(read(c, dev, ad.XINCL_OUT))
     assert x * 180 / 32768 == pytest.approx(45.0, abs=0.006)  # atan2(ay, az)
     assert read(c, dev, ad.TEMP_OUT) == 1278                  # 25 C: 1331 - 25/0.47
-    assert read(c, dev, ad.SUPPLY_OUT) == 0x2A3D              # 3.3 V / 305.18 uV
+    assert read(c, dev, ad.SUPPLY_OUT) == 0x5479              # 3.3 V / 152.6 uV = 21625 (ADI's map)
+    dev.supply_v = 5.5
+    assert read(c, dev, ad.SUPPLY_OUT) == 36042               # 16 bits: no 14-bit clip
     dev.supply_v = 2.9
     assert read(c, dev, ad.DIAG_STAT) & ad.DIAG_SUPPLY_LOW
 
@@ -127,18 +131,20 @@ def test_stall_violation_flags_spi_error_and_clears_on_read():
 def test_output_rate_and_averaging():
     c, dev, src = make_adis()
     T = dev.output_period_s()
-    assert T == pytest.approx(256 / 4250.0)
+    assert T == pytest.approx(512 / 4250.0)      # AVG_CNT resets to 9 (ADI's map)
     read(c, dev, ad.XACCL_OUT)
     n = len(src.calls)
     read(c, dev, ad.XACCL_OUT)                  # same window: no new sample
     assert len(src.calls) == n
     c.advance(T)
     read(c, dev, ad.XACCL_OUT)
-    assert len(src.calls) == n + 1 and src.calls[-1][1] == 256
+    assert len(src.calls) == n + 1 and src.calls[-1][1] == 512
     xfer(c, dev, 0xB800 | 0x02)                 # AVG_CNT = 2 -> 4 samples
     c.advance(4 / 4250.0)
     read(c, dev, ad.YACCL_OUT)
     assert src.calls[-1][1] == 4
+    xfer(c, dev, 0xB800 | 0x0F)                 # above 9: acts as 9 (model)
+    assert dev.n_avg() == 512
 
 
 def test_self_test_manual_and_automatic():
@@ -168,7 +174,7 @@ def test_flash_update_and_software_reset():
     xfer(c, dev, 0x9400 | 0x20)                 # not saved
     xfer(c, dev, 0xBE00 | ad.GLOB_SW_RESET)
     assert xfer(c, dev, 0x5600) == 0           # restarting
-    c.advance(0.2)
+    c.advance(0.22)
     assert read(c, dev, ad.YACCL_NULL) == 0x0010
     xfer(c, dev, 0xBE00 | ad.GLOB_FACTORY_RESTORE)
     assert read(c, dev, ad.YACCL_NULL) == 0
@@ -388,7 +394,7 @@ V0 = (0.25, -0.5, 0.75)
 # the bits a write keeps -- None: read-only / write-only, writes ignored)
 ADIS_MAP = [
     ("FLASH_CNT", ad.FLASH_CNT, 0x0000, None),
-    ("SUPPLY_OUT", ad.SUPPLY_OUT, 0x2A3D, None),
+    ("SUPPLY_OUT", ad.SUPPLY_OUT, 0x5479, None),
     ("XACCL_OUT", ad.XACCL_OUT, 0x1000, None),
     ("YACCL_OUT", ad.YACCL_OUT, 0xE000, None),
     ("ZACCL_OUT", ad.ZACCL_OUT, 0x3000, None),
@@ -399,6 +405,9 @@ ADIS_MAP = [
     ("XACCL_NULL", ad.XACCL_NULL, 0, 0xFFFF),
     ("YACCL_NULL", ad.YACCL_NULL, 0, 0xFFFF),
     ("ZACCL_NULL", ad.ZACCL_NULL, 0, 0xFFFF),
+    ("X_ALIGN_REF", ad.X_ALIGN_REF, 0, None),
+    ("Y_ALIGN_REF", ad.Y_ALIGN_REF, 0, None),
+    ("Z_ALIGN_REF", ad.Z_ALIGN_REF, 0, None),
     ("ALM_MAG_X", ad.ALM_MAG_X, 0, 0xFFFF),
     ("ALM_MAG_Y", ad.ALM_MAG_Y, 0, 0xFFFF),
     ("ALM_MAG_Z", ad.ALM_MAG_Z, 0, 0xFFFF),
@@ -408,9 +417,9 @@ ADIS_MAP = [
     ("ALM_SMPL_Z", ad.ALM_SMPL_Z, 0, 0x00FF),
     ("ALM_CTRL", ad.ALM_CTRL, 0, 0xFFFF),
     ("GPIO_CTRL", ad.GPIO_CTRL, 0, 0x00FF),
-    ("MSC_CTRL", ad.MSC_CTRL, 0, 0x05FF),
-    ("DIO_CTRL", ad.DIO_CTRL, 0, 0x00FF),
-    ("AVG_CNT", ad.AVG_CNT, 0x0008, 0x000F),
+    ("MSC_CTRL", ad.MSC_CTRL, 0x0002, 0x05FF),
+    ("DIO_CTRL", ad.DIO_CTRL, 0x0007, 0x00FF),
+    ("AVG_CNT", ad.AVG_CNT, 0x0009, 0x000F),
     ("SLP_CNT", ad.SLP_CNT, 0, 0x00FF),
     ("DIAG_STAT", ad.DIAG_STAT, 0, None),
     ("GLOB_CMD", ad.GLOB_CMD, 0, None),
@@ -418,6 +427,9 @@ ADIS_MAP = [
     ("LOT_ID2", ad.LOT_ID2, 0x5678, None),
     ("PROD_ID", ad.PROD_ID, 0x3F52, None),
     ("SERIAL_NUM", ad.SERIAL_NUM, 0x1234, None),
+    ("X_NULL_BIAS", ad.X_NULL_BIAS, 0, 0xFFFF),
+    ("Y_NULL_BIAS", ad.Y_NULL_BIAS, 0, 0xFFFF),
+    ("Z_NULL_BIAS", ad.Z_NULL_BIAS, 0, 0xFFFF),
 ]
 
 
@@ -504,8 +516,10 @@ def test_software_reset_while_a_read_is_pending():
     c, dev, _ = make_adis(V0)
     xfer(c, dev, 0x5600)
     assert xfer(c, dev, 0xBE00 | ad.GLOB_SW_RESET) == 0x3F52  # the reset frame still clocks out PROD_ID
-    assert xfer(c, dev, 0x5600) == 0x0000                   # restarting: 160 ms of zeros
+    assert xfer(c, dev, 0x5600) == 0x0000                   # restarting: 220 ms of zeros
     c.advance(0.16)
+    assert xfer(c, dev, 0x5600) == 0x0000                   # still starting at 160 ms
+    c.advance(0.06)
     assert xfer(c, dev, 0x5600) == 0x0000                   # the pipeline restarted empty
     assert xfer(c, dev, 0x0000) == 0x3F52
 

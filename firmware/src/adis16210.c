@@ -3,7 +3,7 @@
 #include "inclino/hal.h"
 
 #define POLL_US 10000u      /* 10 ms between start-up / self-test polls */
-#define STARTUP_POLLS 25u   /* 250 ms */
+#define STARTUP_POLLS 40u   /* 400 ms: ADIS_STARTUP_MS with a margin */
 #define SELF_TEST_POLLS 20u /* 200 ms = 5 x ADIS_SELF_TEST_MS */
 #define ABSENT_IN_A_ROW 3u  /* 0xFFFF reads before declaring the part missing */
 #define READ_CMD(a) ((uint16_t)((uint16_t)((a)&0x7Fu) << 8))

@@ -19,18 +19,24 @@
 
 #include <stdint.h>
 
-/* Registers (even address = low byte) */
+/* Registers (even address = low byte).  Addresses, scales and reset values
+ * as in Analog Devices' register map for this part (iSensor-FX3-Eval,
+ * RegMaps/ADIS16210_RegMap.csv; docs/sensors.md). */
 #define ADIS_REG_FLASH_CNT 0x00u
+#define ADIS_REG_SUPPLY_OUT 0x02u /* unsigned, 152.6 uV/LSB */
 #define ADIS_REG_XACCL_OUT 0x04u
 #define ADIS_REG_YACCL_OUT 0x06u
 #define ADIS_REG_ZACCL_OUT 0x08u
 #define ADIS_REG_TEMP_OUT 0x0Au
-#define ADIS_REG_MSC_CTRL 0x34u
-#define ADIS_REG_AVG_CNT 0x38u
+#define ADIS_REG_X_ALIGN_REF 0x18u /* read-only, 2^-14 g/LSB; Y, Z at +2, +4 */
+#define ADIS_REG_MSC_CTRL 0x34u    /* resets to 0x0002 */
+#define ADIS_REG_DIO_CTRL 0x36u    /* resets to 0x0007 */
+#define ADIS_REG_AVG_CNT 0x38u     /* resets to 0x0009; adis_init writes ADIS_AVG_CNT */
 #define ADIS_REG_DIAG_STAT 0x3Cu
 #define ADIS_REG_GLOB_CMD 0x3Eu
 #define ADIS_REG_PROD_ID 0x56u
 #define ADIS_REG_SERIAL_NUM 0x58u
+#define ADIS_REG_X_NULL_BIAS 0x70u /* R/W, 2^-14 g/LSB; Y, Z at +2, +4 (not used) */
 
 #define ADIS_PROD_ID 0x3F52u            /* 16210 */
 #define ADIS_MSC_SELF_TEST_AUTO 0x0400u /* MSC_CTRL[10] */
@@ -38,8 +44,10 @@
 #define ADIS_DIAG_SPI_FAIL 0x0008u
 
 /* Timing (microseconds / milliseconds) */
-#define ADIS_STALL_US 40u     /* CS high between frames: data sheet stall time */
-#define ADIS_STARTUP_MS 160u  /* power-on to first valid answer */
+#define ADIS_STALL_US 40u /* CS high between frames: data sheet stall time */
+/* power-on to first valid answer: not found for this part; the Linux drivers
+ * of the ADIS16201/16203/16209 wait 220 ms, the conservative choice */
+#define ADIS_STARTUP_MS 220u
 #define ADIS_SELF_TEST_MS 40u /* automatic self-test */
 /* AVG_CNT = 4: 2^4 internal samples averaged, 4250 / 16 = 265.6 SPS, one
  * output period is 3765 us. */
@@ -83,7 +91,7 @@ void adis_write_reg(uint8_t addr, uint16_t value);
 
 /*
  * adis_init - start-up check after power-on.  Polls PROD_ID every 10 ms,
- *   at most 25 times (250 ms > ADIS_STARTUP_MS): 0x3F52 -> writes AVG_CNT =
+ *   at most 40 times (400 ms > ADIS_STARTUP_MS): 0x3F52 -> writes AVG_CNT =
  *   ADIS_AVG_CNT and checks it; three 0xFFFF in a row -> ADIS_E_ABSENT; the
  *   same other non-zero value twice in a row -> ADIS_E_PROD_ID; still
  *   0x0000 at the end -> ADIS_E_NO_RESPONSE.
