@@ -15,9 +15,12 @@ Order of the chain (TriadModel.apply), v = true body-frame vector::
 
     v1 = SoftIron.S @ v + HardIron.h              (fluxgate only; body frame)
     v2 = Misalignment.M @ v1                       (sensor axes)
-    v3 = diag(Scale.k) diag(1 + ScaleTempco) @ v2
+    v3 = diag(Scale.k) diag(1 + ScaleTempco(T)) @ v2
     v4 = v3 + ScaleNonlinearity.k2 * v3**2
-    v5 = v4 + Bias.b + BiasTempco.c (T - T_ref)
+    v5 = v4 + Bias.b + BiasTempco(T)
+
+ScaleTempco(T) and BiasTempco(T) are per-axis polynomials of order <= 2 in
+T - T_ref (temp_poly).
     v6 = v5 + WhiteNoise                           (seeded Generator)
     v7 = Saturation(v6)                            (analog range)
     out = Quantisation(v7)                         (optional; the register
@@ -156,40 +159,94 @@ class SoftIron:
         return np.asarray(v, dtype=float) @ self.S.T
 
 
+def temp_poly(coef1, coef2, temp_c, t_ref_c, v):
+    """The temperature polynomial of the tempco effects, per axis:
+
+        p_i(T) = coef1_i (T - T_ref) + coef2_i (T - T_ref)^2
+
+    coef1, coef2: (3,); temp_c broadcastable against v[..., 0].  Returns
+    (..., 3).  The one definition of the temperature model (issue: bias and
+    scale as polynomials of order <= 2 about a reference temperature) that
+    the emulator's chain, the calibration's temperature fit
+    (inclino.calib.thermal) and diagnose use."""
+    dT = _temp(temp_c, v) - t_ref_c
+    p = coef1 * dT
+    if np.any(coef2 != 0.0):
+        p = p + coef2 * (dT * dT)
+    return p
+
+
 @dataclass
 class BiasTempco:
-    """Temperature coefficient of the bias.
+    """Temperature dependence of the bias, a polynomial of order <= 2.
 
-        y_i = x_i + c_i (T - T_ref)
+        y_i = x_i + c_i (T - T_ref) + c2_i (T - T_ref)^2
 
-    c: (3,) triad unit per degree C; t_ref_c: degrees C."""
+    c: (3,) triad unit per degree C; c2: (3,) triad unit per degree C^2
+    (default 0: linear); t_ref_c: degrees C."""
     c: np.ndarray = field(default_factory=lambda: np.zeros(3))
     t_ref_c: float = 25.0
+    c2: np.ndarray = field(default_factory=lambda: np.zeros(3))
 
     def __post_init__(self):
         self.c = _vec3(self.c, "BiasTempco.c")
+        self.c2 = _vec3(self.c2, "BiasTempco.c2")
+
+    def offset(self, temp_c, v=np.zeros(3)):
+        """c (T - T_ref) + c2 (T - T_ref)^2, shaped like v."""
+        return temp_poly(self.c, self.c2, temp_c, self.t_ref_c, np.asarray(v, dtype=float))
 
     def apply(self, v, temp_c):
         v = np.asarray(v, dtype=float)
-        return v + self.c * (_temp(temp_c, v) - self.t_ref_c)
+        return v + self.offset(temp_c, v)
 
 
 @dataclass
 class ScaleTempco:
-    """Temperature coefficient of the scale factor.
+    """Temperature dependence of the scale factor, a polynomial of order <= 2.
 
-        y_i = x_i (1 + 1e-6 ppm_i (T - T_ref))
+        y_i = x_i (1 + 1e-6 (ppm_i (T - T_ref) + ppm2_i (T - T_ref)^2))
 
-    ppm: (3,) parts per million per degree C; t_ref_c: degrees C."""
+    ppm: (3,) parts per million per degree C; ppm2: (3,) ppm per degree C^2
+    (default 0: linear); t_ref_c: degrees C."""
     ppm: np.ndarray = field(default_factory=lambda: np.zeros(3))
     t_ref_c: float = 25.0
+    ppm2: np.ndarray = field(default_factory=lambda: np.zeros(3))
 
     def __post_init__(self):
         self.ppm = _vec3(self.ppm, "ScaleTempco.ppm")
+        self.ppm2 = _vec3(self.ppm2, "ScaleTempco.ppm2")
+
+    def factor(self, temp_c, v=np.zeros(3)):
+        """1 + 1e-6 (ppm (T - T_ref) + ppm2 (T - T_ref)^2), shaped like v."""
+        return 1.0 + temp_poly(1e-6 * self.ppm, 1e-6 * self.ppm2, temp_c, self.t_ref_c,
+                               np.asarray(v, dtype=float))
 
     def apply(self, v, temp_c):
         v = np.asarray(v, dtype=float)
-        return v * (1.0 + 1e-6 * self.ppm * (_temp(temp_c, v) - self.t_ref_c))
+        return v * self.factor(temp_c, v)
+
+
+def to_reference_temperature(y, temp_c, bias, bias_tempco: Optional[BiasTempco] = None,
+                             scale_tempco: Optional[ScaleTempco] = None):
+    """The inverse of the chain's temperature effects: the reading y (...,
+    3) taken at temp_c, brought to the reference temperature.  With the
+    chain's order (the scale tempco acts on the signal before the bias is
+    added, the bias tempco after it) and bias b (3,):
+
+        y_ref = b + (y - b - bias_tempco(T)) / scale_tempco_factor(T)
+
+    (exact when the nonlinearity is absent; with it, the error is the
+    nonlinearity's change over the scale change, k2 x^2 s(T)).  Used by the
+    calibration's temperature terms (inclino.calib.thermal)."""
+    y = np.asarray(y, dtype=float)
+    b = np.asarray(bias, dtype=float)
+    u = y - b
+    if bias_tempco is not None:
+        u = u - bias_tempco.offset(temp_c, y)
+    if scale_tempco is not None:
+        u = u / scale_tempco.factor(temp_c, y)
+    return b + u
 
 
 @dataclass

@@ -13,6 +13,7 @@ advances by the firmware's own waits and the byte times).
 """
 from __future__ import annotations
 
+import math
 import threading
 import time
 from dataclasses import asdict
@@ -22,6 +23,19 @@ from .probe import EmulatedProbe
 from .serial_pty import PtyLink
 
 MAX_STEP_S = 0.02
+MAX_ADVANCE_S = 86400.0   # one `advance` request: at most a day of emulated time
+ADVANCE_QUANTUM_S = 0.01  # the firmware's idle loop runs every 10 ms of a fast-forward
+
+
+def _number(r: dict, key: str) -> float:
+    """A finite number argument (not a bool, not NaN or infinite)."""
+    v = r[key]
+    if isinstance(v, bool) or not isinstance(v, (int, float)):
+        raise ValueError(f"{key} must be a number")
+    v = float(v)
+    if not math.isfinite(v):
+        raise ValueError(f"{key} must be finite")
+    return v
 
 
 class _Device:
@@ -38,7 +52,11 @@ class _Device:
 class Emulator:
     def __init__(self, scenario="typical", seed: int | None = None, baud: int = 115200,
                  link: str | None = None, control_port: int | None = 0, realtime: bool = True,
-                 serial: int | None = None):
+                 serial: int | None = None, tempco_draw: int | None = None):
+        if tempco_draw is not None:  # one probe of the scenario's tempco spread
+            from .scenario import Scenario, load_scenario
+            sc = scenario if isinstance(scenario, Scenario) else load_scenario(scenario)
+            scenario = sc.draw_tempcos(tempco_draw)
         self.probe = EmulatedProbe(scenario, seed=seed, baud=float(baud), serial=serial)
         self.probe.poll = self.probe.lib.app_main_poll
         self.pty = PtyLink(baud=baud, link_path=link, throttle=False)  # the probe's SCI times the bytes
@@ -72,7 +90,27 @@ class Emulator:
             g, b = p.truth()
             pose = p.phys.trajectory(p.clock.now)  # the turntable's indicated pose
             return {"t": p.clock.now, "g": [float(x) for x in g], "b": [float(x) for x in b],
-                    "pose": [float(x) for x in pose]}
+                    "pose": [float(x) for x in pose], "temp_c": float(p.phys.temperature(p.clock.now))}
+
+        def chamber(r):
+            """Set (setpoint_c, rate_c_per_min) or just report the thermal chamber."""
+            if "rate_c_per_min" in r and "setpoint_c" not in r:
+                raise ValueError("rate_c_per_min needs a setpoint_c")
+            sp = _number(r, "setpoint_c") if "setpoint_c" in r else None
+            rate = _number(r, "rate_c_per_min") if r.get("rate_c_per_min") is not None else None
+            ch = p.phys.chamber(p.clock.now)
+            if sp is not None:
+                ch.set(p.clock.now, sp, rate)
+                p.phys.invalidate()
+            return {"t": p.clock.now, **ch.state(p.clock.now)}
+
+        def advance(r):
+            """Fast-forward emulated time by s seconds (the firmware idles through it)."""
+            s = _number(r, "s")
+            if not 0.0 < s <= MAX_ADVANCE_S:
+                raise ValueError(f"s must be within (0, {MAX_ADVANCE_S:g}] seconds")
+            p.step(s, quantum=ADVANCE_QUANTUM_S)
+            return {"t": p.clock.now, "temp_c": float(p.phys.temperature(p.clock.now))}
 
         def faults(r):
             f = self.pty.faults
@@ -106,7 +144,8 @@ class Emulator:
                     "flash_ops": getattr(p.flash, "ops", None)}
 
         return {"move": move, "temperature": temperature, "truth": truth, "faults": faults,
-                "power_cut": power_cut, "power_cycle": power_cycle, "status": status}
+                "power_cut": power_cut, "power_cycle": power_cycle, "status": status,
+                "chamber": chamber, "advance": advance}
 
     # ------------------------------------------------------------ loop
     def run_once(self, dt: float) -> None:

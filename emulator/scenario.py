@@ -12,6 +12,10 @@ A scenario file (emulator/scenarios/*.toml) looks like::
     gravity_g = 1.0
     temperature_c = 25.0
     temperature_rate_c_per_s = 0.0
+    [world.chamber]                  # optional thermal chamber (world.Chamber)
+    temperature_c = 25.0             # air and probe at the start
+    tau_s = 300.0                    # the probe's thermal time constant
+    profile = [[60.0, 55.0, 1.0]]    # [t_s, setpoint_c, rate_c_per_min (absent: step)]
     [world.encoder]                  # optional turntable encoder errors
     offset_deg = [0.0, 0.0, 0.0]     # inc, azi, tf
     scale = [0.0, 0.0, 0.0]
@@ -27,8 +31,9 @@ A scenario file (emulator/scenarios/*.toml) looks like::
 Effect tables of a triad (units: g for acc, nT for mag):
 bias.value, scale.value, misalignment.matrix | misalignment.angles_rad
 (rx, ry, rz) + misalignment.nonorth_rad (nxy, nxz, nyz), hard_iron.value,
-soft_iron.matrix, bias_tempco.value (+ t_ref_c), scale_tempco.ppm (+
-t_ref_c), nonlinearity.k2, noise.sigma (+ n_ref), saturation.limit,
+soft_iron.matrix, bias_tempco.value (+ value2 per degC^2, t_ref_c,
+spread, spread2), scale_tempco.ppm (+ ppm2, t_ref_c, spread, spread2),
+nonlinearity.k2, noise.sigma (+ n_ref), saturation.limit,
 li2021 {K, B_counts, e} (effects.from_li2021).  Quantisation is always on
 (nominal LSB and register rails of the part); `quantise = false` in the
 triad table turns it off.
@@ -47,10 +52,11 @@ from inclino import reference as ref
 from inclino.dataset import RawDataset
 
 from . import effects as fx
-from .world import EarthField, EncoderErrors, Temperature, Trajectory, Turntable, World
+from .world import Chamber, EarthField, EncoderErrors, Temperature, Trajectory, Turntable, World
 
 ACC_RANGE_G = 1.7  # ADIS16210 specified measurement range
 MAG_RANGE_NT = 100000.0  # fluxgate range (Ren 2014)
+DEFAULT_TAU_S = 300.0  # the probe's thermal time constant when the scenario gives none (model)
 
 
 def default_quantisation(kind):
@@ -70,9 +76,35 @@ class Scenario:
     description: str = ""
     serial: int = 1
     meta: dict = field(default_factory=dict)  # lat/lon/date for the dataset header
+    # triad -> {"bias_tempco" | "scale_tempco": (spread (3,), spread2 (3,))}: the
+    # standard deviations over probes of the tempco coefficients (draw_tempcos)
+    tempco_spread: dict = field(default_factory=dict)
 
     def probe(self, seed: Optional[int] = None) -> "Probe":
         return Probe(self, self.seed if seed is None else seed)
+
+    def draw_tempcos(self, seed: int) -> "Scenario":
+        """A copy whose tempcos are one probe drawn from the scenario's
+        spread: each coefficient = the scenario's value + spread x N(0, 1)
+        (first and second order, per axis; numpy.random.default_rng([seed,
+        7])).  Triads or tempcos without a spread keep their values; a
+        tempco with a spread but absent from the scenario is drawn about 0."""
+        import copy
+
+        out = copy.deepcopy(self)
+        rng = np.random.default_rng([int(seed), 7])
+        for tri in ("acc", "mag"):
+            model = getattr(out, tri)
+            for name, (s1, s2) in sorted(self.tempco_spread.get(tri, {}).items()):
+                z1, z2 = rng.standard_normal(3), rng.standard_normal(3)
+                if name == "bias_tempco":
+                    e = model.bias_tempco or fx.BiasTempco()
+                    model.bias_tempco = fx.BiasTempco(e.c + s1 * z1, e.t_ref_c, e.c2 + s2 * z2)
+                else:
+                    e = model.scale_tempco or fx.ScaleTempco()
+                    model.scale_tempco = fx.ScaleTempco(e.ppm + s1 * z1, e.t_ref_c, e.ppm2 + s2 * z2)
+        out.description = f"{self.description} (tempcos drawn, seed {int(seed)})".strip()
+        return out
 
 
 class Probe:
@@ -134,13 +166,24 @@ class Probe:
         """Hold the probe at temp_c (None: back to the scenario's model)."""
         self.temp_override = temp_c
 
+    def chamber(self, t_now: float, tau_s: Optional[float] = None) -> Chamber:
+        """The thermal chamber around the probe.  A scenario without one
+        ([world.chamber]) gets one now, at the probe's temperature at t_now,
+        with tau_s (default DEFAULT_TAU_S); a held temperature
+        (set_temperature) is released, the chamber drives the probe."""
+        w = self.scenario.world
+        if not isinstance(w.temperature, Chamber):
+            w.temperature = Chamber(self.temperature(float(t_now)),
+                                    DEFAULT_TAU_S if tau_s is None else tau_s, t0_s=float(t_now))
+        self.temp_override = None
+        return w.temperature
+
     def temperature(self, t):
         """Probe temperature at t (degC); a float for a float t."""
         if type(t) is float:
             if self.temp_override is not None:
                 return float(self.temp_override)
-            m = self.scenario.world.temperature
-            return m.t0_c + m.rate_c_per_s * t   # the same operations as Temperature()
+            return self.scenario.world.temperature.at(t)   # the same operations as __call__
         if self.temp_override is not None:
             return np.broadcast_to(float(self.temp_override), np.shape(t)).astype(float)
         return self.scenario.world.temperature(t)
@@ -192,8 +235,7 @@ class Probe:
             return temp_c
         if self.temp_override is not None:
             return float(self.temp_override)
-        m = self.scenario.world.temperature
-        return m.t0_c + m.rate_c_per_s * float(t)
+        return self.scenario.world.temperature.at(float(t))
 
     def acc_sample(self, t: float, n_avg=None, temp_c=None):
         """One accelerometer sample at time t (float seconds): 3 floats, g."""
@@ -232,8 +274,19 @@ class Probe:
 
 # --------------------------------------------------------------------------
 # TOML loading
-def _triad(kind, tab: dict) -> fx.TriadModel:
+def _tempco_spread(sub: dict, n1: str, n2: str):
+    """(spread of the first-order coefficient, of the second-order one), or None."""
+    if "spread" not in sub and "spread2" not in sub:
+        return None
+    s1, s2 = fx._vec3(sub.get("spread", 0.0), n1), fx._vec3(sub.get("spread2", 0.0), n2)
+    if np.any(s1 < 0) or np.any(s2 < 0) or not np.all(np.isfinite(np.r_[s1, s2])):
+        raise ValueError(f"tempco spreads must be finite and >= 0 ({n1}, {n2})")
+    return s1, s2
+
+
+def _triad(kind, tab: dict, spreads: Optional[dict] = None) -> fx.TriadModel:
     tab = dict(tab or {})
+    spreads = {} if spreads is None else spreads
     kw = {}
     quantise = tab.pop("quantise", True)
     if "li2021" in tab:
@@ -257,9 +310,17 @@ def _triad(kind, tab: dict) -> fx.TriadModel:
         elif key == "soft_iron":
             kw["soft_iron"] = fx.SoftIron(sub["matrix"])
         elif key == "bias_tempco":
-            kw["bias_tempco"] = fx.BiasTempco(sub["value"], sub.get("t_ref_c", 25.0))
+            kw["bias_tempco"] = fx.BiasTempco(sub.get("value", 0.0), sub.get("t_ref_c", 25.0),
+                                              sub.get("value2", 0.0))
+            sp = _tempco_spread(sub, f"{kind}.bias_tempco.spread", f"{kind}.bias_tempco.spread2")
+            if sp is not None:
+                spreads["bias_tempco"] = sp
         elif key == "scale_tempco":
-            kw["scale_tempco"] = fx.ScaleTempco(sub["ppm"], sub.get("t_ref_c", 25.0))
+            kw["scale_tempco"] = fx.ScaleTempco(sub.get("ppm", 0.0), sub.get("t_ref_c", 25.0),
+                                                sub.get("ppm2", 0.0))
+            sp = _tempco_spread(sub, f"{kind}.scale_tempco.spread", f"{kind}.scale_tempco.spread2")
+            if sp is not None:
+                spreads["scale_tempco"] = sp
         elif key == "nonlinearity":
             kw["nonlinearity"] = fx.ScaleNonlinearity(sub["k2"])
         elif key == "noise":
@@ -289,13 +350,25 @@ def scenario_from_dict(d: dict, name: str = "") -> Scenario:
                            float(w.get("declination_deg", 0.0)))
     enc = w.get("encoder", {})
     drift = w.get("field_drift")
+    ch = w.get("chamber")
+    if ch is not None:
+        temperature = Chamber(float(ch.get("temperature_c", w.get("temperature_c", 25.0))),
+                              float(ch.get("tau_s", DEFAULT_TAU_S)))
+        for item in ch.get("profile", []):
+            if len(item) not in (2, 3):
+                raise ValueError("[world.chamber] profile items are [t_s, setpoint_c] or "
+                                 "[t_s, setpoint_c, rate_c_per_min]")
+            temperature.set(float(item[0]), float(item[1]), None if len(item) == 2 else float(item[2]))
+    else:
+        temperature = Temperature(float(w.get("temperature_c", 25.0)), float(w.get("temperature_rate_c_per_s", 0.0)))
     world = World(
         turntable=Turntable(EncoderErrors(enc.get("offset_deg", [0.0] * 3), enc.get("scale", [0.0] * 3))),
         earth=earth,
         gravity_g=float(w.get("gravity_g", 1.0)),
-        temperature=Temperature(float(w.get("temperature_c", 25.0)), float(w.get("temperature_rate_c_per_s", 0.0))),
+        temperature=temperature,
         drift=fx.FieldDrift(**drift) if drift else None,
     )
+    spreads = {"acc": {}, "mag": {}}
     meta = {k: w[k] for k in ("lat_deg", "lon_deg") if k in w}
     if "date" in w:
         meta["date"] = str(w["date"])
@@ -303,12 +376,13 @@ def scenario_from_dict(d: dict, name: str = "") -> Scenario:
         name=d.get("name", name),
         seed=int(d.get("seed", 0)),
         world=world,
-        acc=_triad("acc", d.get("acc")),
-        mag=_triad("mag", d.get("mag")),
+        acc=_triad("acc", d.get("acc"), spreads["acc"]),
+        mag=_triad("mag", d.get("mag"), spreads["mag"]),
         mag_skew=fx.SamplingSkew(float(d.get("timing", {}).get("mag_skew_s", 0.0))),
         description=d.get("description", ""),
         serial=int(d.get("serial", 1)),
         meta=meta,
+        tempco_spread={k: v for k, v in spreads.items() if v},
     )
 
 

@@ -17,6 +17,7 @@ declination that is true north, with declination 0 magnetic north.
 from __future__ import annotations
 
 import datetime as _dt
+import math
 from dataclasses import dataclass, field
 from typing import Optional
 
@@ -172,12 +173,119 @@ class Temperature:
         return self.t0_c + self.rate_c_per_s * np.asarray(t, float)
 
 
+    def at(self, t: float) -> float:
+        """The temperature at one time (float), the same operations as __call__."""
+        return self.t0_c + self.rate_c_per_s * t
+
+
+CHAMBER_RANGE_C = (-70.0, 180.0)   # set points a climatic chamber reaches
+CHAMBER_MAX_RATE_C_PER_MIN = 30.0
+
+
+class Chamber:
+    """A thermal chamber around the probe (and its turntable).
+
+    The chamber air follows its set points: each `set` starts, at time t, a
+    linear ramp from the air temperature then to the new set point at
+    rate_c_per_min (None or 0: a step), after which the air holds the set
+    point.  The probe's temperature lags the air by a first-order time
+    constant tau_s (the probe's heat capacity over its thermal conductance
+    to the air):
+
+        dTp/dt = (Tc(t) - Tp) / tau_s
+
+    solved exactly on each piece of the air's piecewise-linear profile: on a
+    piece starting at t_k with air Tc_k, slope r_k and probe Tp_k,
+
+        Tc(t) = Tc_k + r_k (t - t_k)
+        Tp(t) = Tc(t) - r_k tau + (Tp_k - Tc_k + r_k tau) exp(-(t - t_k) / tau)
+
+    (tau_s = 0: the probe follows the air).  Before the first piece both are
+    temp_c.  Times are the emulator's seconds; `set` at a time before the
+    last piece's start is refused (time only runs forward)."""
+
+    def __init__(self, temp_c: float = 25.0, tau_s: float = 300.0, t0_s: float = 0.0):
+        temp_c, tau_s = float(temp_c), float(tau_s)
+        if not (math.isfinite(temp_c) and CHAMBER_RANGE_C[0] <= temp_c <= CHAMBER_RANGE_C[1]):
+            raise ValueError(f"chamber temperature must be within {CHAMBER_RANGE_C[0]:g} to "
+                             f"{CHAMBER_RANGE_C[1]:g} degC")
+        if not (math.isfinite(tau_s) and 0.0 <= tau_s <= 86400.0):
+            raise ValueError("the probe's thermal time constant tau_s must be within 0-86400 s")
+        self.tau_s = tau_s
+        self.setpoint_c = temp_c
+        # pieces: (t_k, Tc_k, r_k per second, Tp_k)
+        self._pieces = [(float(t0_s), temp_c, 0.0, temp_c)]
+
+    # ---- evaluation ------------------------------------------------------
+    def _piece(self, t: float):
+        ps = self._pieces
+        k = len(ps) - 1
+        while k > 0 and ps[k][0] > t:
+            k -= 1
+        return ps[k]
+
+    def _eval(self, t: float):
+        tk, ck, rk, pk = self._piece(t)
+        dt = t - tk
+        if dt < 0.0:   # before the first piece: the initial temperature
+            return ck, pk
+        tc = ck + rk * dt
+        if self.tau_s == 0.0:
+            return tc, tc
+        lag = rk * self.tau_s
+        return tc, tc - lag + (pk - ck + lag) * math.exp(-dt / self.tau_s)
+
+    def chamber_c(self, t: float) -> float:
+        """The air temperature at t (degC)."""
+        return self._eval(float(t))[0]
+
+    def at(self, t: float) -> float:
+        """The probe's temperature at t (degC)."""
+        return self._eval(t)[1]
+
+    def __call__(self, t):
+        t = np.asarray(t, float)
+        if t.ndim == 0:
+            return self.at(float(t))
+        return np.array([self.at(float(x)) for x in t.ravel()]).reshape(t.shape)
+
+    # ---- control ---------------------------------------------------------
+    def set(self, t_s: float, setpoint_c: float, rate_c_per_min: Optional[float] = None) -> None:
+        """From t_s, ramp the air to setpoint_c at rate_c_per_min (None or
+        0: a step) and hold it there."""
+        t_s, setpoint_c = float(t_s), float(setpoint_c)
+        if not math.isfinite(t_s) or t_s < self._pieces[-1][0]:
+            raise ValueError("a chamber set point cannot start before the last one")
+        if not (math.isfinite(setpoint_c) and CHAMBER_RANGE_C[0] <= setpoint_c <= CHAMBER_RANGE_C[1]):
+            raise ValueError(f"setpoint_c must be within {CHAMBER_RANGE_C[0]:g} to {CHAMBER_RANGE_C[1]:g} degC")
+        if rate_c_per_min is not None:
+            rate_c_per_min = float(rate_c_per_min)
+            if not (math.isfinite(rate_c_per_min) and 0.0 <= rate_c_per_min <= CHAMBER_MAX_RATE_C_PER_MIN):
+                raise ValueError(f"rate_c_per_min must be within 0-{CHAMBER_MAX_RATE_C_PER_MIN:g} degC/min "
+                                 "(0: a step)")
+        tc, tp = self._eval(t_s)
+        self._pieces = [p for p in self._pieces if p[0] < t_s] or [self._pieces[0]]
+        if not rate_c_per_min or setpoint_c == tc:
+            self._pieces.append((t_s, setpoint_c, 0.0, tp))
+        else:
+            r = math.copysign(rate_c_per_min / 60.0, setpoint_c - tc)
+            self._pieces.append((t_s, tc, r, tp))
+            t_end = t_s + (setpoint_c - tc) / r
+            _, tp_end = self._eval(t_end)
+            self._pieces.append((t_end, setpoint_c, 0.0, tp_end))
+        self.setpoint_c = setpoint_c
+
+    def state(self, t: float) -> dict:
+        tc, tp = self._eval(float(t))
+        return {"chamber_c": tc, "probe_c": tp, "setpoint_c": self.setpoint_c, "tau_s": self.tau_s}
+
+
 @dataclass
 class World:
     turntable: Turntable = field(default_factory=Turntable)
     earth: EarthField = field(default_factory=EarthField)
     gravity_g: float = 1.0
-    temperature: Temperature = field(default_factory=Temperature)
+    temperature: Temperature = field(default_factory=Temperature)  # or a Chamber
     drift: Optional[FieldDrift] = None
 
     def field_params(self, t=0.0):

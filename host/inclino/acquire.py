@@ -15,6 +15,9 @@ Procedures (pose lists from inclino.calib.runs, our conventions):
   d1 + 90 deg (--d1, default 30) at one azimuth (--azimuth, default 2),
   read while the toolface turns, with the probe's timestamps (guo2009,
   joint).
+* temperature -- through a thermal chamber: at each set point of
+  --temperatures a few poses read through the ramp and soak, then the
+  --poses set (inclino.acquire_temp; joint --temperature).
 
 Who turns the table:
 
@@ -63,7 +66,7 @@ from dataclasses import dataclass, field
 from inclino.errors import DataError
 from inclino.link import ProbeError
 
-PROCEDURES = ("twelve-position", "multi-position", "continuous")
+PROCEDURES = ("twelve-position", "multi-position", "continuous", "temperature")
 ACC_LSB_G = 2.0 ** -14
 MAG_LSB_NT = 1.0
 COLUMNS = ("t_s", "inc_deg", "azi_deg", "tf_deg", "temp_c", "ax_g", "ay_g", "az_g", "mx_nT", "my_nT", "mz_nT")
@@ -497,14 +500,28 @@ def _cmd_acquire(args) -> int:
     tol.check()
     if args.average is not None and not 1 <= args.average <= 64:
         raise DataError("--average must be within 1-64 samples")
-    procedure_steps(args.procedure, points=args.points, d1=args.d1, azimuth=args.azimuth, step_deg=args.step)
+    plan = None
+    if args.procedure == "temperature":
+        from inclino import acquire_temp
+
+        plan = acquire_temp.ThermalPlan(
+            acquire_temp.parse_temperatures(args.temperatures), args.poses, args.ramp_rate, args.interval,
+            args.ramp_poses, args.soak_band, args.soak_tol, args.soak_window, args.max_soak)
+        plan.check()
+    else:
+        procedure_steps(args.procedure, points=args.points, d1=args.d1, azimuth=args.azimuth, step_deg=args.step)
     world = {"field_nT": args.field, "dip_deg": args.dip, "declination_deg": args.declination}
     table = open_table(args)
     try:
         with ProbeLink(args.port, baud=args.baud, timeout=args.timeout) as link:
-            r = acquire(link, args.procedure, args.output, table, points=args.points, d1=args.d1,
-                        azimuth=args.azimuth, step_deg=args.step, tol=tol, max_reads=args.max_reads,
-                        world=world, quiet=args.quiet, average=args.average)
+            if plan is not None:
+                r = acquire_temp.acquire_temperature(link, args.output, table, plan, tol=tol,
+                                                     max_reads=args.max_reads, world=world, quiet=args.quiet,
+                                                     average=args.average)
+            else:
+                r = acquire(link, args.procedure, args.output, table, points=args.points, d1=args.d1,
+                            azimuth=args.azimuth, step_deg=args.step, tol=tol, max_reads=args.max_reads,
+                            world=world, quiet=args.quiet, average=args.average)
     finally:
         table.close()
     print(f"{r.path}: {r.rows} rows, {args.procedure}, probe {r.probe_serial}"
@@ -518,7 +535,7 @@ def add_parser(sub) -> None:
     add_common(p)
     p.add_argument("--procedure", required=True, choices=PROCEDURES,
                    help="twelve-position (Li 2021), multi-position (Li + Ren 2014 + orientations), "
-                        "continuous (Guo 2009)")
+                        "continuous (Guo 2009), temperature (a chamber run: --temperatures)")
     p.add_argument("-o", "--output", required=True, help="raw dataset CSV to write")
     p.add_argument("--points", type=int, default=36, help="multi-position: quasi-uniform orientations (default 36)")
     p.add_argument("--d1", type=float, default=30.0, help="continuous: first inclination (default 30)")
@@ -527,4 +544,19 @@ def add_parser(sub) -> None:
     p.add_argument("--field", type=float, help="field total, nT, for the header (the bench reports its own)")
     p.add_argument("--dip", type=float, help="magnetic dip, deg, for the header")
     p.add_argument("--declination", type=float, help="declination, deg, for the header")
+    t = p.add_argument_group("temperature procedure (docs/calibration.md)")
+    t.add_argument("--temperatures", default="-5,25,55", help="chamber set points, degC (default -5,25,55)")
+    t.add_argument("--poses", default="twelve-position", choices=("twelve-position", "multi-position"),
+                   help="the pose set taken at each set point (default twelve-position)")
+    t.add_argument("--ramp-rate", type=float, default=1.0, help="chamber ramp, degC/min (default 1)")
+    t.add_argument("--interval", type=float, default=2.0, help="minutes between readings while the chamber "
+                                                               "ramps and soaks (default 2)")
+    t.add_argument("--ramp-poses", type=int, default=4, help="poses read through each ramp (1-6, default 4)")
+    t.add_argument("--soak-band", type=float, default=1.0, help="settled within this of the set point, degC "
+                                                                "(default 1)")
+    t.add_argument("--soak-tol", type=float, default=0.5, help="... and changing by at most this, degC "
+                                                               "(default 0.5) ...")
+    t.add_argument("--soak-window", type=float, default=10.0, help="... over this many minutes (default 10)")
+    t.add_argument("--max-soak", type=float, default=240.0, help="bench: give up after this many minutes at "
+                                                                 "one set point (default 240)")
     p.set_defaults(func=_cmd_acquire)

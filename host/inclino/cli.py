@@ -125,7 +125,8 @@ def _cmd_emulate(args) -> int:
         raise InclinoError(f"the emulator is not installed: {e}")
     try:
         emu = Emulator(scenario=args.scenario, seed=args.seed, baud=args.baud, link=args.link,
-                       control_port=args.control, realtime=not args.unthrottled)
+                       control_port=args.control, realtime=not args.unthrottled,
+                       tempco_draw=args.tempco_draw)
     except FileNotFoundError as e:
         raise DataError(f"scenario not found: {e.filename or e}")
     except (OSError, ValueError, KeyError) as e:
@@ -190,6 +191,8 @@ def build_parser() -> argparse.ArgumentParser:
     em.add_argument("--control", type=int, default=0,
                     help="control channel TCP port on 127.0.0.1 (default: any free port)")
     em.add_argument("--unthrottled", action="store_true", help="run faster than real time")
+    em.add_argument("--tempco-draw", type=int, metavar="N", default=None,
+                    help="draw this probe's tempcos from the scenario's spread with seed N (docs/emulator.md)")
     em.set_defaults(func=_cmd_emulate)
 
     be = sub.add_parser("bench", help="benchmarks (figures, JSON with --json)")
