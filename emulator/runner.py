@@ -24,7 +24,8 @@ from .serial_pty import PtyLink
 
 MAX_STEP_S = 0.02
 MAX_ADVANCE_S = 86400.0   # one `advance` request: at most a day of emulated time
-ADVANCE_QUANTUM_S = 0.01  # the firmware's idle loop runs every 10 ms of a fast-forward
+ADVANCE_QUANTUM_S = 0.01  # the firmware's idle loop runs every 10 ms of a fast-forward,
+ADVANCE_MAX_POLLS = 20000  # or every s / 20000 for a long one (bounded wall time)
 
 
 def _number(r: dict, key: str) -> float:
@@ -109,7 +110,7 @@ class Emulator:
             s = _number(r, "s")
             if not 0.0 < s <= MAX_ADVANCE_S:
                 raise ValueError(f"s must be within (0, {MAX_ADVANCE_S:g}] seconds")
-            p.step(s, quantum=ADVANCE_QUANTUM_S)
+            p.step(s, quantum=max(ADVANCE_QUANTUM_S, s / ADVANCE_MAX_POLLS))
             return {"t": p.clock.now, "temp_c": float(p.phys.temperature(p.clock.now))}
 
         def faults(r):

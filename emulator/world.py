@@ -215,6 +215,7 @@ class Chamber:
         self.setpoint_c = temp_c
         # pieces: (t_k, Tc_k, r_k per second, Tp_k)
         self._pieces = [(float(t0_s), temp_c, 0.0, temp_c)]
+        self._last_set_s = float(t0_s)
 
     # ---- evaluation ------------------------------------------------------
     def _piece(self, t: float):
@@ -254,7 +255,7 @@ class Chamber:
         """From t_s, ramp the air to setpoint_c at rate_c_per_min (None or
         0: a step) and hold it there."""
         t_s, setpoint_c = float(t_s), float(setpoint_c)
-        if not math.isfinite(t_s) or t_s < self._pieces[-1][0]:
+        if not math.isfinite(t_s) or t_s < self._last_set_s:
             raise ValueError("a chamber set point cannot start before the last one")
         if not (math.isfinite(setpoint_c) and CHAMBER_RANGE_C[0] <= setpoint_c <= CHAMBER_RANGE_C[1]):
             raise ValueError(f"setpoint_c must be within {CHAMBER_RANGE_C[0]:g} to {CHAMBER_RANGE_C[1]:g} degC")
@@ -274,6 +275,7 @@ class Chamber:
             _, tp_end = self._eval(t_end)
             self._pieces.append((t_end, setpoint_c, 0.0, tp_end))
         self.setpoint_c = setpoint_c
+        self._last_set_s = t_s
 
     def state(self, t: float) -> dict:
         tc, tp = self._eval(float(t))
