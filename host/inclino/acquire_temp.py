@@ -29,6 +29,7 @@ from __future__ import annotations
 
 import datetime as _dt
 import math
+import sys
 import time
 from dataclasses import dataclass
 
@@ -165,11 +166,12 @@ def acquire_temperature(link, out_path: str, table, plan: ThermalPlan, *, tol=No
     out = _RowWriter(out_path, meta)
     bar = _bar(len(plan.setpoints) * len(poses), "temperature", quiet)
 
-    def say(m):
-        bar.write(m)
+    def say(m):  # above the progress bar, on stderr
+        bar.write(m, file=sys.stderr)
 
     if not table.unattended and getattr(table, "default_say", False):
         table.say = say
+    tell = table.say if not table.unattended else (None if quiet else say)
     chamber = _Chamber(table, sleep)
     try:
         for k, sp in enumerate(plan.setpoints):
@@ -189,8 +191,8 @@ def acquire_temperature(link, out_path: str, table, plan: ThermalPlan, *, tol=No
                     out.write({**row, "inc_deg": st.inc, "azi_deg": _wrap(st.azi), "tf_deg": _wrap(st.tf)})
                     temps.append(row["temp_c"])
                 history.append((minutes, sum(temps) / len(temps)))
-                if not quiet or not table.unattended:
-                    say(f"  set point {sp:g} degC: probe at {history[-1][1]:.2f} degC after {minutes:g} min")
+                if tell is not None:
+                    tell(f"  set point {sp:g} degC: probe at {history[-1][1]:.2f} degC after {minutes:g} min")
                 if settled(history, sp, plan) and chamber.air_at(sp):
                     break
                 if table.unattended and minutes >= plan.max_soak_min:
