@@ -11,7 +11,8 @@ mag_b), their fixed-point image ("fixed", written from the floats), the
 method, the probe serial and, for a fitted calibration, "data" (the hash of
 the dataset it was fitted from) and "report" (the fit report,
 inclino.calib.report.FitReport as a JSON object).  "data" and "report" are
-optional and were added without changing the format number: a reader of the
+optional (as is "temperature", the temperature terms of joint
+--temperature, inclino.calib.thermal) and were added without changing the format number: a reader of the
 first files ignores them, and this reader accepts files without them.  When
 a file carries "fixed", it must equal the image of its floats (a hand-edited
 float with a stale image is refused).
@@ -59,6 +60,9 @@ class Calibration:
     data: dict | None = None
     # the fit report as a JSON object (inclino.calib.report.FitReport) (optional)
     report: dict | None = None
+    # temperature terms (inclino.calib.thermal; joint --temperature) (optional;
+    # the firmware does not apply them)
+    temperature: dict | None = None
 
     def check(self) -> None:
         """Raise CalibrationError for a matrix that is not 3x3, not finite,
@@ -102,7 +106,7 @@ class Calibration:
 
     def to_json(self) -> str:
         d = asdict(self)
-        for k in ("data", "report"):
+        for k in ("data", "report", "temperature"):
             if d[k] is None:
                 del d[k]
         d["fixed"] = asdict(self.to_fixed())
@@ -148,6 +152,7 @@ class Calibration:
                 probe_serial=str(d.get("probe_serial", "")),
                 data=d.get("data") if isinstance(d.get("data"), dict) else None,
                 report=d.get("report") if isinstance(d.get("report"), dict) else None,
+                temperature=d.get("temperature") if isinstance(d.get("temperature"), dict) else None,
             )
         except (KeyError, TypeError, ValueError) as e:
             raise CalibrationError(f"calibration file lacks or mangles a coefficient ({e})")

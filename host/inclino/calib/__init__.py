@@ -52,11 +52,12 @@ def fit(ds, method: str = DEFAULT_METHOD, data_hash: dict | None = None, report:
         raise CalibrationError(f"{method}: singular fit ({e})")
     elapsed = time.perf_counter() - t0
     cal.data = data_hash or common.dataset_hash(ds)
+    rep_ds = info.pop("report_dataset", ds)  # joint --temperature: the readings brought to t_ref
     rep = None
     if report:
         refit = (lambda d: mod.fit(d, **opts)[0]) if "covariance" not in info else None
         with np.errstate(all="ignore"):
-            rep = report_mod.build(ds, cal, method, info, refit, opts)
+            rep = report_mod.build(rep_ds, cal, method, info, refit, opts)
         rep.fit_time_s = elapsed
         cal.report = rep.to_dict()
     return cal, rep

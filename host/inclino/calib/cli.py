@@ -30,6 +30,10 @@ def calibrate_main(args) -> int:
         from inclino.calfile import Calibration
 
         opts["prior"] = Calibration.load(args.prior)
+    if getattr(args, "temperature", None) is not None:
+        if args.method != "joint":
+            raise DataError("--temperature is an option of --method joint")
+        opts["temperature"] = args.temperature
     if getattr(args, "bootstrap", None) is not None:
         if args.bootstrap < 2:
             raise DataError("--bootstrap must be >= 2")
@@ -41,11 +45,16 @@ def calibrate_main(args) -> int:
     cal.save(args.output)
     if args.json:
         print(json.dumps({"output": args.output, "method": cal.method, "probe_serial": cal.probe_serial,
-                          "data": cal.data, "report": rep.to_dict()}, indent=2))
+                          "data": cal.data, "report": rep.to_dict(),
+                          **({"temperature": cal.temperature} if cal.temperature else {})}, indent=2))
     else:
         print(f"{args.output}: {cal.method} calibration of probe {cal.probe_serial or '(no serial)'} "
               f"from {args.input} (sha256 {cal.data['sha256'][:16]}...)")
         print(rep.summary())
+        if cal.temperature:
+            from .thermal import summary
+
+            print(summary(cal.temperature))
     return 0 if rep.passed else 1
 
 
@@ -59,6 +68,9 @@ def add_parser(subparsers):
     c.add_argument("--no-poses", action="store_true",
                    help="joint: ignore the pose columns (field recalibration from the invariants)")
     c.add_argument("--prior", help="joint without poses: keep this calibration's body frame")
+    c.add_argument("--temperature", choices=("auto", "on", "off"), default=None,
+                   help="joint: fit the temperature terms (auto, the default: when the run's temperatures determine "
+                        "them; on: or refuse; off: never)")
     c.add_argument("--bootstrap", type=int, help="paper methods: refits for the uncertainty (default 40)")
     c.set_defaults(func=calibrate_main)
     return c

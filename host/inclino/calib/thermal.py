@@ -1,0 +1,475 @@
+"""Temperature terms of the joint calibration (`inclino calibrate --method
+joint --temperature auto|on|off`, docs/calibration.md).
+
+The model is the emulator's (inclino_emu.effects: BiasTempco, ScaleTempco,
+to_reference_temperature; one definition of each effect): per axis of each
+triad, bias and scale are polynomials of order K <= 2 in dT = T - t_ref,
+
+    bias(T)  = c1 dT + c2 dT^2                       (g or nT)
+    scale(T) = 1e-6 (p1 dT + p2 dT^2)                (relative)
+    raw_ref  = b + (raw - b - bias(T)) / (1 + scale(T))
+
+and the reading brought to t_ref goes through the joint model (corrected =
+M (raw_ref [+ q raw_ref^2 / S] - b), the scale nonlinearity q when the joint
+fit used it).  With turntable poses, the temperature coefficients (12 K),
+M, b, the dip (and q) are fitted together by generalised least squares with
+joint's whitening (sensor noise through M, turntable readout through the pose
+Jacobian), on the rows joint kept.  The order K (0, 1 or 2) is chosen by
+5-fold cross-validation (held-out whitened chi^2 per row): the lowest order
+whose score is within one standard error of the best.  The calibration
+written (M, b) is the probe at t_ref (the best linear one over the working
+range when q is fitted, as joint does); the terms go to CAL.json's
+"temperature" block with their 1-sigma and covariance.  The firmware does
+not apply them (its image has no place for them yet): the report gives the
+azimuth and inclination error over the run's temperature range with and
+without them, on the Li 2021 grid, for the fitted probe.
+
+The terms are determined when the run spans at least MIN_SPAN_C, the
+normal matrix is regular, and (for K = 2) the temperatures fall in at least
+three clusters MIN_CLUSTER_SEP_C apart.  --temperature on refuses otherwise
+(CalibrationError, exit 3, with the reason); auto fits only then.
+"""
+from __future__ import annotations
+
+import numpy as np
+from scipy import optimize, stats
+
+from inclino import reference as ref
+from inclino.dataset import RawDataset
+from inclino.errors import CalibrationError, DataError
+
+from . import common
+
+MODES = ("auto", "on", "off")
+MIN_SPAN_C = 10.0
+MIN_CLUSTER_SEP_C = 5.0
+MIN_CLUSTER_ROWS = 6
+MAX_ORDER = 2
+CV_FOLDS = 5
+DEFAULT_T_REF_C = 25.0
+
+
+def _effects():
+    from inclino_emu import effects as fx  # the one definition of the temperature effects
+
+    return fx
+
+
+# ---------------------------------------------------------------- the terms
+def empty_terms(order: int) -> dict:
+    z = [[0.0] * 3 for _ in range(order)]
+    return {tri: {"bias": [list(r) for r in z], "scale_ppm": [list(r) for r in z]} for tri in ("acc", "mag")}
+
+
+def _theta_to_terms(theta, order: int) -> dict:
+    t = np.asarray(theta, float).reshape(2, 2, order, 3) if order else np.zeros((2, 2, 0, 3))
+    return {tri: {"bias": t[i, 0].tolist(), "scale_ppm": t[i, 1].tolist()} for i, tri in enumerate(("acc", "mag"))}
+
+
+def tempcos(block: dict, tri: str):
+    """(BiasTempco, ScaleTempco) of one triad from a CAL.json temperature block."""
+    fx = _effects()
+    t = block[tri]
+    K = int(block["order"])
+    b = np.zeros((2, 3))
+    s = np.zeros((2, 3))
+    b[:K] = np.asarray(t["bias"], float).reshape(K, 3)
+    s[:K] = np.asarray(t["scale_ppm"], float).reshape(K, 3)
+    tr = float(block["t_ref_c"])
+    return fx.BiasTempco(b[0], tr, b[1]), fx.ScaleTempco(s[0], tr, s[1])
+
+
+def to_reference(acc, mag, temp_c, cal, block: dict):
+    """The readings brought to the block's t_ref with the calibration's
+    biases as the scale terms' pivot (effects.to_reference_temperature)."""
+    fx = _effects()
+    out = []
+    for tri, raw, b in (("acc", acc, cal.acc_b), ("mag", mag, cal.mag_b)):
+        bt, st = tempcos(block, tri)
+        out.append(fx.to_reference_temperature(raw, temp_c, b, bt, st))
+    return out[0], out[1]
+
+
+def corrected_dataset(ds: RawDataset, cal, block: dict) -> RawDataset:
+    """ds with its sensor columns brought to t_ref (rows without temp_c unchanged)."""
+    acc, mag = to_reference(ds.acc, ds.mag, ds.columns["temp_c"], cal, block)
+    cols = {k: v.copy() for k, v in ds.columns.items()}
+    for k, c in enumerate(("ax_g", "ay_g", "az_g")):
+        cols[c] = acc[:, k]
+    for k, c in enumerate(("mx_nT", "my_nT", "mz_nT")):
+        cols[c] = mag[:, k]
+    return RawDataset(cols, dict(ds.meta))
+
+
+# ---------------------------------------------------------------- the fit
+class _Problem:
+    """The whitened residuals of the joint model with temperature terms."""
+
+    def __init__(self, ds, rows, w, nonlinear, dip0, fix_dip, Linv, t_ref):
+        self.C = common.pose_matrices(ds)[rows]
+        self.acc, self.mag = ds.acc[rows], ds.mag[rows]
+        self.T = ds.columns["temp_c"][rows]
+        self.dT = self.T - t_ref
+        self.F, self.dec, self.G = w["field_nT"], w["declination_deg"], w["gravity_g"]
+        self.g = self.C @ ref.gravity_ned(self.G)
+        self.nonlinear, self.fix_dip, self.dip0 = nonlinear, fix_dip, dip0
+        self.Linv = Linv[rows]
+        self.nbase = 24 + (6 if nonlinear else 0) + (0 if fix_dip else 1)
+        self.t_ref = t_ref
+
+    def unpack(self, x, order):
+        Ma, ca = x[0:9].reshape(3, 3), x[9:12]
+        Mm, cm = x[12:21].reshape(3, 3), x[21:24]
+        k = 24
+        qa = qm = np.zeros(3)
+        if self.nonlinear:
+            qa, qm = x[24:27], x[27:30]
+            k = 30
+        dip = self.dip0 if self.fix_dip else x[k]
+        th = np.asarray(x[self.nbase:], float).reshape(2, 2, order, 3)
+        return Ma, ca, Mm, cm, qa, qm, dip, th
+
+    def _ref(self, raw, b, th_tri, order):
+        """raw_ref = b + (raw - b - bias(T)) / (1 + scale(T)): effects.to_reference_temperature's equation."""
+        dT = self.dT[:, None]
+        bias = np.zeros_like(raw)
+        scale = np.zeros_like(raw)
+        p = np.ones_like(dT)
+        for k in range(order):
+            p = p * dT
+            bias = bias + th_tri[0, k] * p
+            scale = scale + 1e-6 * th_tri[1, k] * p
+        return b + (raw - b - bias) / (1.0 + scale)
+
+    def residuals(self, x, order, rows=None):
+        Ma, ca, Mm, cm, qa, qm, dip, th = self.unpack(x, order)
+        ba = np.linalg.solve(Ma, ca)
+        bm = np.linalg.solve(Mm, cm)
+        ua = self._ref(self.acc, ba, th[0], order)
+        um = self._ref(self.mag, bm, th[1], order)
+        ua = ua + qa * ua * ua / self.G
+        um = um + qm * um * um / self.F
+        f = self.C @ ref.field_ned(self.F, dip, self.dec)
+        r = np.concatenate([ua @ Ma.T - ca - self.g, um @ Mm.T - cm - f], -1)
+        r = np.einsum("nij,nj->ni", self.Linv, r)
+        return r if rows is None else r[rows]
+
+    def solve(self, x0, order, rows, loss="linear"):
+        res = optimize.least_squares(lambda x: self.residuals(x, order)[rows].ravel(), x0,
+                                     method="lm" if loss == "linear" else "trf", loss=loss, f_scale=3.0,
+                                     x_scale="jac")
+        return res
+
+
+def _levels(T: np.ndarray) -> int:
+    """Distinct temperature levels MIN_CLUSTER_SEP_C apart (greedy from the
+    coldest), each holding MIN_CLUSTER_ROWS readings: what an order-2 term needs
+    three of (a continuous ramp counts as many)."""
+    t = np.sort(T)
+    start, lvl = 0, 0
+    while start < len(t):
+        end = int(np.searchsorted(t, t[start] + MIN_CLUSTER_SEP_C))
+        if end - start >= MIN_CLUSTER_ROWS:
+            lvl += 1
+        start = max(end, start + 1)
+    return lvl
+
+
+def determined(T, max_order: int = MAX_ORDER) -> tuple[int, str]:
+    """(highest order the temperatures can determine, the reason it is not
+    higher)."""
+    T = np.asarray(T, float)
+    span = float(T.max() - T.min()) if T.size else 0.0
+    if span < MIN_SPAN_C:
+        return 0, (f"the run spans {span:.1f} degC ({T.min():.1f} to {T.max():.1f}); the temperature terms "
+                   f"need at least {MIN_SPAN_C:g} degC")
+    if max_order >= 2 and _levels(T) < 3:
+        return 1, (f"fewer than three temperature levels {MIN_CLUSTER_SEP_C:g} degC apart with "
+                   f">= {MIN_CLUSTER_ROWS} readings each: no second-order term")
+    return max_order, ""
+
+
+def _start(cal, info, w, nonlinear):
+    nl = info.get("nonlinear")
+    if nonlinear and nl is not None:
+        Ma, ba = np.asarray(nl["model_acc_m"]), np.asarray(nl["model_acc_b"])
+        Mm, bm = np.asarray(nl["model_mag_m"]), np.asarray(nl["model_mag_b"])
+        q = np.concatenate([np.asarray(nl["acc_q_per_g"]) * w["gravity_g"], np.asarray(nl["mag_q_per_nT"]) * w["field_nT"]])
+    else:
+        Ma, ba = np.asarray(cal.acc_m), np.asarray(cal.acc_b)
+        Mm, bm = np.asarray(cal.mag_m), np.asarray(cal.mag_b)
+        q = np.zeros(0)
+    return np.concatenate([Ma.ravel(), Ma @ ba, Mm.ravel(), Mm @ bm, q])
+
+
+def _cv(prob: _Problem, x_full: dict, rows: np.ndarray, rng) -> dict:
+    """Held-out whitened chi^2 per row for each order, CV_FOLDS folds of `rows`."""
+    folds = np.array_split(rng.permutation(rows), CV_FOLDS)
+    out = {}
+    for order, x0 in x_full.items():
+        scores = []
+        for f in folds:
+            train = np.setdiff1d(rows, f)
+            res = prob.solve(x0, order, train)
+            r = prob.residuals(res.x, order)[f]
+            scores.append((r ** 2).sum(-1))
+        s = np.concatenate(scores)
+        out[order] = {"cv_chi2_per_row": float(s.mean()), "se": float(s.std(ddof=1) / np.sqrt(len(s)))}
+    return out
+
+
+def _cov_24(x, prob: _Problem, order, J, s2, w):
+    """Covariance of the written (M, b) [and dip], and of the temperature
+    coefficients, from the GLS covariance of x."""
+    from . import joint
+
+    JtJ = J.T @ J
+    d = np.sqrt(np.diag(JtJ))  # the parameters' units differ by decades: condition of the scaled matrix
+    if not np.all(np.isfinite(d)) or np.any(d == 0):
+        raise CalibrationError("the poses at the run's temperatures do not separate the temperature terms "
+                               "(a parameter has no effect on the readings)")
+    N = JtJ / np.outer(d, d)
+    cond = float(np.linalg.cond(N))
+    if not np.isfinite(cond) or cond > 1e12:
+        raise CalibrationError("the poses at the run's temperatures do not separate the temperature terms "
+                               f"(singular fit, scaled condition number {cond:.3g})")
+    cov = s2 * np.linalg.inv(N) / np.outer(d, d)
+    nb = prob.nbase
+    dip_i = None if prob.fix_dip else nb - 1
+    if prob.nonlinear:
+        Ma, ca, Mm, cm, qa, qm, dip, _ = prob.unpack(x, order)
+        x31 = np.concatenate([x[:30], [dip]])
+        lin = joint.best_linear(x31, prob.F, prob.dec, prob.G)
+        Jb = joint.best_linear_jacobian(x31, prob.F, prob.dec, prob.G)  # (24, 31)
+        if prob.fix_dip:
+            Jb = Jb[:, :30]
+        T = np.zeros((24 + (0 if prob.fix_dip else 1), len(x)))
+        T[:24, :Jb.shape[1]] = Jb
+        if dip_i is not None:
+            T[24, dip_i] = 1.0
+        covc = T @ cov @ T.T
+    else:
+        lin = None
+        T = np.zeros((24 + (0 if prob.fix_dip else 1), len(x)))
+        for off in (0, 12):
+            M = x[off:off + 9].reshape(3, 3)
+            Minv = np.linalg.inv(M)
+            b = Minv @ x[off + 9:off + 12]
+            T[off:off + 9, off:off + 9] = np.eye(9)
+            for i in range(3):
+                for j in range(3):
+                    E = np.zeros((3, 3))
+                    E[i, j] = 1.0
+                    T[off + 9:off + 12, off + 3 * i + j] = -Minv @ (E @ b)
+            T[off + 9:off + 12, off + 9:off + 12] = Minv
+        if dip_i is not None:
+            T[24, dip_i] = 1.0
+        covc = T @ cov @ T.T
+    return covc, cov[nb:, nb:], lin, cond
+
+
+def _probe_readings(x, prob: _Problem, order, poses, temps):
+    """Noise-free raw readings of the fitted probe at `poses` and each of
+    `temps`: the reference reading from the joint model, then the
+    temperature effects forward (effects' chain order)."""
+    from . import joint
+
+    fx = _effects()
+    Ma, ca, Mm, cm, qa, qm, dip, th = prob.unpack(x, order)
+    x31 = np.concatenate([x[:24], qa, qm, [dip]])
+    acc0, mag0 = joint.nonlinear_readings(x31, poses, prob.F, prob.dec, prob.G)
+    out = []
+    for t in temps:
+        pair = []
+        for raw0, M, c, tri in ((acc0, Ma, ca, 0), (mag0, Mm, cm, 1)):
+            b = np.linalg.solve(M, c)
+            c1 = th[tri, 0, 0] if order >= 1 else np.zeros(3)
+            c2 = th[tri, 0, 1] if order >= 2 else np.zeros(3)
+            p1 = th[tri, 1, 0] if order >= 1 else np.zeros(3)
+            p2 = th[tri, 1, 1] if order >= 2 else np.zeros(3)
+            bt = fx.BiasTempco(c1, 0.0, c2)
+            st = fx.ScaleTempco(p1, 0.0, p2)
+            dT = t - prob.t_ref
+            pair.append(b + (raw0 - b) * st.factor(dT, raw0) + bt.offset(dT, raw0))
+        out.append(pair)
+    return out, dip
+
+
+def _errors_over_range(cal, block, x, prob, order, w):
+    """Azimuth (I >= 5) and inclination RMS on the Li 2021 grid at
+    temperatures across the run's range, for the fitted probe: the
+    calibration with its temperature terms and without (M, b only)."""
+    from .runs import li2021_grid
+
+    I, A, T = li2021_grid((0.0, 120.0, 240.0))
+    lo, hi = float(prob.T.min()), float(prob.T.max())
+    tr = float(block["t_ref_c"])
+    temps = np.round(np.linspace(lo, hi, 5), 2)
+    temps = np.sort(np.concatenate([temps[np.abs(temps - tr) >= 1.0], [tr]]))
+    readings, dip = _probe_readings(x, prob, order, (I, A, T), temps)
+    rows = []
+    ok = (I >= 5.0) & (I <= 175.0)
+    for t, (acc, mag) in zip(temps, readings):
+        res = {"temp_c": float(t)}
+        for name, (a_in, m_in) in (("with", to_reference(acc, mag, np.full(len(acc), t), cal, block)),
+                                   ("without", (acc, mag))):
+            att = ref.attitude(ref.correct(a_in, cal.acc_m, cal.acc_b), ref.correct(m_in, cal.mag_m, cal.mag_b))
+            da = ref.angle_diff(att["azi"], A)[ok]
+            di = att["inc"] - I
+            res[f"azi_rms_{name}_deg"] = float(np.sqrt(np.mean(da ** 2)))
+            res[f"inc_rms_{name}_deg"] = float(np.sqrt(np.mean(di ** 2)))
+        rows.append(res)
+    return rows
+
+
+def fit(ds: RawDataset, cal, info: dict, mode: str, sigma_acc: float, sigma_mag: float, sigma_pose_deg: float,
+        fix_dip: bool = False, seed: int = 20261123):
+    """The temperature terms on top of a joint fit (cal, info from
+    joint.fit).  Returns (cal, info) updated, or unchanged (with a note)
+    when the mode is off or auto finds them not determined."""
+    from . import joint
+
+    if mode not in MODES:
+        raise DataError(f"--temperature must be one of {', '.join(MODES)}")
+    if mode == "off":
+        return cal, info
+    if "temp_c" not in ds.columns:
+        if mode == "on":
+            raise DataError("joint --temperature on: the data have no temp_c column")
+        return cal, info
+    if info.get("mode") != "poses":
+        if mode == "on":
+            raise DataError("joint --temperature on needs the turntable poses (inc_deg, azi_deg, tf_deg)")
+        return cal, info
+    T_all = np.asarray(ds.columns["temp_c"], float)
+    if not np.all(np.isfinite(T_all)):
+        raise DataError("temp_c holds non-finite values")
+    # every row: joint's outlier rejection saw the temperature effects as outliers
+    rows = np.arange(len(ds))
+    max_order, why = determined(T_all[rows])
+    if max_order == 0:
+        if mode == "on":
+            raise CalibrationError(f"joint --temperature on: the temperature terms are not determined: {why}")
+        info["notes"].append(f"temperature terms not fitted ({why})")
+        return cal, info
+    w = common.world_of(ds)
+    lo, hi = float(T_all[rows].min()), float(T_all[rows].max())
+    t_ref = DEFAULT_T_REF_C if lo <= DEFAULT_T_REF_C <= hi else float(np.round(np.median(T_all[rows]), 1))
+    nonlinear = "nonlinear" in info
+    dip0 = float(info["dip_deg"])
+    poses = tuple(ds.columns[c] for c in ("inc_deg", "azi_deg", "tf_deg"))
+    Jp = joint._pose_jacobian(*poses, w["field_nT"], dip0, w["declination_deg"], w["gravity_g"])
+    x_base = _start(cal, info, w, nonlinear)
+    Ma0, Mm0 = x_base[0:9].reshape(3, 3), x_base[12:21].reshape(3, 3)
+    Linv = joint._whiteners(Ma0, Mm0, Jp, sigma_acc, sigma_mag, sigma_pose_deg)
+    prob = _Problem(ds, rows, w, nonlinear, dip0, fix_dip, Linv, t_ref)
+    x0 = np.concatenate([x_base, [] if fix_dip else [dip0]])
+    allrows = np.arange(len(rows))
+    # robust pass with the highest order: soft-L1 loss, then the rows whose
+    # whitened squared residual passes the chi-square 99.9 % point are kept
+    # (joint's rule), for every order
+    th = np.zeros(12 * max_order)
+    r0 = prob.solve(np.concatenate([x0, th]), max_order, allrows, loss="soft_l1")
+    d2 = (prob.residuals(r0.x, max_order) ** 2).sum(-1)
+    keep = np.flatnonzero(d2 <= stats.chi2.ppf(0.999, 6))
+    if len(keep) < joint.MIN_ROWS_POSES:
+        raise CalibrationError("joint: too many readings rejected as outliers to fit the temperature terms")
+    sols = {}
+    x_full = {}
+    for order in range(0, max_order + 1):
+        th = np.zeros((2, 2, order, 3))  # layout (triad, effect, power, axis)
+        if order >= 1:  # from the lower order's solution
+            prev = x_full[order - 1]
+            th[:, :, :order - 1] = prev[prob.nbase:].reshape(2, 2, order - 1, 3)
+            base = prev[:prob.nbase]
+        else:
+            base = x0
+        res = prob.solve(np.concatenate([base, th.ravel()]), order, keep)
+        sols[order] = res
+        x_full[order] = res.x
+    cv = _cv(prob, x_full, keep, np.random.default_rng(seed))
+    best = min(cv, key=lambda k: cv[k]["cv_chi2_per_row"])
+    chosen = min(k for k in cv if cv[k]["cv_chi2_per_row"] <= cv[best]["cv_chi2_per_row"] + cv[best]["se"])
+    if chosen == 0:
+        if mode == "on":
+            chosen = 1  # asked for: the first order, with its covariance (cross-validation did not prefer it)
+        else:
+            info["notes"].append("temperature terms not fitted: cross-validation prefers none "
+                                 + ", ".join(f"order {k}: {v['cv_chi2_per_row']:.3f}" for k, v in cv.items())
+                                 + " (held-out chi^2 per row)")
+            info["temperature_cv"] = cv
+            return cal, info
+    res = sols[chosen]
+    x = res.x
+    J = res.jac
+    dof = max(1, J.shape[0] - J.shape[1])
+    s2 = float((res.fun ** 2).sum()) / dof
+    try:
+        cov_c, cov_th, lin, cond = _cov_24(x, prob, chosen, J, s2, w)
+    except CalibrationError as e:
+        if mode == "on":
+            raise CalibrationError(f"joint --temperature on: {e}")
+        info["notes"].append(f"temperature terms not fitted ({e})")
+        return cal, info
+    Ma, ca, Mm, cm, qa, qm, dip, th = prob.unpack(x, chosen)
+    if lin is not None:
+        new = common.make_cal(lin[0:9].reshape(3, 3), lin[9:12], lin[12:21].reshape(3, 3), lin[21:24], "joint", ds)
+    else:
+        new = common.make_cal(Ma, np.linalg.solve(Ma, ca), Mm, np.linalg.solve(Mm, cm), "joint", ds)
+    sig = np.sqrt(np.clip(np.diag(cov_th), 0.0, None)).reshape(2, 2, chosen, 3)
+    block = {
+        "model": ("raw_ref = b + (raw - b - bias(T)) / (1 + scale(T)), bias = sum_k bias[k] dT^(k+1), "
+                  "scale = 1e-6 sum_k scale_ppm[k] dT^(k+1), dT = T - t_ref_c; then corrected = M (raw_ref - b) "
+                  "(inclino_emu.effects.to_reference_temperature)"),
+        "t_ref_c": t_ref, "order": int(chosen), "span_c": [lo, hi],
+        **_theta_to_terms(th.ravel(), chosen),
+        "sigma": _theta_to_terms(sig.ravel(), chosen),
+        "covariance": cov_th.tolist(),
+        "units": {"acc": "bias g/degC^k, scale ppm/degC^k", "mag": "bias nT/degC^k, scale ppm/degC^k"},
+        "cross_validation": {str(k): v for k, v in cv.items()},
+        "applied_by_firmware": False,
+    }
+    block["error_over_range"] = _errors_over_range(new, block, x, prob, chosen, w)
+    new.temperature = block
+    info = dict(info)
+    info["dip_deg"] = float(dip)
+    info["covariance"] = cov_c[:24, :24]
+    info["s2"], info["dof"], info["chi2"] = s2, dof, float((res.fun ** 2).sum())
+    info["normal_matrix_cond"] = cond
+    info["rows_used"] = keep
+    info["outliers"] = np.setdiff1d(np.arange(len(ds)), keep).tolist()
+    info["notes"] = [f"mode {info['mode']}; s^2 = {s2:.3g} (chi^2/dof with the temperature terms; 1 when the noise "
+                     "model is right)" if n.startswith("mode ") else n for n in info["notes"]]
+    if not fix_dip:
+        info["dip_sigma_deg"] = float(np.sqrt(cov_c[24, 24]))
+    worst = max(block["error_over_range"], key=lambda r: r["azi_rms_without_deg"])
+    info["notes"] = list(info["notes"]) + [
+        f"temperature terms fitted, order {chosen} about {t_ref:g} degC over {lo:.1f} to {hi:.1f} degC "
+        f"(cross-validation, held-out chi^2 per row: "
+        + ", ".join(f"order {k} {v['cv_chi2_per_row']:.3f}" for k, v in cv.items())
+        + f"); the residuals are of the readings brought to {t_ref:g} degC; at {worst['temp_c']:g} degC the "
+        f"azimuth RMS is {worst['azi_rms_with_deg']:.4f} deg with them, {worst['azi_rms_without_deg']:.4f} without "
+        "(Li grid); the firmware applies M, b only (the terms are in CAL.json's temperature block)"]
+    info["report_dataset"] = corrected_dataset(ds, new, block)
+    return new, info
+
+
+def summary(block: dict) -> str:
+    """Text lines for `inclino calibrate`'s output."""
+    lines = [f"  temperature terms: order {block['order']} about {block['t_ref_c']:g} degC, run "
+             f"{block['span_c'][0]:.1f} to {block['span_c'][1]:.1f} degC (not applied by the firmware)"]
+    for tri, ub, in (("acc", 1e6), ("mag", 1.0)):
+        unit = "ug" if tri == "acc" else "nT"
+        for k in range(block["order"]):
+            b = np.asarray(block[tri]["bias"][k]) * ub
+            sb = np.asarray(block["sigma"][tri]["bias"][k]) * ub
+            s = np.asarray(block[tri]["scale_ppm"][k])
+            ss = np.asarray(block["sigma"][tri]["scale_ppm"][k])
+            pw = "" if k == 0 else "^2"
+            lines.append(f"    {tri} bias {', '.join(f'{v:.3g}+-{e:.2g}' for v, e in zip(b, sb))} {unit}/degC{pw}; "
+                         f"scale {', '.join(f'{v:.3g}+-{e:.2g}' for v, e in zip(s, ss))} ppm/degC{pw}")
+    lines.append("    Li grid, fitted probe: " + "; ".join(
+        f"{r['temp_c']:g} degC azimuth RMS {r['azi_rms_with_deg']:.4f} with / {r['azi_rms_without_deg']:.4f} "
+        f"without, inclination {r['inc_rms_with_deg']:.4f} / {r['inc_rms_without_deg']:.4f} deg"
+        for r in block["error_over_range"]))
+    return "\n".join(lines)
