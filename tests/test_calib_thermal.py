@@ -1,0 +1,156 @@
+"""joint --temperature: the temperature terms fitted from a chamber run of a
+probe whose tempcos are drawn at test time (size and axis unknown to the
+test), checked on the true probe at -5, 25 and 55 degC through the host's
+correction; order choice; refusals; the CLI and CAL.json."""
+import copy
+import json
+
+import numpy as np
+import pytest
+
+from inclino import cli, dataset
+from inclino import reference as ref
+from inclino.acquire import procedure_steps
+from inclino.calfile import Calibration
+from inclino.calib import fit, runs, thermal
+from inclino.errors import CalibrationError
+from inclino_emu.scenario import generate_raw, load_scenario
+
+POSES = procedure_steps("twelve-position") + procedure_steps("multi-position", points=0)[12:22]  # Li 12 + Ren 10
+
+
+def chamber_run(sc, setpoints=(-5.0, 25.0, 55.0), ramp=(-5.0, 55.0), seed=0):
+    """Li's and Ren's positions at each set point (the probe within 0.5 degC
+    of it) and four poses at temperatures through the ramps; temp_c as the
+    ADIS16210 reports it (0.47 degC counts)."""
+    rng = np.random.default_rng(seed)
+    I, A, T, temp = [], [], [], []
+    for sp in setpoints:
+        for s in POSES:
+            I.append(s.inc), A.append(s.azi), T.append(s.tf), temp.append(sp + rng.uniform(-0.5, 0.5))
+    if ramp:
+        for t in np.linspace(ramp[0], ramp[1], 20):
+            for s in POSES[:4]:
+                I.append(s.inc), A.append(s.azi), T.append(s.tf), temp.append(t)
+    temp = (1331 - np.round(1331 - np.array(temp) / 0.47)) * 0.47
+    ds = generate_raw(sc, np.array(I), np.array(A), np.array(T), temp_c=temp, seed=seed)
+    ds.meta["dip_deg"] = 60.0
+    return ds
+
+
+def drawn_probe(rng, second_order=True):
+    sc = load_scenario("typical").draw_tempcos(int(rng.integers(1 << 30)))
+    k = float(rng.uniform(0.5, 2.0))  # sizes unknown to the test
+    for tri in ("acc", "mag"):
+        m = getattr(sc, tri)
+        m.bias_tempco.c = m.bias_tempco.c * k
+        m.scale_tempco.ppm = m.scale_tempco.ppm * k
+        if not second_order:
+            m.bias_tempco.c2 = np.zeros(3)
+            m.scale_tempco.ppm2 = np.zeros(3)
+    return sc
+
+
+def grid_attitude(sc, cal, temp, with_terms):
+    """The attitude on the Li grid of the TRUE probe (noise-free) at temp,
+    corrected by cal (and its temperature terms, on the host)."""
+    s = copy.deepcopy(sc)
+    s.acc.noise = None
+    s.mag.noise = None
+    I, A, T = runs.li2021_grid((0.0, 120.0, 240.0))
+    ds = generate_raw(s, I, A, T, temp_c=temp)
+    acc, mag = ds.acc, ds.mag
+    if with_terms:
+        acc, mag = thermal.to_reference(acc, mag, np.full(len(acc), temp), cal, cal.temperature)
+    return ref.attitude(ref.correct(acc, cal.acc_m, cal.acc_b), ref.correct(mag, cal.mag_m, cal.mag_b)), I
+
+
+def temperature_effect(sc, cal, temp, with_terms):
+    """RMS change of azimuth (I >= 5) and inclination between 25 degC and
+    temp, same calibration: what the temperature still moves the answer by."""
+    a25, I = grid_attitude(sc, cal, 25.0, with_terms)
+    a, _ = grid_attitude(sc, cal, temp, with_terms)
+    ok = I >= 5.0
+    return (float(np.sqrt(np.mean(ref.angle_diff(a["azi"], a25["azi"])[ok] ** 2))),
+            float(np.sqrt(np.mean((a["inc"] - a25["inc"]) ** 2))))
+
+
+def test_hidden_tempcos_are_recovered_and_meet_the_target_at_every_temperature():
+    rng = np.random.default_rng()
+    sc = drawn_probe(rng)
+    ds = chamber_run(sc, seed=int(rng.integers(1 << 30)))
+    cal, rep = fit(ds, "joint", temperature="on")
+    blk = cal.temperature
+    assert blk is not None and blk["order"] in (1, 2) and blk["t_ref_c"] == 25.0
+    assert blk["applied_by_firmware"] is False
+    # the coefficients against the hidden truth, in units of their own 1-sigma
+    # (plus the error TEMP_OUT's 0.47 degC counts leave, 10 %)
+    for tri in ("acc", "mag"):
+        m = getattr(sc, tri)
+        true = {"bias": [m.bias_tempco.c, m.bias_tempco.c2], "scale_ppm": [m.scale_tempco.ppm, m.scale_tempco.ppm2]}
+        for eff in ("bias", "scale_ppm"):
+            for k in range(blk["order"]):
+                got = np.asarray(blk[tri][eff][k])
+                sig = np.asarray(blk["sigma"][tri][eff][k])
+                err = np.abs(got - true[eff][k])
+                assert np.all(err <= 6 * sig + 0.1 * np.abs(true[eff][k])), (tri, eff, k, got, true[eff][k], sig)
+    # on the true probe, at -5 and 55 degC: what the temperature still moves
+    # the attitude by with the terms (the terms' own uncertainty: about
+    # 0.006-0.02 deg azimuth with this run), against without them
+    for t in (-5.0, 55.0):
+        wa, wi = temperature_effect(sc, cal, t, True)
+        na, ni = temperature_effect(sc, cal, t, False)
+        assert wa <= 0.04 and wi <= 0.01, (t, wa, wi)
+        assert wa < 0.3 * na and wi < 0.3 * ni, (t, wa, na, wi, ni)
+    # the report's own figures over the range say the same of the fitted probe
+    r = {row["temp_c"]: row for row in blk["error_over_range"]}
+    assert r[25.0]["azi_rms_with_deg"] == pytest.approx(r[25.0]["azi_rms_without_deg"])
+    assert rep.passed, rep.reasons
+
+
+def test_linear_probe_gets_a_first_order_model():
+    rng = np.random.default_rng()
+    sc = drawn_probe(rng, second_order=False)
+    ds = chamber_run(sc, seed=int(rng.integers(1 << 30)))
+    cal, _ = fit(ds, "joint", temperature="auto")
+    cv = cal.temperature["cross_validation"]
+    assert cal.temperature["order"] == 1, cv
+    assert set(cv) == {"0", "1", "2"}
+    assert cv["0"]["cv_chi2_per_row"] > cv["1"]["cv_chi2_per_row"]
+
+
+def test_a_short_span_is_refused_when_asked_and_skipped_in_auto(tmp_path, capsys):
+    rng = np.random.default_rng()
+    sc = drawn_probe(rng)
+    ds = chamber_run(sc, setpoints=(23.5, 26.5), ramp=None, seed=int(rng.integers(1 << 30)))
+    with pytest.raises(CalibrationError, match="spans 2.*degC|spans 3.*degC"):
+        fit(ds, "joint", temperature="on")
+    cal, rep = fit(ds, "joint")  # auto
+    assert cal.temperature is None and any("temperature terms not fitted" in n for n in rep.notes)
+    path = tmp_path / "short.csv"
+    dataset.write_raw(str(path), ds)
+    out = tmp_path / "cal.json"
+    rc = cli.main(["calibrate", str(path), "--method", "joint", "--temperature", "on", "-o", str(out)])
+    err = capsys.readouterr().err
+    assert rc == 3 and "not determined" in err and err.count("\n") == 1 and not out.exists()
+    rc = cli.main(["calibrate", str(path), "--method", "li2021", "--temperature", "on", "-o", str(out)])
+    assert rc == 2 and "--temperature" in capsys.readouterr().err
+
+
+def test_cli_writes_the_temperature_block_and_it_round_trips(tmp_path, capsys):
+    rng = np.random.default_rng()
+    sc = drawn_probe(rng)
+    ds = chamber_run(sc, seed=int(rng.integers(1 << 30)))
+    path = tmp_path / "chamber.csv"
+    dataset.write_raw(str(path), ds)
+    out = tmp_path / "cal.json"
+    rc = cli.main(["calibrate", str(path), "--method", "joint", "-o", str(out), "--json"])
+    o = json.loads(capsys.readouterr().out)
+    assert rc == 0 and o["temperature"]["order"] in (1, 2)
+    c = Calibration.load(str(out))
+    assert c.temperature == json.loads(out.read_text())["temperature"] and c.temperature["span_c"][1] > 50
+    rc = cli.main(["calibrate", str(path), "--method", "joint", "--temperature", "off", "-o", str(out)])
+    text = capsys.readouterr().out
+    assert "temperature" not in json.loads(out.read_text()) and "temperature terms" not in text
+    # off: the readings at -5 and 55 degC look like outliers to the 12-parameter model
+    assert rc == 1
