@@ -154,3 +154,24 @@ def test_cli_writes_the_temperature_block_and_it_round_trips(tmp_path, capsys):
     assert "temperature" not in json.loads(out.read_text()) and "temperature terms" not in text
     # off: the readings at -5 and 55 degC look like outliers to the 12-parameter model
     assert rc == 1
+
+
+def test_diagnose_no_longer_names_the_temperature_effects_the_terms_corrected(tmp_path, capsys):
+    rng = np.random.default_rng()
+    sc = drawn_probe(rng)
+    ds = chamber_run(sc, seed=int(rng.integers(1 << 30)))
+    path, cal_path = tmp_path / "run.csv", tmp_path / "cal.json"
+    dataset.write_raw(str(path), ds)
+    assert cli.main(["calibrate", str(path), "--method", "joint", "--temperature", "on", "-o", str(cal_path)]) == 0
+    capsys.readouterr()
+    named = {}
+    for extra in ([], ["--cal", str(cal_path)]):
+        assert cli.main(["diagnose", str(path), "--json"] + extra) == 0
+        named[bool(extra)] = {e["name"] for e in json.loads(capsys.readouterr().out)["effects"]}
+    assert {"temperature-bias", "temperature-scale"} & named[False]
+    assert not {"temperature-bias", "temperature-scale"} & named[True], named[True]
+    # a calibration without temperature terms is bad input for --cal
+    plain = tmp_path / "plain.json"
+    Calibration().save(str(plain))
+    assert cli.main(["diagnose", str(path), "--cal", str(plain)]) == 2
+    assert "no temperature terms" in capsys.readouterr().err

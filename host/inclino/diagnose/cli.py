@@ -1,9 +1,10 @@
-"""`inclino diagnose DATA.csv [--json] [--plot DIR]` and `--paper li2021|ren2014`.
+"""`inclino diagnose DATA.csv [--json] [--plot DIR] [--cal CAL.json]` and `--paper li2021|ren2014`.
 
 Exit status: 0 the diagnosis ran (whatever it found); 2 bad input
 (DataError: unreadable file, no pose columns, too few poses, poses that
 cannot separate the effects asked about, a temperature that never changes
-when a temperature effect is asked about).  Errors are one line, never a
+when a temperature effect is asked about, a --cal without temperature
+terms).  Errors are one line, never a
 traceback."""
 from __future__ import annotations
 
@@ -34,6 +35,8 @@ def diagnose_main(args) -> int:
     from .analysis import diagnose
 
     ds = dataset.read_raw(args.input)
+    if getattr(args, "cal", None):
+        ds = _temperature_corrected(ds, args.cal)
     try:
         with np.errstate(all="ignore"):
             r = diagnose(ds, effects=args.effects, alpha=args.alpha, folds=args.folds,
@@ -55,6 +58,28 @@ def diagnose_main(args) -> int:
     return 0
 
 
+def _temperature_corrected(ds, path):
+    """The readings brought to the calibration's reference temperature with
+    its temperature terms (CAL.json's temperature block, joint --temperature):
+    what the diagnosis then sees is what those terms leave."""
+    from inclino.calfile import Calibration
+    from inclino.calib import thermal
+    from inclino.errors import CalibrationError
+
+    try:
+        cal = Calibration.load(path)
+    except CalibrationError as e:
+        raise DataError(str(e))
+    if not cal.temperature:
+        raise DataError(f"{path} has no temperature terms (fit them with calibrate --method joint --temperature)")
+    if "temp_c" not in ds.columns:
+        raise DataError("--cal: the data have no temp_c column to apply the temperature terms with")
+    try:
+        return thermal.corrected_dataset(ds, cal, cal.temperature)
+    except (KeyError, TypeError, ValueError) as e:
+        raise DataError(f"{path}: the temperature block is mangled ({e})")
+
+
 def add_parser(subparsers):
     from . import EFFECT_NAMES
 
@@ -67,6 +92,9 @@ def add_parser(subparsers):
     p.add_argument("--alpha", type=float, default=0.01,
                    help="false-alarm level: the chance of naming an effect on data without any (default 0.01)")
     p.add_argument("--folds", type=int, default=5, help="cross-validation folds (default 5)")
+    p.add_argument("--cal", metavar="CAL.json",
+                   help="first bring the readings to the reference temperature with this calibration's "
+                        "temperature terms (joint --temperature): diagnose what they leave")
     p.add_argument("--paper", choices=PAPERS,
                    help="instead of a dataset: the papers' measured tables against the simulation (docs/diagnose.md)")
     p.set_defaults(func=diagnose_main)
