@@ -33,8 +33,8 @@ import sys
 import time
 from dataclasses import dataclass
 
-from inclino.acquire import (AcquireResult, Step, Unsettled, _bar, _RowWriter, _wrap, describe, mean_row,
-                             procedure_steps, read_stable, set_average)
+from inclino.acquire import (AcquireResult, Step, Unsettled, _bar, _RowWriter, _wrap, mean_row, procedure_steps,
+                             read_stable, set_average)
 from inclino.errors import DataError
 
 # Poses held through the ramps: each sensor axis down and up in turn, at
@@ -219,4 +219,4 @@ def acquire_temperature(link, out_path: str, table, plan: ThermalPlan, *, tol=No
     return res
 
 
-__all__ = ["RAMP_POSES", "ThermalPlan", "acquire_temperature", "parse_temperatures", "settled", "describe"]
+__all__ = ["RAMP_POSES", "ThermalPlan", "acquire_temperature", "parse_temperatures", "settled"]

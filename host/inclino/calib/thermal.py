@@ -56,11 +56,6 @@ def _effects():
 
 
 # ---------------------------------------------------------------- the terms
-def empty_terms(order: int) -> dict:
-    z = [[0.0] * 3 for _ in range(order)]
-    return {tri: {"bias": [list(r) for r in z], "scale_ppm": [list(r) for r in z]} for tri in ("acc", "mag")}
-
-
 def _theta_to_terms(theta, order: int) -> dict:
     t = np.asarray(theta, float).reshape(2, 2, order, 3) if order else np.zeros((2, 2, 0, 3))
     return {tri: {"bias": t[i, 0].tolist(), "scale_ppm": t[i, 1].tolist()} for i, tri in enumerate(("acc", "mag"))}
@@ -130,16 +125,15 @@ class _Problem:
         return Ma, ca, Mm, cm, qa, qm, dip, th
 
     def _ref(self, raw, b, th_tri, order):
-        """raw_ref = b + (raw - b - bias(T)) / (1 + scale(T)): effects.to_reference_temperature's equation."""
-        dT = self.dT[:, None]
-        bias = np.zeros_like(raw)
-        scale = np.zeros_like(raw)
-        p = np.ones_like(dT)
-        for k in range(order):
-            p = p * dT
-            bias = bias + th_tri[0, k] * p
-            scale = scale + 1e-6 * th_tri[1, k] * p
-        return b + (raw - b - bias) / (1.0 + scale)
+        """raw brought to t_ref: effects.to_reference_temperature with the
+        triad's (bias, scale) coefficients th_tri (2, order, 3)."""
+        if order == 0:
+            return raw
+        fx = _effects()
+        z = np.zeros(3)
+        bt = fx.BiasTempco(th_tri[0, 0], self.t_ref, th_tri[0, 1] if order > 1 else z)
+        st = fx.ScaleTempco(th_tri[1, 0], self.t_ref, th_tri[1, 1] if order > 1 else z)
+        return fx.to_reference_temperature(raw, self.T, b, bt, st)
 
     def residuals(self, x, order, rows=None):
         Ma, ca, Mm, cm, qa, qm, dip, th = self.unpack(x, order)
