@@ -21,8 +21,9 @@ POSES = procedure_steps("twelve-position") + procedure_steps("multi-position", p
 
 def chamber_run(sc, setpoints=(-5.0, 25.0, 55.0), ramp=(-5.0, 55.0), seed=0):
     """Li's and Ren's positions at each set point (the probe within 0.5 degC
-    of it) and four poses at temperatures through the ramps; temp_c as the
-    ADIS16210 reports it (0.47 degC counts)."""
+    of it) and four poses at temperatures through the ramps; the readings at
+    the true temperature, temp_c as the ADIS16210 reports it (0.47 degC
+    counts)."""
     rng = np.random.default_rng(seed)
     I, A, T, temp = [], [], [], []
     for sp in setpoints:
@@ -32,8 +33,9 @@ def chamber_run(sc, setpoints=(-5.0, 25.0, 55.0), ramp=(-5.0, 55.0), seed=0):
         for t in np.linspace(ramp[0], ramp[1], 20):
             for s in POSES[:4]:
                 I.append(s.inc), A.append(s.azi), T.append(s.tf), temp.append(t)
-    temp = (1331 - np.round(1331 - np.array(temp) / 0.47)) * 0.47
+    temp = np.array(temp)
     ds = generate_raw(sc, np.array(I), np.array(A), np.array(T), temp_c=temp, seed=seed)
+    ds.columns["temp_c"] = (1331 - np.round(1331 - temp / 0.47)) * 0.47  # what the probe reports
     ds.meta["dip_deg"] = 60.0
     return ds
 

@@ -5,6 +5,8 @@ table."""
 import json
 import re
 
+import numpy as np
+
 from inclino import cli
 
 
@@ -37,3 +39,17 @@ def test_demo_core_keeps_the_poses_table(capsys):
     assert cli.main(["demo", "--core", "--dip", "45"]) == 0
     out = capsys.readouterr().out
     assert "dip 45 deg" in out and " 90.0    0.0  180.0 |" in out and "near-vertical" in out
+
+
+def test_temperature_demo_fits_the_terms_of_an_emulated_chamber_run(tmp_path):
+    """`inclino demo --temperature`'s steps, with two set points to keep it short."""
+    from inclino import demo_temp
+    from inclino.calfile import Calibration
+
+    said = []
+    r = demo_temp.run(str(tmp_path), tempco_draw=int(np.random.default_rng().integers(1000)),
+                      setpoints=(10.0, 40.0), quiet=True, say=said.append)
+    assert r["passed"] and r["temperature"]["order"] in (1, 2) and r["gain"] >= 10.0
+    assert Calibration.load(str(tmp_path / "cal_temperature.json")).temperature["t_ref_c"] == 25.0
+    assert r["diagnose_temperature_effects"]["as acquired"]           # the run shows them ...
+    assert any(s.startswith("[4/4]") for s in said) and said[-1].startswith("Summary: order")

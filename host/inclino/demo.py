@@ -229,6 +229,11 @@ def _cmd_demo(args) -> int:
     if args.core:
         print(render(run(field_nT=args.field, dip_deg=args.dip)))
         return 0
+    if args.temperature:  # the temperature step (demo_temp.py)
+        from inclino import demo_temp
+
+        r = demo_temp.run(args.out, tempco_draw=args.tempco_draw, seed=args.seed, quiet=args.quiet)
+        return 0 if r["passed"] and r["gain"] >= 10.0 else 1
     res = bench(args.out, scenario=args.scenario, seed=args.seed, quiet=args.quiet)
     print(summary(res))
     ok = res.verify_ok and all(a.passed for a in res.accept.values())
@@ -247,4 +252,8 @@ def add_parser(sub) -> None:
                    help="instead: attitude of a table of poses through the firmware C, next to float64")
     d.add_argument("--field", type=float, default=50000.0, help="--core: field total, nT (default 50000)")
     d.add_argument("--dip", type=float, default=60.0, help="--core: dip, degrees (default 60)")
+    d.add_argument("--temperature", action="store_true",
+                   help="instead: the temperature step (chamber run, temperature terms, diagnose before/after)")
+    d.add_argument("--tempco-draw", type=int, default=1, help="--temperature: the probe's tempcos drawn with "
+                                                              "this seed (default 1)")
     d.set_defaults(func=_cmd_demo)
