@@ -249,6 +249,22 @@ def to_reference_temperature(y, temp_c, bias, bias_tempco: Optional[BiasTempco] 
     return b + u
 
 
+def from_reference_temperature(y_ref, temp_c, bias, bias_tempco: Optional[BiasTempco] = None,
+                               scale_tempco: Optional[ScaleTempco] = None):
+    """to_reference_temperature's forward direction: the reading at temp_c
+    of a sensor that reads y_ref at the reference temperature,
+
+        y = b + (y_ref - b) scale_tempco_factor(T) + bias_tempco(T)."""
+    y_ref = np.asarray(y_ref, dtype=float)
+    b = np.asarray(bias, dtype=float)
+    u = y_ref - b
+    if scale_tempco is not None:
+        u = u * scale_tempco.factor(temp_c, y_ref)
+    if bias_tempco is not None:
+        u = u + bias_tempco.offset(temp_c, y_ref)
+    return b + u
+
+
 @dataclass
 class ScaleNonlinearity:
     """Second-order scale nonlinearity per axis.

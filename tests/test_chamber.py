@@ -135,6 +135,7 @@ def test_tempco_polynomials_and_their_inverse():
     y = chain.deterministic(v, T)
     y_ref = chain.deterministic(v, 25.0)
     assert np.allclose(fx.to_reference_temperature(y, T, b, bt, st), y_ref, atol=1e-6)
+    assert np.allclose(fx.from_reference_temperature(y_ref, T, b, bt, st), y, atol=1e-6)
 
 
 def test_tempco_draws_follow_the_spread():

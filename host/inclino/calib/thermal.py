@@ -281,10 +281,9 @@ def _probe_readings(x, prob: _Problem, order, poses, temps):
             c2 = th[tri, 0, 1] if order >= 2 else np.zeros(3)
             p1 = th[tri, 1, 0] if order >= 1 else np.zeros(3)
             p2 = th[tri, 1, 1] if order >= 2 else np.zeros(3)
-            bt = fx.BiasTempco(c1, 0.0, c2)
-            st = fx.ScaleTempco(p1, 0.0, p2)
-            dT = t - prob.t_ref
-            pair.append(b + (raw0 - b) * st.factor(dT, raw0) + bt.offset(dT, raw0))
+            bt = fx.BiasTempco(c1, prob.t_ref, c2)
+            st = fx.ScaleTempco(p1, prob.t_ref, p2)
+            pair.append(fx.from_reference_temperature(raw0, t, b, bt, st))
         out.append(pair)
     return out, dip
 
