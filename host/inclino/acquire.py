@@ -544,7 +544,7 @@ def add_parser(sub) -> None:
     p.add_argument("--field", type=float, help="field total, nT, for the header (the bench reports its own)")
     p.add_argument("--dip", type=float, help="magnetic dip, deg, for the header")
     p.add_argument("--declination", type=float, help="declination, deg, for the header")
-    t = p.add_argument_group("temperature procedure (docs/calibration.md)")
+    t = p.add_argument_group("temperature procedure (docs/bench.md)")
     t.add_argument("--temperatures", default="-5,25,55", help="chamber set points, degC (default -5,25,55)")
     t.add_argument("--poses", default="twelve-position", choices=("twelve-position", "multi-position"),
                    help="the pose set taken at each set point (default twelve-position)")
