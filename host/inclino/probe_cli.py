@@ -161,10 +161,15 @@ def _cmd_download(args) -> int:
     if args.json:
         print(r.to_json())
     else:
-        notes = ([f"{r.retries} link retr{'y' if r.retries == 1 else 'ies'}"] if r.retries else []) + r.events
-        print(f"downloaded: slot {r.slot}, sequence {r.sequence}, image CRC {r.image_crc:04X}"
-              + (" (" + "; ".join(notes) + ")" if notes else ""))
+        print(download_line(r))
     return 0
+
+
+def download_line(r) -> str:
+    """The one line `inclino download` prints for a DownloadResult."""
+    notes = ([f"{r.retries} link retr{'y' if r.retries == 1 else 'ies'}"] if r.retries else []) + r.events
+    return (f"downloaded: slot {r.slot}, sequence {r.sequence}, image CRC {r.image_crc:04X}"
+            + (" (" + "; ".join(notes) + ")" if notes else ""))
 
 
 def _cmd_verify(args) -> int:
