@@ -44,6 +44,7 @@ LINES_PER_POLL = 32       # requests handled per client per poll
 REQUESTS_PER_POLL = 256   # requests handled per poll over all clients (taken in turn)
 ACCEPT_PER_POLL = 64
 RECV_SIZE = 16384
+SOCK_SNDBUF = 16384       # kernel send buffer asked for each client's socket
 
 
 class RequestError(ValueError):
@@ -246,6 +247,10 @@ class ControlServer:
             except OSError:
                 return
             conn.setblocking(False)
+            try:   # bound what the kernel holds for a client that does not read
+                conn.setsockopt(socket.SOL_SOCKET, socket.SO_SNDBUF, SOCK_SNDBUF)
+            except OSError:
+                pass
             if len(self._clients) >= MAX_CLIENTS:
                 self.stats["refused"] += 1
                 try:
