@@ -431,3 +431,44 @@ def test_download_messages(capsys):
         calops.download(Link(), cal)
     assert "a coefficient outside the range the probe accepts" in str(ei.value)
     assert "check code" not in str(ei.value)
+
+
+def test_the_bootloader_itself_refuses_an_entry_outside_the_ranges(tmp_path):
+    """COMMIT with the entry in the bootloader or outside every range is
+    refused (E_ARGUMENT), nothing committed; a descriptor whose entry lies
+    outside its ranges is not valid (the probe stays in its bootloader)."""
+    import struct
+    import zlib
+
+    from inclino_emu.probe import BOOT_DESC_ADDR, EmulatedProbe, factory_app_image
+    from bootimg import decode_descriptor
+
+    with Emulator("ideal", control_port=0, realtime=False) as emu:
+        img = factory_app_image()
+        with ProbeLink(emu.path, timeout=0.5) as link:
+            link.request(0x21, struct.pack(">I", 0x424F4F54))          # BOOTLOADER
+            time.sleep(0.1)
+            rng = struct.pack(">III", 0x7C0000, len(img), zlib.crc32(img))
+            for entry in (0x7FF000, 0x7C0000 + len(img), 0x700000, 0xFFFFFFFF):
+                with pytest.raises(Exception) as ei:
+                    link.request(0x45, struct.pack(">IB", entry, 1) + rng)
+                assert getattr(ei.value, "code", None) == 5, (hex(entry), ei.value)
+            assert decode_descriptor(emu.probe.flash)["entry"] == 0x7C0000   # the factory one, untouched
+            link.request(0x45, struct.pack(">IB", 0x7C0010, 1) + rng)         # inside: committed
+            assert decode_descriptor(emu.probe.flash)["entry"] == 0x7C0010
+    # a descriptor written with an entry outside its range (not by COMMIT): not valid
+    from inclino_emu.hal import ffi, lib
+    from inclino_emu.probe import BOOT_COMMIT_OFFSET, FACTORY_APP_ADDR
+
+    for entry, mode in ((0x7FF000, "boot"), (0x7C0000 + len(img), "boot"), (0x7C0000 + 8, "app")):
+        p = EmulatedProbe("ideal", boot=False, factory_app=False)
+        a = ffi.new("boot_app_t *")
+        a.entry, a.count = entry, 1
+        a.range[0].addr, a.range[0].len, a.range[0].crc = FACTORY_APP_ADDR, len(img), zlib.crc32(img)
+        hdr, commit = ffi.new("uint8_t[120]"), ffi.new("uint8_t[8]")
+        n = lib.boot_desc_build(a, hdr, commit)
+        p.flash.load(FACTORY_APP_ADDR, img)
+        p.flash.load(BOOT_DESC_ADDR, bytes(hdr)[:n])
+        p.flash.load(BOOT_DESC_ADDR + BOOT_COMMIT_OFFSET, bytes(commit))
+        p.boot()
+        assert p.mode == mode, hex(entry)
