@@ -659,9 +659,11 @@ def _write_readback(fl: _Flasher, image: Image, path: str):
 
 # ---- the command ------------------------------------------------------------------------------
 def _tqdm_progress():
-    """One progress bar per phase on stderr (tqdm turns itself off when
-    stderr is not a terminal)."""
+    """One progress bar per phase on stderr (tqdm); off a terminal, a line
+    per phase at its start, every progress_lines.EVERY_S and at its end."""
     from tqdm import tqdm
+
+    from inclino.progress_lines import LineProgress
 
     bars = {}
 
@@ -671,8 +673,11 @@ def _tqdm_progress():
             for b in bars.values():
                 b.close()
             unit = "sector" if phase == "erase" else "B"
-            bar = bars[phase] = tqdm(total=total, desc=phase, unit=unit, unit_scale=(unit == "B"),
-                                     leave=True, disable=None, file=sys.stderr)
+            if sys.stderr.isatty():
+                bar = bars[phase] = tqdm(total=total, desc=phase, unit=unit, unit_scale=(unit == "B"),
+                                         leave=True, disable=None, file=sys.stderr)
+            else:   # periodic lines (a log, a CI job)
+                bar = bars[phase] = LineProgress(total, f"flash {phase}", unit)
         bar.update(done - bar.n)
 
     def close():
