@@ -136,6 +136,12 @@ def test_bootloader_image_is_placed_protected_and_refused_by_flash(build):
     vec = boot["bin"].as_binary(minimum_address=0x7FFFFA, maximum_address=0x800000)
     assert struct.unpack(">HHH", vec) == (boot["sym"]["_boot_reset"],) * 3
     assert boot["sym"]["boot_start_app"] >= 0xF000
+    # the BOOTLOADER request word is at the same RAM address in both images, outside what
+    # either start-up clears or copies
+    app = build["app"]["sym"]
+    assert boot["sym"]["boot_request"] == app["boot_request"] == 0x2000
+    for s in (boot["sym"], app):
+        assert s["__bss_start"] >= 0x2010 and s["__data_start"] >= 0x2010
 
 
 def _run_jump(code: bytes, pc0: int, mem: dict) -> tuple:
