@@ -11,7 +11,7 @@ import threading
 import time
 
 import pytest
-from hypothesis import HealthCheck, given, settings
+from hypothesis import HealthCheck, event, given, settings
 from hypothesis import strategies as st
 
 from inclino import calops, cli, flashing
@@ -33,11 +33,40 @@ json_values = st.recursive(
     st.none() | st.booleans() | st.integers() | st.floats(allow_nan=True, allow_infinity=True) | st.text(),
     lambda kids: st.lists(kids, max_size=4) | st.dictionaries(st.text(max_size=8), kids, max_size=4),
     max_leaves=20)
-commands = st.sampled_from(["move", "temperature", "truth", "faults", "power_cut", "power_cycle", "status",
-                            "nope", ""])
-arg_names = st.sampled_from(["inc", "azi", "tf", "temp_c", "bit_error_rate", "drop_rate", "dup_rate",
-                             "disconnected", "seed", "n", "mode", "x"])
-requests = st.builds(lambda c, kw: {"cmd": c, **kw}, commands, st.dictionaries(arg_names, json_values, max_size=4))
+hostile = st.one_of(st.none(), st.booleans(), st.text(max_size=5), st.lists(st.integers(), max_size=2),
+                    st.sampled_from([float("nan"), float("inf"), -float("inf"), 1e308, -1e308, 2**70]))
+
+
+def _num(lo, hi):
+    m = 0.1 * (hi - lo)
+    return st.one_of(st.floats(lo, hi), st.floats(lo - m, hi + m), st.integers(int(lo - m) - 1, int(hi + m) + 1),
+                     hostile)
+
+
+ARGS = {   # each command's own arguments: mostly near their range, sometimes hostile
+    "move": {"inc": _num(0, 180), "azi": _num(0, 360), "tf": _num(0, 360)},
+    "temperature": {"temp_c": st.one_of(_num(-55, 125), st.none())},
+    "truth": {}, "power_cycle": {}, "status": {},
+    "faults": {"bit_error_rate": _num(0, 1), "drop_rate": _num(0, 1), "dup_rate": _num(0, 1),
+               "disconnected": st.one_of(st.booleans(), st.booleans(), hostile),
+               "seed": st.one_of(st.integers(0, 1000), st.integers(-5, 2**64), hostile)},
+    "power_cut": {"n": st.one_of(st.integers(1, 100), st.integers(-3, 2_000_000), hostile),
+                  "mode": st.one_of(st.sampled_from(["random", "none", "full"]), st.sampled_from(["half", ""]),
+                                    hostile)},
+    "nope": {}, "": {},
+}
+
+
+@st.composite
+def requests(draw):
+    cmd = draw(st.sampled_from(sorted(ARGS)))
+    req = {"cmd": cmd}
+    for k, strat in ARGS[cmd].items():
+        if draw(st.integers(0, 9)) < 8:          # an argument is left out one time in five
+            req[k] = draw(strat)
+    if draw(st.integers(0, 19)) == 0:            # now and then an argument nobody takes
+        req[draw(st.text(max_size=6))] = draw(json_values)
+    return req
 
 
 def _as_line(obj) -> bytes:
@@ -68,13 +97,36 @@ def test_parser_any_bytes(data):
         req = parse_request(data)
     except RequestError as e:
         assert str(e)
+        event("refused")
     else:
+        event("parsed")
         assert isinstance(req, dict) and isinstance(req["cmd"], str)
+
+
+@settings(max_examples=EXAMPLES, deadline=None, suppress_health_check=[HealthCheck.too_slow])
+@given(requests(), st.lists(st.tuples(st.integers(0, 10**6), st.binary(max_size=3), st.integers(0, 3)), max_size=4),
+       st.sampled_from([b"", b"[" * 20000, b"{" * 17, b"\xc3", b"1" * 70000]))
+def test_parser_mutated_requests(req, edits, tail):
+    """Well-formed requests with bytes replaced, inserted or cut, and
+    hostile tails (deep nesting, a cut UTF-8 sequence, a huge number)."""
+    line = bytearray(_as_line(req))
+    for pos, data, cut in edits:
+        p = pos % (len(line) + 1)
+        line[p:p + cut] = data
+    line += tail
+    try:
+        r = parse_request(bytes(line))
+    except RequestError as e:
+        assert str(e) and len(str(e)) < 400
+        event("refused")
+    else:
+        assert isinstance(r["cmd"], str)
+        event("parsed")
 
 
 @settings(max_examples=EXAMPLES, deadline=None, suppress_health_check=[HealthCheck.too_slow,
                                                                       HealthCheck.function_scoped_fixture])
-@given(requests)
+@given(requests())
 def test_handlers_any_request(idle_emu, req):
     """Requests of the right shape with any values: an answer every time,
     and a refused request changes nothing (the pose, temperature and faults
@@ -85,6 +137,7 @@ def test_handlers_any_request(idle_emu, req):
         idle_emu.probe.flash.disarm()
     ans = h(_as_line(req))
     _check_answer(ans)
+    event(f"{req['cmd'] or '(empty)'} {'accepted' if ans['ok'] else 'refused'}")
     if not ans["ok"]:
         after = h(b'{"cmd": "truth"}'), h(b'{"cmd": "faults"}')
         assert after[0]["pose"] == before[0]["pose"] and after[1]["faults"] == before[1]["faults"]
