@@ -459,6 +459,8 @@ def test_noisy_and_silent_links_are_told_apart(emu):
 def test_verify_on_an_uncalibrated_probe_is_one_line(emu, tmp_path, capsys):
     cal = inverse_cal(emu.probe.scenario)
     cal.save(str(tmp_path / "cal.json"))
+    with ProbeLink(emu.path) as link, pytest.raises(Exception, match="at least 1 survey"):
+        calops.verify(link, cal, surveys=0)
     rc, out, _ = run(capsys, "verify", "--port", emu.path, str(tmp_path / "cal.json"))
     assert rc == 1 and out.count("\n") == 1 and "the probe has no calibration" in out
 

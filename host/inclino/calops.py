@@ -168,6 +168,10 @@ def survey_with_raw(link: ProbeLink) -> tuple[protocol.SurveyRecord, protocol.Ra
 
 
 def verify(link: ProbeLink, cal: Calibration, surveys: int = 3) -> VerifyResult:
+    if surveys < 1:   # 0 surveys would "pass" a correction nobody checked
+        from inclino.errors import DataError
+
+        raise DataError(f"verify needs at least 1 survey, not {surveys}")
     cal.check()
     fixed = cal.to_fixed()
     ident = link.identify()
