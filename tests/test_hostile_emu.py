@@ -441,7 +441,7 @@ def test_download_refuses_a_failed_report_unless_forced(emu, tmp_path, capsys):
 def test_noisy_and_silent_links_are_told_apart(emu):
     c = ControlClient(port=emu.control_port)
     try:
-        c.call("faults", bit_error_rate=0.01, seed=4)
+        c.call("faults", bit_error_rate=0.02, seed=4)
         with ProbeLink(emu.path, timeout=0.2, retries=2) as link:
             with pytest.raises(ProbeError) as ei:
                 link.identify()
