@@ -227,3 +227,41 @@ def test_application_image_flashes_onto_the_emulated_probe(build, capsys):
         assert d["entry"] == _global(build["app"]["sym"]["_app_start"])
         want = flashing.load_image(build["app"]["s19"])
         assert [(a, n) for a, n, _ in d["ranges"]] == [(r.addr, len(r.data)) for r in want.ranges]
+
+
+def _movb_writes(code: bytes) -> list:
+    """[(register, value, offset)] of every `movb #imm, ext` (18 0B ii hh ll)."""
+    out, i = [], 0
+    while True:
+        i = code.find(b"\x18\x0b", i)
+        if i < 0 or i + 5 > len(code):
+            return out
+        out.append((code[i + 3] << 8 | code[i + 4], code[i + 2], i))
+        i += 5
+
+
+@pytest.mark.parametrize("img, start", [("boot", "_boot_reset"), ("app", "_app_start")])
+def test_startup_clocks_the_bus_the_hal_assumes(build, img, start):
+    """SYNR, REFDV and POSTDIV as the start-up writes them give the bus
+    clock hal_s12x.c computes its SCI, SPI and timer dividers from, with
+    the VCO and reference ranges (VCOFRQ, REFFRQ) set for those frequencies;
+    the bus switches to the PLL only after LOCK."""
+    b = build[img]
+    a0 = _global(b["sym"][start])
+    code = b["bin"].as_binary(minimum_address=a0, maximum_address=a0 + 0x60)
+    w = {reg: (val, off) for reg, val, off in _movb_writes(code)}
+    hal = (PORT / "hal_s12x.c").read_text()
+    bus = int(re.search(r"#define S12X_BUS_HZ (\d+)UL", hal).group(1))
+    osc = int(re.search(r"#define S12X_OSC_HZ (\d+)UL", hal).group(1))
+    synr, refdv, postdiv = w[0x34][0], w[0x35][0], w[0x36][0]
+    f_ref = osc / ((refdv & 0x3F) + 1)
+    f_vco = 2 * f_ref * ((synr & 0x3F) + 1)
+    f_pll = f_vco if postdiv & 0x1F == 0 else f_vco / (2 * (postdiv & 0x1F))
+    assert f_pll / 2 == bus
+    assert (refdv >> 6) == (0 if f_ref <= 2e6 else 1 if f_ref <= 6e6 else 2 if f_ref <= 12e6 else 3)
+    assert 32e6 <= f_vco <= 120e6
+    assert (synr >> 6) == (0 if f_vco <= 48e6 else 1 if f_vco <= 80e6 else 3)   # 10 is reserved
+    lock = code.find(b"\x1f\x00\x37\x08")          # brclr CRGFLG, #LOCK, itself
+    assert lock > max(off for off in (w[0x34][1], w[0x35][1], w[0x36][1]))
+    assert code[lock + 4] == 0xFB                   # the branch goes back to itself
+    assert code.find(b"\x1c\x00\x39\x80") > lock    # bset CLKSEL, #PLLSEL after the lock

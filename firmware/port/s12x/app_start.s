@@ -21,6 +21,7 @@ _app_start:
         sei
         lds     #STACK_TOP
         movb    #APP_IVBR, IVBR ; the application's vectors from now on
+        PLL_TO_40MHZ            ; the 40 MHz bus the HAL's SCI, SPI and timer settings assume
         ; clear .bss
         ldx     #__bss_start
         ldd     #__bss_size

@@ -29,6 +29,7 @@ boot_request:
 _boot_reset:
         lds     #STACK_TOP
         movb    #0x00, COPCTL   ; COP off while the loader runs (README: COP policy)
+        PLL_TO_40MHZ            ; the 40 MHz bus the HAL's SCI, SPI and timer settings assume
         movb    #0xFF, IVBR     ; the loader's own vectors (the reset value; set again after a jump back)
         ; request = 1 if the application left "BOOT" in the no-init word, then clear it
         clrb
