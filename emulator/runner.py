@@ -120,7 +120,8 @@ class Emulator:
             return {"t": p.clock.now, "power_cuts": p.power_cuts, "restarts": p.restarts,
                     "boot_status": p.boot_status, "bytes_to_host": self.pty.bytes_to_host,
                     "bytes_to_probe": self.pty.bytes_to_probe, "tx_dropped": int(p.lib.app_main_tx_dropped()),
-                    "flash_ops": getattr(p.flash, "ops", None)}
+                    "flash_ops": getattr(p.flash, "ops", None),
+                    "control": {"clients": self.control.clients, **self.control.stats}}
 
         return {"move": move, "temperature": temperature, "truth": truth, "faults": faults,
                 "power_cut": power_cut, "power_cycle": power_cycle, "status": status}

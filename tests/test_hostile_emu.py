@@ -306,7 +306,8 @@ def test_a_client_that_does_not_read_is_dropped_not_waited_on():
                 break
         assert emu.control.stats["dropped_slow"] == 1
         c = ControlClient(port=emu.control_port, timeout=2)
-        assert c.call("status")["ok"]            # the others are served meanwhile
+        st_ = c.call("status")                   # the others are served meanwhile
+        assert st_["ok"] and st_["control"]["dropped_slow"] == 1 and st_["control"]["clients"] == 1
         with ProbeLink(emu.path, timeout=0.5) as link:
             assert link.identify().product == "INCLINO-PROBE"
         f.close()
