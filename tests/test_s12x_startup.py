@@ -39,13 +39,16 @@ def _run(*cmd):
     return r.stdout
 
 
-@pytest.fixture(scope="module")
-def build(tmp_path_factory):
-    _tools()
-    d = tmp_path_factory.mktemp("s12x")
+def _build(d: Path, edit=None) -> dict:
+    """Assemble and link both images in d; edit(name, text) -> text may
+    change a source first (the planted-error tests)."""
     objs = {}
     for name, src in (("boot_start", PORT / "boot_start.s"), ("app_start", PORT / "app_start.s"),
                       ("c", ROOT / "tests" / "s12x" / "c_standin.s")):
+        if edit is not None:
+            text = edit(name, src.read_text())
+            src = d / src.name
+            src.write_text(text)
         objs[name] = d / f"{name}.o"
         _run(AS, "-mm9s12x", f"-I{PORT}", "-o", str(objs[name]), str(src))
     out = {}
@@ -59,6 +62,12 @@ def build(tmp_path_factory):
             syms[name] = int(v, 16)
         out[img] = {"s19": str(s19), "bin": bincopy.BinFile(str(s19)), "sym": syms}
     return out
+
+
+@pytest.fixture(scope="module")
+def build(tmp_path_factory):
+    _tools()
+    return _build(tmp_path_factory.mktemp("s12x"))
 
 
 def _boot_h(name: str) -> int:
@@ -125,12 +134,8 @@ def test_bootloader_image_is_placed_protected_and_refused_by_flash(build):
         assert lo <= seg.minimum_address and seg.maximum_address <= hi
     with pytest.raises(DataError, match="inside the bootloader"):
         flashing.load_image(boot["s19"])
-    fcf = boot["bin"].as_binary(minimum_address=0x7FFF00, maximum_address=0x7FFF10)
-    fprot, fsec = fcf[0x0C], fcf[0x0F]
-    assert fprot & 0x80 and not fprot & 0x20          # FPOPEN: regions protected; FPHDIS = 0
-    assert fprot & 0x04                                # FPLDIS: no lower region
-    size = 2048 << ((fprot >> 3) & 3)                  # FPHS: 2, 4, 8 or 16 KiB at the top
-    assert (0x800000 - size, 0x800000) == (lo, hi)
+    assert _protected(boot) == [(lo, hi)]
+    fsec = boot["bin"].as_binary(minimum_address=0x7FFF0F, maximum_address=0x7FFF10)[0]
     assert fsec & 0x03 == 0x02                         # SEC = 10: unsecured
     assert boot["bin"].execution_start_address == _global(boot["sym"]["_boot_reset"])
     vec = boot["bin"].as_binary(minimum_address=0x7FFFFA, maximum_address=0x800000)
@@ -142,6 +147,19 @@ def test_bootloader_image_is_placed_protected_and_refused_by_flash(build):
     assert boot["sym"]["boot_request"] == app["boot_request"] == 0x2000
     for s in (boot["sym"], app):
         assert s["__bss_start"] >= 0x2010 and s["__data_start"] >= 0x2010
+
+
+def _protected(boot) -> list:
+    """The P-Flash regions FPROT (0x7FFF0C) protects: [(start, end)]."""
+    fprot = boot["bin"].as_binary(minimum_address=0x7FFF0C, maximum_address=0x7FFF0D)[0]
+    if not fprot & 0x80:                               # FPOPEN = 0: the regions are the unprotected ones
+        return [("inverted", fprot)]
+    out = []
+    if not fprot & 0x20:                               # FPHDIS = 0: higher region, 2-16 KiB at the top
+        out.append((0x800000 - (2048 << ((fprot >> 3) & 3)), 0x800000))
+    if not fprot & 0x04:                               # FPLDIS = 0: lower region from 0x7F8000
+        out.append((0x7F8000, 0x7F8000 + (2048 << (fprot & 3))))
+    return out
 
 
 def _run_jump(code: bytes, pc0: int, mem: dict) -> tuple:
@@ -196,7 +214,7 @@ def _run_jump(code: bytes, pc0: int, mem: dict) -> tuple:
 @pytest.mark.parametrize("entry, ppage, pc", [
     (0x7FC000, None, 0xC000), (0x7FEA12, None, 0xEA12),      # fixed page 0xFF
     (0x7F4123, None, 0x4123),                                 # fixed page 0xFD
-    (0x7C0010, 0xF0, 0x8010), (0x700008, 0xC0, 0x8008),       # through the PPAGE window
+    (0x7C0010, 0xF0, 0x8010), (0x7C4010, 0xF1, 0x8010), (0x700008, 0xC0, 0x8008),   # the PPAGE window
     (0x7FBFF8, 0xFE, 0xBFF8), (0x7A2000, 0xE8, 0xA000),
 ])
 def test_bootloader_jumps_to_the_descriptors_entry(build, entry, ppage, pc):
@@ -265,3 +283,17 @@ def test_startup_clocks_the_bus_the_hal_assumes(build, img, start):
     assert lock > max(off for off in (w[0x34][1], w[0x35][1], w[0x36][1]))
     assert code[lock + 4] == 0xFB                   # the branch goes back to itself
     assert code.find(b"\x1c\x00\x39\x80") > lock    # bset CLKSEL, #PLLSEL after the lock
+
+
+def test_the_checks_catch_planted_errors(tmp_path):
+    """A copy of the start-up with FPROT protecting 2 KiB, and one whose jump
+    keeps a bit of the page in the offset: the checks above fail on them."""
+    _tools()
+    bad = _build(tmp_path, lambda name, text: text.replace("        .dc.b   0xCF\n", "        .dc.b   0xC7\n")
+                 .replace("anda    #0x3F", "anda    #0x7F"))
+    assert _protected(bad["boot"]) == [(0x7FF800, 0x800000)] != [(_boot_h("BOOT_LOADER_START"), 0x800000)]
+    s = bad["boot"]["sym"]
+    code = bad["boot"]["bin"].as_binary(minimum_address=_global(s["boot_start_app"]),
+                                        maximum_address=_global(s["boot_start_app"]) + 64)
+    mem = {0xEC08 + i: v for i, v in enumerate(struct.pack(">I", 0x7C4010))}
+    assert _run_jump(code, s["boot_start_app"], mem) != (0xF1, 0x8010)
