@@ -178,12 +178,12 @@ def test_control_channel_chamber_and_advance(emu):
         assert st["chamber_c"] == 55.0 and st["probe_c"] == pytest.approx(55.0, abs=1e-6)
         for bad in ({"setpoint_c": float("nan")}, {"setpoint_c": "hot"}, {"setpoint_c": True},
                     {"setpoint_c": 1000.0}, {"setpoint_c": 30.0, "rate_c_per_min": -1.0},
-                    {"rate_c_per_min": 2.0}):
+                    {"rate_c_per_min": 2.0}, {"setpoint_c": 30.0, "ramp": 1}):
             r = ctl.call("chamber", **bad)
-            assert not r["ok"] and "chamber" in r["error"], bad
+            assert not r["ok"] and r["error"], bad
         for bad in ({"s": 0}, {"s": -5.0}, {"s": 1e9}, {"s": float("inf")}, {}):
             r = ctl.call("advance", **bad)
-            assert not r["ok"] and "advance" in r["error"], bad
+            assert not r["ok"] and r["error"], bad
         assert ctl.call("chamber")["setpoint_c"] == 55.0                # the refusals changed nothing
     finally:
         ctl.close()
