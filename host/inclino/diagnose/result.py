@@ -122,6 +122,14 @@ class Diagnosis:
                          f"{g.inc_rms_after_deg:.4f} deg"
                          + (f", azimuth {g.azi_rms_before_deg:.4f} -> {g.azi_rms_after_deg:.4f} deg"
                             if g.azi_rms_before_deg is not None else ""))
+        outl = b.get("outliers", {}).get("rows", [])
+        if outl:
+            lines.append(f"outlier rows set aside: {len(outl)} (row: channel, size in sigma)")
+            for o in outl[:20]:
+                lines.append(f"  row {o['row']}: {o['channel']} {o['sigma']:+.1f}"
+                             + "".join(f", {k} {v:+.1f}" for k, v in o["channels"].items() if k != o["channel"]))
+            if len(outl) > 20:
+                lines.append(f"  ... and {len(outl) - 20} more (--json lists them all)")
         for note in sel.get("notes", []):
             lines.append(f"  note: {note}")
         s = self.structure
