@@ -50,17 +50,25 @@ def truth(d, dip, theta, pose_offset=(0.0, 0.0, 0.0)):
                             _val(theta, "turntable-inclination-axis-skew:turntable:inc"))
     plain = geo.tilt_north_deg == 0 and geo.tilt_east_deg == 0 and geo.skew_deg == 0
     enc = EncoderErrors(off)
+    cache = d.__dict__.setdefault("_forward_cache", {})  # the pose matrices of the last few world states
 
-    def C_of(inc, azi, tf):
-        I, A, T = enc.true_pose(inc, azi, tf)
-        return ref.pose_matrix(I, A, T) if plain else geo.pose_matrix(I, A, T)
+    def C_of(inc, azi, tf, skew=0.0):
+        key = (tuple(off), geo.tilt_north_deg, geo.tilt_east_deg, geo.skew_deg, skew)
+        C = cache.get(key)
+        if C is None:
+            I, A, T = enc.true_pose(inc, azi, tf)
+            C = ref.pose_matrix(I, A, T) if plain else geo.pose_matrix(I, A, T)
+            if len(cache) > 64:
+                cache.clear()
+            cache[key] = C
+        return C
 
     C = C_of(d.inc, d.azi, d.tf)
     G = C @ ref.gravity_ned(d.gravity_g)
     skew = _val(theta, "sample-skew:mag:xyz")
     if skew != 0.0:
         p = np.column_stack([d.inc, d.azi, d.tf]) + d.rates * skew
-        Cm = C_of(p[:, 0], p[:, 1], p[:, 2])
+        Cm = C_of(p[:, 0], p[:, 1], p[:, 2], skew)
     else:
         Cm = C
     rates = [_val(theta, f"field-drift:field:{a}") for a in ("total", "dip", "declination")]
