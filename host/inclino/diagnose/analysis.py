@@ -10,7 +10,7 @@ from inclino import reference as ref
 from inclino.dataset import RawDataset
 from inclino.errors import DataError
 
-from . import core, forward, robust, study
+from . import core, forward, robust, selection, study
 from ._blas import one_blas_thread
 from .core import CHANNELS, EFFECT_NAMES, SEPARABLE_MIN, TRIAD_UNITS, TRIADS, Design
 from .result import Diagnosis, Effect, Gain
@@ -200,6 +200,7 @@ def _diagnose(ds, effects, alpha, folds, keep_plot_data) -> Diagnosis:
 
     S = base + [idx[k] for k in kept]
     est, se, s2 = des.coef(S)
+    best_subset = _best_subset(des, base, kept, testable, idx, alpha, fold_of)
     att = _Attitude(bl, ~out_rows)
     J = bl.Jpose
     ok = ~out_rows
@@ -283,7 +284,8 @@ def _diagnose(ds, effects, alpha, folds, keep_plot_data) -> Diagnosis:
                        "residual; noise re-estimated after each kept effect; backward pass at alpha"),
             "alpha": alpha, "folds": K, "tested": [c.key for c in testable],
             "not_testable": [{"effect": c.key, "reason": why} for c, why in not_testable],
-            "steps": steps, "final_noise": noise.to_dict(), "final_s2": s2, "notes": notes},
+            "steps": steps, "final_noise": noise.to_dict(), "final_s2": s2, "notes": notes,
+            "best_subset": best_subset},
         "structure": verdict,
     }
     out = Diagnosis(baseline=baseline, effects=effects_out, unexplained=verdict["unexplained"], structure=verdict)
@@ -291,6 +293,46 @@ def _diagnose(ds, effects, alpha, folds, keep_plot_data) -> Diagnosis:
         out.plot_data = {"effects": plot_effects, "baseline": _baseline_plot(d, bl, base_study, Rs_base)}
     out.elapsed_s = time.perf_counter() - t_start
     return out
+
+
+# --------------------------------------------------------------------------
+# the shared best-subset selection as a cross-check of the kept effects
+BEST_SUBSET_POOL = 8
+
+
+def _best_subset(des, base, kept, testable, idx, alpha, fold_of):
+    """The kept effects and the strongest other candidates (F-test p < alpha
+    against the final model, up to BEST_SUBSET_POOL in all) through
+    selection.select with the cross-validation folds as groups: the
+    baseline's 25 columns are projected out (whitened, on all rows), every
+    subset of the pool is scored by its K-fold held-out residual, the
+    procedure is cross-validated nested, and each kept effect gets the
+    drop-from-pool test.  None when nothing is kept or in the pool."""
+    S = base + [idx[k] for k in kept]
+    rest = sorted((des.ftest(S, [idx[c.key]])[0], c.key) for c in testable if c.key not in kept)
+    pool_keys = list(kept) + [k for p, k in rest if p < alpha][:max(0, BEST_SUBSET_POOL - len(kept))]
+    if not pool_keys:
+        return None
+    rows = np.repeat(des.rows, 6)
+    Xw = des.Xw.reshape(-1, des.Xw.shape[-1])[rows]
+    yw = des.yw.reshape(-1)[rows]
+    B = Xw[:, base]
+    C = Xw[:, [idx[k] for k in pool_keys]]
+    coef = np.linalg.lstsq(B, np.column_stack([C, yw]), rcond=None)[0]
+    R = np.column_stack([C, yw]) - B @ coef
+    groups = np.repeat(fold_of, 6)[rows]
+    pb = selection.Problem(R[:, :-1], R[:, -1], np.ones(len(yw)), pool_keys, groups)
+    s = selection.select(pb, max_terms=BEST_SUBSET_POOL, cv="group")
+    d = s.to_dict()
+    return {"method": "best subset of the pool (kept effects and the other candidates with p < alpha), scored by "
+                      "the K-fold held-out residual (whitened, baseline projected out), nested K-fold for the "
+                      "procedure, drop-from-pool test per kept effect (selection.py)",
+            "pool": d["pool"], "chosen": d["chosen"], "agrees_with_the_stepwise_choice": set(d["chosen"]) == set(kept),
+            "nested_cv_rms_whitened": d["nested_group_rms"],
+            "rivals": [r["terms"] for r in d["rivals"]],
+            "drop_tests": [{k: t[k] for k in ("term", "asked_for_by_the_data", "model_without_it",
+                                               "nested_loo_rms_without", "nested_loo_rms_with")}
+                           for t in d["drop_tests"]]}
 
 
 # --------------------------------------------------------------------------

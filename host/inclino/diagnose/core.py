@@ -288,11 +288,11 @@ def baseline_columns(d: Data, bl: Baseline) -> tuple[list, list]:
                 c = np.zeros((d.n, 6))
                 c[:, ch] = v[:, k]
                 cols.append(c)
-                names.append(f"{tri}_A{ax}{k}")
+                names.append(f"{tri} {'xyz'[ax]} gain on the true {'xyz'[k]}")
             c = np.zeros((d.n, 6))
             c[:, ch] = 1.0
             cols.append(c)
-            names.append(f"{tri}_c{ax}")
+            names.append(f"{tri} {'xyz'[ax]} offset")
     cols.append(dip_column(d, bl.A["mag"], bl.dip))
     names.append("dip")
     return cols, names
@@ -483,8 +483,10 @@ def _ml_variances(R, J, v0, q0, scale):
 
     theta0 = np.maximum(np.log(np.concatenate([v0, q0])), lo)
     try:
+        hi = np.log(np.concatenate([(10.0 * scale) ** 2, np.full(3, 100.0)]))  # <= 10x the RMS; <= 10 deg
+        theta0 = np.minimum(theta0, hi)
         res = optimize.minimize(nll, theta0, jac=True, method="L-BFGS-B",
-                                bounds=[(a, None) for a in lo], options={"maxiter": 200})
+                                bounds=list(zip(lo, hi)), options={"maxiter": 200})
         th = res.x
     except np.linalg.LinAlgError:
         th = theta0
@@ -661,9 +663,11 @@ def fit_baseline(d: Data, iterations: int = 3) -> tuple[Baseline, Noise]:
         rank = np.linalg.matrix_rank(des.G, tol=1e-9 * np.abs(des.G).max())
         if rank < X.shape[-1]:
             w, V = np.linalg.eigh(des.G)
-            worst = names[int(np.argmax(np.abs(V[:, 0])))]
+            v = np.abs(V[:, 0])
+            worst = [names[i] for i in np.argsort(v)[::-1] if v[i] >= 0.3 * v.max()][:3]
             raise DataError("poses cannot separate the baseline's 12 parameters per triad: the gravity or "
-                            f"field directions do not span three dimensions ({worst} is undetermined)")
+                            f"field directions do not span three dimensions ({' / '.join(worst)} "
+                            f"{'is' if len(worst) == 1 else 'are'} undetermined)")
         beta, _ = des.fit(np.arange(X.shape[-1]))
         beta = beta / des.colscale
         for ti, tri in enumerate(TRIADS):

@@ -180,10 +180,32 @@ def nested_loo_all(pb: Problem, pool: list, max_terms: int = MAX_TERMS):
     return run
 
 
-def search(pb: Problem, pool: list, max_terms: int = MAX_TERMS, forced: tuple = ()):
+def _group_batch(Xw, yw, subsets, groups):
+    """Weighted leave-one-group-out residuals (m, n) of every subset."""
+    n = len(yw)
+    m, k = subsets.shape
+    if k == 0:
+        return np.broadcast_to(yw, (m, n)).copy()
+    A = np.transpose(Xw[:, subsets], (1, 0, 2))  # (m, n, k)
+    out = np.zeros((m, n))
+    for g in np.unique(groups):
+        te = groups == g
+        At = A[:, ~te]
+        G = np.matmul(np.swapaxes(At, 1, 2), At)
+        ev = np.linalg.eigvalsh(G)
+        bad = ev[:, 0] <= np.maximum(ev[:, -1], 1e-300) / COND_MAX
+        G[bad] = np.eye(k)
+        b = np.linalg.solve(G, np.matmul(np.swapaxes(At, 1, 2), yw[~te][None, :, None]))
+        out[:, te] = yw[te][None, :] - np.matmul(A[:, te], b)[..., 0]
+        out[bad] = np.inf
+    return out
+
+
+def search(pb: Problem, pool: list, max_terms: int = MAX_TERMS, forced: tuple = (), cv: str = "loo"):
     """All subsets of the terms `pool` up to max_terms terms, plus the
     `forced` terms in every model.  Returns (subsets as tuples of terms,
-    weighted LOO residuals (m, n)), best first."""
+    weighted held-out residuals (m, n): leave-one-out, or leave-one-group-
+    out with cv='group'), best first."""
     Xw = pb.X * pb.w[:, None]
     yw = pb.y * pb.w
     n = len(yw)
@@ -198,11 +220,12 @@ def search(pb: Problem, pool: list, max_terms: int = MAX_TERMS, forced: tuple = 
     subs, errs = [], []
     for k, items in sorted(by_cols.items()):
         combos = np.array([cols for _, cols in items], int).reshape(len(items), k)
-        loo, _ = _loo_batch(Xw, yw, combos)
+        loo = _group_batch(Xw, yw, combos, pb.groups) if cv == "group" else _loo_batch(Xw, yw, combos)[0]
         subs += [S for S, _ in items]
         errs.append(loo)
     E = np.concatenate(errs, 0)
-    score = np.mean(E ** 2, 1)
+    with np.errstate(invalid="ignore", over="ignore"):
+        score = np.mean(E ** 2, 1)
     order = np.argsort(score, kind="stable")
     return [subs[i] for i in order], E[order]
 
@@ -237,7 +260,7 @@ def loo_cv(pb: Problem, S):
     return loo[0] / pb.w
 
 
-def nested(pb: Problem, pool, max_terms=MAX_TERMS, by="one", forced=()):
+def nested(pb: Problem, pool, max_terms=MAX_TERMS, by="one", forced=(), cv="loo"):
     """Nested CV residuals (n,) in y units of the procedure 'choose by
     best-subset LOO, then fit': held out one number at a time (by='one') or
     one group at a time (by='group'); also the model chosen each time."""
@@ -251,7 +274,7 @@ def nested(pb: Problem, pool, max_terms=MAX_TERMS, by="one", forced=()):
         else:
             m = pb.groups == key
         train = pb.subset(~m)
-        subs, _ = search(train, pool, max_terms, forced)
+        subs, _ = search(train, pool, max_terms, forced, cv)
         S = subs[0]
         beta, _, _ = fit(train, S)
         out[m] = pb.y[m] - (pb.X[m][:, pb.columns(S)] @ beta if len(S) else 0.0)
@@ -312,12 +335,16 @@ class Selection:
                                               "nested_models", "weights")}
 
 
-def select(pb: Problem, pool=None, max_terms=MAX_TERMS, drop_tests=True, units=None, max_rivals=12) -> Selection:
+def select(pb: Problem, pool=None, max_terms=MAX_TERMS, drop_tests=True, units=None, max_rivals=12,
+           cv: str = "loo") -> Selection:
     """Best-subset selection with rivals, nested CV and the drop-from-pool
-    test (see the module docstring).  units: name -> unit string."""
+    test (see the module docstring).  units: name -> unit string.
+    cv='group': every score is leave-one-group-out instead of leave-one-out
+    (large data sets: the groups are the cross-validation folds); the
+    nested_loo_rms fields then hold the nested leave-one-group-out."""
     pool = list(range(len(pb.terms))) if pool is None else list(pool)
     units = units or {}
-    subs, E = search(pb, pool, max_terms)
+    subs, E = search(pb, pool, max_terms, cv=cv)
     S = subs[0]
     beta, cov, r = fit(pb, S)
     se_best = E[0] ** 2
@@ -333,12 +360,19 @@ def select(pb: Problem, pool=None, max_terms=MAX_TERMS, drop_tests=True, units=N
             b, c, _ = fit(pb, subs[j])
             rivals.append({"terms": [pb.names[i] for i in subs[j]],
                            "estimates": estimates(pb, subs[j], b, c, units),
-                           "loo_rms": rms(loo_cv(pb, subs[j])),
+                           "loo_rms": rms(loo_cv(pb, subs[j])) if cv == "loo" else None,
                            "group_rms": rms(group_cv(pb, subs[j])) if pb.groups is not None else None,
                            "loo_ms_minus_chosen": diff, "one_se": se})
-    nested_run = nested_loo_all(pb, pool, max_terms)
+    if cv == "group":
+        def nested_run(p):
+            return nested(pb, p, max_terms, "group", cv="group")
+    else:
+        nested_run = nested_loo_all(pb, pool, max_terms)
     nl, chosen_l = nested_run(pool)
-    ng, chosen_g = nested(pb, pool, max_terms, "group") if pb.groups is not None else (None, None)
+    if cv == "group":
+        ng = nl
+    else:
+        ng, _ = nested(pb, pool, max_terms, "group") if pb.groups is not None else (None, None)
     freq = {}
     for Sx in chosen_l:
         key = " + ".join(pb.names[i] for i in Sx) or "(none)"
@@ -346,7 +380,7 @@ def select(pb: Problem, pool=None, max_terms=MAX_TERMS, drop_tests=True, units=N
     out = Selection(
         pool=[pb.names[i] for i in pool], chosen=[pb.names[i] for i in S],
         estimates=estimates(pb, S, beta, cov, units),
-        loo_rms=rms(loo_cv(pb, S)), group_rms=rms(group_cv(pb, S)) if pb.groups is not None else None,
+        loo_rms=rms(loo_cv(pb, S)) if cv == "loo" else None, group_rms=rms(group_cv(pb, S)) if pb.groups is not None else None,
         nested_loo_rms=rms(nl), nested_group_rms=rms(ng) if ng is not None else None, rivals=rivals,
         nested_models={"leave_one_out": dict(sorted(freq.items(), key=lambda t: -t[1]))})
     if drop_tests:
@@ -357,12 +391,12 @@ def select(pb: Problem, pool=None, max_terms=MAX_TERMS, drop_tests=True, units=N
             sq = (nl2 * pb.w) ** 2
             diff = float(np.mean(sq) - np.mean(base_sq))
             se = _paired_se(sq, base_sq)
-            subs2, _ = search(pb, p2, max_terms)
+            subs2, _ = search(pb, p2, max_terms, cv=cv)
             alt = subs2[0]
             out.drop_tests.append({
                 "term": pb.names[i], "nested_loo_rms_without": rms(nl2), "nested_loo_rms_with": rms(nl),
                 "ms_increase": diff, "one_se": se, "asked_for_by_the_data": bool(diff > se),
                 "model_without_it": [pb.names[j] for j in alt],
-                "model_without_it_loo_rms": rms(loo_cv(pb, alt)),
+                "model_without_it_loo_rms": rms(loo_cv(pb, alt)) if cv == "loo" else None,
                 "model_without_it_group_rms": rms(group_cv(pb, alt)) if pb.groups is not None else None})
     return out
