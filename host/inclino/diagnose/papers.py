@@ -398,8 +398,13 @@ def li2021() -> PaperReport:
     cands = candidates()
     y_a = chk_a.measured - pred_a
 
-    def colfn(ck, c):
-        return _column(ck, c, LI_FIELD_NT, LI_DIP_DEG, probe, calibrate="li2021")
+    col_cache = {}
+
+    def colfn(ck, c):  # the same column is asked for by every comparison and toolface scan
+        key = (float(ck.T[0]), c)
+        if key not in col_cache:
+            col_cache[key] = _column(ck, c, LI_FIELD_NT, LI_DIP_DEG, probe, calibrate="li2021")
+        return col_cache[key]
 
     ext_a = paperselect.select_terms(chk_a, y_a, cands, colfn, groups=chk_a.I)
     ext_a.update({"rows": "Li Tables 4+5 after correction", "baseline": "no error",

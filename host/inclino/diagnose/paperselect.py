@@ -161,8 +161,7 @@ def select_terms(chk, y, cands, colfn, max_terms=sel.MAX_TERMS, groups=None, sca
     chosen_idx = [pb.names.index(nm) for nm in s.chosen]
     beta, _, r = sel.fit(pb, chosen_idx)
     # acceptance: nested LOO against the no-error model, paired, in weighted squares
-    run = sel.nested_loo_all(pb, pool, max_terms)
-    nl, _ = run(pool)
+    nl = s.nested_residuals
     a, b = (nl * w) ** 2, (y * w) ** 2
     gain = float(np.mean(b) - np.mean(a))
     se = float(np.std(b - a, ddof=1) / np.sqrt(n)) if n > 1 else float("inf")

@@ -79,17 +79,14 @@ def _loo_batch(Xw, yw, subsets):
     norm = np.sqrt((A ** 2).sum(1))  # (m, k)
     bad = np.any(norm == 0, 1)
     A = A / np.where(norm == 0, 1.0, norm)[:, None, :]
-    G = np.matmul(np.swapaxes(A, 1, 2), A)
+    G = np.einsum("mnk,mnj->mkj", A, A, optimize=True)
     ev = np.linalg.eigvalsh(G)
     bad |= ev[:, 0] <= ev[:, -1] / COND_MAX
     G[bad] = np.eye(k)
     Gi = np.linalg.inv(G)
-    Aty = np.matmul(np.swapaxes(A, 1, 2), yw[None, :, None])  # (m, k, 1)
-    b = np.matmul(Gi, Aty)
-    r = yw[None, :] - np.matmul(A, b)[..., 0]
-    B = np.zeros_like(A)
-    for i in range(k):  # A @ Gi by broadcasting: numpy's batched matmul is slow for small k
-        B += A[:, :, i, None] * Gi[:, None, i, :]
+    b = np.einsum("mij,mnj,n->mi", Gi, A, yw, optimize=True)
+    r = yw[None, :] - np.einsum("mnk,mk->mn", A, b, optimize=True)
+    B = np.einsum("mnk,mkj->mnj", A, Gi, optimize=True)  # (numpy's batched matmul is slow for small k)
     h = (B * A).sum(-1)
     loo = r / np.maximum(1.0 - h, 1e-9)
     loo[bad] = np.inf
@@ -111,17 +108,15 @@ def _inner_press_batch(Xw, yw, subsets):
     norm = np.sqrt((A ** 2).sum(1))
     bad = np.any(norm == 0, 1)
     A = A / np.where(norm == 0, 1.0, norm)[:, None, :]
-    G = np.matmul(np.swapaxes(A, 1, 2), A)
+    G = np.einsum("mnk,mnj->mkj", A, A, optimize=True)
     ev = np.linalg.eigvalsh(G)
     bad |= ev[:, 0] <= ev[:, -1] / COND_MAX
     G[bad] = np.eye(k)
     Gi = np.linalg.inv(G)
-    B = np.zeros_like(A)
-    for i in range(k):
-        B += A[:, :, i, None] * Gi[:, None, i, :]
-    H = np.matmul(B, np.swapaxes(A, 1, 2))  # (m, n, n)
-    b = np.matmul(Gi, np.matmul(np.swapaxes(A, 1, 2), yw[None, :, None]))
-    r = yw[None, :] - np.matmul(A, b)[..., 0]
+    B = np.einsum("mnk,mkj->mnj", A, Gi, optimize=True)
+    H = np.einsum("mik,mjk->mij", B, A, optimize=True)  # (m, n, n)
+    b = np.einsum("mij,mnj,n->mi", Gi, A, yw, optimize=True)
+    r = yw[None, :] - np.einsum("mnk,mk->mn", A, b, optimize=True)
     h = np.diagonal(H, axis1=1, axis2=2)
     om = 1.0 - h  # (m, n)
     det = om[:, :, None] * om[:, None, :] - H ** 2  # [m, i, j]
@@ -191,12 +186,12 @@ def _group_batch(Xw, yw, subsets, groups):
     for g in np.unique(groups):
         te = groups == g
         At = A[:, ~te]
-        G = np.matmul(np.swapaxes(At, 1, 2), At)
+        G = np.einsum("mnk,mnj->mkj", At, At, optimize=True)
         ev = np.linalg.eigvalsh(G)
         bad = ev[:, 0] <= np.maximum(ev[:, -1], 1e-300) / COND_MAX
         G[bad] = np.eye(k)
-        b = np.linalg.solve(G, np.matmul(np.swapaxes(At, 1, 2), yw[~te][None, :, None]))
-        out[:, te] = yw[te][None, :] - np.matmul(A[:, te], b)[..., 0]
+        b = np.linalg.solve(G, np.einsum("mnk,n->mk", At, yw[~te], optimize=True)[..., None])[..., 0]
+        out[:, te] = yw[te][None, :] - np.einsum("mnk,mk->mn", A[:, te], b, optimize=True)
         out[bad] = np.inf
     return out
 
@@ -328,6 +323,7 @@ class Selection:
     drop_tests: list = field(default_factory=list)
     nested_models: dict = field(default_factory=dict)
     weights: dict = field(default_factory=dict)
+    nested_residuals: np.ndarray | None = field(default=None, repr=False)  # not in to_dict
 
     def to_dict(self):
         return {k: getattr(self, k) for k in ("pool", "chosen", "estimates", "loo_rms", "group_rms",
@@ -382,7 +378,7 @@ def select(pb: Problem, pool=None, max_terms=MAX_TERMS, drop_tests=True, units=N
         estimates=estimates(pb, S, beta, cov, units),
         loo_rms=rms(loo_cv(pb, S)) if cv == "loo" else None, group_rms=rms(group_cv(pb, S)) if pb.groups is not None else None,
         nested_loo_rms=rms(nl), nested_group_rms=rms(ng) if ng is not None else None, rivals=rivals,
-        nested_models={"leave_one_out": dict(sorted(freq.items(), key=lambda t: -t[1]))})
+        nested_models={"leave_one_out": dict(sorted(freq.items(), key=lambda t: -t[1]))}, nested_residuals=nl)
     if drop_tests:
         base_sq = (nl * pb.w) ** 2
         for i in S:
