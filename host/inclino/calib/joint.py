@@ -568,6 +568,10 @@ def fit(ds: RawDataset, use_poses: bool | None = None, sigma_acc: float = SIGMA_
     info.update({"rows_used": np.setdiff1d(np.arange(len(ds)), info["outliers"]), "covariance": cov[:24, :24],
                  "dip_deg": dip, "notes": [f"mode {info['mode']}; s^2 = {info['s2']:.3g} (chi^2/dof; 1 when the "
                                            f"noise model is right)"]})
+    if info["s2"] > 2.0 and info["s2"] > 1.0 + 5.0 * np.sqrt(2.0 / max(info["dof"], 1)):
+        info["notes"].append(f"the residuals are {np.sqrt(info['s2']):.2g}x what the noise model expects: an effect "
+                             "the 12-parameter model lacks (a turntable offset, drift, temperature) or noisier "
+                             "sensors; the covariance is scaled by s^2; `inclino diagnose` names the effect")
     if "notes_nonlinear" in info:
         info["notes"].append(info.pop("notes_nonlinear"))
     if "nonlinear" in info:
