@@ -4,8 +4,10 @@ sign, its signature 6-9 noise sigmas once the baseline has absorbed what it
 can (peak change of a reading about 1-4 sigma of the sensor noise) -- near
 the detection limit (~3.6 sigma at alpha = 0.01 over two dozen candidates).
 The diagnosis must name exactly that effect and estimate it within its
-stated uncertainty; on null datasets it must name nothing.  A smaller
-seeded set than `bench diagnose` (docs/diagnose.md)."""
+stated uncertainty; on null datasets it must name nothing.  Sensors,
+axes, signs, sizes and noise are drawn afresh at every run (SEED0 from the
+OS; the seed is in every failure message); `bench diagnose` holds the
+rates (docs/diagnose.md)."""
 import json
 import os
 

@@ -338,7 +338,12 @@ def _bench(zs, per_size, nulls, pairs, with_strong, seed0, alpha, progress) -> D
                     outliers=OUTLIER_FRACTION if i % 4 >= 2 else 0.0)
             c["section"] = "pairs"
             both.append(c.get("detected_all", False))
-        pair = {"datasets": pairs, "both_named": int(sum(both)), "rate": float(np.mean(both))}
+        pcs = [c for c in cases if c.get("section") == "pairs"]
+        pair = {"datasets": pairs, "both_named": int(sum(both)), "rate": float(np.mean(both)),
+                "missed": [{"seed": c["seed"], "plan": c["plan"], "outlier_rows": c["outlier_rows"],
+                            "hidden": [(h["name"], h["sensor"], h["axis"], h["z"]) for h in c["hidden_all"]],
+                            "named": [(f["name"], f["sensor"], f["axis"]) for f in c["found"]]}
+                           for c in pcs if not c.get("detected_all", False)]}
     # nulls
     combos = [(p, nz, dist, out) for p in NULL_PLANS for nz in NULL_NOISE for dist in ("gauss", "t")
               for out in (0.0, OUTLIER_FRACTION)]

@@ -120,10 +120,11 @@ def hide(probe: dict, effect: str, sensor: str, axis: str, value: float) -> dict
             d.setdefault("timing", {})["mag_skew_s"] = float(value)
         else:
             raise KeyError(effect)
-    elif effect == "turntable-inclination-offset":
-        d["world"]["encoder"] = {"offset_deg": [float(value), 0.0, 0.0]}
-    elif effect == "turntable-azimuth-offset":
-        d["world"]["encoder"] = {"offset_deg": [0.0, float(value), 0.0]}
+    elif effect in ("turntable-inclination-offset", "turntable-azimuth-offset"):
+        # merged into the encoder table: both offsets can be hidden at once
+        off = list(d["world"].setdefault("encoder", {}).get("offset_deg", [0.0, 0.0, 0.0]))
+        off[0 if effect == "turntable-inclination-offset" else 1] = float(value)
+        d["world"]["encoder"]["offset_deg"] = off
     elif effect in ("turntable-azimuth-axis-tilt", "turntable-inclination-axis-skew"):
         # world.TurntableGeometry: not (yet) a scenario-file table; generate() sets it
         kw = {"north": "tilt_north_deg", "east": "tilt_east_deg", "inc": "skew_deg"}[axis]
