@@ -421,6 +421,7 @@ class Noise:
 
 
 _IU = np.triu_indices(6)
+SIGMA_FLOOR = np.array([1e-9] * 3 + [1e-5] * 3)  # g, nT
 
 
 def fit_noise(R: np.ndarray, J: np.ndarray, dof_frac: float = 1.0, start: "Noise | None" = None,
@@ -453,6 +454,8 @@ def fit_noise(R: np.ndarray, J: np.ndarray, dof_frac: float = 1.0, start: "Noise
         v, q = _ml_variances(R, J, v0, q0, scale)
     else:
         v, q = v0, q0
+    # a floor far below any sensor's noise, so that noise-free (simulated) data do not make the covariance singular
+    v = np.maximum(v, SIGMA_FLOOR ** 2)
     return Noise(sigma=np.sqrt(v / dof_frac), sigma_pose=np.sqrt(q / dof_frac))
 
 
