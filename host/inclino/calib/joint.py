@@ -492,7 +492,9 @@ def _fit_invariants(ds, w, sa, sm, fix_dip, prior=None):
                 raise CalibrationError("joint: too many readings rejected as outliers to fit")
     if fix_dip:
         x = np.concatenate([x, [dip0]])
-    chi2, dof, s2, cond, cov_x = _covariance(res, "orientations")
+    inv_names = ([f"acc M[{i}{j}] (symmetric)" for i, j in zip(*np.triu_indices(3))]
+                 + [f"acc offset {a}" for a in "xyz"] + PARAM_NAMES_POSE[12:24] + ([] if fix_dip else ["dip"]))
+    chi2, dof, s2, cond, cov_x = _covariance(res, "orientations", inv_names)
     # map (sym 6, ba, Mm 9, bm [, dip]) -> 24-layout (+ dip)
     iu = np.triu_indices(3)
     T = np.zeros((25 if not fix_dip else 24, cov_x.shape[0]))
