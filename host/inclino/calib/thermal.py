@@ -432,7 +432,12 @@ def fit(ds: RawDataset, cal, info: dict, mode: str, sigma_acc: float, sigma_mag:
     info["rows_used"] = keep
     info["outliers"] = np.setdiff1d(np.arange(len(ds)), keep).tolist()
     info["notes"] = [f"mode {info['mode']}; s^2 = {s2:.3g} (chi^2/dof with the temperature terms; 1 when the noise "
-                     "model is right)" if n.startswith("mode ") else n for n in info["notes"]]
+                     "model is right)" if n.startswith("mode ") else n for n in info["notes"]
+                     if not n.startswith("the residuals are ")]  # joint's, about the fit without the terms
+    if s2 > 2.0 and s2 > 1.0 + 5.0 * np.sqrt(2.0 / max(dof, 1)):
+        info["notes"].append(f"the residuals are {np.sqrt(s2):.2g}x what the noise model expects, with the "
+                             "temperature terms: an effect the model still lacks or noisier sensors; the "
+                             "covariance is scaled by s^2; `inclino diagnose --cal` names the effect")
     if not fix_dip:
         info["dip_sigma_deg"] = float(np.sqrt(cov_c[24, 24]))
     worst = max(block["error_over_range"], key=lambda r: r["azi_rms_without_deg"])
