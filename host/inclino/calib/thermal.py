@@ -319,7 +319,23 @@ def fit(ds: RawDataset, cal, info: dict, mode: str, sigma_acc: float, sigma_mag:
         fix_dip: bool = False, seed: int = 20261123):
     """The temperature terms on top of a joint fit (cal, info from
     joint.fit).  Returns (cal, info) updated, or unchanged (with a note)
-    when the mode is off or auto finds them not determined."""
+    when the mode is off or auto finds them not determined.  auto also
+    keeps joint's fit, with a note, when the temperature fit fails or keeps
+    fewer readings than joint's own fit did (then the temperature is not
+    what the model lacks: e.g. a turntable offset or a drift)."""
+    if mode != "auto":
+        return _fit(ds, cal, info, mode, sigma_acc, sigma_mag, sigma_pose_deg, fix_dip, seed)
+    try:
+        with np.errstate(all="ignore"):
+            return _fit(ds, cal, info, mode, sigma_acc, sigma_mag, sigma_pose_deg, fix_dip, seed)
+    except (CalibrationError, np.linalg.LinAlgError, ValueError) as e:
+        if isinstance(e, DataError):
+            raise
+        info["notes"].append(f"temperature terms not fitted ({str(e).removeprefix('joint: ')})")
+        return cal, info
+
+
+def _fit(ds, cal, info, mode, sigma_acc, sigma_mag, sigma_pose_deg, fix_dip, seed):
     from . import joint
 
     if mode not in MODES:
@@ -367,6 +383,9 @@ def fit(ds: RawDataset, cal, info: dict, mode: str, sigma_acc: float, sigma_mag:
     keep = np.flatnonzero(d2 <= stats.chi2.ppf(0.999, 6))
     if len(keep) < joint.MIN_ROWS_POSES:
         raise CalibrationError("joint: too many readings rejected as outliers to fit the temperature terms")
+    if mode == "auto" and len(keep) < len(info["rows_used"]):
+        raise CalibrationError(f"with them {len(ds) - len(keep)} readings are outliers, without them "
+                               f"{len(ds) - len(info['rows_used'])}: the temperature is not what the model lacks")
     sols = {}
     x_full = {}
     for order in range(0, max_order + 1):
