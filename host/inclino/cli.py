@@ -22,6 +22,7 @@ from inclino.diagnose.cli import add_parser as _add_diagnose
 from inclino.flashing import add_parser as _add_flash
 from inclino.plots import add_parser as _add_plot
 from inclino.probe_cli import add_parser as _add_probe_commands
+from inclino.survey_cli import add_parser as _add_survey_commands
 
 
 def _cmd_bitexact(args) -> int:
@@ -206,6 +207,7 @@ def build_parser() -> argparse.ArgumentParser:
     _add_acquire(sub)
     _add_accept(sub)
     _add_plot(sub)
+    _add_survey_commands(sub)
     return p
 
 

@@ -283,7 +283,9 @@ def build(ds: RawDataset, cal: Calibration, method: str, info: dict, refit=None,
         sig = np.sqrt(np.clip(np.diag(cov), 0, None))
         pa, pi = predicted_attitude_rms(cal, cov, w, dip)
         rep.uncertainty = {"source": src, "sigma": dict(zip(common.PARAM_NAMES, sig.tolist())),
-                           "predicted_azi_rms_deg": pa, "predicted_inc_rms_deg": pi}
+                           "predicted_azi_rms_deg": pa, "predicted_inc_rms_deg": pi,
+                           # the full 24x24 (PARAM_NAMES order): inclino toolmodel projects it onto ISCWSA terms
+                           "covariance": np.asarray(cov, float)[:24, :24].tolist()}
         if info.get("dip_sigma_deg") is not None:
             rep.uncertainty["dip_deg"] = dip
             rep.uncertainty["dip_sigma_deg"] = info["dip_sigma_deg"]
