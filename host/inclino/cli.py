@@ -89,6 +89,17 @@ def _cmd_bench(args) -> int:
         from inclino.diagnose.bench import bench_command
 
         return bench_command(args)
+    if args.what == "survey":
+        from inclino import survey_bench
+
+        r = survey_bench.bench(plot=args.plot)
+        print(r.to_json() if args.json else
+              f"build-and-hold well, {len(r.seeds)} seeds, {r.stations} stations: {r.inside_2sigma:.1%} inside their "
+              f"2-sigma ellipse ({r.inside_1sigma:.1%} inside 1-sigma; target >= {r.target_inside_2sigma:.0%}); "
+              f"largest horizontal error {r.max_horizontal_error_m:.3f} m, TVD {r.max_tvd_error_m:.3f} m; "
+              f"declination printed {r.declination_printed} deg, ppigrf {r.declination_ppigrf:.4f} deg: "
+              + ("agrees" if r.declination_agrees else "DIFFERS"))
+        return 0 if r.passed else 1
     if args.what == "link":
         from inclino import bench_link
 
@@ -194,11 +205,13 @@ def build_parser() -> argparse.ArgumentParser:
     em.set_defaults(func=_cmd_emulate)
 
     be = sub.add_parser("bench", help="benchmarks (figures, JSON with --json)")
-    be.add_argument("what", choices=("accuracy", "speed", "mcu", "emulator", "link", "calibration", "diagnose"))
+    be.add_argument("what", choices=("accuracy", "speed", "mcu", "emulator", "link", "calibration", "diagnose",
+                                    "survey"))
     be.add_argument("--json", action="store_true", help="print one JSON object")
     be.add_argument("--field", type=float, default=50000.0, help="accuracy: field total, nT")
     be.add_argument("--dip", type=float, default=60.0, help="accuracy: dip, degrees")
     be.add_argument("--vectors", type=int, default=1_000_000, help="speed: batch size")
+    be.add_argument("--plot", help="survey: also draw the first seed's well path and ellipses (PNG)")
     be.set_defaults(func=_cmd_bench)
     _add_calibrate(sub)
     _add_diagnose(sub)

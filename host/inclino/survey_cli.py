@@ -140,6 +140,13 @@ def _cmd_trajectory(args) -> int:
         wp.write_csv(tr, args.output)
     if args.las:
         wp.write_las(tr, args.las)
+    if args.plot:
+        from inclino import wellplot
+
+        try:
+            wellplot.plot(tr.rows, args.plot, title=f"{args.input}: {len(tr.rows)} stations")
+        except OSError as e:
+            raise DataError(f"cannot write {args.plot}: {e.strerror}")
     s = tr.summary
     e = s["end"]
     msg = (f"{s['stations']} stations, MD {s['md_m'][0]:g}-{s['md_m'][1]:g} m; declination "
@@ -212,6 +219,7 @@ def add_parser(sub) -> None:
                    help="reference-field error terms (default: srgm for a main-field model, ifr1 for user values)")
     p.add_argument("--las", help="also write the trajectory as LAS 2.0")
     p.add_argument("--fail-on-qc", action="store_true", help="exit 1 when a station fails QC")
+    p.add_argument("--plot", help="a PNG of the path (plan view with the ellipses, vertical section)")
     p.add_argument("-o", "--output", required=True, help="trajectory CSV ('-' for stdout; .las for LAS 2.0)")
     p.set_defaults(func=_cmd_trajectory)
 

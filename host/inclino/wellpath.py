@@ -311,18 +311,19 @@ def trajectory(sv: Survey, rf: ReferenceField, tool_model=None, ref_terms: str =
                     fails.append(name)
                     nq[name] += 1
         fl, pq = ex.get("flags", [float("nan")] * n)[i], ex.get("qc", [float("nan")] * n)[i]
-        if math.isfinite(fl) and int(fl) & 1:
-            fails.append("near-vertical")
+        near_vertical = (math.isfinite(fl) and int(fl) & 1) or sv.inc_deg[i] < 0.5 or sv.inc_deg[i] > 179.5
+        if near_vertical:
             nq["near-vertical"] += 1
         if math.isfinite(pq) and int(pq) & 0x7F:
             fails.append("probe")
             nq["probe"] += 1
         r["qc"] = "PASS" if not fails else "FAIL " + ",".join(fails)
+        r["note"] = "near-vertical: azimuth undefined" if near_vertical else ""
         rows.append(r)
     for key in ("gt_g", "bt_nT", "dip_deg"):
         if any(f"d{key}" in r for r in rows):
             cols.append(f"d{key}")
-    cols.append("qc")
+    cols += ["qc", "note"]
     summary = {"stations": n, "qc_fail": sum(r["qc"] != "PASS" for r in rows), "qc_fail_by": nq,
                "md_m": [float(sv.md_m[0]), float(sv.md_m[-1])],
                "end": {"tvd_m": float(tvd[-1]), "north_m": float(north[-1]), "east_m": float(east[-1])}}
@@ -332,8 +333,9 @@ def trajectory(sv: Survey, rf: ReferenceField, tool_model=None, ref_terms: str =
         for i, r in enumerate(rows):
             c = cov[i]
             a, b, az = ellipse(c[:2, :2])
+            s_azi = math.degrees(math.sqrt(max(dia[i, 2, 2], 0)))
             r.update(sigma_inc_deg=math.degrees(math.sqrt(max(dia[i, 1, 1], 0))),
-                     sigma_azi_deg=math.degrees(math.sqrt(max(dia[i, 2, 2], 0))),
+                     sigma_azi_deg=s_azi if (r["note"] == "" and math.isfinite(s_azi) and s_azi < 360) else math.nan,
                      sigma_north_m=math.sqrt(max(c[0, 0], 0)), sigma_east_m=math.sqrt(max(c[1, 1], 0)),
                      sigma_tvd_m=math.sqrt(max(c[2, 2], 0)), ell_major_m=a, ell_minor_m=b, ell_azi_deg=az,
                      cov_nn=c[0, 0], cov_ne=c[0, 1], cov_nv=c[0, 2], cov_ee=c[1, 1], cov_ev=c[1, 2],

@@ -1,0 +1,215 @@
+"""`inclino bench survey`: a synthetic build-and-hold well surveyed by the
+emulated probe through `inclino survey`, its path recovered by `inclino
+trajectory --uncertainty`, against the known path.
+
+Per seed: the `typical` probe in the IGRF field of a North Sea location
+(52 N, 4 E, 2026-06-01; gravity the WGS 84 normal gravity there) is
+calibrated (`joint`, on the multi-position run of the same probe model),
+the calibration downloaded to the emulated probe, its noise measured with
+12 surveys at rest, the tool model written (`inclino toolmodel`); then the
+control channel moves the probe to each station's true attitude (true
+azimuth; a random toolface per station) and `inclino survey --md M --format
+csv` takes one survey per station; `inclino trajectory --lat --lon --date
+--uncertainty --tool-model` computes the path.  The known path is the
+analytic build-and-hold geometry (a circular arc of constant azimuth, then a
+straight hold), not a minimum-curvature computation.
+
+Figures: the fraction of stations whose horizontal position error lies
+inside their 2-sigma ellipse (Mahalanobis distance <= 2), and inside the
+1-sigma one, over all seeds; the largest position error; the declination
+the trajectory printed against ppigrf's at its printed precision.
+"""
+from __future__ import annotations
+
+import contextlib
+import io
+import json
+import math
+import os
+import tempfile
+from dataclasses import asdict, dataclass, field
+
+import numpy as np
+
+LAT, LON, DATE = 52.0, 4.0, "2026-06-01"
+WELL = {"kop_m": 300.0, "build_deg_per_30m": 3.0, "hold_inc_deg": 45.0, "azi_true_deg": 60.0, "td_m": 1200.0,
+        "step_m": 30.0}
+
+
+@dataclass
+class SurveyBench:
+    seeds: list
+    stations: int
+    inside_2sigma: float
+    inside_1sigma: float
+    max_horizontal_error_m: float
+    max_tvd_error_m: float
+    end_ellipse_1sigma_m: list
+    declination_printed: str
+    declination_ppigrf: float
+    declination_agrees: bool
+    per_seed: list = field(default_factory=list)
+    well: dict = field(default_factory=lambda: dict(WELL))
+    target_inside_2sigma: float = 0.9
+    passed: bool = False
+
+    def to_json(self) -> str:
+        return json.dumps(asdict(self), indent=2)
+
+
+def build_and_hold(md, kop, build, hold_inc, azi):
+    """Analytic positions (tvd, north, east) and inclination of a
+    build-and-hold well from the surface (vertical to kop, a circular arc
+    building at `build` deg/30 m, then straight at hold_inc)."""
+    md = np.asarray(md, float)
+    R = 30.0 * 180.0 / (math.pi * build)
+    L_build = hold_inc / build * 30.0
+    inc = np.clip((md - kop) / 30.0 * build, 0.0, hold_inc)
+    tvd, h = np.empty_like(md), np.empty_like(md)
+    for i, m in enumerate(md):
+        if m <= kop:
+            tvd[i], h[i] = m, 0.0
+        elif m <= kop + L_build:
+            a = math.radians(inc[i])
+            tvd[i], h[i] = kop + R * math.sin(a), R * (1 - math.cos(a))
+        else:
+            a = math.radians(hold_inc)
+            s = m - kop - L_build
+            tvd[i] = kop + R * math.sin(a) + s * math.cos(a)
+            h[i] = R * (1 - math.cos(a)) + s * math.sin(a)
+    az = math.radians(azi)
+    return inc, tvd, h * math.cos(az), h * math.sin(az)
+
+
+def scenario_file(path: str, gravity_g: float) -> str:
+    from inclino_emu import scenario as sc
+
+    base = os.path.join(os.path.dirname(sc.__file__), "scenarios", "typical.toml")
+    with open(base, encoding="utf-8") as f:
+        text = f.read()
+    head, rest = text.split("[world]", 1)
+    rest = rest.split("\n[", 1)[1]
+    world = (f"[world]\nlat_deg = {LAT}\nlon_deg = {LON}\ndate = \"{DATE}\"\ngravity_g = {gravity_g!r}\n"
+             "temperature_c = 25.0\n\n[")
+    with open(path, "w", encoding="utf-8") as f:
+        f.write(head + world + rest)
+    return path
+
+
+def _cli(*argv):
+    from inclino import cli
+
+    out, err = io.StringIO(), io.StringIO()
+    with contextlib.redirect_stdout(out), contextlib.redirect_stderr(err):
+        rc = cli.main([str(a) for a in argv])
+    if rc != 0:
+        raise RuntimeError(f"inclino {' '.join(map(str, argv))}: exit {rc}: {err.getvalue().strip()}")
+    return out.getvalue()
+
+
+def calibrate(scen_path: str, cal_path: str, seed: int):
+    """The joint calibration of the scenario's probe on the multi-position
+    run (its own noise draw: `seed`)."""
+    from inclino.calib import fit, runs
+    from inclino_emu.scenario import generate_raw, load_scenario
+
+    s = load_scenario(scen_path)
+    ds = generate_raw(s, *runs.multi_position(), seed=seed)
+    e = s.world.earth
+    ds.meta.update(field_nT=e.field_nT, dip_deg=e.dip_deg, gravity_g=s.world.gravity_g)
+    cal, _ = fit(ds, "joint")
+    cal.save(cal_path)
+    return cal
+
+
+def run_seed(seed: int, workdir: str, cal_path: str, scen_path: str, rng=None) -> dict:
+    from inclino import wellpath as wp
+    from inclino_emu.control import ControlClient
+    from inclino_emu.runner import Emulator
+
+    rng = rng or np.random.default_rng(seed)
+    w = WELL
+    md = np.arange(0.0, w["td_m"] + 0.5, w["step_m"])
+    inc, tvd, north, east = build_and_hold(md, w["kop_m"], w["build_deg_per_30m"], w["hold_inc_deg"],
+                                           w["azi_true_deg"])
+    survey_csv = os.path.join(workdir, f"survey-{seed}.csv")
+    noise_csv = os.path.join(workdir, f"noise-{seed}.csv")
+    tool = os.path.join(workdir, f"tool-{seed}.json")
+    traj = os.path.join(workdir, f"trajectory-{seed}.csv")
+    emu = Emulator(scen_path, seed=seed, control_port=0, realtime=False).start()
+    try:
+        ctl = ControlClient(port=emu.control_port)
+        _cli("download", "--port", emu.path, cal_path, "--quiet")
+        ctl.call("move", inc=45.0, azi=float(rng.uniform(0, 360)), tf=float(rng.uniform(0, 360)))
+        with open(noise_csv, "w", encoding="utf-8") as f:
+            f.write(_cli("survey", "--port", emu.path, "--count", 12, "--format", "csv"))
+        _cli("toolmodel", cal_path, "--noise", noise_csv, "--lat", LAT, "--lon", LON, "--date", DATE, "-o", tool)
+        parts = []
+        for m, i in zip(md, inc):
+            ctl.call("move", inc=float(i), azi=w["azi_true_deg"], tf=float(rng.uniform(0, 360)))
+            parts.append(_cli("survey", "--port", emu.path, "--md", m, "--format", "csv"))
+        ctl.close()
+    finally:
+        emu.stop()
+    with open(survey_csv, "w", encoding="utf-8") as f:
+        f.write("".join(parts))
+    printed = _cli("trajectory", survey_csv, "--lat", LAT, "--lon", LON, "--date", DATE, "--uncertainty",
+                   "--tool-model", tool, "--ref-terms", "none", "-o", traj)
+    rows = wp.read_trajectory(traj)
+    err = np.array([[float(r["north_m"]) - n, float(r["east_m"]) - e, float(r["tvd_m"]) - t]
+                    for r, n, e, t in zip(rows, north, east, tvd)])
+    d2 = []
+    for r, (dn, de, _) in zip(rows, err):
+        c = np.array([[float(r["cov_nn"]), float(r["cov_ne"])], [float(r["cov_ne"]), float(r["cov_ee"])]])
+        if np.linalg.det(c) <= 0:  # the first station: no error at the origin
+            continue
+        v = np.array([dn, de])
+        d2.append(float(v @ np.linalg.solve(c, v)))
+    d = np.sqrt(d2)
+    return {"seed": seed, "stations": len(d), "inside_2sigma": int(np.sum(d <= 2.0)),
+            "inside_1sigma": int(np.sum(d <= 1.0)), "mahalanobis_max": float(d.max()),
+            "max_horizontal_error_m": float(np.hypot(err[:, 0], err[:, 1]).max()),
+            "max_tvd_error_m": float(np.abs(err[:, 2]).max()),
+            "end_ellipse_1sigma_m": [float(rows[-1]["ell_major_m"]), float(rows[-1]["ell_minor_m"])],
+            "printed": printed.strip(), "files": {"survey": survey_csv, "tool": tool, "trajectory": traj}}
+
+
+def bench(seeds=(1, 2, 3), workdir: str | None = None, plot: str | None = None) -> SurveyBench:
+    from inclino import geomag
+
+    tmp = None
+    if workdir is None:
+        tmp = tempfile.TemporaryDirectory(prefix="inclino-survey-")
+        workdir = tmp.name
+    try:
+        g = geomag.normal_gravity_g(LAT)
+        scen = scenario_file(os.path.join(workdir, "north-sea.toml"), g)
+        runs = []
+        for s in seeds:
+            cal = os.path.join(workdir, f"cal-{s}.json")
+            calibrate(scen, cal, 1000 + s)
+            runs.append(run_seed(s, workdir, cal, scen))
+        if plot:
+            from inclino import wellplot, wellpath as wp
+
+            r0 = runs[0]
+            md = np.array([float(r["md_m"]) for r in wp.read_trajectory(r0["files"]["trajectory"])])
+            truth = build_and_hold(md, WELL["kop_m"], WELL["build_deg_per_30m"], WELL["hold_inc_deg"],
+                                   WELL["azi_true_deg"])
+            wellplot.plot(wp.read_trajectory(r0["files"]["trajectory"]), plot, truth=truth[1:],
+                          title=f"build-and-hold well surveyed by the emulated probe (seed {seeds[0]})")
+    finally:
+        if tmp is not None:
+            tmp.cleanup()
+    dec_ppigrf = geomag.main_field(LAT, LON, DATE)[0]
+    printed = runs[0]["printed"].split("declination ")[1].split(" deg")[0]
+    places = len(printed.split(".")[1]) if "." in printed else 0
+    n = sum(r["stations"] for r in runs)
+    in2 = sum(r["inside_2sigma"] for r in runs) / n
+    res = SurveyBench(list(seeds), n, in2, sum(r["inside_1sigma"] for r in runs) / n,
+                      max(r["max_horizontal_error_m"] for r in runs), max(r["max_tvd_error_m"] for r in runs),
+                      runs[0]["end_ellipse_1sigma_m"], printed, dec_ppigrf,
+                      printed == f"{dec_ppigrf:.{places}f}",
+                      [{k: v for k, v in r.items() if k not in ("files",)} for r in runs])
+    res.passed = res.inside_2sigma >= res.target_inside_2sigma and res.declination_agrees
+    return res
