@@ -9,7 +9,8 @@ the calibration downloaded to the emulated probe, its noise measured with
 12 surveys at rest, the tool model written (`inclino toolmodel`); then the
 control channel moves the probe to each station's true attitude (true
 azimuth; a random toolface per station) and `inclino survey --md M --format
-csv` takes one survey per station; `inclino trajectory --lat --lon --date
+csv` takes one survey per station (after one discarded while the probe
+settles); `inclino trajectory --lat --lon --date
 --uncertainty --tool-model` computes the path.  The known path is the
 analytic build-and-hold geometry (a circular arc of constant azimuth, then a
 straight hold), not a minimum-curvature computation.
@@ -141,12 +142,16 @@ def run_seed(seed: int, workdir: str, cal_path: str, scen_path: str, rng=None) -
         ctl = ControlClient(port=emu.control_port)
         _cli("download", "--port", emu.path, cal_path, "--quiet")
         ctl.call("move", inc=45.0, azi=float(rng.uniform(0, 360)), tf=float(rng.uniform(0, 360)))
+        _cli("survey", "--port", emu.path, "--format", "csv")  # settle (see below)
         with open(noise_csv, "w", encoding="utf-8") as f:
             f.write(_cli("survey", "--port", emu.path, "--count", 12, "--format", "csv"))
         _cli("toolmodel", cal_path, "--noise", noise_csv, "--lat", LAT, "--lon", LON, "--date", DATE, "-o", tool)
         parts = []
         for m, i in zip(md, inc):
             ctl.call("move", inc=float(i), azi=w["azi_true_deg"], tf=float(rng.uniform(0, 360)))
+            # the probe settles first: the ADIS16210's averaging and the ADS1256's filter still hold
+            # readings from before the move, so the first survey after it is discarded (docs/survey.md)
+            _cli("survey", "--port", emu.path, "--format", "csv")
             parts.append(_cli("survey", "--port", emu.path, "--md", m, "--format", "csv"))
         ctl.close()
     finally:

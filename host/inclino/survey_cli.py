@@ -91,8 +91,7 @@ def _cmd_toolmodel(args) -> int:
     from inclino.calfile import Calibration
 
     cal = Calibration.load(args.cal)
-    rf = _reference(args) if (args.lat is not None or args.declination is not None or args.ref
-                              or args.dip is not None) else None
+    rf = _reference(args) if (args.lat is not None or args.declination is not None or args.ref) else None
     dip = rf.dip_deg if rf is not None and math.isfinite(rf.dip_deg) else args.dip if args.dip is not None else 60.0
     tot = rf.total_nT if rf is not None and math.isfinite(rf.total_nT) else args.total or 50000.0
     an, mn = args.acc_noise, args.mag_noise
@@ -164,10 +163,12 @@ def _cmd_compare(args) -> int:
     from inclino import wellpath as wp
 
     a, b = wp.read_survey(args.first), wp.read_survey(args.second)
-    rf = _reference(args) if (args.lat is not None or args.ref or args.dip is not None) else None
+    rf = _reference(args) if (args.lat is not None or args.ref or args.declination is not None) else None
     tm = _tool_model(args, rf)
-    dip = rf.dip_deg if rf is not None and math.isfinite(rf.dip_deg) else tm.fit.get("dip_deg", 60.0)
-    tot = rf.total_nT if rf is not None and math.isfinite(rf.total_nT) else tm.fit.get("field_nT", 50000.0)
+    dip = rf.dip_deg if rf is not None and math.isfinite(rf.dip_deg) else \
+        args.dip if args.dip is not None else tm.fit.get("dip_deg", 60.0)
+    tot = rf.total_nT if rf is not None and math.isfinite(rf.total_nT) else \
+        args.total if args.total is not None else tm.fit.get("field_nT", 50000.0)
     r = cmp.compare(a, b, tm, dip, tot, k=args.k, md_tol=args.md_tol, two_probes=args.two_probes)
     if args.json:
         print(r.to_json())

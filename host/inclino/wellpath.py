@@ -75,7 +75,16 @@ def _rows_to_survey(rows: list[dict], path: str, meta: dict) -> Survey:
         azi.append(_num(r.get(azk), azk, where))
         for k in extra:
             v = r.get(k)
-            extra[k].append(float("nan") if v in (None, "") else _num(v, k, where))
+            try:
+                x = float(v)
+            except (TypeError, ValueError):
+                if k in ("qc", "flags"):  # a trajectory listing's qc column is text
+                    x = float("nan")
+                elif v in (None, ""):
+                    x = float("nan")
+                else:
+                    raise DataError(f"{where}: {k} {v!r} is not a number")
+            extra[k].append(x)
     md, inc, azi = np.array(md), np.array(inc), np.array(azi)
     if np.any(inc < 0) or np.any(inc > 180):
         raise DataError(f"{path}: inclination outside 0-180 deg")
