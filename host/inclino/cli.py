@@ -98,7 +98,11 @@ def _cmd_bench(args) -> int:
               f"2-sigma ellipse ({r.inside_1sigma:.1%} inside 1-sigma; target >= {r.target_inside_2sigma:.0%}); "
               f"largest horizontal error {r.max_horizontal_error_m:.3f} m, TVD {r.max_tvd_error_m:.3f} m; "
               f"declination printed {r.declination_printed} deg, ppigrf {r.declination_ppigrf:.4f} deg: "
-              + ("agrees" if r.declination_agrees else "DIFFERS"))
+              + ("agrees" if r.declination_agrees else "DIFFERS")
+              + ("" if not r.fixed_toolface else
+                 f"\nsame wells, one toolface per run: {r.fixed_toolface['inside_2sigma']:.1%} inside 2-sigma "
+                 f"({r.fixed_toolface['inside_1sigma']:.1%} inside 1-sigma), largest horizontal error "
+                 f"{r.fixed_toolface['max_horizontal_error_m']:.3f} m"))
         return 0 if r.passed else 1
     if args.what == "link":
         from inclino import bench_link

@@ -354,7 +354,24 @@ def from_calibration(cal, dip_deg, field_nT, gravity_g=1.0, acc_noise_g=0.0, mag
     for g, v in tm.noise.items():
         if not (math.isfinite(v) and v >= 0):
             raise DataError("noise must be a finite value >= 0")
+    tm.fit["monte_carlo"] = mc_check(tm, cal, cov, dip_deg, field_nT, gravity_g)
     return tm
+
+
+MC_INC = (5.0, 10.0, 20.0, 30.0, 45.0, 60.0, 75.0, 90.0)
+MC_AZI = (17.0, 300.0, 130.0, 75.0, 210.0, 345.0, 160.0, 250.0)
+
+
+def mc_check(tm, cal, cov, dip_deg, field_nT, gravity_g=1.0, n=3000, seed=1):
+    """The model's systematic inclination/azimuth 1 sigma against a Monte
+    Carlo over the coefficient covariance at eight attitudes (inclination
+    5-90 deg): the ratios model / Monte Carlo."""
+    inc, azi = np.array(MC_INC), np.array(MC_AZI)
+    mi, ma = monte_carlo(cal, cov, inc, azi, dip_deg, field_nT, n=n, seed=seed, gravity=gravity_g)
+    pi, pa = station_sigma(tm, inc, azi, dip_deg, field_nT, noise=False)
+    ri, ra = pi / mi, pa / ma
+    return {"draws": n, "inc_deg": list(MC_INC), "azi_deg": list(MC_AZI), "inc_ratio": ri.tolist(),
+            "azi_ratio": ra.tolist(), "within_20pct": bool(np.all(np.abs(ri - 1) <= 0.2) and np.all(np.abs(ra - 1) <= 0.2))}
 
 
 def noise_from_survey(rows) -> tuple[float, float]:

@@ -112,6 +112,11 @@ def _cmd_toolmodel(args) -> int:
     print(f"noise per survey: acc {an or 0:.3g} g, mag {mn or 0:.3g} nT; projection of the calibration covariance: "
           f"sigma ratio {f['sigma_ratio_min']:.2f}-{f['sigma_ratio_max']:.2f} (RMS {f['sigma_ratio_rms']:.1%} off) "
           f"over {f['attitudes']} attitudes at dip {f['dip_deg']:.2f} deg, {f['field_nT']:.0f} nT")
+    mc = f["monte_carlo"]
+    print(f"Monte Carlo over the covariance ({mc['draws']} draws, {len(mc['inc_deg'])} attitudes, inclination "
+          f"{min(mc['inc_deg']):g}-{max(mc['inc_deg']):g} deg): model/MC 1-sigma inclination "
+          f"{min(mc['inc_ratio']):.2f}-{max(mc['inc_ratio']):.2f}, azimuth {min(mc['azi_ratio']):.2f}-"
+          f"{max(mc['azi_ratio']):.2f} ({'within' if mc['within_20pct'] else 'NOT within'} +-20 %)")
     return 0
 
 
