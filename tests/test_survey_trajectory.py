@@ -256,7 +256,7 @@ def test_trajectory_bad_input(tmp_path, capsys):
         rc, out, err = run(capsys, *argv)
         assert rc == 2 and msg in err and err.count("\n") == 1 and "Traceback" not in err, (argv, err)
     for body, msg in (("md_m,inc_deg\n0,1\n", "missing column azi_deg"),
-                      ("md_m,inc_deg,azi_deg\n0,1,2\n0,1,2\n", "increase"),
+                      ("md_m,inc_deg,azi_deg\n0,1,2\n30,1,2\n20,1,2\n", "increase"),
                       ("md_m,inc_deg,azi_deg\n0,x,2\n", "not a number"),
                       ("md_m,inc_deg,azi_deg\n0,200,2\n", "0-180")):
         p.write_text(body)
@@ -326,3 +326,43 @@ def test_emulated_probe_survey_recovers_the_well_inside_its_ellipses():
     assert r.declination_agrees, (r.declination_printed, r.declination_ppigrf)
     # the ellipses are not vacuous: the error is of their order, not orders below
     assert r.max_horizontal_error_m > 0.05 * r.end_ellipse_1sigma_m[0]
+
+
+def test_survey_md_outputs_read_as_one_survey(tmp_path, capsys):
+    """`inclino survey --md M` in each format, one file (LAS) or one output
+    (JSON lines, CSV) a station, several surveys at one depth merged."""
+    from inclino_emu.control import ControlClient
+    from inclino_emu.runner import Emulator
+
+    md = np.array([0.0, 25.0, 50.0, 75.0])
+    inc = np.array([0.0, 5.0, 10.0, 15.0])
+    azi = RNG.uniform(10, 350)
+    with Emulator("ideal", control_port=0, realtime=False) as emu:
+        ctl = ControlClient(port=emu.control_port)
+        js, cs, lasfiles = [], [], []
+        for i, (m, a) in enumerate(zip(md, inc)):
+            ctl.call("move", inc=float(a), azi=azi, tf=float(RNG.uniform(0, 360)))
+            run(capsys, "survey", "--port", emu.path)  # settle
+            rc, out, err = run(capsys, "survey", "--port", emu.path, "--md", m, "--format", "json")
+            assert rc == 0, err
+            js.append(out)
+            rc, out, err = run(capsys, "survey", "--port", emu.path, "--md", m, "--format", "csv", "--count", 3)
+            assert rc == 0, err
+            cs.append(out)
+            lasfiles.append(tmp_path / f"st{i}.las")
+            rc, out, err = run(capsys, "survey", "--port", emu.path, "--md", m, "--las", lasfiles[-1])
+            assert rc == 0, err
+        ctl.close()
+    (tmp_path / "s.json").write_text("".join(js))
+    (tmp_path / "s.csv").write_text("".join(cs))
+    got = []
+    for inputs in ([tmp_path / "s.json"], [tmp_path / "s.csv"], lasfiles[::-1]):
+        o = tmp_path / "o.csv"
+        rc, out, err = run(capsys, "trajectory", *inputs, "--declination", 0, "-o", o)
+        assert rc == 0, err
+        rows = wp.read_trajectory(str(o))
+        assert [float(r["md_m"]) for r in rows] == list(md)
+        got.append([[float(r[k]) for k in ("inc_deg", "tvd_m", "north_m", "east_m")] for r in rows])
+    # the ideal probe reads the pose (noise only): the three runs agree to its noise
+    assert np.abs(np.array(got[0])[:, 0] - inc).max() < 0.05
+    assert np.abs(np.array(got) - np.array(got[0])).max() < 0.05

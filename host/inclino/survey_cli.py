@@ -133,7 +133,7 @@ def _show(g, v):
 def _cmd_trajectory(args) -> int:
     from inclino import wellpath as wp
 
-    sv = wp.read_survey(args.input)
+    sv = wp.concat([wp.read_survey(p) for p in args.input])
     rf = _reference(args)
     tm = _tool_model(args, rf) if args.uncertainty else None
     ref_terms = args.ref_terms or ("srgm" if rf.source.startswith(("IGRF", "WMM")) else "ifr1")
@@ -148,7 +148,7 @@ def _cmd_trajectory(args) -> int:
         from inclino import wellplot
 
         try:
-            wellplot.plot(tr.rows, args.plot, title=f"{args.input}: {len(tr.rows)} stations")
+            wellplot.plot(tr.rows, args.plot, title=f"{' '.join(args.input)}: {len(tr.rows)} stations")
         except OSError as e:
             raise DataError(f"cannot write {args.plot}: {e.strerror}")
     s = tr.summary
@@ -214,7 +214,8 @@ def add_parser(sub) -> None:
 
     p = sub.add_parser("trajectory", help="well path by minimum curvature from a survey listing, with QC "
                                           "and position uncertainty")
-    p.add_argument("input", help="survey listing (CSV, JSON lines or LAS) with md_m, inc_deg, azi_deg")
+    p.add_argument("input", nargs="+", help="survey listing(s) (CSV, JSON lines or LAS) with md_m, inc_deg, azi_deg; "
+                                            "several files are one survey, sorted by depth")
     _add_reference(p)
     p.add_argument("--uncertainty", action="store_true", help="position covariance (1-sigma ellipse) per station")
     p.add_argument("--tool-model", help="tool model JSON (inclino toolmodel)")

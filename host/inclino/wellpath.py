@@ -88,10 +88,50 @@ def _rows_to_survey(rows: list[dict], path: str, meta: dict) -> Survey:
     md, inc, azi = np.array(md), np.array(inc), np.array(azi)
     if np.any(inc < 0) or np.any(inc > 180):
         raise DataError(f"{path}: inclination outside 0-180 deg")
-    if np.any(np.diff(md) <= 0):
-        i = int(np.argmax(np.diff(md) <= 0)) + 2
+    if np.any(np.diff(md) < 0):
+        i = int(np.argmax(np.diff(md) < 0)) + 2
         raise DataError(f"{path}: measured depth must increase from station to station (station {i})")
-    return Survey(md, inc, np.mod(azi, 360.0), {k: np.array(v) for k, v in extra.items()}, meta)
+    return _merge_repeats(Survey(md, inc, np.mod(azi, 360.0), {k: np.array(v) for k, v in extra.items()}, meta))
+
+
+def _merge_repeats(sv: Survey) -> Survey:
+    """Repeated surveys at one depth (`inclino survey --count N --md M`) as one
+    station: inclination and the field values averaged, azimuth the mean
+    direction, flags and QC bits or-ed."""
+    md, first = np.unique(sv.md_m, return_index=True)
+    if len(md) == len(sv.md_m):
+        return sv
+    grp = np.searchsorted(md, sv.md_m)
+    n = len(md)
+    inc = np.bincount(grp, sv.inc_deg, n) / np.bincount(grp, None, n)
+    a = np.radians(sv.azi_mag_deg)
+    azi = np.degrees(np.arctan2(np.bincount(grp, np.sin(a), n), np.bincount(grp, np.cos(a), n))) % 360.0
+    extra = {}
+    for k, v in sv.extra.items():
+        out = np.full(n, np.nan)
+        for g in range(n):
+            x = v[grp == g]
+            x = x[np.isfinite(x)]
+            if len(x):
+                out[g] = float(np.bitwise_or.reduce(x.astype(np.int64))) if k in ("flags", "qc") else float(x.mean())
+        extra[k] = out
+    return Survey(md, inc, azi, extra, sv.meta)
+
+
+def concat(surveys: list) -> Survey:
+    """Several listings (one file a station, or runs in pieces) as one survey,
+    sorted by measured depth; repeated depths merged."""
+    if len(surveys) == 1:
+        return surveys[0]
+    md = np.concatenate([s.md_m for s in surveys])
+    order = np.argsort(md, kind="stable")
+    keys = set().union(*(s.extra.keys() for s in surveys))
+    extra = {k: np.concatenate([s.extra.get(k, np.full(len(s), np.nan)) for s in surveys])[order] for k in keys}
+    meta = {}
+    for s in surveys:
+        meta.update(s.meta)
+    return _merge_repeats(Survey(md[order], np.concatenate([s.inc_deg for s in surveys])[order],
+                                 np.concatenate([s.azi_mag_deg for s in surveys])[order], extra, meta))
 
 
 def _read_csv(text: str, path: str) -> Survey:
@@ -274,6 +314,8 @@ def trajectory(sv: Survey, rf: ReferenceField, tool_model=None, ref_terms: str =
     covariance at each station."""
     if not math.isfinite(rf.declination_deg):
         raise DataError("the declination is not known")
+    if len(sv) < 2:
+        raise DataError("a trajectory needs at least two stations at different measured depths")
     model = tool_model.iscwsa(ref_terms) if tool_model is not None else None
     import warnings
 
@@ -281,7 +323,7 @@ def trajectory(sv: Survey, rf: ReferenceField, tool_model=None, ref_terms: str =
         warnings.simplefilter("ignore")
         try:
             ws = _welleng_survey(sv.md_m, sv.inc_deg, sv.azi_mag_deg, rf, model)
-        except (ValueError, AssertionError) as e:
+        except (ValueError, AssertionError, ArithmeticError, KeyError, IndexError, np.linalg.LinAlgError) as e:
             raise DataError(f"the survey cannot be computed: {e}")
     n = len(sv)
     north, east, tvd = np.asarray(ws.n, float) - ws.n[0], np.asarray(ws.e, float) - ws.e[0], \
