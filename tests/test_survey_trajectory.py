@@ -366,3 +366,37 @@ def test_survey_md_outputs_read_as_one_survey(tmp_path, capsys):
     # the ideal probe reads the pose (noise only): the three runs agree to its noise
     assert np.abs(np.array(got[0])[:, 0] - inc).max() < 0.05
     assert np.abs(np.array(got) - np.array(got[0])).max() < 0.05
+
+
+def test_reference_file_round_trip_and_declination_only_uncertainty(calibration, tmp_path, capsys):
+    _, cal_path = calibration
+    ref = tmp_path / "ref.json"
+    lat, lon = RNG.uniform(40, 60), RNG.uniform(1, 5)
+    rc, out, err = run(capsys, "reffield", "--lat", lat, "--lon", lon, "--date", "2026-03-01", "--grid", 32631,
+                       "-o", ref, "--json")
+    assert rc == 0, err
+    rf = geomag.ReferenceField.from_json(ref.read_text())
+    assert rf.grid_epsg == 32631 and rf.declination_deg == pytest.approx(
+        geomag.main_field(lat, lon, "2026-03-01")[0]) and json.loads(out)["convergence_deg"] == rf.convergence_deg
+    p = tmp_path / "s.csv"
+    md = np.arange(0, 301, 30.0)
+    write_csv(p, md, np.clip(md / 6, 0, 40), np.full_like(md, 100.0))
+    o1, o2 = tmp_path / "a.las", tmp_path / "b.csv"
+    rc, out, err = run(capsys, "trajectory", p, "--ref", ref, "-o", o1)
+    assert rc == 0, err
+    import lasio
+
+    las = lasio.read(str(o1))
+    assert float(las.params["GRIDCONV"].value) == pytest.approx(rf.convergence_deg, abs=1e-6)
+    assert "NORTHING" in [c.mnemonic for c in las.curves]
+    # declination only: no field or gravity QC, the uncertainty from the tool model's own dip and field
+    rc, out, err = run(capsys, "trajectory", p, "--declination", rf.declination_deg, "--uncertainty", "--cal",
+                       cal_path, "--acc-noise", 1e-4, "--mag-noise", 3, "-o", o2)
+    assert rc == 0, err
+    rows = wp.read_trajectory(str(o2))
+    assert "dgt_g" not in rows[0] and float(rows[-1]["ell_major_m"]) > 0
+    assert rows[0]["sigma_azi_deg"] == "" and rows[0]["note"].startswith("near-vertical")
+    bad = tmp_path / "bad.json"
+    bad.write_text('{"decl": 1}')
+    rc, out, err = run(capsys, "trajectory", p, "--ref", bad, "-o", o2)
+    assert rc == 2 and "reference-field" in err

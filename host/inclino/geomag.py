@@ -40,7 +40,7 @@ class ReferenceField:
     declination_deg: float
     dip_deg: float
     total_nT: float
-    gravity_g: float = 1.0
+    gravity_g: float = 1.0  # NaN when unknown (no position, no --gravity)
     source: str = "user"  # "igrf (ppigrf x.y)", "wmm (pygeomag)", "user" (in-field referencing)
     lat_deg: float | None = None
     lon_deg: float | None = None
@@ -54,21 +54,30 @@ class ReferenceField:
     tol: dict = field(default_factory=lambda: dict(DEFAULT_TOL))
 
     def to_json(self) -> str:
-        return json.dumps(asdict(self), indent=2)
+        d = {k: (None if isinstance(v, float) and not math.isfinite(v) else v) for k, v in asdict(self).items()}
+        return json.dumps(d, indent=2)  # an unknown value is null
 
     @staticmethod
     def from_json(text: str) -> "ReferenceField":
         try:
             d = json.loads(text)
-            return ReferenceField(**d)
-        except (json.JSONDecodeError, TypeError) as e:
+            for k in ("declination_deg", "dip_deg", "total_nT", "gravity_g"):
+                if d.get(k) is None:
+                    d[k] = float("nan")
+            rf = ReferenceField(**d)
+        except (json.JSONDecodeError, TypeError, AttributeError) as e:
             raise DataError(f"not a reference-field file: {e}")
+        if not isinstance(rf.tol, dict) or not all(k in rf.tol for k in DEFAULT_TOL):
+            raise DataError("not a reference-field file: tolerances missing")
+        return rf
 
     def header(self) -> dict:
         """key=value pairs written with a run (CSV '# key=value' lines, LAS ~Parameter)."""
-        d = {"ref_source": self.source, "declination_deg": f"{self.declination_deg:.4f}",
-             "dip_deg": f"{self.dip_deg:.4f}", "field_nT": f"{self.total_nT:.1f}",
-             "gravity_g": f"{self.gravity_g:.6f}"}
+        d = {"ref_source": self.source, "declination_deg": f"{self.declination_deg:.4f}"}
+        for k, v, f in (("dip_deg", self.dip_deg, ".4f"), ("field_nT", self.total_nT, ".1f"),
+                        ("gravity_g", self.gravity_g, ".6f")):
+            if v is not None and math.isfinite(v):  # unknown (declination-only referencing): left out
+                d[k] = format(v, f)
         if self.lat_deg is not None:
             d.update(lat_deg=f"{self.lat_deg:.6f}", lon_deg=f"{self.lon_deg:.6f}", alt_m=f"{self.alt_m:g}")
         if self.date:
@@ -227,7 +236,7 @@ def reference(lat=None, lon=None, date=None, alt_m=0.0, model="igrf", declinatio
             raise DataError("--gravity must be in g (0.5-1.5)")
         g = float(gravity)
     else:
-        g = normal_gravity_g(lat, alt_m) if have_pos else 1.0
+        g = normal_gravity_g(lat, alt_m) if have_pos else float("nan")  # unknown: no G-total QC
     rf = ReferenceField(dec0, dip0, f0, g, src, lat, lon, float(alt_m), dstr)
     if tol:
         rf.tol.update(tol)

@@ -15,7 +15,8 @@ def fixed(rf) -> tuple:
         raise DataError("the probe's QC reference needs the dip and the total field (a position and date, "
                         "or --dip and --total)")
     t = rf.tol
-    vals = (rf.gravity_g * 2**27, t["gt_g"] * 2**27, rf.total_nT * 256.0, t["bt_nT"] * 256.0,
+    g = rf.gravity_g if math.isfinite(rf.gravity_g) else 1.0  # the firmware's default reference (qc_default)
+    vals = (g * 2**27, t["gt_g"] * 2**27, rf.total_nT * 256.0, t["bt_nT"] * 256.0,
             rf.dip_deg * 65536.0, t["dip_deg"] * 65536.0)
     out = tuple(int(round(v)) for v in vals)
     if any(not -2**31 <= v < 2**31 for v in out) or min(out[1], out[3], out[5]) < 0:

@@ -194,7 +194,8 @@ def _tool_summary(path):
 
     tm = ToolModel.load(path)
     mc = tm.fit["monte_carlo"]
-    return {"noise": tm.noise, "mc_inc_ratio": [min(mc["inc_ratio"]), max(mc["inc_ratio"])],
+    return {"noise": tm.noise, "projection_sigma_ratio": [tm.fit["sigma_ratio_min"], tm.fit["sigma_ratio_max"]],
+            "mc_inc_ratio": [min(mc["inc_ratio"]), max(mc["inc_ratio"])],
             "mc_azi_ratio": [min(mc["azi_ratio"]), max(mc["azi_ratio"])], "mc_within_20pct": mc["within_20pct"]}
 
 

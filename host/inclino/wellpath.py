@@ -279,15 +279,19 @@ class Trajectory:
         return json.dumps(asdict(self), indent=2)
 
 
-def _welleng_survey(md, inc, azi_mag, rf: ReferenceField, error_model=None):
+def _welleng_survey(md, inc, azi_mag, rf: ReferenceField, error_model=None, fallback=(60.0, 50000.0)):
+    """welleng's Survey of magnetic azimuths.  Dip and field only enter the
+    error model's weights; when the reference lacks them (declination-only
+    referencing) `fallback` (the tool model's own) stands in."""
     from welleng.survey import Survey as WSurvey, SurveyHeader
 
-    dip = rf.dip_deg if math.isfinite(rf.dip_deg) else 60.0
-    bt = rf.total_nT if math.isfinite(rf.total_nT) else 50000.0
+    dip = rf.dip_deg if math.isfinite(rf.dip_deg) else fallback[0]
+    bt = rf.total_nT if math.isfinite(rf.total_nT) else fallback[1]
+    grav = rf.gravity_g if math.isfinite(rf.gravity_g) else 1.0
     h = SurveyHeader(latitude=rf.lat_deg if rf.lat_deg is not None else 0.0,
                      longitude=rf.lon_deg if rf.lon_deg is not None else 0.0, altitude=rf.alt_m,
                      survey_date=rf.date, b_total=bt, dip=dip, declination=rf.declination_deg,
-                     convergence=0.0, azi_reference="magnetic", G=rf.gravity_g * 9.80665)
+                     convergence=0.0, azi_reference="magnetic", G=grav * 9.80665)
     return WSurvey(md=np.asarray(md, float), inc=np.asarray(inc, float), azi=np.asarray(azi_mag, float),
                    header=h, error_model=error_model)
 
@@ -322,7 +326,9 @@ def trajectory(sv: Survey, rf: ReferenceField, tool_model=None, ref_terms: str =
     with warnings.catch_warnings():
         warnings.simplefilter("ignore")
         try:
-            ws = _welleng_survey(sv.md_m, sv.inc_deg, sv.azi_mag_deg, rf, model)
+            fb = (tool_model.fit.get("dip_deg", 60.0), tool_model.fit.get("field_nT", 50000.0)) \
+                if tool_model is not None else (60.0, 50000.0)
+            ws = _welleng_survey(sv.md_m, sv.inc_deg, sv.azi_mag_deg, rf, model, fb)
         except (ValueError, AssertionError, ArithmeticError, KeyError, IndexError, np.linalg.LinAlgError) as e:
             raise DataError(f"the survey cannot be computed: {e}")
     n = len(sv)
