@@ -179,7 +179,7 @@ def test_welleng_loads_the_written_tool_model(calibration, tmp_path, capsys):
     azi = np.full_like(md, RNG.uniform(0, 360))
     h = SurveyHeader(latitude=52, longitude=4, b_total=50000, dip=60, declination=0.0, convergence=0.0,
                      azi_reference="magnetic")
-    s = Survey(md=md, inc=inc, azi=azi, header=h, error_model={k: v for k, v in d.items() if k != "inclino"})
+    s = Survey(md=md, inc=inc, azi=azi, header=h, error_model=d)  # the file as it is
     tm = em.ToolModel.load(str(out))
     pi, pa = em.station_sigma(tm, inc, azi, 60, 50000)
     dia = s.err.errors.cov_DIAs
