@@ -22,7 +22,11 @@ def plot(rows, path: str, truth=None, title: str = "", scale: float | None = Non
     f = lambda k: np.array([float(r[k]) if r.get(k, "") != "" else np.nan for r in rows])
     n, e, tvd, md = f("north_m"), f("east_m"), f("tvd_m"), f("md_m")
     has_ell = all("ell_major_m" in r for r in rows)
-    fig, (ax1, ax2) = plt.subplots(1, 2, figsize=(11, 5.2))
+    if truth is not None and has_ell:
+        fig, (ax1, ax2, ax3) = plt.subplots(1, 3, figsize=(16, 5.2), gridspec_kw={"width_ratios": [1.1, 1.1, 1]})
+    else:
+        fig, (ax1, ax2) = plt.subplots(1, 2, figsize=(11, 5.2))
+        ax3 = None
     ax1.plot(e, n, "-o", ms=2.5, lw=1, color="C0", label="inclino trajectory")
     span = max(np.ptp(n), np.ptp(e), 1.0)
     if has_ell:
@@ -58,6 +62,31 @@ def plot(rows, path: str, truth=None, title: str = "", scale: float | None = Non
     ax2.set_title("vertical section")
     ax2.legend(fontsize=8, loc="upper right")
     ax2.grid(alpha=0.3)
+    if ax3 is not None:
+        t_tvd, t_n, t_e = truth
+        dn, de = n - t_n, e - t_e
+        cnn, cne, cee = f("cov_nn"), f("cov_ne"), f("cov_ee")
+        d = np.full(len(rows), np.nan)
+        for i in range(len(rows)):
+            c = np.array([[cnn[i], cne[i]], [cne[i], cee[i]]])
+            if np.all(np.isfinite(c)) and np.linalg.det(c) > 0:
+                v = np.array([dn[i], de[i]])
+                d[i] = math.sqrt(float(v @ np.linalg.solve(c, v)))
+        ax3.plot(md, np.hypot(dn, de) * 100, "-o", ms=2.5, color="C0", label="horizontal error, cm")
+        ax3.plot(md, a * 100, "-", color="C1", label="1-sigma semi-major, cm")
+        ax3.plot(md, 2 * a * 100, "--", color="C3", label="2-sigma semi-major, cm")
+        ax3b = ax3.twinx()
+        ax3b.plot(md, d, ":", color="k", label="Mahalanobis distance (right)")
+        ax3b.axhline(2.0, color="C3", lw=0.6, ls=":")
+        ax3b.set_ylabel("error / ellipse (Mahalanobis distance)")
+        ax3b.set_ylim(0, max(3.0, np.nanmax(d) * 1.1 if np.any(np.isfinite(d)) else 3.0))
+        ax3.set_xlabel("measured depth, m")
+        ax3.set_ylabel("cm")
+        ax3.set_title("position error against the known path")
+        h1, l1 = ax3.get_legend_handles_labels()
+        h2, l2 = ax3b.get_legend_handles_labels()
+        ax3.legend(h1 + h2, l1 + l2, fontsize=8, loc="upper left")
+        ax3.grid(alpha=0.3)
     if title:
         fig.suptitle(title, fontsize=10)
     fig.tight_layout()
