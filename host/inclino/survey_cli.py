@@ -117,7 +117,7 @@ def _cmd_toolmodel(args) -> int:
           f"{min(mc['inc_deg']):g}-{max(mc['inc_deg']):g} deg): model/MC 1-sigma inclination "
           f"{min(mc['inc_ratio']):.2f}-{max(mc['inc_ratio']):.2f}, azimuth {min(mc['azi_ratio']):.2f}-"
           f"{max(mc['azi_ratio']):.2f} ({'within' if mc['within_20pct'] else 'NOT within'} +-20 %)")
-    return 0
+    return 0 if mc["within_20pct"] else 1  # the file is written either way
 
 
 def _show(g, v):
