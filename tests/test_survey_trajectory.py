@@ -324,6 +324,10 @@ def test_emulated_probe_survey_recovers_the_well_inside_its_ellipses():
     assert r.stations == 80
     assert r.inside_2sigma >= 0.9, r.to_json()
     assert r.declination_agrees, (r.declination_printed, r.declination_ppigrf)
+    # the propagated station 1-sigma against the Monte Carlo over the covariance, at the well's stations
+    for k in ("inc", "azi"):
+        lo, hi = r.station_mc_ratio[k]
+        assert 0.8 <= lo and hi <= 1.2, r.station_mc_ratio
     # the ellipses are not vacuous: the error is of their order, not orders below
     assert r.max_horizontal_error_m > 0.05 * r.end_ellipse_1sigma_m[0]
 
