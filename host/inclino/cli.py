@@ -90,23 +90,9 @@ def _cmd_bench(args) -> int:
 
         return bench_command(args)
     if args.what == "survey":
-        from inclino import survey_bench
+        from inclino.survey_bench import bench_command
 
-        r = survey_bench.bench(plot=args.plot)
-        print(r.to_json() if args.json else
-              f"build-and-hold well, {len(r.seeds)} seeds, {r.stations} stations: {r.inside_2sigma:.1%} inside their "
-              f"2-sigma ellipse ({r.inside_1sigma:.1%} inside 1-sigma; target >= {r.target_inside_2sigma:.0%}); "
-              f"largest horizontal error {r.max_horizontal_error_m:.3f} m, TVD {r.max_tvd_error_m:.3f} m; "
-              f"declination printed {r.declination_printed} deg, ppigrf {r.declination_ppigrf:.4f} deg: "
-              + ("agrees" if r.declination_agrees else "DIFFERS")
-              + f"\nstation 1-sigma, model / Monte Carlo over the calibration covariance: inclination "
-                f"{r.station_mc_ratio['inc'][0]:.2f}-{r.station_mc_ratio['inc'][1]:.2f}, azimuth "
-                f"{r.station_mc_ratio['azi'][0]:.2f}-{r.station_mc_ratio['azi'][1]:.2f}"
-              + ("" if not r.fixed_toolface else
-                 f"\nsame wells, one toolface per run: {r.fixed_toolface['inside_2sigma']:.1%} inside 2-sigma "
-                 f"({r.fixed_toolface['inside_1sigma']:.1%} inside 1-sigma), largest horizontal error "
-                 f"{r.fixed_toolface['max_horizontal_error_m']:.3f} m"))
-        return 0 if r.passed else 1
+        return bench_command(args)
     if args.what == "link":
         from inclino import bench_link
 

@@ -276,3 +276,32 @@ def bench(seeds=tuple(range(1, 9)), workdir: str | None = None, plot: str | None
     res.passed = (res.inside_2sigma >= res.target_inside_2sigma and res.declination_agrees
                   and all(0.8 <= v <= 1.2 for k in ("inc", "azi") for v in res.station_mc_ratio[k]))
     return res
+
+
+def text(r: SurveyBench) -> str:
+    lines = [f"build-and-hold well, {len(r.seeds)} seeds, {r.stations} stations: {r.inside_2sigma:.1%} inside their "
+             f"2-sigma ellipse ({r.inside_1sigma:.1%} inside 1-sigma; target >= {r.target_inside_2sigma:.0%}); "
+             f"largest horizontal error {r.max_horizontal_error_m:.3f} m, TVD {r.max_tvd_error_m:.3f} m; "
+             f"declination printed {r.declination_printed} deg, ppigrf {r.declination_ppigrf:.4f} deg: "
+             + ("agrees" if r.declination_agrees else "DIFFERS"),
+             f"station 1-sigma, model / Monte Carlo over the calibration covariance: inclination "
+             f"{r.station_mc_ratio['inc'][0]:.2f}-{r.station_mc_ratio['inc'][1]:.2f}, azimuth "
+             f"{r.station_mc_ratio['azi'][0]:.2f}-{r.station_mc_ratio['azi'][1]:.2f}"]
+    if r.fixed_toolface:
+        f = r.fixed_toolface
+        lines.append(f"same wells, one toolface per run: {f['inside_2sigma']:.1%} inside 2-sigma "
+                     f"({f['inside_1sigma']:.1%} inside 1-sigma), largest horizontal error "
+                     f"{f['max_horizontal_error_m']:.3f} m")
+    return "\n".join(lines)
+
+
+def bench_command(args) -> int:
+    """`inclino bench survey [--json] [--plot PNG]`: exit 0 when the targets are met, 1 when not."""
+    from inclino.errors import InclinoError
+
+    try:
+        r = bench(plot=args.plot)
+    except RuntimeError as e:  # a step of the chain (emulator, a command) failed: its message, no traceback
+        raise InclinoError(str(e))
+    print(r.to_json() if args.json else text(r))
+    return 0 if r.passed else 1
