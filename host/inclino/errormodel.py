@@ -342,6 +342,10 @@ def from_calibration(cal, dip_deg, field_nT, gravity_g=1.0, acc_noise_g=0.0, mag
                      name="INCLINO") -> ToolModel:
     """The probe's tool model from a calibration (its covariance) and the
     probe's measured noise per survey (per axis, g and nT)."""
+    if not (math.isfinite(dip_deg) and abs(dip_deg) < 90.0):
+        raise DataError(f"dip {dip_deg} deg must be within +-90")
+    if not (math.isfinite(field_nT) and field_nT > 0):
+        raise DataError(f"total field {field_nT} nT must be > 0")
     cov, what = calibration_covariance(cal)
     mags, fit = project(cal, cov, dip_deg, field_nT, gravity_g)
     tm = ToolModel(name=name, systematic=mags,

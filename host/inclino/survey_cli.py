@@ -55,10 +55,16 @@ def _tool_model(args, rf=None):
         from inclino.calfile import Calibration
 
         cal = Calibration.load(args.cal)
-        dip = rf.dip_deg if rf is not None and math.isfinite(rf.dip_deg) else 60.0
+        dip = rf.dip_deg if rf is not None and math.isfinite(rf.dip_deg) else _cal_dip(cal)
         tot = rf.total_nT if rf is not None and math.isfinite(rf.total_nT) else 50000.0
         return em.from_calibration(cal, dip, tot, acc_noise_g=args.acc_noise or 0.0, mag_noise_nT=args.mag_noise or 0.0)
     raise DataError("the error model needs --tool-model TOOL.json (inclino toolmodel) or --cal CAL.json")
+
+
+def _cal_dip(cal) -> float:
+    """The dip the calibration run saw (its fit report), else 60 deg."""
+    v = ((cal.report or {}).get("residuals") or {}).get("dip_mean_deg")
+    return float(v) if isinstance(v, (int, float)) and math.isfinite(v) and abs(v) < 90 else 60.0
 
 
 def _cmd_reffield(args) -> int:
@@ -92,7 +98,8 @@ def _cmd_toolmodel(args) -> int:
 
     cal = Calibration.load(args.cal)
     rf = _reference(args) if (args.lat is not None or args.declination is not None or args.ref) else None
-    dip = rf.dip_deg if rf is not None and math.isfinite(rf.dip_deg) else args.dip if args.dip is not None else 60.0
+    dip = rf.dip_deg if rf is not None and math.isfinite(rf.dip_deg) else \
+        args.dip if args.dip is not None else _cal_dip(cal)
     tot = rf.total_nT if rf is not None and math.isfinite(rf.total_nT) else args.total or 50000.0
     an, mn = args.acc_noise, args.mag_noise
     if args.noise:
