@@ -128,7 +128,7 @@ def main_field(lat_deg: float, lon_deg: float, date, alt_m: float = 0.0, model: 
             raise DataError(f"IGRF covers 1900-2030, not {d.isoformat()}")
         be, bn, bu = ppigrf.igrf(lon_deg, lat_deg, alt_m / 1000.0, _dt.datetime(d.year, d.month, d.day))
         dec, dip, f = _decompose(float(np.ravel(bn)[0]), float(np.ravel(be)[0]), -float(np.ravel(bu)[0]))
-        return dec, dip, f, f"IGRF (ppigrf {getattr(ppigrf, '__version__', '')})".replace(" )", ")")
+        return dec, dip, f, f"IGRF (ppigrf {_version('ppigrf')})"
     if model == "wmm":
         try:
             from pygeomag import GeoMag
@@ -139,8 +139,17 @@ def main_field(lat_deg: float, lon_deg: float, date, alt_m: float = 0.0, model: 
             raise DataError(f"WMM (pygeomag) covers 2015-2029, not {d.isoformat()}")
         gm = GeoMag(coefficients_file=f"wmm/WMM_{year0}.COF", high_resolution=False)
         r = gm.calculate(glat=lat_deg, glon=lon_deg, alt=alt_m / 1000.0, time=_decimal_year(d))
-        return float(r.d), float(r.i), float(r.f), f"WMM{year0} (pygeomag)"
+        return float(r.d), float(r.i), float(r.f), f"WMM{year0} (pygeomag {_version('pygeomag')})"
     raise DataError(f"unknown geomagnetic model {model!r} (igrf or wmm)")
+
+
+def _version(dist: str) -> str:
+    from importlib.metadata import PackageNotFoundError, version
+
+    try:
+        return version(dist)
+    except PackageNotFoundError:
+        return "?"
 
 
 def _decimal_year(d: _dt.date) -> float:
