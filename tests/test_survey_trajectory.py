@@ -404,3 +404,25 @@ def test_reference_file_round_trip_and_declination_only_uncertainty(calibration,
     bad.write_text('{"decl": 1}')
     rc, out, err = run(capsys, "trajectory", p, "--ref", bad, "-o", o2)
     assert rc == 2 and "reference-field" in err
+
+
+def test_calibration_report_measures_azimuth_from_magnetic_north():
+    """A calibration run where the field has a declination (an IGRF site):
+    the fit report's azimuth residual and the joint fit's nonlinearity note
+    compare magnetic with magnetic azimuth, so the declination does not
+    show up as a residual (and the report passes, so `download` takes it)."""
+    import copy
+
+    from inclino.calib import fit, runs
+    from inclino_emu.scenario import generate_raw, load_scenario
+
+    s = copy.deepcopy(load_scenario("typical"))
+    dec = float(RNG.choice([-1, 1]) * RNG.uniform(2, 15))
+    s.world.earth.declination_deg = dec
+    ds = generate_raw(s, *runs.multi_position(), seed=int(RNG.integers(1 << 30)))
+    assert ds.meta["declination_deg"] == pytest.approx(dec)
+    cal, rep = fit(ds, "joint")
+    assert rep.residuals["azi_rms_deg"] < 0.1, rep.residuals
+    assert rep.passed, rep.reasons
+    note = [n for n in rep.notes if "linear calibration written leaves" in n]
+    assert note and float(note[0].split("leaves ")[1].split(" deg")[0]) < 0.1, note

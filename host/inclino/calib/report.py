@@ -150,7 +150,8 @@ def residuals(ds: RawDataset, cal: Calibration, dip_deg=None) -> dict:
         inc = ds.columns["inc_deg"]
         di = a["inc"] - inc
         ok = (inc >= 5.0) & (inc <= 175.0)
-        da = ref.angle_diff(a["azi"], ds.columns["azi_deg"])[ok]
+        # the poses' azimuth is from true north, the probe's from the field's (magnetic) north
+        da = ref.angle_diff(a["azi"], ds.columns["azi_deg"] - w["declination_deg"])[ok]
         out.update({"acc_vec_rms_mg": 1e3 * _rms(g - gt), "mag_vec_rms_nT": _rms(b - ft),
                     "inc_rms_deg": _rms(di), "inc_max_deg": float(np.abs(di).max()),
                     "azi_rms_deg": _rms(da), "azi_max_deg": float(np.abs(da).max()) if da.size else float("nan")})
