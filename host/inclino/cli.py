@@ -211,6 +211,7 @@ def build_parser() -> argparse.ArgumentParser:
     be.add_argument("--field", type=float, default=50000.0, help="accuracy: field total, nT")
     be.add_argument("--dip", type=float, default=60.0, help="accuracy: dip, degrees")
     be.add_argument("--vectors", type=int, default=1_000_000, help="speed: batch size")
+    be.add_argument("--quick", action="store_true", help="diagnose: a small set (not the targets' figures)")
     be.add_argument("--plot", help="survey: also draw the first seed's well path and ellipses (PNG)")
     be.set_defaults(func=_cmd_bench)
     _add_calibrate(sub)
