@@ -289,9 +289,9 @@ def _probe_readings(x, prob: _Problem, order, poses, temps):
 
 
 def _errors_over_range(cal, block, x, prob, order, w):
-    """Azimuth (I >= 5) and inclination RMS on the Li 2021 grid at
-    temperatures across the run's range, for the fitted probe: the
-    calibration with its temperature terms and without (M, b only)."""
+    """Azimuth (I >= 5, from magnetic north) and inclination RMS on the Li
+    2021 grid at temperatures across the run's range, for the fitted probe:
+    the calibration with its temperature terms and without (M, b only)."""
     from .runs import li2021_grid
 
     I, A, T = li2021_grid((0.0, 120.0, 240.0))
@@ -307,7 +307,7 @@ def _errors_over_range(cal, block, x, prob, order, w):
         for name, (a_in, m_in) in (("with", to_reference(acc, mag, np.full(len(acc), t), cal, block)),
                                    ("without", (acc, mag))):
             att = ref.attitude(ref.correct(a_in, cal.acc_m, cal.acc_b), ref.correct(m_in, cal.mag_m, cal.mag_b))
-            da = ref.angle_diff(att["azi"], A)[ok]
+            da = ref.angle_diff(att["azi"], A - prob.dec)[ok]  # the probe reads from magnetic north
             di = att["inc"] - I
             res[f"azi_rms_{name}_deg"] = float(np.sqrt(np.mean(da ** 2)))
             res[f"inc_rms_{name}_deg"] = float(np.sqrt(np.mean(di ** 2)))
