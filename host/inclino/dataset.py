@@ -235,6 +235,22 @@ def _check_block(block, nos, cols, path) -> None:
             raise DataError(f"{path}:{nos[r]}: column {c}: {float(v[r]):g} out of range: {c} {_rule_text(c)}")
 
 
+def thin(ds: RawDataset, max_rows: int | None) -> tuple[RawDataset, str | None]:
+    """The subsampling rule for methods that do not need every row of a long
+    run: with n > max_rows rows, keep every k-th row, k = ceil(n / max_rows),
+    starting at the first (rows 0, k, 2k, ...: evenly spread over the run,
+    so every pose held for at least k rows keeps rows, and the same file
+    always gives the same rows).  Returns the dataset (the same object when
+    nothing is dropped) and a one-line note, or None."""
+    n = len(ds)
+    if max_rows is None or n <= max_rows:
+        return ds, None
+    k = -(-n // int(max_rows))
+    sub = RawDataset({c: np.ascontiguousarray(v[::k]) for c, v in ds.columns.items()}, dict(ds.meta))
+    return sub, (f"the run has {n} rows; every {k}th row was used ({len(sub)} rows, the limit is {max_rows}: "
+                 f"docs/dataset.md, long runs)")
+
+
 def write_raw(path: str, ds: RawDataset) -> None:
     cols = [c for c in COLUMN_ORDER if c in ds.columns]
     with open(path, "w", newline="", encoding="utf-8") as f:

@@ -18,11 +18,12 @@ from . import DEFAULT_METHOD, METHODS
 
 
 def calibrate_main(args) -> int:
-    from inclino import dataset
+    from inclino import dataset, progress, safeio
 
     from . import common, fit
 
-    ds = dataset.read_raw(args.input)
+    safeio.check_output(args.output, [args.input, getattr(args, "prior", None)])  # before any work
+    ds = dataset.read_raw(args.input, progress=True)
     opts = {}
     if getattr(args, "no_poses", False):
         opts["use_poses"] = False
@@ -35,10 +36,11 @@ def calibrate_main(args) -> int:
             raise DataError("--bootstrap must be >= 2")
         opts["bootstrap"] = args.bootstrap
     try:
-        cal, rep = fit(ds, args.method, data_hash=common.file_hash(args.input, ds), **opts)
+        with progress.phase(f"calibrate: {args.method} fit of {args.input}"):
+            cal, rep = fit(ds, args.method, data_hash=common.file_hash(args.input, ds), **opts)
     except (ArithmeticError, ValueError, np.linalg.LinAlgError) as e:  # one line, never a traceback
         raise CalibrationError(f"{args.method}: the fit failed ({type(e).__name__}: {e})")
-    cal.save(args.output)
+    cal.save(args.output, inputs=[args.input, getattr(args, "prior", None)])
     if args.json:
         print(json.dumps({"output": args.output, "method": cal.method, "probe_serial": cal.probe_serial,
                           "data": cal.data, "report": rep.to_dict()}, indent=2))

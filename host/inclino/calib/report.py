@@ -217,7 +217,7 @@ def bootstrap_cov(ds: RawDataset, refit, rows, sigma_acc, sigma_mag, sigma_pose_
             vs.append(common.cal_vector(refit(RawDataset(cols, dict(base.meta)))))
         except Exception:  # a perturbed run the method cannot fit: counted below
             continue
-    if len(vs) < n // 2:
+    if len(vs) < max(2, n // 2):  # a covariance needs two refits at least
         return None, len(vs)
     return np.cov(np.array(vs).T), len(vs)
 
