@@ -476,11 +476,9 @@ def _cmd_accept(args) -> int:
 
 
 def _write(path: str, text: str) -> None:
-    try:
-        with open(path, "w", encoding="utf-8") as f:
-            f.write(text)
-    except OSError as e:
-        raise DataError(f"cannot write {path}: {e.strerror}")
+    from inclino import safeio
+
+    safeio.write_output(path, text)
 
 
 def add_parser(sub) -> None:

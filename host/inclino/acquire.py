@@ -346,6 +346,9 @@ def _bar(total: int, desc: str, quiet: bool):
 
 class _RowWriter:
     def __init__(self, path: str, meta: dict):
+        from inclino import safeio
+
+        safeio.check_output(path)
         self.path = path
         self.part = path + ".part"
         try:
@@ -366,8 +369,19 @@ class _RowWriter:
         self.rows += 1
 
     def commit(self) -> None:
+        """The finished run goes to the output path through inclino.safeio
+        (atomic, never over a device or through a replaced symlink, the
+        target's permissions kept); the .part file is then removed."""
+        from inclino import safeio
+
         self.f.close()
-        os.replace(self.part, self.path)
+        try:
+            with open(self.part, "rb") as src:
+                data = src.read()
+        except OSError as e:
+            raise DataError(f"cannot read back {self.part}: {e.strerror}") from None
+        safeio.write_output(self.path, data)
+        os.unlink(self.part)
 
     def abort(self) -> None:
         try:

@@ -34,26 +34,29 @@ def _cmd_bitexact(args) -> int:
     return 0 if r.mismatches == 0 else 1
 
 
+ATTITUDE_CHUNK = 1 << 16  # rows computed and written at a time (bounded memory on a long run)
+
+
 def _cmd_attitude(args) -> int:
-    from inclino import dataset, engines
+    from inclino import dataset, engines, progress, safeio
     from inclino.calfile import Calibration
 
-    ds = dataset.read_raw(args.input)
+    safeio.check_output(args.output, [args.input, args.cal])  # before any work
+    ds = dataset.read_raw(args.input, progress=True)
     cal = Calibration.load(args.cal) if args.cal else Calibration()
-    out = engines.run(ds.acc, ds.mag, cal, args.engine)
     cols = ["inc_deg", "azi_deg", "tf_deg", "gt_g", "bt_nT", "dip_deg", "flags", "mtf_deg"]
-    try:
-        f = open(args.output, "w", newline="", encoding="utf-8") if args.output != "-" else sys.stdout
-    except OSError as e:
-        raise DataError(f"cannot write {args.output}: {e.strerror}")
-    try:
+    with safeio.output_file(args.output, [args.input, args.cal]) as f, \
+            progress.bar(len(ds), f"attitude {args.input}", unit=" rows") as bar:
         w = csv.writer(f)
         w.writerow(cols)
-        for i in range(len(ds)):
-            w.writerow([int(out[c][i]) if c == "flags" else f"{float(out[c][i]):.6f}" for c in cols])
-    finally:
-        if f is not sys.stdout:
-            f.close()
+        acc, mag = ds.acc, ds.mag
+        for lo in range(0, len(ds), ATTITUDE_CHUNK):
+            hi = min(lo + ATTITUDE_CHUNK, len(ds))
+            out = engines.run(acc[lo:hi], mag[lo:hi], cal, args.engine)
+            text = {c: (out[c].astype(np.int64).astype(str) if c == "flags"
+                        else np.char.mod("%.6f", np.asarray(out[c], dtype=float))) for c in cols}
+            w.writerows(zip(*(text[c] for c in cols)))
+            bar.update(hi - lo)
     return 0
 
 
@@ -222,6 +225,10 @@ def main(argv: list[str] | None = None) -> int:
         return 130
     except BrokenPipeError:
         return 0
+    except MemoryError:  # one line, never a traceback (docs/cli.md: exit 2)
+        print("inclino: error: out of memory: the input is too large for this machine's memory limit",
+              file=sys.stderr)
+        return 2
 
 
 if __name__ == "__main__":  # pragma: no cover

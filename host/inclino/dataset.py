@@ -167,7 +167,7 @@ def _read(lines: _Lines, path: str, bar) -> RawDataset:
     ncells = len(header)
     wanted = [c for c in COLUMN_ORDER if c in header]
     idx = [header.index(c) for c in wanted]
-    chunks, rownos = [], []
+    chunks = []
     buf = np.empty((CHUNK_ROWS, len(wanted)))
     nos = np.empty(CHUNK_ROWS, dtype=np.int64)
     k = 0
@@ -235,6 +235,9 @@ def _check_block(block, nos, cols, path) -> None:
             raise DataError(f"{path}:{nos[r]}: column {c}: {float(v[r]):g} out of range: {c} {_rule_text(c)}")
 
 
+THIN_NOTE = "the run has"
+
+
 def thin(ds: RawDataset, max_rows: int | None) -> tuple[RawDataset, str | None]:
     """The subsampling rule for methods that do not need every row of a long
     run: with n > max_rows rows, keep every k-th row, k = ceil(n / max_rows),
@@ -247,7 +250,7 @@ def thin(ds: RawDataset, max_rows: int | None) -> tuple[RawDataset, str | None]:
         return ds, None
     k = -(-n // int(max_rows))
     sub = RawDataset({c: np.ascontiguousarray(v[::k]) for c, v in ds.columns.items()}, dict(ds.meta))
-    return sub, (f"the run has {n} rows; every {k}th row was used ({len(sub)} rows, the limit is {max_rows}: "
+    return sub, (f"{THIN_NOTE} {n} rows; every {k}th row was used ({len(sub)} rows, the limit is {max_rows}: "
                  f"docs/dataset.md, long runs)")
 
 

@@ -29,6 +29,8 @@ import sys
 import time
 from dataclasses import dataclass, field
 
+from inclino import safeio
+
 # (inclination, azimuth, toolface) in degrees; Li 2021 Table 1 position 1 is
 # (90, 0, 180): X down, Y west, Z north.
 POSES = [
@@ -190,8 +192,7 @@ def bench(out_dir: str = DEFAULT_OUT, scenario: str = "typical", seed: int | Non
                 a = acc.accept(link, table, g, before="identity", circles=(g == "li2021"), quiet=quiet)
                 res.accept[g] = a
                 path = os.path.join(out_dir, f"accept_{g}.json")
-                with open(path, "w", encoding="utf-8") as f:
-                    f.write(a.to_json() + "\n")
+                safeio.write_output(path, a.to_json() + "\n")
                 res.files.append(path)
                 say("")
                 say(acc.render(a))

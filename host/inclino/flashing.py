@@ -594,11 +594,9 @@ def _write_readback(fl: _Flasher, image: Image, path: str):
         bf.add_binary(fl.readback.get(r.addr, b""), address=r.addr)
     if image.entry != NO_ENTRY:
         bf.execution_start_address = image.entry
-    try:
-        with open(path, "w", encoding="ascii") as f:
-            f.write(bf.as_srec(number_of_data_bytes=32, address_length_bits=24))
-    except OSError as e:
-        raise DataError(f"cannot write {path}: {e.strerror}") from None
+    from inclino import safeio
+
+    safeio.write_output(path, bf.as_srec(number_of_data_bytes=32, address_length_bits=24), [image.path])
 
 
 # ---- the command ------------------------------------------------------------------------------
@@ -643,6 +641,10 @@ def _text(res: FlashResult) -> str:
 
 
 def _cmd_flash(args) -> int:
+    if args.readback:
+        from inclino import safeio
+
+        safeio.check_output(args.readback, [args.image])  # before the probe is touched
     cb, close = (None, lambda: None) if args.json else _tqdm_progress()
     try:
         res = flash(args.port, args.image, progress=cb, attempts=args.attempts, run=not args.no_run,

@@ -48,6 +48,9 @@ def calibrate_main(args) -> int:
         print(f"{args.output}: {cal.method} calibration of probe {cal.probe_serial or '(no serial)'} "
               f"from {args.input} (sha256 {cal.data['sha256'][:16]}...)")
         print(rep.summary())
+        for note in rep.notes:
+            if note.startswith(dataset.THIN_NOTE):
+                print(f"  note: {note}")
     return 0 if rep.passed else 1
 
 
