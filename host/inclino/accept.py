@@ -147,14 +147,15 @@ class AcceptResult:
 
     @staticmethod
     def load(path: str) -> "AcceptResult":
+        from inclino import safeio
+
+        d = safeio.load_json(path, "accept result")  # bounded: size, nesting, numbers
+        if not isinstance(d, dict):
+            raise DataError(f"{path} is not an accept result (inclino accept --save)")
         try:
-            with open(path, encoding="utf-8") as f:
-                d = json.load(f)
             return AcceptResult(**d)
-        except OSError as e:
-            raise DataError(f"cannot read {path}: {e.strerror}")
         except (ValueError, TypeError) as e:
-            raise DataError(f"{path} is not an accept result (inclino accept --save): {e}")
+            raise DataError(f"{path} is not an accept result (inclino accept --save): {str(e)[:80]}") from None
 
     # arrays over the points
     def errors(self, which: str):

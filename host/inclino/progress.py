@@ -18,7 +18,10 @@ import os
 import sys
 import threading
 
+import tqdm as _tqdm
 from tqdm import tqdm
+
+_tqdm.tqdm.monitor_interval = 0  # no tqdm monitor thread: nothing starts behind the command's back
 
 
 def period() -> float:
@@ -91,7 +94,12 @@ def phase(desc: str, quiet: bool = False, stream=None):
                 b.refresh()
 
     t = threading.Thread(target=beat, daemon=True)
-    t.start()
+    try:
+        t.start()
+    except RuntimeError:  # no thread to be had (a memory limit): the work goes on without the status
+        b.close()
+        yield
+        return
     try:
         yield
     finally:
