@@ -250,8 +250,8 @@ def thin(ds: RawDataset, max_rows: int | None) -> tuple[RawDataset, str | None]:
         return ds, None
     k = -(-n // int(max_rows))
     sub = RawDataset({c: np.ascontiguousarray(v[::k]) for c, v in ds.columns.items()}, dict(ds.meta))
-    return sub, (f"{THIN_NOTE} {n} rows; every {k}th row was used ({len(sub)} rows, the limit is {max_rows}: "
-                 f"docs/dataset.md, long runs)")
+    return sub, (f"{THIN_NOTE} {n} rows; one row in {k} was used (rows 0, {k}, {2 * k}, ...: {len(sub)} rows; "
+                 f"the limit is {max_rows}, docs/dataset.md)")
 
 
 def write_raw(path: str, ds: RawDataset) -> None:
