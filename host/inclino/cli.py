@@ -87,6 +87,12 @@ def _cmd_bench(args) -> int:
               f" vectors/s; per call: {r.per_call_vectors_per_s:,.0f} vectors/s"
               f" (cost ratio {r.per_call_to_batched_cost_ratio:.0f})")
         return 0
+    if args.what == "input":
+        from inclino import bench_input
+
+        r = bench_input.bench()
+        print(r.to_json() if args.json else bench_input.text(r))
+        return 0 if r.passed else 1
     if args.what == "diagnose":
         from inclino.diagnose.bench import bench_command
 
@@ -196,7 +202,8 @@ def build_parser() -> argparse.ArgumentParser:
     em.set_defaults(func=_cmd_emulate)
 
     be = sub.add_parser("bench", help="benchmarks (figures, JSON with --json)")
-    be.add_argument("what", choices=("accuracy", "speed", "mcu", "emulator", "link", "calibration", "diagnose"))
+    be.add_argument("what", choices=("accuracy", "speed", "mcu", "emulator", "link", "calibration", "diagnose",
+                                     "input"))
     be.add_argument("--json", action="store_true", help="print one JSON object")
     be.add_argument("--field", type=float, default=50000.0, help="accuracy: field total, nT")
     be.add_argument("--dip", type=float, default=60.0, help="accuracy: dip, degrees")
