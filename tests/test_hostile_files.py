@@ -389,3 +389,41 @@ def test_progress_lines_off_a_terminal(run_csv, tmp_path):
     r = subprocess.run([sys.executable, "-m", "inclino", "attitude", str(run_csv), "-o", str(tmp_path / "a.csv")],
                        capture_output=True, text=True)
     assert r.returncode == 0 and r.stderr == ""  # short work with the default period: silent
+
+
+@pytest.mark.parametrize("opt,value", [("--field", "-50000"), ("--dip", "500"), ("--field", "nan"),
+                                       ("--declination", "1e999")])
+def test_acquire_header_options_follow_the_header_rules(tmp_path, capsys, opt, value):
+    out = tmp_path / "run.csv"
+    rc = cli.main(["acquire", "--port", str(tmp_path / "no-port"), "--procedure", "twelve-position",
+                   "-o", str(out), opt, value])
+    assert rc == 2
+    _one_error(capsys.readouterr().err, f"{opt} ")
+    assert not out.exists()
+
+
+def test_progress_bar_on_a_terminal(monkeypatch):
+    import pty
+    import time
+
+    from inclino import progress
+
+    monkeypatch.setenv("INCLINO_PROGRESS_PERIOD", "0.05")
+    master, slave = pty.openpty()
+    term = os.fdopen(slave, "w")
+    try:
+        n = int(np.random.default_rng().integers(3, 9))
+        with progress.bar(n, "attitude run.csv", unit=" rows", stream=term) as b:
+            for _ in range(n):
+                time.sleep(0.06)
+                b.update(1)
+        with progress.phase("calibrate: joint fit of run.csv", stream=term):
+            time.sleep(0.3)
+        term.flush()
+        seen = os.read(master, 1 << 16)
+    finally:
+        term.close()
+        os.close(master)
+    # on a terminal tqdm redraws one line in place (carriage returns), no line per update
+    assert b"\r" in seen and b"attitude run.csv:" in seen and f"/{n} [".encode() in seen
+    assert b"calibrate: joint fit of run.csv: 00:00 elapsed" in seen and b"\n" not in seen.replace(b"\r\n", b"")

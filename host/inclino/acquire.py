@@ -513,6 +513,10 @@ def _cmd_acquire(args) -> int:
         raise DataError("--average must be within 1-64 samples")
     procedure_steps(args.procedure, points=args.points, d1=args.d1, azimuth=args.azimuth, step_deg=args.step)
     world = {"field_nT": args.field, "dip_deg": args.dip, "declination_deg": args.declination}
+    from inclino.dataset import check_meta
+
+    for key, opt in (("field_nT", "--field"), ("dip_deg", "--dip"), ("declination_deg", "--declination")):
+        check_meta(key, world[key], opt)  # the header's rule, before the port is opened
     table = open_table(args)
     try:
         with ProbeLink(args.port, baud=args.baud, timeout=args.timeout) as link:

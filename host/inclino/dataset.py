@@ -79,6 +79,16 @@ def _rule_text(key: str) -> str:
     return f"must be within [{lo:g}, {hi:g}]"
 
 
+def check_meta(key: str, value, what: str) -> None:
+    """A header value given some other way (a command-line option) obeys the
+    header's rule: DataError naming `what`."""
+    if value is None or key not in RULES:
+        return
+    lo, hi = RULES[key]
+    if not (math.isfinite(value) and lo <= value <= hi):
+        raise DataError(f"{what} {value:g} out of range: {key} {_rule_text(key)}")
+
+
 def _meta_value(key, text, path, lineno):
     if key in NUMERIC_META:
         try:

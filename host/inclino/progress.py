@@ -1,7 +1,7 @@
 """Progress of long work on stderr, on a terminal and off one (tqdm).
 
 On a terminal: a tqdm bar that appears once the work has taken more than a
-second.  Off a terminal (a log file, CI, a pipe): the same tqdm status as a
+second (or PERIOD, when shorter).  Off a terminal (a log file, CI, a pipe): the same tqdm status as a
 plain line every PERIOD seconds (default 10; environment variable
 INCLINO_PROGRESS_PERIOD), the first after PERIOD seconds, so short work
 prints nothing.  `quiet=True` (or INCLINO_PROGRESS=0) turns both off.
@@ -66,8 +66,12 @@ def bar(total=None, desc: str = "", unit: str = "it", quiet: bool = False, strea
     if quiet or _off():
         return tqdm(total=total, disable=True)
     if _is_tty(stream):
-        return tqdm(total=total, desc=desc, unit=unit, file=stream, leave=False, delay=1.0,
-                    dynamic_ncols=True, unit_scale=(unit == "B"), **kw)
+        import shutil
+
+        cols, rows = shutil.get_terminal_size((100, 24))  # a terminal without a size: 100 x 24
+        return tqdm(total=total, desc=desc, unit=unit, file=stream, leave=False, delay=min(1.0, period()),
+                    ncols=cols if cols > 20 else 100, nrows=rows if rows > 2 else 24, unit_scale=(unit == "B"),
+                    **kw)
     p = period()
     if total is not None and "bar_format" not in kw:
         kw["bar_format"] = "{desc}: {percentage:.0f}% ({n_fmt}/{total_fmt}{unit}, {elapsed} elapsed, {remaining} left)"
@@ -86,7 +90,7 @@ def phase(desc: str, quiet: bool = False, stream=None):
         return
     stop = threading.Event()
     tty = _is_tty(stream or sys.stderr)
-    step, first = (0.5, 1.0) if tty else (period(), period())
+    step, first = (min(0.5, period()), min(1.0, period())) if tty else (period(), period())
 
     def beat():
         while not stop.wait(step):
