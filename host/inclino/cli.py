@@ -42,8 +42,8 @@ def _cmd_attitude(args) -> int:
     from inclino.calfile import Calibration
 
     safeio.check_output(args.output, [args.input, args.cal])  # before any work
+    cal = Calibration.load(args.cal) if args.cal else Calibration()  # a refused file costs no reading
     ds = dataset.read_raw(args.input, progress=True)
-    cal = Calibration.load(args.cal) if args.cal else Calibration()
     cols = ["inc_deg", "azi_deg", "tf_deg", "gt_g", "bt_nT", "dip_deg", "flags", "mtf_deg"]
     with safeio.output_file(args.output, [args.input, args.cal]) as f, \
             progress.bar(len(ds), f"attitude {args.input}", unit=" rows") as bar:
