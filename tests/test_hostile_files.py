@@ -219,6 +219,7 @@ def _cal_variants(tmp_path, good: Calibration):
         "deep": b"[" * int(rng.integers(1000, 60000)),
         "deep_report": text.replace('"report": {', '"report": {"x": ' + "[" * 200 + "]" * 200 + ", ", 1).encode()
         if '"report": {' in text else (text[:-1] + ', "report": ' + "[" * 200 + "]" * 200 + "}").encode(),
+        "ragged": text.replace(json.dumps(d["acc_m"][0]), "[0.0, 0.0]", 1).encode(),  # found by the property suite
         "huge": b'{"format": 1, "x": "' + b"a" * (safeio.MAX_JSON_BYTES + 10) + b'"}',
     }
     out = {}

@@ -62,7 +62,7 @@ class Calibration:
         """Raise CalibrationError for a matrix that is not 3x3, not finite,
         singular or ill-conditioned, or out of the firmware's range."""
         for name in ("acc_m", "mag_m"):
-            m = np.asarray(getattr(self, name), dtype=float)
+            m = _array(getattr(self, name), name, "a finite 3x3 matrix")
             if m.shape != (3, 3) or not np.all(np.isfinite(m)):
                 raise CalibrationError(f"{name} must be a finite 3x3 matrix")
             c = np.linalg.cond(m)
@@ -71,7 +71,7 @@ class Calibration:
             if np.abs(m).max() >= M_LIMIT:
                 raise CalibrationError(f"{name} has an element beyond +-{M_LIMIT:g}")
         for name, lim in (("acc_b", ACC_B_LIMIT), ("mag_b", MAG_B_LIMIT)):
-            b = np.asarray(getattr(self, name), dtype=float)
+            b = _array(getattr(self, name), name, "3 finite numbers")
             if b.shape != (3,) or not np.all(np.isfinite(b)):
                 raise CalibrationError(f"{name} must be 3 finite numbers")
             if np.abs(b).max() >= lim:
@@ -160,6 +160,15 @@ class Calibration:
             return Calibration.from_json(text)
         except CalibrationError as e:
             raise CalibrationError(f"{path}: {e}") from None
+
+
+def _array(value, name: str, what: str) -> np.ndarray:
+    """A coefficient as a float array; a ragged or non-numeric one is a
+    CalibrationError (never numpy's ValueError)."""
+    try:
+        return np.asarray(value, dtype=float)
+    except (TypeError, ValueError, OverflowError):
+        raise CalibrationError(f"{name} must be {what}") from None
 
 
 def _short(e: Exception) -> str:
