@@ -264,9 +264,13 @@ def thin(ds: RawDataset, max_rows: int | None) -> tuple[RawDataset, str | None]:
                  f"the limit is {max_rows}, docs/dataset.md)")
 
 
-def write_raw(path: str, ds: RawDataset) -> None:
+def write_raw(path: str, ds: RawDataset, inputs=()) -> None:
+    """Write a raw dataset through inclino.safeio (atomic, never over one of
+    `inputs`, a device or a symlink's place)."""
+    from inclino import safeio
+
     cols = [c for c in COLUMN_ORDER if c in ds.columns]
-    with open(path, "w", newline="", encoding="utf-8") as f:
+    with safeio.output_file(path, inputs) as f:
         for k in META_KEYS:
             if k in ds.meta:
                 f.write(f"# {k}={ds.meta[k]}\n")
