@@ -428,3 +428,9 @@ def test_progress_bar_on_a_terminal(monkeypatch):
     # on a terminal tqdm redraws one line in place (carriage returns), no line per update
     assert b"\r" in seen and b"attitude run.csv:" in seen and f"/{n} [".encode() in seen
     assert b"calibrate: joint fit of run.csv: 00:00 elapsed" in seen and b"\n" not in seen.replace(b"\r\n", b"")
+
+
+def test_new_output_beside_a_vanished_input_is_written(tmp_path):
+    out = tmp_path / "new.csv"
+    safeio.write_output(str(out), "x\n", inputs=[str(tmp_path / "gone.csv"), None, "-"])
+    assert out.read_text() == "x\n"

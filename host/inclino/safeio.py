@@ -129,7 +129,8 @@ def output_file(path: str, inputs=(), *, binary: bool = False, newline: str | No
                 yield f
                 f.flush()
                 os.fsync(f.fileno())
-            if _ident(path) is not None and _ident(path) in {_ident(p) for p in inputs if p and p != "-"}:
+            now = _ident(path)  # the same check again just before the rename
+            if now is not None and now in {_ident(p) for p in inputs if p and p != "-"}:
                 raise DataError(f"refusing to write {path}: it is the input file")
             os.replace(tmp, real)
             ok = True
