@@ -434,3 +434,10 @@ def test_new_output_beside_a_vanished_input_is_written(tmp_path):
     out = tmp_path / "new.csv"
     safeio.write_output(str(out), "x\n", inputs=[str(tmp_path / "gone.csv"), None, "-"])
     assert out.read_text() == "x\n"
+
+
+@pytest.mark.parametrize("value", ["1", "0", "-5", "1001", "1000000000"])
+def test_bootstrap_option_rule(run_csv, tmp_path, capsys, value):
+    assert cli.main(["calibrate", str(run_csv), "--bootstrap", value, "-o", str(tmp_path / "c.json")]) == 2
+    _one_error(capsys.readouterr().err, f"--bootstrap {value}: refits, 2-1000")
+    assert not (tmp_path / "c.json").exists()

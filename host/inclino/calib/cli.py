@@ -17,12 +17,17 @@ from inclino.errors import CalibrationError, DataError
 from . import DEFAULT_METHOD, METHODS
 
 
+MAX_BOOTSTRAP = 1000  # refits at most (each is a whole fit: a bound on the time a typo can cost)
+
+
 def calibrate_main(args) -> int:
     from inclino import dataset, progress, safeio
 
     from . import common, fit
 
     safeio.check_output(args.output, [args.input, getattr(args, "prior", None)])  # before any work
+    if getattr(args, "bootstrap", None) is not None and not 2 <= args.bootstrap <= MAX_BOOTSTRAP:
+        raise DataError(f"--bootstrap {args.bootstrap}: refits, 2-{MAX_BOOTSTRAP}")
     ds = dataset.read_raw(args.input, progress=True)
     opts = {}
     if getattr(args, "no_poses", False):
@@ -32,8 +37,6 @@ def calibrate_main(args) -> int:
 
         opts["prior"] = Calibration.load(args.prior)
     if getattr(args, "bootstrap", None) is not None:
-        if args.bootstrap < 2:
-            raise DataError("--bootstrap must be >= 2")
         opts["bootstrap"] = args.bootstrap
     try:
         with progress.phase(f"calibrate: {args.method} fit of {args.input}"):
