@@ -306,6 +306,8 @@ def images(draw):
     for s in starts:
         addr = APP[0] + 64 * s
         data = draw(st.binary(min_size=1, max_size=32))
+        if s == starts[0]:  # the entry point: code there (an erased 0xFF byte is no code, flashing.check_entry)
+            data = bytes([draw(st.integers(0, 0xFE))]) + data[1:]
         mem.update({addr + i: b for i, b in enumerate(data)})
         lines.append(srec(2, addr, data))
     entry = APP[0] + 64 * starts[0]
