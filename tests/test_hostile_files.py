@@ -441,3 +441,11 @@ def test_bootstrap_option_rule(run_csv, tmp_path, capsys, value):
     assert cli.main(["calibrate", str(run_csv), "--bootstrap", value, "-o", str(tmp_path / "c.json")]) == 2
     _one_error(capsys.readouterr().err, f"--bootstrap {value}: refits, 2-1000")
     assert not (tmp_path / "c.json").exists()
+
+
+def test_turntable_reading_a_little_past_vertical_is_accepted(tmp_path):
+    inc, azi, tf, g, b = _rows(4)
+    inc[0], inc[1] = -float(np.random.default_rng().uniform(0, 5)), 180 + float(np.random.default_rng().uniform(0, 5))
+    p = tmp_path / "v.csv"
+    p.write_text(_csv_text(inc, azi, tf, g, b))
+    assert dataset.read_raw(str(p)).columns["inc_deg"].tolist() == inc.tolist()

@@ -54,8 +54,9 @@ class RawDataset:
 
 # One rule per field: (low, high) inclusive, for the numeric header keys and
 # the columns; every value must also be finite.  Pose angles follow
-# docs/conventions.md (I in [0, 180]; A and T are wrapped, any turn within
-# one revolution either way is accepted).
+# docs/conventions.md (I in [0, 180], with 5 deg of slack for a turntable
+# that reads a little past vertical; A and T are wrapped, any turn within one
+# revolution either way is accepted).
 RULES = {
     "field_nT": (1e-3, 200_000.0),   # > 0; beyond what the +-100 000 nT fluxgate axes can measure
     "dip_deg": (-90.0, 90.0),
@@ -63,7 +64,7 @@ RULES = {
     "gravity_g": (1e-3, 2.0),        # > 0, within the accelerometer's +-1.7 g
     "lat_deg": (-90.0, 90.0),
     "lon_deg": (-360.0, 360.0),
-    "inc_deg": (0.0, 180.0),
+    "inc_deg": (-5.0, 185.0),
     "azi_deg": (-360.0, 360.0),
     "tf_deg": (-360.0, 360.0),
     "temp_c": (-100.0, 300.0),
