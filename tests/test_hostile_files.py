@@ -449,3 +449,13 @@ def test_turntable_reading_a_little_past_vertical_is_accepted(tmp_path):
     p = tmp_path / "v.csv"
     p.write_text(_csv_text(inc, azi, tf, g, b))
     assert dataset.read_raw(str(p)).columns["inc_deg"].tolist() == inc.tolist()
+
+
+def test_trajectory_output_that_is_a_survey_input_is_refused(tmp_path, capsys):
+    src = tmp_path / "survey.csv"
+    src.write_text("md_m,inc_deg,azi_deg\n0,0,0\n100,10,45\n")
+    before = src.read_bytes()
+    for argv in (["-o", str(src)], ["-o", str(tmp_path / "t.csv"), "--las", str(src)]):
+        assert cli.main(["trajectory", str(src), *argv]) == 2
+        _one_error(capsys.readouterr().err, "it is the input file")
+    assert src.read_bytes() == before and not (tmp_path / "t.csv").exists()
