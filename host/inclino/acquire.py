@@ -338,7 +338,7 @@ class AcquireResult:
 
 
 def _bar(total: int, desc: str, quiet: bool):
-    from inclino.progress_lines import bar   # a bar on a terminal, periodic lines off one
+    from inclino.progress import bar   # a bar on a terminal, periodic lines off one
 
     return bar(total, desc, unit="pos", quiet=quiet, leave=False, dynamic_ncols=True)
 

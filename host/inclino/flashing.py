@@ -657,11 +657,10 @@ def _write_readback(fl: _Flasher, image: Image, path: str):
 
 # ---- the command ------------------------------------------------------------------------------
 def _tqdm_progress():
-    """One progress bar per phase on stderr (tqdm); off a terminal, a line
-    per phase at its start, every progress_lines.EVERY_S and at its end."""
-    from tqdm import tqdm
-
-    from inclino.progress_lines import LineProgress
+    """One progress bar per phase on stderr (inclino.progress: a bar on a
+    terminal; off one, a status line when a phase starts, every
+    INCLINO_PROGRESS_PERIOD seconds, and when it ends)."""
+    from inclino import progress
 
     bars = {}
 
@@ -671,11 +670,7 @@ def _tqdm_progress():
             for b in bars.values():
                 b.close()
             unit = "sector" if phase == "erase" else "B"
-            if sys.stderr.isatty():
-                bar = bars[phase] = tqdm(total=total, desc=phase, unit=unit, unit_scale=(unit == "B"),
-                                         leave=True, disable=None, file=sys.stderr)
-            else:   # periodic lines (a log, a CI job)
-                bar = bars[phase] = LineProgress(total, f"flash {phase}", unit)
+            bar = bars[phase] = progress.bar(total, f"flash {phase}", unit=unit, leave=True, delay=0)
         bar.update(done - bar.n)
 
     def close():

@@ -4,7 +4,8 @@ On a terminal: a tqdm bar that appears once the work has taken more than a
 second (or PERIOD, when shorter).  Off a terminal (a log file, CI, a pipe): the same tqdm status as a
 plain line every PERIOD seconds (default 10; environment variable
 INCLINO_PROGRESS_PERIOD), the first after PERIOD seconds, so short work
-prints nothing.  `quiet=True` (or INCLINO_PROGRESS=0) turns both off.
+prints nothing (`delay=0` and `leave=True` give a first and a last line
+as well, for work whose phases a log should show).  `quiet=True` (or INCLINO_PROGRESS=0) turns both off.
 
     with progress.bar(total, "reading run.csv", unit="B") as p:  # counted work
         p.update(n)
@@ -69,13 +70,17 @@ def bar(total=None, desc: str = "", unit: str = "it", quiet: bool = False, strea
         import shutil
 
         cols, rows = shutil.get_terminal_size((100, 24))  # a terminal without a size: 100 x 24
-        return tqdm(total=total, desc=desc, unit=unit, file=stream, leave=False, delay=min(1.0, period()),
+        kw.setdefault("leave", False)
+        kw.setdefault("delay", min(1.0, period()))
+        return tqdm(total=total, desc=desc, unit=unit, file=stream,
                     ncols=cols if cols > 20 else 100, nrows=rows if rows > 2 else 24, unit_scale=(unit == "B"),
                     **kw)
     p = period()
     if total is not None and "bar_format" not in kw:
-        kw["bar_format"] = "{desc}: {percentage:.0f}% ({n_fmt}/{total_fmt}{unit}, {elapsed} elapsed, {remaining} left)"
-    return tqdm(total=total, desc=desc, unit=unit, file=_Lines(stream), leave=False, delay=p, mininterval=p,
+        kw["bar_format"] = "{desc}: {percentage:.0f}% ({n_fmt}/{total_fmt} {unit}, {elapsed} elapsed, {remaining} left)"
+    kw.setdefault("leave", False)
+    kw.setdefault("delay", p)
+    return tqdm(total=total, desc=desc, unit=unit, file=_Lines(stream), mininterval=p,
                 maxinterval=p, ncols=100, ascii=True, unit_scale=(unit == "B"), **kw)
 
 
