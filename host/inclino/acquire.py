@@ -153,7 +153,7 @@ def procedure_steps(name: str, points: int = 36, d1: float = 30.0, azimuth: floa
 @dataclass
 class Reading:
     t_s: float
-    acc: tuple  # counts
+    acc: tuple  # counts (the probe's means: fractional, 1/64 count resolution)
     mag: tuple  # counts
     temp_c: float
     survey: dict  # the probe's survey of the same acquisition (units)
@@ -164,7 +164,7 @@ def read_once(link) -> Reading:
     from inclino import calops
 
     s, r = calops.survey_with_raw(link)
-    return Reading(s.t_ms / 1000.0, (r.ax, r.ay, r.az), (r.mx, r.my, r.mz), r.temp_centi_c / 100.0,
+    return Reading(s.t_ms / 1000.0, r.acc_counts, r.mag_counts, r.temp_centi_c / 100.0,
                    s.to_units(), s)
 
 
