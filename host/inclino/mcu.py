@@ -630,7 +630,7 @@ def survey_float(b: McuBuild, acc, mag, cal) -> dict:
     """The float baseline (tools/s08/survey_float.c) on the S08; degrees, g, nT."""
     acc = np.asarray(acc, dtype=np.int64)
     mag = np.asarray(mag, dtype=np.int64)
-    recs = _records(b"V", (acc, ">i2"), (mag, ">i4"))
+    recs = _records(b"V", (acc, ">i4"), (mag, ">i4"))
     outs = run_streams(b, _split(recs, _jobs(len(acc)), enc_float_cal(cal)))
     r = _decode(outs, FLOAT_DT, len(acc))
     return {k: r[k].astype(np.float64) for k in FLOAT_DT.names}

@@ -16,10 +16,15 @@
   parametric bootstrap: the fit repeated on the same rows with the nominal
   noise (sensor sigma, turntable readout sigma) added, seeded.
 * quantisation -- the attitude lost to the firmware's fixed point, on the
-  calibration rows and the Li grid: by the coefficients' Q formats alone
-  (float64 with dequantised against float coefficients), and end to end
-  (firmware engine, C fixed point, against the float64 reference engine with
-  the same float coefficients).
+  calibration rows and the Li grid, kept apart from the input's resolution:
+  (a) the firmware's arithmetic -- the firmware engine (C, fixed point) against
+  float64 on identical inputs (the readings as the probe hands them to the
+  correction, Q6 counts) and the same float coefficients; the coefficients'
+  Q formats alone (float64 with dequantised against float coefficients);
+  (b) the input resolution at the run's averaging (`samples_averaged`): the
+  azimuth/inclination sigma on the Li grid from the sensors' 1-count steps
+  averaged over n samples (1/sqrt(12 n) count per axis) and the Q6 rounding,
+  reported, not judged (it is the probe's, not the calibration's).
 * verdict -- passed, and the reasons when not (thresholds in THRESHOLDS).
 """
 from __future__ import annotations
@@ -45,7 +50,7 @@ THRESHOLDS = {
     "dip_std_deg": 0.5,
     "predicted_azi_rms_deg": 0.25,  # 1-sigma, Li grid, from the coefficients' uncertainty
     "coef_quantisation_azi_max_deg": 0.002,  # Q29 M, Q29/Q10 b alone
-    "fw_quantisation_azi_max_deg": 0.02,  # whole firmware path (its own budget: docs/fixed-point.md)
+    "fw_quantisation_azi_max_deg": 0.02,  # firmware arithmetic on identical inputs (docs/fixed-point.md budget)
     "fw_quantisation_inc_max_deg": 0.01,
     "outlier_fraction": 0.1,
     "coverage_min_eig": 0.02,  # invariants only: directions must not lie in a plane
@@ -103,8 +108,15 @@ class FitReport:
                      f"field {c.get('mag_cells', 0)}/26 (min eig {c.get('mag_min_eig', 0):.3f})")
         q = self.quantisation
         lines.append(f"  fixed point: coefficients cost azimuth max {q.get('coef_azi_max_deg', float('nan')):.2g} deg; "
-                     f"firmware vs float azimuth max {q.get('fw_azi_max_deg', float('nan')):.5f} deg, "
+                     f"firmware arithmetic vs float64 on identical inputs: azimuth max "
+                     f"{q.get('fw_azi_max_deg', float('nan')):.5f} deg, "
                      f"inclination max {q.get('fw_inc_max_deg', float('nan')):.5f} deg")
+        res = q.get("input_resolution")
+        if res:
+            n = res.get("samples_averaged")
+            lines.append(f"  input resolution at {'n = %g samples averaged' % n if n else 'n unknown (taken as 1)'}: "
+                         f"azimuth sigma RMS {res['azi_rms_deg']:.4f} deg (max {res['azi_max_deg']:.4f}) over the "
+                         f"Li grid, inclination {res['inc_rms_deg']:.5f} deg (the probe's, reported, not judged)")
         lines.append("  verdict: " + ("pass" if self.passed else "FAIL: " + "; ".join(self.reasons)))
         return "\n".join(lines)
 
@@ -222,27 +234,70 @@ def bootstrap_cov(ds: RawDataset, refit, rows, sigma_acc, sigma_mag, sigma_pose_
     return np.cov(np.array(vs).T), len(vs)
 
 
-def quantisation_loss(ds: RawDataset, cal: Calibration, w: dict, dip: float) -> dict:
-    """Two figures, on the calibration rows plus the Li grid:
-    coefficients -- float64 attitude with the coefficients as quantised
-    (dequantised back) against the float coefficients: what the Q formats
-    of M and b cost; firmware -- the firmware engine (C, fixed point, the
-    readings quantised to counts) against float64: the whole fixed-point
-    path, coefficients and arithmetic.  Azimuth where 5 <= I <= 175."""
+def probe_inputs(acc, mag):
+    """The readings as the firmware receives them (Q6 counts), back in g and
+    nT: the identical inputs for the float64 side of the arithmetic check."""
+    return ref.readings_acc(acc) / 64.0 * ref.ACC_LSB_G, ref.readings_mag(mag) / 64.0 * ref.MAG_LSB_NT
+
+
+def input_resolution(cal: Calibration, acc, mag, n_avg: float | None, inc_min: float = 1.0) -> dict:
+    """Azimuth/inclination sigma (RMS over the readings' poses) from the
+    input's resolution: each axis' mean of n whole-count samples carries a
+    rounding error of 1/sqrt(12 n) count once the noise dithers the counts
+    (uniform rounding, averaged), plus the Q6 rounding of the mean
+    (1/(64 sqrt 12) count).  n unknown: n = 1 (single samples, the worst
+    case), said so."""
+    n = float(n_avg) if n_avg else 1.0
+    s_cnt = np.sqrt(1.0 / (12.0 * n) + 1.0 / (12.0 * 64.0**2))
+    sig = np.array([ref.ACC_LSB_G] * 3 + [ref.MAG_LSB_NT] * 3) * s_cnt
+    X = np.concatenate([acc, mag], axis=1)
+    base = ref.attitude(ref.correct(X[:, :3], cal.acc_m, cal.acc_b), ref.correct(X[:, 3:], cal.mag_m, cal.mag_b))
+    va = np.zeros(len(X))
+    vi = np.zeros(len(X))
+    for k in range(6):
+        h = sig[k]
+        d = []
+        for s in (1, -1):
+            Y = X.copy()
+            Y[:, k] += s * h
+            d.append(ref.attitude(ref.correct(Y[:, :3], cal.acc_m, cal.acc_b),
+                                  ref.correct(Y[:, 3:], cal.mag_m, cal.mag_b)))
+        va += (ref.angle_diff(d[0]["azi"], d[1]["azi"]) / 2.0) ** 2
+        vi += ((d[0]["inc"] - d[1]["inc"]) / 2.0) ** 2
+    ok = (base["inc"] >= inc_min) & (base["inc"] <= 180.0 - inc_min)
+    return {"samples_averaged": n_avg, "assumed_n": n, "count_sigma": float(s_cnt),
+            "azi_rms_deg": float(np.sqrt(va[ok].mean())), "azi_max_deg": float(np.sqrt(va[ok].max())),
+            "inc_rms_deg": float(np.sqrt(vi.mean()))}
+
+
+def quantisation_loss(ds: RawDataset, cal: Calibration, w: dict, dip: float, n_avg=None) -> dict:
+    """On the calibration rows plus the Li grid:
+    coef -- float64 attitude with the coefficients as quantised (dequantised
+    back) against the float coefficients: what the Q formats of M and b cost;
+    fw -- the firmware engine (C, fixed point) against float64 on identical
+    inputs (the Q6 readings the correction receives) and the same float
+    coefficients: the firmware's arithmetic and coefficient formats, not the
+    input's rounding; fw_vs_unrounded -- the firmware against float64 on the
+    unrounded readings (adds the Q6 rounding of the means; for information);
+    input_resolution -- see input_resolution(), on the Li grid.  Azimuth
+    where 5 <= I <= 175."""
     (I, A, T), gacc, gmag = grid_readings(cal, w, dip)
     acc = np.concatenate([ds.acc, gacc])
     mag = np.concatenate([ds.mag, gmag])
-    fl = engines.run(acc, mag, cal, "reference")
-    dq = engines.run(acc, mag, Calibration.from_fixed(cal.to_fixed()), "reference")
-    fw = engines.run(acc, mag, cal, "firmware")
+    aq, mq = probe_inputs(acc, mag)
+    fl = engines.run(aq, mq, cal, "reference")
+    dq = engines.run(aq, mq, Calibration.from_fixed(cal.to_fixed()), "reference")
+    fw = engines.run(aq, mq, cal, "firmware")
+    fl_u = engines.run(acc, mag, cal, "reference")
     ok = (fl["inc_deg"] >= 5.0) & (fl["inc_deg"] <= 175.0)
     out = {"evaluated_on": f"{len(ds)} calibration rows + {len(I)} Li-grid poses"}
-    for name, o in (("coef", dq), ("fw", fw)):
-        di = np.abs(o["inc_deg"] - fl["inc_deg"])
-        da = np.abs(ref.angle_diff(o["azi_deg"], fl["azi_deg"]))[ok]
+    for name, o, base in (("coef", dq, fl), ("fw", fw, fl), ("fw_vs_unrounded", fw, fl_u)):
+        di = np.abs(o["inc_deg"] - base["inc_deg"])
+        da = np.abs(ref.angle_diff(o["azi_deg"], base["azi_deg"]))[ok]
         out[f"{name}_inc_max_deg"] = float(di.max())
         out[f"{name}_azi_max_deg"] = float(da.max())
         out[f"{name}_azi_rms_deg"] = _rms(da)
+    out["input_resolution"] = input_resolution(cal, gacc, gmag, n_avg)
     return out
 
 
@@ -289,7 +344,7 @@ def build(ds: RawDataset, cal: Calibration, method: str, info: dict, refit=None,
             rep.uncertainty["dip_sigma_deg"] = info["dip_sigma_deg"]
     else:
         rep.uncertainty = {"source": "not available (the method could not be refitted on perturbed data)"}
-    rep.quantisation = quantisation_loss(used, cal, w, dip)
+    rep.quantisation = quantisation_loss(used, cal, w, dip, ds.meta.get("samples_averaged"))
     for k in ("s2", "chi2", "dof"):
         if k in info:
             rep.residuals[k] = info[k]
@@ -312,8 +367,10 @@ def _verdict(rep: FitReport, info: dict) -> None:
          "coefficients poorly determined: predicted azimuth 1-sigma (deg)")
     q = rep.quantisation
     over(q.get("coef_azi_max_deg"), "coef_quantisation_azi_max_deg", "azimuth lost to coefficient quantisation (deg)")
-    over(q.get("fw_azi_max_deg"), "fw_quantisation_azi_max_deg", "firmware fixed-point azimuth loss (deg)")
-    over(q.get("fw_inc_max_deg"), "fw_quantisation_inc_max_deg", "firmware fixed-point inclination loss (deg)")
+    over(q.get("fw_azi_max_deg"), "fw_quantisation_azi_max_deg",
+         "firmware arithmetic azimuth loss on identical inputs (deg)")
+    over(q.get("fw_inc_max_deg"), "fw_quantisation_inc_max_deg",
+         "firmware arithmetic inclination loss on identical inputs (deg)")
     over(max(rep.conditioning["acc_m_cond"], rep.conditioning["mag_m_cond"]), "m_cond", "cond(M)")
     if rep.rows and len(rep.outliers) / rep.rows > t["outlier_fraction"]:
         reasons.append(f"{len(rep.outliers)} of {rep.rows} readings rejected as outliers")
