@@ -30,14 +30,14 @@
 
 #include <stdint.h>
 
-#define CORR_IN_FRAC_BITS 6u                        /* raw readings: Q6 counts */
+#define CORR_IN_FRAC_BITS 6u                           /* raw readings: Q6 counts */
 #define CORR_IN_ONE ((int32_t)1L << CORR_IN_FRAC_BITS) /* one count in Q6 */
-#define CORR_ACC_IN_SHIFT 9u                        /* Q6 accel counts (2^-20 g) -> Q29 g */
-#define CORR_MAG_IN_SHIFT 4u                        /* Q6 fluxgate counts (2^-6 nT) -> Q10 nT */
-#define CORR_M_ONE ((int32_t)1L << 29)              /* 1.0 in Q29 */
-#define CORR_ACC_RAW_MAX ((int32_t)0x7FFFL * CORR_IN_ONE)   /* INT16_MAX counts, Q6 */
-#define CORR_ACC_RAW_MIN ((int32_t)(-0x7FFFL - 1) * CORR_IN_ONE) /* INT16_MIN counts, Q6 */
-#define CORR_MAG_RAW_MAX ((int32_t)0xFFFFFL * CORR_IN_ONE)  /* (2^20 - 1) counts, Q6 */
+#define CORR_ACC_IN_SHIFT 9u                           /* Q6 accel counts (2^-20 g) -> Q29 g */
+#define CORR_MAG_IN_SHIFT 4u                           /* Q6 fluxgate counts (2^-6 nT) -> Q10 nT */
+#define CORR_M_ONE ((int32_t)1L << 29)                 /* 1.0 in Q29 */
+#define CORR_ACC_RAW_MAX ((int32_t)0x7FFFL * CORR_IN_ONE)         /* INT16_MAX counts, Q6 */
+#define CORR_ACC_RAW_MIN ((int32_t)(-0x7FFFL - 1) * CORR_IN_ONE)  /* INT16_MIN counts, Q6 */
+#define CORR_MAG_RAW_MAX ((int32_t)0xFFFFFL * CORR_IN_ONE)        /* (2^20 - 1) counts, Q6 */
 #define CORR_MAG_RAW_MIN ((int32_t)(-0xFFFFFL - 1) * CORR_IN_ONE) /* -2^20 counts, Q6 */
 
 /* One triad's coefficients. */
