@@ -103,6 +103,12 @@ class FitReport:
         if "predicted_azi_rms_deg" in u:
             lines.append(f"  uncertainty ({u.get('source', '')}): predicted azimuth RMS {u['predicted_azi_rms_deg']:.4f} deg, "
                          f"inclination {u['predicted_inc_rms_deg']:.4f} deg over the Li grid")
+        if u.get("unobservable"):
+            lines.append(f"  unobservable without poses: {u['unobservable']}; taken from "
+                         f"{'the prior calibration' if u.get('prior') else 'a convention (the accelerometer axes)'}, "
+                         f"1-sigma {', '.join('%.3g' % v for v in u.get('rotation_sigma_deg') or [])} deg "
+                         f"({u.get('rotation_sigma_source')}); the fit alone predicts azimuth RMS "
+                         f"{u.get('predicted_azi_rms_fit_only_deg', float('nan')):.4f} deg")
         c = self.coverage
         lines.append(f"  coverage: gravity {c.get('acc_cells', 0)}/26 cells (min eig {c.get('acc_min_eig', 0):.3f}), "
                      f"field {c.get('mag_cells', 0)}/26 (min eig {c.get('mag_min_eig', 0):.3f})")
@@ -342,6 +348,15 @@ def build(ds: RawDataset, cal: Calibration, method: str, info: dict, refit=None,
         if info.get("dip_sigma_deg") is not None:
             rep.uncertainty["dip_deg"] = dip
             rep.uncertainty["dip_sigma_deg"] = info["dip_sigma_deg"]
+        if info.get("mode") == "invariants" and "unobservable" in info:
+            fa, fi = predicted_attitude_rms(cal, info["fit_covariance"], w, dip)
+            rep.uncertainty.update({
+                "unobservable": info["unobservable"], "prior": bool(info.get("prior")),
+                "rotation_sigma_deg": info.get("rotation_sigma_deg"),
+                "rotation_sigma_source": info.get("rotation_sigma_source"),
+                "mount_tolerance_deg": info.get("mount_tolerance_deg"),
+                "mount_tolerance_accepted": bool(info.get("accept_mount_tolerance")),
+                "predicted_azi_rms_fit_only_deg": fa, "predicted_inc_rms_fit_only_deg": fi})
     else:
         rep.uncertainty = {"source": "not available (the method could not be refitted on perturbed data)"}
     rep.quantisation = quantisation_loss(used, cal, w, dip, ds.meta.get("samples_averaged"))
@@ -363,8 +378,19 @@ def _verdict(rep: FitReport, info: dict) -> None:
     over(r.get("acc_norm_rms_mg"), "acc_norm_rms_mg", "|g| residual RMS (mg)")
     over(r.get("mag_norm_rms_nT"), "mag_norm_rms_nT", "|b| residual RMS (nT)")
     over(r.get("dip_std_deg"), "dip_std_deg", "dip spread (deg)")
-    over(rep.uncertainty.get("predicted_azi_rms_deg"), "predicted_azi_rms_deg",
-         "coefficients poorly determined: predicted azimuth 1-sigma (deg)")
+    u = rep.uncertainty
+    if u.get("unobservable") and not u.get("prior"):
+        if not u.get("mount_tolerance_accepted"):
+            reasons.append(f"not fit for azimuth: without poses or a prior calibration {u['unobservable']}; with the "
+                           f"stated mounting tolerance {u.get('mount_tolerance_deg', float('nan')):g} deg (1 sigma per "
+                           f"axis) the predicted azimuth RMS is {u.get('predicted_azi_rms_deg', float('nan')):.3g} deg "
+                           f"(accept that tolerance with --accept-mount-tolerance, or give --prior CAL.json)")
+        else:
+            over(u.get("predicted_azi_rms_fit_only_deg"), "predicted_azi_rms_deg",
+                 "coefficients poorly determined: predicted azimuth 1-sigma, mounting tolerance accepted (deg)")
+    else:
+        over(u.get("predicted_azi_rms_deg"), "predicted_azi_rms_deg",
+             "coefficients poorly determined: predicted azimuth 1-sigma (deg)")
     q = rep.quantisation
     over(q.get("coef_azi_max_deg"), "coef_quantisation_azi_max_deg", "azimuth lost to coefficient quantisation (deg)")
     over(q.get("fw_azi_max_deg"), "fw_quantisation_azi_max_deg",
