@@ -102,7 +102,13 @@ class FitReport:
         u = self.uncertainty
         if "predicted_azi_rms_deg" in u:
             lines.append(f"  uncertainty ({u.get('source', '')}): predicted azimuth RMS {u['predicted_azi_rms_deg']:.4f} deg, "
-                         f"inclination {u['predicted_inc_rms_deg']:.4f} deg over the Li grid")
+                         f"inclination {u['predicted_inc_rms_deg']:.4f} deg over the Li grid (the calibration's error: "
+                         f"coefficients and linear-model bias)")
+        pa = u.get("prediction_acceptance_grid")
+        if pa:
+            lines.append(f"  predicted on an acceptance of the Li grid with readings {pa['readings']}: azimuth RMS "
+                         f"{pa['azi_rms_deg']:.4f} deg, inclination {pa['inc_rms_deg']:.4f} deg (terms, azimuth: "
+                         + ", ".join(f"{k} {v:.4f}" for k, v in pa["terms_azi_rms_deg"].items()) + ")")
         if u.get("unobservable"):
             lines.append(f"  unobservable without poses: {u['unobservable']}; taken from "
                          f"{'the prior calibration' if u.get('prior') else 'a convention (the accelerometer axes)'}, "
@@ -341,10 +347,22 @@ def build(ds: RawDataset, cal: Calibration, method: str, info: dict, refit=None,
                                  n=int(opts.get("bootstrap", 40)))
         src = f"bootstrap of {nok} refits, nominal noise (acc {sa:g} g, mag {sm:g} nT, pose {sp:g} deg)"
     if cov is not None:
+        from .predict import predict
+
         sig = np.sqrt(np.clip(np.diag(cov), 0, None))
-        pa, pi = predicted_attitude_rms(cal, cov, w, dip)
+        nl = info.get("nonlinear")
+        p_cal = predict(cal, cov, w, dip, sa, sm, reading_noise=False, nonlinear=nl)
+        # acceptance: readings taken as the run's (the fit's noise model, scaled by its s^2 when it has one)
+        k = float(np.sqrt(info["s2"])) if info.get("s2") else 1.0
+        n_run = ds.meta.get("samples_averaged")
+        p_acc = predict(cal, cov, w, dip, k * sa, k * sm, n_avg=1, nonlinear=nl, resolution_n=n_run)
         rep.uncertainty = {"source": src, "sigma": dict(zip(common.PARAM_NAMES, sig.tolist())),
-                           "predicted_azi_rms_deg": pa, "predicted_inc_rms_deg": pi}
+                           "predicted_azi_rms_deg": p_cal.azi_rms_deg, "predicted_inc_rms_deg": p_cal.inc_rms_deg,
+                           "prediction_calibration_grid": p_cal.to_dict(),
+                           "prediction_acceptance_grid": {**p_acc.to_dict(), "readings": (
+                               f"as the run's: noise {k * sa:.3g} g, {k * sm:.3g} nT per reading (the fit's noise "
+                               f"model x sqrt(s^2) = {k:.3g}); input resolution at "
+                               f"{'n = %g' % n_run if n_run else 'n unknown, taken as 1'}")}}
         if info.get("dip_sigma_deg") is not None:
             rep.uncertainty["dip_deg"] = dip
             rep.uncertainty["dip_sigma_deg"] = info["dip_sigma_deg"]
