@@ -394,8 +394,8 @@ def acquire(link, procedure: str, out_path: str, table, *, points: int = 36, d1:
     meta.update({k: v for k, v in table.world().items() if k not in meta})
     meta["probe_serial"] = ident.serial
     meta["date"] = _dt.date.today().isoformat()
-    if average is not None:  # sensor samples behind each row: the probe's n times the reads averaged
-        meta["samples_averaged"] = int(average) * tol.reads
+    if average is not None:  # sensor samples behind each reading (a row averages one or more readings)
+        meta["samples_averaged"] = int(average)
     who = f"bench {table.spec}" if table.unattended else "operator"
     meta["source"] = (f"inclino acquire {procedure} ({who}; probe {ident.product} fw "
                       f"{'.'.join(map(str, ident.fw_version))}, {tol.reads} reads within {tol.acc_mg:g} mg "
