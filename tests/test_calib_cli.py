@@ -132,3 +132,8 @@ def test_bench_calibration_small():
     fr = d["cramer_rao"]["firmware_representable"]
     assert fr["azi_rms_deg"] >= d["cramer_rao"]["azi_rms_deg"] and fr["azi_linear_bias_part_deg"] > 0
     assert d["papers_measured"]["li2021"].startswith("azimuth RMS 0.82")
+    # achieved/predicted and the field fit with a prior are reported (one run: no band asserted)
+    pr = d["prediction"]
+    for k in ("pose_fit_calibration_grid", "pose_fit_acceptance_grid", "field_fit_with_prior"):
+        assert pr[k]["azi"]["runs"] == 1 and pr[k]["azi"]["median_ratio"] > 0
+    assert d["field_prior"]["probes"] == 1 and d["field_prior"]["pooled_ratio"] > 0
