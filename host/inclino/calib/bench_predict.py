@@ -43,13 +43,9 @@ def _noisy_grid(s, grid, n_avg, seed):
     takes the Q6 means)."""
     from inclino_emu.scenario import generate_raw
 
-    acc = np.zeros((len(grid[0]), 3))
-    mag = np.zeros((len(grid[0]), 3))
-    for k in range(n_avg):
-        ds = generate_raw(s, *grid, seed=seed * 1000 + k)
-        acc += ds.acc
-        mag += ds.mag
-    return acc / n_avg, mag / n_avg
+    m = len(grid[0])
+    ds = generate_raw(s, *(np.tile(g, n_avg) for g in grid), seed=seed * 1000)
+    return ds.acc.reshape(n_avg, m, 3).mean(0), ds.mag.reshape(n_avg, m, 3).mean(0)
 
 
 def _prior_of(cal, info):
@@ -108,15 +104,18 @@ def prediction_ratios(s, n_runs: int, seed0: int, sigma_pose_deg: float, n_avg: 
         fd = B.emulated_run(s, field_poses, seed + 50000)
         for c in ("inc_deg", "azi_deg", "tf_deg"):
             del fd.columns[c]
+        prior = _prior_of(cal, info)
         try:
-            fcal, finfo = joint.fit(fd, sigma_acc=sa, sigma_mag=sm, prior=_prior_of(cal, info))
+            fcal, finfo = joint.fit(fd, sigma_acc=sa, sigma_mag=sm, prior=prior)
         except Exception:
             failed += 1
             continue
-        pf = predict(fcal, finfo["covariance"], w, finfo["dip_deg"], sa, sm, reading_noise=False)
-        bias = predict(cal, np.zeros((24, 24)), w, info["dip_deg"], sa, sm, reading_noise=False, nonlinear=nl)
-        fa = np.hypot(pf.azi_rms_deg, bias.terms_azi_rms_deg.get("linear_model_bias", 0.0))
-        fi = np.hypot(pf.inc_rms_deg, bias.terms_inc_rms_deg.get("linear_model_bias", 0.0))
+        from .field import nonlinear_bias
+        from .predict import GRID
+
+        bias = nonlinear_bias(nl, prior, fcal, fd.acc, fd.mag, w, finfo["dip_deg"], GRID, sa, sm) if nl else None
+        pf = predict(fcal, finfo["covariance"], w, finfo["dip_deg"], sa, sm, reading_noise=False, bias=bias)
+        fa, fi = pf.azi_rms_deg, pf.inc_rms_deg
         da, di = B._errors(fcal, grid, ev)
         for d, (a, p), v in ((da, fld["azi"], fa), (di, fld["inc"], fi)):
             a.append(float(np.sqrt(np.mean(d ** 2))))

@@ -539,6 +539,7 @@ def fit(ds: RawDataset, use_poses: bool | None = None, sigma_acc: float = SIGMA_
         (Ma, ba, Mm, bm, dip), cov, info = _fit_invariants(ds, w, sigma_acc, sigma_mag, fix_dip, prior,
                                                            mount_tolerance_deg)
         info["prior"] = prior is not None
+        info["prior_calibration"] = prior  # for the report's prediction (not written anywhere)
         info["accept_mount_tolerance"] = bool(accept_mount_tolerance)
     prior_notes = []
     if prior is not None and use_poses:

@@ -37,6 +37,9 @@ from inclino.calfile import Calibration
 from .runs import li2021_grid
 
 
+GRID = li2021_grid((0.0, 120.0, 240.0))
+
+
 @dataclass
 class Prediction:
     grid: str
@@ -90,12 +93,12 @@ def _model_readings(nl: dict, g, f):
 def predict(cal: Calibration, cov, w: dict, dip: float, sigma_acc: float, sigma_mag: float,
             n_avg: float | None = None, reading_noise: bool = True, nonlinear: dict | None = None,
             grid=None, grid_name: str = "Li 2021 grid, toolfaces 0/120/240",
-            resolution_n: float | None = None) -> Prediction:
+            resolution_n: float | None = None, bias=None, bias_name: str = "linear_model_bias") -> Prediction:
     """sigma_acc, sigma_mag: noise of one sample; n_avg samples per reading
     (noise / sqrt(n_avg)); resolution_n: the samples behind the input
     resolution term when it differs from n_avg (e.g. sigmas already given
     per averaged reading, n_avg = 1)."""
-    I, A, T = grid if grid is not None else li2021_grid((0.0, 120.0, 240.0))
+    I, A, T = grid if grid is not None else GRID
     g, f = ref.body_vectors(I, A, T, w["field_nT"], dip, 0.0, w["gravity_g"])
     acc = g @ np.linalg.inv(np.asarray(cal.acc_m)).T + np.asarray(cal.acc_b)
     mag = f @ np.linalg.inv(np.asarray(cal.mag_m)).T + np.asarray(cal.mag_b)
@@ -127,6 +130,10 @@ def predict(cal: Calibration, cov, w: dict, dip: float, sigma_acc: float, sigma_
         bi = a["inc"] - _att(cal, acc, mag)["inc"]
         terms_a["linear_model_bias"], terms_i["linear_model_bias"] = ba ** 2, bi ** 2
         var_a, var_i = var_a + ba ** 2, var_i + bi ** 2
+    if bias is not None:  # a bias known per grid pose (e.g. field.nonlinear_bias)
+        ba, bi = bias
+        terms_a[bias_name], terms_i[bias_name] = np.asarray(ba) ** 2, np.asarray(bi) ** 2
+        var_a, var_i = var_a + terms_a[bias_name], var_i + terms_i[bias_name]
     rms = lambda v: float(np.sqrt(np.mean(v)))  # noqa: E731
     return Prediction(grid_name, n_avg, reading_noise, rms(var_a), rms(var_i),
                       {k: rms(v) for k, v in terms_a.items()}, {k: rms(v) for k, v in terms_i.items()},

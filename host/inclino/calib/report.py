@@ -350,12 +350,23 @@ def build(ds: RawDataset, cal: Calibration, method: str, info: dict, refit=None,
         from .predict import predict
 
         sig = np.sqrt(np.clip(np.diag(cov), 0, None))
+        from . import field
+        from .predict import GRID
+
         nl = info.get("nonlinear")
-        p_cal = predict(cal, cov, w, dip, sa, sm, reading_noise=False, nonlinear=nl)
+        bias, bias_name = None, "linear_model_bias"
+        prior = info.get("prior_calibration")
+        if info.get("mode") == "invariants" and prior is not None and field.nonlinear_model_of(prior):
+            # the prior's fitted nonlinearity through this (linear) field fit
+            bias = field.nonlinear_bias(field.nonlinear_model_of(prior), prior, cal, used.acc, used.mag, w, dip,
+                                        GRID, sa, sm)
+            bias_name = "prior_nonlinearity_bias"
+        p_cal = predict(cal, cov, w, dip, sa, sm, reading_noise=False, nonlinear=nl, bias=bias, bias_name=bias_name)
         # acceptance: readings taken as the run's (the fit's noise model, scaled by its s^2 when it has one)
         k = float(np.sqrt(info["s2"])) if info.get("s2") else 1.0
         n_run = ds.meta.get("samples_averaged")
-        p_acc = predict(cal, cov, w, dip, k * sa, k * sm, n_avg=1, nonlinear=nl, resolution_n=n_run)
+        p_acc = predict(cal, cov, w, dip, k * sa, k * sm, n_avg=1, nonlinear=nl, resolution_n=n_run, bias=bias,
+                        bias_name=bias_name)
         rep.uncertainty = {"source": src, "sigma": dict(zip(common.PARAM_NAMES, sig.tolist())),
                            "predicted_azi_rms_deg": p_cal.azi_rms_deg, "predicted_inc_rms_deg": p_cal.inc_rms_deg,
                            "prediction_calibration_grid": p_cal.to_dict(),
@@ -366,6 +377,9 @@ def build(ds: RawDataset, cal: Calibration, method: str, info: dict, refit=None,
         if info.get("dip_sigma_deg") is not None:
             rep.uncertainty["dip_deg"] = dip
             rep.uncertainty["dip_sigma_deg"] = info["dip_sigma_deg"]
+        if nl:  # the fitted nonlinear model, for a later field fit that takes this calibration as its prior
+            rep.uncertainty["nonlinear_model"] = {k: nl[k] for k in (
+                "model_acc_m", "model_acc_b", "model_mag_m", "model_mag_b", "acc_q_per_g", "mag_q_per_nT")}
         if info.get("mode") == "invariants" and "unobservable" in info:
             fa, fi = predicted_attitude_rms(cal, info["fit_covariance"], w, dip)
             rep.uncertainty.update({
