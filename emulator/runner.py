@@ -17,11 +17,15 @@ import threading
 import time
 from dataclasses import asdict
 
-from .control import ControlServer
+from .control import ArgError, ControlServer, boolean, choice, integer, known, number
 from .probe import EmulatedProbe
 from .serial_pty import PtyLink
 
 MAX_STEP_S = 0.02
+# baud rates the S12X's SCI makes at a 40 MHz bus (SBR = 40 MHz / (16 baud), 1..8191)
+BAUD_RANGE = (300, 2_500_000)
+# temperatures the control channel accepts: the ADIS16210's rated range with margin
+TEMP_RANGE_C = (-55.0, 125.0)
 
 
 class _Device:
@@ -39,6 +43,11 @@ class Emulator:
     def __init__(self, scenario="typical", seed: int | None = None, baud: int = 115200,
                  link: str | None = None, control_port: int | None = 0, realtime: bool = True,
                  serial: int | None = None):
+        if isinstance(baud, bool) or not isinstance(baud, int) or not BAUD_RANGE[0] <= baud <= BAUD_RANGE[1]:
+            raise ValueError(f"baud rate {baud} is not within {BAUD_RANGE[0]}-{BAUD_RANGE[1]}")
+        if control_port is not None and (isinstance(control_port, bool) or not isinstance(control_port, int)
+                                         or not 0 <= control_port <= 65535):
+            raise ValueError(f"control port {control_port} is not within 0-65535")
         self.probe = EmulatedProbe(scenario, seed=seed, baud=float(baud), serial=serial)
         self.probe.poll = self.probe.lib.app_main_poll
         self.pty = PtyLink(baud=baud, link_path=link, throttle=False)  # the probe's SCI times the bytes
@@ -52,6 +61,7 @@ class Emulator:
         self.error: BaseException | None = None
         self._device = _Device(self.probe)
         self._lock = threading.Lock()
+        self.pacing = {"max_ahead_s": 0.0}   # real time: how far a single step ran ahead of the wall clock
 
     @property
     def control_port(self) -> int | None:
@@ -62,78 +72,101 @@ class Emulator:
         p = self.probe
 
         def move(r):
-            p.move_to(float(r["inc"]), float(r["azi"]), float(r["tf"]))
+            known(r, "inc", "azi", "tf")
+            p.move_to(number(r, "inc", 0.0, 180.0, " deg"), number(r, "azi", 0.0, 360.0, " deg"),
+                      number(r, "tf", 0.0, 360.0, " deg"))
 
         def temperature(r):
-            t = r.get("temp_c")
-            p.set_temperature(None if t is None else float(t))
+            known(r, "temp_c")
+            t = None if r.get("temp_c") is None else number(r, "temp_c", *TEMP_RANGE_C, " degC")
+            p.set_temperature(t)
 
         def truth(r):
+            known(r)
             g, b = p.truth()
             pose = p.phys.trajectory(p.clock.now)  # the turntable's indicated pose
             return {"t": p.clock.now, "g": [float(x) for x in g], "b": [float(x) for x in b],
                     "pose": [float(x) for x in pose]}
 
         def faults(r):
+            known(r, "bit_error_rate", "drop_rate", "dup_rate", "disconnected", "seed")
             f = self.pty.faults
-            for k in ("bit_error_rate", "drop_rate", "dup_rate"):
-                if k in r:
-                    v = float(r[k])
-                    if not 0.0 <= v <= 1.0:
-                        raise ValueError(f"{k} must be within [0, 1]")
-                    setattr(f, k, v)
-            if "disconnected" in r:
-                f.disconnected = bool(r["disconnected"])
-            if "seed" in r:
+            new = {k: number(r, k, 0.0, 1.0) for k in ("bit_error_rate", "drop_rate", "dup_rate") if k in r}
+            disc = boolean(r, "disconnected") if "disconnected" in r else None
+            seed = integer(r, "seed", 0, 2**63 - 1) if "seed" in r else None
+            for k, v in new.items():     # every argument checked before anything changes
+                setattr(f, k, v)
+            if disc is not None:
+                f.disconnected = disc
+            if seed is not None:
                 import random
-                f._rng = random.Random(int(r["seed"]))
+                f._rng = random.Random(seed)
             return {"faults": {k: getattr(f, k) for k in ("bit_error_rate", "drop_rate", "dup_rate",
                                                            "disconnected")}, "counts": dict(f.counts)}
 
         def power_cut(r):
-            n = int(r["n"])
-            if n < 1:
-                raise ValueError("n counts flash operations from 1")
-            p.cut_power_at(n, str(r.get("mode", "random")))
+            known(r, "n", "mode")
+            if "n" in r and isinstance(r["n"], int) and not isinstance(r["n"], bool) and r["n"] < 1:
+                raise ArgError("n counts flash operations from 1")
+            n = integer(r, "n", 1, 1_000_000)
+            p.cut_power_at(n, choice(r, "mode", ("random", "none", "full"), "random"))
 
         def power_cycle(r):
+            known(r)
             return {"boot_status": p.power_cycle()}
 
         def status(r):
+            known(r)
             return {"t": p.clock.now, "power_cuts": p.power_cuts, "restarts": p.restarts,
                     "boot_status": p.boot_status, "bytes_to_host": self.pty.bytes_to_host,
                     "bytes_to_probe": self.pty.bytes_to_probe, "tx_dropped": int(p.lib.app_main_tx_dropped()),
-                    "flash_ops": getattr(p.flash, "ops", None)}
+                    "flash_ops": getattr(p.flash, "ops", None),
+                    "control": {"clients": self.control.clients, **self.control.stats}}
 
         return {"move": move, "temperature": temperature, "truth": truth, "faults": faults,
                 "power_cut": power_cut, "power_cycle": power_cycle, "status": status}
 
     # ------------------------------------------------------------ loop
-    def run_once(self, dt: float) -> None:
-        """Advance the emulator by dt seconds of emulated time."""
+    def run_once(self, dt: float, release: bool = True) -> None:
+        """Advance the emulator by dt seconds of emulated time.  release:
+        pass what the probe sent to the host right away (else at the next
+        call, once the wall clock has caught up: real-time mode)."""
         with self._lock:
             self.pty.pump(self._device, 0.0)
             self.probe.step(dt)
-            self.pty.pump(self._device, 0.0)
+            if release:
+                self.pty.pump(self._device, 0.0)
 
     def run(self) -> None:
-        """Run until stop() (or KeyboardInterrupt in the caller's thread)."""
+        """Run until stop() (or KeyboardInterrupt in the caller's thread).
+
+        Real time: emulated time is paced to the wall clock, also while the
+        firmware is inside a long call (a survey, a flash command) that
+        advanced the clock in one go: the loop then waits, and the bytes the
+        probe sent in that call reach the host only when the wall clock has
+        reached the emulated instant.  An emulator that falls behind by more
+        than MAX_STEP_S does not catch up (the lag is dropped)."""
         try:
-            t_wall = time.monotonic()
+            clk = self.probe.clock
+            t_wall0, t_emu0 = time.monotonic(), clk.now
             while not self._stop.is_set():
                 if self.control:
                     with self._lock:
                         self.control.poll(0.0)
                 if self.realtime:
-                    now = time.monotonic()
-                    dt = min(now - t_wall, MAX_STEP_S)
-                    t_wall = now
-                    if dt <= 0.0005:
-                        time.sleep(0.0005)
+                    target = t_emu0 + (time.monotonic() - t_wall0)
+                    ahead = clk.now - target
+                    if ahead > -0.0005:   # emulated time is at or ahead of the wall clock: wait
+                        time.sleep(min(max(ahead, 0.0005), 0.002))
                         continue
+                    if -ahead > MAX_STEP_S:   # fallen behind: do not catch up
+                        t_wall0, t_emu0 = time.monotonic() - MAX_STEP_S, clk.now
+                        target = clk.now + MAX_STEP_S
+                    self.run_once(target - clk.now, release=False)
+                    self.pacing["max_ahead_s"] = max(self.pacing["max_ahead_s"], clk.now - (
+                        t_emu0 + (time.monotonic() - t_wall0)))
                 else:
-                    dt = 0.005
-                self.run_once(dt)
+                    self.run_once(0.005)
         except BaseException as e:  # reported by stop()
             self.error = e
 

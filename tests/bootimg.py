@@ -16,8 +16,13 @@ LOADER = (0x7FF000, 0x800000)
 DATA = (0x7A0000, 0x7A2000)
 
 
-def write_srec(path, chunks, entry=None, address_bits=24) -> str:
-    """chunks: [(address, bytes)]; returns the path."""
+def write_srec(path, chunks, entry="code", address_bits=24) -> str:
+    """chunks: [(address, bytes)]; returns the path.  entry: the start
+    address (S7/S8/S9); "code" (default): the first byte of the chunks, in
+    address order, that is not 0xFF (inclino flash wants an entry point in
+    the image's code); None: no start address."""
+    if entry == "code":
+        entry = next((a + i for a, d in sorted(chunks) for i, b in enumerate(d) if b != 0xFF), None)
     bf = bincopy.BinFile()
     for addr, data in chunks:
         bf.add_binary(bytes(data), address=addr)

@@ -377,7 +377,8 @@ def test_flash_while_the_application_streams(emu, tmp_path):
 def test_image_checks_before_the_port(tmp_path):
     """load_image on its own: the merge of records into phrase-aligned ranges
     and the refusals, with no probe at all."""
-    img = write_srec(tmp_path / "a.s19", [(0x7C0001, b"\x01\x02"), (0x7C0005, b"\x03"), (0x7C0100, b"\x04")])
+    img = write_srec(tmp_path / "a.s19", [(0x7C0001, b"\x01\x02"), (0x7C0005, b"\x03"), (0x7C0100, b"\x04")],
+                     entry=None)
     im = flashing.load_image(img)
     assert [(r.addr, r.data) for r in im.ranges] == [
         (0x7C0000, b"\xff\x01\x02\xff\xff\x03\xff\xff"), (0x7C0100, b"\x04" + b"\xff" * 7)]

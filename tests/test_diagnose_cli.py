@@ -125,7 +125,11 @@ def test_poses_that_cannot_separate_the_baseline(tmp_path, capsys):
     ds = plans.generate(plans.PROBE, plan, 4)
     rc, _, err = _run(capsys, "diagnose", _write(tmp_path, ds))
     assert rc == 2
-    assert "cannot separate the baseline" in _one_error_line(err)
+    line = _one_error_line(err)
+    assert "cannot separate the baseline" in line
+    # the message names what the poses leave undetermined: with gravity never along body z, an accelerometer
+    # coefficient of the z column or the z offset
+    assert "undetermined" in line and "acc" in line and "gain on the true z" in line
 
 
 def test_unknown_effect_and_missing_input(tmp_path, capsys, tb_dataset):
@@ -137,13 +141,18 @@ def test_unknown_effect_and_missing_input(tmp_path, capsys, tb_dataset):
     assert rc == 2 and "cannot read" in _one_error_line(err)
 
 
-def test_bench_module_small_seeded_set(capsys):
-    rc = dbench.main(["--json", "--per-effect", "1", "--nulls", "2", "--seed", "77"])
-    out = capsys.readouterr().out
-    d = json.loads(out)
-    assert d["datasets"] == len(dbench.core.EFFECT_NAMES) + 2 and set(d["effects"]) == set(dbench.core.EFFECT_NAMES)
-    for e in d["effects"].values():
-        assert e["detection_rate"] == 1.0
-    assert d["null"]["false_alarms"] == 0
-    assert d["time_s"]["max"] < 5.0
-    assert d["met"]["datasets"] is False and rc == 1  # 11 < 200: the full bench is `bench diagnose`
+def test_bench_module_quick_set(capsys):
+    """The quick bench (a size sweep at z = 2, 6, 30, 270 with one dataset
+    per size and effect, every other one at z >= 6 spiked, two nulls):
+    the report's shape, every effect found at z >= 6, no error exit; it is
+    too small for the targets (nulls < 200), so it exits 1."""
+    rc = dbench.main(["--json", "--quick", "--nulls", "2", "--pairs", "0", "--seed", "77"])
+    d = json.loads(capsys.readouterr().out)
+    assert set(d["sweep"]["effects"]) == set(dbench.core.EFFECT_NAMES)
+    assert d["sweep"]["z"] == list(dbench.Z_SWEEP_QUICK)
+    for name, e in d["sweep"]["effects"].items():
+        assert e["min_rate_z_ge_6"] == 1.0, (name, e)
+        assert e["rate_outliers_z_ge_6"] == 1.0, (name, e)
+        assert e["z50"] is not None and 2.0 <= e["z50"] <= 6.0
+    assert d["null"]["datasets"] == 2 and d["errors"] == []
+    assert d["met"]["nulls"] is False and d["met"]["no_errors"] is True and rc == 1

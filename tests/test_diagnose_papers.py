@@ -76,34 +76,70 @@ def test_li_before_correction_prediction_misses(li):
 
 def test_li_after_correction_extension_and_gain(li):
     """Li's twelve-position calibration run on the same turntable first,
-    then the checks: the simulation predicts zero; the residual asks for the
-    turntable's axis geometry."""
+    then the checks: the simulation predicts zero.  Best-subset selection
+    (up to 8 terms) with nested cross-validation; the sensor-level terms
+    whose sign depends on the unknown check toolface are dropped, their x-y
+    pairs (toolface-free magnitudes) kept in the pool."""
     assert _cmp(li, "Table 5", "after")["predicted_rms"] < 1e-9
     (ext,) = li["extensions"]
-    assert ext["n"] == 77
+    sl = ext["selection"]
+    assert ext["n"] == 77 and ext["accepted"]
     assert ext["rms_before"] == pytest.approx(0.5554, abs=1e-3)
-    assert ext["rms_after"] == pytest.approx(0.1564, abs=1e-3)
-    assert ext["loo_rms_after"] == pytest.approx(0.1720, abs=1e-3)
-    assert ext["azi_rms_before"] == pytest.approx(0.5994, abs=1e-3) and ext["azi_rms_after"] < 0.17
-    kept = {(e["name"], e["axis"]): e for e in ext["effects"]}
-    assert list(kept)[:2] == [("turntable-inclination-axis-skew", "inc"), ("turntable-azimuth-axis-tilt", "north")]
-    assert kept[("turntable-inclination-axis-skew", "inc")]["estimate"] == pytest.approx(0.9565, abs=2e-3)
-    assert kept[("turntable-azimuth-axis-tilt", "north")]["estimate"] == pytest.approx(0.0337, abs=5e-4)
-    # the library as it was (encoder offsets) and the sensor-level alternatives do worse out of sample
+    assert ext["azi_rms_before"] == pytest.approx(0.5994, abs=1e-3)
+    # the chosen model and how it generalises: leave-one-out, leave-one-inclination-out, and the whole
+    # procedure (search included) cross-validated nested
+    assert sl["loo_rms"] == pytest.approx(0.0932, abs=1e-3)
+    assert sl["group_rms"] == pytest.approx(0.1082, abs=1e-3)
+    assert sl["nested_loo_rms"] == pytest.approx(0.0964, abs=1e-3)
+    assert sl["nested_group_rms"] == pytest.approx(0.1545, abs=1e-3) and sl["nested_group_rms"] <= 0.165
+    kept = {e["term"]: e for e in ext["effects"]}
+    assert kept["turntable-inclination-axis-skew (inc)"]["estimate"] == pytest.approx(0.4954, abs=2e-3)
+    assert kept["turntable-azimuth-axis-tilt (north)"]["estimate"] == pytest.approx(0.0263, abs=5e-4)
+    assert kept["turntable-azimuth-axis-tilt (east)"]["estimate"] == pytest.approx(-0.0135, abs=5e-4)
+    asked = {t for t, e in kept.items() if e["asked_for_by_the_data"]}
+    assert asked == {"turntable-inclination-axis-skew (inc)", "turntable-azimuth-axis-tilt (north)",
+                     "turntable-azimuth-axis-tilt (east)", "calibration residual: accelerometer offset (x, y)"}
+    # the others are named with the model that explains the data as well without them
+    for t, e in kept.items():
+        if t not in asked:
+            assert e["rivals"]["model_without_it"] and t not in e["rivals"]["model_without_it"]
+    # every rival within one SE has its leave-one-out and leave-one-inclination-out
+    assert len(sl["rivals"]) >= 1 and all(r["loo_rms"] and r["group_rms"] for r in sl["rivals"])
+    # the toolface scan: single x or y sensor terms flip sign and are dropped; z terms and x-y pairs are stable
+    scan = {x["term"]: x for x in ext["toolface_scan"]}
+    assert not scan["calibration residual: fluxgate offset (y)"]["stable"]
+    assert scan["calibration residual: fluxgate offset (y)"]["min"] < 0 < scan[
+        "calibration residual: fluxgate offset (y)"]["max"]
+    assert scan["calibration residual: fluxgate offset (x, y)"]["stable"]
+    assert scan["calibration residual: accelerometer offset (z)"]["stable"]
+    assert "calibration residual: fluxgate offset (y)" not in ext["pool"]
+    # the comparisons: the library as it was (encoder offsets), the sensor-level terms alone, and the model
+    # that takes the toolface as known (better in-sample, no better nested leave-one-inclination-out)
     assert ext["library_before_extension"]["loo_rms_after"] == pytest.approx(0.3743, abs=1e-3)
-    assert ext["sensor_level_only"]["loo_rms_after"] == pytest.approx(0.2881, abs=1e-3)
+    assert ext["sensor_level_only"]["loo_rms_after"] == pytest.approx(0.2741, abs=1e-3)
+    a = ext["assumed_toolface_model"]
+    assert a["loo_rms_after"] == pytest.approx(0.0929, abs=1e-3)
+    assert a["nested_group_rms"] == pytest.approx(0.1625, abs=1e-3)
 
 
 def test_ren_tables(ren):
     ext = {e["rows"]: e for e in ren["extensions"]}
     t1a = ext["Ren Table 1 after"]
     assert t1a["rms_before"] == pytest.approx(0.0588, abs=1e-3)
-    assert t1a["loo_rms_after"] == pytest.approx(0.0264, abs=1e-3)
-    assert [(e["name"], e["axis"]) for e in t1a["effects"]] == [("calibration residual: accelerometer offset", "x")]
+    assert t1a["selection"]["loo_rms"] == pytest.approx(0.0281, abs=1e-3)
+    assert t1a["selection"]["nested_loo_rms"] == pytest.approx(0.0384, abs=1e-3)
+    # the accelerometer offset along x (best alone at toolface 0) rests on the toolface: dropped
+    scan = {x["term"]: x for x in t1a["toolface_scan"]}
+    assert not scan["calibration residual: accelerometer offset (x)"]["stable"]
+    (e,) = t1a["effects"]
+    assert e["term"] == "turntable-azimuth-axis-tilt (north)" and not e["asked_for_by_the_data"]
+    assert e["rivals"]["model_without_it"] == ["turntable-inclination-offset (inc)"]
     t1b = ext["Ren Table 1 before"]
-    assert [(e["name"], e["axis"]) for e in t1b["effects"]] == [("turntable-inclination-offset", "inc")]
+    assert [x["term"] for x in t1b["effects"]] == ["turntable-inclination-offset (inc)"]
     assert t1b["effects"][0]["estimate"] == pytest.approx(-0.32, abs=2e-3)
-    assert ext["Ren Table 2 after"]["effects"] == [] and ext["Ren Table 2 before"]["effects"] == []
+    t2a = ext["Ren Table 2 after"]
+    assert t2a["effects"] == [] and not t2a["accepted"]
+    assert t2a["best_model_not_accepted"]["nested_loo_rms"] == pytest.approx(0.980, abs=2e-3)
     assert any("does better than turntable-inclination-offset" in f for f in ren["findings"])
 
 

@@ -132,6 +132,21 @@ static uint8_t check_ranges(const boot_app_t *app)
     return BOOT_OK;
 }
 
+/* The entry point lies inside one of the ranges (the bootloader jumps
+ * there after every reset: never into itself, the descriptor, the data
+ * sectors or bytes no range describes).  1 if so, else 0. */
+static uint8_t entry_ok(const boot_app_t *app)
+{
+    uint8_t i;
+    for (i = 0u; i < app->count; i++) {
+        if (app->entry >= app->range[i].addr &&
+            app->entry - app->range[i].addr < app->range[i].len) {
+            return 1u;
+        }
+    }
+    return 0u;
+}
+
 static uint8_t check_images(const boot_app_t *app, uint8_t *bad)
 {
     uint8_t i;
@@ -189,7 +204,7 @@ uint8_t boot_app_check(boot_app_t *app)
         }
         total += app->range[i].len; /* at most 8 MiB: no wrap */
     }
-    if (check_ranges(app) != BOOT_OK || total != app->total) {
+    if (check_ranges(app) != BOOT_OK || total != app->total || entry_ok(app) == 0u) {
         return BOOT_E_RANGES;
     }
     return check_images(app, &bad);
@@ -512,7 +527,7 @@ static void c_commit(boot_t *b, uint8_t seq, const uint8_t *pl, uint16_t len)
         app.range[i].len = be_get_u32(r + 4);
         app.range[i].crc = be_get_u32(r + 8);
     }
-    if (check_ranges(&app) != BOOT_OK) {
+    if (check_ranges(&app) != BOOT_OK || entry_ok(&app) == 0u) {
         nak(b, seq, BCMD_COMMIT, PERR_ARGUMENT, 0u);
         return;
     }

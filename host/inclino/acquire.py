@@ -338,10 +338,9 @@ class AcquireResult:
 
 
 def _bar(total: int, desc: str, quiet: bool):
-    from tqdm import tqdm
+    from inclino.progress_lines import bar   # a bar on a terminal, periodic lines off one
 
-    return tqdm(total=total, desc=desc, unit="pos", file=sys.stderr, leave=False,
-                disable=True if quiet else None, dynamic_ncols=True)
+    return bar(total, desc, unit="pos", quiet=quiet, leave=False, dynamic_ncols=True)
 
 
 class _RowWriter:

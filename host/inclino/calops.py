@@ -22,10 +22,24 @@ from inclino import core, protocol
 from inclino.calfile import Calibration
 from inclino.calimage import CRC_OFFSET, SIZE, CalImage
 from inclino.errors import CalibrationError
-from inclino.link import ProbeError, ProbeLink, ProbeNak
+from inclino.link import ProbeError, ProbeInBootloader, ProbeLink, ProbeNak
 
 COEF = slice(20, CRC_OFFSET)  # the coefficient bytes of an image
 SLOT_NAMES = {0: "A", 1: "B", 0xFF: "none"}
+# calimg_parse's check codes (calimg.h), the detail of an E_IMAGE refusal
+IMAGE_CHECKS = {1: "wrong length", 2: "not a calibration image (magic)", 3: "another image format version",
+                4: "CRC mismatch (the image was corrupted)", 5: "a coefficient outside the range the probe accepts"}
+
+
+def report_refusal(cal: Calibration) -> str | None:
+    """Why a calibration must not be downloaded without --force: its own fit
+    report says it did not pass.  None when it passed or has no report."""
+    rep = cal.report
+    if not isinstance(rep, dict) or rep.get("passed", True) is not False:
+        return None
+    reasons = rep.get("reasons")
+    why = "; ".join(str(r) for r in reasons[:3]) if isinstance(reasons, list) and reasons else "no reason given"
+    return f"the calibration's own report did not pass ({why})"
 
 
 def _serial_of(cal: Calibration) -> int | None:
@@ -70,8 +84,13 @@ def download(link: ProbeLink, cal: Calibration, force: bool = False, when: int |
     CalibrationError (nothing written) for a refused file, ProbeError when
     the probe cannot be reached or the last attempt failed."""
     cal.check()
+    refusal = report_refusal(cal)
+    if refusal and not force:
+        raise CalibrationError(f"{refusal}; nothing written (use --force to download it anyway)")
     file_serial = _serial_of(cal)
     res = DownloadResult(ok=False)
+    if refusal:
+        res.events.append(f"downloaded with --force although {refusal}")
     step = progress or (lambda name: None)
     last_err: Exception | None = None
     r0, o0, i0 = link.stats.retries, link.stats.bytes_out, link.stats.bytes_in
@@ -89,7 +108,8 @@ def download(link: ProbeLink, cal: Calibration, force: bool = False, when: int |
                     raise CalibrationError("the probe refused the file: it is for another probe serial; "
                                            "nothing written (use --force to override)")
                 if e.code == 9:
-                    raise CalibrationError(f"the probe refused the image (check code {e.detail}); nothing written")
+                    why = IMAGE_CHECKS.get(e.detail, f"check code {e.detail}")
+                    raise CalibrationError(f"the probe refused the image: {why}; nothing written")
                 raise
             step("read back")
             rslot, _valid, rseq, stored = link.cal_read(slot)
@@ -108,7 +128,7 @@ def download(link: ProbeLink, cal: Calibration, force: bool = False, when: int |
             res.retries = link.stats.retries - r0
             res.bytes_out, res.bytes_in = link.stats.bytes_out - o0, link.stats.bytes_in - i0
             return res
-        except CalibrationError:
+        except (CalibrationError, ProbeInBootloader):
             raise
         except ProbeNak as e:
             res.events.append(f"attempt {attempt}: {e}")
@@ -130,7 +150,8 @@ class VerifyResult:
     slot: str
     sequence: int
     checks: int
-    mismatches: list = field(default_factory=list)
+    mismatches: list = field(default_factory=list)   # one short line each
+    details: list = field(default_factory=list)      # every differing field, with the raw counts
 
     @property
     def ok(self) -> bool:
@@ -147,35 +168,42 @@ def survey_with_raw(link: ProbeLink) -> tuple[protocol.SurveyRecord, protocol.Ra
 
 
 def verify(link: ProbeLink, cal: Calibration, surveys: int = 3) -> VerifyResult:
+    if surveys < 1:   # 0 surveys would "pass" a correction nobody checked
+        from inclino.errors import DataError
+
+        raise DataError(f"verify needs at least 1 survey, not {surveys}")
     cal.check()
     fixed = cal.to_fixed()
     ident = link.identify()
     res = VerifyResult(False, False, SLOT_NAMES.get(ident.cal_slot, "?"), ident.cal_sequence, 0)
     if ident.cal_slot == 0xFF:
-        res.mismatches.append("the probe runs the identity calibration: no calibration is active")
+        res.mismatches.append("the probe has no calibration (it runs the identity calibration): download "
+                              "this file with inclino download first")
+        return res      # nothing to compare the probe's output with: not checked
+    slot, valid, _seq, stored = link.cal_read(ident.cal_slot)
+    want = CalImage(fixed, 0, 0, "joint").pack()
+    if not valid:
+        res.mismatches.append(f"slot {res.slot} is not valid")
+    elif len(stored) != SIZE or stored[COEF] != want[COEF]:
+        res.mismatches.append(f"the coefficients stored in slot {res.slot} are not the file's")
     else:
-        slot, valid, _seq, stored = link.cal_read(ident.cal_slot)
-        want = CalImage(fixed, 0, 0, "joint").pack()
-        if not valid:
-            res.mismatches.append(f"slot {res.slot} is not valid")
-        elif len(stored) != SIZE or stored[COEF] != want[COEF]:
-            res.mismatches.append(f"the coefficients stored in slot {res.slot} are not the file's")
-        else:
-            try:
-                CalImage.unpack(stored)
-                res.storage_ok = True
-            except CalibrationError as e:
-                res.mismatches.append(f"slot {res.slot}: {e}")
+        try:
+            CalImage.unpack(stored)
+            res.storage_ok = True
+        except CalibrationError as e:
+            res.mismatches.append(f"slot {res.slot}: {e}")
     ok = True
-    for _ in range(surveys):
+    for n in range(1, surveys + 1):
         s, r = survey_with_raw(link)
         want = core.survey_one([r.ax, r.ay, r.az], [r.mx, r.my, r.mz], fixed)
         res.checks += 1
         got = {"inc": s.inc, "azi": s.azi, "gtf": s.gtf, "mtf": s.mtf, "gt": s.gt, "bt": s.bt, "dip": s.dip,
                "flags": s.flags}
-        for k, v in got.items():
-            if int(want[k]) != int(v):
-                ok = False
-                res.mismatches.append(f"{k}: probe {v}, file predicts {int(want[k])} (raw {r})")
+        bad = [k for k, v in got.items() if int(want[k]) != int(v)]
+        for k in bad:
+            res.details.append(f"survey {n} {k}: probe {got[k]}, file predicts {int(want[k])} (raw {r})")
+        if bad:
+            ok = False
+            res.mismatches.append(f"survey {n}: {', '.join(bad)} differ from what the file predicts")
     res.correction_ok = ok
     return res

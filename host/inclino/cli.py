@@ -120,6 +120,13 @@ def _cmd_emulate(args) -> int:
     import signal
     import time
 
+    from inclino.link import BAUD_RANGE
+
+    if not BAUD_RANGE[0] <= args.baud <= BAUD_RANGE[1]:
+        raise DataError(f"--baud {args.baud}: a baud rate within {BAUD_RANGE[0]}-{BAUD_RANGE[1]}")
+    if not 0 <= args.control <= 65535:
+        raise DataError(f"--control {args.control}: a TCP port within 0-65535 (0: any free port)")
+
     try:
         from inclino_emu.runner import Emulator
     except ImportError as e:
@@ -202,6 +209,7 @@ def build_parser() -> argparse.ArgumentParser:
     be.add_argument("--field", type=float, default=50000.0, help="accuracy: field total, nT")
     be.add_argument("--dip", type=float, default=60.0, help="accuracy: dip, degrees")
     be.add_argument("--vectors", type=int, default=1_000_000, help="speed: batch size")
+    be.add_argument("--quick", action="store_true", help="diagnose: a small set (not the targets' figures)")
     be.set_defaults(func=_cmd_bench)
     _add_calibrate(sub)
     _add_diagnose(sub)
@@ -221,8 +229,8 @@ def main(argv: list[str] | None = None) -> int:
     except InclinoError as e:
         print(f"inclino: error: {e}", file=sys.stderr)
         return e.exit_code
-    except KeyboardInterrupt:
-        print("inclino: interrupted", file=sys.stderr)
+    except KeyboardInterrupt as e:   # a command may say what the interruption left (inclino flash)
+        print("inclino: interrupted" + (f": {e}" if str(e) else ""), file=sys.stderr)
         return 130
     except BrokenPipeError:
         return 0

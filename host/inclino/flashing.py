@@ -220,6 +220,23 @@ def load_image(path: str, fmap: FlashMap = DEFAULT_MAP) -> Image:
     return Image(path, ranges, NO_ENTRY if entry is None else int(entry) & 0xFFFFFFFF, total)
 
 
+def check_entry(image: Image, fmap: FlashMap = DEFAULT_MAP) -> None:
+    """The image's entry point (the S-record file's start address, S7/S8/S9)
+    must be given and lie in bytes the image programs in the application
+    area -- never in the bootloader, the descriptor or the data sectors: the
+    bootloader jumps there after every reset.  DataError otherwise."""
+    e = image.entry
+    if e == NO_ENTRY:
+        raise DataError(f"{image.path}: no entry point (an S7/S8/S9 start address naming the application's "
+                        "start-up code); nothing was erased")
+    why = fmap.check(e, e + 1)
+    if why:
+        raise DataError(f"{image.path}: the entry point 0x{e:06X} is {why}; nothing was erased")
+    if not any(r.addr <= e < r.end and r.data[e - r.addr] != 0xFF for r in image.ranges):
+        raise DataError(f"{image.path}: the entry point 0x{e:06X} is not in the image's code (no record "
+                        "programs it); nothing was erased")
+
+
 # ---- the result ------------------------------------------------------------------------------
 @dataclass
 class RangeResult:
@@ -288,6 +305,8 @@ class _Flasher:
     def __init__(self, link: ProbeLink, image: Image, progress: Progress, result: FlashResult):
         self.link, self.image, self.progress, self.res = link, image, progress, result
         self.mark = 0          # the mark the bootloader holds since our last IDENTIFY
+        self.in_bootloader = False   # the bootloader answered: the probe no longer runs its application
+        self.erase_started = False   # an ERASE was sent: the bootloader invalidates the application first
         self.restart_seen = False
         self.readback = {}
 
@@ -334,6 +353,7 @@ class _Flasher:
             if i.product != "INCLINO-BOOT":
                 raise ProbeError(f"the device on {self.link.port_name} is not an inclino bootloader "
                                  f"(it says {i.product!r})")
+            self.in_bootloader = True
             return i
         raise ProbeError("the probe did not start its bootloader")
 
@@ -370,6 +390,7 @@ class _Flasher:
         total_verify = sum(len(r.data) for r in img.ranges)
         res.bytes_programmed = 0
         for k, a in enumerate(sectors):
+            self.erase_started = True
             self._nak_to_retry(B_ERASE, struct.pack(">I", a), timeout=self.link.timeout + 0.2)
             self._tick("erase", k + 1, len(sectors))
         res.sectors_erased = len(sectors)
@@ -479,6 +500,7 @@ def flash(link_or_port, image_path: str, progress: Progress = None, *, attempts:
     was left)."""
     t0 = time.monotonic()
     image = load_image(image_path)
+    check_entry(image)
     link, own = _open(link_or_port, baud, timeout)
     res = FlashResult(ok=False, image=image_path, port=link.port_name, entry=image.entry,
                       bytes_image=image.data_bytes)
@@ -486,46 +508,9 @@ def flash(link_or_port, image_path: str, progress: Progress = None, *, attempts:
     retries0 = link.stats.retries
     fl = _Flasher(link, image, progress, res)
     try:
-        ident = fl.enter_bootloader()
-        fl.check_map(ident)
-        res.serial = ident.serial
-        if ident.app_status != 0:
-            res.events.append(f"the bootloader runs with no valid application "
-                              f"({APP_STATUS.get(ident.app_status, ident.app_status)})")
-        last = None
-        for k in range(1, max(1, attempts) + 1):
-            res.attempts = k
-            try:
-                fl.attempt(ident.fmap)
-                if k > 1:
-                    res.retry_succeeded = True
-                    res.events.append(f"attempt {k} succeeded")
-                last = None
-                break
-            except _Refused:
-                raise
-            except (_Retry, ProbeError) as e:
-                last = e
-                res.events.append(f"attempt {k} failed: {e}")
-                if k == attempts:
-                    break
-                try:
-                    ident = _recover(fl, res)
-                except ProbeError as e2:
-                    raise ProbeError(f"flash failed in attempt {k}: {e}; then the probe did not answer "
-                                     f"({e2}); {NO_ANSWER_STATE}") from None
-        if last is not None:
-            if str(last) == "verify failed":
-                res.duration_s = time.monotonic() - t0
-                return res
-            state = _state(fl)
-            raise ProbeError(f"flash failed after {res.attempts} attempt(s): {last}; {state}")
-        if readback_path:
-            _write_readback(fl, image, readback_path)
-        if run:
-            _run(fl, res)
-        res.ok = all(r.passed for r in res.ranges) and res.committed
-        return res
+        return _flash(fl, link, image, res, attempts, run, readback_path, t0)
+    except KeyboardInterrupt:
+        raise KeyboardInterrupt(_interrupted_state(fl, res)) from None
     finally:
         res.bytes_on_wire = link.stats.bytes_out + link.stats.bytes_in - bytes0
         res.retries = link.stats.retries - retries0
@@ -535,6 +520,77 @@ def flash(link_or_port, image_path: str, progress: Progress = None, *, attempts:
         res.duration_s = time.monotonic() - t0
         if own:
             link.close()
+
+
+def _interrupted_state(fl: "_Flasher", res: FlashResult) -> str:
+    """What Ctrl-C left on the probe, for `inclino: interrupted: ...`."""
+    if not fl.in_bootloader:
+        return "nothing was changed on the probe"
+    if res.committed:
+        return ("the new application is flashed and committed; power-cycle the probe to start it"
+                if not res.app_running else "the new application is flashed and runs")
+    status = None
+    if fl.erase_started:
+        old = fl.link.retries
+        try:   # one quick question: did the bootloader already invalidate the old application?
+            fl.link.retries = 0
+            status = fl.identify().app_status
+        except (ProbeError, KeyboardInterrupt):
+            status = None
+        finally:
+            fl.link.retries = old
+    if not fl.erase_started or status == 0:
+        return ("nothing was erased: the probe waits in its bootloader with its old application; power-cycle "
+                "it to start that, or run inclino flash again")
+    if status is None:
+        return ("an erase was under way, so the application is probably erased: the probe stays in its "
+                "bootloader until inclino flash is run again")
+    return ("the application is erased: the probe stays in its bootloader (no application) until inclino "
+            "flash is run again")
+
+
+def _flash(fl, link, image, res, attempts, run, readback_path, t0) -> FlashResult:
+    """The flash itself (flash() keeps the accounting and the Ctrl-C report)."""
+    ident = fl.enter_bootloader()
+    fl.check_map(ident)
+    res.serial = ident.serial
+    if ident.app_status != 0:
+        res.events.append(f"the bootloader runs with no valid application "
+                          f"({APP_STATUS.get(ident.app_status, ident.app_status)})")
+    last = None
+    for k in range(1, max(1, attempts) + 1):
+        res.attempts = k
+        try:
+            fl.attempt(ident.fmap)
+            if k > 1:
+                res.retry_succeeded = True
+                res.events.append(f"attempt {k} succeeded")
+            last = None
+            break
+        except _Refused:
+            raise
+        except (_Retry, ProbeError) as e:
+            last = e
+            res.events.append(f"attempt {k} failed: {e}")
+            if k == attempts:
+                break
+            try:
+                ident = _recover(fl, res)
+            except ProbeError as e2:
+                raise ProbeError(f"flash failed in attempt {k}: {e}; then the probe did not answer "
+                                 f"({e2}); {NO_ANSWER_STATE}") from None
+    if last is not None:
+        if str(last) == "verify failed":
+            res.duration_s = time.monotonic() - t0
+            return res
+        state = _state(fl)
+        raise ProbeError(f"flash failed after {res.attempts} attempt(s): {last}; {state}")
+    if readback_path:
+        _write_readback(fl, image, readback_path)
+    if run:
+        _run(fl, res)
+    res.ok = all(r.passed for r in res.ranges) and res.committed
+    return res
 
 
 def _recover(fl: _Flasher, res: FlashResult) -> BootIdentity:
@@ -603,9 +659,11 @@ def _write_readback(fl: _Flasher, image: Image, path: str):
 
 # ---- the command ------------------------------------------------------------------------------
 def _tqdm_progress():
-    """One progress bar per phase on stderr (tqdm turns itself off when
-    stderr is not a terminal)."""
+    """One progress bar per phase on stderr (tqdm); off a terminal, a line
+    per phase at its start, every progress_lines.EVERY_S and at its end."""
     from tqdm import tqdm
+
+    from inclino.progress_lines import LineProgress
 
     bars = {}
 
@@ -615,8 +673,11 @@ def _tqdm_progress():
             for b in bars.values():
                 b.close()
             unit = "sector" if phase == "erase" else "B"
-            bar = bars[phase] = tqdm(total=total, desc=phase, unit=unit, unit_scale=(unit == "B"),
-                                     leave=True, disable=None, file=sys.stderr)
+            if sys.stderr.isatty():
+                bar = bars[phase] = tqdm(total=total, desc=phase, unit=unit, unit_scale=(unit == "B"),
+                                         leave=True, disable=None, file=sys.stderr)
+            else:   # periodic lines (a log, a CI job)
+                bar = bars[phase] = LineProgress(total, f"flash {phase}", unit)
         bar.update(done - bar.n)
 
     def close():
@@ -643,6 +704,11 @@ def _text(res: FlashResult) -> str:
 
 
 def _cmd_flash(args) -> int:
+    from inclino.link import check_link_options
+
+    check_link_options(args.baud, args.timeout)
+    if not 1 <= args.attempts <= 10:
+        raise DataError(f"--attempts {args.attempts}: whole flashes to start, 1-10")
     cb, close = (None, lambda: None) if args.json else _tqdm_progress()
     try:
         res = flash(args.port, args.image, progress=cb, attempts=args.attempts, run=not args.no_run,

@@ -7,12 +7,13 @@ command twice; what happened is counted in `link.stats`.
 """
 from __future__ import annotations
 
+import math
 import struct
 import time
 from dataclasses import dataclass, field
 
 from inclino import protocol
-from inclino.errors import InclinoError
+from inclino.errors import DataError, InclinoError
 from inclino.protocol import CMD, ERRORS, NAK, STREAM_FRAME, Event, FrameParser
 
 
@@ -31,6 +32,44 @@ class ProbeNak(ProbeError):
         cname = next((k for k, v in CMD.items() if v == cmd), f"0x{cmd:02X}")
         extra = f" (detail {detail})" if detail is not None else ""
         super().__init__(f"probe refused {cname}: {name}{extra}")
+
+
+E_STATE = 11
+B_IDENTIFY = 0x40
+BOOT_APP_STATUS = {0: "a valid application", 1: "no application (erased: a flash did not finish)",
+                   2: "no application (its descriptor is damaged)", 3: "no application (its descriptor is damaged)",
+                   4: "no application (its image is damaged)", 5: "no application (the flash is unreadable)"}
+BAUD_RANGE = (300, 2_500_000)     # what the S12X's SCI makes at a 40 MHz bus
+TIMEOUT_RANGE = (0.001, 3600.0)   # seconds
+
+
+class ProbeInBootloader(ProbeNak):
+    """The probe runs its bootloader, not the application: an application
+    command cannot work.  A ProbeNak (E_STATE) so that callers that retry
+    on negative answers keep working; its text says what to do."""
+
+    def __init__(self, cmd: int, port: str, app_status: int):
+        self.cmd, self.code, self.detail, self.app_status = cmd, E_STATE, None, app_status
+        what = BOOT_APP_STATUS.get(app_status, f"application status {app_status}")
+        if app_status == 0:
+            todo = ("power-cycle the probe to start its application, or run `inclino flash` to "
+                    "finish a firmware update")
+        else:
+            todo = f"run `inclino flash --port {port} IMAGE.s19` (again) to install the application"
+        InclinoError.__init__(self, f"the probe on {port} is in its bootloader with {what}: {todo}")
+
+
+def check_link_options(baud, timeout) -> None:
+    """The rules for --baud and --timeout of every command that opens the
+    link (DataError, exit 2)."""
+    if isinstance(baud, bool) or not isinstance(baud, int) or not BAUD_RANGE[0] <= baud <= BAUD_RANGE[1]:
+        raise DataError(f"--baud {baud}: a baud rate within {BAUD_RANGE[0]}-{BAUD_RANGE[1]}")
+    try:
+        t = float(timeout)
+    except (TypeError, ValueError):
+        raise DataError(f"--timeout {timeout}: not a number") from None
+    if not (math.isfinite(t) and TIMEOUT_RANGE[0] <= t <= TIMEOUT_RANGE[1]):
+        raise DataError(f"--timeout {timeout}: seconds within {TIMEOUT_RANGE[0]:g}-{TIMEOUT_RANGE[1]:g}")
 
 
 @dataclass
@@ -53,6 +92,7 @@ class ProbeLink:
     def __init__(self, port: str, baud: int = 115200, timeout: float = 0.5, retries: int = 4):
         import serial  # pyserial
 
+        check_link_options(baud, timeout)
         self.port_name = port
         self.timeout = timeout
         self.retries = retries
@@ -60,6 +100,7 @@ class ProbeLink:
         self._seq = int(time.monotonic_ns() // 1000) & 0xFF
         self._parser = FrameParser()
         self._pending: list[Event] = []
+        self.detect_bootloader = True   # an application command refused E_STATE: ask the bootloader
         try:
             self._ser = serial.serial_for_url(port, baudrate=baud, timeout=0.01, write_timeout=2.0)
         except (serial.SerialException, ValueError, OSError) as e:
@@ -123,6 +164,7 @@ class ProbeLink:
         frame = protocol.encode_frame(seq, code, payload)
         self.stats.requests += 1
         wait = self.timeout if timeout is None else timeout
+        in0, bad0, hit0 = self.stats.bytes_in, self.stats.bad_frames, 0
         for attempt in range(self.retries + 1):
             if attempt:
                 self.stats.retries += 1
@@ -146,16 +188,40 @@ class ProbeLink:
                 if f.cmd == NAK:
                     if len(f.payload) >= 2 and f.payload[1] == 1:  # E_CRC: our request was hit
                         self.stats.log.append(f"probe saw a corrupt request on seq {seq}")
+                        hit0 += 1
                         break
                     self.stats.naks += 1
+                    if (len(f.payload) > 1 and f.payload[1] == E_STATE and code < B_IDENTIFY
+                            and self.detect_bootloader):
+                        self._raise_if_bootloader(code)
                     raise ProbeNak(f.payload[0] if f.payload else code, f.payload[1] if len(f.payload) > 1 else 0,
                                    f.payload[2] if len(f.payload) > 2 else None)
                 if f.cmd == (code | 0x80):
                     return f.payload
                 self.stats.stale_answers += 1
-        raise ProbeError(f"no answer from the probe on {self.port_name} to "
-                         f"{cmd if isinstance(cmd, str) else hex(code)} after {self.retries + 1} tries "
-                         "(wrong port, wrong baud rate, or the probe is off)")
+        name = cmd if isinstance(cmd, str) else hex(code)
+        got, bad = self.stats.bytes_in - in0, self.stats.bad_frames - bad0
+        if got or hit0:   # something came back: the probe is there, the line corrupts or loses bytes
+            raise ProbeError(f"no valid answer from the probe on {self.port_name} to {name} after "
+                             f"{self.retries + 1} tries: the link is noisy ({got} bytes received, {bad} "
+                             f"corrupt answer(s), {hit0} request(s) the probe received corrupt); check the "
+                             "cable, its connectors and screening")
+        raise ProbeError(f"no answer from the probe on {self.port_name} to {name} after "
+                         f"{self.retries + 1} tries, nothing received (wrong port, wrong baud rate, or the "
+                         "probe is off)")
+
+    def _raise_if_bootloader(self, code: int) -> None:
+        """An application command answered E_STATE: if the bootloader runs,
+        raise ProbeInBootloader (else return: an ordinary E_STATE)."""
+        self.detect_bootloader = False
+        try:
+            p = self.request(B_IDENTIFY)
+        except ProbeError:
+            return
+        finally:
+            self.detect_bootloader = True
+        if p[:12] == b"INCLINO-BOOT" and len(p) > 19:
+            raise ProbeInBootloader(code, self.port_name, p[19])
 
     # ----------------------------------------------------------- commands
     def identify(self) -> protocol.Identity:

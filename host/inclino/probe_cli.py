@@ -18,8 +18,9 @@ QC_BITS = {0x01: "G", 0x02: "B", 0x04: "dip", 0x08: "undefined", 0x80: "no-ref"}
 
 
 def _link(args):
-    from inclino.link import ProbeLink
+    from inclino.link import ProbeLink, check_link_options
 
+    check_link_options(args.baud, args.timeout)
     return ProbeLink(args.port, baud=args.baud, timeout=args.timeout)
 
 
@@ -141,8 +142,16 @@ def _cmd_download(args) -> int:
     from inclino import calops
     from inclino.calfile import Calibration
 
+    from inclino.link import check_link_options
+
+    check_link_options(args.baud, args.timeout)
     cal = Calibration.load(args.cal)  # a refused file fails here, before the port is opened
     cal.check()
+    refusal = calops.report_refusal(cal)
+    if refusal and not args.force:
+        from inclino.errors import CalibrationError
+
+        raise CalibrationError(f"{refusal}; nothing written (use --force to download it anyway)")
     prog = _Progress(5, "download", not args.quiet and sys.stderr.isatty())
     try:
         with _link(args) as link:
@@ -152,25 +161,38 @@ def _cmd_download(args) -> int:
     if args.json:
         print(r.to_json())
     else:
-        print(f"downloaded: slot {r.slot}, sequence {r.sequence}, image CRC {r.image_crc:04X}"
-              + (f" ({r.retries} retries; " + "; ".join(r.events) + ")" if r.retries or r.events else ""))
+        print(download_line(r))
     return 0
+
+
+def download_line(r) -> str:
+    """The one line `inclino download` prints for a DownloadResult."""
+    notes = ([f"{r.retries} link retr{'y' if r.retries == 1 else 'ies'}"] if r.retries else []) + r.events
+    return (f"downloaded: slot {r.slot}, sequence {r.sequence}, image CRC {r.image_crc:04X}"
+            + (" (" + "; ".join(notes) + ")" if notes else ""))
 
 
 def _cmd_verify(args) -> int:
     from inclino import calops
     from inclino.calfile import Calibration
 
+    if not 1 <= args.surveys <= 1000:
+        raise DataError(f"--surveys {args.surveys}: surveys to check, 1-1000")
     cal = Calibration.load(args.cal)
     with _link(args) as link:
         r = calops.verify(link, cal, surveys=args.surveys)
     if args.json:
         print(r.to_json())
     else:
+        if r.slot == "none":
+            print(f"verify: FAIL: {r.mismatches[0]}")
+            return 1
         print(f"storage: {'pass' if r.storage_ok else 'FAIL'} (slot {r.slot}, sequence {r.sequence}); "
               f"correction: {'pass' if r.correction_ok else 'FAIL'} ({r.checks} surveys checked bit for bit)")
-        for m in r.mismatches:
+        for m in r.mismatches[:10]:
             print(f"  {m}")
+        if len(r.mismatches) > 10:
+            print(f"  ... {len(r.mismatches) - 10} more (--json lists every differing field)")
     return 0 if r.ok else 1
 
 
@@ -192,7 +214,8 @@ def add_parser(sub) -> None:
     p = sub.add_parser("download", help="write a calibration into the probe, read it back, activate it")
     _add_port(p)
     p.add_argument("cal", help="calibration JSON")
-    p.add_argument("--force", action="store_true", help="accept a file made for another probe serial")
+    p.add_argument("--force", action="store_true",
+                   help="accept a file made for another probe serial, or whose fit report did not pass")
     p.add_argument("--json", action="store_true")
     p.add_argument("--quiet", action="store_true", help="no progress bar")
     p.set_defaults(func=_cmd_download)
@@ -206,7 +229,21 @@ def add_parser(sub) -> None:
 
 
 def _validate(args) -> None:
-    if getattr(args, "stream", False) and args.period < 1:
-        raise DataError("--stream needs --period >= 1 (milliseconds)")
-    if getattr(args, "count", 1) < 0:
-        raise InclinoError("--count must be >= 0")
+    from inclino.link import check_link_options
+
+    check_link_options(args.baud, args.timeout)
+    if args.count < 0:
+        raise DataError(f"--count {args.count}: surveys to take, >= 0 (0 only with --stream)")
+    if args.period < 0:
+        raise DataError(f"--period {args.period}: milliseconds, >= 0")
+    if args.stream:
+        if not 1 <= args.period <= 65535:
+            raise DataError(f"--period {args.period}: the probe streams at 1-65535 ms")
+        if args.count > 65535:
+            raise DataError(f"--count {args.count}: the probe streams at most 65535 surveys (0: until "
+                            "interrupted)")
+    else:
+        if args.count == 0:
+            raise DataError("--count 0 (until interrupted) needs --stream")
+        if args.period > 86_400_000:
+            raise DataError(f"--period {args.period}: at most 86400000 ms (a day)")

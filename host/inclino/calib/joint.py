@@ -54,19 +54,63 @@ NONLINEAR_MAX_SIGMA_RATIO = 1.5  # auto: fit the nonlinearity unless it inflates
 # --------------------------------------------------------------------------
 # with poses
 
-def _covariance(res, what: str):
+PARAM_NAMES_POSE = ([f"acc M[{i}{j}]" for i in range(3) for j in range(3)] + [f"acc offset {a}" for a in "xyz"]
+                    + [f"mag M[{i}{j}]" for i in range(3) for j in range(3)] + [f"mag offset {a}" for a in "xyz"]
+                    + [f"acc nonlinearity {a}" for a in "xyz"] + [f"mag nonlinearity {a}" for a in "xyz"])
+SINGULAR_COND = 1e14  # of the column-equilibrated normal matrix: below it every parameter is determined
+
+
+class SingularFit(CalibrationError):
+    """The poses (or orientations) do not determine a parameter: `param`
+    names the one the null direction loads most on."""
+
+    def __init__(self, msg, param=None):
+        super().__init__(msg)
+        self.param = param
+
+
+def undetermined(J, names=None):
+    """(condition number, name of the least-determined parameter) of a
+    Jacobian J, after scaling every column to unit norm: a rank test that
+    depends only on the geometry of the poses, not on the size of the
+    residuals (a large unmodelled effect inflates the residuals, never the
+    condition of J)."""
+    n = np.sqrt((J ** 2).sum(0))
+    if not np.all(np.isfinite(J)) or np.any(n == 0):
+        k = int(np.argmin(n)) if np.all(np.isfinite(n)) else 0
+        return np.inf, (names[k] if names and k < len(names) else f"parameter {k}")
+    _, sv, Vt = np.linalg.svd(J / n, full_matrices=False)
+    cond = float((sv[0] / sv[-1]) ** 2) if sv[-1] > 0 else np.inf
+    k = int(np.argmax(np.abs(Vt[-1])))
+    return cond, (names[k] if names and k < len(names) else f"parameter {k}")
+
+
+def _covariance(res, what: str, names=None):
     """(chi2, dof, s2, cond, covariance) of a least-squares result, the
-    residuals scaled to unit variance; CalibrationError when `what` does
-    not determine all parameters."""
+    residuals scaled to unit variance; SingularFit (a CalibrationError)
+    when `what` do not determine all parameters, naming the parameter the
+    null direction loads most on."""
     J = res.jac
     dof = max(1, J.shape[0] - J.shape[1])
     chi2 = float((res.fun ** 2).sum())
     s2 = chi2 / dof
     JtJ = J.T @ J
-    cond = float(np.linalg.cond(JtJ))
-    if not np.isfinite(cond) or cond > 1e16:
-        raise CalibrationError(f"joint: the {what} do not determine all parameters (singular fit)")
-    return chi2, dof, s2, cond, s2 * np.linalg.inv(JtJ)
+    cond, worst = undetermined(J, names)
+    if not np.isfinite(cond) or cond > SINGULAR_COND:
+        raise SingularFit(f"joint: the {what} do not determine all parameters ({worst} is undetermined; "
+                          f"singular fit)", worst)
+    return chi2, dof, s2, cond, s2 * np.linalg.pinv(JtJ)
+
+
+def robust_threshold(d2, dof):
+    """Outlier threshold on the rows' whitened squared norms d2 (dof
+    components each): the chi-square 99.9 % point scaled by a robust
+    estimate of the residual variance (the median of d2 over the
+    chi-square median), never below the nominal noise.  A large effect
+    the model lacks inflates every row alike and must not make the rows
+    outliers; a few spiked rows do not move the median."""
+    scale = max(1.0, float(np.median(d2)) / stats.chi2.ppf(0.5, dof))
+    return scale * stats.chi2.ppf(0.999, dof), scale
 
 def _pose_jacobian(inc, azi, tf, F, dip, dec, G, h=1e-3):
     """d[g; f]/d(I, A, T) per row, (n, 6, 3), per degree."""
@@ -258,17 +302,26 @@ def _fit_poses(ds, w, sa, sm, sp, fix_dip, nonlinear=False):
         Jp = _pose_jacobian(*poses, F, dip_now, dec, G)
         Linv = _whiteners(Ma, Mm, Jp, sa, sm, sp)
         args = (ds.acc[keep], ds.mag[keep], tuple(p[keep] for p in poses), F, dec, G, Linv[keep])
-        res = optimize.least_squares(fun, x, jac=jac, args=args, loss=loss, f_scale=3.0,
+        if loss == "soft_l1":
+            # the soft-L1 scale follows the residuals' own robust size, so
+            # that a large effect the model lacks is not read as every row
+            # being an outlier
+            r0 = fun(x, *args).reshape(-1, 6)
+            f_scale = 3.0 * np.sqrt(robust_threshold((r0 ** 2).sum(-1), 6)[1])
+        else:
+            f_scale = 3.0
+        res = optimize.least_squares(fun, x, jac=jac, args=args, loss=loss, f_scale=f_scale,
                                      method="lm" if loss == "linear" else "trf", x_scale="jac")
         x = res.x
         if loss == "soft_l1":
             rall = fun(x, ds.acc, ds.mag, poses, F, dec, G, Linv)
             d2 = (rall.reshape(-1, 6) ** 2).sum(-1)
-            keep = d2 <= stats.chi2.ppf(0.999, 6)
+            keep = d2 <= robust_threshold(d2, 6)[0]
             if keep.sum() < MIN_ROWS_POSES:
                 raise CalibrationError("joint: too many readings rejected as outliers to fit")
     x = np.concatenate([x, [dip0]]) if fix_dip else x
-    chi2, dof, s2, cond, cov_lin = _covariance(res, "poses")
+    names = PARAM_NAMES_POSE[:24] + (PARAM_NAMES_POSE[24:] if nonlinear else []) + ([] if fix_dip else ["dip"])
+    chi2, dof, s2, cond, cov_lin = _covariance(res, "poses", names)
     Ma, ca, Mm, cm, dip, qa, qm = _unpack_pose(x)
     ba = np.linalg.solve(Ma, ca)
     bm = np.linalg.solve(Mm, cm)
@@ -437,12 +490,14 @@ def _fit_invariants(ds, w, sa, sm, fix_dip, prior=None, mount_tolerance_deg=None
         x = res.x
         if loss == "soft_l1":
             r = fun(x, ds.acc, ds.mag, G, F, sa, sm, R0).reshape(3, n)
-            keep = (r ** 2).sum(0) <= stats.chi2.ppf(0.999, 3)
+            keep = (r ** 2).sum(0) <= robust_threshold((r ** 2).sum(0), 3)[0]
             if keep.sum() < MIN_ROWS_INVARIANTS:
                 raise CalibrationError("joint: too many readings rejected as outliers to fit")
     if fix_dip:
         x = np.concatenate([x, [dip0]])
-    chi2, dof, s2, cond, cov_x = _covariance(res, "orientations")
+    inv_names = ([f"acc M[{i}{j}] (symmetric)" for i, j in zip(*np.triu_indices(3))]
+                 + [f"acc offset {a}" for a in "xyz"] + PARAM_NAMES_POSE[12:24] + ([] if fix_dip else ["dip"]))
+    chi2, dof, s2, cond, cov_x = _covariance(res, "orientations", inv_names)
     # map (sym 6, ba, Mm 9, bm [, dip]) -> 24-layout (+ dip)
     iu = np.triu_indices(3)
     T = np.zeros((25 if not fix_dip else 24, cov_x.shape[0]))
@@ -513,17 +568,18 @@ def fit(ds: RawDataset, use_poses: bool | None = None, sigma_acc: float = SIGMA_
             # that leaves them poorly determined (e.g. Guo's two rotations at one
             # azimuth) would trade a small bias for a large variance
             from .report import predicted_attitude_rms
-            fits = {}
+            fits, errors = {}, []
             for nl in (True, False):
                 try:
                     r = _fit_poses(*args, nl)
-                except CalibrationError:
+                except CalibrationError as e:
+                    errors.append(e)
                     continue
                 (Ma, ba, Mm, bm, dip), cov, _ = r
                 c = common.make_cal(Ma, ba, Mm, bm, "joint", ds)
                 fits[nl] = (r, predicted_attitude_rms(c, cov[:24, :24], w, dip)[0])
             if not fits:
-                raise CalibrationError("joint: the poses do not determine all parameters (singular fit)")
+                raise errors[-1]  # the linear model's reason (singular: it names the parameter)
             use_nl = True in fits and (False not in fits or fits[True][1] <= NONLINEAR_MAX_SIGMA_RATIO
                                        * fits[False][1])
             (Ma, ba, Mm, bm, dip), cov, info = fits[use_nl][0]
@@ -551,6 +607,10 @@ def fit(ds: RawDataset, use_poses: bool | None = None, sigma_acc: float = SIGMA_
     info.update({"rows_used": np.setdiff1d(np.arange(len(ds)), info["outliers"]), "covariance": cov[:24, :24],
                  "dip_deg": dip, "notes": [f"mode {info['mode']}; s^2 = {info['s2']:.3g} (chi^2/dof; 1 when the "
                                            f"noise model is right)"]})
+    if info["s2"] > 2.0 and info["s2"] > 1.0 + 5.0 * np.sqrt(2.0 / max(info["dof"], 1)):
+        info["notes"].append(f"the residuals are {np.sqrt(info['s2']):.2g}x what the noise model expects: an effect "
+                             "the 12-parameter model lacks (a turntable offset, drift, temperature) or noisier "
+                             "sensors; the covariance is scaled by s^2; `inclino diagnose` names the effect")
     if "notes_nonlinear" in info:
         info["notes"].append(info.pop("notes_nonlinear"))
     info["notes"] += prior_notes

@@ -10,13 +10,14 @@ from inclino import reference as ref
 from inclino.dataset import RawDataset
 from inclino.errors import DataError
 
-from . import core, study
+from . import core, forward, robust, selection, study
 from ._blas import one_blas_thread
-from .core import CHANNELS, EFFECT_NAMES, SEPARABLE_MIN, TRIAD_UNITS, Design
+from .core import CHANNELS, EFFECT_NAMES, SEPARABLE_MIN, TRIAD_UNITS, TRIADS, Design
 from .result import Diagnosis, Effect, Gain
 
 AZI_MIN_INC_DEG = 5.0  # azimuth is compared only where it is well defined
 AMBIGUOUS_CORR = 0.9
+GN_ITERATIONS = 3  # re-linearisations after each change of the model (forward.py)
 
 
 def parse_effects(spec) -> list | None:
@@ -32,23 +33,25 @@ def parse_effects(spec) -> list | None:
 
 
 class _Attitude:
-    def __init__(self, bl):
+    def __init__(self, bl, ok=None):
         self.bl = bl
+        self.ok = np.ones(len(bl.G), bool) if ok is None else ok
         self.Ainv = {k: np.linalg.inv(v) for k, v in bl.A.items()}
         self.a0 = ref.attitude(bl.G, bl.B)
         self.azi_rows = (self.a0["inc"] >= AZI_MIN_INC_DEG) & (self.a0["inc"] <= 180.0 - AZI_MIN_INC_DEG)
 
     def rms(self, R):
         """(azimuth RMS, inclination RMS) in degrees of the attitude error the
-        residuals R (n, 6) amount to at the poses."""
+        residuals R (n, 6) amount to at the poses (outlier rows left out)."""
         g = self.bl.G + R[:, :3] @ self.Ainv["acc"].T
         b = self.bl.B + R[:, 3:] @ self.Ainv["mag"].T
         a = ref.attitude(g, b)
-        di = a["inc"] - self.a0["inc"]
+        di = (a["inc"] - self.a0["inc"])[self.ok]
         inc = float(np.sqrt(np.mean(di ** 2)))
-        if not self.azi_rows.any():
+        rows = self.azi_rows & self.ok
+        if not rows.any():
             return None, inc
-        da = ref.angle_diff(a["azi"], self.a0["azi"])[self.azi_rows]
+        da = ref.angle_diff(a["azi"], self.a0["azi"])[rows]
         return float(np.sqrt(np.mean(da ** 2))), inc
 
 
@@ -73,10 +76,10 @@ def _diagnose(ds, effects, alpha, folds, keep_plot_data) -> Diagnosis:
     if int(folds) < 2:
         raise DataError("folds must be at least 2")
     K = min(int(folds), d.n // 4)  # at least four readings in every fold
-    bl, noise = core.fit_baseline(d)
+    bl0, noise = core.fit_baseline(d)
+    out_rows = bl0.outliers if bl0.outliers is not None else np.zeros(d.n, bool)
     noise_base = noise
-    base_cols, _ = core.baseline_columns(d, bl)
-    nb = len(base_cols)
+    nb = 25
     base = list(range(nb))
 
     cands = [c for c in core.all_candidates() if wanted is None or c.name in wanted]
@@ -84,15 +87,28 @@ def _diagnose(ds, effects, alpha, folds, keep_plot_data) -> Diagnosis:
     for c in cands:
         why = core.untestable_reason(d, c)
         (not_testable.append((c, why)) if why else testable.append(c))
-    cols = [core.regressor(d, bl, c) for c in testable]
-    y0 = d.Y - bl.predict()
-    X = np.stack(base_cols + cols, -1)
     fold_of = core.make_folds(d.n, K)
+    state = {"A": dict(bl0.A), "c": dict(bl0.c), "dip": bl0.dip, "theta": {}}
 
-    def design(nz):
-        return Design(y0, X, nz.whitener(bl.Jpose), fold_of, K)
+    def build(st, cands_now):
+        """The model linearised at the state: (Baseline, X, pseudo-observation)."""
+        A, c, dip, th = st["A"], st["c"], st["dip"], st["theta"]
+        G, Bv = forward.truth(d, dip, th)
+        J = forward.pose_jacobian(d, A, c, dip, th)
+        b = core.Baseline(A, c, dip, G, Bv, J, theta=dict(th), data=d)
+        cols = forward.baseline_columns(d, A, c, dip, th, G, Bv)
+        ccols = [forward.column(d, A, c, dip, th, cd) for cd in cands_now]
+        y = d.Y - forward.readings(d, A, c, dip, th)
+        for j, cd in enumerate(cands_now):
+            if cd.key in th:
+                y = y + th[cd.key] * ccols[j]
+        return b, np.stack(cols + ccols, -1), y
 
-    des = design(noise)
+    def design(b, X, y, nz, rows):
+        return Design(y, X, nz.whitener(b.Jpose), fold_of, K, rows=rows)
+
+    bl, X, y0 = build(state, testable)
+    des = design(bl, X, y0, noise, ~out_rows)
     idx = {c.key: nb + j for j, c in enumerate(testable)}
     sep = {c.key: des.separability(base, idx[c.key]) for c in testable}
     keep = []
@@ -102,7 +118,11 @@ def _diagnose(ds, effects, alpha, folds, keep_plot_data) -> Diagnosis:
                                     f"(only {100 * sep[c.key]:.2g} % of it is not absorbed)"))
         else:
             keep.append(c)
-    testable = keep
+    if len(keep) < len(testable):
+        testable = keep
+        bl, X, y0 = build(state, testable)
+        des = design(bl, X, y0, noise, ~out_rows)
+        idx = {c.key: nb + j for j, c in enumerate(testable)}
     if wanted is not None:
         for name in wanted:
             if not any(c.name == name for c in testable):
@@ -114,6 +134,24 @@ def _diagnose(ds, effects, alpha, folds, keep_plot_data) -> Diagnosis:
                 if abs(r) > 0.999:
                     raise DataError(f"the poses cannot separate {a.name} ({a.sensor} {a.axis}) from {b.name} "
                                     f"({b.sensor} {b.axis}): their signatures agree to a correlation of {r:.4f}")
+
+    def refit(kept_now):
+        """Gauss-Newton: re-linearise at the estimate of the model base +
+        kept_now, re-estimate the noise (robustly) and the outlier rows."""
+        nonlocal bl, X, y0, des, noise, out_rows
+        S = base + [idx[k] for k in kept_now]
+        for _ in range(GN_ITERATIONS):
+            beta, _ = des.fit(S)
+            beta = beta / des.colscale[S]
+            A = {t: state["A"][t] + beta[12 * ti: 12 * ti + 12].reshape(3, 4)[:, :3] for ti, t in enumerate(TRIADS)}
+            c = {t: state["c"][t] + beta[12 * ti: 12 * ti + 12].reshape(3, 4)[:, 3] for ti, t in enumerate(TRIADS)}
+            th = {k: float(beta[nb + j]) for j, k in enumerate(kept_now)}
+            state.update(A=A, c=c, dip=state["dip"] + float(beta[24]), theta=th)
+            bl, X, y0 = build(state, testable)
+            R = d.Y - bl.predict()
+            noise, out_rows = robust.robust_noise(R, bl.Jpose, dof_frac=1.0 - (4.5 + len(kept_now)) / d.n,
+                                                  start=noise)
+            des = design(bl, X, y0, noise, ~out_rows)
 
     # ---- forward selection under the false-alarm control, then backward
     steps = []
@@ -146,9 +184,7 @@ def _diagnose(ds, effects, alpha, folds, keep_plot_data) -> Diagnosis:
         kept.append(k)
         pvals[k] = p
         remaining.remove(k)
-        R = des.raw_residuals(base + [idx[j] for j in kept])
-        noise = core.fit_noise(R, bl.Jpose, dof_frac=1.0 - (4.5 + len(kept)) / d.n, start=noise)
-        des = design(noise)
+        refit(kept)
     while kept:
         S = base + [idx[k] for k in kept]
         drops = [(des.ftest([i for i in S if i != idx[k]], [idx[k]])[0], k) for k in kept]
@@ -160,14 +196,17 @@ def _diagnose(ds, effects, alpha, folds, keep_plot_data) -> Diagnosis:
         kept.remove(k)
         steps.append({"effect": k, "p": p, "threshold": alpha, "kept": False, "why": "dropped: not significant "
                       "once the other effects were in"})
-        R = des.raw_residuals(base + [idx[j] for j in kept])
-        noise = core.fit_noise(R, bl.Jpose, dof_frac=1.0 - (4.5 + len(kept)) / d.n, start=noise)
-        des = design(noise)
+        refit(kept)
 
     S = base + [idx[k] for k in kept]
     est, se, s2 = des.coef(S)
-    att = _Attitude(bl)
+    best_subset = _best_subset(des, base, kept, testable, idx, alpha, fold_of)
+    att = _Attitude(bl, ~out_rows)
     J = bl.Jpose
+    ok = ~out_rows
+
+    def _rms_channels(R, chans):
+        return float(np.sqrt(np.mean(R[ok][:, chans] ** 2)))
 
     def sensor(Rr):  # the residual net of the turntable's readout error (see Noise.sensor_part)
         return noise.sensor_part(Rr, J)
@@ -203,13 +242,18 @@ def _diagnose(ds, effects, alpha, folds, keep_plot_data) -> Diagnosis:
             plot_effects.append(_plot_entry(d, bl, c, X[:, :, idx[k]], noise, Rb, Rs_final))
 
     # ---- residual study (baseline) and structure test (final)
+    # outlier rows: no weight in the tests (residual 0, variance huge)
     var_final = noise.row_cov(bl.Jpose)[:, range(6), range(6)]
+    var_final[out_rows] *= 1e12
     own_final = {ch: X[:, ch, [i for i in S if np.any(X[:, ch, i] != 0)]] for ch in range(6)}
-    final_study = study.study(d, bl, R_final, var_final, own_final)
+    final_study = study.study(d, bl, np.where(ok[:, None], R_final, 0.0), var_final, own_final)
     verdict = study.structure_verdict(final_study, alpha)
     var_base = noise_base.row_cov(bl.Jpose)[:, range(6), range(6)]
+    var_base[out_rows] *= 1e12
     own_base = {ch: X[:, ch, [i for i in base if np.any(X[:, ch, i] != 0)]] for ch in range(6)}
-    base_study = study.study(d, bl, R_base, var_base, own_base)
+    base_study = study.study(d, bl, np.where(ok[:, None], R_base, 0.0), var_base, own_base)
+    _, zfin = robust.outlier_mask(R_final, noise, bl.Jpose)
+    outliers = robust.describe(out_rows, zfin, d.order)
 
     azr, inr = att.rms(Rs_base)
     dip_se = float(des.coef(base)[1][24])
@@ -229,13 +273,19 @@ def _diagnose(ds, effects, alpha, folds, keep_plot_data) -> Diagnosis:
                                      "mag_nT": [_rms_channels(R_base, [i]) for i in range(3, 6)]},
         "azi_rms_deg": azr, "inc_rms_deg": inr,
         "residual_study": base_study,
+        "outliers": {"method": (f"noise started from the per-channel MAD; rows whose whitened squared norm exceeds "
+                                f"the chi-square point at p = {robust.OUTLIER_P:g}/n are set aside and the noise "
+                                f"refitted without them; sizes in each channel's standard deviation under the "
+                                f"final model"),
+                     "rows": [o.to_dict() for o in outliers]},
         "selection": {
             "method": ("forward stepwise: keep the candidate with the smallest F-test p-value if p < alpha/m "
                        "(Bonferroni over the m candidates left) and it lowers the K-fold cross-validated "
                        "residual; noise re-estimated after each kept effect; backward pass at alpha"),
             "alpha": alpha, "folds": K, "tested": [c.key for c in testable],
             "not_testable": [{"effect": c.key, "reason": why} for c, why in not_testable],
-            "steps": steps, "final_noise": noise.to_dict(), "final_s2": s2, "notes": notes},
+            "steps": steps, "final_noise": noise.to_dict(), "final_s2": s2, "notes": notes,
+            "best_subset": best_subset},
         "structure": verdict,
     }
     out = Diagnosis(baseline=baseline, effects=effects_out, unexplained=verdict["unexplained"], structure=verdict)
@@ -243,6 +293,46 @@ def _diagnose(ds, effects, alpha, folds, keep_plot_data) -> Diagnosis:
         out.plot_data = {"effects": plot_effects, "baseline": _baseline_plot(d, bl, base_study, Rs_base)}
     out.elapsed_s = time.perf_counter() - t_start
     return out
+
+
+# --------------------------------------------------------------------------
+# the shared best-subset selection as a cross-check of the kept effects
+BEST_SUBSET_POOL = 8
+
+
+def _best_subset(des, base, kept, testable, idx, alpha, fold_of):
+    """The kept effects and the strongest other candidates (F-test p < alpha
+    against the final model, up to BEST_SUBSET_POOL in all) through
+    selection.select with the cross-validation folds as groups: the
+    baseline's 25 columns are projected out (whitened, on all rows), every
+    subset of the pool is scored by its K-fold held-out residual, the
+    procedure is cross-validated nested, and each kept effect gets the
+    drop-from-pool test.  None when nothing is kept or in the pool."""
+    S = base + [idx[k] for k in kept]
+    rest = sorted((des.ftest(S, [idx[c.key]])[0], c.key) for c in testable if c.key not in kept)
+    pool_keys = list(kept) + [k for p, k in rest if p < alpha][:max(0, BEST_SUBSET_POOL - len(kept))]
+    if not pool_keys:
+        return None
+    rows = np.repeat(des.rows, 6)
+    Xw = des.Xw.reshape(-1, des.Xw.shape[-1])[rows]
+    yw = des.yw.reshape(-1)[rows]
+    B = Xw[:, base]
+    C = Xw[:, [idx[k] for k in pool_keys]]
+    coef = np.linalg.lstsq(B, np.column_stack([C, yw]), rcond=None)[0]
+    R = np.column_stack([C, yw]) - B @ coef
+    groups = np.repeat(fold_of, 6)[rows]
+    pb = selection.Problem(R[:, :-1], R[:, -1], np.ones(len(yw)), pool_keys, groups)
+    s = selection.select(pb, max_terms=BEST_SUBSET_POOL, cv="group")
+    d = s.to_dict()
+    return {"method": "best subset of the pool (kept effects and the other candidates with p < alpha), scored by "
+                      "the K-fold held-out residual (whitened, baseline projected out), nested K-fold for the "
+                      "procedure, drop-from-pool test per kept effect (selection.py)",
+            "pool": d["pool"], "chosen": d["chosen"], "agrees_with_the_stepwise_choice": set(d["chosen"]) == set(kept),
+            "nested_cv_rms_whitened": d["nested_group_rms"],
+            "rivals": [r["terms"] for r in d["rivals"]],
+            "drop_tests": [{k: t[k] for k in ("term", "asked_for_by_the_data", "model_without_it",
+                                               "nested_loo_rms_without", "nested_loo_rms_with")}
+                           for t in d["drop_tests"]]}
 
 
 # --------------------------------------------------------------------------

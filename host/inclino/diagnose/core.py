@@ -217,8 +217,15 @@ class Baseline:
     G: np.ndarray  # (n, 3) true gravity at the poses, g
     B: np.ndarray  # (n, 3) true field, nT
     Jpose: np.ndarray  # (n, 6, 3) readings per degree of inc, azi, tf
+    theta: dict = field(default_factory=dict)  # effects in the state (forward.py), key -> value
+    data: "Data | None" = None  # needed with theta
+    outliers: "np.ndarray | None" = None  # (n,) bool, rows set aside as outliers (robust.py)
 
     def predict(self) -> np.ndarray:
+        if self.theta:
+            from . import forward
+
+            return forward.readings(self.data, self.A, self.c, self.dip, self.theta)
         return np.column_stack([self.G @ self.A["acc"].T + self.c["acc"], self.B @ self.A["mag"].T + self.c["mag"]])
 
     def signal(self, triad) -> np.ndarray:
@@ -281,11 +288,11 @@ def baseline_columns(d: Data, bl: Baseline) -> tuple[list, list]:
                 c = np.zeros((d.n, 6))
                 c[:, ch] = v[:, k]
                 cols.append(c)
-                names.append(f"{tri}_A{ax}{k}")
+                names.append(f"{tri} {'xyz'[ax]} gain on the true {'xyz'[k]}")
             c = np.zeros((d.n, 6))
             c[:, ch] = 1.0
             cols.append(c)
-            names.append(f"{tri}_c{ax}")
+            names.append(f"{tri} {'xyz'[ax]} offset")
     cols.append(dip_column(d, bl.A["mag"], bl.dip))
     names.append("dip")
     return cols, names
@@ -414,6 +421,7 @@ class Noise:
 
 
 _IU = np.triu_indices(6)
+SIGMA_FLOOR = np.array([1e-9] * 3 + [1e-5] * 3)  # g, nT
 
 
 def fit_noise(R: np.ndarray, J: np.ndarray, dof_frac: float = 1.0, start: "Noise | None" = None,
@@ -446,6 +454,8 @@ def fit_noise(R: np.ndarray, J: np.ndarray, dof_frac: float = 1.0, start: "Noise
         v, q = _ml_variances(R, J, v0, q0, scale)
     else:
         v, q = v0, q0
+    # a floor far below any sensor's noise, so that noise-free (simulated) data do not make the covariance singular
+    v = np.maximum(v, SIGMA_FLOOR ** 2)
     return Noise(sigma=np.sqrt(v / dof_frac), sigma_pose=np.sqrt(q / dof_frac))
 
 
@@ -476,8 +486,10 @@ def _ml_variances(R, J, v0, q0, scale):
 
     theta0 = np.maximum(np.log(np.concatenate([v0, q0])), lo)
     try:
+        hi = np.log(np.concatenate([(10.0 * scale) ** 2, np.full(3, 100.0)]))  # <= 10x the RMS; <= 10 deg
+        theta0 = np.minimum(theta0, hi)
         res = optimize.minimize(nll, theta0, jac=True, method="L-BFGS-B",
-                                bounds=[(a, None) for a in lo], options={"maxiter": 200})
+                                bounds=list(zip(lo, hi)), options={"maxiter": 200})
         th = res.x
     except np.linalg.LinAlgError:
         th = theta0
@@ -491,9 +503,14 @@ class Design:
     """Whitened stacked model y = X beta + e, kept as Gram matrices of the
     whole data and of each cross-validation fold."""
 
-    def __init__(self, y, X, Linv, folds, K):
+    def __init__(self, y, X, Linv, folds, K, rows=None):
+        """rows: (n,) bool, the rows the fit uses (outliers excluded: their
+        whitened equations are zero); default all."""
         n, _, p = X.shape
         self.Xraw, self.yraw = X, y
+        if rows is not None and not np.all(rows):
+            Linv = Linv * np.asarray(rows, float)[:, None, None]
+        self.rows = np.ones(n, bool) if rows is None else np.asarray(rows, bool)
         Xw = np.einsum("nij,njp->nip", Linv, X)
         yw = np.einsum("nij,nj->ni", Linv, y)
         s = np.sqrt((Xw ** 2).sum((0, 1)))
@@ -501,7 +518,7 @@ class Design:
         self.colscale = s
         Xw = Xw / s
         self.Xw, self.yw = Xw, yw
-        self.N = 6 * n
+        self.N = 6 * int(self.rows.sum())
         self.K = K
         self.folds = folds
         self.Gf = np.zeros((K, p, p))
@@ -623,29 +640,37 @@ def fit_baseline(d: Data, iterations: int = 3) -> tuple[Baseline, Noise]:
     try:
         with np.errstate(all="ignore"):
             cal, info = joint.fit(ds, use_poses=True)
-    except CalibrationError as e:
+    except joint.SingularFit as e:
         raise DataError(f"poses cannot separate the baseline's 12 parameters per triad: {e}")
+    except CalibrationError as e:
+        raise DataError(f"the baseline fit failed on these poses ({e})")
     except (np.linalg.LinAlgError, ValueError) as e:
         raise DataError(f"the baseline fit failed on these poses ({e})")
     A = {"acc": np.linalg.inv(np.asarray(cal.acc_m)), "mag": np.linalg.inv(np.asarray(cal.mag_m))}
     c = {"acc": np.asarray(cal.acc_b, float), "mag": np.asarray(cal.mag_b, float)}
     dip = float(info["dip_deg"])
-    noise = None
+    from . import robust
+
+    noise, out = None, np.zeros(d.n, bool)
     for it in range(iterations):
         G, Bv = _truth(d, d.inc, d.azi, d.tf, dip)
         J = pose_jacobian(d, A["acc"], A["mag"], dip)
         bl = Baseline(A, c, dip, G, Bv, J)
         R = d.Y - bl.predict()
-        cols, _ = baseline_columns(d, bl)
+        cols, names = baseline_columns(d, bl)
         X = np.stack(cols, -1)
         if noise is None:
-            noise = fit_noise(R, J, dof_frac=1.0 - 4.5 / d.n, ml=False)
+            noise, out = robust.robust_noise(R, J, dof_frac=1.0 - 4.5 / d.n, ml=False)
         folds = np.zeros(d.n, int)
-        des = Design(R, X, noise.whitener(J), folds, 1)
+        des = Design(R, X, noise.whitener(J), folds, 1, rows=~out)
         rank = np.linalg.matrix_rank(des.G, tol=1e-9 * np.abs(des.G).max())
         if rank < X.shape[-1]:
+            w, V = np.linalg.eigh(des.G)
+            v = np.abs(V[:, 0])
+            worst = [names[i] for i in np.argsort(v)[::-1] if v[i] >= 0.3 * v.max()][:3]
             raise DataError("poses cannot separate the baseline's 12 parameters per triad: the gravity or "
-                            "field directions do not span three dimensions")
+                            f"field directions do not span three dimensions ({' / '.join(worst)} "
+                            f"{'is' if len(worst) == 1 else 'are'} undetermined)")
         beta, _ = des.fit(np.arange(X.shape[-1]))
         beta = beta / des.colscale
         for ti, tri in enumerate(TRIADS):
@@ -656,6 +681,7 @@ def fit_baseline(d: Data, iterations: int = 3) -> tuple[Baseline, Noise]:
         G, Bv = _truth(d, d.inc, d.azi, d.tf, dip)
         J = pose_jacobian(d, A["acc"], A["mag"], dip)
         bl = Baseline(A, c, dip, G, Bv, J)
-        noise = fit_noise(d.Y - bl.predict(), J, dof_frac=1.0 - 4.5 / d.n, start=noise,
-                          ml=it == iterations - 1)
+        noise, out = robust.robust_noise(d.Y - bl.predict(), J, dof_frac=1.0 - 4.5 / d.n, start=noise,
+                                         ml=it == iterations - 1)
+    bl.outliers = out
     return bl, noise

@@ -32,7 +32,7 @@ from scipy import stats
 
 from inclino import reference as ref
 
-from . import paperdata
+from . import paperdata, paperselect
 from .result import clean
 
 ALPHA = 0.01
@@ -201,79 +201,6 @@ def _kind_weights(chk, r):
     return w
 
 
-def select(chk: Checks, y: np.ndarray, cands: list, cols: dict, alpha=ALPHA) -> dict:
-    """Forward stepwise on the checks' residual y: leave-one-out RMS and an
-    F-test at alpha/m, each kind of check (inclination, azimuth) weighted by
-    its own residual scale (estimated from the residuals, refreshed at every
-    step)."""
-    n = len(y)
-    kept = []
-    steps = []
-    best_rejected = None
-    X = np.zeros((n, 0))
-    remaining = [c for c in cands if np.any(np.abs(cols[c]) > 1e-12)]
-    w = _kind_weights(chk, y)
-    while remaining:
-        r0, l0 = _loo(X * w[:, None], y * w)
-        m = len(remaining)
-        trials = []
-        for c in remaining:
-            X1 = np.column_stack([X, cols[c]]) * w[:, None]
-            if np.linalg.matrix_rank(X1, tol=1e-9 * np.abs(X1).max()) < X1.shape[1]:
-                continue
-            r1, l1 = _loo(X1, y * w)
-            q, dof = 1, n - X1.shape[1]
-            if dof <= 0:
-                continue
-            F = (r0 @ r0 - r1 @ r1) / q / (r1 @ r1 / dof)
-            trials.append((_rms(l1), float(stats.f.sf(F, q, dof)), c))
-        trials.sort(key=lambda t: t[0])
-        chosen = None
-        for loo_rms, p, c in trials:
-            if p < alpha / m and loo_rms < _rms(l0):
-                chosen = (loo_rms, p, c)
-                break
-        if chosen is None:
-            if trials:
-                loo_rms, p, c = min(trials, key=lambda t: t[1])
-                best_rejected = {"candidate": f"{c.name} ({c.axis})", "p": p, "threshold": alpha / m,
-                                 "loo_rms": loo_rms}
-            break
-        _, p, c = chosen
-        X = np.column_stack([X, cols[c]])
-        kept.append(c)
-        remaining.remove(c)
-        beta = np.linalg.lstsq(X * w[:, None], y * w, rcond=None)[0]
-        w = _kind_weights(chk, y - X @ beta)
-        steps.append({"added": f"{c.name} ({c.axis})", "p": p, "threshold": alpha / m})
-    if kept:
-        beta = np.linalg.lstsq(X * w[:, None], y * w, rcond=None)[0]
-        r = y - X @ beta
-        _, lw = _loo(X * w[:, None], y * w)
-        loo = lw / w
-    else:
-        beta, r, loo = np.zeros(0), y, y
-    out = {"steps": steps, "rms_before": _rms(y), "loo_rms_before": _rms(y), "rms_after": _rms(r),
-           "loo_rms_after": _rms(loo), "effects": [], "strongest_rejected": best_rejected}
-    for kind in ("inc", "azi"):
-        m = chk.kind == kind
-        if m.any():
-            out[f"{kind}_rms_before"] = _rms(y[m])
-            out[f"{kind}_rms_after"] = _rms(r[m])
-            out[f"{kind}_loo_rms_after"] = _rms(loo[m])
-    if kept:
-        Xw = X * w[:, None]
-        rw = r * w
-        s2 = float(rw @ rw) / max(n - X.shape[1], 1)
-        cov = s2 * np.linalg.inv(Xw.T @ Xw)
-        for j, c in enumerate(kept):
-            out["effects"].append({"name": c.name, "axis": c.axis, "estimate": float(beta[j]),
-                                   "stderr": float(np.sqrt(cov[j, j])), "units": c.units})
-        out["scale_after"] = {k: (1.0 / w[chk.kind == k][0]) for k in ("inc", "azi") if (chk.kind == k).any()}
-    out["fitted"] = (y - r).tolist()
-    return out
-
-
 # --------------------------------------------------------------------------
 @dataclass
 class PaperReport:
@@ -310,22 +237,40 @@ class PaperReport:
                          + f": measured - predicted RMS inclination {r['inc_residual_rms']:.3f}, azimuth "
                          f"{r['azi_residual_rms']:.2f} deg")
         for e in self.extensions:
+            sl = e["selection"]
             lines.append(f"  extension on {e['rows']} ({e['n']} numbers): RMS {e['rms_before']:.3f} -> "
                          f"{e['rms_after']:.3f} deg in-sample, leave-one-out {e['loo_rms_before']:.3f} -> "
-                         f"{e['loo_rms_after']:.3f}")
+                         f"{e['loo_rms_after']:.3f}; the selection procedure cross-validated (nested): leave-one-out "
+                         f"{sl['nested_loo_rms']:.3f}"
+                         + (f", leave-one-inclination-out {sl['nested_group_rms']:.3f} (the chosen model's own: "
+                            f"{sl['group_rms']:.3f})" if sl.get("nested_group_rms") is not None else ""))
             for k in e["effects"]:
-                lines.append(f"    {k['name']} ({k['axis']}) = {k['estimate']:.4g} +- {k['stderr']:.2g} {k['units']}")
+                lines.append(f"    {k['term']} = {k['estimate']:.4g} +- {k['stderr']:.2g} {k['units']}"
+                             + (" (magnitude of the pair)" if k.get("quantity") == "magnitude" else "")
+                             + ("; asked for by the data" if k.get("asked_for_by_the_data") else
+                                "; not asked for by the data (rivals: "
+                                + " + ".join(k.get("rivals", {}).get("model_without_it", [])) + ")"
+                                if "asked_for_by_the_data" in k else ""))
+            for r in sl["rivals"]:
+                lines.append(f"    rival within 1 SE: {' + '.join(r['terms'])}: leave-one-out {r['loo_rms']:.3f}"
+                             + (f", leave-one-inclination-out {r['group_rms']:.3f}" if r.get("group_rms") is not None
+                                else ""))
+            for x in e.get("toolface_scan", []):
+                if not x["stable"]:
+                    lines.append(f"    dropped (rests on the unknown toolface): {x['term']}: {x['why_dropped']}")
             for key, what in (("library_before_extension", "the library's encoder offsets alone"),
-                              ("sensor_level_only", "the sensor-level alternatives alone")):
+                              ("sensor_level_only", "the sensor-level alternatives alone"),
+                              ("assumed_toolface_model", "with x/y sensor terms at the assumed toolface 0")):
                 if key in e:
-                    lines.append(f"    compare: {what}: RMS {e[key]['rms_after']:.3f}, leave-one-out "
-                                 f"{e[key]['loo_rms_after']:.3f} deg")
+                    c = e[key]
+                    lines.append(f"    compare, {what}: leave-one-out {c['loo_rms_after']:.3f}, nested "
+                                 f"{c['nested_loo_rms']:.3f}"
+                                 + (f", leave-one-inclination-out {c['group_rms']:.3f} (nested "
+                                    f"{c['nested_group_rms']:.3f})" if c.get("group_rms") is not None else "")
+                                 + f" deg: {' + '.join(c['terms'])}")
             if not e["effects"]:
-                lines.append("    no candidate passes (alpha = 0.01 with leave-one-out gain)")
-            if e.get("strongest_rejected"):
-                b = e["strongest_rejected"]
-                lines.append(f"    strongest candidate not kept: {b['candidate']} (p = {b['p']:.2g}, threshold "
-                             f"{b['threshold']:.2g})")
+                b = e.get("best_model_not_accepted", {})
+                lines.append(f"    no effect kept ({b.get('why', '')})")
         for f in self.findings:
             lines.append(f"  finding: {f}")
         for f in self.cannot:
@@ -449,33 +394,64 @@ def li2021() -> PaperReport:
             "note": "the Table 2 probe calibrated by the twelve-position closed form: no error"})
     rep.series.update({"before": {"I": chk_b.I, "A": chk_b.A, "kind": chk_b.kind, "measured": chk_b.measured,
                                   "predicted": pred_b, "predicted_best": pred_best, "best_T": T_best}})
-    # extensions
+    # extensions: best-subset selection with nested CV (paperselect, selection)
     cands = candidates()
-    cols_a = {c: _column(chk_a, c, LI_FIELD_NT, LI_DIP_DEG, probe, calibrate="li2021") for c in cands}
-    ext_a = select(chk_a, chk_a.measured - pred_a, cands, cols_a)
-    ext_a.update({"rows": "Li Tables 4+5 after correction", "n": len(chk_a.I), "baseline": "no error"})
-    lib_only = select(chk_a, chk_a.measured - pred_a, [c for c in cands if c.name in ("turntable-inclination-offset",
-                                                                             "turntable-azimuth-offset")], cols_a)
-    ext_a["library_before_extension"] = {k: lib_only[k] for k in ("rms_after", "loo_rms_after")}
-    ext_a["library_before_extension"]["effects"] = lib_only["effects"]
-    sensor_only = select(chk_a, chk_a.measured - pred_a, [c for c in cands if c.kind != "turntable"], cols_a)
-    ext_a["sensor_level_only"] = {k: sensor_only[k] for k in ("rms_after", "loo_rms_after")}
-    ext_a["sensor_level_only"]["effects"] = sensor_only["effects"]
+    y_a = chk_a.measured - pred_a
+
+    col_cache = {}
+
+    def colfn(ck, c):  # the same column is asked for by every comparison and toolface scan
+        key = (float(ck.T[0]), c)
+        if key not in col_cache:
+            col_cache[key] = _column(ck, c, LI_FIELD_NT, LI_DIP_DEG, probe, calibrate="li2021")
+        return col_cache[key]
+
+    ext_a = paperselect.select_terms(chk_a, y_a, cands, colfn, groups=chk_a.I)
+    ext_a.update({"rows": "Li Tables 4+5 after correction", "baseline": "no error",
+                  "groups": "leave-one-inclination-out: the 7 numbers at one inclination (Table 4's and Table "
+                            "5's six azimuths) held out together"})
+
+    def brief(e):
+        sl = e["selection"]
+        return {"terms": sl["chosen"], "rms_after": e["rms_after"], "loo_rms_after": sl["loo_rms"],
+                "group_rms": sl["group_rms"], "nested_loo_rms": sl["nested_loo_rms"],
+                "nested_group_rms": sl["nested_group_rms"], "effects": e["effects"]}
+
+    lib_only = paperselect.select_terms(
+        chk_a, y_a, cands, colfn, groups=chk_a.I, drop_tests=False,
+        pool_filter=lambda t: t[1] in ("turntable-inclination-offset", "turntable-azimuth-offset"))
+    ext_a["library_before_extension"] = brief(lib_only)
+    sensor_only = paperselect.select_terms(chk_a, y_a, cands, colfn, groups=chk_a.I, drop_tests=False,
+                                           pool_filter=lambda t: t[4][0].kind != "turntable")
+    ext_a["sensor_level_only"] = brief(sensor_only)
+    assumed = paperselect.select_terms(chk_a, y_a, cands, colfn, groups=chk_a.I, drop_tests=False, scan=False)
+    ext_a["assumed_toolface_model"] = dict(brief(assumed), why_not_chosen=(
+        "its sensor-level terms are single x or y components at the assumed toolface 0; over the toolface "
+        "scan their estimates change sign, so the model describes the assumption, not the probe"))
     rep.extensions.append(ext_a)
     rep.sensitivity = _li_before_sensitivity(chk_b, w0)
     rep.series.update({"after": {"I": chk_a.I, "A": chk_a.A, "kind": chk_a.kind, "measured": chk_a.measured,
                                  "fitted": np.array(ext_a["fitted"])}})
-    eff = {(e["name"], e["axis"]): e for e in ext_a["effects"]}
+    sl = ext_a["selection"]
     rep.findings.append(
         "after correction the simulation predicts zero; the measured azimuth errors (RMS "
         f"{_rms(chk_a.measured[chk_a.kind == 'azi']):.2f} deg) are a sinusoid in azimuth whose amplitude falls as "
         "cot I (about 1 deg at I = 2, 0.5 at 5) on a mean that grows with inclination (0.3 deg at 10-20 to 0.8 at "
-        "90), the same at every azimuth: a world-fixed error, not the probe's (a probe error would depend on the "
-        "toolface and the azimuth in other ways; the sensor-level alternatives reach only leave-one-out "
-        f"{ext_a['sensor_level_only']['loo_rms_after']:.3f} deg)")
-    if eff:
-        rep.findings.append("kept: " + "; ".join(f"{k[0]} ({k[1]}) {v['estimate']:.3g} +- {v['stderr']:.1g} "
-                                                  f"{v['units']}" for k, v in eff.items()))
+        "90), the same at every azimuth")
+    if ext_a["effects"]:
+        rep.findings.append(
+            f"best subset (up to {paperselect.sel.MAX_TERMS} terms, nested cross-validation): "
+            + "; ".join(f"{e['term']} {e['estimate']:.3g} +- {e['stderr']:.1g} {e['units']}"
+                        + (" [asked for by the data]" if e.get("asked_for_by_the_data") else
+                           " [not asked for: removing it from the pool does not worsen the nested leave-one-out "
+                           "by more than 1 SE]") for e in ext_a["effects"])
+            + f"; leave-one-out {sl['loo_rms']:.3f} deg, leave-one-inclination-out {sl['group_rms']:.3f}; nested "
+              f"{sl['nested_loo_rms']:.3f} / {sl['nested_group_rms']:.3f} deg; {len(sl['rivals'])} rival model(s) "
+              "within one standard error")
+    dropped = [x for x in ext_a["toolface_scan"] if not x["stable"]]
+    if dropped:
+        rep.findings.append("dropped as resting on the unknown toolface: " + "; ".join(
+            f"{x['term']} ({x['why_dropped']}: {x['min']:.3g} to {x['max']:.3g} {x['units']})" for x in dropped))
     rep.findings.append(
         "before correction the Table 2 probe predicts errors that the measured ones do not show: Table 2's "
         "accelerometer pair f_yz = -0.0606, f_zy = 0.0585 is a 3.4 deg rotation about body x, which makes the "
@@ -485,8 +461,9 @@ def li2021() -> PaperReport:
     rep.cannot = [
         "raw readings are not published: the diagnosis runs on attitude errors, the noise of a single check is "
         "not known (it is estimated from the residuals)",
-        "the toolface and Table 4's azimuth are not given: sensor-level explanations are evaluated at an assumed "
-        "toolface 0; the turntable explanations do not depend on it",
+        "the toolface and Table 4's azimuth are not given: sensor-level explanations are scanned over the "
+        "toolface; only their body-z components and the magnitude of their x-y pairs do not depend on it; the "
+        "turntable explanations do not depend on it",
         "temperature and time are not given: no temperature or drift effect can be tested",
         "the after-correction errors cannot separate an inclination-axis skew from other causes growing with "
         "inclination as tan(I/2) (e.g. sin I); only Li's 66 + 11 numbers back the choice"]
@@ -533,9 +510,11 @@ def ren2014() -> PaperReport:
                                     "no prediction: the probe's errors are not published"})
             cands = candidates(azimuth=(table == "2"))
             how = "ren2014" if state == "after" else None
-            cols = {c: _column(chk, c, F, dip, None, how) for c in cands}
-            ext = select(chk, chk.measured, cands, cols)
-            ext.update({"rows": f"Ren Table {table} {state}", "n": len(chk.I)})
+            def colfn(ck, c, how=how):
+                return _column(ck, c, F, dip, None, how)
+
+            ext = paperselect.select_terms(chk, chk.measured, cands, colfn)
+            ext.update({"rows": f"Ren Table {table} {state}"})
             rep.extensions.append(ext)
             rep.series[f"t{table}_{state}"] = {"x": chk.I if table == "1" else chk.A, "measured": chk.measured,
                                                "fitted": np.array(ext["fitted"])}
@@ -545,8 +524,10 @@ def ren2014() -> PaperReport:
     for c in candidates(azimuth=False):
         if c.name == "turntable-inclination-offset" or (c.kind == "acc-offset" and c.axis == "x"):
             col = _column(chk, c, F, dip, None, "ren2014")
-            one = select(chk, chk.measured, [c], {c: col}, alpha=1.0)
-            alone[f"{c.name} ({c.axis})"] = (one["effects"][0], one["loo_rms_after"], col)
+            pb = paperselect.sel.Problem(col[:, None], chk.measured, np.ones(len(col)), [c.name])
+            beta, cov, _ = paperselect.sel.fit(pb, [0])
+            one = {"estimate": float(beta[0]), "stderr": float(np.sqrt(cov[0, 0])), "units": c.units}
+            alone[f"{c.name} ({c.axis})"] = (one, paperselect.sel.rms(paperselect.sel.loo_cv(pb, [0])), col)
     (ka, (ea, la, ca)), (kb, (eb, lb, cb)) = alone.items()
     corr = float(np.corrcoef(ca, cb)[0, 1])
     better, worse = sorted([(la, ka, ea), (lb, kb, eb)], key=lambda t: t[0])
@@ -557,15 +538,31 @@ def ren2014() -> PaperReport:
         f"{worse[1]} = {worse[2]['estimate']:.3g} +- {worse[2]['stderr']:.1g} {worse[2]['units']} ({worse[0]:.3f}; "
         "what is left of a turntable zero offset once Ren's accelerometer fit on the same turntable has absorbed "
         f"part of it); signatures correlated at {corr:.2f}. Eight worst-case numbers do not establish either "
-        "beyond that (the paper's turntable is specified to +-0.1 deg)")
-    t2a = next(e for e in rep.extensions if e["rows"] == "Ren Table 2 after")
-    b = t2a.get("strongest_rejected") or {}
-    rep.findings.append(
-        "Table 2 after calibration (azimuth within +-1.4 deg): no library effect passes at alpha = 0.01 on eight "
-        f"worst-case numbers (strongest: {b.get('candidate', '-')}, p = {b.get('p', float('nan')):.2g} against "
-        f"{b.get('threshold', float('nan')):.2g}); the pattern is one cycle in azimuth (positive 90-180, "
-        "negative 225-315), which an azimuth axis off vertical or a fluxgate offset left by the calibration would "
-        "give, but eight extremes do not establish either")
+        "beyond that (the paper's turntable is specified to +-0.1 deg)"
+        + ("; and the accelerometer offset along x rests on the assumed toolface 0 (over the toolface scan "
+           + next((x["why_dropped"] for x in next(e for e in rep.extensions if e["rows"] == "Ren Table 1 after")
+                   ["toolface_scan"] if x["term"] == "calibration residual: accelerometer offset (x)"), "")
+           + "), so the selection does not offer it"
+           if any(x["term"] == "calibration residual: accelerometer offset (x)" and not x["stable"]
+                  for x in next(e for e in rep.extensions if e["rows"] == "Ren Table 1 after")["toolface_scan"])
+           else ""))
+    for e in rep.extensions:
+        sl = e["selection"]
+        if e["accepted"]:
+            rep.findings.append(
+                f"{e['rows']}: best subset (up to {paperselect.sel.MAX_TERMS} terms; at most n/3 = "
+                f"{max(e['n'] // 3, 1)} on {e['n']} numbers) keeps "
+                + "; ".join(f"{x['term']} {x['estimate']:.3g} +- {x['stderr']:.1g} {x['units']}"
+                            + (" [asked for by the data]" if x.get("asked_for_by_the_data") else " [not asked for]")
+                            for x in e["effects"])
+                + f"; leave-one-out {sl['loo_rms']:.3f} deg, nested {sl['nested_loo_rms']:.3f} (from "
+                  f"{e['rms_before']:.3f})")
+        else:
+            b = e["best_model_not_accepted"]
+            rep.findings.append(
+                f"{e['rows']}: no effect kept -- the best subset ({' + '.join(b['terms']) or 'none'}; leave-one-out "
+                f"{b['loo_rms']:.3f} deg) cross-validates, nested, at {b['nested_loo_rms']:.3f} against "
+                f"{e['rms_before']:.3f} with no error: not better by one standard error")
     rep.findings.append(
         "Table 1 before (no accelerometer calibration): the same sign on both tilt sides (-0.24 to -0.40 deg), "
         "growing with the tilt: a tilt offset plus the uncalibrated accelerometer")

@@ -120,10 +120,11 @@ def hide(probe: dict, effect: str, sensor: str, axis: str, value: float) -> dict
             d.setdefault("timing", {})["mag_skew_s"] = float(value)
         else:
             raise KeyError(effect)
-    elif effect == "turntable-inclination-offset":
-        d["world"]["encoder"] = {"offset_deg": [float(value), 0.0, 0.0]}
-    elif effect == "turntable-azimuth-offset":
-        d["world"]["encoder"] = {"offset_deg": [0.0, float(value), 0.0]}
+    elif effect in ("turntable-inclination-offset", "turntable-azimuth-offset"):
+        # merged into the encoder table: both offsets can be hidden at once
+        off = list(d["world"].setdefault("encoder", {}).get("offset_deg", [0.0, 0.0, 0.0]))
+        off[0 if effect == "turntable-inclination-offset" else 1] = float(value)
+        d["world"]["encoder"]["offset_deg"] = off
     elif effect in ("turntable-azimuth-axis-tilt", "turntable-inclination-axis-skew"):
         # world.TurntableGeometry: not (yet) a scenario-file table; generate() sets it
         kw = {"north": "tilt_north_deg", "east": "tilt_east_deg", "inc": "skew_deg"}[axis]
@@ -215,3 +216,69 @@ def signature_z(probe: dict, plan: dict, cand: core.Candidate, sigma_pose_deg: f
     if with_peak:
         return z, float(np.abs(X[:, :, k] / noise.sigma).max())
     return z
+
+
+def _oven_temperature(n, dwell_s=60.0, t_mean=25.0, t_amp=30.0, cycles=2.5):
+    t = np.arange(n) * dwell_s
+    return t, t_mean + t_amp * np.sin(2 * np.pi * cycles * t / (n * dwell_s))
+
+
+def li_grid_plan(seed: int = 0, toolfaces=(0.0, 90.0, 180.0, 270.0)) -> dict:
+    """Li 2021's check grid (inclination 2-90 deg, azimuth every 60 deg) at
+    four toolfaces, in a fresh order, one reading a minute in the cycling
+    oven: the grid a user of the paper's procedure would have."""
+    I, A, T = runs.li2021_grid(toolfaces)
+    order = np.random.default_rng([seed, 12]).permutation(len(I))
+    t, temp = _oven_temperature(len(I))
+    return {"kind": "static", "inc": I[order], "azi": A[order], "tf": T[order], "t_s": t, "temp_c": temp}
+
+
+def ren_grid_plan(seed: int = 0, passes: int = 3) -> dict:
+    """Ren 2014's calibration poses (ten tilts and three circles every 30
+    deg), `passes` times in a fresh order, one reading a minute in the
+    cycling oven."""
+    I, A, T = runs.ren2014()
+    rng = np.random.default_rng([seed, 13])
+    order = np.concatenate([rng.permutation(len(I)) for _ in range(passes)])
+    t, temp = _oven_temperature(len(order))
+    return {"kind": "static", "inc": I[order], "azi": A[order], "tf": T[order], "t_s": t, "temp_c": temp}
+
+
+GRID_PLANS = {"li-grid": li_grid_plan, "ren-grid": ren_grid_plan}
+
+
+def add_noise(ds: RawDataset, rng, acc_sigma: float, mag_sigma: float, dist: str = "gauss", df: float = 3.0):
+    """Add white sensor noise of standard deviation acc_sigma (g) and
+    mag_sigma (nT) to a noise-free dataset, Gaussian or Student-t with df
+    degrees of freedom (heavy tails, scaled to the same standard
+    deviation)."""
+    n = len(ds)
+    for cols, s in ((("ax_g", "ay_g", "az_g"), acc_sigma), (("mx_nT", "my_nT", "mz_nT"), mag_sigma)):
+        for c in cols:
+            if dist == "t":
+                e = rng.standard_t(df, n) / np.sqrt(df / (df - 2.0))
+            else:
+                e = rng.standard_normal(n)
+            ds.columns[c] = np.asarray(ds.columns[c], float) + s * e
+    return ds
+
+
+def add_outlier_rows(ds: RawDataset, rng, fraction: float = 0.01, size_sigma=(10.0, 40.0),
+                     acc_sigma: float = ACC_SIGMA_G, mag_sigma: float = MAG_SIGMA_NT) -> list:
+    """Spike `fraction` of the rows (at least one): one random channel each,
+    by a random size_sigma x that sensor's noise, random sign (a knock on
+    the table, a settling window cut short).  Returns [(row, channel,
+    size in the sensor's sigma)]."""
+    n = len(ds)
+    k = max(1, int(round(fraction * n)))
+    rows = rng.choice(n, k, replace=False)
+    names = ("ax_g", "ay_g", "az_g", "mx_nT", "my_nT", "mz_nT")
+    out = []
+    for r in rows:
+        ch = int(rng.integers(6))
+        z = float(rng.uniform(*size_sigma)) * (1.0 if rng.random() < 0.5 else -1.0)
+        col = np.asarray(ds.columns[names[ch]], float).copy()
+        col[r] += z * (acc_sigma if ch < 3 else mag_sigma)
+        ds.columns[names[ch]] = col
+        out.append((int(r), core.CHANNELS[ch], z))
+    return out

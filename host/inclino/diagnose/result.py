@@ -122,6 +122,25 @@ class Diagnosis:
                          f"{g.inc_rms_after_deg:.4f} deg"
                          + (f", azimuth {g.azi_rms_before_deg:.4f} -> {g.azi_rms_after_deg:.4f} deg"
                             if g.azi_rms_before_deg is not None else ""))
+        bs = sel.get("best_subset")
+        if bs:
+            lines.append("best-subset check (nested K-fold): chosen " + (" + ".join(bs["chosen"]) or "none")
+                         + ("" if bs["agrees_with_the_stepwise_choice"] else " (differs from the stepwise choice)"))
+            for t in bs["drop_tests"]:
+                lines.append(f"  {t['term']}: " + ("asked for by the data (removing it from the pool worsens the "
+                                                    "nested CV by more than 1 SE)" if t["asked_for_by_the_data"] else
+                                                    "not asked for: without it the data are explained as well by "
+                                                    + (" + ".join(t["model_without_it"]) or "no effect")))
+            for r in bs["rivals"]:
+                lines.append("  rival within 1 SE: " + (" + ".join(r) or "no effect"))
+        outl = b.get("outliers", {}).get("rows", [])
+        if outl:
+            lines.append(f"outlier rows set aside: {len(outl)} (row: channel, size in sigma)")
+            for o in outl[:20]:
+                lines.append(f"  row {o['row']}: {o['channel']} {o['sigma']:+.1f}"
+                             + "".join(f", {k} {v:+.1f}" for k, v in o["channels"].items() if k != o["channel"]))
+            if len(outl) > 20:
+                lines.append(f"  ... and {len(outl) - 20} more (--json lists them all)")
         for note in sel.get("notes", []):
             lines.append(f"  note: {note}")
         s = self.structure

@@ -1,0 +1,163 @@
+"""Diagnose at the magnitudes real data have: strong effects (no 'singular'
+refusal, the right name, the estimate within 2 stderr or 10 %), spiked
+rows (listed, neither inflating the noise nor masking an effect), and the
+shared best-subset selection's closed forms against direct refits.
+
+The regression datasets are the ones that used to fail (exit 2 'singular
+fit' on strong effects; a masked effect behind two spiked rows); the strong
+hidden-effect tests draw sensor, axis, sign and size at test time."""
+import copy
+import json
+import os
+
+import numpy as np
+import pytest
+
+from inclino.cli import main
+from inclino.dataset import write_raw
+from inclino.diagnose import bench, core, plans, selection
+from inclino.diagnose.analysis import diagnose
+
+SEED0 = int.from_bytes(os.urandom(4), "little") % 1_000_000_000
+
+
+def _key(e):
+    return (e.name, e.sensor, e.axis)
+
+
+def _close(est, se, truth):
+    return abs(est - truth) <= 2.0 * se or abs(est - truth) <= 0.1 * abs(truth)
+
+
+def test_strong_turntable_and_drift_effects_regression(tmp_path, capsys):
+    """Turntable azimuth offset 0.7 deg and inclination offset 0.3 deg, field
+    drift 680 nT over the run, on the oven plan: once 'poses cannot separate
+    the baseline's 12 parameters (singular fit)', exit 2, from both diagnose
+    and calibrate.  Now every effect is named and estimated, and calibrate
+    gives a fit with a verdict."""
+    p = copy.deepcopy(plans.PROBE)
+    p["world"]["encoder"] = {"offset_deg": [0.3, 0.7, 0.0]}
+    plan = plans.oven_plan(seed=21)
+    rate = 680.0 / float(np.ptp(plan["t_s"]))
+    p["world"]["field_drift"] = {"rate_nT_per_s": rate}
+    ds = plans.generate(p, plan, 21)
+    r = diagnose(ds)
+    got = {_key(e): e for e in r.effects}
+    for key, truth in ((("turntable-azimuth-offset", "turntable", "azi"), 0.7),
+                       (("turntable-inclination-offset", "turntable", "inc"), 0.3),
+                       (("field-drift", "field", "total"), rate)):
+        assert key in got, (key, list(got))
+        assert _close(got[key].estimate, got[key].stderr, truth), (key, got[key].estimate, got[key].stderr)
+    path = str(tmp_path / "strong.csv")
+    write_raw(path, ds)
+    rc = main(["calibrate", path, "--method", "joint", "-o", str(tmp_path / "cal.json")])
+    out, err = capsys.readouterr()
+    assert rc in (0, 1) and "verdict:" in out and "singular" not in err, (rc, out, err)
+
+
+def test_strong_sample_skew_regression():
+    """A fluxgate read 30 ms after the accelerometer on the rotation run that
+    turns both ways at 45 and 90 deg/s (a 2.7 deg pose error at 90 deg/s)."""
+    r = diagnose(plans.generate(plans.hide(plans.PROBE, "sample-skew", "mag", "xyz", 0.03), plans.rotation_plan(), 22))
+    (e,) = [e for e in r.effects if e.name == "sample-skew"]
+    assert _close(e.estimate, e.stderr, 0.03), (e.estimate, e.stderr)
+
+
+def test_spiked_rows_regression(tmp_path, capsys):
+    """Two rows spiked by 5 mg on one accelerometer channel (1 % of the
+    run) and a temperature bias at z = 10 on the same channel: the effect is
+    named, the two rows are listed with their channel in the JSON and the
+    text, and the channel's noise is not inflated."""
+    plan = plans.oven_plan(seed=23)
+    cand = core.Candidate("temperature-bias", "acc", "x", "g/degC")
+    value = 10.0 / plans.signature_z(plans.PROBE, plan, cand)
+    ds = plans.generate(plans.hide(plans.PROBE, "temperature-bias", "acc", "x", value), plan, 23)
+    rows = [57, 201]
+    col = np.asarray(ds.columns["ax_g"], float).copy()
+    col[rows] += 5e-3
+    ds.columns["ax_g"] = col
+    path = str(tmp_path / "spiked.csv")
+    write_raw(path, ds)
+    assert main(["diagnose", path, "--json"]) == 0
+    d = json.loads(capsys.readouterr().out)
+    named = [(e["name"], e["sensor"], e["axis"]) for e in d["effects"]]
+    assert ("temperature-bias", "acc", "x") in named
+    e = next(e for e in d["effects"] if e["name"] == "temperature-bias")
+    assert abs(e["estimate"] - value) <= 3 * e["stderr"]
+    listed = {o["row"]: o for o in d["baseline"]["outliers"]["rows"]}
+    assert set(rows) <= set(listed)
+    for r in rows:
+        assert listed[r]["channel"] == "acc_x" and listed[r]["sigma"] > 4.0
+    assert d["baseline"]["selection"]["final_noise"]["acc_g"][0] < 1.5 * plans.ACC_SIGMA_G
+    assert main(["diagnose", path]) == 0
+    text = capsys.readouterr().out
+    assert "outlier rows set aside" in text and "row 57: acc_x" in text and "row 201: acc_x" in text
+
+
+@pytest.mark.parametrize("effect", core.EFFECT_NAMES)
+def test_strong_hidden_effect_named_and_estimated(effect):
+    """One effect at a random sensor, axis, sign and size between z = 10 and
+    the strong magnitude of the issue (turntable 2 deg, drift 2000 nT over
+    the run, 50 ug/degC, 5 nT/degC, 2000 ppm/degC, 1 % nonlinearity, 50 ms
+    skew), log-uniform, drawn at test time; every other run with 1 % spiked
+    rows."""
+    seed = SEED0 + core.EFFECT_NAMES.index(effect)
+    rng = np.random.default_rng([seed, 3])
+    kinds = bench.EFFECT_PLANS[effect]
+    kind = kinds[int(rng.integers(len(kinds)))]
+    plan = plans.oven_plan(seed=seed) if kind == "static" else plans.rotation_plan()
+    cand = bench._pick(effect, rng)
+    zu = plans.signature_z(plans.PROBE, plan, cand)
+    big = bench.strong_value(cand, plan)
+    lo = min(10.0 / zu, big)
+    size = float(np.exp(rng.uniform(np.log(lo), np.log(big))))
+    value = size * (1.0 if rng.random() < 0.5 else -1.0)
+    ds = plans.generate(plans.hide(plans.PROBE, cand.name, cand.sensor, cand.axis, value), plan, seed)
+    if seed % 2:
+        plans.add_outlier_rows(ds, np.random.default_rng([seed, 98]), 0.01)
+    r = diagnose(ds)
+    got = {_key(e): e for e in r.effects}
+    key = (cand.name, cand.sensor, cand.axis)
+    assert key in got, (seed, key, value, list(got))
+    assert _close(got[key].estimate, got[key].stderr, value), (seed, key, value, got[key].estimate,
+                                                                got[key].stderr)
+
+
+# --------------------------------------------------------------------------
+# the shared selection: closed forms against direct computation
+def _problem(seed, n=40, p=6, groups=True):
+    rng = np.random.default_rng(seed)
+    X = rng.normal(size=(n, p))
+    beta = np.zeros(p)
+    beta[[1, 4]] = [1.5, -2.0]
+    y = X @ beta + 0.5 * rng.normal(size=n)
+    w = rng.uniform(0.5, 2.0, n)
+    return selection.Problem(X, y, w, [f"t{j}" for j in range(p)], np.arange(n) % 5 if groups else None)
+
+
+def test_loo_closed_form_equals_refits():
+    pb = _problem(1)
+    S = [1, 3, 4]
+    loo = selection.loo_cv(pb, S)
+    for i in range(len(pb.y)):
+        m = np.ones(len(pb.y), bool)
+        m[i] = False
+        beta, _, _ = selection.fit(pb.subset(m), S)
+        assert loo[i] == pytest.approx(pb.y[i] - pb.X[i, S] @ beta, abs=1e-9)
+
+
+def test_fast_nested_loo_equals_the_direct_nested_loo():
+    """The leave-two-out formula against running the whole search n times."""
+    pb = _problem(2, n=30, p=5)
+    direct, chosen = selection.nested(pb, list(range(5)), 4, "one")
+    fast, chosen_fast = selection.nested_loo_all(pb, list(range(5)), 4)(list(range(5)))
+    np.testing.assert_allclose(fast, direct, atol=1e-9)
+    assert chosen == chosen_fast
+
+
+def test_best_subset_finds_the_true_terms_and_the_drop_test_asks_for_them():
+    pb = _problem(3, n=60, p=6)
+    s = selection.select(pb, max_terms=4)
+    assert set(s.chosen) == {"t1", "t4"}
+    assert all(t["asked_for_by_the_data"] for t in s.drop_tests)
+    assert s.nested_group_rms is not None and s.nested_loo_rms < float(np.sqrt(np.mean(pb.y ** 2)))
