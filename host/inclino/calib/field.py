@@ -36,7 +36,7 @@ import numpy as np
 DEFAULT_MOUNT_TOLERANCE_DEG = 0.3
 
 UNOBSERVABLE = ("the common rotation of both triads relative to the probe axis (3 angles: tilt about body x and "
-                "y, roll about z); |g|, |b| and the dip are unchanged by it")
+                "y, roll about z), which leaves |g|, |b| and the dip unchanged")
 
 
 def _skew(w):

@@ -413,7 +413,8 @@ def _verdict(rep: FitReport, info: dict) -> None:
     u = rep.uncertainty
     if u.get("unobservable") and not u.get("prior"):
         if not u.get("mount_tolerance_accepted"):
-            reasons.append(f"not fit for azimuth: without poses or a prior calibration {u['unobservable']}; with the "
+            reasons.append(f"not fit for azimuth: without poses or a prior calibration nothing determines "
+                           f"{u['unobservable']}; with the "
                            f"stated mounting tolerance {u.get('mount_tolerance_deg', float('nan')):g} deg (1 sigma per "
                            f"axis) the predicted azimuth RMS is {u.get('predicted_azi_rms_deg', float('nan')):.3g} deg "
                            f"(accept that tolerance with --accept-mount-tolerance, or give --prior CAL.json)")
