@@ -737,6 +737,8 @@ class McuBench:
     meets_cycle_target: bool
     meets_ratio_target: bool
     passed: bool
+    # what survey_compute is timed on: the acquisition's means with 6 fraction bits
+    survey_inputs: str = "int32 Q6 counts (1/64 count) for both triads, fractional means of the bench vectors"
 
     def to_json(self) -> str:
         return json.dumps(asdict(self), indent=2)
