@@ -174,7 +174,8 @@ def residuals(ds: RawDataset, cal: Calibration, dip_deg=None) -> dict:
         inc = ds.columns["inc_deg"]
         di = a["inc"] - inc
         ok = (inc >= 5.0) & (inc <= 175.0)
-        da = ref.angle_diff(a["azi"], ds.columns["azi_deg"])[ok]
+        # the poses' azimuth is from true north, the probe's from the field's (magnetic) north
+        da = ref.angle_diff(a["azi"], ds.columns["azi_deg"] - w["declination_deg"])[ok]
         out.update({"acc_vec_rms_mg": 1e3 * _rms(g - gt), "mag_vec_rms_nT": _rms(b - ft),
                     "inc_rms_deg": _rms(di), "inc_max_deg": float(np.abs(di).max()),
                     "azi_rms_deg": _rms(da), "azi_max_deg": float(np.abs(da).max()) if da.size else float("nan")})
@@ -369,6 +370,8 @@ def build(ds: RawDataset, cal: Calibration, method: str, info: dict, refit=None,
                         bias_name=bias_name)
         rep.uncertainty = {"source": src, "sigma": dict(zip(common.PARAM_NAMES, sig.tolist())),
                            "predicted_azi_rms_deg": p_cal.azi_rms_deg, "predicted_inc_rms_deg": p_cal.inc_rms_deg,
+                           # the full 24x24 (PARAM_NAMES order): inclino toolmodel projects it onto ISCWSA terms
+                           "covariance": np.asarray(cov, float)[:24, :24].tolist(),
                            "prediction_calibration_grid": p_cal.to_dict(),
                            "prediction_acceptance_grid": {**p_acc.to_dict(), "readings": (
                                f"as the run's: noise {k * sa:.3g} g, {k * sm:.3g} nT per reading (the fit's noise "
