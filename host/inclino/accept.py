@@ -279,7 +279,8 @@ def accept(link, table, grid: str = "li2021", cal=None, before: str = "auto", in
             win = read_stable(link, tol, max_reads if table.unattended else None)
             eb, ea = [], []
             for r in win:
-                raw_a, raw_m = list(r.acc), list(r.mag)
+                # the probe's Q6 means (the reading holds them / 64, exactly)
+                raw_a, raw_m = [round(v * 64) for v in r.acc], [round(v * 64) for v in r.mag]
                 b = core.survey_one(raw_a, raw_m, before_fc)
                 want = core.survey_one(raw_a, raw_m, after_fc)
                 got = {k: getattr(r.record, k) for k in keys}

@@ -153,7 +153,7 @@ def procedure_steps(name: str, points: int = 36, d1: float = 30.0, azimuth: floa
 @dataclass
 class Reading:
     t_s: float
-    acc: tuple  # counts
+    acc: tuple  # counts (the probe's means: fractional, 1/64 count resolution)
     mag: tuple  # counts
     temp_c: float
     survey: dict  # the probe's survey of the same acquisition (units)
@@ -164,7 +164,7 @@ def read_once(link) -> Reading:
     from inclino import calops
 
     s, r = calops.survey_with_raw(link)
-    return Reading(s.t_ms / 1000.0, (r.ax, r.ay, r.az), (r.mx, r.my, r.mz), r.temp_centi_c / 100.0,
+    return Reading(s.t_ms / 1000.0, r.acc_counts, r.mag_counts, r.temp_centi_c / 100.0,
                    s.to_units(), s)
 
 
@@ -407,6 +407,8 @@ def acquire(link, procedure: str, out_path: str, table, *, points: int = 36, d1:
     meta.update({k: v for k, v in table.world().items() if k not in meta})
     meta["probe_serial"] = ident.serial
     meta["date"] = _dt.date.today().isoformat()
+    if average is not None:  # sensor samples behind each reading (a row averages one or more readings)
+        meta["samples_averaged"] = int(average)
     who = f"bench {table.spec}" if table.unattended else "operator"
     meta["source"] = (f"inclino acquire {procedure} ({who}; probe {ident.product} fw "
                       f"{'.'.join(map(str, ident.fw_version))}, {tol.reads} reads within {tol.acc_mg:g} mg "

@@ -8,6 +8,7 @@ from __future__ import annotations
 
 import argparse
 import csv
+import json
 import sys
 
 import numpy as np
@@ -180,6 +181,9 @@ def _accuracy_text(r) -> str:
     for k, v in f.items():
         t = r.targets.get(k)
         lines.append(f"  {k:22s} {v:.6g}" + (f"   (target <= {t:g})" if t is not None else ""))
+    if r.averaging:
+        from inclino.bench_averaging import AveragingResult
+        lines += AveragingResult.from_json(json.dumps(r.averaging)).lines()
     lines.append("  verdict: " + ("pass" if r.passed else "FAIL"))
     return "\n".join(lines)
 

@@ -23,8 +23,8 @@ from inclino import progress as _progress
 from inclino.errors import DataError
 
 META_KEYS = ("field_nT", "dip_deg", "declination_deg", "gravity_g", "lat_deg", "lon_deg",
-             "date", "probe_serial", "source")
-NUMERIC_META = {"field_nT", "dip_deg", "declination_deg", "gravity_g", "lat_deg", "lon_deg"}
+             "date", "probe_serial", "source", "samples_averaged")
+NUMERIC_META = {"field_nT", "dip_deg", "declination_deg", "gravity_g", "lat_deg", "lon_deg", "samples_averaged"}
 SENSOR_COLS = ("ax_g", "ay_g", "az_g", "mx_nT", "my_nT", "mz_nT")
 POSE_COLS = ("inc_deg", "azi_deg", "tf_deg")
 OPTIONAL_COLS = ("t_s", "temp_c") + POSE_COLS

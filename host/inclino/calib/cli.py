@@ -35,7 +35,18 @@ def calibrate_main(args) -> int:
     if getattr(args, "prior", None):
         from inclino.calfile import Calibration
 
-        opts["prior"] = Calibration.load(args.prior)
+        try:
+            opts["prior"] = Calibration.load(args.prior)
+        except CalibrationError as e:  # the prior is an input: a bad one is bad input
+            raise DataError(f"--prior: {e}")
+        if args.method != "joint":
+            raise DataError("--prior is used by --method joint only")
+    if getattr(args, "mount_tolerance_deg", None) is not None:
+        if not (args.mount_tolerance_deg >= 0 and np.isfinite(args.mount_tolerance_deg)):
+            raise DataError("--mount-tolerance-deg must be a finite number >= 0")
+        opts["mount_tolerance_deg"] = args.mount_tolerance_deg
+    if getattr(args, "accept_mount_tolerance", False):
+        opts["accept_mount_tolerance"] = True
     if getattr(args, "bootstrap", None) is not None:
         opts["bootstrap"] = args.bootstrap
     try:
@@ -66,7 +77,13 @@ def add_parser(subparsers):
     c.add_argument("--json", action="store_true", help="print the fit report as one JSON object")
     c.add_argument("--no-poses", action="store_true",
                    help="joint: ignore the pose columns (field recalibration from the invariants)")
-    c.add_argument("--prior", help="joint without poses: keep this calibration's body frame")
+    c.add_argument("--prior", help="joint without poses: take what the invariants cannot see (the common rotation "
+                                   "of the sensor block) from this turntable calibration of the same probe")
+    c.add_argument("--mount-tolerance-deg", type=float,
+                   help="joint without poses or prior: 1-sigma of the sensor block's unobservable rotation, per axis "
+                        "(default 0.3; docs/calibration.md)")
+    c.add_argument("--accept-mount-tolerance", action="store_true",
+                   help="joint without poses or prior: accept that tolerance (the verdict then judges the fit itself)")
     c.add_argument("--bootstrap", type=int, help="paper methods: refits for the uncertainty (default 40)")
     c.set_defaults(func=calibrate_main)
     return c
