@@ -207,7 +207,8 @@ def test_probe_readings_follow_the_chamber_with_the_scenarios_tempcos():
     r1 = p.raw()
     assert r1["temp_c"] == pytest.approx(sp, abs=0.3)   # TEMP_OUT: 0.47 degC per count
     g, b = p.truth()
-    for tri, true, lsb, tol in (("acc", g, 2.0 ** -14, 2), ("mag", b, 1.0, 2)):
+    q6 = 64.0   # the probe's raw means are Q6 counts (firmware/include/inclino/acquire.h, ACQ_FRAC_BITS)
+    for tri, true, lsb, tol in (("acc", g, 2.0 ** -14 / q6, 2 * q6), ("mag", b, 1.0 / q6, 2 * q6)):
         model = getattr(sc, tri)
         d_pred = (model.deterministic(true, p.phys.temperature(p.clock.now)) - model.deterministic(true, 25.0)) / lsb
         d_meas = np.array(r1[tri], float) - np.array(r0[tri], float)
