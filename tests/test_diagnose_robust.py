@@ -32,7 +32,7 @@ def _close(est, se, truth):
 def _close_drawn(est, se, truth):
     """For effects drawn afresh at every run: 3 standard errors or 20 %.
     At the issue's 2 SE or 10 %, about 2 % of random strong draws miss
-    (3 of 200 in a 20-per-effect sweep, 9-15 % off at 2-3.6 SE: field drift's
+    (5 of 210 in two sweeps, 9-15 % off at 2-3.6 SE: field drift's
     dip and declination, a temperature bias, an azimuth-axis tilt), which
     would fail one suite run in six with nine effects per run; the bench's
     strong section reports the rate at the issue's tolerance."""
