@@ -59,13 +59,13 @@ import numpy as np
 from inclino.accept_result import AcceptResult, _clean  # noqa: F401 (the result type lives where plots can import it)
 from inclino.acquire import Step, Tolerance, _wrap, mean_row, read_stable
 from inclino.errors import DataError
+from inclino.golden import F_NEAR_VERTICAL as NEAR_VERTICAL  # the firmware's ATT_F_NEAR_VERTICAL
 
 GRIDS = ("li2021", "ren2014")
 LI_INC = (2.0, 5.0, 10.0, 20.0, 30.0, 40.0, 50.0, 60.0, 70.0, 80.0, 90.0)
 LI_AZI = (0.0, 60.0, 120.0, 180.0, 240.0, 300.0)
 REN_TILT = (3.0, 15.0, 30.0, 60.0, -3.0, -15.0, -30.0, -60.0)
 REN_AZI = (0.0, 45.0, 90.0, 135.0, 180.0, 225.0, 270.0, 315.0)
-NEAR_VERTICAL = 0x0001
 CIRCLE_STEP_DEG = 30.0
 DEFAULT_MAX_AZI_RMS = 0.5
 DEFAULT_MAX_INC_RMS = 0.1
