@@ -8,7 +8,7 @@ Then, alternately: the rows whose whitened squared norm (6 channels, under
 the current noise model's 6x6 covariance) exceeds the chi-square point at
 p = OUTLIER_P / n (a Bonferroni bound: on Gaussian data the chance of
 flagging any row in a dataset is about OUTLIER_P) are set aside, and the
-noise model (core_noise.fit_noise: sensor white noise per channel plus the
+noise model (noise.fit_noise: sensor white noise per channel plus the
 turntable readout error through the pose Jacobian, Gaussian maximum
 likelihood) is fitted to the other rows.  The mask is recomputed from every
 row each time, so a row set aside while a large effect was still unmodelled
