@@ -140,3 +140,15 @@ def test_version_is_one_string():
     proj = tomllib.loads((ROOT / "pyproject.toml").read_text(encoding="utf-8"))["project"]
     assert "version" not in proj and "version" in proj["dynamic"]
     assert metadata.version("inclino") == inclino.__version__
+
+
+def test_a_changed_header_code_is_caught():
+    """A copy of proto_cmd.h with one command code changed no longer agrees
+    with protocol.CMD (the check compares values, not names only)."""
+    text = "\n".join(h.read_text(encoding="utf-8") for h in sorted(INCLUDE.glob("*.h")))
+    assert "#define PCMD_STOP 0x04u" in text
+    bad = parse_defines(text.replace("#define PCMD_STOP 0x04u", "#define PCMD_STOP 0x14u"))
+    c_cmds = {k[len("PCMD_"):]: v for k, v in bad.items() if k.startswith("PCMD_")}
+    c_cmds.pop("NAK")
+    c_cmds.pop("STREAM_FRAME")
+    assert c_cmds != protocol.CMD and c_cmds["STOP"] == 0x14
