@@ -64,7 +64,6 @@ RULES = {
     "gravity_g": (1e-3, 2.0),        # > 0, within the accelerometer's +-1.7 g
     "lat_deg": (-90.0, 90.0),
     "lon_deg": (-360.0, 360.0),
-    "samples_averaged": (1.0, 1e6),  # a count of samples (this probe: 1..64, SET_AVERAGE); read as a lower bound
     "inc_deg": (-5.0, 185.0),
     "azi_deg": (-360.0, 360.0),
     "tf_deg": (-360.0, 360.0),
