@@ -514,16 +514,7 @@ def _cmd_acquire(args) -> int:
     tol.check()
     if args.average is not None and not 1 <= args.average <= 64:
         raise DataError("--average must be within 1-64 samples")
-    plan = None
-    if args.procedure == "temperature":
-        from inclino import acquire_temp
-
-        plan = acquire_temp.ThermalPlan(
-            acquire_temp.parse_temperatures(args.temperatures), args.poses, args.ramp_rate, args.interval,
-            args.ramp_poses, args.soak_band, args.soak_tol, args.soak_window, args.max_soak)
-        plan.check()
-    else:
-        procedure_steps(args.procedure, points=args.points, d1=args.d1, azimuth=args.azimuth, step_deg=args.step)
+    procedure_steps(args.procedure, points=args.points, d1=args.d1, azimuth=args.azimuth, step_deg=args.step)
     world = {"field_nT": args.field, "dip_deg": args.dip, "declination_deg": args.declination}
     from inclino.dataset import check_meta
 
@@ -532,14 +523,9 @@ def _cmd_acquire(args) -> int:
     table = open_table(args)
     try:
         with ProbeLink(args.port, baud=args.baud, timeout=args.timeout) as link:
-            if plan is not None:
-                r = acquire_temp.acquire_temperature(link, args.output, table, plan, tol=tol,
-                                                     max_reads=args.max_reads, world=world, quiet=args.quiet,
-                                                     average=args.average)
-            else:
-                r = acquire(link, args.procedure, args.output, table, points=args.points, d1=args.d1,
-                            azimuth=args.azimuth, step_deg=args.step, tol=tol, max_reads=args.max_reads,
-                            world=world, quiet=args.quiet, average=args.average)
+            r = acquire(link, args.procedure, args.output, table, points=args.points, d1=args.d1,
+                        azimuth=args.azimuth, step_deg=args.step, tol=tol, max_reads=args.max_reads,
+                        world=world, quiet=args.quiet, average=args.average)
     finally:
         table.close()
     print(f"{r.path}: {r.rows} rows, {args.procedure}, probe {r.probe_serial}"
@@ -548,7 +534,7 @@ def _cmd_acquire(args) -> int:
     return 0
 
 
-def add_parser(sub) -> None:
+def add_parser(sub):
     p = sub.add_parser("acquire", help="take a calibration run from the probe (operator or emulated bench)")
     add_common(p)
     p.add_argument("--procedure", required=True, choices=PROCEDURES,
@@ -577,4 +563,5 @@ def add_parser(sub) -> None:
     t.add_argument("--soak-window", type=float, default=10.0, help="... over this many minutes (default 10)")
     t.add_argument("--max-soak", type=float, default=240.0, help="bench: give up after this many minutes at "
                                                                  "one set point (default 240)")
-    p.set_defaults(func=_cmd_acquire)
+    p.set_defaults(func=_cmd_acquire)  # the temperature procedure: acquire_temp.add_parser
+    return p

@@ -16,7 +16,7 @@ import numpy as np
 from inclino import __version__
 from inclino.errors import DataError, InclinoError
 from inclino.accept import add_parser as _add_accept
-from inclino.acquire import add_parser as _add_acquire
+from inclino.acquire_temp import add_parser as _add_acquire  # acquire, with its temperature procedure
 from inclino.calib.cli import add_parser as _add_calibrate
 from inclino.demo import add_parser as _add_demo
 from inclino.diagnose.cli import add_parser as _add_diagnose

@@ -541,7 +541,7 @@ def _fit_invariants(ds, w, sa, sm, fix_dip, prior=None, mount_tolerance_deg=None
 def fit(ds: RawDataset, use_poses: bool | None = None, sigma_acc: float = SIGMA_ACC,
         sigma_mag: float = SIGMA_MAG, sigma_pose_deg: float = SIGMA_POSE_DEG, fix_dip: bool = False,
         prior=None, nonlinear: bool | None = None, mount_tolerance_deg: float | None = None,
-        accept_mount_tolerance: bool = False, temperature: str = "auto", **_):
+        accept_mount_tolerance: bool = False, **_):
     """prior: a Calibration whose body frame (accelerometer rotation) a
     fit without poses keeps; without it the accelerometer's axes are the
     body frame.  nonlinear (default: with poses): also fit each axis'
@@ -553,7 +553,8 @@ def fit(ds: RawDataset, use_poses: bool | None = None, sigma_acc: float = SIGMA_
     default field.DEFAULT_MOUNT_TOLERANCE_DEG); accept_mount_tolerance
     records that the user accepts it (the verdict then judges the fit's own
     uncertainty; see calib/field.py and report._verdict).
-    temperature auto|on|off: the temperature terms (inclino.calib.thermal)."""
+    The temperature terms (--temperature) are added by calib.fit
+    (inclino.calib.thermal)."""
     w = common.world_of(ds)
     if use_poses is None:
         use_poses = ds.has_pose
@@ -622,7 +623,4 @@ def fit(ds: RawDataset, use_poses: bool | None = None, sigma_acc: float = SIGMA_
                              + ", ".join(f"{v:.3g}" for v in nlm["mag_q_per_nT"]) + " /nT; the linear "
                              f"calibration written leaves {nlm['linear_representation_azi_rms_deg']:.4f} deg "
                              "azimuth RMS of it over the working range (I >= 2 deg)")
-    if temperature != "off":  # the temperature terms: calib/thermal.py
-        from . import thermal
-        cal, info = thermal.fit(ds, cal, info, temperature, sigma_acc, sigma_mag, sigma_pose_deg, fix_dip)
     return cal, info
