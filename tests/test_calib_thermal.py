@@ -164,7 +164,8 @@ def test_diagnose_no_longer_names_the_temperature_effects_the_terms_corrected(tm
     ds = chamber_run(sc, seed=int(rng.integers(1 << 30)))
     path, cal_path = tmp_path / "run.csv", tmp_path / "cal.json"
     dataset.write_raw(str(path), ds)
-    assert cli.main(["calibrate", str(path), "--method", "joint", "--temperature", "on", "-o", str(cal_path)]) == 0
+    # written (0) or written with a failed verdict (1): what is checked here is what diagnose then sees
+    assert cli.main(["calibrate", str(path), "--method", "joint", "--temperature", "on", "-o", str(cal_path)]) in (0, 1)
     capsys.readouterr()
     named = {}
     for extra in ([], ["--cal", str(cal_path)]):
