@@ -10,36 +10,18 @@
 #include "inclino/probe.h"
 #include "inclino/proto_cmd.h"
 #include "inclino/text_fmt.h"
+#include "inclino/tx_queue.h"
 
 static proto_t proto;
-static uint8_t txq[APP_TX_QUEUE];
-static uint16_t tx_head, tx_len;
-static uint32_t tx_dropped;
+static uint8_t txq_buf[APP_TX_QUEUE];
+static tx_queue_t txq;
 static uint32_t last_rx_ms;
 static uint8_t restart;
-
-/* ------------------------------------------------------------ byte helpers */
 
 /* ------------------------------------------------------------ transmit queue */
 static void send(const uint8_t *data, uint16_t n)
 {
-    uint16_t i;
-    if ((uint16_t)(APP_TX_QUEUE - tx_len) < n) {
-        tx_dropped += n; /* whole answers or nothing: never half a frame */
-        return;
-    }
-    for (i = 0u; i < n; i++) {
-        txq[(uint16_t)(tx_head + tx_len) % APP_TX_QUEUE] = data[i];
-        tx_len++;
-    }
-}
-
-static void tx_drain(void)
-{
-    while (tx_len != 0u && hal_sci_putc(txq[tx_head]) != 0u) {
-        tx_head = (uint16_t)((tx_head + 1u) % APP_TX_QUEUE);
-        tx_len--;
-    }
+    tx_queue_put(&txq, data, n);
 }
 
 /* ------------------------------------------------------------ records */
@@ -354,9 +336,7 @@ uint8_t app_main_init(void)
     hal_init();
     st = probe_init();
     proto_init(&proto, &app);
-    tx_head = 0u;
-    tx_len = 0u;
-    tx_dropped = 0u;
+    tx_queue_init(&txq, txq_buf, (uint16_t)APP_TX_QUEUE);
     restart = 0u;
     last_rx_ms = hal_millis();
     return st;
@@ -380,18 +360,18 @@ void app_main_poll(void)
         proto_idle(&proto);
         last_rx_ms = now;
     }
-    if (tx_len < APP_TX_QUEUE / 2u) { /* keep the stream from outrunning the line */
+    if (txq.len < APP_TX_QUEUE / 2u) { /* keep the stream from outrunning the line */
         proto_tick(&proto, now);
     }
-    tx_drain();
+    tx_queue_drain(&txq);
 }
 
 uint32_t app_main_tx_dropped(void)
 {
-    return tx_dropped;
+    return txq.dropped;
 }
 
 uint8_t app_main_restart_requested(void)
 {
-    return (tx_len == 0u) ? restart : 0u; /* only once the answer has gone out */
+    return (txq.len == 0u) ? restart : 0u; /* only once the answer has gone out */
 }
