@@ -39,7 +39,7 @@ FW_SOURCES = _fw_sources().sources("cffi_fw", ROOT)
 INCLUDES = ["inclino/hal.h", "inclino/survey.h", "inclino/qc.h", "inclino/calimg.h",
             "inclino/crc16.h", "inclino/adis16210.h", "inclino/ads1256.h", "inclino/acquire.h",
             "inclino/calstore.h", "inclino/probe.h"]
-EXTRA_INCLUDES: list[str] = ["inclino/app_main.h", "inclino/boot.h", "inclino/boot_main.h"]
+EXTRA_INCLUDES: list[str] = ["inclino/app_main.h", "inclino/boot.h", "inclino/boot_main.h", "inclino/crc32.h"]
 EXTRA_CDEF = """
 /* app_main.h: the main loop (SCI protocol on top of probe.h) */
 uint8_t app_main_init(void);
@@ -53,7 +53,7 @@ uint8_t probe_cal_pending(uint8_t *slot, uint32_t *seq);
 typedef struct { uint32_t addr; uint32_t len; uint32_t crc; } boot_range_t;
 typedef struct { uint32_t entry; uint32_t total; uint32_t hdr_crc; uint8_t count;
                  boot_range_t range[8]; } boot_app_t;
-uint32_t boot_crc32(uint32_t crc, const uint8_t *data, uint16_t n);
+uint32_t crc32_update(uint32_t crc, const uint8_t *data, uint16_t n);
 uint8_t boot_crc32_flash(uint32_t addr, uint32_t len, uint32_t *crc);
 uint8_t boot_area(uint32_t addr, uint32_t len);
 uint16_t boot_desc_build(boot_app_t *app, uint8_t *out, uint8_t *commit);

@@ -52,8 +52,7 @@ static uint8_t a_identity(uint8_t out[PROTO_IDENTITY_LEN])
     for (i = 0u; i < (uint8_t)(sizeof prod - 1u); i++) {
         out[i] = (uint8_t)prod[i];
     }
-    out[16] = (uint8_t)(id.fw_version >> 8);
-    out[17] = (uint8_t)id.fw_version;
+    be_put_u16(out + 16, id.fw_version);
     out[18] = 0u;
     out[19] = PROTO_VERSION;
     be_put_u32(out + 20, id.serial);

@@ -2,9 +2,9 @@
  * power-cut argument in docs/bootloader.md, commands in docs/protocol.md. */
 #include "inclino/boot.h"
 #include "inclino/be_bytes.h"
-#include "inclino/crc16.h"
+#include "inclino/crc32.h"
 #include "inclino/hal.h"
-#include "inclino/probe.h"
+#include "inclino/id_record.h"
 #include "inclino/proto_cmd.h"
 #include "inclino/proto_dispatch.h"
 #include "inclino/text_fmt.h"
@@ -13,26 +13,7 @@
 #define TEXT_MAX 64u  /* console answer line */
 #define HDR_FIXED 16u /* descriptor bytes before the ranges */
 
-/* ------------------------------------------------------------ byte helpers */
-
-/* ------------------------------------------------------------ CRC-32 */
-static const uint32_t crc32_nibble[16] = {0x00000000UL, 0x1DB71064UL, 0x3B6E20C8UL, 0x26D930ACUL,
-                                          0x76DC4190UL, 0x6B6B51F4UL, 0x4DB26158UL, 0x5005713CUL,
-                                          0xEDB88320UL, 0xF00F9344UL, 0xD6D6A3E8UL, 0xCB61B38CUL,
-                                          0x9B64C2B0UL, 0x86D3D2D4UL, 0xA00AE278UL, 0xBDBDF21CUL};
-
-uint32_t boot_crc32(uint32_t crc, const uint8_t *data, uint16_t n)
-{
-    uint16_t i;
-    uint32_t c = ~crc;
-    for (i = 0u; i < n; i++) {
-        c ^= (uint32_t)data[i];
-        c = (c >> 4) ^ crc32_nibble[c & 0x0FUL];
-        c = (c >> 4) ^ crc32_nibble[c & 0x0FUL];
-    }
-    return ~c;
-}
-
+/* ------------------------------------------------------------ CRC-32 of flash */
 uint8_t boot_crc32_flash(uint32_t addr, uint32_t len, uint32_t *crc)
 {
     uint8_t buf[CHUNK];
@@ -49,7 +30,7 @@ uint8_t boot_crc32_flash(uint32_t addr, uint32_t len, uint32_t *crc)
         if (st != HAL_FLASH_OK) {
             return st;
         }
-        c = boot_crc32(c, buf, n);
+        c = crc32_update(c, buf, n);
         addr += n;
         left -= n;
     }
@@ -108,7 +89,7 @@ uint16_t boot_desc_build(boot_app_t *app, uint8_t out[BOOT_DESC_MAX], uint8_t co
     app->total = total;
     be_put_u32(out + 12, total);
     n = (uint16_t)(hdr_len(app->count) - 4u);
-    app->hdr_crc = boot_crc32(0u, out, n);
+    app->hdr_crc = crc32_update(0u, out, n);
     be_put_u32(out + n, app->hdr_crc);
     be_put_u32(commit, BOOT_COMMIT_MAGIC);
     be_put_u32(commit + 4, app->hdr_crc);
@@ -190,7 +171,7 @@ uint8_t boot_app_check(boot_app_t *app)
         return BOOT_E_READ;
     }
     app->hdr_crc = be_get_u32(hdr + n);
-    if (boot_crc32(0u, hdr, n) != app->hdr_crc || be_get_u32(commit + 4) != app->hdr_crc) {
+    if (crc32_update(0u, hdr, n) != app->hdr_crc || be_get_u32(commit + 4) != app->hdr_crc) {
         return BOOT_E_HEADER;
     }
     app->entry = be_get_u32(hdr + 8);
@@ -640,26 +621,16 @@ static void text_command(boot_t *b)
 }
 
 /* ------------------------------------------------------------ entry points */
-static uint32_t read_serial(void)
-{
-    uint8_t rec[PROBE_ID_SIZE];
-    if (hal_flash_read(PROBE_ID_ADDR, rec, PROBE_ID_SIZE) != HAL_FLASH_OK ||
-        be_get_u32(rec) != PROBE_ID_MAGIC ||
-        crc16_update(CRC16_INIT, rec, 14u) != be_get_u16(rec + 14)) {
-        return 0u;
-    }
-    return be_get_u32(rec + 4);
-}
-
 void boot_init(boot_t *b, void (*send)(const uint8_t *data, uint16_t n))
 {
+    uint16_t hw_rev;
     proto_parser_init(&b->parser);
     b->send = send;
     proto_reply_init(&b->reply);
     b->executed = 0u;
     b->mark = 0u;
     b->after = BOOT_AFTER_NONE;
-    b->serial = read_serial();
+    (void)id_record_read(&b->serial, &hw_rev); /* serial 0 without a valid record */
     b->app_status = boot_app_check(&b->app);
     b->desc_blank = is_blank(BOOT_DESC_ADDR, BOOT_SECTOR);
 }
