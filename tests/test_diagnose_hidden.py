@@ -42,16 +42,20 @@ def test_hidden_effect_is_named_and_estimated_within_its_stderr(effect, k):
 
 
 def test_null_datasets_name_nothing():
-    """Six nulls drawn afresh (three static, three continuous): at a design
-    false-alarm rate near 1 % (the bench: 1.4 % over 216), at most one may
-    name an effect or show unexplained structure (two or more: p < 0.5 %)."""
+    """Twelve nulls drawn afresh (six static, six continuous). The bench
+    measures a false-alarm rate near 1.5 % (3 of 216; 1 of 40 continuous and
+    1 of 60 static in a separate draw), so at most three may name an effect
+    or show unexplained structure: four or more has probability 7e-5 at a 2 %
+    rate (the suite must not fail by chance); this test catches a gross
+    regression (a 25 % rate fails a third of runs), `bench diagnose` holds the
+    rate itself over 200+ nulls."""
     bad = []
-    for k, kind in enumerate(("static", "static", "static", "continuous", "continuous", "continuous")):
+    for k, kind in enumerate(("static", "continuous") * 6):
         seed = SEED0 + 900 + k
         c = bench.run_case(None, kind, seed)
         if c["found"] or c["unexplained"]:
             bad.append((seed, kind, c["found"], c["unexplained"]))
-    assert len(bad) <= 1, bad
+    assert len(bad) <= 3, bad
 
 
 def test_signature_below_the_detection_limit_is_not_named():

@@ -22,6 +22,7 @@ from inclino.diagnose.cli import add_parser as _add_diagnose
 from inclino.flashing import add_parser as _add_flash
 from inclino.plots import add_parser as _add_plot
 from inclino.probe_cli import add_parser as _add_probe_commands
+from inclino.survey_cli import add_parser as _add_survey_commands
 
 
 def _cmd_bitexact(args) -> int:
@@ -86,6 +87,10 @@ def _cmd_bench(args) -> int:
         return 0
     if args.what == "diagnose":
         from inclino.diagnose.bench import bench_command
+
+        return bench_command(args)
+    if args.what == "survey":
+        from inclino.survey_bench import bench_command
 
         return bench_command(args)
     if args.what == "link":
@@ -200,12 +205,14 @@ def build_parser() -> argparse.ArgumentParser:
     em.set_defaults(func=_cmd_emulate)
 
     be = sub.add_parser("bench", help="benchmarks (figures, JSON with --json)")
-    be.add_argument("what", choices=("accuracy", "speed", "mcu", "emulator", "link", "calibration", "diagnose"))
+    be.add_argument("what", choices=("accuracy", "speed", "mcu", "emulator", "link", "calibration", "diagnose",
+                                    "survey"))
     be.add_argument("--json", action="store_true", help="print one JSON object")
     be.add_argument("--field", type=float, default=50000.0, help="accuracy: field total, nT")
     be.add_argument("--dip", type=float, default=60.0, help="accuracy: dip, degrees")
     be.add_argument("--vectors", type=int, default=1_000_000, help="speed: batch size")
     be.add_argument("--quick", action="store_true", help="diagnose: a small set (not the targets' figures)")
+    be.add_argument("--plot", help="survey: also draw the first seed's well path and ellipses (PNG)")
     be.set_defaults(func=_cmd_bench)
     _add_calibrate(sub)
     _add_diagnose(sub)
@@ -214,6 +221,7 @@ def build_parser() -> argparse.ArgumentParser:
     _add_acquire(sub)
     _add_accept(sub)
     _add_plot(sub)
+    _add_survey_commands(sub)
     return p
 
 

@@ -63,13 +63,28 @@ def _rows(link, args):
             time.sleep(args.period / 1000.0)
 
 
+class _MdWriter:
+    """A csv writer that puts the station's measured depth first."""
+
+    def __init__(self, w, md):
+        self.w, self.md, self.first = w, md, True
+
+    def writerow(self, row):
+        self.w.writerow(["md_m" if self.first else f"{self.md:.3f}"] + list(row))
+        self.first = False
+
+
 def _cmd_survey(args) -> int:
     _validate(args)
     recs = []
     out = sys.stdout
     w = None
+    if args.md is not None and not (args.md == args.md and abs(args.md) < 1e6):
+        raise DataError("--md must be a depth in m")
     if args.format == "csv":
         w = csv.writer(out)
+        if args.md is not None:
+            w = _MdWriter(w, args.md)
         w.writerow(SURVEY_COLS + ("qc_verdict",))
     elif args.format == "table":
         print(f"{'t s':>8} {'inc':>9} {'azi':>9} {'tf':>9} {'G total':>8} {'B total':>9} {'dip':>8}  QC")
@@ -81,18 +96,19 @@ def _cmd_survey(args) -> int:
                 w.writerow([f"{u[c]:.6f}" if isinstance(u[c], float) else u[c] for c in SURVEY_COLS]
                            + [qc_text(u["qc"])])
             elif args.format == "json":
-                print(json.dumps({**u, "qc_verdict": qc_text(u["qc"])}))
+                print(json.dumps({**({"md_m": args.md} if args.md is not None else {}), **u,
+                                  "qc_verdict": qc_text(u["qc"])}))
             else:
                 print(f"{u['t_s']:8.3f} {u['inc_deg']:9.4f} {u['azi_deg']:9.4f} {u['tf_deg']:9.4f} "
                       f"{u['gt_g']:8.5f} {u['bt_nT']:9.1f} {u['dip_deg']:8.3f}  {qc_text(u['qc'])}"
                       + ("  near-vertical" if u["flags"] & 1 else ""))
             out.flush()
     if args.las:
-        write_las(args.las, recs, probe=args.port)
+        write_las(args.las, recs, probe=args.port, md=args.md)
     return 0
 
 
-def write_las(path: str, recs: list[dict], probe: str = "") -> None:
+def write_las(path: str, recs: list[dict], probe: str = "", md: float | None = None) -> None:
     """A logged survey run as LAS 2.0 (lasio), indexed by time."""
     import lasio
     import numpy as np
@@ -103,6 +119,8 @@ def write_las(path: str, recs: list[dict], probe: str = "") -> None:
     las.other = f"Recorded by inclino from {probe}. Index is time since probe start (s)."
     t = np.array([r["t_s"] for r in recs], dtype=float)
     las.append_curve("TIME", t, unit="s", descr="time since probe start")
+    if md is not None:
+        las.append_curve("MD", np.full(len(t), float(md)), unit="m", descr="measured depth of the station")
     for key, mnem, unit, descr in (("inc_deg", "INC", "deg", "inclination"), ("azi_deg", "AZI", "deg", "azimuth"),
                                    ("tf_deg", "GTF", "deg", "gravity toolface"),
                                    ("mtf_deg", "MTF", "deg", "magnetic toolface"),
@@ -209,6 +227,8 @@ def add_parser(sub) -> None:
     p.add_argument("--stream", action="store_true", help="let the probe stream at --period (>= 1 ms)")
     p.add_argument("--format", choices=("table", "csv", "json"), default="table")
     p.add_argument("--las", help="also write the run as LAS 2.0 to this file")
+    p.add_argument("--md", type=float, help="measured depth of the station, m: an md_m column (MD curve in LAS) "
+                                            "for inclino trajectory")
     p.set_defaults(func=_cmd_survey)
 
     p = sub.add_parser("download", help="write a calibration into the probe, read it back, activate it")

@@ -362,7 +362,7 @@ def _fit_poses(ds, w, sa, sm, sp, fix_dip, nonlinear=False):
         Lm = lin[12:21].reshape(3, 3)
         att = ref.attitude((acc_w - lin[9:12]) @ La.T, (mag_w - lin[21:24]) @ Lm.T)
         tru = ref.attitude(gw, fw)
-        da = ref.angle_diff(att["azi"], wr[1])[wr[0] >= 2.0]
+        da = ref.angle_diff(att["azi"], tru["azi"])[wr[0] >= 2.0]  # both magnetic (wr[1] is true)
         extra = {"nonlinear": {
             "model": "corrected = M (raw + q*raw^2/S - b), S = G (g) or F (nT); the CAL.json "
                      "coefficients are the linear calibration that best represents it over the working range",

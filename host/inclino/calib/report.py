@@ -150,7 +150,8 @@ def residuals(ds: RawDataset, cal: Calibration, dip_deg=None) -> dict:
         inc = ds.columns["inc_deg"]
         di = a["inc"] - inc
         ok = (inc >= 5.0) & (inc <= 175.0)
-        da = ref.angle_diff(a["azi"], ds.columns["azi_deg"])[ok]
+        # the poses' azimuth is from true north, the probe's from the field's (magnetic) north
+        da = ref.angle_diff(a["azi"], ds.columns["azi_deg"] - w["declination_deg"])[ok]
         out.update({"acc_vec_rms_mg": 1e3 * _rms(g - gt), "mag_vec_rms_nT": _rms(b - ft),
                     "inc_rms_deg": _rms(di), "inc_max_deg": float(np.abs(di).max()),
                     "azi_rms_deg": _rms(da), "azi_max_deg": float(np.abs(da).max()) if da.size else float("nan")})
@@ -283,7 +284,9 @@ def build(ds: RawDataset, cal: Calibration, method: str, info: dict, refit=None,
         sig = np.sqrt(np.clip(np.diag(cov), 0, None))
         pa, pi = predicted_attitude_rms(cal, cov, w, dip)
         rep.uncertainty = {"source": src, "sigma": dict(zip(common.PARAM_NAMES, sig.tolist())),
-                           "predicted_azi_rms_deg": pa, "predicted_inc_rms_deg": pi}
+                           "predicted_azi_rms_deg": pa, "predicted_inc_rms_deg": pi,
+                           # the full 24x24 (PARAM_NAMES order): inclino toolmodel projects it onto ISCWSA terms
+                           "covariance": np.asarray(cov, float)[:24, :24].tolist()}
         if info.get("dip_sigma_deg") is not None:
             rep.uncertainty["dip_deg"] = dip
             rep.uncertainty["dip_sigma_deg"] = info["dip_sigma_deg"]
