@@ -91,7 +91,7 @@ typedef struct { int32_t gt_ref; int32_t gt_tol; int32_t bt_ref; int32_t bt_tol;
                  int32_t dip_tol; } qc_ref_t;
 typedef struct { uint32_t serial; uint32_t time; uint8_t method; } calimg_info_t;
 
-void survey_compute(const int16_t acc[3], const int32_t mag[3], const corr_cal_t *cal, survey_t *s);
+void survey_compute(const int32_t acc[3], const int32_t mag[3], const corr_cal_t *cal, survey_t *s);
 uint8_t qc_check(const att_t *a, const qc_ref_t *r);
 void qc_default(qc_ref_t *r, int32_t bt_ref, int32_t dip_ref);
 uint16_t crc16_update(uint16_t crc, const uint8_t *data, uint16_t n);
@@ -118,9 +118,10 @@ uint8_t ads_read_channel(uint8_t mux, int32_t *code);
 int32_t ads_sign_extend24(uint32_t raw);
 
 /* acquire.h */
-typedef struct { int16_t acc[3]; int32_t mag[3]; uint16_t temp_raw; int32_t temp_cc; uint8_t n; }
+typedef struct { int32_t acc[3]; int32_t mag[3]; uint16_t temp_raw; int32_t temp_cc; uint8_t n; }
     acq_result_t;
 int32_t acq_avg(int32_t sum, uint8_t n);
+int32_t acq_avg_q6(int32_t sum, uint8_t n);
 uint8_t acq_run(uint8_t n, acq_result_t *out);
 
 /* calstore.h */
@@ -137,7 +138,7 @@ uint8_t calstore_read(const calstore_t *cs, uint8_t slot, uint8_t *dst);
 uint16_t calstore_flash_ops(const calstore_cfg_t *cfg);
 
 /* probe.h */
-typedef struct { int16_t acc[3]; int32_t mag[3]; int32_t temp_cc; uint8_t n; } probe_raw_t;
+typedef struct { int32_t acc[3]; int32_t mag[3]; int32_t temp_cc; uint8_t n; } probe_raw_t;
 typedef struct {
     uint32_t product; uint16_t fw_version; uint32_t serial; uint16_t hw_rev; uint8_t adis_status;
     uint8_t ads_status; uint16_t adis_prod_id; uint8_t cal_slot; uint32_t cal_seq; uint16_t cal_crc;

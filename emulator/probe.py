@@ -276,7 +276,8 @@ class EmulatedProbe:
 
     def survey(self) -> dict:
         """probe_survey: status, qc flags, corrected vectors, angles (degrees)
-        and the raw readings used."""
+        and the raw readings used (acc, mag: the means in Q6 counts, 64 per
+        count, as survey_compute takes them)."""
         self._own()
         s = ffi.new("survey_t *")
         q = ffi.new("uint8_t *")

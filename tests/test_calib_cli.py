@@ -55,9 +55,28 @@ def test_calibrate_json_output(data, capsys):
 
 
 def test_calibrate_without_poses_uses_the_invariants(data, capsys):
+    # no poses, no prior: the block's common rotation is unobservable; the
+    # report says so, its prediction includes the mounting tolerance, and the
+    # verdict refuses azimuth until that tolerance is accepted
     rc = main(["calibrate", str(data / "nopose.csv"), "-o", str(data / "np.json"), "--json"])
     d = json.loads(capsys.readouterr().out)
-    assert rc == 0 and d["report"]["mode"] == "invariants"
+    u = d["report"]["uncertainty"]
+    assert rc == 1 and d["report"]["mode"] == "invariants"
+    assert "common rotation" in u["unobservable"] and u["mount_tolerance_deg"] == 0.3
+    assert any(r.startswith("not fit for azimuth") for r in d["report"]["reasons"])
+    assert u["predicted_azi_rms_deg"] > 10 * u["predicted_azi_rms_fit_only_deg"]
+    rc = main(["calibrate", str(data / "nopose.csv"), "-o", str(data / "np.json"), "--json",
+               "--accept-mount-tolerance", "--mount-tolerance-deg", "0.1"])
+    d = json.loads(capsys.readouterr().out)
+    assert rc == 0, d["report"]["reasons"]
+    assert d["report"]["uncertainty"]["mount_tolerance_deg"] == 0.1
+    # with a prior (the turntable run's calibration of the same probe) it passes as is
+    assert main(["calibrate", str(data / "run.csv"), "-o", str(data / "prior.json")]) == 0
+    capsys.readouterr()
+    rc = main(["calibrate", str(data / "nopose.csv"), "-o", str(data / "np2.json"), "--json",
+               "--prior", str(data / "prior.json")])
+    d = json.loads(capsys.readouterr().out)
+    assert rc == 0 and d["report"]["uncertainty"]["prior"] is True, d["report"]["reasons"]
 
 
 @pytest.mark.parametrize("args, code, message", [
@@ -67,6 +86,8 @@ def test_calibrate_without_poses_uses_the_invariants(data, capsys):
     (["few.csv", "--method", "li2021"], 2, "missing position"),
     (["same.csv"], 3, "singular"),
     (["absent.csv"], 2, "cannot read"),
+    (["nopose.csv", "--prior", "absent.json"], 2, "--prior: cannot read"),
+    (["nopose.csv", "--mount-tolerance-deg", "-1"], 2, "--mount-tolerance-deg"),
 ])
 def test_calibrate_errors(data, args, code, message, capsys):
     out = data / "err.json"
@@ -111,3 +132,8 @@ def test_bench_calibration_small():
     fr = d["cramer_rao"]["firmware_representable"]
     assert fr["azi_rms_deg"] >= d["cramer_rao"]["azi_rms_deg"] and fr["azi_linear_bias_part_deg"] > 0
     assert d["papers_measured"]["li2021"].startswith("azimuth RMS 0.82")
+    # achieved/predicted and the field fit with a prior are reported (one run: no band asserted)
+    pr = d["prediction"]
+    for k in ("pose_fit_calibration_grid", "pose_fit_acceptance_grid", "field_fit_with_prior"):
+        assert pr[k]["azi"]["runs"] == 1 and pr[k]["azi"]["median_ratio"] > 0
+    assert d["field_prior"]["probes"] == 1 and d["field_prior"]["pooled_ratio"] > 0

@@ -127,7 +127,7 @@ def _firmware(g_g, b_nt):
     """Firmware attitude (identity calibration) from ideal counts."""
     acc = np.clip(np.round(np.atleast_2d(g_g) * 16384.0), -32768, 32767).astype(np.int64)
     mag = np.round(np.atleast_2d(b_nt)).astype(np.int64)
-    return core.survey(acc, mag)
+    return core.survey(acc * 64, mag * 64)  # whole counts as Q6 readings
 
 
 # ---------------------------------------------------------------------------
@@ -268,13 +268,13 @@ def test_li2021_position1_is_i90_a0_t180():
 # Units of the firmware outputs
 def test_firmware_output_formats():
     # 1 g on body z (16384 counts), 50 000 nT horizontal north field at I = 0
-    fw = core.survey(np.array([[0, 0, 16384]]), np.array([[50000, 0, 0]]))
+    fw = core.survey(np.array([[0, 0, 16384]]) * 64, np.array([[50000, 0, 0]]) * 64)  # Q6 readings
     assert fw["gt"][0] == pytest.approx(2**27, rel=2e-6)         # Q27 g
     assert fw["bt"][0] == pytest.approx(50000 * 256, rel=2e-6)   # Q8 nT
     assert fw["g"][0, 2] == pytest.approx(2**27, abs=32)
     assert fw["b"][0, 0] == pytest.approx(50000 * 256, abs=32)
     assert fw["inc"][0] == 0 and fw["dip"][0] == pytest.approx(0, abs=2)
-    fw = core.survey(np.array([[0, 16384, 0]]), np.array([[0, 0, 40000]]))
+    fw = core.survey(np.array([[0, 16384, 0]]) * 64, np.array([[0, 0, 40000]]) * 64)
     assert fw["inc"][0] == pytest.approx(90 * Q16, abs=2)         # Q16 degrees
     assert fw["gtf"][0] == pytest.approx(90 * Q16, abs=2)
 

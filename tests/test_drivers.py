@@ -187,6 +187,21 @@ def test_acq_avg_rounds_half_up_exactly():
         assert lib.acq_avg(s, n) == _floor_half_up(s, n), (s, n)
 
 
+def test_acq_avg_q6_is_the_mean_with_six_fraction_bits():
+    """floor(64 sum / n + 1/2) for every small sum and random sums over the
+    contract's range (|sum| <= 2^30, |sum / n| < 2^24)."""
+    _, lib, _ = unbooted()
+    rng = random.Random(8)
+    cases = [(s, n) for n in (1, 2, 3, 5, 7, 16, 63, 64, 255) for s in range(-3 * n, 3 * n + 1)]
+    for _ in range(4000):
+        n = rng.randint(1, 255)
+        lim = min(2**30, n * (2**24 - 1))
+        cases.append((rng.randint(-lim, lim), n))
+    cases += [(-2**29, 64), (2**29, 64), (-(2**24 - 1), 1), (2**24 - 1, 1), (-2**30, 255), (2**30, 255)]
+    for s, n in cases:
+        assert lib.acq_avg_q6(s, n) == _floor_half_up(64 * s, n), (s, n)
+
+
 def test_acq_run_rejects_bad_n():
     p, lib, ffi = unbooted()
     out = ffi.new("acq_result_t *")
@@ -228,8 +243,9 @@ def test_acq_run_averages_what_the_parts_returned():
     assert all(len(v) == n for v in mag.values())
     assert len(set(windows)) == n                 # a fresh ADIS16210 output sample every time
     assert len({tuple(a) for a in zip(*acc)}) > 1  # and the noise made them differ
-    assert list(out.acc) == [_floor_half_up(sum(a), n) for a in acc]
-    assert list(out.mag) == [_floor_half_up(sum(mag[m]), n) for m in (0x08, 0x18, 0x28)]
+    # the triads' means keep 6 fraction bits (Q6 counts)
+    assert list(out.acc) == [_floor_half_up(64 * sum(a), n) for a in acc]
+    assert list(out.mag) == [_floor_half_up(64 * sum(mag[m]), n) for m in (0x08, 0x18, 0x28)]
     assert out.temp_raw == _floor_half_up(sum(temp), n)
     assert out.temp_cc == (1331 - out.temp_raw) * 47
     assert out.n == n

@@ -40,7 +40,7 @@ def test_flash_prints_every_range_and_exits_0(emu, tmp_path):
     assert r.returncode == 0, r.stderr
     # no terminal: no bar, a progress line at the start and the end of each phase
     assert "Traceback" not in r.stderr
-    assert [ln.split(":")[0] for ln in r.stderr.splitlines()] == [
+    assert [ln.split(":")[1].strip() for ln in r.stderr.splitlines()] == [
         f"flash {p}" for p in ("erase", "erase", "program", "program", "verify", "verify")]
     rows = [ln for ln in r.stdout.splitlines() if re.match(r"0x[0-9A-F]{6}-0x", ln)]
     want = expected_ranges(chunks)

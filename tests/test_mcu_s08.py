@@ -177,7 +177,7 @@ def test_att_and_triad_bit_exact_on_s08(fw):
 
 def test_cycle_counts_are_exact_and_repeatable(fw):
     acc, mag, fc = mcu.bench_vectors(3)
-    recs = mcu._records(b"V", (acc, ">i2"), (mag, ">i4"))
+    recs = mcu._records(b"V", (acc, ">i4"), (mag, ">i4"))
     c1 = mcu.timed(fw, recs, setup=mcu.enc_cal(fc))
     c2 = mcu.timed(fw, recs[::-1], setup=mcu.enc_cal(fc))
     assert c1 == c2[::-1]
@@ -189,7 +189,7 @@ def test_stack_use_is_measured_and_repeatable(fw):
     measured by filling the free stack with a pattern (a figure of the
     bench, not a budget checked here)."""
     acc, mag, fc = mcu.bench_vectors(2)
-    recs = mcu._records(b"V", (acc, ">i2"), (mag, ">i4"))
+    recs = mcu._records(b"V", (acc, ">i4"), (mag, ">i4"))
     d = [mcu.stack_bytes(fw, r, setup=mcu.enc_cal(fc)) for r in recs]
     assert d[0] > 16 and d[0] == mcu.stack_bytes(fw, recs[0], setup=mcu.enc_cal(fc))
     z = mcu.stack_bytes(fw, b"Z")

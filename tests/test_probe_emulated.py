@@ -31,9 +31,9 @@ def test_ideal_surveys_match_pose_within_input_quantisation():
         assert s["status"] == 0
         g, b = ref.body_vectors(inc, azi, tf, F, dip)
         qa, qm = ref.quantise_acc(g), ref.quantise_mag(b)
-        # the raw averages are the quantised truth (no noise in this scenario)
-        assert s["raw"]["acc"] == list(qa)
-        assert max(abs(x - y) for x, y in zip(s["raw"]["mag"], qm)) <= 1
+        # the raw averages (Q6 counts) are the quantised truth (no noise in this scenario)
+        assert s["raw"]["acc"] == list(qa * 64)
+        assert max(abs(x - y) for x, y in zip(s["raw"]["mag"], qm * 64)) <= 64
         # the application ran survey_compute on them with the identity calibration
         want = core.survey_one(s["raw"]["acc"], s["raw"]["mag"])
         assert {k: s["att_raw"][k] for k in ("inc", "azi", "gtf", "mtf", "gt", "bt", "dip", "flags")} == \

@@ -63,11 +63,11 @@ class App:
     def survey_raw(self, out):
         if self.survey(out) != 0:
             return 7
-        ffi.memmove(out + 36, protocol.RawRecord(1, -2, 16384, 100, -200, 40000, 2512, 8).pack(), 21)
+        ffi.memmove(out + 36, protocol.RawRecord(1, -2, 16384 * 64 + 5, 100, -200, 40000, 2512, 8).pack(), 27)
         return 0
 
     def raw(self, out):
-        ffi.memmove(out, protocol.RawRecord(1, -2, 16384, 100, -200, 40000, 2512, 8).pack(), 21)
+        ffi.memmove(out, protocol.RawRecord(1, -2, 16384 * 64 + 5, 100, -200, 40000, 2512, 8).pack(), 27)
         return 0
 
     def qcref_read(self, out):
@@ -131,7 +131,7 @@ def test_identify_survey_raw_qcref():
     assert protocol.RawRecord.unpack(f.payload).mz == 40000
     f = a.ask(30, "SURVEY_RAW")
     assert f.cmd == 0x88 and SurveyRecord.unpack(f.payload[:36]).t_ms == 2
-    assert protocol.RawRecord.unpack(f.payload[36:]).az == 16384
+    assert protocol.RawRecord.unpack(f.payload[36:]).az == 16384 * 64 + 5
     ref = protocol.QCREF.pack(1 << 27, 335544, 50000 << 8, 76800, 60 << 16, 16384)
     assert a.ask(4, "QCREF_WRITE", ref).cmd == 0x87
     assert a.ask(5, "QCREF_READ").payload == ref

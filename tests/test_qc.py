@@ -9,7 +9,7 @@ REF_KEYS = ("gt_ref", "gt_tol", "bt_ref", "bt_tol", "dip_ref", "dip_tol")
 
 def _survey(field, dip, inc=30.0, azi=40.0, tf=50.0, gscale=1.0):
     g, b = reference.body_vectors(np.array([inc]), np.array([azi]), np.array([tf]), field, dip)
-    return core.survey(reference.quantise_acc(g * gscale), reference.quantise_mag(b))
+    return core.survey(reference.quantise_acc(g * gscale) * 64, reference.quantise_mag(b) * 64)
 
 
 def _qc(att, ref):
@@ -44,7 +44,7 @@ def test_tolerance_edge_is_inclusive():
 
 
 def test_zero_field_is_undefined_not_pass():
-    att = core.survey(np.array([[0, 0, 16384]]), np.array([[0, 0, 0]]))
+    att = core.survey(np.array([[0, 0, 16384 * 64]]), np.array([[0, 0, 0]]))
     assert _qc(att, REF) & golden.QC_F_UNDEFINED
 
 

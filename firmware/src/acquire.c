@@ -17,6 +17,26 @@ int32_t acq_avg(int32_t sum, uint8_t n)
     return -(int32_t)((2UL * a + (uint32_t)n - 1UL) / d);
 }
 
+int32_t acq_avg_q6(int32_t sum, uint8_t n)
+{
+    uint32_t a;
+    uint32_t q;
+    uint32_t r;
+    uint32_t d = 2UL * (uint32_t)n;
+    if (sum >= 0) {
+        a = (uint32_t)sum;
+        q = a / (uint32_t)n;
+        r = a - q * (uint32_t)n;
+        /* 64 q + floor(64 r / n + 1/2) */
+        return (int32_t)((q << ACQ_FRAC_BITS) + (r * 128UL + (uint32_t)n) / d);
+    }
+    /* -(64 q + ceil(64 r / n - 1/2)); ceil((128 r - n) / 2n) = floor((128 r + n - 1) / 2n) */
+    a = (uint32_t)(-(sum + 1)) + 1UL;
+    q = a / (uint32_t)n;
+    r = a - q * (uint32_t)n;
+    return -(int32_t)((q << ACQ_FRAC_BITS) + (r * 128UL + (uint32_t)n - 1UL) / d);
+}
+
 static void wait_gap(uint32_t since)
 {
     uint8_t i;
@@ -64,8 +84,8 @@ uint8_t acq_run(uint8_t n, acq_result_t *out)
         temp += (int32_t)a.temp_raw;
     }
     for (k = 0u; k < 3u; k++) {
-        out->acc[k] = (int16_t)acq_avg(acc[k], n);
-        out->mag[k] = acq_avg(mag[k], n);
+        out->acc[k] = acq_avg_q6(acc[k], n);
+        out->mag[k] = acq_avg_q6(mag[k], n);
     }
     out->temp_raw = (uint16_t)acq_avg(temp, n);
     out->temp_cc = adis_temp_centi_c(out->temp_raw);

@@ -99,16 +99,16 @@ static void raw_record(const probe_raw_t *r, uint8_t out[PROTO_RAW_LEN])
     uint8_t i;
     int32_t t = r->temp_cc;
     for (i = 0u; i < 3u; i++) {
-        be_put_u16(out + 2u * i, (uint16_t)r->acc[i]);
-        be_put_u32(out + 6u + 4u * i, (uint32_t)r->mag[i]);
+        be_put_u32(out + 4u * i, (uint32_t)r->acc[i]);
+        be_put_u32(out + 12u + 4u * i, (uint32_t)r->mag[i]);
     }
     if (t > 32767) {
         t = 32767;
     } else if (t < -32768) {
         t = -32768;
     }
-    be_put_u16(out + 18, (uint16_t)(int16_t)t);
-    out[20] = r->n;
+    be_put_u16(out + 24, (uint16_t)(int16_t)t);
+    out[26] = r->n;
 }
 
 static uint8_t a_survey_raw(uint8_t out[PROTO_SURVEY_RAW_LEN])

@@ -16,6 +16,16 @@ uint8_t corr_triad(const int32_t x[3], const corr_triad_t *c, int32_t out[3])
     return sat;
 }
 
+int32_t corr_in_acc(int32_t raw_q6)
+{
+    return raw_q6 * (int32_t)((uint32_t)1u << CORR_ACC_IN_SHIFT);
+}
+
+int32_t corr_in_mag(int32_t raw_q6)
+{
+    return raw_q6 * (int32_t)((uint32_t)1u << CORR_MAG_IN_SHIFT);
+}
+
 void corr_identity(corr_triad_t *c)
 {
     uint8_t i;

@@ -1,22 +1,32 @@
-/* survey.c - raw counts to attitude; contract in survey.h. */
+/* survey.c - raw readings to attitude; contract in survey.h. */
 #include "inclino/survey.h"
 #include "inclino/fx_ops.h"
 
-void survey_compute(const int16_t acc[3], const int32_t mag[3], const corr_cal_t *cal, survey_t *s)
+#define ACC_RANGE_Q6 ((int32_t)SURVEY_ACC_RANGE_COUNTS * CORR_IN_ONE)
+#define MAG_RANGE_Q6 (SURVEY_MAG_RANGE_COUNTS * CORR_IN_ONE)
+#define HALF_COUNT (CORR_IN_ONE / 2)
+
+void survey_compute(const int32_t acc[3], const int32_t mag[3], const corr_cal_t *cal, survey_t *s)
 {
     int32_t x[3];
     uint16_t flags = 0u;
     uint8_t i;
 
     for (i = 0u; i < 3u; i++) {
-        int16_t a = acc[i];
-        if (a > SURVEY_ACC_RANGE_COUNTS || a < -SURVEY_ACC_RANGE_COUNTS) {
+        int32_t a = acc[i];
+        if (a > ACC_RANGE_Q6 || a < -ACC_RANGE_Q6) {
             flags |= ATT_F_ACC_OVERRANGE;
         }
-        if (a == INT16_MAX || a == INT16_MIN) {
+        /* the mean rounds to the int16 rail: every sample saturated */
+        if (a >= CORR_ACC_RAW_MAX - HALF_COUNT || a < CORR_ACC_RAW_MIN + HALF_COUNT) {
             flags |= ATT_F_ACC_SATURATED;
         }
-        x[i] = (int32_t)a * (int32_t)((uint32_t)1u << CORR_ACC_IN_SHIFT);
+        if (a > CORR_ACC_RAW_MAX) {
+            a = CORR_ACC_RAW_MAX;
+        } else if (a < CORR_ACC_RAW_MIN) {
+            a = CORR_ACC_RAW_MIN;
+        }
+        x[i] = corr_in_acc(a);
     }
     if (corr_triad(x, &cal->acc, s->g) != 0u) {
         flags |= ATT_F_ARITH_SATURATED;
@@ -24,7 +34,7 @@ void survey_compute(const int16_t acc[3], const int32_t mag[3], const corr_cal_t
 
     for (i = 0u; i < 3u; i++) {
         int32_t m = mag[i];
-        if (m > SURVEY_MAG_RANGE_COUNTS || m < -SURVEY_MAG_RANGE_COUNTS) {
+        if (m > MAG_RANGE_Q6 || m < -MAG_RANGE_Q6) {
             flags |= ATT_F_MAG_OVERRANGE;
         }
         if (m >= CORR_MAG_RAW_MAX) {
@@ -34,7 +44,7 @@ void survey_compute(const int16_t acc[3], const int32_t mag[3], const corr_cal_t
             m = CORR_MAG_RAW_MIN;
             flags |= ATT_F_MAG_SATURATED;
         }
-        x[i] = m * (int32_t)((uint32_t)1u << CORR_MAG_IN_SHIFT);
+        x[i] = corr_in_mag(m);
     }
     if (corr_triad(x, &cal->mag, s->b) != 0u) {
         flags |= ATT_F_ARITH_SATURATED;

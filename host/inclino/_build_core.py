@@ -51,7 +51,7 @@ uint8_t corr_triad(const int32_t x[3], const corr_triad_t *c, int32_t out[3]);
 void corr_identity(corr_triad_t *c);
 int8_t att_norm3(const int32_t v[3], int32_t out[3]);
 void att_compute(const int32_t g[3], const int32_t b[3], att_t *a);
-void survey_compute(const int16_t acc[3], const int32_t mag[3], const corr_cal_t *cal, survey_t *s);
+void survey_compute(const int32_t acc[3], const int32_t mag[3], const corr_cal_t *cal, survey_t *s);
 typedef struct { int32_t gt_ref; int32_t gt_tol; int32_t bt_ref; int32_t bt_tol; int32_t dip_ref;
                  int32_t dip_tol; } qc_ref_t;
 uint8_t qc_check(const att_t *a, const qc_ref_t *r);

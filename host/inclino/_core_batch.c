@@ -75,7 +75,7 @@ void inc_batch_att(const int32_t *g, const int32_t *b, int32_t *out, size_t n)
     }
 }
 
-void inc_batch_survey(const int16_t *acc, const int32_t *mag, const corr_cal_t *cal, size_t ncal,
+void inc_batch_survey(const int32_t *acc, const int32_t *mag, const corr_cal_t *cal, size_t ncal,
                       int32_t *out, size_t n)
 {
     size_t i, k;

@@ -147,14 +147,15 @@ class AcceptResult:
 
     @staticmethod
     def load(path: str) -> "AcceptResult":
+        from inclino import safeio
+
+        d = safeio.load_json(path, "accept result")  # bounded: size, nesting, numbers
+        if not isinstance(d, dict):
+            raise DataError(f"{path} is not an accept result (inclino accept --save)")
         try:
-            with open(path, encoding="utf-8") as f:
-                d = json.load(f)
             return AcceptResult(**d)
-        except OSError as e:
-            raise DataError(f"cannot read {path}: {e.strerror}")
         except (ValueError, TypeError) as e:
-            raise DataError(f"{path} is not an accept result (inclino accept --save): {e}")
+            raise DataError(f"{path} is not an accept result (inclino accept --save): {str(e)[:80]}") from None
 
     # arrays over the points
     def errors(self, which: str):
@@ -278,7 +279,8 @@ def accept(link, table, grid: str = "li2021", cal=None, before: str = "auto", in
             win = read_stable(link, tol, max_reads if table.unattended else None)
             eb, ea = [], []
             for r in win:
-                raw_a, raw_m = list(r.acc), list(r.mag)
+                # the probe's Q6 means (the reading holds them / 64, exactly)
+                raw_a, raw_m = [round(v * 64) for v in r.acc], [round(v * 64) for v in r.mag]
                 b = core.survey_one(raw_a, raw_m, before_fc)
                 want = core.survey_one(raw_a, raw_m, after_fc)
                 got = {k: getattr(r.record, k) for k in keys}
@@ -476,11 +478,9 @@ def _cmd_accept(args) -> int:
 
 
 def _write(path: str, text: str) -> None:
-    try:
-        with open(path, "w", encoding="utf-8") as f:
-            f.write(text)
-    except OSError as e:
-        raise DataError(f"cannot write {path}: {e.strerror}")
+    from inclino import safeio
+
+    safeio.write_output(path, text)
 
 
 def add_parser(sub) -> None:

@@ -153,7 +153,7 @@ def procedure_steps(name: str, points: int = 36, d1: float = 30.0, azimuth: floa
 @dataclass
 class Reading:
     t_s: float
-    acc: tuple  # counts
+    acc: tuple  # counts (the probe's means: fractional, 1/64 count resolution)
     mag: tuple  # counts
     temp_c: float
     survey: dict  # the probe's survey of the same acquisition (units)
@@ -164,7 +164,7 @@ def read_once(link) -> Reading:
     from inclino import calops
 
     s, r = calops.survey_with_raw(link)
-    return Reading(s.t_ms / 1000.0, (r.ax, r.ay, r.az), (r.mx, r.my, r.mz), r.temp_centi_c / 100.0,
+    return Reading(s.t_ms / 1000.0, r.acc_counts, r.mag_counts, r.temp_centi_c / 100.0,
                    s.to_units(), s)
 
 
@@ -338,13 +338,16 @@ class AcquireResult:
 
 
 def _bar(total: int, desc: str, quiet: bool):
-    from inclino.progress_lines import bar   # a bar on a terminal, periodic lines off one
+    from inclino.progress import bar   # a bar on a terminal, periodic lines off one
 
     return bar(total, desc, unit="pos", quiet=quiet, leave=False, dynamic_ncols=True)
 
 
 class _RowWriter:
     def __init__(self, path: str, meta: dict):
+        from inclino import safeio
+
+        safeio.check_output(path)
         self.path = path
         self.part = path + ".part"
         try:
@@ -365,8 +368,19 @@ class _RowWriter:
         self.rows += 1
 
     def commit(self) -> None:
+        """The finished run goes to the output path through inclino.safeio
+        (atomic, never over a device or through a replaced symlink, the
+        target's permissions kept); the .part file is then removed."""
+        from inclino import safeio
+
         self.f.close()
-        os.replace(self.part, self.path)
+        try:
+            with open(self.part, "rb") as src:
+                data = src.read()
+        except OSError as e:
+            raise DataError(f"cannot read back {self.part}: {e.strerror}") from None
+        safeio.write_output(self.path, data)
+        os.unlink(self.part)
 
     def abort(self) -> None:
         try:
@@ -393,6 +407,8 @@ def acquire(link, procedure: str, out_path: str, table, *, points: int = 36, d1:
     meta.update({k: v for k, v in table.world().items() if k not in meta})
     meta["probe_serial"] = ident.serial
     meta["date"] = _dt.date.today().isoformat()
+    if average is not None:  # sensor samples behind each reading (a row averages one or more readings)
+        meta["samples_averaged"] = int(average)
     who = f"bench {table.spec}" if table.unattended else "operator"
     meta["source"] = (f"inclino acquire {procedure} ({who}; probe {ident.product} fw "
                       f"{'.'.join(map(str, ident.fw_version))}, {tol.reads} reads within {tol.acc_mg:g} mg "
@@ -498,6 +514,10 @@ def _cmd_acquire(args) -> int:
         raise DataError("--average must be within 1-64 samples")
     procedure_steps(args.procedure, points=args.points, d1=args.d1, azimuth=args.azimuth, step_deg=args.step)
     world = {"field_nT": args.field, "dip_deg": args.dip, "declination_deg": args.declination}
+    from inclino.dataset import check_meta
+
+    for key, opt in (("field_nT", "--field"), ("dip_deg", "--dip"), ("declination_deg", "--declination")):
+        check_meta(key, world[key], opt)  # the header's rule, before the port is opened
     table = open_table(args)
     try:
         with ProbeLink(args.port, baud=args.baud, timeout=args.timeout) as link:

@@ -53,7 +53,10 @@ def random_cals(rng, n: int) -> list[FixedCal]:
 
 def edge_vectors() -> tuple[np.ndarray, np.ndarray]:
     """Zero and full-scale inputs, over-range, axis-aligned poses, I = 0/90/180,
-    near-vertical, field nearly parallel to gravity, rails."""
+    near-vertical, field nearly parallel to gravity, rails; in whole counts,
+    then as the firmware's Q6 readings (x 64) with the fractions at each
+    threshold (one Q6 step and half a count either side of the rails and
+    range limits) and inputs beyond the int16 / int32 rails."""
     acc, mag = [], []
     rails_a = [0, 1, -1, 27853, -27853, 27854, -27854, 32767, -32768]
     rails_m = [0, 1, -1, 100000, -100000, 100001, -100001, 2**20 - 1, -(2**20), 2**20, -(2**20) - 1,
@@ -81,12 +84,30 @@ def edge_vectors() -> tuple[np.ndarray, np.ndarray]:
         for off in (0, 1, -1):
             acc.extend((a + off).clip(-32768, 32767).tolist())
             mag.extend((m - off).tolist())
-    return np.array(acc, dtype=np.int64).clip(-32768, 32767), np.array(mag, dtype=np.int64)
+    acc_q = np.array(acc, dtype=np.int64).clip(-32768, 32767) * golden.IN_ONE
+    mag_q = np.clip(np.array(mag, dtype=np.int64) * golden.IN_ONE, -(2**31), 2**31 - 1)
+    fa, fm = [], []
+    one, half = golden.IN_ONE, golden.IN_ONE // 2
+    for base in (27853 * one, 32767 * one, -32768 * one, 0):
+        for d in (-half - 1, -half, -half + 1, -1, 1, half - 1, half, half + 1):
+            fa.append(base + d)
+    fa += [2**31 - 1, -(2**31), 2**21, -(2**21) - 1]
+    for base in (100000 * one, (2**20 - 1) * one, -(2**20) * one, 0):
+        for d in (-half - 1, -half, -1, 1, half, half + 1):
+            fm.append(base + d)
+    fm += [2**31 - 1, -(2**31)]
+    ea, em = [], []
+    for x in fa:
+        for y in fm[::3]:
+            ea.append([x, -x // 3, 16384 * one + 1])
+            em.append([y, 7, -y // 5])
+    return np.concatenate([acc_q, np.array(ea, dtype=np.int64)]), np.concatenate([mag_q, np.array(em, dtype=np.int64)])
 
 
 def random_vectors(rng, n: int) -> tuple[np.ndarray, np.ndarray]:
-    """Half physically plausible readings of random poses and fields, half
-    uniformly random counts over the full input ranges."""
+    """Half physically plausible averaged readings of random poses and fields
+    (Q6 counts, fractions included), half uniformly random Q6 readings over
+    the full input ranges and beyond the rails."""
     h = n // 2
     inc = np.degrees(np.arccos(rng.uniform(-1, 1, h)))
     azi = rng.uniform(0, 360, h)
@@ -98,11 +119,11 @@ def random_vectors(rng, n: int) -> tuple[np.ndarray, np.ndarray]:
     bw = F[:, None] * np.stack([np.cos(d), np.zeros(h), np.sin(d)], -1)
     g = C[..., :, 2] * rng.uniform(0.8, 1.2, (h, 1))
     b = np.einsum("nij,nj->ni", C, bw)
-    acc1 = reference.quantise_acc(g + rng.normal(0, 0.01, (h, 3)))
-    mag1 = reference.quantise_mag(b + rng.normal(0, 300, (h, 3)))
+    acc1 = reference.readings_acc(g + rng.normal(0, 0.01, (h, 3)))
+    mag1 = reference.readings_mag(b + rng.normal(0, 300, (h, 3)))
     k = n - h
-    acc2 = rng.integers(-32768, 32768, (k, 3))
-    mag2 = rng.integers(-(2**23) - 1000, 2**23 + 1000, (k, 3))
+    acc2 = rng.integers(-(2**21) - 5000, 2**21 + 5000, (k, 3))
+    mag2 = rng.integers(-(2**29) - 1000, 2**29 + 1000, (k, 3))
     return np.concatenate([acc1, acc2]), np.concatenate([mag1, mag2])
 
 

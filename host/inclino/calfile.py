@@ -20,8 +20,6 @@ from __future__ import annotations
 
 import json
 import math
-import os
-import tempfile
 from dataclasses import asdict, dataclass, field
 
 import numpy as np
@@ -64,7 +62,7 @@ class Calibration:
         """Raise CalibrationError for a matrix that is not 3x3, not finite,
         singular or ill-conditioned, or out of the firmware's range."""
         for name in ("acc_m", "mag_m"):
-            m = np.asarray(getattr(self, name), dtype=float)
+            m = _array(getattr(self, name), name, "a finite 3x3 matrix")
             if m.shape != (3, 3) or not np.all(np.isfinite(m)):
                 raise CalibrationError(f"{name} must be a finite 3x3 matrix")
             c = np.linalg.cond(m)
@@ -73,7 +71,7 @@ class Calibration:
             if np.abs(m).max() >= M_LIMIT:
                 raise CalibrationError(f"{name} has an element beyond +-{M_LIMIT:g}")
         for name, lim in (("acc_b", ACC_B_LIMIT), ("mag_b", MAG_B_LIMIT)):
-            b = np.asarray(getattr(self, name), dtype=float)
+            b = _array(getattr(self, name), name, "3 finite numbers")
             if b.shape != (3,) or not np.all(np.isfinite(b)):
                 raise CalibrationError(f"{name} must be 3 finite numbers")
             if np.abs(b).max() >= lim:
@@ -108,36 +106,24 @@ class Calibration:
         d["fixed"] = asdict(self.to_fixed())
         return json.dumps(d, indent=2)
 
-    def save(self, path: str) -> None:
-        """Write CAL.json atomically: a temporary file in the same directory,
-        then a rename, so a failure never leaves a half-written file."""
+    def save(self, path: str, inputs=()) -> None:
+        """Write CAL.json through inclino.safeio: atomically (a temporary file
+        renamed into place, so a failure never leaves a half-written file),
+        never over one of `inputs`, readable like any other output file."""
+        from inclino import safeio
+
         text = self.to_json() + "\n"  # checks and quantises before any write
-        d = os.path.dirname(os.path.abspath(path))
-        try:
-            fd, tmp = tempfile.mkstemp(prefix=".cal-", suffix=".tmp", dir=d)
-        except OSError as e:
-            raise CalibrationError(f"cannot write {path}: {e.strerror}")
-        try:
-            with os.fdopen(fd, "w", encoding="utf-8") as f:
-                f.write(text)
-            os.replace(tmp, path)
-        except OSError as e:
-            try:
-                os.unlink(tmp)
-            except OSError:
-                pass
-            raise CalibrationError(f"cannot write {path}: {e.strerror}")
+        safeio.write_output(path, text, inputs)
 
     @staticmethod
     def from_json(text: str) -> "Calibration":
-        try:
-            d = json.loads(text)
-        except json.JSONDecodeError as e:
-            raise CalibrationError(f"calibration file is not valid JSON ({e.msg} at line {e.lineno})")
+        from inclino import safeio
+
+        d = safeio.parse_json(text, "calibration file", CalibrationError)
         if not isinstance(d, dict):
             raise CalibrationError("calibration file must hold a JSON object")
         if d.get("format") != FORMAT_VERSION:
-            raise CalibrationError(f"calibration format {d.get('format')!r} is not {FORMAT_VERSION}")
+            raise CalibrationError(f"calibration format {str(d.get('format'))[:20]!r} is not {FORMAT_VERSION}")
         try:
             cal = Calibration(
                 acc_m=[[float(v) for v in row] for row in d["acc_m"]],
@@ -149,24 +135,54 @@ class Calibration:
                 data=d.get("data") if isinstance(d.get("data"), dict) else None,
                 report=d.get("report") if isinstance(d.get("report"), dict) else None,
             )
-        except (KeyError, TypeError, ValueError) as e:
-            raise CalibrationError(f"calibration file lacks or mangles a coefficient ({e})")
+        except (KeyError, TypeError, ValueError, OverflowError) as e:
+            raise CalibrationError(f"calibration file lacks or mangles a coefficient ({_short(e)})") from None
         cal.check()
         if "fixed" in d:
             try:
-                fixed = FixedCal(**{k: tuple(int(v) for v in d["fixed"][k])
+                fixed = FixedCal(**{k: tuple(_fixed_int(v) for v in d["fixed"][k])
                                     for k in ("acc_m", "acc_b", "mag_m", "mag_b")})
-            except (KeyError, TypeError, ValueError) as e:
-                raise CalibrationError(f"calibration file's fixed-point image is mangled ({e})")
+            except (KeyError, TypeError, ValueError, OverflowError) as e:
+                raise CalibrationError(f"calibration file's fixed-point image is mangled ({_short(e)})") from None
             if fixed != cal.to_fixed():
                 raise CalibrationError("calibration file's fixed-point image does not match its float coefficients")
         return cal
 
     @staticmethod
     def load(path: str) -> "Calibration":
+        """Read CAL.json: at most safeio.MAX_JSON_BYTES of UTF-8 text (a BOM
+        is dropped); a binary, non-UTF-8, too deep or out-of-range file is one
+        CalibrationError line."""
+        from inclino import safeio
+
+        text = safeio.read_text(path, "calibration", error=CalibrationError)
         try:
-            with open(path, encoding="utf-8") as f:
-                text = f.read()
-        except OSError as e:
-            raise CalibrationError(f"cannot read calibration {path}: {e.strerror}")
-        return Calibration.from_json(text)
+            return Calibration.from_json(text)
+        except CalibrationError as e:
+            raise CalibrationError(f"{path}: {e}") from None
+
+
+def _array(value, name: str, what: str) -> np.ndarray:
+    """A coefficient as a float array; a ragged or non-numeric one is a
+    CalibrationError (never numpy's ValueError)."""
+    try:
+        return np.asarray(value, dtype=float)
+    except (TypeError, ValueError, OverflowError):
+        raise CalibrationError(f"{name} must be {what}") from None
+
+
+def _short(e: Exception) -> str:
+    t = str(e)
+    return t if len(t) <= 80 else t[:77] + "..."
+
+
+def _fixed_int(v) -> int:
+    """One coefficient of the fixed-point image: an integer (JSON integers
+    or a float with an integral value, within int32; 2.5 or "7" is refused)."""
+    if isinstance(v, float) and v.is_integer():
+        v = int(v)
+    if isinstance(v, bool) or not isinstance(v, int):
+        raise TypeError(f"{str(v)[:20]} is not an integer")
+    if not -2**31 <= v < 2**31:
+        raise ValueError(f"{str(v)[:20]} is beyond 32 bits")
+    return v

@@ -8,6 +8,7 @@ from __future__ import annotations
 
 import argparse
 import csv
+import json
 import sys
 
 import numpy as np
@@ -35,26 +36,29 @@ def _cmd_bitexact(args) -> int:
     return 0 if r.mismatches == 0 else 1
 
 
+ATTITUDE_CHUNK = 1 << 16  # rows computed and written at a time (bounded memory on a long run)
+
+
 def _cmd_attitude(args) -> int:
-    from inclino import dataset, engines
+    from inclino import dataset, engines, progress, safeio
     from inclino.calfile import Calibration
 
-    ds = dataset.read_raw(args.input)
-    cal = Calibration.load(args.cal) if args.cal else Calibration()
-    out = engines.run(ds.acc, ds.mag, cal, args.engine)
+    safeio.check_output(args.output, [args.input, args.cal])  # before any work
+    cal = Calibration.load(args.cal) if args.cal else Calibration()  # a refused file costs no reading
+    ds = dataset.read_raw(args.input, progress=True)
     cols = ["inc_deg", "azi_deg", "tf_deg", "gt_g", "bt_nT", "dip_deg", "flags", "mtf_deg"]
-    try:
-        f = open(args.output, "w", newline="", encoding="utf-8") if args.output != "-" else sys.stdout
-    except OSError as e:
-        raise DataError(f"cannot write {args.output}: {e.strerror}")
-    try:
+    with safeio.output_file(args.output, [args.input, args.cal]) as f, \
+            progress.bar(len(ds), f"attitude {args.input}", unit=" rows") as bar:
         w = csv.writer(f)
         w.writerow(cols)
-        for i in range(len(ds)):
-            w.writerow([int(out[c][i]) if c == "flags" else f"{float(out[c][i]):.6f}" for c in cols])
-    finally:
-        if f is not sys.stdout:
-            f.close()
+        acc, mag = ds.acc, ds.mag
+        for lo in range(0, len(ds), ATTITUDE_CHUNK):
+            hi = min(lo + ATTITUDE_CHUNK, len(ds))
+            out = engines.run(acc[lo:hi], mag[lo:hi], cal, args.engine)
+            text = {c: (out[c].astype(np.int64).astype(str) if c == "flags"
+                        else np.char.mod("%.6f", np.asarray(out[c], dtype=float))) for c in cols}
+            w.writerows(zip(*(text[c] for c in cols)))
+            bar.update(hi - lo)
     return 0
 
 
@@ -85,6 +89,12 @@ def _cmd_bench(args) -> int:
               f" vectors/s; per call: {r.per_call_vectors_per_s:,.0f} vectors/s"
               f" (cost ratio {r.per_call_to_batched_cost_ratio:.0f})")
         return 0
+    if args.what == "input":
+        from inclino import bench_input
+
+        r = bench_input.bench()
+        print(r.to_json() if args.json else bench_input.text(r))
+        return 0 if r.passed else 1
     if args.what == "diagnose":
         from inclino.diagnose.bench import bench_command
 
@@ -171,6 +181,9 @@ def _accuracy_text(r) -> str:
     for k, v in f.items():
         t = r.targets.get(k)
         lines.append(f"  {k:22s} {v:.6g}" + (f"   (target <= {t:g})" if t is not None else ""))
+    if r.averaging:
+        from inclino.bench_averaging import AveragingResult
+        lines += AveragingResult.from_json(json.dumps(r.averaging)).lines()
     lines.append("  verdict: " + ("pass" if r.passed else "FAIL"))
     return "\n".join(lines)
 
@@ -206,7 +219,7 @@ def build_parser() -> argparse.ArgumentParser:
 
     be = sub.add_parser("bench", help="benchmarks (figures, JSON with --json)")
     be.add_argument("what", choices=("accuracy", "speed", "mcu", "emulator", "link", "calibration", "diagnose",
-                                    "survey"))
+                                     "input", "survey"))
     be.add_argument("--json", action="store_true", help="print one JSON object")
     be.add_argument("--field", type=float, default=50000.0, help="accuracy: field total, nT")
     be.add_argument("--dip", type=float, default=60.0, help="accuracy: dip, degrees")
@@ -238,6 +251,10 @@ def main(argv: list[str] | None = None) -> int:
         return 130
     except BrokenPipeError:
         return 0
+    except MemoryError:  # one line, never a traceback (docs/cli.md: exit 2)
+        print("inclino: error: out of memory: the input is too large for this machine's memory limit",
+              file=sys.stderr)
+        return 2
 
 
 if __name__ == "__main__":  # pragma: no cover

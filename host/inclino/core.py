@@ -121,14 +121,13 @@ def att_compute(g, b):
 
 
 def survey(acc, mag, cal: FixedCal | list[FixedCal] | None = None):
-    """acc (n, 3) ADIS16210 counts, mag (n, 3) fluxgate counts -> dict of
+    """acc (n, 3) ADIS16210 readings, mag (n, 3) fluxgate readings, both in
+    Q6 counts (golden.IN_ONE = 64 per count; golden.to_q6) -> dict of
     int32 arrays: g (n, 3) Q27 g, b (n, 3) Q8 nT and ATT_COLS.  With a list
     of calibrations, vector i uses cal[i % len(cal)]."""
     cals = [FixedCal.identity()] if cal is None else (cal if isinstance(cal, list) else [cal])
-    acc_ = np.asarray(acc)
-    if acc_.size and (acc_.min() < -32768 or acc_.max() > 32767):
-        raise ValueError("accelerometer counts must fit int16")
-    a_, pa = _c(acc_, np.int16)
+    acc_ = np.clip(np.asarray(acc, dtype=np.int64), -(2**31), 2**31 - 1)
+    a_, pa = _c(acc_, np.int32)
     mag_ = np.clip(np.asarray(mag, dtype=np.int64), -(2**31), 2**31 - 1)
     m_, pm = _c(mag_, np.int32)
     n = a_.shape[0]
@@ -142,10 +141,10 @@ def survey(acc, mag, cal: FixedCal | list[FixedCal] | None = None):
 
 def survey_one(acc, mag, cal: FixedCal | None = None):
     """One survey through the firmware's own survey_compute (one C call per
-    vector: what the per-call speed figure measures)."""
+    vector: what the per-call speed figure measures).  acc, mag in Q6 counts."""
     c = _cal_struct([cal or FixedCal.identity()])
     s = ffi.new("survey_t *")
-    a = ffi.new("int16_t[3]", [int(v) for v in acc])
+    a = ffi.new("int32_t[3]", [int(v) for v in acc])
     m = ffi.new("int32_t[3]", [int(v) for v in mag])
     lib.survey_compute(a, m, c, s)
     att = s.att

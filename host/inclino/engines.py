@@ -4,8 +4,11 @@
 * golden:   the NumPy golden model (inclino.golden), same integers;
 * reference: float64 (inclino.reference), float coefficients, unquantised.
 
-The firmware and golden engines quantise the readings to sensor counts exactly
-as the ADIS16210 and the fluxgate ADC would (round to nearest, saturate).
+The firmware and golden engines take the readings as the probe's acquisition
+passes them to the correction: the mean with 6 fraction bits (Q6 counts,
+acquire.h acq_avg_q6; reference.readings_acc/_mag), saturated at the sensors'
+rails.  A reading that is a whole count (one sample) is passed exactly; an
+average of n samples keeps its resolution to 1/64 count.
 """
 from __future__ import annotations
 
@@ -56,8 +59,8 @@ def run(acc_g, mag_nT, cal: Calibration | None = None, engine: str = "firmware")
                "gt_g": a["gt"], "bt_nT": a["bt"], "dip_deg": a["dip"]}
         out["flags"] = reference_flags(acc_g, mag_nT, out)
         return out
-    acc = reference.quantise_acc(acc_g)
-    mag = reference.quantise_mag(mag_nT)
+    acc = reference.readings_acc(acc_g)
+    mag = reference.readings_mag(mag_nT)
     fc = cal.to_fixed()
     if engine == "firmware":
         return _from_fixed(core.survey(acc, mag, fc))

@@ -178,15 +178,11 @@ def reference_terms(which: str) -> list:
 
 
 def _write(path: str, text: str) -> None:
-    import os
+    """Through inclino.safeio: atomic, never over a device or a symlink's
+    place, the target's mode kept."""
+    from inclino import safeio
 
-    tmp = path + ".tmp"
-    try:
-        with open(tmp, "w", encoding="utf-8") as f:
-            f.write(text)
-        os.replace(tmp, path)
-    except OSError as e:
-        raise DataError(f"cannot write {path}: {e.strerror}")
+    safeio.write_output(path, text)
 
 
 # ---------------------------------------------------------------- weights

@@ -650,20 +650,17 @@ def _write_readback(fl: _Flasher, image: Image, path: str):
         bf.add_binary(fl.readback.get(r.addr, b""), address=r.addr)
     if image.entry != NO_ENTRY:
         bf.execution_start_address = image.entry
-    try:
-        with open(path, "w", encoding="ascii") as f:
-            f.write(bf.as_srec(number_of_data_bytes=32, address_length_bits=24))
-    except OSError as e:
-        raise DataError(f"cannot write {path}: {e.strerror}") from None
+    from inclino import safeio
+
+    safeio.write_output(path, bf.as_srec(number_of_data_bytes=32, address_length_bits=24), [image.path])
 
 
 # ---- the command ------------------------------------------------------------------------------
 def _tqdm_progress():
-    """One progress bar per phase on stderr (tqdm); off a terminal, a line
-    per phase at its start, every progress_lines.EVERY_S and at its end."""
-    from tqdm import tqdm
-
-    from inclino.progress_lines import LineProgress
+    """One progress bar per phase on stderr (inclino.progress: a bar on a
+    terminal; off one, a status line when a phase starts, every
+    INCLINO_PROGRESS_PERIOD seconds, and when it ends)."""
+    from inclino import progress
 
     bars = {}
 
@@ -673,11 +670,7 @@ def _tqdm_progress():
             for b in bars.values():
                 b.close()
             unit = "sector" if phase == "erase" else "B"
-            if sys.stderr.isatty():
-                bar = bars[phase] = tqdm(total=total, desc=phase, unit=unit, unit_scale=(unit == "B"),
-                                         leave=True, disable=None, file=sys.stderr)
-            else:   # periodic lines (a log, a CI job)
-                bar = bars[phase] = LineProgress(total, f"flash {phase}", unit)
+            bar = bars[phase] = progress.bar(total, f"flash {phase}", unit=unit, leave=True, delay=0)
         bar.update(done - bar.n)
 
     def close():
@@ -709,6 +702,10 @@ def _cmd_flash(args) -> int:
     check_link_options(args.baud, args.timeout)
     if not 1 <= args.attempts <= 10:
         raise DataError(f"--attempts {args.attempts}: whole flashes to start, 1-10")
+    if args.readback:
+        from inclino import safeio
+
+        safeio.check_output(args.readback, [args.image])  # before the probe is touched
     cb, close = (None, lambda: None) if args.json else _tqdm_progress()
     try:
         res = flash(args.port, args.image, progress=cb, attempts=args.attempts, run=not args.no_run,

@@ -41,10 +41,14 @@ FLAG_NAMES = {
 NEAR_VERTICAL_Q16 = 32768
 ACC_RANGE_COUNTS = 27853
 MAG_RANGE_COUNTS = 100000
-MAG_RAW_MAX = 2**20 - 1
-MAG_RAW_MIN = -(2**20)
-ACC_IN_SHIFT = 15
-MAG_IN_SHIFT = 10
+IN_FRAC_BITS = 6  # raw readings are Q6 counts (correct.h CORR_IN_FRAC_BITS)
+IN_ONE = 1 << IN_FRAC_BITS
+ACC_RAW_MAX = 32767 * IN_ONE
+ACC_RAW_MIN = -32768 * IN_ONE
+MAG_RAW_MAX = (2**20 - 1) * IN_ONE
+MAG_RAW_MIN = -(2**20) * IN_ONE
+ACC_IN_SHIFT = 9  # Q6 counts (2^-20 g) -> Q29 g
+MAG_IN_SHIFT = 4  # Q6 counts (2^-6 nT) -> Q10 nT
 M_ONE = 2**29
 ATAN_N = 256
 DIV_BITS = 20
@@ -315,20 +319,45 @@ def att_compute(g, b):
 
 
 # --------------------------------------------------------------- survey
+def to_q6(counts):
+    """Whole or fractional counts -> the firmware's Q6 readings, rounded half
+    up as acq_avg_q6 rounds a mean (floor(64 x + 1/2))."""
+    return np.floor(np.asarray(counts, dtype=float) * IN_ONE + 0.5).astype(np.int64)
+
+
+def acq_avg_q6(sum_, n):
+    """acquire.c acq_avg_q6: floor(64 sum / n + 1/2), exact in integers."""
+    s = _i64(sum_)
+    n = _i64(n)
+    return np.floor_divide(2 * IN_ONE * s + n, 2 * n)
+
+
+def corr_in_acc(raw_q6):
+    return _i64(raw_q6) << ACC_IN_SHIFT
+
+
+def corr_in_mag(raw_q6):
+    return _i64(raw_q6) << MAG_IN_SHIFT
+
+
 def survey_compute(acc, mag, cal_acc_m, cal_acc_b, cal_mag_m, cal_mag_b):
-    """acc: (n, 3) int16 counts; mag: (n, 3) int32 counts; coefficients as
-    int arrays (9,), (3,) broadcast over n.  Returns dict with g, b (n, 3)
-    and the att_compute keys."""
+    """acc: (n, 3) int Q6 accelerometer counts; mag: (n, 3) int Q6 fluxgate
+    counts (whole counts c are c * IN_ONE); coefficients as int arrays (9,),
+    (3,) broadcast over n.  Returns dict with g, b (n, 3) and the
+    att_compute keys."""
     acc = _i64(acc)
     mag = _i64(mag)
+    half = IN_ONE // 2
     flags = np.zeros(acc.shape[:-1], dtype=np.int64)
-    flags |= np.where((np.abs(acc) > ACC_RANGE_COUNTS).any(axis=-1), F_ACC_OVERRANGE, 0)
-    flags |= np.where(((acc == 32767) | (acc == -32768)).any(axis=-1), F_ACC_SATURATED, 0)
-    g, sa = corr_triad(acc << ACC_IN_SHIFT, cal_acc_m, cal_acc_b)
-    flags |= np.where((np.abs(mag) > MAG_RANGE_COUNTS).any(axis=-1), F_MAG_OVERRANGE, 0)
+    flags |= np.where((np.abs(acc) > ACC_RANGE_COUNTS * IN_ONE).any(axis=-1), F_ACC_OVERRANGE, 0)
+    flags |= np.where(((acc >= ACC_RAW_MAX - half) | (acc < ACC_RAW_MIN + half)).any(axis=-1),
+                      F_ACC_SATURATED, 0)
+    accc = np.clip(acc, ACC_RAW_MIN, ACC_RAW_MAX)
+    g, sa = corr_triad(corr_in_acc(accc), cal_acc_m, cal_acc_b)
+    flags |= np.where((np.abs(mag) > MAG_RANGE_COUNTS * IN_ONE).any(axis=-1), F_MAG_OVERRANGE, 0)
     flags |= np.where(((mag >= MAG_RAW_MAX) | (mag <= MAG_RAW_MIN)).any(axis=-1), F_MAG_SATURATED, 0)
     magc = np.clip(mag, MAG_RAW_MIN, MAG_RAW_MAX)
-    b, sm = corr_triad(magc << MAG_IN_SHIFT, cal_mag_m, cal_mag_b)
+    b, sm = corr_triad(corr_in_mag(magc), cal_mag_m, cal_mag_b)
     flags |= np.where(sa | sm, F_ARITH_SATURATED, 0)
     out = att_compute(g, b)
     out["flags"] = out["flags"] | flags

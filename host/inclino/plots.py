@@ -45,10 +45,10 @@ def _mkdir(d: str) -> None:
 
 
 def _save(fig, path: str) -> str:
+    from inclino import safeio
+
     try:
-        fig.savefig(path, dpi=110)
-    except OSError as e:
-        raise DataError(f"cannot write {path}: {e.strerror}")
+        safeio.save_figure(fig, path, dpi=110)
     finally:
         _plt().close(fig)
     return path

@@ -128,14 +128,10 @@ def write_las(path: str, recs: list[dict], probe: str = "", md: float | None = N
                                    ("dip_deg", "DIP", "deg", "magnetic dip"), ("flags", "FLAGS", "", "status flags"),
                                    ("qc", "QC", "", "QC bits, 0 = pass")):
         las.append_curve(mnem, np.array([r[key] for r in recs], dtype=float), unit=unit, descr=descr)
-    tmp = path + ".tmp"
-    try:
-        with open(tmp, "w") as f:
-            las.write(f, version=2.0)
-        import os
-        os.replace(tmp, path)
-    except OSError as e:
-        raise DataError(f"cannot write {path}: {e.strerror}")
+    from inclino import safeio
+
+    with safeio.output_file(path, newline=None) as f:
+        las.write(f, version=2.0)
 
 
 class _Progress:

@@ -165,6 +165,11 @@ class SurveyRecord:
 
 @dataclass
 class RawRecord:
+    """The acquisition's means as the correction sees them: ax..mz in Q6
+    counts (FRAC_BITS fraction bits: 64 per ADIS16210 count of 2^-14 g, 64
+    per fluxgate count of 1 nT; acquire.h acq_avg_q6).  `unpack` also reads
+    the 21-byte record of firmware that sent whole counts (i16 acc), whose
+    values it scales to Q6."""
     ax: int
     ay: int
     az: int
@@ -174,16 +179,31 @@ class RawRecord:
     temp_centi_c: int
     count: int
 
-    FMT = struct.Struct(">3h3ihB")
+    FRAC_BITS = 6
+    FMT = struct.Struct(">3i3ihB")
+    FMT_WHOLE = struct.Struct(">3h3ihB")  # before the Q6 readings
 
     def pack(self) -> bytes:
         return self.FMT.pack(*asdict(self).values())
 
     @classmethod
     def unpack(cls, data: bytes) -> "RawRecord":
+        if len(data) == cls.FMT_WHOLE.size:
+            v = list(cls.FMT_WHOLE.unpack(data))
+            return cls(*[x << cls.FRAC_BITS for x in v[:6]], *v[6:])
         if len(data) != cls.FMT.size:
             raise ValueError(f"raw record of {len(data)} bytes, expected {cls.FMT.size}")
         return cls(*cls.FMT.unpack(data))
+
+    @property
+    def acc_counts(self) -> tuple:
+        """The accelerometer means in (fractional) counts."""
+        return tuple(v / (1 << self.FRAC_BITS) for v in (self.ax, self.ay, self.az))
+
+    @property
+    def mag_counts(self) -> tuple:
+        """The fluxgate means in (fractional) counts."""
+        return tuple(v / (1 << self.FRAC_BITS) for v in (self.mx, self.my, self.mz))
 
 
 @dataclass

@@ -111,6 +111,21 @@ def quantise_mag(b):
     return np.clip(np.round(np.asarray(b) / MAG_LSB_NT), MAG_RAW_MIN, MAG_RAW_MAX).astype(np.int64)
 
 
+def readings_acc(g):
+    """The firmware's accelerometer readings for an averaged value in g: Q6
+    counts (golden.IN_ONE = 64 per count, acq_avg_q6's rounding, half up),
+    saturated to the int16 rails.  Whole counts give counts * 64 exactly."""
+    q = np.floor(np.asarray(g, dtype=float) / ACC_LSB_G * 64.0 + 0.5)
+    return np.clip(q, ACC_RAW_MIN * 64, ACC_RAW_MAX * 64).astype(np.int64)
+
+
+def readings_mag(b):
+    """The firmware's fluxgate readings for an averaged value in nT: Q6
+    counts, saturated to the 24-bit rails."""
+    q = np.floor(np.asarray(b, dtype=float) / MAG_LSB_NT * 64.0 + 0.5)
+    return np.clip(q, MAG_RAW_MIN * 64, MAG_RAW_MAX * 64).astype(np.int64)
+
+
 def angle_diff(a, b):
     """Signed smallest difference a - b in degrees, in (-180, 180]."""
     d = np.mod(np.asarray(a, dtype=float) - np.asarray(b, dtype=float) + 180.0, 360.0) - 180.0

@@ -140,6 +140,11 @@ def _show(g, v):
 def _cmd_trajectory(args) -> int:
     from inclino import wellpath as wp
 
+    from inclino import safeio
+
+    for out in (args.output, args.las):
+        if out:
+            safeio.check_output(out, args.input)  # never over a survey file it reads
     sv = wp.concat([wp.read_survey(p) for p in args.input])
     rf = _reference(args)
     tm = _tool_model(args, rf) if args.uncertainty else None

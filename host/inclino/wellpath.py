@@ -22,7 +22,6 @@ import csv
 import io
 import json
 import math
-import os
 from dataclasses import asdict, dataclass, field
 
 import numpy as np
@@ -428,18 +427,11 @@ def write_csv(tr: Trajectory, path: str) -> None:
 
 
 def _write(path: str, text: str) -> None:
-    if path == "-":
-        import sys
+    """Through inclino.safeio: '-' is stdout; atomic, never over a device or
+    a symlink's place, the target's mode kept."""
+    from inclino import safeio
 
-        sys.stdout.write(text)
-        return
-    tmp = path + ".tmp"
-    try:
-        with open(tmp, "w", encoding="utf-8", newline="") as f:
-            f.write(text)
-        os.replace(tmp, path)
-    except OSError as e:
-        raise DataError(f"cannot write {path}: {e.strerror}")
+    safeio.write_output(path, text)
 
 
 LAS_OUT = (("inc_deg", "INC", "deg", "inclination"), ("azi_mag_deg", "AZIM", "deg", "azimuth, magnetic north"),

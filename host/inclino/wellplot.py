@@ -90,6 +90,10 @@ def plot(rows, path: str, truth=None, title: str = "", scale: float | None = Non
     if title:
         fig.suptitle(title, fontsize=10)
     fig.tight_layout()
-    fig.savefig(path, dpi=110)
-    plt.close(fig)
+    from inclino import safeio
+
+    try:
+        safeio.save_figure(fig, path, dpi=110)
+    finally:
+        plt.close(fig)
     return path

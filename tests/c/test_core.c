@@ -115,7 +115,8 @@ static void test_math(void)
     CHECK(fx_div_frac_q20(0xFFFFFFFEu, 0xFFFFFFFFu) == (1u << 20), "div near 1 rounds up");
 }
 
-/* pose -> ideal counts, then the whole survey must give the pose back */
+/* pose -> ideal Q6 readings (an averaged acquisition), then the whole survey
+   must give the pose back */
 static void test_survey(void)
 {
     const double d2r = 3.14159265358979323846 / 180.0;
@@ -135,12 +136,12 @@ static void test_survey(void)
                 double v2[3] = {cos(I) * v1[0] - sin(I) * v1[2], v1[1], sin(I) * v1[0] + cos(I) * v1[2]};
                 double bb[3] = {cos(T) * v2[0] + sin(T) * v2[1], -sin(T) * v2[0] + cos(T) * v2[1], v2[2]};
                 double gg[3] = {cos(T) * -sin(I), -sin(T) * -sin(I), cos(I)};
-                int16_t acc[3];
+                int32_t acc[3];
                 int32_t mag[3];
                 int k;
                 for (k = 0; k < 3; k++) {
-                    acc[k] = (int16_t)lround(gg[k] * 16384.0);
-                    mag[k] = (int32_t)lround(bb[k]);
+                    acc[k] = (int32_t)lround(gg[k] * 16384.0 * CORR_IN_ONE);
+                    mag[k] = (int32_t)lround(bb[k] * CORR_IN_ONE);
                 }
                 survey_compute(acc, mag, &cal, &s);
                 if (fabs(s.att.inc / 65536.0 - inc) > worst_i) worst_i = fabs(s.att.inc / 65536.0 - inc);
@@ -164,15 +165,15 @@ static void test_survey(void)
     CHECK(worst_a < 0.05, "azimuth worst %g", worst_a);
     CHECK(worst_t < 0.05, "toolface worst %g", worst_t);
     {
-        int16_t acc[3] = {0, 0, 0};
+        int32_t acc[3] = {0, 0, 0};
         int32_t mag[3] = {0, 0, 0};
         survey_compute(acc, mag, &cal, &s);
         CHECK((s.att.flags & (ATT_F_ZERO_GRAVITY | ATT_F_ZERO_FIELD)) == (ATT_F_ZERO_GRAVITY | ATT_F_ZERO_FIELD),
               "zero flags");
     }
     {
-        int16_t acc[3] = {32767, -32768, 0};
-        int32_t mag[3] = {200000, 0, -(int32_t)0x7FFFFFFFL};
+        int32_t acc[3] = {32767L * CORR_IN_ONE, -32768L * CORR_IN_ONE, 0};
+        int32_t mag[3] = {200000L * CORR_IN_ONE, 0, -(int32_t)0x7FFFFFFFL};
         survey_compute(acc, mag, &cal, &s);
         CHECK((s.att.flags & ATT_F_ACC_SATURATED) && (s.att.flags & ATT_F_ACC_OVERRANGE) &&
                   (s.att.flags & ATT_F_MAG_SATURATED) && (s.att.flags & ATT_F_MAG_OVERRANGE),

@@ -84,7 +84,7 @@ def main(argv=None) -> int:
     if a.identity:
         from inclino.core import FixedCal
         fc = FixedCal.identity()
-    rec = mcu._records(b"V", (acc, ">i2"), (mag, ">i4"))[0]
+    rec = mcu._records(b"V", (acc, ">i4"), (mag, ">i4"))[0]
     data = mcu.enc_cal(fc) + bytes([rec[0] | mcu.TIMED]) + rec[1:] + b"E"
     with tempfile.TemporaryDirectory(prefix="inclino-sim-") as td:
         fin, fout = Path(td) / "in.bin", Path(td) / "out.bin"

@@ -9,7 +9,7 @@
  * and dip with atan2f/sqrtf, angles in degrees.  Same byte protocol as
  * firmware/port/s08/harness.c (simif.h), with
  *   'C' acc.m[9] acc.bias[3] (g) mag.m[9] mag.bias[3] (nT), IEEE float32
- *   'V' acc[3] (i16) mag[3] (i32) -> inc azi gtf mtf (deg) gt (g) bt (nT)
+ *   'V' acc[3] mag[3] (i32, Q6 counts) -> inc azi gtf mtf (deg) gt (g) bt (nT)
  *                                   dip (deg), float32, then flags (u16)
  *   'Z', 'E' and the timed bit 0x80 as in the harness.
  */
@@ -21,6 +21,7 @@
 #define TIMED 0x80u
 #define RAD2DEG 57.29577951308232f
 #define ACC_LSB_G (1.0f / 16384.0f)
+#define Q6_ONE 64L
 
 typedef union {
     float f;
@@ -38,7 +39,7 @@ typedef struct {
 } fsurvey_t;
 
 static ftriad_t cal_acc, cal_mag;
-static int16_t in_acc[3];
+static int32_t in_acc[3];
 static int32_t in_mag[3];
 static fsurvey_t out;
 static uint8_t timed;
@@ -77,7 +78,7 @@ static float wrap360(float a)
     return (a < 0.0f) ? a + 360.0f : a;
 }
 
-static void survey_float(const int16_t acc[3], const int32_t mag[3], fsurvey_t *s)
+static void survey_float(const int32_t acc[3], const int32_t mag[3], fsurvey_t *s)
 {
     float x[3], g[3], b[3];
     float h2, gt, bt, gdotb, cx, cy, cz;
@@ -85,29 +86,34 @@ static void survey_float(const int16_t acc[3], const int32_t mag[3], fsurvey_t *
     uint8_t i;
 
     for (i = 0u; i < 3u; i++) {
-        int16_t a = acc[i];
-        if (a > 27853 || a < -27853) {
+        int32_t a = acc[i];
+        if (a > 27853L * Q6_ONE || a < -27853L * Q6_ONE) {
             flags |= 0x0002u;
         }
-        if (a == INT16_MAX || a == INT16_MIN) {
+        if (a >= 32767L * Q6_ONE - Q6_ONE / 2 || a < -32768L * Q6_ONE + Q6_ONE / 2) {
             flags |= 0x0008u;
         }
-        x[i] = (float)a * ACC_LSB_G;
+        if (a > 32767L * Q6_ONE) {
+            a = 32767L * Q6_ONE;
+        } else if (a < -32768L * Q6_ONE) {
+            a = -32768L * Q6_ONE;
+        }
+        x[i] = (float)a * (ACC_LSB_G / (float)Q6_ONE);
     }
     correct(x, &cal_acc, g);
     for (i = 0u; i < 3u; i++) {
         int32_t m = mag[i];
-        if (m > 100000L || m < -100000L) {
+        if (m > 100000L * Q6_ONE || m < -100000L * Q6_ONE) {
             flags |= 0x0004u;
         }
-        if (m >= 0xFFFFFL) {
-            m = 0xFFFFFL;
+        if (m >= 0xFFFFFL * Q6_ONE) {
+            m = 0xFFFFFL * Q6_ONE;
             flags |= 0x0010u;
-        } else if (m <= -0xFFFFFL - 1) {
-            m = -0xFFFFFL - 1;
+        } else if (m <= (-0xFFFFFL - 1) * Q6_ONE) {
+            m = (-0xFFFFFL - 1) * Q6_ONE;
             flags |= 0x0010u;
         }
-        x[i] = (float)m;
+        x[i] = (float)m * (1.0f / (float)Q6_ONE);
     }
     correct(x, &cal_mag, b);
 
@@ -157,7 +163,7 @@ int main(void)
             break;
         case 'V':
             for (i = 0u; i < 3u; i++) {
-                in_acc[i] = (int16_t)sif_rd16();
+                in_acc[i] = (int32_t)sif_rd32();
             }
             for (i = 0u; i < 3u; i++) {
                 in_mag[i] = (int32_t)sif_rd32();

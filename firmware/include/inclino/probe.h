@@ -65,8 +65,8 @@
 #define PROBE_E_IMAGE 0x54u  /* calimg_parse refused the image: nothing written */
 
 typedef struct {
-    int16_t acc[3];  /* averaged ADIS16210 counts (2^-14 g) */
-    int32_t mag[3];  /* averaged fluxgate ADC counts (1 nT) */
+    int32_t acc[3];  /* mean ADIS16210 counts, Q6 (2^-20 g; acq_avg_q6) */
+    int32_t mag[3];  /* mean fluxgate ADC counts, Q6 (2^-6 nT) */
     int32_t temp_cc; /* temperature, 0.01 degC */
     uint8_t n;       /* samples averaged */
 } probe_raw_t;

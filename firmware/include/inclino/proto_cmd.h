@@ -45,7 +45,7 @@
 
 #define PROTO_IDENTITY_LEN 34u
 #define PROTO_SURVEY_LEN 36u
-#define PROTO_RAW_LEN 21u
+#define PROTO_RAW_LEN 27u /* i32 acc[3], mag[3] (Q6 counts), i16 temp, u8 n */
 #define PROTO_QCREF_LEN 24u
 #define PROTO_SURVEY_RAW_LEN (PROTO_SURVEY_LEN + PROTO_RAW_LEN)
 #define PROTO_BOOT_KEY 0x424F4F54UL

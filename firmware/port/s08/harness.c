@@ -14,7 +14,7 @@
  * overhead, measured with the empty command 'Z'.
  *
  *   'C' acc.m[9] acc.bias[3] mag.m[9] mag.bias[3] (i32)  -> nothing (load cal)
- *   'V' acc[3] (i16) mag[3] (i32)      -> survey_compute: g[3] b[3] inc azi gtf
+ *   'V' acc[3] mag[3] (i32, Q6 counts) -> survey_compute: g[3] b[3] inc azi gtf
  *                                         mtf gt bt dip (i32) flags (u16)
  *   'K' triad (u8: 0 acc, 1 mag) x[3]  -> corr_triad: out[3] (i32) sat (u8)
  *   'T' g[3] b[3] (i32)                -> att_compute: inc azi gtf mtf gt bt
@@ -81,7 +81,7 @@
 static corr_cal_t cal;
 static survey_t sv;
 static att_t at;
-static int16_t in_acc[3];
+static int32_t in_acc[3];
 static int32_t in_v[6];
 static int32_t out_v[3];
 static uint32_t in_u[2];
@@ -162,10 +162,7 @@ static void load_cal(void)
 static void do_survey(void)
 {
     uint8_t i;
-    for (i = 0u; i < 3u; i++) {
-        uint16_t u = sif_rd16();
-        in_acc[i] = (u <= 0x7FFFu) ? (int16_t)u : (int16_t)(-(int16_t)(~u & 0x7FFFu) - 1);
-    }
+    rd_vec(in_acc, 3u);
     rd_vec(in_v, 3u);
     mark();
     survey_compute(in_acc, in_v, &cal, &sv);

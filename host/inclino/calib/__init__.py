@@ -19,6 +19,9 @@ import time
 
 METHODS = ("joint", "ren2014", "li2021", "guo2009")
 DEFAULT_METHOD = "joint"
+# A longer run is thinned to every k-th row before the fit
+# (inclino.dataset.thin; peak memory about 12 kB per fitted row in joint)
+MAX_FIT_ROWS = 40_000
 
 __all__ = ["fit", "FitReport", "METHODS", "DEFAULT_METHOD"]
 
@@ -31,8 +34,11 @@ def __getattr__(name):
     raise AttributeError(name)
 
 
-def fit(ds, method: str = DEFAULT_METHOD, data_hash: dict | None = None, report: bool = True, **opts):
+def fit(ds, method: str = DEFAULT_METHOD, data_hash: dict | None = None, report: bool = True,
+        max_rows: int | None = MAX_FIT_ROWS, **opts):
     import numpy as np
+
+    from inclino.dataset import thin
 
     from inclino.errors import CalibrationError, DataError
 
@@ -44,6 +50,8 @@ def fit(ds, method: str = DEFAULT_METHOD, data_hash: dict | None = None, report:
     if len(ds) == 0:
         raise DataError("the dataset has no rows")
     mod = importlib.import_module(f"inclino.calib.{method}")
+    data_hash = data_hash or common.dataset_hash(ds)  # of every row, before thinning
+    ds, thinned = thin(ds, max_rows)
     t0 = time.perf_counter()
     try:
         with np.errstate(all="ignore"):
@@ -51,12 +59,14 @@ def fit(ds, method: str = DEFAULT_METHOD, data_hash: dict | None = None, report:
     except np.linalg.LinAlgError as e:
         raise CalibrationError(f"{method}: singular fit ({e})")
     elapsed = time.perf_counter() - t0
-    cal.data = data_hash or common.dataset_hash(ds)
+    cal.data = data_hash
     rep = None
     if report:
         refit = (lambda d: mod.fit(d, **opts)[0]) if "covariance" not in info else None
         with np.errstate(all="ignore"):
             rep = report_mod.build(ds, cal, method, info, refit, opts)
         rep.fit_time_s = elapsed
+        if thinned:
+            rep.notes.append(thinned)
         cal.report = rep.to_dict()
     return cal, rep

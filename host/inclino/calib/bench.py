@@ -62,7 +62,8 @@ MAG_NOISE_NT = 1.0
 PAPERS = {"ren2014": "azimuth within +-1.4 deg, tilt within +-0.1 deg (Ren 2014 Tables 1-2, a real probe)",
           "li2021": "azimuth RMS 0.82 deg, inclination RMS 0.06 deg (Li 2021 Tables 4-5, a real probe)"}
 TARGETS = {"joint_lowest_azi_rms": True, "ratio_to_best_paper_max": 0.5, "ratio_to_best_peer_max": 0.5,
-           "ratio_to_cramer_rao_max": 1.2}
+           "ratio_to_cramer_rao_max": 1.2, "achieved_to_predicted_median_band": [0.7, 1.4],
+           "field_prior_to_fresh_max": 1.5}
 
 
 @dataclass
@@ -76,6 +77,8 @@ class CalibrationBench:
     cramer_rao: dict = field(default_factory=dict)
     linear_probe: dict = field(default_factory=dict)
     peers: list = field(default_factory=list)
+    prediction: dict = field(default_factory=dict)  # bench_predict.prediction_ratios
+    field_prior: dict = field(default_factory=dict)  # bench_prior.field_prior_bench
     papers_measured: dict = field(default_factory=lambda: dict(PAPERS))
     targets: dict = field(default_factory=lambda: dict(TARGETS))
     met: dict = field(default_factory=dict)
@@ -332,7 +335,16 @@ def bench_calibration(n_runs: int = 100, seed: int = 100, include_peer: bool | N
         "ratio_to_cramer_rao": j / res.cramer_rao["azi_rms_deg"],
         "ratio_to_cramer_rao_ok": j / res.cramer_rao["azi_rms_deg"] <= TARGETS["ratio_to_cramer_rao_max"],
     }
+    from .bench_predict import prediction_ratios
+
+    res.prediction = prediction_ratios(s, n_runs, seed, TURNTABLE_SIGMA_DEG)
+    res.met["achieved_to_predicted_in_band"] = res.prediction["met"]
+    from .bench_prior import field_prior_bench
+
+    res.field_prior = field_prior_bench(n_probes=min(10, n_runs))
+    res.met["field_prior_within_1_5x_fresh"] = res.field_prior["met"]
     # every target must have been evaluated: no peer installed means the peer target is not shown met
     res.passed = bool(res.met["joint_lowest_azi_rms"] and res.met["ratio_to_best_paper_ok"]
-                      and res.met["ratio_to_cramer_rao_ok"] and res.met["ratio_to_best_peer_ok"] is True)
+                      and res.met["ratio_to_cramer_rao_ok"] and res.met["ratio_to_best_peer_ok"] is True
+                      and res.prediction["met"] and res.field_prior["met"])
     return res

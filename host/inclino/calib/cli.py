@@ -17,28 +17,44 @@ from inclino.errors import CalibrationError, DataError
 from . import DEFAULT_METHOD, METHODS
 
 
+MAX_BOOTSTRAP = 1000  # refits at most (each is a whole fit: a bound on the time a typo can cost)
+
+
 def calibrate_main(args) -> int:
-    from inclino import dataset
+    from inclino import dataset, progress, safeio
 
     from . import common, fit
 
-    ds = dataset.read_raw(args.input)
+    safeio.check_output(args.output, [args.input, getattr(args, "prior", None)])  # before any work
+    if getattr(args, "bootstrap", None) is not None and not 2 <= args.bootstrap <= MAX_BOOTSTRAP:
+        raise DataError(f"--bootstrap {args.bootstrap}: refits, 2-{MAX_BOOTSTRAP}")
+    ds = dataset.read_raw(args.input, progress=True)
     opts = {}
     if getattr(args, "no_poses", False):
         opts["use_poses"] = False
     if getattr(args, "prior", None):
         from inclino.calfile import Calibration
 
-        opts["prior"] = Calibration.load(args.prior)
+        try:
+            opts["prior"] = Calibration.load(args.prior)
+        except CalibrationError as e:  # the prior is an input: a bad one is bad input
+            raise DataError(f"--prior: {e}")
+        if args.method != "joint":
+            raise DataError("--prior is used by --method joint only")
+    if getattr(args, "mount_tolerance_deg", None) is not None:
+        if not (args.mount_tolerance_deg >= 0 and np.isfinite(args.mount_tolerance_deg)):
+            raise DataError("--mount-tolerance-deg must be a finite number >= 0")
+        opts["mount_tolerance_deg"] = args.mount_tolerance_deg
+    if getattr(args, "accept_mount_tolerance", False):
+        opts["accept_mount_tolerance"] = True
     if getattr(args, "bootstrap", None) is not None:
-        if args.bootstrap < 2:
-            raise DataError("--bootstrap must be >= 2")
         opts["bootstrap"] = args.bootstrap
     try:
-        cal, rep = fit(ds, args.method, data_hash=common.file_hash(args.input, ds), **opts)
+        with progress.phase(f"calibrate: {args.method} fit of {args.input}"):
+            cal, rep = fit(ds, args.method, data_hash=common.file_hash(args.input, ds), **opts)
     except (ArithmeticError, ValueError, np.linalg.LinAlgError) as e:  # one line, never a traceback
         raise CalibrationError(f"{args.method}: the fit failed ({type(e).__name__}: {e})")
-    cal.save(args.output)
+    cal.save(args.output, inputs=[args.input, getattr(args, "prior", None)])
     if args.json:
         print(json.dumps({"output": args.output, "method": cal.method, "probe_serial": cal.probe_serial,
                           "data": cal.data, "report": rep.to_dict()}, indent=2))
@@ -46,6 +62,9 @@ def calibrate_main(args) -> int:
         print(f"{args.output}: {cal.method} calibration of probe {cal.probe_serial or '(no serial)'} "
               f"from {args.input} (sha256 {cal.data['sha256'][:16]}...)")
         print(rep.summary())
+        for note in rep.notes:
+            if note.startswith(dataset.THIN_NOTE):
+                print(f"  note: {note}")
     return 0 if rep.passed else 1
 
 
@@ -58,7 +77,13 @@ def add_parser(subparsers):
     c.add_argument("--json", action="store_true", help="print the fit report as one JSON object")
     c.add_argument("--no-poses", action="store_true",
                    help="joint: ignore the pose columns (field recalibration from the invariants)")
-    c.add_argument("--prior", help="joint without poses: keep this calibration's body frame")
+    c.add_argument("--prior", help="joint without poses: take what the invariants cannot see (the common rotation "
+                                   "of the sensor block) from this turntable calibration of the same probe")
+    c.add_argument("--mount-tolerance-deg", type=float,
+                   help="joint without poses or prior: 1-sigma of the sensor block's unobservable rotation, per axis "
+                        "(default 0.3; docs/calibration.md)")
+    c.add_argument("--accept-mount-tolerance", action="store_true",
+                   help="joint without poses or prior: accept that tolerance (the verdict then judges the fit itself)")
     c.add_argument("--bootstrap", type=int, help="paper methods: refits for the uncertainty (default 40)")
     c.set_defaults(func=calibrate_main)
     return c

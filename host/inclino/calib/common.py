@@ -109,8 +109,11 @@ def dataset_hash(ds: RawDataset) -> dict:
 
 
 def file_hash(path: str, ds: RawDataset) -> dict:
+    h = hashlib.sha256()
     with open(path, "rb") as f:
-        digest = hashlib.sha256(f.read()).hexdigest()
+        for block in iter(lambda: f.read(1 << 20), b""):  # bounded memory on a long run
+            h.update(block)
+    digest = h.hexdigest()
     return {"sha256": digest, "of": "file bytes", "rows": len(ds)}
 
 

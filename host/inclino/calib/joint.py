@@ -459,11 +459,14 @@ def _polar_rotation(M):
     return R if np.linalg.det(R) > 0 else U @ np.diag([1, 1, -1]) @ Vt
 
 
-def _fit_invariants(ds, w, sa, sm, fix_dip, prior=None):
+def _fit_invariants(ds, w, sa, sm, fix_dip, prior=None, mount_tolerance_deg=None):
+    from . import field
+
     G, F = w["gravity_g"], w["field_nT"]
-    # the unobservable common rotation: none (accelerometer axes), or the
-    # prior calibration's accelerometer rotation (keeps its body frame)
-    R0 = np.eye(3) if prior is None else _polar_rotation(prior.acc_m)
+    # the unobservable common rotation is fixed by a convention here (M_a
+    # symmetric: the accelerometer's axes); with a prior it is then taken
+    # from the prior (field.align_to_prior), after the fit
+    R0 = np.eye(3)
     if len(ds) < MIN_ROWS_INVARIANTS:
         raise DataError(f"joint without poses needs >= {MIN_ROWS_INVARIANTS} readings in varied orientations; "
                         f"the data have {len(ds)}")
@@ -508,24 +511,48 @@ def _fit_invariants(ds, w, sa, sm, fix_dip, prior=None):
         T[24, 21] = 1.0
     cov = T @ cov_x @ T.T
     Ma, ba, Mm, bm, dip = _sym(x[0:6]) @ R0, x[6:9], x[9:18].reshape(3, 3), x[18:21], float(x[21])
-    return (Ma, ba, Mm, bm, dip), cov, {
-        "mode": "invariants", "s2": s2, "chi2": chi2, "dof": dof, "outliers": np.flatnonzero(~keep).tolist(),
-        "normal_matrix_cond": cond, "dip_fitted": not fix_dip,
-        "dip_sigma_deg": None if fix_dip else float(np.sqrt(cov[24, 24])),
-        "sigmas": {"acc_g": sa, "mag_nT": sm},
-        "gauge": ("no poses: the body frame is the accelerometer's axes (M_a symmetric)" if prior is None else
-                  "no poses: the body frame is the prior calibration's (M_a = S R_prior, S symmetric)")}
+    info = {"mode": "invariants", "s2": s2, "chi2": chi2, "dof": dof, "outliers": np.flatnonzero(~keep).tolist(),
+            "normal_matrix_cond": cond, "dip_fitted": not fix_dip,
+            "dip_sigma_deg": None if fix_dip else float(np.sqrt(cov[24, 24])),
+            "sigmas": {"acc_g": sa, "mag_nT": sm}, "unobservable": field.UNOBSERVABLE}
+    if prior is not None:
+        Q = field.align_to_prior(Ma, Mm, prior)
+        Ma, Mm = Q @ Ma, Q @ Mm
+        Tq = np.eye(cov.shape[0])
+        Tq[0:9, 0:9] = Tq[12:21, 12:21] = np.kron(Q, np.eye(3))
+        cov = Tq @ cov @ Tq.T
+        sig_rot, src = field.prior_rotation_sigma_rad(prior)
+        info["gauge"] = ("no poses: the common rotation is the prior calibration's (of the calibrations the "
+                         "invariants allow, the one closest to the prior)")
+        info["prior_rotation_change_deg"] = float(np.degrees(np.arccos(np.clip((np.trace(Q) - 1) / 2, -1, 1))))
+    else:
+        tol = field.DEFAULT_MOUNT_TOLERANCE_DEG if mount_tolerance_deg is None else float(mount_tolerance_deg)
+        sig_rot, src = np.full(3, np.radians(tol)), f"the stated mounting tolerance {tol:g} deg (1 sigma per axis)"
+        info["gauge"] = "no poses, no prior: the body frame is the accelerometer's axes (M_a symmetric)"
+        info["mount_tolerance_deg"] = tol
+    info["fit_covariance"] = cov[:24, :24].copy()  # without the unobservable rotation
+    cov = cov.copy()
+    cov[:24, :24] += field.rotation_cov(Ma, Mm, sig_rot)
+    info["rotation_sigma_deg"] = np.degrees(sig_rot).tolist()
+    info["rotation_sigma_source"] = src
+    return (Ma, ba, Mm, bm, dip), cov, info
 
 
 def fit(ds: RawDataset, use_poses: bool | None = None, sigma_acc: float = SIGMA_ACC,
         sigma_mag: float = SIGMA_MAG, sigma_pose_deg: float = SIGMA_POSE_DEG, fix_dip: bool = False,
-        prior=None, nonlinear: bool | None = None, **_):
+        prior=None, nonlinear: bool | None = None, mount_tolerance_deg: float | None = None,
+        accept_mount_tolerance: bool = False, **_):
     """prior: a Calibration whose body frame (accelerometer rotation) a
     fit without poses keeps; without it the accelerometer's axes are the
     body frame.  nonlinear (default: with poses): also fit each axis'
     second-order scale term as a nuisance parameter, then return the linear
     calibration that best represents the fitted probe over the working
-    range (info["nonlinear"] holds the model); False: the linear model."""
+    range (info["nonlinear"] holds the model); False: the linear model.
+    Without poses and without a prior the covariance includes the
+    unobservable common rotation with mount_tolerance_deg (1 sigma per axis,
+    default field.DEFAULT_MOUNT_TOLERANCE_DEG); accept_mount_tolerance
+    records that the user accepts it (the verdict then judges the fit's own
+    uncertainty; see calib/field.py and report._verdict)."""
     w = common.world_of(ds)
     if use_poses is None:
         use_poses = ds.has_pose
@@ -565,7 +592,17 @@ def fit(ds: RawDataset, use_poses: bool | None = None, sigma_acc: float = SIGMA_
     else:
         if nonlinear:
             raise DataError("joint: the scale nonlinearity is fitted only with turntable poses")
-        (Ma, ba, Mm, bm, dip), cov, info = _fit_invariants(ds, w, sigma_acc, sigma_mag, fix_dip, prior)
+        (Ma, ba, Mm, bm, dip), cov, info = _fit_invariants(ds, w, sigma_acc, sigma_mag, fix_dip, prior,
+                                                           mount_tolerance_deg)
+        info["prior"] = prior is not None
+        info["prior_calibration"] = prior  # for the report's prediction (not written anywhere)
+        info["accept_mount_tolerance"] = bool(accept_mount_tolerance)
+    prior_notes = []
+    if prior is not None and use_poses:
+        prior_notes.append("the prior calibration was not used: the poses determine every coefficient")
+    if prior is not None and prior.probe_serial and ds.meta.get("probe_serial") and \
+            str(prior.probe_serial) != str(ds.meta.get("probe_serial")):
+        prior_notes.append(f"the prior is of probe {prior.probe_serial}, the data of probe {ds.meta.get('probe_serial')}")
     cal = common.make_cal(Ma, ba, Mm, bm, "joint", ds)
     info.update({"rows_used": np.setdiff1d(np.arange(len(ds)), info["outliers"]), "covariance": cov[:24, :24],
                  "dip_deg": dip, "notes": [f"mode {info['mode']}; s^2 = {info['s2']:.3g} (chi^2/dof; 1 when the "
@@ -576,6 +613,7 @@ def fit(ds: RawDataset, use_poses: bool | None = None, sigma_acc: float = SIGMA_
                              "sensors; the covariance is scaled by s^2; `inclino diagnose` names the effect")
     if "notes_nonlinear" in info:
         info["notes"].append(info.pop("notes_nonlinear"))
+    info["notes"] += prior_notes
     if "nonlinear" in info:
         nlm = info["nonlinear"]
         info["notes"].append("scale nonlinearity fitted as nuisance: q_acc = "

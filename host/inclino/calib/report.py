@@ -16,10 +16,15 @@
   parametric bootstrap: the fit repeated on the same rows with the nominal
   noise (sensor sigma, turntable readout sigma) added, seeded.
 * quantisation -- the attitude lost to the firmware's fixed point, on the
-  calibration rows and the Li grid: by the coefficients' Q formats alone
-  (float64 with dequantised against float coefficients), and end to end
-  (firmware engine, C fixed point, against the float64 reference engine with
-  the same float coefficients).
+  calibration rows and the Li grid, kept apart from the input's resolution:
+  (a) the firmware's arithmetic -- the firmware engine (C, fixed point) against
+  float64 on identical inputs (the readings as the probe hands them to the
+  correction, Q6 counts) and the same float coefficients; the coefficients'
+  Q formats alone (float64 with dequantised against float coefficients);
+  (b) the input resolution at the run's averaging (`samples_averaged`): the
+  azimuth/inclination sigma on the Li grid from the sensors' 1-count steps
+  averaged over n samples (1/sqrt(12 n) count per axis) and the Q6 rounding,
+  reported, not judged (it is the probe's, not the calibration's).
 * verdict -- passed, and the reasons when not (thresholds in THRESHOLDS).
 """
 from __future__ import annotations
@@ -45,7 +50,7 @@ THRESHOLDS = {
     "dip_std_deg": 0.5,
     "predicted_azi_rms_deg": 0.25,  # 1-sigma, Li grid, from the coefficients' uncertainty
     "coef_quantisation_azi_max_deg": 0.002,  # Q29 M, Q29/Q10 b alone
-    "fw_quantisation_azi_max_deg": 0.02,  # whole firmware path (its own budget: docs/fixed-point.md)
+    "fw_quantisation_azi_max_deg": 0.02,  # firmware arithmetic on identical inputs (docs/fixed-point.md budget)
     "fw_quantisation_inc_max_deg": 0.01,
     "outlier_fraction": 0.1,
     "coverage_min_eig": 0.02,  # invariants only: directions must not lie in a plane
@@ -97,14 +102,33 @@ class FitReport:
         u = self.uncertainty
         if "predicted_azi_rms_deg" in u:
             lines.append(f"  uncertainty ({u.get('source', '')}): predicted azimuth RMS {u['predicted_azi_rms_deg']:.4f} deg, "
-                         f"inclination {u['predicted_inc_rms_deg']:.4f} deg over the Li grid")
+                         f"inclination {u['predicted_inc_rms_deg']:.4f} deg over the Li grid (the calibration's error: "
+                         f"coefficients and linear-model bias)")
+        pa = u.get("prediction_acceptance_grid")
+        if pa:
+            lines.append(f"  predicted on an acceptance of the Li grid with readings {pa['readings']}: azimuth RMS "
+                         f"{pa['azi_rms_deg']:.4f} deg, inclination {pa['inc_rms_deg']:.4f} deg (terms, azimuth: "
+                         + ", ".join(f"{k} {v:.4f}" for k, v in pa["terms_azi_rms_deg"].items()) + ")")
+        if u.get("unobservable"):
+            lines.append(f"  unobservable without poses: {u['unobservable']}; taken from "
+                         f"{'the prior calibration' if u.get('prior') else 'a convention (the accelerometer axes)'}, "
+                         f"1-sigma {', '.join('%.3g' % v for v in u.get('rotation_sigma_deg') or [])} deg "
+                         f"({u.get('rotation_sigma_source')}); the fit alone predicts azimuth RMS "
+                         f"{u.get('predicted_azi_rms_fit_only_deg', float('nan')):.4f} deg")
         c = self.coverage
         lines.append(f"  coverage: gravity {c.get('acc_cells', 0)}/26 cells (min eig {c.get('acc_min_eig', 0):.3f}), "
                      f"field {c.get('mag_cells', 0)}/26 (min eig {c.get('mag_min_eig', 0):.3f})")
         q = self.quantisation
         lines.append(f"  fixed point: coefficients cost azimuth max {q.get('coef_azi_max_deg', float('nan')):.2g} deg; "
-                     f"firmware vs float azimuth max {q.get('fw_azi_max_deg', float('nan')):.5f} deg, "
+                     f"firmware arithmetic vs float64 on identical inputs: azimuth max "
+                     f"{q.get('fw_azi_max_deg', float('nan')):.5f} deg, "
                      f"inclination max {q.get('fw_inc_max_deg', float('nan')):.5f} deg")
+        res = q.get("input_resolution")
+        if res:
+            n = res.get("samples_averaged")
+            lines.append(f"  input resolution at {'n = %g samples averaged' % n if n else 'n unknown (taken as 1)'}: "
+                         f"azimuth sigma RMS {res['azi_rms_deg']:.4f} deg (max {res['azi_max_deg']:.4f}) over the "
+                         f"Li grid, inclination {res['inc_rms_deg']:.5f} deg (the probe's, reported, not judged)")
         lines.append("  verdict: " + ("pass" if self.passed else "FAIL: " + "; ".join(self.reasons)))
         return "\n".join(lines)
 
@@ -218,32 +242,75 @@ def bootstrap_cov(ds: RawDataset, refit, rows, sigma_acc, sigma_mag, sigma_pose_
             vs.append(common.cal_vector(refit(RawDataset(cols, dict(base.meta)))))
         except Exception:  # a perturbed run the method cannot fit: counted below
             continue
-    if len(vs) < n // 2:
+    if len(vs) < max(2, n // 2):  # a covariance needs two refits at least
         return None, len(vs)
     return np.cov(np.array(vs).T), len(vs)
 
 
-def quantisation_loss(ds: RawDataset, cal: Calibration, w: dict, dip: float) -> dict:
-    """Two figures, on the calibration rows plus the Li grid:
-    coefficients -- float64 attitude with the coefficients as quantised
-    (dequantised back) against the float coefficients: what the Q formats
-    of M and b cost; firmware -- the firmware engine (C, fixed point, the
-    readings quantised to counts) against float64: the whole fixed-point
-    path, coefficients and arithmetic.  Azimuth where 5 <= I <= 175."""
+def probe_inputs(acc, mag):
+    """The readings as the firmware receives them (Q6 counts), back in g and
+    nT: the identical inputs for the float64 side of the arithmetic check."""
+    return ref.readings_acc(acc) / 64.0 * ref.ACC_LSB_G, ref.readings_mag(mag) / 64.0 * ref.MAG_LSB_NT
+
+
+def input_resolution(cal: Calibration, acc, mag, n_avg: float | None, inc_min: float = 1.0) -> dict:
+    """Azimuth/inclination sigma (RMS over the readings' poses) from the
+    input's resolution: each axis' mean of n whole-count samples carries a
+    rounding error of 1/sqrt(12 n) count once the noise dithers the counts
+    (uniform rounding, averaged), plus the Q6 rounding of the mean
+    (1/(64 sqrt 12) count).  n unknown: n = 1 (single samples, the worst
+    case), said so."""
+    n = float(n_avg) if n_avg else 1.0
+    s_cnt = np.sqrt(1.0 / (12.0 * n) + 1.0 / (12.0 * 64.0**2))
+    sig = np.array([ref.ACC_LSB_G] * 3 + [ref.MAG_LSB_NT] * 3) * s_cnt
+    X = np.concatenate([acc, mag], axis=1)
+    base = ref.attitude(ref.correct(X[:, :3], cal.acc_m, cal.acc_b), ref.correct(X[:, 3:], cal.mag_m, cal.mag_b))
+    va = np.zeros(len(X))
+    vi = np.zeros(len(X))
+    for k in range(6):
+        h = sig[k]
+        d = []
+        for s in (1, -1):
+            Y = X.copy()
+            Y[:, k] += s * h
+            d.append(ref.attitude(ref.correct(Y[:, :3], cal.acc_m, cal.acc_b),
+                                  ref.correct(Y[:, 3:], cal.mag_m, cal.mag_b)))
+        va += (ref.angle_diff(d[0]["azi"], d[1]["azi"]) / 2.0) ** 2
+        vi += ((d[0]["inc"] - d[1]["inc"]) / 2.0) ** 2
+    ok = (base["inc"] >= inc_min) & (base["inc"] <= 180.0 - inc_min)
+    return {"samples_averaged": n_avg, "assumed_n": n, "count_sigma": float(s_cnt),
+            "azi_rms_deg": float(np.sqrt(va[ok].mean())), "azi_max_deg": float(np.sqrt(va[ok].max())),
+            "inc_rms_deg": float(np.sqrt(vi.mean()))}
+
+
+def quantisation_loss(ds: RawDataset, cal: Calibration, w: dict, dip: float, n_avg=None) -> dict:
+    """On the calibration rows plus the Li grid:
+    coef -- float64 attitude with the coefficients as quantised (dequantised
+    back) against the float coefficients: what the Q formats of M and b cost;
+    fw -- the firmware engine (C, fixed point) against float64 on identical
+    inputs (the Q6 readings the correction receives) and the same float
+    coefficients: the firmware's arithmetic and coefficient formats, not the
+    input's rounding; fw_vs_unrounded -- the firmware against float64 on the
+    unrounded readings (adds the Q6 rounding of the means; for information);
+    input_resolution -- see input_resolution(), on the Li grid.  Azimuth
+    where 5 <= I <= 175."""
     (I, A, T), gacc, gmag = grid_readings(cal, w, dip)
     acc = np.concatenate([ds.acc, gacc])
     mag = np.concatenate([ds.mag, gmag])
-    fl = engines.run(acc, mag, cal, "reference")
-    dq = engines.run(acc, mag, Calibration.from_fixed(cal.to_fixed()), "reference")
-    fw = engines.run(acc, mag, cal, "firmware")
+    aq, mq = probe_inputs(acc, mag)
+    fl = engines.run(aq, mq, cal, "reference")
+    dq = engines.run(aq, mq, Calibration.from_fixed(cal.to_fixed()), "reference")
+    fw = engines.run(aq, mq, cal, "firmware")
+    fl_u = engines.run(acc, mag, cal, "reference")
     ok = (fl["inc_deg"] >= 5.0) & (fl["inc_deg"] <= 175.0)
     out = {"evaluated_on": f"{len(ds)} calibration rows + {len(I)} Li-grid poses"}
-    for name, o in (("coef", dq), ("fw", fw)):
-        di = np.abs(o["inc_deg"] - fl["inc_deg"])
-        da = np.abs(ref.angle_diff(o["azi_deg"], fl["azi_deg"]))[ok]
+    for name, o, base in (("coef", dq, fl), ("fw", fw, fl), ("fw_vs_unrounded", fw, fl_u)):
+        di = np.abs(o["inc_deg"] - base["inc_deg"])
+        da = np.abs(ref.angle_diff(o["azi_deg"], base["azi_deg"]))[ok]
         out[f"{name}_inc_max_deg"] = float(di.max())
         out[f"{name}_azi_max_deg"] = float(da.max())
         out[f"{name}_azi_rms_deg"] = _rms(da)
+    out["input_resolution"] = input_resolution(cal, gacc, gmag, n_avg)
     return out
 
 
@@ -281,18 +348,53 @@ def build(ds: RawDataset, cal: Calibration, method: str, info: dict, refit=None,
                                  n=int(opts.get("bootstrap", 40)))
         src = f"bootstrap of {nok} refits, nominal noise (acc {sa:g} g, mag {sm:g} nT, pose {sp:g} deg)"
     if cov is not None:
+        from .predict import predict
+
         sig = np.sqrt(np.clip(np.diag(cov), 0, None))
-        pa, pi = predicted_attitude_rms(cal, cov, w, dip)
+        from . import field
+        from .predict import GRID
+
+        nl = info.get("nonlinear")
+        bias, bias_name = None, "linear_model_bias"
+        prior = info.get("prior_calibration")
+        if info.get("mode") == "invariants" and prior is not None and field.nonlinear_model_of(prior):
+            # the prior's fitted nonlinearity through this (linear) field fit
+            bias = field.nonlinear_bias(field.nonlinear_model_of(prior), prior, cal, used.acc, used.mag, w, dip,
+                                        GRID, sa, sm)
+            bias_name = "prior_nonlinearity_bias"
+        p_cal = predict(cal, cov, w, dip, sa, sm, reading_noise=False, nonlinear=nl, bias=bias, bias_name=bias_name)
+        # acceptance: readings taken as the run's (the fit's noise model, scaled by its s^2 when it has one)
+        k = float(np.sqrt(info["s2"])) if info.get("s2") else 1.0
+        n_run = ds.meta.get("samples_averaged")
+        p_acc = predict(cal, cov, w, dip, k * sa, k * sm, n_avg=1, nonlinear=nl, resolution_n=n_run, bias=bias,
+                        bias_name=bias_name)
         rep.uncertainty = {"source": src, "sigma": dict(zip(common.PARAM_NAMES, sig.tolist())),
-                           "predicted_azi_rms_deg": pa, "predicted_inc_rms_deg": pi,
+                           "predicted_azi_rms_deg": p_cal.azi_rms_deg, "predicted_inc_rms_deg": p_cal.inc_rms_deg,
                            # the full 24x24 (PARAM_NAMES order): inclino toolmodel projects it onto ISCWSA terms
-                           "covariance": np.asarray(cov, float)[:24, :24].tolist()}
+                           "covariance": np.asarray(cov, float)[:24, :24].tolist(),
+                           "prediction_calibration_grid": p_cal.to_dict(),
+                           "prediction_acceptance_grid": {**p_acc.to_dict(), "readings": (
+                               f"as the run's: noise {k * sa:.3g} g, {k * sm:.3g} nT per reading (the fit's noise "
+                               f"model x sqrt(s^2) = {k:.3g}); input resolution at "
+                               f"{'n = %g' % n_run if n_run else 'n unknown, taken as 1'}")}}
         if info.get("dip_sigma_deg") is not None:
             rep.uncertainty["dip_deg"] = dip
             rep.uncertainty["dip_sigma_deg"] = info["dip_sigma_deg"]
+        if nl:  # the fitted nonlinear model, for a later field fit that takes this calibration as its prior
+            rep.uncertainty["nonlinear_model"] = {k: nl[k] for k in (
+                "model_acc_m", "model_acc_b", "model_mag_m", "model_mag_b", "acc_q_per_g", "mag_q_per_nT")}
+        if info.get("mode") == "invariants" and "unobservable" in info:
+            fa, fi = predicted_attitude_rms(cal, info["fit_covariance"], w, dip)
+            rep.uncertainty.update({
+                "unobservable": info["unobservable"], "prior": bool(info.get("prior")),
+                "rotation_sigma_deg": info.get("rotation_sigma_deg"),
+                "rotation_sigma_source": info.get("rotation_sigma_source"),
+                "mount_tolerance_deg": info.get("mount_tolerance_deg"),
+                "mount_tolerance_accepted": bool(info.get("accept_mount_tolerance")),
+                "predicted_azi_rms_fit_only_deg": fa, "predicted_inc_rms_fit_only_deg": fi})
     else:
         rep.uncertainty = {"source": "not available (the method could not be refitted on perturbed data)"}
-    rep.quantisation = quantisation_loss(used, cal, w, dip)
+    rep.quantisation = quantisation_loss(used, cal, w, dip, ds.meta.get("samples_averaged"))
     for k in ("s2", "chi2", "dof"):
         if k in info:
             rep.residuals[k] = info[k]
@@ -311,12 +413,26 @@ def _verdict(rep: FitReport, info: dict) -> None:
     over(r.get("acc_norm_rms_mg"), "acc_norm_rms_mg", "|g| residual RMS (mg)")
     over(r.get("mag_norm_rms_nT"), "mag_norm_rms_nT", "|b| residual RMS (nT)")
     over(r.get("dip_std_deg"), "dip_std_deg", "dip spread (deg)")
-    over(rep.uncertainty.get("predicted_azi_rms_deg"), "predicted_azi_rms_deg",
-         "coefficients poorly determined: predicted azimuth 1-sigma (deg)")
+    u = rep.uncertainty
+    if u.get("unobservable") and not u.get("prior"):
+        if not u.get("mount_tolerance_accepted"):
+            reasons.append(f"not fit for azimuth: without poses or a prior calibration nothing determines "
+                           f"{u['unobservable']}; with the "
+                           f"stated mounting tolerance {u.get('mount_tolerance_deg', float('nan')):g} deg (1 sigma per "
+                           f"axis) the predicted azimuth RMS is {u.get('predicted_azi_rms_deg', float('nan')):.3g} deg "
+                           f"(accept that tolerance with --accept-mount-tolerance, or give --prior CAL.json)")
+        else:
+            over(u.get("predicted_azi_rms_fit_only_deg"), "predicted_azi_rms_deg",
+                 "coefficients poorly determined: predicted azimuth 1-sigma, mounting tolerance accepted (deg)")
+    else:
+        over(u.get("predicted_azi_rms_deg"), "predicted_azi_rms_deg",
+             "coefficients poorly determined: predicted azimuth 1-sigma (deg)")
     q = rep.quantisation
     over(q.get("coef_azi_max_deg"), "coef_quantisation_azi_max_deg", "azimuth lost to coefficient quantisation (deg)")
-    over(q.get("fw_azi_max_deg"), "fw_quantisation_azi_max_deg", "firmware fixed-point azimuth loss (deg)")
-    over(q.get("fw_inc_max_deg"), "fw_quantisation_inc_max_deg", "firmware fixed-point inclination loss (deg)")
+    over(q.get("fw_azi_max_deg"), "fw_quantisation_azi_max_deg",
+         "firmware arithmetic azimuth loss on identical inputs (deg)")
+    over(q.get("fw_inc_max_deg"), "fw_quantisation_inc_max_deg",
+         "firmware arithmetic inclination loss on identical inputs (deg)")
     over(max(rep.conditioning["acc_m_cond"], rep.conditioning["mag_m_cond"]), "m_cond", "cond(M)")
     if rep.rows and len(rep.outliers) / rep.rows > t["outlier_fraction"]:
         reasons.append(f"{len(rep.outliers)} of {rep.rows} readings rejected as outliers")

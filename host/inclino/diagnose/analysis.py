@@ -59,12 +59,23 @@ def _rms_channels(R, chans):
     return float(np.sqrt(np.mean(R[:, chans] ** 2)))
 
 
+# A longer run is thinned to every k-th row first (inclino.dataset.thin;
+# peak memory about 11 kB per row)
+MAX_ROWS = 40_000
+
+
 def diagnose(ds: RawDataset, effects=None, alpha: float = core.DEFAULT_ALPHA, folds: int = core.DEFAULT_FOLDS,
              keep_plot_data: bool = False) -> Diagnosis:
     """Diagnose a raw dataset with turntable poses; raises DataError on bad
     input.  effects: names (list or comma-separated) to test, default all."""
+    from inclino.dataset import thin
+
+    ds, thinned = thin(ds, MAX_ROWS)
     with one_blas_thread():
-        return _diagnose(ds, effects, alpha, folds, keep_plot_data)
+        r = _diagnose(ds, effects, alpha, folds, keep_plot_data)
+    if thinned:
+        r.baseline.setdefault("selection", {}).setdefault("notes", []).append(thinned)
+    return r
 
 
 def _diagnose(ds, effects, alpha, folds, keep_plot_data) -> Diagnosis:

@@ -29,13 +29,13 @@ def diagnose_main(args) -> int:
         return 0
     if not args.input:
         raise DataError("diagnose needs a raw dataset (DATA.csv) or --paper li2021|ren2014")
-    from inclino import dataset
+    from inclino import dataset, progress
 
     from .analysis import diagnose
 
-    ds = dataset.read_raw(args.input)
+    ds = dataset.read_raw(args.input, progress=True)
     try:
-        with np.errstate(all="ignore"):
+        with np.errstate(all="ignore"), progress.phase(f"diagnose {args.input}"):
             r = diagnose(ds, effects=args.effects, alpha=args.alpha, folds=args.folds,
                          keep_plot_data=bool(args.plot))
     except (ArithmeticError, ValueError, np.linalg.LinAlgError) as e:  # one line, never a traceback

@@ -14,6 +14,8 @@ import io
 import os
 from importlib import resources
 
+from inclino import safeio
+
 NAMES = ("li2021_table2", "li2021_table4", "li2021_table5", "ren2014_table1", "ren2014_table2")
 
 
@@ -64,7 +66,6 @@ def write_tables(outdir: str) -> list:
     paths = []
     for name, t in TABLES.items():
         p = os.path.join(outdir, f"{name}.csv")
-        with open(p, "w", encoding="utf-8", newline="") as f:
-            f.write(f"# source={t['source']}\n# notes={t['notes']}\n{t['csv']}")
+        safeio.write_output(p, f"# source={t['source']}\n# notes={t['notes']}\n{t['csv']}")
         paths.append(p)
     return paths

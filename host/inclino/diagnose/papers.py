@@ -601,10 +601,10 @@ def write_plots(rep: PaperReport, outdir: str) -> list:
 
     def save(fig, name):
         p = os.path.join(outdir, name)
+        from inclino import safeio
+
         try:
-            fig.savefig(p, dpi=110)
-        except OSError as e:
-            raise DataError(f"cannot write {p}: {e.strerror}")
+            safeio.save_figure(fig, p, dpi=110)
         finally:
             plt.close(fig)
         paths.append(p)

@@ -31,10 +31,10 @@ def write(result, outdir: str) -> list:
 
     def save(fig, name):
         path = os.path.join(outdir, name)
+        from inclino import safeio
+
         try:
-            fig.savefig(path, dpi=110)
-        except OSError as e:
-            raise DataError(f"cannot write {path}: {e.strerror}")
+            safeio.save_figure(fig, path, dpi=110)
         finally:
             plt.close(fig)
         written.append(path)
