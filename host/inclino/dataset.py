@@ -68,6 +68,7 @@ RULES = {
     "azi_deg": (-360.0, 360.0),
     "tf_deg": (-360.0, 360.0),
     "temp_c": (-100.0, 300.0),
+    "samples_averaged": (1.0, 1_000_000.0),  # sensor samples per reading (acquire --average)
 }
 MAX_LINE_CHARS = 1 << 20  # a longer line is refused (bounded reading of a hostile file)
 CHUNK_ROWS = 1 << 16
