@@ -126,9 +126,12 @@ def test_bench_calibration_small():
     for k in ("joint", "ren2014", "li2021", "guo2009"):
         assert m[k]["runs"] == 1 and m[k]["azi_rms_deg"] > 0
     assert m["joint"]["azi_rms_deg"] < min(m[k]["azi_rms_deg"] for k in ("ren2014", "li2021", "guo2009"))
-    # one run's grid RMS scatters ~5x between seeds (docs/calibration.md): a sanity range only;
-    # seed 100 is a lucky one for the nonlinear joint (0.29x)
-    assert 0.1 < d["met"]["ratio_to_cramer_rao"] < 3.0
+    # one run's grid RMS scatters ~5x between seeds (docs/calibration.md; measured with n_runs=1,
+    # seeds 100-104: 0.29, 1.62, 0.61, 0.77, 0.84), so the band is not a physics check: the run is
+    # seeded (seed 100, a lucky one for the nonlinear joint), repeats bit for bit on this machine,
+    # and its measured ratio 0.292 is pinned within 5 % -- room for another NumPy/BLAS's rounding
+    # in the fits, far less than any change to the fit or to the bound moves it
+    assert d["met"]["ratio_to_cramer_rao"] == pytest.approx(0.2922, rel=0.05)
     fr = d["cramer_rao"]["firmware_representable"]
     assert fr["azi_rms_deg"] >= d["cramer_rao"]["azi_rms_deg"] and fr["azi_linear_bias_part_deg"] > 0
     assert d["papers_measured"]["li2021"].startswith("azimuth RMS 0.82")

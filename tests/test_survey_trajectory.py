@@ -320,7 +320,7 @@ def test_emulated_probe_survey_recovers_the_well_inside_its_ellipses():
     trajectory --uncertainty`: >= 90 % of the stations inside their 2-sigma
     ellipse over seeded runs; the printed declination is ppigrf's."""
     seeds = tuple(int(s) for s in RNG.integers(1, 1 << 20, 2))
-    r = sb.bench(seeds=seeds, fixed_toolface=False)
+    r = sb.bench(seeds=seeds, fixed_toolface=False, cli_main=cli.main)
     assert r.stations == 80
     assert r.inside_2sigma >= 0.9, r.to_json()
     assert r.declination_agrees, (r.declination_printed, r.declination_ppigrf)

@@ -49,23 +49,23 @@ error maps (errors_<grid>.png) and, with --circles, circles.png
 """
 from __future__ import annotations
 
-import json
 import math
 import sys
 import time
-from dataclasses import asdict, dataclass, field
+from dataclasses import dataclass
 
 import numpy as np
 
+from inclino.accept_result import AcceptResult, _clean  # noqa: F401 (the result type lives where plots can import it)
 from inclino.acquire import Step, Tolerance, _wrap, mean_row, read_stable
 from inclino.errors import DataError
+from inclino.golden import F_NEAR_VERTICAL as NEAR_VERTICAL  # the firmware's ATT_F_NEAR_VERTICAL
 
 GRIDS = ("li2021", "ren2014")
 LI_INC = (2.0, 5.0, 10.0, 20.0, 30.0, 40.0, 50.0, 60.0, 70.0, 80.0, 90.0)
 LI_AZI = (0.0, 60.0, 120.0, 180.0, 240.0, 300.0)
 REN_TILT = (3.0, 15.0, 30.0, 60.0, -3.0, -15.0, -30.0, -60.0)
 REN_AZI = (0.0, 45.0, 90.0, 135.0, 180.0, 225.0, 270.0, 315.0)
-NEAR_VERTICAL = 0x0001
 CIRCLE_STEP_DEG = 30.0
 DEFAULT_MAX_AZI_RMS = 0.5
 DEFAULT_MAX_INC_RMS = 0.1
@@ -118,67 +118,6 @@ def circle_steps() -> list[Step]:
     steps += [Step(90.0, float(x), 270.0, f"circle Y up {j + 1}/{n}") for j, x in enumerate(a)]
     steps += [Step(180.0, 0.0, float(x), f"circle Z up {j + 1}/{n}") for j, x in enumerate(a)]
     return steps
-
-
-# ---------------------------------------------------------------- result
-@dataclass
-class AcceptResult:
-    grid: str
-    probe_serial: int
-    before: str  # what the before column is
-    after: str
-    declination_deg: float
-    points: list = field(default_factory=list)
-    stats: dict = field(default_factory=dict)
-    surveys_checked: int = 0
-    survey_mismatches: list = field(default_factory=list)
-    limits: dict = field(default_factory=dict)
-    passed: bool = False
-    reasons: list = field(default_factory=list)
-    download: dict | None = None
-    before_cal: dict = field(default_factory=dict)  # float coefficients (dequantised), for the plots
-    after_cal: dict = field(default_factory=dict)
-    circles: list = field(default_factory=list)  # raw dataset rows of the horizontal circles
-    world: dict = field(default_factory=dict)
-    elapsed_s: float = 0.0
-
-    def to_json(self) -> str:
-        return json.dumps(_clean(asdict(self)), indent=2)
-
-    @staticmethod
-    def load(path: str) -> "AcceptResult":
-        from inclino import safeio
-
-        d = safeio.load_json(path, "accept result")  # bounded: size, nesting, numbers
-        if not isinstance(d, dict):
-            raise DataError(f"{path} is not an accept result (inclino accept --save)")
-        try:
-            return AcceptResult(**d)
-        except (ValueError, TypeError) as e:
-            raise DataError(f"{path} is not an accept result (inclino accept --save): {str(e)[:80]}") from None
-
-    # arrays over the points
-    def errors(self, which: str):
-        """(set_inc, set_azi, inc error, azi error (nan where undefined))."""
-        si = np.array([p["set_inc"] for p in self.points], float)
-        sa = np.array([p["set_azi"] for p in self.points], float)
-        ei = np.array([p[which]["inc_err"] for p in self.points], float)
-        ea = np.array([np.nan if p[which]["azi_err"] is None else p[which]["azi_err"] for p in self.points], float)
-        return si, sa, ei, ea
-
-
-def _clean(o):
-    if isinstance(o, dict):
-        return {str(k): _clean(v) for k, v in o.items()}
-    if isinstance(o, (list, tuple)):
-        return [_clean(v) for v in o]
-    if isinstance(o, (np.floating,)):
-        return float(o)
-    if isinstance(o, (np.integer,)):
-        return int(o)
-    if isinstance(o, float) and not math.isfinite(o):
-        return None
-    return o
 
 
 def _stats(ei, ea) -> dict:

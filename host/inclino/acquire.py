@@ -62,10 +62,9 @@ from dataclasses import dataclass, field
 
 from inclino.errors import DataError
 from inclino.link import ProbeError
+from inclino.reference import ACC_LSB_G, MAG_LSB_NT  # noqa: F401 (one place for the sensor scales)
 
 PROCEDURES = ("twelve-position", "multi-position", "continuous")
-ACC_LSB_G = 2.0 ** -14
-MAG_LSB_NT = 1.0
 COLUMNS = ("t_s", "inc_deg", "azi_deg", "tf_deg", "temp_c", "ax_g", "ay_g", "az_g", "mx_nT", "my_nT", "mz_nT")
 
 

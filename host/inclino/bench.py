@@ -13,6 +13,7 @@ import numpy as np
 
 from inclino import core, engines, golden, reference
 from inclino.calfile import Calibration
+from inclino.typical_probe import _raw_for, typical_calibration  # noqa: F401
 
 TARGETS = {
     "inc_max_deg": 0.01,
@@ -23,32 +24,12 @@ TARGETS = {
 }
 
 
-def typical_calibration(seed: int = 7) -> Calibration:
-    """A typical probe's coefficients: scale errors of a few percent,
-    misalignments of about a degree, accelerometer bias tens of mg,
-    fluxgate hard iron hundreds of nT.  Not round numbers, so that
-    coefficient quantisation is exercised."""
-    rng = np.random.default_rng(seed)
-    def m():
-        return (np.diag(1 + rng.uniform(-0.05, 0.05, 3)) + rng.uniform(-0.02, 0.02, (3, 3)) * (1 - np.eye(3)))
-    return Calibration(acc_m=m().tolist(), acc_b=rng.uniform(-0.03, 0.03, 3).tolist(),
-                       mag_m=m().tolist(), mag_b=rng.uniform(-800, 800, 3).tolist(), method="typical")
-
-
 def sphere_poses(inc_step=1.0, azi_step=5.0, tf_step=30.0):
     inc = np.arange(0.0, 180.0 + 1e-9, inc_step)
     azi = np.arange(0.0, 360.0, azi_step)
     tf = np.arange(0.0, 360.0, tf_step) + 7.0  # off the axes
     I, A, T = np.meshgrid(inc, azi, tf, indexing="ij")
     return I.ravel(), A.ravel(), T.ravel()
-
-
-def _raw_for(cal: Calibration, g_true, b_true):
-    """Readings an uncalibrated probe with these coefficients gives:
-    raw = M^-1 @ true + b (the inverse of the correction)."""
-    ga = g_true @ np.linalg.inv(np.asarray(cal.acc_m)).T + np.asarray(cal.acc_b)
-    bm = b_true @ np.linalg.inv(np.asarray(cal.mag_m)).T + np.asarray(cal.mag_b)
-    return ga, bm
 
 
 def _err_stats(a, b, inc_true):

@@ -84,7 +84,7 @@ def _rms_diff(a, b) -> float:
 def averaging_loss(incs=(2.0, 5.0, 10.0), navgs=(1, 16, 64), trials: int = 400, sigma_acc_g: float = 1.5e-4,
                    sigma_mag_nT: float = 1.0, seed: int = 5, field_nT: float = 50000.0,
                    dip_deg: float = 60.0) -> AveragingResult:
-    from inclino import bench
+    from inclino import typical_probe as bench
 
     cal = bench.typical_calibration()
     fc = cal.to_fixed()

@@ -102,7 +102,7 @@ def _cmd_bench(args) -> int:
     if args.what == "survey":
         from inclino.survey_bench import bench_command
 
-        return bench_command(args)
+        return bench_command(args, main)
     if args.what == "link":
         from inclino import bench_link
 

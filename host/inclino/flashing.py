@@ -33,14 +33,16 @@ from typing import Callable, Optional
 
 from inclino.errors import DataError, InclinoError
 from inclino.link import ProbeError, ProbeLink, ProbeNak
+from inclino.protocol import BOOT_KEY, CMD, ERRORS
 
 # ---- the bootloader's commands and codes (boot.h, docs/protocol.md) -------------------
 B_IDENTIFY, B_ERASE, B_PROGRAM, B_READ, B_CRC, B_COMMIT, B_RUN = range(0x40, 0x47)
-CMD_BOOTLOADER = 0x21
-CMD_IDENTIFY = 0x01
-CMD_STOP = 0x04
-BOOT_KEY = 0x424F4F54
-E_COMMAND, E_ARGUMENT, E_BUSY, E_FLASH, E_IMAGE, E_STATE, E_PROTECTED = 4, 5, 6, 8, 9, 11, 12
+CMD_BOOTLOADER = CMD["BOOTLOADER"]  # the application's commands and codes: protocol.py, one place
+CMD_IDENTIFY = CMD["IDENTIFY"]
+CMD_STOP = CMD["STOP"]
+_CODE = {name: code for code, name in ERRORS.items()}
+E_COMMAND, E_ARGUMENT, E_BUSY, E_FLASH, E_IMAGE, E_STATE, E_PROTECTED = (
+    _CODE[n] for n in ("E_COMMAND", "E_ARGUMENT", "E_BUSY", "E_FLASH", "E_IMAGE", "E_STATE", "E_PROTECTED"))
 APP_STATUS = {0: "valid", 1: "none (no commit record: empty, or a flash did not finish)",
               2: "descriptor header damaged", 3: "descriptor ranges invalid",
               4: "image CRC mismatch", 5: "flash unreadable"}

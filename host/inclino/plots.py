@@ -259,7 +259,7 @@ def _cmd_plot(args) -> int:
         cal = Calibration.load(args.cal)
         paths += run_figures(ds, cal, args.output)
     if args.accept:
-        from inclino.accept import AcceptResult
+        from inclino.accept_result import AcceptResult
 
         paths += accept_figures(AcceptResult.load(args.accept), args.output)
     for p in paths:

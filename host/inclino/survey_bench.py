@@ -115,12 +115,13 @@ def load_field(scen_path):
     return e.field_nT, e.dip_deg, e.declination_deg
 
 
-def _cli(*argv):
-    from inclino import cli
-
+def _cli(cli_main, *argv):
+    """Run one `inclino` command in-process through `cli_main` (inclino.cli.main,
+    passed in by the caller: the CLI dispatches this benchmark, so the
+    benchmark takes the command runner as a parameter instead of importing it)."""
     out, err = io.StringIO(), io.StringIO()
     with contextlib.redirect_stdout(out), contextlib.redirect_stderr(err):
-        rc = cli.main([str(a) for a in argv])
+        rc = cli_main([str(a) for a in argv])
     if rc != 0:
         raise RuntimeError(f"inclino {' '.join(map(str, argv))}: exit {rc}: {err.getvalue().strip()}")
     return out.getvalue()
@@ -141,7 +142,8 @@ def calibrate(scen_path: str, cal_path: str, seed: int):
     return cal
 
 
-def run_seed(seed: int, workdir: str, cal_path: str, scen_path: str, rng=None, fixed_toolface=None) -> dict:
+def run_seed(seed: int, workdir: str, cal_path: str, scen_path: str, rng=None, fixed_toolface=None, *,
+             cli_main) -> dict:
     from inclino import wellpath as wp
     from inclino_emu.control import ControlClient
     from inclino_emu.runner import Emulator
@@ -158,26 +160,27 @@ def run_seed(seed: int, workdir: str, cal_path: str, scen_path: str, rng=None, f
     emu = Emulator(scen_path, seed=seed, control_port=0, realtime=False).start()
     try:
         ctl = ControlClient(port=emu.control_port)
-        _cli("download", "--port", emu.path, cal_path, "--quiet")
+        _cli(cli_main, "download", "--port", emu.path, cal_path, "--quiet")
         ctl.call("move", inc=45.0, azi=float(rng.uniform(0, 360)), tf=float(rng.uniform(0, 360)))
-        _cli("survey", "--port", emu.path, "--format", "csv")  # settle (see below)
+        _cli(cli_main, "survey", "--port", emu.path, "--format", "csv")  # settle (see below)
         with open(noise_csv, "w", encoding="utf-8") as f:
-            f.write(_cli("survey", "--port", emu.path, "--count", 12, "--format", "csv"))
-        _cli("toolmodel", cal_path, "--noise", noise_csv, "--lat", LAT, "--lon", LON, "--date", DATE, "-o", tool)
+            f.write(_cli(cli_main, "survey", "--port", emu.path, "--count", 12, "--format", "csv"))
+        _cli(cli_main, "toolmodel", cal_path, "--noise", noise_csv, "--lat", LAT, "--lon", LON, "--date", DATE,
+             "-o", tool)
         parts = []
         for m, i in zip(md, inc):
             tf = float(rng.uniform(0, 360)) if fixed_toolface is None else float(fixed_toolface)
             ctl.call("move", inc=float(i), azi=w["azi_true_deg"], tf=tf)
             # the probe settles first: the ADIS16210's averaging and the ADS1256's filter still hold
             # readings from before the move, so the first survey after it is discarded (docs/survey.md)
-            _cli("survey", "--port", emu.path, "--format", "csv")
-            parts.append(_cli("survey", "--port", emu.path, "--md", m, "--format", "csv"))
+            _cli(cli_main, "survey", "--port", emu.path, "--format", "csv")
+            parts.append(_cli(cli_main, "survey", "--port", emu.path, "--md", m, "--format", "csv"))
         ctl.close()
     finally:
         emu.stop()
     with open(survey_csv, "w", encoding="utf-8") as f:
         f.write("".join(parts))
-    printed = _cli("trajectory", survey_csv, "--lat", LAT, "--lon", LON, "--date", DATE, "--uncertainty",
+    printed = _cli(cli_main, "trajectory", survey_csv, "--lat", LAT, "--lon", LON, "--date", DATE, "--uncertainty",
                    "--tool-model", tool, "--ref-terms", "none", "-o", traj)
     rows = wp.read_trajectory(traj)
     err = np.array([[float(r["north_m"]) - n, float(r["east_m"]) - e, float(r["tvd_m"]) - t]
@@ -224,7 +227,8 @@ def _tool_summary(path):
 
 
 def bench(seeds=tuple(range(1, 9)), workdir: str | None = None, plot: str | None = None,
-          fixed_toolface: bool = True) -> SurveyBench:
+          fixed_toolface: bool = True, *, cli_main) -> SurveyBench:
+    """`cli_main`: inclino.cli.main (the chain runs the commands a user runs)."""
     from inclino import geomag
 
     tmp = None
@@ -238,9 +242,9 @@ def bench(seeds=tuple(range(1, 9)), workdir: str | None = None, plot: str | None
         for s in seeds:
             cal = os.path.join(workdir, f"cal-{s}.json")
             calibrate(scen, cal, 1000 + s)
-            runs.append(run_seed(s, workdir, cal, scen))
+            runs.append(run_seed(s, workdir, cal, scen, cli_main=cli_main))
             if fixed_toolface:
-                fixed.append(run_seed(s, workdir, cal, scen, fixed_toolface=(37.0 * s) % 360.0))
+                fixed.append(run_seed(s, workdir, cal, scen, fixed_toolface=(37.0 * s) % 360.0, cli_main=cli_main))
         if plot:
             from inclino import wellplot, wellpath as wp
 
@@ -295,12 +299,12 @@ def text(r: SurveyBench) -> str:
     return "\n".join(lines)
 
 
-def bench_command(args) -> int:
+def bench_command(args, cli_main) -> int:
     """`inclino bench survey [--json] [--plot PNG]`: exit 0 when the targets are met, 1 when not."""
     from inclino.errors import InclinoError
 
     try:
-        r = bench(plot=args.plot)
+        r = bench(plot=args.plot, cli_main=cli_main)
     except RuntimeError as e:  # a step of the chain (emulator, a command) failed: its message, no traceback
         raise InclinoError(str(e))
     print(r.to_json() if args.json else text(r))

@@ -66,7 +66,7 @@ def _summary(ach, pre):
 
 
 def prediction_ratios(s, n_runs: int, seed0: int, sigma_pose_deg: float, n_avg: int = N_AVG) -> dict:
-    from . import bench as B
+    from . import bench_runs as B
 
     poses = B.calibration_poses()
     grid, ev = B.grid_truth(s)
@@ -110,7 +110,7 @@ def prediction_ratios(s, n_runs: int, seed0: int, sigma_pose_deg: float, n_avg: 
         except Exception:
             failed += 1
             continue
-        from .field import nonlinear_bias
+        from .fieldbias import nonlinear_bias
         from .predict import GRID
 
         bias = nonlinear_bias(nl, prior, fcal, fd.acc, fd.mag, w, finfo["dip_deg"], GRID, sa, sm) if nl else None

@@ -567,7 +567,7 @@ def fit(ds: RawDataset, use_poses: bool | None = None, sigma_acc: float = SIGMA_
             # the second-order terms only when the poses determine them: a run
             # that leaves them poorly determined (e.g. Guo's two rotations at one
             # azimuth) would trade a small bias for a large variance
-            from .report import predicted_attitude_rms
+            from .sensitivity import predicted_attitude_rms
             fits, errors = {}, []
             for nl in (True, False):
                 try:

@@ -102,7 +102,7 @@ def predict(cal: Calibration, cov, w: dict, dip: float, sigma_acc: float, sigma_
     g, f = ref.body_vectors(I, A, T, w["field_nT"], dip, 0.0, w["gravity_g"])
     acc = g @ np.linalg.inv(np.asarray(cal.acc_m)).T + np.asarray(cal.acc_b)
     mag = f @ np.linalg.inv(np.asarray(cal.mag_m)).T + np.asarray(cal.mag_b)
-    from .report import attitude_sensitivity
+    from .sensitivity import attitude_sensitivity
 
     terms_a, terms_i = {}, {}
     var_a = np.zeros(len(I))

@@ -40,7 +40,8 @@ from inclino.calfile import Calibration
 from inclino.dataset import RawDataset
 
 from . import common
-from .runs import li2021_grid
+from .runs import li2021_grid  # noqa: F401
+from .sensitivity import attitude_sensitivity, grid_readings, predicted_attitude_rms  # noqa: F401
 
 THRESHOLDS = {
     "inc_rms_deg": 0.1,  # residual on the calibration poses (Ren 2014: +-0.1 deg)
@@ -182,46 +183,6 @@ def residuals(ds: RawDataset, cal: Calibration, dip_deg=None) -> dict:
     return out
 
 
-def grid_readings(cal: Calibration, w: dict, dip: float, toolfaces=(0.0, 120.0, 240.0)):
-    """Noise-free raw readings a probe with exactly these coefficients gives
-    on the Li grid (raw = M^-1 true + b), quantised to sensor counts as the
-    parts would (so that the firmware and float engines see the same input)."""
-    I, A, T = li2021_grid(toolfaces)
-    g, f = ref.body_vectors(I, A, T, w["field_nT"], dip, 0.0, w["gravity_g"])
-    acc = g @ np.linalg.inv(np.asarray(cal.acc_m)).T + np.asarray(cal.acc_b)
-    mag = f @ np.linalg.inv(np.asarray(cal.mag_m)).T + np.asarray(cal.mag_b)
-    return (I, A, T), ref.quantise_acc(acc) * ref.ACC_LSB_G, ref.quantise_mag(mag) * ref.MAG_LSB_NT
-
-
-def attitude_sensitivity(cal: Calibration, acc, mag):
-    """d(azimuth, inclination)/d(24 coefficients) at the given raw readings
-    (deg per unit), by central differences."""
-    v0 = common.cal_vector(cal)
-    steps = np.where(np.arange(24) % 12 < 9, 1e-6, 0.0)
-    steps[9:12] = 1e-6  # g
-    steps[21:24] = 0.05  # nT
-    Ja, Ji = [], []
-    for k in range(24):
-        outs = []
-        for s in (1, -1):
-            v = v0.copy()
-            v[k] += s * steps[k]
-            c = common.cal_from_vector(v)
-            a = ref.attitude(ref.correct(acc, c.acc_m, c.acc_b), ref.correct(mag, c.mag_m, c.mag_b))
-            outs.append(a)
-        Ja.append(ref.angle_diff(outs[0]["azi"], outs[1]["azi"]) / (2 * steps[k]))
-        Ji.append((outs[0]["inc"] - outs[1]["inc"]) / (2 * steps[k]))
-    return np.array(Ja).T, np.array(Ji).T
-
-
-def predicted_attitude_rms(cal: Calibration, cov, w: dict, dip: float) -> tuple[float, float]:
-    _, acc, mag = grid_readings(cal, w, dip)
-    Ja, Ji = attitude_sensitivity(cal, acc, mag)
-    va = np.einsum("nk,kl,nl->n", Ja, cov, Ja)
-    vi = np.einsum("nk,kl,nl->n", Ji, cov, Ji)
-    return float(np.sqrt(va.mean())), float(np.sqrt(vi.mean()))
-
-
 def bootstrap_cov(ds: RawDataset, refit, rows, sigma_acc, sigma_mag, sigma_pose_deg, n=40, seed=12345):
     """Covariance of the 24 coefficients by refitting with the nominal noise
     added to the readings (and to the pose columns)."""
@@ -351,7 +312,7 @@ def build(ds: RawDataset, cal: Calibration, method: str, info: dict, refit=None,
         from .predict import predict
 
         sig = np.sqrt(np.clip(np.diag(cov), 0, None))
-        from . import field
+        from . import field, fieldbias
         from .predict import GRID
 
         nl = info.get("nonlinear")
@@ -359,8 +320,8 @@ def build(ds: RawDataset, cal: Calibration, method: str, info: dict, refit=None,
         prior = info.get("prior_calibration")
         if info.get("mode") == "invariants" and prior is not None and field.nonlinear_model_of(prior):
             # the prior's fitted nonlinearity through this (linear) field fit
-            bias = field.nonlinear_bias(field.nonlinear_model_of(prior), prior, cal, used.acc, used.mag, w, dip,
-                                        GRID, sa, sm)
+            bias = fieldbias.nonlinear_bias(field.nonlinear_model_of(prior), prior, cal, used.acc, used.mag, w, dip,
+                                            GRID, sa, sm)
             bias_name = "prior_nonlinearity_bias"
         p_cal = predict(cal, cov, w, dip, sa, sm, reading_noise=False, nonlinear=nl, bias=bias, bias_name=bias_name)
         # acceptance: readings taken as the run's (the fit's noise model, scaled by its s^2 when it has one)

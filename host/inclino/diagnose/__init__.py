@@ -10,9 +10,7 @@ that the `inclino` command, which registers `diagnose`, starts quickly.
 """
 from __future__ import annotations
 
-EFFECT_NAMES = ("temperature-bias", "temperature-scale", "scale-nonlinearity",
-                "turntable-inclination-offset", "turntable-azimuth-offset", "field-drift", "sample-skew",
-                "turntable-azimuth-axis-tilt", "turntable-inclination-axis-skew")
+from .names import EFFECT_NAMES  # one place: names.py (no SciPy loaded)
 
 __all__ = ["diagnose", "Diagnosis", "EFFECT_NAMES"]
 

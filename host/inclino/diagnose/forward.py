@@ -29,7 +29,7 @@ import numpy as np
 from inclino import reference as ref
 from inclino_emu.world import EncoderErrors, TurntableGeometry
 
-from .core import AXES, TRIADS
+from .names import AXES, TRIADS
 
 STEP = {"deg": 1e-3, "g/degC": 1e-6, "nT/degC": 1e-2, "ppm/degC": 1.0, "1/g": 1e-4, "1/nT": 1e-9,
         "nT/s": 1e-3, "s": 1e-4}

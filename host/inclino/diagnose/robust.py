@@ -8,7 +8,7 @@ Then, alternately: the rows whose whitened squared norm (6 channels, under
 the current noise model's 6x6 covariance) exceeds the chi-square point at
 p = OUTLIER_P / n (a Bonferroni bound: on Gaussian data the chance of
 flagging any row in a dataset is about OUTLIER_P) are set aside, and the
-noise model (core.fit_noise: sensor white noise per channel plus the
+noise model (noise.fit_noise: sensor white noise per channel plus the
 turntable readout error through the pose Jacobian, Gaussian maximum
 likelihood) is fitted to the other rows.  The mask is recomputed from every
 row each time, so a row set aside while a large effect was still unmodelled
@@ -20,7 +20,7 @@ from dataclasses import dataclass
 import numpy as np
 from scipy import stats
 
-from . import core
+from . import names, noise as core_noise
 
 OUTLIER_P = 1e-3
 MAX_OUTLIER_FRACTION = 0.2  # more than this: it is the noise, not outliers (heavy-tailed noise is kept)
@@ -58,7 +58,7 @@ def robust_noise(R, J, dof_frac, start=None, ml=True, iterations=ITERATIONS):
     outliers, the outliers judged under it."""
     if start is None:
         s0 = np.maximum(mad_sigma(R), 1e-12)
-        start = core.Noise(s0, np.full(3, 1e-6))
+        start = core_noise.Noise(s0, np.full(3, 1e-6))
         pre = True
     else:
         pre = False
@@ -68,7 +68,7 @@ def robust_noise(R, J, dof_frac, start=None, ml=True, iterations=ITERATIONS):
         keep = ~out
         if keep.sum() < 12:
             keep = np.ones(len(R), bool)
-        noise = core.fit_noise(R[keep], J[keep], dof_frac=dof_frac, start=None if (pre and it == 0) else noise,
+        noise = core_noise.fit_noise(R[keep], J[keep], dof_frac=dof_frac, start=None if (pre and it == 0) else noise,
                                ml=ml)
         new, _ = outlier_mask(R, noise, J)
         if np.array_equal(new, out):
@@ -94,6 +94,6 @@ def describe(mask, z, order) -> list:
     rows = []
     for i in np.flatnonzero(mask):
         k = int(np.argmax(np.abs(z[i])))
-        rows.append(OutlierRow(int(order[i]), core.CHANNELS[k], float(z[i, k]),
-                               {core.CHANNELS[j]: float(z[i, j]) for j in range(6) if abs(z[i, j]) >= 4.0}))
+        rows.append(OutlierRow(int(order[i]), names.CHANNELS[k], float(z[i, k]),
+                               {names.CHANNELS[j]: float(z[i, j]) for j in range(6) if abs(z[i, j]) >= 4.0}))
     return sorted(rows, key=lambda r: r.row)

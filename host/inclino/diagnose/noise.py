@@ -1,0 +1,123 @@
+"""The diagnosis' noise model: per-channel white sensor noise plus the
+turntable's pose readout error through the pose Jacobian, fitted to the
+residual products (method of moments, or maximum likelihood).
+
+Its own module so that core.py (the stepwise fit) and robust.py (outlier
+rejection, which refits the noise) both import it and not each other.
+"""
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+from scipy import optimize
+
+
+@dataclass
+class Noise:
+    sigma: np.ndarray  # (6,) per channel, raw units
+    sigma_pose: np.ndarray  # (3,) deg on inc, azi, tf
+
+    def row_cov(self, J) -> np.ndarray:
+        S = np.einsum("nik,k,njk->nij", J, self.sigma_pose ** 2, J)
+        S[:, range(6), range(6)] += self.sigma ** 2
+        return S
+
+    def whitener(self, J) -> np.ndarray:
+        L = np.linalg.cholesky(self.row_cov(J))
+        return np.linalg.inv(L)
+
+    def sensor_part(self, R, J) -> np.ndarray:
+        """R minus each row's turntable readout error, estimated from R by
+        its conditional mean given the noise model (P J^T Sigma^-1 r): the
+        error the probe makes against the pose it really sat at."""
+        S = self.row_cov(J)
+        u = np.linalg.solve(S, R[..., None])[..., 0]
+        delta = np.einsum("k,nik,ni->nk", self.sigma_pose ** 2, J, u)
+        return R - np.einsum("nik,nk->ni", J, delta)
+
+    def to_dict(self):
+        return {"acc_g": self.sigma[:3].tolist(), "mag_nT": self.sigma[3:].tolist(),
+                "pose_deg": {"inc": float(self.sigma_pose[0]), "azi": float(self.sigma_pose[1]),
+                             "tf": float(self.sigma_pose[2])}}
+
+
+_IU = np.triu_indices(6)
+SIGMA_FLOOR = np.array([1e-9] * 3 + [1e-5] * 3)  # g, nT
+
+
+def fit_noise(R: np.ndarray, J: np.ndarray, dof_frac: float = 1.0, start: "Noise | None" = None,
+              ml: bool = True) -> Noise:
+    """Variance components from the residuals R (n, 6): E[r r^T] =
+    diag(s_c^2) + J diag(p_k^2) J^T.  A method-of-moments start (non-negative
+    least squares on the 21 distinct products of every row, each pair scaled
+    by its typical size; or `start`), then Gaussian maximum likelihood."""
+    n = len(R)
+    scale = np.sqrt(np.maximum(np.mean(R ** 2, 0), 1e-300))
+    if start is not None:
+        v0, q0 = (start.sigma ** 2) * dof_frac, (start.sigma_pose ** 2) * dof_frac
+    else:
+        prod = (R[:, :, None] * R[:, None, :])[:, _IU[0], _IU[1]]  # (n, 21)
+        w = 1.0 / (scale[_IU[0]] * scale[_IU[1]])
+        X = np.zeros((n, 21, 9))
+        diag = _IU[0] == _IU[1]
+        for c in range(6):
+            X[:, np.flatnonzero(diag & (_IU[0] == c))[0], c] = 1.0
+        X[:, :, 6:] = J[:, _IU[0], :] * J[:, _IU[1], :]
+        A = (X * w[None, :, None]).reshape(-1, 9)
+        b = (prod * w[None, :]).ravel()
+        colscale = np.maximum(np.abs(A).max(0), 1e-300)
+        sol = np.linalg.lstsq(A / colscale, b, rcond=None)[0] / colscale  # a start: clipped below
+        # a moment estimate can be 0: start every sensor variance at least at
+        # a tenth of what the channel shows
+        v0 = np.maximum(sol[:6], (0.1 * scale) ** 2)
+        q0 = np.maximum(sol[6:], 1e-12)
+    if ml:
+        v, q = _ml_variances(R, J, v0, q0, scale)
+    else:
+        v, q = v0, q0
+    # a floor far below any sensor's noise, so that noise-free (simulated) data do not make the covariance singular
+    v = np.maximum(v, SIGMA_FLOOR ** 2)
+    return Noise(sigma=np.sqrt(v / dof_frac), sigma_pose=np.sqrt(q / dof_frac))
+
+
+def _ml_variances(R, J, v0, q0, scale):
+    """Gaussian maximum likelihood of the nine variance components (sensor
+    per channel, turntable per axis), L-BFGS on their logarithms with the
+    analytic gradient.  Each sensor variance is kept above (1e-3 x the
+    channel's residual RMS)^2 so that no channel gets an absurd weight."""
+    n = len(R)
+    lo = np.log(np.concatenate([(1e-3 * scale) ** 2, np.full(3, 1e-16)]))
+    Rs = R / scale  # work in units of each channel's RMS
+    Js = J / scale[None, :, None]
+
+    def nll(theta):
+        e = np.exp(theta)
+        v, q = e[:6] / scale ** 2, e[6:]
+        S = np.einsum("nik,k,njk->nij", Js, q, Js)
+        S[:, range(6), range(6)] += v
+        L = np.linalg.cholesky(S)
+        Si = np.linalg.inv(S)
+        u = np.einsum("nij,nj->ni", Si, Rs)
+        val = 2 * np.log(np.diagonal(L, axis1=1, axis2=2)).sum() + float((u * Rs).sum())
+        W = Si - u[:, :, None] * u[:, None, :]
+        gv = np.diagonal(W, axis1=1, axis2=2).sum(0) / scale ** 2
+        gq = np.einsum("nik,nij,njk->k", Js, W, Js)
+        grad = np.concatenate([gv, gq]) * e
+        return 0.5 * val / n, 0.5 * grad / n
+
+    theta0 = np.maximum(np.log(np.concatenate([v0, q0])), lo)
+    try:
+        hi = np.log(np.concatenate([(10.0 * scale) ** 2, np.full(3, 100.0)]))  # <= 10x the RMS; <= 10 deg
+        theta0 = np.minimum(theta0, hi)
+        res = optimize.minimize(nll, theta0, jac=True, method="L-BFGS-B",
+                                bounds=list(zip(lo, hi)), options={"maxiter": 200})
+        th = res.x
+    except np.linalg.LinAlgError:
+        th = theta0
+    e = np.exp(th)
+    return e[:6], e[6:]
+
+
+# --------------------------------------------------------------------------
+# the whitened linear model on Gram matrices
