@@ -6,9 +6,9 @@ hardware abstraction layer (firmware/include/inclino/hal.h) implemented as
 `extern "Python+C"` callbacks, which emulator/hal.py binds to the register
 models, the flash model and the SCI byte queues.
 
-Used by setup.py (cffi_modules).  Another firmware module (the SCI protocol)
-joins by adding its sources to FW_SOURCES and its declarations to
-EXTRA_CDEF / EXTRA_INCLUDES below.
+Used by setup.py (cffi_modules).  Another firmware module joins by adding
+its sources to firmware/sources.txt and its declarations to EXTRA_CDEF /
+EXTRA_INCLUDES below.
 """
 from __future__ import annotations
 
@@ -19,18 +19,27 @@ from cffi import FFI
 ROOT = pathlib.Path(__file__).resolve().parents[1]
 FW = ROOT / "firmware"
 
-CORE_SOURCES = ["fx_ops.c", "fx_math.c", "fx_atan_table.c", "correct.c", "attitude.c", "survey.c",
-                "qc.c", "crc16.c", "calimg.c"]
-APP_SOURCES = ["adis16210.c", "ads1256.c", "acquire.c", "calstore.c", "probe.c", "proto_frame.c",
-               "proto_cmd.c", "app_main.c"]
-# the serial bootloader (docs/bootloader.md): boot_select() / boot_main_* run it
-BOOT_SOURCES = ["boot.c", "boot_main.c"]
-FW_SOURCES = CORE_SOURCES + APP_SOURCES + BOOT_SOURCES
+
+
+def _fw_sources():
+    """firmware/sources.txt's reader (host/inclino/fw_sources.py), loaded by
+    path: this script runs before the packages are importable."""
+    import importlib.util
+    spec = importlib.util.spec_from_file_location("_inclino_fw_sources",
+                                                  ROOT / "host" / "inclino" / "fw_sources.py")
+    mod = importlib.util.module_from_spec(spec)
+    spec.loader.exec_module(mod)
+    return mod
+
+
+# the build "cffi_fw" of the one source manifest, firmware/sources.txt: the
+# core, the command layer, the application and the serial bootloader
+FW_SOURCES = _fw_sources().sources("cffi_fw", ROOT)
 
 INCLUDES = ["inclino/hal.h", "inclino/survey.h", "inclino/qc.h", "inclino/calimg.h",
             "inclino/crc16.h", "inclino/adis16210.h", "inclino/ads1256.h", "inclino/acquire.h",
             "inclino/calstore.h", "inclino/probe.h"]
-EXTRA_INCLUDES: list[str] = ["inclino/app_main.h", "inclino/boot.h", "inclino/boot_main.h"]
+EXTRA_INCLUDES: list[str] = ["inclino/app_main.h", "inclino/boot.h", "inclino/boot_main.h", "inclino/crc32.h"]
 EXTRA_CDEF = """
 /* app_main.h: the main loop (SCI protocol on top of probe.h) */
 uint8_t app_main_init(void);
@@ -44,7 +53,7 @@ uint8_t probe_cal_pending(uint8_t *slot, uint32_t *seq);
 typedef struct { uint32_t addr; uint32_t len; uint32_t crc; } boot_range_t;
 typedef struct { uint32_t entry; uint32_t total; uint32_t hdr_crc; uint8_t count;
                  boot_range_t range[8]; } boot_app_t;
-uint32_t boot_crc32(uint32_t crc, const uint8_t *data, uint16_t n);
+uint32_t crc32_update(uint32_t crc, const uint8_t *data, uint16_t n);
 uint8_t boot_crc32_flash(uint32_t addr, uint32_t len, uint32_t *crc);
 uint8_t boot_area(uint32_t addr, uint32_t len);
 uint16_t boot_desc_build(boot_app_t *app, uint8_t *out, uint8_t *commit);
@@ -162,7 +171,7 @@ ffibuilder.cdef(HAL_CDEF + APP_CDEF + EXTRA_CDEF)
 ffibuilder.set_source(
     "inclino_emu._fw",
     "".join(f'#include "{h}"\n' for h in INCLUDES + EXTRA_INCLUDES),
-    sources=[_rel(FW / "src" / s) for s in FW_SOURCES],
+    sources=[_rel(s) for s in FW_SOURCES],
     include_dirs=[_rel(FW / "include")],
     extra_compile_args=["-std=c99", "-O2", "-Wall", "-Wextra"],
 )

@@ -173,7 +173,7 @@ class EmulatedProbe:
         a = ffi.new("boot_app_t *")
         a.entry, a.count = FACTORY_APP_ADDR, 1
         a.range[0].addr, a.range[0].len = FACTORY_APP_ADDR, len(img)
-        a.range[0].crc = lib.boot_crc32(0, img, len(img))
+        a.range[0].crc = lib.crc32_update(0, img, len(img))
         hdr, commit = ffi.new("uint8_t[120]"), ffi.new("uint8_t[8]")
         n_hdr = lib.boot_desc_build(a, hdr, commit)
         self.flash.load(FACTORY_APP_ADDR, img)

@@ -12,7 +12,7 @@ import subprocess
 import pytest
 
 ROOT = pathlib.Path(__file__).resolve().parents[1]
-SOURCES = ["proto_frame.c", "proto_cmd.c", "crc16.c", "calimg.c"]
+SOURCES = ["proto_frame.c", "proto_dispatch.c", "proto_cmd.c", "crc16.c", "calimg.c"]
 RUNS = 200_000
 
 
@@ -62,7 +62,7 @@ def test_fuzz_bounded_run(tmp_path):
 
 
 # ---- the bootloader (tests/fuzz/fuzz_boot.c) --------------------------------------------
-BOOT_SOURCES = ["boot.c", "crc16.c", "proto_frame.c"]
+BOOT_SOURCES = ["boot.c", "crc16.c", "crc32.c", "id_record.c", "proto_frame.c", "proto_dispatch.c"]
 BOOT_RUNS = 60_000
 
 

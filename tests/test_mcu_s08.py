@@ -11,7 +11,7 @@ import pathlib
 import numpy as np
 import pytest
 
-from inclino import bitexact, golden, mcu
+from inclino import bitexact, fw_sources, golden, mcu
 
 if mcu.tools_missing():
     pytest.skip(mcu.MISSING_REASON, allow_module_level=True)
@@ -205,8 +205,10 @@ def test_build_refuses_helper_libraries_with_stack_auto(tmp_path):
     import shutil
     shutil.copytree(root / "firmware" / "include", src / "include")
     shutil.copytree(root / "firmware" / "port", src / "port")
-    for f in mcu.CORE_SOURCES:
-        shutil.copy(root / "firmware" / "src" / f, src / "src" / f)
+    shutil.copy(root / "firmware" / "sources.txt", src / "sources.txt")
+    for f in fw_sources.sources("s08_core", root):
+        if f.parent.name == "src":
+            shutil.copy(f, src / "src" / f.name)
     with open(src / "src" / "survey.c", "a") as fh:
         fh.write("\nint32_t survey_mul_for_test(int32_t a, int32_t b) { return a * b; }\n")
     with pytest.raises(mcu.McuError, match="helper modules"):

@@ -10,36 +10,18 @@
 #include "inclino/probe.h"
 #include "inclino/proto_cmd.h"
 #include "inclino/text_fmt.h"
+#include "inclino/tx_queue.h"
 
 static proto_t proto;
-static uint8_t txq[APP_TX_QUEUE];
-static uint16_t tx_head, tx_len;
-static uint32_t tx_dropped;
+static uint8_t txq_buf[APP_TX_QUEUE];
+static tx_queue_t txq;
 static uint32_t last_rx_ms;
 static uint8_t restart;
-
-/* ------------------------------------------------------------ byte helpers */
 
 /* ------------------------------------------------------------ transmit queue */
 static void send(const uint8_t *data, uint16_t n)
 {
-    uint16_t i;
-    if ((uint16_t)(APP_TX_QUEUE - tx_len) < n) {
-        tx_dropped += n; /* whole answers or nothing: never half a frame */
-        return;
-    }
-    for (i = 0u; i < n; i++) {
-        txq[(uint16_t)(tx_head + tx_len) % APP_TX_QUEUE] = data[i];
-        tx_len++;
-    }
-}
-
-static void tx_drain(void)
-{
-    while (tx_len != 0u && hal_sci_putc(txq[tx_head]) != 0u) {
-        tx_head = (uint16_t)((tx_head + 1u) % APP_TX_QUEUE);
-        tx_len--;
-    }
+    tx_queue_put(&txq, data, n);
 }
 
 /* ------------------------------------------------------------ records */
@@ -70,8 +52,7 @@ static uint8_t a_identity(uint8_t out[PROTO_IDENTITY_LEN])
     for (i = 0u; i < (uint8_t)(sizeof prod - 1u); i++) {
         out[i] = (uint8_t)prod[i];
     }
-    out[16] = (uint8_t)(id.fw_version >> 8);
-    out[17] = (uint8_t)id.fw_version;
+    be_put_u16(out + 16, id.fw_version);
     out[18] = 0u;
     out[19] = PROTO_VERSION;
     be_put_u32(out + 20, id.serial);
@@ -354,9 +335,7 @@ uint8_t app_main_init(void)
     hal_init();
     st = probe_init();
     proto_init(&proto, &app);
-    tx_head = 0u;
-    tx_len = 0u;
-    tx_dropped = 0u;
+    tx_queue_init(&txq, txq_buf, (uint16_t)APP_TX_QUEUE);
     restart = 0u;
     last_rx_ms = hal_millis();
     return st;
@@ -380,18 +359,18 @@ void app_main_poll(void)
         proto_idle(&proto);
         last_rx_ms = now;
     }
-    if (tx_len < APP_TX_QUEUE / 2u) { /* keep the stream from outrunning the line */
+    if (txq.len < APP_TX_QUEUE / 2u) { /* keep the stream from outrunning the line */
         proto_tick(&proto, now);
     }
-    tx_drain();
+    tx_queue_drain(&txq);
 }
 
 uint32_t app_main_tx_dropped(void)
 {
-    return tx_dropped;
+    return txq.dropped;
 }
 
 uint8_t app_main_restart_requested(void)
 {
-    return (tx_len == 0u) ? restart : 0u; /* only once the answer has gone out */
+    return (txq.len == 0u) ? restart : 0u; /* only once the answer has gone out */
 }

@@ -2,36 +2,18 @@
  * power-cut argument in docs/bootloader.md, commands in docs/protocol.md. */
 #include "inclino/boot.h"
 #include "inclino/be_bytes.h"
-#include "inclino/crc16.h"
+#include "inclino/crc32.h"
 #include "inclino/hal.h"
-#include "inclino/probe.h"
+#include "inclino/id_record.h"
 #include "inclino/proto_cmd.h"
+#include "inclino/proto_dispatch.h"
 #include "inclino/text_fmt.h"
 
 #define CHUNK 128u    /* bytes per flash read */
 #define TEXT_MAX 64u  /* console answer line */
 #define HDR_FIXED 16u /* descriptor bytes before the ranges */
 
-/* ------------------------------------------------------------ byte helpers */
-
-/* ------------------------------------------------------------ CRC-32 */
-static const uint32_t crc32_nibble[16] = {0x00000000UL, 0x1DB71064UL, 0x3B6E20C8UL, 0x26D930ACUL,
-                                          0x76DC4190UL, 0x6B6B51F4UL, 0x4DB26158UL, 0x5005713CUL,
-                                          0xEDB88320UL, 0xF00F9344UL, 0xD6D6A3E8UL, 0xCB61B38CUL,
-                                          0x9B64C2B0UL, 0x86D3D2D4UL, 0xA00AE278UL, 0xBDBDF21CUL};
-
-uint32_t boot_crc32(uint32_t crc, const uint8_t *data, uint16_t n)
-{
-    uint16_t i;
-    uint32_t c = ~crc;
-    for (i = 0u; i < n; i++) {
-        c ^= (uint32_t)data[i];
-        c = (c >> 4) ^ crc32_nibble[c & 0x0FUL];
-        c = (c >> 4) ^ crc32_nibble[c & 0x0FUL];
-    }
-    return ~c;
-}
-
+/* ------------------------------------------------------------ CRC-32 of flash */
 uint8_t boot_crc32_flash(uint32_t addr, uint32_t len, uint32_t *crc)
 {
     uint8_t buf[CHUNK];
@@ -48,7 +30,7 @@ uint8_t boot_crc32_flash(uint32_t addr, uint32_t len, uint32_t *crc)
         if (st != HAL_FLASH_OK) {
             return st;
         }
-        c = boot_crc32(c, buf, n);
+        c = crc32_update(c, buf, n);
         addr += n;
         left -= n;
     }
@@ -107,7 +89,7 @@ uint16_t boot_desc_build(boot_app_t *app, uint8_t out[BOOT_DESC_MAX], uint8_t co
     app->total = total;
     be_put_u32(out + 12, total);
     n = (uint16_t)(hdr_len(app->count) - 4u);
-    app->hdr_crc = boot_crc32(0u, out, n);
+    app->hdr_crc = crc32_update(0u, out, n);
     be_put_u32(out + n, app->hdr_crc);
     be_put_u32(commit, BOOT_COMMIT_MAGIC);
     be_put_u32(commit + 4, app->hdr_crc);
@@ -189,7 +171,7 @@ uint8_t boot_app_check(boot_app_t *app)
         return BOOT_E_READ;
     }
     app->hdr_crc = be_get_u32(hdr + n);
-    if (boot_crc32(0u, hdr, n) != app->hdr_crc || be_get_u32(commit + 4) != app->hdr_crc) {
+    if (crc32_update(0u, hdr, n) != app->hdr_crc || be_get_u32(commit + 4) != app->hdr_crc) {
         return BOOT_E_HEADER;
     }
     app->entry = be_get_u32(hdr + 8);
@@ -289,16 +271,10 @@ static uint8_t invalidate(boot_t *b)
     return st;
 }
 
-/* ------------------------------------------------------------ answers */
-static void answer(boot_t *b, uint8_t seq, uint8_t cmd, const uint8_t *payload, uint16_t len)
-{
-    b->send(b->reply.buf, proto_reply_encode(&b->reply, seq, cmd, payload, len));
-}
-
-static void nak(boot_t *b, uint8_t seq, uint8_t cmd, uint8_t code, uint8_t detail)
-{
-    b->send(b->reply.buf, proto_reply_nak(&b->reply, seq, cmd, code, detail));
-}
+/* ------------------------------------------------------------ commands */
+/* Handlers (proto_dispatch.h): 0 and the answer in out, or a PERR_* code
+ * with the NAK's detail byte in the high byte. */
+#define REFUSE(code, detail) ((uint16_t)((uint16_t)(code) | ((uint16_t)(detail) << 8)))
 
 /* Refusal code for a target range: 0 when it is in the application area. */
 static uint8_t target_error(uint32_t addr, uint32_t len)
@@ -310,12 +286,14 @@ static uint8_t target_error(uint32_t addr, uint32_t len)
     return (a == BOOT_AREA_PROTECTED) ? BOOT_E_PROTECTED : 0u;
 }
 
-static void c_identify(boot_t *b, uint8_t seq, const uint8_t *pl, uint16_t len)
+static uint16_t c_identify(void *ctx, uint8_t cmd, const uint8_t *pl, uint16_t len, uint8_t *out,
+                           uint16_t *out_len)
 {
     static const char prod[] = BOOT_PRODUCT;
-    uint8_t out[BOOT_IDENTITY_LEN];
+    boot_t *b = (boot_t *)ctx;
     uint8_t i;
     uint8_t valid = (uint8_t)(b->app_status == BOOT_OK);
+    (void)cmd;
     for (i = 0u; i < 16u; i++) {
         out[i] = (i < (uint8_t)(sizeof prod - 1u)) ? (uint8_t)prod[i] : 0u;
     }
@@ -342,49 +320,45 @@ static void c_identify(boot_t *b, uint8_t seq, const uint8_t *pl, uint16_t len)
     if (len == 4u) {
         b->mark = be_get_u32(pl); /* reported by the next IDENTIFY unless the probe restarts */
     }
-    answer(b, seq, (uint8_t)(BCMD_IDENTIFY | 0x80u), out, BOOT_IDENTITY_LEN);
+    *out_len = BOOT_IDENTITY_LEN;
+    return 0u;
 }
 
-static void c_erase(boot_t *b, uint8_t seq, const uint8_t *pl, uint16_t len)
+static uint16_t c_erase(void *ctx, uint8_t cmd, const uint8_t *pl, uint16_t len, uint8_t *out,
+                        uint16_t *out_len)
 {
-    uint8_t out[4];
-    uint32_t addr;
-    uint8_t st;
-    if (len != 4u) {
-        nak(b, seq, BCMD_ERASE, PERR_LENGTH, 0u);
-        return;
-    }
-    addr = be_get_u32(pl);
-    st = target_error(addr, BOOT_SECTOR);
+    uint32_t addr = be_get_u32(pl);
+    uint8_t st = target_error(addr, BOOT_SECTOR);
+    (void)cmd;
+    (void)len;
     if (st == 0u && (addr % BOOT_SECTOR) != 0u) {
         st = PERR_ARGUMENT;
     }
     if (st != 0u) {
-        nak(b, seq, BCMD_ERASE, st, 0u);
-        return;
+        return st;
     }
-    st = invalidate(b);
+    st = invalidate((boot_t *)ctx);
     if (st == HAL_FLASH_OK) {
         st = erase_checked(addr);
     }
     if (st != HAL_FLASH_OK) {
-        nak(b, seq, BCMD_ERASE, PERR_FLASH, st);
-        return;
+        return REFUSE(PERR_FLASH, st);
     }
     be_put_u32(out, addr);
-    answer(b, seq, (uint8_t)(BCMD_ERASE | 0x80u), out, 4u);
+    *out_len = 4u;
+    return 0u;
 }
 
-static void c_program(boot_t *b, uint8_t seq, const uint8_t *pl, uint16_t len)
+static uint16_t c_program(void *ctx, uint8_t cmd, const uint8_t *pl, uint16_t len, uint8_t *out,
+                          uint16_t *out_len)
 {
-    uint8_t out[6];
     uint8_t cur[BOOT_PHRASE];
     uint32_t addr;
     uint16_t n, off;
     uint8_t st, i;
+    (void)cmd;
     if (len < 4u + BOOT_PHRASE || len > 4u + BOOT_MAX_DATA || ((len - 4u) % BOOT_PHRASE) != 0u) {
-        nak(b, seq, BCMD_PROGRAM, PERR_LENGTH, 0u);
-        return;
+        return PERR_LENGTH;
     }
     addr = be_get_u32(pl);
     n = (uint16_t)(len - 4u);
@@ -393,21 +367,18 @@ static void c_program(boot_t *b, uint8_t seq, const uint8_t *pl, uint16_t len)
         st = PERR_ARGUMENT;
     }
     if (st != 0u) {
-        nak(b, seq, BCMD_PROGRAM, st, 0u);
-        return;
+        return st;
     }
-    st = invalidate(b);
+    st = invalidate((boot_t *)ctx);
     if (st != HAL_FLASH_OK) {
-        nak(b, seq, BCMD_PROGRAM, PERR_FLASH, st);
-        return;
+        return REFUSE(PERR_FLASH, st);
     }
     for (off = 0u; off < n; off = (uint16_t)(off + BOOT_PHRASE)) {
         const uint8_t *d = pl + 4u + off;
         uint8_t same = 1u, blank = 1u;
         st = hal_flash_read(addr + off, cur, BOOT_PHRASE);
         if (st != HAL_FLASH_OK) {
-            nak(b, seq, BCMD_PROGRAM, PERR_FLASH, st);
-            return;
+            return REFUSE(PERR_FLASH, st);
         }
         for (i = 0u; i < BOOT_PHRASE; i++) {
             same = (uint8_t)(same && cur[i] == d[i]);
@@ -417,69 +388,62 @@ static void c_program(boot_t *b, uint8_t seq, const uint8_t *pl, uint16_t len)
             continue; /* already there (a retry after a lost answer): nothing to do */
         }
         if (!blank) { /* programming over old bits would damage the phrase: erase first */
-            nak(b, seq, BCMD_PROGRAM, PERR_STATE, (uint8_t)(1u + off / BOOT_PHRASE));
-            return;
+            return REFUSE(PERR_STATE, 1u + off / BOOT_PHRASE);
         }
         st = program_checked(addr + off, d);
         if (st != HAL_FLASH_OK) {
-            nak(b, seq, BCMD_PROGRAM, PERR_FLASH, st);
-            return;
+            return REFUSE(PERR_FLASH, st);
         }
     }
     be_put_u32(out, addr);
     be_put_u16(out + 4, n);
-    answer(b, seq, (uint8_t)(BCMD_PROGRAM | 0x80u), out, 6u);
+    *out_len = 6u;
+    return 0u;
 }
 
-static void c_read(boot_t *b, uint8_t seq, const uint8_t *pl, uint16_t len)
+static uint16_t c_read(void *ctx, uint8_t cmd, const uint8_t *pl, uint16_t len, uint8_t *out,
+                       uint16_t *out_len)
 {
-    uint8_t out[4u + BOOT_MAX_DATA];
-    uint32_t addr;
-    uint16_t n;
+    uint32_t addr = be_get_u32(pl);
+    uint16_t n = be_get_u16(pl + 4);
     uint8_t st;
-    if (len != 6u) {
-        nak(b, seq, BCMD_READ, PERR_LENGTH, 0u);
-        return;
-    }
-    addr = be_get_u32(pl);
-    n = be_get_u16(pl + 4);
+    (void)ctx;
+    (void)cmd;
+    (void)len;
     if (n == 0u || n > BOOT_MAX_DATA || boot_area(addr, n) == BOOT_AREA_OUTSIDE) {
-        nak(b, seq, BCMD_READ, PERR_ARGUMENT, 0u);
-        return;
+        return PERR_ARGUMENT;
     }
-    st = hal_flash_read(addr, out + 4, n);
+    st = hal_flash_read(addr, out + 4, n); /* 4 + BOOT_MAX_DATA <= PROTO_MAX_PAYLOAD */
     if (st != HAL_FLASH_OK) {
-        nak(b, seq, BCMD_READ, PERR_FLASH, st);
-        return;
+        return REFUSE(PERR_FLASH, st);
     }
     be_put_u32(out, addr);
-    answer(b, seq, (uint8_t)(BCMD_READ | 0x80u), out, (uint16_t)(4u + n));
+    *out_len = (uint16_t)(4u + n);
+    return 0u;
 }
 
-static void c_crc(boot_t *b, uint8_t seq, const uint8_t *pl, uint16_t len)
+static uint16_t c_crc(void *ctx, uint8_t cmd, const uint8_t *pl, uint16_t len, uint8_t *out,
+                      uint16_t *out_len)
 {
-    uint8_t out[12];
-    uint32_t addr, n, c = 0u;
+    uint32_t addr = be_get_u32(pl);
+    uint32_t n = be_get_u32(pl + 4);
+    uint32_t c = 0u;
     uint8_t st;
-    if (len != 8u) {
-        nak(b, seq, BCMD_CRC, PERR_LENGTH, 0u);
-        return;
-    }
-    addr = be_get_u32(pl);
-    n = be_get_u32(pl + 4);
+    (void)ctx;
+    (void)cmd;
+    (void)len;
     if (boot_area(addr, n) == BOOT_AREA_OUTSIDE) {
-        nak(b, seq, BCMD_CRC, PERR_ARGUMENT, 0u);
-        return;
+        return PERR_ARGUMENT;
     }
     st = boot_crc32_flash(addr, n, &c);
     if (st != HAL_FLASH_OK) {
-        nak(b, seq, BCMD_CRC, PERR_FLASH, st);
-        return;
+        return REFUSE(PERR_FLASH, st);
     }
     be_put_u32(out, addr);
     be_put_u32(out + 4, n);
     be_put_u32(out + 8, c);
-    answer(b, seq, (uint8_t)(BCMD_CRC | 0x80u), out, 12u);
+    *out_len = 12u;
+    return 0u;
 }
 
 /* Is the descriptor in flash exactly hdr[0..n) and commit? */
@@ -506,18 +470,19 @@ static uint8_t desc_equals(const uint8_t *hdr, uint16_t n, const uint8_t *commit
     return 1u;
 }
 
-static void c_commit(boot_t *b, uint8_t seq, const uint8_t *pl, uint16_t len)
+static uint16_t c_commit(void *ctx, uint8_t cmd, const uint8_t *pl, uint16_t len, uint8_t *out,
+                         uint16_t *out_len)
 {
+    boot_t *b = (boot_t *)ctx;
     boot_app_t app = {0u, 0u, 0u, 0u, {{0u, 0u, 0u}}};
     uint8_t hdr[BOOT_DESC_MAX];
     uint8_t commit[8];
-    uint8_t out[8];
     uint16_t n;
     uint8_t i, st, bad = 0u;
+    (void)cmd;
     if (len < 5u || pl[4] == 0u || pl[4] > BOOT_MAX_RANGES ||
         len != (uint16_t)(5u + 12u * (uint16_t)pl[4])) {
-        nak(b, seq, BCMD_COMMIT, PERR_LENGTH, 0u);
-        return;
+        return PERR_LENGTH;
     }
     app.entry = be_get_u32(pl);
     app.count = pl[4];
@@ -528,14 +493,11 @@ static void c_commit(boot_t *b, uint8_t seq, const uint8_t *pl, uint16_t len)
         app.range[i].crc = be_get_u32(r + 8);
     }
     if (check_ranges(&app) != BOOT_OK || entry_ok(&app) == 0u) {
-        nak(b, seq, BCMD_COMMIT, PERR_ARGUMENT, 0u);
-        return;
+        return PERR_ARGUMENT;
     }
     st = check_images(&app, &bad);
     if (st != BOOT_OK) { /* the flash does not hold what the host says: no commit */
-        nak(b, seq, BCMD_COMMIT, (st == BOOT_E_IMAGE) ? PERR_IMAGE : PERR_FLASH,
-            (uint8_t)(bad + 1u));
-        return;
+        return REFUSE((st == BOOT_E_IMAGE) ? PERR_IMAGE : PERR_FLASH, bad + 1u);
     }
     n = boot_desc_build(&app, hdr, commit);
     if (!desc_equals(hdr, n, commit)) {
@@ -552,78 +514,80 @@ static void c_commit(boot_t *b, uint8_t seq, const uint8_t *pl, uint16_t len)
         if (st != HAL_FLASH_OK) {
             b->desc_blank = 0u;
             b->app_status = BOOT_E_NO_COMMIT;
-            nak(b, seq, BCMD_COMMIT, PERR_FLASH, st);
-            return;
+            return REFUSE(PERR_FLASH, st);
         }
     }
     b->desc_blank = 0u;
     b->app_status = boot_app_check(&b->app);
     if (b->app_status != BOOT_OK) {
-        nak(b, seq, BCMD_COMMIT, PERR_FLASH, HAL_FLASH_E_VERIFY);
-        return;
+        return REFUSE(PERR_FLASH, HAL_FLASH_E_VERIFY);
     }
     be_put_u32(out, app.hdr_crc);
     be_put_u32(out + 4, app.total);
-    answer(b, seq, (uint8_t)(BCMD_COMMIT | 0x80u), out, 8u);
+    *out_len = 8u;
+    return 0u;
 }
+
+static uint16_t c_run(void *ctx, uint8_t cmd, const uint8_t *pl, uint16_t len, uint8_t *out,
+                      uint16_t *out_len)
+{
+    boot_t *b = (boot_t *)ctx;
+    (void)cmd;
+    (void)pl;
+    (void)len;
+    (void)out;
+    (void)out_len;
+    if (b->app_status != BOOT_OK) {
+        return REFUSE(PERR_STATE, b->app_status);
+    }
+    b->after = BOOT_AFTER_RUN;
+    return 0u;
+}
+
+static uint16_t c_reset(void *ctx, uint8_t cmd, const uint8_t *pl, uint16_t len, uint8_t *out,
+                        uint16_t *out_len)
+{
+    (void)cmd;
+    (void)pl;
+    (void)len;
+    (void)out;
+    (void)out_len;
+    ((boot_t *)ctx)->after = BOOT_AFTER_RESET;
+    return 0u;
+}
+
+/* BOOTLOADER: already here: answered, nothing else */
+static uint16_t c_bootloader(void *ctx, uint8_t cmd, const uint8_t *pl, uint16_t len, uint8_t *out,
+                             uint16_t *out_len)
+{
+    (void)ctx;
+    (void)cmd;
+    (void)len;
+    (void)out;
+    (void)out_len;
+    return (be_get_u32(pl) != PROTO_BOOT_KEY) ? PERR_ARGUMENT : 0u;
+}
+
+static const proto_command_t commands[] = {
+    {BCMD_IDENTIFY, 0u, 4u, c_identify},
+    {BCMD_ERASE, 4u, 4u, c_erase},
+    {BCMD_PROGRAM, PROTO_LEN_ANY, PROTO_LEN_ANY, c_program},
+    {BCMD_READ, 6u, 6u, c_read},
+    {BCMD_CRC, 8u, 8u, c_crc},
+    {BCMD_COMMIT, PROTO_LEN_ANY, PROTO_LEN_ANY, c_commit},
+    {BCMD_RUN, 0u, 0u, c_run},
+    {PCMD_RESET, 0u, 0u, c_reset},
+    {PCMD_BOOTLOADER, 4u, 4u, c_bootloader},
+};
 
 static void execute(boot_t *b, uint8_t seq, uint8_t cmd, const uint8_t *pl, uint16_t len)
 {
-    uint8_t none[1] = {0u};
-    switch (cmd) {
-    case BCMD_IDENTIFY:
-        if (len != 0u && len != 4u) {
-            nak(b, seq, cmd, PERR_LENGTH, 0u);
-        } else {
-            c_identify(b, seq, pl, len);
-        }
-        return;
-    case BCMD_ERASE:
-        c_erase(b, seq, pl, len);
-        return;
-    case BCMD_PROGRAM:
-        c_program(b, seq, pl, len);
-        return;
-    case BCMD_READ:
-        c_read(b, seq, pl, len);
-        return;
-    case BCMD_CRC:
-        c_crc(b, seq, pl, len);
-        return;
-    case BCMD_COMMIT:
-        c_commit(b, seq, pl, len);
-        return;
-    case BCMD_RUN:
-        if (len != 0u) {
-            nak(b, seq, cmd, PERR_LENGTH, 0u);
-        } else if (b->app_status != BOOT_OK) {
-            nak(b, seq, cmd, PERR_STATE, b->app_status);
-        } else {
-            answer(b, seq, (uint8_t)(cmd | 0x80u), none, 0u);
-            b->after = BOOT_AFTER_RUN;
-        }
-        return;
-    case PCMD_RESET:
-        if (len != 0u) {
-            nak(b, seq, cmd, PERR_LENGTH, 0u);
-        } else {
-            answer(b, seq, (uint8_t)(cmd | 0x80u), none, 0u);
-            b->after = BOOT_AFTER_RESET;
-        }
-        return;
-    case PCMD_BOOTLOADER: /* already here: answered, nothing else */
-        if (len != 4u) {
-            nak(b, seq, cmd, PERR_LENGTH, 0u);
-        } else if (be_get_u32(pl) != PROTO_BOOT_KEY) {
-            nak(b, seq, cmd, PERR_ARGUMENT, 0u);
-        } else {
-            answer(b, seq, (uint8_t)(cmd | 0x80u), none, 0u);
-        }
-        return;
-    default:
+    if (!proto_dispatch(commands, (uint8_t)(sizeof commands / sizeof commands[0]), b, &b->reply,
+                        b->send, seq, cmd, pl, len)) {
         /* the application's commands are not available here */
-        nak(b, seq, cmd, (cmd < BCMD_IDENTIFY) ? PERR_STATE : PERR_COMMAND, 0u);
-        return;
+        b->send(b->reply.buf,
+                proto_reply_nak(&b->reply, seq, cmd,
+                                (cmd < BCMD_IDENTIFY) ? PERR_STATE : PERR_COMMAND, 0u));
     }
 }
 
@@ -657,26 +621,16 @@ static void text_command(boot_t *b)
 }
 
 /* ------------------------------------------------------------ entry points */
-static uint32_t read_serial(void)
-{
-    uint8_t rec[PROBE_ID_SIZE];
-    if (hal_flash_read(PROBE_ID_ADDR, rec, PROBE_ID_SIZE) != HAL_FLASH_OK ||
-        be_get_u32(rec) != PROBE_ID_MAGIC ||
-        crc16_update(CRC16_INIT, rec, 14u) != be_get_u16(rec + 14)) {
-        return 0u;
-    }
-    return be_get_u32(rec + 4);
-}
-
 void boot_init(boot_t *b, void (*send)(const uint8_t *data, uint16_t n))
 {
+    uint16_t hw_rev;
     proto_parser_init(&b->parser);
     b->send = send;
     proto_reply_init(&b->reply);
     b->executed = 0u;
     b->mark = 0u;
     b->after = BOOT_AFTER_NONE;
-    b->serial = read_serial();
+    (void)id_record_read(&b->serial, &hw_rev); /* serial 0 without a valid record */
     b->app_status = boot_app_check(&b->app);
     b->desc_blank = is_blank(BOOT_DESC_ADDR, BOOT_SECTOR);
 }
@@ -689,7 +643,7 @@ static void on_frame(boot_t *b)
         return;
     }
     if (f->ver != PROTO_VERSION) {
-        nak(b, f->seq, f->cmd, PERR_VERSION, 0u);
+        b->send(b->reply.buf, proto_reply_nak(&b->reply, f->seq, f->cmd, PERR_VERSION, 0u));
     } else {
         execute(b, f->seq, f->cmd, f->payload, f->len);
     }
@@ -705,14 +659,7 @@ void boot_rx(boot_t *b, const uint8_t *data, uint16_t n)
         if (r == PF_FRAME) {
             on_frame(b);
         } else if (r == PF_BAD_CRC) {
-            uint8_t p[2];
-            uint8_t tmp[PROTO_OVERHEAD + 2u];
-            uint16_t m;
-            p[0] = b->parser.cmd;
-            p[1] = PERR_CRC;
-            /* not cached: a corrupt request never replaces the last answer */
-            m = proto_frame_encode(b->parser.seq, PCMD_NAK, p, 2u, tmp, (uint16_t)sizeof tmp);
-            b->send(tmp, m);
+            proto_nak_bad_crc(&b->parser, b->send);
         } else if (r == PF_LINE) {
             text_command(b);
         }

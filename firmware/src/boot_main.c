@@ -2,40 +2,22 @@
 #include "inclino/boot_main.h"
 #include "inclino/boot.h"
 #include "inclino/hal.h"
+#include "inclino/tx_queue.h"
 
 static boot_t boot;
-static uint8_t txq[BOOT_TX_QUEUE];
-static uint16_t tx_head, tx_len;
-static uint32_t tx_dropped;
+static uint8_t txq_buf[BOOT_TX_QUEUE];
+static tx_queue_t txq;
 static uint32_t last_rx_ms;
 
 static void send(const uint8_t *data, uint16_t n)
 {
-    uint16_t i;
-    if ((uint16_t)(BOOT_TX_QUEUE - tx_len) < n) {
-        tx_dropped += n; /* whole answers or nothing: never half a frame */
-        return;
-    }
-    for (i = 0u; i < n; i++) {
-        txq[(uint16_t)(tx_head + tx_len) % BOOT_TX_QUEUE] = data[i];
-        tx_len++;
-    }
-}
-
-static void tx_drain(void)
-{
-    while (tx_len != 0u && hal_sci_putc(txq[tx_head]) != 0u) {
-        tx_head = (uint16_t)((tx_head + 1u) % BOOT_TX_QUEUE);
-        tx_len--;
-    }
+    tx_queue_put(&txq, data, n);
 }
 
 uint8_t boot_main_init(void)
 {
     hal_init();
-    tx_head = 0u;
-    tx_len = 0u;
-    tx_dropped = 0u;
+    tx_queue_init(&txq, txq_buf, (uint16_t)BOOT_TX_QUEUE);
     boot_init(&boot, send);
     last_rx_ms = hal_millis();
     return boot.app_status;
@@ -61,15 +43,15 @@ void boot_main_poll(void)
         boot_idle(&boot);
         last_rx_ms = now;
     }
-    tx_drain();
+    tx_queue_drain(&txq);
 }
 
 uint32_t boot_main_tx_dropped(void)
 {
-    return tx_dropped;
+    return txq.dropped;
 }
 
 uint8_t boot_main_restart_requested(void)
 {
-    return (tx_len == 0u) ? boot_after(&boot) : 0u; /* only once the answer has gone out */
+    return (txq.len == 0u) ? boot_after(&boot) : 0u; /* only once the answer has gone out */
 }

@@ -42,12 +42,12 @@ static uint8_t slot_check(const calstore_cfg_t *cfg, uint8_t slot, uint32_t *seq
         return CALSTORE_ST_EMPTY;
     }
     *seq = s;
-    if ((((uint16_t)com[0] << 8) | com[1]) != CALSTORE_COMMIT_MAGIC) {
+    if (be_get_u16(com) != CALSTORE_COMMIT_MAGIC) {
         return CALSTORE_ST_UNCOMMITTED;
     }
     c = crc16_update(CRC16_INIT, hdr, HDR_LEN);
     c = crc16_update(c, buf, len);
-    if ((uint16_t)(((uint16_t)com[2] << 8) | com[3]) != c || be_get_u32(com + 4) != s) {
+    if (be_get_u16(com + 2) != c || be_get_u32(com + 4) != s) {
         return CALSTORE_ST_BAD_CRC;
     }
     *crc = c;
@@ -189,10 +189,8 @@ uint8_t calstore_activate(calstore_t *cs)
         return CALSTORE_E_NOT_PENDING;
     }
     cs->pending = CALSTORE_SLOT_NONE;
-    com[0] = (uint8_t)(CALSTORE_COMMIT_MAGIC >> 8);
-    com[1] = (uint8_t)(CALSTORE_COMMIT_MAGIC & 0xFFu);
-    com[2] = (uint8_t)(cs->pending_crc >> 8);
-    com[3] = (uint8_t)(cs->pending_crc & 0xFFu);
+    be_put_u16(com, CALSTORE_COMMIT_MAGIC);
+    be_put_u16(com + 2, cs->pending_crc);
     be_put_u32(com + 4, cs->pending_seq);
     r = program(cs, cfg->base[slot] + HDR_LEN + cfg->payload_len, com);
     cs->state[slot] = slot_check(cfg, slot, &seq, &crc);

@@ -8,6 +8,7 @@
 #include "inclino/correct.h"
 #include "inclino/crc16.h"
 #include "inclino/hal.h"
+#include "inclino/id_record.h"
 
 static uint8_t cal_check(const uint8_t *p, uint16_t len);
 static uint8_t qc_rec_check(const uint8_t *p, uint16_t len);
@@ -67,30 +68,17 @@ void probe_id_build(uint32_t serial, uint16_t hw_rev, uint8_t buf[PROBE_ID_SIZE]
     uint8_t i;
     be_put_u32(buf, PROBE_ID_MAGIC);
     be_put_u32(buf + 4, serial);
-    buf[8] = (uint8_t)(hw_rev >> 8);
-    buf[9] = (uint8_t)(hw_rev & 0xFFu);
+    be_put_u16(buf + 8, hw_rev);
     for (i = 10u; i < 14u; i++) {
         buf[i] = 0xFFu;
     }
     crc = crc16_update(CRC16_INIT, buf, 14u);
-    buf[14] = (uint8_t)(crc >> 8);
-    buf[15] = (uint8_t)(crc & 0xFFu);
+    be_put_u16(buf + 14, crc);
 }
 
 static void load_identity(void)
 {
-    uint8_t b[PROBE_ID_SIZE];
-    P.serial = 0u;
-    P.hw_rev = 0u;
-    if (hal_flash_read(PROBE_ID_ADDR, b, PROBE_ID_SIZE) != HAL_FLASH_OK) {
-        return;
-    }
-    if (be_get_u32(b) != PROBE_ID_MAGIC ||
-        crc16_update(CRC16_INIT, b, 14u) != (uint16_t)(((uint16_t)b[14] << 8) | b[15])) {
-        return;
-    }
-    P.serial = be_get_u32(b + 4);
-    P.hw_rev = (uint16_t)(((uint16_t)b[8] << 8) | b[9]);
+    (void)id_record_read(&P.serial, &P.hw_rev); /* 0, 0 without a valid record */
 }
 
 static void use_identity_cal(void)
@@ -119,7 +107,7 @@ static void load_cal(void)
         use_identity_cal();
         return;
     }
-    P.cal_crc = (uint16_t)(((uint16_t)img[CALIMG_CRC_OFFSET] << 8) | img[CALIMG_CRC_OFFSET + 1u]);
+    P.cal_crc = be_get_u16(img + CALIMG_CRC_OFFSET);
 }
 
 static void load_qc(void)

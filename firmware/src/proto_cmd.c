@@ -2,6 +2,7 @@
 #include "inclino/proto_cmd.h"
 #include "inclino/be_bytes.h"
 #include "inclino/calimg.h"
+#include "inclino/proto_dispatch.h"
 #include "inclino/text_fmt.h"
 
 #define TEXT_MAX 96u
@@ -17,12 +18,6 @@ void proto_init(proto_t *p, const proto_app_t *app)
     p->stream_seq = 0u;
     p->stream_next_ms = 0u;
     p->after = 0u;
-}
-
-/* Encode an answer into the retry cache and send it. */
-static void answer(proto_t *p, uint8_t seq, uint8_t cmd, const uint8_t *payload, uint16_t len)
-{
-    p->app->send(p->reply.buf, proto_reply_encode(&p->reply, seq, cmd, payload, len));
 }
 
 static void nak(proto_t *p, uint8_t seq, uint8_t cmd, uint8_t code, uint8_t detail)
@@ -73,165 +68,161 @@ static void text_command(proto_t *p)
     }
 }
 
+/* ------------------------------------------------------------ commands */
+/* Handlers (proto_dispatch.h): 0 and the answer in out, or a PERR_* code
+ * (detail byte in the high byte). */
+
+/* IDENTIFY, SURVEY, SURVEY_RAW, RAW, QCREF_READ: a record from the application */
+static uint16_t h_record(void *ctx, uint8_t cmd, const uint8_t *pl, uint16_t len, uint8_t *out,
+                         uint16_t *out_len)
+{
+    const proto_app_t *app = ((proto_t *)ctx)->app;
+    (void)pl;
+    (void)len;
+    if (cmd == PCMD_IDENTIFY) {
+        *out_len = PROTO_IDENTITY_LEN;
+        return app->identity(out);
+    }
+    if (cmd == PCMD_SURVEY) {
+        *out_len = PROTO_SURVEY_LEN;
+        return app->survey(out);
+    }
+    if (cmd == PCMD_SURVEY_RAW) {
+        *out_len = PROTO_SURVEY_RAW_LEN;
+        return app->survey_raw(out);
+    }
+    if (cmd == PCMD_RAW) {
+        *out_len = PROTO_RAW_LEN;
+        return app->raw(out);
+    }
+    *out_len = PROTO_QCREF_LEN;
+    return app->qcref_read(out);
+}
+
+static uint16_t h_qcref_write(void *ctx, uint8_t cmd, const uint8_t *pl, uint16_t len,
+                              uint8_t *out, uint16_t *out_len)
+{
+    (void)cmd;
+    (void)len;
+    (void)out;
+    (void)out_len;
+    return ((proto_t *)ctx)->app->qcref_write(pl);
+}
+
+static uint16_t h_set_average(void *ctx, uint8_t cmd, const uint8_t *pl, uint16_t len,
+                              uint8_t *out, uint16_t *out_len)
+{
+    uint8_t rc = ((proto_t *)ctx)->app->set_average(pl[0]);
+    (void)cmd;
+    (void)len;
+    out[0] = pl[0];
+    *out_len = 1u;
+    return rc;
+}
+
+static uint16_t h_stream(void *ctx, uint8_t cmd, const uint8_t *pl, uint16_t len, uint8_t *out,
+                         uint16_t *out_len)
+{
+    proto_t *p = (proto_t *)ctx;
+    (void)cmd;
+    (void)len;
+    (void)out;
+    (void)out_len;
+    if (be_get_u16(pl) == 0u) {
+        return PERR_ARGUMENT;
+    }
+    p->stream_period_ms = be_get_u16(pl);
+    p->stream_left = be_get_u16(pl + 2);
+    p->stream_sent = 0u;
+    p->streaming = 1u;
+    p->stream_next_ms = 0u; /* first frame at the next tick */
+    return 0u;
+}
+
+static uint16_t h_stop(void *ctx, uint8_t cmd, const uint8_t *pl, uint16_t len, uint8_t *out,
+                       uint16_t *out_len)
+{
+    proto_t *p = (proto_t *)ctx;
+    (void)cmd;
+    (void)pl;
+    (void)len;
+    p->streaming = 0u;
+    be_put_u16(out, p->stream_sent);
+    *out_len = 2u;
+    return 0u;
+}
+
+static uint16_t h_cal_read(void *ctx, uint8_t cmd, const uint8_t *pl, uint16_t len, uint8_t *out,
+                           uint16_t *out_len)
+{
+    (void)cmd;
+    (void)len;
+    if (pl[0] > 1u) {
+        return PERR_ARGUMENT;
+    }
+    *out_len = (uint16_t)(6u + CALIMG_SIZE);
+    return ((proto_t *)ctx)->app->cal_read(pl[0], out);
+}
+
+static uint16_t h_cal_write(void *ctx, uint8_t cmd, const uint8_t *pl, uint16_t len, uint8_t *out,
+                            uint16_t *out_len)
+{
+    (void)cmd;
+    (void)len;
+    *out_len = 7u;
+    return ((proto_t *)ctx)->app->cal_write(pl + 1, pl[0], out);
+}
+
+static uint16_t h_cal_activate(void *ctx, uint8_t cmd, const uint8_t *pl, uint16_t len,
+                               uint8_t *out, uint16_t *out_len)
+{
+    (void)cmd;
+    (void)len;
+    *out_len = 5u;
+    return ((proto_t *)ctx)->app->cal_activate(pl[0], be_get_u32(pl + 1), out);
+}
+
+/* RESET, BOOTLOADER: answered, then run once the answer is queued (proto_rx) */
+static uint16_t h_after(void *ctx, uint8_t cmd, const uint8_t *pl, uint16_t len, uint8_t *out,
+                        uint16_t *out_len)
+{
+    (void)len;
+    (void)out;
+    (void)out_len;
+    if (cmd == PCMD_BOOTLOADER && be_get_u32(pl) != PROTO_BOOT_KEY) {
+        return PERR_ARGUMENT;
+    }
+    ((proto_t *)ctx)->after = cmd;
+    return 0u;
+}
+
+static const proto_command_t commands[] = {
+    {PCMD_IDENTIFY, 0u, 0u, h_record},
+    {PCMD_SURVEY, 0u, 0u, h_record},
+    {PCMD_RAW, 0u, 0u, h_record},
+    {PCMD_QCREF_READ, 0u, 0u, h_record},
+    {PCMD_SURVEY_RAW, 0u, 0u, h_record},
+    {PCMD_QCREF_WRITE, PROTO_QCREF_LEN, PROTO_QCREF_LEN, h_qcref_write},
+    {PCMD_SET_AVERAGE, 1u, 1u, h_set_average},
+    {PCMD_STREAM, 4u, 4u, h_stream},
+    {PCMD_STOP, 0u, 0u, h_stop},
+    {PCMD_CAL_READ, 1u, 1u, h_cal_read},
+    {PCMD_CAL_WRITE, 1u + CALIMG_SIZE, 1u + CALIMG_SIZE, h_cal_write},
+    {PCMD_CAL_ACTIVATE, 5u, 5u, h_cal_activate},
+    {PCMD_RESET, 0u, 0u, h_after},
+    {PCMD_BOOTLOADER, 4u, 4u, h_after},
+};
+
 /* Execute one good frame (not a retry). */
 static void execute(proto_t *p, uint8_t seq, uint8_t cmd, const uint8_t *pl, uint16_t len)
 {
-    uint8_t out[126];
-    uint8_t rc;
-    uint16_t rc16;
-
-    out[0] = 0u; /* answers with no payload still pass a valid pointer */
-
     if (p->streaming && cmd != PCMD_STOP && cmd != PCMD_IDENTIFY) {
         nak(p, seq, cmd, PERR_BUSY, 0u);
         return;
     }
-    switch (cmd) {
-    case PCMD_IDENTIFY:
-    case PCMD_SURVEY:
-    case PCMD_RAW:
-    case PCMD_QCREF_READ:
-    case PCMD_SURVEY_RAW:
-        if (len != 0u) {
-            nak(p, seq, cmd, PERR_LENGTH, 0u);
-            return;
-        }
-        if (cmd == PCMD_IDENTIFY) {
-            rc = p->app->identity(out);
-            len = PROTO_IDENTITY_LEN;
-        } else if (cmd == PCMD_SURVEY) {
-            rc = p->app->survey(out);
-            len = PROTO_SURVEY_LEN;
-        } else if (cmd == PCMD_SURVEY_RAW) {
-            rc = p->app->survey_raw(out);
-            len = PROTO_SURVEY_RAW_LEN;
-        } else if (cmd == PCMD_RAW) {
-            rc = p->app->raw(out);
-            len = PROTO_RAW_LEN;
-        } else {
-            rc = p->app->qcref_read(out);
-            len = PROTO_QCREF_LEN;
-        }
-        if (rc != 0u) {
-            nak(p, seq, cmd, rc, 0u);
-        } else {
-            answer(p, seq, (uint8_t)(cmd | 0x80u), out, len);
-        }
-        return;
-    case PCMD_QCREF_WRITE:
-        if (len != PROTO_QCREF_LEN) {
-            nak(p, seq, cmd, PERR_LENGTH, 0u);
-            return;
-        }
-        rc = p->app->qcref_write(pl);
-        if (rc != 0u) {
-            nak(p, seq, cmd, rc, 0u);
-        } else {
-            answer(p, seq, (uint8_t)(cmd | 0x80u), out, 0u);
-        }
-        return;
-    case PCMD_SET_AVERAGE:
-        if (len != 1u) {
-            nak(p, seq, cmd, PERR_LENGTH, 0u);
-            return;
-        }
-        rc = p->app->set_average(pl[0]);
-        if (rc != 0u) {
-            nak(p, seq, cmd, rc, 0u);
-        } else {
-            out[0] = pl[0];
-            answer(p, seq, (uint8_t)(cmd | 0x80u), out, 1u);
-        }
-        return;
-    case PCMD_STREAM:
-        if (len != 4u) {
-            nak(p, seq, cmd, PERR_LENGTH, 0u);
-            return;
-        }
-        if (be_get_u16(pl) == 0u) {
-            nak(p, seq, cmd, PERR_ARGUMENT, 0u);
-            return;
-        }
-        answer(p, seq, (uint8_t)(cmd | 0x80u), out, 0u);
-        p->stream_period_ms = be_get_u16(pl);
-        p->stream_left = be_get_u16(pl + 2);
-        p->stream_sent = 0u;
-        p->streaming = 1u;
-        p->stream_next_ms = 0u; /* first frame at the next tick */
-        return;
-    case PCMD_STOP:
-        if (len != 0u) {
-            nak(p, seq, cmd, PERR_LENGTH, 0u);
-            return;
-        }
-        p->streaming = 0u;
-        out[0] = (uint8_t)(p->stream_sent >> 8);
-        out[1] = (uint8_t)p->stream_sent;
-        answer(p, seq, (uint8_t)(cmd | 0x80u), out, 2u);
-        return;
-    case PCMD_CAL_READ:
-        if (len != 1u) {
-            nak(p, seq, cmd, PERR_LENGTH, 0u);
-            return;
-        }
-        if (pl[0] > 1u) {
-            nak(p, seq, cmd, PERR_ARGUMENT, 0u);
-            return;
-        }
-        rc = p->app->cal_read(pl[0], out);
-        if (rc != 0u) {
-            nak(p, seq, cmd, rc, 0u);
-        } else {
-            answer(p, seq, (uint8_t)(cmd | 0x80u), out, (uint16_t)(6u + CALIMG_SIZE));
-        }
-        return;
-    case PCMD_CAL_WRITE:
-        if (len != 1u + CALIMG_SIZE) {
-            nak(p, seq, cmd, PERR_LENGTH, 0u);
-            return;
-        }
-        rc16 = p->app->cal_write(pl + 1, pl[0], out);
-        if (rc16 != 0u) {
-            nak(p, seq, cmd, (uint8_t)rc16, (uint8_t)(rc16 >> 8));
-        } else {
-            answer(p, seq, (uint8_t)(cmd | 0x80u), out, 7u);
-        }
-        return;
-    case PCMD_CAL_ACTIVATE:
-        if (len != 5u) {
-            nak(p, seq, cmd, PERR_LENGTH, 0u);
-            return;
-        }
-        rc = p->app->cal_activate(pl[0], be_get_u32(pl + 1), out);
-        if (rc != 0u) {
-            nak(p, seq, cmd, rc, 0u);
-        } else {
-            answer(p, seq, (uint8_t)(cmd | 0x80u), out, 5u);
-        }
-        return;
-    case PCMD_RESET:
-        if (len != 0u) {
-            nak(p, seq, cmd, PERR_LENGTH, 0u);
-            return;
-        }
-        answer(p, seq, (uint8_t)(cmd | 0x80u), out, 0u);
-        p->after = PCMD_RESET;
-        return;
-    case PCMD_BOOTLOADER:
-        if (len != 4u) {
-            nak(p, seq, cmd, PERR_LENGTH, 0u);
-            return;
-        }
-        if (be_get_u32(pl) != PROTO_BOOT_KEY) {
-            nak(p, seq, cmd, PERR_ARGUMENT, 0u);
-            return;
-        }
-        answer(p, seq, (uint8_t)(cmd | 0x80u), out, 0u);
-        p->after = PCMD_BOOTLOADER;
-        return;
-    default:
+    if (!proto_dispatch(commands, (uint8_t)(sizeof commands / sizeof commands[0]), p, &p->reply,
+                        p->app->send, seq, cmd, pl, len)) {
         nak(p, seq, cmd, PERR_COMMAND, 0u);
-        return;
     }
 }
 
@@ -258,16 +249,7 @@ void proto_rx(proto_t *p, const uint8_t *data, uint16_t n)
         if (r == PF_FRAME) {
             on_frame(p);
         } else if (r == PF_BAD_CRC) {
-            uint8_t b[2];
-            b[0] = p->parser.cmd;
-            b[1] = PERR_CRC;
-            /* not cached: a corrupt request never replaces the last answer */
-            {
-                uint8_t tmp[PROTO_OVERHEAD + 2u];
-                uint16_t m = proto_frame_encode(p->parser.seq, PCMD_NAK, b, 2u, tmp,
-                                                (uint16_t)sizeof tmp);
-                p->app->send(tmp, m);
-            }
+            proto_nak_bad_crc(&p->parser, p->app->send);
         } else if (r == PF_LINE) {
             text_command(p);
         }

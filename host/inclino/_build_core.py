@@ -13,8 +13,20 @@ ROOT = pathlib.Path(__file__).resolve().parents[2]
 FW = ROOT / "firmware"
 HERE = pathlib.Path(__file__).resolve().parent
 
-CORE_SOURCES = ["fx_ops.c", "fx_math.c", "fx_atan_table.c", "correct.c", "attitude.c", "survey.c", "qc.c", "crc16.c",
-                "calimg.c", "proto_frame.c", "proto_cmd.c"]
+
+
+def _fw_sources():
+    """firmware/sources.txt's reader, loaded by path: this script runs
+    before the package is importable."""
+    import importlib.util
+    spec = importlib.util.spec_from_file_location("_inclino_fw_sources", HERE / "fw_sources.py")
+    mod = importlib.util.module_from_spec(spec)
+    spec.loader.exec_module(mod)
+    return mod
+
+
+# the build "cffi_core" of the one source manifest, firmware/sources.txt
+CORE_SOURCES = _fw_sources().sources("cffi_core", ROOT)
 
 CDEF = """
 typedef struct { int32_t m[9]; int32_t bias[3]; } corr_triad_t;
@@ -93,7 +105,7 @@ ffibuilder.cdef(CDEF + (HERE / "_core_batch.h").read_text())
 ffibuilder.set_source(
     "inclino._core",
     '#include "inclino/survey.h"\n#include "inclino/fx_math.h"\n#include "inclino/fx_ops.h"\n#include "inclino/qc.h"\n#include "inclino/calimg.h"\n#include "inclino/crc16.h"\n#include "inclino/proto_frame.h"\n#include "inclino/proto_cmd.h"\n#include "_core_batch.h"\n',
-    sources=[_rel(FW / "src" / s) for s in CORE_SOURCES] + [_rel(HERE / "_core_batch.c")],
+    sources=[_rel(s) for s in CORE_SOURCES] + [_rel(HERE / "_core_batch.c")],
     include_dirs=[_rel(FW / "include"), _rel(HERE)],
     extra_compile_args=["-std=c99", "-O2", "-Wall", "-Wextra"],
 )

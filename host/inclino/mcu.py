@@ -38,16 +38,15 @@ from pathlib import Path
 
 import numpy as np
 
+from . import fw_sources
+
 MISSING_REASON = ("S08 simulator tools not found (sdcc, shc08): "
                   "install the Debian packages sdcc and sdcc-ucsim")
 
-CORE_SOURCES = ("fx_ops.c", "fx_math.c", "fx_atan_table.c", "correct.c", "attitude.c", "survey.c",
-                "crc16.c", "proto_frame.c", "calimg.c")
-PORT_SOURCES = ("fx_mul16_s08.c", "fx_ops_s08.c", "fx_mul32_s08.c", "fx_div_s08.c",
-                "fx_sqrt_s08.c", "fx_atan2_s08.c", "att_norm3_s08.c",
-                "memcpy_s08.c", "proto_feed_s08.c")  # the port's part of the core
-HARNESS_SOURCES = ("harness.c",)
-# each replaces the portable C of the same functions (firmware/port/s08/*.c)
+# The harness image's files are the builds "s08_core" (the portable core and
+# the port's part of it) and "s08_rig" (main() and the byte protocol) of the
+# one source manifest, firmware/sources.txt (fw_sources.py).
+# each port file replaces the portable C of the same functions (firmware/port/s08/*.c)
 PORT_DEFINES = ("-DFX_PORT_MUL16", "-DFX_PORT_OPS", "-DFX_PORT_MUL32", "-DFX_PORT_DIV",
                 "-DFX_PORT_SQRT", "-DFX_PORT_ATAN2", "-DATT_PORT_NORM3", "-DPROTO_PORT_FEED")
 FLOAT_SOURCES = ("survey_float.c",)
@@ -147,9 +146,8 @@ def build(workdir: str | os.PathLike | None = None, program: str = "harness",
     if program == "harness":
         inc += list(PORT_DEFINES)
     if program == "harness":
-        core = ([root / "firmware" / "src" / s for s in CORE_SOURCES]
-                + [root / "firmware" / "port" / "s08" / s for s in PORT_SOURCES])
-        other = [root / "firmware" / "port" / "s08" / s for s in HARNESS_SOURCES]
+        core = fw_sources.sources("s08_core", root)
+        other = fw_sources.sources("s08_rig", root)
     elif program == "float":
         core = []
         other = [root / "tools" / "s08" / s for s in FLOAT_SOURCES]

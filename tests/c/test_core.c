@@ -10,6 +10,7 @@
 #include "inclino/fx_math.h"
 #include "inclino/fx_ops.h"
 #include "inclino/survey.h"
+#include "inclino/tx_queue.h"
 
 static int failures;
 static int checks;
@@ -180,8 +181,45 @@ static void test_survey(void)
     }
 }
 
+/* the SCI transmitter for tx_queue_drain: takes `sci_room` more bytes */
+static uint8_t sci_line[64];
+static uint16_t sci_sent, sci_room;
+uint8_t hal_sci_putc(uint8_t byte)
+{
+    if (sci_room == 0u || sci_sent >= sizeof sci_line) {
+        return 0u;
+    }
+    sci_room--;
+    sci_line[sci_sent++] = byte;
+    return 1u;
+}
+
+static void test_tx_queue(void)
+{
+    uint8_t buf[8], msg[6] = {1, 2, 3, 4, 5, 6};
+    tx_queue_t q;
+    uint16_t i;
+    tx_queue_init(&q, buf, 8u);
+    tx_queue_put(&q, msg, 5u);
+    tx_queue_put(&q, msg, 4u); /* 3 free: dropped whole */
+    CHECK(q.len == 5u && q.dropped == 4u, "drop whole answer: len %u dropped %lu", q.len,
+          (unsigned long)q.dropped);
+    sci_room = 3u;
+    tx_queue_drain(&q); /* the transmitter refuses the 4th byte: it stays queued */
+    CHECK(sci_sent == 3u && q.len == 2u, "partial drain");
+    tx_queue_put(&q, msg + 1, 5u); /* wraps round the end of buf */
+    sci_room = 100u;
+    tx_queue_drain(&q);
+    CHECK(q.len == 0u && sci_sent == 10u, "drained %u", sci_sent);
+    for (i = 0u; i < 10u; i++) {
+        static const uint8_t want[10] = {1, 2, 3, 4, 5, 2, 3, 4, 5, 6};
+        CHECK(sci_line[i] == want[i], "byte %u: %u", i, sci_line[i]);
+    }
+}
+
 int main(void)
 {
+    test_tx_queue();
     test_ops();
     test_math();
     test_survey();

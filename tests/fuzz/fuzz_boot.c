@@ -30,6 +30,7 @@
 
 #include "inclino/boot.h"
 #include "inclino/crc16.h"
+#include "inclino/crc32.h"
 #include "inclino/hal.h"
 #include "inclino/probe.h"
 
@@ -183,7 +184,7 @@ static void valid_app(void)
     app.count = 1;
     app.range[0].addr = 0x7C0000UL;
     app.range[0].len = 2048u;
-    app.range[0].crc = boot_crc32(0u, mem + (0x7C0000UL - BOOT_FLASH_START), 2048u);
+    app.range[0].crc = crc32_update(0u, mem + (0x7C0000UL - BOOT_FLASH_START), 2048u);
     n = boot_desc_build(&app, hdr, commit);
     memcpy(mem + (BOOT_DESC_ADDR - BOOT_FLASH_START), hdr, n);
     memcpy(mem + (BOOT_DESC_ADDR + BOOT_COMMIT_OFFSET - BOOT_FLASH_START), commit, 8);
@@ -201,7 +202,7 @@ static void forced_descriptor(const uint8_t *data, size_t size, int fix)
         put_u32(d, BOOT_DESC_MAGIC);
         d[4] = BOOT_DESC_VERSION;
         d[5] = count;
-        crc = boot_crc32(0u, d, hl);
+        crc = crc32_update(0u, d, hl);
         put_u32(d + hl, crc);
         put_u32(d + BOOT_COMMIT_OFFSET, BOOT_COMMIT_MAGIC);
         put_u32(d + BOOT_COMMIT_OFFSET + 4u, crc);

@@ -111,6 +111,24 @@ typedef struct {
 #define BOOT_MAX_DATA 192u   /* data bytes per PROGRAM / READ: 24 phrases */
 #define BOOT_IDENTITY_LEN 78u
 
+/* ---- the bootloader's states ----------------------------------------------
+ * What the descriptor sector holds decides what runs after a reset
+ * (boot_select) and what the commands do; boot_t keeps it as desc_blank and
+ * app_status (boot_app_check of the flash as it is).
+ *
+ * state   descriptor sector              app_status  boots into   RUN      ERASE, PROGRAM
+ * VALID   header, commit phrase, CRCs    BOOT_OK     application  runs it  erase it first: OPEN
+ * OPEN    erased (desc_blank 1)          NO_COMMIT   bootloader   E_STATE  as asked
+ * BROKEN  anything else (cut, bad CRC)   BOOT_E_*    bootloader   E_STATE  erase it first: OPEN
+ *
+ * COMMIT: the flash must hold the images the host names (else refused, state
+ * unchanged); a descriptor equal to the one it would write is left as it is
+ * (a retried COMMIT); else the sector is erased (OPEN), the header
+ * programmed and the commit phrase last (VALID).  A failed program leaves
+ * BROKEN.  After an answered RESET or RUN, boot_after() says which and
+ * boot_rx() takes no more bytes until boot_init().
+ */
+
 /* boot_after / boot_main_restart_requested */
 #define BOOT_AFTER_NONE 0u
 #define BOOT_AFTER_RESET 1u /* RESET answered: restart, the selection decides */
@@ -134,14 +152,7 @@ typedef struct {
 } boot_t;
 
 /*
- * boot_crc32 - CRC-32 (IEEE 802.3, reflected, poly 0xEDB88320; zlib's
- *   crc32): continue the CRC `crc` (0 to start) over n bytes.  Nibble table,
- *   64 bytes of constants.
- */
-uint32_t boot_crc32(uint32_t crc, const uint8_t *data, uint16_t n);
-
-/*
- * boot_crc32_flash - CRC-32 of the flash bytes addr .. addr+len-1 (len >= 1,
+ * boot_crc32_flash - CRC-32 (crc32.h) of the flash bytes addr .. addr+len-1 (len >= 1,
  *   inside the P-Flash).  Returns HAL_FLASH_OK or the failing read's code
  *   (HAL_FLASH_E_ACCESS for a range outside the P-Flash).
  */

@@ -1,0 +1,28 @@
+# inclino_fw_sources(BUILD OUT): the C files of build BUILD in
+# firmware/sources.txt (the one source manifest, also read by the cffi and
+# S08 builds through host/inclino/fw_sources.py), as paths relative to the
+# repository root, in manifest order.
+function(inclino_fw_sources build out)
+  file(STRINGS "${CMAKE_CURRENT_FUNCTION_LIST_DIR}/sources.txt" lines)
+  set(groups "")
+  foreach(line IN LISTS lines)
+    string(REGEX REPLACE "#.*" "" line "${line}")
+    string(STRIP "${line}" line)
+    if(line MATCHES "^build[ \t]+${build}[ \t]+(.+)$")
+      string(REGEX REPLACE "[ \t]+" ";" groups "${CMAKE_MATCH_1}")
+    endif()
+  endforeach()
+  if(NOT groups)
+    message(FATAL_ERROR "firmware/sources.txt: no build named ${build}")
+  endif()
+  set(files "")
+  foreach(group IN LISTS groups)
+    foreach(line IN LISTS lines)
+      string(REGEX REPLACE "#.*" "" line "${line}")
+      if(line MATCHES "^[ \t]*${group}[ \t]+([^ \t]+)[ \t]*$")
+        list(APPEND files "firmware/${CMAKE_MATCH_1}")
+      endif()
+    endforeach()
+  endforeach()
+  set(${out} "${files}" PARENT_SCOPE)
+endfunction()
