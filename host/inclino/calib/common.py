@@ -128,3 +128,21 @@ def body_axis_groups(C: np.ndarray, tol_deg: float = 3.0):
     down = C[:, :, 2]  # down component of each body axis, (n, 3)
     c = np.cos(np.radians(tol_deg))
     return {(k, s): np.flatnonzero(s * down[:, k] >= c) for k in range(3) for s in (1, -1)}
+
+
+def fill_bias_jacobian(x, T) -> None:
+    """Rows of the Jacobian from (M, c) to (M, b) for both triads, b = M^-1 c,
+    written into T in place: x holds M (9, row-major) and c (3) of the
+    accelerometer at 0..11 and of the fluxgate at 12..23, as the pose fits
+    lay them out. The M rows are the identity, db = M^-1 (dc - dM b)."""
+    for off in (0, 12):
+        M = np.asarray(x[off:off + 9], float).reshape(3, 3)
+        Minv = np.linalg.inv(M)
+        b = Minv @ np.asarray(x[off + 9:off + 12], float)
+        T[off:off + 9, off:off + 9] = np.eye(9)
+        for i in range(3):
+            for j in range(3):
+                E = np.zeros((3, 3))
+                E[i, j] = 1.0
+                T[off + 9:off + 12, off + 3 * i + j] = -Minv @ (E @ b)
+        T[off + 9:off + 12, off + 9:off + 12] = Minv

@@ -327,17 +327,7 @@ def _fit_poses(ds, w, sa, sm, sp, fix_dip, nonlinear=False):
     bm = np.linalg.solve(Mm, cm)
     # covariance of (M, b) from that of (M, c = M b): b = M^-1 c
     T = np.eye(len(x) - (1 if fix_dip else 0))
-    for off in (0, 12):
-        M = x[off:off + 9].reshape(3, 3)
-        Minv = np.linalg.inv(M)
-        b = np.linalg.solve(M, x[off + 9:off + 12])
-        # db = Minv (dc - dM b)
-        for i in range(3):
-            for j in range(3):
-                E = np.zeros((3, 3))
-                E[i, j] = 1.0
-                T[off + 9:off + 12, off + 3 * i + j] = -Minv @ (E @ b)
-        T[off + 9:off + 12, off + 9:off + 12] = Minv
+    common.fill_bias_jacobian(x, T)
     cov = T @ cov_lin @ T.T
     outliers = np.flatnonzero(~keep)
     extra = {}

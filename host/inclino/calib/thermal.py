@@ -245,17 +245,7 @@ def _cov_24(x, prob: _Problem, order, J, s2, w):
     else:
         lin = None
         T = np.zeros((24 + (0 if prob.fix_dip else 1), len(x)))
-        for off in (0, 12):
-            M = x[off:off + 9].reshape(3, 3)
-            Minv = np.linalg.inv(M)
-            b = Minv @ x[off + 9:off + 12]
-            T[off:off + 9, off:off + 9] = np.eye(9)
-            for i in range(3):
-                for j in range(3):
-                    E = np.zeros((3, 3))
-                    E[i, j] = 1.0
-                    T[off + 9:off + 12, off + 3 * i + j] = -Minv @ (E @ b)
-            T[off + 9:off + 12, off + 9:off + 12] = Minv
+        common.fill_bias_jacobian(x, T)
         if dip_i is not None:
             T[24, dip_i] = 1.0
         covc = T @ cov @ T.T
