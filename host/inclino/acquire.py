@@ -56,6 +56,7 @@ Exit statuses: 0 written; 2 bad option; 4 port, probe or bench problem.
 """
 from __future__ import annotations
 
+import contextlib
 import datetime as _dt
 import math
 import os
@@ -345,6 +346,39 @@ def _bar(total: int, desc: str, quiet: bool):
     return bar(total, desc, unit="pos", quiet=quiet, leave=False, dynamic_ncols=True)
 
 
+def run_header(link, table, world, average):
+    """Set the probe's averaging, identify it and build a run file's header:
+    the world (given values first, then the turntable's), the probe's serial,
+    today's date and, with `average`, the sensor samples behind each reading."""
+    set_average(link, average)
+    ident = link.identify()
+    meta = {k: v for k, v in (world or {}).items() if v is not None}
+    meta.update({k: v for k, v in table.world().items() if k not in meta})
+    meta["probe_serial"] = ident.serial
+    meta["date"] = _dt.date.today().isoformat()
+    if average is not None:  # sensor samples behind each reading (a row averages one or more readings)
+        meta["samples_averaged"] = int(average)
+    return ident, meta
+
+
+@contextlib.contextmanager
+def recording(out, bar, res, t0):
+    """The rows written inside go to the output file only when the block
+    ends normally (`out.commit()`); on any exception, Ctrl-C included, the
+    partial file is abandoned and nothing is written. Fills res.rows and
+    res.elapsed_s."""
+    try:
+        yield
+    except BaseException:
+        out.abort()
+        bar.close()
+        raise
+    bar.close()
+    out.commit()
+    res.rows = out.rows
+    res.elapsed_s = time.monotonic() - t0
+
+
 class _RowWriter:
     def __init__(self, path: str, meta: dict):
         from inclino import safeio
@@ -403,14 +437,7 @@ def acquire(link, procedure: str, out_path: str, table, *, points: int = 36, d1:
     tol.check()
     steps = procedure_steps(procedure, points=points, d1=d1, azimuth=azimuth, step_deg=step_deg)
     t0 = time.monotonic()
-    set_average(link, average)
-    ident = link.identify()
-    meta = {k: v for k, v in (world or {}).items() if v is not None}
-    meta.update({k: v for k, v in table.world().items() if k not in meta})
-    meta["probe_serial"] = ident.serial
-    meta["date"] = _dt.date.today().isoformat()
-    if average is not None:  # sensor samples behind each reading (a row averages one or more readings)
-        meta["samples_averaged"] = int(average)
+    ident, meta = run_header(link, table, world, average)
     who = f"bench {table.spec}" if table.unattended else "operator"
     meta["source"] = (f"inclino acquire {procedure} ({who}; probe {ident.product} fw "
                       f"{'.'.join(map(str, ident.fw_version))}, {tol.reads} reads within {tol.acc_mg:g} mg "
@@ -423,7 +450,7 @@ def acquire(link, procedure: str, out_path: str, table, *, points: int = 36, d1:
 
     if isinstance(table, Operator) and table.default_say:
         table.say = say
-    try:
+    with recording(out, bar, res, t0):
         if procedure == "continuous" and not table.unattended:
             _continuous_operator(link, table, steps, out, res, bar, say, turn_timeout_s)
         else:
@@ -442,14 +469,6 @@ def acquire(link, procedure: str, out_path: str, table, *, points: int = 36, d1:
                     res.reads += len(win)
                 out.write({**mean_row(win), "inc_deg": st.inc, "azi_deg": st.azi, "tf_deg": st.tf})
                 bar.update(1)
-    except BaseException:
-        out.abort()
-        bar.close()
-        raise
-    bar.close()
-    out.commit()
-    res.rows = out.rows
-    res.elapsed_s = time.monotonic() - t0
     return res
 
 

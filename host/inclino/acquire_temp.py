@@ -27,14 +27,13 @@ confirms, and the waits are real time.
 """
 from __future__ import annotations
 
-import datetime as _dt
 import math
 import sys
 import time
 from dataclasses import dataclass
 
 from inclino.acquire import (AcquireResult, Step, Unsettled, _bar, _RowWriter, _wrap, mean_row, procedure_steps,
-                             read_stable, set_average)
+                             read_stable, recording, run_header)
 from inclino.errors import DataError
 
 # Poses held through the ramps: each sensor axis down and up in turn, at
@@ -150,12 +149,7 @@ def acquire_temperature(link, out_path: str, table, plan: ThermalPlan, *, tol=No
     poses = procedure_steps(plan.poses)
     ramp = RAMP_POSES[:int(plan.ramp_poses)]
     t0 = time.monotonic()
-    set_average(link, average)
-    ident = link.identify()
-    meta = {k: v for k, v in (world or {}).items() if v is not None}
-    meta.update({k: v for k, v in table.world().items() if k not in meta})
-    meta["probe_serial"] = ident.serial
-    meta["date"] = _dt.date.today().isoformat()
+    ident, meta = run_header(link, table, world, average)
     who = f"bench {table.spec}" if table.unattended else "operator"
     sps = ",".join(f"{t:g}" for t in plan.setpoints)
     meta["source"] = (f"inclino acquire temperature (set points {sps} degC, {plan.poses} at each, "
@@ -173,7 +167,7 @@ def acquire_temperature(link, out_path: str, table, plan: ThermalPlan, *, tol=No
         table.say = say
     tell = table.say if not table.unattended else (None if quiet else say)
     chamber = _Chamber(table, sleep)
-    try:
+    with recording(out, bar, res, t0):
         for k, sp in enumerate(plan.setpoints):
             held = [ramp[k % len(ramp)]] if not table.unattended else list(ramp)
             if not table.unattended:
@@ -208,14 +202,6 @@ def acquire_temperature(link, out_path: str, table, plan: ThermalPlan, *, tol=No
                 res.reads += len(win)
                 out.write({**mean_row(win), "inc_deg": st.inc, "azi_deg": st.azi, "tf_deg": st.tf})
                 bar.update(1)
-    except BaseException:
-        out.abort()
-        bar.close()
-        raise
-    bar.close()
-    out.commit()
-    res.rows = out.rows
-    res.elapsed_s = time.monotonic() - t0
     return res
 
 
