@@ -69,12 +69,12 @@ class Problem:
         return [c for t in S for c in self.terms[t]]
 
 
-def _loo_batch(Xw, yw, subsets):
-    """Weighted LOO residuals (m, n) of every subset (m, k) of the columns."""
-    n = len(yw)
-    m, k = subsets.shape
-    if k == 0:
-        return np.broadcast_to(yw, (m, n)).copy(), np.zeros(m, bool)
+def _subset_gram(Xw, subsets):
+    """For every subset (m, k) of the columns of Xw: the columns scaled to
+    unit norm A (m, n, k), the inverse of their Gram matrix Gi (m, k, k), and
+    `bad` (m,) where a column is zero or the Gram matrix's condition exceeds
+    COND_MAX (its Gi is then the identity, and callers score it as inf)."""
+    k = subsets.shape[1]
     A = np.transpose(Xw[:, subsets], (1, 0, 2))  # (m, n, k)
     norm = np.sqrt((A ** 2).sum(1))  # (m, k)
     bad = np.any(norm == 0, 1)
@@ -83,7 +83,16 @@ def _loo_batch(Xw, yw, subsets):
     ev = np.linalg.eigvalsh(G)
     bad |= ev[:, 0] <= ev[:, -1] / COND_MAX
     G[bad] = np.eye(k)
-    Gi = np.linalg.inv(G)
+    return A, np.linalg.inv(G), bad
+
+
+def _loo_batch(Xw, yw, subsets):
+    """Weighted LOO residuals (m, n) of every subset (m, k) of the columns."""
+    n = len(yw)
+    m, k = subsets.shape
+    if k == 0:
+        return np.broadcast_to(yw, (m, n)).copy(), np.zeros(m, bool)
+    A, Gi, bad = _subset_gram(Xw, subsets)
     b = np.einsum("mij,mnj,n->mi", Gi, A, yw, optimize=True)
     r = yw[None, :] - np.einsum("mnk,mk->mn", A, b, optimize=True)
     B = np.einsum("mnk,mkj->mnj", A, Gi, optimize=True)  # (numpy's batched matmul is slow for small k)
@@ -104,15 +113,7 @@ def _inner_press_batch(Xw, yw, subsets):
     if k == 0:
         loo = np.broadcast_to(yw, (m, n)).copy()
         return (yw ** 2).sum() - loo ** 2, loo
-    A = np.transpose(Xw[:, subsets], (1, 0, 2))
-    norm = np.sqrt((A ** 2).sum(1))
-    bad = np.any(norm == 0, 1)
-    A = A / np.where(norm == 0, 1.0, norm)[:, None, :]
-    G = np.einsum("mnk,mnj->mkj", A, A, optimize=True)
-    ev = np.linalg.eigvalsh(G)
-    bad |= ev[:, 0] <= ev[:, -1] / COND_MAX
-    G[bad] = np.eye(k)
-    Gi = np.linalg.inv(G)
+    A, Gi, bad = _subset_gram(Xw, subsets)
     B = np.einsum("mnk,mkj->mnj", A, Gi, optimize=True)
     H = np.einsum("mik,mjk->mij", B, A, optimize=True)  # (m, n, n)
     b = np.einsum("mij,mnj,n->mi", Gi, A, yw, optimize=True)
