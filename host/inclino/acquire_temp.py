@@ -246,5 +246,16 @@ def add_parser(sub):
     from inclino import acquire as acq
 
     p = acq.add_parser(sub)
+    negative_lists(p)
     p.set_defaults(func=_cmd_acquire)
     return p
+
+
+def negative_lists(p) -> None:
+    """Let `--temperatures -5,25,55` (a list starting with a minus sign) be a
+    value, not an option: argparse takes only plain negative numbers as
+    values; this parser has no option that looks like a number."""
+    import re
+
+    p._negative_number_matcher = re.compile(r"^-\d+$|^-\d*\.\d+$|^-\d*\.?\d*(,\s*-?\d*\.?\d*)+$")
+

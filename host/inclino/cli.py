@@ -15,7 +15,7 @@ import numpy as np
 
 from inclino import __version__
 from inclino.errors import DataError, InclinoError
-from inclino.accept import add_parser as _add_accept
+from inclino.accept_temp import add_parser as _add_accept  # accept, with --temperatures
 from inclino.acquire_temp import add_parser as _add_acquire  # acquire, with its temperature procedure
 from inclino.calib.cli import add_parser as _add_calibrate
 from inclino.demo import add_parser as _add_demo
