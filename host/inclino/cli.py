@@ -72,6 +72,12 @@ def _cmd_bench(args) -> int:
     if args.what == "calibration":
         from inclino.calib.bench import bench_calibration
 
+        if args.section == "temperature":  # alone (calib/bench_temp.py)
+            from inclino.calib import bench_temp
+
+            t = bench_temp.bench_temperature()
+            print(t.to_json() if args.json else bench_temp.text(t))
+            return 0 if t.passed else 1
         r = bench_calibration()
         if args.json:
             print(r.to_json())
@@ -229,6 +235,8 @@ def build_parser() -> argparse.ArgumentParser:
     be.add_argument("--vectors", type=int, default=1_000_000, help="speed: batch size")
     be.add_argument("--quick", action="store_true", help="diagnose: a small set (not the targets' figures)")
     be.add_argument("--plot", help="survey: also draw the first seed's well path and ellipses (PNG)")
+    be.add_argument("--section", choices=("all", "temperature"), default="all",
+                    help="calibration: only the temperature section (default all)")
     be.set_defaults(func=_cmd_bench)
     _add_calibrate(sub)
     _add_diagnose(sub)

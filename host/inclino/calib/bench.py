@@ -77,6 +77,7 @@ class CalibrationBench:
     peers: list = field(default_factory=list)
     prediction: dict = field(default_factory=dict)  # bench_predict.prediction_ratios
     field_prior: dict = field(default_factory=dict)  # bench_prior.field_prior_bench
+    temperature: dict = field(default_factory=dict)  # bench_temp.bench_temperature
     papers_measured: dict = field(default_factory=lambda: dict(PAPERS))
     targets: dict = field(default_factory=lambda: dict(TARGETS))
     met: dict = field(default_factory=dict)
@@ -252,8 +253,14 @@ def bench_calibration(n_runs: int = 100, seed: int = 100, include_peer: bool | N
 
     res.field_prior = field_prior_bench(n_probes=min(10, n_runs))
     res.met["field_prior_within_1_5x_fresh"] = res.field_prior["met"]
+    from .bench_temp import TARGET_RATIO, bench_temperature
+
+    t = bench_temperature()
+    res.temperature = t.to_dict()
+    res.targets["temperature_ratio_with_terms_max"] = TARGET_RATIO
+    res.met["temperature_within_1_2x_room"] = t.passed
     # every target must have been evaluated: no peer installed means the peer target is not shown met
     res.passed = bool(res.met["joint_lowest_azi_rms"] and res.met["ratio_to_best_paper_ok"]
                       and res.met["ratio_to_cramer_rao_ok"] and res.met["ratio_to_best_peer_ok"] is True
-                      and res.prediction["met"] and res.field_prior["met"])
+                      and res.prediction["met"] and res.field_prior["met"] and t.passed)
     return res

@@ -1,0 +1,143 @@
+"""The temperature terms measured where they act: a probe with hidden
+tempcos (drawn at test time from the typical scenario's spread: every bias
+and scale coefficient, first and second order, of every axis of both triads,
+unknown to the test in size and axis) is calibrated from an emulated chamber
+run and checked at -5, 25 and 55 degC through the temperature engine
+(inclino.temp_engine: the firmware's correction); `inclino accept
+--temperatures` end to end on the emulator; its refusals."""
+import json
+
+import numpy as np
+import pytest
+
+from inclino import cli, core, temp_engine
+from inclino.calfile import Calibration
+from inclino.calib import bench_temp
+from inclino_emu.probe import EmulatedProbe
+from inclino_emu.runner import Emulator
+
+CHECK = (-5.0, 25.0, 55.0)
+
+
+@pytest.fixture(scope="module")
+def chamber_calibrated(tmp_path_factory):
+    """(seed, scenario, calibration, CAL.json path) of a probe drawn now,
+    calibrated from its emulated chamber run (acquire --procedure
+    temperature, joint --temperature on)."""
+    seed = int(np.random.default_rng().integers(1 << 20))
+    d = tmp_path_factory.mktemp("chamber")
+    sc = bench_temp.drawn_probe(seed)
+    run = str(d / "run.csv")
+    bench_temp.chamber_run(sc, run, CHECK, emu_seed=seed)
+    cal, rep = bench_temp.fit_with_terms(run)
+    path = str(d / "cal.json")
+    cal.save(path)
+    return seed, sc, cal, path
+
+
+def test_chamber_calibrated_probe_meets_the_1_2x_target_through_the_engine(chamber_calibrated):
+    """Issue 12's Done when: with the temperature terms, azimuth and
+    inclination RMS on the acceptance grid (as the probe reads it, the
+    expected RMS over bench_temp.REPEATS takings of the grid) at -5 and 55 degC
+    within 1.2x the same probe's 25 degC figure; without the terms far
+    outside it.  Measured: 0 misses in the draws of docs/calibration.md."""
+    seed, sc, cal, _ = chamber_calibrated
+    eng = temp_engine.get("auto")
+    chk = bench_temp.check_probe(sc, cal, eng, CHECK, 25.0, seed=seed)
+    for r in chk["setpoints"]:
+        assert r["azi_ratio_with"] <= bench_temp.TARGET_RATIO, (seed, r)
+        assert r["inc_ratio_with"] <= bench_temp.TARGET_RATIO, (seed, r)
+    for r in chk["calibration_only"]:  # the noise-free grid: what the terms remove
+        if r["setpoint_c"] != 25.0:
+            assert r["azi_gain"] >= 3.0 and r["inc_gain"] >= 3.0, (seed, r)
+            assert r["azi_rms_with_deg"] < 0.05, (seed, r)
+
+
+def test_engine_without_terms_is_the_firmware_with_m_b(chamber_calibrated):
+    """terms=False is the firmware's survey with the calibration's M, b bit
+    for bit; a temperature block whose terms are zero changes nothing."""
+    _, _, cal, _ = chamber_calibrated
+    rng = np.random.default_rng()
+    n = 50
+    acc = rng.integers(-16384 * 64, 16384 * 64, (n, 3))
+    mag = rng.integers(-60000 * 64, 60000 * 64, (n, 3))
+    tcc = temp_engine.temp_cc_of(rng.uniform(-20, 70, n))
+    eng = temp_engine.get("auto")
+    out = eng.survey(acc, mag, tcc, cal, terms=False)
+    ref = core.survey(acc, mag, cal.to_fixed())
+    for k in core.ATT_COLS:
+        assert np.array_equal(out[k], ref[k]), k
+    zero = temp_engine.without_terms(cal)
+    zero.temperature = json.loads(json.dumps(cal.temperature))
+    for tri in ("acc", "mag"):
+        for key in ("bias", "scale_ppm"):
+            zero.temperature[tri][key] = np.zeros_like(np.asarray(cal.temperature[tri][key])).tolist()
+    z = eng.survey(acc, mag, tcc, zero, terms=True)
+    for k in core.ATT_COLS:
+        assert np.array_equal(z[k], ref[k]), k
+
+
+def test_temp_cc_is_what_the_probe_reports():
+    """temp_engine.temp_cc_of (the temperature the bench's grids hand the
+    engine) against the emulated probe's own averaged reading."""
+    p = EmulatedProbe(bench_temp.drawn_probe(1))
+    p.poll = p.lib.app_main_poll
+    for T in np.random.default_rng().uniform(-30.0, 80.0, 4):
+        p.phys.set_temperature(float(T))
+        assert round(p.raw()["temp_c"] * 100) == int(temp_engine.temp_cc_of(T)), T
+
+
+def test_accept_temperatures_cli_on_the_emulator(chamber_calibrated, tmp_path, capsys):
+    seed, _, cal, path = chamber_calibrated
+    emu = Emulator(bench_temp.drawn_probe(seed), seed=seed + 1, control_port=0, realtime=False).start()
+    save = tmp_path / "acc_t.json"
+    try:
+        rc = cli.main(["accept", "--port", emu.path, "--bench", f"127.0.0.1:{emu.control_port}", "--cal", path,
+                       "--temperatures", "-5,25,55", "--quiet", "--json", "--save", str(save)])
+    finally:
+        emu.stop()
+    out, err = capsys.readouterr()
+    r = json.loads(out)
+    assert json.loads(save.read_text()) == r
+    # the verdict is one run's: 0 when every ratio is within the target, 1 with the reasons otherwise
+    # (one run's ratio has a sampling spread of about +-0.2 from the reading noise: docs/calibration.md)
+    assert rc == (0 if r["passed"] else 1) and r["passed"] == (not r["reasons"]), (rc, r["reasons"], err)
+    assert r["setpoints_c"] == list(CHECK) and r["reference_c"] == 25.0 and r["target_ratio"] == 1.2
+    assert r["engine"] == temp_engine.get("auto").name
+    assert r["download"] and r["probe_serial"] == 1001
+    assert not r["survey_mismatches"] and r["surveys_checked"] == sum(p["reads"] for p in r["points"])
+    assert len(r["points"]) == 3 * 66
+    for s in r["setpoints"]:
+        assert abs(s["probe_c_mean"] - s["setpoint_c"]) < 1.5
+        for key in ("with", "without"):
+            assert s[key]["azi_points"] == 66 and s[key]["inc_points"] == 66
+        for q in ("azi", "inc"):
+            ratio = s[f"{q}_ratio_with"]
+            assert (ratio > 1.2) == any(f"at {s['setpoint_c']:g} degC" in x and
+                                        ("azimuth" if q == "azi" else "inclination") in x for x in r["reasons"])
+        if s["setpoint_c"] != 25.0:  # the room-temperature-only calibration is off at the extremes
+            assert s["azi_gain"] > 1.5 and s["inc_gain"] > 3.0, s
+            assert s["azi_ratio_without"] > 1.5 * s["azi_ratio_with"]
+    assert Calibration.load(path).temperature["order"] == cal.temperature["order"]
+
+
+@pytest.mark.parametrize("temps, why", [
+    ("a,b", "comma-separated"), ("25", "at least one other"), ("-5,30", "must be one of the set points"),
+    ("-50,25", "outside"), ("25,25,55", "twice"), ("", "comma-separated"), ("-5,,25", "comma-separated"),
+])
+def test_accept_temperatures_refusals(temps, why, capsys, chamber_calibrated):
+    _, _, _, path = chamber_calibrated
+    rc = cli.main(["accept", "--port", "/nonexistent/tty", "--cal", path, "--temperatures", temps])
+    out, err = capsys.readouterr()
+    assert rc == 2 and why in err and len(err.strip().splitlines()) == 1 and not out, (temps, err)
+
+
+def test_accept_temperatures_needs_terms(tmp_path, capsys, chamber_calibrated):
+    plain = tmp_path / "plain.json"
+    Calibration().save(str(plain))
+    for args, why in ((["--cal", str(plain)], "no temperature terms"), ([], "needs --cal"),
+                      (["--cal", chamber_calibrated[3], "--target-ratio", "0.5"], "--target-ratio"),
+                      (["--cal", chamber_calibrated[3], "--circles"], "does not take")):
+        rc = cli.main(["accept", "--port", "/nonexistent/tty", "--temperatures", "-5,25,55", *args])
+        out, err = capsys.readouterr()
+        assert rc == 2 and why in err and len(err.strip().splitlines()) == 1, (args, err)
