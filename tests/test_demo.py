@@ -60,14 +60,26 @@ def test_demo_core_prints_the_library_table(capsys):
     assert list(near) == [i < 0.5 or i > 179.5 for i, _, _ in demo.POSES]
 
 
-def test_temperature_demo_fits_the_terms_of_an_emulated_chamber_run(tmp_path):
-    """`inclino demo --temperature`'s steps, with two set points to keep it short."""
-    from inclino import demo_temp
+def test_temperature_demo_fits_and_checks_the_terms_of_an_emulated_chamber_run(tmp_path, capsys):
+    """`inclino demo --temperature` on a probe drawn now: exit status and the
+    files, read back through the library's readers."""
+    from inclino.accept_temp import TempAcceptResult
 
-    said = []
-    r = demo_temp.run(str(tmp_path), tempco_draw=int(np.random.default_rng().integers(1000)),
-                      setpoints=(10.0, 40.0), quiet=True, say=said.append)
-    assert r["passed"] and r["temperature"]["order"] in (1, 2) and r["gain"] >= 10.0
-    assert Calibration.load(str(tmp_path / "cal_temperature.json")).temperature["t_ref_c"] == 25.0
-    assert r["diagnose_temperature_effects"]["as acquired"]           # the run shows them ...
-    assert any(s.startswith("[4/4]") for s in said) and said[-1].startswith("Summary: order")
+    out = tmp_path / "demo_t"
+    rc = cli.main(["demo", "--temperature", "--quiet", "--out", str(out),
+                   "--tempco-draw", str(int(np.random.default_rng().integers(1000)))])
+    capsys.readouterr()
+    assert rc == 0
+    assert sorted(p.name for p in out.iterdir()) == ["accept_temperature.json", "cal_temperature.json",
+                                                     "run_temperature.csv"]
+    run = read_raw(str(out / "run_temperature.csv"))
+    assert run.columns["temp_c"].min() < -4.0 and run.columns["temp_c"].max() > 54.0
+    cal = Calibration.load(str(out / "cal_temperature.json"))
+    assert cal.temperature["order"] in (1, 2) and cal.temperature["t_ref_c"] == 25.0
+    a = TempAcceptResult.from_json((out / "accept_temperature.json").read_text())
+    assert a.setpoints_c == [-5.0, 25.0, 55.0] and a.reference_c == 25.0 and not a.survey_mismatches
+    assert a.passed == (not a.reasons)
+    for s in a.setpoints:  # the terms brought the grid's errors down away from 25 degC (the exit status says so too)
+        if s["setpoint_c"] != 25.0:
+            assert s["with"]["azi_rms_deg"] < s["without"]["azi_rms_deg"]
+            assert s["with"]["inc_rms_deg"] < s["without"]["inc_rms_deg"]

@@ -279,7 +279,8 @@ def _cmd_demo(args) -> int:
         from inclino import demo_temp
 
         r = demo_temp.run(args.out, tempco_draw=args.tempco_draw, seed=args.seed, quiet=args.quiet)
-        return 0 if r["passed"] and r["gain"] >= 10.0 else 1
+        gain = r.get("accept_gain_min")  # the acceptance grid at the set points, with / without the terms
+        return 0 if r["passed"] and r["gain"] >= 10.0 and gain is not None and gain > 1.0 else 1
     res = bench(args.out, scenario=args.scenario, seed=args.seed, quiet=args.quiet)
     print(summary(res))
     ok = res.verify_ok and all(a.passed for a in res.accept.values())
@@ -299,7 +300,8 @@ def add_parser(sub) -> None:
     d.add_argument("--field", type=float, default=50000.0, help="--core: field total, nT (default 50000)")
     d.add_argument("--dip", type=float, default=60.0, help="--core: dip, degrees (default 60)")
     d.add_argument("--temperature", action="store_true",
-                   help="instead: the temperature step (chamber run, temperature terms, diagnose before/after)")
+                   help="instead: the temperature step (chamber run, temperature terms, diagnose before/after, "
+                        "the acceptance grid at each set point with and without the terms)")
     d.add_argument("--tempco-draw", type=int, default=1, help="--temperature: the probe's tempcos drawn with "
                                                               "this seed (default 1)")
     d.set_defaults(func=_cmd_demo)

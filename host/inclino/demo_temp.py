@@ -10,11 +10,21 @@
 4. diagnose the run as it is and with the terms applied (`inclino diagnose`,
    `--cal`): the temperature effects named before and after, with their
    estimates (what the terms leave is at the level of TEMP_OUT's 0.47 degC
-   counts).
+   counts);
+5. download the calibration with its terms to the same emulated probe and
+   check it at each set point (`inclino accept --temperatures`): the Li 2021
+   grid through the temperature engine (inclino.temp_engine: the firmware's
+   correction; while the firmware does not apply the terms, the terms on the
+   host before the firmware's C, and the result says so), with the terms and
+   without them, the gain and the ratio to the 25 degC figure (the set point
+   nearest the terms' t_ref when 25 is not among them).
 
-The firmware does not apply the terms yet (docs/calibration.md): the figures
-"with" are the host's correction.  Files in --out: run_temperature.csv,
-cal_temperature.json.
+Files in --out: run_temperature.csv, cal_temperature.json,
+accept_temperature.json (accept_temp.TempAcceptResult).  `inclino demo
+--temperature` exits 0 when the fit passed and, at every set point other
+than the reference, the terms brought the acceptance grid's azimuth and
+inclination RMS down (gain > 1); the 1.2x verdict of step 5 is printed and
+saved, not the exit status (`inclino accept --temperatures` exits on it).
 """
 from __future__ import annotations
 
@@ -24,10 +34,8 @@ import time
 
 def run(out_dir: str, tempco_draw: int = 1, setpoints=(-5.0, 25.0, 55.0), seed: int | None = None,
         quiet: bool = False, say=None) -> dict:
+    from inclino import accept_temp, acquire_temp, safeio
     from inclino import acquire as acq
-    from inclino import acquire_temp, dataset
-    from inclino.calib import common, fit, thermal
-    from inclino.diagnose.analysis import diagnose
     from inclino.errors import DataError, InclinoError
     from inclino.link import ProbeLink
 
@@ -44,16 +52,17 @@ def run(out_dir: str, tempco_draw: int = 1, setpoints=(-5.0, 25.0, 55.0), seed: 
     plan.check()
     run_csv = os.path.join(out_dir, "run_temperature.csv")
     cal_json = os.path.join(out_dir, "cal_temperature.json")
+    acc_json = os.path.join(out_dir, "accept_temperature.json")
     t_all = time.monotonic()
-    out = {"files": [run_csv, cal_json]}
-    say(f"[1/4] starting the emulated probe (typical scenario, tempcos drawn with seed {tempco_draw}, "
+    out = {"files": [run_csv, cal_json, acc_json]}
+    say(f"[1/5] starting the emulated probe (typical scenario, tempcos drawn with seed {tempco_draw}, "
         "a thermal chamber at 25 degC, probe time constant 600 s; unthrottled) ...")
     emu = Emulator("typical", seed=seed, control_port=0, realtime=False, tempco_draw=tempco_draw).start()
     table = None
     try:
         table = acq.Bench(f"127.0.0.1:{emu.control_port}")
         with ProbeLink(emu.path, timeout=2.0) as link:
-            say(f"[2/4] acquiring a chamber run, set points {', '.join(f'{t:g}' for t in setpoints)} degC "
+            say(f"[2/5] acquiring a chamber run, set points {', '.join(f'{t:g}' for t in setpoints)} degC "
                 f"(ramp {plan.ramp_rate:g} degC/min; emulated time runs ahead) -> {run_csv}")
             r = acquire_temp.acquire_temperature(link, run_csv, table, plan, quiet=quiet)
             out["rows"] = r.rows
@@ -61,11 +70,40 @@ def run(out_dir: str, tempco_draw: int = 1, setpoints=(-5.0, 25.0, 55.0), seed: 
                 say(f"      {n['setpoint_c']:g} degC: settled after {n['soak_min']:g} min of chamber time, "
                     f"probe at {n['probe_c']:.2f} degC")
             say(f"      {r.rows} rows, {r.reads} readings, {r.elapsed_s:.1f} s")
+            cal = _fit_and_diagnose(run_csv, cal_json, out, say)
+            ref_c = min(setpoints, key=lambda t: abs(t - float(cal.temperature["t_ref_c"])))
+            say(f"[5/5] downloading the calibration with its terms and checking it at "
+                f"{', '.join(f'{t:g}' for t in setpoints)} degC (the Li 2021 grid; with and without the terms, "
+                f"against {ref_c:g} degC) -> {acc_json}")
+            res = accept_temp.accept_temperatures(link, table, cal, tuple(setpoints), reference_c=ref_c,
+                                                  quiet=quiet)
     finally:
         if table is not None:
             table.close()
         emu.stop()
-    say(f"[3/4] fitting joint with its temperature terms -> {cal_json}")
+    safeio.write_output(acc_json, res.to_json() + "\n")
+    for line in accept_temp.render(res).splitlines():
+        say("      " + line)
+    out["accept"] = {"passed": res.passed, "engine": res.engine, "terms_in_firmware": res.terms_in_firmware,
+                     "setpoints": res.setpoints}
+    gains = [s[f"{q}_gain"] for s in res.setpoints if s["setpoint_c"] != ref_c for q in ("azi", "inc")]
+    out["accept_gain_min"] = min(g for g in gains if g is not None) if gains else None
+    out["elapsed_s"] = time.monotonic() - t_all
+    worst = max(cal.temperature["error_over_range"], key=lambda x: x["azi_rms_without_deg"])
+    out["gain"] = worst["azi_rms_without_deg"] / max(worst["azi_rms_with_deg"], 1e-9)
+    say(f"Summary: order {cal.temperature['order']} terms; acceptance grid through the {res.engine} engine: "
+        + "; ".join(f"{s['setpoint_c']:g} degC azimuth RMS {s['with']['azi_rms_deg']:.3f} deg with the terms, "
+                    f"{s['without']['azi_rms_deg']:.3f} without" for s in res.setpoints)
+        + f"; 1.2x verdict {'PASS' if res.passed else 'FAIL'}; {out['elapsed_s']:.1f} s; files in {out_dir}/")
+    return out
+
+
+def _fit_and_diagnose(run_csv, cal_json, out, say):
+    from inclino import dataset
+    from inclino.calib import common, fit, thermal
+    from inclino.diagnose.analysis import diagnose
+
+    say(f"[3/5] fitting joint with its temperature terms -> {cal_json}")
     ds = dataset.read_raw(run_csv)
     cal, rep = fit(ds, "joint", data_hash=common.file_hash(run_csv, ds), temperature="on")
     cal.save(cal_json)
@@ -73,7 +111,7 @@ def run(out_dir: str, tempco_draw: int = 1, setpoints=(-5.0, 25.0, 55.0), seed: 
     out["temperature"] = cal.temperature
     say("      " + rep.summary().replace("\n", "\n      "))
     say(thermal.summary(cal.temperature))
-    say("[4/4] diagnosing the run as it is, then with the temperature terms applied")
+    say("[4/5] diagnosing the run as it is, then with the temperature terms applied")
     named = {}
     for label, d in (("as acquired", ds), ("with the terms", thermal.corrected_dataset(ds, cal, cal.temperature))):
         dg = diagnose(d)
@@ -82,10 +120,4 @@ def run(out_dir: str, tempco_draw: int = 1, setpoints=(-5.0, 25.0, 55.0), seed: 
         named[label] = names
         say(f"      {label}: temperature effects named: {'; '.join(names) if names else 'none'}")
     out["diagnose_temperature_effects"] = named
-    out["elapsed_s"] = time.monotonic() - t_all
-    worst = max(cal.temperature["error_over_range"], key=lambda x: x["azi_rms_without_deg"])
-    out["gain"] = worst["azi_rms_without_deg"] / max(worst["azi_rms_with_deg"], 1e-9)
-    say(f"Summary: order {cal.temperature['order']} terms; at {worst['temp_c']:g} degC azimuth RMS "
-        f"{worst['azi_rms_without_deg']:.3f} deg without -> {worst['azi_rms_with_deg']:.4f} deg with them "
-        f"(host-side; the firmware applies M, b only); {out['elapsed_s']:.1f} s; files in {out_dir}/")
-    return out
+    return cal
