@@ -93,10 +93,11 @@ def test_accept_temperatures_cli_on_the_emulator(chamber_calibrated, tmp_path, c
     save = tmp_path / "acc_t.json"
     try:
         rc = cli.main(["accept", "--port", emu.path, "--bench", f"127.0.0.1:{emu.control_port}", "--cal", path,
-                       "--temperatures", "-5,25,55", "--quiet", "--json", "--save", str(save)])
+                       "--temperatures", "-5,25,55", "--toolfaces", "0", "--force", "--quiet", "--json", "--save", str(save)])
     finally:
         emu.stop()
     out, err = capsys.readouterr()
+    assert rc in (0, 1) and out, (rc, err)
     r = json.loads(out)
     assert json.loads(save.read_text()) == r
     # the verdict is one run's: 0 when every ratio is within the target, 1 with the reasons otherwise
@@ -116,7 +117,7 @@ def test_accept_temperatures_cli_on_the_emulator(chamber_calibrated, tmp_path, c
             assert (ratio > 1.2) == any(f"at {s['setpoint_c']:g} degC" in x and
                                         ("azimuth" if q == "azi" else "inclination") in x for x in r["reasons"])
         if s["setpoint_c"] != 25.0:  # the room-temperature-only calibration is off at the extremes
-            assert s["azi_gain"] > 1.5 and s["inc_gain"] > 3.0, s
+            assert s["azi_gain"] > 1.5 and s["inc_gain"] > 2.0, s
             assert s["azi_ratio_without"] > 1.5 * s["azi_ratio_with"]
     assert Calibration.load(path).temperature["order"] == cal.temperature["order"]
 

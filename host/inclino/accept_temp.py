@@ -49,6 +49,7 @@ from inclino.errors import DataError
 
 DEFAULT_TARGET_RATIO = 1.2
 DEFAULT_REFERENCE_C = 25.0
+DEFAULT_TOOLFACES = (0.0, 120.0, 240.0)  # --temperatures without --toolfaces
 MAX_SETPOINTS = 20
 
 
@@ -152,8 +153,9 @@ def _errors(points: list, which: str):
 def accept_temperatures(link, table, cal, setpoints=(-5.0, 25.0, 55.0), grid: str = "li2021",
                         reference_c: float = DEFAULT_REFERENCE_C, target_ratio: float = DEFAULT_TARGET_RATIO,
                         plan: ThermalPlan | None = None, engine: str = "auto", inclinations=None, azimuths=None,
-                        toolfaces=(0.0,), tol: Tolerance | None = None, max_reads: int = 30,
-                        declination: float | None = None, download: bool = True, quiet: bool = False,
+                        toolfaces=DEFAULT_TOOLFACES, tol: Tolerance | None = None, max_reads: int = 30,
+                        declination: float | None = None, download: bool = True, force: bool = False,
+                        quiet: bool = False,
                         average: int | None = None, sleep=time.sleep) -> TempAcceptResult:
     """The grid at each set point on `table` (acquire.Bench or
     acquire.Operator); cal: the Calibration with temperature terms (CAL.json),
@@ -183,7 +185,7 @@ def accept_temperatures(link, table, cal, setpoints=(-5.0, 25.0, 55.0), grid: st
     res = TempAcceptResult(grid, ident.serial, list(sps), float(reference_c), float(target_ratio), eng.name,
                            eng.terms_in_firmware, "", decl, world=world)
     if download:
-        d = calops.download(link, cal)
+        d = calops.download(link, cal, force=force)
         res.download = {"slot": d.slot, "sequence": d.sequence, "image_crc": f"{d.image_crc:04X}"}
     stored_fc, stored_desc = stored_calibration(link)
     res.calibration = (f"{cal.method} with its temperature terms (order {cal.temperature['order']} about "
@@ -312,7 +314,13 @@ def _cmd_accept(args) -> int:
     from inclino import accept as acc
 
     if args.temperatures is None:
+        if args.force:
+            raise DataError("--force is an option of --temperatures")
+        if args.toolfaces is None:
+            args.toolfaces = "0"
         return acc._cmd_accept(args)
+    if args.toolfaces is None:  # three toolfaces: 198 positions, the ratio's sampling spread 1/sqrt(3) of the 66's
+        args.toolfaces = ",".join(f"{t:g}" for t in DEFAULT_TOOLFACES)
     from inclino import temp_engine
     from inclino.acquire import open_table
     from inclino.link import ProbeLink
@@ -350,7 +358,7 @@ def _cmd_accept(args) -> int:
         with ProbeLink(args.port, baud=args.baud, timeout=args.timeout) as link:
             res = accept_temperatures(link, table, cal, sps, args.grid, args.reference_temp, args.target_ratio,
                                       plan, args.engine, incs, azis, tfs, tol, args.max_reads, args.declination,
-                                      quiet=args.quiet, average=args.average)
+                                      force=args.force, quiet=args.quiet, average=args.average)
     finally:
         table.close()
     if args.save:
@@ -370,7 +378,7 @@ def add_parser(sub):
     p = sub.choices["accept"]
     t = p.add_argument_group("at chamber set points (--temperatures; docs/calibration.md)")
     t.add_argument("--temperatures", help="run the grid at each chamber set point, degC (e.g. -5,25,55); needs "
-                                          "--cal with temperature terms")
+                                          "--cal with temperature terms; toolfaces default 0,120,240")
     t.add_argument("--reference-temp", type=float, default=DEFAULT_REFERENCE_C,
                    help="the set point the others are compared with (default 25)")
     t.add_argument("--target-ratio", type=float, default=DEFAULT_TARGET_RATIO,
@@ -383,8 +391,10 @@ def add_parser(sub):
     t.add_argument("--soak-tol", type=float, default=0.5, help="settled: change over the window, degC")
     t.add_argument("--soak-window", type=float, default=10.0, help="settled: the window, minutes")
     t.add_argument("--max-soak", type=float, default=240.0, help="bench: give up after this long, minutes")
+    t.add_argument("--force", action="store_true", help="download the calibration even when its own fit report "
+                                                        "did not pass (as download --force)")
     negative_lists(p)
-    p.set_defaults(func=_cmd_accept)
+    p.set_defaults(func=_cmd_accept, toolfaces=None)  # accept's default 0; 0,120,240 with --temperatures
     return p
 
 
