@@ -83,7 +83,10 @@ extern "Python+C" uint8_t hal_flash_erase(uint32_t addr);
 
 APP_CDEF = """
 typedef struct { int32_t m[9]; int32_t bias[3]; } corr_triad_t;
-typedef struct { corr_triad_t acc; corr_triad_t mag; } corr_cal_t;
+typedef struct { int32_t c1[3]; int16_t c2[3]; int32_t r1[3]; int16_t r2[3]; } corr_tc_t;
+typedef struct { corr_triad_t acc; corr_triad_t mag; corr_tc_t acc_tc; corr_tc_t mag_tc; int16_t t_ref;
+                 uint8_t t_order; } corr_cal_t;
+typedef struct { int32_t bias[3]; int32_t e[3]; } corr_tt_t;
 typedef struct { int32_t inc; int32_t azi; int32_t gtf; int32_t mtf; int32_t gt; int32_t bt;
                  int32_t dip; uint16_t flags; } att_t;
 typedef struct { int32_t g[3]; int32_t b[3]; att_t att; } survey_t;
@@ -92,11 +95,14 @@ typedef struct { int32_t gt_ref; int32_t gt_tol; int32_t bt_ref; int32_t bt_tol;
 typedef struct { uint32_t serial; uint32_t time; uint8_t method; } calimg_info_t;
 
 void survey_compute(const int32_t acc[3], const int32_t mag[3], const corr_cal_t *cal, survey_t *s);
+void survey_compute_temp(const int32_t acc[3], const int32_t mag[3], int32_t temp_q6, const corr_cal_t *cal,
+                         survey_t *s);
 uint8_t qc_check(const att_t *a, const qc_ref_t *r);
 void qc_default(qc_ref_t *r, int32_t bt_ref, int32_t dip_ref);
 uint16_t crc16_update(uint16_t crc, const uint8_t *data, uint16_t n);
 uint8_t calimg_parse(const uint8_t *buf, uint16_t len, corr_cal_t *cal, calimg_info_t *info);
-void calimg_build(const corr_cal_t *cal, const calimg_info_t *info, uint8_t buf[120]);
+uint16_t calimg_build(const corr_cal_t *cal, const calimg_info_t *info, uint8_t buf[192]);
+uint16_t calimg_length(const uint8_t *buf);
 
 /* adis16210.h */
 typedef struct { int16_t acc[3]; uint16_t temp_raw; } adis_sample_t;
@@ -118,27 +124,28 @@ uint8_t ads_read_channel(uint8_t mux, int32_t *code);
 int32_t ads_sign_extend24(uint32_t raw);
 
 /* acquire.h */
-typedef struct { int32_t acc[3]; int32_t mag[3]; uint16_t temp_raw; int32_t temp_cc; uint8_t n; }
-    acq_result_t;
+typedef struct { int32_t acc[3]; int32_t mag[3]; uint16_t temp_raw; int32_t temp_q6; int32_t temp_cc;
+                 uint8_t n; } acq_result_t;
 int32_t acq_avg(int32_t sum, uint8_t n);
 int32_t acq_avg_q6(int32_t sum, uint8_t n);
 uint8_t acq_run(uint8_t n, acq_result_t *out);
 
 /* calstore.h */
 typedef uint8_t (*calstore_check_t)(const uint8_t *payload, uint16_t len);
-typedef struct { uint32_t base[2]; uint16_t payload_len; calstore_check_t check; } calstore_cfg_t;
+typedef struct { uint32_t base[2]; uint16_t payload_len; calstore_check_t check; uint16_t alt_len; }
+    calstore_cfg_t;
 typedef struct {
     const calstore_cfg_t *cfg; uint8_t active; uint32_t active_seq; uint16_t active_crc;
-    uint8_t pending; uint32_t pending_seq; uint16_t pending_crc; uint8_t state[2]; uint32_t seq[2];
-    uint8_t last_flash; } calstore_t;
+    uint8_t pending; uint32_t pending_seq; uint16_t pending_crc; uint16_t pending_len; uint8_t state[2];
+    uint32_t seq[2]; uint16_t len[2]; uint8_t last_flash; } calstore_t;
 uint8_t calstore_boot(calstore_t *cs, const calstore_cfg_t *cfg);
-uint8_t calstore_write(calstore_t *cs, const uint8_t *payload);
+uint8_t calstore_write(calstore_t *cs, const uint8_t *payload, uint16_t len);
 uint8_t calstore_activate(calstore_t *cs);
 uint8_t calstore_read(const calstore_t *cs, uint8_t slot, uint8_t *dst);
 uint16_t calstore_flash_ops(const calstore_cfg_t *cfg);
 
 /* probe.h */
-typedef struct { int32_t acc[3]; int32_t mag[3]; int32_t temp_cc; uint8_t n; } probe_raw_t;
+typedef struct { int32_t acc[3]; int32_t mag[3]; int32_t temp_cc; uint8_t n; int32_t temp_q6; } probe_raw_t;
 typedef struct {
     uint32_t product; uint16_t fw_version; uint32_t serial; uint16_t hw_rev; uint8_t adis_status;
     uint8_t ads_status; uint16_t adis_prod_id; uint8_t cal_slot; uint32_t cal_seq; uint16_t cal_crc;

@@ -50,7 +50,8 @@ PROBE_QC_A_ADDR = 0x7A0C00
 PROBE_QC_B_ADDR = 0x7A1000
 PROBE_SLOT_A, PROBE_SLOT_B, PROBE_SLOT_ACTIVE, PROBE_SLOT_NONE = 0, 1, 2, 0xFF
 PROBE_QC_NO_REF = 0x80
-CALIMG_SIZE = 120
+CALIMG_SIZE = 192  # calimg.h: the largest image (version 2); version 1 is 120 bytes
+CALIMG_SIZES = (120, 192)
 # boot.h (docs/bootloader.md)
 BOOT_LOADER_START, BOOT_LOADER_END = 0x7FF000, 0x800000
 BOOT_DESC_ADDR = 0x7FEC00
@@ -294,13 +295,14 @@ class EmulatedProbe:
         r = ffi.new("probe_raw_t *")
         st = self.call("probe_raw", r).status
         return {"status": st, "acc": list(r.acc), "mag": list(r.mag), "temp_c": r.temp_cc / 100.0,
-                "n": int(r.n)}
+                "n": int(r.n), "temp_q6": int(r.temp_q6)}
 
     def last_raw(self) -> dict:
         self._own()
         r = ffi.new("probe_raw_t *")
         lib.probe_last_raw(r)
-        return {"acc": list(r.acc), "mag": list(r.mag), "temp_c": r.temp_cc / 100.0, "n": int(r.n)}
+        return {"acc": list(r.acc), "mag": list(r.mag), "temp_c": r.temp_cc / 100.0, "n": int(r.n),
+                "temp_q6": int(r.temp_q6)}
 
     def identity(self) -> dict:
         self._own()
@@ -319,10 +321,20 @@ class EmulatedProbe:
         lib.probe_active_cal(c)
         return (list(c.acc.m), list(c.acc.bias), list(c.mag.m), list(c.mag.bias))
 
+    def active_temp(self):
+        """The active calibration's temperature terms: (t_order, t_ref Q7,
+        then c1, c2, r1, r2 of acc and of mag as lists); order 0 and zeros
+        for an image without them (version 1)."""
+        self._own()
+        c = ffi.new("corr_cal_t *")
+        lib.probe_active_cal(c)
+        return (int(c.t_order), int(c.t_ref)) + tuple(
+            list(getattr(tc, k)) for tc in (c.acc_tc, c.mag_tc) for k in ("c1", "c2", "r1", "r2"))
+
     def cal_write(self, image: bytes, force: bool = False) -> CallResult:
-        if len(image) != CALIMG_SIZE:
-            raise ValueError("a calibration image is 120 bytes")
-        buf = ffi.new("uint8_t[]", bytes(image))
+        if len(image) not in CALIMG_SIZES:
+            raise ValueError("a calibration image is 120 (version 1) or 192 bytes (version 2)")
+        buf = ffi.new(f"uint8_t[{CALIMG_SIZE}]", bytes(image))
         return self.call("probe_cal_write", buf, 1 if force else 0)
 
     def cal_activate(self) -> CallResult:
@@ -331,9 +343,10 @@ class EmulatedProbe:
     def cal_read(self, slot="active"):
         """(status, bytes) of slot "A", "B" or "active"."""
         sel = {"A": PROBE_SLOT_A, "B": PROBE_SLOT_B, "active": PROBE_SLOT_ACTIVE}[slot]
-        buf = ffi.new("uint8_t[120]")
+        buf = ffi.new(f"uint8_t[{CALIMG_SIZE}]")
         st = self.call("probe_cal_read", sel, buf).status
-        return st, bytes(buf)
+        n = int(lib.calimg_length(buf))  # the image's own length; all bytes when it has none
+        return st, bytes(buf)[:n or CALIMG_SIZE]
 
     def qc_set(self, gt_ref, gt_tol, bt_ref, bt_tol, dip_ref, dip_tol) -> CallResult:
         r = ffi.new("qc_ref_t *", (gt_ref, gt_tol, bt_ref, bt_tol, dip_ref, dip_tol))

@@ -84,7 +84,11 @@ def test_hidden_tempcos_are_recovered_and_meet_the_target_at_every_temperature()
     cal, rep = fit(ds, "joint", temperature="on")
     blk = cal.temperature
     assert blk is not None and blk["order"] in (1, 2) and blk["t_ref_c"] == 25.0
-    assert blk["applied_by_firmware"] is False
+    # a typical probe's terms fit the calibration image (version 2): the firmware applies them,
+    # and the second-order expansion of 1/(1 + s) it uses is stated, small over the run's span
+    assert blk["applied_by_firmware"] is True and blk["firmware"]["image_version"] == 2
+    trunc = blk["firmware"]["scale_truncation_max"]
+    assert max(trunc["acc"] + trunc["mag"]) < 1e-6
     # the coefficients against the hidden truth, in units of their own 1-sigma
     # (plus the error TEMP_OUT's 0.47 degC counts leave, 10 %)
     for tri in ("acc", "mag"):

@@ -9,28 +9,46 @@ import struct
 import pytest
 
 from inclino.calimage import CalImage
-from inclino.core import FixedCal
+from inclino.core import FixedCal, FixedTemp
 from inclino_emu import flash as fl
 from inclino_emu.probe import (PROBE_CAL_A_ADDR, PROBE_CAL_B_ADDR, PROBE_ID_ADDR, PROBE_QC_A_ADDR,
                                EmulatedProbe)
 
 CALSTORE_E_PAYLOAD, CALSTORE_E_NOT_PENDING = 0x42, 0x46
 PROBE_E_SERIAL, PROBE_E_IMAGE = 0x52, 0x54
-OPS_PER_CAL = 1 + 1 + 15 + 1          # erase, header, 15 payload phrases, commit
+OPS_PER_CAL = 1 + 1 + 15 + 1          # erase, header, 15 payload phrases, commit (version 1)
+OPS_PER_CAL_V2 = 1 + 1 + 24 + 1       # version 2: 24 payload phrases
 
 
-def image(k, serial=1, method="ren2014"):
-    """A valid, distinct calibration image number k."""
+def image(k, serial=1, method="ren2014", temp=False):
+    """A valid, distinct calibration image number k (version 2 with
+    temperature terms when temp)."""
     one = 2**29
     acc_m = (one + 1000 * k, 3 * k, -5 * k, 7, one - 2000 * k, 11 * k, -13, 17 * k, one + 300 * k)
     mag_m = (one - 700 * k, -k, 2 * k, 5 * k, one + 900 * k, -3, 4, k, one - 100 * k)
-    cal = FixedCal(acc_m, (k * 12345, -k * 999, 4242), mag_m, (k * 1024 * 150, -k * 1024 * 40, 77))
+    t = None
+    if temp:
+        t = FixedTemp(t_ref=25 * 128 + k, order=2, acc_c1=(k, -2 * k, 3), acc_c2=(k, 0, -k),
+                      acc_r1=(-k, 5, 7 * k), acc_r2=(2, -k, 3), mag_c1=(11 * k, 13, -k), mag_c2=(-3, k, 1),
+                      mag_r1=(k, k, -k), mag_r2=(-1, 2, k))
+    cal = FixedCal(acc_m, (k * 12345, -k * 999, 4242), mag_m, (k * 1024 * 150, -k * 1024 * 40, 77), t)
     return CalImage(cal, serial, 1_700_000_000 + k, method).pack()
+
+
+def ops_per_cal(img):
+    return 3 + len(img) // 8
 
 
 def expected_active(img):
     c = CalImage.unpack(img).cal
-    return (list(c.acc_m), list(c.acc_b), list(c.mag_m), list(c.mag_b))
+    t = c.temp
+    temp = (0, 0) + ([0, 0, 0],) * 8 if t is None else (t.order, t.t_ref) + tuple(
+        list(getattr(t, f"{tri}_{k}")) for tri in ("acc", "mag") for k in ("c1", "c2", "r1", "r2"))
+    return (list(c.acc_m), list(c.acc_b), list(c.mag_m), list(c.mag_b)) + temp
+
+
+def active(p):
+    return tuple(p.active_cal()) + p.active_temp()
 
 
 IDENTITY = expected_active(CalImage(FixedCal.identity(), 0, 0, "identity").pack())
@@ -138,7 +156,7 @@ def test_write_activate_layout_and_identity():
     assert (ident["cal_slot"], ident["cal_seq"]) == ("A", 1)
     assert ident["cal_crc"] == struct.unpack_from(">H", img, 116)[0]
     assert ident["cal_time"] == 1_700_000_001 and ident["cal_method"] == 1
-    assert p.active_cal() == expected_active(img)
+    assert active(p) == expected_active(img)
     assert p.cal_read("active") == (0, img) and p.cal_read("A") == (0, img)
     # the next one goes to B with the next sequence; A stays untouched
     img2 = image(2)
@@ -149,10 +167,36 @@ def test_write_activate_layout_and_identity():
     # and it survives a power cycle
     p.power_cycle()
     assert (p.identity()["cal_slot"], p.identity()["cal_seq"]) == ("B", 2)
-    assert p.active_cal() == expected_active(img2)
+    assert active(p) == expected_active(img2)
     # the third goes back to A
     assert p.cal_write(image(3)).status == 0 and p.cal_activate().status == 0
     assert decode_slot(p.flash, PROBE_CAL_A_ADDR)[:2] == (True, 3)
+
+
+def test_version_2_slot_and_version_1_beside_it():
+    """A version 2 image (temperature terms) takes a 192-byte slot; a version
+    1 image keeps its 120-byte slot beside it; each loads after a power
+    cycle with its own terms (none for version 1) and reads back as sent."""
+    p = EmulatedProbe("ideal")
+    v1, v2 = image(1), image(2, temp=True)
+    assert len(v1) == 120 and len(v2) == 192
+    assert p.cal_write(v1).status == 0 and p.cal_activate().status == 0
+    ops0 = p.flash.ops
+    assert p.cal_write(v2).status == 0 and p.cal_activate().status == 0
+    assert p.flash.ops - ops0 == OPS_PER_CAL_V2
+    assert decode_slot(p.flash, PROBE_CAL_B_ADDR, 192) == (True, 2, v2)
+    assert decode_slot(p.flash, PROBE_CAL_A_ADDR) == (True, 1, v1)
+    p.power_cycle()
+    ident = p.identity()
+    assert (ident["cal_slot"], ident["cal_seq"]) == ("B", 2)
+    assert ident["cal_crc"] == struct.unpack_from(">H", v2, 188)[0]
+    assert active(p) == expected_active(v2) and p.active_temp()[0] == 2
+    assert p.cal_read("active") == (0, v2) and p.cal_read("A") == (0, v1)
+    # back to a version 1 image: no terms
+    assert p.cal_write(image(3)).status == 0 and p.cal_activate().status == 0
+    p.power_cycle()
+    assert p.identity()["cal_slot"] == "A" and active(p) == expected_active(image(3))
+    assert p.active_temp()[0] == 0
 
 
 def test_refused_images_write_nothing():
@@ -183,12 +227,12 @@ def test_boot_takes_the_newest_valid_slot_and_falls_back():
     p.flash.load(PROBE_CAL_B_ADDR + 8 + 40, bytes([cell[0] ^ 0x04]))
     p.power_cycle()
     assert (p.identity()["cal_slot"], p.identity()["cal_seq"]) == ("A", 1)
-    assert p.active_cal() == expected_active(image(1))
+    assert active(p) == expected_active(image(1))
     # corrupt the commit record of the older one too: identity, slot none
     p.flash.load(PROBE_CAL_A_ADDR + 8 + 120, b"\x00")
     p.power_cycle()
     assert p.identity()["cal_slot"] == "none" and p.identity()["cal_crc"] == 0
-    assert p.active_cal() == IDENTITY
+    assert active(p) == IDENTITY
     assert p.cal_read("active")[0] == 0x53
     # a new write goes to A (none active) with sequence 1 and works
     assert p.cal_write(image(5)).status == 0 and p.cal_activate().status == 0
@@ -221,13 +265,13 @@ def _base_flash(with_old: bool):
     return p.flash
 
 
-def _run_cut(base, n, mode, seed):
+def _run_cut(base, n, mode, seed, new):
     f = fl.S12XFlash(seed=seed)
     f.mem[:] = base.mem
     p = EmulatedProbe("ideal", flash=f)
     before = p.identity()
     p.cut_power_at(n, mode)
-    r = p.cal_write(image(2))
+    r = p.cal_write(new)
     cut = r.power_cut
     if not cut:
         assert r.status == 0
@@ -237,30 +281,34 @@ def _run_cut(base, n, mode, seed):
     return p, before
 
 
+@pytest.mark.parametrize("new_temp", [False, True], ids=["v1", "v2"])
 @pytest.mark.parametrize("with_old", [True, False], ids=["over-old", "first"])
 @pytest.mark.parametrize("mode", ["random", "none", "full"])
-def test_power_cut_at_every_flash_step_never_mixes(with_old, mode):
+def test_power_cut_at_every_flash_step_never_mixes(with_old, mode, new_temp):
+    """Over a version 1 image (the v2 case: the first download of
+    temperature terms onto a probe calibrated before them)."""
     base = _base_flash(with_old)
     old = image(1) if with_old else None
-    new = image(2)
+    new = image(2, temp=new_temp)
+    OPS_PER_CAL = ops_per_cal(new)
     outcomes = []
     for n in range(1, OPS_PER_CAL + 1):
         for seed in ((n, 1, 2) if mode == "random" else (n,)):
-            p, before = _run_cut(base, n, mode, seed)
+            p, before = _run_cut(base, n, mode, seed, new)
             ident = p.identity()
-            active = p.active_cal()
-            if active == expected_active(new):
+            got = active(p)
+            if got == expected_active(new):
                 assert (ident["cal_slot"], ident["cal_seq"]) == (("B", 2) if with_old else ("A", 1))
                 assert p.cal_read("active") == (0, new)
                 outcomes.append("new")
             elif with_old:
-                assert active == expected_active(old), f"mixed calibration after a cut at step {n}"
+                assert got == expected_active(old), f"mixed calibration after a cut at step {n}"
                 assert (ident["cal_slot"], ident["cal_seq"]) == ("A", 1)
                 assert p.cal_read("active") == (0, old)
                 assert decode_slot(p.flash, PROBE_CAL_A_ADDR) == (True, 1, old)
                 outcomes.append("old")
             else:
-                assert active == IDENTITY, f"corrupt calibration after a cut at step {n}"
+                assert got == IDENTITY, f"corrupt calibration after a cut at step {n}"
                 assert ident["cal_slot"] == "none"
                 outcomes.append("identity")
             # only the commit (the last step) may bring the new calibration in
@@ -269,7 +317,7 @@ def test_power_cut_at_every_flash_step_never_mixes(with_old, mode):
             # and the probe recovers: a retry succeeds and activates the new one
             if n in (1, OPS_PER_CAL - 1, OPS_PER_CAL):
                 assert p.cal_write(new).status == 0 and p.cal_activate().status == 0
-                assert p.active_cal() == expected_active(new)
+                assert active(p) == expected_active(new)
     if mode == "full":
         assert outcomes[-1] == "new"
     if mode == "none":
@@ -294,10 +342,10 @@ def test_repeated_generations_with_random_cuts():
             if not r.power_cut and r.status == 0:
                 current = img
         p.flash.disarm()
-        if r.power_cut and cut_at == OPS_PER_CAL and p.active_cal() == expected_active(img):
+        if r.power_cut and cut_at == OPS_PER_CAL and active(p) == expected_active(img):
             current = img                           # the commit landed before the power went
         want = IDENTITY if current is None else expected_active(current)
-        assert p.active_cal() == want, k
+        assert active(p) == want, k
 
 
 # ---- the QC reference record ---------------------------------------------------

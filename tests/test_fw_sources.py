@@ -37,7 +37,7 @@ def test_every_firmware_c_file_is_listed_once_and_exists():
     assert len(listed) == len(set(listed)), "a file is in two groups"
     for p in listed:
         assert (FW / p).is_file(), p
-    on_disk = {str(p.relative_to(FW)) for d in ("src", "port/s08") for p in (FW / d).glob("*.c")}
+    on_disk = {str(p.relative_to(FW)) for d in ("src", "port/s08", "sim/s08") for p in (FW / d).glob("*.c")}
     assert on_disk == set(listed)
     used = {g for gs in builds.values() for g in gs}
     assert used == set(groups), "a group no build compiles"

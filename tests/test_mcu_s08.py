@@ -205,6 +205,7 @@ def test_build_refuses_helper_libraries_with_stack_auto(tmp_path):
     import shutil
     shutil.copytree(root / "firmware" / "include", src / "include")
     shutil.copytree(root / "firmware" / "port", src / "port")
+    shutil.copytree(root / "firmware" / "sim", src / "sim")
     shutil.copy(root / "firmware" / "sources.txt", src / "sources.txt")
     for f in fw_sources.sources("s08_core", root):
         if f.parent.name == "src":

@@ -88,6 +88,7 @@ uint8_t acq_run(uint8_t n, acq_result_t *out)
         out->mag[k] = acq_avg_q6(mag[k], n);
     }
     out->temp_raw = (uint16_t)acq_avg(temp, n);
+    out->temp_q6 = acq_avg_q6(temp, n);
     out->temp_cc = adis_temp_centi_c(out->temp_raw);
     out->n = n;
     return ACQ_OK;

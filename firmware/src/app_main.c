@@ -109,6 +109,7 @@ static void raw_record(const probe_raw_t *r, uint8_t out[PROTO_RAW_LEN])
     }
     be_put_u16(out + 24, (uint16_t)(int16_t)t);
     out[26] = r->n;
+    be_put_u32(out + 27, (uint32_t)r->temp_q6);
 }
 
 static uint8_t a_survey_raw(uint8_t out[PROTO_SURVEY_RAW_LEN])
@@ -166,7 +167,7 @@ static uint8_t a_set_average(uint8_t n)
     return (probe_set_average(n) == PROBE_OK) ? 0u : PERR_ARGUMENT;
 }
 
-static uint8_t a_cal_read(uint8_t slot, uint8_t out[126])
+static uint8_t a_cal_read(uint8_t slot, uint8_t *out)
 {
     uint8_t valid = 0u;
     uint32_t seq = 0u;
@@ -203,8 +204,9 @@ static uint16_t a_cal_write(const uint8_t *image, uint8_t force, uint8_t out[7])
     (void)probe_cal_pending(&slot, &seq);
     out[0] = slot;
     be_put_u32(out + 1, seq);
-    out[5] = image[CALIMG_CRC_OFFSET];
-    out[6] = image[CALIMG_CRC_OFFSET + 1u];
+    /* the CRC field of either version (calimg_parse checked the length) */
+    out[5] = image[calimg_length(image) - 4u];
+    out[6] = image[calimg_length(image) - 3u];
     return 0u;
 }
 

@@ -12,6 +12,7 @@ static uint8_t cfg_ok(const calstore_cfg_t *cfg)
     return (uint8_t)(cfg != 0 && cfg->payload_len >= HAL_FLASH_PHRASE &&
                      cfg->payload_len <= CALSTORE_PAYLOAD_MAX &&
                      (cfg->payload_len % HAL_FLASH_PHRASE) == 0u &&
+                     (cfg->alt_len % HAL_FLASH_PHRASE) == 0u && cfg->alt_len < cfg->payload_len &&
                      (cfg->base[0] % HAL_FLASH_SECTOR) == 0u &&
                      (cfg->base[1] % HAL_FLASH_SECTOR) == 0u && cfg->base[0] != cfg->base[1]);
 }
@@ -20,13 +21,13 @@ static uint8_t cfg_ok(const calstore_cfg_t *cfg)
  * Check one slot as at boot.  Out: *seq (header sequence, 0 when the header
  * is missing), *crc (slot CRC).  Returns CALSTORE_ST_*.
  */
-static uint8_t slot_check(const calstore_cfg_t *cfg, uint8_t slot, uint32_t *seq, uint16_t *crc)
+static uint8_t slot_check_len(const calstore_cfg_t *cfg, uint8_t slot, uint16_t len, uint32_t *seq,
+                              uint16_t *crc)
 {
     uint8_t hdr[HDR_LEN];
     uint8_t buf[CALSTORE_PAYLOAD_MAX];
     uint8_t com[COMMIT_LEN];
     uint32_t base = cfg->base[slot];
-    uint16_t len = cfg->payload_len;
     uint16_t c;
     uint32_t s;
 
@@ -57,6 +58,27 @@ static uint8_t slot_check(const calstore_cfg_t *cfg, uint8_t slot, uint32_t *seq
     return CALSTORE_ST_VALID;
 }
 
+/* A slot at payload_len, else (alt_len set) at alt_len; *len the length
+ * found valid (payload_len when neither is: its state is reported). */
+static uint8_t slot_check(const calstore_cfg_t *cfg, uint8_t slot, uint32_t *seq, uint16_t *crc,
+                          uint16_t *len)
+{
+    uint8_t st = slot_check_len(cfg, slot, cfg->payload_len, seq, crc);
+    *len = cfg->payload_len;
+    if (st != CALSTORE_ST_VALID && st != CALSTORE_ST_EMPTY && st != CALSTORE_ST_UNREADABLE &&
+        cfg->alt_len != 0u) {
+        uint32_t s2;
+        uint16_t c2;
+        if (slot_check_len(cfg, slot, cfg->alt_len, &s2, &c2) == CALSTORE_ST_VALID) {
+            *seq = s2;
+            *crc = c2;
+            *len = cfg->alt_len;
+            return CALSTORE_ST_VALID;
+        }
+    }
+    return st;
+}
+
 uint8_t calstore_boot(calstore_t *cs, const calstore_cfg_t *cfg)
 {
     uint8_t i;
@@ -74,11 +96,14 @@ uint8_t calstore_boot(calstore_t *cs, const calstore_cfg_t *cfg)
     cs->state[1] = CALSTORE_ST_UNREADABLE;
     cs->seq[0] = 0u;
     cs->seq[1] = 0u;
+    cs->pending_len = 0u;
+    cs->len[0] = 0u;
+    cs->len[1] = 0u;
     if (!cfg_ok(cfg)) {
         return CALSTORE_E_ARG;
     }
     for (i = 0u; i < 2u; i++) {
-        cs->state[i] = slot_check(cfg, i, &cs->seq[i], &crc[i]);
+        cs->state[i] = slot_check(cfg, i, &cs->seq[i], &crc[i], &cs->len[i]);
         if (cs->state[i] == CALSTORE_ST_VALID &&
             (cs->active == CALSTORE_SLOT_NONE || cs->seq[i] > cs->active_seq)) {
             cs->active = i;
@@ -118,21 +143,19 @@ static uint8_t compare(uint32_t addr, const uint8_t *ref, uint16_t n)
     return CALSTORE_OK;
 }
 
-uint8_t calstore_write(calstore_t *cs, const uint8_t *payload)
+uint8_t calstore_write(calstore_t *cs, const uint8_t *payload, uint16_t len)
 {
     const calstore_cfg_t *cfg = cs->cfg;
     uint8_t hdr[HDR_LEN];
     uint8_t target;
     uint32_t base;
     uint32_t seq;
-    uint16_t len;
     uint16_t off;
     uint8_t r;
 
-    if (!cfg_ok(cfg)) {
+    if (!cfg_ok(cfg) || len == 0u || (len != cfg->payload_len && len != cfg->alt_len)) {
         return CALSTORE_E_ARG;
     }
-    len = cfg->payload_len;
     if (cfg->check != 0 && cfg->check(payload, len) != 0u) {
         return CALSTORE_E_PAYLOAD;
     }
@@ -149,7 +172,7 @@ uint8_t calstore_write(calstore_t *cs, const uint8_t *payload)
         cs->last_flash = r;
         return CALSTORE_E_FLASH;
     }
-    r = compare(base, 0, (uint16_t)(HDR_LEN + len + COMMIT_LEN));
+    r = compare(base, 0, (uint16_t)(HDR_LEN + cfg->payload_len + COMMIT_LEN));
     if (r != CALSTORE_OK) {
         return (r == CALSTORE_E_VERIFY) ? CALSTORE_E_ERASE : r;
     }
@@ -172,6 +195,8 @@ uint8_t calstore_write(calstore_t *cs, const uint8_t *payload)
     cs->seq[target] = seq;
     cs->pending = target;
     cs->pending_seq = seq;
+    cs->pending_len = len;
+    cs->len[target] = len;
     cs->pending_crc = crc16_update(crc16_update(CRC16_INIT, hdr, HDR_LEN), payload, len);
     return CALSTORE_OK;
 }
@@ -192,8 +217,8 @@ uint8_t calstore_activate(calstore_t *cs)
     be_put_u16(com, CALSTORE_COMMIT_MAGIC);
     be_put_u16(com + 2, cs->pending_crc);
     be_put_u32(com + 4, cs->pending_seq);
-    r = program(cs, cfg->base[slot] + HDR_LEN + cfg->payload_len, com);
-    cs->state[slot] = slot_check(cfg, slot, &seq, &crc);
+    r = program(cs, cfg->base[slot] + HDR_LEN + cs->pending_len, com);
+    cs->state[slot] = slot_check(cfg, slot, &seq, &crc, &cs->len[slot]);
     cs->seq[slot] = seq;
     if (r != CALSTORE_OK) {
         return r;

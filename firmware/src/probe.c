@@ -14,9 +14,9 @@ static uint8_t cal_check(const uint8_t *p, uint16_t len);
 static uint8_t qc_rec_check(const uint8_t *p, uint16_t len);
 
 static const calstore_cfg_t cal_cfg = {
-    {PROBE_CAL_A_ADDR, PROBE_CAL_B_ADDR}, CALIMG_SIZE, cal_check};
+    {PROBE_CAL_A_ADDR, PROBE_CAL_B_ADDR}, CALIMG_SIZE, cal_check, CALIMG_SIZE_V1};
 static const calstore_cfg_t qc_cfg = {
-    {PROBE_QC_A_ADDR, PROBE_QC_B_ADDR}, PROBE_QC_SIZE, qc_rec_check};
+    {PROBE_QC_A_ADDR, PROBE_QC_B_ADDR}, PROBE_QC_SIZE, qc_rec_check, 0u};
 
 static struct {
     calstore_t cal_store;
@@ -85,6 +85,10 @@ static void use_identity_cal(void)
 {
     corr_identity(&P.cal.acc);
     corr_identity(&P.cal.mag);
+    corr_tc_clear(&P.cal.acc_tc);
+    corr_tc_clear(&P.cal.mag_tc);
+    P.cal.t_ref = 0;
+    P.cal.t_order = 0u;
     P.cal_info.serial = 0u;
     P.cal_info.time = 0u;
     P.cal_info.method = CALIMG_METHOD_IDENTITY;
@@ -107,7 +111,7 @@ static void load_cal(void)
         use_identity_cal();
         return;
     }
-    P.cal_crc = be_get_u16(img + CALIMG_CRC_OFFSET);
+    P.cal_crc = be_get_u16(img + calimg_length(img) - 4u); /* parsed: 120 or 192 */
 }
 
 static void load_qc(void)
@@ -133,6 +137,7 @@ uint8_t probe_init(void)
     P.last_raw.mag[1] = 0;
     P.last_raw.mag[2] = 0;
     P.last_raw.temp_cc = 0;
+    P.last_raw.temp_q6 = 0;
     P.last_raw.n = 0u;
     load_identity();
     (void)calstore_boot(&P.cal_store, &cal_cfg);
@@ -181,6 +186,7 @@ uint8_t probe_raw(probe_raw_t *r)
         r->mag[k] = a.mag[k];
     }
     r->temp_cc = a.temp_cc;
+    r->temp_q6 = a.temp_q6;
     r->n = a.n;
     P.last_raw = *r;
     return PROBE_OK;
@@ -195,7 +201,7 @@ uint8_t probe_survey(survey_t *s, uint8_t *qc_flags)
     if (st != PROBE_OK) {
         return st;
     }
-    survey_compute(r.acc, r.mag, &P.cal, s);
+    survey_compute_temp(r.acc, r.mag, r.temp_q6, &P.cal, s);
     if (P.have_qc) {
         f = qc_check(&s->att, &P.qc);
     } else {
@@ -244,7 +250,8 @@ uint8_t probe_cal_write(const uint8_t img[CALIMG_SIZE], uint8_t force)
     if (force == 0u && P.serial != 0u && info.serial != P.serial) {
         return PROBE_E_SERIAL;
     }
-    return calstore_write(&P.cal_store, img);
+    /* a version 1 image keeps its 120-byte slot (calstore alt_len) */
+    return calstore_write(&P.cal_store, img, calimg_length(img));
 }
 
 uint8_t probe_cal_activate(void)
@@ -309,7 +316,7 @@ uint8_t probe_qc_set(const qc_ref_t *r)
     be_put_u32(rec + 12, (uint32_t)r->bt_tol);
     be_put_u32(rec + 16, (uint32_t)r->dip_ref);
     be_put_u32(rec + 20, (uint32_t)r->dip_tol);
-    st = calstore_write(&P.qc_store, rec);
+    st = calstore_write(&P.qc_store, rec, PROBE_QC_SIZE);
     if (st == CALSTORE_OK) {
         st = calstore_activate(&P.qc_store);
     }

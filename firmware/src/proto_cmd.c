@@ -155,21 +155,34 @@ static uint16_t h_stop(void *ctx, uint8_t cmd, const uint8_t *pl, uint16_t len, 
 static uint16_t h_cal_read(void *ctx, uint8_t cmd, const uint8_t *pl, uint16_t len, uint8_t *out,
                            uint16_t *out_len)
 {
+    uint8_t st;
+    uint16_t n;
     (void)cmd;
     (void)len;
     if (pl[0] > 1u) {
         return PERR_ARGUMENT;
     }
-    *out_len = (uint16_t)(6u + CALIMG_SIZE);
-    return ((proto_t *)ctx)->app->cal_read(pl[0], out);
+    st = ((proto_t *)ctx)->app->cal_read(pl[0], out);
+    /* the image's own length (120 or 192); all CALIMG_SIZE bytes when the
+     * slot holds no readable length field */
+    n = calimg_length(out + 6);
+    *out_len = (uint16_t)(6u + ((n != 0u) ? n : CALIMG_SIZE));
+    return st;
 }
 
 static uint16_t h_cal_write(void *ctx, uint8_t cmd, const uint8_t *pl, uint16_t len, uint8_t *out,
                             uint16_t *out_len)
 {
+    uint16_t n;
     (void)cmd;
-    (void)len;
     *out_len = 7u;
+    /* an image whose length field (120 or 192) is not the frame's: refused
+     * here, so that no check reads past the frame; any other length field
+     * is the image check's to refuse (calimg_parse reads 8 bytes of it) */
+    n = calimg_length(pl + 1);
+    if (n != 0u && len != 1u + n) {
+        return (uint16_t)(PERR_IMAGE | ((uint16_t)CALIMG_E_LENGTH << 8));
+    }
     return ((proto_t *)ctx)->app->cal_write(pl + 1, pl[0], out);
 }
 
@@ -207,7 +220,7 @@ static const proto_command_t commands[] = {
     {PCMD_STREAM, 4u, 4u, h_stream},
     {PCMD_STOP, 0u, 0u, h_stop},
     {PCMD_CAL_READ, 1u, 1u, h_cal_read},
-    {PCMD_CAL_WRITE, 1u + CALIMG_SIZE, 1u + CALIMG_SIZE, h_cal_write},
+    {PCMD_CAL_WRITE, 1u + CALIMG_SIZE_V1, 1u + CALIMG_SIZE, h_cal_write},
     {PCMD_CAL_ACTIVATE, 5u, 5u, h_cal_activate},
     {PCMD_RESET, 0u, 0u, h_after},
     {PCMD_BOOTLOADER, 4u, 4u, h_after},

@@ -30,7 +30,10 @@ CORE_SOURCES = _fw_sources().sources("cffi_core", ROOT)
 
 CDEF = """
 typedef struct { int32_t m[9]; int32_t bias[3]; } corr_triad_t;
-typedef struct { corr_triad_t acc; corr_triad_t mag; } corr_cal_t;
+typedef struct { int32_t c1[3]; int16_t c2[3]; int32_t r1[3]; int16_t r2[3]; } corr_tc_t;
+typedef struct { corr_triad_t acc; corr_triad_t mag; corr_tc_t acc_tc; corr_tc_t mag_tc; int16_t t_ref;
+                 uint8_t t_order; } corr_cal_t;
+typedef struct { int32_t bias[3]; int32_t e[3]; } corr_tt_t;
 typedef struct { int32_t inc; int32_t azi; int32_t gtf; int32_t mtf; int32_t gt; int32_t bt;
                  int32_t dip; uint16_t flags; } att_t;
 typedef struct { int32_t g[3]; int32_t b[3]; att_t att; } survey_t;
@@ -49,9 +52,14 @@ uint32_t fx_sqrt_u32_q8(uint32_t x);
 int32_t fx_atan2_q16(int32_t y, int32_t x);
 uint8_t corr_triad(const int32_t x[3], const corr_triad_t *c, int32_t out[3]);
 void corr_identity(corr_triad_t *c);
+int16_t corr_temp_dt(int32_t temp_q6, int16_t t_ref, uint8_t *sat);
+void corr_temp_eval(int16_t dt, const corr_tc_t *tc, uint8_t sh, corr_tt_t *tt, uint8_t *sat);
+uint8_t corr_triad_temp(const int32_t x[3], const corr_triad_t *c, const corr_tt_t *tt, int32_t out[3]);
 int8_t att_norm3(const int32_t v[3], int32_t out[3]);
 void att_compute(const int32_t g[3], const int32_t b[3], att_t *a);
 void survey_compute(const int32_t acc[3], const int32_t mag[3], const corr_cal_t *cal, survey_t *s);
+void survey_compute_temp(const int32_t acc[3], const int32_t mag[3], int32_t temp_q6, const corr_cal_t *cal,
+                         survey_t *s);
 typedef struct { int32_t gt_ref; int32_t gt_tol; int32_t bt_ref; int32_t bt_tol; int32_t dip_ref;
                  int32_t dip_tol; } qc_ref_t;
 uint8_t qc_check(const att_t *a, const qc_ref_t *r);
@@ -59,7 +67,8 @@ void qc_default(qc_ref_t *r, int32_t bt_ref, int32_t dip_ref);
 uint16_t crc16_update(uint16_t crc, const uint8_t *data, uint16_t n);
 typedef struct { uint32_t serial; uint32_t time; uint8_t method; } calimg_info_t;
 uint8_t calimg_parse(const uint8_t *buf, uint16_t len, corr_cal_t *cal, calimg_info_t *info);
-void calimg_build(const corr_cal_t *cal, const calimg_info_t *info, uint8_t buf[120]);
+uint16_t calimg_build(const corr_cal_t *cal, const calimg_info_t *info, uint8_t buf[192]);
+uint16_t calimg_length(const uint8_t *buf);
 typedef struct { uint8_t state; uint16_t pos; uint16_t crc; uint8_t ver; uint8_t seq; uint8_t cmd;
                  uint16_t len; uint8_t crc_hi; uint8_t payload[200]; uint8_t line[33]; uint8_t line_len;
                } proto_parser_t;

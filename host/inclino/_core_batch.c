@@ -91,6 +91,22 @@ void inc_batch_survey(const int32_t *acc, const int32_t *mag, const corr_cal_t *
     }
 }
 
+void inc_batch_survey_temp(const int32_t *acc, const int32_t *mag, const int32_t *temp_q6,
+                           const corr_cal_t *cal, size_t ncal, int32_t *out, size_t n)
+{
+    size_t i, k;
+    survey_t s;
+    for (i = 0; i < n; i++) {
+        int32_t *o = &out[INC_SURVEY_COLS * i];
+        survey_compute_temp(&acc[3 * i], &mag[3 * i], temp_q6[i], &cal[i % ncal], &s);
+        for (k = 0; k < 3; k++) {
+            o[k] = s.g[k];
+            o[3 + k] = s.b[k];
+        }
+        att_row(&s.att, &o[6]);
+    }
+}
+
 void inc_batch_qc(const int32_t *att, const qc_ref_t *ref, uint8_t *out, size_t n)
 {
     size_t i;

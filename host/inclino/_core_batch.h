@@ -9,6 +9,8 @@ void inc_batch_div_frac_q20(const uint32_t *num, const uint32_t *den, uint32_t *
 void inc_batch_sqrt_u32_q8(const uint32_t *x, uint32_t *out, size_t n);
 void inc_batch_atan2_q16(const int32_t *y, const int32_t *x, int32_t *out, size_t n);
 void inc_batch_att(const int32_t *g, const int32_t *b, int32_t *out, size_t n);
+void inc_batch_survey_temp(const int32_t *acc, const int32_t *mag, const int32_t *temp_q6,
+                           const corr_cal_t *cal, size_t ncal, int32_t *out, size_t n);
 void inc_batch_qc(const int32_t *att /* n x INC_ATT_COLS */, const qc_ref_t *ref, uint8_t *out, size_t n);
 void inc_batch_survey(const int32_t *acc, const int32_t *mag, const corr_cal_t *cal, size_t ncal,
                       int32_t *out, size_t n);

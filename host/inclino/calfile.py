@@ -21,7 +21,7 @@ from __future__ import annotations
 
 import json
 import math
-from dataclasses import asdict, dataclass, field
+from dataclasses import asdict, dataclass, field, replace
 
 import numpy as np
 
@@ -89,7 +89,22 @@ class Calibration:
             acc_b=_q(self.acc_b, ACC_B_FRAC, -lim, lim, "acc_b"),
             mag_m=_q(self.mag_m, M_FRAC, -lim, lim, "mag_m"),
             mag_b=_q(self.mag_b, MAG_B_FRAC, -lim, lim, "mag_b"),
+            temp=self.fixed_temp(),
         )
+
+    def fixed_temp(self):
+        """The temperature terms in the firmware's form (inclino.caltemp)
+        when the temperature block says the firmware applies them
+        (applied_by_firmware: image version 2), else None (version 1)."""
+        t = self.temperature
+        if not isinstance(t, dict) or t.get("applied_by_firmware") is not True:
+            return None
+        from inclino import caltemp
+
+        try:
+            return caltemp.to_fixed(t)
+        except (KeyError, TypeError, ValueError) as e:
+            raise CalibrationError(f"temperature block unreadable: {_short(e)}")
 
     @staticmethod
     def from_fixed(fc: FixedCal, **kw) -> "Calibration":
@@ -108,6 +123,8 @@ class Calibration:
             if d[k] is None:
                 del d[k]
         d["fixed"] = asdict(self.to_fixed())
+        if d["fixed"]["temp"] is None:  # image version 1: as before the temperature terms
+            del d["fixed"]["temp"]
         return json.dumps(d, indent=2)
 
     def save(self, path: str, inputs=()) -> None:
@@ -149,7 +166,19 @@ class Calibration:
                                     for k in ("acc_m", "acc_b", "mag_m", "mag_b")})
             except (KeyError, TypeError, ValueError, OverflowError) as e:
                 raise CalibrationError(f"calibration file's fixed-point image is mangled ({_short(e)})") from None
-            if fixed != cal.to_fixed():
+            want = cal.to_fixed()
+            ft = d["fixed"].get("temp") if isinstance(d["fixed"], dict) else None
+            if ft is not None:
+                try:
+                    from inclino.core import FixedTemp
+
+                    fixed = replace(fixed, temp=FixedTemp(**{k: (int(v) if k in ("t_ref", "order") else
+                                                                  tuple(_fixed_int(x) for x in v))
+                                                              for k, v in ft.items()}))
+                except (KeyError, TypeError, ValueError, OverflowError) as e:
+                    raise CalibrationError(f"calibration file's fixed-point temperature terms are mangled "
+                                           f"({_short(e)})") from None
+            if fixed != want:
                 raise CalibrationError("calibration file's fixed-point image does not match its float coefficients")
         return cal
 

@@ -20,11 +20,18 @@ from dataclasses import asdict, dataclass, field
 
 from inclino import core, protocol
 from inclino.calfile import Calibration
-from inclino.calimage import CRC_OFFSET, SIZE, CalImage
+from inclino.calimage import CRC_OFFSET, CalImage
 from inclino.errors import CalibrationError
 from inclino.link import ProbeError, ProbeInBootloader, ProbeLink, ProbeNak
 
-COEF = slice(20, CRC_OFFSET)  # the coefficient bytes of an image
+COEF = slice(20, CRC_OFFSET)  # the coefficient bytes of a version 2 image
+
+
+def _coef(image: bytes) -> slice:
+    """The bytes of an image that come from the calibration file: the
+    temperature order and t_ref (version 2; 0 in version 1) and every
+    coefficient, up to the CRC (not the serial, time or method)."""
+    return slice(17, len(image) - 4)
 SLOT_NAMES = {0: "A", 1: "B", 0xFF: "none"}
 # calimg_parse's check codes (calimg.h), the detail of an E_IMAGE refusal
 IMAGE_CHECKS = {1: "wrong length", 2: "not a calibration image (magic)", 3: "another image format version",
@@ -56,7 +63,9 @@ def _serial_of(cal: Calibration) -> int | None:
 
 
 def build_image(cal: Calibration, probe_serial: int, when: int | None = None) -> bytes:
-    """The 120-byte image for this probe (docs: calimg.h)."""
+    """The image for this probe (docs: calimg.h): version 2 (192 bytes)
+    when the file's temperature terms are applied by the firmware, else
+    version 1 (120 bytes)."""
     method = cal.method if cal.method in ("identity", "ren2014", "li2021", "guo2009", "joint") else "joint"
     t = int(time.time()) if when is None else int(when)
     return CalImage(cal.to_fixed(), probe_serial, t, method).pack()
@@ -184,7 +193,7 @@ def verify(link: ProbeLink, cal: Calibration, surveys: int = 3) -> VerifyResult:
     want = CalImage(fixed, 0, 0, "joint").pack()
     if not valid:
         res.mismatches.append(f"slot {res.slot} is not valid")
-    elif len(stored) != SIZE or stored[COEF] != want[COEF]:
+    elif len(stored) != len(want) or stored[_coef(want)] != want[_coef(want)]:
         res.mismatches.append(f"the coefficients stored in slot {res.slot} are not the file's")
     else:
         try:
@@ -195,8 +204,18 @@ def verify(link: ProbeLink, cal: Calibration, surveys: int = 3) -> VerifyResult:
     ok = True
     for n in range(1, surveys + 1):
         s, r = survey_with_raw(link)
-        want = core.survey_one([r.ax, r.ay, r.az], [r.mx, r.my, r.mz], fixed)
         res.checks += 1
+        if fixed.temp is not None and r.temp_q6 is None:
+            ok = False
+            res.mismatches.append(f"survey {n}: the probe's raw record has no temperature at the firmware's "
+                                  "resolution (firmware before image version 2): the temperature terms cannot "
+                                  "be checked")
+            continue
+        # survey_compute_temp with the temperature the probe used (the terms
+        # of an image without them: survey_compute's bits)
+        t = None if r.temp_q6 is None else [r.temp_q6]
+        o = core.survey([[r.ax, r.ay, r.az]], [[r.mx, r.my, r.mz]], fixed, temp_q6=t)
+        want = {k: int(o[k][0]) for k in core.ATT_COLS}
         got = {"inc": s.inc, "azi": s.azi, "gtf": s.gtf, "mtf": s.mtf, "gt": s.gt, "bt": s.bt, "dip": s.dip,
                "flags": s.flags}
         bad = [k for k, v in got.items() if int(want[k]) != int(v)]

@@ -23,16 +23,38 @@ SURVEY_COLS = ("gx", "gy", "gz", "bx", "by", "bz") + ATT_COLS
 
 
 @dataclass(frozen=True)
+class FixedTemp:
+    """The temperature terms as the firmware holds them (corr_cal_t's
+    t_ref, t_order, acc_tc, mag_tc; correct.h): t_ref int16 Q7 degC, order
+    1 or 2; per triad c1 (3 int32: Q39 g/degC, Q24 nT/degC), c2 (3 int16:
+    Q32 g/degC^2, Q17 nT/degC^2), r1 (3 int32 Q39 /degC), r2 (3 int16 Q32
+    /degC^2).  inclino.caltemp converts CAL.json's temperature block."""
+
+    t_ref: int
+    order: int
+    acc_c1: tuple
+    acc_c2: tuple
+    acc_r1: tuple
+    acc_r2: tuple
+    mag_c1: tuple
+    mag_c2: tuple
+    mag_r1: tuple
+    mag_r2: tuple
+
+
+@dataclass(frozen=True)
 class FixedCal:
     """Fixed-point coefficients as the firmware holds them (corr_cal_t).
 
     acc_m, mag_m: 9 int32, Q29, row-major; acc_b: 3 int32, Q29 g;
-    mag_b: 3 int32, Q10 nT."""
+    mag_b: 3 int32, Q10 nT; temp: the temperature terms (image version 2)
+    or None (version 1: none)."""
 
     acc_m: tuple
     acc_b: tuple
     mag_m: tuple
     mag_b: tuple
+    temp: FixedTemp | None = None
 
     @staticmethod
     def identity() -> "FixedCal":
@@ -67,6 +89,12 @@ def _cal_struct(cals):
         for k in range(3):
             buf[i].acc.bias[k] = int(c.acc_b[k])
             buf[i].mag.bias[k] = int(c.mag_b[k])
+        t = c.temp
+        if t is not None:
+            buf[i].t_ref, buf[i].t_order = int(t.t_ref), int(t.order)
+            for tri, tc in (("acc", buf[i].acc_tc), ("mag", buf[i].mag_tc)):
+                for name in ("c1", "c2", "r1", "r2"):
+                    getattr(tc, name)[0:3] = [int(v) for v in getattr(t, f"{tri}_{name}")]
     return buf
 
 
@@ -120,11 +148,14 @@ def att_compute(g, b):
     return {k: out[:, i] for i, k in enumerate(ATT_COLS)}
 
 
-def survey(acc, mag, cal: FixedCal | list[FixedCal] | None = None):
+def survey(acc, mag, cal: FixedCal | list[FixedCal] | None = None, temp_q6=None):
     """acc (n, 3) ADIS16210 readings, mag (n, 3) fluxgate readings, both in
     Q6 counts (golden.IN_ONE = 64 per count; golden.to_q6) -> dict of
     int32 arrays: g (n, 3) Q27 g, b (n, 3) Q8 nT and ATT_COLS.  With a list
-    of calibrations, vector i uses cal[i % len(cal)]."""
+    of calibrations, vector i uses cal[i % len(cal)].  temp_q6 (n,): the
+    TEMP_OUT means in Q6 counts: survey_compute_temp, which applies the
+    calibration's temperature terms (none in a FixedCal without temp: the
+    same bits as without temp_q6); None: survey_compute."""
     cals = [FixedCal.identity()] if cal is None else (cal if isinstance(cal, list) else [cal])
     acc_ = np.clip(np.asarray(acc, dtype=np.int64), -(2**31), 2**31 - 1)
     a_, pa = _c(acc_, np.int32)
@@ -132,7 +163,12 @@ def survey(acc, mag, cal: FixedCal | list[FixedCal] | None = None):
     m_, pm = _c(mag_, np.int32)
     n = a_.shape[0]
     out = np.empty((n, len(SURVEY_COLS)), np.int32)
-    lib.inc_batch_survey(pa, pm, _cal_struct(cals), len(cals), _p(out), n)
+    if temp_q6 is None:
+        lib.inc_batch_survey(pa, pm, _cal_struct(cals), len(cals), _p(out), n)
+    else:
+        t_ = np.clip(np.broadcast_to(np.asarray(temp_q6, dtype=np.int64), (n,)), -(2**31), 2**31 - 1)
+        t_, pt = _c(t_, np.int32)
+        lib.inc_batch_survey_temp(pa, pm, pt, _cal_struct(cals), len(cals), _p(out), n)
     res = {k: out[:, 6 + i] for i, k in enumerate(ATT_COLS)}
     res["g"] = out[:, 0:3]
     res["b"] = out[:, 3:6]

@@ -53,6 +53,12 @@ M_ONE = 2**29
 ATAN_N = 256
 DIV_BITS = 20
 ATAN_FRAC_BITS = 12
+# temperature terms (correct.h)
+TEMP_RAW_ZERO = 1331  # TEMP_OUT count at 0 degC
+TEMP_K = 30802        # 0.94 in Q15: Q6 counts -> Q7 degC
+ACC_TC_SHIFT = 14     # dT Q7 << 14: Q39 x Q21 -> Q29 g
+MAG_TC_SHIFT = 10     # dT Q7 << 10: Q24 x Q17 -> Q10 nT
+SCALE_TC_SHIFT = 16   # dT Q7 << 16: Q39 x Q23 -> Q31
 
 
 def deg_q16(d):
@@ -224,6 +230,48 @@ def corr_triad(x, m, bias):
     return np.stack(out, axis=-1), sat
 
 
+def corr_temp_dt(temp_q6, t_ref):
+    """correct.c corr_temp_dt: TEMP_OUT mean (Q6 counts) -> dT Q7 degC.
+    Returns (dT (...), saturated (...))."""
+    t = _i64(temp_q6)
+    z = TEMP_RAW_ZERO * IN_ONE
+    u = np.clip(z - t, -32767, 32767)
+    sat = (z - t > 32767) | (z - t < -32767)
+    T = fx_asr32_rnd(fx_mul16(u, TEMP_K), 15) - _i64(t_ref)
+    sat = sat | (T > 32767) | (T < -32767)
+    return np.clip(T, -32767, 32767), sat
+
+
+def corr_temp_eval(dt, c1, c2, r1, r2, sh):
+    """correct.c corr_temp_eval: one triad's terms at dT (Q7).  dt (...);
+    c1..r2 (..., 3).  Returns (bias (..., 3), e (..., 3), saturated (...))."""
+    dt = _i64(dt)[..., None]
+    db = dt * (1 << sh)
+    ds = dt * (1 << SCALE_TC_SHIFT)
+    inb, s1 = fx_add32_sat(c1, fx_mul16(c2, dt))
+    bias, s2 = fx_mul32_q31(inb, db)
+    ine, s3 = fx_add32_sat(r1, fx_mul16(r2, dt))
+    e, s4 = fx_mul32_q31(ine, ds)
+    return bias, e, (s1 | s2 | s3 | s4).any(axis=-1)
+
+
+def corr_triad_temp(x, m, bias, tbias, e):
+    """correct.c corr_triad_temp: out = M (r(T) (x - b - bias(T))).
+    Returns (out (..., 3), saturated (...))."""
+    v, s1 = fx_sub32_sat(x, bias)
+    v, s2 = fx_sub32_sat(v, tbias)
+    p, s3 = fx_mul32_q31(v, e)
+    d, s4 = fx_add32_sat(v, p)
+    sat = (s1 | s2 | s3 | s4).any(axis=-1)
+    m = _i64(m)
+    out = []
+    for i in range(3):
+        acc, s = fx_dot3_q31(m[..., 3 * i:3 * i + 3], d)
+        sat = sat | s
+        out.append(acc)
+    return np.stack(out, axis=-1), sat
+
+
 # --------------------------------------------------------------- attitude
 def att_norm3(v):
     """Returns (out (..., 3), s (...))."""
@@ -340,12 +388,22 @@ def corr_in_mag(raw_q6):
     return _i64(raw_q6) << MAG_IN_SHIFT
 
 
-def survey_compute(acc, mag, cal_acc_m, cal_acc_b, cal_mag_m, cal_mag_b):
+def survey_compute(acc, mag, cal_acc_m, cal_acc_b, cal_mag_m, cal_mag_b, temp=None, temp_q6=None):
     """acc: (n, 3) int Q6 accelerometer counts; mag: (n, 3) int Q6 fluxgate
     counts (whole counts c are c * IN_ONE); coefficients as int arrays (9,),
     (3,) broadcast over n.  Returns dict with g, b (n, 3) and the
-    att_compute keys."""
+    att_compute keys.  temp (core.FixedTemp) and temp_q6 (n,) TEMP_OUT
+    means in Q6 counts: survey_compute_temp (the terms applied; without
+    terms, order 0 or temp None, survey_compute's bits)."""
     acc = _i64(acc)
+    tt = None
+    tsat = np.zeros(acc.shape[:-1], dtype=bool)
+    if temp is not None and temp_q6 is not None and int(temp.order) != 0:
+        dt, tsat = corr_temp_dt(np.broadcast_to(_i64(temp_q6), acc.shape[:-1]), temp.t_ref)
+        ab, ae, sa_ = corr_temp_eval(dt, temp.acc_c1, temp.acc_c2, temp.acc_r1, temp.acc_r2, ACC_TC_SHIFT)
+        mb, me, sm_ = corr_temp_eval(dt, temp.mag_c1, temp.mag_c2, temp.mag_r1, temp.mag_r2, MAG_TC_SHIFT)
+        tsat = tsat | sa_ | sm_
+        tt = (ab, ae, mb, me)
     mag = _i64(mag)
     half = IN_ONE // 2
     flags = np.zeros(acc.shape[:-1], dtype=np.int64)
@@ -353,12 +411,18 @@ def survey_compute(acc, mag, cal_acc_m, cal_acc_b, cal_mag_m, cal_mag_b):
     flags |= np.where(((acc >= ACC_RAW_MAX - half) | (acc < ACC_RAW_MIN + half)).any(axis=-1),
                       F_ACC_SATURATED, 0)
     accc = np.clip(acc, ACC_RAW_MIN, ACC_RAW_MAX)
-    g, sa = corr_triad(corr_in_acc(accc), cal_acc_m, cal_acc_b)
+    if tt is None:
+        g, sa = corr_triad(corr_in_acc(accc), cal_acc_m, cal_acc_b)
+    else:
+        g, sa = corr_triad_temp(corr_in_acc(accc), cal_acc_m, cal_acc_b, tt[0], tt[1])
     flags |= np.where((np.abs(mag) > MAG_RANGE_COUNTS * IN_ONE).any(axis=-1), F_MAG_OVERRANGE, 0)
     flags |= np.where(((mag >= MAG_RAW_MAX) | (mag <= MAG_RAW_MIN)).any(axis=-1), F_MAG_SATURATED, 0)
     magc = np.clip(mag, MAG_RAW_MIN, MAG_RAW_MAX)
-    b, sm = corr_triad(corr_in_mag(magc), cal_mag_m, cal_mag_b)
-    flags |= np.where(sa | sm, F_ARITH_SATURATED, 0)
+    if tt is None:
+        b, sm = corr_triad(corr_in_mag(magc), cal_mag_m, cal_mag_b)
+    else:
+        b, sm = corr_triad_temp(corr_in_mag(magc), cal_mag_m, cal_mag_b, tt[2], tt[3])
+    flags |= np.where(sa | sm | tsat, F_ARITH_SATURATED, 0)
     out = att_compute(g, b)
     out["flags"] = out["flags"] | flags
     out["g"] = g

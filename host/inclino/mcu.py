@@ -4,7 +4,7 @@ The host build proves the algorithm; this module proves the same C on a
 16-bit-int, big-endian MCU with no hardware 32-bit multiply (the S08 is a
 harsher relative of the probe's HCS12X), and measures it there:
 
-  build()        compile firmware/src + firmware/port/s08/harness.c with
+  build()        compile firmware/src + firmware/sim/s08/harness.c with
                  `sdcc -ms08` (or tools/s08/survey_float.c: the float baseline)
   run_stream()   one-shot run of a byte stream through ucsim's simulator
                  interface (a byte port at 0xff00), under a time limit
@@ -13,7 +13,7 @@ harsher relative of the probe's HCS12X), and measures it there:
   sizes()        code and static RAM from SDCC's .rel and .map files
   bench()        the figures of `inclino bench mcu --json`
 
-The byte protocol is described at the top of firmware/port/s08/harness.c.
+The byte protocol is described at the top of firmware/sim/s08/harness.c.
 The SCI frame parser (proto_frame.c) and the calibration-image checker
 (calimg.c, crc16.c) are in the same image: frame_events(), frame_encode(),
 calimg_parse(), calimg_build().
@@ -129,7 +129,7 @@ def build(workdir: str | os.PathLike | None = None, program: str = "harness",
     """Compile each source with `sdcc -ms08` and link an Intel-hex image.
 
     program "harness": the fixed-point core (firmware/src) and the test
-    harness (firmware/port/s08), by default with CFLAGS (--stack-auto: locals
+    harness (firmware/sim/s08), by default with CFLAGS (--stack-auto: locals
     and spill locations on the stack, not in the 128-byte direct page);
     "float": the float baseline (tools/s08/survey_float.c), by default with
     FLOAT_CFLAGS (not --stack-auto: it calls SDCC's float library, whose
@@ -142,7 +142,8 @@ def build(workdir: str | os.PathLike | None = None, program: str = "harness",
     root = Path(root) if root else repo_root()
     wd = Path(workdir) if workdir else Path(tempfile.mkdtemp(prefix=f"inclino-s08-{program}-"))
     wd.mkdir(parents=True, exist_ok=True)
-    inc = ["-I", str(root / "firmware" / "include"), "-I", str(root / "firmware" / "port" / "s08")]
+    inc = ["-I", str(root / "firmware" / "include"), "-I", str(root / "firmware" / "port" / "s08"),
+           "-I", str(root / "firmware" / "sim" / "s08")]
     if program == "harness":
         inc += list(PORT_DEFINES)
     if program == "harness":

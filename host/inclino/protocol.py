@@ -178,19 +178,26 @@ class RawRecord:
     mz: int
     temp_centi_c: int
     count: int
+    temp_q6: int | None = None  # TEMP_OUT mean, Q6 counts (what the temperature terms use); None: older firmware
 
     FRAC_BITS = 6
-    FMT = struct.Struct(">3i3ihB")
+    FMT = struct.Struct(">3i3ihBi")
+    FMT_V1 = struct.Struct(">3i3ihB")     # before the temperature at the firmware's resolution
     FMT_WHOLE = struct.Struct(">3h3ihB")  # before the Q6 readings
 
     def pack(self) -> bytes:
-        return self.FMT.pack(*asdict(self).values())
+        v = list(asdict(self).values())
+        if self.temp_q6 is None:
+            return self.FMT_V1.pack(*v[:-1])
+        return self.FMT.pack(*v)
 
     @classmethod
     def unpack(cls, data: bytes) -> "RawRecord":
         if len(data) == cls.FMT_WHOLE.size:
             v = list(cls.FMT_WHOLE.unpack(data))
             return cls(*[x << cls.FRAC_BITS for x in v[:6]], *v[6:])
+        if len(data) == cls.FMT_V1.size:
+            return cls(*cls.FMT_V1.unpack(data))
         if len(data) != cls.FMT.size:
             raise ValueError(f"raw record of {len(data)} bytes, expected {cls.FMT.size}")
         return cls(*cls.FMT.unpack(data))

@@ -7,7 +7,7 @@
  * Same steps as survey_compute: range flags, correction of both triads
  * (M * (raw - b)), then inclination, azimuth, both toolfaces, G and B totals
  * and dip with atan2f/sqrtf, angles in degrees.  Same byte protocol as
- * firmware/port/s08/harness.c (simif.h), with
+ * firmware/sim/s08/harness.c (simif.h), with
  *   'C' acc.m[9] acc.bias[3] (g) mag.m[9] mag.bias[3] (nT), IEEE float32
  *   'V' acc[3] mag[3] (i32, Q6 counts) -> inc azi gtf mtf (deg) gt (g) bt (nT)
  *                                   dip (deg), float32, then flags (u16)

@@ -14,7 +14,9 @@
  * acq_avg_q6: floor(64 sum / n + 1/2)), so the resolution averaging buys
  * (1 count / sqrt(n) once the noise dithers the counts) reaches the
  * correction; for n = 1, 2, 4 ... 64 the Q6 mean is exact.  The
- * temperature is rounded to whole counts (acq_avg).
+ * temperature's mean is kept the same way (temp_q6, 0.47/64 = 0.0073 degC
+ * per LSB: what the temperature terms are evaluated at) and also rounded
+ * to whole counts (temp_raw, acq_avg; 0.47 degC per count).
  * Status codes 0x30..0x3F; driver statuses (ADIS_E_*, ADS_E_*) pass through.
  */
 #ifndef INCLINO_ACQUIRE_H
@@ -34,7 +36,8 @@
 typedef struct {
     int32_t acc[3];    /* mean ADIS16210 counts, Q6: 1 LSB = 2^-6 count = 2^-20 g */
     int32_t mag[3];    /* mean ADS1256 counts (signed 24-bit), Q6: 1 LSB = 2^-6 nT */
-    uint16_t temp_raw; /* averaged TEMP_OUT (12 bit) */
+    uint16_t temp_raw; /* averaged TEMP_OUT (12 bit), rounded to whole counts */
+    int32_t temp_q6;   /* averaged TEMP_OUT, Q6 counts (acq_avg_q6), 0.0073 degC per LSB */
     int32_t temp_cc;   /* temperature, 0.01 degC (adis_temp_centi_c of temp_raw) */
     uint8_t n;         /* samples averaged */
 } acq_result_t;

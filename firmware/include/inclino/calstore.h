@@ -37,7 +37,7 @@
 
 #define CALSTORE_HDR_MAGIC 0x49534C54UL
 #define CALSTORE_COMMIT_MAGIC 0x434Du
-#define CALSTORE_PAYLOAD_MAX 120u /* the calibration image, 15 phrases */
+#define CALSTORE_PAYLOAD_MAX 192u /* the calibration image version 2, 24 phrases */
 
 /* Slot states (calstore_info_t.state) */
 #define CALSTORE_ST_VALID 0u       /* complete, committed, checked */
@@ -67,6 +67,13 @@ typedef struct {
     uint32_t base[2];       /* global flash address of slot A and B, sector-aligned */
     uint16_t payload_len;   /* bytes, multiple of 8, 8..CALSTORE_PAYLOAD_MAX */
     calstore_check_t check; /* payload check (may be NULL: any payload) */
+    /* a second, shorter payload length a slot may hold (a multiple of 8,
+     * 8..payload_len - 8), or 0: none.  The calibration's is the version 1
+     * image (120 bytes): slots written before version 2 still load, and a
+     * version 1 download is still written as 120 bytes.  The commit record
+     * follows the slot's own payload; a slot is read at payload_len first,
+     * then at alt_len. */
+    uint16_t alt_len;
 } calstore_cfg_t;
 
 typedef struct {
@@ -77,9 +84,11 @@ typedef struct {
     uint8_t pending;     /* slot written and verified, not yet committed */
     uint32_t pending_seq;
     uint16_t pending_crc;
-    uint8_t state[2];   /* CALSTORE_ST_* of slot A, B (boot scan, then kept) */
-    uint32_t seq[2];    /* header sequence of slot A, B (0 when empty) */
-    uint8_t last_flash; /* HAL_FLASH_* of the last failed flash command */
+    uint16_t pending_len; /* payload length of the pending slot */
+    uint8_t state[2];     /* CALSTORE_ST_* of slot A, B (boot scan, then kept) */
+    uint32_t seq[2];      /* header sequence of slot A, B (0 when empty) */
+    uint16_t len[2];      /* payload length of slot A, B (payload_len unless alt_len was found) */
+    uint8_t last_flash;   /* HAL_FLASH_* of the last failed flash command */
 } calstore_t;
 
 /*
@@ -90,15 +99,16 @@ typedef struct {
 uint8_t calstore_boot(calstore_t *cs, const calstore_cfg_t *cfg);
 
 /*
- * calstore_write - write payload (cfg->payload_len bytes) into the slot
- *   that is not active (A when none is) with sequence active_seq + 1:
- *   check, erase (1 erase), verify erased, program header and payload
- *   (1 + payload_len / 8 programs), read back and compare.  On success the
- *   slot is pending: calstore_activate commits it.  The active slot is not
- *   touched.  Returns CALSTORE_OK, CALSTORE_E_PAYLOAD (nothing written),
+ * calstore_write - write payload (len bytes: cfg->payload_len, or
+ *   cfg->alt_len when it is not 0) into the slot that is not active (A
+ *   when none is) with sequence active_seq + 1: check, erase (1 erase),
+ *   verify erased, program header and payload (1 + len / 8 programs), read
+ *   back and compare.  On success the slot is pending: calstore_activate
+ *   commits it.  The active slot is not touched.  Returns CALSTORE_OK,
+ *   CALSTORE_E_ARG (another len), CALSTORE_E_PAYLOAD (nothing written),
  *   CALSTORE_E_FLASH, CALSTORE_E_ERASE, CALSTORE_E_VERIFY.
  */
-uint8_t calstore_write(calstore_t *cs, const uint8_t *payload);
+uint8_t calstore_write(calstore_t *cs, const uint8_t *payload, uint16_t len);
 
 /*
  * calstore_activate - program the commit phrase of the pending slot (one
@@ -110,16 +120,18 @@ uint8_t calstore_write(calstore_t *cs, const uint8_t *payload);
 uint8_t calstore_activate(calstore_t *cs);
 
 /*
- * calstore_read - copy the payload bytes of slot A or B as they are in
- *   flash (valid or not) into dst[cfg->payload_len].  Returns CALSTORE_OK,
+ * calstore_read - copy cfg->payload_len bytes from the payload of slot A
+ *   or B as they are in flash (valid or not) into dst[cfg->payload_len]
+ *   (a slot holding alt_len bytes: its payload, then its commit record and
+ *   erased bytes).  Returns CALSTORE_OK,
  *   CALSTORE_E_ARG, CALSTORE_E_READ.
  */
 uint8_t calstore_read(const calstore_t *cs, uint8_t slot, uint8_t *dst);
 
 /*
  * calstore_flash_ops - program + erase commands one write and activation
- *   take for this configuration: 1 erase + 1 header + payload_len / 8
- *   payload + 1 commit.
+ *   of payload_len bytes take for this configuration: 1 erase + 1 header
+ *   + payload_len / 8 payload + 1 commit (alt_len / 8 for a shorter one).
  */
 uint16_t calstore_flash_ops(const calstore_cfg_t *cfg);
 

@@ -22,8 +22,28 @@
  *                  output: int32 Q8 nT (1 nT = 256)
  *   M: int32 Q29, row-major, each element in [-4, 4).
  * The input scaling (corr_in_acc, corr_in_mag) is the one place where a raw
- * reading becomes the correction's input: a reading-dependent term (e.g. a
- * temperature correction of the raw reading) belongs there.
+ * reading becomes the correction's input.  The temperature terms (below)
+ * act on d = x - b, right after that scaling and the bias subtraction:
+ * the model brings the raw reading to the reference temperature about the
+ * bias, raw_ref = b + (raw - b - bias(T)) / (1 + s(T)), and corr_triad then
+ * subtracts b again, so raw_ref - b = (d - bias(T)) r(T) is applied to d
+ * directly (no add and subtract of b, no extra saturation).
+ *
+ * Temperature terms (calibration image version 2, docs/calibration.md), per
+ * axis i of each triad, in dT = T - t_ref:
+ *   bias(T) = dT (c1_i + c2_i dT)         subtracted from d
+ *   r(T)    = 1 + dT (r1_i + r2_i dT)     multiplies d: the host's expansion
+ *             of 1 / (1 + s(T)) to second order in dT (no division here)
+ *   formats  dT      int16 Q7 degC (|dT| <= 255.99 degC), from the averaged
+ *                    TEMP_OUT reading (corr_temp_dt)
+ *            c1      int32: Q39 g/degC (acc, +-3.9 mg/degC, LSB 1.8e-12),
+ *                    Q24 nT/degC (mag, +-128 nT/degC, LSB 6.0e-8)
+ *            c2      int16: Q32 g/degC^2 (acc, +-7.6 ug/degC^2, LSB 2.3e-10),
+ *                    Q17 nT/degC^2 (mag, +-0.25 nT/degC^2, LSB 7.6e-6)
+ *            r1      int32 Q39 /degC (+-3906 ppm/degC, LSB 1.8e-6 ppm/degC)
+ *            r2      int16 Q32 /degC^2 (+-7.6 ppm/degC^2, LSB 2.3e-4 ppm/degC^2)
+ *   c2 dT (Q32 + Q7 = Q39) adds to c1 exactly in the acc's and the scale's
+ *   case (Q39) and in the mag's (Q17 + Q7 = Q24).
  */
 #ifndef INCLINO_CORRECT_H
 #define INCLINO_CORRECT_H
@@ -46,11 +66,35 @@ typedef struct {
     int32_t bias[3]; /* Q29 g (accelerometer) or Q10 nT (fluxgate) */
 } corr_triad_t;
 
+/* One triad's temperature terms (formats above; all 0 without terms). */
+typedef struct {
+    int32_t c1[3]; /* bias, 1st order: Q39 g/degC (acc), Q24 nT/degC (mag) */
+    int16_t c2[3]; /* bias, 2nd order: Q32 g/degC^2 (acc), Q17 nT/degC^2 (mag) */
+    int32_t r1[3]; /* 1/(1 + s(T)) - 1, 1st order: Q39 /degC */
+    int16_t r2[3]; /* 1/(1 + s(T)) - 1, 2nd order: Q32 /degC^2 */
+} corr_tc_t;
+
 /* Both triads: what the probe keeps in flash. */
 typedef struct {
     corr_triad_t acc;
     corr_triad_t mag;
+    corr_tc_t acc_tc;
+    corr_tc_t mag_tc;
+    int16_t t_ref;   /* reference temperature, Q7 degC */
+    uint8_t t_order; /* 0: no temperature terms (image version 1), else 1 or 2 */
 } corr_cal_t;
+
+/* One triad's temperature terms evaluated at one temperature (per survey). */
+typedef struct {
+    int32_t bias[3]; /* bias(T), the triad's input format (Q29 g / Q10 nT) */
+    int32_t e[3];    /* r(T) - 1, Q31 */
+} corr_tt_t;
+
+#define CORR_TEMP_RAW_ZERO 1331L /* TEMP_OUT count at 0 degC (adis16210.h) */
+#define CORR_TEMP_K 30802        /* 0.47 degC/count, Q6 counts -> Q7 degC: 0.94 in Q15 */
+#define CORR_ACC_TC_SHIFT 14u    /* dT Q7 << 14 = Q21: Q39 x Q21 / 2^31 = Q29 g */
+#define CORR_MAG_TC_SHIFT 10u    /* dT Q7 << 10 = Q17: Q24 x Q17 / 2^31 = Q10 nT */
+#define CORR_SCALE_TC_SHIFT 16u  /* dT Q7 << 16 = Q23: Q39 x Q23 / 2^31 = Q31 */
 
 /*
  * corr_triad - out = M * (x - b) for one triad.
@@ -85,5 +129,60 @@ int32_t corr_in_mag(int32_t raw_q6);
  * corr_identity - fill c with M = I, b = 0 (the uncalibrated probe).
  */
 void corr_identity(corr_triad_t *c);
+
+/*
+ * corr_tc_clear - all temperature terms of one triad to 0.
+ */
+void corr_tc_clear(corr_tc_t *tc);
+
+/*
+ * corr_temp_dt - the averaged temperature reading to dT = T - t_ref.
+ *   In: temp_q6 the TEMP_OUT mean in Q6 counts (acq_avg_q6 of the 12-bit
+ *   readings, 0.47/64 = 0.0073 degC per LSB), t_ref Q7 degC.
+ *   Out: dT int16 Q7 degC (1/128 degC per LSB).
+ *   Method: u = clamp(1331 * 64 - temp_q6, +-32767) (Q6 counts below the
+ *   0 degC count; |u| <= 32767 is -240..+240 degC, beyond the part's
+ *   -40..125 degC), T = fx_asr32_rnd(fx_mul16(u, 30802), 15) (Q7 degC: x
+ *   0.94 = 0.47 x 128 / 64; a 16 x 16 product), dT = clamp(T - t_ref,
+ *   +-32767).
+ *   Rounding: round half up; |T - exact| <= 1/2 LSB + |T| x 2.6e-6 (30802 /
+ *   2^15 = 0.9400024 for 0.94): <= 0.0043 degC below 125 degC.
+ *   Saturation: either clamp sets *sat to 1 (never within -40..125 degC
+ *   and |t_ref| <= 125 degC).
+ */
+int16_t corr_temp_dt(int32_t temp_q6, int16_t t_ref, uint8_t *sat);
+
+/*
+ * corr_temp_eval - one triad's terms at dT, once per survey.
+ *   In: dT Q7 degC, tc the triad's terms (formats above), sh the triad's
+ *   bias shift (CORR_ACC_TC_SHIFT or CORR_MAG_TC_SHIFT).
+ *   Out: tt->bias[i] = dT (c1 + c2 dT) in the triad's input format (Q29 g
+ *   or Q10 nT); tt->e[i] = dT (r1 + r2 dT) in Q31 (r(T) - 1).
+ *   Method (Horner, per value): inner = fx_add32_sat(c1, fx_mul16(c2, dT))
+ *   (c2 dT: 16 x 16, exact, |c2 dT| < 2^30, in c1's format); value =
+ *   fx_mul32_q31(inner, dT << sh) (|dT << sh| <= 2^31 - 2^16, so the
+ *   product cannot saturate).
+ *   Rounding: truncation inside fx_mul32_q31 only: -8 < value - exact <
+ *   2 LSB of the output (2^-29 g, 2^-10 nT, 2^-31), for the terms as
+ *   stored.
+ *   Saturation: the inner sum (only for |c1| near 2^31 and a large c2 dT);
+ *   sets *sat to 1.
+ */
+void corr_temp_eval(int16_t dt, const corr_tc_t *tc, uint8_t sh, corr_tt_t *tt, uint8_t *sat);
+
+/*
+ * corr_triad_temp - out = M * (r(T) (x - b - bias(T))) for one triad: the
+ *   reading brought to t_ref (raw_ref - b) and corrected.
+ *   In: x[3] scaled raw input, c coefficients, tt the terms at this
+ *   survey's temperature (corr_temp_eval).  Out: out[3] as corr_triad.
+ *   Method: d_j = sat(sat(x_j - b_j) - bias_j); d_j = sat(d_j +
+ *   fx_mul32_q31(d_j, e_j)) (d_j (1 + e_j), one 32 x 32 product per axis),
+ *   then out as corr_triad.
+ *   Rounding: the scale product truncates: -8 < error < 2 LSB of d (Q29 g /
+ *   Q10 nT) before M; then corr_triad's bound.
+ *   Saturation: each step saturates to int32; returns 1 when any did.
+ */
+uint8_t corr_triad_temp(const int32_t x[3], const corr_triad_t *c, const corr_tt_t *tt,
+                        int32_t out[3]);
 
 #endif /* INCLINO_CORRECT_H */

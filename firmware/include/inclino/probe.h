@@ -67,8 +67,9 @@
 typedef struct {
     int32_t acc[3];  /* mean ADIS16210 counts, Q6 (2^-20 g; acq_avg_q6) */
     int32_t mag[3];  /* mean fluxgate ADC counts, Q6 (2^-6 nT) */
-    int32_t temp_cc; /* temperature, 0.01 degC */
+    int32_t temp_cc; /* temperature, 0.01 degC (from the whole-count mean) */
     uint8_t n;       /* samples averaged */
+    int32_t temp_q6; /* TEMP_OUT mean, Q6 counts: the temperature the terms are evaluated at */
 } probe_raw_t;
 
 typedef struct {
@@ -141,12 +142,14 @@ void probe_identity(probe_identity_t *id);
 void probe_active_cal(corr_cal_t *cal);
 
 /*
- * probe_cal_write - store a calibration image (CALIMG_SIZE bytes) in the
- *   inactive slot, verified, not yet in use.  Refused before anything is
- *   written: an image calimg_parse rejects (PROBE_E_IMAGE), an image whose
- *   probe serial differs from this probe's (PROBE_E_SERIAL) unless force is
- *   non-zero or this probe has no serial.  Flash errors: CALSTORE_E_*.
- *   Takes 1 erase + 16 phrase programs.
+ * probe_cal_write - store a calibration image (its length field's bytes:
+ *   120 for version 1, 192 for version 2; img has room for CALIMG_SIZE)
+ *   in the inactive slot, verified, not yet in use.  Refused before
+ *   anything is written: an image calimg_parse rejects (PROBE_E_IMAGE), an
+ *   image whose probe serial differs from this probe's (PROBE_E_SERIAL)
+ *   unless force is non-zero or this probe has no serial.  Flash errors:
+ *   CALSTORE_E_*.  Takes 1 erase + 16 phrase programs (version 1), 1 erase
+ *   + 25 (version 2); the activation 1 more.
  */
 uint8_t probe_cal_write(const uint8_t img[CALIMG_SIZE], uint8_t force);
 
@@ -160,7 +163,8 @@ uint8_t probe_cal_activate(void);
 
 /*
  * probe_cal_read - the image bytes of slot PROBE_SLOT_A, PROBE_SLOT_B (as
- *   stored, valid or not) or PROBE_SLOT_ACTIVE.  Out: img[CALIMG_SIZE].
+ *   stored, valid or not) or PROBE_SLOT_ACTIVE.  Out: img[CALIMG_SIZE]
+ *   (a version 1 slot: its 120 bytes, then its commit record and 0xFF).
  *   Returns PROBE_OK, PROBE_E_ARG, PROBE_E_NO_CAL (ACTIVE while the
  *   identity calibration runs), CALSTORE_E_READ.
  */

@@ -45,7 +45,7 @@
 
 #define PROTO_IDENTITY_LEN 34u
 #define PROTO_SURVEY_LEN 36u
-#define PROTO_RAW_LEN 27u /* i32 acc[3], mag[3] (Q6 counts), i16 temp, u8 n */
+#define PROTO_RAW_LEN 31u /* i32 acc[3], mag[3] (Q6 counts), i16 temp, u8 n, i32 temp_q6 */
 #define PROTO_QCREF_LEN 24u
 #define PROTO_SURVEY_RAW_LEN (PROTO_SURVEY_LEN + PROTO_RAW_LEN)
 #define PROTO_BOOT_KEY 0x424F4F54UL
@@ -66,9 +66,11 @@ typedef struct {
     uint8_t (*qcref_write)(const uint8_t in[PROTO_QCREF_LEN]);
     /* samples averaged per survey and raw reading, 1..64 */
     uint8_t (*set_average)(uint8_t n);
-    /* out: u8 slot, u8 valid, u32 sequence, then the 120-byte image */
-    uint8_t (*cal_read)(uint8_t slot, uint8_t out[126]);
-    /* image: 120 bytes; out: u8 slot, u32 sequence, u16 CRC */
+    /* out: u8 slot, u8 valid, u32 sequence, then the image (CALIMG_SIZE
+     * bytes as stored; the answer is cut to the image's length field) */
+    uint8_t (*cal_read)(uint8_t slot, uint8_t *out);
+    /* image: its length field's bytes (120 or 192, checked against the
+     * frame by the command layer); out: u8 slot, u32 sequence, u16 CRC */
     uint16_t (*cal_write)(const uint8_t *image, uint8_t force, uint8_t out[7]);
     /* out: u8 slot, u32 sequence */
     uint8_t (*cal_activate)(uint8_t slot, uint32_t sequence, uint8_t out[5]);

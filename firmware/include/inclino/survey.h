@@ -40,4 +40,22 @@ typedef struct {
 void survey_compute(const int32_t acc[3], const int32_t mag[3], const corr_cal_t *cal,
                     survey_t *s);
 
+/*
+ * survey_compute_temp - survey_compute with the calibration's temperature
+ *   terms applied at the probe's temperature (what the probe runs).
+ *   In: as survey_compute, and temp_q6 the TEMP_OUT mean in Q6 counts
+ *   (acq_result_t.temp_q6, 0.47/64 degC per LSB).
+ *   Method: when cal->t_order is 0 (an image without terms), exactly
+ *   survey_compute.  Otherwise dT = corr_temp_dt(temp_q6, cal->t_ref) and
+ *   the terms of both triads at dT (corr_temp_eval) once, then
+ *   survey_compute's steps with corr_triad_temp in place of corr_triad.
+ *   Error: corr_temp_dt's, corr_temp_eval's and corr_triad_temp's bounds
+ *   (correct.h); the truncation of 1/(1 + s(T)) to second order is the
+ *   host's, stated in CAL.json (docs/calibration.md).
+ *   Flags: survey_compute's; ATT_F_ARITH_SATURATED also when dT or a term
+ *   saturated.
+ */
+void survey_compute_temp(const int32_t acc[3], const int32_t mag[3], int32_t temp_q6,
+                         const corr_cal_t *cal, survey_t *s);
+
 #endif /* INCLINO_SURVEY_H */

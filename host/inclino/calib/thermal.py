@@ -19,10 +19,11 @@ Jacobian), on the rows joint kept.  The order K (0, 1 or 2) is chosen by
 whose score is within one standard error of the best.  The calibration
 written (M, b) is the probe at t_ref (the best linear one over the working
 range when q is fitted, as joint does); the terms go to CAL.json's
-"temperature" block with their 1-sigma and covariance.  The firmware does
-not apply them (its image has no place for them yet): the report gives the
-azimuth and inclination error over the run's temperature range with and
-without them, on the Li 2021 grid, for the fitted probe.
+"temperature" block with their 1-sigma and covariance.  The firmware
+applies them (applied_by_firmware: true; calibration image version 2,
+inclino.caltemp) when they fit the image's fixed-point ranges; the report
+gives the azimuth and inclination error over the run's temperature range
+with and without them, on the Li 2021 grid, for the fitted probe.
 
 The terms are determined when the run spans at least MIN_SPAN_C, the
 normal matrix is regular, and (for K = 2) the temperatures fall in at least
@@ -37,6 +38,8 @@ from scipy import optimize, stats
 from inclino import reference as ref
 from inclino.dataset import RawDataset
 from inclino.errors import CalibrationError, DataError
+
+from inclino import caltemp
 
 from . import common
 
@@ -431,6 +434,7 @@ def _fit(ds, cal, info, mode, sigma_acc, sigma_mag, sigma_pose_deg, fix_dip, see
         "cross_validation": {str(k): v for k, v in cv.items()},
         "applied_by_firmware": False,
     }
+    block.update(caltemp.firmware_block(block))  # True when the image (version 2) carries them
     block["error_over_range"] = _errors_over_range(new, block, x, prob, chosen, w)
     new.temperature = block
     info = dict(info)
@@ -456,7 +460,9 @@ def _fit(ds, cal, info, mode, sigma_acc, sigma_mag, sigma_pose_deg, fix_dip, see
         + ", ".join(f"order {k} {v['cv_chi2_per_row']:.3f}" for k, v in cv.items())
         + f"); the residuals are of the readings brought to {t_ref:g} degC; at {worst['temp_c']:g} degC the "
         f"azimuth RMS is {worst['azi_rms_with_deg']:.4f} deg with them, {worst['azi_rms_without_deg']:.4f} without "
-        "(Li grid); the firmware applies M, b only (the terms are in CAL.json's temperature block)"]
+        + ("(Li grid); the firmware applies them (calibration image version 2)" if block["applied_by_firmware"]
+           else "(Li grid); the firmware applies M, b only: "
+           + block["firmware"]["why_not"])]
     info["report_dataset"] = corrected_dataset(ds, new, block)
     return new, info
 
@@ -464,7 +470,9 @@ def _fit(ds, cal, info, mode, sigma_acc, sigma_mag, sigma_pose_deg, fix_dip, see
 def summary(block: dict) -> str:
     """Text lines for `inclino calibrate`'s output."""
     lines = [f"  temperature terms: order {block['order']} about {block['t_ref_c']:g} degC, run "
-             f"{block['span_c'][0]:.1f} to {block['span_c'][1]:.1f} degC (not applied by the firmware)"]
+             f"{block['span_c'][0]:.1f} to {block['span_c'][1]:.1f} degC ("
+             + ("applied by the firmware: image version 2)" if block.get("applied_by_firmware")
+                else "not applied by the firmware)")]
     for tri, ub, in (("acc", 1e6), ("mag", 1.0)):
         unit = "ug" if tri == "acc" else "nT"
         for k in range(block["order"]):
