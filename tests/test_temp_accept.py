@@ -61,7 +61,7 @@ def test_engine_without_terms_is_the_firmware_with_m_b(chamber_calibrated):
     n = 50
     acc = rng.integers(-16384 * 64, 16384 * 64, (n, 3))
     mag = rng.integers(-60000 * 64, 60000 * 64, (n, 3))
-    tcc = temp_engine.temp_cc_of(rng.uniform(-20, 70, n))
+    tcc = temp_engine.temp_q6_of(rng.uniform(-20, 70, n))
     eng = temp_engine.get("auto")
     out = eng.survey(acc, mag, tcc, cal, terms=False)
     ref = core.survey(acc, mag, cal.to_fixed())
@@ -77,14 +77,39 @@ def test_engine_without_terms_is_the_firmware_with_m_b(chamber_calibrated):
         assert np.array_equal(z[k], ref[k]), k
 
 
-def test_temp_cc_is_what_the_probe_reports():
-    """temp_engine.temp_cc_of (the temperature the bench's grids hand the
+def test_firmware_engine_is_the_golden_model_and_the_host_model(chamber_calibrated):
+    """With the terms, the firmware's C and the golden model agree bit for
+    bit on random readings and temperatures; on the noise-free grid at -5,
+    25 and 55 degC the firmware's fixed-point temperature path stays within
+    0.005 deg of the terms applied in float64 (host-terms)."""
+    seed, sc, cal, _ = chamber_calibrated
+    fw, gd, ht = (temp_engine.get(n) for n in ("firmware", "golden", "host-terms"))
+    rng = np.random.default_rng()
+    n = 200
+    acc = rng.integers(-16384 * 64, 16384 * 64, (n, 3))
+    mag = rng.integers(-60000 * 64, 60000 * 64, (n, 3))
+    tq6 = temp_engine.temp_q6_of(rng.uniform(-40, 125, n)) + rng.integers(-63, 64, n)
+    a, g = fw.survey(acc, mag, tq6, cal), gd.survey(acc, mag, tq6, cal)
+    for k in core.ATT_COLS:
+        assert np.array_equal(a[k], g[k]), k
+    for T in CHECK:
+        grid, acc, mag, tq = bench_temp.grid_readings(sc, T)
+        a, h = fw.survey(acc, mag, tq, cal), ht.survey(acc, mag, tq, cal)
+        assert np.abs(a["inc"] - h["inc"]).max() / 65536.0 < 0.005, (seed, T)
+        ok = grid[0] >= 5.0
+        assert np.abs(((a["azi"] - h["azi"])[ok] / 65536.0 + 180.0) % 360.0 - 180.0).max() < 0.005, (seed, T)
+
+
+def test_temp_q6_is_what_the_probe_reports():
+    """temp_engine.temp_q6_of (the temperature the bench's grids hand the
     engine) against the emulated probe's own averaged reading."""
     p = EmulatedProbe(bench_temp.drawn_probe(1))
     p.poll = p.lib.app_main_poll
     for T in np.random.default_rng().uniform(-30.0, 80.0, 4):
         p.phys.set_temperature(float(T))
-        assert round(p.raw()["temp_c"] * 100) == int(temp_engine.temp_cc_of(T)), T
+        r = p.raw()
+        assert r["temp_q6"] == int(temp_engine.temp_q6_of(T)), T
+        assert int(temp_engine.temp_q6_from_centi(round(r["temp_c"] * 100))) == r["temp_q6"], T
 
 
 def test_accept_temperatures_cli_on_the_emulator(chamber_calibrated, tmp_path, capsys):
@@ -136,6 +161,15 @@ def test_accept_temperatures_refusals(temps, why, capsys, chamber_calibrated):
 def test_accept_temperatures_needs_terms(tmp_path, capsys, chamber_calibrated):
     plain = tmp_path / "plain.json"
     Calibration().save(str(plain))
+    outside = Calibration.load(chamber_calibrated[3])  # terms the image cannot hold: the probe would not apply them
+    outside.temperature["applied_by_firmware"] = False
+    outside.temperature["firmware"] = {"image_version": 1, "why_not": "a term beyond the image's range"}
+    outside.save(str(tmp_path / "outside.json"))
+    if temp_engine.firmware_available():
+        rc = cli.main(["accept", "--port", "/nonexistent/tty", "--temperatures", "-5,25,55", "--cal",
+                       str(tmp_path / "outside.json")])
+        out, err = capsys.readouterr()
+        assert rc == 3 and "cannot apply" in err and len(err.strip().splitlines()) == 1, err
     for args, why in ((["--cal", str(plain)], "no temperature terms"), ([], "needs --cal"),
                       (["--cal", chamber_calibrated[3], "--target-ratio", "0.5"], "--target-ratio"),
                       (["--cal", chamber_calibrated[3], "--circles"], "does not take")):

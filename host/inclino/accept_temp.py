@@ -144,6 +144,16 @@ def _point_errors(inc, azi, flags, p: GridPoint, decl: float) -> dict:
             "azi_err": float(np.mean(az)) if len(az) == len(errs) else None}
 
 
+def _predict(acc, mag, tq6, stored_fc):
+    """The probe's surveys from what it stores: the firmware's C with the
+    stored image (its temperature terms when it holds them)."""
+    from inclino import core
+
+    if getattr(stored_fc, "temp", None) is not None:
+        return core.survey(acc, mag, stored_fc, temp_q6=tq6)
+    return core.survey(acc, mag, stored_fc)
+
+
 def _errors(points: list, which: str):
     ei = np.array([p[which]["inc_err"] for p in points], float)
     ea = np.array([np.nan if p[which]["azi_err"] is None else p[which]["azi_err"] for p in points], float)
@@ -176,6 +186,7 @@ def accept_temperatures(link, table, cal, setpoints=(-5.0, 25.0, 55.0), grid: st
     plan.setpoints = sps
     plan.check()
     eng = temp_engine.get(engine)
+    eng.check(cal)  # the firmware engine: refused when the image cannot hold the terms
     pts = grid_points(grid, inclinations, azimuths, toolfaces)
     t0 = time.monotonic()
     set_average(link, average)
@@ -211,18 +222,14 @@ def accept_temperatures(link, table, cal, setpoints=(-5.0, 25.0, 55.0), grid: st
                 win = read_stable(link, tol, max_reads if table.unattended else None)
                 acc = np.array([[round(v * 64) for v in r.acc] for r in win], np.int64)
                 mag = np.array([[round(v * 64) for v in r.mag] for r in win], np.int64)
-                tcc = np.array([round(r.temp_c * 100.0) for r in win], np.int64)
+                tq6 = np.array([r.temp_q6 if r.temp_q6 is not None else
+                                int(temp_engine.temp_q6_from_centi(round(r.temp_c * 100.0))) for r in win], np.int64)
                 temps += [r.temp_c for r in win]
                 cols = {}
                 for key, terms in (("with", True), ("without", False)):
-                    cols[key] = eng.survey(acc, mag, tcc, cal, terms=terms)
-                # the probe's own surveys against what it stores
-                if eng.terms_in_firmware:
-                    want = cols["with"]
-                else:
-                    from inclino import core
-
-                    want = core.survey(acc, mag, stored_fc)
+                    cols[key] = eng.survey(acc, mag, tq6, cal, terms=terms)
+                # the probe's own surveys against what it stores (its terms too, image version 2)
+                want = _predict(acc, mag, tq6, stored_fc)
                 keys = ("inc", "azi", "gtf", "mtf", "gt", "bt", "dip", "flags")
                 for j, r in enumerate(win):
                     res.surveys_checked += 1
@@ -231,7 +238,8 @@ def accept_temperatures(link, table, cal, setpoints=(-5.0, 25.0, 55.0), grid: st
                         res.survey_mismatches.append(f"{sp:g} degC, {st.label}: " + ", ".join(
                             f"{k} probe {getattr(r.record, k)} predicted {int(want[k][j])}" for k in bad))
                 row = {"setpoint_c": sp, "set_inc": p.set_inc, "set_azi": p.set_azi, "tf": p.tf,
-                       "pose": list(p.pose), "probe_c": float(np.mean(tcc) / 100.0), "reads": len(win)}
+                       "pose": list(p.pose), "probe_c": float(np.mean([r.temp_c for r in win])),
+                       "temp_q6": [int(v) for v in tq6], "reads": len(win)}
                 for key in ("with", "without"):
                     inc, azi, flags = temp_engine.units(cols[key])
                     row[key] = _point_errors(inc, azi, flags, p, decl)
@@ -287,8 +295,7 @@ def render(res: TempAcceptResult) -> str:
            f"  with    = {res.calibration}",
            "  without = the same M, b without the temperature terms (room-temperature-only)",
            f"  engine  = {res.engine}" + ("" if res.terms_in_firmware else
-                                          " (the terms on the host, then the firmware's C with M, b: this "
-                                          "firmware does not apply them)")]
+                                          " (the terms on the host, then the firmware's C with M, b)")]
     if res.download:
         out.append(f"  downloaded to slot {res.download['slot']}, sequence {res.download['sequence']}")
     out.append("")
@@ -335,7 +342,7 @@ def _cmd_accept(args) -> int:
     plan = ThermalPlan(sps, "twelve-position", args.ramp_rate, args.interval, 1, args.soak_band, args.soak_tol,
                        args.soak_window, args.max_soak)
     plan.check()
-    temp_engine.get(args.engine)
+    eng = temp_engine.get(args.engine)
     if args.circles or args.plot or args.before != "auto":
         raise DataError("--temperatures does not take --circles, --plot or --before (its columns are with and "
                         "without the temperature terms)")
@@ -353,6 +360,7 @@ def _cmd_accept(args) -> int:
     if not temp_engine.has_terms(cal):
         raise DataError(f"{args.cal} has no temperature terms (inclino calibrate --method joint --temperature on, "
                         "from a chamber run)")
+    eng.check(cal)  # exit 3 before the port when the firmware cannot hold the terms
     table = open_table(args)
     try:
         with ProbeLink(args.port, baud=args.baud, timeout=args.timeout) as link:
@@ -383,7 +391,7 @@ def add_parser(sub):
                    help="the set point the others are compared with (default 25)")
     t.add_argument("--target-ratio", type=float, default=DEFAULT_TARGET_RATIO,
                    help="verdict: RMS with the terms at every set point <= this x the reference's (default 1.2)")
-    t.add_argument("--engine", choices=("auto", "firmware", "host-terms"), default="auto",
+    t.add_argument("--engine", choices=("auto", "firmware", "golden", "host-terms"), default="auto",
                    help="the correction with the terms (default auto: the firmware's when it applies them)")
     t.add_argument("--ramp-rate", type=float, default=1.0, help="chamber ramp, degC/min (default 1)")
     t.add_argument("--interval", type=float, default=2.0, help="minutes between soak readings (default 2)")

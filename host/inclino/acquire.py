@@ -161,6 +161,7 @@ class Reading:
     temp_c: float
     survey: dict  # the probe's survey of the same acquisition (units)
     record: object = None  # that survey's protocol.SurveyRecord (fixed point)
+    temp_q6: int | None = None  # TEMP_OUT mean, Q6 counts (the temperature terms' input); None: older firmware
 
 
 def read_once(link) -> Reading:
@@ -168,7 +169,7 @@ def read_once(link) -> Reading:
 
     s, r = calops.survey_with_raw(link)
     return Reading(s.t_ms / 1000.0, r.acc_counts, r.mag_counts, r.temp_centi_c / 100.0,
-                   s.to_units(), s)
+                   s.to_units(), s, getattr(r, "temp_q6", None))
 
 
 @dataclass

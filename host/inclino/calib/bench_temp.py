@@ -134,7 +134,7 @@ def fit_with_terms(path: str):
 
 
 def grid_readings(scenario, temp_c: float, toolfaces=(0.0, 120.0, 240.0)):
-    """(poses (I, A, T), acc Q6, mag Q6, temp_cc) of the Li grid with the
+    """(poses (I, A, T), acc Q6, mag Q6, temp_q6) of the Li grid with the
     probe at temp_c: noise-free, without sensor quantisation, rounded to the
     Q6 means the correction receives; the temperature as the firmware reads it."""
     from inclino_emu.scenario import generate_raw
@@ -148,13 +148,13 @@ def grid_readings(scenario, temp_c: float, toolfaces=(0.0, 120.0, 240.0)):
     ds = generate_raw(quiet, *g, temp_c=float(temp_c))
     acc = np.floor(ds.acc / ref.ACC_LSB_G * 64.0 + 0.5).astype(np.int64)
     mag = np.floor(ds.mag / ref.MAG_LSB_NT * 64.0 + 0.5).astype(np.int64)
-    tcc = np.full(len(acc), int(temp_engine.temp_cc_of(temp_c)), np.int64)
+    tcc = np.full(len(acc), int(temp_engine.temp_q6_of(temp_c)), np.int64)
     return g, acc, mag, tcc
 
 
 def acceptance_readings(scenario, temp_c: float, seed: int, n_avg: int = N_AVG, reads: int = READS,
                         repeats: int = REPEATS, toolfaces=(0.0, 120.0, 240.0)):
-    """(poses, [(acc Q6, mag Q6)] * reads, temp_cc) of the Li grid with the
+    """(poses, [(acc Q6, mag Q6)] * reads, temp_q6) of the Li grid with the
     probe at temp_c as `inclino accept` reads it, the grid taken `repeats`
     times (the poses tiled): each reading the mean of n_avg noisy, quantised
     samples of the ADIS16210 at the firmware's AVG_CNT (ADIS_AVG_CNT = 4: 16
@@ -171,7 +171,7 @@ def acceptance_readings(scenario, temp_c: float, seed: int, n_avg: int = N_AVG, 
     mag = ds.mag.reshape(reads, n_avg, m, 3).mean(1)
     out = [(np.floor(a / ref.ACC_LSB_G * 64.0 + 0.5).astype(np.int64),
             np.floor(b / ref.MAG_LSB_NT * 64.0 + 0.5).astype(np.int64)) for a, b in zip(acc, mag)]
-    return g, out, np.full(m, int(temp_engine.temp_cc_of(temp_c)), np.int64)
+    return g, out, np.full(m, int(temp_engine.temp_q6_of(temp_c)), np.int64)
 
 
 def acceptance_errors(engine, cal, grid, readings, tcc, declination_deg: float, terms: bool):
@@ -226,9 +226,9 @@ def check_probe(scenario, cal, engine, setpoints=CHECK_C, reference_c: float = R
     rows, rows0 = [], []
     for j, T in enumerate(setpoints):
         g, readings, tcc = acceptance_readings(scenario, T, seed=seed * 100)  # the same noise at every set point
-        r = {"setpoint_c": float(T), "temp_cc": int(tcc[0])}
+        r = {"setpoint_c": float(T), "temp_q6": int(tcc[0])}
         g0, acc, mag, tcc0 = grid_readings(scenario, T)
-        r0 = {"setpoint_c": float(T), "temp_cc": int(tcc0[0])}
+        r0 = {"setpoint_c": float(T), "temp_q6": int(tcc0[0])}
         for key, terms in (("with", True), ("without", False)):
             da, di = acceptance_errors(engine, cal, g, readings, tcc, dec, terms)
             r[f"azi_rms_{key}_deg"] = _rms(da)
@@ -256,8 +256,8 @@ def bench_temperature(n_probes: int = N_PROBES, seed: int = SEED0, engine: str =
                  "what": f"azimuth and inclination RMS with the terms at every set point within {TARGET_RATIO:g}x "
                          f"the same probe's {reference_c:g} degC figure (max over probes and set points)"})
     if not eng.terms_in_firmware:
-        res.notes.append("the firmware of this build does not apply the temperature terms: engine host-terms "
-                         "(terms in float64 on the Q6 means, then the firmware's C with M, b)")
+        res.notes.append("engine host-terms: the terms in float64 on the Q6 means, then the firmware's C with M, b "
+                         "(not the firmware's own temperature path)")
     with tempfile.TemporaryDirectory(prefix="inclino-bench-temp-") as d:
         for k, s in enumerate(res.seeds):
             if progress:
@@ -267,6 +267,7 @@ def bench_temperature(n_probes: int = N_PROBES, seed: int = SEED0, engine: str =
             try:
                 chamber_run(sc, path, sps, emu_seed=s)
                 cal, _rep = fit_with_terms(path)
+                eng.check(cal)  # the firmware engine: the image must hold the terms
                 chk = check_probe(sc, cal, eng, sps, reference_c, seed=s)
             except Exception as e:  # a probe the procedure cannot calibrate is reported, not hidden
                 res.failed_probes.append({"seed": s, "error": f"{type(e).__name__}: {e}"})
