@@ -132,6 +132,8 @@ def test_accept_temperatures_cli_on_the_emulator(chamber_calibrated, tmp_path, c
     assert r["engine"] == temp_engine.get("auto").name
     assert r["download"] and r["probe_serial"] == 1001
     assert not r["survey_mismatches"] and r["surveys_checked"] == sum(p["reads"] for p in r["points"])
+    if r["terms_in_firmware"]:  # the "with" column is the probe's own correction
+        assert r["with_equals_probe"] == r["surveys_checked"]
     assert len(r["points"]) == 3 * 66
     for s in r["setpoints"]:
         assert abs(s["probe_c_mean"] - s["setpoint_c"]) < 1.5

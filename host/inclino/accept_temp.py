@@ -69,6 +69,7 @@ class TempAcceptResult:
     points: list = field(default_factory=list)  # per set point and grid position: errors with / without
     surveys_checked: int = 0
     survey_mismatches: list = field(default_factory=list)
+    with_equals_probe: int = 0  # readings whose "with" survey is the probe's own, bit for bit
     passed: bool = False
     reasons: list = field(default_factory=list)
     world: dict = field(default_factory=dict)
@@ -233,6 +234,7 @@ def accept_temperatures(link, table, cal, setpoints=(-5.0, 25.0, 55.0), grid: st
                 keys = ("inc", "azi", "gtf", "mtf", "gt", "bt", "dip", "flags")
                 for j, r in enumerate(win):
                     res.surveys_checked += 1
+                    res.with_equals_probe += all(int(cols["with"][k][j]) == int(getattr(r.record, k)) for k in keys)
                     bad = [k for k in keys if int(want[k][j]) != int(getattr(r.record, k))]
                     if bad:
                         res.survey_mismatches.append(f"{sp:g} degC, {st.label}: " + ", ".join(
@@ -309,7 +311,8 @@ def render(res: TempAcceptResult) -> str:
                    f"azimuth {f(s['azi_ratio_with'], 2)} / {f(s['azi_ratio_without'], 2)}, inclination "
                    f"{f(s['inc_ratio_with'], 2)} / {f(s['inc_ratio_without'], 2)}")
     out.append(f"the probe's surveys against its stored calibration: {res.surveys_checked - len(res.survey_mismatches)}"
-               f" of {res.surveys_checked} equal bit for bit")
+               f" of {res.surveys_checked} equal bit for bit; the \"with\" column is the probe's own survey in "
+               f"{res.with_equals_probe} of them")
     out.append(f"verdict: {'PASS' if res.passed else 'FAIL'} (with the terms, azimuth and inclination RMS at every "
                f"set point <= {res.target_ratio:g}x the {res.reference_c:g} degC figure; surveys bit for bit)"
                + ("" if res.passed else ": " + "; ".join(res.reasons)))
