@@ -35,6 +35,12 @@ choice, plus the bias the best linear calibration of the true probe leaves
 on the grid.  The target's ratio stays against the (lower) linear-model
 floor.
 
+Temperature (key `temperature`, calib/bench_temp.py; alone: `inclino bench
+calibration --section temperature`): probes drawn from the typical
+scenario's tempco spread, each calibrated from an emulated chamber run and
+checked at -5, 25 and 55 degC through the firmware's correction with and
+without its temperature terms; target 1.2x of the 25 degC figure.
+
 Peers from PyPI: magcal (a magnetometer ellipsoid fit, the kind users
 install for hard/soft iron) is used when it is installed -- it is not a
 project dependency -- for the fluxgate, paired with Ren 2014's
