@@ -185,6 +185,11 @@ def _accuracy_text(r) -> str:
     if r.averaging:
         from inclino.bench_averaging import AveragingResult
         lines += AveragingResult.from_json(json.dumps(r.averaging)).lines()
+    if r.temperature:
+        t = r.temperature
+        lines.append(f"  temperature path (image version 2), C vs float64 with the same terms, worst over "
+                     f"{', '.join(f'{x:g}' for x in t['temperatures_c'])} degC: azimuth max "
+                     f"{t['worst']['azi_max_deg']:.2g}, inclination max {t['worst']['inc_max_deg']:.2g} deg")
     lines.append("  verdict: " + ("pass" if r.passed else "FAIL"))
     return "\n".join(lines)
 
