@@ -56,7 +56,7 @@ ATAN_FRAC_BITS = 12
 # temperature terms (correct.h)
 TEMP_RAW_ZERO = 1331  # TEMP_OUT count at 0 degC
 TEMP_K = 30802        # 0.94 in Q15: Q6 counts -> Q7 degC
-E_MAX = 2**29 - 1     # |r(T) - 1| < 1 in Q29
+E_MAX = 2**29 - 256   # |r(T) - 1| <= 1 - 2^-21 in Q29 (correct.h CORR_E_MAX)
 
 
 def deg_q16(d):

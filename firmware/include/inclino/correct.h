@@ -101,7 +101,7 @@ typedef struct {
 #define CORR_TEMP_RAW_ZERO 1331L /* TEMP_OUT count at 0 degC (adis16210.h) */
 #define CORR_TEMP_K 30802        /* 0.47 degC/count, Q6 counts -> Q7 degC: 0.94 in Q15 */
 #define CORR_TC_LIMIT ((int32_t)0x40000000L) /* |c1|, |r1| <= 2^30 (calimg_parse) */
-#define CORR_E_MAX ((int32_t)0x1FFFFFFFL)    /* |r(T) - 1| < 1 in Q29 */
+#define CORR_E_MAX ((int32_t)0x1FFFFF00L)    /* |r(T) - 1| <= 1 - 2^-21 in Q29: |4 p| < 2^31 */
 
 /*
  * corr_triad - out = M * (x - b) for one triad.
@@ -177,7 +177,7 @@ int32_t corr_mul_dt(int32_t a, int16_t dt);
  *   |c1|, |r1| <= 2^30 as calimg_parse checks).
  *   Out: tt->beff[i] = sat(b_i + dT (c1 + c2 dT)) in the triad's input
  *   format (Q29 g or Q10 nT); tt->e[i] = dT (r1 + r2 dT) in Q29 (r(T) - 1),
- *   clamped to |e| < 1.
+ *   clamped to |e| <= CORR_E_MAX (1 - 2^-21).
  *   Method (Horner, per value): inner = c1 + fx_mul16(c2, dT) (|c2 dT| <
  *   2^30 and |c1| <= 2^30: a plain sum), value = corr_mul_dt(inner, dT)
  *   (|value| <= 2^30).
@@ -193,11 +193,11 @@ void corr_temp_eval(int16_t dt, const corr_triad_t *c, const corr_tc_t *tc, corr
  * corr_triad_temp - out = M * (r(T) (x - b - bias(T))) for one triad: the
  *   reading brought to t_ref (raw_ref - b) and corrected.
  *   In: x[3] scaled raw input, c coefficients (M), tt the terms at this
- *   survey's temperature (corr_temp_eval: b_eff and e, |e| < 1).  Out:
- *   out[3] as corr_triad.
- *   Method: v_j = sat(x_j - beff_j); p_j = fx_mul32_q31(v_j, e_j) (Q(v) - 2,
- *   |p_j| < 2^29); d_j = sat(v_j + 4 p_j) = v_j (1 + e_j); then out as
- *   corr_triad.
+ *   survey's temperature (corr_temp_eval: b_eff and e, |e| <= CORR_E_MAX).
+ *   Out: out[3] as corr_triad.
+ *   Method: v_j = sat(x_j - beff_j); p_j = fx_mul32_q31(v_j, e_j) (Q(v) - 2;
+ *   |p_j| <= 2^29 - 256 + 8 < 2^29, its error being below 8 LSB); d_j =
+ *   sat(v_j + 4 p_j) = v_j (1 + e_j); then out as corr_triad.
  *   Rounding: the scale product truncates: -32 < d - v (1 + e) < 8 LSB of
  *   d (Q29 g / Q10 nT) before M; then corr_triad's bound.
  *   Saturation: each step saturates to int32; returns 1 when any did.
