@@ -38,15 +38,15 @@ def test_comparison_detects_a_one_lsb_difference(monkeypatch, capsys):
 
 
 def test_temperature_path_difference_is_caught(monkeypatch, capsys):
-    """A one-LSB slip in the golden model's 32 x 16 product by dT (the
-    temperature terms' step) is found: the temperature path is compared."""
-    real = golden.corr_mul_dt
+    """A one-LSB slip in the golden model's evaluation of the temperature
+    terms is found: the temperature path is compared."""
+    real = golden.corr_temp_eval
 
-    def off_by_one(a, dt):
-        r = real(a, dt)
-        return r + ((np.asarray(a) % 1013) == 5)
+    def off_by_one(dt, *args):
+        beff, e, sat = real(dt, *args)
+        return beff, e + ((np.asarray(beff) % 1013) == 5), sat
 
-    monkeypatch.setattr(golden, "corr_mul_dt", off_by_one)
+    monkeypatch.setattr(golden, "corr_temp_eval", off_by_one)
     assert cli.main(["bitexact", "--vectors", "20000"]) == 1
     assert " 0 mismatches" not in capsys.readouterr().out
 

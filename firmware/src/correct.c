@@ -46,40 +46,25 @@ int16_t corr_temp_dt(int32_t temp_q6, int16_t t_ref, uint8_t *sat)
     return (int16_t)t;
 }
 
-/* floor(x / 2^16) as int16, for the int32 whose bits are u (no shift of a negative) */
-static int16_t hi16(uint32_t u)
-{
-    uint16_t h = (uint16_t)(u >> 16);
-    return (h <= (uint16_t)INT16_MAX) ? (int16_t)h
-                                      : (int16_t)((int16_t)(h & 0x7FFFu) - INT16_MAX - 1);
-}
-
-int32_t corr_mul_dt(int32_t a, int16_t dt)
-{
-    int16_t al = (int16_t)((uint16_t)(uint32_t)a >> 1); /* (a mod 2^16) >> 1, in [0, 32767] */
-    /* |al dt| < 2^30; floor(p / 2^15) = 2 floor(p / 2^16) + bit 15 of p, in [-2^15, 2^15) */
-    uint32_t p = (uint32_t)fx_mul16(al, dt);
-    int16_t f = (int16_t)(2 * hi16(p) + (int16_t)((uint16_t)p >> 15));
-    /* |ah dt| <= 2^30: the sum is within int32 */
-    return fx_mul16(hi16((uint32_t)a), dt) + (int32_t)f;
-}
-
 void corr_temp_eval(int16_t dt, const corr_triad_t *c, const corr_tc_t *tc, corr_tt_t *tt,
                     uint8_t *sat)
 {
+    /* dT 2^15: Q22, |dts| < 2^30 (a constant power-of-two product: a shift) */
+    int32_t dts = (int32_t)dt * 32768L;
     uint8_t i;
     for (i = 0u; i < 3u; i++) {
         /* c2 dT: 16 x 16, |c2 dT| < 2^30, in c1's format (Q31 + Q7 = Q38, Q12 + Q7
          * = Q19); |c1| <= 2^30 (calimg_parse): |inner| < 2^31, a plain int32 sum */
         int32_t in = tc->c1[i] + fx_mul16(tc->c2[i], dt);
         int32_t e;
-        /* Q38 x Q7 / 2^16 = Q29 g; Q19 x Q7 / 2^16 = Q10 nT; |bias| <= 2^30 */
-        tt->beff[i] = fx_add32_sat(c->bias[i], corr_mul_dt(in, dt), sat);
+        /* Q38 x Q22 / 2^31 = Q29 g; Q19 x Q22 / 2^31 = Q10 nT; |bias| < 2^30; the
+         * product cannot saturate (|dts| < 2^30) */
+        tt->beff[i] = fx_add32_sat(c->bias[i], fx_mul32_q31(in, dts, sat), sat);
         /* r2 dT: Q31 + Q7 = r1's Q38; |r1| <= 2^30 */
         in = tc->r1[i] + fx_mul16(tc->r2[i], dt);
-        /* Q38 x Q7 / 2^16 = Q29; kept within |e| < 1 so that corr_triad_temp's
+        /* Q38 x Q22 / 2^31 = Q29; kept within CORR_E_MAX so that corr_triad_temp's
          * 4 p cannot overflow */
-        e = corr_mul_dt(in, dt);
+        e = fx_mul32_q31(in, dts, sat);
         if (e > CORR_E_MAX) {
             e = CORR_E_MAX;
             *sat = 1u;

@@ -53,7 +53,6 @@ int32_t fx_atan2_q16(int32_t y, int32_t x);
 uint8_t corr_triad(const int32_t x[3], const corr_triad_t *c, int32_t out[3]);
 void corr_identity(corr_triad_t *c);
 int16_t corr_temp_dt(int32_t temp_q6, int16_t t_ref, uint8_t *sat);
-int32_t corr_mul_dt(int32_t a, int16_t dt);
 void corr_temp_eval(int16_t dt, const corr_triad_t *c, const corr_tc_t *tc, corr_tt_t *tt, uint8_t *sat);
 uint8_t corr_triad_temp(const int32_t x[3], const corr_triad_t *c, const corr_tt_t *tt, int32_t out[3]);
 int8_t att_norm3(const int32_t v[3], int32_t out[3]);

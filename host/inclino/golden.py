@@ -240,21 +240,16 @@ def corr_temp_dt(temp_q6, t_ref):
     return np.clip(T, -32767, 32767), sat
 
 
-def corr_mul_dt(a, dt):
-    """correct.c corr_mul_dt: ah dt + floor(al dt / 2^15), a = ah 2^16 + 2 al + a0."""
-    a = _i64(a)
-    dt = _i64(dt)
-    return fx_mul16(a >> 16, dt) + (fx_mul16((a & 0xFFFF) >> 1, dt) >> 15)
-
-
 def corr_temp_eval(dt, bias, c1, c2, r1, r2):
     """correct.c corr_temp_eval: one triad's terms at dT (Q7).  dt (...);
     bias, c1..r2 (..., 3).  Returns (beff (..., 3), e (..., 3), saturated (...))."""
     dt = _i64(dt)[..., None]
-    beff, s1 = fx_add32_sat(bias, corr_mul_dt(_i64(c1) + fx_mul16(c2, dt), dt))
-    e = corr_mul_dt(_i64(r1) + fx_mul16(r2, dt), dt)
+    dts = dt * 32768
+    tb, s0 = fx_mul32_q31(_i64(c1) + fx_mul16(c2, dt), dts)
+    beff, s1 = fx_add32_sat(bias, tb)
+    e, s3 = fx_mul32_q31(_i64(r1) + fx_mul16(r2, dt), dts)
     s2 = (e > E_MAX) | (e < -E_MAX)
-    return beff, np.clip(e, -E_MAX, E_MAX), (s1 | s2).any(axis=-1)
+    return beff, np.clip(e, -E_MAX, E_MAX), (s0 | s1 | s2 | s3).any(axis=-1)
 
 
 def corr_triad_temp(x, m, beff, e):

@@ -46,9 +46,9 @@
  *                    3.6e-6 ppm/degC)
  *            r2      int16 Q31 /degC^2 (+-15 ppm/degC^2, LSB 4.7e-4 ppm/degC^2)
  *   Inner sums (Horner): c1 + c2 dT, the 16 x 16 product c2 dT already in
- *   c1's format (Q31 + Q7 = Q38, Q12 + Q7 = Q19); then one 32 x 16 product
- *   by dT (corr_mul_dt, two 16 x 16 products): Q38 x Q7 / 2^16 = Q29 g,
- *   Q19 x Q7 / 2^16 = Q10 nT, and e = r(T) - 1 in Q29, |e| < 1.
+ *   c1's format (Q31 + Q7 = Q38, Q12 + Q7 = Q19); then one product by dT
+ *   (fx_mul32_q31 with dT 2^15, Q22): Q38 x Q22 / 2^31 = Q29 g, Q19 x Q22
+ *   / 2^31 = Q10 nT, and e = r(T) - 1 in Q29, |e| < 1.
  *   The second-order coefficients' LSB times dT^2 bounds their quantisation
  *   (half an LSB): at |dT| = 30 degC 0.2 ug, 0.11 nT, 0.2 ppm; at 100 degC
  *   2.3 ug, 1.2 nT, 2.3 ppm.
@@ -160,18 +160,6 @@ void corr_tc_clear(corr_tc_t *tc);
 int16_t corr_temp_dt(int32_t temp_q6, int16_t t_ref, uint8_t *sat);
 
 /*
- * corr_mul_dt - a * dT / 2^16 from two 16 x 16 products.
- *   In: a int32 (any Q), dt int16 Q7 degC.  Out: Q(qa + 7 - 16).
- *   Method: a = ah 2^16 + 2 al + a0 (ah = floor(a / 2^16), al in
- *   [0, 32767]); result = ah dt + floor(al dt / 2^15), the floor in 16-bit
- *   arithmetic (2 floor(p / 2^16) + bit 15 of p).  |ah dt| <= 2^30, |al dt|
- *   < 2^30: no overflow, no saturation.
- *   Rounding: the a0 dt term is dropped and the cross term floored:
- *   -1.5 < result - a dt / 2^16 < 0.5 LSB.
- */
-int32_t corr_mul_dt(int32_t a, int16_t dt);
-
-/*
  * corr_temp_eval - one triad's terms at dT, once per survey.
  *   In: dT Q7 degC, c the triad's M and b, tc its terms (formats above,
  *   |c1|, |r1| <= 2^30 as calimg_parse checks).
@@ -179,10 +167,11 @@ int32_t corr_mul_dt(int32_t a, int16_t dt);
  *   format (Q29 g or Q10 nT); tt->e[i] = dT (r1 + r2 dT) in Q29 (r(T) - 1),
  *   clamped to |e| <= CORR_E_MAX (1 - 2^-21).
  *   Method (Horner, per value): inner = c1 + fx_mul16(c2, dT) (|c2 dT| <
- *   2^30 and |c1| <= 2^30: a plain sum), value = corr_mul_dt(inner, dT)
- *   (|value| <= 2^30).
- *   Rounding: corr_mul_dt's only: -1.5 < value - exact < 0.5 LSB of the
- *   output (2^-29 g, 2^-10 nT, 2^-29) for the terms as stored.
+ *   2^30 and |c1| <= 2^30: a plain sum), value = fx_mul32_q31(inner,
+ *   dT 2^15) (inner x dT / 2^16; |dT 2^15| < 2^30: no saturation,
+ *   |value| < 2^30).
+ *   Rounding: fx_mul32_q31's truncation only: -8 < value - exact < 2 LSB
+ *   of the output (2^-29 g, 2^-10 nT, 2^-29) for the terms as stored.
  *   Saturation: b + bias(T) (|b| < 2^30, |bias| <= 2^30) and the clamp of
  *   e (|e| >= 1: a scale change of 100 %); each sets *sat to 1.
  */
