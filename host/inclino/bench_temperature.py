@@ -78,8 +78,7 @@ def temperature_loss(field_nT=50000.0, dip_deg=60.0, cal: Calibration | None = N
     (the accuracy bench's, for I >= 5 deg) and the verdict."""
     from inclino_emu import effects as fx
 
-    from inclino.bench import sphere_poses, typical_calibration
-    from inclino.typical_probe import _raw_for
+    from inclino.typical_probe import _raw_for, typical_calibration
 
     base = cal or typical_calibration()
     block = block or typical_block()
@@ -88,7 +87,9 @@ def temperature_loss(field_nT=50000.0, dip_deg=60.0, cal: Calibration | None = N
     fc = cal.to_fixed()
     ft = fc.temp
     cq = Calibration.from_fixed(fc)
-    I, A, T = sphere_poses(inc_step, azi_step, tf_step)
+    # the accuracy bench's sphere (bench.sphere_poses), coarser
+    I, A, T = (g.ravel() for g in np.meshgrid(np.arange(0.0, 180.0 + 1e-9, inc_step), np.arange(0.0, 360.0, azi_step),
+                                              np.arange(0.0, 360.0, tf_step) + 7.0, indexing="ij"))
     g_true, b_true = reference.body_vectors(I, A, T, field_nT, dip_deg)
     ga_ref, bm_ref = _raw_for(cal, g_true, b_true)
     per = {}

@@ -740,7 +740,8 @@ class McuBench:
     meets_parser_target: bool = False  # frame_parser_cpu_at_115200_baud <= TARGET_PARSER_CPU
     # what survey_compute is timed on: the acquisition's means with 6 fraction bits
     survey_inputs: str = "int32 Q6 counts (1/64 count) for both triads, fractional means of the bench vectors"
-    # survey_compute_temp with the typical temperature terms (image version 2), -5..55 degC (inclino.mcu_temp)
+    # survey_compute_temp with the typical temperature terms (image version 2), -5..55 degC: filled by
+    # inclino.mcu_temp.bench (what `inclino bench mcu` runs), which also counts its target in `passed`
     survey_temperature: CycleStats | None = None
     temperature_added_cycles: float = 0.0  # mean, survey_temperature - survey
     meets_temperature_cycle_target: bool = False  # survey_temperature.max <= TARGET_SURVEY_CYCLES
@@ -858,9 +859,6 @@ def bench(vectors: int = 100, seed: int = 11, workdir: str | os.PathLike | None 
             d = (res_f[k] - gs[k] / 65536.0 + 180.0) % 360.0 - 180.0
             err = max(err, float(np.abs(d).max()))
         stack = max(stack_bytes(fx, r, setup=enc_cal(fc)) for r in recs[:3])
-        from inclino import mcu_temp
-
-        cyc_t = mcu_temp.bench_survey_temp(fx, vectors, seed)
         sz = sizes(fx)
         fsz = sizes(fl)
     s = _stats(cyc_s)
@@ -870,8 +868,6 @@ def bench(vectors: int = 100, seed: int = 11, workdir: str | os.PathLike | None 
     meets_r = ratio <= TARGET_FLOAT_RATIO
     parser_cpu = float(np.mean(cyc_feed)) / (BUS_HZ * 10 / 115_200)
     meets_p = parser_cpu <= TARGET_PARSER_CPU
-    st = _stats(cyc_t)
-    meets_t = st.max <= TARGET_SURVEY_CYCLES
     return McuBench(
         target="Freescale S08 (ucsim shc08 -t HCS08), bus cycles",
         compiler=f"SDCC {_sdcc_version()}",
@@ -892,11 +888,8 @@ def bench(vectors: int = 100, seed: int = 11, workdir: str | os.PathLike | None 
                  "frame_parser_cpu_at_115200_baud": TARGET_PARSER_CPU},
         meets_cycle_target=meets_c,
         meets_ratio_target=meets_r,
-        passed=meets_c and meets_r and meets_p and meets_t,
+        passed=meets_c and meets_r and meets_p,
         meets_parser_target=meets_p,
-        survey_temperature=st,
-        temperature_added_cycles=st.mean - s.mean,
-        meets_temperature_cycle_target=meets_t,
     )
 
 

@@ -78,3 +78,21 @@ def bench_survey_temp(b, vectors: int = 100, seed: int = 11) -> list[int]:
     """Bus cycles of survey_compute_temp (terms applied) per bench vector."""
     acc, mag, tq, fct = bench_inputs(vectors, seed)
     return mcu.timed(b, records(acc, mag, tq), setup=enc_setup(fct))
+
+
+def bench(vectors: int = 100, seed: int = 11):
+    """mcu.bench() and the temperature path's figures (`inclino bench mcu
+    --json`): survey_compute_temp's cycles on the same vectors with the
+    typical temperature terms, the mean added to survey_compute's, and its
+    target (max <= mcu.TARGET_SURVEY_CYCLES), which `passed` then includes."""
+    import tempfile
+
+    res = mcu.bench(vectors, seed)
+    with tempfile.TemporaryDirectory(prefix="inclino-bench-temp-") as td:
+        cyc = bench_survey_temp(mcu.build(td), vectors, seed)
+    st = mcu._stats(cyc)
+    res.survey_temperature = st
+    res.temperature_added_cycles = st.mean - res.survey.mean
+    res.meets_temperature_cycle_target = st.max <= mcu.TARGET_SURVEY_CYCLES
+    res.passed = res.passed and res.meets_temperature_cycle_target
+    return res
