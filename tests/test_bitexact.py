@@ -35,3 +35,34 @@ def test_comparison_detects_a_one_lsb_difference(monkeypatch, capsys):
     assert cli.main(["bitexact", "--vectors", "20000"]) == 1
     out = capsys.readouterr().out
     assert " 0 mismatches" not in out
+
+
+def test_temperature_path_difference_is_caught(monkeypatch, capsys):
+    """A one-LSB slip in the golden model's evaluation of the temperature
+    terms is found: the temperature path is compared."""
+    real = golden.corr_temp_eval
+
+    def off_by_one(dt, *args):
+        beff, e, sat = real(dt, *args)
+        return beff + ((np.asarray(e) % 1013) == 5), e, sat
+
+    monkeypatch.setattr(golden, "corr_temp_eval", off_by_one)
+    assert cli.main(["bitexact", "--vectors", "20000"]) == 1
+    assert " 0 mismatches" not in capsys.readouterr().out
+
+
+def test_temperature_edges_reach_every_clamp():
+    """The edge temperatures and the limit terms drive dT's clamps, e's
+    clamp and b_eff's saturation (the arith-saturated flag) in the golden
+    model the comparison runs."""
+    rng = np.random.default_rng(1)
+    tc = bitexact.random_temp_cals(rng, bitexact.random_cals(rng, 12))
+    _, sat_dt = golden.corr_temp_dt(np.array(bitexact.EDGE_TEMPS), 0)
+    assert sat_dt.any() and not sat_dt.all()
+    hit = False
+    for c in tc:
+        t = c.temp
+        dt, _ = golden.corr_temp_dt(np.array(bitexact.EDGE_TEMPS), t.t_ref)
+        _, e, sat = golden.corr_temp_eval(dt, c.acc_b, t.acc_c1, t.acc_c2, t.acc_r1, t.acc_r2)
+        hit |= bool(sat.any() and (np.abs(e) == golden.E_MAX).any())
+    assert hit

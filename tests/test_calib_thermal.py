@@ -87,8 +87,16 @@ def test_hidden_tempcos_are_recovered_and_meet_the_target_at_every_temperature()
     # a typical probe's terms fit the calibration image (version 2): the firmware applies them,
     # and the second-order expansion of 1/(1 + s) it uses is stated, small over the run's span
     assert blk["applied_by_firmware"] is True and blk["firmware"]["image_version"] == 2
+    # the stated bound holds at temperatures drawn in the run's span, and is a few ppm for such a probe
     trunc = blk["firmware"]["scale_truncation_max"]
-    assert max(trunc["acc"] + trunc["mag"]) < 1e-6
+    lo, hi = trunc["over_c"]
+    dT = rng.uniform(lo, hi, 500)[:, None] - blk["t_ref_c"]
+    for tri in ("acc", "mag"):
+        p1 = np.asarray(blk[tri]["scale_ppm"][0]) * 1e-6
+        p2 = np.asarray(blk[tri]["scale_ppm"][1]) * 1e-6 if blk["order"] > 1 else np.zeros(3)
+        err = np.abs(1 / (1 + p1 * dT + p2 * dT**2) - (1 - p1 * dT + (p1**2 - p2) * dT**2)).max(axis=0)
+        assert np.all(err <= np.asarray(trunc[tri])), (tri, err, trunc[tri])
+    assert max(trunc["acc"] + trunc["mag"]) < 2e-5
     # the coefficients against the hidden truth, in units of their own 1-sigma
     # (plus the error TEMP_OUT's 0.47 degC counts leave, 10 %)
     for tri in ("acc", "mag"):

@@ -75,7 +75,8 @@ def _v2_with(mutate):
     ("order 3", lambda d: d.__setitem__(17, 3)),
     ("t_ref 126 degC", lambda d: struct.pack_into(">h", d, 18, 126 * 128)),
     ("t_ref -41 degC", lambda d: struct.pack_into(">h", d, 18, -41 * 128)),
-    ("acc c1 INT32_MIN", lambda d: struct.pack_into(">i", d, 116, -(2**31))),
+    ("acc c1 beyond 2^30", lambda d: struct.pack_into(">i", d, 116, -(2**30) - 1)),
+    ("mag r1 beyond 2^30", lambda d: struct.pack_into(">i", d, 152 + 18, 2**30 + 1)),
     ("mag r2 INT16_MIN", lambda d: struct.pack_into(">h", d, 152 + 30, -(2**15))),
     ("order 1 with a second-order term", lambda d: d.__setitem__(17, 1)),
     ("order 0 with terms", lambda d: d.__setitem__(17, 0)),
@@ -92,7 +93,8 @@ def test_v2_range_checks_agree(what, mutate):
 def test_v2_at_the_range_limits_loads():
     def edge(d):
         struct.pack_into(">h", d, 18, 125 * 128)
-        struct.pack_into(">i", d, 116, -(2**31) + 1)
+        struct.pack_into(">i", d, 116, -(2**30))
+        struct.pack_into(">i", d, 152 + 18, 2**30)
         struct.pack_into(">h", d, 152 + 30, -(2**15) + 1)
     data = _v2_with(edge)
     assert c_parse(data)[0] == "ok"

@@ -49,6 +49,24 @@ def seed_corpus(d: pathlib.Path) -> None:
             (6, 0x06, b""), (7, 0x07, bytes(24)), (8, 0x10, b"\x01"), (9, 0x11, b"\x00ICAL" + bytes(116)),
             (10, 0x12, b"\x01\x00\x00\x00\x07"), (11, 0x21, b"BOOT"), (12, 0x20, b""), (12, 0x20, b"")]
     (d / "framed").write_bytes(b"\xc0" + b"".join(bytes([s, c, len(p)]) + p for s, c, p in reqs + [(13, 0x08, b"")]))
+    # calibration images of both versions: as CAL_WRITE requests and as the image checker's block
+    for k, img in enumerate(_images()):
+        (d / f"cal_write{k}").write_bytes(b"\xc0" + bytes([20 + k, 0x11, 1 + len(img)]) + b"\x00" + img)
+        (d / f"image{k}").write_bytes(b"\x40" + img + b"\xff" * (192 - len(img)))
+
+
+def _images():
+    """A version 1 and a version 2 image (with temperature terms) of one calibration."""
+    from inclino.calfile import Calibration
+    from inclino.calimage import CalImage
+
+    blk = {"t_ref_c": 25.0, "order": 2, "span_c": [-5.0, 55.0], "applied_by_firmware": True,
+           "acc": {"bias": [[2e-5, -1e-5, 3e-5], [2e-7, 0.0, -1e-7]], "scale_ppm": [[30, -20, 25], [0.3, 0, -0.2]]},
+           "mag": {"bias": [[2.0, -1.5, 3.0], [0.02, 0.0, 0.01]], "scale_ppm": [[50, 40, -30], [0.3, 0.1, 0]]}}
+    kw = dict(acc_m=[[1.01, 0, 0], [0, 0.99, 0], [0, 0, 1.0]], acc_b=[0.01, 0, 0],
+              mag_m=[[1.0, 0, 0], [0, 1.02, 0], [0, 0, 0.98]], mag_b=[300.0, -100.0, 50.0])
+    return [CalImage(Calibration(**kw).to_fixed(), 1, 2, "joint").pack(),
+            CalImage(Calibration(**kw, temperature=blk).to_fixed(), 1, 2, "joint").pack()]
 
 
 def test_fuzz_bounded_run(tmp_path):

@@ -11,7 +11,7 @@ import pathlib
 import numpy as np
 import pytest
 
-from inclino import bitexact, fw_sources, golden, mcu
+from inclino import bitexact, fw_sources, golden, mcu, mcu_temp
 
 if mcu.tools_missing():
     pytest.skip(mcu.MISSING_REASON, allow_module_level=True)
@@ -456,8 +456,67 @@ def test_calimg_build_on_s08(fw):
             t_.m[0:9] = list(m)
             t_.bias[0:3] = list(bias)
         info = ffi.new("calimg_info_t *", {"serial": serial, "time": t, "method": method})
-        out = ffi.new("uint8_t[120]")
-        lib.calimg_build(cal, info, out)
-        assert g == bytes(out)
+        out = ffi.new("uint8_t[192]")
+        n = lib.calimg_build(cal, info, out)  # version 1: no temperature terms
+        assert n == 120 and g == bytes(out)[:n]
         if method in names:
             assert g == CalImage(fc, serial, t, names[method]).pack()
+
+
+def test_survey_with_temperature_terms_bit_exact_on_s08(fw):
+    """survey_compute_temp (image version 2's terms) on the S08 equals the
+    golden model: random terms over their whole ranges, typical ones and the
+    limits, at plausible, 12-bit and any-int32 temperature readings and the
+    clamp edges; and a calibration without terms gives survey_compute's bits."""
+    rng = np.random.default_rng(77)
+    cals = bitexact.random_temp_cals(rng, bitexact.random_cals(rng, 7))
+    keys = ("g", "b", "inc", "azi", "gtf", "mtf", "gt", "bt", "dip", "flags")
+    total = 0
+    for k, c in enumerate(cals):
+        acc, mag = bitexact.random_vectors(rng, 300)
+        t = bitexact.random_temps(rng, 300)
+        got = mcu_temp.survey_temp(fw, acc, mag, t, c)
+        want = golden.survey_compute(acc, mag, *c.arrays(), temp=c.temp, temp_q6=t)
+        bad, why = _mismatch_report(got, want, keys)
+        assert bad == 0, f"calibration {k}: {bad} of {len(acc)} surveys differ on the S08: {why}"
+        total += len(acc)
+    assert total >= 2000
+    plain = type(cals[1])(cals[1].acc_m, cals[1].acc_b, cals[1].mag_m, cals[1].mag_b)
+    acc, mag = bitexact.random_vectors(rng, 200)
+    got = mcu_temp.survey_temp(fw, acc, mag, bitexact.random_temps(rng, 200), plain)
+    want = golden.survey_compute(acc, mag, *plain.arrays())
+    assert _mismatch_report(got, want, keys)[0] == 0
+
+
+def test_calimg_parse_temperature_fields_on_s08(fw):
+    """A version 2 image's temperature fields decode on the S08 as in the
+    host build; refused and version 1 images leave them / clear them alike."""
+    from inclino._core import ffi, lib
+    from inclino.calimage import CalImage
+
+    rng = np.random.default_rng(5)
+    cals = bitexact.random_temp_cals(rng, bitexact.random_cals(rng, 8))[:4]
+    images = [CalImage(c, 1, 2, "joint").pack() for c in cals]
+    images.append(CalImage(type(cals[0])(cals[0].acc_m, cals[0].acc_b, cals[0].mag_m, cals[0].mag_b),
+                           1, 2, "joint").pack())  # version 1
+    bad = bytearray(images[0])
+    bad[130] ^= 0x10  # CRC mismatch
+    images.append(bytes(bad))
+    got = mcu_temp.calimg_parse_temp(fw, images)
+    for i, d in enumerate(images):
+        cal = ffi.new("corr_cal_t *")
+        info = ffi.new("calimg_info_t *")
+        cal.t_order, cal.t_ref = 0xA5, 0x25A5
+        for tc in (cal.acc_tc, cal.mag_tc):
+            for k in range(3):
+                tc.c1[k] = tc.r1[k] = 0x25A5A5A5
+                tc.c2[k] = tc.r2[k] = 0x25A5
+        st = lib.calimg_parse(ffi.new("uint8_t[]", d), len(d), cal, info)
+        assert got["status"][i] == st and got["t_order"][i] == cal.t_order and got["t_ref"][i] == cal.t_ref
+        for tri, tc in (("acc", cal.acc_tc), ("mag", cal.mag_tc)):
+            for k in ("c1", "c2", "r1", "r2"):
+                assert list(got[f"{tri}_{k}"][i]) == list(getattr(tc, k)), (i, tri, k)
+    # the identity with whole-range terms loads, the version 1 image loads with no terms,
+    # the corrupted one is refused (M of the random calibrations may be out of range: both agree)
+    assert got["status"][0] == 0 and got["t_order"][0] in (1, 2)
+    assert got["status"][4] == 0 and got["t_order"][4] == 0 and got["status"][5] == 4

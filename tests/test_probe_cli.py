@@ -91,6 +91,36 @@ def test_download_verify_and_the_correction(emu, ctl, capsys, tmp_path):
     assert rc == 1 and "FAIL" in out and "not the file's" in out
 
 
+def with_terms(cal: Calibration) -> Calibration:
+    """cal with the typical scenario's temperature terms, applied by the firmware (image version 2)."""
+    from inclino.bench_temperature import typical_block
+
+    cal.temperature = typical_block()
+    return cal
+
+
+def test_download_verify_temperature_terms(emu, ctl, capsys, tmp_path):
+    """A file with temperature terms downloads as a version 2 image and
+    verifies bit for bit over the link (the raw record's temperature at the
+    firmware's resolution); the same M, b without the terms do not."""
+    scn = emu.probe.scenario
+    f = tmp_path / "cal_t.json"
+    f.write_text(with_terms(inverse_cal(scn)).to_json())
+    rc, out, _ = run(capsys, "download", "--port", emu.path, str(f), "--quiet")
+    assert rc == 0 and out.startswith("downloaded: slot")
+    with ProbeLink(emu.path, timeout=2.0) as link:
+        slot = link.identify().cal_slot
+        assert len(link.cal_read(slot)[3]) == 192
+        assert link.raw().temp_q6 is not None
+    rc, out, _ = run(capsys, "verify", "--port", emu.path, str(f), "--json")
+    v = json.loads(out)
+    assert rc == 0 and v["storage_ok"] and v["correction_ok"] and v["checks"] == 3
+    g = tmp_path / "cal_plain.json"
+    g.write_text(inverse_cal(scn).to_json())
+    rc, out, _ = run(capsys, "verify", "--port", emu.path, str(g))
+    assert rc == 1 and "not the file's" in out
+
+
 def _active(emu):
     with ProbeLink(emu.path, timeout=2.0) as link:
         i = link.identify()
@@ -148,18 +178,21 @@ def test_disconnect_mid_download_then_retry(emu, ctl, capsys, tmp_path):
     assert rc == 0 and _active(emu) != before
 
 
-def test_power_cut_at_every_flash_step_of_a_download(emu, ctl, capsys, tmp_path):
+@pytest.mark.parametrize("new_terms", [False, True], ids=["v1", "v2"])
+def test_power_cut_at_every_flash_step_of_a_download(emu, ctl, capsys, tmp_path, new_terms):
     """Cut the power at the n-th flash program/erase of a download, for every
     n: the probe always comes back on the old or the new calibration, never a
-    mixed one, and a second download succeeds."""
+    mixed one, and a second download succeeds.  v2: the new file carries
+    temperature terms (a 192-byte image over a 120-byte one)."""
     scn = emu.probe.scenario
     old = tmp_path / "old.json"
     new = tmp_path / "new.json"
     old.write_text(inverse_cal(scn, scale=1.002).to_json())
-    new.write_text(inverse_cal(scn, scale=0.998).to_json())
+    new_cal = inverse_cal(scn, scale=0.998)
+    new.write_text((with_terms(new_cal) if new_terms else new_cal).to_json())
     assert run(capsys, "download", "--port", emu.path, str(old), "--quiet")[0] == 0
     old_state = _active(emu)
-    n_ops = 18  # 1 erase + 16 programs + 1 commit (docs/flash.md)
+    n_ops = 27 if new_terms else 18  # 1 erase + 1 header + 24 (15) payload programs + 1 commit (docs/flash.md)
     for n in range(1, n_ops + 1):
         assert run(capsys, "download", "--port", emu.path, str(old), "--quiet")[0] == 0
         before = _active(emu)

@@ -2,7 +2,6 @@
 #include "inclino/calimg.h"
 #include "inclino/be_bytes.h"
 #include "inclino/crc16.h"
-#include "inclino/fx_ops.h"
 
 #define OFF_COEF 20u
 #define OFF_TC 116u
@@ -43,13 +42,25 @@ static void decode_tc(const uint8_t *p, corr_tc_t *t)
     }
 }
 
-/* no value at its type's most negative; 2nd order 0 below order 2, all 0 at 0 */
+/* calimg.c links without correct.c (the image checker's fuzz target) */
+static void tc_clear(corr_tc_t *t)
+{
+    uint8_t i;
+    for (i = 0u; i < 3u; i++) {
+        t->c1[i] = 0;
+        t->c2[i] = 0;
+        t->r1[i] = 0;
+        t->r2[i] = 0;
+    }
+}
+
+/* |c1|, |r1| <= 2^30 (corr_temp_eval's plain sums), c2, r2 not INT16_MIN; 2nd order 0 below order 2, all 0 at 0 */
 static uint8_t tc_ok(const corr_tc_t *t, uint8_t order)
 {
     uint8_t i;
     for (i = 0u; i < 3u; i++) {
-        if (t->c1[i] == FX_INT32_MIN || t->r1[i] == FX_INT32_MIN || t->c2[i] == INT16_MIN ||
-            t->r2[i] == INT16_MIN) {
+        if (t->c1[i] > CORR_TC_LIMIT || t->c1[i] < -CORR_TC_LIMIT || t->r1[i] > CORR_TC_LIMIT ||
+            t->r1[i] < -CORR_TC_LIMIT || t->c2[i] == INT16_MIN || t->r2[i] == INT16_MIN) {
             return 0u;
         }
         if ((order < 2u && (t->c2[i] != 0 || t->r2[i] != 0)) ||
@@ -105,8 +116,8 @@ uint8_t calimg_parse(const uint8_t *buf, uint16_t len, corr_cal_t *cal, calimg_i
     } else {
         c.t_order = 0u;
         c.t_ref = 0;
-        corr_tc_clear(&c.acc_tc);
-        corr_tc_clear(&c.mag_tc);
+        tc_clear(&c.acc_tc);
+        tc_clear(&c.mag_tc);
     }
     *cal = c;
     info->serial = be_get_u32(buf + 8);

@@ -46,20 +46,33 @@ int16_t corr_temp_dt(int32_t temp_q6, int16_t t_ref, uint8_t *sat)
     return (int16_t)t;
 }
 
-void corr_temp_eval(int16_t dt, const corr_tc_t *tc, uint8_t sh, corr_tt_t *tt, uint8_t *sat)
+void corr_temp_eval(int16_t dt, const corr_triad_t *c, const corr_tc_t *tc, corr_tt_t *tt,
+                    uint8_t *sat)
 {
-    /* |dt| <= 32767: dt * 2^sh (sh <= 16) within +-(2^31 - 2^16), no overflow */
-    int32_t db = (int32_t)dt * (int32_t)((uint32_t)1u << sh);
-    int32_t ds = (int32_t)dt * (int32_t)((uint32_t)1u << CORR_SCALE_TC_SHIFT);
+    /* dT 2^15: Q22, |dts| < 2^30 (a constant power-of-two product: a shift) */
+    int32_t dts = (int32_t)dt * 32768L;
     uint8_t i;
     for (i = 0u; i < 3u; i++) {
-        /* c2 dT: int16 x int16, |c2 dT| <= 2^30, in c1's format (Q39 / Q24) */
-        int32_t in = fx_add32_sat(tc->c1[i], fx_mul16(tc->c2[i], dt), sat);
-        /* Q39 x Q21 / 2^31 = Q29 g; Q24 x Q17 / 2^31 = Q10 nT */
-        tt->bias[i] = fx_mul32_q31(in, db, sat);
-        in = fx_add32_sat(tc->r1[i], fx_mul16(tc->r2[i], dt), sat);
-        /* Q39 x Q23 / 2^31 = Q31 */
-        tt->e[i] = fx_mul32_q31(in, ds, sat);
+        /* c2 dT: 16 x 16, |c2 dT| < 2^30, in c1's format (Q31 + Q7 = Q38, Q12 + Q7
+         * = Q19); |c1| <= 2^30 (calimg_parse): |inner| < 2^31, a plain int32 sum */
+        int32_t in = tc->c1[i] + fx_mul16(tc->c2[i], dt);
+        int32_t e;
+        /* Q38 x Q22 / 2^31 = Q29 g; Q19 x Q22 / 2^31 = Q10 nT; |bias| < 2^30; the
+         * product cannot saturate (|dts| < 2^30) */
+        tt->beff[i] = fx_add32_sat(c->bias[i], fx_mul32_q31(in, dts, sat), sat);
+        /* r2 dT: Q31 + Q7 = r1's Q38; |r1| <= 2^30 */
+        in = tc->r1[i] + fx_mul16(tc->r2[i], dt);
+        /* Q38 x Q22 / 2^31 = Q29; kept within CORR_E_MAX so that corr_triad_temp's
+         * 4 p cannot overflow */
+        e = fx_mul32_q31(in, dts, sat);
+        if (e > CORR_E_MAX) {
+            e = CORR_E_MAX;
+            *sat = 1u;
+        } else if (e < -CORR_E_MAX) {
+            e = -CORR_E_MAX;
+            *sat = 1u;
+        }
+        tt->e[i] = e;
     }
 }
 
@@ -71,10 +84,11 @@ uint8_t corr_triad_temp(const int32_t x[3], const corr_triad_t *c, const corr_tt
     uint8_t i;
 
     for (i = 0u; i < 3u; i++) {
-        int32_t v = fx_sub32_sat(x[i], c->bias[i], &sat);
-        v = fx_sub32_sat(v, tt->bias[i], &sat);
-        /* d (1 + e): Q29 (Q10) x Q31 / 2^31 = Q29 (Q10) */
-        d[i] = fx_add32_sat(v, fx_mul32_q31(v, tt->e[i], &sat), &sat);
+        int32_t v = fx_sub32_sat(x[i], tt->beff[i], &sat);
+        /* v e: Q29 (Q10) x Q29 / 2^31 = Q27 (Q8); |e| < 1 so |p| < 2^29 and
+         * 4 p (back to v's format) is exact */
+        int32_t p = fx_mul32_q31(v, tt->e[i], &sat);
+        d[i] = fx_add32_sat(v, p * 4, &sat);
     }
     out[0] = fx_dot3_q31(&c->m[0], d, &sat);
     out[1] = fx_dot3_q31(&c->m[3], d, &sat);

@@ -76,7 +76,7 @@ void survey_compute_temp(const int32_t acc[3], const int32_t mag[3], int32_t tem
     }
     /* dT and its terms once per survey, for all six axes */
     dt = corr_temp_dt(temp_q6, cal->t_ref, &sat);
-    corr_temp_eval(dt, &cal->acc_tc, CORR_ACC_TC_SHIFT, &tt[0], &sat);
-    corr_temp_eval(dt, &cal->mag_tc, CORR_MAG_TC_SHIFT, &tt[1], &sat);
+    corr_temp_eval(dt, &cal->acc, &cal->acc_tc, &tt[0], &sat);
+    corr_temp_eval(dt, &cal->mag, &cal->mag_tc, &tt[1], &sat);
     survey_run(acc, mag, cal, tt, (sat != 0u) ? ATT_F_ARITH_SATURATED : 0u, s);
 }

@@ -63,10 +63,12 @@ class AccuracyResult:
     targets: dict = field(default_factory=dict)
     passed: bool = False
     averaging: dict = field(default_factory=dict)  # bench_averaging.AveragingResult.to_dict()
+    temperature: dict = field(default_factory=dict)  # bench_temperature.temperature_loss()
 
     def to_json(self) -> str:
         d = {**self.figures, "poses": self.poses, "field_nT": self.field_nT, "dip_deg": self.dip_deg,
-             "sources": self.sources, "targets": self.targets, "averaging": self.averaging, "pass": self.passed}
+             "sources": self.sources, "targets": self.targets, "averaging": self.averaging,
+             "temperature": self.temperature, "pass": self.passed}
         return json.dumps(d, indent=2)
 
 
@@ -104,8 +106,11 @@ def accuracy(field_nT=50000.0, dip_deg=60.0, cal: Calibration | None = None,
     from inclino.bench_averaging import averaging_loss
 
     avg = averaging_loss(field_nT=field_nT, dip_deg=dip_deg)
-    passed = all(figs[k] <= v for k, v in TARGETS.items()) and avg.passed
-    return AccuracyResult(len(I), field_nT, dip_deg, figs, sources, dict(TARGETS), passed, avg.to_dict())
+    from inclino.bench_temperature import temperature_loss
+
+    temp = temperature_loss(field_nT=field_nT, dip_deg=dip_deg, cal=cal)
+    passed = all(figs[k] <= v for k, v in TARGETS.items()) and avg.passed and temp["pass"]
+    return AccuracyResult(len(I), field_nT, dip_deg, figs, sources, dict(TARGETS), passed, avg.to_dict(), temp)
 
 
 @dataclass

@@ -3,7 +3,11 @@
 `inclino bitexact --vectors N --seed S` runs the whole survey computation
 (range checks, correction of both triads, attitude, survey QC) on N random vectors plus
 every edge case below, in the C (one batched cffi call per chunk) and in the
-golden model, and counts the vectors where any output word differs.
+golden model, and counts the vectors where any output word differs.  Each
+vector also goes through survey_compute_temp (the temperature terms of
+calibration image version 2, random terms over their whole ranges) at a
+random temperature reading (TEMP_OUT mean in Q6 counts, plausible and
+beyond every clamp), and the edge temperatures below.
 """
 from __future__ import annotations
 
@@ -12,7 +16,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from inclino import core, golden, reference
-from inclino.core import SURVEY_COLS, FixedCal
+from inclino.core import SURVEY_COLS, FixedCal, FixedTemp
 
 CHUNK = 250_000
 
@@ -152,20 +156,80 @@ def compare(acc, mag, cals: list[FixedCal]) -> tuple[int, int | None]:
     return int(bad.sum()), first
 
 
+def random_temp_cals(rng, cals: list[FixedCal]) -> list[FixedCal]:
+    """The calibrations with temperature terms: typical-sized terms, terms
+    over their whole ranges (|c1|, |r1| <= 2^30, int16 c2, r2), and the
+    range limits (which drive e's clamp and b_eff's saturation)."""
+    out = []
+    for k, c in enumerate(cals):
+        if k % 3 == 0:  # whole ranges
+            i32 = lambda: tuple(int(v) for v in rng.integers(-(2**30), 2**30 + 1, 3))  # noqa: E731
+            i16 = lambda: tuple(int(v) for v in rng.integers(-(2**15) + 1, 2**15, 3))  # noqa: E731
+        elif k % 3 == 1:  # typical (tens of ug/degC, nT/degC, ppm/degC)
+            i32 = lambda: tuple(int(v) for v in rng.integers(-(2**24), 2**24, 3))  # noqa: E731
+            i16 = lambda: tuple(int(v) for v in rng.integers(-500, 500, 3))  # noqa: E731
+        else:  # the limits
+            i32 = lambda: tuple(int(v) for v in rng.choice([-(2**30), 2**30, 0], 3))  # noqa: E731
+            i16 = lambda: tuple(int(v) for v in rng.choice([-(2**15) + 1, 2**15 - 1, 0], 3))  # noqa: E731
+        t = FixedTemp(int(rng.integers(-40 * 128, 125 * 128 + 1)), int(rng.integers(1, 3)),
+                      i32(), i16(), i32(), i16(), i32(), i16(), i32(), i16())
+        out.append(FixedCal(c.acc_m, c.acc_b, c.mag_m, c.mag_b, t))
+    return out
+
+
+EDGE_TEMPS = (0, 1065 * 64, 1278 * 64, 1416 * 64, 4095 * 64, 1331 * 64 - 32767, 1331 * 64 - 32768,
+              1331 * 64 + 32767, 1331 * 64 + 32768, 2**31 - 1, -(2**31))
+
+
+def random_temps(rng, n: int) -> np.ndarray:
+    """TEMP_OUT means in Q6 counts: half over the part's -40..125 degC
+    (1065..1416 counts), a quarter over the 12-bit range, a quarter any
+    int32; every EDGE_TEMPS value among them."""
+    t = np.concatenate([rng.integers(1065 * 64, 1416 * 64 + 1, n - n // 2),
+                        rng.integers(0, 4096 * 64, n // 4), rng.integers(-(2**31), 2**31, n // 2 - n // 4)])
+    rng.shuffle(t)
+    k = min(n, len(EDGE_TEMPS))
+    t[:k] = EDGE_TEMPS[:k]
+    return t
+
+
+def compare_temp(acc, mag, temp_q6, cals: list[FixedCal]) -> tuple[int, int | None]:
+    """As compare, through survey_compute_temp (vector i: cals[i % len])."""
+    c = core.survey(acc, mag, cals, temp_q6=temp_q6)
+    idx = np.arange(len(acc)) % len(cals)
+    bad = np.zeros(len(acc), dtype=bool)
+    for k, cal in enumerate(cals):
+        sel = idx == k
+        g = golden.survey_compute(acc[sel], mag[sel], *cal.arrays(), temp=cal.temp, temp_q6=temp_q6[sel])
+        for col in SURVEY_COLS[6:]:
+            bad[sel] |= c[col][sel].astype(np.int64) != g[col]
+        bad[sel] |= (c["g"][sel] != g["g"]).any(-1) | (c["b"][sel] != g["b"]).any(-1)
+    first = int(np.argmax(bad)) if bad.any() else None
+    return int(bad.sum()), first
+
+
 def run(vectors: int, seed: int = 1) -> BitexactResult:
     rng = np.random.default_rng(seed)
     cals = random_cals(rng, 64)
+    tcals = random_temp_cals(rng, cals)
     ea, em = edge_vectors()
     total = len(ea)
     bad, first = compare(ea, em, cals)
+    for t in EDGE_TEMPS:
+        b, f = compare_temp(ea, em, np.full(len(ea), t), tcals)
+        if f is not None and first is None:
+            first = f
+        bad += b
     done = 0
     while done < vectors:
         n = min(CHUNK, vectors - done)
         a, m = random_vectors(rng, n)
         b, f = compare(a, m, cals)
+        bt, ft = compare_temp(a, m, random_temps(rng, n), tcals)
+        f = f if f is not None else ft
         if f is not None and first is None:
             first = total + f
-        bad += b
+        bad += b + bt  # mismatching (vector, path) pairs
         total += n
         done += n
     return BitexactResult(total, bad, first)

@@ -83,7 +83,7 @@ class CalImage:
             ok = order <= 2 and T_REF_MIN <= t_ref <= T_REF_MAX
             for tri in ("acc", "mag"):
                 c1, c2, r1, r2 = (kw[f"{tri}_{k}"] for k in ("c1", "c2", "r1", "r2"))
-                ok = ok and -(2**31) not in c1 + r1 and -(2**15) not in c2 + r2
+                ok = ok and max(map(abs, c1 + r1)) <= 2**30 and -(2**15) not in c2 + r2
                 ok = ok and not (order < 2 and any(c2 + r2)) and not (order == 0 and any(c1 + r1))
             if not ok:
                 raise CalibrationError("calibration image temperature term out of range")

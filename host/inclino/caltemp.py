@@ -20,8 +20,10 @@ relative: a scale error); for the typical scenario's tempcos (|p1| <= 150
 ppm/degC, |p2| <= 1 ppm/degC^2) it is below 0.05 ppm over -5..55 degC.
 
 Fixed-point formats (correct.h corr_tc_t): t_ref int16 Q7 degC; c1 int32
-Q39 g/degC (acc) or Q24 nT/degC (mag); c2 int16 Q32 g/degC^2 or Q17
-nT/degC^2; r1 int32 Q39 /degC; r2 int16 Q32 /degC^2.  to_fixed refuses
+Q38 g/degC (acc, +-3.9 mg/degC) or Q19 nT/degC (mag, +-2048 nT/degC), |c1|
+<= 2^30; c2 int16 Q31 g/degC^2 (+-15 ug/degC^2) or Q12 nT/degC^2 (+-8
+nT/degC^2); r1 int32 Q38 /degC (+-3906 ppm/degC), |r1| <= 2^30; r2 int16
+Q31 /degC^2 (+-15 ppm/degC^2).  to_fixed refuses
 (CalibrationError) terms beyond those ranges.
 
 The temperature reading: TEMP_OUT averaged with 6 fraction bits (acquire.h
@@ -35,16 +37,16 @@ from inclino.core import FixedTemp
 from inclino.errors import CalibrationError
 
 T_REF_FRAC = 7
-C1_FRAC = {"acc": 39, "mag": 24}
-C2_FRAC = {"acc": 32, "mag": 17}
-R1_FRAC = 39
-R2_FRAC = 32
+C1_FRAC = {"acc": 38, "mag": 19}
+C2_FRAC = {"acc": 31, "mag": 12}
+R1_FRAC = 38
+R2_FRAC = 31
+C1_LIMIT = 2**30  # |c1|, |r1| <= 2^30 (calimg_parse; corr_temp_eval's plain sums)
 T_REF_RANGE_C = (-40.0, 125.0)
 TEMP_RAW_ZERO = 1331      # TEMP_OUT count at 0 degC (adis16210.h)
 TEMP_DEG_PER_COUNT = 0.47
 TEMP_FRAC_BITS = 6        # temp_q6: TEMP_OUT mean in Q6 counts
 OPERATING_RANGE_C = (-40.0, 125.0)  # the ADIS16210's, where the bound is also stated
-I32 = 2**31 - 1
 I16 = 2**15 - 1
 
 
@@ -100,9 +102,9 @@ def to_fixed(block: dict) -> FixedTemp:
     out = {}
     for tri, unit in (("acc", "g"), ("mag", "nT")):
         c1, c2, r1, r2 = firmware_coefficients(block, tri)
-        out[f"{tri}_c1"] = _q(c1, C1_FRAC[tri], I32, f"{tri} bias {unit}/degC")
+        out[f"{tri}_c1"] = _q(c1, C1_FRAC[tri], C1_LIMIT, f"{tri} bias {unit}/degC")
         out[f"{tri}_c2"] = _q(c2, C2_FRAC[tri], I16, f"{tri} bias {unit}/degC^2")
-        out[f"{tri}_r1"] = _q(r1, R1_FRAC, I32, f"{tri} scale (1/degC)")
+        out[f"{tri}_r1"] = _q(r1, R1_FRAC, C1_LIMIT, f"{tri} scale (1/degC)")
         out[f"{tri}_r2"] = _q(r2, R2_FRAC, I16, f"{tri} scale, second order of 1/(1+s) (1/degC^2)")
     if order < 2 and any(any(out[f"{t}_{k}"]) for t in ("acc", "mag") for k in ("c2", "r2")):
         order = 2  # p1^2 makes r2 non-zero even for first-order terms
@@ -120,16 +122,16 @@ def from_fixed(ft: FixedTemp, tri: str):
 def truncation_bound(block: dict, lo_c: float, hi_c: float, n: int = 2001) -> dict:
     """max over T in [lo_c, hi_c] of |1/(1 + s(T)) - r(T)| per axis, both
     triads (relative scale error of the second-order expansion, float64
-    on a grid of n temperatures; the expression is a polynomial plus
-    s^3/(1+s), smooth, so the grid's maximum is within (range/n)^1 of the
-    true one's argument)."""
+    on a grid of n temperatures, plus 1 % so that the bound also holds
+    between the grid's points: the error is smooth, a polynomial plus
+    s^3 / (1 + s))."""
     dT = np.linspace(lo_c, hi_c, n) - float(block["t_ref_c"])
     out = {}
     for tri in ("acc", "mag"):
         _, _, p1, p2 = _terms(block, tri)
         s = p1 * dT[:, None] + p2 * dT[:, None] ** 2
         r = 1.0 - p1 * dT[:, None] + (p1 * p1 - p2) * dT[:, None] ** 2
-        out[tri] = np.abs(1.0 / (1.0 + s) - r).max(axis=0).tolist()
+        out[tri] = (1.01 * np.abs(1.0 / (1.0 + s) - r).max(axis=0)).tolist()
     return out
 
 

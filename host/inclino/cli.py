@@ -127,10 +127,10 @@ def _cmd_bench(args) -> int:
         return 0
     if args.what == "mcu":
         try:
-            from inclino import mcu
+            from inclino import mcu_temp
         except ImportError:
             raise InclinoError("the S08 simulator bench is not part of this build")
-        r = mcu.bench()
+        r = mcu_temp.bench()  # mcu.bench() and the temperature path's cycles
         print(r.to_json())
         return 0
     raise DataError(f"unknown benchmark {args.what!r}")
@@ -191,6 +191,11 @@ def _accuracy_text(r) -> str:
     if r.averaging:
         from inclino.bench_averaging import AveragingResult
         lines += AveragingResult.from_json(json.dumps(r.averaging)).lines()
+    if r.temperature:
+        t = r.temperature
+        lines.append(f"  temperature path (image version 2), C vs float64 with the same terms, worst over "
+                     f"{', '.join(f'{x:g}' for x in t['temperatures_c'])} degC: azimuth max "
+                     f"{t['worst']['azi_max_deg']:.2g}, inclination max {t['worst']['inc_max_deg']:.2g} deg")
     lines.append("  verdict: " + ("pass" if r.passed else "FAIL"))
     return "\n".join(lines)
 

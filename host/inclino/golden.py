@@ -56,9 +56,7 @@ ATAN_FRAC_BITS = 12
 # temperature terms (correct.h)
 TEMP_RAW_ZERO = 1331  # TEMP_OUT count at 0 degC
 TEMP_K = 30802        # 0.94 in Q15: Q6 counts -> Q7 degC
-ACC_TC_SHIFT = 14     # dT Q7 << 14: Q39 x Q21 -> Q29 g
-MAG_TC_SHIFT = 10     # dT Q7 << 10: Q24 x Q17 -> Q10 nT
-SCALE_TC_SHIFT = 16   # dT Q7 << 16: Q39 x Q23 -> Q31
+E_MAX = 2**29 - 256   # |r(T) - 1| <= 1 - 2^-21 in Q29 (correct.h CORR_E_MAX)
 
 
 def deg_q16(d):
@@ -242,27 +240,25 @@ def corr_temp_dt(temp_q6, t_ref):
     return np.clip(T, -32767, 32767), sat
 
 
-def corr_temp_eval(dt, c1, c2, r1, r2, sh):
+def corr_temp_eval(dt, bias, c1, c2, r1, r2):
     """correct.c corr_temp_eval: one triad's terms at dT (Q7).  dt (...);
-    c1..r2 (..., 3).  Returns (bias (..., 3), e (..., 3), saturated (...))."""
+    bias, c1..r2 (..., 3).  Returns (beff (..., 3), e (..., 3), saturated (...))."""
     dt = _i64(dt)[..., None]
-    db = dt * (1 << sh)
-    ds = dt * (1 << SCALE_TC_SHIFT)
-    inb, s1 = fx_add32_sat(c1, fx_mul16(c2, dt))
-    bias, s2 = fx_mul32_q31(inb, db)
-    ine, s3 = fx_add32_sat(r1, fx_mul16(r2, dt))
-    e, s4 = fx_mul32_q31(ine, ds)
-    return bias, e, (s1 | s2 | s3 | s4).any(axis=-1)
+    dts = dt * 32768
+    tb, s0 = fx_mul32_q31(_i64(c1) + fx_mul16(c2, dt), dts)
+    beff, s1 = fx_add32_sat(bias, tb)
+    e, s3 = fx_mul32_q31(_i64(r1) + fx_mul16(r2, dt), dts)
+    s2 = (e > E_MAX) | (e < -E_MAX)
+    return beff, np.clip(e, -E_MAX, E_MAX), (s0 | s1 | s2 | s3).any(axis=-1)
 
 
-def corr_triad_temp(x, m, bias, tbias, e):
+def corr_triad_temp(x, m, beff, e):
     """correct.c corr_triad_temp: out = M (r(T) (x - b - bias(T))).
     Returns (out (..., 3), saturated (...))."""
-    v, s1 = fx_sub32_sat(x, bias)
-    v, s2 = fx_sub32_sat(v, tbias)
-    p, s3 = fx_mul32_q31(v, e)
-    d, s4 = fx_add32_sat(v, p)
-    sat = (s1 | s2 | s3 | s4).any(axis=-1)
+    v, s1 = fx_sub32_sat(x, beff)
+    p, s2 = fx_mul32_q31(v, e)
+    d, s3 = fx_add32_sat(v, p * 4)
+    sat = (s1 | s2 | s3).any(axis=-1)
     m = _i64(m)
     out = []
     for i in range(3):
@@ -400,8 +396,8 @@ def survey_compute(acc, mag, cal_acc_m, cal_acc_b, cal_mag_m, cal_mag_b, temp=No
     tsat = np.zeros(acc.shape[:-1], dtype=bool)
     if temp is not None and temp_q6 is not None and int(temp.order) != 0:
         dt, tsat = corr_temp_dt(np.broadcast_to(_i64(temp_q6), acc.shape[:-1]), temp.t_ref)
-        ab, ae, sa_ = corr_temp_eval(dt, temp.acc_c1, temp.acc_c2, temp.acc_r1, temp.acc_r2, ACC_TC_SHIFT)
-        mb, me, sm_ = corr_temp_eval(dt, temp.mag_c1, temp.mag_c2, temp.mag_r1, temp.mag_r2, MAG_TC_SHIFT)
+        ab, ae, sa_ = corr_temp_eval(dt, cal_acc_b, temp.acc_c1, temp.acc_c2, temp.acc_r1, temp.acc_r2)
+        mb, me, sm_ = corr_temp_eval(dt, cal_mag_b, temp.mag_c1, temp.mag_c2, temp.mag_r1, temp.mag_r2)
         tsat = tsat | sa_ | sm_
         tt = (ab, ae, mb, me)
     mag = _i64(mag)
@@ -414,14 +410,14 @@ def survey_compute(acc, mag, cal_acc_m, cal_acc_b, cal_mag_m, cal_mag_b, temp=No
     if tt is None:
         g, sa = corr_triad(corr_in_acc(accc), cal_acc_m, cal_acc_b)
     else:
-        g, sa = corr_triad_temp(corr_in_acc(accc), cal_acc_m, cal_acc_b, tt[0], tt[1])
+        g, sa = corr_triad_temp(corr_in_acc(accc), cal_acc_m, tt[0], tt[1])
     flags |= np.where((np.abs(mag) > MAG_RANGE_COUNTS * IN_ONE).any(axis=-1), F_MAG_OVERRANGE, 0)
     flags |= np.where(((mag >= MAG_RAW_MAX) | (mag <= MAG_RAW_MIN)).any(axis=-1), F_MAG_SATURATED, 0)
     magc = np.clip(mag, MAG_RAW_MIN, MAG_RAW_MAX)
     if tt is None:
         b, sm = corr_triad(corr_in_mag(magc), cal_mag_m, cal_mag_b)
     else:
-        b, sm = corr_triad_temp(corr_in_mag(magc), cal_mag_m, cal_mag_b, tt[2], tt[3])
+        b, sm = corr_triad_temp(corr_in_mag(magc), cal_mag_m, tt[2], tt[3])
     flags |= np.where(sa | sm | tsat, F_ARITH_SATURATED, 0)
     out = att_compute(g, b)
     out["flags"] = out["flags"] | flags

@@ -740,6 +740,11 @@ class McuBench:
     meets_parser_target: bool = False  # frame_parser_cpu_at_115200_baud <= TARGET_PARSER_CPU
     # what survey_compute is timed on: the acquisition's means with 6 fraction bits
     survey_inputs: str = "int32 Q6 counts (1/64 count) for both triads, fractional means of the bench vectors"
+    # survey_compute_temp with the typical temperature terms (image version 2), -5..55 degC: filled by
+    # inclino.mcu_temp.bench (what `inclino bench mcu` runs), which also counts its target in `passed`
+    survey_temperature: CycleStats | None = None
+    temperature_added_cycles: float = 0.0  # mean, survey_temperature - survey
+    meets_temperature_cycle_target: bool = False  # survey_temperature.max <= TARGET_SURVEY_CYCLES
 
     def to_json(self) -> str:
         return json.dumps(asdict(self), indent=2)

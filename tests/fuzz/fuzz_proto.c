@@ -1,7 +1,7 @@
 /* fuzz_proto.c - libFuzzer target: arbitrary bytes on the SCI line into the
  * firmware's frame parser and command layer (proto_rx, proto_idle,
- * proto_tick), and arbitrary 120-byte blocks into the calibration image
- * checker.  Built with -fsanitize=fuzzer,address,undefined by
+ * proto_tick), and arbitrary CALIMG_SIZE-byte blocks into the calibration
+ * image checker (version 1 or 2, as their length field says).  Built with -fsanitize=fuzzer,address,undefined by
  * tests/test_fuzz.py; docs/fuzzing.md has a longer run's figures.
  *
  * Input layout: byte 0 selects the mode.  Bit 7 clear: the rest is the raw
@@ -9,8 +9,9 @@
  * silence (proto_idle) and a stream tick.  Bit 7 set: the rest is a list of
  * requests {seq, cmd, len, payload[len]} that the target frames with a
  * correct CRC first, so that the fuzzer reaches every command rather than
- * stopping at the CRC.  Bit 6 set: the 120 bytes given to calimg_parse get a
- * correct CRC too.  The application below answers every command like a
+ * stopping at the CRC.  Bit 6 set: the bytes given to calimg_parse get a
+ * correct CRC too, where the length field puts it (120: version 1, 192:
+ * version 2; else at version 2's place).  The application below answers every command like a
  * probe would, checking images with calimg_parse. */
 #include <stddef.h>
 #include <stdint.h>
@@ -132,9 +133,11 @@ int LLVMFuzzerTestOneInput(const uint8_t *data, size_t size)
         calimg_info_t info;
         memcpy(img, data + 1, CALIMG_SIZE);
         if ((data[0] & 0x40u) != 0u) {
-            uint16_t crc = crc16_update(CRC16_INIT, img, CALIMG_CRC_OFFSET);
-            img[CALIMG_CRC_OFFSET] = (uint8_t)(crc >> 8);
-            img[CALIMG_CRC_OFFSET + 1u] = (uint8_t)crc;
+            uint16_t n = calimg_length(img);
+            uint16_t off = (n != 0u) ? (uint16_t)(n - 4u) : CALIMG_CRC_OFFSET;
+            uint16_t crc = crc16_update(CRC16_INIT, img, off);
+            img[off] = (uint8_t)(crc >> 8);
+            img[off + 1u] = (uint8_t)crc;
         }
         (void)calimg_parse(img, CALIMG_SIZE, &cal, &info);
     }

@@ -67,6 +67,8 @@ def main(argv=None) -> int:
     ap.add_argument("--acc", help="raw accelerometer counts a,b,c instead of a bench vector")
     ap.add_argument("--mag", help="raw fluxgate counts a,b,c (with --acc)")
     ap.add_argument("--identity", action="store_true", help="the identity calibration")
+    ap.add_argument("--temperature", action="store_true",
+                    help="survey_compute_temp with the typical temperature terms (inclino.mcu_temp)")
     ap.add_argument("--lines", type=int, default=0, help="also the N costliest source lines")
     ap.add_argument("--func", help="also each instruction of this function (a label, e.g. _att_norm3)")
     ap.add_argument("--max-steps", type=int, default=60000)
@@ -85,7 +87,15 @@ def main(argv=None) -> int:
         from inclino.core import FixedCal
         fc = FixedCal.identity()
     rec = mcu._records(b"V", (acc, ">i4"), (mag, ">i4"))[0]
-    data = mcu.enc_cal(fc) + bytes([rec[0] | mcu.TIMED]) + rec[1:] + b"E"
+    setup = mcu.enc_cal(fc)
+    entry = "_survey_compute"
+    if a.temperature:
+        from inclino import mcu_temp
+        acc_t, mag_t, tq, fct = mcu_temp.bench_inputs(a.vector + 1, 11)
+        rec = mcu_temp.records(acc_t[a.vector:a.vector + 1], mag_t[a.vector:a.vector + 1],
+                               tq[a.vector:a.vector + 1])[0]
+        setup, entry = mcu_temp.enc_setup(fct), "_survey_compute_temp"
+    data = setup + bytes([rec[0] | mcu.TIMED]) + rec[1:] + b"E"
     with tempfile.TemporaryDirectory(prefix="inclino-sim-") as td:
         fin, fout = Path(td) / "in.bin", Path(td) / "out.bin"
         fin.write_bytes(data)
@@ -94,7 +104,7 @@ def main(argv=None) -> int:
         r = subprocess.run(["timeout", "600", "shc08", "-t", "HCS08", "-b", "-I",
                             f"if={mcu.SIMIF},in={fin},out={fout}", b.ihx],
                            input=script.encode(), capture_output=True)
-    start = dict((n, x) for x, n in labels)["_survey_compute"]
+    start = dict((n, x) for x, n in labels)[entry]
     fn_t, ln_t, calls = defaultdict(int), defaultdict(int), defaultdict(int)
     ins_t, ins_n = defaultdict(int), defaultdict(int)
     prev, on, total, done = None, False, 0, False
@@ -120,7 +130,7 @@ def main(argv=None) -> int:
         prev = pc
     if not done:
         raise SystemExit(f"the survey did not return within {a.max_steps} steps (--max-steps)")
-    print(f"survey_compute: {total} bus cycles")
+    print(f"{entry[1:]}: {total} bus cycles")
     print(f"{'cycles':>8} {'share':>6} {'entries':>7}  function")
     for k, v in sorted(fn_t.items(), key=lambda kv: -kv[1]):
         print(f"{v:8d} {100 * v / total:5.1f}% {calls.get(k, 0):7d}  {k}")

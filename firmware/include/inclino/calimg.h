@@ -22,10 +22,10 @@
  *   118     2  padding 0xFFFF (not covered by the CRC)
  *   version 2: the temperature terms (correct.h corr_tc_t), acc then mag,
  *   36 bytes per triad:
- *   116    12  c1[3] int32 (Q39 g/degC; Q24 nT/degC)
- *   128     6  c2[3] int16 (Q32 g/degC^2; Q17 nT/degC^2)
- *   134    12  r1[3] int32 (Q39 /degC)
- *   146     6  r2[3] int16 (Q32 /degC^2)
+ *   116    12  c1[3] int32 (Q38 g/degC; Q19 nT/degC)
+ *   128     6  c2[3] int16 (Q31 g/degC^2; Q12 nT/degC^2)
+ *   134    12  r1[3] int32 (Q38 /degC)
+ *   146     6  r2[3] int16 (Q31 /degC^2)
  *   152    36  the same for mag
  *   188     2  CRC-16/CCITT-FALSE of bytes 0..187
  *   190     2  padding 0xFFFF
@@ -76,9 +76,9 @@ typedef struct {
  *   192), magic, version (1 with 120 bytes, 2 with 192), CRC, ranges:
  *   every bias within +-2^30 (2 g; 2^20 nT), every diagonal element of M
  *   in [1/4, 4) (a smaller or negative scale means a wrong or swapped
- *   axis); version 2: order 0..2, t_ref within -40..125 degC, no
- *   temperature coefficient at the most negative value of its type (so
- *   that every product of corr_temp_eval is within its stated bound), the
+ *   axis); version 2: order 0..2, t_ref within -40..125 degC, |c1| and
+ *   |r1| <= 2^30 and c2, r2 not -2^15 (corr_temp_eval's sums and products
+ *   stay within int32 without saturating), the
  *   second-order ones 0 below order 2 and all 0 at order 0.  A version 1
  *   image decodes with t_order = 0 and all terms 0.  Singularity
  *   is the host's check (it has the floating point to compute a condition

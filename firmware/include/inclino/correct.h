@@ -31,19 +31,27 @@
  *
  * Temperature terms (calibration image version 2, docs/calibration.md), per
  * axis i of each triad, in dT = T - t_ref:
- *   bias(T) = dT (c1_i + c2_i dT)         subtracted from d
- *   r(T)    = 1 + dT (r1_i + r2_i dT)     multiplies d: the host's expansion
- *             of 1 / (1 + s(T)) to second order in dT (no division here)
+ *   bias(T) = dT (c1_i + c2_i dT)         added to b (b_eff = b + bias(T))
+ *   r(T)    = 1 + dT (r1_i + r2_i dT)     multiplies x - b_eff: the host's
+ *             expansion of 1 / (1 + s(T)) to second order in dT (no
+ *             division here)
  *   formats  dT      int16 Q7 degC (|dT| <= 255.99 degC), from the averaged
  *                    TEMP_OUT reading (corr_temp_dt)
- *            c1      int32: Q39 g/degC (acc, +-3.9 mg/degC, LSB 1.8e-12),
- *                    Q24 nT/degC (mag, +-128 nT/degC, LSB 6.0e-8)
- *            c2      int16: Q32 g/degC^2 (acc, +-7.6 ug/degC^2, LSB 2.3e-10),
- *                    Q17 nT/degC^2 (mag, +-0.25 nT/degC^2, LSB 7.6e-6)
- *            r1      int32 Q39 /degC (+-3906 ppm/degC, LSB 1.8e-6 ppm/degC)
- *            r2      int16 Q32 /degC^2 (+-7.6 ppm/degC^2, LSB 2.3e-4 ppm/degC^2)
- *   c2 dT (Q32 + Q7 = Q39) adds to c1 exactly in the acc's and the scale's
- *   case (Q39) and in the mag's (Q17 + Q7 = Q24).
+ *            c1      int32, |c1| <= 2^30: Q38 g/degC (acc, +-3.9 mg/degC,
+ *                    LSB 3.6e-12), Q19 nT/degC (mag, +-2048 nT/degC, LSB
+ *                    1.9e-6)
+ *            c2      int16: Q31 g/degC^2 (acc, +-15 ug/degC^2, LSB 4.7e-10),
+ *                    Q12 nT/degC^2 (mag, +-8 nT/degC^2, LSB 2.4e-4)
+ *            r1      int32, |r1| <= 2^30: Q38 /degC (+-3906 ppm/degC, LSB
+ *                    3.6e-6 ppm/degC)
+ *            r2      int16 Q31 /degC^2 (+-15 ppm/degC^2, LSB 4.7e-4 ppm/degC^2)
+ *   Inner sums (Horner): c1 + c2 dT, the 16 x 16 product c2 dT already in
+ *   c1's format (Q31 + Q7 = Q38, Q12 + Q7 = Q19); then one product by dT
+ *   (fx_mul32_q31 with dT 2^15, Q22): Q38 x Q22 / 2^31 = Q29 g, Q19 x Q22
+ *   / 2^31 = Q10 nT, and e = r(T) - 1 in Q29, |e| < 1.
+ *   The second-order coefficients' LSB times dT^2 bounds their quantisation
+ *   (half an LSB): at |dT| = 30 degC 0.2 ug, 0.11 nT, 0.2 ppm; at 100 degC
+ *   2.3 ug, 1.2 nT, 2.3 ppm.
  */
 #ifndef INCLINO_CORRECT_H
 #define INCLINO_CORRECT_H
@@ -68,10 +76,10 @@ typedef struct {
 
 /* One triad's temperature terms (formats above; all 0 without terms). */
 typedef struct {
-    int32_t c1[3]; /* bias, 1st order: Q39 g/degC (acc), Q24 nT/degC (mag) */
-    int16_t c2[3]; /* bias, 2nd order: Q32 g/degC^2 (acc), Q17 nT/degC^2 (mag) */
-    int32_t r1[3]; /* 1/(1 + s(T)) - 1, 1st order: Q39 /degC */
-    int16_t r2[3]; /* 1/(1 + s(T)) - 1, 2nd order: Q32 /degC^2 */
+    int32_t c1[3]; /* bias, 1st order: Q38 g/degC (acc), Q19 nT/degC (mag); |c1| <= 2^30 */
+    int16_t c2[3]; /* bias, 2nd order: Q31 g/degC^2 (acc), Q12 nT/degC^2 (mag) */
+    int32_t r1[3]; /* 1/(1 + s(T)) - 1, 1st order: Q38 /degC; |r1| <= 2^30 */
+    int16_t r2[3]; /* 1/(1 + s(T)) - 1, 2nd order: Q31 /degC^2 */
 } corr_tc_t;
 
 /* Both triads: what the probe keeps in flash. */
@@ -86,15 +94,14 @@ typedef struct {
 
 /* One triad's temperature terms evaluated at one temperature (per survey). */
 typedef struct {
-    int32_t bias[3]; /* bias(T), the triad's input format (Q29 g / Q10 nT) */
-    int32_t e[3];    /* r(T) - 1, Q31 */
+    int32_t beff[3]; /* b + bias(T), the triad's input format (Q29 g / Q10 nT) */
+    int32_t e[3];    /* r(T) - 1, Q29 */
 } corr_tt_t;
 
 #define CORR_TEMP_RAW_ZERO 1331L /* TEMP_OUT count at 0 degC (adis16210.h) */
 #define CORR_TEMP_K 30802        /* 0.47 degC/count, Q6 counts -> Q7 degC: 0.94 in Q15 */
-#define CORR_ACC_TC_SHIFT 14u    /* dT Q7 << 14 = Q21: Q39 x Q21 / 2^31 = Q29 g */
-#define CORR_MAG_TC_SHIFT 10u    /* dT Q7 << 10 = Q17: Q24 x Q17 / 2^31 = Q10 nT */
-#define CORR_SCALE_TC_SHIFT 16u  /* dT Q7 << 16 = Q23: Q39 x Q23 / 2^31 = Q31 */
+#define CORR_TC_LIMIT ((int32_t)0x40000000L) /* |c1|, |r1| <= 2^30 (calimg_parse) */
+#define CORR_E_MAX ((int32_t)0x1FFFFF00L)    /* |r(T) - 1| <= 1 - 2^-21 in Q29: |4 p| < 2^31 */
 
 /*
  * corr_triad - out = M * (x - b) for one triad.
@@ -154,32 +161,34 @@ int16_t corr_temp_dt(int32_t temp_q6, int16_t t_ref, uint8_t *sat);
 
 /*
  * corr_temp_eval - one triad's terms at dT, once per survey.
- *   In: dT Q7 degC, tc the triad's terms (formats above), sh the triad's
- *   bias shift (CORR_ACC_TC_SHIFT or CORR_MAG_TC_SHIFT).
- *   Out: tt->bias[i] = dT (c1 + c2 dT) in the triad's input format (Q29 g
- *   or Q10 nT); tt->e[i] = dT (r1 + r2 dT) in Q31 (r(T) - 1).
- *   Method (Horner, per value): inner = fx_add32_sat(c1, fx_mul16(c2, dT))
- *   (c2 dT: 16 x 16, exact, |c2 dT| < 2^30, in c1's format); value =
- *   fx_mul32_q31(inner, dT << sh) (|dT << sh| <= 2^31 - 2^16, so the
- *   product cannot saturate).
- *   Rounding: truncation inside fx_mul32_q31 only: -8 < value - exact <
- *   2 LSB of the output (2^-29 g, 2^-10 nT, 2^-31), for the terms as
- *   stored.
- *   Saturation: the inner sum (only for |c1| near 2^31 and a large c2 dT);
- *   sets *sat to 1.
+ *   In: dT Q7 degC, c the triad's M and b, tc its terms (formats above,
+ *   |c1|, |r1| <= 2^30 as calimg_parse checks).
+ *   Out: tt->beff[i] = sat(b_i + dT (c1 + c2 dT)) in the triad's input
+ *   format (Q29 g or Q10 nT); tt->e[i] = dT (r1 + r2 dT) in Q29 (r(T) - 1),
+ *   clamped to |e| <= CORR_E_MAX (1 - 2^-21).
+ *   Method (Horner, per value): inner = c1 + fx_mul16(c2, dT) (|c2 dT| <
+ *   2^30 and |c1| <= 2^30: a plain sum), value = fx_mul32_q31(inner,
+ *   dT 2^15) (inner x dT / 2^16; |dT 2^15| < 2^30: no saturation,
+ *   |value| < 2^30).
+ *   Rounding: fx_mul32_q31's truncation only: -8 < value - exact < 2 LSB
+ *   of the output (2^-29 g, 2^-10 nT, 2^-29) for the terms as stored.
+ *   Saturation: b + bias(T) (|b| < 2^30, |bias| <= 2^30) and the clamp of
+ *   e (|e| >= 1: a scale change of 100 %); each sets *sat to 1.
  */
-void corr_temp_eval(int16_t dt, const corr_tc_t *tc, uint8_t sh, corr_tt_t *tt, uint8_t *sat);
+void corr_temp_eval(int16_t dt, const corr_triad_t *c, const corr_tc_t *tc, corr_tt_t *tt,
+                    uint8_t *sat);
 
 /*
  * corr_triad_temp - out = M * (r(T) (x - b - bias(T))) for one triad: the
  *   reading brought to t_ref (raw_ref - b) and corrected.
- *   In: x[3] scaled raw input, c coefficients, tt the terms at this
- *   survey's temperature (corr_temp_eval).  Out: out[3] as corr_triad.
- *   Method: d_j = sat(sat(x_j - b_j) - bias_j); d_j = sat(d_j +
- *   fx_mul32_q31(d_j, e_j)) (d_j (1 + e_j), one 32 x 32 product per axis),
- *   then out as corr_triad.
- *   Rounding: the scale product truncates: -8 < error < 2 LSB of d (Q29 g /
- *   Q10 nT) before M; then corr_triad's bound.
+ *   In: x[3] scaled raw input, c coefficients (M), tt the terms at this
+ *   survey's temperature (corr_temp_eval: b_eff and e, |e| <= CORR_E_MAX).
+ *   Out: out[3] as corr_triad.
+ *   Method: v_j = sat(x_j - beff_j); p_j = fx_mul32_q31(v_j, e_j) (Q(v) - 2;
+ *   |p_j| <= 2^29 - 256 + 8 < 2^29, its error being below 8 LSB); d_j =
+ *   sat(v_j + 4 p_j) = v_j (1 + e_j); then out as corr_triad.
+ *   Rounding: the scale product truncates: -32 < d - v (1 + e) < 8 LSB of
+ *   d (Q29 g / Q10 nT) before M; then corr_triad's bound.
  *   Saturation: each step saturates to int32; returns 1 when any did.
  */
 uint8_t corr_triad_temp(const int32_t x[3], const corr_triad_t *c, const corr_tt_t *tt,

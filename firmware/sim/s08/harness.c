@@ -13,9 +13,19 @@
  * after the second, so the difference is the call alone plus a constant
  * overhead, measured with the empty command 'Z'.
  *
- *   'C' acc.m[9] acc.bias[3] mag.m[9] mag.bias[3] (i32)  -> nothing (load cal)
+ *   'C' acc.m[9] acc.bias[3] mag.m[9] mag.bias[3] (i32)  -> nothing (load cal,
+ *                                         no temperature terms)
+ *   'H' t_ref (i16) t_order (u8), then for acc and mag: c1[3] (i32) c2[3]
+ *       (i16) r1[3] (i32) r2[3] (i16)  -> nothing (the loaded cal's
+ *                                         temperature terms)
  *   'V' acc[3] mag[3] (i32, Q6 counts) -> survey_compute: g[3] b[3] inc azi gtf
  *                                         mtf gt bt dip (i32) flags (u16)
+ *   'Y' acc[3] mag[3] temp_q6 (i32)    -> survey_compute_temp: as 'V'
+ *   'e' triad (u8) dt (i16)            -> corr_temp_eval of the loaded terms:
+ *                                         beff[3] e[3] (i32) sat (u8); kept
+ *                                         for 'k'
+ *   'k' triad (u8) x[3] (i32)          -> corr_triad_temp with the terms of
+ *                                         the last 'e': out[3] (i32) sat (u8)
  *   'K' triad (u8: 0 acc, 1 mag) x[3]  -> corr_triad: out[3] (i32) sat (u8)
  *   'T' g[3] b[3] (i32)                -> att_compute: inc azi gtf mtf gt bt
  *                                         dip (i32) flags (u16)
@@ -50,8 +60,15 @@
  *                                         acc.m[9] acc.bias[3] mag.m[9]
  *                                         mag.bias[3] (i32) serial time (u32)
  *                                         method (u8)
+ *   'J' n (u16) bytes[n]               -> calimg_parse(bytes, n): status (u8),
+ *                                         then the temperature fields (set
+ *                                         before the call to 0x25A5A5A5 /
+ *                                         0x25A5, 0xA5 order): t_order (u8)
+ *                                         t_ref (i16), acc then mag: c1[3]
+ *                                         (i32) c2[3] (i16) r1[3] (i32)
+ *                                         r2[3] (i16)
  *   'B' acc.m[9] acc.bias[3] mag.m[9] mag.bias[3] (i32) serial time (u32)
- *       method (u8)                    -> calimg_build: image[120]
+ *       method (u8)                    -> calimg_build (version 1): image[120]
  *   'Z'                                -> nothing (timing overhead)
  *   'E'                                -> 'e', then stops the simulator
  * An unknown command writes '?' and stops.  n and cap are at most
@@ -151,21 +168,66 @@ static void wr_att(const att_t *a)
     sif_wr16(a->flags);
 }
 
+static int16_t rd_i16(void);
+
 static void load_cal(void)
 {
     rd_vec(cal.acc.m, 9u);
     rd_vec(cal.acc.bias, 3u);
     rd_vec(cal.mag.m, 9u);
     rd_vec(cal.mag.bias, 3u);
+    cal.t_order = 0u;
 }
 
-static void do_survey(void)
+static void rd_tc(corr_tc_t *t)
 {
     uint8_t i;
+    rd_vec(t->c1, 3u);
+    for (i = 0u; i < 3u; i++) {
+        t->c2[i] = rd_i16();
+    }
+    rd_vec(t->r1, 3u);
+    for (i = 0u; i < 3u; i++) {
+        t->r2[i] = rd_i16();
+    }
+}
+
+static void wr_tc(const corr_tc_t *t)
+{
+    uint8_t i;
+    wr_vec(t->c1, 3u);
+    for (i = 0u; i < 3u; i++) {
+        sif_wr16((uint16_t)t->c2[i]);
+    }
+    wr_vec(t->r1, 3u);
+    for (i = 0u; i < 3u; i++) {
+        sif_wr16((uint16_t)t->r2[i]);
+    }
+}
+
+static void load_temp(void)
+{
+    cal.t_ref = rd_i16();
+    cal.t_order = sif_rd8();
+    rd_tc(&cal.acc_tc);
+    rd_tc(&cal.mag_tc);
+}
+
+static void do_survey(uint8_t with_temp)
+{
+    uint8_t i;
+    int32_t t = 0;
     rd_vec(in_acc, 3u);
     rd_vec(in_v, 3u);
+    if (with_temp != 0u) {
+        t = rd_i32();
+    }
     mark();
-    survey_compute(in_acc, in_v, &cal, &sv);
+    if (with_temp != 0u) {
+        survey_compute_temp(in_acc, in_v, t, &cal, &sv);
+    } else {
+        survey_compute(in_acc, in_v, &cal, &sv);
+    }
     mark();
     for (i = 0u; i < 3u; i++) {
         wr_i32(sv.g[i]);
@@ -183,6 +245,39 @@ static void do_triad(void)
     rd_vec(in_v, 3u);
     mark();
     out_sat = corr_triad(in_v, (which != 0u) ? &cal.mag : &cal.acc, out_v);
+    mark();
+    for (i = 0u; i < 3u; i++) {
+        wr_i32(out_v[i]);
+    }
+    sif_wr8(out_sat);
+}
+
+static corr_tt_t tt_h;
+
+static void do_temp_eval(void)
+{
+    uint8_t which = sif_rd8();
+    int16_t dt = rd_i16();
+    out_sat = 0u;
+    mark();
+    if (which != 0u) {
+        corr_temp_eval(dt, &cal.mag, &cal.mag_tc, &tt_h, &out_sat);
+    } else {
+        corr_temp_eval(dt, &cal.acc, &cal.acc_tc, &tt_h, &out_sat);
+    }
+    mark();
+    wr_vec(tt_h.beff, 3u);
+    wr_vec(tt_h.e, 3u);
+    sif_wr8(out_sat);
+}
+
+static void do_triad_temp(void)
+{
+    uint8_t which = sif_rd8();
+    uint8_t i;
+    rd_vec(in_v, 3u);
+    mark();
+    out_sat = corr_triad_temp(in_v, (which != 0u) ? &cal.mag : &cal.acc, &tt_h, out_v);
     mark();
     for (i = 0u; i < 3u; i++) {
         wr_i32(out_v[i]);
@@ -350,6 +445,35 @@ static void do_parse_image(void)
     sif_wr8(pinfo.method);
 }
 
+static void fill_tc(corr_tc_t *t)
+{
+    uint8_t i;
+    for (i = 0u; i < 3u; i++) {
+        t->c1[i] = (int32_t)0x25A5A5A5L;
+        t->c2[i] = (int16_t)0x25A5;
+        t->r1[i] = (int32_t)0x25A5A5A5L;
+        t->r2[i] = (int16_t)0x25A5;
+    }
+}
+
+static void do_parse_temp(void)
+{
+    uint8_t st;
+    rd_bytes();
+    pcal.t_order = 0xA5u;
+    pcal.t_ref = (int16_t)0x25A5;
+    fill_tc(&pcal.acc_tc);
+    fill_tc(&pcal.mag_tc);
+    mark();
+    st = calimg_parse(hbuf, hn, &pcal, &pinfo);
+    mark();
+    sif_wr8(st);
+    sif_wr8(pcal.t_order);
+    sif_wr16((uint16_t)pcal.t_ref);
+    wr_tc(&pcal.acc_tc);
+    wr_tc(&pcal.mag_tc);
+}
+
 static void do_build_image(void)
 {
     uint8_t i;
@@ -360,10 +484,11 @@ static void do_build_image(void)
     pinfo.serial = sif_rd32();
     pinfo.time = sif_rd32();
     pinfo.method = sif_rd8();
+    pcal.t_order = 0u; /* version 1 */
     mark();
-    calimg_build(&pcal, &pinfo, hout);
+    (void)calimg_build(&pcal, &pinfo, hout);
     mark();
-    for (i = 0u; i < (uint8_t)CALIMG_SIZE; i++) {
+    for (i = 0u; i < (uint8_t)CALIMG_SIZE_V1; i++) {
         sif_wr8(hout[i]);
     }
 }
@@ -377,8 +502,20 @@ int main(void)
         case 'C':
             load_cal();
             break;
+        case 'H':
+            load_temp();
+            break;
         case 'V':
-            do_survey();
+            do_survey(0u);
+            break;
+        case 'Y':
+            do_survey(1u);
+            break;
+        case 'e':
+            do_temp_eval();
+            break;
+        case 'k':
+            do_triad_temp();
             break;
         case 'K':
             do_triad();
@@ -489,6 +626,9 @@ int main(void)
             break;
         case 'X':
             do_parse_image();
+            break;
+        case 'J':
+            do_parse_temp();
             break;
         case 'B':
             do_build_image();
