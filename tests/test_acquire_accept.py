@@ -8,16 +8,17 @@ import re
 import numpy as np
 import pytest
 
-from inclino import acquire as acq
-from inclino import cli, dataset
-from inclino import reference as ref
-from inclino.accept import AcceptResult, grid_points
-from inclino.calfile import Calibration
+from inclino.procedures import acquire as acq
+from inclino import cli
+from inclino.formats import dataset
+from inclino.engines import reference as ref
+from inclino.procedures.accept import AcceptResult, grid_points
+from inclino.formats.calfile import Calibration
 from inclino.calib import runs
-from inclino.link import ProbeLink
+from inclino.link.serial_link import ProbeLink
 from inclino_emu.control import ControlClient
 from inclino_emu.runner import Emulator
-from inclino_emu.scenario import generate_raw, load_scenario
+from inclino.model.scenario import generate_raw, load_scenario
 
 
 @pytest.fixture
@@ -339,7 +340,7 @@ def test_accept_without_calibration_fails_its_verdict(emu, capsys):
 
 
 def test_bench_calibration_cli(monkeypatch, capsys):
-    from inclino.calib import bench
+    from inclino.benchmarks import calibration as bench
 
     small = bench.bench_calibration
     monkeypatch.setattr(bench, "bench_calibration", lambda: small(n_runs=2, include_peer=False))

@@ -1,5 +1,5 @@
 """The serial bootloader (firmware/src/boot*.c, docs/bootloader.md) and the
-host's flash-and-verify (host/inclino/flashing.py): the C on the emulated
+host's flash-and-verify (host/inclino/boot/flashing.py): the C on the emulated
 probe directly, then end to end over the emulator's pseudo-terminal --
 flash and verify, refusals, a power cut at every single program/erase step
 of a flash in each cut mode, and a disconnect in the middle."""
@@ -11,9 +11,9 @@ import pytest
 
 from bootimg import (DATA, DESC, LOADER, decode_descriptor, expected_ranges, random_chunks, snapshot,
                      write_srec)
-from inclino import flashing
+from inclino.boot import flashing
 from inclino.errors import DataError
-from inclino.link import ProbeError, ProbeLink, ProbeNak
+from inclino.link.serial_link import ProbeError, ProbeLink, ProbeNak
 from inclino_emu.control import ControlClient
 from inclino_emu.probe import EmulatedProbe, bootloader_placeholder, factory_app_image
 from inclino_emu.runner import Emulator
@@ -80,7 +80,7 @@ def test_bootloader_request_from_the_application_and_run():
     seq = [0]
 
     def ask(cmd, payload=b""):
-        from inclino import protocol
+        from inclino.link import protocol
 
         seq[0] += 1
         p.sci_push(protocol.encode_frame(seq[0], cmd, payload))
@@ -216,7 +216,7 @@ def test_bootloader_refuses_what_the_host_must_not_ask(emu):
         good = struct.pack(">IB", 0x7C0000, 1) + struct.pack(">III", 0x7C0000, len(img), zlib.crc32(img))
         ops1 = emu.probe.flash.ops
         seq = link.next_seq()
-        from inclino import protocol
+        from inclino.link import protocol
 
         frame = protocol.encode_frame(seq, 0x45, good)
         link._write(frame)

@@ -8,14 +8,16 @@ import math
 import numpy as np
 import pytest
 
-from inclino import acquire_temp, cli, dataset
-from inclino.link import ProbeLink
-from inclino_emu import effects as fx
+from inclino.procedures import acquire_temp
+from inclino import cli
+from inclino.formats import dataset
+from inclino.link.serial_link import ProbeLink
+from inclino.model import effects as fx
 from inclino_emu.control import ControlClient
 from inclino_emu.probe import EmulatedProbe
 from inclino_emu.runner import Emulator
-from inclino_emu.scenario import load_scenario, scenario_from_dict
-from inclino_emu.world import Chamber
+from inclino.model.scenario import load_scenario, scenario_from_dict
+from inclino.model.world import Chamber
 
 
 def _integrate(profile, tau, t0_c, t_end, dt=0.05):
@@ -288,7 +290,7 @@ class PersonAtChamber:
 
 
 def test_acquire_temperature_guides_a_person(emu, tmp_path):
-    from inclino import acquire as acq
+    from inclino.procedures import acquire as acq
 
     ctl = ControlClient(port=emu.control_port)
     person = PersonAtChamber(ctl)

@@ -12,7 +12,11 @@ from pathlib import Path
 import pytest
 
 import inclino
-from inclino import acquire, accept, calimage, flashing, golden, protocol, reference
+from inclino.procedures import acquire, accept
+from inclino.formats import calimage
+from inclino.boot import flashing
+from inclino.engines import golden, reference
+from inclino.link import protocol
 
 ROOT = Path(__file__).resolve().parent.parent
 INCLUDE = ROOT / "firmware" / "include" / "inclino"

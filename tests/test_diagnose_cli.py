@@ -1,6 +1,6 @@
 """`inclino diagnose DATA.csv [--json] [--plot DIR]` through the command's
 main(): output shapes, PNGs, and bad input as one plain error line with exit
-status 2 (never a traceback); `python -m inclino.diagnose.bench` on a tiny
+status 2 (never a traceback); `python -m inclino.benchmarks.diagnose` on a tiny
 seeded set."""
 import json
 
@@ -8,10 +8,10 @@ import numpy as np
 import pytest
 
 from inclino.cli import main
-from inclino.dataset import RawDataset, write_raw
-from inclino.diagnose import bench as dbench
+from inclino.formats.dataset import RawDataset, write_raw
+from inclino.benchmarks import diagnose as dbench
 from inclino.diagnose import plans
-from inclino_emu.world import Trajectory
+from inclino.model.world import Trajectory
 
 
 def _write(tmp_path, ds, name="run.csv"):

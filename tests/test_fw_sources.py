@@ -1,5 +1,5 @@
 """The one firmware source manifest (firmware/sources.txt): each of the four
-builds that compile firmware C -- CMake, the cffi modules inclino._core and
+builds that compile firmware C -- CMake, the cffi modules inclino.engines._core and
 inclino_emu._fw, the S08 simulator image -- takes its file list from it, and
 every C file of the core, the application, the bootloader and the S08 port is
 in it exactly once."""
@@ -12,7 +12,8 @@ from pathlib import Path
 
 import pytest
 
-from inclino import fw_sources, mcu
+from inclino import fw_sources
+from inclino.s08 import mcu
 
 ROOT = Path(__file__).resolve().parents[1]
 FW = ROOT / "firmware"
@@ -44,9 +45,9 @@ def test_every_firmware_c_file_is_listed_once_and_exists():
 
 
 def test_the_cffi_builds_compile_the_manifest():
-    assert _cffi_sources(ROOT / "host" / "inclino" / "_build_core.py", "_t_core") == \
+    assert _cffi_sources(ROOT / "host" / "inclino" / "engines" / "_build_core.py", "_t_core") == \
         fw_sources.sources("cffi_core", ROOT)
-    assert _cffi_sources(ROOT / "emulator" / "_build_fw.py", "_t_fw") == \
+    assert _cffi_sources(ROOT / "emulator" / "inclino_emu" / "_build_fw.py", "_t_fw") == \
         fw_sources.sources("cffi_fw", ROOT)
 
 

@@ -14,9 +14,11 @@ import pytest
 from hypothesis import HealthCheck, event, given, settings
 from hypothesis import strategies as st
 
-from inclino import calops, cli, flashing
-from inclino.calfile import Calibration
-from inclino.link import ProbeError, ProbeInBootloader, ProbeLink
+from inclino.link import operations as calops
+from inclino import cli
+from inclino.boot import flashing
+from inclino.formats.calfile import Calibration
+from inclino.link.serial_link import ProbeError, ProbeInBootloader, ProbeLink
 from inclino_emu import control
 from inclino_emu.control import ControlClient, RequestError, parse_request
 from inclino_emu.runner import Emulator
@@ -470,7 +472,7 @@ def test_verify_on_an_uncalibrated_probe_is_one_line(emu, tmp_path, capsys):
 
 def test_download_messages(capsys):
     r = calops.DownloadResult(ok=True, slot="A", sequence=2, image_crc=0x1234, retries=1)
-    from inclino import probe_cli
+    from inclino.cli import probe as probe_cli
     assert probe_cli.download_line(r) == "downloaded: slot A, sequence 2, image CRC 1234 (1 link retry)"
     r.events = ["attempt 2 succeeded"]
     r.retries = 0
@@ -481,7 +483,7 @@ def test_download_messages(capsys):
             retries = bytes_out = bytes_in = 0
 
         def cal_write(self, image, force=False):
-            from inclino.link import ProbeNak
+            from inclino.link.serial_link import ProbeNak
             raise ProbeNak(0x11, 9, 5)
 
     cal = Calibration(probe_serial="7")

@@ -32,9 +32,9 @@ from hypothesis import HealthCheck, given, settings  # noqa: E402
 from hypothesis import strategies as st  # noqa: E402
 
 from inclino import cli  # noqa: E402
-from inclino.calfile import Calibration  # noqa: E402
-from inclino.dataset import MAX_LINE_CHARS, read_raw  # noqa: E402
-from inclino.flashing import load_image  # noqa: E402
+from inclino.formats.calfile import Calibration  # noqa: E402
+from inclino.formats.dataset import MAX_LINE_CHARS, read_raw  # noqa: E402
+from inclino.boot.flashing import load_image  # noqa: E402
 
 EXAMPLES = int(os.environ.get("INCLINO_HYPOTHESIS_EXAMPLES", "100"))
 settings.register_profile("inclino-hostile", max_examples=EXAMPLES, deadline=None, database=None,

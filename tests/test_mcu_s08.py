@@ -1,17 +1,19 @@
 """The firmware core on the S08 (SDCC -ms08, ucsim shc08): bit for bit equal to
 the golden model on >= 10 000 vectors, including every edge case of the host
-bit-exact suite (inclino.bitexact.edge_vectors and the saturating
+bit-exact suite (inclino.engines.bitexact.edge_vectors and the saturating
 calibrations of random_cals).  The SCI frame parser and encoder and the
 calibration-image checker on the S08: the recorded byte streams of
 tests/vectors/frames.json give exactly their events, and random and corrupted
-streams and images give the host build's (inclino._core) results."""
+streams and images give the host build's (inclino.engines._core) results."""
 import json
 import pathlib
 
 import numpy as np
 import pytest
 
-from inclino import bitexact, fw_sources, golden, mcu
+from inclino.engines import bitexact, golden
+from inclino import fw_sources
+from inclino.s08 import mcu
 
 if mcu.tools_missing():
     pytest.skip(mcu.MISSING_REASON, allow_module_level=True)
@@ -238,7 +240,7 @@ def _segments(case):
 def host_events(segments):
     """The host build of the same C (as tests/test_protocol_frames.py), with
     proto_parser_idle's results."""
-    from inclino._core import ffi, lib
+    from inclino.engines._core import ffi, lib
 
     p = ffi.new("proto_parser_t *")
     lib.proto_parser_init(p)
@@ -272,7 +274,7 @@ def _random_streams(rng, n):
     """Frames with bit errors, dropped and duplicated bytes; byte soup rich in
     0xA5, CR, LF and text; long lines; oversize length fields; other
     versions; silences (idle) anywhere, also inside frames."""
-    from inclino import protocol
+    from inclino.link import protocol
 
     def frame():
         pl = rng.integers(0, 256, int(rng.choice([0, 1, 5, 36, 60, 200])), dtype=np.uint8).tobytes()
@@ -334,8 +336,8 @@ def test_frame_parser_random_and_corrupted_streams_on_s08(fw):
 
 
 def test_frame_encoder_on_s08(fw):
-    from inclino import protocol
-    from inclino._core import ffi, lib
+    from inclino.link import protocol
+    from inclino.engines._core import ffi, lib
 
     rng = np.random.default_rng(78)
     frames = [(int(rng.integers(0, 256)), int(rng.integers(0, 256)),
@@ -356,7 +358,7 @@ def test_frame_encoder_on_s08(fw):
 
 # ------------------------------------------------------------------ calibration image
 def _rand_fixed_cal(rng):
-    from inclino.core import FixedCal
+    from inclino.engines.firmware import FixedCal
 
     def triad():
         m = rng.integers(-(2**31), 2**31, 9)
@@ -371,7 +373,7 @@ def _rand_fixed_cal(rng):
 
 def host_calimg_parse(data: bytes):
     """calimg_parse of the host build, outputs filled as the harness fills them."""
-    from inclino._core import ffi, lib
+    from inclino.engines._core import ffi, lib
 
     cal = ffi.new("corr_cal_t *")
     info = ffi.new("calimg_info_t *")
@@ -399,7 +401,7 @@ def _crc_fixed(img: bytearray) -> bytes:
 
 
 def test_calimg_parse_on_s08(fw):
-    from inclino.calimage import METHODS, CalImage
+    from inclino.formats.calimage import METHODS, CalImage
 
     rng = np.random.default_rng(79)
     good = [CalImage(_rand_fixed_cal(rng), int(rng.integers(0, 2**32)), int(rng.integers(0, 2**32)),
@@ -436,15 +438,15 @@ def test_calimg_parse_on_s08(fw):
 
 
 def test_calimg_build_on_s08(fw):
-    from inclino._core import ffi, lib
-    from inclino.calimage import METHODS, CalImage
+    from inclino.engines._core import ffi, lib
+    from inclino.formats.calimage import METHODS, CalImage
 
     rng = np.random.default_rng(80)
     items = []
     for k in range(24):
         fc = _rand_fixed_cal(rng)
         if k % 4 == 3:  # out of range and any method byte: build does not check
-            from inclino.core import FixedCal
+            from inclino.engines.firmware import FixedCal
             fc = FixedCal(*(tuple(int(x) for x in rng.integers(-(2**31), 2**31, n)) for n in (9, 3, 9, 3)))
         items.append((fc, int(rng.integers(0, 2**32)), int(rng.integers(0, 2**32)), int(rng.integers(0, 256))))
     got = mcu.calimg_build(fw, items)

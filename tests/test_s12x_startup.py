@@ -20,7 +20,8 @@ from pathlib import Path
 import bincopy
 import pytest
 
-from inclino import cli, flashing
+from inclino import cli
+from inclino.boot import flashing
 from inclino.errors import DataError
 
 ROOT = Path(__file__).resolve().parents[1]

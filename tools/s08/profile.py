@@ -1,6 +1,6 @@
 """Where the bus cycles of one survey go on the S08 simulator.
 
-Builds the harness image (inclino.mcu.build), runs one timed survey_compute
+Builds the harness image (inclino.s08.mcu.build), runs one timed survey_compute
 and single-steps ucsim between the harness's two timing stops, adding each
 instruction's cycles (the simulator's own count) to the function it belongs
 to (the labels of SDCC's .rst listings, static functions included) and to
@@ -13,7 +13,7 @@ fx_sq_core, ...) count towards the C function whose listing holds them.
     python tools/s08/profile.py --func _fx_div_frac_q20   # per instruction
 
 Run inside the source tree (or with INCLINO_ROOT set), with an installed
-inclino (for inclino.mcu and the bench vectors).  It measures; it asserts
+inclino (for inclino.s08.mcu and the bench vectors).  It measures; it asserts
 nothing.
 """
 from __future__ import annotations
@@ -28,7 +28,7 @@ from pathlib import Path
 
 import numpy as np
 
-from inclino import mcu
+from inclino.s08 import mcu
 
 _INSN = re.compile(r"^\s+([0-9A-F]{4})\s+[0-9A-F]{2}[0-9A-F ]*?\s+\[\s*\d+\]")
 _LABEL = re.compile(r"^\s+([0-9A-F]{4})\s+\d+\s+(_\w+):\s*$")
@@ -82,7 +82,7 @@ def main(argv=None) -> int:
         acc = np.array([[int(v) for v in a.acc.split(",")]])
         mag = np.array([[int(v) for v in a.mag.split(",")]])
     if a.identity:
-        from inclino.core import FixedCal
+        from inclino.engines.firmware import FixedCal
         fc = FixedCal.identity()
     rec = mcu._records(b"V", (acc, ">i4"), (mag, ">i4"))[0]
     data = mcu.enc_cal(fc) + bytes([rec[0] | mcu.TIMED]) + rec[1:] + b"E"

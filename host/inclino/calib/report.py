@@ -35,9 +35,9 @@ from dataclasses import asdict, dataclass, field
 
 import numpy as np
 
-from inclino import engines, reference as ref
-from inclino.calfile import Calibration
-from inclino.dataset import RawDataset
+from inclino.engines import attitude as engines, reference as ref
+from inclino.formats.calfile import Calibration
+from inclino.formats.dataset import RawDataset
 
 from . import common
 from .runs import li2021_grid  # noqa: F401

@@ -30,13 +30,13 @@ from dataclasses import dataclass, field
 import numpy as np
 from scipy import stats
 
-from inclino import reference as ref
+from inclino.engines import reference as ref
 
 from . import paperdata, paperselect
 from .result import clean
 
 ALPHA = 0.01
-LI_FIELD_NT = 50980.0  # emulator/scenarios/li2021.toml (IGRF at Chengdu, 2021)
+LI_FIELD_NT = 50980.0  # host/inclino/model/scenarios/li2021.toml (IGRF at Chengdu, 2021)
 LI_DIP_DEG = 45.1  # the paper's Chengdu dip
 STEP = {"deg": 1e-3, "nT": 1.0, "g": 1e-5}
 
@@ -69,7 +69,7 @@ def calibrated_on(world, method: str, probe=None):
     present during the calibration is partly absorbed by it: the checks see
     what is left."""
     from inclino.calib import li2021 as cal_li, ren2014 as cal_ren, runs
-    from inclino.dataset import RawDataset
+    from inclino.formats.dataset import RawDataset
 
     I, A, T = runs.li2021_twelve() if method == "li2021" else runs.ren2014()
     g, b = world.truth(I, A, T)
@@ -105,7 +105,7 @@ def _attitude_errors(chk: Checks, world, probe=None, sensor=None, calibrate=None
 
 
 def _world(field_nT, dip_deg, **turntable):
-    from inclino_emu.world import EarthField, EncoderErrors, Turntable, TurntableGeometry, World
+    from inclino.model.world import EarthField, EncoderErrors, Turntable, TurntableGeometry, World
 
     enc = EncoderErrors(offset_deg=[turntable.get("inc", 0.0), turntable.get("azi", 0.0), 0.0])
     geo = TurntableGeometry(turntable.get("tilt_north", 0.0), turntable.get("tilt_east", 0.0),
@@ -305,8 +305,8 @@ def _li_probe(acc_coupling=True, mag_lsb_nT=1.0, acc_lsb_g=ref.ACC_LSB_G):
     """The li2021 scenario's probe; optionally without Table 2's
     accelerometer pair f_yz/f_zy, or with Table 2's counts converted with
     other LSBs than the scenario's (1 nT, 1/16384 g)."""
-    from inclino_emu import effects as fx
-    from inclino_emu.scenario import load_scenario
+    from inclino.model import effects as fx
+    from inclino.model.scenario import load_scenario
 
     s = load_scenario("li2021")
     t2 = fx.LI2021_TABLE2
@@ -349,7 +349,7 @@ def _li_before_sensitivity(chk, world):
 def li2021() -> PaperReport:
     srcs = {k: paperdata.TABLES[k]["source"] for k in ("li2021_table2", "li2021_table4", "li2021_table5")}
     rep = PaperReport("li2021", srcs, [
-        "the probe is emulator/scenarios/li2021.toml: Table 2's scale, bias and installation errors through "
+        "the probe is host/inclino/model/scenarios/li2021.toml: Table 2's scale, bias and installation errors through "
         "effects.from_li2021, noise-free and unquantised; Chengdu, dip 45.1 deg (paper), field 50 980 nT (IGRF), "
         "declination 0 (the turntable's north is magnetic north)",
         "toolface during the checks: not given; taken as 0 (body x on the high side) -- the 'before' comparison "
@@ -601,7 +601,7 @@ def write_plots(rep: PaperReport, outdir: str) -> list:
 
     def save(fig, name):
         p = os.path.join(outdir, name)
-        from inclino import safeio
+        from inclino.formats import safeio
 
         try:
             safeio.save_figure(fig, p, dpi=110)

@@ -31,7 +31,7 @@ def write(result, outdir: str) -> list:
 
     def save(fig, name):
         path = os.path.join(outdir, name)
-        from inclino import safeio
+        from inclino.formats import safeio
 
         try:
             safeio.save_figure(fig, path, dpi=110)

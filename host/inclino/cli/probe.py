@@ -1,0 +1,265 @@
+"""The bench technician's probe commands: identify, survey, download,
+verify.  A thin shell over inclino.link.serial_link and inclino.link.operations.
+
+Exit statuses: 0 success; 1 verify found a mismatch; 2 bad input; 3
+calibration refused (nothing written); 4 port, link or probe problem.
+"""
+from __future__ import annotations
+
+import csv
+import json
+import sys
+import time
+
+from inclino.errors import DataError, InclinoError
+
+SURVEY_COLS = ("t_s", "inc_deg", "azi_deg", "tf_deg", "mtf_deg", "gt_g", "bt_nT", "dip_deg", "flags", "qc")
+QC_BITS = {0x01: "G", 0x02: "B", 0x04: "dip", 0x08: "undefined", 0x80: "no-ref"}
+
+
+def _link(args):
+    from inclino.link.serial_link import ProbeLink, check_link_options
+
+    check_link_options(args.baud, args.timeout)
+    return ProbeLink(args.port, baud=args.baud, timeout=args.timeout)
+
+
+def _add_port(p):
+    p.add_argument("--port", required=True, help="serial port name or pyserial URL")
+    p.add_argument("--baud", type=int, default=115200)
+    p.add_argument("--timeout", type=float, default=1.0, help="seconds to wait for an answer (default 1)")
+
+
+def qc_text(qc: int) -> str:
+    fails = [n for b, n in QC_BITS.items() if qc & b and b != 0x80]
+    return ("FAIL " + ",".join(fails)) if fails else "PASS"
+
+
+def _cmd_identify(args) -> int:
+    with _link(args) as link:
+        i = link.identify()
+    slot = {0: "A", 1: "B", 0xFF: "none (identity)"}.get(i.cal_slot, str(i.cal_slot))
+    d = {"product": i.product, "firmware": ".".join(map(str, i.fw_version)), "protocol": i.proto_version,
+         "serial": i.serial, "calibration_slot": slot, "calibration_sequence": i.cal_sequence,
+         "calibration_crc": f"{i.cal_crc:04X}", "selftest": i.selftest}
+    if args.json:
+        print(json.dumps(d, indent=2))
+    else:
+        for k, v in d.items():
+            print(f"{k:22s} {v}")
+    return 0
+
+
+def _rows(link, args):
+    if args.count == 1 and not args.stream:
+        yield link.survey()
+        return
+    if args.stream:
+        yield from link.stream(args.period, args.count)
+        return
+    for _ in range(args.count):
+        yield link.survey()
+        if args.period:
+            time.sleep(args.period / 1000.0)
+
+
+class _MdWriter:
+    """A csv writer that puts the station's measured depth first."""
+
+    def __init__(self, w, md):
+        self.w, self.md, self.first = w, md, True
+
+    def writerow(self, row):
+        self.w.writerow(["md_m" if self.first else f"{self.md:.3f}"] + list(row))
+        self.first = False
+
+
+def _cmd_survey(args) -> int:
+    _validate(args)
+    recs = []
+    out = sys.stdout
+    w = None
+    if args.md is not None and not (args.md == args.md and abs(args.md) < 1e6):
+        raise DataError("--md must be a depth in m")
+    if args.format == "csv":
+        w = csv.writer(out)
+        if args.md is not None:
+            w = _MdWriter(w, args.md)
+        w.writerow(SURVEY_COLS + ("qc_verdict",))
+    elif args.format == "table":
+        print(f"{'t s':>8} {'inc':>9} {'azi':>9} {'tf':>9} {'G total':>8} {'B total':>9} {'dip':>8}  QC")
+    with _link(args) as link:
+        for rec in _rows(link, args):
+            u = rec.to_units()
+            recs.append(u)
+            if args.format == "csv":
+                w.writerow([f"{u[c]:.6f}" if isinstance(u[c], float) else u[c] for c in SURVEY_COLS]
+                           + [qc_text(u["qc"])])
+            elif args.format == "json":
+                print(json.dumps({**({"md_m": args.md} if args.md is not None else {}), **u,
+                                  "qc_verdict": qc_text(u["qc"])}))
+            else:
+                print(f"{u['t_s']:8.3f} {u['inc_deg']:9.4f} {u['azi_deg']:9.4f} {u['tf_deg']:9.4f} "
+                      f"{u['gt_g']:8.5f} {u['bt_nT']:9.1f} {u['dip_deg']:8.3f}  {qc_text(u['qc'])}"
+                      + ("  near-vertical" if u["flags"] & 1 else ""))
+            out.flush()
+    if args.las:
+        write_las(args.las, recs, probe=args.port, md=args.md)
+    return 0
+
+
+def write_las(path: str, recs: list[dict], probe: str = "", md: float | None = None) -> None:
+    """A logged survey run as LAS 2.0 (lasio), indexed by time."""
+    import lasio
+    import numpy as np
+
+    las = lasio.LASFile()
+    las.well["COMP"] = lasio.HeaderItem("COMP", value="")
+    las.well["WELL"] = lasio.HeaderItem("WELL", value="")
+    las.other = f"Recorded by inclino from {probe}. Index is time since probe start (s)."
+    t = np.array([r["t_s"] for r in recs], dtype=float)
+    las.append_curve("TIME", t, unit="s", descr="time since probe start")
+    if md is not None:
+        las.append_curve("MD", np.full(len(t), float(md)), unit="m", descr="measured depth of the station")
+    for key, mnem, unit, descr in (("inc_deg", "INC", "deg", "inclination"), ("azi_deg", "AZI", "deg", "azimuth"),
+                                   ("tf_deg", "GTF", "deg", "gravity toolface"),
+                                   ("mtf_deg", "MTF", "deg", "magnetic toolface"),
+                                   ("gt_g", "GTOT", "g", "G total"), ("bt_nT", "BTOT", "nT", "B total"),
+                                   ("dip_deg", "DIP", "deg", "magnetic dip"), ("flags", "FLAGS", "", "status flags"),
+                                   ("qc", "QC", "", "QC bits, 0 = pass")):
+        las.append_curve(mnem, np.array([r[key] for r in recs], dtype=float), unit=unit, descr=descr)
+    from inclino.formats import safeio
+
+    with safeio.output_file(path, newline=None) as f:
+        las.write(f, version=2.0)
+
+
+class _Progress:
+    def __init__(self, total: int, desc: str, enabled: bool):
+        self.bar = None
+        if enabled:
+            from tqdm import tqdm
+
+            self.bar = tqdm(total=total, desc=desc, unit="step", file=sys.stderr, leave=False)
+
+    def __call__(self, name: str):
+        if self.bar is not None:
+            self.bar.set_postfix_str(name)
+            self.bar.update(1)
+
+    def close(self):
+        if self.bar is not None:
+            self.bar.close()
+
+
+def _cmd_download(args) -> int:
+    from inclino.link import operations as calops
+    from inclino.formats.calfile import Calibration
+
+    from inclino.link.serial_link import check_link_options
+
+    check_link_options(args.baud, args.timeout)
+    cal = Calibration.load(args.cal)  # a refused file fails here, before the port is opened
+    cal.check()
+    refusal = calops.report_refusal(cal)
+    if refusal and not args.force:
+        from inclino.errors import CalibrationError
+
+        raise CalibrationError(f"{refusal}; nothing written (use --force to download it anyway)")
+    prog = _Progress(5, "download", not args.quiet and sys.stderr.isatty())
+    try:
+        with _link(args) as link:
+            r = calops.download(link, cal, force=args.force, progress=prog)
+    finally:
+        prog.close()
+    if args.json:
+        print(r.to_json())
+    else:
+        print(download_line(r))
+    return 0
+
+
+def download_line(r) -> str:
+    """The one line `inclino download` prints for a DownloadResult."""
+    notes = ([f"{r.retries} link retr{'y' if r.retries == 1 else 'ies'}"] if r.retries else []) + r.events
+    return (f"downloaded: slot {r.slot}, sequence {r.sequence}, image CRC {r.image_crc:04X}"
+            + (" (" + "; ".join(notes) + ")" if notes else ""))
+
+
+def _cmd_verify(args) -> int:
+    from inclino.link import operations as calops
+    from inclino.formats.calfile import Calibration
+
+    if not 1 <= args.surveys <= 1000:
+        raise DataError(f"--surveys {args.surveys}: surveys to check, 1-1000")
+    cal = Calibration.load(args.cal)
+    with _link(args) as link:
+        r = calops.verify(link, cal, surveys=args.surveys)
+    if args.json:
+        print(r.to_json())
+    else:
+        if r.slot == "none":
+            print(f"verify: FAIL: {r.mismatches[0]}")
+            return 1
+        print(f"storage: {'pass' if r.storage_ok else 'FAIL'} (slot {r.slot}, sequence {r.sequence}); "
+              f"correction: {'pass' if r.correction_ok else 'FAIL'} ({r.checks} surveys checked bit for bit)")
+        for m in r.mismatches[:10]:
+            print(f"  {m}")
+        if len(r.mismatches) > 10:
+            print(f"  ... {len(r.mismatches) - 10} more (--json lists every differing field)")
+    return 0 if r.ok else 1
+
+
+def add_parser(sub) -> None:
+    p = sub.add_parser("identify", help="product, firmware, serial and active calibration of the probe")
+    _add_port(p)
+    p.add_argument("--json", action="store_true")
+    p.set_defaults(func=_cmd_identify)
+
+    p = sub.add_parser("survey", help="surveys from the probe: a live table, CSV or JSON lines; LAS export")
+    _add_port(p)
+    p.add_argument("--count", type=int, default=1, help="surveys to take (0 with --stream: until interrupted)")
+    p.add_argument("--period", type=int, default=0, help="milliseconds between surveys")
+    p.add_argument("--stream", action="store_true", help="let the probe stream at --period (>= 1 ms)")
+    p.add_argument("--format", choices=("table", "csv", "json"), default="table")
+    p.add_argument("--las", help="also write the run as LAS 2.0 to this file")
+    p.add_argument("--md", type=float, help="measured depth of the station, m: an md_m column (MD curve in LAS) "
+                                            "for inclino trajectory")
+    p.set_defaults(func=_cmd_survey)
+
+    p = sub.add_parser("download", help="write a calibration into the probe, read it back, activate it")
+    _add_port(p)
+    p.add_argument("cal", help="calibration JSON")
+    p.add_argument("--force", action="store_true",
+                   help="accept a file made for another probe serial, or whose fit report did not pass")
+    p.add_argument("--json", action="store_true")
+    p.add_argument("--quiet", action="store_true", help="no progress bar")
+    p.set_defaults(func=_cmd_download)
+
+    p = sub.add_parser("verify", help="check the stored calibration and the probe's correction against a file")
+    _add_port(p)
+    p.add_argument("cal", help="calibration JSON")
+    p.add_argument("--surveys", type=int, default=3, help="surveys to check bit for bit (default 3)")
+    p.add_argument("--json", action="store_true")
+    p.set_defaults(func=_cmd_verify)
+
+
+def _validate(args) -> None:
+    from inclino.link.serial_link import check_link_options
+
+    check_link_options(args.baud, args.timeout)
+    if args.count < 0:
+        raise DataError(f"--count {args.count}: surveys to take, >= 0 (0 only with --stream)")
+    if args.period < 0:
+        raise DataError(f"--period {args.period}: milliseconds, >= 0")
+    if args.stream:
+        if not 1 <= args.period <= 65535:
+            raise DataError(f"--period {args.period}: the probe streams at 1-65535 ms")
+        if args.count > 65535:
+            raise DataError(f"--count {args.count}: the probe streams at most 65535 surveys (0: until "
+                            "interrupted)")
+    else:
+        if args.count == 0:
+            raise DataError("--count 0 (until interrupted) needs --stream")
+        if args.period > 86_400_000:
+            raise DataError(f"--period {args.period}: at most 86400000 ms (a day)")
