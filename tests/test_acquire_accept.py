@@ -9,6 +9,7 @@ import numpy as np
 import pytest
 
 from inclino.procedures import acquire as acq
+from inclino.procedures.turntable import ManualTurntable
 from inclino import cli
 from inclino.formats import dataset
 from inclino.engines import reference as ref
@@ -169,7 +170,7 @@ def test_operator_mode_guides_position_by_position(emu, tmp_path):
     ctl = ControlClient(port=emu.control_port)
     steps = acq.procedure_steps("twelve-position")
     person = PersonAtTable(ctl, steps)
-    table = acq.Operator(stdin=person, say=person.say)
+    table = ManualTurntable(stdin=person, say=person.say)
     out = tmp_path / "run.csv"
     with ProbeLink(emu.path, timeout=2.0) as link:
         r = acq.acquire(link, "twelve-position", str(out), table, world={"field_nT": 50000, "dip_deg": 60},
@@ -220,7 +221,7 @@ def test_operator_turns_the_toolface_by_hand(emu, capsys, tmp_path):
     out = tmp_path / "cont.csv"
     with ProbeLink(emu.path, timeout=2.0) as link:
         hand = TurningHand(link, ctl)
-        r = acq.acquire(hand, "continuous", str(out), acq.Operator(stdin=hand, say=hand.say),
+        r = acq.acquire(hand, "continuous", str(out), ManualTurntable(stdin=hand, say=hand.say),
                         world={"field_nT": 50000, "dip_deg": 60}, quiet=True)
     ctl.close()
     assert "turn the toolface slowly" in hand.said[0] and "inclination 120" in hand.said[1]
@@ -240,7 +241,7 @@ def test_operator_turns_the_toolface_by_hand(emu, capsys, tmp_path):
 
 def test_operator_instructions_and_quit(emu, tmp_path):
     said = []
-    table = acq.Operator(stdin=io.StringIO("q\n"))
+    table = ManualTurntable(stdin=io.StringIO("q\n"))
     table.say = said.append
     st = acq.procedure_steps("twelve-position")[0]
     with pytest.raises(KeyboardInterrupt):
@@ -250,7 +251,7 @@ def test_operator_instructions_and_quit(emu, tmp_path):
     out = tmp_path / "run.csv"
     with ProbeLink(emu.path, timeout=2.0) as link:
         with pytest.raises(KeyboardInterrupt):
-            acq.acquire(link, "twelve-position", str(out), acq.Operator(stdin=io.StringIO("\n\nq\n")), quiet=True)
+            acq.acquire(link, "twelve-position", str(out), ManualTurntable(stdin=io.StringIO("\n\nq\n")), quiet=True)
     assert not out.exists()
 
 

@@ -9,6 +9,7 @@ import numpy as np
 import pytest
 
 from inclino.procedures import acquire_temp
+from inclino.procedures.turntable import ManualTurntable
 from inclino import cli
 from inclino.formats import dataset
 from inclino.link.serial_link import ProbeLink
@@ -290,11 +291,9 @@ class PersonAtChamber:
 
 
 def test_acquire_temperature_guides_a_person(emu, tmp_path):
-    from inclino.procedures import acquire as acq
-
     ctl = ControlClient(port=emu.control_port)
     person = PersonAtChamber(ctl)
-    table = acq.Operator(stdin=person, say=person.say)
+    table = ManualTurntable(stdin=person, say=person.say)
     plan = acquire_temp.ThermalPlan(setpoints=(35.0, 15.0), ramp_rate=4.0, interval_min=5.0, ramp_poses=3)
     out = tmp_path / "op.csv"
     with ProbeLink(emu.path, timeout=2.0) as link:

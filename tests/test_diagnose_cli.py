@@ -10,6 +10,7 @@ import pytest
 from inclino.cli import main
 from inclino.formats.dataset import RawDataset, write_raw
 from inclino.benchmarks import diagnose as dbench
+from inclino.cli import benchmarks as cli_benchmarks
 from inclino.diagnose import plans
 from inclino.model.world import Trajectory
 
@@ -146,7 +147,7 @@ def test_bench_module_quick_set(capsys):
     per size and effect, every other one at z >= 6 spiked, two nulls):
     the report's shape, every effect found at z >= 6, no error exit; it is
     too small for the targets (nulls < 200), so it exits 1."""
-    rc = dbench.main(["--json", "--quick", "--nulls", "2", "--pairs", "0", "--seed", "77"])
+    rc = cli_benchmarks.diagnose_main(["--json", "--quick", "--nulls", "2", "--pairs", "0", "--seed", "77"])
     d = json.loads(capsys.readouterr().out)
     assert set(d["sweep"]["effects"]) == set(dbench.core.EFFECT_NAMES)
     assert d["sweep"]["z"] == list(dbench.Z_SWEEP_QUICK)

@@ -194,7 +194,7 @@ def test_welleng_loads_the_written_tool_model(calibration, tmp_path, capsys):
 # ---------------------------------------------------- CLI and formats
 
 def test_trajectory_reads_csv_json_las_and_appended_survey_outputs(tmp_path, capsys):
-    from inclino.cli.probe import SURVEY_COLS, write_las
+    from inclino.formats.survey_log import SURVEY_COLS, write_las
 
     md = np.arange(0, 301, 30.0)
     inc = np.clip(md / 10, 0, 25)

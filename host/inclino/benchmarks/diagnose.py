@@ -35,9 +35,7 @@ stderr or 10 %; both effects of a pair named in >= 90 %; false alarms <= 2 %
 over >= 200 nulls; no dataset ends in an error."""
 from __future__ import annotations
 
-import argparse
 import json
-import sys
 import time
 from dataclasses import dataclass, field
 
@@ -390,28 +388,3 @@ def _bench(zs, per_size, nulls, pairs, with_strong, seed0, alpha, progress) -> D
     out.passed = all(out.met.values())
     return out
 
-
-def bench_command(args) -> int:
-    """What `inclino bench diagnose [--json] [--quick]` runs."""
-    r = bench_diagnose(quick=getattr(args, "quick", False))
-    print(r.to_json() if getattr(args, "json", False) else r.summary())
-    return 0 if r.passed else 1
-
-
-def main(argv=None) -> int:
-    p = argparse.ArgumentParser(prog="python -m inclino.benchmarks.diagnose", description=__doc__.split("\n\n")[0])
-    p.add_argument("--json", action="store_true", help="print one JSON object")
-    p.add_argument("--quick", action="store_true", help="a small set (for the tests; not the targets' figures)")
-    p.add_argument("--per-size", type=int, help="datasets per effect and size (default 4; quick 1)")
-    p.add_argument("--nulls", type=int, help="null datasets (default 216; quick 12)")
-    p.add_argument("--pairs", type=int, help="two-effect datasets (default 12; quick 2)")
-    p.add_argument("--seed", type=int, default=1000, help="first seed (default 1000)")
-    p.add_argument("--cases", action="store_true", help="with --json: every dataset's record too")
-    a = p.parse_args(argv)
-    r = bench_diagnose(a.quick, a.per_size, a.nulls, a.pairs, a.seed)
-    print(r.to_json(cases=a.cases) if a.json else r.summary())
-    return 0 if r.passed else 1
-
-
-if __name__ == "__main__":  # pragma: no cover
-    sys.exit(main())

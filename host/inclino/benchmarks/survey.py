@@ -297,15 +297,3 @@ def text(r: SurveyBench) -> str:
                      f"({f['inside_1sigma']:.1%} inside 1-sigma), largest horizontal error "
                      f"{f['max_horizontal_error_m']:.3f} m")
     return "\n".join(lines)
-
-
-def bench_command(args, cli_main) -> int:
-    """`inclino bench survey [--json] [--plot PNG]`: exit 0 when the targets are met, 1 when not."""
-    from inclino.errors import InclinoError
-
-    try:
-        r = bench(plot=args.plot, cli_main=cli_main)
-    except RuntimeError as e:  # a step of the chain (emulator, a command) failed: its message, no traceback
-        raise InclinoError(str(e))
-    print(r.to_json() if args.json else text(r))
-    return 0 if r.passed else 1

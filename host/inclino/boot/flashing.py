@@ -25,7 +25,6 @@ from __future__ import annotations
 
 import json
 import struct
-import sys
 import time
 import zlib
 from dataclasses import asdict, dataclass, field
@@ -698,40 +697,5 @@ def _text(res: FlashResult) -> str:
     return "\n".join(lines)
 
 
-def _cmd_flash(args) -> int:
-    from inclino.link.serial_link import check_link_options
-
-    check_link_options(args.baud, args.timeout)
-    if not 1 <= args.attempts <= 10:
-        raise DataError(f"--attempts {args.attempts}: whole flashes to start, 1-10")
-    if args.readback:
-        from inclino.formats import safeio
-
-        safeio.check_output(args.readback, [args.image])  # before the probe is touched
-    cb, close = (None, lambda: None) if args.json else _tqdm_progress()
-    try:
-        res = flash(args.port, args.image, progress=cb, attempts=args.attempts, run=not args.no_run,
-                    baud=args.baud, timeout=args.timeout, readback_path=args.readback)
-    finally:
-        close()
-    print(res.to_json() if args.json else _text(res))
-    return 0 if res.ok else 1
-
-
-def add_parser(subparsers) -> None:
-    p = subparsers.add_parser("flash", help="program an S-record image through the probe's bootloader, "
-                                            "verify every range")
-    p.add_argument("image", help="S-record file (S2/S3 records with MC9S12XEP100 global addresses)")
-    p.add_argument("--port", required=True, help="serial port name or pyserial URL")
-    p.add_argument("--baud", type=int, default=115200)
-    p.add_argument("--timeout", type=float, default=0.5, help="seconds to wait for an answer (default 0.5)")
-    p.add_argument("--attempts", type=int, default=2,
-                   help="whole flashes to start at most when one is cut short (default 2)")
-    p.add_argument("--no-run", action="store_true", help="leave the probe in its bootloader")
-    p.add_argument("--readback", metavar="FILE.s19", help="also write what was read back as S-records")
-    p.add_argument("--json", action="store_true", help="print the result as one JSON object")
-    p.set_defaults(func=_cmd_flash)
-
-
-__all__ = ["flash", "load_image", "FlashResult", "RangeResult", "FlashMap", "BootIdentity", "add_parser",
+__all__ = ["flash", "load_image", "FlashResult", "RangeResult", "FlashMap", "BootIdentity",
            "InclinoError"]

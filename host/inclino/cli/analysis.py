@@ -1,26 +1,34 @@
-"""`inclino calibrate RUN.csv --method M -o CAL.json [--json]`.
+"""The analysis commands: attitude, bitexact, calibrate, diagnose.
 
-Fits the raw dataset with one method, writes CAL.json (atomically: a
-temporary file renamed into place, so a failure leaves no partial file) and
-prints the fit report (text, or one JSON object with --json).  Exit status:
+`inclino calibrate RUN.csv --method M -o CAL.json [--json]` fits the raw
+dataset with one method, writes CAL.json (atomically: a temporary file
+renamed into place, so a failure leaves no partial file) and prints the fit
+report (text, or one JSON object with --json).  Exit status:
 0 the fit passed its checks; 1 written, but the report's verdict is FAIL
 (the reasons are printed); 2 bad input (DataError); 3 calibration refused
-(CalibrationError: singular, out of the firmware's range)."""
+(CalibrationError: singular, out of the firmware's range).
+
+`inclino diagnose DATA.csv [--json] [--plot DIR] [--cal CAL.json]` and
+`--paper li2021|ren2014`.  Exit status: 0 the diagnosis ran (whatever it found); 2 bad input
+(DataError: unreadable file, no pose columns, too few poses, poses that
+cannot separate the effects asked about, a temperature that never changes
+when a temperature effect is asked about, a --cal without temperature
+terms).  Errors are one line, never a
+traceback.
+"""
 from __future__ import annotations
 
+import csv
 import json
 
-import numpy as np
-
 from inclino.errors import CalibrationError, DataError
-
-from inclino.calib import DEFAULT_METHOD, METHODS
-
 
 MAX_BOOTSTRAP = 1000  # refits at most (each is a whole fit: a bound on the time a typo can cost)
 
 
 def calibrate_main(args) -> int:
+    import numpy as np
+
     from inclino.formats import dataset, safeio
     from inclino import progress
 
@@ -78,7 +86,9 @@ def calibrate_main(args) -> int:
     return 0 if rep.passed else 1
 
 
-def add_parser(subparsers):
+def add_calibrate(subparsers):
+    from inclino.calib import DEFAULT_METHOD, METHODS
+
     c = subparsers.add_parser("calibrate", help="fit a calibration to a raw dataset (writes CAL.json)")
     c.add_argument("input", help="raw dataset CSV (docs/dataset.md)")
     c.add_argument("--method", choices=tuple(METHODS), default=DEFAULT_METHOD,
@@ -100,3 +110,153 @@ def add_parser(subparsers):
     c.add_argument("--bootstrap", type=int, help="paper methods: refits for the uncertainty (default 40)")
     c.set_defaults(func=calibrate_main)
     return c
+
+
+def _cmd_bitexact(args) -> int:
+    from inclino.engines import bitexact
+
+    if args.vectors < 0:
+        raise DataError("--vectors must be >= 0")
+    r = bitexact.run(args.vectors, args.seed)
+    print(r.line)
+    return 0 if r.mismatches == 0 else 1
+
+
+ATTITUDE_CHUNK = 1 << 16  # rows computed and written at a time (bounded memory on a long run)
+
+
+def _cmd_attitude(args) -> int:
+    import numpy as np
+
+    from inclino.formats import dataset, safeio
+    from inclino.engines import attitude as engines
+    from inclino import progress
+    from inclino.formats.calfile import Calibration
+
+    safeio.check_output(args.output, [args.input, args.cal])  # before any work
+    cal = Calibration.load(args.cal) if args.cal else Calibration()  # a refused file costs no reading
+    ds = dataset.read_raw(args.input, progress=True)
+    cols = ["inc_deg", "azi_deg", "tf_deg", "gt_g", "bt_nT", "dip_deg", "flags", "mtf_deg"]
+    with safeio.output_file(args.output, [args.input, args.cal]) as f, \
+            progress.bar(len(ds), f"attitude {args.input}", unit=" rows") as bar:
+        w = csv.writer(f)
+        w.writerow(cols)
+        acc, mag = ds.acc, ds.mag
+        for lo in range(0, len(ds), ATTITUDE_CHUNK):
+            hi = min(lo + ATTITUDE_CHUNK, len(ds))
+            out = engines.run(acc[lo:hi], mag[lo:hi], cal, args.engine)
+            text = {c: (out[c].astype(np.int64).astype(str) if c == "flags"
+                        else np.char.mod("%.6f", np.asarray(out[c], dtype=float))) for c in cols}
+            w.writerows(zip(*(text[c] for c in cols)))
+            bar.update(hi - lo)
+    return 0
+
+
+def add_bitexact(sub):
+    b = sub.add_parser("bitexact", help="firmware C against the golden model, bit for bit")
+    b.add_argument("--vectors", type=int, default=1_000_000, help="random vectors besides the edge cases")
+    b.add_argument("--seed", type=int, default=1)
+    b.set_defaults(func=_cmd_bitexact)
+
+
+def add_attitude(sub):
+    a = sub.add_parser("attitude", help="attitude of every row of a raw dataset")
+    a.add_argument("input", help="raw dataset CSV")
+    a.add_argument("--cal", help="calibration JSON (default: identity)")
+    a.add_argument("--engine", choices=("firmware", "golden", "reference"), default="firmware")
+    a.add_argument("-o", "--output", required=True, help="output CSV ('-' for stdout)")
+    a.set_defaults(func=_cmd_attitude)
+
+
+
+
+PAPERS = ("li2021", "ren2014")
+
+
+def diagnose_main(args) -> int:
+    import numpy as np
+
+    if args.paper:
+        if args.input:
+            raise DataError("give either a dataset or --paper, not both")
+        from inclino.diagnose import papers
+
+        r = papers.reproduce(args.paper)
+        print(r.to_json() if args.json else r.summary())
+        if args.plot:
+            for path in papers.write_plots(r, args.plot):
+                if not args.json:
+                    print(f"wrote {path}")
+        return 0
+    if not args.input:
+        raise DataError("diagnose needs a raw dataset (DATA.csv) or --paper li2021|ren2014")
+    from inclino.formats import dataset
+    from inclino import progress
+
+    from inclino.diagnose.analysis import diagnose
+
+    ds = dataset.read_raw(args.input, progress=True)
+    if getattr(args, "cal", None):
+        ds = _temperature_corrected(ds, args.cal)
+    try:
+        with np.errstate(all="ignore"), progress.phase(f"diagnose {args.input}"):
+            r = diagnose(ds, effects=args.effects, alpha=args.alpha, folds=args.folds,
+                         keep_plot_data=bool(args.plot))
+    except (ArithmeticError, ValueError, np.linalg.LinAlgError) as e:  # one line, never a traceback
+        raise DataError(f"diagnose failed on {args.input}: {type(e).__name__}: {e}")
+    written = []
+    if args.plot:
+        from inclino.diagnose import plots
+
+        written = plots.write(r, args.plot)
+    if args.json:
+        print(r.to_json())
+    else:
+        print(f"{args.input}:")
+        print(r.summary())
+        for w in written:
+            print(f"wrote {w}")
+    return 0
+
+
+def _temperature_corrected(ds, path):
+    """The readings brought to the calibration's reference temperature with
+    its temperature terms (CAL.json's temperature block, joint --temperature):
+    what the diagnosis then sees is what those terms leave."""
+    from inclino.formats.calfile import Calibration
+    from inclino.calib import thermal
+    from inclino.errors import CalibrationError
+
+    try:
+        cal = Calibration.load(path)
+    except CalibrationError as e:
+        raise DataError(str(e))
+    if not cal.temperature:
+        raise DataError(f"{path} has no temperature terms (fit them with calibrate --method joint --temperature)")
+    if "temp_c" not in ds.columns:
+        raise DataError("--cal: the data have no temp_c column to apply the temperature terms with")
+    try:
+        return thermal.corrected_dataset(ds, cal, cal.temperature)
+    except (KeyError, TypeError, ValueError) as e:
+        raise DataError(f"{path}: the temperature block is mangled ({e})")
+
+
+def add_diagnose(subparsers):
+    from inclino.diagnose import EFFECT_NAMES
+
+    p = subparsers.add_parser("diagnose", help="find what the 12-parameter model gets wrong in a raw dataset, "
+                                               "name the effect, measure the gain")
+    p.add_argument("input", nargs="?", help="raw dataset CSV with the turntable's poses (docs/dataset.md)")
+    p.add_argument("--json", action="store_true", help="print one JSON object")
+    p.add_argument("--plot", metavar="DIR", help="write PNGs of the residuals (before/after) into DIR")
+    p.add_argument("--effects", help="comma-separated effects to test (default: all): " + ", ".join(EFFECT_NAMES))
+    p.add_argument("--alpha", type=float, default=0.01,
+                   help="false-alarm level: the chance of naming an effect on data without any (default 0.01)")
+    p.add_argument("--folds", type=int, default=5, help="cross-validation folds (default 5)")
+    p.add_argument("--cal", metavar="CAL.json",
+                   help="first bring the readings to the reference temperature with this calibration's "
+                        "temperature terms (joint --temperature): diagnose what they leave")
+    p.add_argument("--paper", choices=PAPERS,
+                   help="instead of a dataset: the papers' measured tables against the simulation (docs/diagnose.md)")
+    p.set_defaults(func=diagnose_main)
+    return p

@@ -1,5 +1,5 @@
 """The bench technician's probe commands: identify, survey, download,
-verify.  A thin shell over inclino.link.serial_link and inclino.link.operations.
+verify, flash.  A thin shell over inclino.link.serial_link and inclino.link.operations.
 
 Exit statuses: 0 success; 1 verify found a mismatch; 2 bad input; 3
 calibration refused (nothing written); 4 port, link or probe problem.
@@ -11,10 +11,8 @@ import json
 import sys
 import time
 
-from inclino.errors import DataError, InclinoError
-
-SURVEY_COLS = ("t_s", "inc_deg", "azi_deg", "tf_deg", "mtf_deg", "gt_g", "bt_nT", "dip_deg", "flags", "qc")
-QC_BITS = {0x01: "G", 0x02: "B", 0x04: "dip", 0x08: "undefined", 0x80: "no-ref"}
+from inclino.errors import DataError
+from inclino.formats.survey_log import SURVEY_COLS, qc_text, write_las
 
 
 def _link(args):
@@ -28,11 +26,6 @@ def _add_port(p):
     p.add_argument("--port", required=True, help="serial port name or pyserial URL")
     p.add_argument("--baud", type=int, default=115200)
     p.add_argument("--timeout", type=float, default=1.0, help="seconds to wait for an answer (default 1)")
-
-
-def qc_text(qc: int) -> str:
-    fails = [n for b, n in QC_BITS.items() if qc & b and b != 0x80]
-    return ("FAIL " + ",".join(fails)) if fails else "PASS"
 
 
 def _cmd_identify(args) -> int:
@@ -106,32 +99,6 @@ def _cmd_survey(args) -> int:
     if args.las:
         write_las(args.las, recs, probe=args.port, md=args.md)
     return 0
-
-
-def write_las(path: str, recs: list[dict], probe: str = "", md: float | None = None) -> None:
-    """A logged survey run as LAS 2.0 (lasio), indexed by time."""
-    import lasio
-    import numpy as np
-
-    las = lasio.LASFile()
-    las.well["COMP"] = lasio.HeaderItem("COMP", value="")
-    las.well["WELL"] = lasio.HeaderItem("WELL", value="")
-    las.other = f"Recorded by inclino from {probe}. Index is time since probe start (s)."
-    t = np.array([r["t_s"] for r in recs], dtype=float)
-    las.append_curve("TIME", t, unit="s", descr="time since probe start")
-    if md is not None:
-        las.append_curve("MD", np.full(len(t), float(md)), unit="m", descr="measured depth of the station")
-    for key, mnem, unit, descr in (("inc_deg", "INC", "deg", "inclination"), ("azi_deg", "AZI", "deg", "azimuth"),
-                                   ("tf_deg", "GTF", "deg", "gravity toolface"),
-                                   ("mtf_deg", "MTF", "deg", "magnetic toolface"),
-                                   ("gt_g", "GTOT", "g", "G total"), ("bt_nT", "BTOT", "nT", "B total"),
-                                   ("dip_deg", "DIP", "deg", "magnetic dip"), ("flags", "FLAGS", "", "status flags"),
-                                   ("qc", "QC", "", "QC bits, 0 = pass")):
-        las.append_curve(mnem, np.array([r[key] for r in recs], dtype=float), unit=unit, descr=descr)
-    from inclino.formats import safeio
-
-    with safeio.output_file(path, newline=None) as f:
-        las.write(f, version=2.0)
 
 
 class _Progress:
@@ -263,3 +230,39 @@ def _validate(args) -> None:
             raise DataError("--count 0 (until interrupted) needs --stream")
         if args.period > 86_400_000:
             raise DataError(f"--period {args.period}: at most 86400000 ms (a day)")
+
+
+def _cmd_flash(args) -> int:
+    from inclino.boot.flashing import _text, _tqdm_progress, flash
+    from inclino.link.serial_link import check_link_options
+
+    check_link_options(args.baud, args.timeout)
+    if not 1 <= args.attempts <= 10:
+        raise DataError(f"--attempts {args.attempts}: whole flashes to start, 1-10")
+    if args.readback:
+        from inclino.formats import safeio
+
+        safeio.check_output(args.readback, [args.image])  # before the probe is touched
+    cb, close = (None, lambda: None) if args.json else _tqdm_progress()
+    try:
+        res = flash(args.port, args.image, progress=cb, attempts=args.attempts, run=not args.no_run,
+                    baud=args.baud, timeout=args.timeout, readback_path=args.readback)
+    finally:
+        close()
+    print(res.to_json() if args.json else _text(res))
+    return 0 if res.ok else 1
+
+
+def add_flash(subparsers) -> None:
+    p = subparsers.add_parser("flash", help="program an S-record image through the probe's bootloader, "
+                                            "verify every range")
+    p.add_argument("image", help="S-record file (S2/S3 records with MC9S12XEP100 global addresses)")
+    p.add_argument("--port", required=True, help="serial port name or pyserial URL")
+    p.add_argument("--baud", type=int, default=115200)
+    p.add_argument("--timeout", type=float, default=0.5, help="seconds to wait for an answer (default 0.5)")
+    p.add_argument("--attempts", type=int, default=2,
+                   help="whole flashes to start at most when one is cut short (default 2)")
+    p.add_argument("--no-run", action="store_true", help="leave the probe in its bootloader")
+    p.add_argument("--readback", metavar="FILE.s19", help="also write what was read back as S-records")
+    p.add_argument("--json", action="store_true", help="print the result as one JSON object")
+    p.set_defaults(func=_cmd_flash)

@@ -172,8 +172,8 @@ def accept(link, table, grid: str = "li2021", cal=None, before: str = "auto", in
            azimuths=None, toolfaces=(0.0,), tol: Tolerance | None = None, max_reads: int = 30,
            circles: bool = False, declination: float | None = None, limits: dict | None = None,
            quiet: bool = False, average: int | None = None) -> AcceptResult:
-    """Run the grid (and the circles) on `table` (acquire.Bench or
-    acquire.Operator).  cal: a Calibration to download first."""
+    """Run the grid (and the circles) on `table` (a turntable:
+    turntable.ManualTurntable or turntable_emulated.EmulatedTurntable).  cal: a Calibration to download first."""
     from inclino.link import operations as calops
     from inclino.engines import firmware as core
     from inclino.procedures.acquire import _bar, set_average
@@ -370,78 +370,3 @@ def _render_ren(res) -> list[str]:
 
 
 # ---------------------------------------------------------------- CLI
-def _floats(text: str | None, what: str):
-    if text is None:
-        return None
-    try:
-        return [float(v) for v in text.split(",") if v.strip()]
-    except ValueError:
-        raise DataError(f"{what}: a comma-separated list of numbers, got {text!r}")
-
-
-def _cmd_accept(args) -> int:
-    from inclino.procedures.acquire import open_table
-    from inclino.link.serial_link import ProbeLink
-
-    tol = Tolerance(args.tol_acc_mg, args.tol_mag_nt, args.reads)
-    tol.check()
-    if args.average is not None and not 1 <= args.average <= 64:
-        raise DataError("--average must be within 1-64 samples")
-    incs = _floats(args.inclinations, "--inclinations")
-    azis = _floats(args.azimuths, "--azimuths")
-    tfs = _floats(args.toolfaces, "--toolfaces")
-    grid_points(args.grid, incs, azis, tfs)  # a grid the turntable cannot reach: refused before the port
-    cal = None
-    if args.cal:
-        from inclino.formats.calfile import Calibration
-
-        cal = Calibration.load(args.cal)
-        cal.check()
-    limits = {"max_azi_rms_deg": args.max_azi_rms, "max_inc_rms_deg": args.max_inc_rms}
-    table = open_table(args)
-    try:
-        with ProbeLink(args.port, baud=args.baud, timeout=args.timeout) as link:
-            res = accept(link, table, args.grid, cal=cal, before=args.before, inclinations=incs, azimuths=azis,
-                         toolfaces=tfs, tol=tol, max_reads=args.max_reads, circles=args.circles,
-                         declination=args.declination, limits=limits, quiet=args.quiet, average=args.average)
-    finally:
-        table.close()
-    if args.save:
-        _write(args.save, res.to_json() + "\n")
-    if args.plot:
-        from inclino.procedures import plots
-
-        for path in plots.accept_figures(res, args.plot):
-            print(f"wrote {path}", file=sys.stderr)
-    print(res.to_json() if args.json else render(res))
-    return 0 if res.passed else 1
-
-
-def _write(path: str, text: str) -> None:
-    from inclino.formats import safeio
-
-    safeio.write_output(path, text)
-
-
-def add_parser(sub) -> None:
-    from inclino.procedures.acquire import add_common
-
-    p = sub.add_parser("accept", help="the papers' check grids on the probe, before and after calibration")
-    add_common(p)
-    p.add_argument("--cal", help="download this calibration first; before = the probe as found")
-    p.add_argument("--grid", choices=GRIDS, default="li2021", help="li2021 (default) or ren2014")
-    p.add_argument("--before", choices=("auto", "identity", "as-found"), default="auto",
-                   help="the before column (default: as found with --cal, identity without)")
-    p.add_argument("--inclinations", help="replace the grid's inclinations (ren2014: signed tilts), e.g. 5,30,60")
-    p.add_argument("--azimuths", help="replace the grid's azimuths")
-    p.add_argument("--toolfaces", default="0", help="toolfaces at every position (default 0)")
-    p.add_argument("--declination", type=float, help="declination of the turntable's north (default: the "
-                                                     "bench's, else 0)")
-    p.add_argument("--circles", action="store_true", help="also the horizontal circles of Li 2021 Fig. 2")
-    p.add_argument("--max-azi-rms", type=float, default=DEFAULT_MAX_AZI_RMS, help="verdict: azimuth RMS after, deg")
-    p.add_argument("--max-inc-rms", type=float, default=DEFAULT_MAX_INC_RMS,
-                   help="verdict: inclination RMS after, deg")
-    p.add_argument("--json", action="store_true", help="print the result as one JSON object")
-    p.add_argument("--save", help="write the result as JSON (for inclino plot --accept)")
-    p.add_argument("--plot", metavar="DIR", help="write the error maps (and circles) as PNG into DIR")
-    p.set_defaults(func=_cmd_accept)

@@ -72,10 +72,6 @@ PROCEDURES = ("twelve-position", "multi-position", "continuous", "temperature")
 COLUMNS = ("t_s", "inc_deg", "azi_deg", "tf_deg", "temp_c", "ax_g", "ay_g", "az_g", "mx_nT", "my_nT", "mz_nT")
 
 
-class BenchError(ProbeError):
-    """The bench's control channel failed or refused (exit status 4)."""
-
-
 class Unsettled(ProbeError):
     """The readings did not agree within the tolerance (exit status 4)."""
 
@@ -238,94 +234,6 @@ def set_average(link, n: int | None) -> None:
     link.set_average(n)
 
 
-# ---------------------------------------------------------------- turntables
-class Bench:
-    """The emulator's turntable over its control channel (HOST:PORT)."""
-
-    unattended = True
-
-    def __init__(self, spec: str, timeout: float = 10.0):
-        host, sep, port = str(spec).rpartition(":")
-        if not sep or not port.isdigit():
-            raise DataError(f"--bench wants HOST:PORT, got {spec!r}")
-        self.spec = spec
-        try:
-            from inclino_emu.control import ControlClient
-        except ImportError as e:
-            raise BenchError(f"the emulator package is not installed: {e}")
-        try:
-            self.ctl = ControlClient(host or "127.0.0.1", int(port), timeout=timeout)
-        except OSError as e:
-            raise BenchError(f"cannot reach the bench's control channel at {spec}: {e.strerror or e}") from None
-
-    def call(self, cmd: str, **kw) -> dict:
-        try:
-            ans = self.ctl.call(cmd, **kw)
-        except (OSError, ConnectionError, ValueError) as e:
-            raise BenchError(f"the bench's control channel at {self.spec} failed: {e}") from None
-        if not ans.get("ok"):
-            raise BenchError(f"the bench refused {cmd}: {ans.get('error', ans)}")
-        return ans
-
-    def move(self, step: Step, index: int, total: int) -> None:
-        self.call("move", inc=step.inc, azi=_wrap(step.azi), tf=_wrap(step.tf))
-
-    def world(self) -> dict:
-        """Field total, dip and declination from the bench's truth (the true
-        body vectors at the indicated pose)."""
-        import numpy as np
-
-        from inclino.engines import reference as ref
-
-        t = self.call("truth")
-        g, b, pose = (np.asarray(t[k], float) for k in ("g", "b", "pose"))
-        F = float(np.linalg.norm(b))
-        dip = math.degrees(math.atan2(float(g @ b), float(np.linalg.norm(np.cross(g, b)))))
-        ned = ref.pose_matrix(*pose).T @ b
-        dec = math.degrees(math.atan2(ned[1], ned[0]))
-        return {"field_nT": round(F, 3), "dip_deg": round(dip, 6), "declination_deg": round(dec, 6)}
-
-    def close(self) -> None:
-        self.ctl.close()
-
-
-class Operator:
-    """A person at the turntable: instructions on stderr, Enter on stdin."""
-
-    unattended = False
-
-    def __init__(self, stdin=None, say=None):
-        self.stdin = stdin or sys.stdin
-        self.default_say = say is None  # then the run prints above its progress bar
-        self.say = say or (lambda m: print(m, file=sys.stderr, flush=True))
-
-    def ask(self, prompt: str) -> str:
-        self.say(prompt)
-        line = self.stdin.readline()
-        if not line:
-            raise DataError("no operator input (end of input): run stopped")
-        ans = line.strip().lower()
-        if ans in ("q", "quit"):
-            raise KeyboardInterrupt
-        return ans
-
-    def move(self, step: Step, index: int, total: int) -> None:
-        if step.rotation:
-            self.ask(f"[{index}/{total}] {step.label}: set inclination {step.inc:g} deg, azimuth {step.azi:g} deg, "
-                     f"toolface 0; press Enter, then turn the toolface slowly (about 10 deg/s) through a full "
-                     "turn ('q' to stop)")
-        else:
-            self.ask(f"[{index}/{total}] {step.label}: set inclination {step.inc:.1f} deg, azimuth "
-                     f"{step.azi:.1f} deg, toolface {step.tf:.1f} deg ({describe(step.inc, step.azi, step.tf)}); "
-                     "press Enter when set ('q' to stop)")
-
-    def world(self) -> dict:
-        return {}
-
-    def close(self) -> None:
-        pass
-
-
 # ---------------------------------------------------------------- the run
 @dataclass
 class AcquireResult:
@@ -429,7 +337,8 @@ def acquire(link, procedure: str, out_path: str, table, *, points: int = 36, d1:
             azimuth: float = 2.0, step_deg: float = 10.0, tol: Tolerance | None = None,
             max_reads: int = 30, world: dict | None = None, quiet: bool = False,
             turn_timeout_s: float = 120.0, average: int | None = None) -> AcquireResult:
-    """Take the procedure's positions on `table` (Bench or Operator) and
+    """Take the procedure's positions on `table` (turntable.ManualTurntable or
+    turntable_emulated.EmulatedTurntable) and
     write the raw dataset to out_path.  world: field_nT / dip_deg /
     declination_deg known to the caller (the bench's own take precedence
     over none)."""
@@ -448,7 +357,7 @@ def acquire(link, procedure: str, out_path: str, table, *, points: int = 36, d1:
     def say(m):  # instructions and warnings stay visible with --quiet (an operator needs them)
         bar.write(m, file=sys.stderr)
 
-    if isinstance(table, Operator) and table.default_say:
+    if getattr(table, "default_say", False):  # a person at the turntable, told above the bar
         table.say = say
     with recording(out, bar, res, t0):
         if procedure == "continuous" and not table.unattended:
@@ -506,81 +415,3 @@ def _continuous_operator(link, table, steps, out, res, bar, say, timeout_s):
 
 
 # ---------------------------------------------------------------- CLI
-def add_common(p) -> None:
-    """Options acquire and accept share: port, bench, stability."""
-    p.add_argument("--port", required=True, help="serial port name or pyserial URL of the probe")
-    p.add_argument("--baud", type=int, default=115200)
-    p.add_argument("--timeout", type=float, default=1.0, help="seconds to wait for an answer (default 1)")
-    p.add_argument("--bench", metavar="HOST:PORT",
-                   help="drive the emulator's turntable over its control channel (unattended)")
-    p.add_argument("--reads", type=int, default=3, help="readings that must agree at each position (default 3)")
-    p.add_argument("--tol-acc-mg", type=float, default=1.0, help="stability: accelerometer spread, mg (default 1)")
-    p.add_argument("--tol-mag-nt", type=float, default=20.0, help="stability: fluxgate spread, nT (default 20)")
-    p.add_argument("--max-reads", type=int, default=30, help="bench: readings before a position is given up")
-    p.add_argument("--average", type=int, help="set the probe's samples per reading first (SET_AVERAGE, 1-64; "
-                                              "the probe's default is 16; it keeps it until it restarts)")
-    p.add_argument("--quiet", action="store_true", help="no progress bar")
-
-
-def open_table(args):
-    return Bench(args.bench) if args.bench else Operator()
-
-
-def _cmd_acquire(args) -> int:
-    from inclino.link.serial_link import ProbeLink
-
-    tol = Tolerance(args.tol_acc_mg, args.tol_mag_nt, args.reads)
-    tol.check()
-    if args.average is not None and not 1 <= args.average <= 64:
-        raise DataError("--average must be within 1-64 samples")
-    procedure_steps(args.procedure, points=args.points, d1=args.d1, azimuth=args.azimuth, step_deg=args.step)
-    world = {"field_nT": args.field, "dip_deg": args.dip, "declination_deg": args.declination}
-    from inclino.formats.dataset import check_meta
-
-    for key, opt in (("field_nT", "--field"), ("dip_deg", "--dip"), ("declination_deg", "--declination")):
-        check_meta(key, world[key], opt)  # the header's rule, before the port is opened
-    table = open_table(args)
-    try:
-        with ProbeLink(args.port, baud=args.baud, timeout=args.timeout) as link:
-            r = acquire(link, args.procedure, args.output, table, points=args.points, d1=args.d1,
-                        azimuth=args.azimuth, step_deg=args.step, tol=tol, max_reads=args.max_reads,
-                        world=world, quiet=args.quiet, average=args.average)
-    finally:
-        table.close()
-    print(f"{r.path}: {r.rows} rows, {args.procedure}, probe {r.probe_serial}"
-          + (f", field {r.meta['field_nT']:g} nT dip {r.meta['dip_deg']:g} deg" if "dip_deg" in r.meta else "")
-          + f" ({r.reads} readings, {r.elapsed_s:.1f} s)")
-    return 0
-
-
-def add_parser(sub):
-    p = sub.add_parser("acquire", help="take a calibration run from the probe (operator or emulated bench)")
-    add_common(p)
-    p.add_argument("--procedure", required=True, choices=PROCEDURES,
-                   help="twelve-position (Li 2021), multi-position (Li + Ren 2014 + orientations), "
-                        "continuous (Guo 2009), temperature (a chamber run: --temperatures)")
-    p.add_argument("-o", "--output", required=True, help="raw dataset CSV to write")
-    p.add_argument("--points", type=int, default=36, help="multi-position: quasi-uniform orientations (default 36)")
-    p.add_argument("--d1", type=float, default=30.0, help="continuous: first inclination (default 30)")
-    p.add_argument("--azimuth", type=float, default=2.0, help="continuous: azimuth of both rotations (default 2)")
-    p.add_argument("--step", type=float, default=10.0, help="continuous on the bench: toolface step (default 10)")
-    p.add_argument("--field", type=float, help="field total, nT, for the header (the bench reports its own)")
-    p.add_argument("--dip", type=float, help="magnetic dip, deg, for the header")
-    p.add_argument("--declination", type=float, help="declination, deg, for the header")
-    t = p.add_argument_group("temperature procedure (docs/bench.md)")
-    t.add_argument("--temperatures", default="-5,25,55", help="chamber set points, degC (default -5,25,55)")
-    t.add_argument("--poses", default="twelve-position", choices=("twelve-position", "multi-position"),
-                   help="the pose set taken at each set point (default twelve-position)")
-    t.add_argument("--ramp-rate", type=float, default=1.0, help="chamber ramp, degC/min (default 1)")
-    t.add_argument("--interval", type=float, default=2.0, help="minutes between readings while the chamber "
-                                                               "ramps and soaks (default 2)")
-    t.add_argument("--ramp-poses", type=int, default=4, help="poses read through each ramp (1-6, default 4)")
-    t.add_argument("--soak-band", type=float, default=1.0, help="settled within this of the set point, degC "
-                                                                "(default 1)")
-    t.add_argument("--soak-tol", type=float, default=0.5, help="... and changing by at most this, degC "
-                                                               "(default 0.5) ...")
-    t.add_argument("--soak-window", type=float, default=10.0, help="... over this many minutes (default 10)")
-    t.add_argument("--max-soak", type=float, default=240.0, help="bench: give up after this many minutes at "
-                                                                 "one set point (default 240)")
-    p.set_defaults(func=_cmd_acquire)  # the temperature procedure: acquire_temp.add_parser
-    return p

@@ -139,8 +139,8 @@ class _Chamber:
 def acquire_temperature(link, out_path: str, table, plan: ThermalPlan, *, tol=None, max_reads: int = 30,
                         world: dict | None = None, quiet: bool = False, average: int | None = None,
                         sleep=time.sleep) -> AcquireResult:
-    """Take the thermal run (module docstring) on `table` (acquire.Bench or
-    acquire.Operator) and write it to out_path as a raw dataset."""
+    """Take the thermal run (module docstring) on `table` (a turntable:
+    turntable.ManualTurntable or turntable_emulated.EmulatedTurntable) and write it to out_path as a raw dataset."""
     from inclino.procedures.acquire import Tolerance
 
     tol = tol or Tolerance()
@@ -209,42 +209,3 @@ __all__ = ["RAMP_POSES", "ThermalPlan", "acquire_temperature", "parse_temperatur
 
 
 # ---------------------------------------------------------------- CLI
-def _cmd_acquire(args) -> int:
-    """`inclino acquire`: the temperature procedure here, the others in
-    inclino.procedures.acquire."""
-    from inclino.procedures import acquire as acq
-    from inclino.formats.dataset import check_meta
-    from inclino.link.serial_link import ProbeLink
-
-    if args.procedure != "temperature":
-        return acq._cmd_acquire(args)
-    tol = acq.Tolerance(args.tol_acc_mg, args.tol_mag_nt, args.reads)
-    tol.check()
-    if args.average is not None and not 1 <= args.average <= 64:
-        raise DataError("--average must be within 1-64 samples")
-    plan = ThermalPlan(parse_temperatures(args.temperatures), args.poses, args.ramp_rate, args.interval,
-                       args.ramp_poses, args.soak_band, args.soak_tol, args.soak_window, args.max_soak)
-    plan.check()
-    world = {"field_nT": args.field, "dip_deg": args.dip, "declination_deg": args.declination}
-    for key, opt in (("field_nT", "--field"), ("dip_deg", "--dip"), ("declination_deg", "--declination")):
-        check_meta(key, world[key], opt)
-    table = acq.open_table(args)
-    try:
-        with ProbeLink(args.port, baud=args.baud, timeout=args.timeout) as link:
-            r = acquire_temperature(link, args.output, table, plan, tol=tol, max_reads=args.max_reads,
-                                    world=world, quiet=args.quiet, average=args.average)
-    finally:
-        table.close()
-    print(f"{r.path}: {r.rows} rows, temperature, probe {r.probe_serial}"
-          + (f", field {r.meta['field_nT']:g} nT dip {r.meta['dip_deg']:g} deg" if "dip_deg" in r.meta else "")
-          + f" ({r.reads} readings, {r.elapsed_s:.1f} s)")
-    return 0
-
-
-def add_parser(sub):
-    """inclino.procedures.acquire's parser, its command dispatching the temperature procedure here."""
-    from inclino.procedures import acquire as acq
-
-    p = acq.add_parser(sub)
-    p.set_defaults(func=_cmd_acquire)
-    return p

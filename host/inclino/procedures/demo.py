@@ -25,7 +25,6 @@ by side (for firmware engineers).
 from __future__ import annotations
 
 import os
-import sys
 import time
 from dataclasses import dataclass, field
 
@@ -117,6 +116,7 @@ def bench(out_dir: str = DEFAULT_OUT, scenario: str = "typical", seed: int | Non
           say=None) -> BenchDemo:
     """The whole bench on the emulated probe; prints each step with `say`."""
     from inclino.procedures import acquire as acq
+    from inclino.procedures.turntable_emulated import EmulatedTurntable
     from inclino.procedures import accept as acc
     from inclino.link import operations as calops
     from inclino.formats import dataset
@@ -152,7 +152,7 @@ def bench(out_dir: str = DEFAULT_OUT, scenario: str = "typical", seed: int | Non
     emu = Emulator(scenario, seed=seed, control_port=0, realtime=False).start()
     table = None
     try:
-        table = acq.Bench(f"127.0.0.1:{emu.control_port}")
+        table = EmulatedTurntable(f"127.0.0.1:{emu.control_port}")
         with ProbeLink(emu.path, timeout=2.0) as link:
             ident = link.identify()
             res.probe_serial = ident.serial
@@ -271,37 +271,3 @@ def summary(res: BenchDemo) -> str:
     t = res.timings
     lines.append(f"  {res.elapsed_s:.1f} s (" + ", ".join(f"{k} {v:.1f} s" for k, v in t.items()) + ")")
     return "\n".join(lines)
-
-
-def _cmd_demo(args) -> int:
-    if args.core:
-        print(render(run(field_nT=args.field, dip_deg=args.dip)))
-        return 0
-    if args.temperature:  # the temperature step (demo_temp.py)
-        from inclino.procedures import demo_temp
-
-        r = demo_temp.run(args.out, tempco_draw=args.tempco_draw, seed=args.seed, quiet=args.quiet)
-        return 0 if r["passed"] and r["gain"] >= 10.0 else 1
-    res = bench(args.out, scenario=args.scenario, seed=args.seed, quiet=args.quiet)
-    print(summary(res))
-    ok = res.verify_ok and all(a.passed for a in res.accept.values())
-    return 0 if ok else 1
-
-
-def add_parser(sub) -> None:
-    d = sub.add_parser("demo", help="the whole calibration bench on the emulated probe (--core: the C core "
-                                    "on a table of poses)")
-    d.add_argument("--out", default=DEFAULT_OUT, help=f"folder for the run, calibration and figures "
-                                                      f"(default ./{DEFAULT_OUT})")
-    d.add_argument("--scenario", default="typical", help="emulator scenario (default typical)")
-    d.add_argument("--seed", type=int, default=None, help="override the scenario's seed")
-    d.add_argument("--quiet", action="store_true", help="no progress bars")
-    d.add_argument("--core", action="store_true",
-                   help="instead: attitude of a table of poses through the firmware C, next to float64")
-    d.add_argument("--field", type=float, default=50000.0, help="--core: field total, nT (default 50000)")
-    d.add_argument("--dip", type=float, default=60.0, help="--core: dip, degrees (default 60)")
-    d.add_argument("--temperature", action="store_true",
-                   help="instead: the temperature step (chamber run, temperature terms, diagnose before/after)")
-    d.add_argument("--tempco-draw", type=int, default=1, help="--temperature: the probe's tempcos drawn with "
-                                                              "this seed (default 1)")
-    d.set_defaults(func=_cmd_demo)

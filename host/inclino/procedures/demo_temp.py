@@ -24,7 +24,7 @@ import time
 
 def run(out_dir: str, tempco_draw: int = 1, setpoints=(-5.0, 25.0, 55.0), seed: int | None = None,
         quiet: bool = False, say=None) -> dict:
-    from inclino.procedures import acquire as acq
+    from inclino.procedures.turntable_emulated import EmulatedTurntable
     from inclino.procedures import acquire_temp
     from inclino.formats import dataset
     from inclino.calib import common, fit, thermal
@@ -52,7 +52,7 @@ def run(out_dir: str, tempco_draw: int = 1, setpoints=(-5.0, 25.0, 55.0), seed: 
     emu = Emulator("typical", seed=seed, control_port=0, realtime=False, tempco_draw=tempco_draw).start()
     table = None
     try:
-        table = acq.Bench(f"127.0.0.1:{emu.control_port}")
+        table = EmulatedTurntable(f"127.0.0.1:{emu.control_port}")
         with ProbeLink(emu.path, timeout=2.0) as link:
             say(f"[2/4] acquiring a chamber run, set points {', '.join(f'{t:g}' for t in setpoints)} degC "
                 f"(ramp {plan.ramp_rate:g} degC/min; emulated time runs ahead) -> {run_csv}")

@@ -243,34 +243,3 @@ def run_figures(ds, cal, out_dir: str, cal_before=None) -> list[str]:
         if p:
             paths.append(p)
     return paths
-
-
-def _cmd_plot(args) -> int:
-    from inclino.formats import dataset
-    from inclino.formats.calfile import Calibration
-
-    if not args.run and not args.accept:
-        raise DataError("nothing to plot: give --run RUN.csv (with --cal) and/or --accept ACCEPT.json")
-    paths = []
-    if args.run:
-        if not args.cal:
-            raise DataError("--run needs --cal CAL.json (the calibration to show the run through)")
-        ds = dataset.read_raw(args.run)
-        cal = Calibration.load(args.cal)
-        paths += run_figures(ds, cal, args.output)
-    if args.accept:
-        from inclino.procedures.accept_result import AcceptResult
-
-        paths += accept_figures(AcceptResult.load(args.accept), args.output)
-    for p in paths:
-        print(p)
-    return 0
-
-
-def add_parser(sub) -> None:
-    p = sub.add_parser("plot", help="calibration figures (PNG): fluxgate sphere, horizontal circles, error maps")
-    p.add_argument("--run", help="a calibration run (raw dataset CSV)")
-    p.add_argument("--cal", help="its calibration (CAL.json)")
-    p.add_argument("--accept", help="an accept result (inclino accept --save)")
-    p.add_argument("-o", "--output", required=True, metavar="DIR", help="folder for the PNG files")
-    p.set_defaults(func=_cmd_plot)

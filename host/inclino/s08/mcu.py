@@ -756,7 +756,7 @@ def bench_vectors(n: int = 200, seed: int = 11):
     """Physically plausible readings for the timing runs: random poses with
     I in [1, 179] degrees, fields of 20 000 to 70 000 nT, the typical
     calibration's raw readings (what a probe sees)."""
-    from inclino.benchmarks import fixed_point as hbench
+    from inclino.model import typical_probe as hbench
     from inclino.engines import reference
 
     rng = np.random.default_rng(seed)
@@ -786,7 +786,7 @@ def traffic_stream() -> bytes:
 
 def bench_image() -> bytes:
     """The typical calibration as a calibration image (CalImage.pack)."""
-    from inclino.benchmarks import fixed_point as hbench
+    from inclino.model import typical_probe as hbench
     from inclino.formats.calimage import CalImage
 
     return CalImage(hbench.typical_calibration().to_fixed(), 123456, 1795000000, "joint").pack()
@@ -886,31 +886,3 @@ def bench(vectors: int = 100, seed: int = 11, workdir: str | os.PathLike | None 
         meets_parser_target=meets_p,
     )
 
-
-def main(argv=None) -> int:
-    """`python -m inclino.s08.mcu build OUTDIR` (what CMake's s08 target runs) or
-    `python -m inclino.s08.mcu bench`."""
-    import argparse
-
-    p = argparse.ArgumentParser(prog="python -m inclino.s08.mcu")
-    sub = p.add_subparsers(dest="cmd", required=True)
-    pb = sub.add_parser("build", help="build the S08 harness image and print its sizes")
-    pb.add_argument("outdir")
-    pb.add_argument("--program", choices=("harness", "float"), default="harness")
-    sub.add_parser("bench", help="print the figures of `inclino bench mcu --json`")
-    a = p.parse_args(argv)
-    reason = tools_missing()
-    if reason:
-        print(reason)
-        return 2
-    if a.cmd == "build":
-        b = build(a.outdir, program=a.program)
-        print(b.ihx)
-        print(json.dumps(asdict(sizes(b)), indent=2))
-    else:
-        print(bench().to_json())
-    return 0
-
-
-if __name__ == "__main__":
-    raise SystemExit(main())
