@@ -43,7 +43,7 @@ import numpy as np
 
 from inclino.diagnose import core, plans
 from inclino.diagnose._blas import one_blas_thread
-from inclino.diagnose.result import clean
+from inclino.formats.jsonout import json_safe
 
 EFFECT_PLANS = {
     "temperature-bias": ("static",),
@@ -209,7 +209,7 @@ class DiagnoseBench:
                                            "null", "errors", "time_s", "targets", "met", "passed")}
         if cases:
             d["cases"] = self.cases
-        return clean(d)
+        return json_safe(d)
 
     def to_json(self, cases=False) -> str:
         return json.dumps(self.to_dict(cases), indent=2)

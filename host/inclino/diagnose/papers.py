@@ -33,7 +33,7 @@ from scipy import stats
 from inclino.engines import reference as ref
 
 from . import paperdata, paperselect
-from .result import clean
+from inclino.formats.jsonout import json_safe
 
 ALPHA = 0.01
 LI_FIELD_NT = 50980.0  # host/inclino/model/scenarios/li2021.toml (IGRF at Chengdu, 2021)
@@ -215,7 +215,7 @@ class PaperReport:
     series: dict = field(default_factory=dict, repr=False)  # for the plots
 
     def to_dict(self):
-        return clean({"paper": self.paper, "sources": self.sources, "assumptions": self.assumptions,
+        return json_safe({"paper": self.paper, "sources": self.sources, "assumptions": self.assumptions,
                       "comparisons": self.comparisons,
                       "extensions": [{k: v for k, v in e.items() if k != "fitted"} for e in self.extensions],
                       "before_correction_sensitivity": self.sensitivity,

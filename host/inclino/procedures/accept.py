@@ -56,7 +56,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from inclino.procedures.accept_result import AcceptResult, _clean  # noqa: F401 (the result type lives where plots can import it)
+from inclino.procedures.accept_result import AcceptResult  # noqa: F401 (the result type lives where plots can import it)
 from inclino.procedures.acquire import Step, Tolerance, _wrap, mean_row, read_stable
 from inclino.errors import DataError
 from inclino.engines.golden import F_NEAR_VERTICAL as NEAR_VERTICAL  # the firmware's ATT_F_NEAR_VERTICAL

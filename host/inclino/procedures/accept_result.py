@@ -6,13 +6,12 @@ Its own module so that the acceptance procedure (accept.py) and the plots
 """
 from __future__ import annotations
 
-import json
-import math
 from dataclasses import asdict, dataclass, field
 
 import numpy as np
 
 from inclino.errors import DataError
+from inclino.formats.jsonout import dumps
 
 
 @dataclass
@@ -37,7 +36,7 @@ class AcceptResult:
     elapsed_s: float = 0.0
 
     def to_json(self) -> str:
-        return json.dumps(_clean(asdict(self)), indent=2)
+        return dumps(asdict(self))
 
     @staticmethod
     def load(path: str) -> "AcceptResult":
@@ -59,17 +58,3 @@ class AcceptResult:
         ei = np.array([p[which]["inc_err"] for p in self.points], float)
         ea = np.array([np.nan if p[which]["azi_err"] is None else p[which]["azi_err"] for p in self.points], float)
         return si, sa, ei, ea
-
-
-def _clean(o):
-    if isinstance(o, dict):
-        return {str(k): _clean(v) for k, v in o.items()}
-    if isinstance(o, (list, tuple)):
-        return [_clean(v) for v in o]
-    if isinstance(o, (np.floating,)):
-        return float(o)
-    if isinstance(o, (np.integer,)):
-        return int(o)
-    if isinstance(o, float) and not math.isfinite(o):
-        return None
-    return o
