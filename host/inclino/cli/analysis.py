@@ -179,12 +179,12 @@ def diagnose_main(args) -> int:
     if args.paper:
         if args.input:
             raise DataError("give either a dataset or --paper, not both")
-        from inclino.diagnose import papers
+        from inclino.diagnose import papers, plots
 
         r = papers.reproduce(args.paper)
         print(r.to_json() if args.json else r.summary())
         if args.plot:
-            for path in papers.write_plots(r, args.plot):
+            for path in plots.write_paper(r, args.plot):
                 if not args.json:
                     print(f"wrote {path}")
         return 0

@@ -25,33 +25,7 @@ import os
 
 import numpy as np
 
-from inclino.errors import DataError
-
-
-def _plt():
-    import matplotlib
-
-    matplotlib.use("Agg", force=True)
-    import matplotlib.pyplot as plt
-
-    return plt
-
-
-def _mkdir(d: str) -> None:
-    try:
-        os.makedirs(d, exist_ok=True)
-    except OSError as e:
-        raise DataError(f"cannot create {d}: {e.strerror}")
-
-
-def _save(fig, path: str) -> str:
-    from inclino.formats import safeio
-
-    try:
-        safeio.save_figure(fig, path, dpi=110)
-    finally:
-        _plt().close(fig)
-    return path
+from inclino.plotting import make_dir as _mkdir, pyplot as _plt, save as _save
 
 
 def _corr(mag, cal):

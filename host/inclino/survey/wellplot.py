@@ -13,11 +13,11 @@ def plot(rows, path: str, truth=None, title: str = "", scale: float | None = Non
     arrays of the known path.  Ellipses are drawn magnified (`scale`, by
     default so the largest 2-sigma ellipse spans ~1/8 of the plan) and the
     factor is printed in the legend."""
-    import matplotlib
-
-    matplotlib.use("Agg")
-    import matplotlib.pyplot as plt
     from matplotlib.patches import Ellipse
+
+    from inclino import plotting
+
+    plt = plotting.pyplot()
 
     f = lambda k: np.array([float(r[k]) if r.get(k, "") != "" else np.nan for r in rows])
     n, e, tvd, md = f("north_m"), f("east_m"), f("tvd_m"), f("md_m")
@@ -90,10 +90,4 @@ def plot(rows, path: str, truth=None, title: str = "", scale: float | None = Non
     if title:
         fig.suptitle(title, fontsize=10)
     fig.tight_layout()
-    from inclino.formats import safeio
-
-    try:
-        safeio.save_figure(fig, path, dpi=110)
-    finally:
-        plt.close(fig)
-    return path
+    return plotting.save(fig, path)
