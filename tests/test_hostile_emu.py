@@ -17,6 +17,8 @@ from hypothesis import strategies as st
 from inclino.link import operations as calops
 from inclino import cli
 from inclino.boot import flashing
+from inclino.boot import image as boot_image
+from inclino.cli import probe as cli_probe
 from inclino.formats.calfile import Calibration
 from inclino.link.serial_link import ProbeError, ProbeInBootloader, ProbeLink
 from inclino_emu import control
@@ -377,7 +379,7 @@ def test_interrupted_flash_then_every_command_says_bootloader(emu, tmp_path, cap
         if phase == "program":
             raise KeyboardInterrupt
 
-    monkeypatch.setattr(flashing, "_tqdm_progress", lambda: (cb, lambda: None))
+    monkeypatch.setattr(cli_probe, "_tqdm_progress", lambda: (cb, lambda: None))
     rc, _, err = run(capsys, "flash", "--port", emu.path, img)
     assert rc == 130 and err.strip() == ("inclino: interrupted: the application is erased: the probe stays in "
                                          "its bootloader (no application) until inclino flash is run again")
@@ -406,7 +408,7 @@ def test_interrupt_before_any_erase_keeps_the_application(emu, tmp_path):
         with pytest.raises(KeyboardInterrupt) as ei:
             flashing.flash(link, img, progress=cb)
         assert "the application is erased" in str(ei.value)
-        b = flashing._Flasher(link, flashing.load_image(img), None, flashing.FlashResult(False, img, ""))
+        b = flashing._Flasher(link, boot_image.load_image(img), None, flashing.FlashResult(False, img, ""))
         b.in_bootloader = True
         assert "nothing was erased" in flashing._interrupted_state(b, b.res)
         assert flashing._interrupted_state(flashing._Flasher(link, None, None, b.res), b.res) == \

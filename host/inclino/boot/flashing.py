@@ -26,13 +26,13 @@ from __future__ import annotations
 import json
 import struct
 import time
-import zlib
 from dataclasses import asdict, dataclass, field
 from typing import Callable, Optional
 
 from inclino.errors import DataError, InclinoError
 from inclino.link.serial_link import ProbeError, ProbeLink, ProbeNak
 from inclino.link.protocol import BOOT_KEY, CMD, ERRORS
+from inclino.boot.image import DEFAULT_MAP, NO_ENTRY, FlashMap, Image, check_entry, load_image
 
 # ---- the bootloader's commands and codes (boot.h, docs/protocol.md) -------------------
 B_IDENTIFY, B_ERASE, B_PROGRAM, B_READ, B_CRC, B_COMMIT, B_RUN = range(0x40, 0x47)
@@ -45,41 +45,8 @@ E_COMMAND, E_ARGUMENT, E_BUSY, E_FLASH, E_IMAGE, E_STATE, E_PROTECTED = (
 APP_STATUS = {0: "valid", 1: "none (no commit record: empty, or a flash did not finish)",
               2: "descriptor header damaged", 3: "descriptor ranges invalid",
               4: "image CRC mismatch", 5: "flash unreadable"}
-NO_ENTRY = 0xFFFFFFFF
-MAX_RANGES = 8
 NO_ANSWER_STATE = ("the probe does not answer; once the link is back it runs its bootloader (or the old "
                    "application if nothing was erased yet): run inclino flash again")
-
-
-# ---- the flash map (MC9S12XEP100; the bootloader reports the same) ---------------------
-@dataclass(frozen=True)
-class FlashMap:
-    flash_start: int = 0x700000
-    flash_end: int = 0x800000            # exclusive
-    phrase: int = 8
-    sector: int = 1024
-    max_data: int = 192                  # data bytes per PROGRAM / READ
-    loader: tuple = (0x7FF000, 0x800000)  # the bootloader (protected)
-    descriptor: tuple = (0x7FEC00, 0x7FF000)
-    data: tuple = (0x7A0000, 0x7A2000)    # identity, calibration, QC reference
-
-    def refused(self):
-        return [(*self.loader, "the bootloader (protected)"),
-                (*self.descriptor, "the application descriptor (written by the bootloader only)"),
-                (*self.data, "the probe's data sectors (identity, calibration, QC reference)")]
-
-    def check(self, start: int, end: int) -> Optional[str]:
-        """Why [start, end) may not be written, or None."""
-        if start < self.flash_start or end > self.flash_end:
-            return (f"outside the P-Flash (0x{self.flash_start:06X}-0x{self.flash_end - 1:06X}); "
-                    "S-records must carry global addresses")
-        for s, e, name in self.refused():
-            if start < e and s < end:
-                return f"inside {name}, 0x{s:06X}-0x{e - 1:06X}"
-        return None
-
-
-DEFAULT_MAP = FlashMap()
 
 
 @dataclass
@@ -107,135 +74,6 @@ class BootIdentity:
                         loader=(v[11], v[12]), descriptor=(v[13], v[11]), data=(v[14], v[15]))
         return cls(v[0].rstrip(b"\0").decode("ascii", "replace"), (v[1], v[2]), v[3], v[4], v[5], fmap,
                    v[16], v[17], v[18], v[19], v[20])
-
-
-# ---- the image ---------------------------------------------------------------------------
-@dataclass
-class Range:
-    addr: int
-    data: bytes      # phrase-aligned; bytes the file does not give are 0xFF
-
-    @property
-    def end(self) -> int:
-        return self.addr + len(self.data)
-
-    @property
-    def crc(self) -> int:
-        return zlib.crc32(self.data) & 0xFFFFFFFF
-
-
-@dataclass
-class Image:
-    path: str
-    ranges: list
-    entry: int
-    data_bytes: int   # bytes the records carry
-
-    def to_binfile(self):
-        import bincopy
-
-        bf = bincopy.BinFile()
-        for r in self.ranges:
-            bf.add_binary(r.data, address=r.addr)
-        if self.entry != NO_ENTRY:
-            bf.execution_start_address = self.entry
-        return bf
-
-
-def _merge(spans: list, fmap: FlashMap) -> list:
-    """Merge [start, end, bytearray] spans that share a phrase, then, while
-    there are more than MAX_RANGES, the two closest ones that may be joined
-    (the gap between them is writable: it becomes 0xFF)."""
-    out = []
-    for s, e, d in sorted(spans, key=lambda x: x[0]):
-        if out and s <= out[-1][1]:
-            ps, pe, pd = out[-1]
-            ne = max(pe, e)
-            nd = pd + b"\xff" * (ne - pe)
-            for i, b in enumerate(d):
-                if b != 0xFF:
-                    nd[s - ps + i] = b
-            out[-1] = [ps, ne, nd]
-        else:
-            out.append([s, e, bytearray(d)])
-    while len(out) > MAX_RANGES:
-        gaps = [(out[i + 1][0] - out[i][1], i) for i in range(len(out) - 1)
-                if fmap.check(out[i][0], out[i + 1][1]) is None]
-        if not gaps:
-            raise DataError(f"the image needs {len(out)} separate ranges; the bootloader keeps at most "
-                            f"{MAX_RANGES}")
-        _, i = min(gaps)
-        a, b = out[i], out[i + 1]
-        out[i:i + 2] = [[a[0], b[1], a[2] + b"\xff" * (b[0] - a[1]) + b[2]]]
-    return out
-
-
-def load_image(path: str, fmap: FlashMap = DEFAULT_MAP) -> Image:
-    """Parse and check an S-record file (bincopy).  Raises DataError with one
-    clear line; nothing here touches a probe."""
-    import bincopy
-
-    try:
-        with open(path, "r", encoding="ascii", errors="strict", newline=None) as f:
-            lines = f.read().splitlines()
-    except FileNotFoundError:
-        raise DataError(f"{path}: no such file") from None
-    except UnicodeDecodeError:
-        raise DataError(f"{path}: not an S-record file (not ASCII text)") from None
-    except OSError as e:
-        raise DataError(f"{path}: cannot read: {e.strerror}") from None
-    bf = bincopy.BinFile()
-    records = 0
-    for no, line in enumerate(lines, 1):
-        line = line.strip()
-        if not line:
-            continue
-        try:
-            bf.add_srec(line)
-        except bincopy.AddDataError:
-            raise DataError(f"{path} line {no}: the record overlaps data given by an earlier record") from None
-        except (bincopy.Error, ValueError, IndexError) as e:
-            raise DataError(f"{path} line {no}: bad S-record: {e}") from None
-        records += 1
-    segs = list(bf.segments)
-    if not segs:
-        raise DataError(f"{path}: no data records (S1/S2/S3) in {records} records")
-    spans, total = [], 0
-    for seg in segs:
-        lo, hi = seg.minimum_address, seg.maximum_address
-        why = fmap.check(lo, hi)
-        if why:
-            raise DataError(f"{path}: bytes 0x{lo:06X}-0x{hi - 1:06X} are {why}; nothing was erased")
-        total += hi - lo
-        s = lo - lo % fmap.phrase
-        e = -(-hi // fmap.phrase) * fmap.phrase
-        d = bytearray(b"\xff" * (e - s))
-        d[lo - s:hi - s] = bytes(seg.data)
-        spans.append([s, e, d])
-    ranges = [Range(s, bytes(d)) for s, e, d in _merge(spans, fmap)]
-    for r in ranges:   # phrase padding or gap filling never reaches a refused area
-        why = fmap.check(r.addr, r.end)
-        if why:
-            raise DataError(f"{path}: bytes 0x{r.addr:06X}-0x{r.end - 1:06X} are {why}; nothing was erased")
-    entry = bf.execution_start_address
-    return Image(path, ranges, NO_ENTRY if entry is None else int(entry) & 0xFFFFFFFF, total)
-
-
-def check_entry(image: Image, fmap: FlashMap = DEFAULT_MAP) -> None:
-    """The image's entry point (the S-record file's start address, S7/S8/S9)
-    must be given and lie in bytes the image programs in the application
-    area -- never in the bootloader, the descriptor or the data sectors: the
-    bootloader jumps there after every reset.  DataError otherwise."""
-    e = image.entry
-    if e == NO_ENTRY:
-        raise DataError(f"{image.path}: no entry point (an S7/S8/S9 start address naming the application's "
-                        "start-up code); nothing was erased")
-    why = fmap.check(e, e + 1)
-    if why:
-        raise DataError(f"{image.path}: the entry point 0x{e:06X} is {why}; nothing was erased")
-    if not any(r.addr <= e < r.end and r.data[e - r.addr] != 0xFF for r in image.ranges):
-        raise DataError(f"{image.path}: the entry point 0x{e:06X} is not in the image's code (no record "
-                        "programs it); nothing was erased")
 
 
 # ---- the result ------------------------------------------------------------------------------
@@ -656,45 +494,6 @@ def _write_readback(fl: _Flasher, image: Image, path: str):
     safeio.write_output(path, bf.as_srec(number_of_data_bytes=32, address_length_bits=24), [image.path])
 
 
-# ---- the command ------------------------------------------------------------------------------
-def _tqdm_progress():
-    """One progress bar per phase on stderr (inclino.progress: a bar on a
-    terminal; off one, a status line when a phase starts, every
-    INCLINO_PROGRESS_PERIOD seconds, and when it ends)."""
-    from inclino import progress
-
-    bars = {}
-
-    def cb(phase: str, done: int, total: int):
-        bar = bars.get(phase)
-        if bar is None:
-            for b in bars.values():
-                b.close()
-            unit = "sector" if phase == "erase" else "B"
-            bar = bars[phase] = progress.bar(total, f"flash {phase}", unit=unit, leave=True, delay=0)
-        bar.update(done - bar.n)
-
-    def close():
-        for b in bars.values():
-            b.close()
-
-    return cb, close
-
-
-def _text(res: FlashResult) -> str:
-    lines = [f"{'range':>18} {'bytes':>7}  {'CRC file':>8}  {'CRC probe':>9}  read-back  verdict"]
-    for r in res.ranges:
-        lines.append(f"0x{r.addr:06X}-0x{r.addr + r.length - 1:06X} {r.length:7d}  {r.crc_expected:08X}  "
-                     f"{'-' if r.crc_probe is None else format(r.crc_probe, '08X'):>9}  "
-                     f"{'ok' if r.readback_ok else 'DIFFERS':9s}  {'pass' if r.passed else 'FAIL'}")
-    for e in res.events:
-        lines.append(f"note: {e}")
-    verdict = "flashed and verified" if res.ok else "NOT flashed: verification failed, nothing committed"
-    lines.append(f"{verdict}: {res.bytes_image} bytes in {len(res.ranges)} range(s), "
-                 f"{res.sectors_erased} sectors erased, serial {res.serial}, {res.attempts} attempt(s), "
-                 f"{res.retries} link retries, {res.bytes_on_wire} bytes on the wire, {res.duration_s:.1f} s"
-                 + ("; application running" if res.app_running else ""))
-    return "\n".join(lines)
 
 
 __all__ = ["flash", "load_image", "FlashResult", "RangeResult", "FlashMap", "BootIdentity",

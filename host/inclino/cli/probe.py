@@ -233,7 +233,7 @@ def _validate(args) -> None:
 
 
 def _cmd_flash(args) -> int:
-    from inclino.boot.flashing import _text, _tqdm_progress, flash
+    from inclino.boot.flashing import flash
     from inclino.link.serial_link import check_link_options
 
     check_link_options(args.baud, args.timeout)
@@ -266,3 +266,43 @@ def add_flash(subparsers) -> None:
     p.add_argument("--readback", metavar="FILE.s19", help="also write what was read back as S-records")
     p.add_argument("--json", action="store_true", help="print the result as one JSON object")
     p.set_defaults(func=_cmd_flash)
+
+
+def _tqdm_progress():
+    """One progress bar per phase on stderr (inclino.progress: a bar on a
+    terminal; off one, a status line when a phase starts, every
+    INCLINO_PROGRESS_PERIOD seconds, and when it ends)."""
+    from inclino import progress
+
+    bars = {}
+
+    def cb(phase: str, done: int, total: int):
+        bar = bars.get(phase)
+        if bar is None:
+            for b in bars.values():
+                b.close()
+            unit = "sector" if phase == "erase" else "B"
+            bar = bars[phase] = progress.bar(total, f"flash {phase}", unit=unit, leave=True, delay=0)
+        bar.update(done - bar.n)
+
+    def close():
+        for b in bars.values():
+            b.close()
+
+    return cb, close
+
+
+def _text(res) -> str:
+    lines = [f"{'range':>18} {'bytes':>7}  {'CRC file':>8}  {'CRC probe':>9}  read-back  verdict"]
+    for r in res.ranges:
+        lines.append(f"0x{r.addr:06X}-0x{r.addr + r.length - 1:06X} {r.length:7d}  {r.crc_expected:08X}  "
+                     f"{'-' if r.crc_probe is None else format(r.crc_probe, '08X'):>9}  "
+                     f"{'ok' if r.readback_ok else 'DIFFERS':9s}  {'pass' if r.passed else 'FAIL'}")
+    for e in res.events:
+        lines.append(f"note: {e}")
+    verdict = "flashed and verified" if res.ok else "NOT flashed: verification failed, nothing committed"
+    lines.append(f"{verdict}: {res.bytes_image} bytes in {len(res.ranges)} range(s), "
+                 f"{res.sectors_erased} sectors erased, serial {res.serial}, {res.attempts} attempt(s), "
+                 f"{res.retries} link retries, {res.bytes_on_wire} bytes on the wire, {res.duration_s:.1f} s"
+                 + ("; application running" if res.app_running else ""))
+    return "\n".join(lines)
