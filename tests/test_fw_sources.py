@@ -13,7 +13,7 @@ from pathlib import Path
 import pytest
 
 from inclino import fw_sources
-from inclino.s08 import mcu
+from inclino.s08 import toolchain as s08_toolchain
 
 ROOT = Path(__file__).resolve().parents[1]
 FW = ROOT / "firmware"
@@ -52,18 +52,18 @@ def test_the_cffi_builds_compile_the_manifest():
 
 
 def _s08_compiled(monkeypatch, tmp_path, root) -> list[Path]:
-    """The files mcu.build hands to sdcc -c, without running sdcc."""
+    """The files inclino.s08.toolchain.build hands to sdcc -c, without running sdcc."""
     seen = []
 
     def fake_sdcc(args, cwd):
         if "-c" in args:
             seen.append(Path(args[args.index("-c") + 1]).resolve())
 
-    monkeypatch.setattr(mcu, "tools_missing", lambda: None)
-    monkeypatch.setattr(mcu, "_sdcc", fake_sdcc)
-    monkeypatch.setattr(mcu, "_check_page0", lambda p: None)
-    monkeypatch.setattr(mcu, "_check_helpers", lambda p, ours: None)
-    mcu.build(tmp_path / "b", root=root)
+    monkeypatch.setattr(s08_toolchain, "tools_missing", lambda: None)
+    monkeypatch.setattr(s08_toolchain, "_sdcc", fake_sdcc)
+    monkeypatch.setattr(s08_toolchain, "_check_page0", lambda p: None)
+    monkeypatch.setattr(s08_toolchain, "_check_helpers", lambda p, ours: None)
+    s08_toolchain.build(tmp_path / "b", root=root)
     return seen
 
 

@@ -116,10 +116,10 @@ def _emulator(args) -> int:
 
 def _mcu(args) -> int:
     try:
-        from inclino.s08 import mcu
+        from inclino.benchmarks import s08
     except ImportError:
         raise InclinoError("the S08 simulator bench is not part of this build")
-    r = mcu.bench()
+    r = s08.bench()
     print(r.to_json())
     return 0
 

@@ -11,7 +11,9 @@ from dataclasses import asdict
 def main(argv=None) -> int:
     """`python -m inclino.cli.s08 build OUTDIR` (what CMake's s08 target runs) or
     `python -m inclino.cli.s08 bench`."""
-    from inclino.s08.mcu import bench, build, sizes, tools_missing
+    from inclino.benchmarks.s08 import bench
+    from inclino.s08.sizes import sizes
+    from inclino.s08.toolchain import build, tools_missing
 
     p = argparse.ArgumentParser(prog="python -m inclino.cli.s08")
     sub = p.add_subparsers(dest="cmd", required=True)
