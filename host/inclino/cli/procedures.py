@@ -245,7 +245,7 @@ def add_plot(sub) -> None:
 
 
 def _cmd_demo(args) -> int:
-    from inclino.procedures.demo import bench, render, run, summary
+    from inclino.procedures.demo import calibration_demo, render, run, summary
 
     if args.core:
         print(render(run(field_nT=args.field, dip_deg=args.dip)))
@@ -255,7 +255,7 @@ def _cmd_demo(args) -> int:
 
         r = demo_temp.run(args.out, tempco_draw=args.tempco_draw, seed=args.seed, quiet=args.quiet)
         return 0 if r["passed"] and r["gain"] >= 10.0 else 1
-    res = bench(args.out, scenario=args.scenario, seed=args.seed, quiet=args.quiet)
+    res = calibration_demo(args.out, scenario=args.scenario, seed=args.seed, quiet=args.quiet)
     print(summary(res))
     ok = res.verify_ok and all(a.passed for a in res.accept.values())
     return 0 if ok else 1

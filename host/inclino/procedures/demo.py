@@ -93,9 +93,9 @@ def render(r: DemoResult) -> str:
     return "\n".join(lines)
 
 
-# ---------------------------------------------------------------- the bench
+# ---------------------------------------------------------------- the calibration demo
 @dataclass
-class BenchDemo:
+class CalibrationDemo:
     out_dir: str
     probe_serial: int = 0
     run_rows: int = 0
@@ -111,10 +111,11 @@ class BenchDemo:
     elapsed_s: float = 0.0
 
 
-def bench(out_dir: str = DEFAULT_OUT, scenario: str = "typical", seed: int | None = None,
-          procedure: str = "multi-position", grids=("li2021", "ren2014"), quiet: bool = False,
-          say=None) -> BenchDemo:
-    """The whole bench on the emulated probe; prints each step with `say`."""
+def calibration_demo(out_dir: str = DEFAULT_OUT, scenario: str = "typical", seed: int | None = None,
+                     procedure: str = "multi-position", grids=("li2021", "ren2014"), quiet: bool = False,
+                     say=None) -> CalibrationDemo:
+    """The whole calibration procedure on the emulated probe and its turntable;
+    prints each step with `say`."""
     from inclino.procedures import acquire as acq
     from inclino.procedures.turntable_emulated import EmulatedTurntable
     from inclino.procedures import accept as acc
@@ -131,7 +132,7 @@ def bench(out_dir: str = DEFAULT_OUT, scenario: str = "typical", seed: int | Non
     except ImportError as e:
         raise InclinoError(f"the emulator is not installed: {e}")
     t_all = time.monotonic()
-    res = BenchDemo(os.path.abspath(out_dir))
+    res = CalibrationDemo(os.path.abspath(out_dir))
     try:
         os.makedirs(out_dir, exist_ok=True)
     except OSError as e:
@@ -257,7 +258,7 @@ def prediction_agreement(pred: dict, acc_li, scenario: str, band=(0.7, 1.4)) -> 
         "the readings' noise and resolution and the fitted nonlinearity)"
 
 
-def summary(res: BenchDemo) -> str:
+def summary(res: CalibrationDemo) -> str:
     lines = ["Summary"]
     for g, a in res.accept.items():
         b, f = a.stats["before"], a.stats["after"]
