@@ -175,17 +175,6 @@ def _column(chk, cand, field_nT, dip, probe, calibrate=None):
     return d / (2 * h)
 
 
-def _loo(X, y):
-    if X.shape[1] == 0:
-        r = y
-        return r, r
-    Q, Rr = np.linalg.qr(X)
-    beta = np.linalg.solve(Rr, Q.T @ y)
-    r = y - X @ beta
-    h = (Q ** 2).sum(1)
-    return r, r / np.maximum(1.0 - h, 1e-12)
-
-
 def _rms(v):
     return float(np.sqrt(np.mean(np.square(v)))) if len(v) else float("nan")
 
