@@ -383,7 +383,7 @@ def test_image_checks_before_the_port(tmp_path):
     im = boot_image.load_image(img)
     assert [(r.addr, r.data) for r in im.ranges] == [
         (0x7C0000, b"\xff\x01\x02\xff\xff\x03\xff\xff"), (0x7C0100, b"\x04" + b"\xff" * 7)]
-    assert im.entry == flashing.NO_ENTRY and im.data_bytes == 4
+    assert im.entry == boot_image.NO_ENTRY and im.data_bytes == 4
     # nine records far apart become at most eight ranges, the closest pair merged
     many = [(0x7C0000 + 0x1000 * i, b"\x55" * 8) for i in range(8)] + [(0x7C7010, b"\x66" * 8)]
     im = boot_image.load_image(write_srec(tmp_path / "m.s19", many))
