@@ -29,6 +29,7 @@ from dataclasses import asdict, dataclass, field
 import numpy as np
 
 from inclino.engines import firmware as core, attitude as engines, golden, reference
+from inclino.formats.jsonout import dumps
 
 TARGET_RATIO = 0.1
 
@@ -58,7 +59,7 @@ class AveragingResult:
         return asdict(self)
 
     def to_json(self) -> str:
-        return json.dumps(self.to_dict(), indent=2)
+        return dumps(self.to_dict())
 
     @classmethod
     def from_json(cls, text: str) -> "AveragingResult":

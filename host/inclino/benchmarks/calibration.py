@@ -44,7 +44,6 @@ does not have.
 """
 from __future__ import annotations
 
-import json
 import time
 from dataclasses import asdict, dataclass, field
 
@@ -66,6 +65,7 @@ from inclino.benchmarks.calibration_runs import (
     truth_nonlinear,
 )
 from inclino.calib.sensitivity import attitude_sensitivity
+from inclino.formats.jsonout import dumps
 
 PAPERS = {"ren2014": "azimuth within +-1.4 deg, tilt within +-0.1 deg (Ren 2014 Tables 1-2, a real probe)",
           "li2021": "azimuth RMS 0.82 deg, inclination RMS 0.06 deg (Li 2021 Tables 4-5, a real probe)"}
@@ -94,7 +94,7 @@ class CalibrationBench:
     notes: list = field(default_factory=list)
 
     def to_json(self) -> str:
-        return json.dumps(asdict(self), indent=2)
+        return dumps(asdict(self))
 
 
 def _select(ds, method):

@@ -35,7 +35,6 @@ stderr or 10 %; both effects of a pair named in >= 90 %; false alarms <= 2 %
 over >= 200 nulls; no dataset ends in an error."""
 from __future__ import annotations
 
-import json
 import time
 from dataclasses import dataclass, field
 
@@ -43,7 +42,7 @@ import numpy as np
 
 from inclino.diagnose import core, plans
 from inclino.diagnose._blas import one_blas_thread
-from inclino.formats.jsonout import json_safe
+from inclino.formats.jsonout import dumps, json_safe
 
 EFFECT_PLANS = {
     "temperature-bias": ("static",),
@@ -212,7 +211,7 @@ class DiagnoseBench:
         return json_safe(d)
 
     def to_json(self, cases=False) -> str:
-        return json.dumps(self.to_dict(cases), indent=2)
+        return dumps(self.to_dict(cases))
 
     def summary(self) -> str:
         lines = [f"diagnose bench: {self.datasets} datasets, alpha = {self.alpha:g}"]

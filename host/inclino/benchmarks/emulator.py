@@ -13,9 +13,9 @@ machine's other load); the slowest and fastest rounds are reported too.  The
 HAL callbacks per survey are counted in one extra, untimed survey."""
 from __future__ import annotations
 
-import json
 import time
 from dataclasses import asdict, dataclass, field
+from inclino.formats.jsonout import dumps
 
 
 @dataclass
@@ -41,7 +41,7 @@ class EmulatorBench:
         return self.realtime_factor >= self.target_realtime_factor
 
     def to_json(self) -> str:
-        return json.dumps({**asdict(self), "pass": self.passed}, indent=2)
+        return dumps({**asdict(self), "pass": self.passed})
 
 
 def bench(scenario: str = "typical", surveys: int = 20, samples: int = 16, rounds: int = 7) -> EmulatorBench:

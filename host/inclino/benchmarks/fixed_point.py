@@ -5,7 +5,6 @@ verdict is a field of the result, not an assertion.
 """
 from __future__ import annotations
 
-import json
 import time
 from dataclasses import asdict, dataclass, field
 
@@ -14,6 +13,7 @@ import numpy as np
 from inclino.engines import firmware as core, attitude as engines, golden, reference
 from inclino.formats.calfile import Calibration
 from inclino.model.typical_probe import _raw_for, typical_calibration  # noqa: F401
+from inclino.formats.jsonout import dumps
 
 TARGETS = {
     "inc_max_deg": 0.01,
@@ -67,7 +67,7 @@ class AccuracyResult:
     def to_json(self) -> str:
         d = {**self.figures, "poses": self.poses, "field_nT": self.field_nT, "dip_deg": self.dip_deg,
              "sources": self.sources, "targets": self.targets, "averaging": self.averaging, "pass": self.passed}
-        return json.dumps(d, indent=2)
+        return dumps(d)
 
 
 def accuracy(field_nT=50000.0, dip_deg=60.0, cal: Calibration | None = None,
@@ -117,7 +117,7 @@ class SpeedResult:
     vectors: int
 
     def to_json(self) -> str:
-        return json.dumps(asdict(self), indent=2)
+        return dumps(asdict(self))
 
 
 def speed(vectors: int = 1_000_000, per_call_vectors: int = 20_000, seed: int = 3) -> SpeedResult:

@@ -19,6 +19,7 @@ import time
 from dataclasses import asdict, dataclass, field
 
 import numpy as np
+from inclino.formats.jsonout import dumps
 
 ROWS = 1_330_000
 TARGET_RSS_BYTES = 10**9
@@ -41,7 +42,7 @@ class InputBench:
     passed: bool = False
 
     def to_json(self) -> str:
-        return json.dumps(asdict(self), indent=2)
+        return dumps(asdict(self))
 
     @staticmethod
     def from_json(text: str) -> "InputBench":

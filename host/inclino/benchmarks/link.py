@@ -13,10 +13,10 @@ serial link, measured on the emulated probe through its pseudo-terminal at
 """
 from __future__ import annotations
 
-import json
 from dataclasses import asdict, dataclass
 
 from inclino.link.protocol import OVERHEAD, SurveyRecord
+from inclino.formats.jsonout import dumps
 
 IMAGE = 120
 
@@ -41,7 +41,7 @@ class LinkBench:
                 and self.download_ratio <= self.target_download_ratio)
 
     def to_json(self) -> str:
-        return json.dumps({**asdict(self), "pass": self.passed}, indent=2)
+        return dumps({**asdict(self), "pass": self.passed})
 
 
 def bench(baud: int = 115200, frames: int = 200) -> LinkBench:

@@ -3,7 +3,6 @@ cycles per call and per survey, against the float baseline, the frame
 parser's share of the bus, the image's code and RAM, with the targets."""
 from __future__ import annotations
 
-import json
 import os
 import subprocess
 import tempfile
@@ -14,6 +13,7 @@ from inclino.s08.harness import _records, _u16, enc_cal, enc_calimg_build, enc_c
 from inclino.s08.simulator import stack_bytes, timed
 from inclino.s08.sizes import McuSizes, sizes
 from inclino.s08.toolchain import BUS_HZ, CFLAGS, McuError, TARGET_FLOAT_RATIO, TARGET_PARSER_CPU, TARGET_SURVEY_CYCLES, build, tools_missing
+from inclino.formats.jsonout import dumps
 
 
 # ------------------------------------------------------------------ bench
@@ -56,7 +56,7 @@ class McuBench:
     survey_inputs: str = "int32 Q6 counts (1/64 count) for both triads, fractional means of the bench vectors"
 
     def to_json(self) -> str:
-        return json.dumps(asdict(self), indent=2)
+        return dumps(asdict(self))
 
 
 def _sdcc_version() -> str:

@@ -30,13 +30,13 @@ from __future__ import annotations
 
 import contextlib
 import io
-import json
 import math
 import os
 import tempfile
 from dataclasses import asdict, dataclass, field
 
 import numpy as np
+from inclino.formats.jsonout import dumps
 
 LAT, LON, DATE = 52.0, 4.0, "2026-06-01"
 WELL = {"kop_m": 300.0, "build_deg_per_30m": 3.0, "hold_inc_deg": 45.0, "azi_true_deg": 60.0, "td_m": 1200.0,
@@ -65,7 +65,7 @@ class SurveyBench:
     passed: bool = False
 
     def to_json(self) -> str:
-        return json.dumps(asdict(self), indent=2)
+        return dumps(asdict(self))
 
 
 def build_and_hold(md, kop, build, hold_inc, azi):

@@ -23,7 +23,6 @@ image file (DataError); 4 port, link or probe problem (ProbeError).
 """
 from __future__ import annotations
 
-import json
 import struct
 import time
 from dataclasses import asdict, dataclass, field
@@ -33,6 +32,7 @@ from inclino.errors import DataError, InclinoError
 from inclino.link.serial_link import ProbeError, ProbeLink, ProbeNak
 from inclino.link.protocol import BOOT_KEY, CMD, ERRORS
 from inclino.boot.image import DEFAULT_MAP, NO_ENTRY, FlashMap, Image, check_entry, load_image
+from inclino.formats.jsonout import dumps
 
 # ---- the bootloader's commands and codes (boot.h, docs/protocol.md) -------------------
 B_IDENTIFY, B_ERASE, B_PROGRAM, B_READ, B_CRC, B_COMMIT, B_RUN = range(0x40, 0x47)
@@ -124,7 +124,7 @@ class FlashResult:
         return d
 
     def to_json(self) -> str:
-        return json.dumps(self.to_dict(), indent=2)
+        return dumps(self.to_dict())
 
 
 class _Retry(Exception):

@@ -38,7 +38,7 @@ import numpy as np
 from inclino.engines import attitude as engines, reference as ref
 from inclino.formats.calfile import Calibration
 from inclino.formats.dataset import RawDataset
-from inclino.formats.jsonout import json_safe
+from inclino.formats.jsonout import dumps, json_safe
 
 from . import common
 from .runs import li2021_grid  # noqa: F401
@@ -85,7 +85,7 @@ class FitReport:
         return json_safe(asdict(self))
 
     def to_json(self) -> str:
-        return json.dumps(self.to_dict(), indent=2)
+        return dumps(self.to_dict())
 
     @staticmethod
     def from_json(text) -> "FitReport":

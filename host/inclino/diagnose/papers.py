@@ -24,7 +24,6 @@ offsets), evaluated at the assumed toolface.
 from __future__ import annotations
 
 import copy
-import json
 from dataclasses import dataclass, field
 
 import numpy as np
@@ -33,7 +32,7 @@ from scipy import stats
 from inclino.engines import reference as ref
 
 from . import paperdata, paperselect
-from inclino.formats.jsonout import json_safe
+from inclino.formats.jsonout import dumps, json_safe
 
 ALPHA = 0.01
 LI_FIELD_NT = 50980.0  # host/inclino/model/scenarios/li2021.toml (IGRF at Chengdu, 2021)
@@ -211,7 +210,7 @@ class PaperReport:
                       "findings": self.findings, "what_the_data_do_not_allow": self.cannot})
 
     def to_json(self):
-        return json.dumps(self.to_dict(), indent=2)
+        return dumps(self.to_dict())
 
     def summary(self) -> str:
         lines = [f"{self.paper}: measured check tables against the simulation"]

@@ -10,10 +10,9 @@
 (docs/diagnose.md describes the baseline object's keys)."""
 from __future__ import annotations
 
-import json
 from dataclasses import dataclass, field
 
-from inclino.formats.jsonout import json_safe
+from inclino.formats.jsonout import dumps, json_safe
 
 
 @dataclass
@@ -66,7 +65,7 @@ class Diagnosis:
                 "unexplained": bool(self.unexplained)}
 
     def to_json(self, indent=2) -> str:
-        return json.dumps(self.to_dict(), indent=indent)
+        return dumps(self.to_dict(), indent=indent)
 
     def names(self) -> list:
         return [(e.name, e.sensor, e.axis) for e in self.effects]

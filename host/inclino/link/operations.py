@@ -14,7 +14,6 @@ file through the same firmware C (inclino.engines.firmware).
 """
 from __future__ import annotations
 
-import json
 import time
 from dataclasses import asdict, dataclass, field
 
@@ -24,6 +23,7 @@ from inclino.formats.calfile import Calibration
 from inclino.formats.calimage import CRC_OFFSET, SIZE, CalImage
 from inclino.errors import CalibrationError
 from inclino.link.serial_link import ProbeError, ProbeInBootloader, ProbeLink, ProbeNak
+from inclino.formats.jsonout import dumps
 
 COEF = slice(20, CRC_OFFSET)  # the coefficient bytes of an image
 SLOT_NAMES = {0: "A", 1: "B", 0xFF: "none"}
@@ -76,7 +76,7 @@ class DownloadResult:
     events: list = field(default_factory=list)
 
     def to_json(self) -> str:
-        return json.dumps(asdict(self), indent=2)
+        return dumps(asdict(self))
 
 
 def download(link: ProbeLink, cal: Calibration, force: bool = False, when: int | None = None,
@@ -159,7 +159,7 @@ class VerifyResult:
         return self.storage_ok and self.correction_ok
 
     def to_json(self) -> str:
-        return json.dumps({**asdict(self), "ok": self.ok}, indent=2)
+        return dumps({**asdict(self), "ok": self.ok})
 
 
 def survey_with_raw(link: ProbeLink) -> tuple[protocol.SurveyRecord, protocol.RawRecord]:

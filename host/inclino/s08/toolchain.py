@@ -4,7 +4,6 @@ baseline (tools/s08/survey_float.c), with the checks of the direct page and
 the linked helpers; where the sources and the tools are."""
 from __future__ import annotations
 
-import json
 import os
 import shutil
 import subprocess
@@ -13,6 +12,7 @@ from dataclasses import asdict, dataclass
 from pathlib import Path
 from inclino import fw_sources
 from inclino.s08.sizes import _AREA_MAP, _linked_modules
+from inclino.formats.jsonout import dumps
 
 
 MISSING_REASON = ("S08 simulator tools not found (sdcc, shc08): "
@@ -85,7 +85,7 @@ class McuBuild:
     cflags: list
 
     def to_json(self) -> str:
-        return json.dumps(asdict(self), indent=2)
+        return dumps(asdict(self))
 
 
 def _sdcc(args, cwd):

@@ -17,7 +17,6 @@ times their expected sigma.
 """
 from __future__ import annotations
 
-import json
 import math
 from dataclasses import asdict, dataclass, field
 
@@ -25,6 +24,7 @@ import numpy as np
 
 from inclino.survey import errormodel as em
 from inclino.errors import DataError
+from inclino.formats.jsonout import dumps
 
 XY_GROUPS = ("ABXY", "ASXY", "MBXY", "MSXY", "XYM34")
 
@@ -40,7 +40,7 @@ class CompareResult:
     summary: dict = field(default_factory=dict)
 
     def to_json(self) -> str:
-        return json.dumps(asdict(self), indent=2)
+        return dumps(asdict(self))
 
 
 def _expected(tm: em.ToolModel, inc, azi, dip, field_nT, two_probes):

@@ -44,6 +44,7 @@ from dataclasses import asdict, dataclass, field
 import numpy as np
 
 from inclino.errors import DataError
+from inclino.formats.jsonout import dumps
 
 G0 = 9.80665
 SENSOR_TERMS = ("ABXY-TI1S", "ABXY-TI2S", "ABZ", "ASXY-TI1S", "ASXY-TI2S", "ASXY-TI3S", "ASZ",
@@ -111,7 +112,7 @@ class ToolModel:
     source: dict = field(default_factory=dict)
 
     def to_json(self) -> str:
-        return json.dumps(asdict(self), indent=2)
+        return dumps(asdict(self))
 
     def terms(self) -> list:
         """The ISCWSA JSON terms (the weighting functions of the OWSG

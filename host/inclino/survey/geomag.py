@@ -27,6 +27,7 @@ import math
 from dataclasses import asdict, dataclass, field
 
 from inclino.errors import DataError
+from inclino.formats.jsonout import dumps
 
 G0 = 9.80665  # standard gravity, m/s^2: the probe's unit of G total
 # QC windows (ISCWSA guidance quoted in docs/survey.md): field strength within
@@ -55,7 +56,7 @@ class ReferenceField:
 
     def to_json(self) -> str:
         d = {k: (None if isinstance(v, float) and not math.isfinite(v) else v) for k, v in asdict(self).items()}
-        return json.dumps(d, indent=2)  # an unknown value is null
+        return dumps(d)  # an unknown value is null
 
     @staticmethod
     def from_json(text: str) -> "ReferenceField":

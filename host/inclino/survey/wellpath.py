@@ -28,6 +28,7 @@ import numpy as np
 
 from inclino.errors import DataError
 from inclino.survey.geomag import ReferenceField
+from inclino.formats.jsonout import dumps
 
 HOST_QC = (("G", "gt_g", "gravity_g"), ("B", "bt_nT", "total_nT"), ("dip", "dip_deg", "dip_deg"))
 FT = 0.3048
@@ -275,7 +276,7 @@ class Trajectory:
     summary: dict = field(default_factory=dict)
 
     def to_json(self) -> str:
-        return json.dumps(asdict(self), indent=2)
+        return dumps(asdict(self))
 
 
 def _welleng_survey(md, inc, azi_mag, rf: ReferenceField, error_model=None, fallback=(60.0, 50000.0)):
