@@ -7,11 +7,13 @@ import json
 
 import numpy as np
 
-from inclino import cli, demo, golden
-from inclino.accept import GRIDS, grid_points
-from inclino.accept_result import AcceptResult
-from inclino.calfile import Calibration
-from inclino.dataset import POSE_COLS, read_raw
+from inclino import cli
+from inclino.procedures import demo
+from inclino.engines import golden
+from inclino.procedures.accept import GRIDS, grid_points
+from inclino.procedures.accept_result import AcceptResult
+from inclino.formats.calfile import Calibration
+from inclino.formats.dataset import POSE_COLS, read_raw
 
 FIGURES = ("fluxgate_sphere.png", "run_circles.png", "circles.png", "errors_li2021.png", "errors_ren2014.png")
 
@@ -63,7 +65,7 @@ def test_demo_core_prints_the_library_table(capsys):
 def test_temperature_demo_fits_and_checks_the_terms_of_an_emulated_chamber_run(tmp_path, capsys):
     """`inclino demo --temperature` on a probe drawn now: exit status and the
     files, read back through the library's readers."""
-    from inclino.accept_temp import TempAcceptResult
+    from inclino.procedures.accept_temp import TempAcceptResult
 
     out = tmp_path / "demo_t"
     rc = cli.main(["demo", "--temperature", "--quiet", "--out", str(out),

@@ -8,8 +8,8 @@ import numpy as np
 import pytest
 
 from inclino import cli
-from inclino.calfile import Calibration
-from inclino.link import ProbeLink
+from inclino.formats.calfile import Calibration
+from inclino.link.serial_link import ProbeLink
 from inclino_emu.control import ControlClient
 from inclino_emu.runner import Emulator
 
@@ -215,7 +215,7 @@ def test_power_cut_at_every_flash_step_of_a_download(emu, ctl, capsys, tmp_path,
 
 
 def test_set_average(emu, ctl):
-    from inclino.link import ProbeNak
+    from inclino.link.serial_link import ProbeNak
 
     with ProbeLink(emu.path, timeout=2.0) as link:
         assert link.set_average(4) == 4

@@ -3,16 +3,18 @@ tempcos (drawn at test time from the typical scenario's spread: every bias
 and scale coefficient, first and second order, of every axis of both triads,
 unknown to the test in size and axis) is calibrated from an emulated chamber
 run and checked at -5, 25 and 55 degC through the temperature engine
-(inclino.temp_engine: the firmware's correction); `inclino accept
+(inclino.engines.temperature: the firmware's correction); `inclino accept
 --temperatures` end to end on the emulator; its refusals."""
 import json
 
 import numpy as np
 import pytest
 
-from inclino import cli, core, temp_engine
-from inclino.calfile import Calibration
-from inclino.calib import bench_temp
+from inclino import cli
+from inclino.engines import firmware as core
+from inclino.engines import temperature as temp_engine
+from inclino.formats.calfile import Calibration
+from inclino.benchmarks import calibration_temperature as bench_temp
 from inclino_emu.probe import EmulatedProbe
 from inclino_emu.runner import Emulator
 
@@ -213,10 +215,10 @@ class _Person:
 def test_accept_temperatures_guides_a_person(chamber_calibrated):
     """Guided: the person is told each set point and pose; the probe's
     temperature is shown while it soaks."""
-    from inclino import acquire as acq
-    from inclino.accept_temp import accept_temperatures
-    from inclino.acquire_temp import ThermalPlan
-    from inclino.link import ProbeLink
+    from inclino.procedures.accept_temp import accept_temperatures
+    from inclino.procedures.turntable import ManualTurntable
+    from inclino.procedures.acquire_temp import ThermalPlan
+    from inclino.link.serial_link import ProbeLink
     from inclino_emu.control import ControlClient
 
     seed, _, cal, _ = chamber_calibrated
@@ -224,7 +226,7 @@ def test_accept_temperatures_guides_a_person(chamber_calibrated):
     try:
         ctl = ControlClient(port=emu.control_port)
         person = _Person(ctl)
-        table = acq.Operator(stdin=person, say=person.say)
+        table = ManualTurntable(stdin=person, say=person.say)
         plan = ThermalPlan(setpoints=(25.0, 40.0), ramp_rate=5.0, interval_min=5.0)
         with ProbeLink(emu.path, timeout=2.0) as link:
             r = accept_temperatures(link, table, cal, (25.0, 40.0), plan=plan, inclinations=(30.0, 60.0),

@@ -23,8 +23,9 @@ from __future__ import annotations
 
 import numpy as np
 
-from inclino import caltemp, core, reference
-from inclino.calfile import Calibration
+from inclino import caltemp
+from inclino.engines import firmware as core, reference
+from inclino.formats.calfile import Calibration
 
 TEMPS_C = (-40.0, -5.0, 25.0, 55.0, 85.0, 125.0)
 TARGETS = {"inc_max_deg": 0.01, "azi_max_deg": 0.01, "inc_rms_deg": 0.003, "azi_rms_deg": 0.003}
@@ -34,7 +35,7 @@ def typical_block(t_ref_c: float = 25.0) -> dict:
     """A CAL.json temperature block with the typical scenario's tempcos:
     first order its values, second order its spread (so both orders and
     both signs are exercised)."""
-    from inclino_emu import scenario
+    from inclino.model import scenario
 
     sc = scenario.load_scenario("typical")
     spread = sc.tempco_spread
@@ -51,7 +52,7 @@ def typical_block(t_ref_c: float = 25.0) -> dict:
 
 
 def _tempcos(block, tri):
-    from inclino_emu import effects as fx
+    from inclino.model import effects as fx
 
     c1, c2, p1, p2 = caltemp._terms(block, tri)
     tr = float(block["t_ref_c"])
@@ -76,9 +77,9 @@ def temperature_loss(field_nT=50000.0, dip_deg=60.0, cal: Calibration | None = N
     """Per test temperature: the headline (C vs float64 with the same
     terms) and its sources; the worst over the temperatures, the targets
     (the accuracy bench's, for I >= 5 deg) and the verdict."""
-    from inclino_emu import effects as fx
+    from inclino.model import effects as fx
 
-    from inclino.typical_probe import _raw_for, typical_calibration
+    from inclino.model.typical_probe import _raw_for, typical_calibration
 
     base = cal or typical_calibration()
     block = block or typical_block()

@@ -33,7 +33,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from inclino.core import FixedTemp
+from inclino.engines.firmware import FixedTemp
 from inclino.errors import CalibrationError
 
 T_REF_FRAC = 7
