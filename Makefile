@@ -3,7 +3,7 @@
 #   make test   - the whole test suite
 # Each creates and fills the local virtual environment .venv when it is
 # missing. The project is installed in editable (development) mode: the Python
-# packages host/inclino and emulator/ and their data files (scenarios, the
+# packages host/inclino and emulator/inclino_emu and their data files (scenarios, the
 # papers' tables) are imported straight from the checkout, so every change to
 # them is what the next command runs. Only the compiled parts, the firmware C
 # in the inclino._core and inclino_emu._fw extensions, need a rebuild: the
@@ -33,4 +33,4 @@ test: $(STAMP)
 	$(VPY) -m pytest -q
 
 clean:
-	rm -rf $(VENV) build *.egg-info host/*.egg-info host/inclino/_core.c host/inclino/*.so emulator/_fw.c emulator/*.so
+	rm -rf $(VENV) build *.egg-info host/*.egg-info host/inclino/engines/_core.c host/inclino/engines/*.so emulator/inclino_emu/_fw.c emulator/inclino_emu/*.so

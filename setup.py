@@ -7,4 +7,5 @@ from setuptools import setup
 # the .o, without looking at the headers, so a changed struct in a header
 # would otherwise leave stale objects with the old layout in the extension.
 setup(options={"build_ext": {"force": True}},
-      cffi_modules=["host/inclino/_build_core.py:ffibuilder", "emulator/_build_fw.py:ffibuilder"])
+      cffi_modules=["host/inclino/engines/_build_core.py:ffibuilder",
+                    "emulator/inclino_emu/_build_fw.py:ffibuilder"])

@@ -54,15 +54,27 @@ def _imported(node: ast.AST, module: str, is_pkg: bool,
     return out
 
 
-def import_graph(modules: dict[str, Path]) -> dict[str, set[str]]:
-    """Module -> set of modules of `modules` it imports (lazy ones included)."""
+def _imports(tree: ast.AST, lazy: bool):
+    """The import statements of a module; with lazy=False only those that run
+    when the module is imported (not inside a function or lambda)."""
+    todo = [tree]
+    while todo:
+        node = todo.pop()
+        if isinstance(node, (ast.Import, ast.ImportFrom)):
+            yield node
+        for child in ast.iter_child_nodes(node):
+            if lazy or not isinstance(child, (ast.FunctionDef, ast.AsyncFunctionDef, ast.Lambda)):
+                todo.append(child)
+
+
+def import_graph(modules: dict[str, Path], lazy: bool = True) -> dict[str, set[str]]:
+    """Module -> set of modules of `modules` it imports (lazy ones included,
+    unless lazy=False: then only what importing the module runs)."""
     graph: dict[str, set[str]] = {m: set() for m in modules}
     for mod, path in modules.items():
         is_pkg = path.name == "__init__.py"
         tree = ast.parse(path.read_text(encoding="utf-8"), filename=str(path))
-        for node in ast.walk(tree):
-            if not isinstance(node, (ast.Import, ast.ImportFrom)):
-                continue
+        for node in _imports(tree, lazy):
             for name in _imported(node, mod, is_pkg, modules):
                 # `import a.b.c` also imports a and a.b; the edge that matters
                 # is the deepest module of the graph it names.

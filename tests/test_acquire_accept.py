@@ -8,16 +8,18 @@ import re
 import numpy as np
 import pytest
 
-from inclino import acquire as acq
-from inclino import cli, dataset
-from inclino import reference as ref
-from inclino.accept import AcceptResult, grid_points
-from inclino.calfile import Calibration
+from inclino.procedures import acquire as acq
+from inclino.procedures.turntable import ManualTurntable
+from inclino import cli
+from inclino.formats import dataset
+from inclino.engines import reference as ref
+from inclino.procedures.accept import AcceptResult, grid_points
+from inclino.formats.calfile import Calibration
 from inclino.calib import runs
-from inclino.link import ProbeLink
+from inclino.link.serial_link import ProbeLink
 from inclino_emu.control import ControlClient
 from inclino_emu.runner import Emulator
-from inclino_emu.scenario import generate_raw, load_scenario
+from inclino.model.scenario import generate_raw, load_scenario
 
 
 @pytest.fixture
@@ -168,7 +170,7 @@ def test_operator_mode_guides_position_by_position(emu, tmp_path):
     ctl = ControlClient(port=emu.control_port)
     steps = acq.procedure_steps("twelve-position")
     person = PersonAtTable(ctl, steps)
-    table = acq.Operator(stdin=person, say=person.say)
+    table = ManualTurntable(stdin=person, say=person.say)
     out = tmp_path / "run.csv"
     with ProbeLink(emu.path, timeout=2.0) as link:
         r = acq.acquire(link, "twelve-position", str(out), table, world={"field_nT": 50000, "dip_deg": 60},
@@ -219,7 +221,7 @@ def test_operator_turns_the_toolface_by_hand(emu, capsys, tmp_path):
     out = tmp_path / "cont.csv"
     with ProbeLink(emu.path, timeout=2.0) as link:
         hand = TurningHand(link, ctl)
-        r = acq.acquire(hand, "continuous", str(out), acq.Operator(stdin=hand, say=hand.say),
+        r = acq.acquire(hand, "continuous", str(out), ManualTurntable(stdin=hand, say=hand.say),
                         world={"field_nT": 50000, "dip_deg": 60}, quiet=True)
     ctl.close()
     assert "turn the toolface slowly" in hand.said[0] and "inclination 120" in hand.said[1]
@@ -239,7 +241,7 @@ def test_operator_turns_the_toolface_by_hand(emu, capsys, tmp_path):
 
 def test_operator_instructions_and_quit(emu, tmp_path):
     said = []
-    table = acq.Operator(stdin=io.StringIO("q\n"))
+    table = ManualTurntable(stdin=io.StringIO("q\n"))
     table.say = said.append
     st = acq.procedure_steps("twelve-position")[0]
     with pytest.raises(KeyboardInterrupt):
@@ -249,7 +251,7 @@ def test_operator_instructions_and_quit(emu, tmp_path):
     out = tmp_path / "run.csv"
     with ProbeLink(emu.path, timeout=2.0) as link:
         with pytest.raises(KeyboardInterrupt):
-            acq.acquire(link, "twelve-position", str(out), acq.Operator(stdin=io.StringIO("\n\nq\n")), quiet=True)
+            acq.acquire(link, "twelve-position", str(out), ManualTurntable(stdin=io.StringIO("\n\nq\n")), quiet=True)
     assert not out.exists()
 
 
@@ -339,7 +341,7 @@ def test_accept_without_calibration_fails_its_verdict(emu, capsys):
 
 
 def test_bench_calibration_cli(monkeypatch, capsys):
-    from inclino.calib import bench
+    from inclino.benchmarks import calibration as bench
 
     small = bench.bench_calibration
     monkeypatch.setattr(bench, "bench_calibration", lambda: small(n_runs=2, include_peer=False))

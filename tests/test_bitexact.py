@@ -2,7 +2,8 @@
 vectors plus the edge cases, and the comparison does catch a difference."""
 import numpy as np
 
-from inclino import bitexact, cli, golden
+from inclino.engines import bitexact, golden
+from inclino import cli
 
 
 def test_million_vectors_zero_mismatches(capsys):

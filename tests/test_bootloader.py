@@ -1,5 +1,5 @@
 """The serial bootloader (firmware/src/boot*.c, docs/bootloader.md) and the
-host's flash-and-verify (host/inclino/flashing.py): the C on the emulated
+host's flash-and-verify (host/inclino/boot/flashing.py): the C on the emulated
 probe directly, then end to end over the emulator's pseudo-terminal --
 flash and verify, refusals, a power cut at every single program/erase step
 of a flash in each cut mode, and a disconnect in the middle."""
@@ -11,9 +11,10 @@ import pytest
 
 from bootimg import (DATA, DESC, LOADER, decode_descriptor, expected_ranges, random_chunks, snapshot,
                      write_srec)
-from inclino import flashing
+from inclino.boot import flashing
+from inclino.boot import image as boot_image
 from inclino.errors import DataError
-from inclino.link import ProbeError, ProbeLink, ProbeNak
+from inclino.link.serial_link import ProbeError, ProbeLink, ProbeNak
 from inclino_emu.control import ControlClient
 from inclino_emu.probe import EmulatedProbe, bootloader_placeholder, factory_app_image
 from inclino_emu.runner import Emulator
@@ -80,7 +81,7 @@ def test_bootloader_request_from_the_application_and_run():
     seq = [0]
 
     def ask(cmd, payload=b""):
-        from inclino import protocol
+        from inclino.link import protocol
 
         seq[0] += 1
         p.sci_push(protocol.encode_frame(seq[0], cmd, payload))
@@ -96,7 +97,7 @@ def test_bootloader_request_from_the_application_and_run():
     f = ask(0x40)
     ident = flashing.BootIdentity.unpack(f.payload)
     assert ident.product == "INCLINO-BOOT" and ident.app_status == 0 and ident.serial == p.scenario.serial
-    assert f.cmd == 0xC0 and ident.fmap == flashing.DEFAULT_MAP
+    assert f.cmd == 0xC0 and ident.fmap == boot_image.DEFAULT_MAP
     f = ask(0x01)
     assert f.cmd == 0x7F and f.payload[1] == E_STATE    # the application's commands: not here
     f = ask(0x46)
@@ -216,7 +217,7 @@ def test_bootloader_refuses_what_the_host_must_not_ask(emu):
         good = struct.pack(">IB", 0x7C0000, 1) + struct.pack(">III", 0x7C0000, len(img), zlib.crc32(img))
         ops1 = emu.probe.flash.ops
         seq = link.next_seq()
-        from inclino import protocol
+        from inclino.link import protocol
 
         frame = protocol.encode_frame(seq, 0x45, good)
         link._write(frame)
@@ -379,28 +380,28 @@ def test_image_checks_before_the_port(tmp_path):
     and the refusals, with no probe at all."""
     img = write_srec(tmp_path / "a.s19", [(0x7C0001, b"\x01\x02"), (0x7C0005, b"\x03"), (0x7C0100, b"\x04")],
                      entry=None)
-    im = flashing.load_image(img)
+    im = boot_image.load_image(img)
     assert [(r.addr, r.data) for r in im.ranges] == [
         (0x7C0000, b"\xff\x01\x02\xff\xff\x03\xff\xff"), (0x7C0100, b"\x04" + b"\xff" * 7)]
-    assert im.entry == flashing.NO_ENTRY and im.data_bytes == 4
+    assert im.entry == boot_image.NO_ENTRY and im.data_bytes == 4
     # nine records far apart become at most eight ranges, the closest pair merged
     many = [(0x7C0000 + 0x1000 * i, b"\x55" * 8) for i in range(8)] + [(0x7C7010, b"\x66" * 8)]
-    im = flashing.load_image(write_srec(tmp_path / "m.s19", many))
+    im = boot_image.load_image(write_srec(tmp_path / "m.s19", many))
     assert len(im.ranges) == 8 and im.ranges[-1].addr == 0x7C7000 and len(im.ranges[-1].data) == 0x18
     text = (tmp_path / "a.s19").read_text().splitlines()
     text[1] = text[1][:-2] + ("00" if text[1][-2:] != "00" else "01")
     (tmp_path / "c.s19").write_text("\n".join(text) + "\n")
     with pytest.raises(DataError, match=r"line 2: bad S-record"):
-        flashing.load_image(str(tmp_path / "c.s19"))
+        boot_image.load_image(str(tmp_path / "c.s19"))
     (tmp_path / "e.s19").write_text("S0030000FC\nS5030000FC\n")
     with pytest.raises(DataError, match="no data records"):
-        flashing.load_image(str(tmp_path / "e.s19"))
+        boot_image.load_image(str(tmp_path / "e.s19"))
     write_srec(tmp_path / "d1.s19", [(0x7C0000, b"\x01" * 16)])
     (tmp_path / "d.s19").write_text((tmp_path / "d1.s19").read_text() * 2)
     with pytest.raises(DataError, match="overlaps"):
-        flashing.load_image(str(tmp_path / "d.s19"))
+        boot_image.load_image(str(tmp_path / "d.s19"))
     with pytest.raises(DataError, match="outside the P-Flash"):
-        flashing.load_image(write_srec(tmp_path / "s1.s19", [(0xC000, b"\x01" * 4)], address_bits=16))
+        boot_image.load_image(write_srec(tmp_path / "s1.s19", [(0xC000, b"\x01" * 4)], address_bits=16))
     with pytest.raises(DataError, match="no such file"):
-        flashing.load_image(str(tmp_path / "none.s19"))
+        boot_image.load_image(str(tmp_path / "none.s19"))
     assert (DATA, DESC) == ((0x7A0000, 0x7A2000), 0x7FEC00)

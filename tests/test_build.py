@@ -2,7 +2,7 @@
 
 The Makefile installs the project in editable mode, so Python modules and
 package data are imported from the source tree; only the compiled firmware
-(inclino._core, inclino_emu._fw) is rebuilt, by the stamp that depends on
+(inclino.engines._core, inclino_emu._fw) is rebuilt, by the stamp that depends on
 every C source and header. These tests fail when the suite would run an old
 copy: a package imported from somewhere else, a new file under emulator/ or a
 data file that a fresh interpreter does not see, or an extension older than a
@@ -26,7 +26,7 @@ def test_packages_are_imported_from_the_checkout():
     import inclino
     import inclino_emu
     assert _inside(inclino.__file__, ROOT / "host" / "inclino"), inclino.__file__
-    assert _inside(inclino_emu.__file__, ROOT / "emulator"), inclino_emu.__file__
+    assert _inside(inclino_emu.__file__, ROOT / "emulator" / "inclino_emu"), inclino_emu.__file__
 
 
 def _fresh(code):
@@ -35,7 +35,7 @@ def _fresh(code):
     return out.stdout.strip()
 
 
-@pytest.mark.parametrize("package,folder", [("inclino_emu", ROOT / "emulator"),
+@pytest.mark.parametrize("package,folder", [("inclino_emu", ROOT / "emulator" / "inclino_emu"),
                                             ("inclino.diagnose", ROOT / "host" / "inclino" / "diagnose")])
 def test_a_new_module_reaches_a_fresh_interpreter(package, folder):
     name = f"_reach_{uuid.uuid4().hex[:8]}"
@@ -49,7 +49,7 @@ def test_a_new_module_reaches_a_fresh_interpreter(package, folder):
 
 
 @pytest.mark.parametrize("package,folder,suffix", [
-    ("inclino_emu.scenarios", ROOT / "emulator" / "scenarios", ".toml"),
+    ("inclino.model.scenarios", ROOT / "host" / "inclino" / "model" / "scenarios", ".toml"),
     ("inclino.diagnose.papers_data", ROOT / "host" / "inclino" / "diagnose" / "papers_data", ".csv")])
 def test_a_changed_data_file_reaches_a_fresh_interpreter(package, folder, suffix):
     name = f"_reach_{uuid.uuid4().hex[:8]}{suffix}"
@@ -66,12 +66,12 @@ def test_a_changed_data_file_reaches_a_fresh_interpreter(package, folder, suffix
 
 def _c_inputs():
     files = [p for p in (ROOT / "firmware").rglob("*") if p.suffix in (".c", ".h")]
-    files += [ROOT / "host" / "inclino" / "_build_core.py", ROOT / "emulator" / "_build_fw.py"]
-    files += [p for p in (ROOT / "host" / "inclino").glob("_core_batch.*")]
+    files += [ROOT / "host" / "inclino" / "engines" / "_build_core.py", ROOT / "emulator" / "inclino_emu" / "_build_fw.py"]
+    files += [p for p in (ROOT / "host" / "inclino" / "engines").glob("_core_batch.*")]
     return files
 
 
-@pytest.mark.parametrize("module", ["inclino._core", "inclino_emu._fw"])
+@pytest.mark.parametrize("module", ["inclino.engines._core", "inclino_emu._fw"])
 def test_compiled_firmware_is_not_older_than_its_sources(module):
     import importlib
     ext = pathlib.Path(importlib.import_module(module).__file__)

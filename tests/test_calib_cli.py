@@ -7,11 +7,12 @@ import sys
 import numpy as np
 import pytest
 
-from inclino.calfile import Calibration
-from inclino.calib import bench, runs
+from inclino.formats.calfile import Calibration
+from inclino.benchmarks import calibration as bench
+from inclino.calib import runs
 from inclino.cli import main
-from inclino.dataset import write_raw
-from inclino_emu.scenario import generate_raw, load_scenario
+from inclino.formats.dataset import write_raw
+from inclino.model.scenario import generate_raw, load_scenario
 
 
 @pytest.fixture(scope="module")

@@ -17,11 +17,11 @@ import json
 import numpy as np
 import pytest
 
-from inclino import reference as ref
-from inclino.calfile import Calibration
+from inclino.engines import reference as ref
+from inclino.formats.calfile import Calibration
 from inclino.calib.runs import li2021_grid
 from inclino.cli import main
-from inclino.dataset import RawDataset, write_raw
+from inclino.formats.dataset import RawDataset, write_raw
 
 F, DIP = 50000.0, 60.0
 SIGMA_ACC, SIGMA_MAG, N_AVG = 50e-6, 3.0, 16

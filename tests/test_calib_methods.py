@@ -5,10 +5,11 @@ import copy
 import numpy as np
 import pytest
 
-from inclino import reference as ref
-from inclino.calib import bench, common, fit, guo2009, joint, li2021, ren2014, runs
+from inclino.engines import reference as ref
+from inclino.benchmarks import calibration as bench
+from inclino.calib import common, fit, guo2009, joint, li2021, ren2014, runs
 from inclino.errors import CalibrationError, DataError
-from inclino_emu.scenario import generate_raw, load_scenario, scenario_from_dict
+from inclino.model.scenario import generate_raw, load_scenario, scenario_from_dict
 
 
 def truth_of(s):

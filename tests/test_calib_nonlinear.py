@@ -7,7 +7,8 @@ import copy
 import numpy as np
 import pytest
 
-from inclino.calib import bench, common, joint
+from inclino.benchmarks import calibration as bench
+from inclino.calib import common, joint
 
 F, G = 50000.0, 1.0
 

@@ -52,7 +52,7 @@ def test_li_closed_form_is_exact_for_any_md():
     positions, whatever the horizontal components: Table 2 back."""
     t2 = li2021.TABLE2["mag"]
     A = li2021.forward_matrix(t2["K"], t2["e"])
-    from inclino import reference as ref
+    from inclino.engines import reference as ref
     H = []
     for p in range(1, 13):
         _, b = ref.body_vectors(*li2021.POSITIONS[p], field_nT=1000.0, dip_deg=45.1)

@@ -8,13 +8,14 @@ import json
 import numpy as np
 import pytest
 
-from inclino import cli, dataset
-from inclino import reference as ref
-from inclino.acquire import procedure_steps
-from inclino.calfile import Calibration
+from inclino import cli
+from inclino.formats import dataset
+from inclino.engines import reference as ref
+from inclino.procedures.acquire import procedure_steps
+from inclino.formats.calfile import Calibration
 from inclino.calib import fit, runs, thermal
 from inclino.errors import CalibrationError
-from inclino_emu.scenario import generate_raw, load_scenario
+from inclino.model.scenario import generate_raw, load_scenario
 
 POSES = procedure_steps("twelve-position") + procedure_steps("multi-position", points=0)[12:22]  # Li 12 + Ren 10
 

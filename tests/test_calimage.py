@@ -6,10 +6,10 @@ import struct
 import numpy as np
 import pytest
 
-from inclino import core
-from inclino._core import ffi, lib
-from inclino.calfile import Calibration
-from inclino.calimage import SIZE, SIZE_V1, CalImage
+from inclino.engines import firmware as core
+from inclino.engines._core import ffi, lib
+from inclino.formats.calfile import Calibration
+from inclino.formats.calimage import SIZE, SIZE_V1, CalImage
 from inclino.errors import CalibrationError
 
 C_CODES = {0: "ok", 1: "length", 2: "magic", 3: "version", 4: "crc", 5: "range"}

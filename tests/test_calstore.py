@@ -8,8 +8,8 @@ import struct
 
 import pytest
 
-from inclino.calimage import CalImage
-from inclino.core import FixedCal, FixedTemp
+from inclino.formats.calimage import CalImage
+from inclino.engines.firmware import FixedCal, FixedTemp
 from inclino_emu import flash as fl
 from inclino_emu.probe import (PROBE_CAL_A_ADDR, PROBE_CAL_B_ADDR, PROBE_ID_ADDR, PROBE_QC_A_ADDR,
                                EmulatedProbe)

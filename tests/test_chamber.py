@@ -8,14 +8,17 @@ import math
 import numpy as np
 import pytest
 
-from inclino import acquire_temp, cli, dataset
-from inclino.link import ProbeLink
-from inclino_emu import effects as fx
+from inclino.procedures import acquire_temp
+from inclino.procedures.turntable import ManualTurntable
+from inclino import cli
+from inclino.formats import dataset
+from inclino.link.serial_link import ProbeLink
+from inclino.model import effects as fx
 from inclino_emu.control import ControlClient
 from inclino_emu.probe import EmulatedProbe
 from inclino_emu.runner import Emulator
-from inclino_emu.scenario import load_scenario, scenario_from_dict
-from inclino_emu.world import Chamber
+from inclino.model.scenario import load_scenario, scenario_from_dict
+from inclino.model.world import Chamber
 
 
 def _integrate(profile, tau, t0_c, t_end, dt=0.05):
@@ -288,11 +291,9 @@ class PersonAtChamber:
 
 
 def test_acquire_temperature_guides_a_person(emu, tmp_path):
-    from inclino import acquire as acq
-
     ctl = ControlClient(port=emu.control_port)
     person = PersonAtChamber(ctl)
-    table = acq.Operator(stdin=person, say=person.say)
+    table = ManualTurntable(stdin=person, say=person.say)
     plan = acquire_temp.ThermalPlan(setpoints=(35.0, 15.0), ramp_rate=4.0, interval_min=5.0, ramp_poses=3)
     out = tmp_path / "op.csv"
     with ProbeLink(emu.path, timeout=2.0) as link:

@@ -12,7 +12,12 @@ from pathlib import Path
 import pytest
 
 import inclino
-from inclino import acquire, accept, calimage, flashing, golden, protocol, reference
+from inclino.procedures import acquire, accept
+from inclino.formats import calimage
+from inclino.boot import flashing
+from inclino.boot import image as boot_image
+from inclino.engines import golden, reference
+from inclino.link import protocol
 
 ROOT = Path(__file__).resolve().parent.parent
 INCLUDE = ROOT / "firmware" / "include" / "inclino"
@@ -86,7 +91,7 @@ def test_bootloader_codes_match_boot_h(C):
     assert [flashing.B_IDENTIFY, flashing.B_ERASE, flashing.B_PROGRAM, flashing.B_READ, flashing.B_CRC,
             flashing.B_COMMIT, flashing.B_RUN] == [C[f"BCMD_{n}"] for n in
                                                    ("IDENTIFY", "ERASE", "PROGRAM", "READ", "CRC", "COMMIT", "RUN")]
-    assert flashing.MAX_RANGES == C["BOOT_MAX_RANGES"]
+    assert boot_image.MAX_RANGES == C["BOOT_MAX_RANGES"]
     assert flashing.BOOT_KEY is protocol.BOOT_KEY
     assert (flashing.CMD_BOOTLOADER, flashing.CMD_IDENTIFY, flashing.CMD_STOP) == (
         C["PCMD_BOOTLOADER"], C["PCMD_IDENTIFY"], C["PCMD_STOP"])

@@ -10,7 +10,7 @@ import math
 import numpy as np
 import pytest
 
-from inclino import core, reference as ref
+from inclino.engines import firmware as core, reference as ref
 
 Q16 = 65536.0
 NEAR_VERTICAL = 0x0001  # ATT_F_NEAR_VERTICAL, firmware/include/inclino/attitude.h

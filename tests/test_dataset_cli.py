@@ -7,8 +7,10 @@ import sys
 import numpy as np
 import pytest
 
-from inclino import cli, dataset, engines, reference
-from inclino.calfile import Calibration
+from inclino import cli
+from inclino.formats import dataset
+from inclino.engines import attitude as engines, reference
+from inclino.formats.calfile import Calibration
 
 
 def _write(path, text):

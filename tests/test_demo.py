@@ -7,11 +7,13 @@ import json
 
 import numpy as np
 
-from inclino import cli, demo, golden
-from inclino.accept import GRIDS, grid_points
-from inclino.accept_result import AcceptResult
-from inclino.calfile import Calibration
-from inclino.dataset import POSE_COLS, read_raw
+from inclino import cli
+from inclino.procedures import demo
+from inclino.engines import golden
+from inclino.procedures.accept import GRIDS, grid_points
+from inclino.procedures.accept_result import AcceptResult
+from inclino.formats.calfile import Calibration
+from inclino.formats.dataset import POSE_COLS, read_raw
 
 FIGURES = ("fluxgate_sphere.png", "run_circles.png", "circles.png", "errors_li2021.png", "errors_ren2014.png")
 
@@ -62,7 +64,7 @@ def test_demo_core_prints_the_library_table(capsys):
 
 def test_temperature_demo_fits_the_terms_of_an_emulated_chamber_run(tmp_path):
     """`inclino demo --temperature`'s steps, with two set points to keep it short."""
-    from inclino import demo_temp
+    from inclino.procedures import demo_temp
 
     said = []
     r = demo_temp.run(str(tmp_path), tempco_draw=int(np.random.default_rng().integers(1000)),

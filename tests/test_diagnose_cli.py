@@ -1,6 +1,6 @@
 """`inclino diagnose DATA.csv [--json] [--plot DIR]` through the command's
 main(): output shapes, PNGs, and bad input as one plain error line with exit
-status 2 (never a traceback); `python -m inclino.diagnose.bench` on a tiny
+status 2 (never a traceback); `python -m inclino.benchmarks.diagnose` on a tiny
 seeded set."""
 import json
 
@@ -8,10 +8,11 @@ import numpy as np
 import pytest
 
 from inclino.cli import main
-from inclino.dataset import RawDataset, write_raw
-from inclino.diagnose import bench as dbench
+from inclino.formats.dataset import RawDataset, write_raw
+from inclino.benchmarks import diagnose as dbench
+from inclino.cli import benchmarks as cli_benchmarks
 from inclino.diagnose import plans
-from inclino_emu.world import Trajectory
+from inclino.model.world import Trajectory
 
 
 def _write(tmp_path, ds, name="run.csv"):
@@ -146,7 +147,7 @@ def test_bench_module_quick_set(capsys):
     per size and effect, every other one at z >= 6 spiked, two nulls):
     the report's shape, every effect found at z >= 6, no error exit; it is
     too small for the targets (nulls < 200), so it exits 1."""
-    rc = dbench.main(["--json", "--quick", "--nulls", "2", "--pairs", "0", "--seed", "77"])
+    rc = cli_benchmarks.diagnose_main(["--json", "--quick", "--nulls", "2", "--pairs", "0", "--seed", "77"])
     d = json.loads(capsys.readouterr().out)
     assert set(d["sweep"]["effects"]) == set(dbench.core.EFFECT_NAMES)
     assert d["sweep"]["z"] == list(dbench.Z_SWEEP_QUICK)

@@ -14,8 +14,9 @@ import os
 import numpy as np
 import pytest
 
-from inclino import reference as ref
-from inclino.diagnose import bench, core, plans
+from inclino.engines import reference as ref
+from inclino.benchmarks import diagnose as bench
+from inclino.diagnose import core, plans
 from inclino.diagnose.analysis import diagnose
 
 # drawn at test time: every run hides other sensors, axes, signs and sizes (the seed is in the failure message)
@@ -124,7 +125,7 @@ def test_turntable_geometry_model_of_the_emulator():
     """world.TurntableGeometry (added for the Li 2021 checks): the tilted
     azimuth axis and the skewed inclination axis move the tool axis as
     documented, and no geometry is the plain pose matrix."""
-    from inclino_emu.world import Turntable, TurntableGeometry, World
+    from inclino.model.world import Turntable, TurntableGeometry, World
 
     I = np.array([2.0, 20, 45, 90, 90, 60])
     A = np.array([0.0, 90, 30, 0, 200, 300])

@@ -8,7 +8,7 @@ import pytest
 
 from inclino.cli import main
 from inclino.diagnose import paperdata, papers
-from inclino_emu import effects as fx
+from inclino.model import effects as fx
 
 
 def test_li_table5_transcription_matches_its_own_rms_column():

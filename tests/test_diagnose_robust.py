@@ -14,8 +14,9 @@ import numpy as np
 import pytest
 
 from inclino.cli import main
-from inclino.dataset import write_raw
-from inclino.diagnose import bench, core, plans, selection
+from inclino.formats.dataset import write_raw
+from inclino.benchmarks import diagnose as bench
+from inclino.diagnose import core, plans, selection
 from inclino.diagnose.analysis import diagnose
 
 SEED0 = int.from_bytes(os.urandom(4), "little") % 1_000_000_000

@@ -13,8 +13,8 @@ import numpy as np
 import pytest
 import serial
 
-from inclino import reference as ref
-from inclino.link import ProbeError, ProbeLink
+from inclino.engines import reference as ref
+from inclino.link.serial_link import ProbeError, ProbeLink
 from inclino_emu.control import ControlClient
 from inclino_emu.runner import Emulator
 

@@ -3,10 +3,10 @@ sign and amount, and nothing else."""
 import numpy as np
 import pytest
 
-from inclino import reference as ref
-from inclino_emu import effects as fx
-from inclino_emu.scenario import generate_raw, load_scenario, scenario_from_dict
-from inclino_emu.world import Trajectory
+from inclino.engines import reference as ref
+from inclino.model import effects as fx
+from inclino.model.scenario import generate_raw, load_scenario, scenario_from_dict
+from inclino.model.world import Trajectory
 
 V = np.array([[0.1, -0.5, 0.8], [1.0, 0.0, 0.0], [-0.3, 0.4, -0.2]])
 

@@ -10,12 +10,12 @@ import numpy as np
 import pytest
 
 from inclino_emu import ads1256 as A
-from inclino_emu import effects as fx
+from inclino.model import effects as fx
 from inclino_emu import hal
 from inclino_emu.clock import Clock
 from inclino_emu.probe import EmulatedProbe
-from inclino_emu.scenario import load_scenario, scenario_from_dict
-from inclino_emu.world import Trajectory
+from inclino.model.scenario import load_scenario, scenario_from_dict
+from inclino.model.world import Trajectory
 
 
 def test_normal_stream_hands_out_the_generators_sequence():
@@ -49,7 +49,7 @@ def test_sampler_equals_the_numpy_random_part():
 
 
 def _custom(rate=0.0, drift=False):
-    d = tomllib.loads(resources.files("inclino_emu").joinpath("scenarios", "typical.toml").read_text())
+    d = tomllib.loads(resources.files("inclino.model").joinpath("scenarios", "typical.toml").read_text())
     d["world"]["temperature_rate_c_per_s"] = rate
     d["world"]["encoder"] = {"offset_deg": [0.1, -0.2, 0.3], "scale": [1e-4, -2e-4, 3e-4]}
     if drift:

@@ -7,7 +7,7 @@ import pytest
 from inclino_emu import adis16210 as ad
 from inclino_emu import ads1256 as A
 from inclino_emu.clock import Clock
-from inclino_emu.scenario import load_scenario
+from inclino.model.scenario import load_scenario
 
 STALL = 50e-6
 

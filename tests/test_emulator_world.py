@@ -2,11 +2,11 @@
 import numpy as np
 import pytest
 
-from inclino import reference as ref
-from inclino.dataset import read_raw, write_raw
-from inclino_emu import effects as fx
-from inclino_emu.scenario import builtin_scenarios, generate_raw, load_scenario, scenario_from_dict
-from inclino_emu.world import EarthField, EncoderErrors, Trajectory, Turntable, World
+from inclino.engines import reference as ref
+from inclino.formats.dataset import read_raw, write_raw
+from inclino.model import effects as fx
+from inclino.model.scenario import builtin_scenarios, generate_raw, load_scenario, scenario_from_dict
+from inclino.model.world import EarthField, EncoderErrors, Trajectory, Turntable, World
 
 RNG = np.random.default_rng(7)
 INC = RNG.uniform(0, 180, 40)

@@ -57,8 +57,8 @@ def seed_corpus(d: pathlib.Path) -> None:
 
 def _images():
     """A version 1 and a version 2 image (with temperature terms) of one calibration."""
-    from inclino.calfile import Calibration
-    from inclino.calimage import CalImage
+    from inclino.formats.calfile import Calibration
+    from inclino.formats.calimage import CalImage
 
     blk = {"t_ref_c": 25.0, "order": 2, "span_c": [-5.0, 55.0], "applied_by_firmware": True,
            "acc": {"bias": [[2e-5, -1e-5, 3e-5], [2e-7, 0.0, -1e-7]], "scale_ppm": [[30, -20, 25], [0.3, 0, -0.2]]},

@@ -1,5 +1,5 @@
 """The one firmware source manifest (firmware/sources.txt): each of the four
-builds that compile firmware C -- CMake, the cffi modules inclino._core and
+builds that compile firmware C -- CMake, the cffi modules inclino.engines._core and
 inclino_emu._fw, the S08 simulator image -- takes its file list from it, and
 every C file of the core, the application, the bootloader and the S08 port is
 in it exactly once."""
@@ -12,7 +12,8 @@ from pathlib import Path
 
 import pytest
 
-from inclino import fw_sources, mcu
+from inclino import fw_sources
+from inclino.s08 import toolchain as s08_toolchain
 
 ROOT = Path(__file__).resolve().parents[1]
 FW = ROOT / "firmware"
@@ -44,25 +45,25 @@ def test_every_firmware_c_file_is_listed_once_and_exists():
 
 
 def test_the_cffi_builds_compile_the_manifest():
-    assert _cffi_sources(ROOT / "host" / "inclino" / "_build_core.py", "_t_core") == \
+    assert _cffi_sources(ROOT / "host" / "inclino" / "engines" / "_build_core.py", "_t_core") == \
         fw_sources.sources("cffi_core", ROOT)
-    assert _cffi_sources(ROOT / "emulator" / "_build_fw.py", "_t_fw") == \
+    assert _cffi_sources(ROOT / "emulator" / "inclino_emu" / "_build_fw.py", "_t_fw") == \
         fw_sources.sources("cffi_fw", ROOT)
 
 
 def _s08_compiled(monkeypatch, tmp_path, root) -> list[Path]:
-    """The files mcu.build hands to sdcc -c, without running sdcc."""
+    """The files inclino.s08.toolchain.build hands to sdcc -c, without running sdcc."""
     seen = []
 
     def fake_sdcc(args, cwd):
         if "-c" in args:
             seen.append(Path(args[args.index("-c") + 1]).resolve())
 
-    monkeypatch.setattr(mcu, "tools_missing", lambda: None)
-    monkeypatch.setattr(mcu, "_sdcc", fake_sdcc)
-    monkeypatch.setattr(mcu, "_check_page0", lambda p: None)
-    monkeypatch.setattr(mcu, "_check_helpers", lambda p, ours: None)
-    mcu.build(tmp_path / "b", root=root)
+    monkeypatch.setattr(s08_toolchain, "tools_missing", lambda: None)
+    monkeypatch.setattr(s08_toolchain, "_sdcc", fake_sdcc)
+    monkeypatch.setattr(s08_toolchain, "_check_page0", lambda p: None)
+    monkeypatch.setattr(s08_toolchain, "_check_helpers", lambda p, ours: None)
+    s08_toolchain.build(tmp_path / "b", root=root)
     return seen
 
 

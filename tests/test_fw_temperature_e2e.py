@@ -9,13 +9,14 @@ the noise.  The probe's surveys are also what the host predicts, bit for
 bit, from its raw records (temperature at the firmware's resolution)."""
 import numpy as np
 
-from inclino import caltemp, core
-from inclino import reference as ref
-from inclino.calfile import Calibration
+from inclino.formats import caltemp
+from inclino.engines import firmware as core
+from inclino.engines import reference as ref
+from inclino.formats.calfile import Calibration
 from inclino.calib import fit, thermal
-from inclino.calimage import CalImage
+from inclino.formats.calimage import CalImage
 from inclino_emu.probe import EmulatedProbe
-from inclino_emu.scenario import load_scenario
+from inclino.model.scenario import load_scenario
 
 from test_calib_thermal import chamber_run
 

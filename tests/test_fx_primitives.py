@@ -6,7 +6,7 @@ from fractions import Fraction
 import numpy as np
 import pytest
 
-from inclino import core, golden
+from inclino.engines import firmware as core, golden
 
 RNG = np.random.default_rng(20261121)
 EDGE32 = np.array([0, 1, -1, 2, -2, 32767, -32768, 65535, -65536, 2**30, -(2**30), 2**31 - 1, -(2**31)])
@@ -73,7 +73,7 @@ def test_atan2_bound_and_octants():
 
 
 def test_atan_table_is_the_formula():
-    from inclino._core import lib
+    from inclino.engines._core import lib
 
     c = [lib.fx_atan_table[k] for k in range(257)]
     want = [round(math.degrees(math.atan(k / 256)) * 65536) for k in range(257)]

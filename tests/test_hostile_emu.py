@@ -14,9 +14,13 @@ import pytest
 from hypothesis import HealthCheck, event, given, settings
 from hypothesis import strategies as st
 
-from inclino import calops, cli, flashing
-from inclino.calfile import Calibration
-from inclino.link import ProbeError, ProbeInBootloader, ProbeLink
+from inclino.link import operations as calops
+from inclino import cli
+from inclino.boot import flashing
+from inclino.boot import image as boot_image
+from inclino.cli import probe as cli_probe
+from inclino.formats.calfile import Calibration
+from inclino.link.serial_link import ProbeError, ProbeInBootloader, ProbeLink
 from inclino_emu import control
 from inclino_emu.control import ControlClient, RequestError, parse_request
 from inclino_emu.runner import Emulator
@@ -375,7 +379,7 @@ def test_interrupted_flash_then_every_command_says_bootloader(emu, tmp_path, cap
         if phase == "program":
             raise KeyboardInterrupt
 
-    monkeypatch.setattr(flashing, "_tqdm_progress", lambda: (cb, lambda: None))
+    monkeypatch.setattr(cli_probe, "_tqdm_progress", lambda: (cb, lambda: None))
     rc, _, err = run(capsys, "flash", "--port", emu.path, img)
     assert rc == 130 and err.strip() == ("inclino: interrupted: the application is erased: the probe stays in "
                                          "its bootloader (no application) until inclino flash is run again")
@@ -404,7 +408,7 @@ def test_interrupt_before_any_erase_keeps_the_application(emu, tmp_path):
         with pytest.raises(KeyboardInterrupt) as ei:
             flashing.flash(link, img, progress=cb)
         assert "the application is erased" in str(ei.value)
-        b = flashing._Flasher(link, flashing.load_image(img), None, flashing.FlashResult(False, img, ""))
+        b = flashing._Flasher(link, boot_image.load_image(img), None, flashing.FlashResult(False, img, ""))
         b.in_bootloader = True
         assert "nothing was erased" in flashing._interrupted_state(b, b.res)
         assert flashing._interrupted_state(flashing._Flasher(link, None, None, b.res), b.res) == \
@@ -470,7 +474,7 @@ def test_verify_on_an_uncalibrated_probe_is_one_line(emu, tmp_path, capsys):
 
 def test_download_messages(capsys):
     r = calops.DownloadResult(ok=True, slot="A", sequence=2, image_crc=0x1234, retries=1)
-    from inclino import probe_cli
+    from inclino.cli import probe as probe_cli
     assert probe_cli.download_line(r) == "downloaded: slot A, sequence 2, image CRC 1234 (1 link retry)"
     r.events = ["attempt 2 succeeded"]
     r.retries = 0
@@ -481,7 +485,7 @@ def test_download_messages(capsys):
             retries = bytes_out = bytes_in = 0
 
         def cal_write(self, image, force=False):
-            from inclino.link import ProbeNak
+            from inclino.link.serial_link import ProbeNak
             raise ProbeNak(0x11, 9, 5)
 
     cal = Calibration(probe_serial="7")

@@ -14,9 +14,11 @@ import sys
 import numpy as np
 import pytest
 
-from inclino import calib, cli, dataset, reference, safeio
-from inclino.calfile import Calibration
-from inclino.calib import bench
+from inclino import calib, cli
+from inclino.formats import dataset, safeio
+from inclino.engines import reference
+from inclino.formats.calfile import Calibration
+from inclino.benchmarks import calibration as bench
 
 HEADER = "t_s,inc_deg,azi_deg,tf_deg,temp_c,ax_g,ay_g,az_g,mx_nT,my_nT,mz_nT"
 
@@ -273,7 +275,7 @@ def test_attitude_dev_full_is_one_line_in_a_process(tmp_path):
 MEMLIMIT = """
 import resource, sys
 from inclino.cli import main
-import inclino.diagnose.analysis, inclino.diagnose.core, inclino.dataset, scipy.optimize, scipy.stats  # noqa
+import inclino.diagnose.analysis, inclino.diagnose.core, inclino.formats.dataset, scipy.optimize, scipy.stats  # noqa
 with open("/proc/self/statm") as f:
     vsz = int(f.read().split()[0]) * resource.getpagesize()
 lim = vsz + 10 * 2**20  # 10 MiB more than the interpreter and its libraries hold now

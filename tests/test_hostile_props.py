@@ -32,9 +32,9 @@ from hypothesis import HealthCheck, given, settings  # noqa: E402
 from hypothesis import strategies as st  # noqa: E402
 
 from inclino import cli  # noqa: E402
-from inclino.calfile import Calibration  # noqa: E402
-from inclino.dataset import MAX_LINE_CHARS, read_raw  # noqa: E402
-from inclino.flashing import load_image  # noqa: E402
+from inclino.formats.calfile import Calibration  # noqa: E402
+from inclino.formats.dataset import MAX_LINE_CHARS, read_raw  # noqa: E402
+from inclino.boot.image import load_image  # noqa: E402
 
 EXAMPLES = int(os.environ.get("INCLINO_HYPOTHESIS_EXAMPLES", "100"))
 settings.register_profile("inclino-hostile", max_examples=EXAMPLES, deadline=None, database=None,
@@ -306,7 +306,7 @@ def images(draw):
     for s in starts:
         addr = APP[0] + 64 * s
         data = draw(st.binary(min_size=1, max_size=32))
-        if s == starts[0]:  # the entry point: code there (an erased 0xFF byte is no code, flashing.check_entry)
+        if s == starts[0]:  # the entry point: code there (an erased 0xFF byte is no code, boot/image.py check_entry)
             data = bytes([draw(st.integers(0, 0xFE))]) + data[1:]
         mem.update({addr + i: b for i, b in enumerate(data)})
         lines.append(srec(2, addr, data))

@@ -1,36 +1,56 @@
-"""No import cycle among the modules of host/inclino and emulator/.
+"""No import cycle among the modules of host/inclino and emulator/inclino_emu,
+and the layers import downwards only.
 
 The graph is read from the source (tests/importgraph.py): every import
 statement, the function-local ones included, so a lazy import cannot hide a
 cycle.  A cycle is a strongly connected component of more than one module.
+
+The layers (CONTRIBUTING.md, "Layers"), each importing only those below it:
+  application  the command line (inclino.cli), the benchmarks, the emulated
+               turntable and the demo: they run the emulated probe
+  emulator     inclino_emu: the probe emulation (register-level chips, HAL,
+               the firmware through cffi, flash, pseudo-terminal, control channel)
+  library      every other module of inclino: the model library (world and
+               sensor errors), engines, formats, link, procedures, calibration,
+               diagnosis, survey
+So the library never imports the emulator, the emulator imports only the
+library, and the application imports the emulator only inside functions
+(`inclino --help` and the library's users never load it).
 """
 from __future__ import annotations
 
 import shutil
 from pathlib import Path
 
-from importgraph import cycles, import_graph, modules_under, package_graph
+from importgraph import cycles, import_graph, modules_under
 
 ROOT = Path(__file__).resolve().parent.parent
-PACKAGES = {"inclino": ROOT / "host" / "inclino", "inclino_emu": ROOT / "emulator"}
+PACKAGES = {"inclino": ROOT / "host" / "inclino", "inclino_emu": ROOT / "emulator" / "inclino_emu"}
 
-# Known cycles between the two packages, each with its reason to stay for now
-# (CONTRIBUTING.md, "What of the layout redesign stays for now").  A cycle is
-# named by its members; any other cycle, or a change to this one, fails.
-KNOWN_PACKAGE_CYCLES = {
-    frozenset({"inclino", "inclino_emu"}):
-        "the host's diagnosis and calibration bench import the emulator's effect library "
-        "(inclino_emu.effects) and turntable geometry (inclino_emu.world), and the emulator imports "
-        "inclino.reference and inclino.dataset; the fix moves effects and world into the host package, "
-        "which waits for the work under way on emulator/effects.py and world.py",
-}
+APPLICATION = ("inclino.__main__", "inclino.cli", "inclino.benchmarks", "inclino.procedures.turntable_emulated",
+               "inclino.procedures.demo", "inclino.procedures.demo_temp")
+ORDER = {"library": 0, "emulator": 1, "application": 2}
 
 
-def _graph(packages=PACKAGES):
+def layer(module: str) -> str:
+    if module == "inclino_emu" or module.startswith("inclino_emu."):
+        return "emulator"
+    if any(module == a or module.startswith(a + ".") for a in APPLICATION):
+        return "application"
+    return "library"
+
+
+def upward_edges(graph) -> list[str]:
+    """Imports from a layer to one above it."""
+    return sorted(f"{a} ({layer(a)}) -> {b} ({layer(b)})" for a in graph for b in graph[a]
+                  if ORDER[layer(b)] > ORDER[layer(a)])
+
+
+def _graph(packages=PACKAGES, lazy=True):
     modules = {}
     for name, root in packages.items():
         modules.update(modules_under(root, name))
-    return import_graph(modules)
+    return import_graph(modules, lazy)
 
 
 def _report(cyc, graph):
@@ -46,19 +66,25 @@ def test_no_import_cycle_among_modules():
     g = _graph()
     # the walker saw both trees, sub-packages included
     assert {"inclino.cli", "inclino.calib.joint", "inclino.diagnose.analysis", "inclino_emu.runner"} <= set(g)
-    assert g["inclino.diagnose.core"] >= {"inclino_emu.effects", "inclino.reference"}
+    assert g["inclino.diagnose.core"] >= {"inclino.model.effects", "inclino.engines.reference"}
     found = cycles(g)
     assert not found, "import cycles (lazy imports included):\n" + _report(found, g)
 
 
-def test_package_cycles_are_only_the_known_ones():
-    pg = package_graph(_graph())
-    found = {frozenset(c) for c in cycles(pg)}
-    unexpected = found - set(KNOWN_PACKAGE_CYCLES)
-    assert not unexpected, f"new cycle between packages: {[sorted(c) for c in unexpected]}"
-    # an entry that no longer holds is removed here and in CONTRIBUTING.md, not left as a licence
-    gone = set(KNOWN_PACKAGE_CYCLES) - found
-    assert not gone, f"known cycle resolved, remove its entry: {[sorted(c) for c in gone]}"
+def test_layers_import_downwards_only():
+    g = _graph()
+    # the rule sees real edges of every kind: application -> emulator and library, emulator -> library
+    kinds = {(layer(a), layer(b)) for a in g for b in g[a]}
+    assert {("application", "emulator"), ("application", "library"), ("emulator", "library")} <= kinds
+    assert not upward_edges(g), "imports against the layers:\n  " + "\n  ".join(upward_edges(g))
+
+
+def test_the_application_imports_the_emulator_only_lazily():
+    eager = _graph(lazy=False)
+    found = sorted(f"{a} -> {b}" for a in eager for b in eager[a] if layer(b) == "emulator" and layer(a) != "emulator")
+    assert not found, "module-level imports of the emulator:\n  " + "\n  ".join(found)
+    # the lazy-only walk still sees the module-level imports
+    assert "inclino.formats.dataset" in eager["inclino.model.scenario"]
 
 
 def test_lazy_and_relative_imports_are_edges(tmp_path):
@@ -89,31 +115,37 @@ def test_a_planted_cycle_is_reported(tmp_path):
     src = PACKAGES["inclino"]
     pkg = tmp_path / "inclino"
     pkg.mkdir()
-    for f in ("__init__.py", "errors.py", "safeio.py"):
+    for f in ("__init__.py", "errors.py", "fw_sources.py"):
         shutil.copy(src / f, pkg / f)
     clean = import_graph(modules_under(pkg, "inclino"))
     assert cycles(clean) == []
     with open(pkg / "errors.py", "a", encoding="utf-8") as f:
-        f.write("\n\ndef _planted():\n    from inclino import safeio\n    return safeio\n")
-    with open(pkg / "safeio.py", "a", encoding="utf-8") as f:
+        f.write("\n\ndef _planted():\n    from inclino import fw_sources\n    return fw_sources\n")
+    with open(pkg / "fw_sources.py", "a", encoding="utf-8") as f:
         f.write("\n\ndef _planted():\n    from .errors import DataError\n    return DataError\n")
     planted = import_graph(modules_under(pkg, "inclino"))
-    assert cycles(planted) == [["inclino.errors", "inclino.safeio"]]
+    assert cycles(planted) == [["inclino.errors", "inclino.fw_sources"]]
 
 
-def test_a_planted_package_cycle_fails_the_check(tmp_path):
-    """A third package importing the host and imported by it is a package
-    cycle that is not in KNOWN_PACKAGE_CYCLES."""
+def test_a_planted_upward_import_fails_the_check(tmp_path):
+    """A library module that imports the emulator, even inside a function, is
+    an import against the layers; at module level in the application too."""
     src = PACKAGES["inclino"]
     host = tmp_path / "inclino"
-    other = tmp_path / "other"
-    host.mkdir()
-    other.mkdir()
+    emu = tmp_path / "inclino_emu"
+    (host / "cli").mkdir(parents=True)
+    emu.mkdir()
+    (host / "__init__.py").write_text("")
     shutil.copy(src / "errors.py", host / "errors.py")
-    (host / "__init__.py").write_text("def f():\n    import other.x\n")
-    (other / "__init__.py").write_text("")
-    (other / "x.py").write_text("from inclino.errors import DataError\n")
-    pg = package_graph(_graph({"inclino": host, "other": other}))
-    found = {frozenset(c) for c in cycles(pg)}
-    assert found == {frozenset({"inclino", "other"})}
-    assert found - set(KNOWN_PACKAGE_CYCLES)
+    (host / "cli" / "__init__.py").write_text("def f():\n    from inclino_emu import runner\n")
+    (emu / "__init__.py").write_text("")
+    (emu / "runner.py").write_text("from inclino.errors import DataError\n")
+    pkgs = {"inclino": host, "inclino_emu": emu}
+    assert upward_edges(_graph(pkgs)) == []
+    assert cycles(_graph(pkgs)) == []
+    with open(host / "errors.py", "a", encoding="utf-8") as f:
+        f.write("\n\ndef _planted():\n    import inclino_emu.runner\n")
+    assert upward_edges(_graph(pkgs)) == ["inclino.errors (library) -> inclino_emu.runner (emulator)"]
+    (host / "cli" / "__init__.py").write_text("from inclino_emu import runner\n")
+    eager = _graph(pkgs, lazy=False)
+    assert eager["inclino.cli"] == {"inclino_emu.runner"}

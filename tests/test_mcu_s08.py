@@ -1,27 +1,33 @@
 """The firmware core on the S08 (SDCC -ms08, ucsim shc08): bit for bit equal to
 the golden model on >= 10 000 vectors, including every edge case of the host
-bit-exact suite (inclino.bitexact.edge_vectors and the saturating
+bit-exact suite (inclino.engines.bitexact.edge_vectors and the saturating
 calibrations of random_cals).  The SCI frame parser and encoder and the
 calibration-image checker on the S08: the recorded byte streams of
 tests/vectors/frames.json give exactly their events, and random and corrupted
-streams and images give the host build's (inclino._core) results."""
+streams and images give the host build's (inclino.engines._core) results."""
 import json
 import pathlib
 
 import numpy as np
 import pytest
 
-from inclino import bitexact, fw_sources, golden, mcu, mcu_temp
+from inclino.engines import bitexact, golden
+from inclino import fw_sources
+from inclino.benchmarks import s08 as s08_bench
+from inclino.s08 import harness as s08_harness
+from inclino.s08 import simulator as s08_sim
+from inclino.s08 import temperature as s08_temp
+from inclino.s08 import toolchain as s08_toolchain
 
-if mcu.tools_missing():
-    pytest.skip(mcu.MISSING_REASON, allow_module_level=True)
+if s08_toolchain.tools_missing():
+    pytest.skip(s08_toolchain.MISSING_REASON, allow_module_level=True)
 
 I32 = (-(2**31), 2**31 - 1)
 
 
 @pytest.fixture(scope="module")
 def fw(tmp_path_factory):
-    return mcu.build(tmp_path_factory.mktemp("s08"))
+    return s08_toolchain.build(tmp_path_factory.mktemp("s08"))
 
 
 def _mismatch_report(got: dict, want: dict, keys) -> tuple[int, str]:
@@ -45,7 +51,7 @@ def test_survey_bit_exact_on_s08(fw):
     acc = np.concatenate([ea, ra])
     mag = np.concatenate([em, rm])
     assert len(acc) >= 10_000
-    got = mcu.survey(fw, acc, mag, cals)
+    got = s08_harness.survey(fw, acc, mag, cals)
     idx = np.arange(len(acc)) % len(cals)
     arr = [np.array([getattr(c, f) for c in cals], dtype=np.int64)[idx]
            for f in ("acc_m", "acc_b", "mag_m", "mag_b")]
@@ -76,7 +82,7 @@ def test_primitives_bit_exact_on_s08(fw):
     # fx_mul32_q31: all edge pairs (incl. the saturating corner) + random
     a = np.concatenate([ex, rng.integers(*I32, n, endpoint=True)])
     b = np.concatenate([ey, rng.integers(*I32, n, endpoint=True)])
-    r, s = mcu.mul32_q31(fw, a, b)
+    r, s = s08_harness.mul32_q31(fw, a, b)
     gr, gs = golden.fx_mul32_q31(a, b)
     assert (r != gr).sum() == 0 and (s != gs).sum() == 0
     assert s.any() and not s.all()
@@ -90,12 +96,12 @@ def test_primitives_bit_exact_on_s08(fw):
     t[300:400, 3:] = -(2**31)
     t[400:450] = -(2**31)
     t = np.concatenate([t, rng.integers(*I32, (n, 6), endpoint=True)])
-    r, s = mcu.dot3_q31(fw, t[:, :3], t[:, 3:])
+    r, s = s08_harness.dot3_q31(fw, t[:, :3], t[:, 3:])
     gr, gs = golden.fx_dot3_q31(t[:, :3], t[:, 3:])
     assert (r != gr).sum() == 0 and (s != gs).sum() == 0
     assert s.any() and not s.all()
     # ... and of a vector with itself (the port's path for squares)
-    r, s = mcu.dot3_q31(fw, t[:, :3])
+    r, s = s08_harness.dot3_q31(fw, t[:, :3])
     gr, gs = golden.fx_dot3_q31(t[:, :3], t[:, :3])
     assert (r != gr).sum() == 0 and (s != gs).sum() == 0
     assert s.any() and not s.all()
@@ -109,7 +115,7 @@ def test_primitives_bit_exact_on_s08(fw):
     v = np.concatenate([v, [[0, 0, 0], [-(2**31), 0, 0], [2**31 - 1, -(2**31), 1], [0, 0, -1]],
                         rng.integers(*I32, (n, 3), endpoint=True),
                         rng.integers(-2**20, 2**20, (n, 3))])
-    out, sh = mcu.norm3(fw, v)
+    out, sh = s08_harness.norm3(fw, v)
     gout, gsh = golden.att_norm3(v)
     assert (out != gout).sum() == 0 and (sh != gsh).sum() == 0
     assert set(range(-2, 30)) <= set(sh.tolist())
@@ -118,19 +124,19 @@ def test_primitives_bit_exact_on_s08(fw):
     # every shift count, the rails, ties, both saturations + random
     x = np.concatenate([np.repeat(e, 32), rng.integers(*I32, n, endpoint=True)])
     k = np.concatenate([np.tile(np.arange(32), len(e)), rng.integers(0, 32, n)])
-    assert (mcu.asr32(fw, x, k) != golden.fx_asr32(x, k)).sum() == 0
-    assert (mcu.asr32(fw, x, k, rnd=True) != golden.fx_asr32_rnd(x, k)).sum() == 0
+    assert (s08_harness.asr32(fw, x, k) != golden.fx_asr32(x, k)).sum() == 0
+    assert (s08_harness.asr32(fw, x, k, rnd=True) != golden.fx_asr32_rnd(x, k)).sum() == 0
     a = np.concatenate([ex, rng.integers(*I32, n, endpoint=True)])
     b = np.concatenate([ey, rng.integers(*I32, n, endpoint=True)])
     for sub, fn in ((False, golden.fx_add32_sat), (True, golden.fx_sub32_sat)):
-        r, s = mcu.add32_sat(fw, a, b, sub=sub)
+        r, s = s08_harness.add32_sat(fw, a, b, sub=sub)
         gr, gs = fn(a, b)
         assert (r != gr).sum() == 0 and (s != gs).sum() == 0 and s.any()
 
     # fx_atan2_q16: axes, diagonals, zero, rails + random
     y = np.concatenate([ey, rng.integers(*I32, n, endpoint=True), [5, -5, 5, -5, 0]])
     x = np.concatenate([ex, rng.integers(*I32, n, endpoint=True), [5, 5, -5, -5, 0]])
-    assert (mcu.atan2_q16(fw, y, x) != golden.fx_atan2_q16(y, x)).sum() == 0
+    assert (s08_harness.atan2_q16(fw, y, x) != golden.fx_atan2_q16(y, x)).sum() == 0
 
     # fx_sqrt_u32_q8 and fx_isqrt_u32: 0, 1, squares and their neighbours,
     # every normalisation shift, the top of the range + random
@@ -138,8 +144,8 @@ def test_primitives_bit_exact_on_s08(fw):
     u = np.concatenate([[0, 1, 2, 3, 2**32 - 1, 2**30, 2**30 - 1, 2**31], sq, sq + 1,
                         np.maximum(sq - 1, 0), 2 ** np.arange(32, dtype=np.int64),
                         rng.integers(0, 2**32, n)])
-    assert (mcu.sqrt_u32_q8(fw, u) != golden.fx_sqrt_u32_q8(u)).sum() == 0
-    assert (mcu.isqrt_u32(fw, u) != golden.fx_isqrt_u32(u)).sum() == 0
+    assert (s08_harness.sqrt_u32_q8(fw, u) != golden.fx_sqrt_u32_q8(u)).sum() == 0
+    assert (s08_harness.isqrt_u32(fw, u) != golden.fx_isqrt_u32(u)).sum() == 0
 
     # fx_div_frac_q20: num >= den, den = 0, the top bit set, ties + random
     den = rng.integers(1, 2**32, n)
@@ -148,14 +154,14 @@ def test_primitives_bit_exact_on_s08(fw):
     den2 = np.array([0, 0, 5, 2**32 - 1, 2**32 - 1, 3, 2**32 - 1, 2**21], dtype=np.int64)
     num = np.concatenate([num, num2])
     den = np.concatenate([den, den2])
-    assert (mcu.div_frac_q20(fw, num, den) != golden.fx_div_frac_q20(num, den)).sum() == 0
+    assert (s08_harness.div_frac_q20(fw, num, den) != golden.fx_div_frac_q20(num, den)).sum() == 0
 
     # fx_mul16: the int16 rails (the S08 port's assembly helper)
     h = np.array([0, 1, -1, 255, 256, -256, 32767, -32768, 12345, -12345], dtype=np.int64)
     hx, hy = [v.ravel() for v in np.meshgrid(h, h)]
     hx = np.concatenate([hx, rng.integers(-32768, 32768, n)])
     hy = np.concatenate([hy, rng.integers(-32768, 32768, n)])
-    assert (mcu.mul16(fw, hx, hy) != hx * hy).sum() == 0
+    assert (s08_harness.mul16(fw, hx, hy) != hx * hy).sum() == 0
 
 
 def test_att_and_triad_bit_exact_on_s08(fw):
@@ -163,23 +169,23 @@ def test_att_and_triad_bit_exact_on_s08(fw):
     g = rng.integers(-(2**28), 2**28, (300, 3))
     b = rng.integers(-(2**25), 2**25, (300, 3))
     g[:5] = [[0, 0, 0], [0, 0, 1], [2**31 - 1] * 3, [-(2**31)] * 3, [1, -1, 0]]
-    got = mcu.att_compute(fw, g, b)
+    got = s08_harness.att_compute(fw, g, b)
     want = golden.att_compute(g, b)
     bad, why = _mismatch_report(got, want, golden.att_compute(g[:1], b[:1]).keys())
     assert bad == 0, why
     cal = bitexact.random_cals(rng, 6)[1]
     x = rng.integers(-(2**31), 2**31, (300, 3))
     for which, (m, bias) in enumerate(((cal.acc_m, cal.acc_b), (cal.mag_m, cal.mag_b))):
-        out, sat = mcu.corr_triad(fw, x, cal, which)
+        out, sat = s08_harness.corr_triad(fw, x, cal, which)
         gout, gsat = golden.corr_triad(x, np.array(m), np.array(bias))
         assert (out != gout).sum() == 0 and (sat != gsat).sum() == 0
 
 
 def test_cycle_counts_are_exact_and_repeatable(fw):
-    acc, mag, fc = mcu.bench_vectors(3)
-    recs = mcu._records(b"V", (acc, ">i4"), (mag, ">i4"))
-    c1 = mcu.timed(fw, recs, setup=mcu.enc_cal(fc))
-    c2 = mcu.timed(fw, recs[::-1], setup=mcu.enc_cal(fc))
+    acc, mag, fc = s08_bench.bench_vectors(3)
+    recs = s08_harness._records(b"V", (acc, ">i4"), (mag, ">i4"))
+    c1 = s08_sim.timed(fw, recs, setup=s08_harness.enc_cal(fc))
+    c2 = s08_sim.timed(fw, recs[::-1], setup=s08_harness.enc_cal(fc))
     assert c1 == c2[::-1]
     assert all(c > 1000 for c in c1)
 
@@ -188,11 +194,11 @@ def test_stack_use_is_measured_and_repeatable(fw):
     """With --stack-auto the core's locals live on the stack: its depth is
     measured by filling the free stack with a pattern (a figure of the
     bench, not a budget checked here)."""
-    acc, mag, fc = mcu.bench_vectors(2)
-    recs = mcu._records(b"V", (acc, ">i4"), (mag, ">i4"))
-    d = [mcu.stack_bytes(fw, r, setup=mcu.enc_cal(fc)) for r in recs]
-    assert d[0] > 16 and d[0] == mcu.stack_bytes(fw, recs[0], setup=mcu.enc_cal(fc))
-    z = mcu.stack_bytes(fw, b"Z")
+    acc, mag, fc = s08_bench.bench_vectors(2)
+    recs = s08_harness._records(b"V", (acc, ">i4"), (mag, ">i4"))
+    d = [s08_sim.stack_bytes(fw, r, setup=s08_harness.enc_cal(fc)) for r in recs]
+    assert d[0] > 16 and d[0] == s08_sim.stack_bytes(fw, recs[0], setup=s08_harness.enc_cal(fc))
+    z = s08_sim.stack_bytes(fw, b"Z")
     assert z < d[0]
 
 
@@ -201,7 +207,7 @@ def test_build_refuses_helper_libraries_with_stack_auto(tmp_path):
     links one (here __mullong, from a 32 x 32 product) is refused."""
     src = tmp_path / "firmware"
     (src / "src").mkdir(parents=True)
-    root = mcu.repo_root()
+    root = s08_toolchain.repo_root()
     import shutil
     shutil.copytree(root / "firmware" / "include", src / "include")
     shutil.copytree(root / "firmware" / "port", src / "port")
@@ -212,14 +218,14 @@ def test_build_refuses_helper_libraries_with_stack_auto(tmp_path):
             shutil.copy(f, src / "src" / f.name)
     with open(src / "src" / "survey.c", "a") as fh:
         fh.write("\nint32_t survey_mul_for_test(int32_t a, int32_t b) { return a * b; }\n")
-    with pytest.raises(mcu.McuError, match="helper modules"):
-        mcu.build(tmp_path / "b", root=tmp_path)
+    with pytest.raises(s08_toolchain.McuError, match="helper modules"):
+        s08_toolchain.build(tmp_path / "b", root=tmp_path)
 
 
 def test_float_baseline_computes_the_same_survey(tmp_path):
-    fl = mcu.build(tmp_path, program="float")
-    acc, mag, fc = mcu.bench_vectors(12)
-    r = mcu.survey_float(fl, acc, mag, fc)
+    fl = s08_toolchain.build(tmp_path, program="float")
+    acc, mag, fc = s08_bench.bench_vectors(12)
+    r = s08_harness.survey_float(fl, acc, mag, fc)
     g = golden.survey_compute(acc, mag, *fc.arrays())
     assert np.abs(r["inc"] - g["inc"] / 65536).max() < 0.01
     assert np.abs((r["azi"] - g["azi"] / 65536 + 180) % 360 - 180).max() < 0.01
@@ -239,7 +245,7 @@ def _segments(case):
 def host_events(segments):
     """The host build of the same C (as tests/test_protocol_frames.py), with
     proto_parser_idle's results."""
-    from inclino._core import ffi, lib
+    from inclino.engines._core import ffi, lib
 
     p = ffi.new("proto_parser_t *")
     lib.proto_parser_init(p)
@@ -250,7 +256,7 @@ def host_events(segments):
             continue
         for byte in seg:
             r = lib.proto_frame_feed(p, byte)
-            kind = mcu.PF_KINDS.get(r)
+            kind = s08_harness.PF_KINDS.get(r)
             if kind == "frame":
                 out.append({"kind": kind, "ver": p.ver, "seq": p.seq, "cmd": p.cmd,
                             "payload": bytes(p.payload[0:p.len]).hex()})
@@ -264,7 +270,7 @@ def host_events(segments):
 
 
 def test_frame_vectors_on_s08(fw):
-    got = mcu.frame_events(fw, [_segments(c) for c in FRAME_VECTORS])
+    got = s08_harness.frame_events(fw, [_segments(c) for c in FRAME_VECTORS])
     bad = [c["name"] for c, g in zip(FRAME_VECTORS, got) if g["events"] != c["events"]]
     assert not bad, f"{len(bad)} of {len(FRAME_VECTORS)} recorded streams differ on the S08: {bad}"
 
@@ -273,7 +279,7 @@ def _random_streams(rng, n):
     """Frames with bit errors, dropped and duplicated bytes; byte soup rich in
     0xA5, CR, LF and text; long lines; oversize length fields; other
     versions; silences (idle) anywhere, also inside frames."""
-    from inclino import protocol
+    from inclino.link import protocol
 
     def frame():
         pl = rng.integers(0, 256, int(rng.choice([0, 1, 5, 36, 60, 200])), dtype=np.uint8).tobytes()
@@ -323,7 +329,7 @@ def _random_streams(rng, n):
 def test_frame_parser_random_and_corrupted_streams_on_s08(fw):
     rng = np.random.default_rng(77)
     streams = _random_streams(rng, 400)
-    got = mcu.frame_events(fw, streams)
+    got = s08_harness.frame_events(fw, streams)
     want = [host_events(s) for s in streams]
     bad = [i for i, (g, w) in enumerate(zip(got, want)) if g != w]
     assert not bad, f"{len(bad)} of {len(streams)} streams differ from the host build, first {bad[:5]}"
@@ -331,12 +337,12 @@ def test_frame_parser_random_and_corrupted_streams_on_s08(fw):
     kinds = {e["kind"] for w in want for e in w["events"]}
     assert kinds == {"frame", "bad_crc", "bad_len", "line"}
     assert {0, 1} <= {x for w in want for x in w["idle"]}
-    assert max(sum(len(x) for x in s if not isinstance(x, str)) for s in streams) > mcu.FEED_CHUNK
+    assert max(sum(len(x) for x in s if not isinstance(x, str)) for s in streams) > s08_harness.FEED_CHUNK
 
 
 def test_frame_encoder_on_s08(fw):
-    from inclino import protocol
-    from inclino._core import ffi, lib
+    from inclino.link import protocol
+    from inclino.engines._core import ffi, lib
 
     rng = np.random.default_rng(78)
     frames = [(int(rng.integers(0, 256)), int(rng.integers(0, 256)),
@@ -344,7 +350,7 @@ def test_frame_encoder_on_s08(fw):
               for n in list(rng.integers(0, 201, 60)) + [0, 1, 200]]
     frames += [(1, 2, bytes(201), 256), (1, 2, bytes(10), 17), (1, 2, bytes(10), 18), (3, 4, b"", 7),
                (3, 4, b"", 8)]
-    got = mcu.frame_encode(fw, frames)
+    got = s08_harness.frame_encode(fw, frames)
     for (seq, cmd, pl, cap), g in zip(frames, got):
         out = ffi.new("uint8_t[]", 256)
         n = lib.proto_frame_encode(seq, cmd, ffi.new("uint8_t[]", pl or b"\0"), len(pl), out, cap)
@@ -357,7 +363,7 @@ def test_frame_encoder_on_s08(fw):
 
 # ------------------------------------------------------------------ calibration image
 def _rand_fixed_cal(rng):
-    from inclino.core import FixedCal
+    from inclino.engines.firmware import FixedCal
 
     def triad():
         m = rng.integers(-(2**31), 2**31, 9)
@@ -372,11 +378,11 @@ def _rand_fixed_cal(rng):
 
 def host_calimg_parse(data: bytes):
     """calimg_parse of the host build, outputs filled as the harness fills them."""
-    from inclino._core import ffi, lib
+    from inclino.engines._core import ffi, lib
 
     cal = ffi.new("corr_cal_t *")
     info = ffi.new("calimg_info_t *")
-    fill, fill32, fill8 = mcu.CALIMG_UNTOUCHED
+    fill, fill32, fill8 = s08_harness.CALIMG_UNTOUCHED
     for t in (cal.acc, cal.mag):
         for i in range(9):
             t.m[i] = fill
@@ -400,7 +406,7 @@ def _crc_fixed(img: bytearray) -> bytes:
 
 
 def test_calimg_parse_on_s08(fw):
-    from inclino.calimage import METHODS, CalImage
+    from inclino.formats.calimage import METHODS, CalImage
 
     rng = np.random.default_rng(79)
     good = [CalImage(_rand_fixed_cal(rng), int(rng.integers(0, 2**32)), int(rng.integers(0, 2**32)),
@@ -423,7 +429,7 @@ def test_calimg_parse_on_s08(fw):
         im = bytearray(base)
         im[off:off + 4] = int(val).to_bytes(4, "big", signed=True)
         images.append(_crc_fixed(im))
-    got = mcu.calimg_parse(fw, images)
+    got = s08_harness.calimg_parse(fw, images)
     want = [host_calimg_parse(d) for d in images]
     bad = [i for i, (g, w) in enumerate(zip(got, want)) if _rec(g) != w]
     assert not bad, f"{len(bad)} of {len(images)} images differ from the host build, first {bad[:5]}"
@@ -437,18 +443,18 @@ def test_calimg_parse_on_s08(fw):
 
 
 def test_calimg_build_on_s08(fw):
-    from inclino._core import ffi, lib
-    from inclino.calimage import METHODS, CalImage
+    from inclino.engines._core import ffi, lib
+    from inclino.formats.calimage import METHODS, CalImage
 
     rng = np.random.default_rng(80)
     items = []
     for k in range(24):
         fc = _rand_fixed_cal(rng)
         if k % 4 == 3:  # out of range and any method byte: build does not check
-            from inclino.core import FixedCal
+            from inclino.engines.firmware import FixedCal
             fc = FixedCal(*(tuple(int(x) for x in rng.integers(-(2**31), 2**31, n)) for n in (9, 3, 9, 3)))
         items.append((fc, int(rng.integers(0, 2**32)), int(rng.integers(0, 2**32)), int(rng.integers(0, 256))))
-    got = mcu.calimg_build(fw, items)
+    got = s08_harness.calimg_build(fw, items)
     names = {v: k for k, v in METHODS.items()}
     for (fc, serial, t, method), g in zip(items, got):
         cal = ffi.new("corr_cal_t *")
@@ -475,7 +481,7 @@ def test_survey_with_temperature_terms_bit_exact_on_s08(fw):
     for k, c in enumerate(cals):
         acc, mag = bitexact.random_vectors(rng, 300)
         t = bitexact.random_temps(rng, 300)
-        got = mcu_temp.survey_temp(fw, acc, mag, t, c)
+        got = s08_temp.survey_temp(fw, acc, mag, t, c)
         want = golden.survey_compute(acc, mag, *c.arrays(), temp=c.temp, temp_q6=t)
         bad, why = _mismatch_report(got, want, keys)
         assert bad == 0, f"calibration {k}: {bad} of {len(acc)} surveys differ on the S08: {why}"
@@ -483,7 +489,7 @@ def test_survey_with_temperature_terms_bit_exact_on_s08(fw):
     assert total >= 2000
     plain = type(cals[1])(cals[1].acc_m, cals[1].acc_b, cals[1].mag_m, cals[1].mag_b)
     acc, mag = bitexact.random_vectors(rng, 200)
-    got = mcu_temp.survey_temp(fw, acc, mag, bitexact.random_temps(rng, 200), plain)
+    got = s08_temp.survey_temp(fw, acc, mag, bitexact.random_temps(rng, 200), plain)
     want = golden.survey_compute(acc, mag, *plain.arrays())
     assert _mismatch_report(got, want, keys)[0] == 0
 
@@ -491,8 +497,8 @@ def test_survey_with_temperature_terms_bit_exact_on_s08(fw):
 def test_calimg_parse_temperature_fields_on_s08(fw):
     """A version 2 image's temperature fields decode on the S08 as in the
     host build; refused and version 1 images leave them / clear them alike."""
-    from inclino._core import ffi, lib
-    from inclino.calimage import CalImage
+    from inclino.engines._core import ffi, lib
+    from inclino.formats.calimage import CalImage
 
     rng = np.random.default_rng(5)
     cals = bitexact.random_temp_cals(rng, bitexact.random_cals(rng, 8))[:4]
@@ -502,7 +508,7 @@ def test_calimg_parse_temperature_fields_on_s08(fw):
     bad = bytearray(images[0])
     bad[130] ^= 0x10  # CRC mismatch
     images.append(bytes(bad))
-    got = mcu_temp.calimg_parse_temp(fw, images)
+    got = s08_temp.calimg_parse_temp(fw, images)
     for i, d in enumerate(images):
         cal = ffi.new("corr_cal_t *")
         info = ffi.new("calimg_info_t *")

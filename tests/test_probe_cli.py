@@ -8,8 +8,8 @@ import numpy as np
 import pytest
 
 from inclino import cli
-from inclino.calfile import Calibration
-from inclino.link import ProbeLink
+from inclino.formats.calfile import Calibration
+from inclino.link.serial_link import ProbeLink
 from inclino_emu.control import ControlClient
 from inclino_emu.runner import Emulator
 
@@ -93,7 +93,7 @@ def test_download_verify_and_the_correction(emu, ctl, capsys, tmp_path):
 
 def with_terms(cal: Calibration) -> Calibration:
     """cal with the typical scenario's temperature terms, applied by the firmware (image version 2)."""
-    from inclino.bench_temperature import typical_block
+    from inclino.benchmarks.temperature import typical_block
 
     cal.temperature = typical_block()
     return cal
@@ -215,7 +215,7 @@ def test_power_cut_at_every_flash_step_of_a_download(emu, ctl, capsys, tmp_path,
 
 
 def test_set_average(emu, ctl):
-    from inclino.link import ProbeNak
+    from inclino.link.serial_link import ProbeNak
 
     with ProbeLink(emu.path, timeout=2.0) as link:
         assert link.set_average(4) == 4

@@ -5,12 +5,12 @@ SCI byte queues, time stepping, power cycling and ownership work."""
 import numpy as np
 import pytest
 
-from inclino import core
-from inclino import reference as ref
-from inclino.calimage import CalImage
-from inclino.core import FixedCal
+from inclino.engines import firmware as core
+from inclino.engines import reference as ref
+from inclino.formats.calimage import CalImage
+from inclino.engines.firmware import FixedCal
 from inclino_emu import adis16210 as ad
-from inclino_emu import effects as fx
+from inclino.model import effects as fx
 from inclino_emu.probe import EmulatedProbe
 
 POSES = [(0.0, 0.0, 0.0), (3.0, 10.0, 200.0), (30.0, 45.0, 10.0), (60.0, 100.0, 200.0),

@@ -6,9 +6,9 @@ import struct
 
 import pytest
 
-from inclino import protocol
-from inclino._core import ffi, lib
-from inclino.protocol import CMD, Identity, SurveyRecord
+from inclino.link import protocol
+from inclino.engines._core import ffi, lib
+from inclino.link.protocol import CMD, Identity, SurveyRecord
 
 
 class App:

@@ -8,8 +8,8 @@ import pathlib
 import numpy as np
 import pytest
 
-from inclino import protocol
-from inclino._core import ffi, lib
+from inclino.link import protocol
+from inclino.engines._core import ffi, lib
 
 VECTORS = json.loads((pathlib.Path(__file__).parent / "vectors" / "frames.json").read_text())["cases"]
 PF = {1: "frame", 2: "bad_crc", 3: "bad_len", 4: "line"}

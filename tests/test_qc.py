@@ -2,7 +2,7 @@
 with tolerances; C and golden agree, and the verdicts are the geometry's."""
 import numpy as np
 
-from inclino import core, golden, reference
+from inclino.engines import firmware as core, golden, reference
 
 REF_KEYS = ("gt_ref", "gt_tol", "bt_ref", "bt_tol", "dip_ref", "dip_tol")
 

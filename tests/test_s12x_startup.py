@@ -20,7 +20,8 @@ from pathlib import Path
 import bincopy
 import pytest
 
-from inclino import cli, flashing
+from inclino import cli
+from inclino.boot import image as boot_image
 from inclino.errors import DataError
 
 ROOT = Path(__file__).resolve().parents[1]
@@ -93,8 +94,8 @@ def _global(local: int) -> int:
 
 def test_application_image_passes_inclino_flash_checks(build):
     app = build["app"]
-    im = flashing.load_image(app["s19"])
-    flashing.check_entry(im)
+    im = boot_image.load_image(app["s19"])
+    boot_image.check_entry(im)
     assert im.entry == _global(app["sym"]["_app_start"])
     app_rows = _doc_rows("bootloader.md", "application (")
     assert app_rows == [(0x700000, 0x7A0000), (0x7A2000, 0x7FEC00)]
@@ -128,12 +129,12 @@ def test_application_vectors_are_relocated_below_the_descriptor(build):
 def test_bootloader_image_is_placed_protected_and_refused_by_flash(build):
     boot = build["boot"]
     lo, hi = _boot_h("BOOT_LOADER_START"), _boot_h("BOOT_LOADER_END")
-    assert (lo, hi) == flashing.DEFAULT_MAP.loader
+    assert (lo, hi) == boot_image.DEFAULT_MAP.loader
     assert _doc_rows("bootloader.md", "bootloader") == [(lo, hi)]
     for seg in boot["bin"].segments:
         assert lo <= seg.minimum_address and seg.maximum_address <= hi
     with pytest.raises(DataError, match="inside the bootloader"):
-        flashing.load_image(boot["s19"])
+        boot_image.load_image(boot["s19"])
     assert _protected(boot) == [(lo, hi)]
     fsec = boot["bin"].as_binary(minimum_address=0x7FFF0F, maximum_address=0x7FFF10)[0]
     assert fsec & 0x03 == 0x02                         # SEC = 10: unsecured
@@ -243,7 +244,7 @@ def test_application_image_flashes_onto_the_emulated_probe(build, capsys):
         with emu._lock:
             d = decode_descriptor(emu.probe.flash)
         assert d["entry"] == _global(build["app"]["sym"]["_app_start"])
-        want = flashing.load_image(build["app"]["s19"])
+        want = boot_image.load_image(build["app"]["s19"])
         assert [(a, n) for a, n, _ in d["ranges"]] == [(r.addr, len(r.data)) for r in want.ranges]
 
 

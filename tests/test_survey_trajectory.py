@@ -11,7 +11,9 @@ import math
 import numpy as np
 import pytest
 
-from inclino import cli, compare as cmp, errormodel as em, geomag, survey_bench as sb, wellpath as wp
+from inclino import cli
+from inclino.survey import compare as cmp, errormodel as em, geomag, wellpath as wp
+from inclino.benchmarks import survey as sb
 
 RNG = np.random.default_rng()
 
@@ -34,7 +36,7 @@ def write_csv(path, md, inc, azi, extra=None):
 def calibration(tmp_path_factory):
     """A joint calibration (with its covariance) of the typical probe."""
     from inclino.calib import fit, runs
-    from inclino_emu.scenario import generate_raw, load_scenario
+    from inclino.model.scenario import generate_raw, load_scenario
 
     s = load_scenario("typical")
     ds = generate_raw(s, *runs.multi_position(), seed=int(RNG.integers(1 << 30)))
@@ -123,7 +125,7 @@ def test_declination_and_grid_convergence_signs():
 def test_probe_azimuth_is_magnetic_in_the_emulated_field():
     """The probe reports magnetic azimuth: a tool pointing at true azimuth A
     in a field of declination d reads A - d (reference model, section 3)."""
-    from inclino import reference as ref
+    from inclino.engines import reference as ref
 
     A, d, I, T = RNG.uniform(0, 360), RNG.uniform(-20, 20), RNG.uniform(10, 80), RNG.uniform(0, 360)
     g, b = ref.body_vectors(I, A, T, 50000.0, 60.0, declination_deg=d)
@@ -192,7 +194,7 @@ def test_welleng_loads_the_written_tool_model(calibration, tmp_path, capsys):
 # ---------------------------------------------------- CLI and formats
 
 def test_trajectory_reads_csv_json_las_and_appended_survey_outputs(tmp_path, capsys):
-    from inclino.probe_cli import SURVEY_COLS, write_las
+    from inclino.formats.survey_log import SURVEY_COLS, write_las
 
     md = np.arange(0, 301, 30.0)
     inc = np.clip(md / 10, 0, 25)
@@ -294,7 +296,7 @@ def test_compare_passes_repeat_surveys_and_flags_a_bad_station(calibration, tmp_
 
 
 def test_reffield_writes_the_probe_qc_reference(tmp_path, capsys):
-    from inclino.link import ProbeLink
+    from inclino.link.serial_link import ProbeLink
     from inclino_emu.control import ControlClient
     from inclino_emu.runner import Emulator
 
@@ -414,7 +416,7 @@ def test_calibration_report_measures_azimuth_from_magnetic_north():
     import copy
 
     from inclino.calib import fit, runs
-    from inclino_emu.scenario import generate_raw, load_scenario
+    from inclino.model.scenario import generate_raw, load_scenario
 
     s = copy.deepcopy(load_scenario("typical"))
     dec = float(RNG.choice([-1, 1]) * RNG.uniform(2, 15))

@@ -3,7 +3,7 @@
 events a correct parser reports for them (docs/protocol.md).
 
 The frames are built here with struct and binascii.crc_hqx, not with either
-implementation under test (firmware/src/proto_frame.c, host/inclino/protocol.py).
+implementation under test (firmware/src/proto_frame.c, host/inclino/link/protocol.py).
 A stream is a list of segments: hex bytes, or "idle" (20 ms of silence).
 Run from the repository root: python3 tools/gen_frame_vectors.py
 """

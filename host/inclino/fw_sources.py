@@ -1,7 +1,7 @@
 """The firmware source manifest (firmware/sources.txt) for the Python builds.
 
-Every build that compiles firmware C -- the cffi modules inclino._core
-(_build_core.py) and inclino_emu._fw (emulator/_build_fw.py), the S08 image
+Every build that compiles firmware C -- the cffi modules inclino.engines._core
+(_build_core.py) and inclino_emu._fw (emulator/inclino_emu/_build_fw.py), the S08 image
 (mcu.py) -- takes its file list from here, as CMakeLists.txt does through
 firmware/sources.cmake, so the lists cannot drift apart.  The cffi build
 scripts load this file by path (they run before the package is installed):

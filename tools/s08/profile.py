@@ -1,6 +1,6 @@
 """Where the bus cycles of one survey go on the S08 simulator.
 
-Builds the harness image (inclino.mcu.build), runs one timed survey_compute
+Builds the harness image (inclino.s08.mcu.build), runs one timed survey_compute
 and single-steps ucsim between the harness's two timing stops, adding each
 instruction's cycles (the simulator's own count) to the function it belongs
 to (the labels of SDCC's .rst listings, static functions included) and to
@@ -13,7 +13,7 @@ fx_sq_core, ...) count towards the C function whose listing holds them.
     python tools/s08/profile.py --func _fx_div_frac_q20   # per instruction
 
 Run inside the source tree (or with INCLINO_ROOT set), with an installed
-inclino (for inclino.mcu and the bench vectors).  It measures; it asserts
+inclino (for inclino.s08 and the bench vectors).  It measures; it asserts
 nothing.
 """
 from __future__ import annotations
@@ -28,7 +28,9 @@ from pathlib import Path
 
 import numpy as np
 
-from inclino import mcu
+from inclino.benchmarks import s08 as s08_bench
+from inclino.s08 import harness as s08_harness
+from inclino.s08 import toolchain as s08_toolchain
 
 _INSN = re.compile(r"^\s+([0-9A-F]{4})\s+[0-9A-F]{2}[0-9A-F ]*?\s+\[\s*\d+\]")
 _LABEL = re.compile(r"^\s+([0-9A-F]{4})\s+\d+\s+(_\w+):\s*$")
@@ -63,7 +65,7 @@ def code_map(workdir):
 def main(argv=None) -> int:
     ap = argparse.ArgumentParser(prog="tools/s08/profile.py", description=__doc__.splitlines()[0])
     ap.add_argument("--workdir", help="build directory (default: a new temporary one)")
-    ap.add_argument("--vector", type=int, default=0, help="which of mcu.bench_vectors()")
+    ap.add_argument("--vector", type=int, default=0, help="which of s08_bench.bench_vectors()")
     ap.add_argument("--acc", help="raw accelerometer counts a,b,c instead of a bench vector")
     ap.add_argument("--mag", help="raw fluxgate counts a,b,c (with --acc)")
     ap.add_argument("--identity", action="store_true", help="the identity calibration")
@@ -75,34 +77,34 @@ def main(argv=None) -> int:
     a = ap.parse_args(argv)
 
     wd = a.workdir or tempfile.mkdtemp(prefix="inclino-profile-")
-    b = mcu.build(wd)
+    b = s08_toolchain.build(wd)
     labels, src, listing = code_map(wd)
     addrs = [x for x, _ in labels]
-    acc, mag, fc = mcu.bench_vectors(a.vector + 1)
+    acc, mag, fc = s08_bench.bench_vectors(a.vector + 1)
     acc, mag = acc[a.vector:a.vector + 1], mag[a.vector:a.vector + 1]
     if a.acc:
         acc = np.array([[int(v) for v in a.acc.split(",")]])
         mag = np.array([[int(v) for v in a.mag.split(",")]])
     if a.identity:
-        from inclino.core import FixedCal
+        from inclino.engines.firmware import FixedCal
         fc = FixedCal.identity()
-    rec = mcu._records(b"V", (acc, ">i4"), (mag, ">i4"))[0]
-    setup = mcu.enc_cal(fc)
+    rec = s08_harness._records(b"V", (acc, ">i4"), (mag, ">i4"))[0]
+    setup = s08_harness.enc_cal(fc)
     entry = "_survey_compute"
     if a.temperature:
-        from inclino import mcu_temp
-        acc_t, mag_t, tq, fct = mcu_temp.bench_inputs(a.vector + 1, 11)
-        rec = mcu_temp.records(acc_t[a.vector:a.vector + 1], mag_t[a.vector:a.vector + 1],
+        from inclino.s08 import temperature as s08_temp
+        acc_t, mag_t, tq, fct = s08_bench.bench_inputs(a.vector + 1, 11)
+        rec = s08_temp.records(acc_t[a.vector:a.vector + 1], mag_t[a.vector:a.vector + 1],
                                tq[a.vector:a.vector + 1])[0]
-        setup, entry = mcu_temp.enc_setup(fct), "_survey_compute_temp"
-    data = setup + bytes([rec[0] | mcu.TIMED]) + rec[1:] + b"E"
+        setup, entry = s08_temp.enc_setup(fct), "_survey_compute_temp"
+    data = setup + bytes([rec[0] | s08_toolchain.TIMED]) + rec[1:] + b"E"
     with tempfile.TemporaryDirectory(prefix="inclino-sim-") as td:
         fin, fout = Path(td) / "in.bin", Path(td) / "out.bin"
         fin.write_bytes(data)
         fout.write_bytes(b"")
         script = "run\n" + "step\n" * a.max_steps + "run\nrun\nquit\n"
         r = subprocess.run(["timeout", "600", "shc08", "-t", "HCS08", "-b", "-I",
-                            f"if={mcu.SIMIF},in={fin},out={fout}", b.ihx],
+                            f"if={s08_toolchain.SIMIF},in={fin},out={fout}", b.ihx],
                            input=script.encode(), capture_output=True)
     start = dict((n, x) for x, n in labels)[entry]
     fn_t, ln_t, calls = defaultdict(int), defaultdict(int), defaultdict(int)

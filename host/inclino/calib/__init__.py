@@ -20,7 +20,7 @@ import time
 METHODS = ("joint", "ren2014", "li2021", "guo2009")
 DEFAULT_METHOD = "joint"
 # A longer run is thinned to every k-th row before the fit
-# (inclino.dataset.thin; peak memory about 12 kB per fitted row in joint)
+# (inclino.formats.dataset.thin; peak memory about 12 kB per fitted row in joint)
 MAX_FIT_ROWS = 40_000
 
 __all__ = ["fit", "FitReport", "METHODS", "DEFAULT_METHOD"]
@@ -38,7 +38,7 @@ def fit(ds, method: str = DEFAULT_METHOD, data_hash: dict | None = None, report:
         max_rows: int | None = MAX_FIT_ROWS, **opts):
     import numpy as np
 
-    from inclino.dataset import thin
+    from inclino.formats.dataset import thin
 
     from inclino.errors import CalibrationError, DataError
 

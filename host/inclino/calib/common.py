@@ -15,9 +15,9 @@ import json
 
 import numpy as np
 
-from inclino import reference as ref
-from inclino.calfile import Calibration
-from inclino.dataset import POSE_COLS, RawDataset
+from inclino.engines import reference as ref
+from inclino.formats.calfile import Calibration
+from inclino.formats.dataset import POSE_COLS, RawDataset
 from inclino.errors import CalibrationError, DataError
 
 PARAM_NAMES = ([f"acc_m{i}{j}" for i in range(3) for j in range(3)] + [f"acc_b{i}" for i in range(3)]

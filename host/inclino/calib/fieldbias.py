@@ -6,7 +6,7 @@ uses field.py's rotation helpers: joint -> field, fieldbias -> joint, no cycle.
 """
 from __future__ import annotations
 
-from inclino.dataset import RawDataset
+from inclino.formats.dataset import RawDataset
 
 from . import joint
 from .predict import _model_readings
@@ -36,7 +36,7 @@ def nonlinear_bias(nl: dict, prior, fcal, acc, mag, w: dict, dip: float, grid, s
 
 
 def _ref():
-    from inclino import reference
+    from inclino.engines import reference
 
     return reference
 

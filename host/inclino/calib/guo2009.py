@@ -31,7 +31,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from inclino.dataset import RawDataset
+from inclino.formats.dataset import RawDataset
 from inclino.errors import DataError
 
 from . import common

@@ -37,8 +37,8 @@ from __future__ import annotations
 import numpy as np
 from scipy import optimize, stats
 
-from inclino import reference as ref
-from inclino.dataset import RawDataset
+from inclino.engines import reference as ref
+from inclino.formats.dataset import RawDataset
 from inclino.errors import CalibrationError, DataError
 
 from . import common

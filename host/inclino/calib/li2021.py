@@ -21,7 +21,7 @@ Inverse coefficients, eq. (17)-(32): M = [A_i B_i C_i] H + D_i, which is
 inv(diag(K)(I + E)) and D = -inv(...) B.  Our firmware's correction
 corrected = M (raw - b) takes M = [A B C] and b = B (Table 2's bias).
 
-Table 2's installation-error block is read as in inclino_emu.effects
+Table 2's installation-error block is read as in inclino.model.effects
 (row X = (e_xy, e_xz), row Y = (e_yx, e_yz), row Z = (e_zx, e_zy)), the
 reading under which Table 3 follows from Table 2 (docs/calibration.md).
 """
@@ -29,8 +29,8 @@ from __future__ import annotations
 
 import numpy as np
 
-from inclino import reference as ref
-from inclino.dataset import RawDataset
+from inclino.engines import reference as ref
+from inclino.formats.dataset import RawDataset
 from inclino.errors import DataError
 
 from . import common

@@ -31,8 +31,8 @@ from dataclasses import asdict, dataclass, field
 
 import numpy as np
 
-from inclino import reference as ref
-from inclino.calfile import Calibration
+from inclino.engines import reference as ref
+from inclino.formats.calfile import Calibration
 
 from .runs import li2021_grid
 

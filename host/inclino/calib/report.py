@@ -35,9 +35,10 @@ from dataclasses import asdict, dataclass, field
 
 import numpy as np
 
-from inclino import engines, reference as ref
-from inclino.calfile import Calibration
-from inclino.dataset import RawDataset
+from inclino.engines import attitude as engines, reference as ref
+from inclino.formats.calfile import Calibration
+from inclino.formats.dataset import RawDataset
+from inclino.formats.jsonout import dumps, json_safe
 
 from . import common
 from .runs import li2021_grid  # noqa: F401
@@ -81,10 +82,10 @@ class FitReport:
     fit_time_s: float = 0.0
 
     def to_dict(self) -> dict:
-        return _clean(asdict(self))
+        return json_safe(asdict(self))
 
     def to_json(self) -> str:
-        return json.dumps(self.to_dict(), indent=2)
+        return dumps(self.to_dict())
 
     @staticmethod
     def from_json(text) -> "FitReport":
@@ -132,21 +133,6 @@ class FitReport:
                          f"Li grid, inclination {res['inc_rms_deg']:.5f} deg (the probe's, reported, not judged)")
         lines.append("  verdict: " + ("pass" if self.passed else "FAIL: " + "; ".join(self.reasons)))
         return "\n".join(lines)
-
-
-def _clean(o):
-    if isinstance(o, dict):
-        return {str(k): _clean(v) for k, v in o.items()}
-    if isinstance(o, (list, tuple)):
-        return [_clean(v) for v in o]
-    if isinstance(o, np.ndarray):
-        return _clean(o.tolist())
-    if isinstance(o, (np.floating, float)):
-        v = float(o)
-        return v if np.isfinite(v) else None
-    if isinstance(o, (np.integer,)):
-        return int(o)
-    return o
 
 
 def _rms(x):

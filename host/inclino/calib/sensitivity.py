@@ -10,8 +10,8 @@ from __future__ import annotations
 
 import numpy as np
 
-from inclino import reference as ref
-from inclino.calfile import Calibration
+from inclino.engines import reference as ref
+from inclino.formats.calfile import Calibration
 
 from . import common
 from .runs import li2021_grid

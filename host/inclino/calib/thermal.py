@@ -1,7 +1,7 @@
 """Temperature terms of the joint calibration (`inclino calibrate --method
 joint --temperature auto|on|off`, docs/calibration.md).
 
-The model is the emulator's (inclino_emu.effects: BiasTempco, ScaleTempco,
+The model is the emulator's (inclino.model.effects: BiasTempco, ScaleTempco,
 to_reference_temperature; one definition of each effect): per axis of each
 triad, bias and scale are polynomials of order K <= 2 in dT = T - t_ref,
 
@@ -35,11 +35,11 @@ from __future__ import annotations
 import numpy as np
 from scipy import optimize, stats
 
-from inclino import reference as ref
-from inclino.dataset import RawDataset
+from inclino.engines import reference as ref
+from inclino.formats.dataset import RawDataset
 from inclino.errors import CalibrationError, DataError
 
-from inclino import caltemp
+from inclino.formats import caltemp
 
 from . import common
 
@@ -53,7 +53,7 @@ DEFAULT_T_REF_C = 25.0
 
 
 def _effects():
-    from inclino_emu import effects as fx  # the one definition of the temperature effects
+    from inclino.model import effects as fx  # the one definition of the temperature effects
 
     return fx
 
@@ -425,7 +425,7 @@ def _fit(ds, cal, info, mode, sigma_acc, sigma_mag, sigma_pose_deg, fix_dip, see
     block = {
         "model": ("raw_ref = b + (raw - b - bias(T)) / (1 + scale(T)), bias = sum_k bias[k] dT^(k+1), "
                   "scale = 1e-6 sum_k scale_ppm[k] dT^(k+1), dT = T - t_ref_c; then corrected = M (raw_ref - b) "
-                  "(inclino_emu.effects.to_reference_temperature)"),
+                  "(inclino.model.effects.to_reference_temperature)"),
         "t_ref_c": t_ref, "order": int(chosen), "span_c": [lo, hi],
         **_theta_to_terms(th.ravel(), chosen),
         "sigma": _theta_to_terms(sig.ravel(), chosen),

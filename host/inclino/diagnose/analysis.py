@@ -6,8 +6,8 @@ import time
 
 import numpy as np
 
-from inclino import reference as ref
-from inclino.dataset import RawDataset
+from inclino.engines import reference as ref
+from inclino.formats.dataset import RawDataset
 from inclino.errors import DataError
 
 from . import core, forward, robust, selection, study
@@ -59,7 +59,7 @@ def _rms_channels(R, chans):
     return float(np.sqrt(np.mean(R[:, chans] ** 2)))
 
 
-# A longer run is thinned to every k-th row first (inclino.dataset.thin;
+# A longer run is thinned to every k-th row first (inclino.formats.dataset.thin;
 # peak memory about 11 kB per row)
 MAX_ROWS = 40_000
 
@@ -68,7 +68,7 @@ def diagnose(ds: RawDataset, effects=None, alpha: float = core.DEFAULT_ALPHA, fo
              keep_plot_data: bool = False) -> Diagnosis:
     """Diagnose a raw dataset with turntable poses; raises DataError on bad
     input.  effects: names (list or comma-separated) to test, default all."""
-    from inclino.dataset import thin
+    from inclino.formats.dataset import thin
 
     ds, thinned = thin(ds, MAX_ROWS)
     with one_blas_thread():

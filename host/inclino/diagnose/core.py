@@ -8,10 +8,10 @@ referenced to the poses (Li 2021 eq. 3/4, Ren 2014 eq. 8/11):
     acc = A_a g(pose) + c_a,    mag = A_m f(pose, dip) + c_m
 
 g, f the true body-frame gravity and field at the indicated pose
-(inclino.reference), the dip fitted, the field total and declination from
+(inclino.engines.reference), the dip fitted, the field total and declination from
 the header.  It is started from calib.joint (our calibration fit, with
 poses) and refined here together with the effects.  Every candidate effect
-of the library (inclino_emu.effects, the models the emulator simulates) adds
+of the library (inclino.model.effects, the models the emulator simulates) adds
 columns to this linear model: the change of the six readings per unit of the
 effect's parameter, computed by applying the library's own model to the
 baseline's signal (BiasTempco, ScaleTempco, ScaleNonlinearity, the
@@ -43,11 +43,11 @@ from dataclasses import dataclass, field
 import numpy as np
 from scipy import stats
 
-from inclino import reference as ref
-from inclino.dataset import POSE_COLS, RawDataset
+from inclino.engines import reference as ref
+from inclino.formats.dataset import POSE_COLS, RawDataset
 from inclino.errors import CalibrationError, DataError
-from inclino_emu import effects as fx
-from inclino_emu.world import EncoderErrors, TurntableGeometry
+from inclino.model import effects as fx
+from inclino.model.world import EncoderErrors, TurntableGeometry
 
 from .names import AXES, CHANNELS, EFFECT_NAMES, TRIAD_UNITS, TRIADS  # noqa: F401
 from .noise import Noise, _ml_variances, fit_noise  # noqa: F401

@@ -15,7 +15,7 @@ cross-validation and the standard errors of core.Design apply unchanged.
 
 The state is (A, c per triad, dip, theta); theta maps a candidate key
 (core.Candidate.key) to its value in the candidate's units.  The models are
-the emulator's (inclino_emu.world.EncoderErrors, TurntableGeometry,
+the emulator's (inclino.model.world.EncoderErrors, TurntableGeometry,
 effects.FieldDrift, SamplingSkew, ScaleTempco, ScaleNonlinearity,
 BiasTempco), in the emulator's order: the turntable's encoder errors then its
 axis geometry; the fluxgate read at t + skew sees the pose the turntable
@@ -26,8 +26,8 @@ from __future__ import annotations
 
 import numpy as np
 
-from inclino import reference as ref
-from inclino_emu.world import EncoderErrors, TurntableGeometry
+from inclino.engines import reference as ref
+from inclino.model.world import EncoderErrors, TurntableGeometry
 
 from .names import AXES, TRIADS
 

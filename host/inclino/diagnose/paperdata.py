@@ -14,7 +14,7 @@ import io
 import os
 from importlib import resources
 
-from inclino import safeio
+from inclino.formats import safeio
 
 NAMES = ("li2021_table2", "li2021_table4", "li2021_table5", "ren2014_table1", "ren2014_table2")
 

@@ -24,19 +24,18 @@ offsets), evaluated at the assumed toolface.
 from __future__ import annotations
 
 import copy
-import json
 from dataclasses import dataclass, field
 
 import numpy as np
 from scipy import stats
 
-from inclino import reference as ref
+from inclino.engines import reference as ref
 
 from . import paperdata, paperselect
-from .result import clean
+from inclino.formats.jsonout import dumps, json_safe
 
 ALPHA = 0.01
-LI_FIELD_NT = 50980.0  # emulator/scenarios/li2021.toml (IGRF at Chengdu, 2021)
+LI_FIELD_NT = 50980.0  # host/inclino/model/scenarios/li2021.toml (IGRF at Chengdu, 2021)
 LI_DIP_DEG = 45.1  # the paper's Chengdu dip
 STEP = {"deg": 1e-3, "nT": 1.0, "g": 1e-5}
 
@@ -69,7 +68,7 @@ def calibrated_on(world, method: str, probe=None):
     present during the calibration is partly absorbed by it: the checks see
     what is left."""
     from inclino.calib import li2021 as cal_li, ren2014 as cal_ren, runs
-    from inclino.dataset import RawDataset
+    from inclino.formats.dataset import RawDataset
 
     I, A, T = runs.li2021_twelve() if method == "li2021" else runs.ren2014()
     g, b = world.truth(I, A, T)
@@ -105,7 +104,7 @@ def _attitude_errors(chk: Checks, world, probe=None, sensor=None, calibrate=None
 
 
 def _world(field_nT, dip_deg, **turntable):
-    from inclino_emu.world import EarthField, EncoderErrors, Turntable, TurntableGeometry, World
+    from inclino.model.world import EarthField, EncoderErrors, Turntable, TurntableGeometry, World
 
     enc = EncoderErrors(offset_deg=[turntable.get("inc", 0.0), turntable.get("azi", 0.0), 0.0])
     geo = TurntableGeometry(turntable.get("tilt_north", 0.0), turntable.get("tilt_east", 0.0),
@@ -175,17 +174,6 @@ def _column(chk, cand, field_nT, dip, probe, calibrate=None):
     return d / (2 * h)
 
 
-def _loo(X, y):
-    if X.shape[1] == 0:
-        r = y
-        return r, r
-    Q, Rr = np.linalg.qr(X)
-    beta = np.linalg.solve(Rr, Q.T @ y)
-    r = y - X @ beta
-    h = (Q ** 2).sum(1)
-    return r, r / np.maximum(1.0 - h, 1e-12)
-
-
 def _rms(v):
     return float(np.sqrt(np.mean(np.square(v)))) if len(v) else float("nan")
 
@@ -215,14 +203,14 @@ class PaperReport:
     series: dict = field(default_factory=dict, repr=False)  # for the plots
 
     def to_dict(self):
-        return clean({"paper": self.paper, "sources": self.sources, "assumptions": self.assumptions,
+        return json_safe({"paper": self.paper, "sources": self.sources, "assumptions": self.assumptions,
                       "comparisons": self.comparisons,
                       "extensions": [{k: v for k, v in e.items() if k != "fitted"} for e in self.extensions],
                       "before_correction_sensitivity": self.sensitivity,
                       "findings": self.findings, "what_the_data_do_not_allow": self.cannot})
 
     def to_json(self):
-        return json.dumps(self.to_dict(), indent=2)
+        return dumps(self.to_dict())
 
     def summary(self) -> str:
         lines = [f"{self.paper}: measured check tables against the simulation"]
@@ -305,8 +293,8 @@ def _li_probe(acc_coupling=True, mag_lsb_nT=1.0, acc_lsb_g=ref.ACC_LSB_G):
     """The li2021 scenario's probe; optionally without Table 2's
     accelerometer pair f_yz/f_zy, or with Table 2's counts converted with
     other LSBs than the scenario's (1 nT, 1/16384 g)."""
-    from inclino_emu import effects as fx
-    from inclino_emu.scenario import load_scenario
+    from inclino.model import effects as fx
+    from inclino.model.scenario import load_scenario
 
     s = load_scenario("li2021")
     t2 = fx.LI2021_TABLE2
@@ -349,7 +337,7 @@ def _li_before_sensitivity(chk, world):
 def li2021() -> PaperReport:
     srcs = {k: paperdata.TABLES[k]["source"] for k in ("li2021_table2", "li2021_table4", "li2021_table5")}
     rep = PaperReport("li2021", srcs, [
-        "the probe is emulator/scenarios/li2021.toml: Table 2's scale, bias and installation errors through "
+        "the probe is host/inclino/model/scenarios/li2021.toml: Table 2's scale, bias and installation errors through "
         "effects.from_li2021, noise-free and unquantised; Chengdu, dip 45.1 deg (paper), field 50 980 nT (IGRF), "
         "declination 0 (the turntable's north is magnetic north)",
         "toolface during the checks: not given; taken as 0 (body x on the high side) -- the 'before' comparison "
@@ -581,75 +569,3 @@ def reproduce(name: str) -> PaperReport:
 
     with one_blas_thread():
         return {"li2021": li2021, "ren2014": ren2014}[name]()
-
-
-def write_plots(rep: PaperReport, outdir: str) -> list:
-    import os
-
-    import matplotlib
-
-    matplotlib.use("Agg")
-    import matplotlib.pyplot as plt
-
-    from inclino.errors import DataError
-
-    try:
-        os.makedirs(outdir, exist_ok=True)
-    except OSError as e:
-        raise DataError(f"cannot create the plot directory {outdir}: {e.strerror}")
-    paths = []
-
-    def save(fig, name):
-        p = os.path.join(outdir, name)
-        from inclino import safeio
-
-        try:
-            safeio.save_figure(fig, p, dpi=110)
-        finally:
-            plt.close(fig)
-        paths.append(p)
-
-    if rep.paper == "li2021":
-        for state in ("before", "after"):
-            s = rep.series[state]
-            fig, axs = plt.subplots(1, 2, figsize=(12, 4.5))
-            m = s["kind"] == "azi"
-            for a in np.unique(s["A"][m]):
-                k = m & (s["A"] == a)
-                ln, = axs[0].plot(s["I"][k], s["measured"][k], "o-", ms=4, label=f"A = {a:g}")
-                other = s["predicted"] if state == "before" else s["fitted"]
-                axs[0].plot(s["I"][k], other[k], "--", color=ln.get_color())
-            axs[0].set_xlabel("inclination (deg)")
-            axs[0].set_ylabel("azimuth error (deg)")
-            axs[0].set_title(f"Table 5 {state}: measured (o) and "
-                             + ("Table 2 simulation, toolface 0 (--)" if state == "before" else "extended model (--)"),
-                             fontsize=9)
-            axs[0].legend(fontsize=7)
-            k = s["kind"] == "inc"
-            axs[1].plot(s["I"][k], s["measured"][k], "o-", label="measured")
-            other = s["predicted"] if state == "before" else s["fitted"]
-            axs[1].plot(s["I"][k], other[k], "s--", label="simulation" if state == "before" else "extended model")
-            axs[1].set_xlabel("inclination (deg)")
-            axs[1].set_ylabel("inclination error (deg)")
-            axs[1].set_title(f"Table 4 {state}", fontsize=9)
-            axs[1].legend(fontsize=7)
-            for ax in axs:
-                ax.grid(alpha=0.3)
-            fig.tight_layout()
-            save(fig, f"li2021_{state}.png")
-    else:
-        fig, axs = plt.subplots(2, 2, figsize=(11, 7))
-        for ax, key, xl in ((axs[0, 0], "t1_before", "signed tilt (deg)"), (axs[0, 1], "t1_after", "signed tilt (deg)"),
-                            (axs[1, 0], "t2_before", "azimuth (deg)"), (axs[1, 1], "t2_after", "azimuth (deg)")):
-            s = rep.series[key]
-            o = np.argsort(s["x"])
-            ax.plot(np.asarray(s["x"])[o], np.asarray(s["measured"])[o], "o-", label="measured")
-            ax.plot(np.asarray(s["x"])[o], np.asarray(s["fitted"])[o], "s--", label="kept effects")
-            ax.set_xlabel(xl)
-            ax.set_ylabel("error (deg)")
-            ax.set_title(key.replace("t1", "Table 1").replace("t2", "Table 2").replace("_", " "), fontsize=9)
-            ax.grid(alpha=0.3)
-            ax.legend(fontsize=7)
-        fig.tight_layout()
-        save(fig, "ren2014.png")
-    return paths

@@ -20,7 +20,7 @@ sits at the indicated pose plus that error while the dataset records the
 indicated pose.
 
 `hide(effect, sensor, axis, value)` puts one library effect into the
-scenario through the emulator's own scenario tables (emulator/scenario.py),
+scenario through the emulator's own scenario tables (host/inclino/model/scenario.py),
 with the emulator's parameter (the one the diagnosis estimates).  A field
 drift (effects.FieldDrift, linear from t = 0) is set so that the field at
 the run's mean time is the header's: the dataset's header holds the field a
@@ -34,7 +34,7 @@ import copy
 import numpy as np
 
 from inclino.calib import runs
-from inclino.dataset import RawDataset
+from inclino.formats.dataset import RawDataset
 
 from . import core
 
@@ -73,7 +73,7 @@ def rotation_plan(rates=(90.0, 45.0), sample_hz: float = 10.0, tf_poses=((45, 30
                   azi_incs=(60, 120), move_s: float = 3.0) -> dict:
     """Keyframes of a continuous run and its sample times (only while a
     rotation is under way)."""
-    from inclino_emu.world import Trajectory
+    from inclino.model.world import Trajectory
 
     key = [(0.0, 45.0, 30.0, 0.0)]
     samples = []
@@ -142,7 +142,7 @@ def generate(probe: dict, plan: dict, seed: int, sigma_pose_deg: float = TURNTAB
     """The emulated dataset of `plan` for the scenario dict `probe`: the
     probe sits at the indicated pose plus the readout error, the pose
     columns record the indicated pose."""
-    from inclino_emu.scenario import generate_raw, scenario_from_dict
+    from inclino.model.scenario import generate_raw, scenario_from_dict
 
     p = copy.deepcopy(probe)
     p["seed"] = int(seed)
@@ -162,7 +162,7 @@ def generate(probe: dict, plan: dict, seed: int, sigma_pose_deg: float = TURNTAB
     geometry = p["world"].pop("turntable_geometry", None)
     s = scenario_from_dict(p)
     if geometry:
-        from inclino_emu.world import TurntableGeometry
+        from inclino.model.world import TurntableGeometry
 
         s.world.turntable.geometry = TurntableGeometry(**geometry)
     rng = np.random.default_rng([int(seed), 7])
@@ -195,7 +195,7 @@ def signature_z(probe: dict, plan: dict, cand: core.Candidate, sigma_pose_deg: f
     true noise (the probe's sensor noise and the turntable's readout error).
     with_peak: also the largest change of any reading per unit, in that
     channel's sensor noise sigmas."""
-    from inclino_emu.scenario import scenario_from_dict
+    from inclino.model.scenario import scenario_from_dict
 
     ds = generate(probe, plan, seed=0, sigma_pose_deg=0.0, noise=False)
     d = core.prepare(ds)

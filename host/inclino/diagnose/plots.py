@@ -12,32 +12,18 @@ import os
 
 import numpy as np
 
-from inclino.errors import DataError
+from inclino import plotting
 
 
 def write(result, outdir: str) -> list:
     if not result.plot_data:
         raise ValueError("the diagnosis was run without keep_plot_data=True")
-    import matplotlib
-
-    matplotlib.use("Agg")
-    import matplotlib.pyplot as plt
-
-    try:
-        os.makedirs(outdir, exist_ok=True)
-    except OSError as e:
-        raise DataError(f"cannot create the plot directory {outdir}: {e.strerror}")
+    plt = plotting.pyplot()
+    plotting.make_dir(outdir, "the plot directory")
     written = []
 
     def save(fig, name):
-        path = os.path.join(outdir, name)
-        from inclino import safeio
-
-        try:
-            safeio.save_figure(fig, path, dpi=110)
-        finally:
-            plt.close(fig)
-        written.append(path)
+        written.append(plotting.save(fig, os.path.join(outdir, name)))
 
     for e, ent in zip(result.effects, result.plot_data["effects"]):
         fig, axs = plt.subplots(1, 2, figsize=(10, 4), sharey=True)
@@ -70,3 +56,58 @@ def write(result, outdir: str) -> list:
     fig.tight_layout()
     save(fig, "baseline.png")
     return written
+
+
+def write_paper(rep, outdir: str) -> list:
+    """The papers' check tables before and after, measured against the simulation (diagnose --paper --plot)."""
+    plt = plotting.pyplot()
+    plotting.make_dir(outdir, "the plot directory")
+    paths = []
+
+    def save(fig, name):
+        paths.append(plotting.save(fig, os.path.join(outdir, name)))
+
+    if rep.paper == "li2021":
+        for state in ("before", "after"):
+            s = rep.series[state]
+            fig, axs = plt.subplots(1, 2, figsize=(12, 4.5))
+            m = s["kind"] == "azi"
+            for a in np.unique(s["A"][m]):
+                k = m & (s["A"] == a)
+                ln, = axs[0].plot(s["I"][k], s["measured"][k], "o-", ms=4, label=f"A = {a:g}")
+                other = s["predicted"] if state == "before" else s["fitted"]
+                axs[0].plot(s["I"][k], other[k], "--", color=ln.get_color())
+            axs[0].set_xlabel("inclination (deg)")
+            axs[0].set_ylabel("azimuth error (deg)")
+            axs[0].set_title(f"Table 5 {state}: measured (o) and "
+                             + ("Table 2 simulation, toolface 0 (--)" if state == "before" else "extended model (--)"),
+                             fontsize=9)
+            axs[0].legend(fontsize=7)
+            k = s["kind"] == "inc"
+            axs[1].plot(s["I"][k], s["measured"][k], "o-", label="measured")
+            other = s["predicted"] if state == "before" else s["fitted"]
+            axs[1].plot(s["I"][k], other[k], "s--", label="simulation" if state == "before" else "extended model")
+            axs[1].set_xlabel("inclination (deg)")
+            axs[1].set_ylabel("inclination error (deg)")
+            axs[1].set_title(f"Table 4 {state}", fontsize=9)
+            axs[1].legend(fontsize=7)
+            for ax in axs:
+                ax.grid(alpha=0.3)
+            fig.tight_layout()
+            save(fig, f"li2021_{state}.png")
+    else:
+        fig, axs = plt.subplots(2, 2, figsize=(11, 7))
+        for ax, key, xl in ((axs[0, 0], "t1_before", "signed tilt (deg)"), (axs[0, 1], "t1_after", "signed tilt (deg)"),
+                            (axs[1, 0], "t2_before", "azimuth (deg)"), (axs[1, 1], "t2_after", "azimuth (deg)")):
+            s = rep.series[key]
+            o = np.argsort(s["x"])
+            ax.plot(np.asarray(s["x"])[o], np.asarray(s["measured"])[o], "o-", label="measured")
+            ax.plot(np.asarray(s["x"])[o], np.asarray(s["fitted"])[o], "s--", label="kept effects")
+            ax.set_xlabel(xl)
+            ax.set_ylabel("error (deg)")
+            ax.set_title(key.replace("t1", "Table 1").replace("t2", "Table 2").replace("_", " "), fontsize=9)
+            ax.grid(alpha=0.3)
+            ax.legend(fontsize=7)
+        fig.tight_layout()
+        save(fig, "ren2014.png")
+    return paths

@@ -10,29 +10,9 @@
 (docs/diagnose.md describes the baseline object's keys)."""
 from __future__ import annotations
 
-import json
-import math
 from dataclasses import dataclass, field
 
-import numpy as np
-
-
-def clean(o):
-    """JSON-safe: numpy to Python, NaN/inf to null."""
-    if isinstance(o, dict):
-        return {str(k): clean(v) for k, v in o.items()}
-    if isinstance(o, (list, tuple)):
-        return [clean(v) for v in o]
-    if isinstance(o, np.ndarray):
-        return clean(o.tolist())
-    if isinstance(o, (np.bool_, bool)):
-        return bool(o)
-    if isinstance(o, (np.integer,)):
-        return int(o)
-    if isinstance(o, (np.floating, float)):
-        v = float(o)
-        return v if math.isfinite(v) else None
-    return o
+from inclino.formats.jsonout import dumps, json_safe
 
 
 @dataclass
@@ -47,7 +27,7 @@ class Gain:
     inc_rms_after_deg: float
 
     def to_dict(self):
-        return clean({k: getattr(self, k) for k in ("rms_before", "rms_after", "cv_rms_before", "cv_rms_after",
+        return json_safe({k: getattr(self, k) for k in ("rms_before", "rms_after", "cv_rms_before", "cv_rms_after",
                                                     "azi_rms_before_deg", "azi_rms_after_deg",
                                                     "inc_rms_before_deg", "inc_rms_after_deg")})
 
@@ -66,7 +46,7 @@ class Effect:
     p_value: float = 1.0
 
     def to_dict(self):
-        return clean({"name": self.name, "sensor": self.sensor, "axis": self.axis, "estimate": self.estimate,
+        return json_safe({"name": self.name, "sensor": self.sensor, "axis": self.axis, "estimate": self.estimate,
                       "stderr": self.stderr, "units": self.units, "gain": self.gain.to_dict()})
 
 
@@ -81,11 +61,11 @@ class Diagnosis:
     elapsed_s: float = 0.0
 
     def to_dict(self) -> dict:
-        return {"baseline": clean(self.baseline), "effects": [e.to_dict() for e in self.effects],
+        return {"baseline": json_safe(self.baseline), "effects": [e.to_dict() for e in self.effects],
                 "unexplained": bool(self.unexplained)}
 
     def to_json(self, indent=2) -> str:
-        return json.dumps(self.to_dict(), indent=indent)
+        return dumps(self.to_dict(), indent=indent)
 
     def names(self) -> list:
         return [(e.name, e.sensor, e.axis) for e in self.effects]

@@ -1,0 +1,224 @@
+"""`inclino emulate`: the emulated probe on a pseudo-terminal with a control
+channel, running until interrupted.
+
+    emu = Emulator(scenario="typical", baud=115200, link="/tmp/probe", control_port=5555)
+    emu.start()          # background thread; emu.path is the serial port
+    ...
+    emu.stop()
+
+Time: with `realtime=True` (the default) emulated time follows the wall
+clock, so the SCI runs at its baud rate as a real probe's would; with
+`realtime=False` the emulator runs as fast as it can (emulated time still
+advances by the firmware's own waits and the byte times).
+"""
+from __future__ import annotations
+
+import threading
+import time
+from dataclasses import asdict
+
+from .control import ArgError, ControlServer, boolean, choice, integer, known, number
+from .probe import EmulatedProbe
+from .serial_pty import PtyLink
+from inclino.model.world import CHAMBER_MAX_RATE_C_PER_MIN, CHAMBER_RANGE_C
+
+MAX_STEP_S = 0.02
+MAX_ADVANCE_S = 86400.0   # one `advance` request: at most a day of emulated time
+ADVANCE_QUANTUM_S = 0.01  # the firmware's idle loop runs every 10 ms of a fast-forward,
+ADVANCE_MAX_POLLS = 20000  # or every s / 20000 for a long one (bounded wall time)
+# baud rates the S12X's SCI makes at a 40 MHz bus (SBR = 40 MHz / (16 baud), 1..8191)
+BAUD_RANGE = (300, 2_500_000)
+# temperatures the control channel accepts: the ADIS16210's rated range with margin
+TEMP_RANGE_C = (-55.0, 125.0)
+
+
+class _Device:
+    def __init__(self, probe: EmulatedProbe):
+        self.probe = probe
+
+    def sci_write(self, data: bytes) -> None:
+        self.probe.sci_push(data)
+
+    def sci_read(self) -> bytes:
+        return self.probe.sci_pull()
+
+
+class Emulator:
+    def __init__(self, scenario="typical", seed: int | None = None, baud: int = 115200,
+                 link: str | None = None, control_port: int | None = 0, realtime: bool = True,
+                 serial: int | None = None, tempco_draw: int | None = None):
+        if isinstance(baud, bool) or not isinstance(baud, int) or not BAUD_RANGE[0] <= baud <= BAUD_RANGE[1]:
+            raise ValueError(f"baud rate {baud} is not within {BAUD_RANGE[0]}-{BAUD_RANGE[1]}")
+        if control_port is not None and (isinstance(control_port, bool) or not isinstance(control_port, int)
+                                         or not 0 <= control_port <= 65535):
+            raise ValueError(f"control port {control_port} is not within 0-65535")
+        if tempco_draw is not None:  # one probe of the scenario's tempco spread
+            from inclino.model.scenario import Scenario, load_scenario
+            sc = scenario if isinstance(scenario, Scenario) else load_scenario(scenario)
+            scenario = sc.draw_tempcos(tempco_draw)
+        self.probe = EmulatedProbe(scenario, seed=seed, baud=float(baud), serial=serial)
+        self.probe.poll = self.probe.lib.app_main_poll
+        self.pty = PtyLink(baud=baud, link_path=link, throttle=False)  # the probe's SCI times the bytes
+        self.path = self.pty.path
+        self.realtime = realtime
+        self.control = None
+        if control_port is not None:
+            self.control = ControlServer(self._handlers(), control_port)
+        self._stop = threading.Event()
+        self._thread: threading.Thread | None = None
+        self.error: BaseException | None = None
+        self._device = _Device(self.probe)
+        self._lock = threading.Lock()
+        self.pacing = {"max_ahead_s": 0.0}   # real time: how far a single step ran ahead of the wall clock
+
+    @property
+    def control_port(self) -> int | None:
+        return self.control.port if self.control else None
+
+    # ------------------------------------------------------------ control
+    def _handlers(self):
+        p = self.probe
+
+        def move(r):
+            known(r, "inc", "azi", "tf")
+            p.move_to(number(r, "inc", 0.0, 180.0, " deg"), number(r, "azi", 0.0, 360.0, " deg"),
+                      number(r, "tf", 0.0, 360.0, " deg"))
+
+        def temperature(r):
+            known(r, "temp_c")
+            t = None if r.get("temp_c") is None else number(r, "temp_c", *TEMP_RANGE_C, " degC")
+            p.set_temperature(t)
+
+        def truth(r):
+            known(r)
+            g, b = p.truth()
+            pose = p.phys.trajectory(p.clock.now)  # the turntable's indicated pose
+            return {"t": p.clock.now, "g": [float(x) for x in g], "b": [float(x) for x in b],
+                    "pose": [float(x) for x in pose], "temp_c": float(p.phys.temperature(p.clock.now))}
+
+        def chamber(r):
+            """Set (setpoint_c, rate_c_per_min) or just report the thermal chamber."""
+            known(r, "setpoint_c", "rate_c_per_min")
+            if "rate_c_per_min" in r and "setpoint_c" not in r:
+                raise ArgError("rate_c_per_min needs a setpoint_c")
+            sp = number(r, "setpoint_c", *CHAMBER_RANGE_C, " degC") if "setpoint_c" in r else None
+            rate = (number(r, "rate_c_per_min", 0.0, CHAMBER_MAX_RATE_C_PER_MIN, " degC/min")
+                    if r.get("rate_c_per_min") is not None else None)
+            ch = p.phys.chamber(p.clock.now)
+            if sp is not None:
+                ch.set(p.clock.now, sp, rate)
+                p.phys.invalidate()
+            return {"t": p.clock.now, **ch.state(p.clock.now)}
+
+        def advance(r):
+            """Fast-forward emulated time by s seconds (the firmware idles through it)."""
+            known(r, "s")
+            s = number(r, "s", 0.0, MAX_ADVANCE_S, " s")
+            if s <= 0.0:
+                raise ArgError(f"s must be within (0, {MAX_ADVANCE_S:g}] seconds")
+            p.step(s, quantum=max(ADVANCE_QUANTUM_S, s / ADVANCE_MAX_POLLS))
+            return {"t": p.clock.now, "temp_c": float(p.phys.temperature(p.clock.now))}
+
+        def faults(r):
+            known(r, "bit_error_rate", "drop_rate", "dup_rate", "disconnected", "seed")
+            f = self.pty.faults
+            new = {k: number(r, k, 0.0, 1.0) for k in ("bit_error_rate", "drop_rate", "dup_rate") if k in r}
+            disc = boolean(r, "disconnected") if "disconnected" in r else None
+            seed = integer(r, "seed", 0, 2**63 - 1) if "seed" in r else None
+            for k, v in new.items():     # every argument checked before anything changes
+                setattr(f, k, v)
+            if disc is not None:
+                f.disconnected = disc
+            if seed is not None:
+                import random
+                f._rng = random.Random(seed)
+            return {"faults": {k: getattr(f, k) for k in ("bit_error_rate", "drop_rate", "dup_rate",
+                                                           "disconnected")}, "counts": dict(f.counts)}
+
+        def power_cut(r):
+            known(r, "n", "mode")
+            if "n" in r and isinstance(r["n"], int) and not isinstance(r["n"], bool) and r["n"] < 1:
+                raise ArgError("n counts flash operations from 1")
+            n = integer(r, "n", 1, 1_000_000)
+            p.cut_power_at(n, choice(r, "mode", ("random", "none", "full"), "random"))
+
+        def power_cycle(r):
+            known(r)
+            return {"boot_status": p.power_cycle()}
+
+        def status(r):
+            known(r)
+            return {"t": p.clock.now, "power_cuts": p.power_cuts, "restarts": p.restarts,
+                    "boot_status": p.boot_status, "bytes_to_host": self.pty.bytes_to_host,
+                    "bytes_to_probe": self.pty.bytes_to_probe, "tx_dropped": int(p.lib.app_main_tx_dropped()),
+                    "flash_ops": getattr(p.flash, "ops", None),
+                    "control": {"clients": self.control.clients, **self.control.stats}}
+
+        return {"move": move, "temperature": temperature, "truth": truth, "faults": faults,
+                "power_cut": power_cut, "power_cycle": power_cycle, "status": status,
+                "chamber": chamber, "advance": advance}
+
+    # ------------------------------------------------------------ loop
+    def run_once(self, dt: float, release: bool = True) -> None:
+        """Advance the emulator by dt seconds of emulated time.  release:
+        pass what the probe sent to the host right away (else at the next
+        call, once the wall clock has caught up: real-time mode)."""
+        with self._lock:
+            self.pty.pump(self._device, 0.0)
+            self.probe.step(dt)
+            if release:
+                self.pty.pump(self._device, 0.0)
+
+    def run(self) -> None:
+        """Run until stop() (or KeyboardInterrupt in the caller's thread).
+
+        Real time: emulated time is paced to the wall clock, also while the
+        firmware is inside a long call (a survey, a flash command) that
+        advanced the clock in one go: the loop then waits, and the bytes the
+        probe sent in that call reach the host only when the wall clock has
+        reached the emulated instant.  An emulator that falls behind by more
+        than MAX_STEP_S does not catch up (the lag is dropped)."""
+        try:
+            clk = self.probe.clock
+            t_wall0, t_emu0 = time.monotonic(), clk.now
+            while not self._stop.is_set():
+                if self.control:
+                    with self._lock:
+                        self.control.poll(0.0)
+                if self.realtime:
+                    target = t_emu0 + (time.monotonic() - t_wall0)
+                    ahead = clk.now - target
+                    if ahead > -0.0005:   # emulated time is at or ahead of the wall clock: wait
+                        time.sleep(min(max(ahead, 0.0005), 0.002))
+                        continue
+                    if -ahead > MAX_STEP_S:   # fallen behind: do not catch up
+                        t_wall0, t_emu0 = time.monotonic() - MAX_STEP_S, clk.now
+                        target = clk.now + MAX_STEP_S
+                    self.run_once(target - clk.now, release=False)
+                    self.pacing["max_ahead_s"] = max(self.pacing["max_ahead_s"], clk.now - (
+                        t_emu0 + (time.monotonic() - t_wall0)))
+                else:
+                    self.run_once(0.005)
+        except BaseException as e:  # reported by stop()
+            self.error = e
+
+    def start(self) -> "Emulator":
+        self._thread = threading.Thread(target=self.run, name="inclino-emulator", daemon=True)
+        self._thread.start()
+        return self
+
+    def stop(self) -> None:
+        self._stop.set()
+        if self._thread is not None:
+            self._thread.join(timeout=5)
+        if self.control:
+            self.control.close()
+        self.pty.close()
+        if self.error is not None:
+            raise RuntimeError(f"the emulator stopped on an error: {self.error!r}") from self.error
+
+    def __enter__(self):
+        return self.start()
+
+    def __exit__(self, *exc):
+        self.stop()

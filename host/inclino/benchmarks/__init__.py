@@ -1,0 +1,1 @@
+"""Benchmarks (`inclino bench NAME --json`): each measures and states its targets."""

@@ -1,0 +1,1 @@
+"""Bootloader tools: the S-record image, the flash map and the flash-and-verify session."""

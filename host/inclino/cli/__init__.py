@@ -1,0 +1,70 @@
+"""The `inclino` command: a thin shell over the library.
+
+One module a role, each adding its subcommands and holding their handlers
+(argument checks, printing); the library is imported only when a command
+runs, so `inclino --help` stays fast:
+  probe.py       identify, survey, download, verify, flash (the probe over its link)
+  procedures.py  acquire, accept, plot, demo (procedures on a turntable)
+  analysis.py    attitude, bitexact, calibrate, diagnose (files in, results out)
+  survey.py      reffield, toolmodel, trajectory, compare
+  benchmarks.py  bench NAME (one function a name)
+  emulate.py     emulate (the emulated probe on a pseudo-terminal)
+  s08.py         python -m inclino.cli.s08 build|bench (the S08 simulator image)
+
+Exit statuses: 0 success; 1 a check ran and failed; 2 bad input (file,
+column, value, option); 3 calibration refused; 4 probe or port problem.
+Every error is one line on stderr, never a traceback.
+"""
+from __future__ import annotations
+
+import argparse
+import sys
+
+from inclino import __version__
+from inclino.cli import analysis, benchmarks, emulate, probe, procedures, survey
+from inclino.errors import InclinoError
+
+
+def build_parser() -> argparse.ArgumentParser:
+    p = argparse.ArgumentParser(prog="inclino", description="Toolkit for magnetic borehole inclinometer probes.")
+    p.add_argument("--version", action="version", version=f"inclino {__version__}")
+    sub = p.add_subparsers(dest="command", required=True)
+
+    # the order `inclino --help` lists them
+    procedures.add_demo(sub)
+    analysis.add_bitexact(sub)
+    analysis.add_attitude(sub)
+    emulate.add_emulate(sub)
+    benchmarks.add_bench(sub, cli_main=main)
+    analysis.add_calibrate(sub)
+    analysis.add_diagnose(sub)
+    probe.add_flash(sub)
+    probe.add_parser(sub)
+    procedures.add_acquire(sub)
+    procedures.add_accept(sub)
+    procedures.add_plot(sub)
+    survey.add_parser(sub)
+    return p
+
+
+def main(argv: list[str] | None = None) -> int:
+    parser = build_parser()
+    args = parser.parse_args(argv)
+    try:
+        return int(args.func(args))
+    except InclinoError as e:
+        print(f"inclino: error: {e}", file=sys.stderr)
+        return e.exit_code
+    except KeyboardInterrupt as e:   # a command may say what the interruption left (inclino flash)
+        print("inclino: interrupted" + (f": {e}" if str(e) else ""), file=sys.stderr)
+        return 130
+    except BrokenPipeError:
+        return 0
+    except MemoryError:  # one line, never a traceback (docs/cli.md: exit 2)
+        print("inclino: error: out of memory: the input is too large for this machine's memory limit",
+              file=sys.stderr)
+        return 2
+
+
+if __name__ == "__main__":  # pragma: no cover
+    raise SystemExit(main())

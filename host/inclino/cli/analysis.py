@@ -1,0 +1,262 @@
+"""The analysis commands: attitude, bitexact, calibrate, diagnose.
+
+`inclino calibrate RUN.csv --method M -o CAL.json [--json]` fits the raw
+dataset with one method, writes CAL.json (atomically: a temporary file
+renamed into place, so a failure leaves no partial file) and prints the fit
+report (text, or one JSON object with --json).  Exit status:
+0 the fit passed its checks; 1 written, but the report's verdict is FAIL
+(the reasons are printed); 2 bad input (DataError); 3 calibration refused
+(CalibrationError: singular, out of the firmware's range).
+
+`inclino diagnose DATA.csv [--json] [--plot DIR] [--cal CAL.json]` and
+`--paper li2021|ren2014`.  Exit status: 0 the diagnosis ran (whatever it found); 2 bad input
+(DataError: unreadable file, no pose columns, too few poses, poses that
+cannot separate the effects asked about, a temperature that never changes
+when a temperature effect is asked about, a --cal without temperature
+terms).  Errors are one line, never a
+traceback.
+"""
+from __future__ import annotations
+
+import csv
+import json
+
+from inclino.errors import CalibrationError, DataError
+
+MAX_BOOTSTRAP = 1000  # refits at most (each is a whole fit: a bound on the time a typo can cost)
+
+
+def calibrate_main(args) -> int:
+    import numpy as np
+
+    from inclino.formats import dataset, safeio
+    from inclino import progress
+
+    from inclino.calib import common, fit
+
+    safeio.check_output(args.output, [args.input, getattr(args, "prior", None)])  # before any work
+    if getattr(args, "bootstrap", None) is not None and not 2 <= args.bootstrap <= MAX_BOOTSTRAP:
+        raise DataError(f"--bootstrap {args.bootstrap}: refits, 2-{MAX_BOOTSTRAP}")
+    ds = dataset.read_raw(args.input, progress=True)
+    opts = {}
+    if getattr(args, "no_poses", False):
+        opts["use_poses"] = False
+    if getattr(args, "prior", None):
+        from inclino.formats.calfile import Calibration
+
+        try:
+            opts["prior"] = Calibration.load(args.prior)
+        except CalibrationError as e:  # the prior is an input: a bad one is bad input
+            raise DataError(f"--prior: {e}")
+        if args.method != "joint":
+            raise DataError("--prior is used by --method joint only")
+    if getattr(args, "temperature", None) is not None:
+        if args.method != "joint":
+            raise DataError("--temperature is an option of --method joint")
+        opts["temperature"] = args.temperature
+    if getattr(args, "mount_tolerance_deg", None) is not None:
+        if not (args.mount_tolerance_deg >= 0 and np.isfinite(args.mount_tolerance_deg)):
+            raise DataError("--mount-tolerance-deg must be a finite number >= 0")
+        opts["mount_tolerance_deg"] = args.mount_tolerance_deg
+    if getattr(args, "accept_mount_tolerance", False):
+        opts["accept_mount_tolerance"] = True
+    if getattr(args, "bootstrap", None) is not None:
+        opts["bootstrap"] = args.bootstrap
+    try:
+        with progress.phase(f"calibrate: {args.method} fit of {args.input}"):
+            cal, rep = fit(ds, args.method, data_hash=common.file_hash(args.input, ds), **opts)
+    except (ArithmeticError, ValueError, np.linalg.LinAlgError) as e:  # one line, never a traceback
+        raise CalibrationError(f"{args.method}: the fit failed ({type(e).__name__}: {e})")
+    cal.save(args.output, inputs=[args.input, getattr(args, "prior", None)])
+    if args.json:
+        print(json.dumps({"output": args.output, "method": cal.method, "probe_serial": cal.probe_serial,
+                          "data": cal.data, "report": rep.to_dict(),
+                          **({"temperature": cal.temperature} if cal.temperature else {})}, indent=2))
+    else:
+        print(f"{args.output}: {cal.method} calibration of probe {cal.probe_serial or '(no serial)'} "
+              f"from {args.input} (sha256 {cal.data['sha256'][:16]}...)")
+        print(rep.summary())
+        if cal.temperature:
+            from inclino.calib.thermal import summary
+
+            print(summary(cal.temperature))
+        for note in rep.notes:
+            if note.startswith(dataset.THIN_NOTE):
+                print(f"  note: {note}")
+    return 0 if rep.passed else 1
+
+
+def add_calibrate(subparsers):
+    from inclino.calib import DEFAULT_METHOD, METHODS
+
+    c = subparsers.add_parser("calibrate", help="fit a calibration to a raw dataset (writes CAL.json)")
+    c.add_argument("input", help="raw dataset CSV (docs/dataset.md)")
+    c.add_argument("--method", choices=tuple(METHODS), default=DEFAULT_METHOD,
+                   help=f"fitting method (default {DEFAULT_METHOD})")
+    c.add_argument("-o", "--output", required=True, help="calibration file to write (CAL.json)")
+    c.add_argument("--json", action="store_true", help="print the fit report as one JSON object")
+    c.add_argument("--no-poses", action="store_true",
+                   help="joint: ignore the pose columns (field recalibration from the invariants)")
+    c.add_argument("--prior", help="joint without poses: take what the invariants cannot see (the common rotation "
+                                   "of the sensor block) from this turntable calibration of the same probe")
+    c.add_argument("--temperature", choices=("auto", "on", "off"), default=None,
+                   help="joint: fit the temperature terms (auto, the default: when the run's temperatures determine "
+                        "them; on: or refuse; off: never)")
+    c.add_argument("--mount-tolerance-deg", type=float,
+                   help="joint without poses or prior: 1-sigma of the sensor block's unobservable rotation, per axis "
+                        "(default 0.3; docs/calibration.md)")
+    c.add_argument("--accept-mount-tolerance", action="store_true",
+                   help="joint without poses or prior: accept that tolerance (the verdict then judges the fit itself)")
+    c.add_argument("--bootstrap", type=int, help="paper methods: refits for the uncertainty (default 40)")
+    c.set_defaults(func=calibrate_main)
+    return c
+
+
+def _cmd_bitexact(args) -> int:
+    from inclino.engines import bitexact
+
+    if args.vectors < 0:
+        raise DataError("--vectors must be >= 0")
+    r = bitexact.run(args.vectors, args.seed)
+    print(r.line)
+    return 0 if r.mismatches == 0 else 1
+
+
+ATTITUDE_CHUNK = 1 << 16  # rows computed and written at a time (bounded memory on a long run)
+
+
+def _cmd_attitude(args) -> int:
+    import numpy as np
+
+    from inclino.formats import dataset, safeio
+    from inclino.engines import attitude as engines
+    from inclino import progress
+    from inclino.formats.calfile import Calibration
+
+    safeio.check_output(args.output, [args.input, args.cal])  # before any work
+    cal = Calibration.load(args.cal) if args.cal else Calibration()  # a refused file costs no reading
+    ds = dataset.read_raw(args.input, progress=True)
+    cols = ["inc_deg", "azi_deg", "tf_deg", "gt_g", "bt_nT", "dip_deg", "flags", "mtf_deg"]
+    with safeio.output_file(args.output, [args.input, args.cal]) as f, \
+            progress.bar(len(ds), f"attitude {args.input}", unit=" rows") as bar:
+        w = csv.writer(f)
+        w.writerow(cols)
+        acc, mag = ds.acc, ds.mag
+        for lo in range(0, len(ds), ATTITUDE_CHUNK):
+            hi = min(lo + ATTITUDE_CHUNK, len(ds))
+            out = engines.run(acc[lo:hi], mag[lo:hi], cal, args.engine)
+            text = {c: (out[c].astype(np.int64).astype(str) if c == "flags"
+                        else np.char.mod("%.6f", np.asarray(out[c], dtype=float))) for c in cols}
+            w.writerows(zip(*(text[c] for c in cols)))
+            bar.update(hi - lo)
+    return 0
+
+
+def add_bitexact(sub):
+    b = sub.add_parser("bitexact", help="firmware C against the golden model, bit for bit")
+    b.add_argument("--vectors", type=int, default=1_000_000, help="random vectors besides the edge cases")
+    b.add_argument("--seed", type=int, default=1)
+    b.set_defaults(func=_cmd_bitexact)
+
+
+def add_attitude(sub):
+    a = sub.add_parser("attitude", help="attitude of every row of a raw dataset")
+    a.add_argument("input", help="raw dataset CSV")
+    a.add_argument("--cal", help="calibration JSON (default: identity)")
+    a.add_argument("--engine", choices=("firmware", "golden", "reference"), default="firmware")
+    a.add_argument("-o", "--output", required=True, help="output CSV ('-' for stdout)")
+    a.set_defaults(func=_cmd_attitude)
+
+
+
+
+PAPERS = ("li2021", "ren2014")
+
+
+def diagnose_main(args) -> int:
+    import numpy as np
+
+    if args.paper:
+        if args.input:
+            raise DataError("give either a dataset or --paper, not both")
+        from inclino.diagnose import papers, plots
+
+        r = papers.reproduce(args.paper)
+        print(r.to_json() if args.json else r.summary())
+        if args.plot:
+            for path in plots.write_paper(r, args.plot):
+                if not args.json:
+                    print(f"wrote {path}")
+        return 0
+    if not args.input:
+        raise DataError("diagnose needs a raw dataset (DATA.csv) or --paper li2021|ren2014")
+    from inclino.formats import dataset
+    from inclino import progress
+
+    from inclino.diagnose.analysis import diagnose
+
+    ds = dataset.read_raw(args.input, progress=True)
+    if getattr(args, "cal", None):
+        ds = _temperature_corrected(ds, args.cal)
+    try:
+        with np.errstate(all="ignore"), progress.phase(f"diagnose {args.input}"):
+            r = diagnose(ds, effects=args.effects, alpha=args.alpha, folds=args.folds,
+                         keep_plot_data=bool(args.plot))
+    except (ArithmeticError, ValueError, np.linalg.LinAlgError) as e:  # one line, never a traceback
+        raise DataError(f"diagnose failed on {args.input}: {type(e).__name__}: {e}")
+    written = []
+    if args.plot:
+        from inclino.diagnose import plots
+
+        written = plots.write(r, args.plot)
+    if args.json:
+        print(r.to_json())
+    else:
+        print(f"{args.input}:")
+        print(r.summary())
+        for w in written:
+            print(f"wrote {w}")
+    return 0
+
+
+def _temperature_corrected(ds, path):
+    """The readings brought to the calibration's reference temperature with
+    its temperature terms (CAL.json's temperature block, joint --temperature):
+    what the diagnosis then sees is what those terms leave."""
+    from inclino.formats.calfile import Calibration
+    from inclino.calib import thermal
+    from inclino.errors import CalibrationError
+
+    try:
+        cal = Calibration.load(path)
+    except CalibrationError as e:
+        raise DataError(str(e))
+    if not cal.temperature:
+        raise DataError(f"{path} has no temperature terms (fit them with calibrate --method joint --temperature)")
+    if "temp_c" not in ds.columns:
+        raise DataError("--cal: the data have no temp_c column to apply the temperature terms with")
+    try:
+        return thermal.corrected_dataset(ds, cal, cal.temperature)
+    except (KeyError, TypeError, ValueError) as e:
+        raise DataError(f"{path}: the temperature block is mangled ({e})")
+
+
+def add_diagnose(subparsers):
+    from inclino.diagnose import EFFECT_NAMES
+
+    p = subparsers.add_parser("diagnose", help="find what the 12-parameter model gets wrong in a raw dataset, "
+                                               "name the effect, measure the gain")
+    p.add_argument("input", nargs="?", help="raw dataset CSV with the turntable's poses (docs/dataset.md)")
+    p.add_argument("--json", action="store_true", help="print one JSON object")
+    p.add_argument("--plot", metavar="DIR", help="write PNGs of the residuals (before/after) into DIR")
+    p.add_argument("--effects", help="comma-separated effects to test (default: all): " + ", ".join(EFFECT_NAMES))
+    p.add_argument("--alpha", type=float, default=0.01,
+                   help="false-alarm level: the chance of naming an effect on data without any (default 0.01)")
+    p.add_argument("--folds", type=int, default=5, help="cross-validation folds (default 5)")
+    p.add_argument("--cal", metavar="CAL.json",
+                   help="first bring the readings to the reference temperature with this calibration's "
+                        "temperature terms (joint --temperature): diagnose what they leave")
+    p.add_argument("--paper", choices=PAPERS,
+                   help="instead of a dataset: the papers' measured tables against the simulation (docs/diagnose.md)")
+    p.set_defaults(func=diagnose_main)
+    return p

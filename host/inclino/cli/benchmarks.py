@@ -1,0 +1,174 @@
+"""`inclino bench NAME [--json]`: the benchmarks, one function a name
+(BENCHMARKS), each printing its figures (text, or one JSON object with
+--json) and returning the exit status: 0, or 1 when the benchmark states
+targets and they are not met.  The measuring is in inclino.benchmarks
+(imported when a benchmark runs).
+
+`python -m inclino.cli.benchmarks diagnose [--per-size N] [--nulls N]
+[--pairs N] [--seed S] [--cases]` runs the diagnosis benchmark with its
+sizes chosen (docs/diagnose.md)."""
+from __future__ import annotations
+
+import argparse
+import json
+import sys
+
+from inclino.errors import InclinoError
+
+
+def _accuracy(args) -> int:
+    from inclino.benchmarks import fixed_point as bench
+
+    r = bench.accuracy(field_nT=args.field, dip_deg=args.dip)
+    print(r.to_json() if args.json else _accuracy_text(r))
+    return 0
+
+
+def _accuracy_text(r) -> str:
+    f = r.figures
+    lines = [f"fixed point vs float64 on the same counts, {r.poses} poses (F={r.field_nT:g} nT, dip={r.dip_deg:g})"]
+    for k, v in f.items():
+        t = r.targets.get(k)
+        lines.append(f"  {k:22s} {v:.6g}" + (f"   (target <= {t:g})" if t is not None else ""))
+    if r.averaging:
+        from inclino.benchmarks.averaging import AveragingResult
+        lines += AveragingResult.from_json(json.dumps(r.averaging)).lines()
+    if r.temperature:
+        t = r.temperature
+        lines.append(f"  temperature path (image version 2), C vs float64 with the same terms, worst over "
+                     f"{', '.join(f'{x:g}' for x in t['temperatures_c'])} degC: azimuth max "
+                     f"{t['worst']['azi_max_deg']:.2g}, inclination max {t['worst']['inc_max_deg']:.2g} deg")
+    lines.append("  verdict: " + ("pass" if r.passed else "FAIL"))
+    return "\n".join(lines)
+
+
+def _speed(args) -> int:
+    from inclino.benchmarks import fixed_point as bench
+
+    r = bench.speed(vectors=args.vectors)
+    print(r.to_json() if args.json else
+          f"batched C: {r.batched_vectors_per_s:,.0f} vectors/s; golden: {r.golden_vectors_per_s:,.0f}"
+          f" vectors/s; per call: {r.per_call_vectors_per_s:,.0f} vectors/s"
+          f" (cost ratio {r.per_call_to_batched_cost_ratio:.0f})")
+    return 0
+
+
+def _calibration(args) -> int:
+    from inclino.benchmarks.calibration import bench_calibration
+
+    r = bench_calibration()
+    if args.json:
+        print(r.to_json())
+    else:
+        for k, v in r.methods.items():
+            print(f"{k:20s} " + (f"azimuth RMS {v['azi_rms_deg']:.4f} deg, inclination RMS {v['inc_rms_deg']:.4f}"
+                                 f" deg" if "azi_rms_deg" in v else f"failed: {v.get('error', '')}"))
+        print(f"{'Cramer-Rao floor':20s} azimuth RMS {r.cramer_rao['azi_rms_deg']:.4f} deg; targets "
+              + ("met" if r.passed else "NOT met: " + ", ".join(k for k, v in r.met.items() if v is False)))
+    return 0 if r.passed else 1
+
+
+def _input(args) -> int:
+    from inclino.benchmarks import input as bench_input
+
+    r = bench_input.bench()
+    print(r.to_json() if args.json else bench_input.text(r))
+    return 0 if r.passed else 1
+
+
+def _diagnose(args) -> int:
+    """`inclino bench diagnose [--json] [--quick]`."""
+    from inclino.benchmarks.diagnose import bench_diagnose
+
+    r = bench_diagnose(quick=getattr(args, "quick", False))
+    print(r.to_json() if getattr(args, "json", False) else r.summary())
+    return 0 if r.passed else 1
+
+
+def _survey(args) -> int:
+    """`inclino bench survey [--json] [--plot PNG]`: the benchmark drives the
+    real commands in-process through the command runner add_bench was given
+    (inclino.cli.main: this module does not import its own package)."""
+    from inclino.benchmarks.survey import bench, text
+
+    try:
+        r = bench(plot=args.plot, cli_main=args.cli_main)
+    except RuntimeError as e:  # a step of the chain (emulator, a command) failed: its message, no traceback
+        raise InclinoError(str(e))
+    print(r.to_json() if args.json else text(r))
+    return 0 if r.passed else 1
+
+
+def _link(args) -> int:
+    from inclino.benchmarks import link as bench_link
+
+    r = bench_link.bench()
+    print(r.to_json() if args.json else
+          f"stream: {r.stream_link_fraction:.1%} of the link; download: {r.download_ratio:.2f} x the minimum "
+          f"bytes ({r.download_verify_ratio:.2f} x with verify)")
+    return 0
+
+
+def _emulator(args) -> int:
+    from inclino.benchmarks import emulator as bench_emulator
+
+    r = bench_emulator.bench()
+    print(r.to_json() if args.json else
+          f"emulator: {r.realtime_factor:.1f} x real time ({r.samples_per_wall_s:.0f} samples/s), "
+          f"target >= {r.target_realtime_factor:g}")
+    return 0
+
+
+def _mcu(args) -> int:
+    try:
+        from inclino.benchmarks import s08
+    except ImportError:
+        raise InclinoError("the S08 simulator bench is not part of this build")
+    r = s08.bench()
+    print(r.to_json())
+    return 0
+
+
+# NAME -> function(args) -> exit status; the order is the order `--help` lists them
+BENCHMARKS = {"accuracy": _accuracy, "speed": _speed, "mcu": _mcu, "emulator": _emulator, "link": _link,
+              "calibration": _calibration, "diagnose": _diagnose, "input": _input, "survey": _survey}
+
+
+def _cmd_bench(args) -> int:
+    return BENCHMARKS[args.what](args)
+
+
+def add_bench(sub, cli_main):
+    be = sub.add_parser("bench", help="benchmarks (figures, JSON with --json)")
+    be.add_argument("what", choices=tuple(BENCHMARKS))
+    be.add_argument("--json", action="store_true", help="print one JSON object")
+    be.add_argument("--field", type=float, default=50000.0, help="accuracy: field total, nT")
+    be.add_argument("--dip", type=float, default=60.0, help="accuracy: dip, degrees")
+    be.add_argument("--vectors", type=int, default=1_000_000, help="speed: batch size")
+    be.add_argument("--quick", action="store_true", help="diagnose: a small set (not the targets' figures)")
+    be.add_argument("--plot", help="survey: also draw the first seed's well path and ellipses (PNG)")
+    be.set_defaults(func=_cmd_bench, cli_main=cli_main)
+
+
+def diagnose_main(argv=None) -> int:
+    """`python -m inclino.cli.benchmarks diagnose ...`: the diagnosis benchmark with its sizes chosen."""
+    from inclino.benchmarks.diagnose import bench_diagnose, __doc__ as doc
+
+    p = argparse.ArgumentParser(prog="python -m inclino.cli.benchmarks diagnose", description=doc.split("\n\n")[0])
+    p.add_argument("--json", action="store_true", help="print one JSON object")
+    p.add_argument("--quick", action="store_true", help="a small set (for the tests; not the targets' figures)")
+    p.add_argument("--per-size", type=int, help="datasets per effect and size (default 4; quick 1)")
+    p.add_argument("--nulls", type=int, help="null datasets (default 216; quick 12)")
+    p.add_argument("--pairs", type=int, help="two-effect datasets (default 12; quick 2)")
+    p.add_argument("--seed", type=int, default=1000, help="first seed (default 1000)")
+    p.add_argument("--cases", action="store_true", help="with --json: every dataset's record too")
+    a = p.parse_args(argv)
+    r = bench_diagnose(a.quick, a.per_size, a.nulls, a.pairs, a.seed)
+    print(r.to_json(cases=a.cases) if a.json else r.summary())
+    return 0 if r.passed else 1
+
+
+if __name__ == "__main__":  # pragma: no cover
+    if sys.argv[1:2] != ["diagnose"]:
+        sys.exit("usage: python -m inclino.cli.benchmarks diagnose [options] (the others: inclino bench NAME)")
+    sys.exit(diagnose_main(sys.argv[2:]))

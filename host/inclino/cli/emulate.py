@@ -1,0 +1,65 @@
+"""`inclino emulate`: the emulated probe on a pseudo-terminal until
+interrupted (the emulator package, imported when the command runs)."""
+from __future__ import annotations
+
+from inclino.errors import DataError, InclinoError
+
+
+def _cmd_emulate(args) -> int:
+    import signal
+    import time
+
+    from inclino.link.serial_link import BAUD_RANGE
+
+    if not BAUD_RANGE[0] <= args.baud <= BAUD_RANGE[1]:
+        raise DataError(f"--baud {args.baud}: a baud rate within {BAUD_RANGE[0]}-{BAUD_RANGE[1]}")
+    if not 0 <= args.control <= 65535:
+        raise DataError(f"--control {args.control}: a TCP port within 0-65535 (0: any free port)")
+
+    try:
+        from inclino_emu.runner import Emulator
+    except ImportError as e:
+        raise InclinoError(f"the emulator is not installed: {e}")
+    try:
+        emu = Emulator(scenario=args.scenario, seed=args.seed, baud=args.baud, link=args.link,
+                       control_port=args.control, realtime=not args.unthrottled,
+                       tempco_draw=args.tempco_draw)
+    except FileNotFoundError as e:
+        raise DataError(f"scenario not found: {e.filename or e}")
+    except (OSError, ValueError, KeyError) as e:
+        raise DataError(f"cannot start the emulator: {e}")
+    print(f"inclino emulator: probe on {emu.path}" + (f" (link {args.link})" if args.link else ""), flush=True)
+    if emu.control_port is not None:
+        print(f"control channel: 127.0.0.1:{emu.control_port} (JSON lines, docs/emulator.md)", flush=True)
+    stop = {"now": False}
+
+    def _term(*_):
+        stop["now"] = True
+
+    signal.signal(signal.SIGTERM, _term)
+    emu.start()
+    try:
+        while not stop["now"] and emu.error is None:
+            time.sleep(0.1)
+    except KeyboardInterrupt:
+        pass
+    try:
+        emu.stop()
+    except RuntimeError as e:
+        raise InclinoError(str(e))
+    print("inclino emulator: stopped", flush=True)
+    return 0
+
+
+def add_emulate(sub):
+    em = sub.add_parser("emulate", help="run the emulated probe on a pseudo-terminal until interrupted")
+    em.add_argument("--scenario", default="typical", help="built-in scenario name or TOML file (default typical)")
+    em.add_argument("--seed", type=int, default=None, help="override the scenario's seed")
+    em.add_argument("--baud", type=int, default=115200)
+    em.add_argument("--link", help="also make this path a symlink to the pseudo-terminal")
+    em.add_argument("--control", type=int, default=0,
+                    help="control channel TCP port on 127.0.0.1 (default: any free port)")
+    em.add_argument("--unthrottled", action="store_true", help="run faster than real time")
+    em.add_argument("--tempco-draw", type=int, metavar="N", default=None,
+                    help="draw this probe's tempcos from the scenario's spread with seed N (docs/emulator.md)")
+    em.set_defaults(func=_cmd_emulate)

@@ -1,0 +1,308 @@
+"""The bench technician's probe commands: identify, survey, download,
+verify, flash.  A thin shell over inclino.link.serial_link and inclino.link.operations.
+
+Exit statuses: 0 success; 1 verify found a mismatch; 2 bad input; 3
+calibration refused (nothing written); 4 port, link or probe problem.
+"""
+from __future__ import annotations
+
+import csv
+import json
+import sys
+import time
+
+from inclino.errors import DataError
+from inclino.formats.survey_log import SURVEY_COLS, qc_text, write_las
+
+
+def _link(args):
+    from inclino.link.serial_link import ProbeLink, check_link_options
+
+    check_link_options(args.baud, args.timeout)
+    return ProbeLink(args.port, baud=args.baud, timeout=args.timeout)
+
+
+def _add_port(p):
+    p.add_argument("--port", required=True, help="serial port name or pyserial URL")
+    p.add_argument("--baud", type=int, default=115200)
+    p.add_argument("--timeout", type=float, default=1.0, help="seconds to wait for an answer (default 1)")
+
+
+def _cmd_identify(args) -> int:
+    with _link(args) as link:
+        i = link.identify()
+    slot = {0: "A", 1: "B", 0xFF: "none (identity)"}.get(i.cal_slot, str(i.cal_slot))
+    d = {"product": i.product, "firmware": ".".join(map(str, i.fw_version)), "protocol": i.proto_version,
+         "serial": i.serial, "calibration_slot": slot, "calibration_sequence": i.cal_sequence,
+         "calibration_crc": f"{i.cal_crc:04X}", "selftest": i.selftest}
+    if args.json:
+        print(json.dumps(d, indent=2))
+    else:
+        for k, v in d.items():
+            print(f"{k:22s} {v}")
+    return 0
+
+
+def _rows(link, args):
+    if args.count == 1 and not args.stream:
+        yield link.survey()
+        return
+    if args.stream:
+        yield from link.stream(args.period, args.count)
+        return
+    for _ in range(args.count):
+        yield link.survey()
+        if args.period:
+            time.sleep(args.period / 1000.0)
+
+
+class _MdWriter:
+    """A csv writer that puts the station's measured depth first."""
+
+    def __init__(self, w, md):
+        self.w, self.md, self.first = w, md, True
+
+    def writerow(self, row):
+        self.w.writerow(["md_m" if self.first else f"{self.md:.3f}"] + list(row))
+        self.first = False
+
+
+def _cmd_survey(args) -> int:
+    _validate(args)
+    recs = []
+    out = sys.stdout
+    w = None
+    if args.md is not None and not (args.md == args.md and abs(args.md) < 1e6):
+        raise DataError("--md must be a depth in m")
+    if args.format == "csv":
+        w = csv.writer(out)
+        if args.md is not None:
+            w = _MdWriter(w, args.md)
+        w.writerow(SURVEY_COLS + ("qc_verdict",))
+    elif args.format == "table":
+        print(f"{'t s':>8} {'inc':>9} {'azi':>9} {'tf':>9} {'G total':>8} {'B total':>9} {'dip':>8}  QC")
+    with _link(args) as link:
+        for rec in _rows(link, args):
+            u = rec.to_units()
+            recs.append(u)
+            if args.format == "csv":
+                w.writerow([f"{u[c]:.6f}" if isinstance(u[c], float) else u[c] for c in SURVEY_COLS]
+                           + [qc_text(u["qc"])])
+            elif args.format == "json":
+                print(json.dumps({**({"md_m": args.md} if args.md is not None else {}), **u,
+                                  "qc_verdict": qc_text(u["qc"])}))
+            else:
+                print(f"{u['t_s']:8.3f} {u['inc_deg']:9.4f} {u['azi_deg']:9.4f} {u['tf_deg']:9.4f} "
+                      f"{u['gt_g']:8.5f} {u['bt_nT']:9.1f} {u['dip_deg']:8.3f}  {qc_text(u['qc'])}"
+                      + ("  near-vertical" if u["flags"] & 1 else ""))
+            out.flush()
+    if args.las:
+        write_las(args.las, recs, probe=args.port, md=args.md)
+    return 0
+
+
+class _Progress:
+    def __init__(self, total: int, desc: str, enabled: bool):
+        self.bar = None
+        if enabled:
+            from tqdm import tqdm
+
+            self.bar = tqdm(total=total, desc=desc, unit="step", file=sys.stderr, leave=False)
+
+    def __call__(self, name: str):
+        if self.bar is not None:
+            self.bar.set_postfix_str(name)
+            self.bar.update(1)
+
+    def close(self):
+        if self.bar is not None:
+            self.bar.close()
+
+
+def _cmd_download(args) -> int:
+    from inclino.link import operations as calops
+    from inclino.formats.calfile import Calibration
+
+    from inclino.link.serial_link import check_link_options
+
+    check_link_options(args.baud, args.timeout)
+    cal = Calibration.load(args.cal)  # a refused file fails here, before the port is opened
+    cal.check()
+    refusal = calops.report_refusal(cal)
+    if refusal and not args.force:
+        from inclino.errors import CalibrationError
+
+        raise CalibrationError(f"{refusal}; nothing written (use --force to download it anyway)")
+    prog = _Progress(5, "download", not args.quiet and sys.stderr.isatty())
+    try:
+        with _link(args) as link:
+            r = calops.download(link, cal, force=args.force, progress=prog)
+    finally:
+        prog.close()
+    if args.json:
+        print(r.to_json())
+    else:
+        print(download_line(r))
+    return 0
+
+
+def download_line(r) -> str:
+    """The one line `inclino download` prints for a DownloadResult."""
+    notes = ([f"{r.retries} link retr{'y' if r.retries == 1 else 'ies'}"] if r.retries else []) + r.events
+    return (f"downloaded: slot {r.slot}, sequence {r.sequence}, image CRC {r.image_crc:04X}"
+            + (" (" + "; ".join(notes) + ")" if notes else ""))
+
+
+def _cmd_verify(args) -> int:
+    from inclino.link import operations as calops
+    from inclino.formats.calfile import Calibration
+
+    if not 1 <= args.surveys <= 1000:
+        raise DataError(f"--surveys {args.surveys}: surveys to check, 1-1000")
+    cal = Calibration.load(args.cal)
+    with _link(args) as link:
+        r = calops.verify(link, cal, surveys=args.surveys)
+    if args.json:
+        print(r.to_json())
+    else:
+        if r.slot == "none":
+            print(f"verify: FAIL: {r.mismatches[0]}")
+            return 1
+        print(f"storage: {'pass' if r.storage_ok else 'FAIL'} (slot {r.slot}, sequence {r.sequence}); "
+              f"correction: {'pass' if r.correction_ok else 'FAIL'} ({r.checks} surveys checked bit for bit)")
+        for m in r.mismatches[:10]:
+            print(f"  {m}")
+        if len(r.mismatches) > 10:
+            print(f"  ... {len(r.mismatches) - 10} more (--json lists every differing field)")
+    return 0 if r.ok else 1
+
+
+def add_parser(sub) -> None:
+    p = sub.add_parser("identify", help="product, firmware, serial and active calibration of the probe")
+    _add_port(p)
+    p.add_argument("--json", action="store_true")
+    p.set_defaults(func=_cmd_identify)
+
+    p = sub.add_parser("survey", help="surveys from the probe: a live table, CSV or JSON lines; LAS export")
+    _add_port(p)
+    p.add_argument("--count", type=int, default=1, help="surveys to take (0 with --stream: until interrupted)")
+    p.add_argument("--period", type=int, default=0, help="milliseconds between surveys")
+    p.add_argument("--stream", action="store_true", help="let the probe stream at --period (>= 1 ms)")
+    p.add_argument("--format", choices=("table", "csv", "json"), default="table")
+    p.add_argument("--las", help="also write the run as LAS 2.0 to this file")
+    p.add_argument("--md", type=float, help="measured depth of the station, m: an md_m column (MD curve in LAS) "
+                                            "for inclino trajectory")
+    p.set_defaults(func=_cmd_survey)
+
+    p = sub.add_parser("download", help="write a calibration into the probe, read it back, activate it")
+    _add_port(p)
+    p.add_argument("cal", help="calibration JSON")
+    p.add_argument("--force", action="store_true",
+                   help="accept a file made for another probe serial, or whose fit report did not pass")
+    p.add_argument("--json", action="store_true")
+    p.add_argument("--quiet", action="store_true", help="no progress bar")
+    p.set_defaults(func=_cmd_download)
+
+    p = sub.add_parser("verify", help="check the stored calibration and the probe's correction against a file")
+    _add_port(p)
+    p.add_argument("cal", help="calibration JSON")
+    p.add_argument("--surveys", type=int, default=3, help="surveys to check bit for bit (default 3)")
+    p.add_argument("--json", action="store_true")
+    p.set_defaults(func=_cmd_verify)
+
+
+def _validate(args) -> None:
+    from inclino.link.serial_link import check_link_options
+
+    check_link_options(args.baud, args.timeout)
+    if args.count < 0:
+        raise DataError(f"--count {args.count}: surveys to take, >= 0 (0 only with --stream)")
+    if args.period < 0:
+        raise DataError(f"--period {args.period}: milliseconds, >= 0")
+    if args.stream:
+        if not 1 <= args.period <= 65535:
+            raise DataError(f"--period {args.period}: the probe streams at 1-65535 ms")
+        if args.count > 65535:
+            raise DataError(f"--count {args.count}: the probe streams at most 65535 surveys (0: until "
+                            "interrupted)")
+    else:
+        if args.count == 0:
+            raise DataError("--count 0 (until interrupted) needs --stream")
+        if args.period > 86_400_000:
+            raise DataError(f"--period {args.period}: at most 86400000 ms (a day)")
+
+
+def _cmd_flash(args) -> int:
+    from inclino.boot.flashing import flash
+    from inclino.link.serial_link import check_link_options
+
+    check_link_options(args.baud, args.timeout)
+    if not 1 <= args.attempts <= 10:
+        raise DataError(f"--attempts {args.attempts}: whole flashes to start, 1-10")
+    if args.readback:
+        from inclino.formats import safeio
+
+        safeio.check_output(args.readback, [args.image])  # before the probe is touched
+    cb, close = (None, lambda: None) if args.json else _tqdm_progress()
+    try:
+        res = flash(args.port, args.image, progress=cb, attempts=args.attempts, run=not args.no_run,
+                    baud=args.baud, timeout=args.timeout, readback_path=args.readback)
+    finally:
+        close()
+    print(res.to_json() if args.json else _text(res))
+    return 0 if res.ok else 1
+
+
+def add_flash(subparsers) -> None:
+    p = subparsers.add_parser("flash", help="program an S-record image through the probe's bootloader, "
+                                            "verify every range")
+    p.add_argument("image", help="S-record file (S2/S3 records with MC9S12XEP100 global addresses)")
+    p.add_argument("--port", required=True, help="serial port name or pyserial URL")
+    p.add_argument("--baud", type=int, default=115200)
+    p.add_argument("--timeout", type=float, default=0.5, help="seconds to wait for an answer (default 0.5)")
+    p.add_argument("--attempts", type=int, default=2,
+                   help="whole flashes to start at most when one is cut short (default 2)")
+    p.add_argument("--no-run", action="store_true", help="leave the probe in its bootloader")
+    p.add_argument("--readback", metavar="FILE.s19", help="also write what was read back as S-records")
+    p.add_argument("--json", action="store_true", help="print the result as one JSON object")
+    p.set_defaults(func=_cmd_flash)
+
+
+def _tqdm_progress():
+    """One progress bar per phase on stderr (inclino.progress: a bar on a
+    terminal; off one, a status line when a phase starts, every
+    INCLINO_PROGRESS_PERIOD seconds, and when it ends)."""
+    from inclino import progress
+
+    bars = {}
+
+    def cb(phase: str, done: int, total: int):
+        bar = bars.get(phase)
+        if bar is None:
+            for b in bars.values():
+                b.close()
+            unit = "sector" if phase == "erase" else "B"
+            bar = bars[phase] = progress.bar(total, f"flash {phase}", unit=unit, leave=True, delay=0)
+        bar.update(done - bar.n)
+
+    def close():
+        for b in bars.values():
+            b.close()
+
+    return cb, close
+
+
+def _text(res) -> str:
+    lines = [f"{'range':>18} {'bytes':>7}  {'CRC file':>8}  {'CRC probe':>9}  read-back  verdict"]
+    for r in res.ranges:
+        lines.append(f"0x{r.addr:06X}-0x{r.addr + r.length - 1:06X} {r.length:7d}  {r.crc_expected:08X}  "
+                     f"{'-' if r.crc_probe is None else format(r.crc_probe, '08X'):>9}  "
+                     f"{'ok' if r.readback_ok else 'DIFFERS':9s}  {'pass' if r.passed else 'FAIL'}")
+    for e in res.events:
+        lines.append(f"note: {e}")
+    verdict = "flashed and verified" if res.ok else "NOT flashed: verification failed, nothing committed"
+    lines.append(f"{verdict}: {res.bytes_image} bytes in {len(res.ranges)} range(s), "
+                 f"{res.sectors_erased} sectors erased, serial {res.serial}, {res.attempts} attempt(s), "
+                 f"{res.retries} link retries, {res.bytes_on_wire} bytes on the wire, {res.duration_s:.1f} s"
+                 + ("; application running" if res.app_running else ""))
+    return "\n".join(lines)

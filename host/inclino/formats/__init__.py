@@ -1,0 +1,1 @@
+"""File formats: raw datasets, calibration files and images, safe output."""

@@ -1,0 +1,282 @@
+"""The raw dataset format (CSV) that every tool reads and writes.
+
+    # field_nT=50000
+    # dip_deg=60
+    t_s,inc_deg,azi_deg,tf_deg,temp_c,ax_g,ay_g,az_g,mx_nT,my_nT,mz_nT
+    0,10,30,0,25,...
+
+Optional leading `# key=value` lines (META_KEYS), then a header row with the
+columns in any order, extra columns allowed.  Pose columns (turntable
+reference) and t_s/temp_c may be absent; the six sensor columns are required
+and hold raw, uncalibrated readings in nominal units (counts x nominal LSB).
+"""
+from __future__ import annotations
+
+import csv
+import math
+import os
+from dataclasses import dataclass, field
+
+import numpy as np
+
+from inclino import progress as _progress
+from inclino.errors import DataError
+
+META_KEYS = ("field_nT", "dip_deg", "declination_deg", "gravity_g", "lat_deg", "lon_deg",
+             "date", "probe_serial", "source", "samples_averaged")
+NUMERIC_META = {"field_nT", "dip_deg", "declination_deg", "gravity_g", "lat_deg", "lon_deg", "samples_averaged"}
+SENSOR_COLS = ("ax_g", "ay_g", "az_g", "mx_nT", "my_nT", "mz_nT")
+POSE_COLS = ("inc_deg", "azi_deg", "tf_deg")
+OPTIONAL_COLS = ("t_s", "temp_c") + POSE_COLS
+COLUMN_ORDER = ("t_s",) + POSE_COLS + ("temp_c",) + SENSOR_COLS
+
+
+@dataclass
+class RawDataset:
+    columns: dict = field(default_factory=dict)  # name -> float64 array
+    meta: dict = field(default_factory=dict)
+
+    def __len__(self) -> int:
+        return len(self.columns[SENSOR_COLS[0]]) if self.columns else 0
+
+    @property
+    def acc(self) -> np.ndarray:
+        return np.stack([self.columns[c] for c in SENSOR_COLS[:3]], axis=-1)
+
+    @property
+    def mag(self) -> np.ndarray:
+        return np.stack([self.columns[c] for c in SENSOR_COLS[3:]], axis=-1)
+
+    @property
+    def has_pose(self) -> bool:
+        return all(c in self.columns for c in POSE_COLS)
+
+
+# One rule per field: (low, high) inclusive, for the numeric header keys and
+# the columns; every value must also be finite.  Pose angles follow
+# docs/conventions.md (I in [0, 180], with 5 deg of slack for a turntable
+# that reads a little past vertical; A and T are wrapped, any turn within one
+# revolution either way is accepted).
+RULES = {
+    "field_nT": (1e-3, 200_000.0),   # > 0; beyond what the +-100 000 nT fluxgate axes can measure
+    "dip_deg": (-90.0, 90.0),
+    "declination_deg": (-360.0, 360.0),
+    "gravity_g": (1e-3, 2.0),        # > 0, within the accelerometer's +-1.7 g
+    "lat_deg": (-90.0, 90.0),
+    "lon_deg": (-360.0, 360.0),
+    "inc_deg": (-5.0, 185.0),
+    "azi_deg": (-360.0, 360.0),
+    "tf_deg": (-360.0, 360.0),
+    "temp_c": (-100.0, 300.0),
+    "samples_averaged": (1.0, 1_000_000.0),  # sensor samples per reading (acquire --average)
+}
+MAX_LINE_CHARS = 1 << 20  # a longer line is refused (bounded reading of a hostile file)
+CHUNK_ROWS = 1 << 16
+
+
+def _rule_text(key: str) -> str:
+    lo, hi = RULES[key]
+    if lo == 1e-3:
+        return f"must be > 0 and <= {hi:g}"
+    return f"must be within [{lo:g}, {hi:g}]"
+
+
+def check_meta(key: str, value, what: str) -> None:
+    """A header value given some other way (a command-line option) obeys the
+    header's rule: DataError naming `what`."""
+    if value is None or key not in RULES:
+        return
+    lo, hi = RULES[key]
+    if not (math.isfinite(value) and lo <= value <= hi):
+        raise DataError(f"{what} {value:g} out of range: {key} {_rule_text(key)}")
+
+
+def _meta_value(key, text, path, lineno):
+    if key in NUMERIC_META:
+        try:
+            v = float(text)
+        except ValueError:
+            raise DataError(f"{path}:{lineno}: header {key}={text!r} is not a number") from None
+        if not math.isfinite(v):
+            raise DataError(f"{path}:{lineno}: header {key} is not finite")
+        if "_" in text:
+            raise DataError(f"{path}:{lineno}: header {key}={text!r} is not a plain number")
+        lo, hi = RULES[key]
+        if not lo <= v <= hi:
+            raise DataError(f"{path}:{lineno}: header {key}={text} out of range: {key} {_rule_text(key)}")
+        return v
+    return text
+
+
+class _Lines:
+    """The file's lines, each bounded, with the current line number."""
+
+    def __init__(self, f, path):
+        self.f, self.path, self.lineno, self.chars = f, path, 0, 0
+
+    def __iter__(self):
+        return self
+
+    def __next__(self) -> str:
+        try:
+            line = self.f.readline(MAX_LINE_CHARS + 1)
+        except UnicodeDecodeError:
+            raise DataError(f"{self.path}:{self.lineno + 1}: not UTF-8 text") from None
+        if not line:
+            raise StopIteration
+        self.lineno += 1
+        self.chars += len(line)
+        if len(line) > MAX_LINE_CHARS:
+            raise DataError(f"{self.path}:{self.lineno}: line longer than {MAX_LINE_CHARS} characters")
+        return line
+
+
+def read_raw(path: str, progress: bool = False) -> RawDataset:
+    """Read a raw dataset; raise DataError (one line, naming the row and
+    column) on any defect.  Streams the file (memory: 8 bytes per value
+    kept, plus one chunk), every line bounded.  A data row must have exactly
+    as many cells as the header (never read by position: a decimal comma
+    or a stray cell is an error naming the row).  progress: show reading
+    progress on stderr (inclino.progress)."""
+    try:
+        f = open(path, newline="", encoding="utf-8-sig")  # -sig: a UTF-8 byte-order mark is dropped
+        size = os.fstat(f.fileno()).st_size
+    except OSError as e:
+        raise DataError(f"cannot read {path}: {e.strerror}") from None
+    with f:
+        lines = _Lines(f, path)
+        bar = _progress.bar(size or None, f"reading {path}", unit="B", quiet=not progress)
+        try:
+            return _read(lines, path, bar)
+        except csv.Error as e:
+            raise DataError(f"{path}:{lines.lineno}: {e}") from None
+        finally:
+            bar.close()
+
+
+def _read(lines: _Lines, path: str, bar) -> RawDataset:
+    meta: dict = {}
+    line = None
+    for line in lines:
+        if line.startswith("#") or not line.strip():
+            body = line.lstrip("#").strip()
+            if "=" in body:
+                k, v = (t.strip() for t in body.split("=", 1))
+                if k in META_KEYS:
+                    meta[k] = _meta_value(k, v, path, lines.lineno)
+            line = None
+            continue
+        break
+    if line is None:
+        raise DataError(f"{path}: no header row")
+    header_line = lines.lineno
+    header = [h.strip() for h in next(csv.reader([line]))]
+    missing = [c for c in SENSOR_COLS if c not in header]
+    if missing:
+        raise DataError(f"{path}:{header_line}: missing column(s) {', '.join(missing)}")
+    if len(set(header)) != len(header):
+        raise DataError(f"{path}:{header_line}: a column name appears twice")
+    ncells = len(header)
+    wanted = [c for c in COLUMN_ORDER if c in header]
+    idx = [header.index(c) for c in wanted]
+    chunks = []
+    buf = np.empty((CHUNK_ROWS, len(wanted)))
+    nos = np.empty(CHUNK_ROWS, dtype=np.int64)
+    k = 0
+    done = 0
+
+    def flush(k):
+        block = buf[:k].copy()
+        _check_block(block, nos[:k], wanted, path)
+        chunks.append(block)
+
+    for row in csv.reader(lines):
+        if not row or all(not cell.strip() for cell in row):
+            continue
+        rownum = lines.lineno
+        if len(row) != ncells:
+            hint = " (a decimal comma? use a point: 1.5)" if len(row) > ncells else ""
+            raise DataError(f"{path}:{rownum}: {len(row)} cells, the header has {ncells}{hint}")
+        try:
+            buf[k] = [float(row[j]) for j in idx]
+        except ValueError:
+            for c, j in zip(wanted, idx):
+                _cell_value(row[j], c, path, rownum)
+            raise  # pragma: no cover (one of the cells above raised)
+        if "_" in "".join(row[j] for j in idx):  # float() takes "1_5" as 15
+            for c, j in zip(wanted, idx):
+                _cell_value(row[j], c, path, rownum)
+        nos[k] = rownum
+        k += 1
+        if k == CHUNK_ROWS:
+            flush(k)
+            k = 0
+            bar.update(lines.chars - done)
+            done = lines.chars
+    if k:
+        flush(k)
+    if not chunks:
+        raise DataError(f"{path}: no data rows")
+    data = np.concatenate(chunks) if len(chunks) > 1 else chunks[0]
+    chunks.clear()
+    return RawDataset({c: np.ascontiguousarray(data[:, i]) for i, c in enumerate(wanted)}, meta)
+
+
+def _cell_value(cell: str, col: str, path, rownum) -> float:
+    text = cell.strip()
+    try:
+        if "_" in text:
+            raise ValueError
+        return float(text)
+    except ValueError:
+        raise DataError(f"{path}:{rownum}: column {col}: {text[:40]!r} is not a number") from None
+
+
+def _check_block(block, nos, cols, path) -> None:
+    """Finite values, and each column within its rule (RULES)."""
+    for i, c in enumerate(cols):
+        v = block[:, i]
+        bad = ~np.isfinite(v)
+        if c in RULES:
+            lo, hi = RULES[c]
+            bad |= ~((v >= lo) & (v <= hi))
+        if bad.any():
+            r = int(np.argmax(bad))
+            if not math.isfinite(v[r]):
+                raise DataError(f"{path}:{nos[r]}: column {c}: {str(float(v[r]))!r} is not a finite number")
+            raise DataError(f"{path}:{nos[r]}: column {c}: {float(v[r]):g} out of range: {c} {_rule_text(c)}")
+
+
+THIN_NOTE = "the run has"
+
+
+def thin(ds: RawDataset, max_rows: int | None) -> tuple[RawDataset, str | None]:
+    """The subsampling rule for methods that do not need every row of a long
+    run: with n > max_rows rows, keep every k-th row, k = ceil(n / max_rows),
+    starting at the first (rows 0, k, 2k, ...: evenly spread over the run,
+    so every pose held for at least k rows keeps rows, and the same file
+    always gives the same rows).  Returns the dataset (the same object when
+    nothing is dropped) and a one-line note, or None."""
+    n = len(ds)
+    if max_rows is None or n <= max_rows:
+        return ds, None
+    k = -(-n // int(max_rows))
+    sub = RawDataset({c: np.ascontiguousarray(v[::k]) for c, v in ds.columns.items()}, dict(ds.meta))
+    return sub, (f"{THIN_NOTE} {n} rows; one row in {k} was used (rows 0, {k}, {2 * k}, ...: {len(sub)} rows; "
+                 f"the limit is {max_rows}, docs/dataset.md)")
+
+
+def write_raw(path: str, ds: RawDataset, inputs=()) -> None:
+    """Write a raw dataset through inclino.formats.safeio (atomic, never over one of
+    `inputs`, a device or a symlink's place)."""
+    from inclino.formats import safeio
+
+    cols = [c for c in COLUMN_ORDER if c in ds.columns]
+    with safeio.output_file(path, inputs) as f:
+        for k in META_KEYS:
+            if k in ds.meta:
+                f.write(f"# {k}={ds.meta[k]}\n")
+        w = csv.writer(f)
+        w.writerow(cols)
+        for r in range(len(ds)):
+            w.writerow([repr(float(ds.columns[c][r])) for c in cols])

@@ -1,0 +1,1 @@
+"""Procedures on a turntable: acquisition, acceptance, their figures, the demo run."""

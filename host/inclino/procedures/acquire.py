@@ -1,0 +1,417 @@
+"""`inclino acquire`: take a calibration run from the probe, position by
+position, and write it as a raw dataset (docs/dataset.md).
+
+    inclino acquire --port P --procedure twelve-position|multi-position|continuous -o RUN.csv
+                    [--bench HOST:PORT]
+
+Procedures (pose lists from inclino.calib.runs, our conventions):
+
+* twelve-position -- Li 2021 Table 1, the twelve positions (li2021, joint).
+* multi-position -- Li's twelve, Ren 2014's ten positions and three circles
+  (body x, y, z down, turned about the vertical every 30 deg), and --points
+  quasi-uniform orientations (default 36): every static method (joint,
+  ren2014, li2021) can fit the run.
+* continuous -- Guo 2009: two full toolface rotations at inclinations d1 and
+  d1 + 90 deg (--d1, default 30) at one azimuth (--azimuth, default 2),
+  read while the toolface turns, with the probe's timestamps (guo2009,
+  joint).
+* temperature -- through a thermal chamber: at each set point of
+  --temperatures a few poses read through the ramp and soak, then the
+  --poses set (inclino.procedures.acquire_temp; joint --temperature).
+
+Who turns the table:
+
+* an operator (no --bench): every position is announced (the turntable's
+  inclination, azimuth, toolface and which way each body axis then points);
+  the operator sets it and presses Enter.  For the continuous procedure the
+  operator sets inclination and azimuth, presses Enter and turns the
+  toolface slowly through a full turn; the toolface of each reading is the
+  probe's own gravity toolface from the raw accelerometer (its error is the
+  uncalibrated accelerometer's bias and misalignment: up to 0.52 deg at 30
+  deg inclination on the emulator's typical probe, inside the +-1 deg Guo's
+  method is simulated with).
+* the emulator's turntable (--bench HOST:PORT, `inclino emulate` prints the
+  port): moved over its control channel, unattended.  The control channel
+  only has static moves, so the continuous rotation is a toolface step every
+  --step deg (default 10) with one reading at each.
+
+Stability check (static positions): readings (SURVEY_RAW: the probe's
+averaged raw counts and the survey of the same acquisition, with the
+probe's time) are taken until --reads consecutive ones (default 3) agree
+within the tolerance on every axis: max - min <= --tol-acc-mg (default 1.0
+mg = 16 ADIS16210 counts) and <= --tol-mag-nt (default 20 nT).  A typical
+probe at rest scatters by ~0.4 mg and ~3 nT between readings; a probe still
+swinging on the table by far more.  The row written is the mean of those
+readings (sensor columns in nominal units: counts x 2^-14 g, counts x 1 nT),
+its time the mean of theirs.  The bench gives up on a position after
+--max-reads readings (exit 4); an operator is told the probe is still moving
+and the readings go on.
+
+The file is written to RUN.csv.part as the run goes and renamed to RUN.csv
+at the end (a run stopped part-way leaves its rows in RUN.csv.part); header lines carry the probe serial, the field when known (the
+bench reports its field; an operator may give --field/--dip/--declination),
+the date and the source.
+
+Exit statuses: 0 written; 2 bad option; 4 port, probe or bench problem.
+"""
+from __future__ import annotations
+
+import contextlib
+import datetime as _dt
+import math
+import os
+import sys
+import time
+from dataclasses import dataclass, field
+
+from inclino.errors import DataError
+from inclino.link.serial_link import ProbeError
+from inclino.engines.reference import ACC_LSB_G, MAG_LSB_NT  # noqa: F401 (one place for the sensor scales)
+
+PROCEDURES = ("twelve-position", "multi-position", "continuous", "temperature")
+COLUMNS = ("t_s", "inc_deg", "azi_deg", "tf_deg", "temp_c", "ax_g", "ay_g", "az_g", "mx_nT", "my_nT", "mz_nT")
+
+
+class Unsettled(ProbeError):
+    """The readings did not agree within the tolerance (exit status 4)."""
+
+
+# ---------------------------------------------------------------- poses
+@dataclass
+class Step:
+    """One position of a procedure: the turntable's indicated pose."""
+    inc: float
+    azi: float
+    tf: float
+    label: str
+    rotation: int = 0  # continuous: 1 or 2 (which toolface rotation), else 0
+
+
+def _wrap(a: float) -> float:
+    a = math.fmod(float(a), 360.0)
+    a = a + 360.0 if a < 0 else a
+    return 0.0 if a >= 360.0 else a + 0.0
+
+
+_DIRS = (("north", (1, 0, 0)), ("south", (-1, 0, 0)), ("east", (0, 1, 0)), ("west", (0, -1, 0)),
+         ("down", (0, 0, 1)), ("up", (0, 0, -1)))
+
+
+def describe(inc: float, azi: float, tf: float) -> str:
+    """Where each body axis points at this pose, e.g. "X down, Y west, Z
+    north" (Li 2021 Table 1's words); axes off the six directions are given
+    by their inclination from down."""
+    from inclino.engines import reference as ref
+
+    C = ref.pose_matrix(inc, azi, tf)
+    parts = []
+    for k, name in enumerate("XYZ"):
+        v = C[k]
+        best = max(_DIRS, key=lambda d: sum(a * b for a, b in zip(v, d[1])))
+        if sum(a * b for a, b in zip(v, best[1])) > math.cos(math.radians(1.0)):
+            parts.append(f"{name} {best[0]}")
+        else:
+            parts.append(f"{name} {math.degrees(math.acos(max(-1.0, min(1.0, v[2])))):.0f} deg from down")
+    return ", ".join(parts)
+
+
+def procedure_steps(name: str, points: int = 36, d1: float = 30.0, azimuth: float = 2.0,
+                    step_deg: float = 10.0, circle_step_deg: float = 30.0) -> list[Step]:
+    import numpy as np
+
+    from inclino.calib import li2021, runs
+
+    if name == "twelve-position":
+        return [Step(*map(float, li2021.POSITIONS[p]), f"Li 2021 Table 1 position {p}") for p in range(1, 13)]
+    if name == "multi-position":
+        if points < 0:
+            raise DataError("--points must be >= 0")
+        steps = procedure_steps("twelve-position")
+        I, A, T = runs.ren2014(circle_step_deg)
+        n_circle = len(np.arange(0.0, 360.0, circle_step_deg))
+        names = ([f"Ren 2014 position {k + 1}" for k in range(10)]
+                 + [f"Ren 2014 circle, {ax} down, {j + 1}/{n_circle}" for ax in "XYZ" for j in range(n_circle)])
+        steps += [Step(float(i), float(a), float(t), nm) for i, a, t, nm in zip(I, A, T, names)]
+        if points:
+            I, A, T = runs.multi_position(points)
+            steps += [Step(float(i), float(a), float(t), f"orientation {k + 1}/{points}")
+                      for k, (i, a, t) in enumerate(zip(I, A, T))]
+        return [Step(s.inc, _wrap(s.azi), _wrap(s.tf), s.label, s.rotation) for s in steps]
+    if name == "continuous":
+        if not 0.0 <= d1 <= 90.0:
+            raise DataError("--d1 must be within 0-90 deg (the second rotation is at d1 + 90)")
+        if not 0.0 < step_deg <= 60.0:
+            raise DataError("--step must be within (0, 60] deg (Guo's fit needs >= 6 readings per turn)")
+        r = np.arange(0.0, 360.0 - 1e-9, step_deg)
+        return [Step(d, _wrap(azimuth), float(t), f"rotation {k + 1} at inclination {d:g}", k + 1)
+                for k, d in enumerate((d1, d1 + 90.0)) for t in r]
+    raise DataError(f"unknown procedure {name!r} (one of {', '.join(PROCEDURES)})")
+
+
+# ---------------------------------------------------------------- readings
+@dataclass
+class Reading:
+    t_s: float
+    acc: tuple  # counts (the probe's means: fractional, 1/64 count resolution)
+    mag: tuple  # counts
+    temp_c: float
+    survey: dict  # the probe's survey of the same acquisition (units)
+    record: object = None  # that survey's protocol.SurveyRecord (fixed point)
+
+
+def read_once(link) -> Reading:
+    from inclino.link import operations as calops
+
+    s, r = calops.survey_with_raw(link)
+    return Reading(s.t_ms / 1000.0, r.acc_counts, r.mag_counts, r.temp_centi_c / 100.0,
+                   s.to_units(), s)
+
+
+@dataclass
+class Tolerance:
+    acc_mg: float = 1.0
+    mag_nT: float = 20.0
+    reads: int = 3
+
+    def check(self) -> None:
+        if self.reads < 1:
+            raise DataError("--reads must be >= 1")
+        if not (self.acc_mg > 0 and self.mag_nT > 0):
+            raise DataError("the stability tolerances must be > 0")
+
+    def spread(self, window: list[Reading]) -> tuple[float, float]:
+        """(accelerometer spread mg, fluxgate spread nT): the largest max - min over the axes."""
+        sa = max(max(w.acc[k] for w in window) - min(w.acc[k] for w in window) for k in range(3))
+        sm = max(max(w.mag[k] for w in window) - min(w.mag[k] for w in window) for k in range(3))
+        return sa * ACC_LSB_G * 1e3, sm * MAG_LSB_NT
+
+    def agrees(self, window: list[Reading]) -> bool:
+        sa, sm = self.spread(window)
+        return sa <= self.acc_mg and sm <= self.mag_nT
+
+
+def read_stable(link, tol: Tolerance, max_reads: int | None = 30, waiting=None) -> list[Reading]:
+    """Readings until the last tol.reads agree within tol; returns them.
+    max_reads None: go on (an operator is there); `waiting(spread_mg,
+    spread_nT, n)` is called after each disagreeing window."""
+    win: list[Reading] = []
+    n = 0
+    while True:
+        win.append(read_once(link))
+        n += 1
+        win = win[-tol.reads:]
+        if len(win) == tol.reads and tol.agrees(win):
+            return win
+        if len(win) == tol.reads:
+            sa, sm = tol.spread(win)
+            if waiting is not None:
+                waiting(sa, sm, n)
+            if max_reads is not None and n >= max_reads:
+                raise Unsettled(f"the readings did not settle in {n} reads (spread {sa:.2f} mg, {sm:.0f} nT; "
+                                f"tolerance {tol.acc_mg:g} mg, {tol.mag_nT:g} nT)")
+
+
+def mean_row(win: list[Reading]) -> dict:
+    n = float(len(win))
+    row = {"t_s": sum(w.t_s for w in win) / n, "temp_c": sum(w.temp_c for w in win) / n}
+    for k, c in enumerate(("ax_g", "ay_g", "az_g")):
+        row[c] = sum(w.acc[k] for w in win) / n * ACC_LSB_G
+    for k, c in enumerate(("mx_nT", "my_nT", "mz_nT")):
+        row[c] = sum(w.mag[k] for w in win) / n * MAG_LSB_NT
+    return row
+
+
+def gravity_toolface(acc) -> float:
+    """The probe's gravity toolface from raw accelerometer counts (deg)."""
+    return _wrap(math.degrees(math.atan2(acc[1], -acc[0] + 0.0)))
+
+
+def set_average(link, n: int | None) -> None:
+    if n is None:
+        return
+    if not 1 <= n <= 64:
+        raise DataError("--average must be within 1-64 samples")
+    link.set_average(n)
+
+
+# ---------------------------------------------------------------- the run
+@dataclass
+class AcquireResult:
+    path: str
+    procedure: str
+    rows: int
+    probe_serial: int
+    meta: dict
+    reads: int = 0
+    unsettled_windows: int = 0
+    elapsed_s: float = 0.0
+    notes: list = field(default_factory=list)
+
+
+def _bar(total: int, desc: str, quiet: bool):
+    from inclino.progress import bar   # a bar on a terminal, periodic lines off one
+
+    return bar(total, desc, unit="pos", quiet=quiet, leave=False, dynamic_ncols=True)
+
+
+def run_header(link, table, world, average):
+    """Set the probe's averaging, identify it and build a run file's header:
+    the world (given values first, then the turntable's), the probe's serial,
+    today's date and, with `average`, the sensor samples behind each reading."""
+    set_average(link, average)
+    ident = link.identify()
+    meta = {k: v for k, v in (world or {}).items() if v is not None}
+    meta.update({k: v for k, v in table.world().items() if k not in meta})
+    meta["probe_serial"] = ident.serial
+    meta["date"] = _dt.date.today().isoformat()
+    if average is not None:  # sensor samples behind each reading (a row averages one or more readings)
+        meta["samples_averaged"] = int(average)
+    return ident, meta
+
+
+@contextlib.contextmanager
+def recording(out, bar, res, t0):
+    """The rows written inside go to the output file only when the block
+    ends normally (`out.commit()`); on any exception, Ctrl-C included, the
+    partial file is abandoned and nothing is written. Fills res.rows and
+    res.elapsed_s."""
+    try:
+        yield
+    except BaseException:
+        out.abort()
+        bar.close()
+        raise
+    bar.close()
+    out.commit()
+    res.rows = out.rows
+    res.elapsed_s = time.monotonic() - t0
+
+
+class _RowWriter:
+    def __init__(self, path: str, meta: dict):
+        from inclino.formats import safeio
+
+        safeio.check_output(path)
+        self.path = path
+        self.part = path + ".part"
+        try:
+            self.f = open(self.part, "w", newline="", encoding="utf-8")
+        except OSError as e:
+            raise DataError(f"cannot write {path}: {e.strerror}")
+        from inclino.formats.dataset import META_KEYS
+
+        for k in META_KEYS:
+            if k in meta and meta[k] is not None:
+                self.f.write(f"# {k}={meta[k]}\n")
+        self.f.write(",".join(COLUMNS) + "\n")
+        self.rows = 0
+
+    def write(self, row: dict) -> None:
+        self.f.write(",".join(repr(float(row[c])) for c in COLUMNS) + "\n")
+        self.f.flush()
+        self.rows += 1
+
+    def commit(self) -> None:
+        """The finished run goes to the output path through inclino.formats.safeio
+        (atomic, never over a device or through a replaced symlink, the
+        target's permissions kept); the .part file is then removed."""
+        from inclino.formats import safeio
+
+        self.f.close()
+        try:
+            with open(self.part, "rb") as src:
+                data = src.read()
+        except OSError as e:
+            raise DataError(f"cannot read back {self.part}: {e.strerror}") from None
+        safeio.write_output(self.path, data)
+        os.unlink(self.part)
+
+    def abort(self) -> None:
+        try:
+            self.f.close()
+        except OSError:  # pragma: no cover
+            pass
+
+
+def acquire(link, procedure: str, out_path: str, table, *, points: int = 36, d1: float = 30.0,
+            azimuth: float = 2.0, step_deg: float = 10.0, tol: Tolerance | None = None,
+            max_reads: int = 30, world: dict | None = None, quiet: bool = False,
+            turn_timeout_s: float = 120.0, average: int | None = None) -> AcquireResult:
+    """Take the procedure's positions on `table` (turntable.ManualTurntable or
+    turntable_emulated.EmulatedTurntable) and
+    write the raw dataset to out_path.  world: field_nT / dip_deg /
+    declination_deg known to the caller (the bench's own take precedence
+    over none)."""
+    tol = tol or Tolerance()
+    tol.check()
+    steps = procedure_steps(procedure, points=points, d1=d1, azimuth=azimuth, step_deg=step_deg)
+    t0 = time.monotonic()
+    ident, meta = run_header(link, table, world, average)
+    who = f"bench {table.spec}" if table.unattended else "operator"
+    meta["source"] = (f"inclino acquire {procedure} ({who}; probe {ident.product} fw "
+                      f"{'.'.join(map(str, ident.fw_version))}, {tol.reads} reads within {tol.acc_mg:g} mg "
+                      f"/ {tol.mag_nT:g} nT)")
+    res = AcquireResult(out_path, procedure, 0, ident.serial, meta)
+    out = _RowWriter(out_path, meta)
+    bar = _bar(len(steps), procedure, quiet)
+    def say(m):  # instructions and warnings stay visible with --quiet (an operator needs them)
+        bar.write(m, file=sys.stderr)
+
+    if getattr(table, "default_say", False):  # a person at the turntable, told above the bar
+        table.say = say
+    with recording(out, bar, res, t0):
+        if procedure == "continuous" and not table.unattended:
+            _continuous_operator(link, table, steps, out, res, bar, say, turn_timeout_s)
+        else:
+            for i, st in enumerate(steps, start=1):
+                table.move(st, i, len(steps))
+                if st.rotation:  # the bench's stepped rotation: one reading per step
+                    win = [read_once(link)]
+                    res.reads += 1
+                else:
+                    def waiting(sa, sm, n, st=st):
+                        res.unsettled_windows += 1
+                        if not table.unattended:
+                            say(f"  the probe is still moving (spread {sa:.2f} mg, {sm:.0f} nT): hold it still")
+
+                    win = read_stable(link, tol, max_reads if table.unattended else None, waiting)
+                    res.reads += len(win)
+                out.write({**mean_row(win), "inc_deg": st.inc, "azi_deg": st.azi, "tf_deg": st.tf})
+                bar.update(1)
+    return res
+
+
+def _continuous_operator(link, table, steps, out, res, bar, say, timeout_s):
+    """An operator turns the toolface by hand: read continuously, toolface
+    from the raw accelerometer, until a full turn (plus one step) is covered."""
+    for rot in (1, 2):
+        st = next(s for s in steps if s.rotation == rot)
+        per_turn = sum(1 for s in steps if s.rotation == rot)
+        table.move(st, rot, 2)
+        first = read_once(link)
+        prev = gravity_toolface(first.acc)
+        turned, n, t_start = 0.0, 0, time.monotonic()
+        rows = [first]
+        while abs(turned) < 360.0:
+            r = read_once(link)
+            tf = gravity_toolface(r.acc)
+            d = (tf - prev + 180.0) % 360.0 - 180.0
+            if abs(d) > 20.0:
+                say(f"  toolface moved {abs(d):.0f} deg between readings: turn more slowly")
+            turned += d
+            prev = tf
+            rows.append(r)
+            n += 1
+            bar.n = int(min(per_turn, per_turn * abs(turned) / 360.0)) + (rot - 1) * per_turn
+            bar.refresh()
+            if time.monotonic() - t_start > timeout_s:
+                raise Unsettled(f"rotation {rot}: the toolface turned only {abs(turned):.0f} deg in {timeout_s:g} s")
+        for r in rows:
+            out.write({"t_s": r.t_s, "temp_c": r.temp_c, "ax_g": r.acc[0] * ACC_LSB_G, "ay_g": r.acc[1] * ACC_LSB_G,
+                       "az_g": r.acc[2] * ACC_LSB_G, "mx_nT": r.mag[0] * MAG_LSB_NT, "my_nT": r.mag[1] * MAG_LSB_NT,
+                       "mz_nT": r.mag[2] * MAG_LSB_NT, "inc_deg": st.inc, "azi_deg": st.azi,
+                       "tf_deg": gravity_toolface(r.acc)})
+        res.reads += len(rows)
+
+
+# ---------------------------------------------------------------- CLI

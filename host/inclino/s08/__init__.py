@@ -1,0 +1,1 @@
+"""The firmware core on the Freescale S08 through SDCC and the ucsim simulator."""

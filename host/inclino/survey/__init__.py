@@ -1,0 +1,1 @@
+"""Survey: reference field, well path, error model, repeatability, QC reference, figures."""

@@ -1,0 +1,414 @@
+"""The calibrated probe's error model in ISCWSA / OWSG form.
+
+A planner's anti-collision software describes a survey tool by a named list
+of error terms, each a 1-sigma magnitude, a propagation mode (random per
+station, systematic per run, per well, global) and weighting functions
+(d inc / d e, d azi / d e) of the station's attitude and the reference
+field.  This module writes the probe as such a tool model (the ISCWSA JSON
+tool-model format of the ISCWSA error-model revision 5, as welleng reads and
+ships it) and evaluates it with welleng.
+
+Terms and where their magnitudes come from:
+
+* sensor terms, systematic over a run -- the standard MWD terms ABXY-TI1S,
+  ABXY-TI2S, ABZ (accelerometer bias, m/s^2), ASXY-TI1S..TI3S, ASZ
+  (accelerometer scale), MBXY-TI1S, MBXY-TI2S, MBZ (fluxgate bias, nT),
+  MSXY-TI1S..TI3S, MSZ (fluxgate scale), with the weighting functions of
+  the ISCWSA-issued OWSG model MWD+SRGM (read from welleng's copy).  The
+  calibration's covariance of its 24 coefficients is not itself in this
+  form (it has cross-axis terms and correlations); the eight magnitudes are
+  its projection onto these terms: the toolface-averaged inclination and
+  azimuth variance the covariance gives, linearised, over a grid of
+  attitudes (inclination 5-175 deg, 24 azimuths, 12 toolfaces), fitted by
+  non-negative least squares in relative terms.  `monte_carlo` checks the
+  result against random draws of the coefficients.
+* sensor noise, random per station -- the same weighting functions with
+  propagation "Random" (names ending in R: ABXY-TI1R, ...), magnitudes the
+  measured per-axis noise of one survey (the spread of G total and B total
+  over repeated surveys at rest, or given values).
+* reference-field terms (declination, horizontal-field crustal terms) --
+  added for the survey's reference by `reference_terms`: the OWSG values for
+  a standard-resolution main-field model (MWD+SRGM) or for in-field
+  referencing (MWD+IFR1), or none.
+
+Not in the probe's model: the depth terms (the depth system's), the
+tool-axis misalignment and sag terms (XYM, SAG: the tool's centralisation in
+the hole).  A planner adds those for the conveyance it uses.
+"""
+from __future__ import annotations
+
+import json
+import math
+from dataclasses import asdict, dataclass, field
+
+import numpy as np
+
+from inclino.errors import DataError
+from inclino.formats.jsonout import dumps
+
+G0 = 9.80665
+SENSOR_TERMS = ("ABXY-TI1S", "ABXY-TI2S", "ABZ", "ASXY-TI1S", "ASXY-TI2S", "ASXY-TI3S", "ASZ",
+                "MBXY-TI1S", "MBXY-TI2S", "MBZ", "MSXY-TI1S", "MSXY-TI2S", "MSXY-TI3S", "MSZ",
+                "XYM1", "XYM2", "XYM3E", "XYM4E")
+# magnitude groups: one value per group (the TI1/TI2/TI3 parts of an XY term share it)
+GROUPS = {"ABXY": ("ABXY-TI1S", "ABXY-TI2S"), "ABZ": ("ABZ",),
+          "ASXY": ("ASXY-TI1S", "ASXY-TI2S", "ASXY-TI3S"), "ASZ": ("ASZ",),
+          "MBXY": ("MBXY-TI1S", "MBXY-TI2S"), "MBZ": ("MBZ",),
+          "MSXY": ("MSXY-TI1S", "MSXY-TI2S", "MSXY-TI3S"), "MSZ": ("MSZ",),
+          "XYM1": ("XYM1",), "XYM2": ("XYM2",), "XYM34": ("XYM3", "XYM4")}
+NOISE_GROUPS = {"ABXY-R": ("ABXY-TI1S", "ABXY-TI2S"), "ABZ-R": ("ABZ",),
+                "MBXY-R": ("MBXY-TI1S", "MBXY-TI2S"), "MBZ-R": ("MBZ",)}
+REF_TERMS = {"srgm": ("MWD+SRGM", ("DEC-U", "DEC-OS", "DEC-OH", "DEC-OI", "DECR", "DBH-U", "DBH-OS", "DBH-OH",
+                                   "DBH-OI", "DBHR")),
+             "ifr1": ("MWD+IFR1+AX", ("DEC-U", "DEC-CI", "DEC-OI", "DECR", "DBH-U", "DBH-CI", "DBH-OI", "DBHR")),
+             "none": (None, ())}
+
+
+def _owsg(short_name: str) -> dict:
+    import welleng
+
+    path = f"{welleng.__path__[0]}/errors/iscwsa_json/owsg_a/{short_name}.json"
+    with open(path, encoding="utf-8") as f:
+        return json.load(f)
+
+
+def _template_terms() -> dict:
+    """The OWSG MWD+SRGM terms this model uses.  XYM3/XYM4 (tool-axis
+    misalignment, systematic as in ISCWSA revision 4) are Rev 5's XYM3E/XYM4E
+    without the short-course damping factor, which belongs to random
+    propagation between closely spaced stations."""
+    out = {}
+    for t in _owsg("MWD+SRGM")["terms"]:
+        if t["name"] not in SENSOR_TERMS:
+            continue
+        t = dict(t)
+        if t["name"] in ("XYM3E", "XYM4E"):
+            t["name"] = t["name"][:-1]
+            t["propagation_mode"] = "Systematic"
+            for k in ("inclination_formula", "azimuth_formula", "north_singularity", "east_singularity"):
+                if isinstance(t.get(k), str):
+                    t[k] = t[k].replace("* Max(1, sqrt(10/(MD-MDPrev)))", "").replace("Max(1, sqrt(10/(MD-MDPrev)))", "1")
+        out[t["name"]] = t
+    return out
+
+
+def _in_units(v_si: float, unit: str) -> float:
+    """A magnitude held in SI (rad for angles) in the term's declared unit."""
+    return math.degrees(v_si) if unit == "deg" else v_si
+
+
+def _noise_name(name: str) -> str:
+    return name[:-1] + "R" if name.endswith("S") else name + "R"
+
+
+@dataclass
+class ToolModel:
+    """The probe's error terms: magnitudes per group (SI: m/s^2, nT,
+    dimensionless scale), the noise per survey, and where they came from."""
+    name: str = "INCLINO"
+    systematic: dict = field(default_factory=dict)  # GROUPS key -> 1 sigma
+    noise: dict = field(default_factory=dict)  # NOISE_GROUPS key -> 1 sigma per survey
+    fit: dict = field(default_factory=dict)  # how the projection matched (relative RMS, attitudes)
+    source: dict = field(default_factory=dict)
+
+    def to_json(self) -> str:
+        return dumps(asdict(self))
+
+    def terms(self) -> list:
+        """The ISCWSA JSON terms (the weighting functions of the OWSG
+        MWD+SRGM model, this probe's magnitudes)."""
+        tpl = _template_terms()
+        out = []
+        for g, names in GROUPS.items():
+            for n in names:
+                t = dict(tpl[n])
+                t["value"] = _in_units(float(self.systematic.get(g, 0.0)), t["units"])
+                t["hash_value"] = "0" * 32
+                out.append(t)
+        for g, names in NOISE_GROUPS.items():
+            for n in names:
+                t = dict(tpl[n])
+                t["name"] = _noise_name(n)
+                t["value"] = float(self.noise.get(g, 0.0))
+                t["propagation_mode"] = "Random"
+                t["hash_value"] = "0" * 32
+                out.append(t)
+        return out
+
+    def iscwsa(self, reference: str = "none") -> dict:
+        """The tool model as an ISCWSA JSON dict (welleng ErrorModel loads it
+        as is), with the reference-field terms of `reference` appended."""
+        return {"metadata": {"model_id": self.name, "short_name": self.name,
+                             "long_name": f"{self.name}: calibrated magnetic probe (inclino)",
+                             "revision_number": 5, "tool_type": "Magnetic", "framework": "ISCWSA Rev5",
+                             "source": "inclino toolmodel: " + json.dumps(self.source, sort_keys=True),
+                             "author": "inclino", "application": "magnetic survey probe, calibrated",
+                             "reference_terms": reference},
+                "parameters": {"inc_min": 0, "inc_max": 180},
+                "terms": self.terms() + reference_terms(reference)}
+
+    def save(self, path: str, reference: str = "none") -> None:
+        d = self.iscwsa(reference)
+        d["inclino"] = asdict(self)
+        _write(path, json.dumps(d, indent=2) + "\n")
+
+    @staticmethod
+    def load(path: str) -> "ToolModel":
+        try:
+            with open(path, encoding="utf-8") as f:
+                d = json.load(f)
+        except OSError as e:
+            raise DataError(f"cannot read tool model {path}: {e.strerror}")
+        except json.JSONDecodeError as e:
+            raise DataError(f"{path}: not JSON ({e.msg} at line {e.lineno})")
+        if not isinstance(d, dict) or not isinstance(d.get("inclino"), dict):
+            raise DataError(f"{path}: not a tool model written by inclino toolmodel")
+        try:
+            return ToolModel(**d["inclino"])
+        except TypeError as e:
+            raise DataError(f"{path}: tool model fields are mangled ({e})")
+
+
+def reference_terms(which: str) -> list:
+    if which not in REF_TERMS:
+        raise DataError(f"unknown reference-field terms {which!r} (srgm, ifr1 or none)")
+    model, names = REF_TERMS[which]
+    if model is None:
+        return []
+    return [t for t in _owsg(model)["terms"] if t["name"] in names]
+
+
+def _write(path: str, text: str) -> None:
+    """Through inclino.formats.safeio: atomic, never over a device or a symlink's
+    place, the target's mode kept."""
+    from inclino.formats import safeio
+
+    safeio.write_output(path, text)
+
+
+# ---------------------------------------------------------------- weights
+
+def weights(names, inc_deg, azm_deg, dip_deg, field_nT, gravity=G0):
+    """(d inc / d e, d azi / d e) of each named template term at the
+    attitudes, rad per unit of the term (welleng's formula interpreter)."""
+    from welleng.errors.interpreter import evaluate_formula
+
+    tpl = _template_terms()
+    inc = np.radians(np.asarray(inc_deg, float))
+    azm = np.radians(np.asarray(azm_deg, float))
+    b = {"Inc": inc, "AzM": azm, "AzT": azm, "Az": azm, "Dip": math.radians(dip_deg), "BField": field_nT,
+         "Bfield": field_nT, "Gfield": gravity, "GField": gravity, "RAD": math.pi / 180.0}
+    wi, wa = [], []
+    for n in names:
+        t = tpl[n]
+        wi.append(np.broadcast_to(np.asarray(evaluate_formula(t["inclination_formula"], b), float), inc.shape))
+        wa.append(np.broadcast_to(np.asarray(evaluate_formula(t["azimuth_formula"], b), float), inc.shape))
+    return np.array(wi), np.array(wa)
+
+
+def station_sigma(tm: ToolModel, inc_deg, azm_deg, dip_deg, field_nT, systematic=True, noise=True):
+    """Inclination and azimuth 1 sigma (deg) of single stations from the
+    tool model's sensor terms (root sum of squares of magnitude x weight)."""
+    vi = np.zeros(np.shape(inc_deg))
+    va = np.zeros(np.shape(inc_deg))
+    parts = []
+    if systematic:
+        parts += [(GROUPS[g], tm.systematic.get(g, 0.0)) for g in GROUPS]
+    if noise:
+        parts += [(NOISE_GROUPS[g], tm.noise.get(g, 0.0)) for g in NOISE_GROUPS]
+    for names, mag in parts:
+        wi, wa = weights(names, inc_deg, azm_deg, dip_deg, field_nT)
+        vi += mag ** 2 * np.sum(wi ** 2, axis=0)
+        va += mag ** 2 * np.sum(wa ** 2, axis=0)
+    return np.degrees(np.sqrt(vi)), np.degrees(np.sqrt(va))
+
+
+# ------------------------------------------------- from the calibration
+
+def _attitude(acc, mag):
+    from inclino.engines import reference as ref
+
+    a = ref.attitude(acc, mag)
+    return a["inc"], a["azi"]
+
+
+def _truth(cal, inc, azi, tf, dip, field_nT, gravity=1.0):
+    """The raw readings a probe with calibration `cal` (taken as exact)
+    gives at these poses: corrected = M (raw - b)  =>  raw = M^-1 u + b."""
+    from inclino.engines import reference as ref
+
+    g, b = ref.body_vectors(inc, azi, tf, field_nT, dip)
+    g = g * gravity
+    Ma, Mm = np.asarray(cal.acc_m, float), np.asarray(cal.mag_m, float)
+    ra = np.linalg.solve(Ma, g.T).T + np.asarray(cal.acc_b, float)
+    rm = np.linalg.solve(Mm, b.T).T + np.asarray(cal.mag_b, float)
+    return ra, rm
+
+
+def _apply(vec, ra, rm):
+    """Corrected readings with the 24-vector of coefficients `vec` (PARAM_NAMES order)."""
+    Ma, ba = vec[0:9].reshape(3, 3), vec[9:12]
+    Mm, bm = vec[12:21].reshape(3, 3), vec[21:24]
+    return (ra - ba) @ Ma.T, (rm - bm) @ Mm.T
+
+
+def calibration_covariance(cal):
+    """(24x24 covariance, what it is) from a calibration file's fit report:
+    the full covariance when the report carries it, else the coefficients'
+    1-sigma as a diagonal."""
+    from inclino.calib.common import PARAM_NAMES
+
+    unc = (cal.report or {}).get("uncertainty") or {}
+    cov = unc.get("covariance")
+    if cov is not None:
+        c = np.asarray(cov, float)
+        if c.shape == (24, 24) and np.all(np.isfinite(c)):
+            return 0.5 * (c + c.T), "the fit's covariance of the 24 coefficients"
+    sig = unc.get("sigma")
+    if isinstance(sig, dict) and all(k in sig for k in PARAM_NAMES):
+        s = np.array([float(sig[k]) for k in PARAM_NAMES])
+        if np.all(np.isfinite(s)):
+            return np.diag(s ** 2), "the coefficients' 1-sigma (diagonal: the report has no covariance)"
+    raise DataError("the calibration file has no uncertainty (fit report) to build an error model from; "
+                    "calibrate with a method that reports one")
+
+
+def _grid(n_tf=12):
+    inc = np.array([5.0, 15, 30, 45, 60, 75, 90, 105, 120, 135, 150, 165, 175])
+    azi = np.arange(0.0, 360.0, 15.0)
+    I, A = np.meshgrid(inc, azi, indexing="ij")
+    return I.ravel(), A.ravel(), np.arange(n_tf) * 360.0 / n_tf
+
+
+def linear_variance(cal, cov, inc, azi, tfs, dip, field_nT, gravity=1.0, h=None):
+    """Toolface-averaged inclination/azimuth variance (rad^2) the coefficient
+    covariance gives at each (inc, azi), linearised (central differences)."""
+    from inclino.calib.common import cal_vector
+
+    x0 = cal_vector(cal)
+    n, m = len(inc), len(tfs)
+    I = np.repeat(inc, m)
+    A = np.repeat(azi, m)
+    T = np.tile(tfs, n)
+    ra, rm = _truth(cal, I, A, T, dip, field_nT, gravity)
+    sd = np.sqrt(np.clip(np.diag(cov), 0, None))
+    J = np.zeros((2, len(I), 24))
+    for k in range(24):
+        step = h if h is not None else max(sd[k], 1e-9 * max(1.0, abs(x0[k])))
+        xp, xm = x0.copy(), x0.copy()
+        xp[k] += step
+        xm[k] -= step
+        ip, ap = _attitude(*_apply(xp, ra, rm))
+        im, am = _attitude(*_apply(xm, ra, rm))
+        J[0, :, k] = np.radians(ip - im) / (2 * step)
+        J[1, :, k] = np.radians(((ap - am + 180.0) % 360.0) - 180.0) / (2 * step)
+    v = np.einsum("snk,kl,snl->sn", J, cov, J)
+    return v[0].reshape(n, m).mean(axis=1), v[1].reshape(n, m).mean(axis=1)
+
+
+def project(cal, cov, dip, field_nT, gravity=1.0):
+    """The eight systematic magnitudes (GROUPS) that best reproduce, in
+    relative terms, the toolface-averaged inclination and azimuth variance
+    of the coefficient covariance over the attitude grid."""
+    from scipy.optimize import nnls
+
+    inc, azi, tfs = _grid()
+    vi, va = linear_variance(cal, cov, inc, azi, tfs, dip, field_nT, gravity)
+    cols = []
+    for g, names in GROUPS.items():
+        wi, wa = weights(names, inc, azi, dip, field_nT, gravity * G0)
+        cols.append(np.concatenate([np.sum(wi ** 2, 0), np.sum(wa ** 2, 0)]))
+    Amat = np.array(cols).T
+    y = np.concatenate([vi, va])
+    keep = y > 0
+    sc = 1.0 / y[keep]
+    An = Amat[keep] * sc[:, None]
+    colscale = np.where(An.max(axis=0) > 0, An.max(axis=0), 1.0)
+    x, _ = nnls(An / colscale, np.ones(keep.sum()), maxiter=2000)
+    x = x / colscale
+    pred = Amat @ x
+    rel = np.sqrt(pred[keep] / y[keep]) - 1.0
+    mags = {g: float(math.sqrt(max(v, 0.0))) for g, v in zip(GROUPS, x)}
+    fit = {"attitudes": int(len(inc)), "toolfaces": int(len(tfs)), "dip_deg": float(dip),
+           "field_nT": float(field_nT), "sigma_ratio_rms": float(np.sqrt(np.mean(rel ** 2))),
+           "sigma_ratio_min": float(1 + rel.min()), "sigma_ratio_max": float(1 + rel.max())}
+    return mags, fit
+
+
+def from_calibration(cal, dip_deg, field_nT, gravity_g=1.0, acc_noise_g=0.0, mag_noise_nT=0.0,
+                     name="INCLINO") -> ToolModel:
+    """The probe's tool model from a calibration (its covariance) and the
+    probe's measured noise per survey (per axis, g and nT)."""
+    if not (math.isfinite(dip_deg) and abs(dip_deg) < 90.0):
+        raise DataError(f"dip {dip_deg} deg must be within +-90")
+    if not (math.isfinite(field_nT) and field_nT > 0):
+        raise DataError(f"total field {field_nT} nT must be > 0")
+    cov, what = calibration_covariance(cal)
+    mags, fit = project(cal, cov, dip_deg, field_nT, gravity_g)
+    tm = ToolModel(name=name, systematic=mags,
+                   noise={"ABXY-R": acc_noise_g * G0, "ABZ-R": acc_noise_g * G0,
+                          "MBXY-R": float(mag_noise_nT), "MBZ-R": float(mag_noise_nT)},
+                   fit=fit,
+                   source={"calibration": cal.method, "probe_serial": cal.probe_serial,
+                           "covariance": what, "data": (cal.data or {}).get("sha256", ""),
+                           "acc_noise_g": acc_noise_g, "mag_noise_nT": mag_noise_nT})
+    for g, v in tm.noise.items():
+        if not (math.isfinite(v) and v >= 0):
+            raise DataError("noise must be a finite value >= 0")
+    tm.fit["monte_carlo"] = mc_check(tm, cal, cov, dip_deg, field_nT, gravity_g)
+    return tm
+
+
+MC_INC = (5.0, 10.0, 20.0, 30.0, 45.0, 60.0, 75.0, 90.0)
+MC_AZI = (17.0, 300.0, 130.0, 75.0, 210.0, 345.0, 160.0, 250.0)
+
+
+def mc_check(tm, cal, cov, dip_deg, field_nT, gravity_g=1.0, n=3000, seed=1):
+    """The model's systematic inclination/azimuth 1 sigma against a Monte
+    Carlo over the coefficient covariance at eight attitudes (inclination
+    5-90 deg): the ratios model / Monte Carlo."""
+    inc, azi = np.array(MC_INC), np.array(MC_AZI)
+    mi, ma = monte_carlo(cal, cov, inc, azi, dip_deg, field_nT, n=n, seed=seed, gravity=gravity_g)
+    pi, pa = station_sigma(tm, inc, azi, dip_deg, field_nT, noise=False)
+    ri, ra = pi / mi, pa / ma
+    return {"draws": n, "inc_deg": list(MC_INC), "azi_deg": list(MC_AZI), "inc_ratio": ri.tolist(),
+            "azi_ratio": ra.tolist(), "within_20pct": bool(np.all(np.abs(ri - 1) <= 0.2) and np.all(np.abs(ra - 1) <= 0.2))}
+
+
+def noise_from_survey(rows) -> tuple[float, float]:
+    """(accelerometer g, fluxgate nT) per-axis noise of one survey from
+    repeated surveys at rest: the spread of G total and B total (each the
+    projection of the axes' noise on the measured vector)."""
+    gt = np.array([r["gt_g"] for r in rows if r.get("gt_g") is not None], float)
+    bt = np.array([r["bt_nT"] for r in rows if r.get("bt_nT") is not None], float)
+    if len(gt) < 3 or len(bt) < 3:
+        raise DataError("the noise run needs at least 3 surveys with gt_g and bt_nT")
+    return float(np.std(gt, ddof=1)), float(np.std(bt, ddof=1))
+
+
+def monte_carlo(cal, cov, inc, azi, dip, field_nT, n=2000, seed=1, gravity=1.0):
+    """Inclination and azimuth 1 sigma (deg) at each attitude from random
+    draws of the 24 coefficients (the covariance), each draw at a random
+    toolface: the error of the survey computed with the drawn coefficients
+    from the readings of the probe the calibration describes."""
+    from inclino.calib.common import cal_vector
+
+    rng = np.random.default_rng(seed)
+    x0 = cal_vector(cal)
+    w, V = np.linalg.eigh(0.5 * (cov + cov.T))
+    L = V * np.sqrt(np.clip(w, 0, None))
+    si, sa = [], []
+    for I, A in zip(np.atleast_1d(inc), np.atleast_1d(azi)):
+        tf = rng.uniform(0, 360, n)
+        ra, rm = _truth(cal, np.full(n, I), np.full(n, A), tf, dip, field_nT, gravity)
+        d = rng.standard_normal((n, 24)) @ L.T
+        ai, aa = _attitude(*_apply_many(x0 + d, ra, rm))
+        si.append(np.std(ai - I))
+        sa.append(np.std(((aa - A + 180.0) % 360.0) - 180.0))
+    return np.array(si), np.array(sa)
+
+
+def _apply_many(X, ra, rm):
+    Ma, ba = X[:, 0:9].reshape(-1, 3, 3), X[:, 9:12]
+    Mm, bm = X[:, 12:21].reshape(-1, 3, 3), X[:, 21:24]
+    return np.einsum("nij,nj->ni", Ma, ra - ba), np.einsum("nij,nj->ni", Mm, rm - bm)

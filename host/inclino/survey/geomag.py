@@ -1,0 +1,258 @@
+"""The reference field of a survey: declination, dip, total field, gravity,
+and grid convergence.
+
+* From a position and date with a maintained geomagnetic main-field model:
+  IGRF through ppigrf (the default, already a dependency), or the World
+  Magnetic Model through pygeomag when it is installed (optional:
+  ``pip install pygeomag``).
+* Or from values the user gives (in-field referencing, IFR: a local
+  magnetometer survey or a crustal model in place of the main-field model).
+* Gravity: WGS 84 normal gravity (Somigliana, with the free-air gradient)
+  in units of standard gravity, the unit the probe reports G total in.
+* Grid convergence and point scale factor of a projected CRS (EPSG code)
+  from pyproj (PROJ's own factors), never hand-written projection formulas.
+
+Conventions (docs/conventions.md section 8, pinned by tests/test_survey_conventions.py):
+declination is east of true north, positive east: A_true = A_mag + dec.
+Grid convergence gamma is the angle from true north to grid north, positive
+when grid north lies east of true north (PROJ's meridian convergence; east
+of the central meridian in the northern hemisphere for UTM):
+A_grid = A_true - gamma.
+"""
+from __future__ import annotations
+
+import datetime as _dt
+import json
+import math
+from dataclasses import asdict, dataclass, field
+
+from inclino.errors import DataError
+from inclino.formats.jsonout import dumps
+
+G0 = 9.80665  # standard gravity, m/s^2: the probe's unit of G total
+# QC windows (ISCWSA guidance quoted in docs/survey.md): field strength within
+# 300 nT and dip within 0.25 deg of the reference are "within acceptable
+# tolerances"; G total within 2.5 mg (the firmware's defaults, qc.h).
+DEFAULT_TOL = {"gt_g": 0.0025, "bt_nT": 300.0, "dip_deg": 0.25}
+
+
+@dataclass
+class ReferenceField:
+    declination_deg: float
+    dip_deg: float
+    total_nT: float
+    gravity_g: float = 1.0  # NaN when unknown (no position, no --gravity)
+    source: str = "user"  # "igrf (ppigrf x.y)", "wmm (pygeomag)", "user" (in-field referencing)
+    lat_deg: float | None = None
+    lon_deg: float | None = None
+    alt_m: float = 0.0
+    date: str | None = None
+    grid_epsg: int | None = None
+    convergence_deg: float = 0.0  # gamma: A_grid = A_true - gamma
+    scale_factor: float = 1.0  # the projection's point scale factor at the wellhead
+    easting_m: float | None = None  # the wellhead's projected coordinates
+    northing_m: float | None = None
+    tol: dict = field(default_factory=lambda: dict(DEFAULT_TOL))
+
+    def to_json(self) -> str:
+        d = {k: (None if isinstance(v, float) and not math.isfinite(v) else v) for k, v in asdict(self).items()}
+        return dumps(d)  # an unknown value is null
+
+    @staticmethod
+    def from_json(text: str) -> "ReferenceField":
+        try:
+            d = json.loads(text)
+            for k in ("declination_deg", "dip_deg", "total_nT", "gravity_g"):
+                if d.get(k) is None:
+                    d[k] = float("nan")
+            rf = ReferenceField(**d)
+        except (json.JSONDecodeError, TypeError, AttributeError) as e:
+            raise DataError(f"not a reference-field file: {e}")
+        if not isinstance(rf.tol, dict) or not all(k in rf.tol for k in DEFAULT_TOL):
+            raise DataError("not a reference-field file: tolerances missing")
+        return rf
+
+    def header(self) -> dict:
+        """key=value pairs written with a run (CSV '# key=value' lines, LAS ~Parameter)."""
+        d = {"ref_source": self.source, "declination_deg": f"{self.declination_deg:.4f}"}
+        for k, v, f in (("dip_deg", self.dip_deg, ".4f"), ("field_nT", self.total_nT, ".1f"),
+                        ("gravity_g", self.gravity_g, ".6f")):
+            if v is not None and math.isfinite(v):  # unknown (declination-only referencing): left out
+                d[k] = format(v, f)
+        if self.lat_deg is not None:
+            d.update(lat_deg=f"{self.lat_deg:.6f}", lon_deg=f"{self.lon_deg:.6f}", alt_m=f"{self.alt_m:g}")
+        if self.date:
+            d["date"] = self.date
+        if self.grid_epsg is not None:
+            d.update(grid_epsg=str(self.grid_epsg), convergence_deg=f"{self.convergence_deg:.6f}",
+                     scale_factor=f"{self.scale_factor:.8f}")
+            if self.easting_m is not None:
+                d.update(easting_m=f"{self.easting_m:.3f}", northing_m=f"{self.northing_m:.3f}")
+        return d
+
+
+def parse_date(text) -> _dt.date:
+    if isinstance(text, _dt.datetime):
+        return text.date()
+    if isinstance(text, _dt.date):
+        return text
+    try:
+        return _dt.date.fromisoformat(str(text))
+    except ValueError:
+        raise DataError(f"--date {text!r} is not an ISO date (YYYY-MM-DD)")
+
+
+def _check_position(lat, lon, alt_m):
+    for name, v, lim in (("latitude", lat, 90.0), ("longitude", lon, 180.0)):
+        if v is None or not math.isfinite(v) or abs(v) > lim:
+            raise DataError(f"{name} {v} is outside +-{lim:g} deg")
+    if not math.isfinite(alt_m) or not -12000.0 <= alt_m <= 1.0e6:
+        raise DataError(f"altitude {alt_m} m is out of range")
+
+
+def _decompose(bn, be, bd):
+    h = math.hypot(bn, be)
+    return (math.degrees(math.atan2(be, bn)), math.degrees(math.atan2(bd, h)), math.sqrt(h * h + bd * bd))
+
+
+def main_field(lat_deg: float, lon_deg: float, date, alt_m: float = 0.0, model: str = "igrf"):
+    """(declination deg, dip deg, total nT, source) of the main-field model
+    at a geodetic position (WGS 84 latitude, longitude, height above the
+    ellipsoid in m) and date."""
+    _check_position(lat_deg, lon_deg, alt_m)
+    d = parse_date(date)
+    if model == "igrf":
+        import numpy as np
+        import ppigrf
+
+        if not 1900 <= d.year <= 2030:
+            raise DataError(f"IGRF covers 1900-2030, not {d.isoformat()}")
+        be, bn, bu = ppigrf.igrf(lon_deg, lat_deg, alt_m / 1000.0, _dt.datetime(d.year, d.month, d.day))
+        dec, dip, f = _decompose(float(np.ravel(bn)[0]), float(np.ravel(be)[0]), -float(np.ravel(bu)[0]))
+        return dec, dip, f, f"IGRF (ppigrf {_version('ppigrf')})"
+    if model == "wmm":
+        try:
+            from pygeomag import GeoMag
+        except ImportError:
+            raise DataError("--model wmm needs the pygeomag package (pip install pygeomag)")
+        year0 = 2025 if d.year >= 2025 else 2020 if d.year >= 2020 else 2015
+        if d.year >= 2030 or d.year < 2015:
+            raise DataError(f"WMM (pygeomag) covers 2015-2029, not {d.isoformat()}")
+        gm = GeoMag(coefficients_file=f"wmm/WMM_{year0}.COF", high_resolution=False)
+        r = gm.calculate(glat=lat_deg, glon=lon_deg, alt=alt_m / 1000.0, time=_decimal_year(d))
+        return float(r.d), float(r.i), float(r.f), f"WMM{year0} (pygeomag {_version('pygeomag')})"
+    raise DataError(f"unknown geomagnetic model {model!r} (igrf or wmm)")
+
+
+def _version(dist: str) -> str:
+    from importlib.metadata import PackageNotFoundError, version
+
+    try:
+        return version(dist)
+    except PackageNotFoundError:
+        return "?"
+
+
+def _decimal_year(d: _dt.date) -> float:
+    start = _dt.date(d.year, 1, 1)
+    days = (_dt.date(d.year + 1, 1, 1) - start).days
+    return d.year + (d - start).days / days
+
+
+def normal_gravity_g(lat_deg: float, alt_m: float = 0.0) -> float:
+    """WGS 84 normal gravity (Somigliana's closed form) with the free-air
+    gradient, in units of standard gravity."""
+    s2 = math.sin(math.radians(lat_deg)) ** 2
+    g = 9.7803253359 * (1 + 0.00193185265241 * s2) / math.sqrt(1 - 0.00669437999013 * s2)
+    return (g - 3.086e-6 * alt_m) / G0
+
+
+def grid(lat_deg: float, lon_deg: float, epsg: int):
+    """(convergence deg, point scale factor, easting m, northing m) of a
+    projected CRS at a geodetic WGS 84 position, from pyproj."""
+    import pyproj
+
+    try:
+        crs = pyproj.CRS.from_epsg(int(epsg))
+    except (pyproj.exceptions.CRSError, ValueError, OverflowError) as e:
+        raise DataError(f"--grid {epsg}: not an EPSG code pyproj knows ({e})")
+    if not crs.is_projected:
+        raise DataError(f"--grid {epsg}: {crs.name} is not a projected CRS")
+    proj = pyproj.Proj(crs)
+    tr = pyproj.Transformer.from_crs("EPSG:4326", crs, always_xy=True)
+    x, y = tr.transform(lon_deg, lat_deg)
+    if not (math.isfinite(x) and math.isfinite(y)):
+        raise DataError(f"--grid {epsg}: the position is outside {crs.name}")
+    f = proj.get_factors(lon_deg, lat_deg, errcheck=False)
+    gamma = float(f.meridian_convergence)
+    k = math.sqrt(float(f.meridional_scale) * float(f.parallel_scale))
+    if not (math.isfinite(gamma) and math.isfinite(k)):
+        raise DataError(f"--grid {epsg}: the projection has no factors at this position")
+    # PROJ's meridian convergence may be defined against the CRS's axis order; what matters
+    # is the grid azimuth of true north, measured here from the projection itself
+    tn = _grid_azimuth_of_true_north(tr, lat_deg, lon_deg)
+    if abs(((-tn - gamma) + 180.0) % 360.0 - 180.0) > 1e-3:
+        gamma = -tn
+    return gamma, k, float(x), float(y)
+
+
+def _grid_azimuth_of_true_north(tr, lat, lon, dlat=1e-5):
+    x0, y0 = tr.transform(lon, lat - dlat)
+    x1, y1 = tr.transform(lon, lat + dlat)
+    return math.degrees(math.atan2(x1 - x0, y1 - y0))
+
+
+def reference(lat=None, lon=None, date=None, alt_m=0.0, model="igrf", declination=None, dip=None,
+              total=None, gravity=None, grid_epsg=None, tol=None) -> ReferenceField:
+    """The reference field of a survey.  A position and date give the
+    model's values; any of declination, dip, total (nT), gravity (g) given
+    override it (in-field referencing).  Declination alone is enough for
+    azimuths (dip and total then default to NaN: no field QC)."""
+    have_pos = lat is not None or lon is not None
+    if have_pos and (lat is None or lon is None):
+        raise DataError("--lat and --lon go together")
+    if model is None:
+        model = "igrf"
+    src = "user"
+    dec0 = dip0 = f0 = float("nan")
+    dstr = None
+    if have_pos and date is not None:
+        dec0, dip0, f0, src = main_field(lat, lon, date, alt_m, model)
+        dstr = parse_date(date).isoformat()
+    elif have_pos and declination is None:
+        raise DataError("--lat/--lon need --date (or give --declination)")
+    elif not have_pos and declination is None:
+        raise DataError("give the position and date (--lat --lon --date) or --declination")
+    user = []
+    for name, v in (("declination", declination), ("dip", dip), ("total", total)):
+        if v is not None:
+            if not math.isfinite(v):
+                raise DataError(f"--{name} is not a number")
+            user.append(name)
+    if declination is not None:
+        dec0 = float(declination)
+    if dip is not None:
+        if abs(dip) > 90:
+            raise DataError("--dip must be within +-90 deg")
+        dip0 = float(dip)
+    if total is not None:
+        if total <= 0:
+            raise DataError("--total must be > 0 nT")
+        f0 = float(total)
+    if user:
+        src = f"user ({', '.join(user)})" + ("" if src == "user" else f"; else {src}")
+    if gravity is not None:
+        if not 0.5 < gravity < 1.5:
+            raise DataError("--gravity must be in g (0.5-1.5)")
+        g = float(gravity)
+    else:
+        g = normal_gravity_g(lat, alt_m) if have_pos else float("nan")  # unknown: no G-total QC
+    rf = ReferenceField(dec0, dip0, f0, g, src, lat, lon, float(alt_m), dstr)
+    if tol:
+        rf.tol.update(tol)
+    if grid_epsg is not None:
+        if not have_pos:
+            raise DataError("--grid needs the wellhead position (--lat --lon)")
+        rf.grid_epsg = int(grid_epsg)
+        rf.convergence_deg, rf.scale_factor, rf.easting_m, rf.northing_m = grid(lat, lon, grid_epsg)
+    return rf
