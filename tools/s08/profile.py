@@ -70,7 +70,7 @@ def main(argv=None) -> int:
     ap.add_argument("--mag", help="raw fluxgate counts a,b,c (with --acc)")
     ap.add_argument("--identity", action="store_true", help="the identity calibration")
     ap.add_argument("--temperature", action="store_true",
-                    help="survey_compute_temp with the typical temperature terms (inclino.mcu_temp)")
+                    help="survey_compute_temp with the typical temperature terms (inclino.s08.temperature)")
     ap.add_argument("--lines", type=int, default=0, help="also the N costliest source lines")
     ap.add_argument("--func", help="also each instruction of this function (a label, e.g. _att_norm3)")
     ap.add_argument("--max-steps", type=int, default=60000)

@@ -93,7 +93,7 @@ class Calibration:
         )
 
     def fixed_temp(self):
-        """The temperature terms in the firmware's form (inclino.caltemp)
+        """The temperature terms in the firmware's form (inclino.formats.caltemp)
         when the temperature block says the firmware applies them
         (applied_by_firmware: image version 2), else None (version 1)."""
         t = self.temperature
