@@ -229,4 +229,7 @@ def bench(vectors: int = 100, seed: int = 11, workdir: str | os.PathLike | None 
         meets_ratio_target=meets_r,
         passed=meets_c and meets_r and meets_p and meets_t,
         meets_parser_target=meets_p,
+        survey_temperature=st,
+        temperature_added_cycles=st.mean - s.mean,
+        meets_temperature_cycle_target=meets_t,
     )
