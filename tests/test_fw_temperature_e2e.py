@@ -9,7 +9,7 @@ the noise.  The probe's surveys are also what the host predicts, bit for
 bit, from its raw records (temperature at the firmware's resolution)."""
 import numpy as np
 
-from inclino import caltemp
+from inclino.formats import caltemp
 from inclino.engines import firmware as core
 from inclino.engines import reference as ref
 from inclino.formats.calfile import Calibration

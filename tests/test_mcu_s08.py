@@ -13,10 +13,10 @@ import pytest
 
 from inclino.engines import bitexact, golden
 from inclino import fw_sources
-from inclino.benchmarks import s08_temperature as mcu_temp
 from inclino.benchmarks import s08 as s08_bench
 from inclino.s08 import harness as s08_harness
 from inclino.s08 import simulator as s08_sim
+from inclino.s08 import temperature as s08_temp
 from inclino.s08 import toolchain as s08_toolchain
 
 if s08_toolchain.tools_missing():
@@ -481,7 +481,7 @@ def test_survey_with_temperature_terms_bit_exact_on_s08(fw):
     for k, c in enumerate(cals):
         acc, mag = bitexact.random_vectors(rng, 300)
         t = bitexact.random_temps(rng, 300)
-        got = mcu_temp.survey_temp(fw, acc, mag, t, c)
+        got = s08_temp.survey_temp(fw, acc, mag, t, c)
         want = golden.survey_compute(acc, mag, *c.arrays(), temp=c.temp, temp_q6=t)
         bad, why = _mismatch_report(got, want, keys)
         assert bad == 0, f"calibration {k}: {bad} of {len(acc)} surveys differ on the S08: {why}"
@@ -489,7 +489,7 @@ def test_survey_with_temperature_terms_bit_exact_on_s08(fw):
     assert total >= 2000
     plain = type(cals[1])(cals[1].acc_m, cals[1].acc_b, cals[1].mag_m, cals[1].mag_b)
     acc, mag = bitexact.random_vectors(rng, 200)
-    got = mcu_temp.survey_temp(fw, acc, mag, bitexact.random_temps(rng, 200), plain)
+    got = s08_temp.survey_temp(fw, acc, mag, bitexact.random_temps(rng, 200), plain)
     want = golden.survey_compute(acc, mag, *plain.arrays())
     assert _mismatch_report(got, want, keys)[0] == 0
 
@@ -508,7 +508,7 @@ def test_calimg_parse_temperature_fields_on_s08(fw):
     bad = bytearray(images[0])
     bad[130] ^= 0x10  # CRC mismatch
     images.append(bytes(bad))
-    got = mcu_temp.calimg_parse_temp(fw, images)
+    got = s08_temp.calimg_parse_temp(fw, images)
     for i, d in enumerate(images):
         cal = ffi.new("corr_cal_t *")
         info = ffi.new("calimg_info_t *")

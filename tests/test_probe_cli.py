@@ -93,7 +93,7 @@ def test_download_verify_and_the_correction(emu, ctl, capsys, tmp_path):
 
 def with_terms(cal: Calibration) -> Calibration:
     """cal with the typical scenario's temperature terms, applied by the firmware (image version 2)."""
-    from inclino.bench_temperature import typical_block
+    from inclino.benchmarks.temperature import typical_block
 
     cal.temperature = typical_block()
     return cal

@@ -70,7 +70,7 @@ def main(argv=None) -> int:
     ap.add_argument("--mag", help="raw fluxgate counts a,b,c (with --acc)")
     ap.add_argument("--identity", action="store_true", help="the identity calibration")
     ap.add_argument("--temperature", action="store_true",
-                    help="survey_compute_temp with the typical temperature terms (inclino.benchmarks.s08_temperature)")
+                    help="survey_compute_temp with the typical temperature terms (inclino.s08.temperature)")
     ap.add_argument("--lines", type=int, default=0, help="also the N costliest source lines")
     ap.add_argument("--func", help="also each instruction of this function (a label, e.g. _att_norm3)")
     ap.add_argument("--max-steps", type=int, default=60000)
@@ -92,11 +92,11 @@ def main(argv=None) -> int:
     setup = s08_harness.enc_cal(fc)
     entry = "_survey_compute"
     if a.temperature:
-        from inclino.benchmarks import s08_temperature as mcu_temp
-        acc_t, mag_t, tq, fct = mcu_temp.bench_inputs(a.vector + 1, 11)
-        rec = mcu_temp.records(acc_t[a.vector:a.vector + 1], mag_t[a.vector:a.vector + 1],
+        from inclino.s08 import temperature as s08_temp
+        acc_t, mag_t, tq, fct = s08_bench.bench_inputs(a.vector + 1, 11)
+        rec = s08_temp.records(acc_t[a.vector:a.vector + 1], mag_t[a.vector:a.vector + 1],
                                tq[a.vector:a.vector + 1])[0]
-        setup, entry = mcu_temp.enc_setup(fct), "_survey_compute_temp"
+        setup, entry = s08_temp.enc_setup(fct), "_survey_compute_temp"
     data = setup + bytes([rec[0] | s08_toolchain.TIMED]) + rec[1:] + b"E"
     with tempfile.TemporaryDirectory(prefix="inclino-sim-") as td:
         fin, fout = Path(td) / "in.bin", Path(td) / "out.bin"

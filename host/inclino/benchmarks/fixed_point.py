@@ -63,7 +63,7 @@ class AccuracyResult:
     targets: dict = field(default_factory=dict)
     passed: bool = False
     averaging: dict = field(default_factory=dict)  # bench_averaging.AveragingResult.to_dict()
-    temperature: dict = field(default_factory=dict)  # bench_temperature.temperature_loss()
+    temperature: dict = field(default_factory=dict)  # benchmarks.temperature.temperature_loss()
 
     def to_json(self) -> str:
         d = {**self.figures, "poses": self.poses, "field_nT": self.field_nT, "dip_deg": self.dip_deg,
@@ -106,7 +106,7 @@ def accuracy(field_nT=50000.0, dip_deg=60.0, cal: Calibration | None = None,
     from inclino.benchmarks.averaging import averaging_loss
 
     avg = averaging_loss(field_nT=field_nT, dip_deg=dip_deg)
-    from inclino.bench_temperature import temperature_loss
+    from inclino.benchmarks.temperature import temperature_loss
 
     temp = temperature_loss(field_nT=field_nT, dip_deg=dip_deg, cal=cal)
     passed = all(figs[k] <= v for k, v in TARGETS.items()) and avg.passed and temp["pass"]

@@ -21,7 +21,7 @@ written (M, b) is the probe at t_ref (the best linear one over the working
 range when q is fitted, as joint does); the terms go to CAL.json's
 "temperature" block with their 1-sigma and covariance.  The firmware
 applies them (applied_by_firmware: true; calibration image version 2,
-inclino.caltemp) when they fit the image's fixed-point ranges; the report
+inclino.formats.caltemp) when they fit the image's fixed-point ranges; the report
 gives the azimuth and inclination error over the run's temperature range
 with and without them, on the Li 2021 grid, for the fitted probe.
 
@@ -39,7 +39,7 @@ from inclino.engines import reference as ref
 from inclino.formats.dataset import RawDataset
 from inclino.errors import CalibrationError, DataError
 
-from inclino import caltemp
+from inclino.formats import caltemp
 
 from . import common
 

@@ -127,10 +127,10 @@ def _emulator(args) -> int:
 
 def _mcu(args) -> int:
     try:
-        from inclino.benchmarks import s08_temperature as mcu_temp
+        from inclino.benchmarks import s08
     except ImportError:
         raise InclinoError("the S08 simulator bench is not part of this build")
-    r = mcu_temp.bench()  # the S08 bench and the temperature path's cycles
+    r = s08.bench()
     print(r.to_json())
     return 0
 

@@ -28,7 +28,7 @@ class FixedTemp:
     t_ref, t_order, acc_tc, mag_tc; correct.h): t_ref int16 Q7 degC, order
     1 or 2; per triad c1 (3 int32: Q38 g/degC, Q19 nT/degC), c2 (3 int16:
     Q31 g/degC^2, Q12 nT/degC^2), r1 (3 int32 Q38 /degC), r2 (3 int16 Q31
-    /degC^2); |c1|, |r1| <= 2^30.  inclino.caltemp converts CAL.json's temperature block."""
+    /degC^2); |c1|, |r1| <= 2^30.  inclino.formats.caltemp converts CAL.json's temperature block."""
 
     t_ref: int
     order: int

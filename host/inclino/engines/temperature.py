@@ -19,7 +19,7 @@ version 1 image).
 Engines (ENGINES; `get(name)`):
 
 * firmware -- the calibration as the probe holds it: Calibration.to_fixed()
-  with the quantised temperature terms (image version 2, inclino.caltemp)
+  with the quantised temperature terms (image version 2, inclino.formats.caltemp)
   through the firmware's C (inclino.engines.firmware.survey with temp_q6), bit for bit
   the probe's own survey.  A calibration whose terms the image cannot hold
   (its block says applied_by_firmware false, with why) is refused

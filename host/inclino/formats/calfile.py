@@ -93,13 +93,13 @@ class Calibration:
         )
 
     def fixed_temp(self):
-        """The temperature terms in the firmware's form (inclino.caltemp)
+        """The temperature terms in the firmware's form (inclino.formats.caltemp)
         when the temperature block says the firmware applies them
         (applied_by_firmware: image version 2), else None (version 1)."""
         t = self.temperature
         if not isinstance(t, dict) or t.get("applied_by_firmware") is not True:
             return None
-        from inclino import caltemp
+        from inclino.formats import caltemp
 
         try:
             return caltemp.to_fixed(t)

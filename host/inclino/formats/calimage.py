@@ -1,7 +1,7 @@
 """The calibration image (firmware/include/inclino/calimg.h) on the host:
 pack a FixedCal into the bytes the probe stores, and unpack/check them.
 Version 1 (120 bytes): M and b.  Version 2 (192 bytes): also the
-temperature terms (FixedCal.temp; inclino.caltemp), written whenever a
+temperature terms (FixedCal.temp; inclino.formats.caltemp), written whenever a
 FixedCal has them; both versions unpack.
 
 The CRC is CRC-16/CCITT-FALSE, which Python's binascii.crc_hqx(data, 0xFFFF)

@@ -23,7 +23,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from inclino import caltemp
+from inclino.formats import caltemp
 from inclino.engines import firmware as core, reference
 from inclino.formats.calfile import Calibration
 
