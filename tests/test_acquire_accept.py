@@ -9,6 +9,7 @@ import numpy as np
 import pytest
 
 from inclino.procedures import acquire as acq
+from inclino.procedures import readings
 from inclino.procedures.turntable import ManualTurntable
 from inclino import cli
 from inclino.formats import dataset
@@ -278,17 +279,17 @@ def test_stability_check_waits_for_the_probe_to_settle(emu):
     waits = []
     with ProbeLink(emu.path, timeout=2.0) as link:
         swinging = SwingingTable(link, ctl, (40.0, 100.0, 20.0), swings=6)
-        win = acq.read_stable(swinging, acq.Tolerance(), max_reads=None, waiting=lambda *a: waits.append(a))
-        rest = [acq.read_once(link) for _ in range(3)]
+        win = readings.read_stable(swinging, readings.Tolerance(), max_reads=None, waiting=lambda *a: waits.append(a))
+        rest = [readings.read_once(link) for _ in range(3)]
     ctl.close()
     # windows holding a swing reading were refused (0.5 deg at I = 40 deg is ~13 mg), the first
     # window after the swing stopped was taken: reads 7, 8, 9
     assert len(waits) == 6 and all(w[0] > 5.0 for w in waits) and swinging.n == 9
-    assert len(win) == 3 and acq.Tolerance().agrees(win + rest)
-    with pytest.raises(acq.Unsettled):
+    assert len(win) == 3 and readings.Tolerance().agrees(win + rest)
+    with pytest.raises(readings.Unsettled):
         with ProbeLink(emu.path, timeout=2.0) as link:
-            acq.read_stable(SwingingTable(link, ControlClient(port=emu.control_port), (40.0, 100.0, 20.0), 99),
-                            acq.Tolerance(), max_reads=8)
+            readings.read_stable(SwingingTable(link, ControlClient(port=emu.control_port), (40.0, 100.0, 20.0), 99),
+                            readings.Tolerance(), max_reads=8)
 
 
 def test_bench_gives_up_when_the_readings_never_agree(emu, capsys, tmp_path):

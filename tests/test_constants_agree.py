@@ -12,7 +12,7 @@ from pathlib import Path
 import pytest
 
 import inclino
-from inclino.procedures import acquire, accept
+from inclino.procedures import acquire, accept, readings
 from inclino.formats import calimage
 from inclino.boot import flashing
 from inclino.boot import image as boot_image
@@ -127,6 +127,7 @@ def test_accelerometer_scale_is_one_value():
     assert m, "adis16210.h no longer states the accelerometer LSB"
     assert reference.ACC_LSB_G == 2.0 ** int(m.group(1))
     assert acquire.ACC_LSB_G is reference.ACC_LSB_G and acquire.MAG_LSB_NT is reference.MAG_LSB_NT
+    assert readings.ACC_LSB_G is reference.ACC_LSB_G and readings.MAG_LSB_NT is reference.MAG_LSB_NT
     assert adis16210.ACC_LSB_G == reference.ACC_LSB_G
 
 

@@ -38,7 +38,8 @@ def open_table(args):
 
 def _cmd_acquire_poses(args) -> int:
     from inclino.link.serial_link import ProbeLink
-    from inclino.procedures.acquire import Tolerance, acquire, procedure_steps
+    from inclino.procedures.acquire import acquire, procedure_steps
+    from inclino.procedures.readings import Tolerance
 
     tol = Tolerance(args.tol_acc_mg, args.tol_mag_nt, args.reads)
     tol.check()
@@ -103,14 +104,14 @@ def add_acquire(sub):
 def _cmd_acquire(args) -> int:
     """`inclino acquire`: the temperature procedure (inclino.procedures.acquire_temp),
     the others (inclino.procedures.acquire)."""
-    from inclino.procedures import acquire as acq
     from inclino.procedures.acquire_temp import ThermalPlan, acquire_temperature, parse_temperatures
+    from inclino.procedures.readings import Tolerance
     from inclino.formats.dataset import check_meta
     from inclino.link.serial_link import ProbeLink
 
     if args.procedure != "temperature":
         return _cmd_acquire_poses(args)
-    tol = acq.Tolerance(args.tol_acc_mg, args.tol_mag_nt, args.reads)
+    tol = Tolerance(args.tol_acc_mg, args.tol_mag_nt, args.reads)
     tol.check()
     if args.average is not None and not 1 <= args.average <= 64:
         raise DataError("--average must be within 1-64 samples")
@@ -147,7 +148,7 @@ def _floats(text: str | None, what: str):
 def _cmd_accept(args) -> int:
     from inclino.link.serial_link import ProbeLink
     from inclino.procedures.accept import accept, grid_points, render
-    from inclino.procedures.acquire import Tolerance
+    from inclino.procedures.readings import Tolerance
 
     if args.temperatures is not None:  # at chamber set points (inclino.procedures.accept_temp)
         return _cmd_accept_temperatures(args)
@@ -198,7 +199,7 @@ def _cmd_accept_temperatures(args) -> int:
     from inclino.link.serial_link import ProbeLink
     from inclino.procedures.accept import grid_points
     from inclino.procedures.accept_temp import DEFAULT_TOOLFACES, accept_temperatures, parse_setpoints, render
-    from inclino.procedures.acquire import Tolerance
+    from inclino.procedures.readings import Tolerance
     from inclino.procedures.acquire_temp import ThermalPlan
 
     if args.toolfaces is None:  # three toolfaces: 198 positions, the ratio's sampling spread 1/sqrt(3) of the 66's

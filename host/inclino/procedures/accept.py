@@ -57,7 +57,8 @@ from dataclasses import dataclass
 import numpy as np
 
 from inclino.procedures.accept_result import AcceptResult  # noqa: F401 (the result type lives where plots can import it)
-from inclino.procedures.acquire import Step, Tolerance, _wrap, mean_row, read_stable
+from inclino.procedures.poses import Step, wrap_deg
+from inclino.procedures.readings import Tolerance, mean_row, read_stable
 from inclino.errors import DataError
 from inclino.engines.golden import F_NEAR_VERTICAL as NEAR_VERTICAL  # the firmware's ATT_F_NEAR_VERTICAL
 
@@ -99,9 +100,9 @@ def grid_points(grid: str, inclinations=None, azimuths=None, toolfaces=(0.0,)) -
         for a in azis:
             for t in tfs:
                 if i >= 0:
-                    pose = (float(i), _wrap(a), _wrap(t))
+                    pose = (float(i), wrap_deg(a), wrap_deg(t))
                 else:
-                    pose = (float(-i), _wrap(a + 180.0), _wrap(t + 180.0))
+                    pose = (float(-i), wrap_deg(a + 180.0), wrap_deg(t + 180.0))
                 pts.append(GridPoint(float(i), float(a), float(t), pose))
     if all(abs(p.pose[0]) < 0.5 or abs(p.pose[0]) > 179.5 for p in pts):
         raise DataError("every position of the grid is within 0.5 deg of vertical, where the probe's azimuth "
@@ -176,7 +177,7 @@ def accept(link, table, grid: str = "li2021", cal=None, before: str = "auto", in
     turntable.ManualTurntable or turntable_emulated.EmulatedTurntable).  cal: a Calibration to download first."""
     from inclino.link import operations as calops
     from inclino.engines import firmware as core
-    from inclino.procedures.acquire import _bar, set_average
+    from inclino.procedures.readings import progress_bar, set_average
     from inclino.engines.firmware import FixedCal
 
     tol = tol or Tolerance()
@@ -209,7 +210,7 @@ def accept(link, table, grid: str = "li2021", cal=None, before: str = "auto", in
                   f"azimuth {p.set_azi:g}" + (f", toolface {p.tf:g}" if len(toolfaces) > 1 or p.tf else ""))
              for p in pts]
     csteps = circle_steps() if circles else []
-    bar = _bar(len(steps) + len(csteps), f"accept {grid}", quiet)
+    bar = progress_bar(len(steps) + len(csteps), f"accept {grid}", quiet)
     if getattr(table, "default_say", False):
         table.say = lambda m: bar.write(m, file=sys.stderr)
     keys = ("inc", "azi", "gtf", "mtf", "gt", "bt", "dip", "flags")

@@ -43,7 +43,8 @@ import numpy as np
 
 from inclino.procedures.accept import GRIDS, GridPoint, _measure, _stats, grid_points, stored_calibration
 from inclino.formats.jsonout import dumps
-from inclino.procedures.acquire import Step, Tolerance, read_stable
+from inclino.procedures.poses import Step
+from inclino.procedures.readings import Tolerance, read_stable
 from inclino.procedures.acquire_temp import TEMP_RANGE_C, ThermalPlan, _Chamber, settled
 from inclino.errors import DataError
 
@@ -119,7 +120,7 @@ def parse_setpoints(text: str, reference_c: float = DEFAULT_REFERENCE_C) -> tupl
 def _soak(link, table, chamber: _Chamber, sp: float, plan: ThermalPlan, tol, max_reads, first: Step, say):
     """Set the chamber and wait until the probe has settled at sp; returns
     (minutes, probe temperature)."""
-    from inclino.procedures.acquire import Unsettled
+    from inclino.procedures.readings import Unsettled
 
     table.move(Step(first.inc, first.azi, first.tf, f"{sp:g} degC: soak at {first.label}"), 0, 0)
     chamber.set(sp, plan.ramp_rate)
@@ -173,7 +174,7 @@ def accept_temperatures(link, table, cal, setpoints=(-5.0, 25.0, 55.0), grid: st
     downloaded first unless download is False."""
     from inclino.link import operations as calops
     from inclino.engines import temperature as temp_engine
-    from inclino.procedures.acquire import _bar, set_average
+    from inclino.procedures.readings import progress_bar, set_average
 
     tol = tol or Tolerance()
     tol.check()
@@ -206,7 +207,7 @@ def accept_temperatures(link, table, cal, setpoints=(-5.0, 25.0, 55.0), grid: st
     steps = [Step(*p.pose, f"{grid} grid: {'tilt' if grid == 'ren2014' else 'inclination'} {p.set_inc:g}, "
                   f"azimuth {p.set_azi:g}" + (f", toolface {p.tf:g}" if len(toolfaces) > 1 or p.tf else ""))
              for p in pts]
-    bar = _bar(len(sps) * len(steps), "accept temperatures", quiet)
+    bar = progress_bar(len(sps) * len(steps), "accept temperatures", quiet)
 
     def say(m):
         bar.write(m, file=sys.stderr)

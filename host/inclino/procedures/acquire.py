@@ -58,63 +58,22 @@ from __future__ import annotations
 
 import contextlib
 import datetime as _dt
-import math
 import os
 import sys
 import time
 from dataclasses import dataclass, field
 
 from inclino.errors import DataError
-from inclino.link.serial_link import ProbeError
 from inclino.engines.reference import ACC_LSB_G, MAG_LSB_NT  # noqa: F401 (one place for the sensor scales)
+from inclino.procedures.poses import Step, wrap_deg
+from inclino.procedures.readings import (Tolerance, Unsettled, gravity_toolface, mean_row, progress_bar, read_once,
+                                         read_stable, set_average)
 
 PROCEDURES = ("twelve-position", "multi-position", "continuous", "temperature")
 COLUMNS = ("t_s", "inc_deg", "azi_deg", "tf_deg", "temp_c", "ax_g", "ay_g", "az_g", "mx_nT", "my_nT", "mz_nT")
 
 
-class Unsettled(ProbeError):
-    """The readings did not agree within the tolerance (exit status 4)."""
-
-
 # ---------------------------------------------------------------- poses
-@dataclass
-class Step:
-    """One position of a procedure: the turntable's indicated pose."""
-    inc: float
-    azi: float
-    tf: float
-    label: str
-    rotation: int = 0  # continuous: 1 or 2 (which toolface rotation), else 0
-
-
-def _wrap(a: float) -> float:
-    a = math.fmod(float(a), 360.0)
-    a = a + 360.0 if a < 0 else a
-    return 0.0 if a >= 360.0 else a + 0.0
-
-
-_DIRS = (("north", (1, 0, 0)), ("south", (-1, 0, 0)), ("east", (0, 1, 0)), ("west", (0, -1, 0)),
-         ("down", (0, 0, 1)), ("up", (0, 0, -1)))
-
-
-def describe(inc: float, azi: float, tf: float) -> str:
-    """Where each body axis points at this pose, e.g. "X down, Y west, Z
-    north" (Li 2021 Table 1's words); axes off the six directions are given
-    by their inclination from down."""
-    from inclino.engines import reference as ref
-
-    C = ref.pose_matrix(inc, azi, tf)
-    parts = []
-    for k, name in enumerate("XYZ"):
-        v = C[k]
-        best = max(_DIRS, key=lambda d: sum(a * b for a, b in zip(v, d[1])))
-        if sum(a * b for a, b in zip(v, best[1])) > math.cos(math.radians(1.0)):
-            parts.append(f"{name} {best[0]}")
-        else:
-            parts.append(f"{name} {math.degrees(math.acos(max(-1.0, min(1.0, v[2])))):.0f} deg from down")
-    return ", ".join(parts)
-
-
 def procedure_steps(name: str, points: int = 36, d1: float = 30.0, azimuth: float = 2.0,
                     step_deg: float = 10.0, circle_step_deg: float = 30.0) -> list[Step]:
     import numpy as np
@@ -136,103 +95,16 @@ def procedure_steps(name: str, points: int = 36, d1: float = 30.0, azimuth: floa
             I, A, T = runs.multi_position(points)
             steps += [Step(float(i), float(a), float(t), f"orientation {k + 1}/{points}")
                       for k, (i, a, t) in enumerate(zip(I, A, T))]
-        return [Step(s.inc, _wrap(s.azi), _wrap(s.tf), s.label, s.rotation) for s in steps]
+        return [Step(s.inc, wrap_deg(s.azi), wrap_deg(s.tf), s.label, s.rotation) for s in steps]
     if name == "continuous":
         if not 0.0 <= d1 <= 90.0:
             raise DataError("--d1 must be within 0-90 deg (the second rotation is at d1 + 90)")
         if not 0.0 < step_deg <= 60.0:
             raise DataError("--step must be within (0, 60] deg (Guo's fit needs >= 6 readings per turn)")
         r = np.arange(0.0, 360.0 - 1e-9, step_deg)
-        return [Step(d, _wrap(azimuth), float(t), f"rotation {k + 1} at inclination {d:g}", k + 1)
+        return [Step(d, wrap_deg(azimuth), float(t), f"rotation {k + 1} at inclination {d:g}", k + 1)
                 for k, d in enumerate((d1, d1 + 90.0)) for t in r]
     raise DataError(f"unknown procedure {name!r} (one of {', '.join(PROCEDURES)})")
-
-
-# ---------------------------------------------------------------- readings
-@dataclass
-class Reading:
-    t_s: float
-    acc: tuple  # counts (the probe's means: fractional, 1/64 count resolution)
-    mag: tuple  # counts
-    temp_c: float
-    survey: dict  # the probe's survey of the same acquisition (units)
-    record: object = None  # that survey's protocol.SurveyRecord (fixed point)
-    temp_q6: int | None = None  # TEMP_OUT mean, Q6 counts (the temperature terms' input); None: older firmware
-
-
-def read_once(link) -> Reading:
-    from inclino.link import operations as calops
-
-    s, r = calops.survey_with_raw(link)
-    return Reading(s.t_ms / 1000.0, r.acc_counts, r.mag_counts, r.temp_centi_c / 100.0,
-                   s.to_units(), s, getattr(r, "temp_q6", None))
-
-
-@dataclass
-class Tolerance:
-    acc_mg: float = 1.0
-    mag_nT: float = 20.0
-    reads: int = 3
-
-    def check(self) -> None:
-        if self.reads < 1:
-            raise DataError("--reads must be >= 1")
-        if not (self.acc_mg > 0 and self.mag_nT > 0):
-            raise DataError("the stability tolerances must be > 0")
-
-    def spread(self, window: list[Reading]) -> tuple[float, float]:
-        """(accelerometer spread mg, fluxgate spread nT): the largest max - min over the axes."""
-        sa = max(max(w.acc[k] for w in window) - min(w.acc[k] for w in window) for k in range(3))
-        sm = max(max(w.mag[k] for w in window) - min(w.mag[k] for w in window) for k in range(3))
-        return sa * ACC_LSB_G * 1e3, sm * MAG_LSB_NT
-
-    def agrees(self, window: list[Reading]) -> bool:
-        sa, sm = self.spread(window)
-        return sa <= self.acc_mg and sm <= self.mag_nT
-
-
-def read_stable(link, tol: Tolerance, max_reads: int | None = 30, waiting=None) -> list[Reading]:
-    """Readings until the last tol.reads agree within tol; returns them.
-    max_reads None: go on (an operator is there); `waiting(spread_mg,
-    spread_nT, n)` is called after each disagreeing window."""
-    win: list[Reading] = []
-    n = 0
-    while True:
-        win.append(read_once(link))
-        n += 1
-        win = win[-tol.reads:]
-        if len(win) == tol.reads and tol.agrees(win):
-            return win
-        if len(win) == tol.reads:
-            sa, sm = tol.spread(win)
-            if waiting is not None:
-                waiting(sa, sm, n)
-            if max_reads is not None and n >= max_reads:
-                raise Unsettled(f"the readings did not settle in {n} reads (spread {sa:.2f} mg, {sm:.0f} nT; "
-                                f"tolerance {tol.acc_mg:g} mg, {tol.mag_nT:g} nT)")
-
-
-def mean_row(win: list[Reading]) -> dict:
-    n = float(len(win))
-    row = {"t_s": sum(w.t_s for w in win) / n, "temp_c": sum(w.temp_c for w in win) / n}
-    for k, c in enumerate(("ax_g", "ay_g", "az_g")):
-        row[c] = sum(w.acc[k] for w in win) / n * ACC_LSB_G
-    for k, c in enumerate(("mx_nT", "my_nT", "mz_nT")):
-        row[c] = sum(w.mag[k] for w in win) / n * MAG_LSB_NT
-    return row
-
-
-def gravity_toolface(acc) -> float:
-    """The probe's gravity toolface from raw accelerometer counts (deg)."""
-    return _wrap(math.degrees(math.atan2(acc[1], -acc[0] + 0.0)))
-
-
-def set_average(link, n: int | None) -> None:
-    if n is None:
-        return
-    if not 1 <= n <= 64:
-        raise DataError("--average must be within 1-64 samples")
-    link.set_average(n)
 
 
 # ---------------------------------------------------------------- the run
@@ -247,12 +119,6 @@ class AcquireResult:
     unsettled_windows: int = 0
     elapsed_s: float = 0.0
     notes: list = field(default_factory=list)
-
-
-def _bar(total: int, desc: str, quiet: bool):
-    from inclino.progress import bar   # a bar on a terminal, periodic lines off one
-
-    return bar(total, desc, unit="pos", quiet=quiet, leave=False, dynamic_ncols=True)
 
 
 def run_header(link, table, world, average):
@@ -354,7 +220,7 @@ def acquire(link, procedure: str, out_path: str, table, *, points: int = 36, d1:
                       f"/ {tol.mag_nT:g} nT)")
     res = AcquireResult(out_path, procedure, 0, ident.serial, meta)
     out = _RowWriter(out_path, meta)
-    bar = _bar(len(steps), procedure, quiet)
+    bar = progress_bar(len(steps), procedure, quiet)
     def say(m):  # instructions and warnings stay visible with --quiet (an operator needs them)
         bar.write(m, file=sys.stderr)
 

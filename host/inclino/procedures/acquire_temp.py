@@ -32,8 +32,9 @@ import sys
 import time
 from dataclasses import dataclass
 
-from inclino.procedures.acquire import (AcquireResult, Step, Unsettled, _bar, _RowWriter, _wrap, mean_row, procedure_steps,
-                             read_stable, recording, run_header)
+from inclino.procedures.acquire import AcquireResult, _RowWriter, procedure_steps, recording, run_header
+from inclino.procedures.poses import Step, wrap_deg
+from inclino.procedures.readings import Unsettled, mean_row, progress_bar, read_stable
 from inclino.errors import DataError
 
 # Poses held through the ramps: each sensor axis down and up in turn, at
@@ -141,7 +142,7 @@ def acquire_temperature(link, out_path: str, table, plan: ThermalPlan, *, tol=No
                         sleep=time.sleep) -> AcquireResult:
     """Take the thermal run (module docstring) on `table` (a turntable:
     turntable.ManualTurntable or turntable_emulated.EmulatedTurntable) and write it to out_path as a raw dataset."""
-    from inclino.procedures.acquire import Tolerance
+    from inclino.procedures.readings import Tolerance
 
     tol = tol or Tolerance()
     tol.check()
@@ -158,7 +159,7 @@ def acquire_temperature(link, out_path: str, table, plan: ThermalPlan, *, tol=No
                       f"{tol.reads} reads within {tol.acc_mg:g} mg / {tol.mag_nT:g} nT)")
     res = AcquireResult(out_path, "temperature", 0, ident.serial, meta)
     out = _RowWriter(out_path, meta)
-    bar = _bar(len(plan.setpoints) * len(poses), "temperature", quiet)
+    bar = progress_bar(len(plan.setpoints) * len(poses), "temperature", quiet)
 
     def say(m):  # above the progress bar, on stderr
         bar.write(m, file=sys.stderr)
@@ -182,7 +183,7 @@ def acquire_temperature(link, out_path: str, table, plan: ThermalPlan, *, tol=No
                     win = read_stable(link, tol, max_reads if table.unattended else None)
                     res.reads += len(win)
                     row = mean_row(win)
-                    out.write({**row, "inc_deg": st.inc, "azi_deg": _wrap(st.azi), "tf_deg": _wrap(st.tf)})
+                    out.write({**row, "inc_deg": st.inc, "azi_deg": wrap_deg(st.azi), "tf_deg": wrap_deg(st.tf)})
                     temps.append(row["temp_c"])
                 history.append((minutes, sum(temps) / len(temps)))
                 if tell is not None:

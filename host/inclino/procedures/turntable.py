@@ -9,7 +9,7 @@ import sys
 
 from inclino.errors import DataError
 from inclino.link.serial_link import ProbeError
-from inclino.procedures.acquire import Step, describe
+from inclino.procedures.poses import Step, describe
 
 
 class TurntableError(ProbeError):

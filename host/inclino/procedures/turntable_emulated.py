@@ -5,7 +5,7 @@ from __future__ import annotations
 import math
 
 from inclino.errors import DataError
-from inclino.procedures.acquire import Step, _wrap
+from inclino.procedures.poses import Step, wrap_deg
 from inclino.procedures.turntable import TurntableError
 
 
@@ -38,7 +38,7 @@ class EmulatedTurntable:
         return ans
 
     def move(self, step: Step, index: int, total: int) -> None:
-        self.call("move", inc=step.inc, azi=_wrap(step.azi), tf=_wrap(step.tf))
+        self.call("move", inc=step.inc, azi=wrap_deg(step.azi), tf=wrap_deg(step.tf))
 
     def world(self) -> dict:
         """Field total, dip and declination from the bench's truth (the true
