@@ -55,10 +55,6 @@ class _Attitude:
         return float(np.sqrt(np.mean(da ** 2))), inc
 
 
-def _rms_channels(R, chans):
-    return float(np.sqrt(np.mean(R[:, chans] ** 2)))
-
-
 # A longer run is thinned to every k-th row first (inclino.formats.dataset.thin;
 # peak memory about 11 kB per row)
 MAX_ROWS = 40_000
@@ -78,31 +74,62 @@ def diagnose(ds: RawDataset, effects=None, alpha: float = core.DEFAULT_ALPHA, fo
     return r
 
 
+NB = 25  # the baseline's columns: 12 per triad and the dip
+
+
 def _diagnose(ds, effects, alpha, folds, keep_plot_data) -> Diagnosis:
     t_start = time.perf_counter()
     if not (0.0 < alpha < 1.0):
         raise DataError("alpha must be between 0 and 1")
     wanted = parse_effects(effects)
-    d = core.prepare(ds)
-    if int(folds) < 2:
-        raise DataError("folds must be at least 2")
-    K = min(int(folds), d.n // 4)  # at least four readings in every fold
-    bl0, noise = core.fit_baseline(d)
-    out_rows = bl0.outliers if bl0.outliers is not None else np.zeros(d.n, bool)
-    noise_base = noise
-    nb = 25
-    base = list(range(nb))
+    m = _Model(ds, folds)
+    testable, not_testable = _screen_candidates(m, wanted)
+    steps, kept, pvals = _select(m, alpha)
+    out = _assemble(m, alpha, testable, not_testable, steps, kept, pvals, keep_plot_data)
+    out.elapsed_s = time.perf_counter() - t_start
+    return out
 
-    cands = [c for c in core.all_candidates() if wanted is None or c.name in wanted]
-    testable, not_testable = [], []
-    for c in cands:
-        why = core.untestable_reason(d, c)
-        (not_testable.append((c, why)) if why else testable.append(c))
-    fold_of = core.make_folds(d.n, K)
-    state = {"A": dict(bl0.A), "c": dict(bl0.c), "dip": bl0.dip, "theta": {}}
 
-    def build(st, cands_now):
+class _Model:
+    """The baseline fit and the model linearised at its current estimate.
+
+    Made from the dataset: the poses prepared (core.prepare), the K folds,
+    the 12-parameter baseline fitted with the noise and the outlier rows
+    (core.fit_baseline); `noise_base` keeps that first noise.  `use(testable)`
+    sets the candidates the design carries (their columns follow the
+    baseline's NB); `refit(kept)` re-linearises by Gauss-Newton at the
+    estimate of baseline + kept and re-estimates noise and outlier rows."""
+
+    def __init__(self, ds, folds):
+        d = core.prepare(ds)
+        if int(folds) < 2:
+            raise DataError("folds must be at least 2")
+        self.d = d
+        self.K = min(int(folds), d.n // 4)  # at least four readings in every fold
+        bl0, noise = core.fit_baseline(d)
+        self.out_rows = bl0.outliers if bl0.outliers is not None else np.zeros(d.n, bool)
+        self.noise = self.noise_base = noise
+        self.base = list(range(NB))
+        self.bl0 = bl0
+        self.testable = []
+        self.idx = {}
+
+    def start(self, testable):
+        """The folds and the state at the baseline fit, then the design with `testable`."""
+        self.fold_of = core.make_folds(self.d.n, self.K)
+        self.state = {"A": dict(self.bl0.A), "c": dict(self.bl0.c), "dip": self.bl0.dip, "theta": {}}
+        self.use(testable)
+
+    def use(self, testable):
+        """Build the design at the current state with these candidates."""
+        self.testable = testable
+        self.bl, self.X, self.y0 = self.build(self.state, testable)
+        self.des = self.design(self.bl, self.noise, ~self.out_rows)
+        self.idx = {c.key: NB + j for j, c in enumerate(testable)}
+
+    def build(self, st, cands_now):
         """The model linearised at the state: (Baseline, X, pseudo-observation)."""
+        d = self.d
         A, c, dip, th = st["A"], st["c"], st["dip"], st["theta"]
         G, Bv = forward.truth(d, dip, th)
         J = forward.pose_jacobian(d, A, c, dip, th)
@@ -115,13 +142,44 @@ def _diagnose(ds, effects, alpha, folds, keep_plot_data) -> Diagnosis:
                 y = y + th[cd.key] * ccols[j]
         return b, np.stack(cols + ccols, -1), y
 
-    def design(b, X, y, nz, rows):
-        return Design(y, X, nz.whitener(b.Jpose), fold_of, K, rows=rows)
+    def design(self, b, nz, rows):
+        return Design(self.y0, self.X, nz.whitener(b.Jpose), self.fold_of, self.K, rows=rows)
 
-    bl, X, y0 = build(state, testable)
-    des = design(bl, X, y0, noise, ~out_rows)
-    idx = {c.key: nb + j for j, c in enumerate(testable)}
-    sep = {c.key: des.separability(base, idx[c.key]) for c in testable}
+    def refit(self, kept_now):
+        """Gauss-Newton: re-linearise at the estimate of the model base +
+        kept_now, re-estimate the noise (robustly) and the outlier rows."""
+        state, d = self.state, self.d
+        S = self.base + [self.idx[k] for k in kept_now]
+        for _ in range(GN_ITERATIONS):
+            beta, _ = self.des.fit(S)
+            beta = beta / self.des.colscale[S]
+            A = {t: state["A"][t] + beta[12 * ti: 12 * ti + 12].reshape(3, 4)[:, :3] for ti, t in enumerate(TRIADS)}
+            c = {t: state["c"][t] + beta[12 * ti: 12 * ti + 12].reshape(3, 4)[:, 3] for ti, t in enumerate(TRIADS)}
+            th = {k: float(beta[NB + j]) for j, k in enumerate(kept_now)}
+            state.update(A=A, c=c, dip=state["dip"] + float(beta[24]), theta=th)
+            self.bl, self.X, self.y0 = self.build(state, self.testable)
+            R = d.Y - self.bl.predict()
+            self.noise, self.out_rows = robust.robust_noise(R, self.bl.Jpose,
+                                                            dof_frac=1.0 - (4.5 + len(kept_now)) / d.n,
+                                                            start=self.noise)
+            self.des = self.design(self.bl, self.noise, ~self.out_rows)
+
+
+def _screen_candidates(m: _Model, wanted):
+    """The candidates to test: the wanted ones (all by default) that the data
+    can test at all (core.untestable_reason) and that the poses tell from the
+    baseline (separability >= SEPARABLE_MIN); sets m's design to them.
+    Returns (testable, not_testable [(candidate, reason)]); raises
+    DataError when a wanted effect cannot be tested or two wanted effects
+    cannot be told apart."""
+    d = m.d
+    cands = [c for c in core.all_candidates() if wanted is None or c.name in wanted]
+    testable, not_testable = [], []
+    for c in cands:
+        why = core.untestable_reason(d, c)
+        (not_testable.append((c, why)) if why else testable.append(c))
+    m.start(testable)
+    sep = {c.key: m.des.separability(m.base, m.idx[c.key]) for c in testable}
     keep = []
     for c in testable:
         if sep[c.key] < SEPARABLE_MIN:
@@ -131,9 +189,7 @@ def _diagnose(ds, effects, alpha, folds, keep_plot_data) -> Diagnosis:
             keep.append(c)
     if len(keep) < len(testable):
         testable = keep
-        bl, X, y0 = build(state, testable)
-        des = design(bl, X, y0, noise, ~out_rows)
-        idx = {c.key: nb + j for j, c in enumerate(testable)}
+        m.use(testable)
     if wanted is not None:
         for name in wanted:
             if not any(c.name == name for c in testable):
@@ -141,62 +197,54 @@ def _diagnose(ds, effects, alpha, folds, keep_plot_data) -> Diagnosis:
                 raise DataError(f"cannot test {name}: {why}")
         for i, a in enumerate(testable):
             for b in testable[i + 1:]:
-                r = des.partial_corr(base, idx[a.key], idx[b.key])
+                r = m.des.partial_corr(m.base, m.idx[a.key], m.idx[b.key])
                 if abs(r) > 0.999:
                     raise DataError(f"the poses cannot separate {a.name} ({a.sensor} {a.axis}) from {b.name} "
                                     f"({b.sensor} {b.axis}): their signatures agree to a correlation of {r:.4f}")
+    return testable, not_testable
 
-    def refit(kept_now):
-        """Gauss-Newton: re-linearise at the estimate of the model base +
-        kept_now, re-estimate the noise (robustly) and the outlier rows."""
-        nonlocal bl, X, y0, des, noise, out_rows
-        S = base + [idx[k] for k in kept_now]
-        for _ in range(GN_ITERATIONS):
-            beta, _ = des.fit(S)
-            beta = beta / des.colscale[S]
-            A = {t: state["A"][t] + beta[12 * ti: 12 * ti + 12].reshape(3, 4)[:, :3] for ti, t in enumerate(TRIADS)}
-            c = {t: state["c"][t] + beta[12 * ti: 12 * ti + 12].reshape(3, 4)[:, 3] for ti, t in enumerate(TRIADS)}
-            th = {k: float(beta[nb + j]) for j, k in enumerate(kept_now)}
-            state.update(A=A, c=c, dip=state["dip"] + float(beta[24]), theta=th)
-            bl, X, y0 = build(state, testable)
-            R = d.Y - bl.predict()
-            noise, out_rows = robust.robust_noise(R, bl.Jpose, dof_frac=1.0 - (4.5 + len(kept_now)) / d.n,
-                                                  start=noise)
-            des = design(bl, X, y0, noise, ~out_rows)
 
-    # ---- forward selection under the false-alarm control, then backward
+def _select(m: _Model, alpha):
+    """Forward selection under the false-alarm control, then backward: keep
+    the candidate with the smallest F-test p-value if p < alpha/m and it
+    lowers the cross-validated residual, refit (m.refit) after each change;
+    then drop kept effects whose p exceeds alpha once the others are in.
+    Returns (steps, kept keys, p-values by key)."""
+    base, idx = m.base, m.idx
     steps = []
     kept: list = []
-    remaining = [c.key for c in testable]
-    by_key = {c.key: c for c in testable}
+    remaining = [c.key for c in m.testable]
     pvals = {}
     while remaining:
+        des = m.des
         S = base + [idx[k] for k in kept]
         cv0 = des.cv(S)
-        m = len(remaining)
+        n_left = len(remaining)
         tests = sorted((des.ftest(S, [idx[k]])[0], k) for k in remaining)
         chosen = None
         for p, k in tests:
-            if p >= alpha / m:
+            if p >= alpha / n_left:
                 break
             cv1 = des.cv(S + [idx[k]])
             if cv1 < cv0:
                 chosen = (k, p, cv0, cv1)
                 break
-            steps.append({"effect": k, "p": p, "threshold": alpha / m, "cv_before": cv0, "cv_after": cv1,
+            steps.append({"effect": k, "p": p, "threshold": alpha / n_left, "cv_before": cv0, "cv_after": cv1,
                           "kept": False, "why": "no gain on held-out data"})
         if chosen is None:
             if tests:
-                steps.append({"effect": tests[0][1], "p": tests[0][0], "threshold": alpha / m, "kept": False,
-                              "why": "p above the threshold" if tests[0][0] >= alpha / m else "no CV gain"})
+                steps.append({"effect": tests[0][1], "p": tests[0][0], "threshold": alpha / n_left, "kept": False,
+                              "why": "p above the threshold" if tests[0][0] >= alpha / n_left else "no CV gain"})
             break
         k, p, cv0, cv1 = chosen
-        steps.append({"effect": k, "p": p, "threshold": alpha / m, "cv_before": cv0, "cv_after": cv1, "kept": True})
+        steps.append({"effect": k, "p": p, "threshold": alpha / n_left, "cv_before": cv0, "cv_after": cv1,
+                      "kept": True})
         kept.append(k)
         pvals[k] = p
         remaining.remove(k)
-        refit(kept)
+        m.refit(kept)
     while kept:
+        des = m.des
         S = base + [idx[k] for k in kept]
         drops = [(des.ftest([i for i in S if i != idx[k]], [idx[k]])[0], k) for k in kept]
         p, k = max(drops)
@@ -207,42 +255,38 @@ def _diagnose(ds, effects, alpha, folds, keep_plot_data) -> Diagnosis:
         kept.remove(k)
         steps.append({"effect": k, "p": p, "threshold": alpha, "kept": False, "why": "dropped: not significant "
                       "once the other effects were in"})
-        refit(kept)
+        m.refit(kept)
+    return steps, kept, pvals
 
-    S = base + [idx[k] for k in kept]
-    est, se, s2 = des.coef(S)
-    best_subset = _best_subset(des, base, kept, testable, idx, alpha, fold_of)
-    att = _Attitude(bl, ~out_rows)
+
+def _rms_ok(R, chans, ok):
+    """RMS of the residuals R over the channels chans, outlier rows left out."""
+    return float(np.sqrt(np.mean(R[ok][:, chans] ** 2)))
+
+
+def _kept_effects(m: _Model, kept, pvals, est, se, S, R_final, Rs_final, Rs_cv_final, att, keep_plot_data):
+    """Each kept effect with its estimate, standard error, p-value and gain
+    (residual and attitude RMS without it vs with it, raw and held-out), the
+    notes on candidates that look alike on these poses, and the plot entries.
+    Returns (effects, notes, plot entries)."""
+    des, d, bl, idx, noise = m.des, m.d, m.bl, m.idx, m.noise
+    ok = ~m.out_rows
     J = bl.Jpose
-    ok = ~out_rows
-
-    def _rms_channels(R, chans):
-        return float(np.sqrt(np.mean(R[ok][:, chans] ** 2)))
-
-    def sensor(Rr):  # the residual net of the turntable's readout error (see Noise.sensor_part)
-        return noise.sensor_part(Rr, J)
-
-    R_final = des.raw_residuals(S)
-    Rs_final, Rs_cv_final = sensor(R_final), sensor(des.cv_residuals(S))
-    R_base = des.raw_residuals(base)
-    Rs_base, Rs_base_cv = noise_base.sensor_part(R_base, J), noise_base.sensor_part(des.cv_residuals(base), J)
-
-    effects_out = []
-    plot_effects = []
-    notes = []
+    by_key = {c.key: c for c in m.testable}
+    effects_out, plot_effects, notes = [], [], []
     for j, k in enumerate(kept):
         c = by_key[k]
         Sb = [i for i in S if i != idx[k]]
-        Rb, Rbcv = sensor(des.raw_residuals(Sb)), sensor(des.cv_residuals(Sb))
+        Rb, Rbcv = noise.sensor_part(des.raw_residuals(Sb), J), noise.sensor_part(des.cv_residuals(Sb), J)
         ch = c.channels
         azb, inb = att.rms(Rb)
         aza, ina = att.rms(Rs_final)
-        gain = Gain(_rms_channels(Rb, ch), _rms_channels(Rs_final, ch), _rms_channels(Rbcv, ch),
-                    _rms_channels(Rs_cv_final, ch), azb, aza, inb, ina)
-        e = Effect(c.name, c.sensor, c.axis, float(est[nb + j]), float(se[nb + j]), c.units, gain,
+        gain = Gain(_rms_ok(Rb, ch, ok), _rms_ok(Rs_final, ch, ok), _rms_ok(Rbcv, ch, ok),
+                    _rms_ok(Rs_cv_final, ch, ok), azb, aza, inb, ina)
+        e = Effect(c.name, c.sensor, c.axis, float(est[NB + j]), float(se[NB + j]), c.units, gain,
                    rms_units=TRIAD_UNITS[c.triad], p_value=float(pvals.get(k, np.nan)))
         effects_out.append(e)
-        for other in testable:
+        for other in m.testable:
             if other.key in kept:
                 continue
             r = des.partial_corr(Sb, idx[k], idx[other.key])
@@ -250,21 +294,50 @@ def _diagnose(ds, effects, alpha, folds, keep_plot_data) -> Diagnosis:
                 notes.append(f"{c.name} ({c.sensor} {c.axis}) and {other.name} ({other.sensor} {other.axis}) look "
                              f"alike on these poses (correlation {r:.3f}): the data barely tell them apart")
         if keep_plot_data:
-            plot_effects.append(_plot_entry(d, bl, c, X[:, :, idx[k]], noise, Rb, Rs_final))
+            plot_effects.append(_plot_entry(d, bl, c, m.X[:, :, idx[k]], noise, Rb, Rs_final))
+    return effects_out, notes, plot_effects
+
+
+def _residual_study(m: _Model, S, R, nz, ok):
+    """The residual study of R under the model's columns S, the noise nz;
+    outlier rows have no weight (residual 0, variance huge)."""
+    var = nz.row_cov(m.bl.Jpose)[:, range(6), range(6)]
+    var[m.out_rows] *= 1e12
+    own = {ch: m.X[:, ch, [i for i in S if np.any(m.X[:, ch, i] != 0)]] for ch in range(6)}
+    return study.study(m.d, m.bl, np.where(ok[:, None], R, 0.0), var, own)
+
+
+def _assemble(m: _Model, alpha, testable, not_testable, steps, kept, pvals, keep_plot_data) -> Diagnosis:
+    """The result: the final model's coefficients, the best-subset cross-check,
+    the kept effects' gains, the residual study of the baseline and the
+    structure test of the final model, the outlier rows, and the baseline
+    section of the report."""
+    des, d, bl, base, noise, noise_base = m.des, m.d, m.bl, m.base, m.noise, m.noise_base
+    out_rows = m.out_rows
+    S = base + [m.idx[k] for k in kept]
+    est, se, s2 = des.coef(S)
+    best_subset = _best_subset(des, base, kept, testable, m.idx, alpha, m.fold_of)
+    att = _Attitude(bl, ~out_rows)
+    J = bl.Jpose
+    ok = ~out_rows
+
+    R_final = des.raw_residuals(S)
+    Rs_final, Rs_cv_final = noise.sensor_part(R_final, J), noise.sensor_part(des.cv_residuals(S), J)
+    R_base = des.raw_residuals(base)
+    Rs_base, Rs_base_cv = noise_base.sensor_part(R_base, J), noise_base.sensor_part(des.cv_residuals(base), J)
+
+    effects_out, notes, plot_effects = _kept_effects(m, kept, pvals, est, se, S, R_final, Rs_final, Rs_cv_final,
+                                                     att, keep_plot_data)
 
     # ---- residual study (baseline) and structure test (final)
-    # outlier rows: no weight in the tests (residual 0, variance huge)
-    var_final = noise.row_cov(bl.Jpose)[:, range(6), range(6)]
-    var_final[out_rows] *= 1e12
-    own_final = {ch: X[:, ch, [i for i in S if np.any(X[:, ch, i] != 0)]] for ch in range(6)}
-    final_study = study.study(d, bl, np.where(ok[:, None], R_final, 0.0), var_final, own_final)
+    final_study = _residual_study(m, S, R_final, noise, ok)
     verdict = study.structure_verdict(final_study, alpha)
-    var_base = noise_base.row_cov(bl.Jpose)[:, range(6), range(6)]
-    var_base[out_rows] *= 1e12
-    own_base = {ch: X[:, ch, [i for i in base if np.any(X[:, ch, i] != 0)]] for ch in range(6)}
-    base_study = study.study(d, bl, np.where(ok[:, None], R_base, 0.0), var_base, own_base)
+    base_study = _residual_study(m, base, R_base, noise_base, ok)
     _, zfin = robust.outlier_mask(R_final, noise, bl.Jpose)
     outliers = robust.describe(out_rows, zfin, d.order)
+
+    def rms(R, chans):
+        return _rms_ok(R, chans, ok)
 
     azr, inr = att.rms(Rs_base)
     dip_se = float(des.coef(base)[1][24])
@@ -276,12 +349,12 @@ def _diagnose(ds, effects, alpha, folds, keep_plot_data) -> Diagnosis:
         "acc": {"A": bl.A["acc"], "c": bl.c["acc"], "units": "g"},
         "mag": {"A": bl.A["mag"], "c": bl.c["mag"], "units": "nT"},
         "noise": noise_base.to_dict(),
-        "rms": {"acc_g": [_rms_channels(Rs_base, [i]) for i in range(3)],
-                "mag_nT": [_rms_channels(Rs_base, [i]) for i in range(3, 6)]},
-        "cv_rms": {"acc_g": [_rms_channels(Rs_base_cv, [i]) for i in range(3)],
-                   "mag_nT": [_rms_channels(Rs_base_cv, [i]) for i in range(3, 6)]},
-        "rms_with_turntable_error": {"acc_g": [_rms_channels(R_base, [i]) for i in range(3)],
-                                     "mag_nT": [_rms_channels(R_base, [i]) for i in range(3, 6)]},
+        "rms": {"acc_g": [rms(Rs_base, [i]) for i in range(3)],
+                "mag_nT": [rms(Rs_base, [i]) for i in range(3, 6)]},
+        "cv_rms": {"acc_g": [rms(Rs_base_cv, [i]) for i in range(3)],
+                   "mag_nT": [rms(Rs_base_cv, [i]) for i in range(3, 6)]},
+        "rms_with_turntable_error": {"acc_g": [rms(R_base, [i]) for i in range(3)],
+                                     "mag_nT": [rms(R_base, [i]) for i in range(3, 6)]},
         "azi_rms_deg": azr, "inc_rms_deg": inr,
         "residual_study": base_study,
         "outliers": {"method": (f"noise started from the per-channel MAD; rows whose whitened squared norm exceeds "
@@ -293,7 +366,7 @@ def _diagnose(ds, effects, alpha, folds, keep_plot_data) -> Diagnosis:
             "method": ("forward stepwise: keep the candidate with the smallest F-test p-value if p < alpha/m "
                        "(Bonferroni over the m candidates left) and it lowers the K-fold cross-validated "
                        "residual; noise re-estimated after each kept effect; backward pass at alpha"),
-            "alpha": alpha, "folds": K, "tested": [c.key for c in testable],
+            "alpha": alpha, "folds": m.K, "tested": [c.key for c in testable],
             "not_testable": [{"effect": c.key, "reason": why} for c, why in not_testable],
             "steps": steps, "final_noise": noise.to_dict(), "final_s2": s2, "notes": notes,
             "best_subset": best_subset},
@@ -302,7 +375,6 @@ def _diagnose(ds, effects, alpha, folds, keep_plot_data) -> Diagnosis:
     out = Diagnosis(baseline=baseline, effects=effects_out, unexplained=verdict["unexplained"], structure=verdict)
     if keep_plot_data:
         out.plot_data = {"effects": plot_effects, "baseline": _baseline_plot(d, bl, base_study, Rs_base)}
-    out.elapsed_s = time.perf_counter() - t_start
     return out
 
 
