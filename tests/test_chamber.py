@@ -19,6 +19,7 @@ from inclino_emu.probe import EmulatedProbe
 from inclino_emu.runner import Emulator
 from inclino.model.scenario import load_scenario, scenario_from_dict
 from inclino.model.world import Chamber
+from chamber_person import PersonAtChamber
 
 
 def _integrate(profile, tau, t0_c, t_end, dt=0.05):
@@ -261,37 +262,6 @@ def test_settled_needs_the_band_and_a_quiet_window():
     assert not acquire_temp.settled([(0.0, 54.9), (4.0, 55.0)], 55.0, plan)        # window not yet spanned
     assert not acquire_temp.settled([(0.0, 53.0), (6.0, 54.2), (12.0, 54.9)], 55.0, plan)  # still moving
     assert acquire_temp.settled([(0.0, 54.0), (2.0, 54.6), (12.0, 55.0)], 55.0, plan)
-
-
-class PersonAtChamber:
-    """An operator: sets each announced pose on the (emulated) table and each
-    announced set point on the (emulated) chamber; real-time waits become
-    `advance` requests."""
-
-    def __init__(self, ctl):
-        self.ctl, self.said, self.poses, self.setpoints = ctl, [], [], []
-
-    def say(self, m):
-        self.said.append(m)
-
-    def readline(self):
-        import re
-        m = self.said[-1]
-        p = re.search(r"set inclination ([-0-9.]+) deg, azimuth ([-0-9.]+) deg, toolface ([-0-9.]+) deg", m)
-        c = re.search(r"set the chamber to ([-0-9.]+) degC \(ramp ([0-9.]+) degC/min\)", m)
-        if p:
-            pose = [float(x) for x in p.groups()]
-            self.ctl.call("move", inc=pose[0], azi=pose[1], tf=pose[2])
-            self.poses.append(pose)
-        elif c:
-            self.ctl.call("chamber", setpoint_c=float(c.group(1)), rate_c_per_min=float(c.group(2)))
-            self.setpoints.append(float(c.group(1)))
-        else:
-            raise AssertionError(f"unexpected prompt {m!r}")
-        return "\n"
-
-    def sleep(self, s):
-        self.ctl.call("advance", s=s)
 
 
 def test_acquire_temperature_guides_a_person(emu, tmp_path):

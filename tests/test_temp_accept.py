@@ -17,6 +17,7 @@ from inclino.formats.calfile import Calibration
 from inclino.benchmarks import calibration_temperature as bench_temp
 from inclino_emu.probe import EmulatedProbe
 from inclino_emu.runner import Emulator
+from chamber_person import PersonAtChamber
 
 CHECK = (-5.0, 25.0, 55.0)
 
@@ -182,36 +183,6 @@ def test_accept_temperatures_needs_terms(tmp_path, capsys, chamber_calibrated):
         assert rc == 2 and why in err and len(err.strip().splitlines()) == 1, (args, err)
 
 
-class _Person:
-    """An operator at the emulated chamber: sets each announced pose and set
-    point through the control channel; real-time waits become `advance`."""
-
-    def __init__(self, ctl):
-        self.ctl, self.said, self.setpoints, self.moves = ctl, [], [], 0
-
-    def say(self, m):
-        self.said.append(m)
-
-    def readline(self):
-        import re
-        m = self.said[-1]
-        p = re.search(r"set inclination ([-0-9.]+) deg, azimuth ([-0-9.]+) deg, toolface ([-0-9.]+) deg", m)
-        c = re.search(r"set the chamber to ([-0-9.]+) degC \(ramp ([0-9.]+) degC/min\)", m)
-        if p:
-            inc, azi, tf = (float(x) for x in p.groups())
-            self.ctl.call("move", inc=inc, azi=azi, tf=tf)
-            self.moves += 1
-        elif c:
-            self.ctl.call("chamber", setpoint_c=float(c.group(1)), rate_c_per_min=float(c.group(2)))
-            self.setpoints.append(float(c.group(1)))
-        else:
-            raise AssertionError(f"unexpected prompt {m!r}")
-        return "\n"
-
-    def sleep(self, s):
-        self.ctl.call("advance", s=s)
-
-
 def test_accept_temperatures_guides_a_person(chamber_calibrated):
     """Guided: the person is told each set point and pose; the probe's
     temperature is shown while it soaks."""
@@ -225,7 +196,7 @@ def test_accept_temperatures_guides_a_person(chamber_calibrated):
     emu = Emulator(bench_temp.drawn_probe(seed), seed=seed + 2, control_port=0, realtime=False).start()
     try:
         ctl = ControlClient(port=emu.control_port)
-        person = _Person(ctl)
+        person = PersonAtChamber(ctl)
         table = ManualTurntable(stdin=person, say=person.say)
         plan = ThermalPlan(setpoints=(25.0, 40.0), ramp_rate=5.0, interval_min=5.0)
         with ProbeLink(emu.path, timeout=2.0) as link:
@@ -235,7 +206,7 @@ def test_accept_temperatures_guides_a_person(chamber_calibrated):
         ctl.close()
     finally:
         emu.stop()
-    assert person.setpoints == [25.0, 40.0] and person.moves == 2 * (1 + 6)
+    assert person.setpoints == [25.0, 40.0] and len(person.poses) == 2 * (1 + 6)
     assert any("probe at" in m for m in person.said)
     assert [s["setpoint_c"] for s in r.setpoints] == [25.0, 40.0] and len(r.points) == 12
     assert abs(r.setpoints[1]["probe_c_mean"] - 40.0) < 1.5 and not r.survey_mismatches

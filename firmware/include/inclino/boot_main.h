@@ -6,7 +6,7 @@
  * On the probe the reset vector leads to the bootloader (protected area),
  * which calls boot_select(): BOOT_SEL_APP jumps to the application,
  * BOOT_SEL_LOADER runs boot_main_init() once and boot_main_poll() forever.
- * The emulator (emulator/probe.py) makes the same choice at every boot and
+ * The emulator (emulator/inclino_emu/probe.py) makes the same choice at every boot and
  * calls boot_main_poll() from its step loop while the bootloader runs.
  */
 #ifndef INCLINO_BOOT_MAIN_H

@@ -2,7 +2,7 @@
  * fx_math.h - fixed-point elementary functions of the probe firmware:
  * fractional division, square root and four-quadrant arctangent.
  * Every function is integer only, has no data-dependent recursion and a
- * bounded loop count; each is mirrored step for step by host/inclino/golden.py.
+ * bounded loop count; each is mirrored step for step by host/inclino/engines/golden.py.
  *
  * Angle format used throughout the firmware: "Q16 degrees", an int32 equal to
  * degrees * 2^16 (1 LSB = 1/65536 degree = 1.53e-5 degree).

@@ -3,7 +3,7 @@
  *
  * Every saturation and every rounding in the firmware goes through one of
  * these named operators (in the spirit of ITU-T G.191's basic operators), so
- * that the NumPy golden model (host/inclino/golden.py) can mirror each step.
+ * that the NumPy golden model (host/inclino/engines/golden.py) can mirror each step.
  *
  * Portability rules kept by every operator:
  *   - nothing depends on the width of `int` (16 bits on the HCS12X and S08);

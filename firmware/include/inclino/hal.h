@@ -6,8 +6,8 @@
  *
  *   firmware/port/s12x/hal_s12x.c  MC9S12XEP100: SPI0, SCI0, PIT, the flash
  *                                  command interface (FCCOB/FSTAT)
- *   emulator/hal.py                cffi callbacks into the register models
- *                                  (inclino_emu._fw, emulator/_build_fw.py)
+ *   emulator/inclino_emu/hal.py                cffi callbacks into the register models
+ *                                  (inclino_emu._fw, emulator/inclino_emu/_build_fw.py)
  *
  * Conventions: every function returns; none blocks without a bound.  Times
  * are integers (milliseconds, microseconds); nothing depends on the width of

@@ -2,7 +2,7 @@
  * proto_frame.h - the SCI link's framing (docs/protocol.md): one byte-wise
  * parser for incoming frames and one encoder for outgoing frames, both
  * without dynamic memory.  The host's Python implementation
- * (host/inclino/protocol.py) is checked against the same byte vectors
+ * (host/inclino/link/protocol.py) is checked against the same byte vectors
  * (tests/vectors/frames.json).
  *
  * Frame, all multi-byte fields big-endian:

@@ -13,7 +13,7 @@
  * this about 700 for a typical vector.
  *
  * Built only by SDCC for hc08/s08 with --stack-auto, the core compiled with
- * -DATT_PORT_NORM3 (host/inclino/mcu.py).  Reentrant calling convention:
+ * -DATT_PORT_NORM3 (host/inclino/s08/toolchain.py).  Reentrant calling convention:
  * v in X (high byte) and A, out at 3..4,s on entry; s returned in A.  It
  * keeps its work in ten direct-page bytes of this module, so it must not be
  * called from an interrupt handler while the main program may be in it.

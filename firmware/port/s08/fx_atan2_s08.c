@@ -11,7 +11,7 @@
  * around the division takes about 850 bus cycles a call, this about 250.
  *
  * Built only by SDCC for hc08/s08 with --stack-auto, the core compiled with
- * -DFX_PORT_ATAN2 (host/inclino/mcu.py).  Reentrant calling convention: y at
+ * -DFX_PORT_ATAN2 (host/inclino/s08/toolchain.py).  Reentrant calling convention: y at
  * 3..6,s and x at 7..10,s on entry (big-endian); the result in
  * ___SDCC_hc08_ret3, ___SDCC_hc08_ret2, X, A (most to least significant
  * byte).  It keeps its work in eleven direct-page bytes of this module, so

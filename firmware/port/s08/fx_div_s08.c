@@ -14,7 +14,7 @@
  * den) + 1) / 2) = (Q24 + 8) >> 4.
  *
  * Built only by SDCC for hc08/s08 with --stack-auto, the core compiled with
- * -DFX_PORT_DIV (host/inclino/mcu.py).  Reentrant calling convention: num at
+ * -DFX_PORT_DIV (host/inclino/s08/toolchain.py).  Reentrant calling convention: num at
  * 3..6,s and den at 7..10,s on entry (big-endian); the result in
  * ___SDCC_hc08_ret3, ___SDCC_hc08_ret2, X, A (most to least significant
  * byte).  It keeps its work in nineteen direct-page bytes of this module,

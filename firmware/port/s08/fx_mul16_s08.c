@@ -9,7 +9,7 @@
  * about 90 cycles with the call.  The HCS12X port maps fx_mul16 to EMULS.
  *
  * Built only by SDCC for hc08/s08 with --stack-auto, the core compiled with
- * -DFX_PORT_MUL16 (host/inclino/mcu.py).  SDCC's reentrant calling
+ * -DFX_PORT_MUL16 (host/inclino/s08/toolchain.py).  SDCC's reentrant calling
  * convention: a in X (high byte) and A (low byte), b on the stack at 3..4,s
  * on entry, 7..8,s after the four bytes this function pushes (big-endian);
  * the result in ___SDCC_hc08_ret3, ___SDCC_hc08_ret2, X, A (most to least

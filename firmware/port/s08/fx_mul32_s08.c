@@ -26,7 +26,7 @@
  * < 2^16).  s saturates when its bits 31 and 30 differ.
  *
  * Built only by SDCC for hc08/s08 with --stack-auto, the core compiled with
- * -DFX_PORT_MUL32 (host/inclino/mcu.py).  Reentrant calling convention:
+ * -DFX_PORT_MUL32 (host/inclino/s08/toolchain.py).  Reentrant calling convention:
  * fx_mul32_q31: a at 3..6,s, b at 7..10,s (big-endian), sat at 11..12,s;
  * fx_dot3_q31: a in X (high byte) and A, b at 3..4,s, sat at 5..6,s; the
  * results in ___SDCC_hc08_ret3, ___SDCC_hc08_ret2, X, A (most to least

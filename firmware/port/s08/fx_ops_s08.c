@@ -14,7 +14,7 @@
  * 32-bit shift is a loop of 1-bit shifts); these take 40 to 120.
  *
  * Built only by SDCC for hc08/s08 with --stack-auto, the core compiled with
- * -DFX_PORT_OPS (host/inclino/mcu.py).  Reentrant calling convention: x or
+ * -DFX_PORT_OPS (host/inclino/s08/toolchain.py).  Reentrant calling convention: x or
  * a at 3..6,s, n at 7,s or b at 7..10,s and sat at 11..12,s on entry
  * (big-endian); the result in ___SDCC_hc08_ret3, ___SDCC_hc08_ret2, X, A
  * (most to least significant byte).  They work on their own argument slots

@@ -19,7 +19,7 @@
  * ((s >> (k - 1)) + 1) >> 1.
  *
  * Built only by SDCC for hc08/s08 with --stack-auto, the core compiled with
- * -DFX_PORT_SQRT (host/inclino/mcu.py).  Reentrant calling convention: x at
+ * -DFX_PORT_SQRT (host/inclino/s08/toolchain.py).  Reentrant calling convention: x at
  * 3..6,s on entry (big-endian); results in ___SDCC_hc08_ret3,
  * ___SDCC_hc08_ret2, X, A (most to least significant byte; X, A for the
  * uint16).  Both keep their work in eleven direct-page bytes of this module,

@@ -21,7 +21,7 @@
  * big-endian): state 0, pos 1..2, crc 3..4, ver 5, seq 6, cmd 7, len 8..9,
  * crc_hi 10, payload 11..  The _Static_asserts below pin it.
  *
- * Built only by SDCC for hc08/s08 with --stack-auto (host/inclino/mcu.py).
+ * Built only by SDCC for hc08/s08 with --stack-auto (host/inclino/s08/toolchain.py).
  * SDCC's reentrant calling convention: p in X (high byte) and A (low byte),
  * byte at 3,s on entry; the result in A.  It works on the stack and the
  * parser structure only (no direct-page scratch), so it is reentrant for

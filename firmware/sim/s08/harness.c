@@ -3,8 +3,9 @@
  *
  * Reads commands from the simulator interface (simif.h), runs one core
  * function per command and writes its results back, all big-endian.  The
- * driver is host/inclino/mcu.py, which builds the byte streams, runs shc08 and
- * compares every result word with the golden model.
+ * driver is host/inclino/s08/ (toolchain.py builds the image, harness.py the
+ * byte streams, simulator.py runs shc08); the tests compare every result
+ * word with the golden model.
  *
  * Command byte: a letter below; with bit 7 set the call is "timed": the
  * harness stops the simulator just before and just after the call, and the
