@@ -14,7 +14,7 @@ PY ?= python3
 VENV := .venv
 VPY := $(VENV)/bin/python
 STAMP := $(VENV)/.installed
-SOURCES := $(shell find firmware host emulator \( -name '*.c' -o -name '*.h' -o -name '_build_*.py' -o -name sources.txt -o -name fw_sources.py \) -not -path '*/__pycache__/*' 2>/dev/null) \
+SOURCES := $(shell find firmware host emulator \( -name '*.c' -o -name '*.h' -o -name '_build_*.py' -o -name sources.txt -o -name fw_sources.py -o -name fw_cdef.py \) -not -path '*/__pycache__/*' 2>/dev/null) \
            pyproject.toml setup.py Makefile
 
 .PHONY: demo test clean

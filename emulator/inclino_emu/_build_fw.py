@@ -21,12 +21,12 @@ FW = ROOT / "firmware"
 
 
 
-def _fw_sources():
-    """firmware/sources.txt's reader (host/inclino/fw_sources.py), loaded by
-    path: this script runs before the packages are importable."""
+def _by_path(name):
+    """A module of host/inclino (fw_sources.py: firmware/sources.txt's reader;
+    fw_cdef.py: the firmware's types for cffi), loaded by path: this script
+    runs before the packages are importable."""
     import importlib.util
-    spec = importlib.util.spec_from_file_location("_inclino_fw_sources",
-                                                  ROOT / "host" / "inclino" / "fw_sources.py")
+    spec = importlib.util.spec_from_file_location("_inclino_" + name[:-3], ROOT / "host" / "inclino" / name)
     mod = importlib.util.module_from_spec(spec)
     spec.loader.exec_module(mod)
     return mod
@@ -34,7 +34,7 @@ def _fw_sources():
 
 # the build "cffi_fw" of the one source manifest, firmware/sources.txt: the
 # core, the command layer, the application and the serial bootloader
-FW_SOURCES = _fw_sources().sources("cffi_fw", ROOT)
+FW_SOURCES = _by_path("fw_sources.py").sources("cffi_fw", ROOT)
 
 INCLUDES = ["inclino/hal.h", "inclino/survey.h", "inclino/qc.h", "inclino/calimg.h",
             "inclino/crc16.h", "inclino/adis16210.h", "inclino/ads1256.h", "inclino/acquire.h",
@@ -81,15 +81,7 @@ extern "Python+C" uint8_t hal_flash_program(uint32_t addr, const uint8_t *data);
 extern "Python+C" uint8_t hal_flash_erase(uint32_t addr);
 """
 
-APP_CDEF = """
-typedef struct { int32_t m[9]; int32_t bias[3]; } corr_triad_t;
-typedef struct { int32_t c1[3]; int16_t c2[3]; int32_t r1[3]; int16_t r2[3]; } corr_tc_t;
-typedef struct { corr_triad_t acc; corr_triad_t mag; corr_tc_t acc_tc; corr_tc_t mag_tc; int16_t t_ref;
-                 uint8_t t_order; } corr_cal_t;
-typedef struct { int32_t beff[3]; int32_t e[3]; } corr_tt_t;
-typedef struct { int32_t inc; int32_t azi; int32_t gtf; int32_t mtf; int32_t gt; int32_t bt;
-                 int32_t dip; uint16_t flags; } att_t;
-typedef struct { int32_t g[3]; int32_t b[3]; att_t att; } survey_t;
+APP_CDEF = _by_path("fw_cdef.py").TYPES_CDEF + """
 typedef struct { int32_t gt_ref; int32_t gt_tol; int32_t bt_ref; int32_t bt_tol; int32_t dip_ref;
                  int32_t dip_tol; } qc_ref_t;
 typedef struct { uint32_t serial; uint32_t time; uint8_t method; } calimg_info_t;

@@ -15,28 +15,21 @@ HERE = pathlib.Path(__file__).resolve().parent
 
 
 
-def _fw_sources():
-    """firmware/sources.txt's reader, loaded by path: this script runs
-    before the package is importable."""
+def _by_path(name):
+    """A module of host/inclino (fw_sources.py: firmware/sources.txt's reader;
+    fw_cdef.py: the firmware's types for cffi), loaded by path: this script
+    runs before the package is importable."""
     import importlib.util
-    spec = importlib.util.spec_from_file_location("_inclino_fw_sources", HERE.parent / "fw_sources.py")
+    spec = importlib.util.spec_from_file_location("_inclino_" + name[:-3], HERE.parent / name)
     mod = importlib.util.module_from_spec(spec)
     spec.loader.exec_module(mod)
     return mod
 
 
 # the build "cffi_core" of the one source manifest, firmware/sources.txt
-CORE_SOURCES = _fw_sources().sources("cffi_core", ROOT)
+CORE_SOURCES = _by_path("fw_sources.py").sources("cffi_core", ROOT)
 
-CDEF = """
-typedef struct { int32_t m[9]; int32_t bias[3]; } corr_triad_t;
-typedef struct { int32_t c1[3]; int16_t c2[3]; int32_t r1[3]; int16_t r2[3]; } corr_tc_t;
-typedef struct { corr_triad_t acc; corr_triad_t mag; corr_tc_t acc_tc; corr_tc_t mag_tc; int16_t t_ref;
-                 uint8_t t_order; } corr_cal_t;
-typedef struct { int32_t beff[3]; int32_t e[3]; } corr_tt_t;
-typedef struct { int32_t inc; int32_t azi; int32_t gtf; int32_t mtf; int32_t gt; int32_t bt;
-                 int32_t dip; uint16_t flags; } att_t;
-typedef struct { int32_t g[3]; int32_t b[3]; att_t att; } survey_t;
+CDEF = _by_path("fw_cdef.py").TYPES_CDEF + """
 
 extern const int32_t fx_atan_table[257];
 int32_t fx_mul16(int16_t a, int16_t b);
