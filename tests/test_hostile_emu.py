@@ -264,11 +264,15 @@ def test_download_completes_while_the_control_channel_is_attacked(tmp_path):
         cal = inverse_cal(emu.probe.scenario)
         stop, report = threading.Event(), {}
         t = threading.Thread(target=_attack, args=(emu.control_port, stop, report), daemon=True)
+        # the link is opened before the attack: the attack holds about a thousand
+        # sockets in this process, and a pty opened after them would get a
+        # descriptor above 1023, which pyserial's select() cannot wait on
+        link = ProbeLink(emu.path, timeout=0.5)
         t.start()
         try:
             time.sleep(0.5)   # the attack is under way
             results = []
-            with ProbeLink(emu.path, timeout=0.5) as link:
+            with link:
                 while "done" not in report or not results:   # downloads, one after another, during it all
                     r = calops.download(link, cal)
                     results.append((time.monotonic(), r))
