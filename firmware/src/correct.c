@@ -46,6 +46,10 @@ int16_t corr_temp_dt(int32_t temp_q6, int16_t t_ref, uint8_t *sat)
     return (int16_t)t;
 }
 
+/* A port may supply corr_temp_eval and corr_triad_temp (same result bits)
+ * and build this file with -DCORR_PORT_TEMP: the S08 port has them in
+ * assembly (firmware/port/s08/corr_temp_s08.c). */
+#ifndef CORR_PORT_TEMP
 void corr_temp_eval(int16_t dt, const corr_triad_t *c, const corr_tc_t *tc, corr_tt_t *tt,
                     uint8_t *sat)
 {
@@ -95,6 +99,7 @@ uint8_t corr_triad_temp(const int32_t x[3], const corr_triad_t *c, const corr_tt
     out[2] = fx_dot3_q31(&c->m[6], d, &sat);
     return sat;
 }
+#endif /* CORR_PORT_TEMP */
 
 int32_t corr_in_acc(int32_t raw_q6)
 {

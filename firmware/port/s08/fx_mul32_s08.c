@@ -41,16 +41,20 @@
 
 #if defined(__SDCC_s08) || defined(__SDCC_hc08)
 
+#include "fx_mul32_s08.h"
+
 #ifndef __SDCC_STACK_AUTO
 #error "the S08 port's assembly expects the reentrant (--stack-auto) calling convention"
 #endif
 
 /* direct-page work of the core: the operands a, b (most significant byte
  * first), the low half of s (its high half is ___SDCC_hc08_ret3, ret2), FX or
- * FY (2 bytes), the fraction byte; and fx_dot3_q31's sum and step count */
-static __data uint8_t fx_m_a[4];
-static __data uint8_t fx_m_b[4];
-static __data uint8_t fx_m_s[2];
+ * FY (2 bytes), the fraction byte; and fx_dot3_q31's sum and step count.
+ * fx_m_a, fx_m_b, fx_m_s and the core (fx_m_core) are shared with the
+ * temperature terms' assembly (fx_mul32_s08.h, corr_temp_s08.c). */
+__data uint8_t fx_m_a[4];
+__data uint8_t fx_m_b[4];
+__data uint8_t fx_m_s[2];
 static __data uint8_t fx_m_t[2];
 static __data uint8_t fx_m_f;
 static __data uint8_t fx_m_acc[4];
@@ -91,8 +95,9 @@ int32_t fx_mul32_q31(int32_t a, int32_t b, uint8_t *sat) __naked
     rts
 
     ; ---- the core: s = fx_mul32_q31(fx_m_a, fx_m_b) in ret3 ret2 fx_m_s
-    ; (s0 s1 s2 s3); C set when it saturated (s is then the limit)
-fx_m_core:
+    ; (s0 s1 s2 s3); C set when it saturated (s is then the limit).  Global:
+    ; corr_temp_s08.c calls it too (it keeps fx_m_a and fx_m_b, uses X, A)
+fx_m_core::
     ; s = ah_u * bh_u
     lda     *(_fx_m_a + 1)      ; A1 * B1
     ldx     *(_fx_m_b + 1)

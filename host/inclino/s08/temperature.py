@@ -5,6 +5,8 @@ commands 'H', 'Y', 'J'; the rest of the driver is inclino.s08.harness).
   survey_temp(b, ...)      survey_compute_temp per row (as s08.harness.survey, plus
                            the TEMP_OUT mean in Q6 counts)
   calimg_parse_temp(b, ..) calimg_parse's temperature fields per image
+  temp_eval(b, ...)        corr_temp_eval ('e') per dT
+  triad_temp(b, ...)       corr_triad_temp ('k') per row, after 'e' of its dT
 (its cycles in `inclino bench mcu`: inclino.benchmarks.s08)
 """
 from __future__ import annotations
@@ -49,6 +51,46 @@ def survey_temp(b, acc, mag, temp_q6, fc) -> dict:
     outs = run_streams(b, _split(recs, jobs, enc_setup(fc)), jobs)
     res = _decode(outs, SURVEY_DT, n)
     return {k: res[k].astype(np.int64) for k in SURVEY_DT.names}
+
+
+TT_DT = [("beff", ">i4", (3,)), ("e", ">i4", (3,)), ("tsat", "u1")]
+TRIAD_DT = [("out", ">i4", (3,)), ("sat", "u1")]
+
+
+def enc_temp_eval(which: int, dt: int) -> bytes:
+    """'e' triad (0 acc, 1 mag) dT (Q7 degC, int16)."""
+    return b"e" + bytes([which]) + int(dt).to_bytes(2, "big", signed=True)
+
+
+def enc_triad_temp(which: int, x) -> bytes:
+    """'k' triad x[3] (the scaled input, int32)."""
+    return b"k" + bytes([which]) + _be(x, ">i4")
+
+
+def temp_eval(b, dt, fc, which: int) -> dict:
+    """corr_temp_eval on the S08 of fc's accelerometer (which=0) or fluxgate
+    (1) terms at each dT (int16 Q7): beff (n, 3), e (n, 3), sat (n,)."""
+    dt = np.asarray(dt, dtype=np.int64)
+    n = len(dt)
+    cmds = [enc_temp_eval(which, int(d)) for d in dt]
+    jobs = _jobs(n // 20)
+    outs = run_streams(b, _split(cmds, jobs, enc_setup(fc)), jobs)
+    r = _decode(outs, np.dtype(TT_DT), n)
+    return {"beff": r["beff"].astype(np.int64), "e": r["e"].astype(np.int64), "sat": r["tsat"].astype(bool)}
+
+
+def triad_temp(b, x, dt, fc, which: int) -> dict:
+    """corr_triad_temp on the S08 of each row of x (n, 3, scaled input) with
+    fc's terms of one triad evaluated at that row's dT (corr_temp_eval first,
+    on the S08 too): the terms (beff, e, tsat) and out (n, 3), sat (n,)."""
+    x = np.asarray(x, dtype=np.int64)
+    dt = np.asarray(dt, dtype=np.int64)
+    n = len(x)
+    cmds = [enc_temp_eval(which, int(d)) + enc_triad_temp(which, r) for d, r in zip(dt, x)]
+    jobs = _jobs(n // 20)
+    outs = run_streams(b, _split(cmds, jobs, enc_setup(fc)), jobs)
+    r = _decode(outs, np.dtype(TT_DT + TRIAD_DT), n)
+    return {k: r[k].astype(np.int64) if k not in ("sat", "tsat") else r[k].astype(bool) for k in r.dtype.names}
 
 
 def calimg_parse_temp(b, images: list) -> np.ndarray:

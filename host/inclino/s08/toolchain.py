@@ -23,7 +23,8 @@ MISSING_REASON = ("S08 simulator tools not found (sdcc, shc08): "
 # one source manifest, firmware/sources.txt (fw_sources.py).
 # each port file replaces the portable C of the same functions (firmware/port/s08/*.c)
 PORT_DEFINES = ("-DFX_PORT_MUL16", "-DFX_PORT_OPS", "-DFX_PORT_MUL32", "-DFX_PORT_DIV",
-                "-DFX_PORT_SQRT", "-DFX_PORT_ATAN2", "-DATT_PORT_NORM3", "-DPROTO_PORT_FEED")
+                "-DFX_PORT_SQRT", "-DFX_PORT_ATAN2", "-DATT_PORT_NORM3", "-DPROTO_PORT_FEED",
+                "-DCORR_PORT_TEMP")
 FLOAT_SOURCES = ("survey_float.c",)
 SIMIF = "rom[0xff00]"
 CFLAGS = ("-ms08", "--std-c99", "--opt-code-speed", "--stack-auto")
