@@ -6,6 +6,7 @@ calibration-image checker on the S08: the recorded byte streams of
 tests/vectors/frames.json give exactly their events, and random and corrupted
 streams and images give the host build's (inclino.engines._core) results."""
 import json
+import shutil
 import pathlib
 
 import numpy as np
@@ -526,3 +527,99 @@ def test_calimg_parse_temperature_fields_on_s08(fw):
     # the corrupted one is refused (M of the random calibrations may be out of range: both agree)
     assert got["status"][0] == 0 and got["t_order"][0] in (1, 2)
     assert got["status"][4] == 0 and got["t_order"][4] == 0 and got["status"][5] == 4
+
+
+# --------------------------------------------------------------- temperature terms, function by function
+TEMP_EDGE_DT = (0, 1, -1, 2, -2, 3, -3, 32767, -32768, -32767, 7680, -7680, 3840, -3840, 255, -256)
+
+
+def _temp_cases(rng):
+    """(calibration, dT, x) per triad: the temperature calibrations of
+    bitexact.random_temp_cals (terms over their whole ranges, typical ones,
+    the limits; M and b from the identity to the saturating ones), dT over
+    the whole int16 range with TEMP_EDGE_DT, x any int32 with the rails."""
+    cals = bitexact.random_temp_cals(rng, bitexact.random_cals(rng, 7))
+    out = []
+    for c in cals:
+        dt = np.concatenate([rng.integers(-(2**15), 2**15, 120), TEMP_EDGE_DT])
+        x = rng.integers(-(2**31), 2**31, (len(dt), 3))
+        x[:24] = rng.choice([-(2**31), 2**31 - 1, 0, 1, -1, 2**30, -(2**30)], (24, 3))
+        out.append((c, dt, x))
+    return out
+
+
+def _temp_mismatches(fw, cases) -> tuple[int, dict]:
+    """corr_temp_eval then corr_triad_temp on the S08 against the golden
+    model: the number of rows that differ in any output word or flag, and
+    what the rows covered."""
+    bad = 0
+    seen = {"dt<0": 0, "dt>0": 0, "dt odd": 0, "k2<0": 0, "k2>0": 0, "inner<0": 0, "inner>=0": 0,
+            "terms saturated": 0, "triad saturated": 0, "triad clean": 0}
+    for c, dt, x in cases:
+        t = c.temp
+        for which, tri in ((0, "acc"), (1, "mag")):
+            got = s08_temp.triad_temp(fw, x, dt, c, which)
+            k = {n: np.array(getattr(t, f"{tri}_{n}"), dtype=np.int64) for n in ("c1", "c2", "r1", "r2")}
+            bias = np.array(c.acc_b if which == 0 else c.mag_b, dtype=np.int64)
+            m = np.array(c.acc_m if which == 0 else c.mag_m, dtype=np.int64)
+            beff, e, tsat = golden.corr_temp_eval(dt, bias, k["c1"], k["c2"], k["r1"], k["r2"])
+            out, sat = golden.corr_triad_temp(x, m, beff, e)
+            d = ((got["beff"] != beff).any(1) | (got["e"] != e).any(1) | (got["tsat"] != tsat)
+                 | (got["out"] != out).any(1) | (got["sat"] != sat))
+            bad += int(d.sum())
+            inner = np.concatenate([k["c1"] + k["c2"] * dt[:, None], k["r1"] + k["r2"] * dt[:, None]], 1)
+            kk = np.concatenate([k["c2"], k["r2"]])
+            seen["dt<0"] += int((dt < 0).sum())
+            seen["dt>0"] += int((dt > 0).sum())
+            seen["dt odd"] += int((dt % 2 == 1).sum())
+            seen["k2<0"] += int((kk < 0).sum())
+            seen["k2>0"] += int((kk > 0).sum())
+            seen["inner<0"] += int((inner < 0).sum())
+            seen["inner>=0"] += int((inner >= 0).sum())
+            seen["terms saturated"] += int(tsat.sum())
+            seen["triad saturated"] += int(sat.sum())
+            seen["triad clean"] += int((~sat).sum())
+    return bad, seen
+
+
+def test_temp_eval_and_triad_temp_bit_exact_on_s08(fw):
+    """The port's corr_temp_eval and corr_triad_temp (corr_temp_s08.c) equal
+    the golden model word for word, flags included, over every sign of dT,
+    of the second-order terms and of the inner sums, odd and even dT, and
+    the saturating paths (b_eff, e's clamp, the triad's sums)."""
+    seed = int(np.random.SeedSequence().entropy % 2**32)  # drawn now; printed on a failure
+    bad, seen = _temp_mismatches(fw, _temp_cases(np.random.default_rng(seed)))
+    assert all(v > 0 for v in seen.values()), (seed, seen)
+    assert bad == 0, f"{bad} rows differ on the S08 (seed {seed})"
+
+
+# each: a wrong partial product, a lost carry or sign correction, a wrong
+# scale; (pattern, replacement) in corr_temp_s08.c, the pattern unique
+TEMP_MUTANTS = {
+    "Q1*D0 read as Q1*D1": ("    lda     *(_ct_q + 1)        ; Q1 * D0, at bytes 1..2\n    ldx     *_ct_d\n",
+                            "    lda     *(_ct_q + 1)        ; Q1 * D0, at bytes 1..2\n    ldx     *(_ct_d + 1)\n"),
+    "lowest product of F dropped": ("    stx     *_ct_q\n", "    clr     *_ct_q\n"),
+    "no correction for dT < 0 in ah dT": ("    lda     *_ct_d              ; dT < 0: P -= ah 2^16\n    bpl     19$\n",
+                                          "    lda     *_ct_d              ; dT < 0: P -= ah 2^16\n    bra     19$\n"),
+    "4 p: the first shift without its carries": ("    lsl     *(_fx_m_s + 1)      ; 4 p\n    rol     *_fx_m_s\n"
+                           "    rol     *___SDCC_hc08_ret2\n    rol     *___SDCC_hc08_ret3\n",
+                           "    lsl     *(_fx_m_s + 1)      ; 4 p\n"),
+}
+
+
+def test_temp_check_fails_on_broken_assembly(tmp_path):
+    """The comparison above is not vacuous: copies of the tree whose
+    corr_temp_s08.c has one partial product, carry, sign correction or
+    shift wrong each give mismatches on the same kind of vectors."""
+    root = pathlib.Path(s08_toolchain.repo_root())
+    cases = _temp_cases(np.random.default_rng(5))[:4]
+    for name, (pat, rep) in TEMP_MUTANTS.items():
+        tree = tmp_path / name.replace(" ", "_").replace("*", "x").replace("<", "lt")
+        shutil.copytree(root / "firmware", tree / "firmware")
+        src = tree / "firmware" / "port" / "s08" / "corr_temp_s08.c"
+        text = src.read_text()
+        assert text.count(pat) == 1, f"mutant {name!r}: pattern not found once"
+        src.write_text(text.replace(pat, rep))
+        b = s08_toolchain.build(tree / "build", root=tree)
+        bad, _ = _temp_mismatches(b, cases)
+        assert bad > 0, f"mutant {name!r} passed the bit-exact check"
