@@ -134,6 +134,22 @@ def bench_survey_temp(b, vectors: int = 100, seed: int = 11) -> list[int]:
     return timed(b, s08_temp.records(acc, mag, tq), setup=s08_temp.enc_setup(fct))
 
 
+def bench_temp_functions(b, vectors: int = 100, seed: int = 11) -> dict:
+    """Bus cycles of corr_temp_eval (the accelerometer's terms, then the
+    fluxgate's, at each bench temperature's dT) and of corr_triad_temp (the
+    accelerometer's input of each bench vector, the terms at the first dT)."""
+    from inclino.engines import golden
+    from inclino.s08 import temperature as s08_temp
+
+    acc, mag, tq, fct = bench_inputs(vectors, seed)
+    dt, _ = golden.corr_temp_dt(tq, fct.temp.t_ref)
+    setup = s08_temp.enc_setup(fct)
+    ev = timed(b, [s08_temp.enc_temp_eval(w, int(d)) for w in (0, 1) for d in dt], setup=setup)
+    x = golden.corr_in_acc(np.clip(acc, -(2**21), 2**21 - 64))
+    tr = timed(b, [s08_temp.enc_triad_temp(0, r) for r in x], setup=setup + s08_temp.enc_temp_eval(0, int(dt[0])))
+    return {"corr_temp_eval": ev, "corr_triad_temp": tr}
+
+
 def bench(vectors: int = 100, seed: int = 11, workdir: str | os.PathLike | None = None) -> McuBench:
     """Cycles, sizes and the fixed/float ratio on the S08 (ucsim's cycle
     counter: exact and repeatable).  `vectors` plausible survey inputs
@@ -196,6 +212,7 @@ def bench(vectors: int = 100, seed: int = 11, workdir: str | os.PathLike | None 
             err = max(err, float(np.abs(d).max()))
         stack = max(stack_bytes(fx, r, setup=enc_cal(fc)) for r in recs[:3])
         cyc_t = bench_survey_temp(fx, vectors, seed)
+        funcs.update(bench_temp_functions(fx, vectors, seed))
         sz = sizes(fx)
         fsz = sizes(fl)
     s = _stats(cyc_s)
