@@ -642,7 +642,7 @@ ct_mrow:
     jmp     fx_m_core
 
     ; ---- the sum at H:X += the core result, saturating like fx_add32_sat
-    ; (sat at 3,s here: the caller's 1,s)
+    ; (sat at 3,s here: 1,s of the caller)
 ct_acc:
     lda     3,x
     add     *(_fx_m_s + 1)
