@@ -6,8 +6,9 @@
  * firmware/src/correct.c (correct.h).  The portable C takes about 6 700 bus
  * cycles for corr_temp_eval of one triad (six fx_mul32_q31 and six fx_mul16
  * calls and SDCC's code around them) and 9 400 for corr_triad_temp; these
- * take about 3 100 and 7 000 (cycle counts: `inclino bench mcu --json`,
- * docs/mcu.md).
+ * take about 3 500 and 6 700, the survey with the terms 57 500 instead of
+ * 69 300 (mean bus cycles, `inclino bench mcu --json`: functions
+ * corr_temp_eval, corr_triad_temp and survey_temperature; docs/mcu.md).
  *
  * corr_temp_eval.  Each of the six values of a triad, value = fx_mul32_q31(
  * inner, dT 2^15) with inner = k1 + fx_mul16(k2, dT) (k1 = c1 or r1, int32
@@ -30,7 +31,7 @@
  *     fx_mul16; F: four MULs (the lowest only for its carry, as fx_m_core's
  *     FX).  Eight MULs instead of fx_m_core's twelve, the same bits.  |ah
  *     dT / 2| <= 2^29 and |F| <= 2^14: |s| < 2^30, so fx_mul32_q31 never
- *     saturates here (neither does the C), and |value| < 2^30 + 2^15.
+ *     saturates here (neither does the C), and |value| <= 2^30 + 2^15.
  *   then, as the C: b_eff = fx_add32_sat(b, value) (on overflow the limit of
  *   the sum's true sign, *sat = 1), e = value clamped to +-CORR_E_MAX
  *   (0x1FFFFF00; *sat = 1 when clamped).
@@ -42,11 +43,16 @@
  * corr_triad_temp.  For each axis j: v = fx_sub32_sat(x_j, beff_j) straight
  * into fx_m_a and e_j into fx_m_b, p = fx_m_core (fx_mul32_s08.c, the
  * 12-MUL product of fx_mul32_q31; |v e| / 2^31 < 2^29, no saturation in
- * the contract, *sat = 1 if it ever did), d_j = sat(v + 4 p) on the stack;
- * then out_i = fx_dot3_q31(row i of M, d, &sat), the port's dot product,
- * called.  The C's steps in the C's order, the same bits; rounding, error
- * bound and saturation those of correct.h (the scale product truncates:
- * -32 < d - v (1 + e) < 8 LSB of d before M, then corr_triad's bound).
+ * the contract, *sat = 1 if it ever did), d_j = sat(v + 4 p) into fx_m_b;
+ * then column j of M: out_i = sat(out_i + fx_mul32_q31(m_ij, d_j)) for
+ * i = 0..2 on the same core, the sums starting at 0 and saturating like
+ * fx_add32_sat (the limit of the product's sign, *sat = 1).  Each out_i so
+ * adds p_i0, p_i1, p_i2 in fx_dot3_q31's order, and a zero m_ij (which
+ * fx_dot3_q31 skips) gives an exact 0 product: the same bits as the C's
+ * three fx_dot3_q31 calls, without copying d for each row.  Rounding,
+ * error bound and saturation those of correct.h (the scale product
+ * truncates: -32 < d - v (1 + e) < 8 LSB of d before M, then corr_triad's
+ * bound: -24 < out - exact < 6 LSB).
  *
  * Built only by SDCC for hc08/s08 with --stack-auto, the core compiled with
  * -DCORR_PORT_TEMP (host/inclino/s08/toolchain.py).  Reentrant calling
@@ -55,8 +61,9 @@
  *     tt at 7..8,s, sat at 9..10,s on entry; nothing returned.
  *   corr_triad_temp: x in X (high byte) and A, c at 3..4,s, tt at 5..6,s,
  *     out at 7..8,s on entry; the saturation flag returned in A.
- * The evaluation works in 16 direct-page bytes of this module, the scale
- * products in fx_mul32_s08.c's; like those these must not be called from an
+ * The evaluation works in 16 direct-page bytes of this module, the triad in
+ * fx_mul32_s08.c's and 16 bytes of stack (the three sums, the flag, a
+ * pointer, a count); like those these must not be called from an
  * interrupt handler while the main program may be in one of them.
  */
 #include <stddef.h>
