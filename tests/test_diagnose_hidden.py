@@ -4,9 +4,10 @@ sign, its signature 9-12 noise sigmas once the baseline has absorbed what it
 can (bench.Z_RANGE; peak change of a reading about 1-7 sigma of the sensor
 noise) -- 2.5-3.5 times the detection limit (~3.6 sigma at alpha = 0.01
 over two dozen candidates; 50 % points at z 2.8-4.6).  Nearer the limit
-`bench diagnose` measures the rates: at z 6-8 the hardest draws are
-missed 0.3-1.3 % of the time, which 21 draws per run would turn into a
-failing suite every few runs; at z = 9 none in 300 (docs/diagnose.md).
+the diagnosis benchmark measures the rates (`python -m
+inclino.cli.bench_diagnose --near-limit`): at z = 6 the hardest effects
+are missed 0.3-1.7 % of the time, which 21 draws per run would turn into a
+failing suite every few runs; at z = 9 none of 1 200 (docs/diagnose.md).
 The diagnosis must name exactly that effect and estimate it within its
 stated uncertainty; on null datasets it must name nothing.  Sensors,
 axes, signs, sizes and noise are drawn afresh at every run (SEED0 from the

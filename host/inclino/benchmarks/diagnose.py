@@ -57,9 +57,10 @@ EFFECT_PLANS = {
 }
 # the hidden-effect tests' range (tests/test_diagnose_hidden.py): 2.5-3.5 times the detection
 # threshold (z ~ 3.6).  Nearer the limit the hardest draws are missed often enough to fail a test
-# that draws 21 effects every run: temperature scale 4 of 300 at z 6-6.5 (a p-value above the
-# threshold); on the rotation plan an azimuth offset named as an inclination-axis skew, the two being
-# correlated there, 1 of 300 at z = 8; none in 300 of either at z = 9 (docs/diagnose.md)
+# that draws 21 effects every run: at z = 6, 0.3-1.7 % of temperature biases and scales (a p-value
+# above the threshold) and of azimuth offsets (on the rotation plan some named as an
+# inclination-axis skew, the two being correlated there); at z = 9 none of 1 200 (near_limit below,
+# docs/diagnose.md)
 Z_RANGE = (9.0, 12.0)
 Z_SWEEP = (2.0, 4.0, 6.0, 12.0, 30.0, 90.0, 270.0)
 Z_SWEEP_QUICK = (2.0, 6.0, 30.0, 270.0)
