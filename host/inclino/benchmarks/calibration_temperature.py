@@ -360,3 +360,76 @@ def text(res: TemperatureBench) -> str:
                + ("met" if res.passed else "NOT met")
                + f" (max azimuth {res.met['azi_ratio_with_max']}, inclination {res.met['inc_ratio_with_max']})")
     return "\n".join(out)
+
+
+# ---------------------------------------------------------------- accept's verdict
+VERDICT_CASES = (("as fitted", 1.0), ("as fitted", 1.0), ("terms x0.9", 0.9), ("terms x0.5", 0.5),
+                 ("terms x-1", -1.0))
+
+
+def scaled_terms(cal, factor: float):
+    """A copy of cal whose temperature coefficients (bias and scale, every
+    order and axis) are multiplied by factor: a calibration with terms too
+    small (0 < factor < 1) or of the wrong sign (factor < 0)."""
+    from inclino.formats import caltemp
+
+    c = copy.deepcopy(cal)
+    b = c.temperature
+    for tri in ("acc", "mag"):
+        for k in ("bias", "scale_ppm"):
+            b[tri][k] = (np.asarray(b[tri][k], float) * factor).tolist()
+    b.update(caltemp.firmware_block(b))
+    return c
+
+
+def accept_verdicts(n_probes: int = 4, seed: int = 3000, cases=VERDICT_CASES, progress=None) -> dict:
+    """`inclino accept --temperatures` with its defaults (pooled takings,
+    the verdict with the ratio's uncertainty) as a user runs it: per probe
+    drawn (drawn_probe(seed)), its chamber run and fit, then for each case
+    a fresh emulated probe of the same draw (its own noise) checked at
+    CHECK_C with the calibration as fitted or with its terms scaled.
+    Returns each run's verdict and ratios, and the pass counts per case."""
+    from inclino.procedures.accept_temp import accept_temperatures
+    from inclino.procedures.turntable_emulated import EmulatedTurntable
+    from inclino.link.serial_link import ProbeLink
+    from inclino_emu.runner import Emulator
+
+    runs_out = []
+    with tempfile.TemporaryDirectory(prefix="inclino-bench-verdict-") as d:
+        for k, s in enumerate(range(seed, seed + n_probes)):
+            if progress:
+                progress(k, n_probes)
+            path = os.path.join(d, f"run_{s}.csv")
+            chamber_run(drawn_probe(s), path, CHECK_C, emu_seed=s)
+            cal, _ = fit_with_terms(path)
+            for j, (name, f) in enumerate(cases):
+                emu = Emulator(drawn_probe(s), seed=s * 10 + j + 1, control_port=0, realtime=False).start()
+                table = None
+                try:
+                    table = EmulatedTurntable(f"127.0.0.1:{emu.control_port}")
+                    with ProbeLink(emu.path, timeout=2.0) as link:
+                        r = accept_temperatures(link, table, scaled_terms(cal, f), CHECK_C, force=True, quiet=True)
+                finally:
+                    if table is not None:
+                        table.close()
+                    emu.stop()
+                runs_out.append({"seed": s, "case": name, "passed": r.passed,
+                                 "above_within_uncertainty": len(r.above_within_uncertainty),
+                                 "ratios": [{k2: x[k2] for k2 in ("setpoint_c", "azi_ratio_with", "azi_ratio_with_u",
+                                                                  "inc_ratio_with", "inc_ratio_with_u")}
+                                            for x in r.setpoints]})
+    summary = {}
+    for name, _f in dict.fromkeys(cases):
+        rs = [r for r in runs_out if r["case"] == name]
+        worst = [max(max(x["azi_ratio_with"], x["inc_ratio_with"]) for x in r["ratios"]) for r in rs]
+        summary[name] = {"runs": len(rs), "passed": sum(r["passed"] for r in rs),
+                         "worst_ratio_min": min(worst), "worst_ratio_max": max(worst)}
+    return {"probes": n_probes, "seeds": [seed, seed + n_probes - 1], "runs": runs_out, "cases": summary}
+
+
+def verdicts_text(v: dict) -> str:
+    out = [f"accept --temperatures verdicts (defaults), {v['probes']} probes, seeds {v['seeds'][0]}-{v['seeds'][1]}:"]
+    for name, c in v["cases"].items():
+        out.append(f"  {name}: {c['passed']} of {c['runs']} PASS; worst ratio with the terms "
+                   f"{c['worst_ratio_min']:.2f}-{c['worst_ratio_max']:.2f}")
+    return "\n".join(out)

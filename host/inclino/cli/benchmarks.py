@@ -187,10 +187,18 @@ def temperature_main(argv=None) -> int:
     p.add_argument("--json", action="store_true", help="print one JSON object")
     p.add_argument("--probes", type=int, default=bench_temp.N_PROBES, help="probes drawn (default 8)")
     p.add_argument("--seed", type=int, default=bench_temp.SEED0, help="first seed (default 500)")
+    p.add_argument("--verdicts", action="store_true", help="instead: accept --temperatures's verdicts for probes "
+                                                           "as fitted and with their terms scaled")
     a = p.parse_args(argv)
     if not 1 <= a.probes <= 10000:
         print("inclino: error: --probes must be within 1-10000", file=sys.stderr)
         return 2
+    if a.verdicts:
+        import json
+
+        v = bench_temp.accept_verdicts(a.probes, a.seed)
+        print(json.dumps(v) if a.json else bench_temp.verdicts_text(v))
+        return 0
     t = bench_temp.bench_temperature(a.probes, a.seed)
     print(t.to_json() if a.json else bench_temp.text(t))
     return 0 if t.passed else 1
