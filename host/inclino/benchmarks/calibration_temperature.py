@@ -104,21 +104,27 @@ def drawn_probe(seed: int):
     return load_scenario("typical").draw_tempcos(int(seed))
 
 
-def chamber_run(scenario, path: str, setpoints=CHECK_C, emu_seed: int | None = None):
+def chamber_run(scenario, path: str, setpoints=CHECK_C, emu_seed: int | None = None, average: int | None = None,
+                noise: bool = True):
     """The unattended chamber run of `inclino acquire --procedure
-    temperature` on an emulated probe of `scenario`, written to path."""
+    temperature` on an emulated probe of `scenario`, written to path
+    (average: --average, None the procedure's default; noise False: the
+    sensors without their noise, what the run's noise costs the terms)."""
     from inclino.procedures import acquire_temp
     from inclino.procedures.turntable_emulated import EmulatedTurntable
     from inclino.link.serial_link import ProbeLink
     from inclino_emu.runner import Emulator
 
     plan = acquire_temp.ThermalPlan(setpoints=tuple(setpoints))
-    emu = Emulator(copy.deepcopy(scenario), seed=emu_seed, control_port=0, realtime=False).start()
+    sc = copy.deepcopy(scenario)
+    if not noise:
+        sc.acc.noise = sc.mag.noise = None
+    emu = Emulator(sc, seed=emu_seed, control_port=0, realtime=False).start()
     table = None
     try:
         table = EmulatedTurntable(f"127.0.0.1:{emu.control_port}")
         with ProbeLink(emu.path, timeout=2.0) as link:
-            return acquire_temp.acquire_temperature(link, path, table, plan, quiet=True)
+            return acquire_temp.acquire_temperature(link, path, table, plan, quiet=True, average=average)
     finally:
         if table is not None:
             table.close()
@@ -243,7 +249,8 @@ def check_probe(scenario, cal, engine, setpoints=CHECK_C, reference_c: float = R
 
 
 def bench_temperature(n_probes: int = N_PROBES, seed: int = SEED0, engine: str = "auto",
-                      setpoints=CHECK_C, reference_c: float = REF_C, progress=None) -> TemperatureBench:
+                      setpoints=CHECK_C, reference_c: float = REF_C, progress=None, average: int | None = None,
+                      run_noise: bool = True) -> TemperatureBench:
     t0 = time.monotonic()
     eng = temp_engine.get(engine)
     sps = [float(t) for t in setpoints]
@@ -256,6 +263,9 @@ def bench_temperature(n_probes: int = N_PROBES, seed: int = SEED0, engine: str =
         targets={"ratio_with_terms_max": TARGET_RATIO,
                  "what": f"azimuth and inclination RMS with the terms at every set point within {TARGET_RATIO:g}x "
                          f"the same probe's {reference_c:g} degC figure (max over probes and set points)"})
+    if average is not None or not run_noise:
+        res.notes.append(f"chamber run: {average or 'default'} samples per reading"
+                         + ("" if run_noise else ", the sensors without noise (the noise's share of the terms' error)"))
     if not eng.terms_in_firmware:
         res.notes.append("engine host-terms: the terms in float64 on the Q6 means, then the firmware's C with M, b "
                          "(not the firmware's own temperature path)")
@@ -266,7 +276,7 @@ def bench_temperature(n_probes: int = N_PROBES, seed: int = SEED0, engine: str =
             sc = drawn_probe(s)
             path = os.path.join(d, f"run_{s}.csv")
             try:
-                chamber_run(sc, path, sps, emu_seed=s)
+                chamber_run(sc, path, sps, emu_seed=s, average=average, noise=run_noise)
                 cal, _rep = fit_with_terms(path)
                 eng.check(cal)  # the firmware engine: the image must hold the terms
                 chk = check_probe(sc, cal, eng, sps, reference_c, seed=s)
@@ -337,7 +347,7 @@ def _summary(per_probe, key, sps) -> dict:
 
 def text(res: TemperatureBench) -> str:
     out = [f"temperature: {len(res.per_probe)} of {res.probes} probes (typical, tempcos drawn), chamber run "
-           f"{','.join(f'{t:g}' for t in res.setpoints_c)} degC, engine {res.engine}"]
+           f"{','.join(f'{t:g}' for t in res.setpoints_c)} degC, engine {res.engine}"] + [f"  {n}" for n in res.notes]
     for T, s in res.per_setpoint.items():
         out.append(f"  {T:>4} degC: azimuth RMS median {s['azi_rms_with_deg']['median']:.4f} deg with the terms, "
                    f"{s['azi_rms_without_deg']['median']:.4f} without (gain {s['azi_gain']['median']:.1f}x); "

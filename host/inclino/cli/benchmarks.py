@@ -187,6 +187,9 @@ def temperature_main(argv=None) -> int:
     p.add_argument("--json", action="store_true", help="print one JSON object")
     p.add_argument("--probes", type=int, default=bench_temp.N_PROBES, help="probes drawn (default 8)")
     p.add_argument("--seed", type=int, default=bench_temp.SEED0, help="first seed (default 500)")
+    p.add_argument("--average", type=int, help="the chamber run's samples per reading (default: the procedure's, 64)")
+    p.add_argument("--noise-free-run", action="store_true", help="the chamber run without sensor noise (what the "
+                                                                  "noise costs the terms)")
     p.add_argument("--verdicts", action="store_true", help="instead: accept --temperatures's verdicts for probes "
                                                            "as fitted and with their terms scaled")
     a = p.parse_args(argv)
@@ -199,7 +202,10 @@ def temperature_main(argv=None) -> int:
         v = bench_temp.accept_verdicts(a.probes, a.seed)
         print(json.dumps(v) if a.json else bench_temp.verdicts_text(v))
         return 0
-    t = bench_temp.bench_temperature(a.probes, a.seed)
+    if a.average is not None and not 1 <= a.average <= 64:
+        print("inclino: error: --average must be within 1-64 samples", file=sys.stderr)
+        return 2
+    t = bench_temp.bench_temperature(a.probes, a.seed, average=a.average, run_noise=not a.noise_free_run)
     print(t.to_json() if a.json else bench_temp.text(t))
     return 0 if t.passed else 1
 
