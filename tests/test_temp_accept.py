@@ -47,8 +47,8 @@ def test_chamber_calibrated_probe_meets_the_1_2x_target_through_the_engine(chamb
     expected RMS over bench_temp.REPEATS takings of the grid) at -5 and 55 degC
     within 1.2x the same probe's 25 degC figure; without the terms far
     outside it.  The margin (docs/calibration.md, `python -m
-    inclino.cli.benchmarks temperature --probes 80`): the target is many
-    standard deviations above the probes' worst ratio."""
+    inclino.cli.bench_temperature --probes 24 --seed 510`): the target is
+    many standard deviations above the probes' worst ratio."""
     seed, sc, cal, _ = chamber_calibrated
     eng = temp_engine.get("auto")
     chk = bench_temp.check_probe(sc, cal, eng, CHECK, 25.0, seed=seed)
