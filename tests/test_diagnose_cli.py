@@ -1,6 +1,6 @@
 """`inclino diagnose DATA.csv [--json] [--plot DIR]` through the command's
 main(): output shapes, PNGs, and bad input as one plain error line with exit
-status 2 (never a traceback); `python -m inclino.benchmarks.diagnose` on a tiny
+status 2 (never a traceback); `python -m inclino.cli.bench_diagnose` on a tiny
 seeded set."""
 import json
 
@@ -10,7 +10,7 @@ import pytest
 from inclino.cli import main
 from inclino.formats.dataset import RawDataset, write_raw
 from inclino.benchmarks import diagnose as dbench
-from inclino.cli import benchmarks as cli_benchmarks
+from inclino.cli import bench_diagnose as cli_bench_diagnose
 from inclino.diagnose import plans
 from inclino.model.world import Trajectory
 
@@ -147,7 +147,7 @@ def test_bench_module_quick_set(capsys):
     per size and effect, every other one at z >= 6 spiked, two nulls):
     the report's shape, every effect found at z >= 6, no error exit; it is
     too small for the targets (nulls < 200), so it exits 1."""
-    rc = cli_benchmarks.diagnose_main(["--json", "--quick", "--nulls", "2", "--pairs", "0", "--seed", "77"])
+    rc = cli_bench_diagnose.diagnose_main(["--json", "--quick", "--nulls", "2", "--pairs", "0", "--seed", "77"])
     d = json.loads(capsys.readouterr().out)
     assert set(d["sweep"]["effects"]) == set(dbench.core.EFFECT_NAMES)
     assert d["sweep"]["z"] == list(dbench.Z_SWEEP_QUICK)
@@ -157,3 +157,32 @@ def test_bench_module_quick_set(capsys):
         assert e["z50"] is not None and 2.0 <= e["z50"] <= 6.0
     assert d["null"]["datasets"] == 2 and d["errors"] == []
     assert d["met"]["nulls"] is False and d["met"]["no_errors"] is True and rc == 1
+
+
+def test_bench_module_near_limit_rates(capsys):
+    """--near-limit: per effect, plan and size, the misses with what was
+    named instead; below the threshold (z = 2) nothing is found, far above
+    it (z = 30) everything is; a zero count carries its 95 % bound."""
+    rc = cli_bench_diagnose.diagnose_main(["--json", "--near-limit", "2,30", "--draws", "2", "--effects",
+                                           "temperature-bias", "--seed", "91"])
+    d = json.loads(capsys.readouterr().out)
+    assert rc == 0 and d["z"] == [2.0, 30.0] and list(d["effects"]) == ["temperature-bias"]
+    (low, high), = d["effects"]["temperature-bias"].values()
+    assert low["misses"] == 2 and low["rate"] == 1.0 and len(low["missed"]) == 2 and low["rate_upper_95"] is None
+    assert all(m["named"] == [] and m["sensor"] in ("acc", "mag") for m in low["missed"])
+    assert high["misses"] == 0 and high["missed"] == [] and high["rate_upper_95"] == 1.0
+    for bad, why in ((["--near-limit", "x"], "comma-separated"), (["--near-limit", "6", "--effects", "nope"],
+                                                                   "unknown effect")):
+        with pytest.raises(SystemExit) as e:
+            cli_bench_diagnose.diagnose_main(bad)
+        assert e.value.code == 2 and why in capsys.readouterr().err
+
+
+def test_bench_module_runs_as_a_module_without_warnings():
+    """`python -m inclino.cli.bench_diagnose` is not imported by the CLI
+    package first (runpy would warn that it is run twice)."""
+    import subprocess
+    import sys
+
+    p = subprocess.run([sys.executable, "-m", "inclino.cli.bench_diagnose", "--help"], capture_output=True, text=True)
+    assert p.returncode == 0 and "--near-limit" in p.stdout and p.stderr == "", p.stderr

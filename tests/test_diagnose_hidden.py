@@ -1,8 +1,13 @@
 """Tests that hide an effect: emulated bench datasets (inclino_emu, through
 inclino.diagnose.plans) with one library effect at a random sensor, axis and
-sign, its signature 6-9 noise sigmas once the baseline has absorbed what it
-can (peak change of a reading about 1-4 sigma of the sensor noise) -- near
-the detection limit (~3.6 sigma at alpha = 0.01 over two dozen candidates).
+sign, its signature 9-12 noise sigmas once the baseline has absorbed what it
+can (bench.Z_RANGE; peak change of a reading about 1-7 sigma of the sensor
+noise) -- 2.5-3.5 times the detection limit (~3.6 sigma at alpha = 0.01
+over two dozen candidates; 50 % points at z 2.8-4.6).  Nearer the limit
+the diagnosis benchmark measures the rates (`python -m
+inclino.cli.bench_diagnose --near-limit`): at z = 6 the hardest effects
+are missed 0.3-1.7 % of the time, which 21 draws per run would turn into a
+failing suite every few runs; at z = 9 none of 1 200 (docs/diagnose.md).
 The diagnosis must name exactly that effect and estimate it within its
 stated uncertainty; on null datasets it must name nothing.  Sensors,
 axes, signs, sizes and noise are drawn afresh at every run (SEED0 from the
@@ -31,7 +36,7 @@ def test_hidden_effect_is_named_and_estimated_within_its_stderr(effect, k):
     c = bench.run_case(effect, kinds[seed % len(kinds)], seed)
     h = c["hidden"]
     h = dict(h, seed=seed)
-    assert 6.0 <= h["z"] <= 9.0 and h["peak_over_noise"] < 5.0  # near the limit, not a gross error
+    assert bench.Z_RANGE[0] <= h["z"] <= bench.Z_RANGE[1] and h["peak_over_noise"] < 8.0  # not a gross error
     named = [(f["name"], f["sensor"], f["axis"]) for f in c["found"]]
     # drawn afresh every run, so the checks are at rates the bench measures near 100 %: the hidden effect is
     # named on its sensor and axis (another name beside it, 0-7 % per dataset in the bench, is not a failure
@@ -61,7 +66,7 @@ def test_null_datasets_name_nothing():
 
 def test_signature_below_the_detection_limit_is_not_named():
     """2 sigma is below the Bonferroni threshold: the control does not let
-    it through (while 6-9 sigma is found above)."""
+    it through (while 9-12 sigma is found above)."""
     c = bench.run_case("temperature-bias", "static", 950, z=2.0)
     assert c["found"] == []
 

@@ -4,14 +4,13 @@
 targets and they are not met.  The measuring is in inclino.benchmarks
 (imported when a benchmark runs).
 
-`python -m inclino.cli.benchmarks diagnose [--per-size N] [--nulls N]
-[--pairs N] [--seed S] [--cases]` runs the diagnosis benchmark with its
-sizes chosen (docs/diagnose.md)."""
+The diagnosis benchmark with its sizes chosen, and its near-limit miss
+rates, are `python -m inclino.cli.bench_diagnose` (a module of its own, so
+that running it does not import it twice: docs/diagnose.md)."""
 from __future__ import annotations
 
 import argparse
 import json
-import sys
 
 from inclino.errors import InclinoError
 
@@ -156,27 +155,3 @@ def add_bench(sub, cli_main):
     be.add_argument("--section", choices=("all", "temperature"), default="all",
                     help="calibration: only the temperature section (default all)")
     be.set_defaults(func=_cmd_bench, cli_main=cli_main)
-
-
-def diagnose_main(argv=None) -> int:
-    """`python -m inclino.cli.benchmarks diagnose ...`: the diagnosis benchmark with its sizes chosen."""
-    from inclino.benchmarks.diagnose import bench_diagnose, __doc__ as doc
-
-    p = argparse.ArgumentParser(prog="python -m inclino.cli.benchmarks diagnose", description=doc.split("\n\n")[0])
-    p.add_argument("--json", action="store_true", help="print one JSON object")
-    p.add_argument("--quick", action="store_true", help="a small set (for the tests; not the targets' figures)")
-    p.add_argument("--per-size", type=int, help="datasets per effect and size (default 4; quick 1)")
-    p.add_argument("--nulls", type=int, help="null datasets (default 216; quick 12)")
-    p.add_argument("--pairs", type=int, help="two-effect datasets (default 12; quick 2)")
-    p.add_argument("--seed", type=int, default=1000, help="first seed (default 1000)")
-    p.add_argument("--cases", action="store_true", help="with --json: every dataset's record too")
-    a = p.parse_args(argv)
-    r = bench_diagnose(a.quick, a.per_size, a.nulls, a.pairs, a.seed)
-    print(r.to_json(cases=a.cases) if a.json else r.summary())
-    return 0 if r.passed else 1
-
-
-if __name__ == "__main__":  # pragma: no cover
-    if sys.argv[1:2] != ["diagnose"]:
-        sys.exit("usage: python -m inclino.cli.benchmarks diagnose [options] (the others: inclino bench NAME)")
-    sys.exit(diagnose_main(sys.argv[2:]))
