@@ -126,7 +126,8 @@ def test_accept_temperatures_cli_on_the_emulator(chamber_calibrated, tmp_path, c
     save = tmp_path / "acc_t.json"
     try:
         rc = cli.main(["accept", "--port", emu.path, "--bench", f"127.0.0.1:{emu.control_port}", "--cal", path,
-                       "--temperatures", "-5,25,55", "--toolfaces", "0", "--force", "--quiet", "--json", "--save", str(save)])
+                       "--temperatures", "-5,25,55", "--toolfaces", "0", "--vertical-takings", "3", "--force", "--quiet",
+                       "--json", "--save", str(save)])
     finally:
         emu.stop()
     out, err = capsys.readouterr()
@@ -136,19 +137,19 @@ def test_accept_temperatures_cli_on_the_emulator(chamber_calibrated, tmp_path, c
     # 0 when no ratio is above the target by more than --significance-z of its uncertainties, 1 with the
     # reasons otherwise (docs/calibration.md: the pooled takings and the ratio's uncertainty)
     assert rc == (0 if r["passed"] else 1) and r["passed"] == (not r["reasons"]), (rc, r["reasons"], err)
-    assert r["takings"] == 1 and r["vertical_takings"] == 8 and r["significance_z"] == 2.0
+    assert r["takings"] == 1 and r["vertical_takings"] == 3 and r["significance_z"] == 2.0
     assert r["setpoints_c"] == list(CHECK) and r["reference_c"] == 25.0 and r["target_ratio"] == 1.2
     assert r["engine"] == temp_engine.get("auto").name
     assert r["download"] and r["probe_serial"] == 1001
     assert not r["survey_mismatches"] and r["surveys_checked"] == sum(p["reads"] for p in r["points"])
     if r["terms_in_firmware"]:  # the "with" column is the probe's own correction
         assert r["with_equals_probe"] == r["surveys_checked"]
-    assert len(r["points"]) == 3 * (66 + 7 * 6)  # the six I = 2 deg positions taken 8 times in all
+    assert len(r["points"]) == 3 * (66 + 2 * 6)  # the six I = 2 deg positions taken 3 times in all
     for s in r["setpoints"]:
         assert abs(s["probe_c_mean"] - s["setpoint_c"]) < 1.5
         for key in ("with", "without"):
             assert s[key]["azi_points"] == 66 and s[key]["inc_points"] == 66
-            assert s[key]["azi_rows"] == 66 + 7 * 6 and s[key]["inc_rows"] == 66 + 7 * 6
+            assert s[key]["azi_rows"] == 66 + 2 * 6 and s[key]["inc_rows"] == 66 + 2 * 6
         for q in ("azi", "inc"):
             ratio, u = s[f"{q}_ratio_with"], s[f"{q}_ratio_with_u"]
             assert (u == 0.0) if s["setpoint_c"] == 25.0 else (0.0 < u < 0.5 * ratio), (q, s)
