@@ -233,6 +233,7 @@ def test_acquire_temperature_procedure_on_the_bench(emu, capsys, tmp_path):
     ds = dataset.read_raw(str(out))
     T = ds.columns["temp_c"]
     assert "inclino acquire temperature (set points 10,40 degC" in ds.meta["source"]
+    assert int(ds.meta["samples_averaged"]) == 64  # the procedure's default averaging
     # the last 12 rows are the twelve positions at 40 degC, the 12 before the ramp's last at 10 degC
     assert np.all(np.abs(T[-12:] - 40.0) < 1.5)
     assert T.min() < 11.0 and T.max() > 39.0

@@ -80,7 +80,8 @@ def test_temperature_demo_fits_and_checks_the_terms_of_an_emulated_chamber_run(t
     assert cal.temperature["order"] in (1, 2) and cal.temperature["t_ref_c"] == 25.0
     a = TempAcceptResult.from_json((out / "accept_temperature.json").read_text())
     assert a.setpoints_c == [-5.0, 25.0, 55.0] and a.reference_c == 25.0 and not a.survey_mismatches
-    assert a.passed == (not a.reasons) and len(a.points) == 3 * 3 * 66  # toolfaces 0, 120, 240 by default
+    # toolfaces 0, 120, 240 by default; the 18 positions at I = 2 deg taken 8 times in all (pooled)
+    assert a.passed == (not a.reasons) and len(a.points) == 3 * (3 * 66 + 7 * 18)
     for s in a.setpoints:  # the terms brought the grid's errors down away from 25 degC (the exit status says so too)
         if s["setpoint_c"] != 25.0:
             assert s["with"]["azi_rms_deg"] < s["without"]["azi_rms_deg"]

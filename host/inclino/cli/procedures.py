@@ -21,7 +21,8 @@ def add_common(p) -> None:
     p.add_argument("--tol-mag-nt", type=float, default=20.0, help="stability: fluxgate spread, nT (default 20)")
     p.add_argument("--max-reads", type=int, default=30, help="bench: readings before a position is given up")
     p.add_argument("--average", type=int, help="set the probe's samples per reading first (SET_AVERAGE, 1-64; "
-                                              "the probe's default is 16; it keeps it until it restarts)")
+                                              "the probe's default is 16, acquire --procedure temperature's "
+                                              "64; it keeps it until it restarts)")
     p.add_argument("--quiet", action="store_true", help="no progress bar")
 
 
@@ -198,7 +199,8 @@ def _cmd_accept_temperatures(args) -> int:
     from inclino.formats.calfile import Calibration
     from inclino.link.serial_link import ProbeLink
     from inclino.procedures.accept import grid_points
-    from inclino.procedures.accept_temp import DEFAULT_TOOLFACES, accept_temperatures, parse_setpoints, render
+    from inclino.procedures.accept_temp import (DEFAULT_TOOLFACES, accept_temperatures, check_takings,
+                                                parse_setpoints, render)
     from inclino.procedures.readings import Tolerance
     from inclino.procedures.acquire_temp import ThermalPlan
 
@@ -211,6 +213,7 @@ def _cmd_accept_temperatures(args) -> int:
         raise DataError("--average must be within 1-64 samples")
     if not (math.isfinite(args.target_ratio) and args.target_ratio >= 1.0):
         raise DataError("--target-ratio must be a number >= 1")
+    check_takings(args.takings, args.vertical_takings, args.significance_z)
     plan = ThermalPlan(sps, "twelve-position", args.ramp_rate, args.interval, 1, args.soak_band, args.soak_tol,
                        args.soak_window, args.max_soak)
     plan.check()
@@ -236,7 +239,9 @@ def _cmd_accept_temperatures(args) -> int:
         with ProbeLink(args.port, baud=args.baud, timeout=args.timeout) as link:
             res = accept_temperatures(link, table, cal, sps, args.grid, args.reference_temp, args.target_ratio,
                                       plan, args.engine, incs, azis, tfs, tol, args.max_reads, args.declination,
-                                      force=args.force, quiet=args.quiet, average=args.average)
+                                      force=args.force, quiet=args.quiet, average=args.average,
+                                      takings=args.takings, vertical_takings=args.vertical_takings,
+                                      significance_z=args.significance_z)
     finally:
         table.close()
     if args.save:
@@ -288,6 +293,14 @@ def add_accept(sub) -> None:
                    help="the set point the others are compared with (default 25)")
     t.add_argument("--target-ratio", type=float, default=1.2,
                    help="verdict: RMS with the terms at every set point <= this x the reference's (default 1.2)")
+    t.add_argument("--takings", type=int, default=1, help="takings of the whole grid per set point, pooled "
+                                                          "(default 1)")
+    t.add_argument("--vertical-takings", type=int, default=8,
+                   help="takings in all of the positions within 5 deg of vertical, whose reading noise makes the "
+                        "azimuth RMS's spread (default 8)")
+    t.add_argument("--significance-z", type=float, default=2.0,
+                   help="verdict: a ratio fails when above --target-ratio by more than this many of its standard "
+                        "uncertainties (default 2; 0: the ratio alone)")
     t.add_argument("--engine", choices=("auto", "firmware", "golden", "host-terms"), default="auto",
                    help="the correction with the terms (default auto: the firmware's when it applies them)")
     t.add_argument("--ramp-rate", type=float, default=1.0, help="chamber ramp, degC/min (default 1)")

@@ -24,12 +24,29 @@ apply the terms, host-terms applies them on the host before the firmware's
 C).  The probe's own survey of each reading is checked bit for bit against
 the prediction from what it stores (as `inclino accept`).
 
-Per set point: azimuth and inclination RMS and max with and without the
-terms, the gain (without / with), and the ratio to the reference set point's
+Takings (pooling): the grid is taken --takings times (default 1) at each set
+point, and the positions within VERTICAL_DEG of vertical (Li's I = 2 deg,
+Ren's +-3 deg tilts) --vertical-takings times in all (default 8).  Their
+azimuth error is ~1/sin I times the reading noise, so they make most of the
+azimuth RMS and nearly all of its sampling spread, and their noise is
+independent at each set point: one taking's ratio scattered 0.71-1.63 for
+probes whose expected ratio is ~1 (docs/calibration.md).  Each position's
+squared error is the mean over its takings, and the RMS is over positions,
+so the pooled RMS estimates the same expected figure as one taking with the
+spread cut by about sqrt(takings) where it arises, at a cost of
+(vertical-takings - 1) x 6 % more positions on the Li grid.
+
+Per set point: azimuth and inclination RMS (pooled) and max with and without
+the terms, the gain (without / with), the ratio to the reference set point's
 figure (--reference-temp, default 25 degC, which must be one of the set
-points) of the same column.  Verdict (exit 1 when it fails): with the terms,
-azimuth and inclination RMS at every set point <= --target-ratio (default
-1.2) x the reference set point's, and every survey equal to the prediction.
+points) of the same column, and the ratio's standard uncertainty from the
+reading noise (pooled_stats: each position's noise variance from the scatter
+of its --reads readings).  Verdict (exit 1 when it fails): with the terms,
+no set point's azimuth or inclination ratio above --target-ratio (default
+1.2) by more than --significance-z (default 2) of its standard
+uncertainties, and every survey equal to the prediction; a ratio above the
+target within that margin passes with a note (`above_within_uncertainty`)
+saying to take more takings for a sharper figure.
 """
 from __future__ import annotations
 
@@ -41,7 +58,7 @@ from dataclasses import asdict, dataclass, field
 
 import numpy as np
 
-from inclino.procedures.accept import GRIDS, GridPoint, _measure, _stats, grid_points, stored_calibration
+from inclino.procedures.accept import GRIDS, GridPoint, _measure, grid_points, stored_calibration
 from inclino.formats.jsonout import dumps
 from inclino.procedures.poses import Step
 from inclino.procedures.readings import Tolerance, read_stable
@@ -52,6 +69,12 @@ DEFAULT_TARGET_RATIO = 1.2
 DEFAULT_REFERENCE_C = 25.0
 DEFAULT_TOOLFACES = (0.0, 120.0, 240.0)  # --temperatures without --toolfaces
 MAX_SETPOINTS = 20
+DEFAULT_TAKINGS = 1  # of the whole grid per set point
+DEFAULT_VERTICAL_TAKINGS = 8  # of the positions within VERTICAL_DEG of vertical, in all
+DEFAULT_SIGNIFICANCE_Z = 2.0  # a ratio fails when above the target by more than this many standard uncertainties
+VERTICAL_DEG = 5.0  # |set inclination or tilt| below this: near vertical, the azimuth noise ~1/sin I
+MAX_TAKINGS = 50
+DEFAULT_AVERAGE = 16  # samples per reading unless --average: the probe's default, as the bench reads the grid
 
 
 @dataclass
@@ -75,6 +98,10 @@ class TempAcceptResult:
     reasons: list = field(default_factory=list)
     world: dict = field(default_factory=dict)
     elapsed_s: float = 0.0
+    takings: int = 1  # of the whole grid per set point
+    vertical_takings: int = 1  # of the positions within VERTICAL_DEG of vertical, in all
+    significance_z: float = 0.0  # the verdict's margin, in standard uncertainties of the ratio
+    above_within_uncertainty: list = field(default_factory=list)  # ratios above the target, not significantly
 
     def to_json(self) -> str:
         return dumps(asdict(self))
@@ -140,10 +167,82 @@ def _soak(link, table, chamber: _Chamber, sp: float, plan: ThermalPlan, tol, max
 
 
 def _point_errors(inc, azi, flags, p: GridPoint, decl: float) -> dict:
+    """The position's error (the mean over its readings) and the variance of
+    that mean from the readings' scatter (None with one reading)."""
     errs = [_measure((float(i), float(a)), int(f), p, decl) for i, a, f in zip(inc, azi, flags)]
     az = [e["azi_err"] for e in errs if e["azi_err"] is not None]
-    return {"inc_err": float(np.mean([e["inc_err"] for e in errs])),
-            "azi_err": float(np.mean(az)) if len(az) == len(errs) else None}
+    ie = [e["inc_err"] for e in errs]
+
+    def var_mean(x):
+        return float(np.var(x, ddof=1) / len(x)) if len(x) > 1 else None
+
+    full = len(az) == len(errs)
+    return {"inc_err": float(np.mean(ie)), "azi_err": float(np.mean(az)) if full else None,
+            "inc_var": var_mean(ie), "azi_var": var_mean(az) if full else None}
+
+
+def pooled_stats(points: list, which: str) -> dict:
+    """One set point's figures for one column ("with" / "without") from its
+    rows (every taking of every position): RMS over positions of each
+    position's root-mean-square error over its takings (the expected RMS of
+    one taking, estimated with the spread of all of them), max over rows,
+    and the relative standard uncertainty of each RMS from the reading
+    noise.
+
+    With e_p the error of a taking (the mean of its R readings), sigma_p^2
+    the variance of that mean (the readings' scatter / R, averaged over the
+    takings) and m_p the mean of e_p^2 over the position's K_p takings:
+    Q = mean_p m_p, RMS = sqrt(Q); Var(e^2) = 4 s^2 sigma^2 + 2 sigma^4 for
+    e ~ N(s, sigma^2), i.e. 4 E[e^2] sigma^2 - 2 sigma^4, estimated without
+    bias as 4 m_p sigma_p^2 - 2 c_p sigma_p^4 (c_p = nu / (nu + 2), nu the
+    degrees of freedom of sigma_p^2: the sum over takings of R - 1);
+    Var(Q) = sum_p Var(e_p^2) / K_p / P^2, not below its noise-only part;
+    u(RMS) / RMS = sqrt(Var Q) / (2 Q).  Covers the reading noise only (not
+    a turntable that does not return to the same pose; none on the
+    emulator); None with one reading per position."""
+    out = {}
+    for q in ("azi", "inc"):
+        groups: dict = {}
+        for r in points:
+            e = r[which][f"{q}_err"]
+            if e is None:
+                continue
+            v = r[which].get(f"{q}_var")
+            groups.setdefault((r["set_inc"], r["set_azi"], r["tf"]), []).append((e, v, int(r.get("reads", 1))))
+        rows = [x[0] for g in groups.values() for x in g]
+        if not groups:
+            out.update({f"{q}_rms_deg": None, f"{q}_max_deg": None, f"{q}_points": 0, f"{q}_rows": 0,
+                        f"{q}_rms_rel_u": None})
+            continue
+        gs = list(groups.values())
+        m = np.array([np.mean([x[0] ** 2 for x in g]) for g in gs])
+        k = np.array([len(g) for g in gs], float)
+        s2 = np.array([np.mean([x[1] for x in g]) if all(x[1] is not None for x in g) else np.nan for g in gs])
+        nu = np.array([sum(x[2] - 1 for x in g) for g in gs], float)
+        Q = float(m.mean())
+        rel = None
+        if Q > 0 and np.all(np.isfinite(s2)) and np.all(nu > 0):
+            c = nu / (nu + 2.0)  # E[s2^2] = sigma^4 (nu + 2) / nu
+            var_q = float(np.sum((4.0 * m * s2 - 2.0 * c * s2 ** 2) / k)) / len(m) ** 2
+            var_q = max(var_q, float(np.sum(2.0 * c * s2 ** 2 / k)) / len(m) ** 2)
+            rel = float(np.sqrt(var_q) / (2.0 * Q))
+        out.update({f"{q}_rms_deg": float(np.sqrt(Q)), f"{q}_max_deg": float(np.max(np.abs(rows))),
+                    f"{q}_points": len(groups), f"{q}_rows": len(rows), f"{q}_rms_rel_u": rel})
+    return out
+
+
+def near_vertical(p: GridPoint) -> bool:
+    return abs(p.set_inc) < VERTICAL_DEG
+
+
+def taking_plan(pts: list, takings: int, vertical_takings: int) -> list:
+    """(taking, index into pts) in the order they are taken: the whole grid
+    `takings` times, then the near-vertical positions until each has
+    max(takings, vertical_takings) takings."""
+    order = [(t, i) for t in range(takings) for i in range(len(pts))]
+    order += [(t, i) for t in range(takings, max(takings, vertical_takings))
+              for i, p in enumerate(pts) if near_vertical(p)]
+    return order
 
 
 def _predict(acc, mag, tq6, stored_fc):
@@ -156,22 +255,19 @@ def _predict(acc, mag, tq6, stored_fc):
     return core.survey(acc, mag, stored_fc)
 
 
-def _errors(points: list, which: str):
-    ei = np.array([p[which]["inc_err"] for p in points], float)
-    ea = np.array([np.nan if p[which]["azi_err"] is None else p[which]["azi_err"] for p in points], float)
-    return ei, ea
-
-
 def accept_temperatures(link, table, cal, setpoints=(-5.0, 25.0, 55.0), grid: str = "li2021",
                         reference_c: float = DEFAULT_REFERENCE_C, target_ratio: float = DEFAULT_TARGET_RATIO,
                         plan: ThermalPlan | None = None, engine: str = "auto", inclinations=None, azimuths=None,
                         toolfaces=DEFAULT_TOOLFACES, tol: Tolerance | None = None, max_reads: int = 30,
                         declination: float | None = None, download: bool = True, force: bool = False,
                         quiet: bool = False,
-                        average: int | None = None, sleep=time.sleep) -> TempAcceptResult:
+                        average: int | None = None, sleep=time.sleep, takings: int = DEFAULT_TAKINGS,
+                        vertical_takings: int = DEFAULT_VERTICAL_TAKINGS,
+                        significance_z: float = DEFAULT_SIGNIFICANCE_Z) -> TempAcceptResult:
     """The grid at each set point on `table` (turntable_emulated.EmulatedTurntable
     or turntable.ManualTurntable); cal: the Calibration with temperature terms (CAL.json),
-    downloaded first unless download is False."""
+    downloaded first unless download is False.  average None: the probe's
+    default 16 samples per reading (what the ratio's figures are for)."""
     from inclino.link import operations as calops
     from inclino.engines import temperature as temp_engine
     from inclino.procedures.readings import progress_bar, set_average
@@ -185,6 +281,7 @@ def accept_temperatures(link, table, cal, setpoints=(-5.0, 25.0, 55.0), grid: st
                         "--temperature on, from a chamber run)")
     if not (math.isfinite(target_ratio) and target_ratio >= 1.0):
         raise DataError("--target-ratio must be a number >= 1")
+    check_takings(takings, vertical_takings, significance_z)
     plan = plan or ThermalPlan(setpoints=sps)
     plan.setpoints = sps
     plan.check()
@@ -192,12 +289,14 @@ def accept_temperatures(link, table, cal, setpoints=(-5.0, 25.0, 55.0), grid: st
     eng.check(cal)  # the firmware engine: refused when the image cannot hold the terms
     pts = grid_points(grid, inclinations, azimuths, toolfaces)
     t0 = time.monotonic()
-    set_average(link, average)
+    set_average(link, DEFAULT_AVERAGE if average is None else average)
     ident = link.identify()
     world = table.world()
     decl = float(declination if declination is not None else world.get("declination_deg", 0.0))
     res = TempAcceptResult(grid, ident.serial, list(sps), float(reference_c), float(target_ratio), eng.name,
-                           eng.terms_in_firmware, "", decl, world=world)
+                           eng.terms_in_firmware, "", decl, world=world, takings=int(takings),
+                           vertical_takings=max(int(takings), int(vertical_takings)),
+                           significance_z=float(significance_z))
     if download:
         d = calops.download(link, cal, force=force)
         res.download = {"slot": d.slot, "sequence": d.sequence, "image_crc": f"{d.image_crc:04X}"}
@@ -207,7 +306,8 @@ def accept_temperatures(link, table, cal, setpoints=(-5.0, 25.0, 55.0), grid: st
     steps = [Step(*p.pose, f"{grid} grid: {'tilt' if grid == 'ren2014' else 'inclination'} {p.set_inc:g}, "
                   f"azimuth {p.set_azi:g}" + (f", toolface {p.tf:g}" if len(toolfaces) > 1 or p.tf else ""))
              for p in pts]
-    bar = progress_bar(len(sps) * len(steps), "accept temperatures", quiet)
+    order = taking_plan(pts, int(takings), int(vertical_takings))
+    bar = progress_bar(len(sps) * len(order), "accept temperatures", quiet)
 
     def say(m):
         bar.write(m, file=sys.stderr)
@@ -220,8 +320,10 @@ def accept_temperatures(link, table, cal, setpoints=(-5.0, 25.0, 55.0), grid: st
         for sp in sps:
             soak_min, probe_c = _soak(link, table, chamber, sp, plan, tol, max_reads, steps[0], tell)
             sp_points, temps = [], []
-            for i, (p, st) in enumerate(zip(pts, steps), start=1):
-                table.move(Step(st.inc, st.azi, st.tf, f"{sp:g} degC: {st.label}"), i, len(steps))
+            for n, (t, i) in enumerate(order, start=1):
+                p, st = pts[i], steps[i]
+                again = f", taking {t + 1}" if t else ""
+                table.move(Step(st.inc, st.azi, st.tf, f"{sp:g} degC: {st.label}{again}"), n, len(order))
                 win = read_stable(link, tol, max_reads if table.unattended else None)
                 acc = np.array([[round(v * 64) for v in r.acc] for r in win], np.int64)
                 mag = np.array([[round(v * 64) for v in r.mag] for r in win], np.int64)
@@ -241,7 +343,7 @@ def accept_temperatures(link, table, cal, setpoints=(-5.0, 25.0, 55.0), grid: st
                     if bad:
                         res.survey_mismatches.append(f"{sp:g} degC, {st.label}: " + ", ".join(
                             f"{k} probe {getattr(r.record, k)} predicted {int(want[k][j])}" for k in bad))
-                row = {"setpoint_c": sp, "set_inc": p.set_inc, "set_azi": p.set_azi, "tf": p.tf,
+                row = {"setpoint_c": sp, "set_inc": p.set_inc, "set_azi": p.set_azi, "tf": p.tf, "taking": t + 1,
                        "pose": list(p.pose), "probe_c": float(np.mean([r.temp_c for r in win])),
                        "temp_q6": [int(v) for v in tq6], "reads": len(win)}
                 for key in ("with", "without"):
@@ -258,8 +360,7 @@ def accept_temperatures(link, table, cal, setpoints=(-5.0, 25.0, 55.0), grid: st
                      "probe_c_mean": float(np.mean(temps)), "probe_c_min": float(np.min(temps)),
                      "probe_c_max": float(np.max(temps))}
             for key in ("with", "without"):
-                ei, ea = _errors(sp_points, key)
-                entry[key] = _stats(ei, ea)
+                entry[key] = pooled_stats(sp_points, key)
             res.setpoints.append(entry)
     finally:
         bar.close()
@@ -268,22 +369,56 @@ def accept_temperatures(link, table, cal, setpoints=(-5.0, 25.0, 55.0), grid: st
     return res
 
 
+def check_takings(takings, vertical_takings, significance_z) -> None:
+    for name, v in (("--takings", takings), ("--vertical-takings", vertical_takings)):
+        if isinstance(v, bool) or int(v) != v or not 1 <= int(v) <= MAX_TAKINGS:
+            raise DataError(f"{name} must be a whole number within 1-{MAX_TAKINGS}, got {v}")
+    if not (math.isfinite(significance_z) and 0.0 <= significance_z <= 10.0):
+        raise DataError(f"--significance-z must be within 0-10 standard uncertainties, got {significance_z}")
+
+
+def _ratio_u(r, rel_t, rel_ref):
+    """Standard uncertainty of r = RMS_T / RMS_ref from the two RMS's
+    relative uncertainties (independent readings at the two set points)."""
+    if r is None or rel_t is None or rel_ref is None:
+        return None
+    return float(r * math.hypot(rel_t, rel_ref))
+
+
 def _verdict(res: TempAcceptResult) -> None:
     ref = next(s for s in res.setpoints if s["setpoint_c"] == res.reference_c)
+    names = (("azi", "azimuth"), ("inc", "inclination"))
     for s in res.setpoints:
+        is_ref = s is ref
         for q in ("azi", "inc"):
             for key in ("with", "without"):
                 v, r0 = s[key][f"{q}_rms_deg"], ref[key][f"{q}_rms_deg"]
                 s[f"{q}_ratio_{key}"] = (v / r0) if v is not None and r0 else None
+                s[f"{q}_ratio_{key}_u"] = (0.0 if is_ref and s[f"{q}_ratio_{key}"] is not None else
+                                           _ratio_u(s[f"{q}_ratio_{key}"], s[key][f"{q}_rms_rel_u"],
+                                                    ref[key][f"{q}_rms_rel_u"]))
             w, wo = s["with"][f"{q}_rms_deg"], s["without"][f"{q}_rms_deg"]
             s[f"{q}_gain"] = (wo / w) if w and wo is not None else None
-        bad = [f"{name} RMS {s['with'][f'{q}_rms_deg']:.4f} deg is {s[f'{q}_ratio_with']:.2f}x the "
-               f"{res.reference_c:g} degC figure {ref['with'][f'{q}_rms_deg']:.4f}"
-               for q, name in (("azi", "azimuth"), ("inc", "inclination"))
-               if s[f"{q}_ratio_with"] is not None and s[f"{q}_ratio_with"] > res.target_ratio]
-        s["within_target"] = not bad
-        res.reasons += [f"at {s['setpoint_c']:g} degC with the terms: {b} (target {res.target_ratio:g}x)"
-                        for b in bad]
+        bad, near = [], []
+        for q, name in names:
+            r, u = s[f"{q}_ratio_with"], s[f"{q}_ratio_with_u"]
+            if r is None or r <= res.target_ratio:
+                continue
+            what = (f"{name} RMS {s['with'][f'{q}_rms_deg']:.4f} deg is {r:.2f}x"
+                    + (f" (+-{u:.2f})" if u is not None else "")
+                    + f" the {res.reference_c:g} degC figure {ref['with'][f'{q}_rms_deg']:.4f}")
+            if u is not None and r - res.significance_z * u <= res.target_ratio:
+                near.append(what)
+            else:
+                bad.append(what)
+        s["within_target"] = not bad and not near
+        s["fails_target"] = bool(bad)
+        res.reasons += [f"at {s['setpoint_c']:g} degC with the terms: {b} (target {res.target_ratio:g}x, by more "
+                        f"than {res.significance_z:g} standard uncertainties)" for b in bad]
+        res.above_within_uncertainty += [
+            f"at {s['setpoint_c']:g} degC with the terms: {x}: above the target {res.target_ratio:g}x but within "
+            f"{res.significance_z:g} standard uncertainties (more --takings or --vertical-takings sharpen it)"
+            for x in near]
     if res.survey_mismatches:
         res.reasons.append(f"{len(res.survey_mismatches)} of {res.surveys_checked} surveys differ from the stored "
                            "calibration's prediction")
@@ -294,8 +429,14 @@ def render(res: TempAcceptResult) -> str:
     def f(v, p=4):
         return "-" if v is None else f"{v:.{p}f}"
 
+    def pm(u):
+        return "" if not u else f" +-{u:.2f}"
+
     out = [f"Acceptance at {len(res.setpoints_c)} chamber set points on the {res.grid} grid, probe "
-           f"{res.probe_serial}: {len(res.points) // max(1, len(res.setpoints_c))} positions each",
+           f"{res.probe_serial}: {res.setpoints[0]['with']['inc_points'] if res.setpoints else 0} positions each, "
+           f"{len(res.points) // max(1, len(res.setpoints_c))} takings of them (the grid {res.takings}x, "
+           f"within {VERTICAL_DEG:g} deg of vertical {res.vertical_takings}x; each position's error pooled over its "
+           "takings)",
            f"  with    = {res.calibration}",
            "  without = the same M, b without the temperature terms (room-temperature-only)",
            f"  engine  = {res.engine}" + ("" if res.terms_in_firmware else
@@ -310,15 +451,19 @@ def render(res: TempAcceptResult) -> str:
         out.append(f"{s['setpoint_c']:6g} {s['probe_c_mean']:7.2f} {s['soak_min']:6g} | "
                    f"{f(s['with']['azi_rms_deg']):>7} {f(s['without']['azi_rms_deg']):>8} {f(s['azi_gain'], 1):>6}x | "
                    f"{f(s['with']['inc_rms_deg']):>7} {f(s['without']['inc_rms_deg']):>8} {f(s['inc_gain'], 1):>6}x | "
-                   f"azimuth {f(s['azi_ratio_with'], 2)} / {f(s['azi_ratio_without'], 2)}, inclination "
-                   f"{f(s['inc_ratio_with'], 2)} / {f(s['inc_ratio_without'], 2)}")
+                   f"azimuth {f(s['azi_ratio_with'], 2)}{pm(s['azi_ratio_with_u'])} / {f(s['azi_ratio_without'], 2)}, "
+                   f"inclination {f(s['inc_ratio_with'], 2)}{pm(s['inc_ratio_with_u'])} / "
+                   f"{f(s['inc_ratio_without'], 2)}")
     out.append(f"the probe's surveys against its stored calibration: {res.surveys_checked - len(res.survey_mismatches)}"
                f" of {res.surveys_checked} equal bit for bit; the \"with\" column is the probe's own survey in "
                f"{res.with_equals_probe} of them")
     out.append(f"verdict: {'PASS' if res.passed else 'FAIL'} (with the terms, azimuth and inclination RMS at every "
-               f"set point <= {res.target_ratio:g}x the {res.reference_c:g} degC figure; surveys bit for bit)"
-               + ("" if res.passed else ": " + "; ".join(res.reasons)))
+               f"set point <= {res.target_ratio:g}x the {res.reference_c:g} degC figure, or above it by at most "
+               f"{res.significance_z:g} standard uncertainties of the ratio (+-, from the reading noise); "
+               "surveys bit for bit)" + ("" if res.passed else ": " + "; ".join(res.reasons)))
+    out += [f"note: {x}" for x in res.above_within_uncertainty]
     return "\n".join(out)
 
 
-__all__ = ["TempAcceptResult", "accept_temperatures", "parse_setpoints", "render", "GRIDS"]
+__all__ = ["TempAcceptResult", "accept_temperatures", "check_takings", "near_vertical", "parse_setpoints",
+           "pooled_stats", "render", "taking_plan", "GRIDS"]
