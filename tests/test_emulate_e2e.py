@@ -101,8 +101,12 @@ def test_stream_reset_and_link_faults(emu):
 
 def test_inclino_emulate_cli_runs_and_stops(tmp_path):
     lp = str(tmp_path / "probe")
+    # SIGINT back to its default in the child: a suite started in the background by a shell without job
+    # control inherits SIGINT ignored, and Python then never raises KeyboardInterrupt (as a person's
+    # Ctrl-C in a terminal would); that, not the emulator, was what kept it running after the signal
     proc = subprocess.Popen([sys.executable, "-m", "inclino", "emulate", "--scenario", "ideal", "--link", lp],
-                            stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
+                            stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True,
+                            preexec_fn=lambda: signal.signal(signal.SIGINT, signal.SIG_DFL))
     try:
         line = proc.stdout.readline()
         assert line.startswith("inclino emulator: probe on /dev/pts/"), line
@@ -115,7 +119,7 @@ def test_inclino_emulate_cli_runs_and_stops(tmp_path):
         c.close()
     finally:
         proc.send_signal(signal.SIGINT)
-        try:  # seconds normally; 30 s leaves room for a loaded machine (10 s once ran out under load)
+        try:
             out, err = proc.communicate(timeout=30)
         except subprocess.TimeoutExpired:
             proc.kill()
