@@ -242,6 +242,37 @@ def best_linear(x, F, dec, G, poses=None):
     return np.concatenate(out)
 
 
+def nonlinear_block(x, cov_nl, lin, F, dip, dec, G) -> dict:
+    """info["nonlinear"] of a fit of the nonlinear model: x in joint's layout
+    (31: M_a, M_a b_a, M_m, M_m b_m, q_a, q_m, dip, as _unpack_pose reads it),
+    cov_nl the covariance of (M, b, q[, dip]) in that order (b, not M b),
+    lin the best linear calibration (best_linear).  With what the linear
+    model costs on this probe, noise-free, over the working range."""
+    Ma, ca, Mm, cm, _, qa, qm = _unpack_pose(x)
+    ba, bm = np.linalg.solve(Ma, ca), np.linalg.solve(Mm, cm)
+    wr = working_range()
+    acc_w, mag_w = nonlinear_readings(x, wr, F, dec, G)
+    gw, fw = ref.body_vectors(*wr, F, dip, dec, G)
+    La = lin[0:9].reshape(3, 3)
+    Lm = lin[12:21].reshape(3, 3)
+    att = ref.attitude((acc_w - lin[9:12]) @ La.T, (mag_w - lin[21:24]) @ Lm.T)
+    tru = ref.attitude(gw, fw)
+    da = ref.angle_diff(att["azi"], tru["azi"])[wr[0] >= 2.0]  # both magnetic (wr[1] is true)
+    return {
+        "model": "corrected = M (raw + q*raw^2/S - b), S = G (g) or F (nT); the CAL.json "
+                 "coefficients are the linear calibration that best represents it over the working range",
+        "working_range": f"inclination {WORKING_INC_DEG[0]:g}-{WORKING_INC_DEG[1]:g} deg every 10, "
+                         "azimuth and toolface every 45 deg",
+        "acc_q_per_g": (qa / G).tolist(), "mag_q_per_nT": (qm / F).tolist(),
+        "acc_q_sigma_per_g": (np.sqrt(np.diag(cov_nl)[24:27]) / G).tolist(),
+        "mag_q_sigma_per_nT": (np.sqrt(np.diag(cov_nl)[27:30]) / F).tolist(),
+        "model_acc_m": Ma.tolist(), "model_acc_b": ba.tolist(), "model_mag_m": Mm.tolist(),
+        "model_mag_b": bm.tolist(),
+        "linear_representation_azi_rms_deg": float(np.sqrt(np.mean(da ** 2))),
+        "linear_representation_inc_rms_deg": float(np.sqrt(np.mean((att["inc"] - tru["inc"]) ** 2))),
+        "covariance": cov_nl}
+
+
 def best_linear_jacobian(x, F, dec, G, poses=None):
     """d best_linear / d x (24 x 31) by central differences."""
     poses = working_range() if poses is None else poses
@@ -344,28 +375,7 @@ def _fit_poses(ds, w, sa, sm, sp, fix_dip, nonlinear=False):
             Jx[:24] = Jb
             Jx[24, P - 1] = 1.0
             cov = Jx @ cov_lin @ Jx.T
-        # what the linear model costs on this probe, noise-free, over the working range
-        wr = working_range()
-        acc_w, mag_w = nonlinear_readings(x, wr, F, dec, G)
-        gw, fw = ref.body_vectors(*wr, F, dip, dec, G)
-        La = lin[0:9].reshape(3, 3)
-        Lm = lin[12:21].reshape(3, 3)
-        att = ref.attitude((acc_w - lin[9:12]) @ La.T, (mag_w - lin[21:24]) @ Lm.T)
-        tru = ref.attitude(gw, fw)
-        da = ref.angle_diff(att["azi"], tru["azi"])[wr[0] >= 2.0]  # both magnetic (wr[1] is true)
-        extra = {"nonlinear": {
-            "model": "corrected = M (raw + q*raw^2/S - b), S = G (g) or F (nT); the CAL.json "
-                     "coefficients are the linear calibration that best represents it over the working range",
-            "working_range": f"inclination {WORKING_INC_DEG[0]:g}-{WORKING_INC_DEG[1]:g} deg every 10, "
-                             "azimuth and toolface every 45 deg",
-            "acc_q_per_g": (qa / G).tolist(), "mag_q_per_nT": (qm / F).tolist(),
-            "acc_q_sigma_per_g": (np.sqrt(np.diag(cov_nl)[24:27]) / G).tolist(),
-            "mag_q_sigma_per_nT": (np.sqrt(np.diag(cov_nl)[27:30]) / F).tolist(),
-            "model_acc_m": Ma.tolist(), "model_acc_b": ba.tolist(), "model_mag_m": Mm.tolist(),
-            "model_mag_b": bm.tolist(),
-            "linear_representation_azi_rms_deg": float(np.sqrt(np.mean(da ** 2))),
-            "linear_representation_inc_rms_deg": float(np.sqrt(np.mean((att["inc"] - tru["inc"]) ** 2))),
-            "covariance": cov_nl}}
+        extra = {"nonlinear": nonlinear_block(x, cov_nl, lin, F, dip, dec, G)}
         Ma, ba = lin[0:9].reshape(3, 3), lin[9:12]
         Mm, bm = lin[12:21].reshape(3, 3), lin[21:24]
     return (Ma, ba, Mm, bm, float(dip)), cov, {**extra,

@@ -245,6 +245,9 @@ def _cov_24(x, prob: _Problem, order, J, s2, w):
         if dip_i is not None:
             T[24, dip_i] = 1.0
         covc = T @ cov @ T.T
+        Tn = np.eye(nb)  # (M, b, q[, dip]) for the report's nonlinear block: b = M^-1 c
+        common.fill_bias_jacobian(x, Tn)
+        lin = (lin, Tn @ cov[:nb, :nb] @ Tn.T)
     else:
         lin = None
         T = np.zeros((24 + (0 if prob.fix_dip else 1), len(x)))
@@ -418,6 +421,13 @@ def _fit(ds, cal, info, mode, sigma_acc, sigma_mag, sigma_pose_deg, fix_dip, see
         return cal, info
     Ma, ca, Mm, cm, qa, qm, dip, th = prob.unpack(x, chosen)
     if lin is not None:
+        lin, cov_nl = lin
+        # the nonlinear model the report's linear-model bias is computed from:
+        # this fit's, not joint's without the terms (whose q took up part of
+        # the temperature effects)
+        info = dict(info)
+        info["nonlinear"] = joint.nonlinear_block(np.concatenate([x[:30], [dip]]), cov_nl, lin, w["field_nT"],
+                                                  float(dip), w["declination_deg"], w["gravity_g"])
         new = common.make_cal(lin[0:9].reshape(3, 3), lin[9:12], lin[12:21].reshape(3, 3), lin[21:24], "joint", ds)
     else:
         new = common.make_cal(Ma, np.linalg.solve(Ma, ca), Mm, np.linalg.solve(Mm, cm), "joint", ds)
