@@ -55,14 +55,15 @@ def _prior_of(cal, info):
     return p
 
 
-def _summary(ach, pre):
+def summary(ach, pre) -> dict:
+    """Achieved / predicted over runs: median, p10, p90, pooled, in RATIO_BAND."""
     ach, pre = np.asarray(ach), np.asarray(pre)
     r = ach / pre
     med = float(np.median(r))
     return {"runs": int(len(r)), "median_ratio": med, "pooled_ratio": float(np.sqrt(np.mean(ach ** 2) / np.mean(pre ** 2))),
             "ratio_p10": float(np.percentile(r, 10)), "ratio_p90": float(np.percentile(r, 90)),
             "achieved_rms_deg": float(np.sqrt(np.mean(ach ** 2))), "predicted_rms_deg": float(np.sqrt(np.mean(pre ** 2))),
-            "in_band": bool(RATIO_BAND[0] <= med <= RATIO_BAND[1])}
+            "in_band": bool(RATIO_BAND[0] <= med <= RATIO_BAND[1]), "band": list(RATIO_BAND)}
 
 
 def prediction_ratios(s, n_runs: int, seed0: int, sigma_pose_deg: float, n_avg: int = N_AVG) -> dict:
@@ -121,9 +122,9 @@ def prediction_ratios(s, n_runs: int, seed0: int, sigma_pose_deg: float, n_avg: 
             a.append(float(np.sqrt(np.mean(d ** 2))))
             p.append(v)
     out = {"band": list(RATIO_BAND), "n_avg_acceptance": n_avg, "field_rows": FIELD_ROWS, "failed_fits": failed,
-           "pose_fit_calibration_grid": {k: _summary(*v) for k, v in pose.items()},
-           "pose_fit_acceptance_grid": {k: _summary(*v) for k, v in acc_grid.items()},
-           "field_fit_with_prior": {k: _summary(*v) for k, v in fld.items()}}
+           "pose_fit_calibration_grid": {k: summary(*v) for k, v in pose.items()},
+           "pose_fit_acceptance_grid": {k: summary(*v) for k, v in acc_grid.items()},
+           "field_fit_with_prior": {k: summary(*v) for k, v in fld.items()}}
     out["met"] = bool(all(out[k]["azi"]["in_band"] for k in ("pose_fit_calibration_grid", "pose_fit_acceptance_grid",
                                                              "field_fit_with_prior")))
     return out

@@ -32,7 +32,15 @@ For each probe:
 Per probe and set point: azimuth (from magnetic north) and inclination RMS
 with and without the terms, their ratio to the same probe's REF_C figure
 with the terms (resp. without), and the gain (without / with).  Summary:
-median and max over the probes.  Target (issue: "azimuth and inclination
+median and max over the probes.
+
+Per probe also the fit report's prediction against what the calibration
+achieves (key `prediction`, as the pose fit's in calibration_predict): the
+report's predicted azimuth and inclination RMS on the calibration grid
+(coefficients and linear-model bias) against the Li grid of the true probe
+at the calibration's reference temperature, noise-free and unquantised, in
+float64; the median of achieved / predicted over the probes within
+calibration_predict.RATIO_BAND.  Target (issue: "azimuth and inclination
 RMS at every set point within 1.2x of the room-temperature figure of the
 same probe"): the max over probes and set points of the ratio with the terms
 <= TARGET_RATIO, for azimuth and for inclination.
@@ -76,6 +84,7 @@ class TemperatureBench:
     per_probe: list = field(default_factory=list)
     per_setpoint: dict = field(default_factory=dict)  # the acceptance grid as the probe reads it (the target's)
     calibration_only: dict = field(default_factory=dict)  # the same grid noise-free: the calibration's error alone
+    prediction: dict = field(default_factory=dict)  # the fit report's predicted RMS against the achieved
     targets: dict = field(default_factory=dict)
     met: dict = field(default_factory=dict)
     passed: bool = False
@@ -138,6 +147,28 @@ def fit_with_terms(path: str):
     ds = dataset.read_raw(path)
     cal, rep = fit(ds, "joint", data_hash=common.file_hash(path, ds), temperature="on")
     return cal, rep
+
+
+def prediction_check(scenario, cal, report) -> dict:
+    """The fit report's predicted azimuth / inclination RMS on the
+    calibration grid against the calibration's error on the true probe at
+    the calibration's reference temperature (Li grid, noise-free,
+    unquantised readings, float64; azimuth from magnetic north, I >= 2)."""
+    from inclino.model.scenario import generate_raw
+
+    quiet = copy.deepcopy(scenario)
+    quiet.acc.noise = None
+    quiet.mag.noise = None
+    quiet.acc.quantisation = None
+    quiet.mag.quantisation = None
+    g = runs.li2021_grid((0.0, 120.0, 240.0))
+    ev = generate_raw(quiet, *g, temp_c=float(cal.temperature["t_ref_c"]))
+    a = ref.attitude(ref.correct(ev.acc, cal.acc_m, cal.acc_b), ref.correct(ev.mag, cal.mag_m, cal.mag_b))
+    u = report.uncertainty
+    return {"predicted_azi_rms_deg": float(u["predicted_azi_rms_deg"]),
+            "predicted_inc_rms_deg": float(u["predicted_inc_rms_deg"]),
+            "achieved_azi_rms_deg": _rms(ref.angle_diff(a["azi"], g[1])),
+            "achieved_inc_rms_deg": _rms(a["inc"] - g[0])}
 
 
 def grid_readings(scenario, temp_c: float, toolfaces=(0.0, 120.0, 240.0)):
@@ -277,15 +308,22 @@ def bench_temperature(n_probes: int = N_PROBES, seed: int = SEED0, engine: str =
             path = os.path.join(d, f"run_{s}.csv")
             try:
                 chamber_run(sc, path, sps, emu_seed=s, average=average, noise=run_noise)
-                cal, _rep = fit_with_terms(path)
+                cal, rep = fit_with_terms(path)
                 eng.check(cal)  # the firmware engine: the image must hold the terms
                 chk = check_probe(sc, cal, eng, sps, reference_c, seed=s)
+                chk["prediction"] = prediction_check(sc, cal, rep)
             except Exception as e:  # a probe the procedure cannot calibrate is reported, not hidden
                 res.failed_probes.append({"seed": s, "error": f"{type(e).__name__}: {e}"})
                 continue
             res.per_probe.append({"seed": s, "order": int(cal.temperature["order"]), **chk})
     res.per_setpoint = _summary(res.per_probe, "setpoints", sps)
     res.calibration_only = _summary(res.per_probe, "calibration_only", sps)
+    if res.per_probe:
+        from inclino.benchmarks.calibration_predict import summary as ratio_summary
+
+        res.prediction = {q: ratio_summary([p["prediction"][f"achieved_{q}_rms_deg"] for p in res.per_probe],
+                                           [p["prediction"][f"predicted_{q}_rms_deg"] for p in res.per_probe])
+                          for q in ("azi", "inc")}
     ratios_a = [r["azi_ratio_with"] for p in res.per_probe for r in p["setpoints"]]
     ratios_i = [r["inc_ratio_with"] for p in res.per_probe for r in p["setpoints"]]
     r0a = [r["azi_ratio_with"] for p in res.per_probe for r in p["calibration_only"]]
@@ -360,6 +398,13 @@ def text(res: TemperatureBench) -> str:
                    f"{s['azi_rms_with_deg']['median']:.4f} deg with, {s['azi_rms_without_deg']['median']:.4f} without; "
                    f"ratio with {s['azi_ratio_with']['median']:.2f} (max {s['azi_ratio_with']['max']:.2f}), "
                    f"inclination {s['inc_ratio_with']['median']:.2f} (max {s['inc_ratio_with']['max']:.2f})")
+    for q, name in (("azi", "azimuth"), ("inc", "inclination")):
+        p = res.prediction.get(q)
+        if p:
+            out.append(f"  fit report's prediction, {name} RMS at the reference: achieved / predicted median "
+                       f"{p['median_ratio']:.2f} (p10 {p['ratio_p10']:.2f}, p90 {p['ratio_p90']:.2f}, pooled "
+                       f"{p['pooled_ratio']:.2f}; band {p['band'][0]:g}-{p['band'][1]:g}: "
+                       f"{'in' if p['in_band'] else 'OUT'}); predicted {p['predicted_rms_deg']:.4f} deg RMS")
     if "worst_ratio_sd" in res.met:
         m = res.met
         out.append(f"  each probe's worst ratio with the terms: mean {m['worst_ratio_mean']:.3f}, sd "
