@@ -91,7 +91,9 @@ def emulated_run(s, poses, seed, sigma_pose_deg=TURNTABLE_SIGMA_DEG):
     return ds
 
 
-def grid_truth(s):
+def grid_truth(s, temp_c=None):
+    """(Li grid poses, noise-free unquantised readings of probe s there; at
+    temp_c when given, else at the scenario's temperature)."""
     from inclino.model.scenario import generate_raw
 
     quiet = copy.deepcopy(s)
@@ -100,7 +102,7 @@ def grid_truth(s):
     quiet.acc.quantisation = None  # the grid's own quantisation (1/16384 g) would add ~0.03 deg
     quiet.mag.quantisation = None  # of azimuth at I = 2 deg, whatever the calibration
     g = runs.li2021_grid((0.0, 120.0, 240.0))
-    return g, generate_raw(quiet, *g)
+    return g, generate_raw(quiet, *g, temp_c=temp_c)
 
 
 def _errors(cal, grid, ev):
