@@ -345,7 +345,7 @@ def test_bench_calibration_cli(monkeypatch, capsys):
     from inclino.benchmarks import calibration as bench
 
     small = bench.bench_calibration
-    monkeypatch.setattr(bench, "bench_calibration", lambda: small(n_runs=2, include_peer=False))
+    monkeypatch.setattr(bench, "bench_calibration", lambda: small(n_runs=2, include_peer=False, temperature_probes=1))
     rc, out, _ = run(capsys, "bench", "calibration", "--json")
     d = json.loads(out)
     assert rc == (0 if d["passed"] else 1)

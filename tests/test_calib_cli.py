@@ -121,7 +121,7 @@ def test_calfile_rejects_a_stale_fixed_image(data):
 
 
 def test_bench_calibration_small():
-    r = bench.bench_calibration(n_runs=1, include_peer=False)
+    r = bench.bench_calibration(n_runs=1, include_peer=False, temperature_probes=1)  # 8 probes: ~5 min
     d = json.loads(r.to_json())
     m = d["methods"]
     for k in ("joint", "ren2014", "li2021", "guo2009"):
@@ -141,3 +141,6 @@ def test_bench_calibration_small():
     for k in ("pose_fit_calibration_grid", "pose_fit_acceptance_grid", "field_fit_with_prior"):
         assert pr[k]["azi"]["runs"] == 1 and pr[k]["azi"]["median_ratio"] > 0
     assert d["field_prior"]["probes"] == 1 and d["field_prior"]["pooled_ratio"] > 0
+    t = d["temperature"]
+    assert t["probes"] == 1 and len(t["per_probe"]) + len(t["failed_probes"]) == 1
+    assert d["met"]["temperature_within_1_2x_room"] == t["passed"]

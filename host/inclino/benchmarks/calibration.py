@@ -222,7 +222,10 @@ def _run_methods(s, n_runs, seed0, include_peer):
     return out, floor
 
 
-def bench_calibration(n_runs: int = 100, seed: int = 100, include_peer: bool | None = None) -> CalibrationBench:
+def bench_calibration(n_runs: int = 100, seed: int = 100, include_peer: bool | None = None,
+                      temperature_probes: int | None = None) -> CalibrationBench:
+    """The calibration benchmark; temperature_probes: probes of the temperature
+    section (None: its default, calibration_temperature.N_PROBES)."""
     if include_peer is None:
         try:
             import magcal.core  # noqa: F401
@@ -271,7 +274,7 @@ def bench_calibration(n_runs: int = 100, seed: int = 100, include_peer: bool | N
     res.met["field_prior_within_1_5x_fresh"] = res.field_prior["met"]
     from inclino.benchmarks.calibration_temperature import TARGET_RATIO, bench_temperature
 
-    t = bench_temperature()
+    t = bench_temperature() if temperature_probes is None else bench_temperature(n_probes=temperature_probes)
     res.temperature = t.to_dict()
     res.targets["temperature_ratio_with_terms_max"] = TARGET_RATIO
     res.met["temperature_within_1_2x_room"] = t.passed
