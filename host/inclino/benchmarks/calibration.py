@@ -272,9 +272,9 @@ def bench_calibration(n_runs: int = 100, seed: int = 100, include_peer: bool | N
 
     res.field_prior = field_prior_bench(n_probes=min(10, n_runs))
     res.met["field_prior_within_1_5x_fresh"] = res.field_prior["met"]
-    from inclino.benchmarks.calibration_temperature import TARGET_RATIO, bench_temperature
+    from inclino.benchmarks.calibration_temperature import N_PROBES, TARGET_RATIO, bench_temperature
 
-    t = bench_temperature() if temperature_probes is None else bench_temperature(n_probes=temperature_probes)
+    t = bench_temperature(n_probes=temperature_probes or N_PROBES)
     res.temperature = t.to_dict()
     res.targets["temperature_ratio_with_terms_max"] = TARGET_RATIO
     res.met["temperature_within_1_2x_room"] = t.passed

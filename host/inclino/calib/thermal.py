@@ -217,7 +217,9 @@ def _cv(prob: _Problem, x_full: dict, rows: np.ndarray, rng) -> dict:
 
 def _cov_24(x, prob: _Problem, order, J, s2, w):
     """Covariance of the written (M, b) [and dip], and of the temperature
-    coefficients, from the GLS covariance of x."""
+    coefficients, from the GLS covariance of x; with the scale nonlinearity
+    also the best linear calibration and the covariance of (M, b, q[, dip])
+    for the report's nonlinear block (None, None without it)."""
     from . import joint
 
     JtJ = J.T @ J
@@ -247,15 +249,15 @@ def _cov_24(x, prob: _Problem, order, J, s2, w):
         covc = T @ cov @ T.T
         Tn = np.eye(nb)  # (M, b, q[, dip]) for the report's nonlinear block: b = M^-1 c
         common.fill_bias_jacobian(x, Tn)
-        lin = (lin, Tn @ cov[:nb, :nb] @ Tn.T)
+        cov_nl = Tn @ cov[:nb, :nb] @ Tn.T
     else:
-        lin = None
+        lin = cov_nl = None
         T = np.zeros((24 + (0 if prob.fix_dip else 1), len(x)))
         common.fill_bias_jacobian(x, T)
         if dip_i is not None:
             T[24, dip_i] = 1.0
         covc = T @ cov @ T.T
-    return covc, cov[nb:, nb:], lin, cond
+    return covc, cov[nb:, nb:], lin, cov_nl, cond
 
 
 def _probe_readings(x, prob: _Problem, order, poses, temps):
@@ -413,7 +415,7 @@ def _fit(ds, cal, info, mode, sigma_acc, sigma_mag, sigma_pose_deg, fix_dip, see
     dof = max(1, J.shape[0] - J.shape[1])
     s2 = float((res.fun ** 2).sum()) / dof
     try:
-        cov_c, cov_th, lin, cond = _cov_24(x, prob, chosen, J, s2, w)
+        cov_c, cov_th, lin, cov_nl, cond = _cov_24(x, prob, chosen, J, s2, w)
     except CalibrationError as e:
         if mode == "on":
             raise CalibrationError(f"joint --temperature on: {e}")
@@ -421,7 +423,6 @@ def _fit(ds, cal, info, mode, sigma_acc, sigma_mag, sigma_pose_deg, fix_dip, see
         return cal, info
     Ma, ca, Mm, cm, qa, qm, dip, th = prob.unpack(x, chosen)
     if lin is not None:
-        lin, cov_nl = lin
         # the nonlinear model the report's linear-model bias is computed from:
         # this fit's, not joint's without the terms (whose q took up part of
         # the temperature effects)
