@@ -201,13 +201,27 @@ def fit_components(R, labels, Jpose=None, X=None, start_sigma=None, floor=None,
     else:
         v0 = np.full(m, 0.5)
     v0 = np.maximum(v0, (floor / scale) ** 2)
-    th0 = np.log(np.concatenate([v0, np.full(n_q, 1e-4), np.full(n_p, 0.05)]))
     lo = np.concatenate([np.log((floor / scale) ** 2), np.full(n_q, np.log(1e-14)), np.full(n_p, np.log(1e-10))])
     hi = np.concatenate([np.full(m, np.log(100.0)), np.full(n_q, np.log(100.0)), np.full(n_p, np.log(100.0))])
-    th0 = np.clip(th0, lo, hi)
-    res = optimize.minimize(nll, th0, jac=True, method="L-BFGS-B", bounds=list(zip(lo, hi)),
-                            options={"maxiter": 500})
-    th = res.x if np.isfinite(res.fun) and res.fun <= nll(th0)[0] else th0
+    # several starts: in log-variances a component started near zero barely moves (its gradient is
+    # proportional to it), and the pose error and the per-channel cluster effect can trade places; the
+    # best likelihood wins.  A "moderate" start puts a tenth of each channel's variance into the component.
+    jq = np.mean(Jcs ** 2, axis=(0, 1)) if n_q else np.zeros(0)
+    q_mod = 0.1 / np.maximum(jq, 1e-300)
+    starts = [(np.full(n_q, 1e-4), np.full(n_p, 0.05)), (q_mod, np.full(n_p, 1e-3)),
+              (np.full(n_q, 1e-6), np.full(n_p, 0.1)), (q_mod, np.full(n_p, 0.1))]
+    if not n_q or not n_p:
+        starts = starts[:2]
+    best = None
+    for q0, p0 in starts:
+        th0 = np.clip(np.log(np.concatenate([v0, q0, p0])), lo, hi)
+        f0 = nll(th0)[0]
+        res = optimize.minimize(nll, th0, jac=True, method="L-BFGS-B", bounds=list(zip(lo, hi)),
+                                options={"maxiter": 500})
+        th, f = (res.x, res.fun) if np.isfinite(res.fun) and res.fun <= f0 else (th0, f0)
+        if best is None or f < best[1]:
+            best = (th, f)
+    th = best[0]
     v, q, p = unpack(th)
     comps = NoiseComponents(channels=list(channels) if channels is not None else [f"c{i}" for i in range(m)],
                             sigma=np.sqrt(v) * scale,
