@@ -194,7 +194,7 @@ def test_welleng_loads_the_written_tool_model(calibration, tmp_path, capsys):
 # ---------------------------------------------------- CLI and formats
 
 def test_trajectory_reads_csv_json_las_and_appended_survey_outputs(tmp_path, capsys):
-    from inclino.formats.survey_log import SURVEY_COLS, write_las
+    from inclino.formats.survey_log import SURVEY_COLS
 
     md = np.arange(0, 301, 30.0)
     inc = np.clip(md / 10, 0, 25)
@@ -258,9 +258,9 @@ def test_trajectory_bad_input(tmp_path, capsys):
         rc, out, err = run(capsys, *argv)
         assert rc == 2 and msg in err and err.count("\n") == 1 and "Traceback" not in err, (argv, err)
     for body, msg in (("md_m,inc_deg\n0,1\n", "missing column azi_deg"),
-                      ("md_m,inc_deg,azi_deg\n0,1,2\n30,1,2\n20,1,2\n", "increase"),
-                      ("md_m,inc_deg,azi_deg\n0,x,2\n", "not a number"),
-                      ("md_m,inc_deg,azi_deg\n0,200,2\n", "0-180")):
+                      ("md_m,inc_deg,azi_deg\n0,1,2\n30,1,2\n20,1,2\n", "row 3 (MD 20 m): measured depth decreases"),
+                      ("md_m,inc_deg,azi_deg\n0,1,2\n30,x,2\n", "row 2 (MD 30 m): inc_deg 'x' is not a number"),
+                      ("md_m,inc_deg,azi_deg\n0,1,2\n9.5,200,2\n", "row 2 (MD 9.5 m): inclination 200")):
         p.write_text(body)
         rc, out, err = run(capsys, "trajectory", p, "--declination", 1, "-o", o)
         assert rc == 2 and msg in err, err

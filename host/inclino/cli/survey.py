@@ -68,28 +68,43 @@ def _cal_dip(cal) -> float:
 
 
 def _cmd_reffield(args) -> int:
+    if not args.port and (args.baud is not None or args.timeout is not None):
+        raise DataError("--baud and --timeout set the link of --port: give --port P (or leave them out)")
     rf = _reference(args)
     if args.output:
         from inclino.survey.wellpath import _write
 
         _write(args.output, rf.to_json() + "\n")
+    stored = None
     if args.port:
         from inclino.survey import qcref
 
         with _open_link(args) as link:
-            qcref.write_probe(link, rf)
+            stored = qcref.write_probe(link, rf)
     if args.json:
-        print(rf.to_json())
+        d = json.loads(rf.to_json())
+        if stored is not None:
+            from inclino.survey import qcref
+
+            d["probe_qc_reference"] = {"port": args.port, "read_back": qcref.readable(stored)}
+        print(json.dumps(d))
     else:
         for k, v in rf.header().items():
             print(f"{k:16s} {v}")
+        if stored is not None:
+            from inclino.survey import qcref
+
+            print(f"probe QC reference on {args.port}, written and read back: {qcref.text(stored)}")
     return 0
 
 
 def _open_link(args):
-    from inclino.link.serial_link import ProbeLink
+    from inclino.link.serial_link import ProbeLink, check_link_options
 
-    return ProbeLink(args.port, baud=args.baud, timeout=args.timeout)
+    baud = 115200 if args.baud is None else args.baud
+    timeout = 1.0 if args.timeout is None else args.timeout
+    check_link_options(baud, timeout)
+    return ProbeLink(args.port, baud=baud, timeout=timeout)
 
 
 def _cmd_toolmodel(args) -> int:
@@ -206,9 +221,10 @@ def add_parser(sub) -> None:
     p = sub.add_parser("reffield", help="reference field of a survey: declination, dip, total field, gravity, grid")
     _add_reference(p)
     p.add_argument("-o", "--output", help="write the reference field as JSON (stored with the run)")
-    p.add_argument("--port", help="also write it to the probe as its QC reference (QCREF_WRITE)")
-    p.add_argument("--baud", type=int, default=115200)
-    p.add_argument("--timeout", type=float, default=1.0)
+    p.add_argument("--port", help="also write it to the probe as its QC reference (QCREF_WRITE), read it back "
+                                  "and print it")
+    p.add_argument("--baud", type=int, help="with --port: baud rate (default 115200)")
+    p.add_argument("--timeout", type=float, help="with --port: seconds to wait for an answer (default 1)")
     p.add_argument("--json", action="store_true")
     p.set_defaults(func=_cmd_reffield)
 

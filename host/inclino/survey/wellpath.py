@@ -56,6 +56,27 @@ def _num(v, what, where):
     return x
 
 
+def _where(path, i, md=None):
+    """'FILE: row N (MD x m)': the place of a station in an input file."""
+    return f"{path}: row {i + 1}" + (f" (MD {md:g} m)" if md is not None and math.isfinite(md) else "")
+
+
+def run_direction(md, path: str = "survey") -> str:
+    """'in-run' (measured depth increasing down the file), 'out-run'
+    (decreasing: the probe pulled out of the hole) or 'station' (one depth);
+    DataError naming the row and depth where a file turns."""
+    d = np.diff(np.asarray(md, float))
+    up, down = np.flatnonzero(d > 0), np.flatnonzero(d < 0)
+    if len(up) and len(down):
+        first = min(up[0], down[0])
+        turn = int(max(up[0], down[0]))  # the first step against the file's direction
+        what = "increases" if first == down[0] else "decreases"
+        raise DataError(f"{_where(path, turn + 1, float(md[turn + 1]))}: measured depth {what} against the run's "
+                        f"direction (from {md[turn]:g} m): a file is an in-run (depth increasing) or an out-run "
+                        "(decreasing), not both; split it")
+    return "out-run" if len(down) else "in-run" if len(up) else "station"
+
+
 def _rows_to_survey(rows: list[dict], path: str, meta: dict) -> Survey:
     if not rows:
         raise DataError(f"{path}: no survey stations")
@@ -67,11 +88,14 @@ def _rows_to_survey(rows: list[dict], path: str, meta: dict) -> Survey:
     if missing:
         raise DataError(f"{path}: missing column {', '.join(missing)} (a survey listing needs md_m, inc_deg, azi_deg)")
     md, inc, azi = [], [], []
-    extra = {k: [] for k in ("gt_g", "bt_nT", "dip_deg", "flags", "qc")}
+    extra = {k: [] for k in ("gt_g", "bt_nT", "dip_deg", "flags", "qc", "utc_s")}
     for i, r in enumerate(rows):
-        where = f"{path}: station {i + 1}"
-        md.append(_num(r.get(mdk), "md_m", where))
+        m = _num(r.get(mdk), "md_m", _where(path, i))
+        where = _where(path, i, m)
+        md.append(m)
         inc.append(_num(r.get("inc_deg"), "inc_deg", where))
+        if not 0.0 <= inc[-1] <= 180.0:
+            raise DataError(f"{where}: inclination {inc[-1]:g} deg is outside 0-180")
         azi.append(_num(r.get(azk), azk, where))
         for k in extra:
             v = r.get(k)
@@ -86,12 +110,17 @@ def _rows_to_survey(rows: list[dict], path: str, meta: dict) -> Survey:
                     raise DataError(f"{where}: {k} {v!r} is not a number")
             extra[k].append(x)
     md, inc, azi = np.array(md), np.array(inc), np.array(azi)
-    if np.any(inc < 0) or np.any(inc > 180):
-        raise DataError(f"{path}: inclination outside 0-180 deg")
-    if np.any(np.diff(md) < 0):
-        i = int(np.argmax(np.diff(md) < 0)) + 2
-        raise DataError(f"{path}: measured depth must increase from station to station (station {i})")
-    return _merge_repeats(Survey(md, inc, np.mod(azi, 360.0), {k: np.array(v) for k, v in extra.items()}, meta))
+    meta = {**meta, "run": run_direction(md, path), "file": path}
+    order = np.argsort(md, kind="stable")  # an out-run reads bottom up: the path is computed top down
+    ex = {k: np.array(v)[order] for k, v in extra.items()}
+    utc = ex.pop("utc_s")
+    from inclino.formats.survey_log import parse_utc
+
+    if np.any(np.isfinite(utc)) and meta.get("start_utc"):
+        ex["utc"] = parse_utc(meta["start_utc"], path) + utc  # POSIX seconds, UTC
+    elif all(isinstance(r.get("utc"), str) for r in rows):  # JSON lines: each reading's time in ISO 8601
+        ex["utc"] = np.array([parse_utc(r["utc"], _where(path, i)) for i, r in enumerate(rows)])[order]
+    return _merge_repeats(Survey(md[order], inc[order], np.mod(azi[order], 360.0), ex, meta))
 
 
 def _merge_repeats(sv: Survey) -> Survey:
@@ -129,7 +158,10 @@ def concat(surveys: list) -> Survey:
     extra = {k: np.concatenate([s.extra.get(k, np.full(len(s), np.nan)) for s in surveys])[order] for k in keys}
     meta = {}
     for s in surveys:
-        meta.update(s.meta)
+        meta.update({k: v for k, v in s.meta.items() if k not in ("run", "file")})
+    runs = sorted({s.meta.get("run", "") for s in surveys} - {"", "station"})
+    meta["run"] = runs[0] if len(runs) == 1 else "in-run and out-run" if runs else "stations"
+    meta["file"] = ", ".join(s.meta.get("file", "?") for s in surveys)
     return _merge_repeats(Survey(md[order], np.concatenate([s.inc_deg for s in surveys])[order],
                                  np.concatenate([s.azi_mag_deg for s in surveys])[order], extra, meta))
 
@@ -166,7 +198,9 @@ def _csv_rows(text: str, path: str):
 
 
 def _read_json(text: str, path: str) -> Survey:
-    return _rows_to_survey(_json_rows(text, path), path, {})
+    rows = _json_rows(text, path)
+    probe = rows[0].get("probe") if rows else None
+    return _rows_to_survey(rows, path, {k: str(v) for k, v in probe.items()} if isinstance(probe, dict) else {})
 
 
 def _json_rows(text: str, path: str) -> list:
@@ -187,34 +221,36 @@ LAS_CURVES = {"INC": "inc_deg", "AZI": "azi_deg", "AZIM": "azi_deg", "GTOT": "gt
               "DIP": "dip_deg", "FLAGS": "flags", "QC": "qc"}
 
 
-def _read_las(text: str, path: str) -> Survey:
-    import lasio
+LAS_META = {"PSERIAL": "probe_serial", "PRODUCT": "product", "FWVER": "firmware", "CALSLOT": "calibration_slot",
+            "CALSEQ": "calibration_sequence", "CALCRC": "calibration_crc", "TSTART": "start_utc"}
 
-    try:
-        las = lasio.read(io.StringIO(text))
-    except Exception as e:  # lasio raises many kinds for a malformed file
-        raise DataError(f"{path}: not a readable LAS file ({e})")
+
+def _read_las(text: str, path: str) -> Survey:
+    from inclino.formats import las as lasfmt
+
+    las = lasfmt.read(text, path)
     curves = {c.mnemonic.upper(): c for c in las.curves}
     md = None
-    for m in ("MD", "DEPT", "DEPTH"):
+    for m in ("DEPT", "DEPTH", "MD"):
         if m in curves:
             c = curves[m]
-            unit = (c.unit or "").strip().lower()
-            if unit in ("s", "ms"):
-                continue
-            md = np.asarray(c.data, float) * (FT if unit in ("ft", "f", "feet") else 1.0)
+            md = np.asarray(c.data, float) * lasfmt.depth_factor(c.unit, f"{path}: curve {c.mnemonic}")
             break
     if md is None:
-        raise DataError(f"{path}: no measured-depth curve (MD or DEPT in m or ft)")
+        raise DataError(f"{path}: no measured-depth curve (DEPT, DEPTH or MD)")
     n = len(md)
     rows = [{"md_m": md[i]} for i in range(n)]
-    for m, key in LAS_CURVES.items():
+    for m, key in {**LAS_CURVES, "TIME": "utc_s"}.items():
         if m in curves:
             d = np.asarray(curves[m].data, float)
             for i in range(n):
                 if not math.isnan(d[i]):
                     rows[i].setdefault(key, d[i])
-    return _rows_to_survey(rows, path, {})
+    meta = {}
+    for p in las.params:
+        if p.mnemonic.upper() in LAS_META and str(p.value).strip():
+            meta[LAS_META[p.mnemonic.upper()]] = str(p.value).strip()
+    return _rows_to_survey(rows, path, meta)
 
 
 def _text(path: str) -> str:
