@@ -23,8 +23,10 @@ from inclino import progress as _progress
 from inclino.errors import DataError
 
 META_KEYS = ("field_nT", "dip_deg", "declination_deg", "gravity_g", "lat_deg", "lon_deg",
-             "date", "probe_serial", "source", "samples_averaged")
-NUMERIC_META = {"field_nT", "dip_deg", "declination_deg", "gravity_g", "lat_deg", "lon_deg", "samples_averaged"}
+             "date", "probe_serial", "source", "samples_averaged", "start_utc", "firmware", "calibration_crc",
+             "calibration_sequence", "reading_noise_acc_g", "reading_noise_mag_nT", "readings_per_row")
+NUMERIC_META = {"field_nT", "dip_deg", "declination_deg", "gravity_g", "lat_deg", "lon_deg", "samples_averaged",
+                "reading_noise_acc_g", "reading_noise_mag_nT", "readings_per_row"}
 SENSOR_COLS = ("ax_g", "ay_g", "az_g", "mx_nT", "my_nT", "mz_nT")
 POSE_COLS = ("inc_deg", "azi_deg", "tf_deg")
 OPTIONAL_COLS = ("t_s", "temp_c") + POSE_COLS
@@ -68,7 +70,10 @@ RULES = {
     "azi_deg": (-360.0, 360.0),
     "tf_deg": (-360.0, 360.0),
     "temp_c": (-100.0, 300.0),
-    "samples_averaged": (1.0, 1_000_000.0),  # sensor samples per reading (acquire --average)
+    "samples_averaged": (1.0, 1_000_000.0),  # sensor samples per reading (the probe's, recorded by acquire)
+    "reading_noise_acc_g": (0.0, 1.0),  # 1 sigma of one reading per axis, measured by acquire at each pose
+    "reading_noise_mag_nT": (0.0, 100_000.0),
+    "readings_per_row": (1.0, 1000.0),  # readings averaged into one row (acquire's stability window)
 }
 MAX_LINE_CHARS = 1 << 20  # a longer line is refused (bounded reading of a hostile file)
 CHUNK_ROWS = 1 << 16
