@@ -227,13 +227,18 @@ def test_trajectory_reads_csv_json_las_and_appended_survey_outputs(tmp_path, cap
         assert rc == 0, err
         assert "QC: 10 pass, 1 fail" in text
         rows = wp.read_trajectory(str(o))
-        assert rows[3]["qc"] == "FAIL B" and float(rows[3]["dbt_nT"]) == pytest.approx(600)
+        assert rows[3]["qc"].startswith("FAIL B (checked ") and rows[0]["qc"].startswith("PASS ")
+        assert float(rows[3]["dbt_nT"]) == pytest.approx(600)
         outs.append([[float(r[k]) for k in ("tvd_m", "north_m", "east_m")] for r in rows])
         assert "# declination_deg=3.0000" in o.read_text()
     assert np.allclose(outs[0], outs[1]) and np.allclose(outs[0], outs[2], atol=2e-6)  # 6-decimal outputs
     # the LAS export: trajectory curves and the reference field
     las2 = lasio.read(str(tmp_path / "s.csv.las"))
-    assert {"MD", "TVD", "NORTH", "EAST", "AZIT", "DLS"} <= {c.mnemonic for c in las2.curves}
+    assert las2.curves[0].mnemonic == "DEPT" and las2.curves[0].unit == "M"  # LAS 2.0: the index is DEPT
+    assert {"TVD", "NORTH", "EAST", "AZIT", "DLS"} <= {c.mnemonic for c in las2.curves}
+    from lasconform import conformance
+
+    assert conformance((tmp_path / "s.csv.las").read_text()) == []
     assert float(las2.params["MAGDEC"].value) == pytest.approx(3.0)
     # a trajectory listing reads back as a survey (azi_mag_deg)
     sv = wp.read_survey(str(tmp_path / "s.csv.out.csv"))
@@ -276,7 +281,10 @@ def test_compare_passes_repeat_surveys_and_flags_a_bad_station(calibration, tmp_
     inc = np.clip((md - 60) / 10, 0, 50)
     azi = np.full_like(md, RNG.uniform(0, 360))
     # in-run and out-run: each station's noise as the model says (a quarter of the expected spread)
-    si, sa = cmp._expected(tm, inc, azi, 60, 50000, False)
+    from inclino.survey import models
+
+    si, sa = cmp.expected(models.ErrorModel(models.load(str(tp))), md, inc, azi,
+                          geomag.ReferenceField(0.0, 60.0, 50000.0, 1.0))
     a, b = tmp_path / "in.csv", tmp_path / "out.csv"
     write_csv(a, md, inc, azi)
     inc2 = inc + 0.25 * si * RNG.standard_normal(len(md))
