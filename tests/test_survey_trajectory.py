@@ -12,7 +12,7 @@ import numpy as np
 import pytest
 
 from inclino import cli
-from inclino.survey import compare as cmp, errormodel as em, geomag, wellpath as wp
+from inclino.survey import compare as cmp, errormodel as em, geomag, models, wellpath as wp
 from inclino.benchmarks import survey as sb
 
 RNG = np.random.default_rng()
@@ -182,7 +182,7 @@ def test_welleng_loads_the_written_tool_model(calibration, tmp_path, capsys):
     h = SurveyHeader(latitude=52, longitude=4, b_total=50000, dip=60, declination=0.0, convergence=0.0,
                      azi_reference="magnetic")
     s = Survey(md=md, inc=inc, azi=azi, header=h, error_model=d)  # the file as it is
-    tm = em.ToolModel.load(str(out))
+    tm = models.load_toolmodel(str(out))
     pi, pa = em.station_sigma(tm, inc, azi, 60, 50000)
     dia = s.err.errors.cov_DIAs
     ok = inc > 1

@@ -261,8 +261,8 @@ def _cmd_trajectory(args) -> int:
            + (f", grid convergence {rf.convergence_deg:.3f} deg (EPSG {rf.grid_epsg})" if rf.grid_epsg else "")
            + f"; end TVD {e['tvd_m']:.2f} m, N {e['north_m']:.2f} m, E {e['east_m']:.2f} m"
            + (f"; 1-sigma ellipse {e['ell_major_m']:.3f} x {e['ell_minor_m']:.3f} m" if model is not None else "")
-           + (" (" + ", ".join(f"{k} part {v['ell_major_m']:.3f} x {v['ell_minor_m']:.3f} m" for k, v in
-                               parts.items()) + ")" if len(parts) > 1 else "")
+           + (" (" + ", ".join(f"{model.part_label(k)} {v['ell_major_m']:.3f} x {v['ell_minor_m']:.3f} m"
+                               for k, v in parts.items()) + ")" if len(parts) > 1 else "")
            + f"; QC: {s['stations'] - s['qc_fail']} pass, {s['qc_fail']} fail (checked: "
            + "; ".join(s.get("qc_checked", [])) + ")")
     print(msg, file=stream)

@@ -165,17 +165,6 @@ class ToolModel:
         d["inclino"] = asdict(self)
         _write(path, json.dumps(d, indent=2) + "\n")
 
-    @staticmethod
-    def load(path: str) -> "ToolModel":
-        """The ToolModel inclino toolmodel recorded in a file (its fit and
-        sources; the file's terms, as models.load reads them, are the model)."""
-        from inclino.survey import models
-
-        b = models.load(path)
-        if b.inclino is None:
-            raise DataError(f"{path}: not a tool model written by inclino toolmodel")
-        return b.inclino
-
 
 def reference_terms(which: str) -> list:
     if which not in REF_TERMS:

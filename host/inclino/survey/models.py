@@ -217,6 +217,15 @@ def load(spec: str) -> Base:
     return base
 
 
+def load_toolmodel(path: str):
+    """The errormodel.ToolModel inclino toolmodel recorded in a file (its fit
+    and sources; the file's terms, as `load` reads them, are the model)."""
+    b = load(path)
+    if b.inclino is None:
+        raise DataError(f"{path}: not a tool model written by inclino toolmodel")
+    return b.inclino
+
+
 @dataclass
 class ErrorModel:
     """What `trajectory --uncertainty` and `compare` propagate."""
@@ -266,6 +275,16 @@ class ErrorModel:
                     f = family(n)
                     c[f] = c.get(f, 0) + 1
         return c
+
+    def part_label(self, part: str) -> str:
+        """How the summary names a part."""
+        if part == "base":
+            replaced = self.probe is not None or (self.reference is not None and self.has_reference_terms())
+            return f"{self.base.label}'s other terms" if replaced else self.base.label
+        if part == "probe":
+            return "the probe's terms" + (f" and reference terms {self.reference}" if self.reference and
+                                          self.base is None else "")
+        return f"reference terms {self.reference}"
 
     def has_reference_terms(self) -> bool:
         names = self.base.term_names() if self.base is not None else []
