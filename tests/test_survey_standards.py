@@ -103,3 +103,18 @@ def test_las_depth_units_are_read_or_refused(tmp_path, capsys):
         p.write_text(good.replace("DEPT.M ", f"DEPT.{unit} "))
         rc, out, err = run(capsys, "trajectory", p, "--declination", 0, "-o", tmp_path / "o.csv")
         assert rc == 2 and ("depth unit" in err or "no unit" in err), (unit, err)
+
+
+def test_the_field_example_files_read_back(root):
+    """docs/survey-field: the in-run and out-run the emulated probe logged
+    read as such, their LAS files conform, and they carry who and when."""
+    from lasconform import conformance
+
+    d = root / "docs" / "survey-field"
+    for name, run in (("inrun", "in-run"), ("outrun", "out-run")):
+        for ext in ("csv", "las"):
+            sv = wp.read_survey(str(d / f"{name}.{ext}"))
+            assert sv.meta["run"] == run and len(sv) == 21 and "utc" in sv.extra
+            assert sv.meta["probe_serial"] and sv.meta["calibration_crc"]
+        assert conformance((d / f"{name}.las").read_text()) == []
+    assert conformance((d / "trajectory-complete.las").read_text()) == []
