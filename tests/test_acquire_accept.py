@@ -341,13 +341,27 @@ def test_accept_without_calibration_fails_its_verdict(emu, capsys):
     assert d["stats"]["before"] == d["stats"]["after"]
 
 
-def test_bench_calibration_cli(monkeypatch, capsys):
+@pytest.mark.heavy
+@pytest.mark.xdist_group("calibration_bench")
+@pytest.mark.parametrize("passed", [True, False])
+def test_bench_calibration_cli(monkeypatch, capsys, small_calibration_bench, passed):
+    """`inclino bench calibration` is a shell over bench_calibration (the
+    library's result, computed once for the suite at its smallest size and
+    checked in test_calib_cli): the JSON printed is the result's, the text
+    names every method, the exit status follows the targets."""
+    import dataclasses
+
     from inclino.benchmarks import calibration as bench
 
-    small = bench.bench_calibration
-    monkeypatch.setattr(bench, "bench_calibration", lambda: small(n_runs=2, include_peer=False, temperature_probes=1))
+    r = dataclasses.replace(small_calibration_bench, passed=passed)
+    monkeypatch.setattr(bench, "bench_calibration", lambda: r)
     rc, out, _ = run(capsys, "bench", "calibration", "--json")
     d = json.loads(out)
-    assert rc == (0 if d["passed"] else 1)
-    assert d["runs"] == 2 and {"joint", "ren2014", "li2021", "guo2009"} <= set(d["methods"])
+    assert rc == (0 if passed else 1) and d == json.loads(r.to_json())
+    assert d["runs"] == 1 and {"joint", "ren2014", "li2021", "guo2009"} <= set(d["methods"])
     assert d["cramer_rao"]["azi_rms_deg"] > 0 and "ratio_to_cramer_rao" in d["met"]
+    rc, out, _ = run(capsys, "bench", "calibration")
+    assert rc == (0 if passed else 1)
+    for k in ("joint", "ren2014", "li2021", "guo2009", "Cramer-Rao floor"):
+        assert k in out, out
+    assert ("targets met" in out) == passed

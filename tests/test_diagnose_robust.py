@@ -16,7 +16,7 @@ import pytest
 from inclino.cli import main
 from inclino.formats.dataset import write_raw
 from inclino.benchmarks import diagnose as bench
-from inclino.diagnose import core, plans, selection
+from inclino.diagnose import core, plans, robust, selection
 from inclino.diagnose.analysis import diagnose
 
 SEED0 = int.from_bytes(os.urandom(4), "little") % 1_000_000_000
@@ -172,3 +172,33 @@ def test_best_subset_finds_the_true_terms_and_the_drop_test_asks_for_them():
     assert set(s.chosen) == {"t1", "t4"}
     assert all(t["asked_for_by_the_data"] for t in s.drop_tests)
     assert s.nested_group_rms is not None and s.nested_loo_rms < float(np.sqrt(np.mean(pb.y ** 2)))
+
+
+# --------------------------------------------------------------------------
+# clean data: the outlier rule's false alarms
+def test_clean_data_give_no_outliers_at_the_stated_rate():
+    """The outlier rule on Gaussian rows drawn from the noise model itself
+    (sensor noise plus the turntable readout error through a pose Jacobian):
+    robust.py states that a dataset has any row flagged with probability
+    about OUTLIER_P (the Bonferroni bound: each row at OUTLIER_P / n).  Over
+    N clean datasets the count of datasets with a flagged row is then
+    Binomial(N, OUTLIER_P); the allowed count is its 1e-6 upper quantile.
+    A rule without the division by n flags a row in 1 - (1 - 1e-3)^n of the
+    datasets (a quarter at n = 288, the oven plan's rows)."""
+    from scipy import stats
+
+    from inclino.diagnose import noise as dnoise
+
+    rng = np.random.default_rng(20260)
+    n_sets, n = 400, 288
+    J = rng.normal(size=(n, 6, 3)) * np.array([2e-3] * 3 + [800.0] * 3)[None, :, None]  # per degree
+    nz = dnoise.Noise(np.array([1.5e-4] * 3 + [5.0] * 3), np.array([0.05, 0.05, 0.05]))
+    L = np.linalg.cholesky(nz.row_cov(J))
+    flagged_sets = flagged_rows = 0
+    for _ in range(n_sets):
+        R = (L @ rng.standard_normal((n, 6, 1)))[..., 0]
+        out, z = robust.outlier_mask(R, nz, J)
+        flagged_sets += bool(out.any())
+        flagged_rows += int(out.sum())
+    allowed = int(stats.binom.isf(1e-6, n_sets, robust.OUTLIER_P))
+    assert flagged_sets <= allowed, (flagged_sets, flagged_rows, allowed)

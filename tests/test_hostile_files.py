@@ -15,6 +15,7 @@ import numpy as np
 import pytest
 
 from inclino import calib, cli
+from inclino.errors import DataError
 from inclino.formats import dataset, safeio
 from inclino.engines import reference
 from inclino.formats.calfile import Calibration
@@ -314,6 +315,37 @@ def test_header_out_of_range_is_refused(tmp_path, capsys, meta, needle, command)
     assert cli.main(argv) == 2
     _one_error(capsys.readouterr().err, f"h.csv:1: {needle}")
     assert not (tmp_path / "o").exists()
+
+
+@pytest.mark.parametrize("twice", ["mx_nT", "az_g", "inc_deg", "note"])
+@pytest.mark.parametrize("command", ["attitude", "calibrate", "diagnose"])
+def test_repeated_column_name_is_refused(tmp_path, capsys, twice, command):
+    """A header naming a column twice (a sensor, a pose or an ignored
+    column) is refused whichever copy holds the right values: the first
+    copy holds the true values here and the second a constant, so reading
+    either one silently would give a plausible result."""
+    inc, azi, tf, g, b = _rows(30, seed=4)
+    lines = _csv_text(inc, azi, tf, g, b).splitlines()
+    hdr = next(i for i, l in enumerate(lines) if not l.startswith("#"))
+    extra = [twice] if twice in HEADER.split(",") else [twice, twice]  # an ignored column: there twice
+    lines[hdr] += "," + ",".join(extra)
+    for i in range(hdr + 1, len(lines)):
+        lines[i] += ",0.5" * len(extra)
+    p = tmp_path / "twice.csv"
+    p.write_text("\n".join(lines) + "\n")
+    with pytest.raises(DataError, match=f"twice.csv:{hdr + 1}: column name repeated in the header: "
+                                                f"{twice}$"):
+        dataset.read_raw(str(p))
+    argv = {"attitude": ["attitude", str(p), "-o", str(tmp_path / "o")], "diagnose": ["diagnose", str(p)],
+            "calibrate": ["calibrate", str(p), "-o", str(tmp_path / "o")]}[command]
+    assert cli.main(argv) == 2
+    _one_error(capsys.readouterr().err, f"twice.csv:{hdr + 1}: column name repeated in the header: {twice}")
+    assert not (tmp_path / "o").exists()
+    # the same file with the second copy renamed is read: the refusal is the repeat's
+    lines[hdr] = lines[hdr].rsplit(",", 1)[0] + ",spare"
+    q = tmp_path / "once.csv"
+    q.write_text("\n".join(lines) + "\n")
+    assert len(dataset.read_raw(str(q))) == 30
 
 
 @pytest.mark.parametrize("method", list(calib.METHODS))

@@ -174,8 +174,9 @@ def _read(lines: _Lines, path: str, bar) -> RawDataset:
     missing = [c for c in SENSOR_COLS if c not in header]
     if missing:
         raise DataError(f"{path}:{header_line}: missing column(s) {', '.join(missing)}")
-    if len(set(header)) != len(header):
-        raise DataError(f"{path}:{header_line}: a column name appears twice")
+    twice = sorted({h for h in header if header.count(h) > 1})
+    if twice:  # never read one copy and drop the other: which one the file meant is unknown
+        raise DataError(f"{path}:{header_line}: column name repeated in the header: {', '.join(twice)}")
     ncells = len(header)
     wanted = [c for c in COLUMN_ORDER if c in header]
     idx = [header.index(c) for c in wanted]
