@@ -38,10 +38,28 @@ def _skip_reason(longrepr) -> str:
     return str(longrepr)
 
 
+@pytest.fixture
+def rng(request):
+    """A NumPy generator for a test's random draws, with its seed recorded:
+    INCLINO_TEST_SEED when set (to replay a failure), else drawn now.  A
+    failing test's report names the seed, and every test's seed is among
+    its user properties (--junitxml)."""
+    import numpy as np
+
+    env = os.environ.get("INCLINO_TEST_SEED", "").strip()
+    seed = int(env) if env else int.from_bytes(os.urandom(4), "little")
+    request.node.inclino_seed = seed
+    request.node.user_properties.append(("seed", seed))
+    return np.random.default_rng(seed)
+
+
 @pytest.hookimpl(hookwrapper=True)
 def pytest_runtest_makereport(item, call):
     outcome = yield
     rep = outcome.get_result()
+    seed = getattr(item, "inclino_seed", None)
+    if seed is not None and rep.failed:
+        rep.sections.append(("random draws", f"seed {seed}: replay with INCLINO_TEST_SEED={seed}"))
     if IN_CI and rep.skipped and not hasattr(rep, "wasxfail"):
         rep.outcome = "failed"
         rep.longrepr = f"skipped under CI (CI is set: every tool is installed there): {_skip_reason(rep.longrepr)}"
