@@ -122,6 +122,43 @@ def test_declination_and_grid_convergence_signs():
     assert math.hypot(dn, de) == pytest.approx(100 * rf.scale_factor, rel=1e-9)
 
 
+@pytest.mark.parametrize("lat", [0.0, 45.0, 60.0])
+@pytest.mark.parametrize("dlon", [0.0, 2.5, -3.0])
+def test_grid_scale_factor_is_the_transverse_mercator_one(lat, dlon):
+    """UTM's point scale factor against the transverse Mercator series on
+    the WGS 84 ellipsoid (Snyder 1987, Map Projections -- A Working Manual,
+    USGS PP 1395, eq. 8-11): k = k0 [1 + (1 + C) A^2/2 + (5 - 4T + 42C +
+    13C^2 - 28e'^2) A^4/24 + (61 - 148T + 16T^2) A^6/720], A = dlon cos(lat),
+    T = tan^2(lat), C = e'^2 cos^2(lat); k0 = 0.9996 on the central meridian."""
+    k = geomag.grid(lat, 3.0 + dlon, 32631)[1]
+    ep2 = 0.00669437999014 / (1 - 0.00669437999014)
+    phi = math.radians(lat)
+    A, T, C = math.radians(dlon) * math.cos(phi), math.tan(phi) ** 2, ep2 * math.cos(phi) ** 2
+    want = 0.9996 * (1 + (1 + C) * A ** 2 / 2 + (5 - 4 * T + 42 * C + 13 * C ** 2 - 28 * ep2) * A ** 4 / 24
+                     + (61 - 148 * T + 16 * T ** 2) * A ** 6 / 720)
+    assert k == pytest.approx(want, abs=1e-8)
+
+
+def test_reference_field_options_and_their_limits():
+    """What a user gives in place of the model (in-field referencing) is
+    used as given and named in the source; out-of-range values are refused
+    with DataError (exit 2 at the CLI), the range's ends accepted."""
+    from inclino.errors import DataError
+
+    rf = geomag.reference(lat=57.0, lon=2.0, date="2026-03-01", total=48123.0, gravity=1.0012)
+    assert rf.total_nT == 48123.0 and rf.gravity_g == 1.0012
+    assert rf.source.startswith("user (total); else IGRF (ppigrf ")
+    assert geomag.reference(declination=1.5, dip=-70.0).source == "user (declination, dip)"
+    for kw in ({"total": 0.0}, {"total": -48000.0}, {"gravity": 0.3}, {"gravity": 1.6}, {"dip": 90.5}):
+        with pytest.raises(DataError):
+            geomag.reference(declination=1.0, **kw)
+    for lat, lon in ((89.9, 179.5), (-89.9, -180.0), (0.0, 180.0)):  # (ppigrf gives NaN at a pole itself)
+        assert geomag.main_field(lat, lon, "2026-03-01")[2] > 20000
+    for lat, lon in ((90.5, 0.0), (0.0, 180.5), (-91.0, 3.0)):
+        with pytest.raises(DataError, match="outside"):
+            geomag.main_field(lat, lon, "2026-03-01")
+
+
 def test_probe_azimuth_is_magnetic_in_the_emulated_field():
     """The probe reports magnetic azimuth: a tool pointing at true azimuth A
     in a field of declination d reads A - d (reference model, section 3)."""
