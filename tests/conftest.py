@@ -74,29 +74,40 @@ def pytest_make_collect_report(collector):
         rep.longrepr = f"skipped under CI (CI is set: every tool is installed there): {_skip_reason(rep.longrepr)}"
 
 
-def _shares_a_module_fixture(item) -> bool:
-    info = getattr(item, "_fixtureinfo", None)
-    if info is None:
-        return False
-    for defs in info.name2fixturedefs.values():
-        for fd in defs:
-            if fd.scope in ("module", "class", "package") and fd.baseid.startswith(item.nodeid.split("::")[0]):
-                return True
-    return False
+# Tests in different modules that read one session fixture: one scheduling unit
+# (one worker builds the fixture). Keyed by the test function's name.
+SHARED_SESSION_FIXTURE = {
+    "test_bench_calibration_small": "small_calibration_bench",  # test_calib_cli
+    "test_bench_calibration_cli": "small_calibration_bench",  # test_acquire_accept
+}
 
 
-@pytest.hookimpl(tryfirst=True)
+def pytest_xdist_make_scheduler(config, log):
+    """make test (-n auto --dist loadscope --no-loadscope-reorder): every
+    module is one unit of work, so that a module-scoped fixture (an emulated
+    chamber run, a firmware built for the S08 simulator) is built once, on
+    one worker, and the tests that share a session fixture across modules
+    (SHARED_SESSION_FIXTURE) are one unit too.  Units are handed out in the
+    collection's order, which puts the modules with `heavy` tests first
+    (pytest_collection_modifyitems below), so that no long module starts
+    last and leaves the other core idle at the end."""
+    if config.getvalue("dist") != "loadscope":
+        return None
+    from xdist.scheduler import LoadScopeScheduling
+
+    class ModuleScheduling(LoadScopeScheduling):
+        def _split_scope(self, nodeid: str) -> str:
+            module, _, rest = nodeid.partition("::")
+            name = rest.split("[", 1)[0].split("::")[-1]
+            return SHARED_SESSION_FIXTURE.get(name, module)
+
+    return ModuleScheduling(config, log)
+
+
+@pytest.hookimpl(trylast=True)
 def pytest_collection_modifyitems(config, items):
-    """Spread over the cores (make test: pytest-xdist, --dist loadgroup):
-    the tests of a module that share a module-scoped fixture (an emulated
-    run, a built firmware) go to one worker, so that the fixture is built
-    once; every other test is scheduled on its own.  Tests marked `heavy`
-    are handed out first (after pytest-randomly's shuffle, which stays in
-    force among them and among the rest), so that no long test starts last
-    and leaves one core idle at the end."""
-    for item in items:
-        if _shares_a_module_fixture(item) and item.get_closest_marker("xdist_group") is None:
-            item.add_marker(pytest.mark.xdist_group(item.nodeid.split("::")[0]))
+    """`heavy` tests first (a stable sort after pytest-randomly's shuffle,
+    which stays in force among them and among the rest)."""
     items.sort(key=lambda it: it.get_closest_marker("heavy") is None)
 
 
@@ -115,8 +126,8 @@ def root():
 def small_calibration_bench():
     """`inclino bench calibration` at its smallest (one seeded run per method,
     one temperature probe, no peer): about 30 CPU seconds, read by the
-    library's test (test_calib_cli) and the command's (test_acquire_accept).
-    Both carry xdist_group("calibration_bench"): built once, on one worker."""
+    library's test (test_calib_cli) and the command's (test_acquire_accept),
+    scheduled together (SHARED_SESSION_FIXTURE): built once, on one worker."""
     from inclino.benchmarks import calibration as bench
 
     return bench.bench_calibration(n_runs=1, include_peer=False, temperature_probes=1)

@@ -350,7 +350,6 @@ def test_accept_without_calibration_fails_its_verdict(emu, capsys):
 
 
 @pytest.mark.heavy
-@pytest.mark.xdist_group("calibration_bench")
 @pytest.mark.parametrize("passed", [True, False])
 def test_bench_calibration_cli(monkeypatch, capsys, small_calibration_bench, passed):
     """`inclino bench calibration` is a shell over bench_calibration (the

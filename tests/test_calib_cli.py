@@ -124,7 +124,6 @@ def test_calfile_rejects_a_stale_fixed_image(data, capsys):
 
 
 @pytest.mark.heavy
-@pytest.mark.xdist_group("calibration_bench")
 def test_bench_calibration_small(small_calibration_bench):
     d = json.loads(small_calibration_bench.to_json())  # bench_calibration(n_runs=1, no peer, 1 temperature probe)
     m = d["methods"]
