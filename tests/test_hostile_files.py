@@ -500,3 +500,66 @@ def test_trajectory_output_that_is_a_survey_input_is_refused(tmp_path, capsys):
         assert cli.main(["trajectory", str(src), *argv]) == 2
         _one_error(capsys.readouterr().err, "it is the input file")
     assert src.read_bytes() == before and not (tmp_path / "t.csv").exists()
+
+
+# ------------------------------------------------------------ the rules' edges
+def _rule_cases():
+    for key, (lo, hi) in dataset.RULES.items():
+        step = max(abs(lo), abs(hi), 1.0) * 1e-6
+        for value, ok in ((lo, True), (hi, True), (lo - step, False), (hi + step, False)):
+            if key in dataset.NUMERIC_META:
+                yield pytest.param("header", key, value, ok, id=f"header-{key}-{value:g}")
+            if key in dataset.OPTIONAL_COLS:
+                yield pytest.param("column", key, value, ok, id=f"column-{key}-{value:g}")
+
+
+@pytest.mark.parametrize("where,key,value,ok", list(_rule_cases()))
+def test_every_rule_is_inclusive_at_both_ends(tmp_path, where, key, value, ok):
+    """dataset.RULES at their ends, for every header key and column that
+    has one: both ends read, a millionth beyond either refused with the
+    line and the rule named (check_meta holds an option to the same rule)."""
+    inc, azi, tf, g, b = _rows(3, seed=11)
+    text = _csv_text(inc, azi, tf, g, b, meta="")
+    lines = text.splitlines()
+    if where == "header":
+        lines.insert(0, f"# {key}={value!r}")
+    else:
+        col = lines[0].split(",").index(key)
+        cells = lines[2].split(",")
+        cells[col] = repr(value)
+        lines[2] = ",".join(cells)
+    p = tmp_path / "edge.csv"
+    p.write_text("\n".join(lines) + "\n")
+    if ok:
+        ds = dataset.read_raw(str(p))
+        assert (ds.meta[key] if where == "header" else ds.columns[key][1]) == value
+        dataset.check_meta(key, value, "--option")
+    else:
+        line = 1 if where == "header" else 3
+        with pytest.raises(DataError, match=f"edge.csv:{line}: .*out of range: {key} must be"):
+            dataset.read_raw(str(p))
+        with pytest.raises(DataError, match=f"--option .* out of range: {key}"):
+            dataset.check_meta(key, value, "--option")
+
+
+def test_line_length_limit_is_exact(tmp_path):
+    """A line of MAX_LINE_CHARS characters (newline included) is read, one
+    more is refused naming the line."""
+    inc, azi, tf, g, b = _rows(3, seed=12)
+    body = _csv_text(inc, azi, tf, g, b, meta="")
+    n = dataset.MAX_LINE_CHARS
+    ok, long = tmp_path / "ok.csv", tmp_path / "long.csv"
+    ok.write_text("#" + "x" * (n - 2) + "\n" + body)
+    long.write_text("#" + "x" * (n - 1) + "\n" + body)
+    assert len(dataset.read_raw(str(ok))) == 3
+    with pytest.raises(DataError, match=f"long.csv:1: line longer than {n} characters"):
+        dataset.read_raw(str(long))
+
+
+def test_thinning_note_names_the_rows_kept():
+    ds = dataset.RawDataset({c: np.arange(100.0) for c in dataset.SENSOR_COLS})
+    assert len(dataset.RawDataset()) == 0
+    sub, note = dataset.thin(ds, 30)
+    assert len(sub) == 25 and list(sub.columns["ax_g"][:3]) == [0.0, 4.0, 8.0]
+    assert note.startswith("the run has 100 rows; one row in 4 was used (rows 0, 4, 8, ...: 25 rows; the limit is 30")
+    assert dataset.thin(ds, 100) == (ds, None)
