@@ -206,3 +206,39 @@ def test_clean_data_give_no_outliers_at_the_stated_rate():
         flagged_rows += int(out.sum())
     allowed = int(stats.binom.isf(1e-6, n_sets, robust.OUTLIER_P))
     assert flagged_sets <= allowed, (flagged_sets, flagged_rows, allowed)
+
+
+def test_mad_start_is_the_standard_deviation_and_ignores_spikes():
+    """robust.mad_sigma: 1.4826 x the median absolute deviation about each
+    column's median is the standard deviation of Gaussian data (the factor
+    is 1 / Phi^-1(3/4)), whatever the column's offset and scale, and 1 %
+    of rows spiked by 1000 sigma move it by less than 2 %."""
+    rng = np.random.default_rng(7)
+    sd = np.array([1.5e-4, 2e-4, 1e-4, 5.0, 3.0, 8.0])
+    R = rng.normal(size=(20000, 6)) * sd + np.array([0.3, -1.0, 1e-3, 48000.0, -200.0, 7.0])
+    assert 1.4826 == pytest.approx(1 / __import__("scipy").stats.norm.ppf(0.75), rel=1e-4)
+    np.testing.assert_allclose(robust.mad_sigma(R), sd, rtol=0.03)
+    spiked = R.copy()
+    spiked[rng.choice(len(R), 200, replace=False)] += 1000 * sd
+    np.testing.assert_allclose(robust.mad_sigma(spiked), robust.mad_sigma(R), rtol=0.02)
+
+
+def test_outlier_mask_keeps_only_the_worst_fifth():
+    """More than MAX_OUTLIER_FRACTION of the rows beyond the threshold is
+    heavy-tailed noise, not outliers: only the worst fifth (by whitened
+    norm) are set aside, the rest kept."""
+    from inclino.diagnose import noise as dnoise
+
+    rng = np.random.default_rng(8)
+    n = 200
+    J = np.zeros((n, 6, 3))
+    nz = dnoise.Noise(np.ones(6), np.full(3, 1e-6))
+    R = rng.normal(size=(n, 6))
+    big = rng.choice(n, 80, replace=False)  # 40 % far out, each by a different amount
+    R[big] += np.linspace(20, 400, 80)[:, None]
+    out, z = robust.outlier_mask(R, nz, J)
+    k = int(robust.MAX_OUTLIER_FRACTION * n)
+    assert out.sum() == k
+    worst = big[np.argsort(np.linspace(20, 400, 80))[::-1][:k]]
+    assert set(np.flatnonzero(out)) == set(worst)
+    np.testing.assert_allclose(z, R, atol=1e-9)  # z: each channel in its own sigma (1 here)

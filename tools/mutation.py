@@ -72,6 +72,17 @@ def _session(work: str, module: str, tests: str, sample: int, seed: int, timeout
     return cfg, db
 
 
+def _again(work: str, module: str):
+    """The kept session of a module with its survivors' results cleared."""
+    import sqlite3
+
+    name = module.replace("/", "_").replace(".py", "")
+    cfg, db = os.path.join(work, f"{name}.toml"), os.path.join(work, f"{name}.sqlite")
+    with sqlite3.connect(db) as c:
+        c.execute("DELETE FROM work_results WHERE test_outcome = 'SURVIVED'")
+    return cfg, db
+
+
 def _report(module: str, db: str) -> dict:
     from cosmic_ray.work_db import WorkDB, use_db
     from cosmic_ray.work_item import TestOutcome, WorkerOutcome
@@ -103,17 +114,28 @@ def main(argv=None) -> int:
     ap.add_argument("--timeout", type=float, default=300.0, help="seconds per mutant before it counts as killed")
     ap.add_argument("--out", default="mutation.json")
     ap.add_argument("--keep", help="work in this folder and keep it (default: a temporary one)")
+    ap.add_argument("--again", action="store_true",
+                    help="with --keep: run the survivors of the kept sessions again against the checkout's "
+                         "current tests (the same mutants: the after figure)")
     a = ap.parse_args(argv)
+    if a.again and not a.keep:
+        ap.error("--again needs --keep (the folder of the earlier run)")
     work = a.keep or tempfile.mkdtemp(prefix="inclino-mutation-")
     src = os.path.join(work, "src")
     if not os.path.isdir(src):
         _clone(src)
+    elif a.again:
+        shutil.copytree(os.path.join(ROOT, "tests"), os.path.join(src, "tests"), dirs_exist_ok=True,
+                        ignore=shutil.ignore_patterns("__pycache__"))
     env = dict(os.environ, PYTHONPATH=os.pathsep.join([os.path.join(src, "host"), os.path.join(src, "emulator")]))
     os.environ.update(env)
     results = []
     try:
         for module in a.modules:
-            cfg, db = _session(work, module, MODULES[module], a.sample, a.seed, a.timeout)
+            if a.again:
+                cfg, db = _again(work, module)
+            else:
+                cfg, db = _session(work, module, MODULES[module], a.sample, a.seed, a.timeout)
             subprocess.run(["cosmic-ray", "exec", cfg, db], check=True, cwd=src, env=env)
             r = _report(module, db)
             results.append(r)
