@@ -82,6 +82,7 @@ SHARED_SESSION_FIXTURE = {
 }
 
 
+@pytest.hookimpl(optionalhook=True)  # a hook of pytest-xdist: unknown (and unused) under -p no:xdist
 def pytest_xdist_make_scheduler(config, log):
     """make test (-n auto --dist loadscope --no-loadscope-reorder): every
     module is one unit of work, so that a module-scoped fixture (an emulated
