@@ -506,7 +506,12 @@ def test_trajectory_output_that_is_a_survey_input_is_refused(tmp_path, capsys):
 def _rule_cases():
     for key, (lo, hi) in dataset.RULES.items():
         step = max(abs(lo), abs(hi), 1.0) * 1e-6
-        for value, ok in ((lo, True), (hi, True), (lo - step, False), (hi + step, False)):
+        edges = [(hi, True), (hi + step, False)]
+        if key in dataset.POSITIVE:  # > 0: the lower bound in RULES is a placeholder
+            edges += [(1e-9, True), (0.0, False), (-1e-9, False)]
+        else:
+            edges += [(lo, True), (lo - step, False)]
+        for value, ok in edges:
             if key in dataset.NUMERIC_META:
                 yield pytest.param("header", key, value, ok, id=f"header-{key}-{value:g}")
             if key in dataset.OPTIONAL_COLS:
@@ -517,7 +522,8 @@ def _rule_cases():
 def test_every_rule_is_inclusive_at_both_ends(tmp_path, where, key, value, ok):
     """dataset.RULES at their ends, for every header key and column that
     has one: both ends read, a millionth beyond either refused with the
-    line and the rule named (check_meta holds an option to the same rule)."""
+    line and the rule named (a quantity that must be > 0: any positive
+    value read, 0 refused); check_meta holds an option to the same rule."""
     inc, azi, tf, g, b = _rows(3, seed=11)
     text = _csv_text(inc, azi, tf, g, b, meta="")
     lines = text.splitlines()
