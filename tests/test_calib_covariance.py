@@ -26,9 +26,14 @@ def test_components_recovered_from_clustered_residuals():
     R = u[lab] + rng.normal(size=(len(lab), m)) * np.sqrt(v)
     c = covariance.fit_components(R, lab, Jpose=Jc[lab])
     assert np.allclose(c.sigma, np.sqrt(v), rtol=0.1)
-    assert abs(c.sigma_pose_deg[0] - 0.5) < 0.15 and abs(c.sigma_pose_deg[2] - 1.5) < 0.2
-    assert c.sigma_pose_deg[1] < 0.25
-    assert abs(c.sigma_cluster[2] - 1.0) < 0.25 and np.all(c.sigma_cluster[[0, 1, 3]] < 0.35)
+    assert abs(c.sigma_pose_deg[0] - 0.5) < 0.2 and abs(c.sigma_pose_deg[2] - 1.5) < 0.3  # 1 of 200 draws beyond 0.25
+    assert c.sigma_pose_deg[1] < 0.3
+    # the cluster effect's variance is read off the cluster means, whose own sensor noise v/n_c hides it:
+    # within 4 of its sampling errors (~ sqrt(2/k) times the means' variance)
+    pose_var = np.einsum("cik,k,cik->ci", Jc, q, Jc)
+    se = np.sqrt(2.0 / k) * np.mean(v[None, :] / n_c[:, None] + p[None, :] + pose_var, axis=0)
+    assert np.all(np.abs(c.sigma_cluster ** 2 - p) < 4 * se), (c.sigma_cluster, se)
+    assert abs(c.sigma_cluster[2] - 1.0) < 0.3
     assert c.n_clusters == k and c.rows_per_cluster_max == n_c.max()
 
 
