@@ -140,7 +140,7 @@ def main(argv=None) -> int:
             r = _report(module, db)
             results.append(r)
             print(f"{module}: {r['killed']} of {r['run']} mutants killed ({100 * (r['kill_ratio'] or 0):.0f} %; "
-                  f"{r['mutants']} in all, a sample of {a.sample or r['mutants']} run)", flush=True)
+                  f"{r['mutants']} in all, a seeded sample run)", flush=True)
             for s in r["survivors"]:
                 print(f"  survived: line {s['line']} {s['operator']}\n    " + s["diff"].replace("\n", "\n    "))
             with open(a.out, "w") as f:
