@@ -78,6 +78,11 @@ def _again(work: str, module: str):
 
     name = module.replace("/", "_").replace(".py", "")
     cfg, db = os.path.join(work, f"{name}.toml"), os.path.join(work, f"{name}.sqlite")
+    src = os.path.join(work, "src")
+    base = subprocess.run(f"{PYTEST} {MODULES[module]}", shell=True, cwd=src, capture_output=True, text=True)
+    if base.returncode != 0:  # the current tests against the kept sources: every mutant would count as killed
+        raise SystemExit(f"{module}: the current tests fail on the kept (unmutated) sources; start a new "
+                         f"session:\n{base.stdout[-3000:]}")
     with sqlite3.connect(db) as c:
         c.execute("DELETE FROM work_results WHERE test_outcome = 'SURVIVED'")
     return cfg, db
