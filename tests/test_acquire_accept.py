@@ -78,14 +78,14 @@ def test_acquire_calibrate_download_verify_accept(emu, capsys, tmp_path):
     azi_fit, inc_fit = grid_errors(cal)
     assert azi_fit < azi_id / 10 and inc_fit < inc_id / 10
 
-    rc, out, err = run(capsys, "download", "--port", emu.path, cal_json, "--quiet")
+    rc, out, err = run(capsys, "download", "--port", emu.path, "--cal", cal_json, "--quiet")
     assert rc == 0, err
-    rc, out, err = run(capsys, "verify", "--port", emu.path, cal_json)
+    rc, out, err = run(capsys, "verify", "--port", emu.path, "--cal", cal_json)
     assert rc == 0 and "correction: pass" in out
 
     save = tmp_path / "accept.json"
     rc, out, err = run(capsys, "accept", "--port", emu.path, "--bench", bench_of(emu), "--grid", "li2021",
-                       "--save", save, "--quiet")
+                       "-o", save, "--quiet")
     assert rc == 0, out + err
     assert "Li 2021 Table 5 layout" in out and "verdict: PASS" in out
     r = AcceptResult.load(str(save))
@@ -112,7 +112,7 @@ def test_accept_downloads_the_file_ren_grid_and_plots(emu, capsys, tmp_path):
     assert rc in (0, 1) and cal_json.exists(), out + err
     save, plots = tmp_path / "ren.json", tmp_path / "plots"
     rc, out, err = run(capsys, "accept", "--port", emu.path, "--bench", bench_of(emu), "--cal", cal_json,
-                       "--grid", "ren2014", "--circles", "--save", save, "--plot", plots, "--quiet")
+                       "--grid", "ren2014", "--circles", "-o", save, "--plot", plots, "--quiet")
     assert rc in (0, 1), err
     r = AcceptResult.load(str(save))
     assert r.download is not None and r.before.startswith("as found: identity")

@@ -241,8 +241,8 @@ def test_hostile_calfile_is_one_line_for_every_command(tmp_path, capsys, command
     port = str(tmp_path / "no-such-port")  # the file must be refused before the port is opened
     for name, p in _cal_variants(tmp_path, good).items():
         argv = {"attitude": ["attitude", str(src), "--cal", str(p), "-o", str(tmp_path / "o.csv")],
-                "download": ["download", "--port", port, str(p)],
-                "verify": ["verify", "--port", port, str(p)],
+                "download": ["download", "--port", port, "--cal", str(p)],
+                "verify": ["verify", "--port", port, "--cal", str(p)],
                 "accept": ["accept", "--port", port, "--cal", str(p)]}[command]
         rc = cli.main(argv)
         err = capsys.readouterr().err

@@ -127,7 +127,7 @@ def test_accept_temperatures_cli_on_the_emulator(chamber_calibrated, tmp_path, c
     try:
         rc = cli.main(["accept", "--port", emu.path, "--bench", f"127.0.0.1:{emu.control_port}", "--cal", path,
                        "--temperatures", "-5,25,55", "--toolfaces", "0", "--vertical-takings", "3", "--force", "--quiet",
-                       "--json", "--save", str(save)])
+                       "--json", "-o", str(save)])
     finally:
         emu.stop()
     out, err = capsys.readouterr()

@@ -553,7 +553,7 @@ def fit(ds: RawDataset, use_poses: bool | None = None, sigma_acc: float = SIGMA_
     default field.DEFAULT_MOUNT_TOLERANCE_DEG); accept_mount_tolerance
     records that the user accepts it (the verdict then judges the fit's own
     uncertainty; see calib/field.py and report._verdict).
-    The temperature terms (--temperature) are added by calib.fit
+    The temperature terms (--temperature-terms) are added by calib.fit
     (inclino.calib.thermal)."""
     w = common.world_of(ds)
     if use_poses is None:

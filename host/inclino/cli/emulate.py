@@ -2,6 +2,7 @@
 interrupted (the emulator package, imported when the command runs)."""
 from __future__ import annotations
 
+from inclino.cli.options import command
 from inclino.errors import DataError, InclinoError
 
 
@@ -52,13 +53,19 @@ def _cmd_emulate(args) -> int:
 
 
 def add_emulate(sub):
-    em = sub.add_parser("emulate", help="run the emulated probe on a pseudo-terminal until interrupted")
-    em.add_argument("--scenario", default="typical", help="built-in scenario name or TOML file (default typical)")
+    em = command(sub, "emulate", "run the emulated probe on a pseudo-terminal until interrupted",
+                 "Run the emulated probe (the firmware's C against register-level models of the ADIS16210 and "
+                 "the fluxgate's ADC, on a turntable in the Earth's field) on a pseudo-terminal until "
+                 "interrupted, and print its port and the control channel's address: every probe command works "
+                 "on that port as on a real probe, and acquire/accept --bench turn its turntable.",
+                 ["inclino emulate", "inclino emulate --unthrottled --link /tmp/probe --scenario ideal --seed 3"])
+    em.add_argument("--scenario", default="typical",
+                    help="built-in scenario name or TOML file (default %(default)s)")
     em.add_argument("--seed", type=int, default=None, help="override the scenario's seed")
-    em.add_argument("--baud", type=int, default=115200)
-    em.add_argument("--link", help="also make this path a symlink to the pseudo-terminal")
+    em.add_argument("--baud", type=int, default=115200, help="serial speed, bits/s (default %(default)s)")
+    em.add_argument("--link", metavar="PATH", help="also make this path a symlink to the pseudo-terminal")
     em.add_argument("--control", type=int, default=0,
-                    help="control channel TCP port on 127.0.0.1 (default: any free port)")
+                    help="control channel TCP port on 127.0.0.1 (default %(default)s: any free port)")
     em.add_argument("--unthrottled", action="store_true", help="run faster than real time")
     em.add_argument("--tempco-draw", type=int, metavar="N", default=None,
                     help="draw this probe's tempcos from the scenario's spread with seed N (docs/emulator.md)")

@@ -45,7 +45,7 @@ every survey equal to the stored calibration's prediction.
 --circles adds Li 2021's horizontal-circle check (Fig. 2): body X, Y and Z
 up in turn, turned about the vertical every 30 deg.  --plot DIR writes the
 error maps (errors_<grid>.png) and, with --circles, circles.png
-(inclino.procedures.plots); --save FILE keeps everything as JSON for `inclino plot`.
+(inclino.procedures.plots); -o FILE keeps everything as JSON for `inclino plot`.
 """
 from __future__ import annotations
 

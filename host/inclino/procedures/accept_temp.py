@@ -6,11 +6,11 @@ At each set point in turn:
 
 1. the chamber is set (the emulator's control channel `chamber` on a bench,
    the person otherwise; a ramp at --ramp-rate degC/min) and the probe is
-   read at the grid's first position every --interval minutes until its own
+   read at the grid's first position every --interval-min minutes until its own
    temperature has settled (acquire_temp.settled: within --soak-band of the
-   set point, changed by at most --soak-tol over --soak-window minutes; a
+   set point, changed by at most --soak-tol over --soak-window-min minutes; a
    bench also waits for its air to reach the set point and gives up after
-   --max-soak minutes, exit 4);
+   --max-soak-min minutes, exit 4);
 2. the grid (accept's li2021 or ren2014, or --inclinations/--azimuths) is
    taken with the usual stability check (--reads readings that agree).
 
@@ -278,7 +278,7 @@ def accept_temperatures(link, table, cal, setpoints=(-5.0, 25.0, 55.0), grid: st
     parse_setpoints(",".join(repr(t) for t in sps), reference_c)
     if not temp_engine.has_terms(cal):
         raise DataError("the calibration has no temperature terms (fit them: inclino calibrate --method joint "
-                        "--temperature on, from a chamber run)")
+                        "--temperature-terms on, from a chamber run)")
     if not (math.isfinite(target_ratio) and target_ratio >= 1.0):
         raise DataError("--target-ratio must be a number >= 1")
     check_takings(takings, vertical_takings, significance_z)

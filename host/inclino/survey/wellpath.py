@@ -30,7 +30,7 @@ from inclino.errors import DataError
 from inclino.survey.geomag import ReferenceField
 from inclino.formats.jsonout import dumps
 
-HOST_QC = (("G", "gt_g", "gravity_g"), ("B", "bt_nT", "total_nT"), ("dip", "dip_deg", "dip_deg"))
+HOST_QC = (("G", "gt_g", "gravity_g"), ("B", "bt_nT", "field_nT"), ("dip", "dip_deg", "dip_deg"))
 FT = 0.3048
 
 
@@ -157,7 +157,7 @@ def _csv_rows(text: str, path: str):
     rows = []
     for n, rec in enumerate(rdr, start=2):
         rec = [c.strip() for c in rec]
-        if rec == header:  # several `inclino survey --format csv` outputs appended
+        if rec == header:  # several `inclino survey --csv` outputs appended
             continue
         if len(rec) != len(header):
             raise DataError(f"{path}: row {n} has {len(rec)} fields, the header {len(header)}")
@@ -286,7 +286,7 @@ def _welleng_survey(md, inc, azi_mag, rf: ReferenceField, error_model=None, fall
     from welleng.survey import Survey as WSurvey, SurveyHeader
 
     dip = rf.dip_deg if math.isfinite(rf.dip_deg) else fallback[0]
-    bt = rf.total_nT if math.isfinite(rf.total_nT) else fallback[1]
+    bt = rf.field_nT if math.isfinite(rf.field_nT) else fallback[1]
     grav = rf.gravity_g if math.isfinite(rf.gravity_g) else 1.0
     h = SurveyHeader(latitude=rf.lat_deg if rf.lat_deg is not None else 0.0,
                      longitude=rf.lon_deg if rf.lon_deg is not None else 0.0, altitude=rf.alt_m,
