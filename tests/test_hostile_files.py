@@ -432,6 +432,57 @@ def test_progress_bar_on_a_terminal(monkeypatch):
     assert b"calibrate: joint fit of run.csv: 00:00 elapsed" in seen and b"\n" not in seen.replace(b"\r\n", b"")
 
 
+def _screen(data: str) -> list[str]:
+    """The lines a terminal shows for this output (carriage return: back to
+    the line's start, overwriting; newline: the next line)."""
+    lines, cur, col = [], [], 0
+    for ch in data:
+        if ch == "\r":
+            col = 0
+        elif ch == "\n":
+            lines.append("".join(cur).rstrip())
+            cur, col = [], 0
+        else:
+            if col < len(cur):
+                cur[col] = ch
+            else:
+                cur.append(ch)
+            col += 1
+    return lines + ["".join(cur).rstrip()]
+
+
+@pytest.mark.parametrize("work", ["phase", "bar"])
+def test_a_result_after_progress_starts_on_a_clean_line(monkeypatch, work):
+    """The status a phase or a bar showed on the terminal is gone when the
+    result is printed: `cal.json: ...` never runs into `00:05 elapsed`."""
+    import pty
+    import time
+
+    from inclino import progress
+
+    monkeypatch.setenv("INCLINO_PROGRESS_PERIOD", "0.05")
+    master, slave = pty.openpty()
+    term = os.fdopen(slave, "w")
+    try:
+        if work == "phase":
+            with progress.phase("calibrate: joint fit of run.csv", stream=term):
+                time.sleep(0.4)
+        else:
+            with progress.bar(4, "reading run.csv", unit=" rows", stream=term) as b:
+                for _ in range(4):
+                    time.sleep(0.06)
+                    b.update(1)
+        term.write("cal.json: joint calibration\n")
+        term.flush()
+        seen = os.read(master, 1 << 16).decode()
+    finally:
+        term.close()
+        os.close(master)
+    assert "elapsed" in seen or "reading run.csv" in seen  # the status was shown
+    screen = _screen(seen)
+    assert "cal.json: joint calibration" in screen, screen
+
+
 def test_new_output_beside_a_vanished_input_is_written(tmp_path):
     out = tmp_path / "new.csv"
     safeio.write_output(str(out), "x\n", inputs=[str(tmp_path / "gone.csv"), None, "-"])
