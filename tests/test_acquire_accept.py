@@ -351,3 +351,14 @@ def test_bench_calibration_cli(monkeypatch, capsys):
     assert rc == (0 if d["passed"] else 1)
     assert d["runs"] == 2 and {"joint", "ren2014", "li2021", "guo2009"} <= set(d["methods"])
     assert d["cramer_rao"]["azi_rms_deg"] > 0 and "ratio_to_cramer_rao" in d["met"]
+
+
+@pytest.mark.parametrize("before, after, says", [
+    (0.8, 0.05, "16.0x smaller"), (0.25, 0.5, "2.0x larger"), (0.5, 0.51, "about the same"),
+    (0.5, 0.5, "about the same"), (None, 0.5, "-"), (0.3, 0.0, "down to 0"),
+])
+def test_accept_words_a_change_the_right_way_round(before, after, says):
+    """An error that grew is `larger`, never `0.5x smaller`."""
+    from inclino.procedures.accept import change
+
+    assert change(before, after) == says

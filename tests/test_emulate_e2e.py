@@ -128,6 +128,14 @@ def test_inclino_emulate_cli_runs_and_stops(tmp_path):
     assert proc.returncode == 0, err
     assert "stopped" in out and "Traceback" not in err
     assert not os.path.exists(lp)
+    # the next commands to try: the technician's loop on this probe, each one a command line inclino takes
+    from inclino.cli import build_parser
+
+    tries = [x.strip().split() for x in out.splitlines() if x.startswith("  inclino ")]
+    assert [t[1] for t in tries] == ["identify", "survey", "acquire", "calibrate", "download", "verify", "accept"]
+    for t in tries:
+        a = build_parser().parse_args(t[1:])
+        assert getattr(a, "port", lp) == lp and getattr(a, "bench", None) in (None, f"127.0.0.1:{port}")
 
 
 def test_wrong_port_is_one_clear_error(tmp_path):

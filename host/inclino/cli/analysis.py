@@ -76,7 +76,7 @@ def calibrate_main(args) -> int:
     else:
         print(f"{args.output}: {cal.method} calibration of probe {cal.probe_serial or '(no serial)'} "
               f"from {args.input} (sha256 {cal.data['sha256'][:16]}...)")
-        print(rep.summary())
+        print(rep.summary(verdict=False))
         if cal.temperature:
             from inclino.calib.thermal import summary
 
@@ -84,6 +84,7 @@ def calibrate_main(args) -> int:
         for note in rep.notes:
             if note.startswith(dataset.THIN_NOTE):
                 print(f"  note: {note}")
+        print(rep.conclusion())
     return 0 if rep.passed else 1
 
 
@@ -232,10 +233,10 @@ def diagnose_main(args) -> int:
     if args.json:
         print(r.to_json())
     else:
-        print(f"{args.input}:")
-        print(r.summary())
         for w in written:
             print(f"wrote {w}")
+        print(f"{args.input}:")
+        print(r.summary())  # its last line: the conclusion
     return 0
 
 

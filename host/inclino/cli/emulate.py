@@ -32,6 +32,7 @@ def _cmd_emulate(args) -> int:
     print(f"inclino emulator: probe on {emu.path}" + (f" (link {args.link})" if args.link else ""), flush=True)
     if emu.control_port is not None:
         print(f"control channel: 127.0.0.1:{emu.control_port} (JSON lines, docs/emulator.md)", flush=True)
+    print(next_steps(args.link or emu.path, emu.control_port), flush=True)
     stop = {"now": False}
 
     def _term(*_):
@@ -50,6 +51,21 @@ def _cmd_emulate(args) -> int:
         raise InclinoError(str(e))
     print("inclino emulator: stopped", flush=True)
     return 0
+
+
+def next_steps(port: str, control: int | None) -> str:
+    """The technician's loop on this probe, to try in another terminal
+    (README, "Five minutes on the emulator")."""
+    bench = f" --bench 127.0.0.1:{control}" if control is not None else ""
+    lines = [f"inclino identify --port {port}",
+             f"inclino survey --port {port} --count 3"]
+    if bench:
+        lines += [f"inclino acquire --port {port}{bench} --procedure twelve-position -o run.csv",
+                  "inclino calibrate run.csv -o cal.json",
+                  f"inclino download --port {port} --cal cal.json",
+                  f"inclino verify --port {port} --cal cal.json",
+                  f"inclino accept --port {port}{bench}"]
+    return "next, in another terminal (Ctrl-C here stops the probe):\n" + "\n".join("  " + x for x in lines)
 
 
 def add_emulate(sub):

@@ -23,17 +23,43 @@ def _link(args):
     return ProbeLink(args.port, baud=args.baud, timeout=args.timeout)
 
 
+# IDENTIFY's self-test status word (firmware/src/app_main.c, docs/protocol.md): a bit a failed part
+SELFTEST_BITS = (
+    (0x0001, "accelerometer failed to start (ADIS16210 absent, wrong PROD_ID, no answer, self-test stuck or its "
+             "configuration did not read back)"),
+    (0x0002, "fluxgate ADC failed to start (ADS1256 absent, wrong ID, no DRDY or its configuration did not read "
+             "back)"),
+    (0x0004, "accelerometer self-test failed (ADIS16210 DIAG_STAT[5] after the automatic self-test, MSC_CTRL[10])"),
+)
+
+
+def selftest_text(word: int) -> list[str]:
+    """What each set bit of the self-test status means; 0: every part passed."""
+    if word == 0:
+        return ["pass: the ADIS16210 passed its automatic self-test and the ADS1256 answered and self-calibrated"]
+    out = [text for bit, text in SELFTEST_BITS if word & bit]
+    rest = word & ~sum(bit for bit, _ in SELFTEST_BITS)
+    if rest:
+        out.append(f"bits 0x{rest:04X}: not defined by this host's protocol version")
+    return out
+
+
 def _cmd_identify(args) -> int:
     with _link(args) as link:
         i = link.identify()
     slot = {0: "A", 1: "B", 0xFF: "none (identity)"}.get(i.cal_slot, str(i.cal_slot))
+    meaning = selftest_text(i.selftest)
     d = {"product": i.product, "firmware": ".".join(map(str, i.fw_version)), "protocol": i.proto_version,
          "serial": i.serial, "calibration_slot": slot, "calibration_sequence": i.cal_sequence,
-         "calibration_crc": f"{i.cal_crc:04X}", "selftest": i.selftest}
+         "calibration_crc": f"{i.cal_crc:04X}", "selftest": i.selftest, "selftest_meaning": meaning}
     if args.json:
         print(json.dumps(d, indent=2))
     else:
         for k, v in d.items():
+            if k == "selftest_meaning":
+                continue
+            if k == "selftest":
+                v = f"0x{v:04X}: " + "; ".join(meaning)
             print(f"{k:22s} {v}")
     return 0
 
@@ -170,7 +196,7 @@ def _cmd_verify(args) -> int:
         print(r.to_json())
     else:
         if r.slot == "none":
-            print(f"verify: FAIL: {r.mismatches[0]}")
+            print(f"verdict: FAIL: {r.mismatches[0]}")
             return 1
         print(f"storage: {'pass' if r.storage_ok else 'FAIL'} (slot {r.slot}, sequence {r.sequence}); "
               f"correction: {'pass' if r.correction_ok else 'FAIL'} ({r.checks} surveys checked bit for bit)")
@@ -178,7 +204,19 @@ def _cmd_verify(args) -> int:
             print(f"  {m}")
         if len(r.mismatches) > 10:
             print(f"  ... {len(r.mismatches) - 10} more (--json lists every differing field)")
+        print(verify_conclusion(r))
     return 0 if r.ok else 1
+
+
+def verify_conclusion(r) -> str:
+    """`inclino verify`'s last line: the verdict and what decided it."""
+    bad = sum(1 for m in r.mismatches if m.startswith("survey "))
+    if r.ok:
+        return (f"verdict: PASS: slot {r.slot} holds the file's coefficients and {r.checks} of {r.checks} surveys "
+                "are the file's correction bit for bit")
+    why = ([] if r.storage_ok else [f"slot {r.slot} does not hold the file's coefficients"]) + \
+        ([] if r.correction_ok else [f"{bad or 'some'} of {r.checks} surveys differ from the file's correction"])
+    return "verdict: FAIL: " + "; ".join(why)
 
 
 def add_parser(sub) -> None:
