@@ -32,3 +32,33 @@ def test_every_option_has_its_line_and_every_command_its_row(root):
         for a in sp._actions:
             if a.help != argparse.SUPPRESS and a.option_strings and a.option_strings[0] != "-h":
                 assert f"- `{a.option_strings[0]}`" in section, (name, a.option_strings)
+
+
+def test_the_documents_command_lines_use_todays_spellings(root):
+    """Every `inclino ...` line of a code block in the documents (not a
+    synopsis with [optional] parts) parses, with no deprecation note: the
+    documents teach the current names."""
+    import contextlib
+    import io
+    import shlex
+
+    files = sorted((root / "docs").glob("*.md")) + [root / "README.md", root / "CONTRIBUTING.md"]
+    bad, seen = [], 0
+    for f in files:
+        for block in re.findall(r"```[a-z]*\n(.*?)```", f.read_text(encoding="utf-8"), re.S):
+            for line in block.splitlines():
+                cmd = re.sub(r"\s+#.*$", "", re.sub(r"^\$ ", "", line.strip()))
+                cmd = re.sub(r"\s+>>?\s*\S+$", "", cmd)  # a shell redirection
+                if not cmd.startswith("inclino ") or cmd.startswith("inclino emulator:") or \
+                        any(c in cmd for c in "[]|…") or "..." in cmd:
+                    continue
+                err = io.StringIO()
+                try:
+                    with contextlib.redirect_stderr(err):
+                        build_parser().parse_args(shlex.split(cmd)[1:])
+                except SystemExit:
+                    pass
+                seen += 1
+                if err.getvalue():
+                    bad.append(f"{f.name}: {cmd}: {err.getvalue().strip()}")
+    assert seen >= 20 and not bad, "\n".join(bad)
