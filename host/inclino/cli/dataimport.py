@@ -1,0 +1,53 @@
+"""`inclino import LOG --sensor S.toml -o RUN.csv`: a log of any
+accelerometer/magnetometer into the canonical dataset (docs/dataset.md),
+checked before anything is fitted (inclino.checks).
+
+Exit status: 0 written (warnings, if any, printed); 2 bad input: an
+unreadable log or description, a column that is not there, data that cannot
+be right (wrong units, an unintended reflection): nothing is written then.
+"""
+from __future__ import annotations
+
+import json
+
+
+def import_main(args) -> int:
+    from inclino.formats import dataset, importlog, safeio, sensor
+
+    safeio.check_output(args.output, [args.log, args.sensor])
+    desc = sensor.load(args.sensor) if args.sensor else sensor.default()
+    ds, rep = importlog.import_log(args.log, desc, static=True if args.static else None)
+    dataset.write_raw(args.output, ds, inputs=[args.log, args.sensor])
+    if args.json:
+        print(json.dumps({"output": args.output, **rep.to_dict()}, indent=2))
+    else:
+        print(f"{args.output}: {rep.rows} rows ({'accelerometer and magnetometer' if rep.triads == 'both' else ('accelerometer only' if rep.triads == 'acc' else 'magnetometer only')}) "
+              f"from {args.log} through {desc.name}")
+        for reason, n in rep.dropped.items():
+            print(f"  dropped {n} row(s): {reason}")
+    return 0
+
+
+def add_import(sub):
+    from inclino.cli.options import add_json, add_output, command
+
+    p = command(sub, "import", "a log of any accelerometer/magnetometer into the canonical dataset, "
+                               "through a sensor description (docs/dataset.md)",
+                "Turn a log of any accelerometer and magnetometer (any columns, units and axis map; both triads "
+                "or one) into the canonical raw dataset the other commands read, through a sensor description "
+                "(a TOML file, or a preset citing its data sheet), and check it before anything is fitted: "
+                "wrong units or an undeclared reflection of the axes is refused (exit 2, nothing written). The "
+                "header records the log (path, SHA-256) and the description.",
+                ["inclino import log.csv --sensor mpu9250 -o run.csv",
+                 "inclino import tests/data/real/ck_acc_mag/acc_mag_log.csv "
+                 "--sensor tests/data/real/ck_acc_mag/sensor.toml -o run.csv"])
+    p.add_argument("log", help="the log: delimited text (comma, semicolon, tab or whitespace)")
+    p.add_argument("--sensor", metavar="S.toml",
+                   help="sensor description (a TOML file, or a preset name: adis16210, mpu9250, icm20948, bno055; "
+                        "default: adis16210, the canonical columns as they are)")
+    add_output(p, "canonical dataset to write ('-' for stdout)", metavar="RUN.csv")
+    p.add_argument("--static", action="store_true",
+                   help="declare the run static (step-and-hold: every row at rest), recorded in the header")
+    add_json(p, "print what the import did as one JSON object")
+    p.set_defaults(func=import_main)
+    return p
