@@ -118,6 +118,8 @@ def add_json(p, what: str = "print the result as one JSON object") -> None:
 def add_cal(p, help: str, positional_alias: bool = False, **kw) -> None:
     """--cal CAL.json; `positional_alias`: the command once took it as its
     positional argument, still accepted."""
+    if positional_alias:  # required, checked by the command (require()): argparse's would refuse the old form
+        help = "required: " + help
     p.add_argument("--cal", metavar="CAL.json", help=help, **kw)
     if positional_alias:
         deprecated(p, "cal_file", "--cal CAL.json", dest="cal", metavar="CAL.json")
