@@ -8,8 +8,8 @@ calibrated (`joint`, on the multi-position run of the same probe model),
 the calibration downloaded to the emulated probe, its noise measured with
 12 surveys at rest, the tool model written (`inclino toolmodel`); then the
 control channel moves the probe to each station's true attitude (true
-azimuth; a random toolface per station) and `inclino survey --md M --format
-csv` takes one survey per station (after one discarded while the probe
+azimuth; a random toolface per station) and `inclino survey --md M
+--csv` takes one survey per station (after one discarded while the probe
 settles); `inclino trajectory --lat --lon --date
 --uncertainty --tool-model` computes the path.  The known path is the
 analytic build-and-hold geometry (a circular arc of constant azimuth, then a
@@ -200,7 +200,9 @@ def run_seed(seed: int, workdir: str, cal_path: str, scen_path: str, rng=None, f
 
     cal = Calibration.load(cal_path)
     cov, _ = em.calibration_covariance(cal)
-    tm = em.ToolModel.load(tool)
+    from inclino.survey.models import load_toolmodel
+
+    tm = load_toolmodel(tool)
     e = load_field(scen_path)
     at = inc >= 5.0
     azm = np.full(int(at.sum()), w["azi_true_deg"] - e[2])
@@ -217,9 +219,9 @@ def run_seed(seed: int, workdir: str, cal_path: str, scen_path: str, rng=None, f
 
 
 def _tool_summary(path):
-    from inclino.survey.errormodel import ToolModel
+    from inclino.survey.models import load_toolmodel
 
-    tm = ToolModel.load(path)
+    tm = load_toolmodel(path)
     mc = tm.fit["monte_carlo"]
     return {"noise": tm.noise, "projection_sigma_ratio": [tm.fit["sigma_ratio_min"], tm.fit["sigma_ratio_max"]],
             "mc_inc_ratio": [min(mc["inc_ratio"]), max(mc["inc_ratio"])],
