@@ -26,7 +26,7 @@ CHECK = (-5.0, 25.0, 55.0)
 def chamber_calibrated(tmp_path_factory):
     """(seed, scenario, calibration, CAL.json path) of a probe drawn now,
     calibrated from its emulated chamber run (acquire --procedure
-    temperature, joint --temperature on)."""
+    temperature, joint --temperature-terms on)."""
     seed = int(np.random.default_rng().integers(1 << 20))
     d = tmp_path_factory.mktemp("chamber")
     sc = bench_temp.drawn_probe(seed)

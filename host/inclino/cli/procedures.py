@@ -269,11 +269,11 @@ def _cmd_accept_temperatures(args) -> int:
     grid_points(args.grid, incs, azis, tfs)
     if not args.cal:
         raise DataError("--temperatures needs --cal CAL.json with temperature terms (inclino calibrate --method "
-                        "joint --temperature on)")
+                        "joint --temperature-terms on)")
     cal = Calibration.load(args.cal)
     cal.check()
     if not temp_engine.has_terms(cal):
-        raise DataError(f"{args.cal} has no temperature terms (inclino calibrate --method joint --temperature on, "
+        raise DataError(f"{args.cal} has no temperature terms (inclino calibrate --method joint --temperature-terms on, "
                         "from a chamber run)")
     eng.check(cal)  # exit 3 before the port when the firmware cannot hold the terms
     table = open_table(args)
