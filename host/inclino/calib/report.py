@@ -80,6 +80,18 @@ class FitReport:
     notes: list = field(default_factory=list)
     paper_parameters: dict | None = None
     fit_time_s: float = 0.0
+    closest: dict = field(default_factory=dict)  # the check nearest its limit: what, value, limit
+
+    def conclusion(self) -> str:
+        """The report's last line: the verdict and the figure that decided it
+        (on a pass, the check that came nearest its limit)."""
+        if not self.passed:
+            return "verdict: FAIL: " + "; ".join(self.reasons)
+        c = self.closest
+        if not c:
+            return "verdict: PASS"
+        return (f"verdict: PASS: every check within its limit; the nearest, {c['what']}, "
+                f"{c['value']:.4g} against {c['limit']:g}")
 
     def to_dict(self) -> dict:
         return json_safe(asdict(self))
@@ -92,7 +104,8 @@ class FitReport:
         d = json.loads(text) if isinstance(text, str) else dict(text)
         return FitReport(**d)
 
-    def summary(self) -> str:
+    def summary(self, verdict: bool = True) -> str:
+        """The report as text; `verdict`: ending with conclusion()."""
         r = self.residuals
         lines = [f"method {self.method} ({self.mode}): {self.rows_used} of {self.rows} rows used"
                  + (f", {len(self.outliers)} outlier(s) rejected" if self.outliers else "")]
@@ -131,7 +144,8 @@ class FitReport:
             lines.append(f"  input resolution at {'n = %g samples averaged' % n if n else 'n unknown (taken as 1)'}: "
                          f"azimuth sigma RMS {res['azi_rms_deg']:.4f} deg (max {res['azi_max_deg']:.4f}) over the "
                          f"Li grid, inclination {res['inc_rms_deg']:.5f} deg (the probe's, reported, not judged)")
-        lines.append("  verdict: " + ("pass" if self.passed else "FAIL: " + "; ".join(self.reasons)))
+        if verdict:
+            lines.append("  " + self.conclusion())
         return "\n".join(lines)
 
 
@@ -395,9 +409,14 @@ def reading_noise(ds: RawDataset, residuals: dict) -> dict | None:
 def _verdict(rep: FitReport, info: dict) -> None:
     t = THRESHOLDS
     r, reasons = rep.residuals, []
+    closest = {}
+
     def over(value, key, what):
         if value is not None and np.isfinite(value) and value > t[key]:
             reasons.append(f"{what} {value:.4g} exceeds {t[key]:g}")
+        if value is not None and np.isfinite(value) and t[key] > 0 and \
+                value / t[key] > closest.get("fraction", -1.0):
+            closest.update(what=what, value=float(value), limit=float(t[key]), fraction=float(value / t[key]))
     over(r.get("inc_rms_deg"), "inc_rms_deg", "inclination residual RMS (deg)")
     over(r.get("azi_rms_deg"), "azi_rms_deg", "azimuth residual RMS (deg)")
     over(r.get("acc_norm_rms_mg"), "acc_norm_rms_mg", "|g| residual RMS (mg)")
@@ -433,3 +452,4 @@ def _verdict(rep: FitReport, info: dict) -> None:
                            f"{t['coverage_min_eig']:g})")
     rep.reasons = reasons
     rep.passed = not reasons
+    rep.closest = {k: v for k, v in closest.items() if k != "fraction"}
