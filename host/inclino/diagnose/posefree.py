@@ -255,6 +255,23 @@ class _Model:
             out = out + self._rig_cols(ax) @ np.asarray(v)[4 * j:4 * j + 4]
         return out
 
+    def cand_columns(self, v, theta, key, n) -> np.ndarray:
+        """(k, m, n): the residuals' change per unit of each entry of the
+        candidate, central differences at (v, theta)."""
+        x = self.unpack(v)
+        cur = np.atleast_1d(np.asarray(theta.get(key, np.zeros(n)), float))
+        h = _step(self, key)
+        cols = []
+        for e in range(n):
+            tp, tm = dict(theta), dict(theta)
+            a, b = cur.copy(), cur.copy()
+            a[e] += h
+            b[e] -= h
+            tp[key] = a if n > 1 else float(a[0])
+            tm[key] = b if n > 1 else float(b[0])
+            cols.append((self.residuals(x, tp) - self.residuals(x, tm)) / (2 * h))
+        return np.stack(cols, -1)
+
     # ---- the parameters as one vector
     def pack(self, x):
         out = []
@@ -329,7 +346,18 @@ def _step(model, key):
     return 1.0
 
 
-def diagnose_posefree(ds: RawDataset, alpha: float = DEFAULT_ALPHA, folds: int = DEFAULT_FOLDS) -> Diagnosis:
+def signature_z(ds: RawDataset, key: str, w=None, folds: int = DEFAULT_FOLDS) -> float:
+    """How many noise standard deviations one unit of candidate `key` (for
+    a group, the combination w of its columns) is in this dataset's
+    invariants, once the baseline has absorbed what it can: the pose-free
+    counterpart of plans.signature_z, under the data's own noise and serial
+    correlation (what the F-test sees).  For injecting effects into real
+    readings at the benchmark's sizes."""
+    return diagnose_posefree(ds, folds=folds, _signature=(key, w))
+
+
+def diagnose_posefree(ds: RawDataset, alpha: float = DEFAULT_ALPHA, folds: int = DEFAULT_FOLDS,
+                      _signature=None) -> Diagnosis:
     t_start = _time.perf_counter()
     if not (0.0 < alpha < 1.0):
         raise DataError("alpha must be between 0 and 1")
@@ -375,6 +403,7 @@ def diagnose_posefree(ds: RawDataset, alpha: float = DEFAULT_ALPHA, folds: int =
             pos += n
         W, rows = _weights(r)
         des = Design(y, X, W, fold_of, K, rows=rows)
+        des._W = W
         des.inflation = serial["inflation"]
         return des, idx, r, rows
 
@@ -383,7 +412,11 @@ def diagnose_posefree(ds: RawDataset, alpha: float = DEFAULT_ALPHA, folds: int =
         point (Bonferroni) set aside."""
         s = np.maximum(1.4826 * np.median(np.abs(r - np.median(r, 0)), 0), 1e-12)
         d2 = ((r / s) ** 2).sum(1)
-        rows = d2 <= stats.chi2.isf(OUTLIER_P / len(r), r.shape[1])
+        # the threshold follows the rows' own typical size (as calib.joint.robust_threshold): an effect the
+        # model does not hold yet inflates many rows and must not make them outliers; a few spikes do not
+        # move the median
+        scale_ = max(1.0, float(np.median(d2)) / stats.chi2.ppf(0.5, r.shape[1]))
+        rows = d2 <= scale_ * stats.chi2.isf(OUTLIER_P / len(r), r.shape[1])
         if rows.mean() < 0.8:
             rows = np.ones(len(r), bool)
         s = np.maximum(np.sqrt(np.mean(r[rows] ** 2, 0)), 1e-12)
@@ -393,17 +426,32 @@ def diagnose_posefree(ds: RawDataset, alpha: float = DEFAULT_ALPHA, folds: int =
 
     serial = {"inflation": 1.0}
     refit([])
-    r0 = mdl.residuals(mdl.unpack(state["v"]), state["theta"])
-    rho = _lag1(r0)
-    serial.update(rho=rho, inflation=(1.0 + rho) / (1.0 - rho))
     testable = list(cand_keys)
     base = list(range(nb))
     des, idx, r_base, rows = design(testable)
+    # the noise's own serial correlation between neighbouring rows (in time order), of the baseline's
+    # residuals with their slow part (a trend an effect makes) taken off
+    order_t = np.argsort(pf.t, kind="stable")
+    rho = max(_lag1(_highpass(r_base[order_t][rows[order_t]])), _lag1(_highpass(r_base[rows])))
+    serial.update(rho=rho, inflation=(1.0 + rho) / (1.0 - rho))
+    des.inflation = serial["inflation"]
+    shift_test = serial["rho"] >= SHIFT_TEST_RHO and not _declared_static(ds)
     base_rms = {c: float(np.sqrt(np.mean(r_base[rows, j] ** 2))) for j, c in enumerate(chans)}
     scale = np.array([max(base_rms[c], 1e-300) for c in chans])
+    if _signature is not None and _signature != "debug":
+        key, w = _signature
+        if key not in idx:
+            raise DataError(f"{key} is not a candidate on these data")
+        cols = idx[key]
+        ws = (np.ones(len(cols)) if w is None else np.asarray(w, float)) * des.colscale[cols]
+        Gbb = des.G[np.ix_(base, base)]
+        Rcc = des.G[np.ix_(cols, cols)] - des.G[np.ix_(base, cols)].T @ np.linalg.solve(Gbb, des.G[np.ix_(base, cols)])
+        return float(np.sqrt(max(ws @ Rcc @ ws, 0.0) / des.inflation))
     own = {kk: _own_chan(kk, chans) for kk in testable}
     kept, steps, pvals = [], [], {}
     remaining = list(testable)
+    if _signature == "debug":
+        return {kk: des.ftest(base, idx[kk]) for kk in testable}
     while remaining:
         S = base + [i for kk in kept for i in idx[kk]]
         cv0 = des.cv(S)
@@ -418,6 +466,13 @@ def diagnose_posefree(ds: RawDataset, alpha: float = DEFAULT_ALPHA, folds: int =
             f0 = _own_cv(des, S, own[kk], rows, scale, fold_of)
             f1 = _own_cv(des, S1, own[kk], rows, scale, fold_of)
             better = int(np.sum(f1 < f0))
+            if shift_test and kk.split(":")[0] in DRIVEN and cv1 < cv0 and o1 < o0 and better >= K - 1:
+                ps = _shift_p(mdl, state, des, S, kk, ncol[kk], alpha / len(remaining))
+                if ps >= alpha / len(remaining):
+                    steps.append({"effect": kk, "p": p, "p_circular_shift": ps, "kept": False,
+                                  "why": "its driver shifted in time explains the data as well (circular-shift "
+                                         "test: the log's rows are serially correlated)"})
+                    continue
             # every held-out block but one must gain: on a log whose neighbouring rows share their errors (a
             # probe turned by hand) a small gain on the pooled blocks can come from one or two of them
             if cv1 < cv0 and o1 < o0 and better >= K - 1:
@@ -427,6 +482,8 @@ def diagnose_posefree(ds: RawDataset, alpha: float = DEFAULT_ALPHA, folds: int =
                           "why": "no gain on held-out data" if not (cv1 < cv0 and o1 < o0) else
                           f"it gains on only {better} of {K} held-out blocks"})
         if chosen is None:
+            if tests and tests[0][0] >= alpha / len(remaining):
+                steps.append({"effect": tests[0][1], "p": tests[0][0], "kept": False, "why": "p above the threshold"})
             break
         kk, p, o0, o1 = chosen
         steps.append({"effect": kk, "p": p, "kept": True, "own_cv_rms_before": o0, "own_cv_rms_after": o1})
@@ -545,6 +602,23 @@ def _declared_static(ds) -> bool:
     return v in ("1", "true", "yes")
 
 
+SHIFT_TEST_RHO = 0.3  # from this lag-1 correlation on, a driver's effect also needs the circular-shift test
+SHIFT_MIN_FRACTION = 0.05
+SHIFTS = 199
+
+
+def _highpass(r, frac: float = 0.02):
+    """r minus its running mean over about frac of the rows (at least 5):
+    what varies from one row to the next, without the slow part."""
+    n = len(r)
+    w = max(5, int(frac * n)) | 1
+    if n < 3 * w:
+        return r - r.mean(0)
+    k = np.ones(w) / w
+    sm = np.column_stack([np.convolve(np.pad(r[:, j], w // 2, mode="edge"), k, mode="valid") for j in range(r.shape[1])])
+    return r - sm
+
+
 def _lag1(r) -> float:
     """The largest lag-1 correlation (in the file's order) of the baseline's
     invariant residuals over the channels, robust (Spearman), in [0, 0.98]:
@@ -559,6 +633,67 @@ def _lag1(r) -> float:
         if np.isfinite(rho):
             best = max(best, float(rho))
     return float(min(max(best, 0.0), 0.98))
+
+
+DRIVEN = ("temperature-bias", "temperature-scale", "field-drift", "rig-field")
+
+
+def _shift_p(mdl, state, des, S, key, n, threshold) -> float:
+    """Circular-shift test of a driven candidate (temperature, time, a rig
+    angle) on serially correlated rows: its driver is rolled against the
+    readings by SHIFTS shifts of at least SHIFT_MIN_FRACTION of the run (the
+    driver's own smoothness and the noise's correlation kept, their link
+    broken) and the F statistic recomputed for each.  Their mean, against
+    the F distribution's, is how much the rows' correlation inflates F for
+    this driver; the data's own F, deflated by it, gives p (threshold: not
+    used, kept for the call's symmetry)."""
+    pf = mdl.pf
+    name, _, ax = key.split(":")
+    attr = {"temperature-bias": "temp", "temperature-scale": "temp", "field-drift": "t"}.get(name)
+    k = pf.k
+    keep = des.rows
+    Xs = des.Xw[keep][:, :, S].reshape(-1, len(S))
+    y = des.yw[keep].ravel()
+    Q, _ = np.linalg.qr(Xs)
+    ry = y - Q @ (Q.T @ y)
+    rss0 = float(ry @ ry)
+    W = np.diagonal(_weights_of(des), axis1=1, axis2=2)[keep]  # (k_kept, m)
+    dof = len(y) - len(S) - n
+
+    def F_of():
+        X = mdl.cand_columns(state["v"], state["theta"], key, n)[keep] * W[:, :, None]
+        Xc = X.reshape(-1, n)
+        Xc = Xc - Q @ (Q.T @ Xc)
+        c = np.linalg.lstsq(Xc, ry, rcond=None)[0]
+        gain = float(ry @ (Xc @ c))
+        return (gain / n) / (max(rss0 - gain, 1e-300) / max(dof, 1))
+    f_obs = F_of()
+    lo = max(1, int(SHIFT_MIN_FRACTION * k))
+    shifts = np.unique(np.linspace(lo, k - lo, min(SHIFTS, max(k - 2 * lo + 1, 1))).astype(int))
+    orig = getattr(pf, attr) if attr else pf.angles[ax]
+    fs = []
+    try:
+        for sh in shifts:
+            v = np.roll(orig, sh)
+            if attr:
+                setattr(pf, attr, v)
+            else:
+                pf.angles[ax] = v
+            fs.append(F_of())
+    finally:
+        if attr:
+            setattr(pf, attr, orig)
+        else:
+            pf.angles[ax] = orig
+    if not fs:
+        return 1.0
+    c = max(1.0, float(np.mean(fs)) / (dof / max(dof - 2, 1)))
+    return float(stats.f.sf(f_obs / c, n, max(dof / c, 1.0)))
+
+
+def _weights_of(des):
+    """The per-row whitening the design was built with (diagonal)."""
+    return des._W
 
 
 class _RunVars:
