@@ -93,7 +93,8 @@ def _model_readings(nl: dict, g, f):
 def predict(cal: Calibration, cov, w: dict, dip: float, sigma_acc: float, sigma_mag: float,
             n_avg: float | None = None, reading_noise: bool = True, nonlinear: dict | None = None,
             grid=None, grid_name: str = "Li 2021 grid, toolfaces 0/120/240",
-            resolution_n: float | None = None, bias=None, bias_name: str = "linear_model_bias") -> Prediction:
+            resolution_n: float | None = None, bias=None, bias_name: str = "linear_model_bias",
+            lsb=(None, None)) -> Prediction:
     """sigma_acc, sigma_mag: noise of one sample; n_avg samples per reading
     (noise / sqrt(n_avg)); resolution_n: the samples behind the input
     resolution term when it differs from n_avg (e.g. sigmas already given
@@ -117,6 +118,10 @@ def predict(cal: Calibration, cov, w: dict, dip: float, sigma_acc: float, sigma_
         s_noise = np.array([sigma_acc] * 3 + [sigma_mag] * 3) / np.sqrt(n)
         nr = float(resolution_n) if resolution_n else n
         s_res = np.array([ref.ACC_LSB_G] * 3 + [ref.MAG_LSB_NT] * 3) * np.sqrt(1.0 / (12 * nr) + 1.0 / (12 * 64.0**2))
+        if lsb[0] or lsb[1]:  # the sensor's own resolution (its description), then the firmware's Q6 rounding
+            own = np.array([float(lsb[0] or ref.ACC_LSB_G)] * 3 + [float(lsb[1] or ref.MAG_LSB_NT)] * 3)
+            probe = np.array([ref.ACC_LSB_G] * 3 + [ref.MAG_LSB_NT] * 3)
+            s_res = np.sqrt(own ** 2 / (12 * nr) + probe ** 2 / (12 * 64.0**2))
         for name, s in (("reading_noise", s_noise), ("input_resolution", s_res)):
             terms_a[name] = (Ra ** 2) @ (s ** 2)
             terms_i[name] = (Ri ** 2) @ (s ** 2)

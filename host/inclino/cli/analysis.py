@@ -62,6 +62,8 @@ def calibrate_main(args) -> int:
         opts["accept_mount_tolerance"] = True
     if getattr(args, "bootstrap", None) is not None:
         opts["bootstrap"] = args.bootstrap
+    if getattr(args, "static", False):
+        opts["static"] = True
     try:
         with progress.phase(f"calibrate: {args.method} fit of {args.input}"):
             cal, rep = fit(ds, args.method, data_hash=common.file_hash(args.input, ds), **opts)
@@ -108,6 +110,8 @@ def add_calibrate(subparsers):
     c.add_argument("--accept-mount-tolerance", action="store_true",
                    help="joint without poses or prior: accept that tolerance (the verdict then judges the fit itself)")
     c.add_argument("--bootstrap", type=int, help="paper methods: refits for the uncertainty (default 40)")
+    c.add_argument("--static", action="store_true",
+                   help="declare the run static (step-and-hold: every row at rest), whatever its time column")
     c.set_defaults(func=calibrate_main)
     return c
 
@@ -126,30 +130,85 @@ ATTITUDE_CHUNK = 1 << 16  # rows computed and written at a time (bounded memory 
 
 
 def _cmd_attitude(args) -> int:
+    import sys
+
     import numpy as np
 
     from inclino.formats import dataset, safeio
     from inclino.engines import attitude as engines
+    from inclino.engines import temperature as te
     from inclino import progress
     from inclino.formats.calfile import Calibration
 
     safeio.check_output(args.output, [args.input, args.cal])  # before any work
     cal = Calibration.load(args.cal) if args.cal else Calibration()  # a refused file costs no reading
+    at_t = getattr(args, "at_temperature", None)
+    if at_t is not None and not (np.isfinite(at_t) and -100.0 <= at_t <= 300.0):
+        raise DataError(f"--at-temperature {at_t:g}: a temperature in degC, -100 ... 300")
     ds = dataset.read_raw(args.input, progress=True)
-    cols = ["inc_deg", "azi_deg", "tf_deg", "gt_g", "bt_nT", "dip_deg", "flags", "mtf_deg"]
+    _checked(ds, fatal=False)
+    # what the data and the calibration both hold
+    have = {"both": {"acc", "mag"}, "acc": {"acc"}, "mag": {"mag"}}
+    common_ = have[ds.triads] & have[cal.triads]
+    if not common_:
+        raise DataError(f"{args.cal} calibrates the {'accelerometer' if cal.triads == 'acc' else 'magnetometer'} "
+                        f"only, and {args.input} has no such columns")
+    triads = "both" if common_ == {"acc", "mag"} else common_.pop()
+    if triads != ds.triads:
+        print(f"inclino: note: {args.cal} holds only the {'accelerometer' if triads == 'acc' else 'magnetometer'}: "
+              f"only what it determines is written", file=sys.stderr)
+    temp = None
+    if te.has_terms(cal):
+        if "temp_c" in ds.columns and at_t is None:
+            temp = ds.columns["temp_c"]
+        elif at_t is not None:
+            temp = at_t
+        else:
+            raise DataError(f"{args.cal} has temperature terms and {args.input} has no temp_c column: give the "
+                            f"probe's temperature with --at-temperature C (or apply a calibration without terms)")
+    elif at_t is not None:
+        print(f"inclino: note: {args.cal or 'the identity calibration'} has no temperature terms: "
+              f"--at-temperature changes nothing", file=sys.stderr)
+    cols = list(engines.COLS_BY_TRIADS[triads])
+    notes: list = []
     with safeio.output_file(args.output, [args.input, args.cal]) as f, \
             progress.bar(len(ds), f"attitude {args.input}", unit=" rows") as bar:
         w = csv.writer(f)
         w.writerow(cols)
-        acc, mag = ds.acc, ds.mag
+        acc = ds.acc if "acc" in have[triads] else None
+        mag = ds.mag if "mag" in have[triads] else None
         for lo in range(0, len(ds), ATTITUDE_CHUNK):
             hi = min(lo + ATTITUDE_CHUNK, len(ds))
-            out = engines.run(acc[lo:hi], mag[lo:hi], cal, args.engine)
+            t = temp[lo:hi] if isinstance(temp, np.ndarray) else temp
+            out = engines.run_dataset(None if acc is None else acc[lo:hi], None if mag is None else mag[lo:hi],
+                                      cal, args.engine, temp_c=t, triads=triads, notes=notes)
             text = {c: (out[c].astype(np.int64).astype(str) if c == "flags"
                         else np.char.mod("%.6f", np.asarray(out[c], dtype=float))) for c in cols}
             w.writerows(zip(*(text[c] for c in cols)))
             bar.update(hi - lo)
+    for n in notes:
+        print(f"inclino: note: {n}", file=sys.stderr)
     return 0
+
+
+def _checked(ds, static: bool = False, fatal: bool = True):
+    """inclino.checks on a dataset before a command uses it: data that cannot
+    be right are one error line (exit 2) before any fit; `fatal` False (attitude,
+    which fits nothing and computes each row as the probe would): said on
+    stderr, and the rows are computed.  Warnings go to stderr."""
+    import sys
+
+    from inclino import checks
+
+    found = checks.run(ds, declared_static=static)
+    if fatal:
+        found.raise_errors()
+        levels = ("warning",)
+    else:
+        levels = ("error", "warning")
+    for line in found.lines(levels):
+        print(f"inclino: {line.replace('error: ', 'warning: ', 1)}", file=sys.stderr)
+    return found
 
 
 def add_bitexact(sub):
@@ -163,7 +222,12 @@ def add_attitude(sub):
     a = sub.add_parser("attitude", help="attitude of every row of a raw dataset")
     a.add_argument("input", help="raw dataset CSV")
     a.add_argument("--cal", help="calibration JSON (default: identity)")
-    a.add_argument("--engine", choices=("firmware", "golden", "reference"), default="firmware")
+    a.add_argument("--engine", choices=("firmware", "golden", "reference"), default="firmware",
+                   help="the firmware's C, the NumPy golden model, or float64 (default firmware); every engine "
+                        "applies every term of the calibration, its temperature terms from temp_c")
+    a.add_argument("--at-temperature", type=float, metavar="C",
+                   help="the probe's temperature (degC) for a calibration with temperature terms when the data "
+                        "have no temp_c column (it also overrides temp_c)")
     a.add_argument("-o", "--output", required=True, help="output CSV ('-' for stdout)")
     a.set_defaults(func=_cmd_attitude)
 
@@ -196,6 +260,7 @@ def diagnose_main(args) -> int:
     from inclino.diagnose.analysis import diagnose
 
     ds = dataset.read_raw(args.input, progress=True)
+    _checked(ds, bool(getattr(args, "static", False)))
     if getattr(args, "cal", None):
         ds = _temperature_corrected(ds, args.cal)
     try:
