@@ -206,3 +206,15 @@ def test_paper_methods_refuse_one_triad_with_the_reason(imported, tmp_path, caps
     assert main(["calibrate", str(imported["ck_acc_mag/acc_log.csv"]), "--method", "li2021",
                  "-o", str(tmp_path / "c.json")]) == 2
     assert "accelerometer-only" in capsys.readouterr().err
+
+
+@pytest.mark.parametrize("inst", ["BB", "CF", "FG", "HC", "IB", "JG"])
+def test_sap6_dip_agrees_with_each_instruments_own_calibration(inst):
+    """The dip of a pose-free calibration of 24 shots against the dip the
+    instrument's own calibration found (its .cfg, mag_cal with nonlinear
+    terms): an independent view of the same data, 67.6-68.1 deg."""
+    ds = _load(f"sap6/{inst}.csv", "sap6/sensor.toml")
+    cal, rep = fit(ds, "joint", accept_mount_tolerance=True)
+    own = json.loads((REAL / "sap6" / "original" / f"{inst}.cfg").read_text())["calib"]["dip_avg"]
+    assert abs(rep.uncertainty["dip_deg"] - own) < 0.5, (rep.uncertainty["dip_deg"], own)
+    assert rep.noise["acc_g"] < 0.01 and rep.noise["mag_nT"] < 100.0  # a MEMS part's noise, each its own

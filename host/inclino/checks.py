@@ -36,6 +36,7 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
+from inclino.calib.ellipsoid import sphere
 from inclino.errors import DataError
 
 # |g| / G: uncalibrated MEMS accelerometers are within a few % in scale and
@@ -54,6 +55,7 @@ LAG_MIN_GAIN = 0.1        # a warning when the best shift cuts the spread by mor
 LAG_MIN_DEG = 0.1         # ... and by more than this
 MIN_SPREAD_DEG = 1.0      # a dip spread below this is consistent whatever the shift
 AXES_RATIO = 3.0          # dip spread with the declared maps / with the best other map
+RAW_DIRS_MAX_CV = 0.1     # raw directions compared only when |v| varies less than this (offsets small)
 # the noise (1 sigma, one reading, per axis) a static sensor of each kind stays within when the
 # description gives none: MEMS accelerometers 100-300 ug/sqrt(Hz) over a few hundred Hz (<= 5 mg);
 # MEMS magnetometers 0.15-0.6 uT per LSB (<= 1 uT); the fluxgate a few nT
@@ -136,33 +138,10 @@ def _fix(ds, section: str, what: str) -> str:
            f"docs/dataset.md)"
 
 
-def _sphere(v):
-    """Centre and radius of the best sphere through the readings (linear
-    least squares |v|^2 = 2 v.c + k), or None when they do not span 3-D."""
-    v = np.asarray(v, float)
-    if len(v) < 10:
-        return None
-    A = np.column_stack([2 * v, np.ones(len(v))])
-    y = (v * v).sum(1)
-    scale = np.abs(A).max(0)
-    scale[scale == 0] = 1.0
-    sol, *_ = np.linalg.lstsq(A / scale, y, rcond=None)
-    sol = sol / scale
-    c, k = sol[:3], sol[3]
-    r2 = k + c @ c
-    if not np.isfinite(r2) or r2 <= 0:
-        return None
-    u = v - c
-    u = u / np.maximum(np.linalg.norm(u, axis=1, keepdims=True), 1e-300)
-    if np.linalg.eigvalsh(u.T @ u / len(u)).min() < 0.02:  # directions in a plane: the centre is not determined
-        return None
-    return c, float(np.sqrt(r2))
-
-
 def _unit_dirs(v, R):
     """Readings as unit directions, after an algebraic ellipsoid fit when
     the orientations determine one (raw directions otherwise)."""
-    from inclino.calib.joint import ellipsoid_start
+    from inclino.calib.ellipsoid import ellipsoid_start
 
     v = np.asarray(v, float)
     u = v / np.maximum(np.linalg.norm(v, axis=1, keepdims=True), 1e-300)
@@ -241,7 +220,7 @@ def _units_acc(ds, rows, rep):
 
 def _units_mag(ds, rows, rep):
     m = ds.mag[rows]
-    sph = _sphere(m)
+    sph = sphere(m)
     med = float(np.median(np.linalg.norm(m, axis=1)))
     R = sph[1] if sph is not None else med
     how = "the radius of the sphere the readings lie on" if sph is not None else "the median |b|"
@@ -298,15 +277,25 @@ def _axes_and_lag(ds, rows_all, rep, ug_src=None):
     n = len(ds)
     block = np.arange(min(n, LAG_ROWS))  # consecutive rows (the lag needs neighbours)
     if ug_src is None:
-        ug, _ = _unit_dirs(ds.acc[block], float(ds.meta.get("gravity_g") or 1.0))
+        ug, ok_g = _unit_dirs(ds.acc[block], float(ds.meta.get("gravity_g") or 1.0))
         other = "accelerometer's"
     else:
-        ug = ug_src[block]
+        ug, ok_g = ug_src[block], True
         other = "poses' gravity"
     F = float(ds.meta.get("field_nT") or 50_000.0)
-    ub, _ = _unit_dirs(ds.mag[block], F)
+    ub, ok_b = _unit_dirs(ds.mag[block], F)
     if len(block) < 6:
         return
+    # raw directions (no ellipsoid: too few orientations) are only worth comparing when the offsets are
+    # small against the vector: |v| nearly constant
+    for ok, v in ((ok_g, None if ug_src is not None else ds.acc[block]), (ok_b, ds.mag[block])):
+        if not ok and v is not None:
+            n = np.linalg.norm(v, axis=1)
+            if np.std(n) > RAW_DIRS_MAX_CV * np.mean(n):
+                rep.findings.append(Finding("axes", "note", (
+                    "the axes and the pairing of the triads were not checked: too few orientations for an "
+                    "ellipsoid fit, and offsets too large to compare raw directions"), None, {}))
+                return
     spreads, dips = {}, {}
     for P in _signed_perms():
         d = _dip(ug, ub @ P.T)

@@ -111,9 +111,9 @@ def errors_by_setpoint(ds, out_csv: str, declination: float) -> dict:
     return res
 
 
-def run(probes: int = PROBES, seed: int = SEED0) -> AttitudeTemperatureBench:
+def run(cli_main, probes: int = PROBES, seed: int = SEED0) -> AttitudeTemperatureBench:
+    """cli_main: the command runner (inclino.cli.main), given by the bench command (no import of the cli)."""
     from inclino.benchmarks import calibration_temperature as ct
-    from inclino.cli import main
     from inclino.engines import temperature as te
 
     out = AttitudeTemperatureBench()
@@ -135,7 +135,7 @@ def run(probes: int = PROBES, seed: int = SEED0) -> AttitudeTemperatureBench:
             rec = {"seed": s}
             for eng, cp in [(e, cal_path) for e in ENGINES] + [("without_terms", plain_path)]:
                 o = os.path.join(tmp, f"att{p}_{eng}.csv")
-                rc = main(["attitude", oven, "--cal", cp, "--engine", "firmware" if eng == "without_terms" else eng,
+                rc = cli_main(["attitude", oven, "--cal", cp, "--engine", "firmware" if eng == "without_terms" else eng,
                            "-o", o])
                 if rc != 0:
                     raise RuntimeError(f"attitude exited {rc}")

@@ -33,9 +33,9 @@ def world_of(ds: RawDataset) -> dict:
     F = m.get("field_nT")
     if F is None and ds.has_mag:
         # the radius of the sphere the readings lie on (offsets do not move it), else the median |b|
-        from inclino.checks import _sphere
+        from .ellipsoid import sphere
 
-        sph = _sphere(ds.mag) if len(ds) >= 10 else None
+        sph = sphere(ds.mag) if len(ds) >= 10 else None
         F = (sph[1] if sph is not None else float(np.median(np.linalg.norm(ds.mag, axis=1)))) or DEFAULT_FIELD_NT
     if F is None:
         F = DEFAULT_FIELD_NT

@@ -42,6 +42,7 @@ from inclino.formats.dataset import RawDataset
 from inclino.errors import CalibrationError, DataError
 
 from . import common
+from .ellipsoid import ellipsoid_start  # noqa: F401 (callers import it from here too)
 
 SIGMA_ACC = 1.5e-4  # g, ADIS16210-class noise of one reading
 SIGMA_MAG = 5.0  # nT
@@ -415,27 +416,6 @@ def fisher_covariance(cal, dip, F, dec, G, poses, sa=SIGMA_ACC, sm=SIGMA_MAG, sp
 def _sym(v):
     a, b, c, d, e, f = v
     return np.array([[a, b, c], [b, d, e], [c, e, f]])
-
-
-def ellipsoid_start(raw, R):
-    """Algebraic general ellipsoid fit: (M symmetric, b) with |M (raw - b)| ~ R."""
-    x, y, z = np.asarray(raw, float).T
-    D = np.column_stack([x * x, y * y, z * z, 2 * x * y, 2 * x * z, 2 * y * z, 2 * x, 2 * y, 2 * z,
-                         np.ones_like(x)])
-    _, _, Vt = np.linalg.svd(D / np.abs(D).max(0), full_matrices=False)
-    v = Vt[-1] / np.abs(D).max(0)
-    Q = np.array([[v[0], v[3], v[4]], [v[3], v[1], v[5]], [v[4], v[5], v[2]]])
-    if np.linalg.eigvalsh(Q).min() * np.linalg.eigvalsh(Q).max() <= 0:
-        raise DataError("joint: the readings do not lie on an ellipsoid (too few orientations)")
-    if np.trace(Q) < 0:
-        Q, v = -Q, -v
-    c = -np.linalg.solve(Q, v[6:9])
-    k = c @ Q @ c - v[9]
-    if k <= 0:
-        raise DataError("joint: degenerate ellipsoid fit")
-    w, U = np.linalg.eigh(Q / k)
-    M = U @ np.diag(np.sqrt(w)) @ U.T * R
-    return M, c
 
 
 def _inv_residuals(x, acc, mag, G, F, sa, sm, R0):

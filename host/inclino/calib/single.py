@@ -61,9 +61,9 @@ def world(ds) -> dict:
     m = ds.meta
     F = m.get("field_nT")
     if F is None and ds.has_mag:
-        from inclino.checks import _sphere
+        from .ellipsoid import sphere
 
-        s = _sphere(ds.mag)
+        s = sphere(ds.mag)
         F = s[1] if s is not None else float(np.median(np.linalg.norm(ds.mag, axis=1)))
     return {"field_nT": float(F or 50000.0), "dip_deg": m.get("dip_deg"),
             "declination_deg": float(m.get("declination_deg", 0.0)), "gravity_g": float(m.get("gravity_g", 1.0))}

@@ -147,7 +147,7 @@ def fit_poses(raw, truth, sigma: float, min_rows: int = 4):
 
 def ellipsoid_algebraic(raw, R):
     """Algebraic quadric fit: (M symmetric, b) with |M (raw - b)| ~ R."""
-    from .joint import ellipsoid_start
+    from .ellipsoid import ellipsoid_start
 
     return ellipsoid_start(raw, R)
 

@@ -260,6 +260,8 @@ def diagnose_main(args) -> int:
     from inclino.diagnose.analysis import diagnose
 
     ds = dataset.read_raw(args.input, progress=True)
+    if getattr(args, "static", False):
+        ds.meta["static"] = "true"
     _checked(ds, bool(getattr(args, "static", False)))
     if getattr(args, "cal", None):
         ds = _temperature_corrected(ds, args.cal)
@@ -321,6 +323,9 @@ def add_diagnose(subparsers):
     p.add_argument("--cal", metavar="CAL.json",
                    help="first bring the readings to the reference temperature with this calibration's "
                         "temperature terms (joint --temperature): diagnose what they leave")
+    p.add_argument("--static", action="store_true",
+                   help="declare the run static (step-and-hold: every row at rest): no row is read as turning, "
+                        "whatever the time column")
     p.add_argument("--paper", choices=PAPERS,
                    help="instead of a dataset: the papers' measured tables against the simulation (docs/diagnose.md)")
     p.set_defaults(func=diagnose_main)

@@ -147,7 +147,7 @@ def _attitude_temperature(args) -> int:
     """`inclino bench attitude-temperature`: attitude --cal with temperature terms on an oven run, every engine."""
     from inclino.benchmarks import attitude_temperature as bench_at
 
-    r = bench_at.run()
+    r = bench_at.run(args.cli_main)
     print(r.to_json() if args.json else "\n".join(r.lines()))
     return 0 if r.passed else 1
 
