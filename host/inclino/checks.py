@@ -36,7 +36,7 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from inclino.calib.ellipsoid import sphere
+from inclino.calib.ellipsoid import determined, sphere
 from inclino.errors import DataError
 
 # |g| / G: uncalibrated MEMS accelerometers are within a few % in scale and
@@ -146,7 +146,7 @@ def _unit_dirs(v, R):
     v = np.asarray(v, float)
     u = v / np.maximum(np.linalg.norm(v, axis=1, keepdims=True), 1e-300)
     distinct = len(np.unique(np.round(u, 1), axis=0))
-    if distinct >= 20:
+    if distinct >= 20 and determined(v):
         try:
             with np.errstate(all="ignore"):
                 M, b = ellipsoid_start(v, R)
