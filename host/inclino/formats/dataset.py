@@ -223,8 +223,9 @@ def _read(lines: _Lines, path: str, bar) -> RawDataset:
         raise DataError(f"{path}:{header_line}: missing column(s) {', '.join(SENSOR_COLS)}: no sensor triad (the "
                         f"accelerometer's ax_g, ay_g, az_g and/or the magnetometer's mx_nT, my_nT, mz_nT; a log in "
                         f"other columns or units: inclino import LOG --sensor S.toml)")
-    if len(set(header)) != len(header):
-        raise DataError(f"{path}:{header_line}: a column name appears twice")
+    twice = sorted({h for h in header if header.count(h) > 1})
+    if twice:  # never read one copy and drop the other: which one the file meant is unknown
+        raise DataError(f"{path}:{header_line}: column name repeated in the header: {', '.join(twice)}")
     ncells = len(header)
     wanted = [c for c in COLUMN_ORDER if c in header]
     idx = [header.index(c) for c in wanted]
