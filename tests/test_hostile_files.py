@@ -529,8 +529,8 @@ def _rule_cases():
     doc = _documented_rules()
     assert len(doc) >= 11 and doc["dip_deg"] == (-90.0, 90.0) and doc["field_nT"] == (None, 200000.0)
     for key in dataset.RULES:
-        # the documented rule where the table gives one; the sensor description's figures: > 0 (docs/dataset.md)
-        lo, hi = doc.get(key, (None, dataset.RULES[key][1]))
+        # the documented rule where the table gives one; else the rule as RULES and POSITIVE state it
+        lo, hi = doc.get(key) or (None if key in dataset.POSITIVE else dataset.RULES[key][0], dataset.RULES[key][1])
         step = max(abs(lo or 0.0), abs(hi), 1.0) * 1e-6
         edges = [(hi, True), (hi + step, False)]
         if lo is None:  # > 0

@@ -314,7 +314,7 @@ def build(ds: RawDataset, cal: Calibration, method: str, info: dict, refit=None,
                     rows_used=int(len(rows_used)), outliers=scattered, segments=segs,
                     notes=list(info.get("notes", [])), paper_parameters=info.get("paper_parameters"))
     rep.residuals = residuals(used, cal, dip, w)
-    rep.noise = dict(info["noise"]) if info.get("noise") else _noise_from_residuals(used, cal, w, dip)
+    rep.noise = dict(info["triad_noise"]) if info.get("triad_noise") else _noise_from_residuals(used, cal, w, dip)
     g = ref.correct(used.acc, cal.acc_m, cal.acc_b)
     b = ref.correct(used.mag, cal.mag_m, cal.mag_b)
     ca, ea = _coverage(g)
@@ -327,7 +327,11 @@ def build(ds: RawDataset, cal: Calibration, method: str, info: dict, refit=None,
     sm = opts.get("sigma_mag", SIGMA_MAG)
     sp = opts.get("sigma_pose_deg", SIGMA_POSE_DEG)
     cov = info.get("covariance")
-    if cov is not None:
+    if cov is not None and info.get("noise") is not None:
+        nz = info["noise"]
+        src = (f"GLS covariance under the run's own noise ({nz['method']}: per channel, pose error per turntable "
+               f"axis; {nz['clusters']} poses as clusters of their {nz['rows']} rows)")
+    elif cov is not None:
         src = f"GLS covariance, scaled by s^2 = {info.get('s2', 1.0):.3g}"
     elif refit is not None:
         cov, nok = bootstrap_cov(ds, refit, rows_used, sa, sm, sp if ds.has_pose else 0.0,
@@ -349,27 +353,40 @@ def build(ds: RawDataset, cal: Calibration, method: str, info: dict, refit=None,
                                             GRID, sa, sm)
             bias_name = "prior_nonlinearity_bias"
         p_cal = predict(cal, cov, w, dip, sa, sm, reading_noise=False, nonlinear=nl, bias=bias, bias_name=bias_name)
-        # acceptance: readings taken as the run's (the fit's noise model, scaled by its s^2 when it has one;
-        # without poses each triad's own noise, never one s^2 for both)
-        k = float(np.sqrt(info["s2"])) if info.get("s2") else 1.0
-        ka = km = k
-        if info.get("mode") == "invariants" and info.get("noise"):
-            ka = max(1.0, info["noise"]["acc_g"] / sa)
-            km = max(1.0, info["noise"]["mag_nT"] / sm)
+        # acceptance: readings taken as the run's -- the run's own noise per channel and its pose error
+        # when the fit estimated them (calib/covariance.py); without poses each triad's own residual scale
+        # (never one s^2 for both); else the fit's noise model scaled by its s^2
         n_run = ds.meta.get("samples_averaged")
         lsb = (ds.meta.get("acc_lsb_g"), ds.meta.get("mag_lsb_nT"))
-        p_acc = predict(cal, cov, w, dip, ka * sa, km * sm, n_avg=1, nonlinear=nl, resolution_n=n_run, bias=bias,
-                        bias_name=bias_name, lsb=lsb)
+        comps = info.get("noise_components")
+        if comps is not None:
+            cell = comps.per_cell()
+            s_acc, s_mag, s_pose = cell[:3], cell[3:], comps.sigma_pose_deg
+            readings = (f"as the run's: its own noise per reading, fitted per channel ({comps.method}: "
+                        f"{', '.join(f'{v:.3g}' for v in s_acc)} g, {', '.join(f'{v:.3g}' for v in s_mag)} nT), "
+                        + ("pose error " + ", ".join(f"{v:.3g}" for v in s_pose) + " deg (inc, azi, tf); "
+                           if s_pose is not None else "")
+                        + f"input resolution at {'n = %g' % n_run if n_run else 'n unknown, taken as 1'}")
+        elif info.get("triad_noise"):
+            s_acc, s_mag, s_pose = max(sa, info["triad_noise"]["acc_g"]), max(sm, info["triad_noise"]["mag_nT"]), None
+            readings = (f"as the run's: noise {s_acc:.3g} g, {s_mag:.3g} nT per reading (each triad's own residual "
+                        f"scale); input resolution at {'n = %g' % n_run if n_run else 'n unknown, taken as 1'}")
+        else:
+            k = float(np.sqrt(info["s2"])) if info.get("s2") else 1.0
+            s_acc, s_mag, s_pose = k * sa, k * sm, None
+            readings = (f"as the run's: noise {k * sa:.3g} g, {k * sm:.3g} nT per reading (the fit's noise "
+                        f"model x sqrt(s^2) = {k:.3g}); input resolution at "
+                        f"{'n = %g' % n_run if n_run else 'n unknown, taken as 1'}")
+        p_acc = predict(cal, cov, w, dip, s_acc, s_mag, n_avg=1, nonlinear=nl, resolution_n=n_run, bias=bias,
+                        bias_name=bias_name, sigma_pose_deg=s_pose, lsb=lsb)
         rep.uncertainty = {"source": src, "sigma": dict(zip(common.PARAM_NAMES, sig.tolist())),
                            "predicted_azi_rms_deg": p_cal.azi_rms_deg, "predicted_inc_rms_deg": p_cal.inc_rms_deg,
                            # the full 24x24 (PARAM_NAMES order): inclino toolmodel projects it onto ISCWSA terms
                            "covariance": np.asarray(cov, float)[:24, :24].tolist(),
                            "prediction_calibration_grid": p_cal.to_dict(),
-                           "prediction_acceptance_grid": {**p_acc.to_dict(), "readings": (
-                               f"as the run's: noise {ka * sa:.3g} g, {km * sm:.3g} nT per reading ("
-                               + (f"each triad's own residual scale" if ka != k or km != k else
-                                  f"the fit's noise model x sqrt(s^2) = {k:.3g}") + "); input resolution at "
-                               f"{'n = %g' % n_run if n_run else 'n unknown, taken as 1'}")}}
+                           "prediction_acceptance_grid": {**p_acc.to_dict(), "readings": readings}}
+        if info.get("noise") is not None:
+            rep.uncertainty["noise"] = info["noise"]
         if info.get("dip_sigma_deg") is not None:
             rep.uncertainty["dip_deg"] = dip
             rep.uncertainty["dip_sigma_deg"] = info["dip_sigma_deg"]

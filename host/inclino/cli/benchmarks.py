@@ -90,6 +90,15 @@ def _diagnose(args) -> int:
     return 0 if r.passed else 1
 
 
+def _demo(args) -> int:
+    """`inclino bench demo [--json] [--quick]`: the demo's prediction against its acceptance over seeds."""
+    from inclino.benchmarks.demo_prediction import bench_demo
+
+    r = bench_demo(seeds=3 if getattr(args, "quick", False) else 10)
+    print(r.to_json() if getattr(args, "json", False) else r.summary())
+    return 0 if r.passed else 1
+
+
 def _survey(args) -> int:
     """`inclino bench survey [--json] [--plot PNG]`: the benchmark drives the
     real commands in-process through the command runner add_bench was given
@@ -155,7 +164,7 @@ def _attitude_temperature(args) -> int:
 # NAME -> function(args) -> exit status; the order is the order `--help` lists them
 BENCHMARKS = {"accuracy": _accuracy, "speed": _speed, "mcu": _mcu, "emulator": _emulator, "link": _link,
               "calibration": _calibration, "diagnose": _diagnose, "input": _input, "survey": _survey,
-              "realdata": _realdata, "attitude-temperature": _attitude_temperature}
+              "demo": _demo, "realdata": _realdata, "attitude-temperature": _attitude_temperature}
 
 
 def _cmd_bench(args) -> int:
@@ -169,7 +178,7 @@ def add_bench(sub, cli_main):
     be.add_argument("--field", type=float, default=50000.0, help="accuracy: field total, nT")
     be.add_argument("--dip", type=float, default=60.0, help="accuracy: dip, degrees")
     be.add_argument("--vectors", type=int, default=1_000_000, help="speed: batch size")
-    be.add_argument("--quick", action="store_true", help="diagnose: a small set (not the targets' figures)")
+    be.add_argument("--quick", action="store_true", help="diagnose, demo: a small set (not the targets' figures)")
     be.add_argument("--plot", help="survey: also draw the first seed's well path and ellipses (PNG)")
     be.add_argument("--section", choices=("all", "temperature"), default="all",
                     help="calibration: only the temperature section (default all)")

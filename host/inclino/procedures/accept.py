@@ -232,7 +232,8 @@ def accept(link, table, grid: str = "li2021", cal=None, before: str = "auto", in
                 eb.append(_measure((b["inc"] / 65536.0, b["azi"] / 65536.0), int(b["flags"]), p, decl))
                 ea.append(_measure((r.survey["inc_deg"], r.survey["azi_deg"]), int(r.survey["flags"]), p, decl))
             res.points.append({"set_inc": p.set_inc, "set_azi": p.set_azi, "tf": p.tf, "pose": list(p.pose),
-                               "before": _mean_err(eb), "after": _mean_err(ea), "reads": len(win)})
+                               "before": _mean_err(eb), "after": _mean_err(ea), "reads": len(win),
+                               "temp_c": mean_row(win).get("temp_c")})
             bar.update(1)
         for i, st in enumerate(csteps, start=len(steps) + 1):
             table.move(st, i, len(steps) + len(csteps))
