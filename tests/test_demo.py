@@ -69,7 +69,7 @@ def test_temperature_demo_fits_and_checks_the_terms_of_an_emulated_chamber_run(t
     from inclino.procedures.accept_temp import TempAcceptResult
 
     out = tmp_path / "demo_t"
-    rc = cli.main(["demo", "--temperature", "--quiet", "--out", str(out),
+    rc = cli.main(["demo", "--chamber", "--quiet", "-o", str(out),
                    "--tempco-draw", str(int(np.random.default_rng().integers(1000)))])
     capsys.readouterr()
     assert rc == 0

@@ -584,7 +584,7 @@ def fit(ds: RawDataset, use_poses: bool | None = None, sigma_acc: float = SIGMA_
     share a pose (calib/covariance.py) -- after the fit with the nominal
     sigmas, refits whitened by it and takes the covariance from that fit
     (info["noise"]); "nominal": the sigmas given, scaled by s^2.
-    The temperature terms (--temperature) are added by calib.fit
+    The temperature terms (--temperature-terms) are added by calib.fit
     (inclino.calib.thermal)."""
     w = common.world_of(ds)
     if use_poses is None:

@@ -85,6 +85,18 @@ class FitReport:
     segments: list = field(default_factory=list)
     noise: dict = field(default_factory=dict)   # each triad's noise from its own residuals (g, nT)
     triads: str = "both"
+    closest: dict = field(default_factory=dict)  # the check nearest its limit: what, value, limit
+
+    def conclusion(self) -> str:
+        """The report's last line: the verdict and the figure that decided it
+        (on a pass, the check that came nearest its limit)."""
+        if not self.passed:
+            return "verdict: FAIL: " + "; ".join(self.reasons)
+        c = self.closest
+        if not c:
+            return "verdict: PASS"
+        return (f"verdict: PASS: every check within its limit; the nearest, {c['what']}, "
+                f"{c['value']:.4g} against {c['limit']:g}")
 
     def to_dict(self) -> dict:
         return json_safe(asdict(self))
@@ -97,9 +109,10 @@ class FitReport:
         d = json.loads(text) if isinstance(text, str) else dict(text)
         return FitReport(**d)
 
-    def summary(self) -> str:
+    def summary(self, verdict: bool = True) -> str:
+        """The report as text; `verdict`: ending with conclusion()."""
         if self.triads != "both":
-            return _summary_single(self)
+            return _summary_single(self, verdict)
         r = self.residuals
         lines = [f"method {self.method} ({self.mode}): {self.rows_used} of {self.rows} rows used"
                  + (f", {len(self.outliers)} outlier(s) rejected" if self.outliers else "")]
@@ -141,7 +154,7 @@ class FitReport:
             lines.append(f"  input resolution{src} at {'n = %g samples averaged' % n if n else 'n unknown (taken as 1)'}: "
                          f"azimuth sigma RMS {res['azi_rms_deg']:.4f} deg (max {res['azi_max_deg']:.4f}) over the "
                          f"Li grid, inclination {res['inc_rms_deg']:.5f} deg (the sensor's, reported, not judged)")
-        lines += _common_tail(self)
+        lines += _common_tail(self, verdict)
         return "\n".join(lines)
 
 
@@ -441,9 +454,14 @@ def reading_noise(ds: RawDataset, residuals: dict) -> dict | None:
 def _verdict(rep: FitReport, info: dict) -> None:
     t = THRESHOLDS
     r, reasons = rep.residuals, []
+    closest = {}
+
     def over(value, key, what):
         if value is not None and np.isfinite(value) and value > t[key]:
             reasons.append(f"{what} {value:.4g} exceeds {t[key]:g}")
+        if value is not None and np.isfinite(value) and t[key] > 0 and \
+                value / t[key] > closest.get("fraction", -1.0):
+            closest.update(what=what, value=float(value), limit=float(t[key]), fraction=float(value / t[key]))
     over(r.get("inc_rms_deg"), "inc_rms_deg", "inclination residual RMS (deg)")
     over(r.get("azi_rms_deg"), "azi_rms_deg", "azimuth residual RMS (deg)")
     over(r.get("acc_norm_rms_mg"), "acc_norm_rms_mg", "|g| residual RMS (mg)")
@@ -483,9 +501,10 @@ def _verdict(rep: FitReport, info: dict) -> None:
                            f"{t['coverage_min_eig']:g})")
     rep.reasons = reasons
     rep.passed = not reasons
+    rep.closest = {k: v for k, v in closest.items() if k != "fraction"}
 
 
-def _common_tail(rep) -> list:
+def _common_tail(rep, verdict: bool = True) -> list:
     lines = []
     if rep.noise:
         lines.append("  noise from each triad's own residuals: " + ", ".join(
@@ -498,11 +517,12 @@ def _common_tail(rep) -> list:
     for note in rep.notes:
         if note.startswith("check: "):
             lines.append(f"  {note}")
-    lines.append("  verdict: " + ("pass" if rep.passed else "FAIL: " + "; ".join(rep.reasons)))
+    if verdict:
+        lines.append("  " + rep.conclusion())
     return lines
 
 
-def _summary_single(rep) -> str:
+def _summary_single(rep, verdict: bool = True) -> str:
     r = rep.residuals
     name = "accelerometer" if rep.triads == "acc" else "magnetometer"
     lines = [f"method {rep.method} ({rep.mode}, {name} only): {rep.rows_used} of {rep.rows} rows used"
@@ -528,7 +548,7 @@ def _summary_single(rep) -> str:
     if res:
         lines.append(f"  input resolution ({res['lsb']}) at n = {res['assumed_n']:g}: inclination sigma RMS "
                      f"{res['inc_rms_deg']:.5f} deg over the Li grid (the sensor's, reported, not judged)")
-    lines += _common_tail(rep)
+    lines += _common_tail(rep, verdict)
     return "\n".join(lines)
 
 
@@ -635,4 +655,12 @@ def build_single(ds: RawDataset, cal: Calibration, info: dict) -> FitReport:
         reasons.append(f"{len(rep.outliers)} of {rep.rows} readings rejected as outliers")
     rep.reasons = reasons
     rep.passed = not reasons
+    checked = [(r.get("acc_norm_rms_mg") if kind == "acc" else None, "acc_norm_rms_mg", "|g| residual RMS (mg)"),
+               (r.get("mag_norm_rms_nT") if kind == "mag" else None, "mag_norm_rms_nT", "|b| residual RMS (nT)"),
+               (r.get("inc_rms_deg"), "inc_rms_deg", "inclination residual RMS (deg)"),
+               (rep.conditioning[f"{kind}_m_cond"], "m_cond", "cond(M)")]
+    near = [(v / t[k], what, v, t[k]) for v, k, what in checked if v is not None and np.isfinite(v) and t[k] > 0]
+    if near:
+        _, what, v, lim = max(near)
+        rep.closest = {"what": what, "value": float(v), "limit": float(lim)}
     return rep

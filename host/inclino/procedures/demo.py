@@ -14,7 +14,7 @@ With no arguments (the README's first command, `make demo`):
    2014, before (identity: the probe as delivered) and after (`inclino
    accept --bench`), and print them in the papers' layout;
 6. write the run, the calibration, the accept results and the figures into
-   ./inclino-demo/ (--out): run.csv, cal.json, accept_li2021.json,
+   ./inclino-demo/ (-o): run.csv, cal.json, accept_li2021.json,
    accept_ren2014.json, fluxgate_sphere.png, run_circles.png, circles.png,
    errors_li2021.png, errors_ren2014.png.
 
