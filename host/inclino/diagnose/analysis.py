@@ -14,6 +14,7 @@ from . import core, forward, invariants, robust, selection, study
 from ._blas import one_blas_thread
 from .core import CHANNELS, EFFECT_NAMES, SEPARABLE_MIN, TRIAD_UNITS, TRIADS, Design
 from .result import Diagnosis, Effect, Gain
+from .runvars import run_variable_confounds
 
 AZI_MIN_INC_DEG = 5.0  # azimuth is compared only where it is well defined
 AMBIGUOUS_CORR = 0.9
@@ -76,7 +77,10 @@ def diagnose(ds: RawDataset, effects=None, alpha: float = core.DEFAULT_ALPHA, fo
 
         with one_blas_thread():
             r = diagnose_posefree(ds, alpha=alpha, folds=folds)
-        why = ("no turntable poses" if not ds.has_pose else "one triad only (the pose-based model needs both)")
+        missing = [c for c in ("inc_deg", "azi_deg", "tf_deg") if c not in ds.columns]
+        why = ("one triad only (the pose-based model needs both)" if ds.has_pose else
+               "no turntable poses" if len(missing) == 3 else
+               f"poses incomplete: no {', '.join(missing)} column; the angles there are read as rig angles")
         r.baseline["selection"]["notes"].insert(0, f"pose-free diagnosis ({why}): the invariants |g|, |b| and the "
                                                    f"dip against time, temperature, reading order and rig angles")
         if thinned:
@@ -594,45 +598,6 @@ def _confounds(m: _Model, kept, contradicted):
             if r >= CONFOUND_CORR:
                 out.append({"effect": k, "with": j, "correlation": r, "named": k in kept,
                             "separate_by": separating_acquisition(by_key[k], c)})
-    return out
-
-
-def run_variable_confounds(d, min_r: float = 0.7) -> list:
-    """The run's own variables set beside each other: time, temperature,
-    reading order and the angle of each turntable axis that turns (as
-    harmonics 1-2).  Pairs whose correlation (multiple correlation against
-    an angle's harmonics) reaches min_r: what a time trend, a temperature
-    effect and a rig effect would stand in for."""
-    def z(x):
-        x = np.asarray(x, float)
-        s = x.std()
-        return None if s <= 0 else (x - x.mean()) / s
-    scal = {}
-    if d.t is not None and np.ptp(d.t) > 0:
-        scal["time"] = z(d.t)
-    else:
-        scal["reading order"] = z(np.arange(d.n))
-    if d.temp is not None and np.ptp(d.temp) > 0:
-        scal["temperature"] = z(d.temp)
-    angles = {}
-    for name, a in (("inclination axis", d.inc), ("azimuth axis", d.azi), ("toolface axis", d.tf)):
-        if np.ptp(a) >= 1.0:
-            r = np.radians(a)
-            angles[name] = np.column_stack([np.cos(r), np.sin(r), np.cos(2 * r), np.sin(2 * r)])
-    out = []
-    names_ = list(scal)
-    for i, a in enumerate(names_):
-        for b in names_[i + 1:]:
-            r = float(np.mean(scal[a] * scal[b]))
-            if abs(r) >= min_r:
-                out.append({"a": a, "b": b, "correlation": r})
-    for a, x in scal.items():
-        for b, H in angles.items():
-            X = np.column_stack([np.ones(d.n), H])
-            beta = np.linalg.lstsq(X, x, rcond=None)[0]
-            r2 = 1.0 - float(np.sum((x - X @ beta) ** 2)) / float(np.sum(x ** 2))
-            if r2 >= min_r ** 2:
-                out.append({"a": a, "b": b + " angle", "correlation": float(np.sqrt(max(r2, 0.0)))})
     return out
 
 

@@ -554,7 +554,7 @@ def diagnose_posefree(ds: RawDataset, alpha: float = DEFAULT_ALPHA, folds: int =
                                               "the run static if it is), so that motion and sampling between the "
                                               "axes stop shaping the invariants"})
     structure = _structure(pf, R_final, rows, chans, alpha)
-    from .analysis import run_variable_confounds
+    from .runvars import run_variable_confounds
 
     run_conf = run_variable_confounds(_RunVars(pf))
     not_testable = [{"effect": n, "reason": why} for n, why in NEEDS_POSES]
@@ -697,7 +697,7 @@ def _weights_of(des):
 
 
 class _RunVars:
-    """What analysis.run_variable_confounds reads, from the cluster means."""
+    """What runvars.run_variable_confounds reads, from the cluster means."""
 
     def __init__(self, pf):
         self.n = pf.k

@@ -180,20 +180,30 @@ class Diagnosis:
         figures that decided it.  A finding, not a check: `inclino diagnose`
         exits 0 either way."""
         b = self.baseline
-        base = (f"azimuth {b['azi_rms_deg']:.4f} deg, " if b.get("azi_rms_deg") is not None else "") + \
-            f"inclination {b['inc_rms_deg']:.4f} deg"
+        pose_free = b.get("mode") == "invariants"
+        if pose_free:
+            u = {"|g|": "g", "|b|": "nT", "dip": "deg"}
+            base = ", ".join(f"{k} {v:.4g} {u[k]}" for k, v in b["rms"].items())
+            model = "the pose-free model (invariants only)"
+        else:
+            base = (f"azimuth {b['azi_rms_deg']:.4f} deg, " if b.get("azi_rms_deg") is not None else "") + \
+                f"inclination {b['inc_rms_deg']:.4f} deg"
+            model = "the 12-parameter model"
         alpha = b["selection"]["alpha"]
         if not self.effects and not self.unexplained:
-            return (f"conclusion: PASS: the 12-parameter model leaves nothing to name: no effect at alpha = {alpha:g}, "
+            return (f"conclusion: PASS: {model} leaves nothing to name: no effect at alpha = {alpha:g}, "
                     f"no unexplained structure (residual RMS {base})")
         parts = []
         for e in self.effects:
             g = e.gain
-            fig = (f"azimuth RMS {g.azi_rms_before_deg:.4f} -> {g.azi_rms_after_deg:.4f} deg"
-                   if g.azi_rms_before_deg is not None else
-                   f"inclination RMS {g.inc_rms_before_deg:.4f} -> {g.inc_rms_after_deg:.4f} deg")
+            if pose_free or g.inc_rms_before_deg != g.inc_rms_before_deg:
+                fig = f"residual RMS {g.rms_before:.4g} -> {g.rms_after:.4g} {e.rms_units}"
+            elif g.azi_rms_before_deg is not None:
+                fig = f"azimuth RMS {g.azi_rms_before_deg:.4f} -> {g.azi_rms_after_deg:.4f} deg"
+            else:
+                fig = f"inclination RMS {g.inc_rms_before_deg:.4f} -> {g.inc_rms_after_deg:.4f} deg"
             parts.append(f"{e.name} ({e.sensor} {e.axis}, p = {e.p_value:.2g}; {fig})")
         if self.unexplained:
             parts.append("structure no library effect explains (p = "
                          f"{self.structure['min_p']:.2g} < {self.structure['threshold']:.2g})")
-        return "conclusion: FAIL: the 12-parameter model misses " + "; ".join(parts)
+        return f"conclusion: FAIL: {model} misses " + "; ".join(parts)
