@@ -54,9 +54,9 @@ LAG_RATIO = 3.0           # spread as paired / spread at the best shift: an erro
 LAG_MIN_GAIN = 0.1        # a warning when the best shift cuts the spread by more than this fraction ...
 LAG_MIN_DEG = 0.1         # ... and by more than this
 MIN_SPREAD_DEG = 1.0      # a dip spread below this is consistent whatever the shift
-LAG_T = 4.0               # step-and-hold logs: the paired mean-deviation gain of a shift must be this many
+LAG_T = 3.0               # step-and-hold logs: the paired mean-deviation gain of a shift must be this many
                           # standard errors (of blocks of rows) to be named ...
-LAG_T_GAIN = 1.2          # ... and cut the mean deviation by this factor
+LAG_T_GAIN = 1.5          # ... and cut the mean deviation by this factor
 AXES_RATIO = 3.0          # dip spread with the declared maps / with the best other map
 RAW_DIRS_MAX_CV = 0.1     # raw directions compared only when |v| varies less than this (offsets small)
 # the noise (1 sigma, one reading, per axis) a static sensor of each kind stays within when the
