@@ -21,6 +21,7 @@ from __future__ import annotations
 import csv
 import json
 
+from inclino.cli.paths import Input, Output, OutputDir
 from inclino.errors import CalibrationError, DataError
 
 MAX_BOOTSTRAP = 1000  # refits at most (each is a whole fit: a bound on the time a typo can cost)
@@ -90,14 +91,14 @@ def add_calibrate(subparsers):
     from inclino.calib import DEFAULT_METHOD, METHODS
 
     c = subparsers.add_parser("calibrate", help="fit a calibration to a raw dataset (writes CAL.json)")
-    c.add_argument("input", help="raw dataset CSV (docs/dataset.md)")
+    c.add_argument("input", action=Input, help="raw dataset CSV (docs/dataset.md)")
     c.add_argument("--method", choices=tuple(METHODS), default=DEFAULT_METHOD,
                    help=f"fitting method (default {DEFAULT_METHOD})")
-    c.add_argument("-o", "--output", required=True, help="calibration file to write (CAL.json)")
+    c.add_argument("-o", "--output", action=Output, required=True, help="calibration file to write (CAL.json)")
     c.add_argument("--json", action="store_true", help="print the fit report as one JSON object")
     c.add_argument("--no-poses", action="store_true",
                    help="joint: ignore the pose columns (field recalibration from the invariants)")
-    c.add_argument("--prior", help="joint without poses: take what the invariants cannot see (the common rotation "
+    c.add_argument("--prior", action=Input, help="joint without poses: take what the invariants cannot see (the common rotation "
                                    "of the sensor block) from this turntable calibration of the same probe")
     c.add_argument("--temperature", choices=("auto", "on", "off"), default=None,
                    help="joint: fit the temperature terms (auto, the default: when the run's temperatures determine "
@@ -161,10 +162,10 @@ def add_bitexact(sub):
 
 def add_attitude(sub):
     a = sub.add_parser("attitude", help="attitude of every row of a raw dataset")
-    a.add_argument("input", help="raw dataset CSV")
-    a.add_argument("--cal", help="calibration JSON (default: identity)")
+    a.add_argument("input", action=Input, help="raw dataset CSV")
+    a.add_argument("--cal", action=Input, help="calibration JSON (default: identity)")
     a.add_argument("--engine", choices=("firmware", "golden", "reference"), default="firmware")
-    a.add_argument("-o", "--output", required=True, help="output CSV ('-' for stdout)")
+    a.add_argument("-o", "--output", action=Output, required=True, help="output CSV ('-' for stdout)")
     a.set_defaults(func=_cmd_attitude)
 
 
@@ -246,14 +247,14 @@ def add_diagnose(subparsers):
 
     p = subparsers.add_parser("diagnose", help="find what the 12-parameter model gets wrong in a raw dataset, "
                                                "name the effect, measure the gain")
-    p.add_argument("input", nargs="?", help="raw dataset CSV with the turntable's poses (docs/dataset.md)")
+    p.add_argument("input", nargs="?", action=Input, help="raw dataset CSV with the turntable's poses (docs/dataset.md)")
     p.add_argument("--json", action="store_true", help="print one JSON object")
-    p.add_argument("--plot", metavar="DIR", help="write PNGs of the residuals (before/after) into DIR")
+    p.add_argument("--plot", metavar="DIR", action=OutputDir, help="write PNGs of the residuals (before/after) into DIR")
     p.add_argument("--effects", help="comma-separated effects to test (default: all): " + ", ".join(EFFECT_NAMES))
     p.add_argument("--alpha", type=float, default=0.01,
                    help="false-alarm level: the chance of naming an effect on data without any (default 0.01)")
     p.add_argument("--folds", type=int, default=5, help="cross-validation folds (default 5)")
-    p.add_argument("--cal", metavar="CAL.json",
+    p.add_argument("--cal", metavar="CAL.json", action=Input,
                    help="first bring the readings to the reference temperature with this calibration's "
                         "temperature terms (joint --temperature): diagnose what they leave")
     p.add_argument("--paper", choices=PAPERS,

@@ -12,6 +12,7 @@ from __future__ import annotations
 import argparse
 import json
 
+from inclino.cli.paths import Output
 from inclino.errors import InclinoError
 
 
@@ -151,7 +152,7 @@ def add_bench(sub, cli_main):
     be.add_argument("--dip", type=float, default=60.0, help="accuracy: dip, degrees")
     be.add_argument("--vectors", type=int, default=1_000_000, help="speed: batch size")
     be.add_argument("--quick", action="store_true", help="diagnose: a small set (not the targets' figures)")
-    be.add_argument("--plot", help="survey: also draw the first seed's well path and ellipses (PNG)")
+    be.add_argument("--plot", action=Output, help="survey: also draw the first seed's well path and ellipses (PNG)")
     be.add_argument("--section", choices=("all", "temperature"), default="all",
                     help="calibration: only the temperature section (default all)")
     be.set_defaults(func=_cmd_bench, cli_main=cli_main)

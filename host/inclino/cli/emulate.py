@@ -2,6 +2,7 @@
 interrupted (the emulator package, imported when the command runs)."""
 from __future__ import annotations
 
+from inclino.cli.paths import Input, Output
 from inclino.errors import DataError, InclinoError
 
 
@@ -53,10 +54,10 @@ def _cmd_emulate(args) -> int:
 
 def add_emulate(sub):
     em = sub.add_parser("emulate", help="run the emulated probe on a pseudo-terminal until interrupted")
-    em.add_argument("--scenario", default="typical", help="built-in scenario name or TOML file (default typical)")
+    em.add_argument("--scenario", default="typical", action=Input, help="built-in scenario name or TOML file (default typical)")
     em.add_argument("--seed", type=int, default=None, help="override the scenario's seed")
     em.add_argument("--baud", type=int, default=115200)
-    em.add_argument("--link", help="also make this path a symlink to the pseudo-terminal")
+    em.add_argument("--link", action=Output, help="also make this path a symlink to the pseudo-terminal")
     em.add_argument("--control", type=int, default=0,
                     help="control channel TCP port on 127.0.0.1 (default: any free port)")
     em.add_argument("--unthrottled", action="store_true", help="run faster than real time")

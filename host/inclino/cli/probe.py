@@ -1,4 +1,4 @@
-"""The bench technician's probe commands: identify, survey, download,
+"""The bench technician's probe commands: ports, identify, survey, download,
 verify, flash.  A thin shell over inclino.link.serial_link and inclino.link.operations.
 
 Exit statuses: 0 success; 1 verify found a mismatch; 2 bad input; 3
@@ -11,8 +11,9 @@ import json
 import sys
 import time
 
+from inclino.cli.paths import Input, Output, add_port
 from inclino.errors import DataError
-from inclino.formats.survey_log import SURVEY_COLS, qc_text, write_las
+from inclino.formats.survey_log import SURVEY_COLS, las_text, qc_text
 
 
 def _link(args):
@@ -23,7 +24,7 @@ def _link(args):
 
 
 def _add_port(p):
-    p.add_argument("--port", required=True, help="serial port name or pyserial URL")
+    add_port(p)
     p.add_argument("--baud", type=int, default=115200)
     p.add_argument("--timeout", type=float, default=1.0, help="seconds to wait for an answer (default 1)")
 
@@ -69,7 +70,6 @@ class _MdWriter:
 
 def _cmd_survey(args) -> int:
     _validate(args)
-    recs = []
     out = sys.stdout
     w = None
     if args.md is not None and not (args.md == args.md and abs(args.md) < 1e6):
@@ -81,7 +81,11 @@ def _cmd_survey(args) -> int:
         w.writerow(SURVEY_COLS + ("qc_verdict",))
     elif args.format == "table":
         print(f"{'t s':>8} {'inc':>9} {'azi':>9} {'tf':>9} {'G total':>8} {'B total':>9} {'dip':>8}  QC")
-    with _link(args) as link:
+    from inclino.formats import safeio
+
+    # --las: written at the end, and also on Ctrl-C or a link failure with the surveys taken so far
+    las = (lambda rs: las_text(rs, probe=args.port, md=args.md)) if args.las else None
+    with safeio.kept_on_failure(args.las, las, "surveys") as recs, _link(args) as link:
         for rec in _rows(link, args):
             u = rec.to_units()
             recs.append(u)
@@ -96,8 +100,6 @@ def _cmd_survey(args) -> int:
                       f"{u['gt_g']:8.5f} {u['bt_nT']:9.1f} {u['dip_deg']:8.3f}  {qc_text(u['qc'])}"
                       + ("  near-vertical" if u["flags"] & 1 else ""))
             out.flush()
-    if args.las:
-        write_las(args.las, recs, probe=args.port, md=args.md)
     return 0
 
 
@@ -177,7 +179,40 @@ def _cmd_verify(args) -> int:
     return 0 if r.ok else 1
 
 
+def _cmd_ports(args) -> int:
+    from inclino.link.ports import list_ports
+
+    from inclino.link.serial_link import check_link_options
+
+    check_link_options(115200, args.timeout)
+    r = list_ports(identify=args.identify, timeout=args.timeout, only=args.devices)
+    if args.json:
+        print(r.to_json())
+        return 0
+    if not r.ports:
+        print("no serial ports found")
+    for p in r.ports:
+        what = ", ".join(x for x in (p.description, p.hwid) if x)
+        line = f"{p.device:20s} {what}"
+        if p.held_by:
+            line += f"  [in use by {', '.join(p.held_by)}]"
+        if p.probe is not None:
+            line += ("  probe: " + (p.probe["error"] if "error" in p.probe else
+                                    f"{p.probe['product']} serial {p.probe['serial']} fw {p.probe['firmware']}"))
+        print(line.rstrip())
+    print(f"INCLINO_PORT: {r.env_port or '(not set)'}")
+    return 0
+
+
 def add_parser(sub) -> None:
+    p = sub.add_parser("ports", help="list the serial ports a probe may be on (and $INCLINO_PORT)")
+    p.add_argument("devices", nargs="*", action=Input, help="only these ports")
+    p.add_argument("--identify", action="store_true",
+                   help="ask each port no other program holds for the probe's identity (opens it)")
+    p.add_argument("--timeout", type=float, default=0.3, help="seconds to wait for each answer (default 0.3)")
+    p.add_argument("--json", action="store_true")
+    p.set_defaults(func=_cmd_ports)
+
     p = sub.add_parser("identify", help="product, firmware, serial and active calibration of the probe")
     _add_port(p)
     p.add_argument("--json", action="store_true")
@@ -189,14 +224,14 @@ def add_parser(sub) -> None:
     p.add_argument("--period", type=int, default=0, help="milliseconds between surveys")
     p.add_argument("--stream", action="store_true", help="let the probe stream at --period (>= 1 ms)")
     p.add_argument("--format", choices=("table", "csv", "json"), default="table")
-    p.add_argument("--las", help="also write the run as LAS 2.0 to this file")
+    p.add_argument("--las", action=Output, help="also write the run as LAS 2.0 to this file")
     p.add_argument("--md", type=float, help="measured depth of the station, m: an md_m column (MD curve in LAS) "
                                             "for inclino trajectory")
     p.set_defaults(func=_cmd_survey)
 
     p = sub.add_parser("download", help="write a calibration into the probe, read it back, activate it")
     _add_port(p)
-    p.add_argument("cal", help="calibration JSON")
+    p.add_argument("cal", action=Input, help="calibration JSON")
     p.add_argument("--force", action="store_true",
                    help="accept a file made for another probe serial, or whose fit report did not pass")
     p.add_argument("--json", action="store_true")
@@ -205,7 +240,7 @@ def add_parser(sub) -> None:
 
     p = sub.add_parser("verify", help="check the stored calibration and the probe's correction against a file")
     _add_port(p)
-    p.add_argument("cal", help="calibration JSON")
+    p.add_argument("cal", action=Input, help="calibration JSON")
     p.add_argument("--surveys", type=int, default=3, help="surveys to check bit for bit (default 3)")
     p.add_argument("--json", action="store_true")
     p.set_defaults(func=_cmd_verify)
@@ -256,14 +291,14 @@ def _cmd_flash(args) -> int:
 def add_flash(subparsers) -> None:
     p = subparsers.add_parser("flash", help="program an S-record image through the probe's bootloader, "
                                             "verify every range")
-    p.add_argument("image", help="S-record file (S2/S3 records with MC9S12XEP100 global addresses)")
-    p.add_argument("--port", required=True, help="serial port name or pyserial URL")
+    p.add_argument("image", action=Input, help="S-record file (S2/S3 records with MC9S12XEP100 global addresses)")
+    add_port(p)
     p.add_argument("--baud", type=int, default=115200)
     p.add_argument("--timeout", type=float, default=0.5, help="seconds to wait for an answer (default 0.5)")
     p.add_argument("--attempts", type=int, default=2,
                    help="whole flashes to start at most when one is cut short (default 2)")
     p.add_argument("--no-run", action="store_true", help="leave the probe in its bootloader")
-    p.add_argument("--readback", metavar="FILE.s19", help="also write what was read back as S-records")
+    p.add_argument("--readback", metavar="FILE.s19", action=Output, help="also write what was read back as S-records")
     p.add_argument("--json", action="store_true", help="print the result as one JSON object")
     p.set_defaults(func=_cmd_flash)
 

@@ -6,12 +6,13 @@ from __future__ import annotations
 
 import sys
 
+from inclino.cli.paths import Input, Output, add_port, OutputDir
 from inclino.errors import DataError
 
 
 def add_common(p) -> None:
     """Options acquire and accept share: port, bench, stability."""
-    p.add_argument("--port", required=True, help="serial port name or pyserial URL of the probe")
+    add_port(p, "serial port name or pyserial URL of the probe")
     p.add_argument("--baud", type=int, default=115200)
     p.add_argument("--timeout", type=float, default=1.0, help="seconds to wait for an answer (default 1)")
     p.add_argument("--bench", metavar="HOST:PORT",
@@ -74,7 +75,7 @@ def add_acquire(sub):
     p.add_argument("--procedure", required=True, choices=PROCEDURES,
                    help="twelve-position (Li 2021), multi-position (Li + Ren 2014 + orientations), "
                         "continuous (Guo 2009), temperature (a chamber run: --temperatures)")
-    p.add_argument("-o", "--output", required=True, help="raw dataset CSV to write")
+    p.add_argument("-o", "--output", action=Output, required=True, help="raw dataset CSV to write")
     p.add_argument("--points", type=int, default=36, help="multi-position: quasi-uniform orientations (default 36)")
     p.add_argument("--d1", type=float, default=30.0, help="continuous: first inclination (default 30)")
     p.add_argument("--azimuth", type=float, default=2.0, help="continuous: azimuth of both rotations (default 2)")
@@ -270,7 +271,7 @@ def add_accept(sub) -> None:
 
     p = sub.add_parser("accept", help="the papers' check grids on the probe, before and after calibration")
     add_common(p)
-    p.add_argument("--cal", help="download this calibration first; before = the probe as found")
+    p.add_argument("--cal", action=Input, help="download this calibration first; before = the probe as found")
     p.add_argument("--grid", choices=GRIDS, default="li2021", help="li2021 (default) or ren2014")
     p.add_argument("--before", choices=("auto", "identity", "as-found"), default="auto",
                    help="the before column (default: as found with --cal, identity without)")
@@ -284,8 +285,8 @@ def add_accept(sub) -> None:
     p.add_argument("--max-inc-rms", type=float, default=DEFAULT_MAX_INC_RMS,
                    help="verdict: inclination RMS after, deg")
     p.add_argument("--json", action="store_true", help="print the result as one JSON object")
-    p.add_argument("--save", help="write the result as JSON (for inclino plot --accept)")
-    p.add_argument("--plot", metavar="DIR", help="write the error maps (and circles) as PNG into DIR")
+    p.add_argument("--save", action=Output, help="write the result as JSON (for inclino plot --accept)")
+    p.add_argument("--plot", metavar="DIR", action=OutputDir, help="write the error maps (and circles) as PNG into DIR")
     t = p.add_argument_group("at chamber set points (--temperatures; docs/calibration.md)")
     t.add_argument("--temperatures", help="run the grid at each chamber set point, degC (e.g. -5,25,55); needs "
                                           "--cal with temperature terms; toolfaces default 0,120,240")
@@ -340,10 +341,10 @@ def _cmd_plot(args) -> int:
 
 def add_plot(sub) -> None:
     p = sub.add_parser("plot", help="calibration figures (PNG): fluxgate sphere, horizontal circles, error maps")
-    p.add_argument("--run", help="a calibration run (raw dataset CSV)")
-    p.add_argument("--cal", help="its calibration (CAL.json)")
-    p.add_argument("--accept", help="an accept result (inclino accept --save)")
-    p.add_argument("-o", "--output", required=True, metavar="DIR", help="folder for the PNG files")
+    p.add_argument("--run", action=Input, help="a calibration run (raw dataset CSV)")
+    p.add_argument("--cal", action=Input, help="its calibration (CAL.json)")
+    p.add_argument("--accept", action=Input, help="an accept result (inclino accept --save)")
+    p.add_argument("-o", "--output", action=OutputDir, required=True, metavar="DIR", help="folder for the PNG files")
     p.set_defaults(func=_cmd_plot)
 
 
@@ -370,9 +371,9 @@ def add_demo(sub) -> None:
 
     d = sub.add_parser("demo", help="the whole calibration bench on the emulated probe (--core: the C core "
                                     "on a table of poses)")
-    d.add_argument("--out", default=DEFAULT_OUT, help=f"folder for the run, calibration and figures "
+    d.add_argument("--out", default=DEFAULT_OUT, action=OutputDir, help=f"folder for the run, calibration and figures "
                                                       f"(default ./{DEFAULT_OUT})")
-    d.add_argument("--scenario", default="typical", help="emulator scenario (default typical)")
+    d.add_argument("--scenario", default="typical", action=Input, help="emulator scenario (default typical)")
     d.add_argument("--seed", type=int, default=None, help="override the scenario's seed")
     d.add_argument("--quiet", action="store_true", help="no progress bars")
     d.add_argument("--core", action="store_true",

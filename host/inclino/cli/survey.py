@@ -12,6 +12,7 @@ import json
 import math
 import sys
 
+from inclino.cli.paths import Input, Output
 from inclino.errors import DataError
 
 
@@ -29,7 +30,7 @@ def _add_reference(p, grid=True):
     g.add_argument("--gravity", type=float, help="local gravity, g (default: WGS 84 normal gravity)")
     if grid:
         g.add_argument("--grid", type=int, metavar="EPSG", help="projected CRS: grid azimuth, easting/northing")
-    g.add_argument("--ref", help="a reference-field file written by inclino reffield (instead of the options)")
+    g.add_argument("--ref", action=Input, help="a reference-field file written by inclino reffield (instead of the options)")
 
 
 def _reference(args):
@@ -205,48 +206,48 @@ def _cmd_compare(args) -> int:
 def add_parser(sub) -> None:
     p = sub.add_parser("reffield", help="reference field of a survey: declination, dip, total field, gravity, grid")
     _add_reference(p)
-    p.add_argument("-o", "--output", help="write the reference field as JSON (stored with the run)")
-    p.add_argument("--port", help="also write it to the probe as its QC reference (QCREF_WRITE)")
+    p.add_argument("-o", "--output", action=Output, help="write the reference field as JSON (stored with the run)")
+    p.add_argument("--port", action=Input, help="also write it to the probe as its QC reference (QCREF_WRITE)")
     p.add_argument("--baud", type=int, default=115200)
     p.add_argument("--timeout", type=float, default=1.0)
     p.add_argument("--json", action="store_true")
     p.set_defaults(func=_cmd_reffield)
 
     p = sub.add_parser("toolmodel", help="the calibrated probe's error model as an ISCWSA tool model (JSON)")
-    p.add_argument("cal", help="calibration JSON with its fit report (inclino calibrate)")
+    p.add_argument("cal", action=Input, help="calibration JSON with its fit report (inclino calibrate)")
     _add_reference(p, grid=False)
-    p.add_argument("--noise", help="a survey listing of repeated surveys at rest: the per-survey noise")
+    p.add_argument("--noise", action=Input, help="a survey listing of repeated surveys at rest: the per-survey noise")
     p.add_argument("--acc-noise", type=float, help="accelerometer noise per survey and axis, g")
     p.add_argument("--mag-noise", type=float, help="fluxgate noise per survey and axis, nT")
     p.add_argument("--name", default="INCLINO", help="the tool model's short name")
     p.add_argument("--ref-terms", choices=("none", "srgm", "ifr1"), default="none",
                    help="reference-field terms to include (default none: trajectory adds them per survey)")
-    p.add_argument("-o", "--output", required=True, help="tool model JSON")
+    p.add_argument("-o", "--output", action=Output, required=True, help="tool model JSON")
     p.set_defaults(func=_cmd_toolmodel)
 
     p = sub.add_parser("trajectory", help="well path by minimum curvature from a survey listing, with QC "
                                           "and position uncertainty")
-    p.add_argument("input", nargs="+", help="survey listing(s) (CSV, JSON lines or LAS) with md_m, inc_deg, azi_deg; "
+    p.add_argument("input", nargs="+", action=Input, help="survey listing(s) (CSV, JSON lines or LAS) with md_m, inc_deg, azi_deg; "
                                             "several files are one survey, sorted by depth")
     _add_reference(p)
     p.add_argument("--uncertainty", action="store_true", help="position covariance (1-sigma ellipse) per station")
-    p.add_argument("--tool-model", help="tool model JSON (inclino toolmodel)")
-    p.add_argument("--cal", help="or a calibration JSON to build the tool model from")
+    p.add_argument("--tool-model", action=Input, help="tool model JSON (inclino toolmodel)")
+    p.add_argument("--cal", action=Input, help="or a calibration JSON to build the tool model from")
     p.add_argument("--acc-noise", type=float, help="with --cal: accelerometer noise per survey and axis, g")
     p.add_argument("--mag-noise", type=float, help="with --cal: fluxgate noise per survey and axis, nT")
     p.add_argument("--ref-terms", choices=("none", "srgm", "ifr1"),
                    help="reference-field error terms (default: srgm for a main-field model, ifr1 for user values)")
-    p.add_argument("--las", help="also write the trajectory as LAS 2.0")
+    p.add_argument("--las", action=Output, help="also write the trajectory as LAS 2.0")
     p.add_argument("--fail-on-qc", action="store_true", help="exit 1 when a station fails QC")
-    p.add_argument("--plot", help="a PNG of the path (plan view with the ellipses, vertical section)")
-    p.add_argument("-o", "--output", required=True, help="trajectory CSV ('-' for stdout; .las for LAS 2.0)")
+    p.add_argument("--plot", action=Output, help="a PNG of the path (plan view with the ellipses, vertical section)")
+    p.add_argument("-o", "--output", action=Output, required=True, help="trajectory CSV ('-' for stdout; .las for LAS 2.0)")
     p.set_defaults(func=_cmd_trajectory)
 
     p = sub.add_parser("compare", help="repeatability QC of two surveys station by station")
-    p.add_argument("first", help="in-run survey listing")
-    p.add_argument("second", help="out-run (or second probe) survey listing")
-    p.add_argument("--tool-model", help="tool model JSON (inclino toolmodel)")
-    p.add_argument("--cal", help="or a calibration JSON to build it from")
+    p.add_argument("first", action=Input, help="in-run survey listing")
+    p.add_argument("second", action=Input, help="out-run (or second probe) survey listing")
+    p.add_argument("--tool-model", action=Input, help="tool model JSON (inclino toolmodel)")
+    p.add_argument("--cal", action=Input, help="or a calibration JSON to build it from")
     p.add_argument("--acc-noise", type=float, help="with --cal: accelerometer noise per survey and axis, g")
     p.add_argument("--mag-noise", type=float, help="with --cal: fluxgate noise per survey and axis, nT")
     _add_reference(p, grid=False)

@@ -28,6 +28,14 @@ leading byte-order mark is dropped), `parse_json` refuses nesting deeper
 than MAX_JSON_DEPTH, non-finite numbers (NaN, Infinity, 1e999) and integers
 of more than MAX_INT_DIGITS digits -- each as one line (the error class the
 caller gives), never a RecursionError, OverflowError or UnicodeDecodeError.
+
+A command's files (`command_files`): the command line declares every file a
+command reads and writes (inclino.cli.paths); `command_files(inputs,
+outputs)` refuses, before any work, an output that is one of the inputs or
+names the same file as another output, and, while the command runs, every
+file written through this module is checked against those inputs and
+against every file the command already wrote (a figure written into an
+output folder through a planted symbolic link, two figures of one name).
 """
 from __future__ import annotations
 
@@ -40,13 +48,79 @@ import stat
 import sys
 import tempfile
 
-import numpy as np
-
 from inclino.errors import DataError
 
 MAX_JSON_BYTES = 16 * 2**20  # a CAL.json with its fit report is a few tens of kB
 MAX_JSON_DEPTH = 32  # CAL.json nests 4 deep; the fit report a few more
 MAX_INT_DIGITS = 30  # the largest integer in CAL.json is a 32-bit coefficient (10 digits)
+
+
+# ---------------------------------------------------------------- the command's files
+class _Scope:
+    """The files of the running command: its inputs, and what it wrote."""
+
+    def __init__(self, inputs):
+        self.inputs = [p for p in inputs if p and p != "-"]
+        self.written: dict = {}  # identity or real path -> the path as given
+
+
+_SCOPES: list = []
+
+
+def _scope():
+    return _SCOPES[-1] if _SCOPES else None
+
+
+def _key(path: str):
+    """What names a file: (device, inode) when it exists, else its real path."""
+    return _ident(path) or os.path.realpath(path)
+
+
+def check_outputs(inputs, outputs) -> None:
+    """The rule between a command's files, before any work: each output
+    (path, kind 'file' or 'dir', option name) is neither an input nor the
+    file of another output; at most one output is standard output."""
+    inputs = [p for p in inputs if p and p != "-"]
+    seen: dict = {}
+    stdout = []
+    for path, kind, name in outputs:
+        if path == "-":
+            stdout.append(name)
+            if len(stdout) > 1:
+                raise DataError(f"{stdout[0]} and {name} both write to standard output")
+            continue
+        if kind == "dir":
+            if not path:
+                raise DataError(f"{name}: an empty folder path")
+            for p in inputs:
+                if _ident(p) is not None and _ident(p) == _ident(path):
+                    raise DataError(f"refusing to write into {path}: it is the input {p}")
+            if os.path.exists(path) and not os.path.isdir(path):
+                raise DataError(f"refusing to write into {path} ({name}): it is not a folder")
+        else:
+            check_output(path, inputs)
+            try:
+                if not stat.S_ISREG(os.stat(path).st_mode):
+                    continue  # a device (/dev/null) may take several outputs
+            except (OSError, ValueError):
+                pass
+        k = _key(path)
+        if k in seen:
+            other, oname = seen[k]
+            raise DataError(f"{oname} {other} and {name} {path} name the same "
+                            f"{'folder' if kind == 'dir' else 'file'}: one output would replace the other")
+        seen[k] = (path, name)
+
+
+@contextlib.contextmanager
+def command_files(inputs, outputs=()):
+    """Run a command with its declared files (see the module's docstring)."""
+    check_outputs(inputs, outputs)
+    _SCOPES.append(_Scope(inputs))
+    try:
+        yield
+    finally:
+        _SCOPES.pop()
 
 
 # ---------------------------------------------------------------- outputs
@@ -74,6 +148,13 @@ def check_output(path: str, inputs=()) -> None:
         raise DataError(f"refusing to write {path}: it is a directory")
 
 
+def _regular_or_new(path: str) -> bool:
+    try:
+        return stat.S_ISREG(os.stat(path).st_mode)
+    except (OSError, ValueError):
+        return True
+
+
 def _new_file_mode() -> int:
     mask = os.umask(0)
     os.umask(mask)
@@ -84,7 +165,14 @@ def _new_file_mode() -> int:
 def output_file(path: str, inputs=(), *, binary: bool = False, newline: str | None = ""):
     """Open `path` for writing by the rules above; yields a file object.  The
     content is committed when the with-block ends without an exception."""
+    scope = _scope()
+    inputs = list(inputs) + (scope.inputs if scope is not None else [])
     check_output(path, inputs)
+    if scope is not None and path != "-":
+        k = _key(path)
+        if k in scope.written and _regular_or_new(path):
+            raise DataError(f"refusing to write {path}: this command already wrote that file "
+                            f"({scope.written[k]})")
     if path == "-":
         f = sys.stdout.buffer if binary else sys.stdout
         try:
@@ -134,6 +222,8 @@ def output_file(path: str, inputs=(), *, binary: bool = False, newline: str | No
                 raise DataError(f"refusing to write {path}: it is the input file")
             os.replace(tmp, real)
             ok = True
+            if scope is not None:
+                scope.written[_key(real)] = path
         except OSError as e:
             raise DataError(f"cannot write {path}: {e.strerror}") from None
     finally:
@@ -154,6 +244,91 @@ def save_figure(fig, path: str, **kw) -> None:
     buf = io.BytesIO()
     fig.savefig(buf, format="png", **kw)
     write_output(path, buf.getvalue())
+
+
+# ---------------------------------------------------------------- logs kept on failure
+def _annotate(e: BaseException, note: str) -> None:
+    """Add what was kept to an interruption's or an error's one line."""
+    text = str(e)
+    e.args = (f"{text}; {note}" if text else note,)
+
+
+class PartFile:
+    """A logging command's file written as the run goes: PATH.part, by the
+    output rules (never over an input or another output), each write
+    flushed.  `commit()` moves the finished file to PATH atomically; after
+    an interruption or a failure the rows stay in PATH.part and `kept()`
+    says so (docs/cli.md, "Interrupts")."""
+
+    def __init__(self, path: str, inputs=(), what: str = "rows"):
+        scope = _scope()
+        inputs = list(inputs) + (scope.inputs if scope is not None else [])
+        check_output(path, inputs)
+        self.path, self.part, self.what, self.rows = path, path + ".part", what, 0
+        check_output(self.part, inputs + [path])
+        try:
+            self.f = open(self.part, "w", newline="", encoding="utf-8")
+        except OSError as e:
+            raise DataError(f"cannot write {self.part}: {e.strerror}") from None
+        if scope is not None:
+            scope.written[_key(self.part)] = self.part
+
+    def write(self, text: str, row: bool = True) -> None:
+        try:
+            self.f.write(text)
+            self.f.flush()
+        except OSError as e:
+            raise DataError(f"cannot write {self.part}: {e.strerror}") from None
+        self.rows += bool(row)
+
+    def commit(self) -> None:
+        self.f.close()
+        try:
+            with open(self.part, "rb") as src:
+                data = src.read()
+        except OSError as e:
+            raise DataError(f"cannot read back {self.part}: {e.strerror}") from None
+        write_output(self.path, data)
+        os.unlink(self.part)
+
+    def abort(self, e: BaseException | None = None) -> None:
+        """Close the partial file; name it in the exception's line."""
+        with contextlib.suppress(OSError):
+            self.f.close()
+        if not self.rows:  # nothing taken: nothing to keep
+            with contextlib.suppress(OSError):
+                os.unlink(self.part)
+            return
+        if e is not None and isinstance(e, (KeyboardInterrupt, Exception)):
+            _annotate(e, self.kept())
+
+    def kept(self) -> str:
+        return f"the {self.rows} {self.what} taken before it are in {self.part}"
+
+
+@contextlib.contextmanager
+def kept_on_failure(path: str | None, render, what: str = "records", inputs=()):
+    """A logging command's file written at the end from records collected
+    as the run goes (a format written whole, LAS): yields the list to
+    append to.  The file is written when the block ends -- also when it
+    ends on Ctrl-C or an error (a link failure) with records taken, so that
+    what was printed is kept; the exception's line then names the file."""
+    recs: list = []
+    if path is None:
+        yield recs
+        return
+    try:
+        yield recs
+    except (KeyboardInterrupt, Exception) as e:
+        if recs:
+            try:
+                write_output(path, render(recs), inputs)
+            except Exception as w:  # the original failure is the one reported
+                _annotate(e, f"the {len(recs)} {what} taken could not be kept in {path}: {w}")
+            else:
+                _annotate(e, f"the {len(recs)} {what} taken before it are in {path}")
+        raise
+    write_output(path, render(recs), inputs)
 
 
 # ---------------------------------------------------------------- inputs
@@ -178,6 +353,8 @@ def read_text(path: str, what: str = "file", max_bytes: int = MAX_JSON_BYTES, er
 def json_depth(text: str) -> int:
     """Deepest nesting of [ and { outside strings, in linear time (no
     regular expression that could backtrack on hostile text)."""
+    import numpy as np
+
     a = np.frombuffer(text.encode("utf-8", "surrogatepass"), dtype=np.uint8)
     if a.size == 0:
         return 0

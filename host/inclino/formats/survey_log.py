@@ -11,8 +11,10 @@ def qc_text(qc: int) -> str:
     return ("FAIL " + ",".join(fails)) if fails else "PASS"
 
 
-def write_las(path: str, recs: list[dict], probe: str = "", md: float | None = None) -> None:
-    """A logged survey run as LAS 2.0 (lasio), indexed by time."""
+def las_text(recs: list[dict], probe: str = "", md: float | None = None) -> str:
+    """A logged survey run as LAS 2.0 text (lasio), indexed by time."""
+    import io
+
     import lasio
     import numpy as np
 
@@ -31,7 +33,13 @@ def write_las(path: str, recs: list[dict], probe: str = "", md: float | None = N
                                    ("dip_deg", "DIP", "deg", "magnetic dip"), ("flags", "FLAGS", "", "status flags"),
                                    ("qc", "QC", "", "QC bits, 0 = pass")):
         las.append_curve(mnem, np.array([r[key] for r in recs], dtype=float), unit=unit, descr=descr)
+    buf = io.StringIO()
+    las.write(buf, version=2.0)
+    return buf.getvalue()
+
+
+def write_las(path: str, recs: list[dict], probe: str = "", md: float | None = None) -> None:
+    """A logged survey run as LAS 2.0 (lasio), through inclino.formats.safeio."""
     from inclino.formats import safeio
 
-    with safeio.output_file(path, newline=None) as f:
-        las.write(f, version=2.0)
+    safeio.write_output(path, las_text(recs, probe, md))

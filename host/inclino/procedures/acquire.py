@@ -58,7 +58,6 @@ from __future__ import annotations
 
 import contextlib
 import datetime as _dt
-import os
 import sys
 import time
 from dataclasses import dataclass, field
@@ -144,8 +143,8 @@ def recording(out, bar, res, t0):
     res.elapsed_s."""
     try:
         yield
-    except BaseException:
-        out.abort()
+    except BaseException as e:
+        out.abort(e)  # the rows taken stay in RUN.csv.part, and the error line says so
         bar.close()
         raise
     bar.close()
@@ -155,49 +154,34 @@ def recording(out, bar, res, t0):
 
 
 class _RowWriter:
+    """The run's rows to RUN.csv.part as they are taken (safeio.PartFile:
+    the output rules), renamed to RUN.csv at the end."""
+
     def __init__(self, path: str, meta: dict):
         from inclino.formats import safeio
-
-        safeio.check_output(path)
-        self.path = path
-        self.part = path + ".part"
-        try:
-            self.f = open(self.part, "w", newline="", encoding="utf-8")
-        except OSError as e:
-            raise DataError(f"cannot write {path}: {e.strerror}")
         from inclino.formats.dataset import META_KEYS
 
-        for k in META_KEYS:
-            if k in meta and meta[k] is not None:
-                self.f.write(f"# {k}={meta[k]}\n")
-        self.f.write(",".join(COLUMNS) + "\n")
-        self.rows = 0
+        self.path = path
+        self.out = safeio.PartFile(path, what="rows")
+        self.part = self.out.part
+        head = "".join(f"# {k}={meta[k]}\n" for k in META_KEYS if k in meta and meta[k] is not None)
+        self.out.write(head + ",".join(COLUMNS) + "\n", row=False)
+
+    @property
+    def rows(self) -> int:
+        return self.out.rows
 
     def write(self, row: dict) -> None:
-        self.f.write(",".join(repr(float(row[c])) for c in COLUMNS) + "\n")
-        self.f.flush()
-        self.rows += 1
+        self.out.write(",".join(repr(float(row[c])) for c in COLUMNS) + "\n")
 
     def commit(self) -> None:
-        """The finished run goes to the output path through inclino.formats.safeio
-        (atomic, never over a device or through a replaced symlink, the
-        target's permissions kept); the .part file is then removed."""
-        from inclino.formats import safeio
+        """The finished run goes to the output path (atomic, never over a
+        device or through a replaced symlink, the target's permissions
+        kept); the .part file is then removed."""
+        self.out.commit()
 
-        self.f.close()
-        try:
-            with open(self.part, "rb") as src:
-                data = src.read()
-        except OSError as e:
-            raise DataError(f"cannot read back {self.part}: {e.strerror}") from None
-        safeio.write_output(self.path, data)
-        os.unlink(self.part)
-
-    def abort(self) -> None:
-        try:
-            self.f.close()
-        except OSError:  # pragma: no cover
-            pass
+    def abort(self, e: BaseException | None = None) -> None:
+        self.out.abort(e)
 
 
 def acquire(link, procedure: str, out_path: str, table, *, points: int = 36, d1: float = 30.0,
