@@ -165,7 +165,6 @@ EXCEPTIONS = {
     ("host/inclino/s08/simulator.py", "write_bytes"): "the S08 simulator's input in its own temporary folder",
     ("emulator/inclino_emu/serial_pty.py", "symlink"): "emulate --link: a symbolic link to the pseudo-terminal, "
                                                        "only ever replacing a symbolic link (declared Output)",
-    ("host/inclino/plotting.py", "save"): "plotting.save: the figure through safeio.save_figure",
 }
 # modules that write only into temporary folders they create themselves
 TEMP_ONLY = ("host/inclino/benchmarks/", "host/inclino/s08/toolchain.py", "emulator/inclino_emu/_build_fw.py",
@@ -198,7 +197,7 @@ def writes_outside_safeio():
                     found.append((rel, node.lineno, "open for writing"))
                 elif name in WRITING_CALLS and isinstance(fn, ast.Attribute):
                     owner = ast.unparse(fn.value)
-                    if name == "save" and owner not in ("np", "numpy", "plotting", "plt", "fig"):
+                    if name == "save" and owner not in ("np", "numpy", "plt", "fig"):
                         continue  # Calibration.save, ToolModel.save: they write through safeio
                     if name == "replace" and owner not in ("os",):
                         continue  # str.replace, dataclasses.replace
