@@ -172,6 +172,11 @@ TEMP_ONLY = ("host/inclino/benchmarks/", "host/inclino/s08/toolchain.py", "emula
 
 
 def _write_mode(call: ast.Call) -> bool:
+    fn = call.func
+    if isinstance(fn, ast.Attribute) and ast.unparse(fn.value) == "os" and fn.attr == "open":
+        # os.open(path, flags): a device opened to look at it (O_RDWR | O_NOCTTY) is no file written
+        flags = ast.unparse(call.args[1]) if len(call.args) > 1 else ""
+        return any(f in flags for f in ("O_CREAT", "O_TRUNC", "O_APPEND", "O_WRONLY"))
     mode = call.args[1] if len(call.args) > 1 else next((k.value for k in call.keywords if k.arg == "mode"), None)
     if mode is None:
         return False
