@@ -37,11 +37,7 @@ def _reference(args):
     from inclino.survey import geomag
 
     if getattr(args, "ref", None):
-        try:
-            with open(args.ref, encoding="utf-8") as f:
-                return geomag.ReferenceField.from_json(f.read())
-        except OSError as e:
-            raise DataError(f"cannot read {args.ref}: {e.strerror}")
+        return geomag.ReferenceField.load(args.ref)
     return geomag.reference(lat=args.lat, lon=args.lon, date=args.date, alt_m=args.alt, model=args.model,
                             declination=args.declination, dip=args.dip, total=args.total, gravity=args.gravity,
                             grid_epsg=getattr(args, "grid", None))

@@ -120,8 +120,18 @@ class _Lines:
     def __next__(self) -> str:
         try:
             line = self.f.readline(MAX_LINE_CHARS + 1)
-        except UnicodeDecodeError:
-            raise DataError(f"{self.path}:{self.lineno + 1}: not UTF-8 text") from None
+        except UnicodeDecodeError:  # the text layer decodes ahead: find the byte's own line in the file
+            from inclino.formats.safeio import utf8_error
+
+            where = None
+            try:
+                where = utf8_error(self.path)
+            except OSError:
+                pass
+            if where is None:
+                raise DataError(f"{self.path}:{self.lineno + 1}: not UTF-8 text") from None
+            raise DataError(f"{self.path}:{where[0]}: not UTF-8 text (byte 0x{where[2]:02X} at column "
+                            f"{where[1]})") from None
         if not line:
             raise StopIteration
         self.lineno += 1

@@ -347,7 +347,67 @@ def read_text(path: str, what: str = "file", max_bytes: int = MAX_JSON_BYTES, er
     try:
         return raw.decode("utf-8-sig")
     except UnicodeDecodeError as e:
-        raise error(f"{what} {path} is not UTF-8 text (byte {e.start})") from None
+        line, col = line_of(raw, e.start + (3 if raw.startswith(b"\xef\xbb\xbf") else 0))
+        raise error(f"{what} {path}:{line}: not UTF-8 text (byte 0x{raw[line_start(raw, line) + col - 1]:02X} at "
+                    f"column {col})") from None
+
+
+def line_of(raw: bytes, offset: int) -> tuple[int, int]:
+    """(line, column), both from 1, of a byte offset in raw text (lines end
+    in LF, CRLF or a lone CR, as Python's text files read them)."""
+    head = raw[:offset]
+    line = head.count(b"\n") + head.count(b"\r") - head.count(b"\r\n") + 1
+    start = max(head.rfind(b"\n"), head.rfind(b"\r")) + 1
+    return line, offset - start + 1
+
+
+def line_start(raw: bytes, line: int) -> int:
+    """The byte offset of a line (from 1) in raw text."""
+    off, n = 0, 1
+    while n < line:
+        i, j = raw.find(b"\n", off), raw.find(b"\r", off)
+        ends = [x for x in (i, j) if x >= 0]
+        if not ends:
+            break
+        k = min(ends)
+        off = k + (2 if raw[k:k + 2] == b"\r\n" else 1)
+        n += 1
+    return off
+
+
+def utf8_error(path: str, chunk: int = 1 << 20):
+    """(line, column, byte) of the first byte of a file that is not UTF-8
+    (None when it all decodes): read in binary, for the error line of a
+    reader that decodes as it streams."""
+    import codecs
+
+    dec = codecs.getincrementaldecoder("utf-8")()
+    lines, col, last_cr = 1, 0, False
+    with open(path, "rb") as f:
+        while True:
+            buf = f.read(chunk)
+            try:
+                dec.decode(buf, final=not buf)
+            except UnicodeDecodeError as e:
+                # the error's offset is within what the decoder held: the pending bytes and this buffer
+                pend = len(e.object) - len(buf)
+                bad = e.start - pend
+                head = buf[:max(bad, 0)]
+                n = head.count(b"\n") + head.count(b"\r") - head.count(b"\r\n")
+                if last_cr and head.startswith(b"\n"):
+                    n -= 1
+                cut = max(head.rfind(b"\n"), head.rfind(b"\r"))
+                c = (bad - cut) if cut >= 0 else col + bad + 1
+                return lines + n, c, e.object[e.start]
+            if not buf:
+                return None
+            n = buf.count(b"\n") + buf.count(b"\r") - buf.count(b"\r\n")
+            if last_cr and buf.startswith(b"\n"):
+                n -= 1
+            cut = max(buf.rfind(b"\n"), buf.rfind(b"\r"))
+            col = (len(buf) - cut - 1) if cut >= 0 else col + len(buf)
+            lines += n
+            last_cr = buf.endswith(b"\r")
 
 
 def json_depth(text: str) -> int:

@@ -20,7 +20,6 @@ from __future__ import annotations
 
 import csv
 import io
-import json
 import math
 from dataclasses import asdict, dataclass, field
 
@@ -56,6 +55,32 @@ def _num(v, what, where):
     return x
 
 
+# One rule per column of a survey listing (lo, hi), every value finite: a
+# measured depth within 100 km (the deepest wells are about 15 km), angles
+# as docs/conventions.md gives them, field values a probe can report.
+RULES = {"md_m": (-1.0e4, 1.0e5), "inc_deg": (0.0, 180.0), "azi_deg": (-360.0, 720.0),
+         "azi_mag_deg": (-360.0, 720.0), "gt_g": (0.0, 4.0), "bt_nT": (0.0, 2.0e5), "dip_deg": (-90.0, 90.0),
+         "flags": (0.0, 2.0**32), "qc": (0.0, 2.0**32)}
+MAX_LISTING_BYTES = 256 * 2**20  # a listing of 10^6 stations with every column is about 100 MB
+
+
+def _check_rules(cols: dict, path: str) -> None:
+    """Each column within its rule (RULES); NaN stands for an absent
+    optional value.  DataError naming the station (row) and the column."""
+    for k, v in cols.items():
+        if k not in RULES or v is None:
+            continue
+        v = np.asarray(v, float)
+        lo, hi = RULES[k]
+        with np.errstate(invalid="ignore"):
+            bad = (v < lo) | (v > hi) | np.isinf(v)
+        if k in ("md_m", "inc_deg", "azi_deg", "azi_mag_deg"):
+            bad |= np.isnan(v)
+        if bad.any():
+            i = int(np.argmax(bad))
+            raise DataError(f"{path}: station {i + 1}: {k} {float(v[i]):g} is outside its range {lo:g} to {hi:g}")
+
+
 def _rows_to_survey(rows: list[dict], path: str, meta: dict) -> Survey:
     if not rows:
         raise DataError(f"{path}: no survey stations")
@@ -86,6 +111,7 @@ def _rows_to_survey(rows: list[dict], path: str, meta: dict) -> Survey:
                     raise DataError(f"{where}: {k} {v!r} is not a number")
             extra[k].append(x)
     md, inc, azi = np.array(md), np.array(inc), np.array(azi)
+    _check_rules({"md_m": md, "inc_deg": inc, azk: azi, **extra}, path)
     if np.any(inc < 0) or np.any(inc > 180):
         raise DataError(f"{path}: inclination outside 0-180 deg")
     if np.any(np.diff(md) < 0):
@@ -170,14 +196,16 @@ def _read_json(text: str, path: str) -> Survey:
 
 
 def _json_rows(text: str, path: str) -> list:
+    """A JSON array of objects or JSON lines, through safeio's bounded
+    parser (nesting, number size): every defect one line."""
+    from inclino.formats import safeio
+
     s = text.strip()
-    try:
-        if s.startswith("["):
-            rows = json.loads(s)
-        else:
-            rows = [json.loads(line) for line in s.splitlines() if line.strip()]
-    except json.JSONDecodeError as e:
-        raise DataError(f"{path}: not JSON ({e.msg} at line {e.lineno})")
+    if s.startswith("["):
+        rows = safeio.parse_json(s, path)
+    else:
+        rows = [safeio.parse_json(line, f"{path}:{n}") for n, line in enumerate(s.splitlines(), start=1)
+                if line.strip()]
     if not isinstance(rows, list) or not all(isinstance(r, dict) for r in rows):
         raise DataError(f"{path}: each station must be a JSON object")
     return rows
@@ -187,13 +215,41 @@ LAS_CURVES = {"INC": "inc_deg", "AZI": "azi_deg", "AZIM": "azi_deg", "GTOT": "gt
               "DIP": "dip_deg", "FLAGS": "flags", "QC": "qc"}
 
 
-def _read_las(text: str, path: str) -> Survey:
+def _lasio_read(text: str, path: str):
+    """lasio's reading of a LAS file, its log messages kept off stderr,
+    every failure one line."""
+    import logging
+
     import lasio
 
+    log = logging.getLogger("lasio")
+    level = log.level
+    log.setLevel(logging.ERROR + 10)
     try:
-        las = lasio.read(io.StringIO(text))
+        return lasio.read(io.StringIO(text))
     except Exception as e:  # lasio raises many kinds for a malformed file
-        raise DataError(f"{path}: not a readable LAS file ({e})")
+        raise DataError(f"{path}: not a readable LAS file ({str(e)[:80]})") from None
+    finally:
+        log.setLevel(level)
+
+
+def _las_numbers(c, path: str) -> np.ndarray:
+    """A LAS curve's values as numbers (a value lasio could not read as one:
+    DataError naming the curve and the data line)."""
+    try:
+        return np.asarray(c.data, float)
+    except (TypeError, ValueError):
+        for i, v in enumerate(c.data):
+            try:
+                float(v)
+            except (TypeError, ValueError):
+                raise DataError(f"{path}: curve {c.mnemonic}, data line {i + 1}: {str(v)[:20]!r} is not a "
+                                "number") from None
+        raise DataError(f"{path}: curve {c.mnemonic} is not numbers") from None
+
+
+def _read_las(text: str, path: str) -> Survey:
+    las = _lasio_read(text, path)
     curves = {c.mnemonic.upper(): c for c in las.curves}
     md = None
     for m in ("MD", "DEPT", "DEPTH"):
@@ -202,7 +258,7 @@ def _read_las(text: str, path: str) -> Survey:
             unit = (c.unit or "").strip().lower()
             if unit in ("s", "ms"):
                 continue
-            md = np.asarray(c.data, float) * (FT if unit in ("ft", "f", "feet") else 1.0)
+            md = _las_numbers(c, path) * (FT if unit in ("ft", "f", "feet") else 1.0)
             break
     if md is None:
         raise DataError(f"{path}: no measured-depth curve (MD or DEPT in m or ft)")
@@ -210,7 +266,7 @@ def _read_las(text: str, path: str) -> Survey:
     rows = [{"md_m": md[i]} for i in range(n)]
     for m, key in LAS_CURVES.items():
         if m in curves:
-            d = np.asarray(curves[m].data, float)
+            d = _las_numbers(curves[m], path)
             for i in range(n):
                 if not math.isnan(d[i]):
                     rows[i].setdefault(key, d[i])
@@ -218,13 +274,11 @@ def _read_las(text: str, path: str) -> Survey:
 
 
 def _text(path: str) -> str:
-    try:
-        with open(path, encoding="utf-8") as f:
-            return f.read()
-    except OSError as e:
-        raise DataError(f"cannot read {path}: {e.strerror}")
-    except UnicodeDecodeError:
-        raise DataError(f"{path}: not a text file")
+    """The listing's text: UTF-8 (a byte-order mark dropped), bounded
+    (inclino.formats.safeio.read_text)."""
+    from inclino.formats import safeio
+
+    return safeio.read_text(path, "survey listing", MAX_LISTING_BYTES)
 
 
 def read_survey_rows(path: str) -> list[dict]:
@@ -233,16 +287,13 @@ def read_survey_rows(path: str) -> list[dict]:
     text = _text(path)
     s = text.lstrip()
     if s.startswith("~"):
-        import lasio
-
-        try:
-            las = lasio.read(io.StringIO(text))
-        except Exception as e:
-            raise DataError(f"{path}: not a readable LAS file ({e})")
-        cur = {c.mnemonic.upper(): np.asarray(c.data, float) for c in las.curves}
+        las = _lasio_read(text, path)
+        cur = {c.mnemonic.upper(): _las_numbers(c, path) for c in las.curves}
         n = len(las.index)
         return [{key: float(cur[m][i]) for m, key in LAS_CURVES.items() if m in cur} for i in range(n)]
     rows = _json_rows(text, path) if s.startswith(("{", "[")) else _csv_rows(text, path)[0]
+    if not isinstance(rows, list) or not all(isinstance(r, dict) for r in rows):
+        raise DataError(f"{path}: each survey must be a JSON object")
     out = []
     for i, r in enumerate(rows):
         d = {}
@@ -250,6 +301,7 @@ def read_survey_rows(path: str) -> list[dict]:
             if k in ("gt_g", "bt_nT", "inc_deg", "azi_deg", "dip_deg"):
                 d[k] = _num(v, k, f"{path}: row {i + 1}")
         out.append(d)
+    _check_rules({k: [r.get(k, float("nan")) for r in out] for k in ("gt_g", "bt_nT", "dip_deg")}, path)
     return out
 
 
