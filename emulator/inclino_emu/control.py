@@ -311,7 +311,7 @@ class ControlServer:
             line = bytes(c.inbuf[:i])
             del c.inbuf[:i + 1]
             done += 1
-            ans = self.handle_line(line)
+            ans = self.handle_line(line, pending_ok=True)
             if isinstance(ans, Pending):  # answered when its work is done; the next request waits
                 c.pending = ans
                 break
@@ -332,7 +332,10 @@ class ControlServer:
             c.pending = None
             self._queue(c, {"ok": True, **ans})
 
-    def handle_line(self, line: bytes) -> dict:
+    def handle_line(self, line: bytes, pending_ok: bool = False):
+        """The answer to one request line.  A request whose work goes on
+        over several polls returns its Pending when pending_ok (the
+        server's own loop), else runs it to the end here."""
         self.stats["requests"] += 1
         try:
             req = parse_request(line.rstrip(b"\r"))
@@ -347,7 +350,14 @@ class ControlServer:
             return {"ok": False, "error": f"bad arguments for {req['cmd']}: {e}"}
         if isinstance(ans, Pending):
             ans.cmd = req["cmd"]
-            return ans
+            if pending_ok:
+                return ans
+            try:
+                while (done := ans.step()) is None:
+                    pass
+            except (KeyError, TypeError, ValueError, OverflowError) as e:
+                return {"ok": False, "error": f"bad arguments for {req['cmd']}: {e}"}
+            return {"ok": True, **done}
         return {"ok": True, **ans}
 
     def _queue(self, c: _Client, obj) -> None:

@@ -78,7 +78,8 @@ def _check_rules(cols: dict, path: str) -> None:
             bad |= np.isnan(v)
         if bad.any():
             i = int(np.argmax(bad))
-            raise DataError(f"{path}: station {i + 1}: {k} {float(v[i]):g} is outside its range {lo:g} to {hi:g}")
+            span = f"{lo:g}-{hi:g}" if lo >= 0 else f"{lo:g} to {hi:g}"
+            raise DataError(f"{path}: station {i + 1}: {k} {float(v[i]):g} is outside {span}")
 
 
 def _rows_to_survey(rows: list[dict], path: str, meta: dict) -> Survey:
