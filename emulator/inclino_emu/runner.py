@@ -9,7 +9,9 @@ channel, running until interrupted.
 Time: with `realtime=True` (the default) emulated time follows the wall
 clock, so the SCI runs at its baud rate as a real probe's would; with
 `realtime=False` the emulator runs as fast as it can (emulated time still
-advances by the firmware's own waits and the byte times).
+advances by the firmware's own waits and the byte times), and while nothing
+comes from the host it waits for it (IDLE_WAIT_S per 5 ms step) rather than
+spinning.
 
 The control channel's `advance` fast-forwards emulated time in either mode:
 a slice of at most ADVANCE_SLICE_S of wall time per turn of the loop, the
@@ -18,6 +20,7 @@ from the new emulated time (the jump is not waited for).
 """
 from __future__ import annotations
 
+import select
 import threading
 import time
 from dataclasses import asdict
@@ -32,6 +35,12 @@ MAX_ADVANCE_S = 86400.0   # one `advance` request: at most a day of emulated tim
 ADVANCE_QUANTUM_S = 0.01  # the firmware's idle loop runs every 10 ms of a fast-forward,
 ADVANCE_MAX_POLLS = 20000  # or every s / 20000 for a long one (bounded wall time)
 ADVANCE_SLICE_S = 0.02     # wall time an `advance` runs before the loop serves the serial side again
+# unthrottled: after IDLE_STEPS steps with nothing on the line or the control
+# channel, the loop waits for the host (at most IDLE_WAIT_S per step) instead of
+# spinning: idle emulated time then runs at 5 ms per ms at least, and an idle
+# emulator no longer takes a core (and the GIL) from the host it serves
+IDLE_STEPS = 4
+IDLE_WAIT_S = 0.001
 # baud rates the S12X's SCI makes at a 40 MHz bus (SBR = 40 MHz / (16 baud), 1..8191)
 BAUD_RANGE = (300, 2_500_000)
 # temperatures the control channel accepts: the ADIS16210's rated range with margin
@@ -180,15 +189,26 @@ class Emulator:
                 "chamber": chamber, "advance": advance}
 
     # ------------------------------------------------------------ loop
-    def run_once(self, dt: float, release: bool = True) -> None:
+    def run_once(self, dt: float, release: bool = True) -> bool:
         """Advance the emulator by dt seconds of emulated time.  release:
         pass what the probe sent to the host right away (else at the next
-        call, once the wall clock has caught up: real-time mode)."""
+        call, once the wall clock has caught up: real-time mode).  Returns
+        whether any byte moved between the host and the probe."""
         with self._lock:
+            moved = self.pty.bytes_to_host + self.pty.bytes_to_probe
             self.pty.pump(self._device, 0.0)
             self.probe.step(dt)
             if release:
                 self.pty.pump(self._device, 0.0)
+            return self.pty.bytes_to_host + self.pty.bytes_to_probe != moved
+
+    def _wait_for_host(self, timeout: float) -> None:
+        """Block until the host writes to the line or the control channel, at most timeout."""
+        fds = [self.pty.master] + (self.control.fileobjs() if self.control else [])
+        try:
+            select.select(fds, [], [], timeout)
+        except (OSError, ValueError):  # a descriptor closed under us (stop()): the loop ends
+            time.sleep(timeout)
 
     def run(self) -> None:
         """Run until stop() (or KeyboardInterrupt in the caller's thread).
@@ -202,15 +222,20 @@ class Emulator:
         try:
             clk = self.probe.clock
             t_wall0, t_emu0 = time.monotonic(), clk.now
+            idle = 0
             while not self._stop.is_set():
+                asked = False
                 if self.control:
                     with self._lock:
+                        n0 = self.control.stats["requests"] + self.control.stats["accepted"]
                         self.control.poll(0.0)
+                        asked = self.control.stats["requests"] + self.control.stats["accepted"] != n0
                         if self._jumped:  # an advance's slice ran: what the probe said meanwhile goes out
                             self.pty.pump(self._device, 0.0)
                     if self._jumped:   # an advance moved the clock: pacing goes on from there
                         t_emu0 += self._jumped
                         self._jumped = 0.0
+                        asked = True
                 if self.realtime:
                     target = t_emu0 + (time.monotonic() - t_wall0)
                     ahead = clk.now - target
@@ -224,7 +249,12 @@ class Emulator:
                     self.pacing["max_ahead_s"] = max(self.pacing["max_ahead_s"], clk.now - (
                         t_emu0 + (time.monotonic() - t_wall0)))
                 else:
-                    self.run_once(0.005)
+                    if self.run_once(0.005) or asked:
+                        idle = 0
+                    else:
+                        idle += 1
+                        if idle >= IDLE_STEPS:
+                            self._wait_for_host(IDLE_WAIT_S)
         except BaseException as e:  # reported by stop()
             self.error = e
 
