@@ -12,7 +12,7 @@ import numpy as np
 import pytest
 
 from inclino import cli
-from inclino.survey import compare as cmp, errormodel as em, geomag, wellpath as wp
+from inclino.survey import compare as cmp, errormodel as em, geomag, models, wellpath as wp
 from inclino.benchmarks import survey as sb
 
 RNG = np.random.default_rng()
@@ -282,7 +282,7 @@ def test_welleng_loads_the_written_tool_model(calibration, tmp_path, capsys):
     h = SurveyHeader(latitude=52, longitude=4, b_total=50000, dip=60, declination=0.0, convergence=0.0,
                      azi_reference="magnetic")
     s = Survey(md=md, inc=inc, azi=azi, header=h, error_model=d)  # the file as it is
-    tm = em.ToolModel.load(str(out))
+    tm = models.load_toolmodel(str(out))
     pi, pa = em.station_sigma(tm, inc, azi, 60, 50000)
     dia = s.err.errors.cov_DIAs
     ok = inc > 1
@@ -294,7 +294,7 @@ def test_welleng_loads_the_written_tool_model(calibration, tmp_path, capsys):
 # ---------------------------------------------------- CLI and formats
 
 def test_trajectory_reads_csv_json_las_and_appended_survey_outputs(tmp_path, capsys):
-    from inclino.formats.survey_log import SURVEY_COLS, write_las
+    from inclino.formats.survey_log import SURVEY_COLS
 
     md = np.arange(0, 301, 30.0)
     inc = np.clip(md / 10, 0, 25)
@@ -327,13 +327,18 @@ def test_trajectory_reads_csv_json_las_and_appended_survey_outputs(tmp_path, cap
         assert rc == 0, err
         assert "QC: 10 pass, 1 fail" in text
         rows = wp.read_trajectory(str(o))
-        assert rows[3]["qc"] == "FAIL B" and float(rows[3]["dbt_nT"]) == pytest.approx(600)
+        assert rows[3]["qc"].startswith("FAIL B (checked ") and rows[0]["qc"].startswith("PASS ")
+        assert float(rows[3]["dbt_nT"]) == pytest.approx(600)
         outs.append([[float(r[k]) for k in ("tvd_m", "north_m", "east_m")] for r in rows])
         assert "# declination_deg=3.0000" in o.read_text()
     assert np.allclose(outs[0], outs[1]) and np.allclose(outs[0], outs[2], atol=2e-6)  # 6-decimal outputs
     # the LAS export: trajectory curves and the reference field
     las2 = lasio.read(str(tmp_path / "s.csv.las"))
-    assert {"MD", "TVD", "NORTH", "EAST", "AZIT", "DLS"} <= {c.mnemonic for c in las2.curves}
+    assert las2.curves[0].mnemonic == "DEPT" and las2.curves[0].unit == "M"  # LAS 2.0: the index is DEPT
+    assert {"TVD", "NORTH", "EAST", "AZIT", "DLS"} <= {c.mnemonic for c in las2.curves}
+    from lasconform import conformance
+
+    assert conformance((tmp_path / "s.csv.las").read_text()) == []
     assert float(las2.params["MAGDEC"].value) == pytest.approx(3.0)
     # a trajectory listing reads back as a survey (azi_mag_deg)
     sv = wp.read_survey(str(tmp_path / "s.csv.out.csv"))
@@ -358,9 +363,9 @@ def test_trajectory_bad_input(tmp_path, capsys):
         rc, out, err = run(capsys, *argv)
         assert rc == 2 and msg in err and err.count("\n") == 1 and "Traceback" not in err, (argv, err)
     for body, msg in (("md_m,inc_deg\n0,1\n", "missing column azi_deg"),
-                      ("md_m,inc_deg,azi_deg\n0,1,2\n30,1,2\n20,1,2\n", "increase"),
-                      ("md_m,inc_deg,azi_deg\n0,x,2\n", "not a number"),
-                      ("md_m,inc_deg,azi_deg\n0,200,2\n", "0-180")):
+                      ("md_m,inc_deg,azi_deg\n0,1,2\n30,1,2\n20,1,2\n", "row 3 (MD 20 m): measured depth decreases"),
+                      ("md_m,inc_deg,azi_deg\n0,1,2\n30,x,2\n", "row 2 (MD 30 m): inc_deg 'x' is not a number"),
+                      ("md_m,inc_deg,azi_deg\n0,1,2\n9.5,200,2\n", "row 2 (MD 9.5 m): inclination 200")):
         p.write_text(body)
         rc, out, err = run(capsys, "trajectory", p, "--declination", 1, "-o", o)
         assert rc == 2 and msg in err, err
@@ -376,7 +381,10 @@ def test_compare_passes_repeat_surveys_and_flags_a_bad_station(calibration, tmp_
     inc = np.clip((md - 60) / 10, 0, 50)
     azi = np.full_like(md, RNG.uniform(0, 360))
     # in-run and out-run: each station's noise as the model says (a quarter of the expected spread)
-    si, sa = cmp._expected(tm, inc, azi, 60, 50000, False)
+    from inclino.survey import models
+
+    si, sa = cmp.expected(models.ErrorModel(models.load(str(tp))), md, inc, azi,
+                          geomag.ReferenceField(0.0, 60.0, 50000.0, 1.0))
     a, b = tmp_path / "in.csv", tmp_path / "out.csv"
     write_csv(a, md, inc, azi)
     inc2 = inc + 0.25 * si * RNG.standard_normal(len(md))

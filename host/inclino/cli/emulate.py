@@ -38,8 +38,8 @@ def _cmd_emulate(args) -> int:
         stop["now"] = True
 
     signal.signal(signal.SIGTERM, _term)
-    emu.start()
-    try:
+    try:  # Ctrl-C from here on, also while start() waits for the loop's thread (a host may already use it)
+        emu.start()
         while not stop["now"] and emu.error is None:
             time.sleep(0.1)
     except KeyboardInterrupt:

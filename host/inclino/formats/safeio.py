@@ -170,7 +170,7 @@ def output_file(path: str, inputs=(), *, binary: bool = False, newline: str | No
     check_output(path, inputs)
     if scope is not None and path != "-":
         k = _key(path)
-        if k in scope.written and _regular_or_new(path):
+        if k in scope.written and scope.written[k] != path and _regular_or_new(path):
             raise DataError(f"refusing to write {path}: this command already wrote that file "
                             f"({scope.written[k]})")
     if path == "-":
@@ -246,89 +246,27 @@ def save_figure(fig, path: str, **kw) -> None:
     write_output(path, buf.getvalue())
 
 
-# ---------------------------------------------------------------- logs kept on failure
-def _annotate(e: BaseException, note: str) -> None:
-    """Add what was kept to an interruption's or an error's one line."""
-    text = str(e)
-    e.args = (f"{text}; {note}" if text else note,)
-
-
-class PartFile:
-    """A logging command's file written as the run goes: PATH.part, by the
-    output rules (never over an input or another output), each write
-    flushed.  `commit()` moves the finished file to PATH atomically; after
-    an interruption or a failure the rows stay in PATH.part and `kept()`
-    says so (docs/cli.md, "Interrupts")."""
-
-    def __init__(self, path: str, inputs=(), what: str = "rows"):
-        scope = _scope()
-        inputs = list(inputs) + (scope.inputs if scope is not None else [])
-        check_output(path, inputs)
-        self.path, self.part, self.what, self.rows = path, path + ".part", what, 0
-        check_output(self.part, inputs + [path])
-        try:
-            self.f = open(self.part, "w", newline="", encoding="utf-8")
-        except OSError as e:
-            raise DataError(f"cannot write {self.part}: {e.strerror}") from None
-        if scope is not None:
-            scope.written[_key(self.part)] = self.part
-
-    def write(self, text: str, row: bool = True) -> None:
-        try:
-            self.f.write(text)
-            self.f.flush()
-        except OSError as e:
-            raise DataError(f"cannot write {self.part}: {e.strerror}") from None
-        self.rows += bool(row)
-
-    def commit(self) -> None:
-        self.f.close()
-        try:
-            with open(self.part, "rb") as src:
-                data = src.read()
-        except OSError as e:
-            raise DataError(f"cannot read back {self.part}: {e.strerror}") from None
-        write_output(self.path, data)
-        os.unlink(self.part)
-
-    def abort(self, e: BaseException | None = None) -> None:
-        """Close the partial file; name it in the exception's line."""
-        with contextlib.suppress(OSError):
-            self.f.close()
-        if not self.rows:  # nothing taken: nothing to keep
-            with contextlib.suppress(OSError):
-                os.unlink(self.part)
-            return
-        if e is not None and isinstance(e, (KeyboardInterrupt, Exception)):
-            _annotate(e, self.kept())
-
-    def kept(self) -> str:
-        return f"the {self.rows} {self.what} taken before it are in {self.part}"
-
-
-@contextlib.contextmanager
-def kept_on_failure(path: str | None, render, what: str = "records", inputs=()):
-    """A logging command's file written at the end from records collected
-    as the run goes (a format written whole, LAS): yields the list to
-    append to.  The file is written when the block ends -- also when it
-    ends on Ctrl-C or an error (a link failure) with records taken, so that
-    what was printed is kept; the exception's line then names the file."""
-    recs: list = []
-    if path is None:
-        yield recs
-        return
+def open_log(path: str, mode: str = "a", inputs=()):
+    """A log file written as a run goes, row by row ("w": a new one, "a":
+    continued; a survey run's CSV, acquire's RUN.csv.part): by the same
+    rules as every output (never one of the inputs, a directory, or a file
+    this command already wrote under another name); the caller flushes each
+    row, and what it wrote stays on any exit."""
+    scope = _scope()
+    inputs = list(inputs) + (scope.inputs if scope is not None else [])
+    check_output(path, inputs)
+    if scope is not None:
+        k = _key(path)
+        if k in scope.written and scope.written[k] != path:
+            raise DataError(f"refusing to write {path}: this command already wrote that file "
+                            f"({scope.written[k]})")
     try:
-        yield recs
-    except (KeyboardInterrupt, Exception) as e:
-        if recs:
-            try:
-                write_output(path, render(recs), inputs)
-            except Exception as w:  # the original failure is the one reported
-                _annotate(e, f"the {len(recs)} {what} taken could not be kept in {path}: {w}")
-            else:
-                _annotate(e, f"the {len(recs)} {what} taken before it are in {path}")
-        raise
-    write_output(path, render(recs), inputs)
+        f = open(path, "a" if mode == "a" else "w", encoding="utf-8", newline="")
+    except OSError as e:
+        raise DataError(f"cannot write {path}: {e.strerror}") from None
+    if scope is not None:
+        scope.written[_key(path)] = path
+    return f
 
 
 # ---------------------------------------------------------------- inputs
