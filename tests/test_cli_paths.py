@@ -63,7 +63,7 @@ def test_parser_walk_every_path_option_is_declared():
             if isinstance(a, paths._PathAction):
                 seen_out += a.role == "output"
                 seen_in += a.role == "input"
-                named_output = set(a.option_strings) & OUTPUT_NAMES or re.search(r"\bwrite\b", a.help or "")
+                named_output = set(a.option_strings) & OUTPUT_NAMES or re.match(r"(also )?write\b", a.help or "")
                 if named_output and a.role != "output" and "--port" not in a.option_strings:
                     wrong_role.append(f"{name} {opt}")
                 continue

@@ -44,8 +44,8 @@ def _commands(tmp_path, port, emu):
     Calibration(probe_serial="1001").save(str(cal))
     return {
         "identify": (["identify", "--port", port], "IDENTIFY"),
-        "survey": (["survey", "--port", port], "SURVEY"),
-        "survey --stream": (["survey", "--port", port, "--stream", "--period", "10", "--count", "3"], "STREAM"),
+        "survey": (["survey", "--port", port], "IDENTIFY"),
+        "survey --stream": (["survey", "--port", port, "--stream", "--period", "10", "--count", "3"], "IDENTIFY"),
         "download": (["download", "--port", port, str(cal)], "CAL_WRITE"),
         "verify": (["verify", "--port", port, str(cal)], "IDENTIFY"),
         "reffield --port": (["reffield", "--declination", "2", "--dip", "60", "--total", "50000", "--port", port],
@@ -70,7 +70,11 @@ def test_wrong_length_stream_frame(tmp_path, capsys):
     """STREAM accepted, then a streamed survey frame of the wrong length."""
     from inclino.link import protocol
 
+    ident = protocol.Identity("INCLINO-PROBE", (1, 0, 0), 1, 1001, 0xFF, 0, 0, 0, 0).pack()
+
     def answer(f):
+        if f.cmd == protocol.CMD["IDENTIFY"]:
+            return protocol.encode_frame(f.seq, f.cmd | 0x80, ident)
         if f.cmd == protocol.CMD["STREAM"]:
             return protocol.encode_frame(f.seq, f.cmd | 0x80) + protocol.encode_frame(0, protocol.STREAM_FRAME,
                                                                                       bytes(7))
@@ -206,8 +210,9 @@ def test_survey_las_keeps_the_surveys_taken(emu, tmp_path, capsys, monkeypatch, 
     las = tmp_path / "run.las"
     rc, out, err = run(capsys, "survey", "--port", emu.path, "--count", "20", "--format", "csv", "--las", las)
     assert rc == (130 if how == "ctrl-c" else 4)
-    one_error(err, "12 surveys", str(las))
-    assert len(out.strip().splitlines()) == 13  # the header and the 12 surveys printed stay printed
+    one_error(err, "12 readings", str(las))
+    printed = [ln for ln in out.strip().splitlines() if not ln.startswith("#")]
+    assert len(printed) == 13  # the header and the 12 surveys printed stay printed
     assert len(lasio.read(str(las)).index) == 12
 
 
@@ -230,6 +235,6 @@ def test_acquire_keeps_its_rows_on_a_link_failure(emu, tmp_path, capsys, monkeyp
     rc, o, err = run(capsys, "acquire", "--port", emu.path, "--bench", f"127.0.0.1:{emu.control_port}",
                      "--procedure", "twelve-position", "-o", out, "--quiet")
     assert rc == 4
-    one_error(err, "rows taken before it are in", "run.csv.part")
+    one_error(err, "rows kept in", "run.csv.part")
     rows = [ln for ln in (tmp_path / "run.csv.part").read_text().splitlines() if not ln.startswith("#")]
     assert len(rows) >= 2 and not out.exists()
