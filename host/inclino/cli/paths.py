@@ -7,6 +7,8 @@ argparse actions:
     p.add_argument("--plot", action=OutputDir, help=...)            # a folder files are written into
     p.add_argument("--cal", action=Input, help=...)                 # a file (or port) read
 
+inclino.cli.options declares the common ones (add_port, add_cal,
+add_output, add_plot) with these actions.
 `inclino.cli.main` collects them from the chosen command's parser and runs
 the command inside `safeio.command_files(inputs, outputs)`: before any work,
 each output is refused (exit 2) when it is one of the inputs (the same file,
@@ -22,7 +24,6 @@ This module imports nothing heavy: building the parser stays cheap.
 from __future__ import annotations
 
 import argparse
-import os
 
 PORT_ENV = "INCLINO_PORT"
 
@@ -54,13 +55,15 @@ class OutputDir(_PathAction):
     kind = "dir"
 
 
-def add_port(p, help: str = "serial port name or pyserial URL") -> None:
-    """--port of a command that talks to the probe: a declared input (no
-    output may name it), its default from $INCLINO_PORT (docs/cli.md, "The
-    port")."""
-    env = os.environ.get(PORT_ENV) or None
-    p.add_argument("--port", action=Input, default=env, required=env is None,
-                   help=f"{help} (default: ${PORT_ENV})")
+class OutputPlot(_PathAction):
+    """--plot: a folder figures are written into (a value ending in .png:
+    the older meaning, that figure's own file; options.plot_target)."""
+
+    role = "output"
+
+    @staticmethod
+    def kind_of(value: str) -> str:
+        return "file" if str(value).lower().endswith(".png") else "dir"
 
 
 def _values(v):
@@ -83,7 +86,8 @@ def declared(parser: argparse.ArgumentParser, args) -> tuple[list, list]:
             if a.role == "input":
                 inputs.append(v)
             else:
-                outputs.append((v, a.kind, name))
+                kind = a.kind_of(v) if hasattr(a, "kind_of") else a.kind
+                outputs.append((v, kind, name))
     return inputs, outputs
 
 

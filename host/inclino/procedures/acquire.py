@@ -17,7 +17,7 @@ Procedures (pose lists from inclino.calib.runs, our conventions):
   joint).
 * temperature -- through a thermal chamber: at each set point of
   --temperatures a few poses read through the ramp and soak, then the
-  --poses set (inclino.procedures.acquire_temp; joint --temperature).
+  --poses set (inclino.procedures.acquire_temp; joint --temperature-terms).
 
 Who turns the table:
 

@@ -40,7 +40,7 @@ DEFAULT_TOL = {"gt_g": 0.0025, "bt_nT": 300.0, "dip_deg": 0.25}
 # The rule of each number of a reference field (lo, hi, lo open): a reference
 # file's fields and the command-line values alike.
 RULES = {"declination_deg": (-180.0, 180.0, False), "dip_deg": (-90.0, 90.0, False),
-         "total_nT": (0.0, 200_000.0, True),  # beyond what the +-100 000 nT fluxgate axes measure
+         "field_nT": (0.0, 200_000.0, True),  # beyond what the +-100 000 nT fluxgate axes measure
          "gravity_g": (0.5, 1.5, False), "lat_deg": (-90.0, 90.0, False), "lon_deg": (-180.0, 360.0, False),
          "alt_m": (-12_000.0, 1.0e6, False), "convergence_deg": (-90.0, 90.0, False),
          "scale_factor": (0.5, 1.5, False), "easting_m": (-1e8, 1e8, False), "northing_m": (-1e8, 1e8, False)}
@@ -52,9 +52,9 @@ POLE_LAT = 89.99  # closer to a geographic pole, north (and the declination) is 
 class ReferenceField:
     declination_deg: float
     dip_deg: float
-    total_nT: float
+    field_nT: float  # the total field
     gravity_g: float = 1.0  # NaN when unknown (no position, no --gravity)
-    source: str = "user"  # "igrf (ppigrf x.y)", "wmm (pygeomag)", "user" (in-field referencing)
+    ref_source: str = "user"  # "IGRF ...", "WMM ...", "user (...)" (in-field referencing)
     lat_deg: float | None = None
     lon_deg: float | None = None
     alt_m: float = 0.0
@@ -66,9 +66,12 @@ class ReferenceField:
     northing_m: float | None = None
     tol: dict = field(default_factory=lambda: dict(DEFAULT_TOL))
 
+    def to_dict(self) -> dict:
+        """The JSON's keys, in the order `inclino reffield` prints them; an unknown value is None."""
+        return {k: (None if isinstance(v, float) and not math.isfinite(v) else v) for k, v in asdict(self).items()}
+
     def to_json(self) -> str:
-        d = {k: (None if isinstance(v, float) and not math.isfinite(v) else v) for k, v in asdict(self).items()}
-        return dumps(d)  # an unknown value is null
+        return dumps(self.to_dict())  # an unknown value is null
 
     @staticmethod
     def from_json(text: str, where: str = "reference-field file") -> "ReferenceField":
@@ -92,18 +95,22 @@ class ReferenceField:
         from inclino.formats.fields import Fields
 
         f = Fields(d, where)
+        for old, new in (("total_nT", "field_nT"), ("source", "ref_source")):  # files written before the renames
+            if old in f.d and new not in f.d:
+                f.d = {**f.d, new: f.d[old]}
+                del f.d[old]
         f.known(*(k for k in ReferenceField.__dataclass_fields__))
         kw = {}
         for k, (lo, hi, lo_open) in RULES.items():
             v = f.number(k, lo, hi, lo_open=lo_open, null=True, required=k in ("declination_deg",))
-            if k in ("declination_deg", "dip_deg", "total_nT", "gravity_g"):
+            if k in ("declination_deg", "dip_deg", "field_nT", "gravity_g"):
                 v = float("nan") if v is None else v
             elif v is None and k in ("alt_m", "convergence_deg", "scale_factor"):
                 v = {"alt_m": 0.0, "convergence_deg": 0.0, "scale_factor": 1.0}[k]
             kw[k] = v
         if (kw["lat_deg"] is None) != (kw["lon_deg"] is None):
             raise DataError(f"{where}: lat_deg and lon_deg go together")
-        kw["source"] = f.string("source", required=False, default="user", max_len=200)
+        kw["ref_source"] = f.string("ref_source", required=False, default="user", max_len=200)
         date = f.string("date", required=False, null=True, max_len=10)
         if date is not None:
             try:
@@ -119,8 +126,8 @@ class ReferenceField:
 
     def header(self) -> dict:
         """key=value pairs written with a run (CSV '# key=value' lines, LAS ~Parameter)."""
-        d = {"ref_source": self.source, "declination_deg": f"{self.declination_deg:.4f}"}
-        for k, v, f in (("dip_deg", self.dip_deg, ".4f"), ("field_nT", self.total_nT, ".1f"),
+        d = {"ref_source": self.ref_source, "declination_deg": f"{self.declination_deg:.4f}"}
+        for k, v, f in (("dip_deg", self.dip_deg, ".4f"), ("field_nT", self.field_nT, ".1f"),
                         ("gravity_g", self.gravity_g, ".6f")):
             if v is not None and math.isfinite(v):  # unknown (declination-only referencing): left out
                 d[k] = format(v, f)
@@ -287,9 +294,9 @@ def _grid_azimuth_of_true_north(tr, lat, lon, dlat=1e-5):
 
 
 def reference(lat=None, lon=None, date=None, alt_m=0.0, model="igrf", declination=None, dip=None,
-              total=None, gravity=None, grid_epsg=None, tol=None) -> ReferenceField:
+              field=None, gravity=None, grid_epsg=None, tol=None) -> ReferenceField:
     """The reference field of a survey.  A position and date give the
-    model's values; any of declination, dip, total (nT), gravity (g) given
+    model's values; any of declination, dip, field (the total, nT), gravity (g) given
     override it (in-field referencing).  Declination alone is enough for
     azimuths (dip and total then default to NaN: no field QC)."""
     have_pos = lat is not None or lon is not None
@@ -309,10 +316,10 @@ def reference(lat=None, lon=None, date=None, alt_m=0.0, model="igrf", declinatio
         raise DataError("give the position and date (--lat --lon --date) or --declination")
     user = []
     for name, key, v in (("declination", "declination_deg", declination), ("dip", "dip_deg", dip),
-                         ("total", "total_nT", total), ("gravity", "gravity_g", gravity)):
+                         ("field", "field_nT", field), ("gravity", "gravity_g", gravity)):
         if v is not None:
             lo, hi, lo_open = RULES[key]
-            unit = {"total": "nT", "gravity": "g"}.get(name, "deg")
+            unit = {"field": "nT", "gravity": "g"}.get(name, "deg")
             if not (math.isfinite(v) and (lo < v if lo_open else lo <= v) and v <= hi):
                 raise DataError(f"--{name} {v:g}: {unit} within {'(' if lo_open else '['}{lo:g}, {hi:g}]")
             if name != "gravity":
@@ -321,8 +328,8 @@ def reference(lat=None, lon=None, date=None, alt_m=0.0, model="igrf", declinatio
         dec0 = float(declination)
     if dip is not None:
         dip0 = float(dip)
-    if total is not None:
-        f0 = float(total)
+    if field is not None:
+        f0 = float(field)
     if user:
         src = f"user ({', '.join(user)})" + ("" if src == "user" else f"; else {src}")
     if gravity is not None:
