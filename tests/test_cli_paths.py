@@ -26,6 +26,7 @@ import pytest
 
 from inclino import cli
 from inclino.cli import paths
+from inclino.cli.options import Deprecated
 
 ROOT = Path(__file__).resolve().parent.parent
 
@@ -92,8 +93,8 @@ def _filler(a: argparse.Action, tmp: Path, k: int):
 def _argv(name, sp, tmp, given: dict):
     argv = [name]
     for k, a in enumerate(sp._actions):
-        if isinstance(a, (argparse._HelpAction, argparse._VersionAction)):
-            continue
+        if isinstance(a, (argparse._HelpAction, argparse._VersionAction, Deprecated)):
+            continue  # an old spelling stores where its new option does
         if a.dest in given:
             vals = given[a.dest]
         elif a.required or (not a.option_strings and a.nargs not in ("?", "*")):

@@ -101,7 +101,7 @@ def test_acquire_temperature_against_a_plain_inclino_emulate(tmp_path):
         out = tmp_path / "run.csv"
         r = subprocess.run([BIN, "acquire", "--port", str(link), "--bench", f"127.0.0.1:{port}", "--procedure",
                             "temperature", "--temperatures", "24,27", "--reads", "2", "--ramp-poses", "1",
-                            "--soak-window", "2", "--interval", "1", "--average", "4", "-o", str(out), "--quiet"],
+                            "--soak-window-min", "2", "--interval-min", "1", "--average", "4", "-o", str(out), "--quiet"],
                            capture_output=True, text=True, timeout=300)
         assert r.returncode == 0, r.stderr
         rows = [ln for ln in out.read_text().splitlines() if ln and not ln.startswith("#")][1:]

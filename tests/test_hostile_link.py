@@ -45,10 +45,10 @@ def _commands(tmp_path, port, emu):
     return {
         "identify": (["identify", "--port", port], "IDENTIFY"),
         "survey": (["survey", "--port", port], "IDENTIFY"),
-        "survey --stream": (["survey", "--port", port, "--stream", "--period", "10", "--count", "3"], "IDENTIFY"),
-        "download": (["download", "--port", port, str(cal)], "CAL_WRITE"),
-        "verify": (["verify", "--port", port, str(cal)], "IDENTIFY"),
-        "reffield --port": (["reffield", "--declination", "2", "--dip", "60", "--total", "50000", "--port", port],
+        "survey --stream": (["survey", "--port", port, "--stream", "--period-ms", "10", "--count", "3"], "IDENTIFY"),
+        "download": (["download", "--port", port, "--cal", str(cal)], "CAL_WRITE"),
+        "verify": (["verify", "--port", port, "--cal", str(cal)], "IDENTIFY"),
+        "reffield --port": (["reffield", "--declination", "2", "--dip", "60", "--field", "50000", "--port", port],
                             "QCREF_WRITE"),
         "acquire": (["acquire", "--port", port, "--bench", f"127.0.0.1:{emu.control_port}", "--procedure",
                      "twelve-position", "-o", str(tmp_path / "run.csv")], "IDENTIFY"),
@@ -80,7 +80,7 @@ def test_wrong_length_stream_frame(tmp_path, capsys):
                                                                                       bytes(7))
         return protocol.encode_frame(f.seq, f.cmd | 0x80, bytes(2))
     with FakeDevice(answer) as dev:
-        rc, out, err = run(capsys, "survey", "--port", dev.path, "--stream", "--period", "10", "--count", "2")
+        rc, out, err = run(capsys, "survey", "--port", dev.path, "--stream", "--period-ms", "10", "--count", "2")
     assert rc == 4
     one_error(err, "streamed survey", "7 bytes")
 
@@ -109,7 +109,7 @@ def test_two_downloads_at_once_the_second_is_refused(emu, tmp_path, capsys):
         stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True, env=env)
     try:
         assert holder.stdout.readline().strip() == "open"
-        rc, out, err = run(capsys, "download", "--port", emu.path, cal)
+        rc, out, err = run(capsys, "download", "--port", emu.path, "--cal", cal)
         assert rc == 4
         one_error(err, "busy")
     finally:
@@ -208,7 +208,7 @@ def test_survey_las_keeps_the_surveys_taken(emu, tmp_path, capsys, monkeypatch, 
 
     monkeypatch.setattr(ProbeLink, "survey", survey)
     las = tmp_path / "run.las"
-    rc, out, err = run(capsys, "survey", "--port", emu.path, "--count", "20", "--format", "csv", "--las", las)
+    rc, out, err = run(capsys, "survey", "--port", emu.path, "--count", "20", "--csv", "--las", las)
     assert rc == (130 if how == "ctrl-c" else 4)
     one_error(err, "12 readings", str(las))
     printed = [ln for ln in out.strip().splitlines() if not ln.startswith("#")]

@@ -67,7 +67,7 @@ def work(tmp_path, calibration):
     s = tmp_path / "s.csv"
     write_listing(s)
     r = tmp_path / "r.json"
-    assert cli.main(["reffield", "--declination", "3", "--dip", "60", "--total", "50000", "-o", str(r)]) == 0
+    assert cli.main(["reffield", "--declination", "3", "--dip", "60", "--field", "50000", "-o", str(r)]) == 0
     return tmp_path, str(c), str(s), str(r)
 
 
@@ -79,7 +79,7 @@ def _unchanged(paths, before):
 def test_toolmodel_output_over_its_calibration(work, capsys):
     d, c, s, r = work
     before = digest(c)
-    rc, out, err = run(capsys, "toolmodel", c, "--dip", "60", "--total", "50000", "-o", c)
+    rc, out, err = run(capsys, "toolmodel", "--cal", c, "--dip", "60", "--field", "50000", "-o", c)
     assert rc == 2
     one_error(err, "refusing to write")
     assert digest(c) == before
@@ -128,7 +128,7 @@ def test_accept_save_over_its_calibration(work, capsys):
     """Refused before the port is opened (the port here does not exist)."""
     d, c, s, r = work
     before = digest(c)
-    rc, out, err = run(capsys, "accept", "--port", d / "no-port", "--cal", c, "--save", c)
+    rc, out, err = run(capsys, "accept", "--port", d / "no-port", "--cal", c, "-o", c)
     assert rc == 2
     one_error(err, "refusing to write")
     assert digest(c) == before

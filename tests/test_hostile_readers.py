@@ -105,12 +105,12 @@ def _cal_commands(tmp_path, cal):
     s = listing(tmp_path)
     return {
         "attitude": ["attitude", run_csv, "--cal", cal, "-o", tmp_path / "att.csv"],
-        "verify": ["verify", "--port", tmp_path / "no-port", cal],
-        "download": ["download", "--port", tmp_path / "no-port", cal],
-        "toolmodel": ["toolmodel", cal, "--dip", "60", "--total", "50000", "-o", tmp_path / "tm.json"],
+        "verify": ["verify", "--port", tmp_path / "no-port", "--cal", cal],
+        "download": ["download", "--port", tmp_path / "no-port", "--cal", cal],
+        "toolmodel": ["toolmodel", "--cal", cal, "--dip", "60", "--field", "50000", "-o", tmp_path / "tm.json"],
         "trajectory": ["trajectory", s, "--declination", "2", "--uncertainty", "--cal", cal, "-o",
                        tmp_path / "t.csv"],
-        "compare": ["compare", s, s, "--cal", cal, "--dip", "60", "--total", "50000"],
+        "compare": ["compare", s, s, "--cal", cal, "--dip", "60", "--field", "50000"],
         "diagnose --cal": ["diagnose", run_csv, "--cal", cal],
         "plot": ["plot", "--run", run_csv, "--cal", cal, "-o", tmp_path / "figs"],
         "accept": ["accept", "--port", tmp_path / "no-port", "--cal", cal],
@@ -151,7 +151,7 @@ def test_huge_temperature_term_without_a_warning(tmp_path, capsys, v2):
     d["temperature"]["applied_by_firmware"] = True
     d.pop("fixed")
     p.write_text(json.dumps(d))
-    r = subprocess.run([sys.executable, "-m", "inclino", "download", "--port", str(tmp_path / "no-port"), str(p)],
+    r = subprocess.run([sys.executable, "-m", "inclino", "download", "--port", str(tmp_path / "no-port"), "--cal", str(p)],
                        capture_output=True, text=True, timeout=120)
     assert r.returncode == 3, r.stderr
     one_line(r.stderr)
@@ -186,7 +186,7 @@ def test_mangled_covariance_is_exit_3(tmp_path, capsys, fitted, case, command):
 def test_toolmodel_never_writes_nan(tmp_path, capsys, fitted):
     """Every number of the tool model is finite JSON (no NaN, no null for a number)."""
     cal = _write(tmp_path, "cal.json", fitted)
-    rc, out, err = run(capsys, "toolmodel", cal, "--dip", "60", "--total", "50000", "-o", tmp_path / "tm.json")
+    rc, out, err = run(capsys, "toolmodel", "--cal", cal, "--dip", "60", "--field", "50000", "-o", tmp_path / "tm.json")
     assert rc in (0, 1), err
     text = (tmp_path / "tm.json").read_text()
     assert "NaN" not in text and "Infinity" not in text
@@ -208,7 +208,7 @@ def test_hostile_json_in_every_survey_reader(tmp_path, capsys, fitted, reader, c
             "ref": ["trajectory", s, "--ref", bad, "-o", tmp_path / "t.csv"],
             "tool-model": ["trajectory", s, "--declination", "2", "--uncertainty", "--tool-model", bad, "-o",
                            tmp_path / "t.csv"],
-            "noise": ["toolmodel", cal, "--dip", "60", "--total", "50000", "--noise", bad, "-o",
+            "noise": ["toolmodel", "--cal", cal, "--dip", "60", "--field", "50000", "--noise", bad, "-o",
                       tmp_path / "tm.json"]}[reader]
     rc, out, err = run(capsys, *argv)
     assert rc == 2, err
@@ -260,11 +260,11 @@ def test_non_utf8_byte_names_its_line(tmp_path, capsys, reader):
 
 
 @pytest.mark.parametrize("field,value", [("declination_deg", "east"), ("grid_epsg", 999999), ("date", 20240101),
-                                         ("gravity_g", -5), ("total_nT", 1e9), ("dip_deg", 95),
+                                         ("gravity_g", -5), ("field_nT", 1e9), ("dip_deg", 95),
                                          ("tol", {"gt_g": "x", "bt_nT": 300, "dip_deg": 0.25}), ("lat_deg", "n")])
 def test_mangled_reference_file(tmp_path, capsys, field, value):
     r = tmp_path / "r.json"
-    assert cli.main(["reffield", "--declination", "3", "--dip", "60", "--total", "50000", "-o", str(r)]) == 0
+    assert cli.main(["reffield", "--declination", "3", "--dip", "60", "--field", "50000", "-o", str(r)]) == 0
     capsys.readouterr()
     d = json.loads(r.read_text())
     d[field] = value
@@ -274,8 +274,8 @@ def test_mangled_reference_file(tmp_path, capsys, field, value):
     one_line(err, str(r), field)
 
 
-@pytest.mark.parametrize("opt,value", [("--declination", "400"), ("--total", "1e9"), ("--dip", "91"),
-                                       ("--gravity", "-5"), ("--total", "-3")])
+@pytest.mark.parametrize("opt,value", [("--declination", "400"), ("--field", "1e9"), ("--dip", "91"),
+                                       ("--gravity", "-5"), ("--field", "-3")])
 def test_out_of_range_reference_options(tmp_path, capsys, opt, value):
     rc, out, err = run(capsys, "reffield", "--declination", "3", opt, value)
     assert rc == 2, err
@@ -294,7 +294,7 @@ def test_reffield_at_the_pole_is_clean(tmp_path, capsys):
                         "2024-06-01", "--json"], capture_output=True, text=True, timeout=120)
     assert r.returncode == 0 and r.stderr == "", r.stderr
     d = json.loads(r.stdout)
-    assert all(isinstance(d[k], float) and math.isfinite(d[k]) for k in ("declination_deg", "dip_deg", "total_nT"))
+    assert all(isinstance(d[k], float) and math.isfinite(d[k]) for k in ("declination_deg", "dip_deg", "field_nT"))
 
 
 @pytest.mark.parametrize("md", ["1e300", "-1e300", "1e9"])
@@ -309,7 +309,7 @@ def test_depth_out_of_range_in_a_listing(tmp_path, capsys, md):
                                          ("noise", {"ABXY-R": -1}), ("fit", 3), ("name", 7)])
 def test_mangled_tool_model(tmp_path, capsys, fitted, field, value):
     cal = _write(tmp_path, "cal.json", fitted)
-    assert cli.main(["toolmodel", str(cal), "--dip", "60", "--total", "50000", "-o", str(tmp_path / "tm.json")]) \
+    assert cli.main(["toolmodel", "--cal", str(cal), "--dip", "60", "--field", "50000", "-o", str(tmp_path / "tm.json")]) \
         in (0, 1)
     capsys.readouterr()
     d = json.loads((tmp_path / "tm.json").read_text())
@@ -396,7 +396,7 @@ def test_survey_listing_errors_carry_no_python_internals(tmp_path, capsys):
     n = _write(tmp_path, "n.json", '[{"gt_g": null, "bt_nT": 50000}]')
     cal = tmp_path / "c.json"
     Calibration().save(str(cal))
-    rc, out, err = run(capsys, "toolmodel", cal, "--noise", n, "--dip", "60", "--total", "50000", "-o",
+    rc, out, err = run(capsys, "toolmodel", "--cal", cal, "--noise", n, "--dip", "60", "--field", "50000", "-o",
                        tmp_path / "tm.json")
     assert rc in (2, 3)
     one_line(err)

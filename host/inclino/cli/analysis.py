@@ -247,20 +247,13 @@ def _temperature_corrected(ds, path):
     what the diagnosis then sees is what those terms leave."""
     from inclino.formats.calfile import Calibration
     from inclino.calib import thermal
-    from inclino.errors import CalibrationError
 
-    try:
-        cal = Calibration.load(path)
-    except CalibrationError as e:
-        raise DataError(str(e))
+    cal = Calibration.load(path)  # a corrupt calibration: exit 3, as for every command that reads one
     if not cal.temperature:
         raise DataError(f"{path} has no temperature terms (fit them with calibrate --method joint --temperature-terms)")
     if "temp_c" not in ds.columns:
         raise DataError("--cal: the data have no temp_c column to apply the temperature terms with")
-    try:
-        return thermal.corrected_dataset(ds, cal, cal.temperature)
-    except (KeyError, TypeError, ValueError) as e:
-        raise DataError(f"{path}: the temperature block is mangled ({e})")
+    return thermal.corrected_dataset(ds, cal, cal.temperature)  # the block's rules: calfile.check_temperature
 
 
 def add_diagnose(subparsers):
