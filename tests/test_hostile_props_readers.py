@@ -241,8 +241,8 @@ def reference_files(draw):
     from inclino.survey.geomag import ReferenceField
 
     rf = ReferenceField(declination_deg=draw(st.floats(-180, 180)), dip_deg=draw(st.floats(-90, 90)),
-                        total_nT=draw(st.floats(1000, 100000)), gravity_g=draw(st.floats(0.9, 1.1)),
-                        source=draw(st.sampled_from(["user", "IGRF (ppigrf 2.1)"])))
+                        field_nT=draw(st.floats(1000, 100000)), gravity_g=draw(st.floats(0.9, 1.1)),
+                        ref_source=draw(st.sampled_from(["user", "IGRF (ppigrf 2.1)"])))
     if draw(st.booleans()):
         rf.lat_deg, rf.lon_deg = draw(st.floats(-89, 89)), draw(st.floats(-180, 180))
         rf.date = draw(st.dates(min_value=__import__("datetime").date(1950, 1, 1))).isoformat()
@@ -277,7 +277,7 @@ def test_reference_file_reader(work, case):
     data, rf = case
     got = check("reference file", ReferenceField.load, _file(work, data, ".json"), 2, rf is not None)
     if rf is not None:
-        assert got.declination_deg == rf.declination_deg and got.total_nT == rf.total_nT
+        assert got.declination_deg == rf.declination_deg and got.field_nT == rf.field_nT
         assert got.grid_epsg == rf.grid_epsg and got.date == rf.date
 
 
@@ -354,12 +354,13 @@ def _toml(d: dict) -> str:
     out = top
     for k, v in d.items():
         if isinstance(v, dict):
+            plain = [f"{k2} = {_toml_value(v2)}" for k2, v2 in v.items() if not isinstance(v2, dict)]
+            if plain:
+                out += [f"[{k}]"] + plain
             for k2, v2 in v.items():
                 if isinstance(v2, dict):
                     out.append(f"[{k}.{k2}]")
                     out += [f"{k3} = {_toml_value(v3)}" for k3, v3 in v2.items()]
-                else:
-                    out.append(f"[{k}]\n{k2} = {_toml_value(v2)}")
     return "\n".join(out) + "\n"
 
 

@@ -294,7 +294,7 @@ def _cmd_trajectory(args) -> int:
         path = os.path.join(folder, name)
         try:
             os.makedirs(folder, exist_ok=True)
-            wellplot.plot(tr.rows, path, title=f"{' '.join(args.input)}: {len(tr.rows)} stations")
+            wellplot.plot(tr, path, title=f"{' '.join(args.input)}: {len(tr)} stations")
         except OSError as e:
             raise DataError(f"cannot write {path}: {e.strerror}")
     s = tr.summary

@@ -418,6 +418,8 @@ def load_scenario(path_or_name) -> Scenario:
         d = tomllib.loads(text)
     except tomllib.TOMLDecodeError as e:
         raise DataError(f"{where}: not TOML ({str(e)[:80]})") from None
+    except ValueError:  # a number tomllib cannot convert (an integer of thousands of digits)
+        raise DataError(f"{where}: not TOML (a number out of range)") from None
     except RecursionError:
         raise DataError(f"{where}: nests too deep") from None
     check_scenario(d, where)

@@ -122,9 +122,9 @@ def check_terms(terms, where: str) -> list:
         v = t.get("value")
         if isinstance(v, bool) or not isinstance(v, (int, float)) or not math.isfinite(v) or v < 0:
             raise DataError(f"{w}: value {v!r} must be a number >= 0 (a 1-sigma magnitude)")
-        if t.get("units", "") not in units:
+        if not isinstance(t.get("units", ""), str) or t.get("units", "") not in units:
             raise DataError(f"{w}: unit {t.get('units')!r} is not one welleng converts ({', '.join(sorted(units))})")
-        if t.get("propagation_mode") not in PROPAGATION:
+        if not isinstance(t.get("propagation_mode"), str) or t.get("propagation_mode") not in PROPAGATION:
             raise DataError(f"{w}: propagation_mode {t.get('propagation_mode')!r} is not one of "
                             f"{', '.join(PROPAGATION)}")
         for k in ("depth_formula", "inclination_formula", "azimuth_formula"):
