@@ -225,6 +225,47 @@ def test_non_number_in_a_las_listing(tmp_path, capsys):
     assert "Only engine" not in err
 
 
+LAS_HEAD = ("~Version\nVERS. 2.0 :\nWRAP. NO :\n~Well\nNULL. -999.25 :\n~Curve\nMD.m : depth\n"
+            "INC.deg : inc\nAZI.deg : azi\n~A\n0 0 0\n")
+
+
+def test_decimal_comma_in_a_las_listing_is_refused_by_line(tmp_path, capsys):
+    """lasio's default rewrites read "5,5" as 5.5; every other reader refuses a
+    decimal comma with the place named."""
+    las = tmp_path / "s.las"
+    las.write_text(LAS_HEAD + "30 5,5 10\n60 5 10\n")
+    rc, out, err = run(capsys, "trajectory", las, "--declination", "2", "-o", tmp_path / "t.csv")
+    assert rc == 2, err
+    one_line(err, str(las), "INC", "data line 2")
+
+
+def test_long_line_in_a_las_listing_is_read_in_linear_time(tmp_path, capsys):
+    """A data line of a million digits: lasio's run-on pattern backtracks in
+    time quadratic in the line's length (hours for this line; seconds here)."""
+    import signal
+
+    las = tmp_path / "s.las"
+    las.write_text(LAS_HEAD + "30 5 " + "7" * 1_000_000 + "\n60 5 10\n")
+
+    class Hung(BaseException):  # not an Exception: no reader's handler turns it into a refusal
+        pass
+
+    def stop(*_):
+        raise Hung
+
+    old = signal.signal(signal.SIGALRM, stop)
+    signal.alarm(120)
+    try:
+        rc, out, err = run(capsys, "trajectory", las, "--declination", "2", "-o", tmp_path / "t.csv")
+    except Hung:
+        pytest.fail("reading a LAS line of a million digits did not end within 120 s")
+    finally:
+        signal.alarm(0)
+        signal.signal(signal.SIGALRM, old)
+    assert rc == 2, err
+    one_line(err, str(las))
+
+
 def test_listing_with_a_byte_order_mark(tmp_path, capsys):
     s = listing(tmp_path, bom=True)
     rc, out, err = run(capsys, "trajectory", s, "--declination", "2", "-o", tmp_path / "t.csv")
