@@ -80,3 +80,105 @@ def test_imucal_faces_get_their_poses():
     C = ref.pose_matrix(ds.columns["inc_deg"], np.zeros(len(ds)), ds.columns["tf_deg"])
     down = C[:, :, 2]
     assert np.all(np.einsum("ni,ni->n", down, ds.acc) > 0.95)
+
+
+def test_presets_load_and_cite_their_data_sheet():
+    for name in sensor.presets():
+        d = sensor.load(name)
+        assert d.triads and d.source
+        text = (sensor.PRESET_DIR / f"{name}.toml").read_text()
+        assert text.lstrip().startswith("#")  # the data sheet facts are said where they are used
+        for t in d.triads:
+            assert t.det == 1  # a package's own axes, turned into its accelerometer's frame: a rotation
+    assert sensor.default().name.startswith("ADIS16210")
+
+
+def test_a_preset_with_overrides_imports_a_log(tmp_path):
+    """An MPU-9250 log in counts with its own column names: the preset gives
+    the scales and the magnetometer's axes (X_mag = Y_acc, Y_mag = X_acc,
+    Z_mag = -Z_acc), the file only the columns."""
+    g = np.array([[0.0, 0.0, 1.0], [1.0, 0.0, 0.0], [0.0, -1.0, 0.0]])  # specific force (up), g
+    b_acc = np.array([[20.0, 5.0, -40.0], [10.0, -30.0, 15.0], [-25.0, 12.0, 33.0]])  # field in acc axes, uT
+    b_mag = np.column_stack([b_acc[:, 1], b_acc[:, 0], -b_acc[:, 2]])  # the AK8963's own axes
+    log = tmp_path / "mpu.csv"
+    rows = ["AX;AY;AZ;HX;HY;HZ"] + [";".join(str(int(round(v))) for v in np.concatenate([a * 16384, m / 0.15]))
+                                    for a, m in zip(g, b_mag)]
+    log.write_text("\n".join(rows) + "\n")
+    desc = tmp_path / "mpu.toml"
+    desc.write_text('preset = "mpu9250"\nname = "a breakout"\n[accelerometer]\ncolumns = ["AX", "AY", "AZ"]\n'
+                    '[magnetometer]\ncolumns = ["HX", "HY", "HZ"]\n')
+    ds, rep = importlog.import_log(str(log), sensor.load(str(desc)))
+    assert np.allclose(ds.acc, -g, atol=1e-4)  # +1 g on the axis pointing down
+    assert np.allclose(ds.mag, b_acc * 1000.0, atol=100.0)  # nT, in the accelerometer's frame
+    assert ds.meta["mag_axes"] == "x = my, y = mx, z = -mz"
+
+
+@pytest.mark.parametrize("toml, message", [
+    ('[accelerometer]\ncolumns = ["a", "b", "c"]\nunit = "counts"\n', "needs lsb"),
+    ('[accelerometer]\ncolumns = ["a", "b", "c"]\nunit = "furlongs"\n', "unknown unit"),
+    ('[accelerometer]\ncolumns = ["a", "b", "c"]\naxes = "x = ax, y = ax, z = az"\n', "uses a sensor axis twice"),
+    ('[accelerometer]\ncolumns = ["a", "b", "c"]\nx = "-ax"\ny = "ay"\nz = "az"\n', "reflection"),
+    ('[accelerometer]\ncolumns = ["a", "b"]\n', "three column names"),
+    ('[magnetometer]\ncolumns = ["a", "b", "c"]\nreads = "up"\n', "only the accelerometer"),
+    ('[accelerometer]\ncolumns = ["a", "b", "c"]\nreads = "sideways"\n', "'up'"),
+    ('name = "x"\n', "describes no triad"),
+    ('[acclerometer]\ncolumns = ["a", "b", "c"]\n', "unknown key(s) acclerometer"),
+    ('[accelerometer\n', "not valid TOML"),
+])
+def test_a_bad_description_is_one_line_naming_the_key(toml, message):
+    with pytest.raises(Exception) as e:
+        sensor.from_toml(toml)
+    assert message in str(e.value) and "\n" not in str(e.value)
+
+
+def test_import_bad_input_is_one_line_exit_2(tmp_path, capsys):
+    log = tmp_path / "log.csv"
+    log.write_text("ax,ay,az\n0.1,0.2,0.97\n0.1,oops,0.97\n")
+    desc = tmp_path / "d.toml"
+    desc.write_text('[accelerometer]\ncolumns = ["ax", "ay", "az"]\n')
+    assert main(["import", str(log), "--sensor", str(desc), "-o", str(tmp_path / "o.csv")]) == 2
+    err = capsys.readouterr().err
+    assert ":3:" in err and "ay" in err and err.count("\n") == 1
+    desc.write_text('[accelerometer]\ncolumns = ["ax", "ay", "AZZ"]\n')
+    assert main(["import", str(log), "--sensor", str(desc), "-o", str(tmp_path / "o.csv")]) == 2
+    assert "no column 'AZZ'" in capsys.readouterr().err
+    assert main(["import", str(log), "--sensor", "nosuchpreset", "-o", str(tmp_path / "o.csv")]) == 2
+    assert "not a preset" in capsys.readouterr().err
+
+
+@pytest.mark.parametrize("acc_unit,acc_factor", [("m/s^2", 9.80665), ("m/s²", 9.80665), ("m s^-2", 9.80665),
+                                                  ("M/S2", 9.80665), ("m/s/s", 9.80665), ("milli-g", 1000.0),
+                                                  ("mg", 1000.0), ("G", 1.0), ("cm/s^2", 980.665)])
+@pytest.mark.parametrize("mag_unit,mag_factor", [("µT", 1e-3), ("μT", 1e-3), ("microtesla", 1e-3), ("uT", 1e-3),
+                                                  ("mG", 1e-2), ("milligauss", 1e-2), ("Gauss", 1e-5),
+                                                  ("nT", 1.0)])
+def test_units_as_people_spell_them_import_to_g_and_nT(tmp_path, acc_unit, acc_factor, mag_unit, mag_factor):
+    """The same readings written in another unit, with that unit's usual
+    spelling in the description, import to the same g and nT."""
+    ds0 = importlog.import_log(str(REAL / "sap6" / "BB.csv"), sensor.load(str(REAL / "sap6" / "sensor.toml")))[0]
+    raw = np.column_stack([-ds0.acc[:, [2, 1, 0]] * [1, 1, -1] * acc_factor, ds0.mag * mag_factor])
+    # sensor axes: a = (z, y, -x) of the body, read up; m = body axes
+    log = tmp_path / "log.csv"
+    log.write_text("ax,ay,az,mx,my,mz\n" + "\n".join(",".join(f"{v:.9g}" for v in r) for r in raw) + "\n",
+                   encoding="utf-8")
+    desc = sensor.from_toml(f'[accelerometer]\ncolumns = ["ax", "ay", "az"]\nunit = "{acc_unit}"\nreads = "up"\n'
+                            f'axes = "x = -az, y = ay, z = ax"\n[magnetometer]\ncolumns = ["mx", "my", "mz"]\n'
+                            f'unit = "{mag_unit}"\n')
+    ds = importlog.import_log(str(log), desc)[0]
+    assert np.allclose(ds.acc, ds0.acc, rtol=1e-6, atol=1e-9)
+    assert np.allclose(ds.mag, ds0.mag, rtol=1e-6, atol=1e-6)
+
+
+@pytest.mark.parametrize("axes", ['"x = -ay, y = ax, z = az"', '"-y, x, z"', '"-Y+X+Z"', '["-acc_y", "acc_x", "acc_z"]',
+                                  '"x = -acc_y, y = acc_x, z = acc_z"'])
+def test_axis_maps_as_people_write_them_mean_the_same_map(axes):
+    d = sensor.from_toml(f'[accelerometer]\ncolumns = ["acc_x", "acc_y", "acc_z"]\naxes = {axes}\n')
+    assert d.acc.axes_text() == "x = -ay, y = ax, z = az"
+
+
+@pytest.mark.parametrize("axes", ['"-Y-X+Z"', '"x = acc_y, y = acc_x, z = acc_z"'])
+def test_a_left_handed_map_in_any_spelling_is_refused_with_the_fix(axes):
+    with pytest.raises(Exception) as e:
+        sensor.from_toml(f'[accelerometer]\ncolumns = ["acc_x", "acc_y", "acc_z"]\naxes = {axes}\n')
+    msg = str(e.value)
+    assert "reflection" in msg and "reflection = true" in msg and "\n" not in msg
