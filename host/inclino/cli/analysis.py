@@ -355,8 +355,9 @@ def _diagnose_invariants(ds, args) -> int:
         print(f"{args.input}:")
         print(f"  {note}")
         print(rep.summary(verdict=False))
-        print("  verdict: no effect named (" + ("the invariants fit within their limits" if rep.passed else
-                                                "the invariants do not fit: " + "; ".join(rep.reasons)) + ")")
+        print("conclusion: " + ("PASS: the invariants fit within their limits; no effect named" if rep.passed else
+                                "FAIL: the invariants do not fit (" + "; ".join(rep.reasons) + "); no effect "
+                                "named without the turntable's poses and both triads"))
     return 0
 
 
