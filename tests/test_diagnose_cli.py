@@ -172,6 +172,18 @@ def test_bench_module_quick_set(capsys):
         assert e["z50"] is not None and 2.0 <= e["z50"] <= first_required
     assert d["null"]["datasets"] == 2 and d["errors"] == []
     assert d["met"]["nulls"] is False and d["met"]["no_errors"] is True and rc == 1
+    # the real-data section (quick: SAP6's six runs): injected kinds, resampled untouched logs, the held-out
+    # prediction per log and invariant, each a figure measured on the real readings
+    real = d["real_data"]
+    assert real["datasets"] == [f"sap6/{n}" for n in ("BB", "CF", "FG", "HC", "IB", "JG")]
+    assert set(real["injected"]) == {"temperature-bias", "scale-nonlinearity", "rig-field", "field-drift"}
+    assert all(v["cases"] == 12 for v in real["injected"].values())
+    assert real["nulls"]["resamplings"] == 72
+    assert set(real["prediction"]) == set(real["datasets"])
+    for p in real["prediction"].values():
+        assert set(p) == {"|g|", "|b|", "dip"}
+        assert all(v["predicted_heldout_rms"] > 0 and v["achieved_heldout_rms"] > 0 for v in p.values())
+    assert {"real_injected_found", "real_false_alarms", "real_prediction"} <= set(d["met"])
 
 
 def test_bench_module_near_limit_rates(capsys):

@@ -219,10 +219,12 @@ class DiagnoseBench:
     met: dict = field(default_factory=dict)
     passed: bool = False
     cases: list = field(default_factory=list, repr=False)
+    real_data: dict = field(default_factory=dict)  # diagnose_real.py: the corpus of real logs
+    real_lines: list = field(default_factory=list, repr=False)
 
     def to_dict(self, cases=False) -> dict:
         d = {k: getattr(self, k) for k in ("datasets", "alpha", "probe", "plans", "sweep", "strong", "pairs",
-                                           "null", "errors", "time_s", "targets", "met", "passed")}
+                                           "null", "errors", "time_s", "targets", "met", "passed", "real_data")}
         if cases:
             d["cases"] = self.cases
         return json_safe(d)
@@ -261,6 +263,7 @@ class DiagnoseBench:
                          f"unexplained {n['unexplained_rate']:.3f}; by plan {n['by_plan']}; by noise {n['by_noise']}")
         lines.append(f"  errors: {len(self.errors)}")
         lines.append(f"  time per dataset: mean {self.time_s['mean']:.2f} s, max {self.time_s['max']:.2f} s")
+        lines.extend("  " + x for x in self.real_lines)
         lines.append("  targets: " + ", ".join(f"{k} {'met' if v else 'NOT met'}" for k, v in self.met.items()))
         return "\n".join(lines)
 
@@ -276,8 +279,25 @@ def bench_diagnose(quick: bool = False, per_size: int | None = None, nulls: int 
         nulls = 12 if quick else 216
     if pairs is None:
         pairs = 2 if quick else 12
+    from .diagnose_real import bench_real
+
     with one_blas_thread():
-        return _bench(Z_SWEEP_QUICK if quick else Z_SWEEP, per_size, nulls, pairs, not quick, seed0, alpha, progress)
+        out = _bench(Z_SWEEP_QUICK if quick else Z_SWEEP, per_size, nulls, pairs, not quick, seed0, alpha, progress)
+        real = bench_real(quick=quick)
+    add_real(out, real)
+    return out
+
+
+def add_real(out: DiagnoseBench, real) -> None:
+    """The real-data section into the bench's report, its targets into the
+    bench's (a checkout without the corpus reports that it has none)."""
+    import json as _json
+
+    out.real_data = _json.loads(real.to_json())
+    out.real_lines = real.lines()
+    for k, v in real.met.items():
+        out.met[f"real_{k}"] = bool(v)
+    out.passed = all(out.met.values())
 
 
 def _bench(zs, per_size, nulls, pairs, with_strong, seed0, alpha, progress) -> DiagnoseBench:

@@ -30,6 +30,8 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--draws", type=int, default=100, help="with --near-limit: datasets per effect, plan and z "
                    "(default %(default)s)")
     p.add_argument("--effects", help="with --near-limit: only these effects (comma-separated)")
+    p.add_argument("--real-only", action="store_true", help="only the real-data section (the corpus in "
+                   "tests/data/real: injected effects, resampled untouched logs, held-out prediction)")
     return p
 
 
@@ -54,6 +56,14 @@ def diagnose_main(argv=None) -> int:
         r = near_limit(zs, a.draws, a.seed, effects)
         print(dumps(r) if a.json else near_limit_text(r))
         return 0
+    if a.real_only:
+        from inclino.benchmarks.diagnose_real import bench_real
+        from inclino.diagnose._blas import one_blas_thread
+
+        with one_blas_thread():
+            r = bench_real(quick=a.quick)
+        print(r.to_json() if a.json else "\n".join(r.lines()))
+        return 0 if r.passed else 1
     r = bench_diagnose(a.quick, a.per_size, a.nulls, a.pairs, a.seed)
     print(r.to_json(cases=a.cases) if a.json else r.summary())
     return 0 if r.passed else 1

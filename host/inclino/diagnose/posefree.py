@@ -510,6 +510,21 @@ def diagnose_posefree(ds: RawDataset, alpha: float = DEFAULT_ALPHA, folds: int =
     est, se, s2 = des.coef(S)
     cov = des.coef_cov(S)
     R_final, R_cv = des.raw_residuals(S), des.cv_residuals(S)
+    # the held-out prediction: each invariant's residual RMS on poses the fit has not seen, from the fit alone:
+    # its noise s_j^2 = sum r^2 / sum (1 - h) and each value's leverage h (what the fit leans on it; serially
+    # correlated rows weigh (1 + rho) / (1 - rho) times more), a value held out erring by s_j^2 / (1 - h);
+    # checked against the K-fold residuals of held-out blocks of poses
+    Xs = des.Xw[:, :, S]
+    Ginv = np.linalg.pinv(des.G[np.ix_(S, S)])
+    h = np.clip(np.einsum("nip,pq,niq->ni", Xs, Ginv, Xs) * des.inflation, 0.0, 0.95)
+    prediction = {}
+    for j, c in enumerate(chans):
+        hj = h[rows, j]
+        s2j = float(np.sum(R_final[rows, j] ** 2) / max(np.sum(1.0 - hj), 1e-12))
+        pin = float(np.sqrt(s2j * np.mean(1.0 / (1.0 - hj))))
+        ach = float(np.sqrt(np.mean(R_cv[rows, j] ** 2)))
+        prediction[c] = {"predicted_heldout_rms": pin, "achieved_heldout_rms": ach,
+                         "ratio": ach / pin if pin > 0 else float("nan")}
     effects = []
     pos = nb
     for kk in kept:
@@ -587,6 +602,9 @@ def diagnose_posefree(ds: RawDataset, alpha: float = DEFAULT_ALPHA, folds: int =
                       "needs_poses": [n for n, _ in NEEDS_POSES], "steps": steps, "final_s2": s2,
                       "notes": [], "best_subset": None},
         "structure": structure, "run_variables": run_conf,
+        "prediction": {"what": f"each invariant's residual RMS predicted on poses not fitted (the fit's noise "
+                               f"and each value's leverage, {len(S)} parameters) and achieved on {K} held-out "
+                               f"blocks of poses", "by_invariant": prediction},
     }
     out = Diagnosis(baseline=baseline, effects=effects, unexplained=structure["unexplained"], structure=structure,
                     confounded=confounded)

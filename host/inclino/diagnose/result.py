@@ -85,6 +85,11 @@ class Diagnosis:
                      f"pose count once), invariants " + ", ".join(b["invariants"])
                      + (f", dip {b['dip_deg']:.3f} deg" if b.get("dip_deg") is not None else ""),
                      "  residual RMS: " + ", ".join(f"{k} {v:.4g} {u[k]}" for k, v in b["rms"].items())]
+            pr = b.get("prediction", {}).get("by_invariant")
+            if pr:
+                lines.append("  held-out poses, predicted -> achieved RMS: " + ", ".join(
+                    f"{k} {v['predicted_heldout_rms']:.4g} -> {v['achieved_heldout_rms']:.4g} {u[k]} "
+                    f"(ratio {v['ratio']:.2f})" for k, v in pr.items()))
         else:
             nz = b["noise"]
             lines = [f"baseline: {b['model']}; {b['rows']} readings ({b['kind']}), {b['orientations']} orientations, "
