@@ -25,6 +25,31 @@ _BLAS_LIMIT = threadpool_limits(1, "blas")
 
 ROOT = pathlib.Path(__file__).resolve().parents[1]
 
+# Hypothesis profiles of the hostile-input property suites
+# (tests/test_hostile_props*.py, tests/test_hostile_emu.py; docs/testing.md):
+# `make test` runs each property with the module's small count; the profile
+# "full" (pytest --hypothesis-profile=full) runs 10 000 generated inputs per
+# property, each reader and each format its own property.
+try:
+    from hypothesis import HealthCheck, settings as _hsettings
+
+    _hsettings.register_profile("full", max_examples=10_000, deadline=None, database=None,
+                                suppress_health_check=list(HealthCheck))
+except ImportError:  # hypothesis is a test extra: its modules skip without it
+    pass
+
+
+def hypothesis_examples(default: int) -> int:
+    """Examples per property: INCLINO_HYPOTHESIS_EXAMPLES, else the full
+    profile's 10 000 under --hypothesis-profile=full, else `default`."""
+    v = os.environ.get("INCLINO_HYPOTHESIS_EXAMPLES")
+    if v:
+        return int(v)
+    from hypothesis import settings
+
+    return settings.get_profile("full").max_examples if settings.get_current_profile_name() == "full" else default
+
+
 # CI (.ci/run, CI=true) installs every tool the suite uses (sdcc, ucsim,
 # cppcheck, clang-format, clang/libFuzzer, binutils-m68hc1x, cmake) and the
 # test extra: there a test that skips (a tool or package missing) is a

@@ -27,10 +27,11 @@ from inclino_emu.control import ControlClient, RequestError, parse_request
 from inclino_emu.runner import Emulator
 
 from bootimg import random_chunks, write_srec
+from conftest import hypothesis_examples
 from test_probe_cli import inverse_cal, run
 
 # generated inputs per property in the suite; the run reported in docs/emulator.md used 10000
-EXAMPLES = int(os.environ.get("INCLINO_HYPOTHESIS_EXAMPLES", "300"))
+EXAMPLES = hypothesis_examples(300)
 
 
 # ---- the request parser, property-based -----------------------------------------------

@@ -77,7 +77,7 @@ def _calibration(args) -> int:
 def _input(args) -> int:
     from inclino.benchmarks import input as bench_input
 
-    r = bench_input.bench()
+    r = bench_input.bench(quick=getattr(args, "quick", False))
     print(r.to_json() if args.json else bench_input.text(r))
     return 0 if r.passed else 1
 
@@ -194,7 +194,7 @@ def add_bench(sub, cli_main):
     be.add_argument("--field", type=float, default=50000.0, help="accuracy: total field, nT (default %(default)g)")
     be.add_argument("--dip", type=float, default=60.0, help="accuracy: dip, degrees (default %(default)g)")
     be.add_argument("--vectors", type=int, default=1_000_000, help="speed: batch size (default %(default)s)")
-    be.add_argument("--quick", action="store_true", help="diagnose, demo: a small set (not the targets' figures)")
+    be.add_argument("--quick", action="store_true", help="diagnose, demo, input: a small set (not the targets' figures)")
     add_plot(be, "survey: also draw the first seed's well path and ellipses into this folder (survey-wellpath.png)")
     be.add_argument("--section", choices=("all", "temperature"), default="all",
                     help="calibration: only the temperature section (default %(default)s)")
