@@ -285,6 +285,8 @@ def diagnose_main(args) -> int:
     _checked(ds, bool(getattr(args, "static", False)))
     if getattr(args, "cal", None):
         ds = _temperature_corrected(ds, args.cal)
+    if (not ds.has_pose or ds.triads != "both") and not _posefree_diagnosis_available():
+        return _diagnose_invariants(ds, args)
     try:
         with np.errstate(all="ignore"), progress.phase(f"diagnose {args.input}"):
             r = diagnose(ds, effects=args.effects, alpha=args.alpha, folds=args.folds,
@@ -303,6 +305,57 @@ def diagnose_main(args) -> int:
             print(f"wrote {w}")
         print(f"{args.input}:")
         print(r.summary())  # its last line: the conclusion
+    return 0
+
+
+def _posefree_diagnosis_available() -> bool:
+    import importlib.util
+
+    return importlib.util.find_spec("inclino.diagnose.posefree") is not None
+
+
+def _diagnose_invariants(ds, args) -> int:
+    """Data without the turntable's poses, or with one triad: the pose-based
+    effect tests need both; what the invariants show is reported instead
+    (each triad fitted on its own, |g|, |b| and the dip left over, each
+    triad's noise, contiguous blocks of misfit as segments)."""
+    import json as _json
+
+    import numpy as np
+
+    from inclino import progress
+    from inclino.calib import fit
+    from inclino.errors import CalibrationError
+
+    if args.effects:
+        raise DataError("--effects needs a dataset with both triads and the turntable's poses (inc_deg, azi_deg, "
+                        "tf_deg): without them the invariants are reported")
+    need = ["inc_deg", "tf_deg"] + (["azi_deg"] if ds.has_mag else [])
+    missing = [c for c in need if c not in ds.columns]
+    if missing and len(missing) < len(need):
+        raise DataError(f"diagnose needs the turntable's pose for every reading, or no pose at all; missing "
+                        f"column(s): {', '.join(missing)} (add them, or drop the other pose columns for the "
+                        f"pose-free report)")
+    poses = not missing
+    why = ("one triad only (the effect tests need both)" if ds.triads != "both" and poses
+           else "no turntable poses")
+    try:
+        with np.errstate(all="ignore"), progress.phase(f"diagnose {args.input}"):
+            _, rep = fit(ds, "joint", use_poses=poses, accept_mount_tolerance=True, check=False,
+                         static=bool(getattr(args, "static", False)))
+    except (CalibrationError, ArithmeticError, ValueError, np.linalg.LinAlgError) as e:
+        raise DataError(f"diagnose failed on {args.input}: {e}")
+    note = (f"{why}: " + ("the residuals against the poses and the invariants after the triad's own fit"
+                          if poses else "the invariants |g|, |b| and the dip after each triad's own fit")
+            + "; no effect is named")
+    if args.json:
+        print(_json.dumps({"mode": "invariants", "note": note, "effects": [], "report": rep.to_dict()}))
+    else:
+        print(f"{args.input}:")
+        print(f"  {note}")
+        print(rep.summary(verdict=False))
+        print("  verdict: no effect named (" + ("the invariants fit within their limits" if rep.passed else
+                                                "the invariants do not fit: " + "; ".join(rep.reasons)) + ")")
     return 0
 
 
