@@ -182,6 +182,7 @@ def test_disconnect_mid_download_then_retry(emu, ctl, capsys, tmp_path):
     assert rc == 0 and _active(emu) != before
 
 
+@pytest.mark.heavy
 @pytest.mark.parametrize("new_terms", [False, True], ids=["v1", "v2"])
 def test_power_cut_at_every_flash_step_of_a_download(emu, ctl, capsys, tmp_path, new_terms, monkeypatch):
     """Cut the power at the n-th flash program/erase of a download, for every

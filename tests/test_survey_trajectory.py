@@ -424,6 +424,7 @@ def test_reffield_writes_the_probe_qc_reference(tmp_path, capsys):
 
 # ---------------------------------------------------- the whole chain
 
+@pytest.mark.heavy
 def test_emulated_probe_survey_recovers_the_well_inside_its_ellipses():
     """Done-when of the survey work: a build-and-hold well surveyed by the
     emulated probe through `inclino survey`, recovered by `inclino
