@@ -182,3 +182,27 @@ def test_a_left_handed_map_in_any_spelling_is_refused_with_the_fix(axes):
         sensor.from_toml(f'[accelerometer]\ncolumns = ["acc_x", "acc_y", "acc_z"]\naxes = {axes}\n')
     msg = str(e.value)
     assert "reflection" in msg and "reflection = true" in msg and "\n" not in msg
+
+
+def test_a_log_with_decimal_commas_and_iso_time_stamps_imports(tmp_path):
+    """A log as a spreadsheet in a comma-decimal locale writes it: semicolons,
+    decimal commas, ISO 8601 time stamps."""
+    ds0 = importlog.import_log(str(REAL / "sap6" / "BB.csv"), sensor.load(str(REAL / "sap6" / "sensor.toml")))[0]
+    lines = ["time;gx;gy;gz;mx;my;mz"]
+    for i, (a, m) in enumerate(zip(ds0.acc, ds0.mag)):
+        stamp = f"2024-05-01T12:00:{i * 2.5:06.3f}Z"
+        cells = [f"{v:.9g}".replace(".", ",") for v in list(a) + list(m / 1000.0)]
+        lines.append(";".join([stamp] + cells))
+    log = tmp_path / "locale.csv"
+    log.write_text("\n".join(lines) + "\n", encoding="utf-8")
+    desc = sensor.from_toml('[log]\ndecimal = ","\ntime = "time"\n[accelerometer]\ncolumns = ["gx", "gy", "gz"]\n'
+                            '[magnetometer]\ncolumns = ["mx", "my", "mz"]\nunit = "µT"\n')
+    ds = importlog.import_log(str(log), desc)[0]
+    assert np.allclose(ds.acc, ds0.acc, rtol=1e-6) and np.allclose(ds.mag, ds0.mag, rtol=1e-6)
+    assert np.allclose(ds.columns["t_s"], 2.5 * np.arange(len(ds0)))
+
+
+def test_decimal_comma_with_a_comma_delimiter_is_one_line():
+    with pytest.raises(Exception) as e:
+        sensor.from_toml('[log]\ndecimal = ","\ndelimiter = ","\n[accelerometer]\ncolumns = ["a", "b", "c"]\n')
+    assert "decimal" in str(e.value) and "delimiter" in str(e.value)

@@ -61,7 +61,7 @@ TIME_UNITS = {"s": 1.0, "ms": 1e-3, "us": 1e-6, "µs": 1e-6, "ns": 1e-9, "min": 
 READS = ("up", "down")
 TOP_KEYS = {"name", "preset", "notes", "source", "log", "accelerometer", "magnetometer", "header", "poses"}
 LOG_KEYS = {"delimiter", "comment", "header", "skip_rows", "time", "time_unit", "temperature", "samples_averaged",
-            "static", "keep"}
+            "static", "keep", "decimal"}
 TRIAD_KEYS = {"columns", "unit", "lsb", "reads", "x", "y", "z", "axes", "reflection", "range", "noise", "lag"}
 POSE_KEYS = {"inc", "azi", "tf", "label", "labels", "unit"}
 
@@ -159,6 +159,7 @@ class SensorDescription:
     mag: Triad | None = None
     # the log
     delimiter: str | None = None
+    decimal: str = "."                # the decimal mark: "." or "," (then the delimiter is not a comma)
     comment: str = "#"
     has_header: bool = True
     skip_rows: int = 0
@@ -443,6 +444,12 @@ def from_dict(d: dict, what: str = "sensor description") -> SensorDescription:
     if s.delimiter is not None and (not isinstance(s.delimiter, str) or len(s.delimiter) not in (1,) and
                                     s.delimiter not in ("whitespace", "\\t")):
         raise DataError(f"{what}[log].delimiter: one character, or 'whitespace'")
+    dec = log.get("decimal", ".")
+    if dec not in (".", ","):
+        raise DataError(f"{what}[log].decimal: \".\" or \",\"")
+    if dec == "," and s.delimiter == ",":
+        raise DataError(f"{what}[log]: decimal = \",\" needs another delimiter (\";\", a tab, or whitespace)")
+    s.decimal = dec
     s.comment = str(log.get("comment", "#"))
     hdr = log.get("header", True)
     if not isinstance(hdr, bool):

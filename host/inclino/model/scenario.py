@@ -394,10 +394,18 @@ def builtin_scenarios():
 
 def load_scenario(path_or_name) -> Scenario:
     """Load a scenario from a TOML path, or a built-in one by name
-    ("ideal", "typical", "li2021")."""
+    ("ideal", "typical", "li2021").  The file is read with bounds
+    (inclino.formats.safeio) and every table and field checked by its rule
+    (inclino.model.scenario_rules) before the scenario is built: one
+    DataError line naming the file and the field."""
+    from inclino.errors import DataError
+    from inclino.formats import safeio
+    from inclino.model.scenario_rules import check_scenario
+
     p = Path(str(path_or_name))
     if p.suffix == ".toml" or p.exists():
-        text = p.read_text(encoding="utf-8")
+        where = f"scenario {p}"
+        text = safeio.read_text(str(p), "scenario", 4 * 2**20)
         name = p.stem
     else:
         res = resources.files("inclino.model").joinpath("scenarios", f"{path_or_name}.toml")
@@ -405,7 +413,20 @@ def load_scenario(path_or_name) -> Scenario:
             raise FileNotFoundError(f"no scenario {path_or_name!r} (built-in: {', '.join(builtin_scenarios())})")
         text = res.read_text(encoding="utf-8")
         name = str(path_or_name)
-    return scenario_from_dict(tomllib.loads(text), name)
+        where = f"scenario {name}"
+    try:
+        d = tomllib.loads(text)
+    except tomllib.TOMLDecodeError as e:
+        raise DataError(f"{where}: not TOML ({str(e)[:80]})") from None
+    except ValueError:  # a number tomllib cannot convert (an integer of thousands of digits)
+        raise DataError(f"{where}: not TOML (a number out of range)") from None
+    except RecursionError:
+        raise DataError(f"{where}: nests too deep") from None
+    check_scenario(d, where)
+    try:
+        return scenario_from_dict(d, name)
+    except (ValueError, TypeError, KeyError, ArithmeticError) as e:  # a rule the checks above do not state
+        raise DataError(f"{where}: {str(e)[:100]}") from None
 
 
 # --------------------------------------------------------------------------
