@@ -88,6 +88,14 @@ SPLIT_MODULES = {
 }
 
 
+# Modules whose tests share state that neither their arguments nor their source's fixtures show: one unit.
+WHOLE_MODULES = {
+    # test_the_makefile_stamp_covers_every_compiled_input sets fx_ops.h's mtime ahead for `make -n`;
+    # test_compiled_firmware_is_not_older_than_its_sources reads the mtimes: side by side they raced
+    "tests/test_build.py",
+}
+
+
 def _module_sharing(path: pathlib.Path) -> tuple[bool, set]:
     """(whole, names) for a test module, read from its source (the
     controller of pytest-xdist schedules by node id and never imports the
@@ -156,6 +164,8 @@ def scheduling_unit(nodeid: str) -> str:
     whole, users = _SHARING[module]
     if module in SPLIT_MODULES:
         return nodeid
+    if module in WHOLE_MODULES:
+        return module
     if whole or "::" in rest or name in users:
         return module
     return nodeid
