@@ -286,12 +286,19 @@ def diagnose_main(args) -> int:
     _checked(ds, bool(getattr(args, "static", False)))
     if getattr(args, "cal", None):
         ds = _temperature_corrected(ds, args.cal)
-    if (not ds.has_pose or ds.triads != "both") and not _posefree_diagnosis_available():
+    pose_free = not ds.has_pose or ds.triads != "both"
+    if pose_free and not _posefree_diagnosis_available():
         return _diagnose_invariants(ds, args)
     try:
         with np.errstate(all="ignore"), progress.phase(f"diagnose {args.input}"):
             r = diagnose(ds, effects=args.effects, alpha=args.alpha, folds=args.folds,
                          keep_plot_data=bool(args.plot))
+    except DataError as e:
+        if pose_free and str(e).startswith("too few distinct orientations"):
+            # too few orientations to test anything on the invariants (a six-face session): what each triad's
+            # own fit leaves, nothing named
+            return _diagnose_invariants(ds, args)
+        raise
     except (ArithmeticError, ValueError, np.linalg.LinAlgError) as e:  # one line, never a traceback
         raise DataError(f"diagnose failed on {args.input}: {type(e).__name__}: {e}")
     written = []

@@ -21,6 +21,10 @@ A scenario file (host/inclino/model/scenarios/*.toml) looks like::
     scale = [0.0, 0.0, 0.0]
     [world.field_drift]              # optional (effects.FieldDrift)
     rate_nT_per_s = 0.0
+    [world.rig_field]                # optional (effects.RigField; [[world.rig_field]] for several)
+    axis = "inc"                     # the turntable axis it moves with: azi, inc, tf
+    cos_nT = [[0.0, 0.0, 0.0], [300.0, 0.0, -150.0]]   # per harmonic 0, 1, ... in that axis' frame
+    sin_nT = [[0.0, 0.0, 0.0], [0.0, 120.0, 0.0]]
     [acc.bias]                       # one table per effect, any subset
     value = [0.001, 0.0, 0.0]        # g
     [mag.hard_iron]
@@ -336,6 +340,15 @@ def _triad(kind, tab: dict, spreads: Optional[dict] = None) -> fx.TriadModel:
     return fx.TriadModel(**kw)
 
 
+def _rig_tables(v) -> list:
+    """[world.rig_field] (one table) or [[world.rig_field]] (several): each
+    axis = "azi" | "inc" | "tf", cos_nT = [[x, y, z], ...] and sin_nT the
+    same, nT per harmonic 0, 1, ... (effects.RigField)."""
+    if v is None:
+        return []
+    return [v] if isinstance(v, dict) else list(v)
+
+
 def scenario_from_dict(d: dict, name: str = "") -> Scenario:
     w = dict(d.get("world", {}))
     if "lat_deg" in w and "lon_deg" in w and "date" in w:
@@ -367,6 +380,8 @@ def scenario_from_dict(d: dict, name: str = "") -> Scenario:
         gravity_g=float(w.get("gravity_g", 1.0)),
         temperature=temperature,
         drift=fx.FieldDrift(**drift) if drift else None,
+        rig_fields=[fx.RigField(str(r.get("axis", "inc")), r.get("cos_nT", [[0.0] * 3]), r.get("sin_nT", [[0.0] * 3]))
+                    for r in _rig_tables(w.get("rig_field"))],
     )
     spreads = {"acc": {}, "mag": {}}
     meta = {k: w[k] for k in ("lat_deg", "lon_deg") if k in w}
