@@ -13,6 +13,7 @@ advances by the firmware's own waits and the byte times).
 """
 from __future__ import annotations
 
+import select
 import threading
 import time
 from dataclasses import asdict
@@ -46,7 +47,7 @@ class _Device:
 class Emulator:
     def __init__(self, scenario="typical", seed: int | None = None, baud: int = 115200,
                  link: str | None = None, control_port: int | None = 0, realtime: bool = True,
-                 serial: int | None = None, tempco_draw: int | None = None):
+                 serial: int | None = None, tempco_draw: int | None = None, hold_idle: bool = False):
         if isinstance(baud, bool) or not isinstance(baud, int) or not BAUD_RANGE[0] <= baud <= BAUD_RANGE[1]:
             raise ValueError(f"baud rate {baud} is not within {BAUD_RANGE[0]}-{BAUD_RANGE[1]}")
         if control_port is not None and (isinstance(control_port, bool) or not isinstance(control_port, int)
@@ -70,6 +71,9 @@ class Emulator:
         self._device = _Device(self.probe)
         self._lock = threading.Lock()
         self.pacing = {"max_ahead_s": 0.0}   # real time: how far a single step ran ahead of the wall clock
+        self.idle_s = 0.0   # unthrottled: emulated seconds spent waiting for the host (active_s)
+        self.hold_idle = bool(hold_idle)  # unthrottled: stop the clock while idle (run())
+        self._was_idle = False
 
     @property
     def control_port(self) -> int | None:
@@ -80,9 +84,17 @@ class Emulator:
         p = self.probe
 
         def move(r):
+            """Turn the table to a pose; the emulated clock runs through the
+            move (world.TurntableMotion: the axes' rate and settling)."""
             known(r, "inc", "azi", "tf")
-            p.move_to(number(r, "inc", 0.0, 180.0, " deg"), number(r, "azi", 0.0, 360.0, " deg"),
-                      number(r, "tf", 0.0, 360.0, " deg"))
+            to = (number(r, "inc", 0.0, 180.0, " deg"), number(r, "azi", 0.0, 360.0, " deg"),
+                  number(r, "tf", 0.0, 360.0, " deg"))
+            frm = tuple(float(x) for x in p.phys.trajectory(p.clock.now))
+            d = float(p.phys.scenario.world.turntable.motion.duration(frm, to))
+            p.move_to(*to)
+            if d > 0.0:
+                self._run_for(d)
+            return {"t": p.clock.now, "move_s": d}
 
         def temperature(r):
             known(r, "temp_c")
@@ -116,7 +128,7 @@ class Emulator:
             s = number(r, "s", 0.0, MAX_ADVANCE_S, " s")
             if s <= 0.0:
                 raise ArgError(f"s must be within (0, {MAX_ADVANCE_S:g}] seconds")
-            p.step(s, quantum=max(ADVANCE_QUANTUM_S, s / ADVANCE_MAX_POLLS))
+            self._run_for(s)
             return {"t": p.clock.now, "temp_c": float(p.phys.temperature(p.clock.now))}
 
         def faults(r):
@@ -148,7 +160,7 @@ class Emulator:
 
         def status(r):
             known(r)
-            return {"t": p.clock.now, "power_cuts": p.power_cuts, "restarts": p.restarts,
+            return {"t": p.clock.now, "active_s": self.active_s, "power_cuts": p.power_cuts, "restarts": p.restarts,
                     "boot_status": p.boot_status, "bytes_to_host": self.pty.bytes_to_host,
                     "bytes_to_probe": self.pty.bytes_to_probe, "tx_dropped": int(p.lib.app_main_tx_dropped()),
                     "flash_ops": getattr(p.flash, "ops", None),
@@ -158,16 +170,53 @@ class Emulator:
                 "power_cut": power_cut, "power_cycle": power_cycle, "status": status,
                 "chamber": chamber, "advance": advance}
 
+    def _run_for(self, s: float) -> None:
+        """Run s seconds of emulated time in one go (the firmware idles
+        through it): a chamber wait, a turntable move."""
+        self.probe.step(s, quantum=max(ADVANCE_QUANTUM_S, s / ADVANCE_MAX_POLLS))
+
+    @property
+    def active_s(self) -> float:
+        """The emulated time the probe and the bench were doing something:
+        the clock less the time the unthrottled emulator ran while nothing
+        was on the line and the firmware was idle, waiting for the host.
+        Unthrottled, that idle time depends only on how fast the host
+        computes, so active_s is the bench time of a run (turntable moves,
+        chamber waits, the probe's readings, the bytes on the line);
+        in real time it is the clock."""
+        return self.probe.clock.now - self.idle_s
+
     # ------------------------------------------------------------ loop
     def run_once(self, dt: float, release: bool = True) -> None:
         """Advance the emulator by dt seconds of emulated time.  release:
         pass what the probe sent to the host right away (else at the next
-        call, once the wall clock has caught up: real-time mode)."""
+        call, once the wall clock has caught up: real-time mode).  An
+        unthrottled step in which no byte moved either way, the probe's SCI
+        held nothing and the firmware made no long call counts as idle
+        (active_s)."""
         with self._lock:
-            self.pty.pump(self._device, 0.0)
+            pty, sci, clk = self.pty, self.probe.sci, self.probe.clock
+            n0 = (pty.bytes_to_probe, pty.bytes_to_host)
+            quiet = not (sci.rx or sci.tx or sci.out or pty._to_host)
+            t0 = clk.now
+            pty.pump(self._device, 0.0)
             self.probe.step(dt)
             if release:
-                self.pty.pump(self._device, 0.0)
+                pty.pump(self._device, 0.0)
+            idle = (not self.realtime and quiet and (pty.bytes_to_probe, pty.bytes_to_host) == n0
+                    and not (sci.rx or sci.tx or sci.out) and clk.now - t0 <= dt + 1e-12)
+            if idle:
+                self.idle_s += clk.now - t0
+            return idle
+
+    def _host_silent(self, timeout: float) -> bool:
+        """No byte from the host is waiting on the pseudo-terminal (waits
+        up to `timeout` seconds of wall time for one)."""
+        try:
+            r, _, _ = select.select([self.pty.master], [], [], timeout)
+        except (OSError, ValueError):
+            return False
+        return not r
 
     def run(self) -> None:
         """Run until stop() (or KeyboardInterrupt in the caller's thread).
@@ -177,7 +226,16 @@ class Emulator:
         advanced the clock in one go: the loop then waits, and the bytes the
         probe sent in that call reach the host only when the wall clock has
         reached the emulated instant.  An emulator that falls behind by more
-        than MAX_STEP_S does not catch up (the lag is dropped)."""
+        than MAX_STEP_S does not catch up (the lag is dropped).
+
+        Unthrottled with hold_idle: after a step in which nothing happened
+        (run_once's idle test: no byte either way, the firmware idle) the
+        clock stops until the host sends a byte or a control request runs,
+        so emulated time is the bench's time (turntable moves, chamber
+        waits, readings, bytes) and not how long the host took to think;
+        the chamber does not drift while the host computes.  Not for a
+        probe that should act on its own while the host is silent (a
+        stream's frames, the protocol's idle timeout)."""
         try:
             clk = self.probe.clock
             t_wall0, t_emu0 = time.monotonic(), clk.now
@@ -197,8 +255,10 @@ class Emulator:
                     self.run_once(target - clk.now, release=False)
                     self.pacing["max_ahead_s"] = max(self.pacing["max_ahead_s"], clk.now - (
                         t_emu0 + (time.monotonic() - t_wall0)))
+                elif self.hold_idle and self._was_idle and self._host_silent(0.001):
+                    continue
                 else:
-                    self.run_once(0.005)
+                    self._was_idle = self.run_once(0.005)
         except BaseException as e:  # reported by stop()
             self.error = e
 
