@@ -6,6 +6,7 @@ runs, so `inclino --help` stays fast:
   probe.py       identify, survey, download, verify, flash (the probe over its link)
   procedures.py  acquire, accept, plot, demo (procedures on a turntable)
   analysis.py    attitude, bitexact, calibrate, diagnose (files in, results out)
+  dataimport.py  import (a log of any sensor into the canonical dataset)
   survey.py      reffield, toolmodel, trajectory, compare
   benchmarks.py  bench NAME (one function a name)
   emulate.py     emulate (the emulated probe on a pseudo-terminal)
@@ -21,7 +22,7 @@ import argparse
 import sys
 
 from inclino import __version__
-from inclino.cli import analysis, benchmarks, emulate, probe, procedures, survey
+from inclino.cli import analysis, benchmarks, dataimport, emulate, probe, procedures, survey
 from inclino.errors import InclinoError
 
 
@@ -36,6 +37,7 @@ def build_parser() -> argparse.ArgumentParser:
     analysis.add_attitude(sub)
     emulate.add_emulate(sub)
     benchmarks.add_bench(sub, cli_main=main)
+    dataimport.add_import(sub)
     analysis.add_calibrate(sub)
     analysis.add_diagnose(sub)
     probe.add_flash(sub)

@@ -7,8 +7,11 @@
 
 Optional leading `# key=value` lines (META_KEYS), then a header row with the
 columns in any order, extra columns allowed.  Pose columns (turntable
-reference) and t_s/temp_c may be absent; the six sensor columns are required
-and hold raw, uncalibrated readings in nominal units (counts x nominal LSB).
+reference) and t_s/temp_c may be absent; the sensor columns hold raw,
+uncalibrated readings in nominal units (counts x nominal LSB): both triads,
+or one (an accelerometer-only or a magnetometer-only dataset), each triad's
+three columns together.  The header may record where the data came from and
+the sensor description used (`inclino import`, inclino.formats.sensor).
 """
 from __future__ import annotations
 
@@ -22,10 +25,19 @@ import numpy as np
 from inclino import progress as _progress
 from inclino.errors import DataError
 
+# the sensor description's record (inclino import; docs/dataset.md): resolution,
+# noise and range per triad in canonical units, the axis maps and units as
+# logged, the declarations (static run, intended reflection), provenance
+SENSOR_META = ("sensor", "sensor_sha256", "log_sha256", "acc_axes", "acc_unit", "mag_axes", "mag_unit",
+               "acc_lsb_g", "acc_noise_g", "acc_range_g", "mag_lsb_nT", "mag_noise_nT", "mag_range_nT",
+               "reflection", "static", "rows_dropped")
 META_KEYS = ("field_nT", "dip_deg", "declination_deg", "gravity_g", "lat_deg", "lon_deg",
-             "date", "probe_serial", "source", "samples_averaged")
-NUMERIC_META = {"field_nT", "dip_deg", "declination_deg", "gravity_g", "lat_deg", "lon_deg", "samples_averaged"}
-SENSOR_COLS = ("ax_g", "ay_g", "az_g", "mx_nT", "my_nT", "mz_nT")
+             "date", "probe_serial", "source", "samples_averaged") + SENSOR_META
+NUMERIC_META = {"field_nT", "dip_deg", "declination_deg", "gravity_g", "lat_deg", "lon_deg", "samples_averaged",
+                "acc_lsb_g", "acc_noise_g", "acc_range_g", "mag_lsb_nT", "mag_noise_nT", "mag_range_nT"}
+ACC_COLS = ("ax_g", "ay_g", "az_g")
+MAG_COLS = ("mx_nT", "my_nT", "mz_nT")
+SENSOR_COLS = ACC_COLS + MAG_COLS
 POSE_COLS = ("inc_deg", "azi_deg", "tf_deg")
 OPTIONAL_COLS = ("t_s", "temp_c") + POSE_COLS
 COLUMN_ORDER = ("t_s",) + POSE_COLS + ("temp_c",) + SENSOR_COLS
@@ -37,15 +49,37 @@ class RawDataset:
     meta: dict = field(default_factory=dict)
 
     def __len__(self) -> int:
-        return len(self.columns[SENSOR_COLS[0]]) if self.columns else 0
+        for c in SENSOR_COLS:
+            if c in self.columns:
+                return len(self.columns[c])
+        return len(next(iter(self.columns.values()))) if self.columns else 0
+
+    @property
+    def has_acc(self) -> bool:
+        return all(c in self.columns for c in ACC_COLS)
+
+    @property
+    def has_mag(self) -> bool:
+        return all(c in self.columns for c in MAG_COLS)
+
+    @property
+    def triads(self) -> str:
+        """"both", "acc" or "mag": which triads the dataset holds."""
+        return "both" if self.has_acc and self.has_mag else ("acc" if self.has_acc else "mag")
 
     @property
     def acc(self) -> np.ndarray:
-        return np.stack([self.columns[c] for c in SENSOR_COLS[:3]], axis=-1)
+        if not self.has_acc:
+            raise DataError("the dataset has no accelerometer columns (ax_g, ay_g, az_g): a magnetometer-only "
+                            "dataset")
+        return np.stack([self.columns[c] for c in ACC_COLS], axis=-1)
 
     @property
     def mag(self) -> np.ndarray:
-        return np.stack([self.columns[c] for c in SENSOR_COLS[3:]], axis=-1)
+        if not self.has_mag:
+            raise DataError("the dataset has no magnetometer columns (mx_nT, my_nT, mz_nT): an accelerometer-only "
+                            "dataset")
+        return np.stack([self.columns[c] for c in MAG_COLS], axis=-1)
 
     @property
     def has_pose(self) -> bool:
@@ -69,16 +103,26 @@ RULES = {
     "tf_deg": (-360.0, 360.0),
     "temp_c": (-100.0, 300.0),
     "samples_averaged": (1.0, 1_000_000.0),  # sensor samples per reading (acquire --average)
+    # the sensor description's figures (> 0; generous bounds: any part a log could come from)
+    "acc_lsb_g": (1e-3, 1.0), "acc_noise_g": (1e-3, 1.0), "acc_range_g": (1e-3, 1000.0),
+    "mag_lsb_nT": (1e-3, 1e6), "mag_noise_nT": (1e-3, 1e6), "mag_range_nT": (1e-3, 1e9),
 }
+POSITIVE = {"field_nT", "gravity_g", "acc_lsb_g", "acc_noise_g", "acc_range_g", "mag_lsb_nT", "mag_noise_nT",
+            "mag_range_nT"}  # > 0: the lower bound in RULES is only a placeholder
 MAX_LINE_CHARS = 1 << 20  # a longer line is refused (bounded reading of a hostile file)
 CHUNK_ROWS = 1 << 16
 
 
 def _rule_text(key: str) -> str:
     lo, hi = RULES[key]
-    if lo == 1e-3:
+    if key in POSITIVE:
         return f"must be > 0 and <= {hi:g}"
     return f"must be within [{lo:g}, {hi:g}]"
+
+
+def _in_rule(key: str, v: float) -> bool:
+    lo, hi = RULES[key]
+    return (v > 0 if key in POSITIVE else v >= lo) and v <= hi
 
 
 def check_meta(key: str, value, what: str) -> None:
@@ -86,8 +130,7 @@ def check_meta(key: str, value, what: str) -> None:
     header's rule: DataError naming `what`."""
     if value is None or key not in RULES:
         return
-    lo, hi = RULES[key]
-    if not (math.isfinite(value) and lo <= value <= hi):
+    if not (math.isfinite(value) and _in_rule(key, value)):
         raise DataError(f"{what} {value:g} out of range: {key} {_rule_text(key)}")
 
 
@@ -101,8 +144,7 @@ def _meta_value(key, text, path, lineno):
             raise DataError(f"{path}:{lineno}: header {key} is not finite")
         if "_" in text:
             raise DataError(f"{path}:{lineno}: header {key}={text!r} is not a plain number")
-        lo, hi = RULES[key]
-        if not lo <= v <= hi:
+        if not _in_rule(key, v):
             raise DataError(f"{path}:{lineno}: header {key}={text} out of range: {key} {_rule_text(key)}")
         return v
     return text
@@ -171,9 +213,15 @@ def _read(lines: _Lines, path: str, bar) -> RawDataset:
         raise DataError(f"{path}: no header row")
     header_line = lines.lineno
     header = [h.strip() for h in next(csv.reader([line]))]
-    missing = [c for c in SENSOR_COLS if c not in header]
-    if missing:
-        raise DataError(f"{path}:{header_line}: missing column(s) {', '.join(missing)}")
+    for cols in (ACC_COLS, MAG_COLS):  # a triad is all three columns or none
+        have = [c for c in cols if c in header]
+        if have and len(have) < 3:
+            raise DataError(f"{path}:{header_line}: missing column(s) {', '.join(c for c in cols if c not in have)} "
+                            f"(a triad is three columns)")
+    if not any(c in header for c in SENSOR_COLS):
+        raise DataError(f"{path}:{header_line}: missing column(s) {', '.join(SENSOR_COLS)}: no sensor triad (the "
+                        f"accelerometer's ax_g, ay_g, az_g and/or the magnetometer's mx_nT, my_nT, mz_nT; a log in "
+                        f"other columns or units: inclino import LOG --sensor S.toml)")
     if len(set(header)) != len(header):
         raise DataError(f"{path}:{header_line}: a column name appears twice")
     ncells = len(header)

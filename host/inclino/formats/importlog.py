@@ -1,0 +1,266 @@
+"""`inclino import`: a log of any sensor, through its sensor description,
+into the canonical dataset (docs/dataset.md).
+
+    ds, rep = import_log("log.csv", sensor.load("my_imu.toml"))
+    dataset.write_raw("run.csv", ds)
+
+The log is delimited text: comma, semicolon, tab or whitespace (sniffed from
+the header line, or [log].delimiter), comment lines and blank lines skipped,
+the columns named by its first line ([log].header = true) or numbered from 1
+(header = false).  Every row's readings go through the description
+(inclino.formats.sensor: unit, scale, gravity sign, axis map) into g and nT in
+the body frame.  A row with a missing value in a used column ("", NaN, NA,
+null) is dropped and counted; any other text in a used column is an error
+naming the row and the column.  The header of the canonical file records
+the log (path, SHA-256), the description (name, SHA-256, axis maps, units,
+resolution, noise, range) and what was dropped.
+"""
+from __future__ import annotations
+
+import csv
+import hashlib
+import math
+import os
+import re
+from dataclasses import dataclass, field
+
+import numpy as np
+
+from inclino.errors import DataError
+
+from . import dataset
+from .dataset import ACC_COLS, MAG_COLS, MAX_LINE_CHARS, RawDataset
+from .sensor import SensorDescription
+
+MAX_LOG_BYTES = 2 << 30  # a log is read whole into memory (8 bytes a value kept)
+MISSING = {"", "nan", "na", "n/a", "null", "none", "-", "--"}
+
+
+@dataclass
+class ImportReport:
+    log: str
+    sensor: str
+    rows_read: int
+    rows: int
+    dropped: dict = field(default_factory=dict)   # reason -> count
+    triads: str = "both"
+    notes: list = field(default_factory=list)
+
+    def to_dict(self) -> dict:
+        return {"log": self.log, "sensor": self.sensor, "rows_read": self.rows_read, "rows": self.rows,
+                "dropped": self.dropped, "triads": self.triads, "notes": self.notes}
+
+
+def _sha256(path: str) -> str:
+    h = hashlib.sha256()
+    with open(path, "rb") as f:
+        for block in iter(lambda: f.read(1 << 20), b""):
+            h.update(block)
+    return h.hexdigest()
+
+
+def _split(line: str, delim: str | None) -> list:
+    if delim == "whitespace":
+        return line.split()
+    return next(csv.reader([line], delimiter=delim))
+
+
+def _sniff(line: str) -> str:
+    for d in (",", ";", "\t"):
+        if d in line:
+            return d
+    return "whitespace"
+
+
+def _index(col, names, what, path, lineno):
+    """The 0-based index of a column named `col` (or numbered, from 1)."""
+    if isinstance(col, int):
+        if names is not None and not 1 <= col <= len(names):
+            raise DataError(f"{path}:{lineno}: {what}: column number {col}, the log has {len(names)} columns")
+        if col < 1:
+            raise DataError(f"{what}: column numbers start at 1")
+        return col - 1
+    if names is None:
+        raise DataError(f"{what}: {col!r}: the log has no header line ([log].header = false): number the columns")
+    stripped = [n.strip() for n in names]
+    if col in stripped:
+        return stripped.index(col)
+    low = [n.lower() for n in stripped]
+    if col.lower() in low:
+        return low.index(col.lower())
+    raise DataError(f"{path}:{lineno}: {what}: no column {col!r} (the log's columns: "
+                    f"{', '.join(stripped[:20])}{' ...' if len(stripped) > 20 else ''})")
+
+
+def import_log(path: str, desc: SensorDescription, static: bool | None = None) -> tuple[RawDataset, ImportReport]:
+    """Read the log at `path` through the description `desc`: the canonical
+    dataset (body frame, g and nT) and what the import did."""
+    try:
+        size = os.path.getsize(path)
+        f = open(path, newline="", encoding="utf-8-sig")
+    except OSError as e:
+        raise DataError(f"cannot read {path}: {e.strerror}") from None
+    if size > MAX_LOG_BYTES:
+        raise DataError(f"{path}: {size} bytes; the import reads at most {MAX_LOG_BYTES} bytes")
+    with f:
+        lines = dataset._Lines(f, path)
+        return _import(lines, path, desc, static)
+
+
+def _import(lines, path: str, desc: SensorDescription, static) -> tuple[RawDataset, ImportReport]:
+    for _ in range(desc.skip_rows):
+        if next(lines, None) is None:
+            break
+    comment = desc.comment or None
+    first = None
+    for line in lines:
+        if not line.strip() or (comment and line.lstrip().startswith(comment)):
+            continue
+        first = line.rstrip("\r\n")
+        break
+    if first is None:
+        raise DataError(f"{path}: no data")
+    delim = desc.delimiter if desc.delimiter is not None else _sniff(first)
+    if delim == "\\t":
+        delim = "\t"
+    names = _split(first, delim) if desc.has_header else None
+    header_line = lines.lineno
+    width = len(names) if names is not None else len(_split(first, delim))
+    wanted = {}  # canonical name -> (index, what)
+    for t in desc.triads:
+        cols = ACC_COLS if t.kind == "acc" else MAG_COLS
+        for k, c in enumerate(t.columns):
+            wanted[f"_{cols[k]}"] = _index(c, names, f"[{'accelerometer' if t.kind == 'acc' else 'magnetometer'}]"
+                                                      f".columns[{k + 1}]", path, header_line)
+    if desc.time is not None:
+        wanted["t_s"] = _index(desc.time, names, "[log].time", path, header_line)
+    if desc.temperature is not None:
+        wanted["temp_c"] = _index(desc.temperature, names, "[log].temperature", path, header_line)
+    label_idx = None
+    if desc.poses:
+        if "label" in desc.poses:
+            label_idx = _index(desc.poses["label"], names, "[poses].label", path, header_line)
+        else:
+            for k, c in (("inc_deg", "inc"), ("azi_deg", "azi"), ("tf_deg", "tf")):
+                if c in desc.poses:
+                    wanted[k] = _index(desc.poses[c], names, f"[poses].{c}", path, header_line)
+    keep_idx = {}
+    if desc.keep:
+        for c, vals in desc.keep.items():
+            keep_idx[_index(c, names, f"[log].keep.{c}", path, header_line)] = (c, set(v.strip() for v in vals))
+    keys = list(wanted)
+    idx = [wanted[k] for k in keys]
+    rows, labels = [], []
+    dropped: dict = {}
+    read = 0
+    pending = [] if names is not None else [first]
+    need = max(idx + list(keep_idx) + ([label_idx] if label_idx is not None else []))
+
+    def take(text, lineno):
+        nonlocal read
+        cells = _split(text, delim)
+        if not cells or all(not c.strip() for c in cells):
+            return
+        read += 1
+        if need >= len(cells):
+            raise DataError(f"{path}:{lineno}: {len(cells)} cells, the header has {width}"
+                            + (" (a decimal comma? use a point: 1.5)" if delim == "," else ""))
+        for j, (c, vals) in keep_idx.items():
+            if cells[j].strip() not in vals:
+                dropped[f"{c} not in [log].keep"] = dropped.get(f"{c} not in [log].keep", 0) + 1
+                return
+        lab = None
+        if label_idx is not None:
+            lab = cells[label_idx].strip()
+            if lab not in desc.poses["labels"]:
+                key = f"no pose for label ({desc.poses['label']})"
+                dropped[key] = dropped.get(key, 0) + 1
+                return
+        vals = []
+        for k, j in zip(keys, idx):
+            text_ = cells[j].strip()
+            if text_.lower() in MISSING:
+                dropped["a missing value"] = dropped.get("a missing value", 0) + 1
+                return
+            try:
+                if "_" in text_:
+                    raise ValueError
+                v = float(text_)
+            except ValueError:
+                hint = " (a decimal comma? set [log].delimiter)" if re.fullmatch(r"-?\d+,\d+", text_) else ""
+                raise DataError(f"{path}:{lineno}: column {k.lstrip('_')} ({names[j].strip() if names else j + 1}): "
+                                f"{text_[:40]!r} is not a number{hint}") from None
+            if not math.isfinite(v):
+                dropped["a missing value"] = dropped.get("a missing value", 0) + 1
+                return
+            vals.append(v)
+        rows.append(vals)
+        labels.append(lab)
+
+    for text in pending:
+        take(text, header_line)
+    for line in lines:
+        if comment and line.lstrip().startswith(comment):
+            continue
+        take(line.rstrip("\r\n"), lines.lineno)
+    if not rows:
+        raise DataError(f"{path}: no usable data rows ({read} read; dropped: "
+                        + (", ".join(f"{n} for {r}" for r, n in dropped.items()) or "none") + ")")
+    data = np.array(rows, float)
+    col = {k: data[:, i] for i, k in enumerate(keys)}
+    out = {}
+    for t in desc.triads:
+        cols = ACC_COLS if t.kind == "acc" else MAG_COLS
+        raw = np.stack([col[f"_{c}"] for c in cols], -1)
+        body = t.convert(raw)
+        for i, c in enumerate(cols):
+            out[c] = np.ascontiguousarray(body[:, i])
+    if "t_s" in col:
+        out["t_s"] = col["t_s"] * desc.time_scale
+    if "temp_c" in col:
+        out["temp_c"] = col["temp_c"]
+    if label_idx is not None:
+        lab = desc.poses["labels"]
+        out["inc_deg"] = np.array([float(lab[x]["inc"]) for x in labels])
+        out["tf_deg"] = np.array([float(lab[x].get("tf", 0.0)) for x in labels])
+        if all("azi" in lab[x] for x in labels):
+            out["azi_deg"] = np.array([float(lab[x]["azi"]) for x in labels])
+    else:
+        for k in ("inc_deg", "azi_deg", "tf_deg"):
+            if k in col:
+                out[k] = col[k]
+    meta = {}
+    for k, v in desc.header.items():
+        if k not in dataset.META_KEYS or k in dataset.SENSOR_META:
+            raise DataError(f"{desc.path or 'sensor description'}: [header].{k} is not a dataset header key "
+                            f"({', '.join(k for k in dataset.META_KEYS if k not in dataset.SENSOR_META)})")
+        if k in dataset.NUMERIC_META:
+            if isinstance(v, bool) or not isinstance(v, (int, float)):
+                raise DataError(f"[header].{k}: a number")
+            dataset.check_meta(k, float(v), f"[header].{k}")
+            v = float(v)
+        meta[k] = v
+    meta.update(desc.header_meta())
+    if static is not None:
+        meta["static"] = "true" if static else "false"
+    meta["source"] = path
+    meta["log_sha256"] = _sha256(path)
+    if dropped:
+        meta["rows_dropped"] = "; ".join(f"{n} ({r})" for r, n in dropped.items())
+    ds = RawDataset(out, meta)
+    # the values the canonical format's rules refuse (poses, temperature) are refused here too
+    _check(ds, path)
+    rep = ImportReport(log=path, sensor=desc.name, rows_read=read, rows=len(ds), dropped=dropped, triads=ds.triads)
+    return ds, rep
+
+
+def _check(ds: RawDataset, path: str) -> None:
+    for c, v in ds.columns.items():
+        bad = ~np.isfinite(v)
+        if c in dataset.RULES:
+            lo, hi = dataset.RULES[c]
+            bad |= (v < lo) | (v > hi)
+        if bad.any():
+            r = int(np.argmax(bad))
+            raise DataError(f"{path}: row {r + 1} of the data: {c} = {float(v[r]):g} out of range "
+                            f"({dataset._rule_text(c) if c in dataset.RULES else 'not finite'})")

@@ -1,0 +1,445 @@
+"""The sensor description: how a log's columns become the probe's body frame.
+
+A small TOML file (docs/dataset.md, "The sensor description") says, per
+triad, which columns hold the readings, in what unit, with what resolution,
+noise and range, which way the accelerometer counts gravity, and how the
+sensor's axes map onto the body frame of docs/conventions.md (signed
+permutations such as ``x = "-ay"``).  `inclino import LOG --sensor S.toml`
+applies it (inclino.formats.importlog) and writes the canonical dataset.
+
+    name = "MPU-9250 breakout"
+    [log]
+    time = "t_ms"
+    time_unit = "ms"
+    [accelerometer]
+    columns = ["ax", "ay", "az"]
+    unit = "counts"
+    lsb = "1/16384 g"
+    reads = "up"
+    x = "ax"
+    y = "ay"
+    z = "az"
+    [magnetometer]
+    columns = ["mx", "my", "mz"]
+    unit = "uT"
+    x = "my"
+    y = "mx"
+    z = "-mz"
+
+A description may start from a preset (`preset = "mpu9250"`, or
+`--sensor mpu9250` alone): the preset's tables are taken, then the file's
+keys replace them key by key.  Presets live beside this module
+(sensors/*.toml), each citing the datasheet its numbers come from.
+
+Quantities are strings with a unit ("0.15 uT", "1/2048 g", "16 g",
+"2 counts"); plain numbers are taken in the triad's own logged unit.
+Everything is converted to the canonical units, g and nT.
+"""
+from __future__ import annotations
+
+import hashlib
+import math
+import re
+import tomllib
+from dataclasses import asdict, dataclass, field
+from pathlib import Path
+
+import numpy as np
+
+from inclino.errors import DataError
+
+STANDARD_GRAVITY = 9.80665  # m/s^2 per g (CGPM 1901)
+PRESET_DIR = Path(__file__).with_name("sensors")
+
+# logged unit -> canonical unit (g or nT) per logged unit
+ACC_UNITS = {"g": 1.0, "mg": 1e-3, "ug": 1e-6, "µg": 1e-6, "m/s2": 1.0 / STANDARD_GRAVITY,
+             "m/s^2": 1.0 / STANDARD_GRAVITY, "m/s²": 1.0 / STANDARD_GRAVITY, "mm/s2": 1e-3 / STANDARD_GRAVITY}
+MAG_UNITS = {"nt": 1.0, "ut": 1e3, "µt": 1e3, "mt": 1e6, "t": 1e9, "g": 1e5, "gauss": 1e5, "mg": 100.0,
+             "mgauss": 100.0, "gamma": 1.0}
+TRIADS = {"accelerometer": ("acc", ACC_UNITS, "g", "a"), "magnetometer": ("mag", MAG_UNITS, "nT", "m")}
+TIME_UNITS = {"s": 1.0, "ms": 1e-3, "us": 1e-6, "µs": 1e-6, "ns": 1e-9, "min": 60.0, "h": 3600.0}
+READS = ("up", "down")
+TOP_KEYS = {"name", "preset", "notes", "source", "log", "accelerometer", "magnetometer", "header", "poses"}
+LOG_KEYS = {"delimiter", "comment", "header", "skip_rows", "time", "time_unit", "temperature", "samples_averaged",
+            "static", "keep"}
+TRIAD_KEYS = {"columns", "unit", "lsb", "reads", "x", "y", "z", "axes", "reflection", "range", "noise"}
+POSE_KEYS = {"inc", "azi", "tf", "label", "labels", "unit"}
+
+
+def _unit_key(u: str, units: dict) -> str | None:
+    u = u.strip()
+    for k in (u, u.lower(), u.replace(" ", ""), u.lower().replace(" ", "")):
+        if k in units:
+            return k
+    return None
+
+
+@dataclass
+class Triad:
+    """One triad's reading of the log, in canonical units."""
+
+    kind: str                       # "acc" or "mag"
+    columns: list                   # the sensor's x, y, z columns (names, or 1-based numbers)
+    unit: str                       # as logged ("g", "m/s2", "uT", "counts", ...)
+    scale: float                    # canonical units (g or nT) per logged unit
+    axes: list                      # body x, y, z <- (sign, sensor axis index): [[+1, 0], ...]
+    reads: str = "down"             # accelerometer: "up" = +1 g on the axis pointing up at rest
+    reflection: bool = False        # the axis map is a reflection on purpose
+    lsb: float | None = None        # resolution, canonical units
+    noise: float | None = None      # RMS noise of one sample, canonical units
+    range: float | None = None      # full scale (+-), canonical units
+
+    @property
+    def matrix(self) -> np.ndarray:
+        """body = matrix @ sensor (the signed permutation of the axis map)."""
+        m = np.zeros((3, 3))
+        for i, (s, j) in enumerate(self.axes):
+            m[i, j] = s
+        return m
+
+    @property
+    def det(self) -> int:
+        return int(round(np.linalg.det(self.matrix)))
+
+    def convert(self, raw: np.ndarray) -> np.ndarray:
+        """(n, 3) logged x, y, z -> (n, 3) body-frame readings in g or nT,
+        with the gravity sign of docs/conventions.md (+1 g on the axis
+        pointing down)."""
+        out = (np.asarray(raw, float) * self.scale) @ self.matrix.T
+        return -out if self.reads == "up" else out
+
+    def axes_text(self) -> str:
+        p = "a" if self.kind == "acc" else "m"
+        return ", ".join(f"{b} = {'-' if s < 0 else ''}{p}{'xyz'[j]}" for b, (s, j) in zip("xyz", self.axes))
+
+
+@dataclass
+class SensorDescription:
+    name: str = "the project's probe (ADIS16210 + fluxgate)"
+    acc: Triad | None = None
+    mag: Triad | None = None
+    # the log
+    delimiter: str | None = None
+    comment: str = "#"
+    has_header: bool = True
+    skip_rows: int = 0
+    time: str | int | None = None
+    time_unit: str = "s"
+    time_scale: float = 1.0           # seconds per unit of the time column
+    temperature: str | int | None = None
+    samples_averaged: float | None = None
+    static: bool | None = None
+    keep: dict | None = None          # {column: [values]}: rows to keep (others dropped, counted)
+    header: dict = field(default_factory=dict)  # canonical header values (dip_deg, field_nT, ...)
+    poses: dict | None = None         # {"inc": col, "azi": col, "tf": col} or {"label": col, "labels": {...}}
+    notes: str = ""
+    source: str = ""
+    text_sha256: str = ""
+    path: str = ""
+
+    @property
+    def triads(self) -> tuple:
+        return tuple(t for t in (self.acc, self.mag) if t is not None)
+
+    def to_dict(self) -> dict:
+        d = asdict(self)
+        return d
+
+    def header_meta(self) -> dict:
+        """The canonical header lines that record this description
+        (docs/dataset.md): name, hash, axis maps, units, resolution, noise,
+        range (canonical units), the declarations (static, reflection)."""
+        m = {"sensor": self.name}
+        if self.text_sha256:
+            m["sensor_sha256"] = self.text_sha256
+        for t in self.triads:
+            u = "g" if t.kind == "acc" else "nT"
+            m[f"{t.kind}_axes"] = t.axes_text()
+            m[f"{t.kind}_unit"] = t.unit + (f" x {t.scale:.10g} {u}" if t.unit == "counts" else "") + (
+                ", reads +1 g pointing up (sign turned)" if t.kind == "acc" and t.reads == "up" else "")
+            for k in ("lsb", "noise", "range"):
+                v = getattr(t, k)
+                if v is not None:
+                    m[f"{t.kind}_{k}_{u}"] = v
+        refl = [t.kind for t in self.triads if t.reflection]
+        if refl:
+            m["reflection"] = ",".join(refl)
+        if self.static is not None:
+            m["static"] = "true" if self.static else "false"
+        if self.samples_averaged is not None:
+            m["samples_averaged"] = self.samples_averaged
+        return m
+
+
+def _quantity(value, units: dict, canon: str, what: str, logged_scale: float | None, lsb: float | None = None):
+    """A quantity in canonical units: "0.15 uT", "1/2048 g", "2 counts" (needs
+    lsb), or a plain number in the triad's logged unit (logged_scale)."""
+    if isinstance(value, bool):
+        raise DataError(f"{what}: {value!r} is not a quantity")
+    if isinstance(value, (int, float)):
+        if logged_scale is None:
+            raise DataError(f"{what}: give a unit ({value} {canon}?)")
+        v = float(value) * logged_scale
+    elif isinstance(value, str):
+        m = re.fullmatch(r"\s*([-+0-9.eE]+(?:\s*/\s*[0-9.eE+]+)?)\s*(\S.*?)?\s*", value)
+        if not m:
+            raise DataError(f"{what}: {value!r} is not a number with a unit (e.g. '0.15 uT', '1/2048 g')")
+        num = m.group(1).replace(" ", "")
+        try:
+            if "/" in num:
+                a, b = num.split("/")
+                v = float(a) / float(b)
+            else:
+                v = float(num)
+        except (ValueError, ZeroDivisionError):
+            raise DataError(f"{what}: {value!r} is not a number with a unit") from None
+        u = (m.group(2) or "").strip()
+        if not u:
+            if logged_scale is None:
+                raise DataError(f"{what}: {value!r} needs a unit ({canon})")
+            v *= logged_scale
+        elif u.lower() in ("count", "counts", "lsb"):
+            if lsb is None:
+                raise DataError(f"{what}: {value!r} in counts needs the triad's lsb")
+            v *= lsb
+        else:
+            k = _unit_key(u, units)
+            if k is None:
+                raise DataError(f"{what}: unknown unit {u!r} (one of {', '.join(units)})")
+            v *= units[k]
+    else:
+        raise DataError(f"{what}: {value!r} is not a quantity")
+    if not (math.isfinite(v) and v > 0):
+        raise DataError(f"{what}: {value!r} must be a positive finite quantity")
+    return v
+
+
+_AXIS = re.compile(r"\s*([+-]?)\s*([am]?)([xyz])\s*", re.I)
+
+
+def _axis_map(spec: dict, kind: str, what: str) -> list:
+    """[[sign, sensor index] for body x, y, z] from x/y/z keys or an `axes`
+    string ("x = -ay, y = ax, z = az"); default identity."""
+    letter = "a" if kind == "acc" else "m"
+    entries = {}
+    if "axes" in spec:
+        text = spec["axes"]
+        if isinstance(text, list):
+            if len(text) != 3:
+                raise DataError(f"{what}.axes: three entries (body x, y, z)")
+            entries = dict(zip("xyz", text))
+        elif isinstance(text, str):
+            for part in text.split(","):
+                if "=" not in part:
+                    raise DataError(f"{what}.axes: {part.strip()!r} is not 'body = sensor axis' (e.g. 'x = -ay')")
+                b, s = (t.strip() for t in part.split("=", 1))
+                entries[b.lower()] = s
+        else:
+            raise DataError(f"{what}.axes: a string such as 'x = -ay, y = ax, z = az'")
+    for b in "xyz":
+        if b in spec:
+            entries[b] = spec[b]
+    if not entries:
+        return [[1, 0], [1, 1], [1, 2]]
+    if set(entries) != set("xyz"):
+        raise DataError(f"{what}: the axis map needs body x, y and z (has {', '.join(sorted(entries))})")
+    out = []
+    for b in "xyz":
+        s = entries[b]
+        m = _AXIS.fullmatch(str(s))
+        if not m or (m.group(2) and m.group(2).lower() != letter):
+            raise DataError(f"{what}: {b} = {s!r} is not an axis of this triad (e.g. '-{letter}y')")
+        out.append([-1 if m.group(1) == "-" else 1, "xyz".index(m.group(3).lower())])
+    if sorted(j for _, j in out) != [0, 1, 2]:
+        raise DataError(f"{what}: the axis map uses a sensor axis twice ({', '.join(f'{b} = {entries[b]}' for b in 'xyz')})")
+    return out
+
+
+def _triad(spec: dict, section: str, log_what: str) -> Triad:
+    kind, units, canon, _ = TRIADS[section]
+    what = f"{log_what}[{section}]"
+    extra = set(spec) - TRIAD_KEYS
+    if extra:
+        raise DataError(f"{what}: unknown key(s) {', '.join(sorted(extra))} (known: {', '.join(sorted(TRIAD_KEYS))})")
+    cols = spec.get("columns")
+    if not (isinstance(cols, list) and len(cols) == 3 and all(isinstance(c, (str, int)) and not isinstance(c, bool)
+                                                               for c in cols)):
+        raise DataError(f"{what}.columns: three column names (or 1-based numbers) for the sensor's x, y, z")
+    unit = str(spec.get("unit", canon)).strip()
+    lsb = None
+    if unit.lower() in ("count", "counts", "lsb", "raw"):
+        unit = "counts"
+        if "lsb" not in spec:
+            raise DataError(f"{what}: unit = 'counts' needs lsb, what one count is (e.g. lsb = '1/2048 g')")
+        scale = _quantity(spec["lsb"], units, canon, f"{what}.lsb", None)
+        lsb = scale
+    else:
+        k = _unit_key(unit, units)
+        if k is None:
+            raise DataError(f"{what}.unit: unknown unit {unit!r} (one of {', '.join(sorted(set(units)))}, counts)")
+        scale = units[k]
+        if "lsb" in spec:
+            lsb = _quantity(spec["lsb"], units, canon, f"{what}.lsb", scale)
+    reads = str(spec.get("reads", "down" if kind == "acc" else "down")).lower()
+    if kind == "acc" and reads not in READS:
+        raise DataError(f"{what}.reads: 'up' (an axis pointing up reads +1 g at rest: most MEMS parts) or 'down' "
+                        f"(+1 g on the axis pointing down: the probe's convention)")
+    if kind == "mag" and "reads" in spec:
+        raise DataError(f"{what}.reads: only the accelerometer has a gravity sign")
+    refl = spec.get("reflection", False)
+    if not isinstance(refl, bool):
+        raise DataError(f"{what}.reflection: true or false")
+    t = Triad(kind=kind, columns=list(cols), unit=unit, scale=scale, axes=_axis_map(spec, kind, what), reads=reads,
+              reflection=refl, lsb=lsb)
+    for k in ("noise", "range"):
+        if k in spec:
+            setattr(t, k, _quantity(spec[k], units, canon, f"{what}.{k}", scale, lsb))
+    if t.det < 0 and not t.reflection:
+        raise DataError(f"{what}: the axis map ({t.axes_text()}) is a reflection (determinant -1): a left-handed "
+                        f"frame; fix the map (flip one sign), or say reflection = true if the sensor's own axes are "
+                        f"left-handed")
+    return t
+
+
+def _merge(base: dict, over: dict) -> dict:
+    out = {k: (dict(v) if isinstance(v, dict) else v) for k, v in base.items()}
+    for k, v in over.items():
+        if isinstance(v, dict) and isinstance(out.get(k), dict):
+            out[k] = _merge(out[k], v)
+        else:
+            out[k] = v
+    return out
+
+
+def presets() -> list:
+    return sorted(p.stem for p in PRESET_DIR.glob("*.toml"))
+
+
+def _load_toml(text: str, what: str) -> dict:
+    try:
+        return tomllib.loads(text)
+    except tomllib.TOMLDecodeError as e:
+        raise DataError(f"{what}: not valid TOML ({e})") from None
+
+
+def load(spec: str) -> SensorDescription:
+    """A description from a TOML file path or a preset name."""
+    p = Path(spec)
+    if p.suffix.lower() != ".toml" and not p.exists():
+        if spec not in presets():
+            raise DataError(f"--sensor {spec}: no such file, and not a preset (presets: {', '.join(presets())})")
+        p = PRESET_DIR / f"{spec}.toml"
+    try:
+        raw = p.read_bytes()
+    except OSError as e:
+        raise DataError(f"cannot read sensor description {spec}: {e.strerror}") from None
+    if len(raw) > 1 << 20:
+        raise DataError(f"{spec}: a sensor description is a small file (this one is {len(raw)} bytes)")
+    try:
+        text = raw.decode("utf-8-sig")
+    except UnicodeDecodeError:
+        raise DataError(f"{spec}: not UTF-8 text") from None
+    d = from_toml(text, str(p))
+    d.text_sha256 = hashlib.sha256(raw).hexdigest()
+    d.path = str(p)
+    return d
+
+
+def from_toml(text: str, what: str = "sensor description") -> SensorDescription:
+    d = _load_toml(text, what)
+    if "preset" in d:
+        name = d["preset"]
+        if not isinstance(name, str) or name not in presets():
+            raise DataError(f"{what}: preset {name!r} is not one of {', '.join(presets())}")
+        base = _load_toml((PRESET_DIR / f"{name}.toml").read_text(encoding="utf-8"), f"preset {name}")
+        d = _merge(base, {k: v for k, v in d.items() if k != "preset"})
+    return from_dict(d, what)
+
+
+def from_dict(d: dict, what: str = "sensor description") -> SensorDescription:
+    extra = set(d) - TOP_KEYS
+    if extra:
+        raise DataError(f"{what}: unknown key(s) {', '.join(sorted(extra))} (known: {', '.join(sorted(TOP_KEYS))})")
+    log = d.get("log", {})
+    if not isinstance(log, dict):
+        raise DataError(f"{what}: [log] must be a table")
+    extra = set(log) - LOG_KEYS
+    if extra:
+        raise DataError(f"{what}[log]: unknown key(s) {', '.join(sorted(extra))} (known: {', '.join(sorted(LOG_KEYS))})")
+    s = SensorDescription(name=str(d.get("name", "unnamed sensor")), notes=str(d.get("notes", "")),
+                          source=str(d.get("source", "")))
+    for section in ("accelerometer", "magnetometer"):
+        if section in d:
+            if not isinstance(d[section], dict):
+                raise DataError(f"{what}: [{section}] must be a table")
+            setattr(s, TRIADS[section][0], _triad(d[section], section, what))
+    if not s.triads:
+        raise DataError(f"{what}: describes no triad (an [accelerometer] and/or a [magnetometer] table)")
+    s.delimiter = log.get("delimiter")
+    if s.delimiter is not None and (not isinstance(s.delimiter, str) or len(s.delimiter) not in (1,) and
+                                    s.delimiter not in ("whitespace", "\\t")):
+        raise DataError(f"{what}[log].delimiter: one character, or 'whitespace'")
+    s.comment = str(log.get("comment", "#"))
+    hdr = log.get("header", True)
+    if not isinstance(hdr, bool):
+        raise DataError(f"{what}[log].header: true (the first line names the columns) or false")
+    s.has_header = hdr
+    sk = log.get("skip_rows", 0)
+    if not isinstance(sk, int) or isinstance(sk, bool) or sk < 0:
+        raise DataError(f"{what}[log].skip_rows: a whole number >= 0")
+    s.skip_rows = sk
+    s.time = log.get("time")
+    tu = str(log.get("time_unit", "s")).strip()
+    if tu in TIME_UNITS:
+        s.time_scale = TIME_UNITS[tu]
+    else:  # "1/102.4 s": the time column counts samples of 1/102.4 s
+        s.time_scale = _quantity(tu, TIME_UNITS, "s", f"{what}[log].time_unit", None)
+    s.time_unit = tu
+    s.temperature = log.get("temperature")
+    sa = log.get("samples_averaged")
+    if sa is not None:
+        if isinstance(sa, bool) or not isinstance(sa, (int, float)) or not 1 <= sa <= 1_000_000:
+            raise DataError(f"{what}[log].samples_averaged: a number 1 ... 1 000 000")
+        s.samples_averaged = float(sa)
+    st = log.get("static")
+    if st is not None and not isinstance(st, bool):
+        raise DataError(f"{what}[log].static: true (a step-and-hold run: every row is at rest) or false")
+    s.static = st
+    keep = log.get("keep")
+    if keep is not None:
+        if not (isinstance(keep, dict) and all(isinstance(v, list) for v in keep.values())):
+            raise DataError(f"{what}[log].keep: a table of column = [values to keep]")
+        s.keep = {str(k): [str(x) for x in v] for k, v in keep.items()}
+    hd = d.get("header", {})
+    if not isinstance(hd, dict):
+        raise DataError(f"{what}: [header] must be a table of canonical header values (dip_deg = 64.6, ...)")
+    s.header = dict(hd)
+    poses = d.get("poses")
+    if poses is not None:
+        if not isinstance(poses, dict):
+            raise DataError(f"{what}: [poses] must be a table")
+        extra = set(poses) - POSE_KEYS
+        if extra:
+            raise DataError(f"{what}[poses]: unknown key(s) {', '.join(sorted(extra))}")
+        if "label" in poses:
+            labels = poses.get("labels")
+            if not isinstance(labels, dict) or not labels:
+                raise DataError(f"{what}[poses]: label = COLUMN needs a [poses.labels] table (label = "
+                                f"{{inc = ..., azi = ..., tf = ...}})")
+            for k, v in labels.items():
+                if not (isinstance(v, dict) and set(v) <= {"inc", "azi", "tf"} and "inc" in v and all(
+                        isinstance(x, (int, float)) and not isinstance(x, bool) for x in v.values())):
+                    raise DataError(f"{what}[poses.labels].{k}: {{inc = deg, azi = deg, tf = deg}} (inc required)")
+        elif not all(k in poses for k in ("inc", "tf")):
+            raise DataError(f"{what}[poses]: the pose columns (inc, tf and, with a magnetometer, azi) or label")
+        s.poses = dict(poses)
+    return s
+
+
+def default() -> SensorDescription:
+    """The project's probe: the canonical columns, as they are."""
+    return load("adis16210")
+
+
+def description_hash(text: str) -> str:
+    return hashlib.sha256(text.encode("utf-8")).hexdigest()
