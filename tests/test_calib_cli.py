@@ -121,7 +121,7 @@ def test_calfile_rejects_a_stale_fixed_image(data):
 
 
 def test_bench_calibration_small():
-    r = bench.bench_calibration(n_runs=1, include_peer=False, temperature_probes=1)  # 8 probes: ~5 min
+    r = bench.bench_calibration(n_runs=1, include_peer=False, temperature_probes=1, time_probes=0)  # 8 probes: ~5 min
     d = json.loads(r.to_json())
     m = d["methods"]
     for k in ("joint", "ren2014", "li2021", "guo2009"):
@@ -144,3 +144,4 @@ def test_bench_calibration_small():
     t = d["temperature"]
     assert t["probes"] == 1 and len(t["per_probe"]) + len(t["failed_probes"]) == 1
     assert d["met"]["temperature_within_1_2x_room"] == t["passed"]
+    assert d["time"] == {"not_run": "time_probes=0"} and d["met"]["time_targets"] is None and not d["passed"]

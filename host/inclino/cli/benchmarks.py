@@ -61,6 +61,12 @@ def _calibration(args) -> int:
         t = bench_temp.bench_temperature()
         print(t.to_json() if args.json else bench_temp.text(t))
         return 0 if t.passed else 1
+    if args.section == "time":  # alone (benchmarks/calibration_time.py)
+        from inclino.benchmarks import calibration_time as bench_time
+
+        t = bench_time.bench_time()
+        print(t.to_json() if args.json else bench_time.text(t))
+        return 0 if t.passed else 1
     r = bench_calibration()
     if args.json:
         print(r.to_json())
@@ -152,6 +158,7 @@ def add_bench(sub, cli_main):
     be.add_argument("--vectors", type=int, default=1_000_000, help="speed: batch size")
     be.add_argument("--quick", action="store_true", help="diagnose: a small set (not the targets' figures)")
     be.add_argument("--plot", help="survey: also draw the first seed's well path and ellipses (PNG)")
-    be.add_argument("--section", choices=("all", "temperature"), default="all",
-                    help="calibration: only the temperature section (default all)")
+    be.add_argument("--section", choices=("all", "temperature", "time"), default="all",
+                    help="calibration: only the temperature section, or only bench time against accuracy "
+                         "(today's procedures and the adaptive ones; default all)")
     be.set_defaults(func=_cmd_bench, cli_main=cli_main)

@@ -73,7 +73,8 @@ def add_acquire(sub):
     add_common(p)
     p.add_argument("--procedure", required=True, choices=PROCEDURES,
                    help="twelve-position (Li 2021), multi-position (Li + Ren 2014 + orientations), "
-                        "continuous (Guo 2009), temperature (a chamber run: --temperatures)")
+                        "continuous (Guo 2009), temperature (a chamber run: --temperatures), adaptive (poses "
+                        "chosen until the predicted acceptance reaches the target; --chamber-range-c)")
     p.add_argument("-o", "--output", required=True, help="raw dataset CSV to write")
     p.add_argument("--points", type=int, default=36, help="multi-position: quasi-uniform orientations (default 36)")
     p.add_argument("--d1", type=float, default=30.0, help="continuous: first inclination (default 30)")
@@ -97,6 +98,9 @@ def add_acquire(sub):
     t.add_argument("--soak-window", type=float, default=10.0, help="... over this many minutes (default 10)")
     t.add_argument("--max-soak", type=float, default=240.0, help="bench: give up after this many minutes at "
                                                                  "one set point (default 240)")
+    from inclino.cli.adaptive import add_adaptive_options
+
+    add_adaptive_options(p)
     negative_lists(p)
     p.set_defaults(func=_cmd_acquire)
     return p
@@ -110,6 +114,10 @@ def _cmd_acquire(args) -> int:
     from inclino.formats.dataset import check_meta
     from inclino.link.serial_link import ProbeLink
 
+    if args.procedure == "adaptive":
+        from inclino.cli.adaptive import cmd_acquire_adaptive
+
+        return cmd_acquire_adaptive(args, open_table)
     if args.procedure != "temperature":
         return _cmd_acquire_poses(args)
     tol = Tolerance(args.tol_acc_mg, args.tol_mag_nt, args.reads)

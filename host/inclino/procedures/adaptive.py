@@ -483,7 +483,7 @@ def acquire_adaptive(link, out_path: str, table, plan: AdaptivePlan | None = Non
     res = AdaptiveResult(out_path, "adaptive", 0, ident.serial, meta)
     out = _RowWriter(out_path, meta)
     bar = progress_bar(100, "adaptive: toward the target", unit="%", quiet=quiet, leave=False,
-                       bar_format="{desc}: {percentage:3.0f}%|{bar}| {postfix}")
+                       bar_format="{desc}: {percentage:3.0f}%|{bar}|{postfix}")
 
     def say(m):
         bar.write(m, file=sys.stderr)
@@ -565,7 +565,8 @@ def _loop(link, table, run: _Run, res: AdaptiveResult, out, bar, tell, clock, ch
         if pa is not None and ta:
             frac = 1.0 if pa <= ta else max(0.0, math.log(first_pred / pa) / max(math.log(first_pred / ta), 1e-9))
             bar.n = int(100 * min(frac, 1.0))
-            bar.set_postfix_str(f"pose {k}, predicted azimuth {pa:.4f} -> {ta:.4f} deg", refresh=True)
+            bar.set_postfix_str(f"pose {k}, predicted azimuth {pa:.4f} -> {ta:.4f} deg", refresh=False)
+            bar.update(0)  # shown at the bar's own pace (on a terminal; every PERIOD off one)
         # the stopping rule
         reason = None
         covered = ramp_state.covered() if thermal else True
