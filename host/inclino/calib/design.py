@@ -297,7 +297,8 @@ def _inv_sym(N: np.ndarray) -> np.ndarray:
     (1e30), not the pseudo-inverse's zero."""
     from scipy import linalg
 
-    d = np.sqrt(np.clip(np.diag(N), 1e-300, None))
+    dg = np.diag(N)
+    d = np.sqrt(np.where(dg > 0, dg, 1.0))
     Ns = N / np.outer(d, d)
     try:
         c = linalg.cho_factor(Ns, check_finite=False)
@@ -308,5 +309,5 @@ def _inv_sym(N: np.ndarray) -> np.ndarray:
     except linalg.LinAlgError:
         pass
     w, V = np.linalg.eigh(Ns)
-    w = np.where(w > 1e-13 * max(w.max(), 1e-300), w, 1e-30)
-    return (V / w) @ V.T / np.outer(d, d)
+    inv_w = np.where(w > 1e-13 * max(w.max(), 1e-300), 1.0 / np.where(w > 0, w, 1.0), 1e30)
+    return (V * inv_w) @ V.T / np.outer(d, d)

@@ -489,8 +489,8 @@ def acquire_adaptive(link, out_path: str, table, plan: AdaptivePlan | None = Non
         bar.write(m, file=sys.stderr)
 
     if not table.unattended and getattr(table, "default_say", False):
-        table.say = say
-    tell = say if not table.unattended else None
+        table.say = say  # a person at the turntable: told above the progress bar
+    tell = table.say if not table.unattended else None
     clock = _Clock(table)
     run = _Run(plan, meta)
     chamber = acquire_temp._Chamber(table, sleep) if ramp is not None else None
