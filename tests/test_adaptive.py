@@ -295,3 +295,35 @@ def test_a_short_chamber_ramp_without_soaks(tmp_path):
     assert r.bench_s < 2400.0
     cal, rep = fit(ds, "joint", temperature="on")
     assert cal.temperature["order"] >= 1 and cal.temperature["span_c"][1] - cal.temperature["span_c"][0] >= 12
+
+
+def test_a_fluxgate_behind_temp_out_is_measured_from_a_ramp():
+    """calib.templag on a ramp down and back up (the lag model's air, the
+    emulator's chamber) whose fluxgate reads at TEMP_OUT's temperature minus
+    tau dT/dt, tau drawn now: the estimate finds it, and finds none when
+    there is none."""
+    from inclino.benchmarks.calibration_temperature import drawn_probe
+    from inclino.calib import templag
+    from inclino.model.scenario import generate_raw
+
+    rng = np.random.default_rng()
+    sc = drawn_probe(int(rng.integers(1000)))
+    ch = Chamber(25.0, 600.0)
+    ch.set(0.0, -25.0, 5.0)
+    ch.set(780.0, 75.0, 5.0)
+    t = np.linspace(0.0, 2400.0, 90)
+    T = np.array([ch.at(x) for x in t])
+    I, A, Tf = design.candidate_poses()
+    k = rng.choice(len(I), len(t))
+    poses = (I[k], A[k], Tf[k])
+    r = templag.rates(t, T)
+    for tau in (0.0, float(rng.uniform(20.0, 90.0))):
+        a = generate_raw(sc, *poses, t_s=t, temp_c=T, seed=int(rng.integers(1 << 30)))
+        m = generate_raw(sc, *poses, t_s=t, temp_c=T - tau * r, seed=int(rng.integers(1 << 30)))
+        for c in ("mx_nT", "my_nT", "mz_nT"):
+            a.columns[c] = m.columns[c]
+        a.meta.update({"field_nT": 50000.0, "dip_deg": 60.0, "declination_deg": 0.0})
+        cal, _ = fit(a, "joint", temperature="on")
+        est = templag.estimate(a, cal)["mag"]
+        assert abs(est["tau_s"] - tau) <= 0.25 * tau + 3.0 * est["tau_se_s"], (tau, est)
+        assert est["tau_se_s"] < 8.0  # a few seconds: the ramp down and back up determines it

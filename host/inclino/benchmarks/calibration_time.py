@@ -34,7 +34,10 @@ toolfaces 0, 120, 240; 198 positions) read as `inclino accept` reads it
 takings) through the firmware's correction, at 25 degC for the room runs
 and at -5, 25, 55 degC with the temperature terms for the chamber runs
 (calibration_temperature.check_probe), and noise-free (the calibration's
-own error).  The prediction at the stop: the fit's predicted acceptance
+own error).  Diagnosability: for each run, what `inclino diagnose` could
+test on it (diagnosability: the smallest effect of each candidate named
+half the time, from its signature's size on the run's own poses, times and
+temperatures).  The prediction at the stop: the fit's predicted acceptance
 azimuth RMS for that acceptance (procedures.adaptive.acceptance_prediction,
 16 samples per reading) against the acceptance's.
 
@@ -71,6 +74,7 @@ class TimeBench:
     turntable: dict
     per_probe: list = field(default_factory=list)
     median: dict = field(default_factory=dict)
+    diagnosability: dict = field(default_factory=dict)  # what diagnose can test on each run: adaptive against today
     targets: dict = field(default_factory=lambda: dict(TARGETS))
     met: dict = field(default_factory=dict)
     passed: bool = False
@@ -205,11 +209,70 @@ def bench_probe(seed: int, engine, workdir: str, procedures=PROCEDURES, progress
         r.update(acceptance(sc, cal, engine, seed, thermal))
         r.update(_prediction(cal, rep, ds))
         r["fit_passed"] = bool(rep.passed)
+        r["diagnosable"] = diagnosability(path)
         if thermal:
+            from inclino.calib import templag
+
             r["order"] = int(cal.temperature["order"])
+            r["sensor_lag"] = templag.estimate(ds, cal)  # each triad behind TEMP_OUT (0 on the emulator)
         r["achieved_to_predicted"] = (r["azi_rms_25c_deg"] / r["predicted_azi_rms_deg"]
                                       if r.get("predicted_azi_rms_deg") else None)
         out[proc] = r
+    return out
+
+
+DETECT_Z = 3.6  # diagnose's detection threshold, noise standard deviations (docs/diagnose.md: the 50 % point)
+
+
+def diagnosability(path: str) -> dict:
+    """What `inclino diagnose` could test on this run: per candidate effect
+    (diagnose.core.all_candidates; the sample skew left out, it needs
+    continuous data) the signature's size per unit outside the baseline's
+    span under the diagnose bench's noise (diagnose.plans.signature_z, the
+    run's own poses, times and temperatures), as the smallest effect named
+    half the time, DETECT_Z / z; None where the run cannot test it (z ~ 0:
+    a temperature that never changes)."""
+    from inclino.diagnose import core, plans
+    from inclino.formats import dataset
+
+    ds = dataset.read_raw(path)
+    c = ds.columns
+    plan = {"kind": "static", "inc": c["inc_deg"], "azi": c["azi_deg"], "tf": c["tf_deg"],
+            "t_s": c["t_s"] - c["t_s"][0], "temp_c": c["temp_c"]}
+    out = {}
+    with np.errstate(all="ignore"):
+        for cand in core.all_candidates():
+            if cand.name == "sample-skew":
+                continue
+            z = plans.signature_z(plans.PROBE, plan, cand)
+            out[cand.key] = {"z_per_unit": float(z) if np.isfinite(z) else 0.0, "units": cand.units,
+                             "smallest_named": float(DETECT_Z / z) if np.isfinite(z) and z > 1e-6 else None}
+    return out
+
+
+def diagnosability_summary(per_probe: list) -> dict:
+    """Per pair (room, temperature) and candidate: the median over the
+    probes of the adaptive run's z over today's (1: as testable as today;
+    < 1: the smallest effect diagnose names is 1/ratio times larger), and
+    whether each run can test it at all."""
+    out = {}
+    for pair in ("room", "temperature"):
+        a, t = f"{pair}_adaptive", f"{pair}_today"
+        rows = [p for p in per_probe if "diagnosable" in p.get(a, {}) and "diagnosable" in p.get(t, {})]
+        if not rows:
+            continue
+        res = {}
+        for key in rows[0][a]["diagnosable"]:
+            za = [p[a]["diagnosable"][key]["z_per_unit"] for p in rows]
+            zt = [p[t]["diagnosable"][key]["z_per_unit"] for p in rows]
+            ok = [x > 1e-6 and y > 1e-6 for x, y in zip(za, zt)]
+            res[key] = {"testable_today": all(y > 1e-6 for y in zt), "testable_adaptive": all(x > 1e-6 for x in za),
+                        "z_ratio_adaptive_to_today": _median([x / y for x, y, o in zip(za, zt, ok) if o]),
+                        "smallest_named_today": _median([p[t]["diagnosable"][key]["smallest_named"] for p in rows]),
+                        "smallest_named_adaptive": _median([p[a]["diagnosable"][key]["smallest_named"]
+                                                            for p in rows]),
+                        "units": rows[0][a]["diagnosable"][key]["units"]}
+        out[pair] = res
     return out
 
 
@@ -287,6 +350,7 @@ def bench_time(n_probes: int = N_PROBES, seed: int = SEED0, engine: str = "auto"
             except Exception as e:  # a probe a procedure cannot calibrate is reported, not hidden
                 res.failed.append({"seed": s, "error": f"{type(e).__name__}: {e}"})
     res.median, res.met = summarise(res.per_probe)
+    res.diagnosability = diagnosability_summary(res.per_probe)
     keys = ("temperature_time_cut_ok", "room_time_cut_ok", "room_azi_rms_25c_ok", "temperature_azi_rms_25c_ok",
             "temperature_ratio_ok", "achieved_to_predicted_ok")
     res.passed = bool(res.met) and all(res.met.get(k) for k in keys) and not res.failed
@@ -321,6 +385,15 @@ def text(res: TimeBench) -> str:
         out.append(f"  prediction at the stop, achieved / predicted: room {t['room_achieved_to_predicted_median']:.2f}, "
                    f"temperature {t['temperature_achieved_to_predicted_median']:.2f} (band "
                    f"{TARGETS['achieved_to_predicted_band'][0]:g}-{TARGETS['achieved_to_predicted_band'][1]:g})")
+    for pair, d in res.diagnosability.items():
+        lost = [k for k, v in d.items() if v["testable_today"] and not v["testable_adaptive"]]
+        rat = {k: v["z_ratio_adaptive_to_today"] for k, v in d.items() if v["z_ratio_adaptive_to_today"] is not None}
+        if rat:
+            lo = min(rat, key=rat.get)
+            out.append(f"  diagnose on the {pair} runs: {len(rat)} effects testable on both"
+                       + (f", not on the adaptive run: {', '.join(lost)}" if lost else "")
+                       + f"; adaptive / today signature size median {np.median(list(rat.values())):.2f}, lowest "
+                       f"{rat[lo]:.2f} ({lo})")
     for f in res.failed:
         out.append(f"  FAILED probe {f['seed']}: {f['error']}")
     out.append("  targets: " + ("met" if res.passed else "NOT met"))

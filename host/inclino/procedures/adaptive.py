@@ -608,6 +608,10 @@ def _loop(link, table, run: _Run, res: AdaptiveResult, out, bar, tell, clock, ch
                           "ratios": run.predicted_ratios() or None, "fit_passed": bool(run.report.passed)}
     if thermal:
         res.ramp = ramp_state.summary()
+        if run.cal is not None and getattr(run.cal, "temperature", None):
+            from inclino.calib import templag
+
+            res.ramp["sensor_lag"] = templag.estimate(run.dataset(), run.cal)
     res.notes.append({"poses": len(run.rows), "fits": run.fits, "stop": reason})
     if tell is not None:
         pa = res.prediction.get("acceptance_grid", {}) or {}
