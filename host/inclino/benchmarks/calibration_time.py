@@ -75,6 +75,7 @@ class TimeBench:
     per_probe: list = field(default_factory=list)
     median: dict = field(default_factory=dict)
     diagnosability: dict = field(default_factory=dict)  # what diagnose can test on each run: adaptive against today
+    curves: dict = field(default_factory=dict)  # the first probe: predicted accuracy against bench time
     targets: dict = field(default_factory=lambda: dict(TARGETS))
     met: dict = field(default_factory=dict)
     passed: bool = False
@@ -276,6 +277,90 @@ def diagnosability_summary(per_probe: list) -> dict:
     return out
 
 
+def room_curve(path: str, every: int = 2) -> list:
+    """Predicted acceptance azimuth and inclination RMS against bench time
+    along a room-temperature run: calib.fit on the first k rows (what a
+    stop after k poses would have printed), every `every` rows; bench time
+    from the rows' own clock (t_s: the probe's clock, which with hold_idle
+    is the bench's), from the run's start."""
+    from inclino.calib import common, fit
+    from inclino.errors import InclinoError
+    from inclino.formats import dataset
+
+    ds = dataset.read_raw(path)
+    t = ds.columns["t_s"]
+    out = []
+    for k in list(range(12, len(ds), every)) + [len(ds)]:
+        try:
+            _, rep = fit(common.subset(ds, list(range(k))), "joint", temperature="off")
+        except (InclinoError, np.linalg.LinAlgError, ValueError):
+            continue
+        pa = rep.uncertainty.get("prediction_acceptance_grid") or {}
+        if pa:
+            out.append({"rows": k, "bench_s": float(t[k - 1] - t[0]), "azi_deg": pa["azi_rms_deg"],
+                        "inc_deg": pa["inc_rms_deg"]})
+    return out
+
+
+def temperature_curve(path: str, points: int = 40) -> list:
+    """The predicted acceptance azimuth RMS at the worst of -5, 25 and 55
+    degC against bench time along a chamber run: the Fisher information of
+    the rows so far (calib.design, at the run's final fit: joint's
+    parameters and the temperature terms) with the final fit's floor at 16
+    samples per reading; None while the rows leave a term undetermined."""
+    from inclino.calib import common, design, fit, joint
+    from inclino.formats import dataset
+    from inclino.procedures.adaptive import acceptance_prediction
+
+    ds = dataset.read_raw(path)
+    cal, rep = fit(ds, "joint", temperature="on")
+    w = common.world_of(ds)
+    w["dip_deg"] = float(rep.uncertainty.get("dip_deg", w["dip_deg"] or 60.0))
+    pa = acceptance_prediction(cal, rep, int(float(ds.meta.get("samples_averaged") or 64)), 16, w)
+    floor = float(np.sqrt(max(pa["azi_rms_deg"] ** 2 - pa["terms_azi_rms_deg"]["coefficients"] ** 2, 0.0)))
+    info = {"dip_deg": w["dip_deg"], "s2": float(rep.residuals.get("s2", 1.0))}
+    if rep.uncertainty.get("nonlinear_model"):
+        info["nonlinear"] = rep.uncertainty["nonlinear_model"]
+    est = design.Estimate.from_fit(cal, info, w, joint.SIGMA_ACC, joint.SIGMA_MAG, joint.SIGMA_POSE_DEG, order=2)
+    Ws = design.attitude_weights(est, (-5.0, est.t_ref_c, 55.0), per_temperature=True)
+    poses = tuple(ds.columns[c] for c in ("inc_deg", "azi_deg", "tf_deg"))
+    J = design.row_jacobians(est, poses, ds.columns["temp_c"])
+    t = ds.columns["t_s"]
+    out = []
+    for k in np.unique(np.linspace(12, len(ds), points).astype(int)):
+        Jk = J[:k].reshape(-1, J.shape[-1])
+        C = design.Design(Jk.T @ Jk, []).cov
+        v = max(float(np.trace(C @ W[0])) for W in Ws)
+        out.append({"rows": int(k), "bench_s": float(t[k - 1] - t[0]),
+                    "azi_deg": float(np.sqrt(floor ** 2 + v)) if v < 1.0 else None})
+    return out
+
+
+def draw(curves: dict, path: str) -> str:
+    """The figure of docs/calibration.md: predicted acceptance azimuth RMS
+    against bench time, today's procedures and the adaptive ones."""
+    from inclino import plotting
+
+    plt = plotting.pyplot()
+    fig, axs = plt.subplots(1, 2, figsize=(11, 4.2))
+    for ax, pair, title in ((axs[0], "room", "room temperature: Li grid at 25 degC"),
+                            (axs[1], "temperature", "through the chamber: the worst of -5, 25, 55 degC")):
+        for proc in (f"{pair}_today", f"{pair}_adaptive"):
+            c = [x for x in curves.get(proc, []) if x["azi_deg"] is not None]
+            if c:
+                name = "today's procedure" if proc.endswith("today") else "adaptive"
+                ax.plot([x["bench_s"] / 60.0 for x in c], [x["azi_deg"] for x in c], marker=".", markersize=3,
+                        label=f"{name} ({c[-1]['rows']} rows, {c[-1]['bench_s'] / 60.0:.0f} min)")
+        ax.set_xlabel("bench time, min")
+        ax.set_ylabel("predicted acceptance azimuth RMS, deg")
+        ax.set_yscale("log")
+        ax.set_title(title, fontsize=10)
+        ax.grid(True, which="both", alpha=0.3)
+        ax.legend(fontsize=8)
+    fig.tight_layout()
+    return plotting.save(fig, path)
+
+
 def _median(xs):
     xs = [x for x in xs if x is not None]
     return float(np.median(xs)) if xs else None
@@ -332,7 +417,10 @@ def summarise(per_probe: list) -> tuple[dict, dict]:
     return med, met
 
 
-def bench_time(n_probes: int = N_PROBES, seed: int = SEED0, engine: str = "auto", progress=None) -> TimeBench:
+def bench_time(n_probes: int = N_PROBES, seed: int = SEED0, engine: str = "auto", progress=None,
+               plot: str | None = None) -> TimeBench:
+    """plot: also draw the first probe's predicted accuracy against bench
+    time (PNG; the curves are in `curves` either way)."""
     from inclino.engines import temperature as temp_engine
     from inclino.model.world import MOTORISED, TurntableMotion
 
@@ -349,6 +437,13 @@ def bench_time(n_probes: int = N_PROBES, seed: int = SEED0, engine: str = "auto"
                 res.per_probe.append(bench_probe(s, eng, d, progress=progress))
             except Exception as e:  # a probe a procedure cannot calibrate is reported, not hidden
                 res.failed.append({"seed": s, "error": f"{type(e).__name__}: {e}"})
+                continue
+            if not res.curves:  # the first probe's runs, for the figure
+                res.curves = {p: (room_curve if p.startswith("room") else temperature_curve)(
+                    os.path.join(d, f"{p}_{s}.csv")) for p in PROCEDURES}
+                res.curves["seed"] = s
+        if plot and res.curves:
+            draw(res.curves, plot)
     res.median, res.met = summarise(res.per_probe)
     res.diagnosability = diagnosability_summary(res.per_probe)
     keys = ("temperature_time_cut_ok", "room_time_cut_ok", "room_azi_rms_25c_ok", "temperature_azi_rms_25c_ok",

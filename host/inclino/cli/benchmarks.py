@@ -64,7 +64,7 @@ def _calibration(args) -> int:
     if args.section == "time":  # alone (benchmarks/calibration_time.py)
         from inclino.benchmarks import calibration_time as bench_time
 
-        t = bench_time.bench_time()
+        t = bench_time.bench_time(plot=args.plot)
         print(t.to_json() if args.json else bench_time.text(t))
         return 0 if t.passed else 1
     r = bench_calibration()
@@ -157,7 +157,8 @@ def add_bench(sub, cli_main):
     be.add_argument("--dip", type=float, default=60.0, help="accuracy: dip, degrees")
     be.add_argument("--vectors", type=int, default=1_000_000, help="speed: batch size")
     be.add_argument("--quick", action="store_true", help="diagnose: a small set (not the targets' figures)")
-    be.add_argument("--plot", help="survey: also draw the first seed's well path and ellipses (PNG)")
+    be.add_argument("--plot", help="survey: also draw the first seed's well path and ellipses; calibration "
+                                   "--section time: the first probe's predicted accuracy against bench time (PNG)")
     be.add_argument("--section", choices=("all", "temperature", "time"), default="all",
                     help="calibration: only the temperature section, or only bench time against accuracy "
                          "(today's procedures and the adaptive ones; default all)")
