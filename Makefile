@@ -29,8 +29,11 @@ $(STAMP): $(SOURCES)
 demo: $(STAMP)
 	$(VENV)/bin/inclino demo
 
+# the whole suite on every core (pytest-xdist, one module at a time per worker,
+# the modules with heavy tests first: tests/conftest.py), in a random order whose
+# seed is printed at the end
 test: $(STAMP)
-	$(VPY) -m pytest -q
+	$(VPY) -m pytest -q -n auto --dist loadscope --no-loadscope-reorder
 
 clean:
 	rm -rf $(VENV) build *.egg-info host/*.egg-info host/inclino/engines/_core.c host/inclino/engines/*.so emulator/inclino_emu/_fw.c emulator/inclino_emu/*.so

@@ -4,6 +4,7 @@ pty, the turntable moved over the control channel), and their refusals."""
 import copy
 import io
 import json
+import pathlib
 import re
 import numpy as np
 import pytest
@@ -38,6 +39,13 @@ def run(capsys, *argv):
 
 def bench_of(emu):
     return f"127.0.0.1:{emu.control_port}"
+
+
+def verdict_of(rc, cal_json):
+    """calibrate wrote the file and exited on its verdict: 0 passed, 1 written with a failed verdict."""
+    rep = json.loads(pathlib.Path(cal_json).read_text())["report"]
+    assert rc == (0 if rep["passed"] else 1), (rc, rep["reasons"])
+    return rep
 
 
 def grid_errors(cal, toolfaces=(0.0,)):
@@ -109,12 +117,12 @@ def test_accept_downloads_the_file_ren_grid_and_plots(emu, capsys, tmp_path):
     assert rc == 0, err
     assert len(dataset.read_raw(str(run_csv))) == 12
     rc, out, err = run(capsys, "calibrate", run_csv, "--method", "li2021", "-o", cal_json)
-    assert rc in (0, 1) and cal_json.exists(), out + err
+    assert verdict_of(rc, cal_json)["passed"], out + err  # the seeded typical probe's twelve positions: a pass
     save, plots = tmp_path / "ren.json", tmp_path / "plots"
     rc, out, err = run(capsys, "accept", "--port", emu.path, "--bench", bench_of(emu), "--cal", cal_json,
                        "--grid", "ren2014", "--circles", "--save", save, "--plot", plots, "--quiet")
-    assert rc in (0, 1), err
     r = AcceptResult.load(str(save))
+    assert rc == (0 if r.passed else 1) and r.passed, (rc, r.reasons, err)  # li2021's fit meets Ren's grid
     assert r.download is not None and r.before.startswith("as found: identity")
     assert r.after.startswith("li2021 from the file")
     assert len(r.points) == 64 and not r.survey_mismatches and len(r.circles) == 36
@@ -142,7 +150,7 @@ def test_continuous_rotation_fits_guo2009(emu, capsys, tmp_path):
     assert np.all(np.diff(ds.columns["t_s"]) > 0)
     assert np.allclose(ds.columns["tf_deg"][:24], np.arange(0, 360, 15))
     rc, out, err = run(capsys, "calibrate", run_csv, "--method", "guo2009", "-o", cal_json)
-    assert rc in (0, 1) and cal_json.exists(), out + err
+    assert verdict_of(rc, cal_json)["passed"], out + err  # 48 rotation readings of the seeded probe: a pass
     azi_id, inc_id = grid_errors(None)
     azi, inc = grid_errors(Calibration.load(str(cal_json)))
     assert azi < azi_id / 3 and inc < inc_id / 3
@@ -235,7 +243,7 @@ def test_operator_turns_the_toolface_by_hand(emu, capsys, tmp_path):
     g, _ = ref.body_vectors(ds.columns["inc_deg"], ds.columns["azi_deg"], ds.columns["tf_deg"], 50000, 60)
     assert np.abs(ds.acc - g).max() < 0.01
     rc, _, err = run(capsys, "calibrate", out, "--method", "guo2009", "-o", tmp_path / "cal.json")
-    assert rc in (0, 1), err
+    assert verdict_of(rc, tmp_path / "cal.json")["passed"], err  # the hand-turned rotations fit as well
     azi_id, _ = grid_errors(None)
     assert grid_errors(Calibration.load(str(tmp_path / "cal.json")))[0] < azi_id / 3
 
@@ -341,13 +349,26 @@ def test_accept_without_calibration_fails_its_verdict(emu, capsys):
     assert d["stats"]["before"] == d["stats"]["after"]
 
 
-def test_bench_calibration_cli(monkeypatch, capsys):
+@pytest.mark.heavy
+@pytest.mark.parametrize("passed", [True, False])
+def test_bench_calibration_cli(monkeypatch, capsys, small_calibration_bench, passed):
+    """`inclino bench calibration` is a shell over bench_calibration (the
+    library's result, computed once for the suite at its smallest size and
+    checked in test_calib_cli): the JSON printed is the result's, the text
+    names every method, the exit status follows the targets."""
+    import dataclasses
+
     from inclino.benchmarks import calibration as bench
 
-    small = bench.bench_calibration
-    monkeypatch.setattr(bench, "bench_calibration", lambda: small(n_runs=2, include_peer=False, temperature_probes=1))
+    r = dataclasses.replace(small_calibration_bench, passed=passed)
+    monkeypatch.setattr(bench, "bench_calibration", lambda: r)
     rc, out, _ = run(capsys, "bench", "calibration", "--json")
     d = json.loads(out)
-    assert rc == (0 if d["passed"] else 1)
-    assert d["runs"] == 2 and {"joint", "ren2014", "li2021", "guo2009"} <= set(d["methods"])
+    assert rc == (0 if passed else 1) and d == json.loads(r.to_json())
+    assert d["runs"] == 1 and {"joint", "ren2014", "li2021", "guo2009"} <= set(d["methods"])
     assert d["cramer_rao"]["azi_rms_deg"] > 0 and "ratio_to_cramer_rao" in d["met"]
+    rc, out, _ = run(capsys, "bench", "calibration")
+    assert rc == (0 if passed else 1)
+    for k in ("joint", "ren2014", "li2021", "guo2009", "Cramer-Rao floor"):
+        assert k in out, out
+    assert ("targets met" in out) == passed

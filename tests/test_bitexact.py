@@ -67,3 +67,83 @@ def test_temperature_edges_reach_every_clamp():
         _, e, sat = golden.corr_temp_eval(dt, c.acc_b, t.acc_c1, t.acc_c2, t.acc_r1, t.acc_r2)
         hit |= bool(sat.any() and (np.abs(e) == golden.E_MAX).any())
     assert hit
+
+
+def _temp_eval_c(dt, bias, c1, c2, r1, r2):
+    """correct.c corr_temp_eval, the firmware C itself (inclino.engines._core)."""
+    from inclino.engines._core import ffi, lib
+
+    c = ffi.new("corr_triad_t *")
+    tc = ffi.new("corr_tc_t *")
+    tt = ffi.new("corr_tt_t *")
+    sat = ffi.new("uint8_t *")
+    for i in range(3):
+        c.bias[i] = int(bias[i])
+        tc.c1[i], tc.c2[i], tc.r1[i], tc.r2[i] = int(c1[i]), int(c2[i]), int(r1[i]), int(r2[i])
+    lib.corr_temp_eval(int(dt), c, tc, tt, sat)
+    return np.array(list(tt.beff)), np.array(list(tt.e)), bool(sat[0])
+
+
+def test_second_order_terms_are_applied_as_c2_dt2_and_r2_dt2():
+    """The second-order temperature terms alone (c1 = r1 = 0), in the image's
+    formats (caltemp: c2 Q31 g/degC^2, r2 Q31 /degC^2, dT Q7 degC; b_eff
+    and e in Q29): b_eff - b = c2 dT^2 and e = r2 dT^2, i.e. c2 dt^2 / 2^16
+    in LSBs, within 4 LSB (the Q31 product floors its partial products), in the golden
+    model and in the firmware C.  A dropped or first-order-only term is
+    wrong by up to millions of LSBs here."""
+    cases = 0
+    for dt in (-3840, -1280, -1, 1, 640, 3840, 5120):  # -30 .. +40 degC in Q7
+        for c2, r2 in ((20000, -15000), (-32767, 32767), (1, -1), (7, 12345)):
+            bias = np.array([1000, -2000, 0])
+            c2v, r2v = np.array([c2, -c2, c2 // 2]), np.array([r2, r2 // 3, -r2])
+            zero = np.zeros(3, dtype=np.int64)
+            want_b = bias + c2v * dt * dt / 2.0**16
+            want_e = r2v * dt * dt / 2.0**16
+            gb, ge, gsat = golden.corr_temp_eval(np.array(dt), bias, zero, c2v, zero, r2v)
+            cb, ce, csat = _temp_eval_c(dt, bias, zero, c2v, zero, r2v)
+            assert not gsat and not csat
+            np.testing.assert_allclose(gb, want_b, atol=4.0)
+            np.testing.assert_allclose(ge, want_e, atol=4.0)
+            assert np.array_equal(cb, gb) and np.array_equal(ce, ge)
+            cases += 1
+    assert cases == 28
+
+
+def test_second_order_terms_in_the_float_model_and_the_image_form():
+    """The float definitions of the second-order terms, against the
+    polynomial written out: the emulator's BiasTempco / ScaleTempco
+    (y = x + c dT + c2 dT^2; scale factor 1 + 1e-6 (p dT + p2 dT^2)), and
+    CAL.json's terms in the firmware's form (caltemp: r1 = -p1, r2 = p1^2 -
+    p2, the expansion of 1 / (1 + s) to second order, and apply_float)."""
+    from inclino.formats import caltemp
+    from inclino.model import effects as fx
+
+    T = np.array([-5.0, 10.0, 25.0, 40.0, 55.0])
+    dT = T - 25.0
+    c, c2 = np.array([1e-5, -2e-5, 0.0]), np.array([3e-7, 0.0, -1e-7])
+    bt = fx.BiasTempco(c, 25.0, c2)
+    np.testing.assert_allclose(bt.offset(T, np.zeros((5, 3))), dT[:, None] * c + dT[:, None] ** 2 * c2, atol=1e-15)
+    p, p2 = np.array([40.0, -60.0, 0.0]), np.array([0.5, 0.0, -0.8])
+    st = fx.ScaleTempco(p, 25.0, p2)
+    np.testing.assert_allclose(st.factor(T, np.zeros((5, 3))), 1 + 1e-6 * (dT[:, None] * p + dT[:, None] ** 2 * p2),
+                               rtol=1e-14)
+    block = {"order": 2, "t_ref_c": 25.0,
+             "acc": {"bias": [c.tolist(), c2.tolist()], "scale_ppm": [p.tolist(), p2.tolist()]},
+             "mag": {"bias": [[0.5, -1.0, 0.0], [0.02, 0.0, -0.03]], "scale_ppm": [p.tolist(), p2.tolist()]}}
+    c1f, c2f, r1f, r2f = caltemp.firmware_coefficients(block, "acc")
+    np.testing.assert_allclose(c2f, c2, rtol=0, atol=0)
+    np.testing.assert_allclose(r1f, -1e-6 * p, rtol=1e-15)
+    np.testing.assert_allclose(r2f, (1e-6 * p) ** 2 - 1e-6 * p2, rtol=1e-12, atol=1e-24)
+    ft = caltemp.to_fixed(block)
+    assert ft.order == 2
+    _, c2q, _, r2q = caltemp.from_fixed(ft, "acc")
+    np.testing.assert_allclose(c2q, c2, atol=2.0**-31)
+    np.testing.assert_allclose(r2q, (1e-6 * p) ** 2 - 1e-6 * p2, atol=2.0**-31)
+    # the firmware's form of a reading against the exact 1 / (1 + s): within the stated truncation bound
+    raw = np.tile([0.3, -0.7, 0.65], (5, 1))
+    b = np.array([1e-3, -2e-3, 5e-4])
+    got = caltemp.apply_float(raw, T, b, ft, "acc")
+    exact = fx.to_reference_temperature(raw, T, b, fx.BiasTempco(c, 25.0, c2), st) - b
+    bound = np.array(caltemp.truncation_bound(block, -5.0, 55.0)["acc"])
+    quant = 2.0**-31 * (np.abs(dT) + dT ** 2)[:, None] * 2 + 2.0**-38 * np.abs(dT)[:, None] * 2
+    assert np.all(np.abs(got - exact) <= bound * np.abs(raw - b) + quant + 1e-15)

@@ -109,8 +109,11 @@ def test_calibrate_subprocess_one_line_error(data):
     assert not (data / "x.json").exists()
 
 
-def test_calfile_rejects_a_stale_fixed_image(data):
-    d = json.loads((data / "cal.json").read_text())
+def test_calfile_rejects_a_stale_fixed_image(data, capsys):
+    src = data / "stale-src.json"  # its own file: the tests run in any order
+    assert main(["calibrate", str(data / "run.csv"), "-o", str(src)]) == 0
+    capsys.readouterr()
+    d = json.loads(src.read_text())
     d["acc_m"][0][0] += 1e-3
     from inclino.errors import CalibrationError
 
@@ -120,9 +123,9 @@ def test_calfile_rejects_a_stale_fixed_image(data):
     assert Calibration.from_json(json.dumps(d)).acc_m[0][0] == d["acc_m"][0][0]
 
 
-def test_bench_calibration_small():
-    r = bench.bench_calibration(n_runs=1, include_peer=False, temperature_probes=1, time_probes=0)  # 8 probes: ~5 min
-    d = json.loads(r.to_json())
+@pytest.mark.heavy
+def test_bench_calibration_small(small_calibration_bench):
+    d = json.loads(small_calibration_bench.to_json())  # bench_calibration(n_runs=1, no peer, 1 temperature probe)
     m = d["methods"]
     for k in ("joint", "ren2014", "li2021", "guo2009"):
         assert m[k]["runs"] == 1 and m[k]["azi_rms_deg"] > 0
@@ -144,4 +147,5 @@ def test_bench_calibration_small():
     t = d["temperature"]
     assert t["probes"] == 1 and len(t["per_probe"]) + len(t["failed_probes"]) == 1
     assert d["met"]["temperature_within_1_2x_room"] == t["passed"]
+    assert d["time"] == {"not_run": "time_probes=0"} and d["met"]["time_targets"] is None and not d["passed"]
     assert d["time"] == {"not_run": "time_probes=0"} and d["met"]["time_targets"] is None and not d["passed"]

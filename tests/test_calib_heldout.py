@@ -95,8 +95,7 @@ def _attitude_azi_rms(tmp_path, grid, cal, engine, azi_true, capsys):
     return float(np.sqrt(np.mean(ref.angle_diff(azi, azi_true) ** 2)))
 
 
-def test_held_out_probe_passes_and_the_firmware_keeps_the_resolution(tmp_path, capsys):
-    rng = np.random.default_rng()  # a new probe every run
+def test_held_out_probe_passes_and_the_firmware_keeps_the_resolution(tmp_path, capsys, rng):
     p = _probe(rng)
     run = tmp_path / "run.csv"
     I, A, T, acc, mag = _write(run, p, rng)
@@ -120,8 +119,7 @@ def test_held_out_probe_passes_and_the_firmware_keeps_the_resolution(tmp_path, c
     assert joint_fw <= 1.1 * joint_ref, (joint_fw, joint_ref)
 
 
-def test_field_recalibration_with_a_prior_meets_a_fresh_turntable_calibration(tmp_path, capsys):
-    rng = np.random.default_rng()
+def test_field_recalibration_with_a_prior_meets_a_fresh_turntable_calibration(tmp_path, capsys, rng):
     p = _probe(rng)
     _write(tmp_path / "old.csv", p, rng)
     assert main(["calibrate", str(tmp_path / "old.csv"), "-o", str(tmp_path / "prior.json")]) == 0

@@ -141,3 +141,55 @@ def test_parse_leaves_outputs_untouched_on_error():
     info = ffi.new("calimg_info_t *")
     assert lib.calimg_parse(ffi.new("uint8_t[]", bytes(buf)), SIZE, cal, info) == 4
     assert cal.acc.m[0] == 777 and info.serial == 0
+
+
+@pytest.mark.parametrize("temp", [False, True])
+def test_coefficient_limits_are_inclusive_where_documented(temp):
+    """The image's coefficient checks at their edges, on both triads and
+    every axis (calimage.unpack, calimg.c): |bias| < 2^30 (2^30 - 1 read,
+    2^30 refused either sign), each diagonal of M >= 2^27 (2^27 read,
+    2^27 - 1 refused), in images of version 1 and 2."""
+    from dataclasses import replace
+
+    from inclino.formats.calimage import BIAS_LIMIT, DIAG_MIN
+
+    assert (BIAS_LIMIT, DIAG_MIN) == (2**30, 2**27)
+    base = core.FixedCal.identity()
+    if temp:
+        base = replace(base, temp=core.FixedTemp(t_ref=25 * 128, order=1, acc_c1=(5, 0, 0), acc_c2=(0, 0, 0),
+                                                 acc_r1=(0, 0, 0), acc_r2=(0, 0, 0), mag_c1=(0, 0, 0),
+                                                 mag_c2=(0, 0, 0), mag_r1=(0, 0, 0), mag_r2=(0, 0, 0)))
+    for tri in ("acc", "mag"):
+        for i in range(3):
+            for b, ok in ((2**30 - 1, True), (-(2**30 - 1), True), (2**30, False), (-(2**30), False)):
+                bias = [0, 0, 0]
+                bias[i] = b
+                img = CalImage(replace(base, **{f"{tri}_b": tuple(bias)}), 7, 1, "joint").pack()
+                if ok:
+                    assert getattr(CalImage.unpack(img).cal, f"{tri}_b") == tuple(bias)
+                else:
+                    with pytest.raises(CalibrationError, match="coefficient out of range"):
+                        CalImage.unpack(img)
+            for d, ok in ((2**27, True), (2**27 - 1, False)):
+                m = list(getattr(base, f"{tri}_m"))
+                m[4 * i] = d
+                img = CalImage(replace(base, **{f"{tri}_m": tuple(m)}), 7, 1, "joint").pack()
+                if ok:
+                    assert getattr(CalImage.unpack(img).cal, f"{tri}_m") == tuple(m)
+                else:
+                    with pytest.raises(CalibrationError, match="coefficient out of range"):
+                        CalImage.unpack(img)
+
+
+def test_image_version_must_match_its_length():
+    """A version-2 header on a version-1-sized image (and the reverse) is
+    refused: the length field decides the layout, the version must agree."""
+    img1 = CalImage(core.FixedCal.identity(), 7, 1, "joint").pack()
+    assert len(img1) == SIZE_V1
+    bad = bytearray(img1)
+    bad[4:6] = struct.pack(">H", 2)
+    bad[SIZE_V1 - 4:SIZE_V1 - 2] = struct.pack(">H", binascii.crc_hqx(bytes(bad[:SIZE_V1 - 4]), 0xFFFF))
+    with pytest.raises(CalibrationError, match="format 2 with"):
+        CalImage.unpack(bytes(bad))
+    longer = img1 + bytes(8)  # trailing bytes beyond the stated length are not part of the image
+    assert CalImage.unpack(longer).cal == CalImage.unpack(img1).cal

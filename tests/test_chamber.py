@@ -77,8 +77,7 @@ def _integrate(profile, tau, t0_c, t_end, dt=0.05):
     return out
 
 
-def test_chamber_lag_matches_a_numerical_integration():
-    rng = np.random.default_rng()
+def test_chamber_lag_matches_a_numerical_integration(rng):
     tau = float(rng.uniform(20, 120))
     t0 = float(rng.uniform(-10, 40))
     prof = [(float(rng.uniform(5, 30)), float(rng.uniform(-30, 80)), float(rng.uniform(5, 30))),
@@ -124,8 +123,7 @@ def test_scenario_chamber_profile_and_tempco_tables():
         scenario_from_dict({"acc": {"bias_tempco": {"value": 0.0, "spread": -1.0}}})
 
 
-def test_tempco_polynomials_and_their_inverse():
-    rng = np.random.default_rng()
+def test_tempco_polynomials_and_their_inverse(rng):
     bt = fx.BiasTempco(rng.normal(0, 3, 3), 25.0, rng.normal(0, 0.05, 3))
     st = fx.ScaleTempco(rng.normal(0, 50, 3), 25.0, rng.normal(0, 0.5, 3))
     T = rng.uniform(-20, 80, 50)
@@ -156,8 +154,8 @@ def test_tempco_draws_follow_the_spread():
 
 
 @pytest.fixture
-def emu():
-    e = Emulator("typical", control_port=0, realtime=False, tempco_draw=int(np.random.default_rng().integers(1000)))
+def emu(rng):
+    e = Emulator("typical", control_port=0, realtime=False, tempco_draw=int(rng.integers(1000)))
     e.start()
     yield e
     e.stop()
@@ -197,10 +195,9 @@ def test_control_channel_chamber_and_advance(emu):
         ctl.close()
 
 
-def test_probe_readings_follow_the_chamber_with_the_scenarios_tempcos():
+def test_probe_readings_follow_the_chamber_with_the_scenarios_tempcos(rng):
     """The firmware's raw readings at one pose, at 25 degC and after a soak
     at a random set point, differ as the probe's (drawn) tempcos predict."""
-    rng = np.random.default_rng()
     sc = load_scenario("typical").draw_tempcos(int(rng.integers(1 << 30)))
     sc.acc.noise = None
     sc.mag.noise = None

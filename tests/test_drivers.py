@@ -211,6 +211,36 @@ def test_acq_avg_q6_is_the_mean_with_six_fraction_bits():
         assert lib.acq_avg_q6(s, n) == _floor_half_up(64 * s, n), (s, n)
 
 
+def test_acq_avg_ties_round_half_up_on_both_sides_of_zero():
+    """Every exact tie, by construction rather than by chance: a mean whose
+    fraction is exactly 1/2 goes up (toward +inf), -2.5 -> -2 and 2.5 -> 3
+    (acquire.h: floor(x + 1/2)).  acq_avg: sums n k + n/2 at every even n.
+    acq_avg_q6: 64 sum / n has fraction 1/2 only when 128 r = n (2j + 1)
+    for the remainder r = sum mod n, i.e. n = 128 and r odd within 1..255."""
+    from fractions import Fraction
+
+    _, lib, _ = unbooted()
+    assert (lib.acq_avg(5, 2), lib.acq_avg(-5, 2), lib.acq_avg(3, 6), lib.acq_avg(-3, 6)) == (3, -2, 1, 0)
+    assert (lib.acq_avg_q6(1, 128), lib.acq_avg_q6(-1, 128), lib.acq_avg_q6(3, 128)) == (1, 0, 2)
+    ties = 0
+    for n in range(2, 256, 2):
+        for k in (-70000, -3, -1, 0, 1, 2, 70000):
+            s = n * k + n // 2
+            want = int((Fraction(s, n) + Fraction(1, 2)).__floor__())
+            assert lib.acq_avg(s, n) == want == _floor_half_up(s, n), (s, n)
+            ties += 1
+    q6_ties = [(n, r) for n in range(1, 256) for r in range(n) if (128 * r) % (2 * n) == n]
+    assert q6_ties and {n for n, _ in q6_ties} == {128} and all(r % 2 for _, r in q6_ties)
+    for n, r in q6_ties:
+        for q in (0, 1, 5, 1000, 130000):
+            for s in (q * n + r, -(q * n + r)):
+                want = int((Fraction(64 * s, n) + Fraction(1, 2)).__floor__())
+                assert Fraction(64 * s, n) - int(Fraction(64 * s, n).__floor__()) == Fraction(1, 2)
+                assert lib.acq_avg_q6(s, n) == want, (s, n)
+                ties += 1
+    assert ties > 1000
+
+
 def test_acq_run_rejects_bad_n():
     p, lib, ffi = unbooted()
     out = ffi.new("acq_result_t *")

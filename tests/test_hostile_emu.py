@@ -22,6 +22,7 @@ from inclino.cli import probe as cli_probe
 from inclino.formats.calfile import Calibration
 from inclino.link.serial_link import ProbeError, ProbeInBootloader, ProbeLink
 from inclino_emu import control
+from inclino_emu import probe as probe_mod
 from inclino_emu.control import ControlClient, RequestError, parse_request
 from inclino_emu.runner import Emulator
 
@@ -80,13 +81,24 @@ def _as_line(obj) -> bytes:
 
 
 @pytest.fixture(scope="module")
-def idle_emu():
+def _idle_emus():
+    made = []
+    yield made
+    for e in made:
+        e.control.close()
+        e.pty.close()
+
+
+@pytest.fixture
+def idle_emu(_idle_emus):
     """An emulator whose loop does not run: handle_line is called directly
-    (the handlers are the emulator's own)."""
-    e = Emulator("ideal", control_port=0, realtime=False)
-    yield e
-    e.control.close()
-    e.pty.close()
+    (the handlers are the emulator's own).  Shared by the module's tests
+    while it owns the firmware; a new one when another test's probe has
+    taken the firmware over (one EmulatedProbe owns it at a time: the
+    tests may run in any order)."""
+    if not _idle_emus or probe_mod._owner is not _idle_emus[-1].probe:
+        _idle_emus.append(Emulator("ideal", control_port=0, realtime=False))
+    return _idle_emus[-1]
 
 
 def _check_answer(ans):

@@ -52,15 +52,19 @@ def test_identify_and_survey_formats(emu, ctl, capsys, tmp_path):
     rc, out, _ = run(capsys, "identify", "--port", emu.path, "--json")
     assert rc == 0 and json.loads(out)["product"] == "INCLINO-PROBE"
     rc, out, _ = run(capsys, "survey", "--port", emu.path, "--count", "3", "--format", "csv")
-    lines = out.strip().splitlines()
+    lines = [ln for ln in out.strip().splitlines() if not ln.startswith("#")]
     assert rc == 0 and lines[0].startswith("t_s,inc_deg,azi_deg") and len(lines) == 4
+    meta = dict(ln[2:].split("=", 1) for ln in out.splitlines() if ln.startswith("# ") and "=" in ln)
+    assert meta["probe_serial"] == str(emu.probe.scenario.serial) and meta["start_utc"].endswith("Z")
     rc, out, _ = run(capsys, "survey", "--port", emu.path, "--format", "json")
     d = json.loads(out)
-    assert abs(d["inc_deg"] - 30) < 5 and d["qc_verdict"] in ("PASS",) or d["qc_verdict"].startswith("FAIL")
+    assert abs(d["inc_deg"] - 30) < 5 and d["qc_verdict"].startswith(("PASS", "FAIL"))
+    assert d["samples"] == 16 and d["utc"].endswith("Z") and d["probe"]["firmware"].count(".") == 2
     las = tmp_path / "run.las"
     rc, out, _ = run(capsys, "survey", "--port", emu.path, "--stream", "--period", "20", "--count", "5",
                      "--las", str(las))
-    assert rc == 0 and len(out.strip().splitlines()) == 6  # header + 5 rows
+    rows = [ln for ln in out.strip().splitlines() if "PASS" in ln or "FAIL" in ln]
+    assert rc == 0 and len(rows) == 5
     import lasio
 
     log = lasio.read(str(las))

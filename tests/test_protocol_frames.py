@@ -140,3 +140,36 @@ def test_table_crc_equals_bitwise_for_every_byte_and_register():
         d = rng.integers(0, 256, n, dtype=np.uint8).tobytes()
         r = int(rng.integers(0, 1 << 16))
         assert lib.crc16_update(r, ffi.new("uint8_t[]", d), n) == binascii.crc_hqx(d, r)
+
+
+def test_survey_record_units_are_the_documented_fixed_point_formats():
+    """docs/protocol.md's survey record: t in ms, inclination, azimuth, both
+    toolfaces and dip i32 Q16 degrees, G total i32 Q27 g, B total Q8 nT;
+    to_units divides by exactly those; a payload one byte short or long is
+    refused (never read by position)."""
+    rec = protocol.SurveyRecord(t_ms=123456, inc=int(30.5 * 65536), azi=int(-12.25 * 65536), gtf=int(270.0 * 65536),
+                                mtf=int(1.0 * 65536) + 1, gt=int(1.001 * 2**27), bt=48123 * 256 + 128,
+                                dip=int(-64.5 * 65536), flags=5, qc=3, count=16)
+    u = protocol.SurveyRecord.unpack(rec.pack()).to_units()
+    assert u == {"t_s": 123.456, "inc_deg": 30.5, "azi_deg": -12.25, "tf_deg": 270.0, "mtf_deg": 1.0 + 2**-16,
+                 "gt_g": int(1.001 * 2**27) / 2**27, "bt_nT": 48123.5, "dip_deg": -64.5, "flags": 5, "qc": 3}
+    data = rec.pack()
+    for bad in (data[:-1], data + b"\x00"):
+        with pytest.raises(ValueError, match="survey record of"):
+            protocol.SurveyRecord.unpack(bad)
+
+
+def test_raw_record_counts_are_the_q6_means():
+    """RawRecord's readings are Q6 counts (acquire.h acq_avg_q6): the
+    fractional counts are value / 64; the whole-count record of older
+    firmware is scaled up to Q6; a record of any other length is refused."""
+    r = protocol.RawRecord(ax=64 * 100 + 32, ay=-64 * 3, az=1, mx=-64 * 40000 - 16, my=0, mz=64 * 7, temp_centi_c=2512,
+                           count=16, temp_q6=85184)
+    back = protocol.RawRecord.unpack(r.pack())
+    assert back == r
+    assert back.acc_counts == (100.5, -3.0, 1 / 64) and back.mag_counts == (-40000.25, 0.0, 7.0)
+    whole = protocol.RawRecord.FMT_WHOLE.pack(100, -3, 1, -400, 0, 7, 2512, 16)
+    assert protocol.RawRecord.unpack(whole).acc_counts == (100.0, -3.0, 1.0)
+    for bad in (r.pack()[:-1], r.pack() + b"\x00"):
+        with pytest.raises(ValueError, match="raw record of"):
+            protocol.RawRecord.unpack(bad)

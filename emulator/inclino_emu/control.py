@@ -204,6 +204,11 @@ class ControlServer:
     def clients(self) -> int:
         return len(self._clients)
 
+    def fileobjs(self) -> list:
+        """The sockets poll() watches (the listening one and each client's):
+        for a caller that waits on them together with other descriptors."""
+        return [k.fileobj for k in self._sel.get_map().values()]
+
     def poll(self, timeout: float = 0.0) -> None:
         """Accept, read, answer and send without ever blocking (beyond
         `timeout` in the select)."""

@@ -9,7 +9,9 @@ channel, running until interrupted.
 Time: with `realtime=True` (the default) emulated time follows the wall
 clock, so the SCI runs at its baud rate as a real probe's would; with
 `realtime=False` the emulator runs as fast as it can (emulated time still
-advances by the firmware's own waits and the byte times).
+advances by the firmware's own waits and the byte times), and while nothing
+comes from the host it waits for it (IDLE_WAIT_S per 5 ms step) rather than
+spinning.
 """
 from __future__ import annotations
 
@@ -27,6 +29,12 @@ MAX_STEP_S = 0.02
 MAX_ADVANCE_S = 86400.0   # one `advance` request: at most a day of emulated time
 ADVANCE_QUANTUM_S = 0.01  # the firmware's idle loop runs every 10 ms of a fast-forward,
 ADVANCE_MAX_POLLS = 20000  # or every s / 20000 for a long one (bounded wall time)
+# unthrottled: after IDLE_STEPS steps with nothing on the line or the control
+# channel, the loop waits for the host (at most IDLE_WAIT_S per step) instead of
+# spinning: idle emulated time then runs at 5 ms per ms at least, and an idle
+# emulator no longer takes a core (and the GIL) from the host it serves
+IDLE_STEPS = 4
+IDLE_WAIT_S = 0.001
 # baud rates the S12X's SCI makes at a 40 MHz bus (SBR = 40 MHz / (16 baud), 1..8191)
 BAUD_RANGE = (300, 2_500_000)
 # temperatures the control channel accepts: the ADIS16210's rated range with margin
@@ -74,6 +82,7 @@ class Emulator:
         self.idle_s = 0.0   # unthrottled: emulated seconds spent waiting for the host (active_s)
         self.hold_idle = bool(hold_idle)  # unthrottled: stop the clock while idle (run())
         self._was_idle = False
+        self._last_idle = False
 
     @property
     def control_port(self) -> int | None:
@@ -187,13 +196,14 @@ class Emulator:
         return self.probe.clock.now - self.idle_s
 
     # ------------------------------------------------------------ loop
-    def run_once(self, dt: float, release: bool = True) -> None:
+    def run_once(self, dt: float, release: bool = True) -> bool:
         """Advance the emulator by dt seconds of emulated time.  release:
         pass what the probe sent to the host right away (else at the next
-        call, once the wall clock has caught up: real-time mode).  An
+        call, once the wall clock has caught up: real-time mode).  Returns
+        whether any byte moved between the host and the probe.  An
         unthrottled step in which no byte moved either way, the probe's SCI
         held nothing and the firmware made no long call counts as idle
-        (active_s)."""
+        (active_s; self._last_idle)."""
         with self._lock:
             pty, sci, clk = self.pty, self.probe.sci, self.probe.clock
             n0 = (pty.bytes_to_probe, pty.bytes_to_host)
@@ -203,20 +213,24 @@ class Emulator:
             self.probe.step(dt)
             if release:
                 pty.pump(self._device, 0.0)
-            idle = (not self.realtime and quiet and (pty.bytes_to_probe, pty.bytes_to_host) == n0
-                    and not (sci.rx or sci.tx or sci.out) and clk.now - t0 <= dt + 1e-12)
+            moved = (pty.bytes_to_probe, pty.bytes_to_host) != n0
+            idle = (not self.realtime and quiet and not moved and not (sci.rx or sci.tx or sci.out)
+                    and clk.now - t0 <= dt + 1e-12)
             if idle:
                 self.idle_s += clk.now - t0
-            return idle
+            self._last_idle = idle
+            return moved
 
-    def _host_silent(self, timeout: float) -> bool:
-        """No byte from the host is waiting on the pseudo-terminal (waits
-        up to `timeout` seconds of wall time for one)."""
+    def _wait_for_host(self, timeout: float) -> bool:
+        """Block until the host writes to the line or the control channel, at
+        most timeout; whether something came."""
+        fds = [self.pty.master] + (self.control.fileobjs() if self.control else [])
         try:
-            r, _, _ = select.select([self.pty.master], [], [], timeout)
-        except (OSError, ValueError):
-            return False
-        return not r
+            r, _, _ = select.select(fds, [], [], timeout)
+        except (OSError, ValueError):  # a descriptor closed under us (stop()): the loop ends
+            time.sleep(timeout)
+            return True
+        return bool(r)
 
     def run(self) -> None:
         """Run until stop() (or KeyboardInterrupt in the caller's thread).
@@ -239,10 +253,14 @@ class Emulator:
         try:
             clk = self.probe.clock
             t_wall0, t_emu0 = time.monotonic(), clk.now
+            idle = 0
             while not self._stop.is_set():
+                asked = False
                 if self.control:
                     with self._lock:
+                        n0 = self.control.stats["requests"] + self.control.stats["accepted"]
                         self.control.poll(0.0)
+                        asked = self.control.stats["requests"] + self.control.stats["accepted"] != n0
                 if self.realtime:
                     target = t_emu0 + (time.monotonic() - t_wall0)
                     ahead = clk.now - target
@@ -255,10 +273,17 @@ class Emulator:
                     self.run_once(target - clk.now, release=False)
                     self.pacing["max_ahead_s"] = max(self.pacing["max_ahead_s"], clk.now - (
                         t_emu0 + (time.monotonic() - t_wall0)))
-                elif self.hold_idle and self._was_idle and self._host_silent(0.001):
-                    continue
+                elif self.hold_idle and self._was_idle and not asked and not self._wait_for_host(IDLE_WAIT_S):
+                    continue  # the clock holds until the host sends something
                 else:
-                    self._was_idle = self.run_once(0.005)
+                    moved = self.run_once(0.005)
+                    self._was_idle = self._last_idle
+                    if moved or asked:
+                        idle = 0
+                    else:
+                        idle += 1
+                        if idle >= IDLE_STEPS:
+                            self._wait_for_host(IDLE_WAIT_S)
         except BaseException as e:  # reported by stop()
             self.error = e
 

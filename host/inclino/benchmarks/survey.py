@@ -200,7 +200,9 @@ def run_seed(seed: int, workdir: str, cal_path: str, scen_path: str, rng=None, f
 
     cal = Calibration.load(cal_path)
     cov, _ = em.calibration_covariance(cal)
-    tm = em.ToolModel.load(tool)
+    from inclino.survey.models import load_toolmodel
+
+    tm = load_toolmodel(tool)
     e = load_field(scen_path)
     at = inc >= 5.0
     azm = np.full(int(at.sum()), w["azi_true_deg"] - e[2])
@@ -217,9 +219,9 @@ def run_seed(seed: int, workdir: str, cal_path: str, scen_path: str, rng=None, f
 
 
 def _tool_summary(path):
-    from inclino.survey.errormodel import ToolModel
+    from inclino.survey.models import load_toolmodel
 
-    tm = ToolModel.load(path)
+    tm = load_toolmodel(path)
     mc = tm.fit["monte_carlo"]
     return {"noise": tm.noise, "projection_sigma_ratio": [tm.fit["sigma_ratio_min"], tm.fit["sigma_ratio_max"]],
             "mc_inc_ratio": [min(mc["inc_ratio"]), max(mc["inc_ratio"])],

@@ -341,12 +341,37 @@ def build(ds: RawDataset, cal: Calibration, method: str, info: dict, refit=None,
                 "predicted_azi_rms_fit_only_deg": fa, "predicted_inc_rms_fit_only_deg": fi})
     else:
         rep.uncertainty = {"source": "not available (the method could not be refitted on perturbed data)"}
+    rep.uncertainty["reading_noise"] = reading_noise(ds, rep.residuals)
     rep.quantisation = quantisation_loss(used, cal, w, dip, ds.meta.get("samples_averaged"))
     for k in ("s2", "chi2", "dof"):
         if k in info:
             rep.residuals[k] = info[k]
     _verdict(rep, info)
     return rep
+
+
+def reading_noise(ds: RawDataset, residuals: dict) -> dict | None:
+    """The noise of one probe reading per axis (g, nT) the calibration run
+    measured, for the survey tools (toolmodel, trajectory --cal, compare
+    --cal): the pooled spread of the readings at each pose that acquire
+    recorded; else the RMS residual of G total and B total after the fit
+    (the noise along the field, plus what the calibration leaves: an upper
+    bound), scaled by the readings averaged into a row; None when neither is
+    known."""
+    m = ds.meta
+    n = m.get("samples_averaged")
+    if m.get("reading_noise_acc_g") is not None and m.get("reading_noise_mag_nT") is not None:
+        return {"acc_g": float(m["reading_noise_acc_g"]), "mag_nT": float(m["reading_noise_mag_nT"]),
+                "samples_averaged": n, "source": "measured by acquire: the pooled spread of the readings at each "
+                                                 "pose of the calibration run"}
+    ga, bm = residuals.get("acc_norm_rms_mg"), residuals.get("mag_norm_rms_nT")
+    if ga is not None and bm is not None and np.isfinite(ga) and np.isfinite(bm):
+        r = float(np.sqrt(m.get("readings_per_row") or 1))
+        return {"acc_g": ga * 1e-3 * r, "mag_nT": bm * r, "samples_averaged": n,
+                "source": "the fit's RMS residual of G total and B total (the noise along the field and what the "
+                          "calibration leaves)" + (f", x sqrt({m['readings_per_row']:g} readings per row)"
+                                                   if m.get("readings_per_row") else "")}
+    return None
 
 
 def _verdict(rep: FitReport, info: dict) -> None:

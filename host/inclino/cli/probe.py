@@ -12,7 +12,6 @@ import sys
 import time
 
 from inclino.errors import DataError
-from inclino.formats.survey_log import SURVEY_COLS, qc_text, write_las
 
 
 def _link(args):
@@ -44,6 +43,21 @@ def _cmd_identify(args) -> int:
 
 
 def _rows(link, args):
+    """The run's survey records.  A probe still streaming from a run whose
+    link was lost (E_BUSY) is stopped first, once."""
+    from inclino.link.serial_link import ProbeNak
+
+    try:
+        yield from _records(link, args)
+    except ProbeNak as e:
+        if e.code != 6 or getattr(link, "_stopped_once", False):  # E_BUSY
+            raise
+        link._stopped_once = True
+        link.request("STOP")
+        yield from _records(link, args)
+
+
+def _records(link, args):
     if args.count == 1 and not args.stream:
         yield link.survey()
         return
@@ -56,49 +70,101 @@ def _rows(link, args):
             time.sleep(args.period / 1000.0)
 
 
-class _MdWriter:
-    """A csv writer that puts the station's measured depth first."""
-
-    def __init__(self, w, md):
-        self.w, self.md, self.first = w, md, True
-
-    def writerow(self, row):
-        self.w.writerow(["md_m" if self.first else f"{self.md:.3f}"] + list(row))
-        self.first = False
-
-
 def _cmd_survey(args) -> int:
     _validate(args)
-    recs = []
-    out = sys.stdout
-    w = None
+    from inclino.errors import InclinoError
+    from inclino.formats import survey_log as sl
+
     if args.md is not None and not (args.md == args.md and abs(args.md) < 1e6):
         raise DataError("--md must be a depth in m")
-    if args.format == "csv":
-        w = csv.writer(out)
-        if args.md is not None:
-            w = _MdWriter(w, args.md)
-        w.writerow(SURVEY_COLS + ("qc_verdict",))
-    elif args.format == "table":
-        print(f"{'t s':>8} {'inc':>9} {'azi':>9} {'tf':>9} {'G total':>8} {'B total':>9} {'dip':>8}  QC")
+    if args.append and not (args.output or args.las):
+        raise DataError("--append continues a file: give -o RUN.csv or --las RUN.las")
+    if args.output == "-":
+        raise DataError("-o -: the run goes to standard output anyway (--format csv)")
+    if args.output and args.output.lower().endswith((".json", ".jsonl", ".las")):
+        raise DataError(f"-o {args.output}: -o writes the run as CSV (--las for LAS 2.0, --format json for JSON "
+                        "lines on standard output)")
+    out = sys.stdout
     with _link(args) as link:
-        for rec in _rows(link, args):
-            u = rec.to_units()
-            recs.append(u)
-            if args.format == "csv":
-                w.writerow([f"{u[c]:.6f}" if isinstance(u[c], float) else u[c] for c in SURVEY_COLS]
-                           + [qc_text(u["qc"])])
-            elif args.format == "json":
-                print(json.dumps({**({"md_m": args.md} if args.md is not None else {}), **u,
-                                  "qc_verdict": qc_text(u["qc"])}))
-            else:
-                print(f"{u['t_s']:8.3f} {u['inc_deg']:9.4f} {u['azi_deg']:9.4f} {u['tf_deg']:9.4f} "
-                      f"{u['gt_g']:8.5f} {u['bt_nT']:9.1f} {u['dip_deg']:8.3f}  {qc_text(u['qc'])}"
-                      + ("  near-vertical" if u["flags"] & 1 else ""))
-            out.flush()
-    if args.las:
-        write_las(args.las, recs, probe=args.port, md=args.md)
+        ident = link.identify()
+        log = sl.SurveyLog(ident, args.port, md=args.md, csv_path=args.output, las_path=args.las,
+                           append=args.append)
+        first = True
+        try:
+            with _terminate_as_interrupt():
+                for rec in _rows(link, args):
+                    row = log.add(rec.to_units(), rec.count)
+                    _print_row(args, log, row, first, out)
+                    first = False
+        except KeyboardInterrupt as e:
+            raise KeyboardInterrupt("; ".join(x for x in (str(e), log.close()) if x)) from None
+        except InclinoError as e:
+            e.args = (f"{e}; {log.close()}",)
+            raise
+        kept = log.close()
+    if args.output or args.las:
+        print(f"inclino: {kept}", file=sys.stderr)
     return 0
+
+
+def _print_row(args, log, row, first, out) -> None:
+    """One reading on standard output: a table line, a CSV row (the header
+    before the first) or a JSON line."""
+    from inclino.formats import survey_log as sl
+
+    if args.format == "csv":
+        w = csv.writer(out, lineterminator="\n")
+        if first:
+            for line in sl.header_lines(log.header, sl.qc_checked(row["qc"])):
+                print(line, file=out)
+            w.writerow(log.columns)
+        start = sl.parse_utc(log.header["start_utc"], "header")
+        w.writerow(sl.csv_row({**row, "utc_s": row["utc"] - start}, log.columns))
+    elif args.format == "json":
+        print(json.dumps({**{k: v for k, v in row.items() if k != "utc"}, "utc": sl.utc_iso(row["utc"]),
+                          "qc_checked": sl.qc_checked(row["qc"]),
+                          "probe": {k: log.header[k] for k in sl.MATCH_KEYS}}), file=out)
+    else:
+        if first:
+            if row["qc"] & sl.QC_NO_REF:
+                print(f"QC: {sl.NO_REF_TEXT}", file=out)
+            md = f"{'MD m':>9} " if args.md is not None else ""
+            print(f"{md}{'t s':>8} {'inc':>9} {'azi':>9} {'tf':>9} {'G total':>8} {'B total':>9} {'dip':>8}  QC",
+                  file=out)
+        md = f"{row['md_m']:9.2f} " if args.md is not None else ""
+        print(f"{md}{row['t_s']:8.3f} {row['inc_deg']:9.4f} {row['azi_deg']:9.4f} {row['tf_deg']:9.4f} "
+              f"{row['gt_g']:8.5f} {row['bt_nT']:9.1f} {row['dip_deg']:8.3f}  {sl.qc_text(row['qc'], short=True)}"
+              + ("  near-vertical" if row["flags"] & 1 else ""), file=out)
+    out.flush()
+
+
+class _terminate_as_interrupt:
+    """SIGTERM and SIGHUP (a closed terminal) end the run as Ctrl-C does, so
+    what was logged is written; the previous handlers come back after."""
+
+    def __enter__(self):
+        import signal
+
+        self.old = {}
+        for name in ("SIGTERM", "SIGHUP"):
+            sig = getattr(signal, name, None)
+            if sig is None:
+                continue
+            try:
+                self.old[sig] = signal.signal(sig, self._raise)
+            except (ValueError, OSError):  # not the main thread
+                pass
+        return self
+
+    @staticmethod
+    def _raise(signum, frame):
+        raise KeyboardInterrupt("terminated by a signal")
+
+    def __exit__(self, *exc):
+        import signal
+
+        for sig, h in self.old.items():
+            signal.signal(sig, h)
 
 
 class _Progress:
@@ -189,9 +255,14 @@ def add_parser(sub) -> None:
     p.add_argument("--period", type=int, default=0, help="milliseconds between surveys")
     p.add_argument("--stream", action="store_true", help="let the probe stream at --period (>= 1 ms)")
     p.add_argument("--format", choices=("table", "csv", "json"), default="table")
-    p.add_argument("--las", help="also write the run as LAS 2.0 to this file")
-    p.add_argument("--md", type=float, help="measured depth of the station, m: an md_m column (MD curve in LAS) "
-                                            "for inclino trajectory")
+    p.add_argument("-o", "--output", metavar="RUN.csv",
+                   help="also write the run as CSV to this file, row by row (never replaces a file: --append)")
+    p.add_argument("--las", metavar="RUN.las", help="also write the run as LAS 2.0 to this file (at checkpoints and "
+                                                    "at any exit, Ctrl-C included; never replaces a file: --append)")
+    p.add_argument("--append", action="store_true", help="continue the existing -o/--las file of the same probe, "
+                                                         "calibration and columns (one header; a mismatch is refused)")
+    p.add_argument("--md", type=float, help="measured depth of the station, m: an md_m column (DEPT index in "
+                                            "LAS) for inclino trajectory")
     p.set_defaults(func=_cmd_survey)
 
     p = sub.add_parser("download", help="write a calibration into the probe, read it back, activate it")

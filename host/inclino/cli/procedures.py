@@ -57,7 +57,7 @@ def _cmd_acquire_poses(args) -> int:
         with ProbeLink(args.port, baud=args.baud, timeout=args.timeout) as link:
             r = acquire(link, args.procedure, args.output, table, points=args.points, d1=args.d1,
                         azimuth=args.azimuth, step_deg=args.step, tol=tol, max_reads=args.max_reads,
-                        world=world, quiet=args.quiet, average=args.average)
+                        world=world, quiet=args.quiet, average=args.average, resume=args.resume)
     finally:
         table.close()
     print(f"{r.path}: {r.rows} rows, {args.procedure}, probe {r.probe_serial}"
@@ -75,7 +75,10 @@ def add_acquire(sub):
                    help="twelve-position (Li 2021), multi-position (Li + Ren 2014 + orientations), "
                         "continuous (Guo 2009), temperature (a chamber run: --temperatures), adaptive (poses "
                         "chosen until the predicted acceptance reaches the target; --chamber-range-c)")
-    p.add_argument("-o", "--output", required=True, help="raw dataset CSV to write")
+    p.add_argument("-o", "--output", help="raw dataset CSV to write (rows go to OUTPUT.part as they are taken)")
+    p.add_argument("--resume", metavar="RUN.csv.part", help="continue the run an interruption left in RUN.csv.part "
+                                                            "(same probe, calibration and procedure): the positions "
+                                                            "it holds are not taken again")
     p.add_argument("--points", type=int, default=36, help="multi-position: quasi-uniform orientations (default 36)")
     p.add_argument("--d1", type=float, default=30.0, help="continuous: first inclination (default 30)")
     p.add_argument("--azimuth", type=float, default=2.0, help="continuous: azimuth of both rotations (default 2)")
@@ -114,12 +117,24 @@ def _cmd_acquire(args) -> int:
     from inclino.formats.dataset import check_meta
     from inclino.link.serial_link import ProbeLink
 
+    if args.resume is not None:
+        if not args.resume.endswith(".part"):
+            raise DataError(f"--resume {args.resume}: the .part file an interrupted run left (RUN.csv.part)")
+        if args.output is not None and args.output + ".part" != args.resume:
+            raise DataError(f"--resume {args.resume} continues {args.resume[:-5]}, not -o {args.output}")
+        args.output = args.resume[:-5]
+    elif args.output is None:
+        raise DataError("acquire needs -o RUN.csv (or --resume RUN.csv.part)")
     if args.procedure == "adaptive":
+        if args.resume is not None:
+            raise DataError("--resume: an adaptive run chooses each pose from the readings before it; start it again")
         from inclino.cli.adaptive import cmd_acquire_adaptive
 
         return cmd_acquire_adaptive(args, open_table)
     if args.procedure != "temperature":
         return _cmd_acquire_poses(args)
+    if args.resume is not None:
+        raise DataError("--resume: a temperature run follows the chamber through time; start it again")
     tol = Tolerance(args.tol_acc_mg, args.tol_mag_nt, args.reads)
     tol.check()
     if args.average is not None and not 1 <= args.average <= 64:

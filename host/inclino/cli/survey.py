@@ -46,19 +46,66 @@ def _reference(args):
                             grid_epsg=getattr(args, "grid", None))
 
 
-def _tool_model(args, rf=None):
+def _noise(args, cal):
+    """(acc g, mag nT, where from) for the probe's terms: --acc-noise and
+    --mag-noise where given, else the calibration's fit report (never a
+    silent zero)."""
     from inclino.survey import errormodel as em
 
-    if getattr(args, "tool_model", None):
-        return em.ToolModel.load(args.tool_model)
-    if getattr(args, "cal", None):
+    for name, v in (("--acc-noise", args.acc_noise), ("--mag-noise", args.mag_noise)):
+        if v is not None and not (math.isfinite(v) and v >= 0):
+            raise DataError(f"{name} must be >= 0")
+    if args.acc_noise is not None and args.mag_noise is not None:
+        return args.acc_noise, args.mag_noise, "given (--acc-noise, --mag-noise)"
+    a, m, src = em.calibration_noise(cal)
+    if args.acc_noise is not None:
+        return args.acc_noise, m, f"--acc-noise; fluxgate from {src}"
+    if args.mag_noise is not None:
+        return a, args.mag_noise, f"--mag-noise; accelerometer from {src}"
+    return a, m, src
+
+
+def _field_for(rf, cal=None):
+    dip = rf.dip_deg if rf is not None and math.isfinite(rf.dip_deg) else _cal_dip(cal) if cal else 60.0
+    tot = rf.total_nT if rf is not None and math.isfinite(rf.total_nT) else 50000.0
+    return dip, tot
+
+
+def _error_model(args, rf=None, default_base=None):
+    """--tool-model / --cal as an inclino.survey.models.ErrorModel: the base
+    model (a name or an ISCWSA file; `default_base` when only --cal is
+    given), the probe's terms from the calibration (its noise: the fit
+    report's unless given), the reference-field terms."""
+    from inclino.survey import errormodel as em, models
+
+    if not (getattr(args, "tool_model", None) or getattr(args, "cal", None)):
+        raise DataError("the error model needs --tool-model (iscwsa-mwd-rev5, a name welleng ships, or an ISCWSA "
+                        "JSON file such as inclino toolmodel writes) or --cal CAL.json")
+    if (args.acc_noise is not None or args.mag_noise is not None) and not args.cal:
+        raise DataError("--acc-noise/--mag-noise set the noise of the probe's terms from --cal CAL.json: give --cal "
+                        "(a tool-model file carries its own noise terms)")
+    base = models.load(args.tool_model) if args.tool_model else None
+    if base is None and default_base:
+        base = models.load(default_base)
+    probe = None
+    if args.cal:
         from inclino.formats.calfile import Calibration
 
         cal = Calibration.load(args.cal)
-        dip = rf.dip_deg if rf is not None and math.isfinite(rf.dip_deg) else _cal_dip(cal)
-        tot = rf.total_nT if rf is not None and math.isfinite(rf.total_nT) else 50000.0
-        return em.from_calibration(cal, dip, tot, acc_noise_g=args.acc_noise or 0.0, mag_noise_nT=args.mag_noise or 0.0)
-    raise DataError("the error model needs --tool-model TOOL.json (inclino toolmodel) or --cal CAL.json")
+        an, mn, src = _noise(args, cal)
+        dip, tot = _field_for(rf, cal)
+        rev = int(base.revision) if base is not None and base.revision < 5 else 5
+        probe = em.from_calibration(cal, dip, tot, acc_noise_g=an, mag_noise_nT=mn, noise_source=src, revision=rev)
+    m = models.ErrorModel(base, probe, getattr(args, "ref_terms", None))
+    if m.reference is None and not m.has_reference_terms() and rf is not None:
+        m.reference = "srgm" if rf.source.startswith(("IGRF", "WMM")) else "ifr1"
+        m.notes.append(f"reference-field terms {m.reference} added (the model has none; --ref-terms sets them)")
+    if base is not None:
+        m.notes += base.notes
+    if probe is not None:
+        m.notes.append(f"noise per survey: acc {probe.source['acc_noise_g']:.3g} g, mag "
+                       f"{probe.source['mag_noise_nT']:.3g} nT, from {probe.source['noise_source']}")
+    return m
 
 
 def _cal_dip(cal) -> float:
@@ -68,55 +115,89 @@ def _cal_dip(cal) -> float:
 
 
 def _cmd_reffield(args) -> int:
+    if not args.port and (args.baud is not None or args.timeout is not None):
+        raise DataError("--baud and --timeout set the link of --port: give --port P (or leave them out)")
     rf = _reference(args)
     if args.output:
         from inclino.survey.wellpath import _write
 
         _write(args.output, rf.to_json() + "\n")
+    stored = None
     if args.port:
         from inclino.survey import qcref
 
         with _open_link(args) as link:
-            qcref.write_probe(link, rf)
+            stored = qcref.write_probe(link, rf)
     if args.json:
-        print(rf.to_json())
+        d = json.loads(rf.to_json())
+        if stored is not None:
+            from inclino.survey import qcref
+
+            d["probe_qc_reference"] = {"port": args.port, "read_back": qcref.readable(stored)}
+        print(json.dumps(d))
     else:
         for k, v in rf.header().items():
             print(f"{k:16s} {v}")
+        if stored is not None:
+            from inclino.survey import qcref
+
+            print(f"probe QC reference on {args.port}, written and read back: {qcref.text(stored)}")
     return 0
 
 
 def _open_link(args):
-    from inclino.link.serial_link import ProbeLink
+    from inclino.link.serial_link import ProbeLink, check_link_options
 
-    return ProbeLink(args.port, baud=args.baud, timeout=args.timeout)
+    baud = 115200 if args.baud is None else args.baud
+    timeout = 1.0 if args.timeout is None else args.timeout
+    check_link_options(baud, timeout)
+    return ProbeLink(args.port, baud=baud, timeout=timeout)
 
 
 def _cmd_toolmodel(args) -> int:
-    from inclino.survey import errormodel as em
+    from inclino.survey import errormodel as em, models
     from inclino.formats.calfile import Calibration
 
+    if args.tool_model and args.revision is not None:
+        raise DataError("--revision: the model is written in --tool-model's revision; give one of them")
     cal = Calibration.load(args.cal)
     rf = _reference(args) if (args.lat is not None or args.declination is not None or args.ref) else None
     dip = rf.dip_deg if rf is not None and math.isfinite(rf.dip_deg) else \
         args.dip if args.dip is not None else _cal_dip(cal)
     tot = rf.total_nT if rf is not None and math.isfinite(rf.total_nT) else args.total or 50000.0
-    an, mn = args.acc_noise, args.mag_noise
     if args.noise:
         from inclino.survey.wellpath import read_survey_rows
 
         na, nm = em.noise_from_survey(read_survey_rows(args.noise))
-        an = na if an is None else an
-        mn = nm if mn is None else mn
-    for name, v in (("--acc-noise", an), ("--mag-noise", mn)):
-        if v is not None and not (math.isfinite(v) and v >= 0):
-            raise DataError(f"{name} must be >= 0")
-    tm = em.from_calibration(cal, dip, tot, acc_noise_g=an or 0.0, mag_noise_nT=mn or 0.0, name=args.name)
-    tm.save(args.output, reference=args.ref_terms)
+        an = na if args.acc_noise is None else args.acc_noise
+        mn = nm if args.mag_noise is None else args.mag_noise
+        src = f"repeated surveys at rest ({args.noise})"
+        for name, v in (("--acc-noise", an), ("--mag-noise", mn)):
+            if not (math.isfinite(v) and v >= 0):
+                raise DataError(f"{name} must be >= 0")
+    else:
+        an, mn, src = _noise(args, cal)
+    base = models.load(args.tool_model) if args.tool_model else None
+    rev = (int(base.revision) if base.revision < 5 else 5) if base is not None else (args.revision or 5)
+    tm = em.from_calibration(cal, dip, tot, acc_noise_g=an, mag_noise_nT=mn, name=args.name, noise_source=src,
+                             revision=rev)
+    if base is None:
+        tm.save(args.output, reference=args.ref_terms or "none")
+        what = f"the probe's terms, ISCWSA revision {rev}"
+    else:
+        m = models.ErrorModel(base, tm, args.ref_terms)
+        d = m.to_iscwsa(args.name)
+        d["inclino"] = json.loads(tm.to_json())
+        d["inclino"]["base"] = base.label
+        from inclino.survey.wellpath import _write
+
+        _write(args.output, json.dumps(d, indent=2) + "\n")
+        what = f"{base.label} (revision {base.revision:g}) with the probe's sensor terms in place of its own"
     f = tm.fit
-    print(f"tool model {tm.name} -> {args.output}: " + ", ".join(
+    print(f"tool model {tm.name} -> {args.output}: {what}; " + ", ".join(
         f"{g} {_show(g, v)}" for g, v in tm.systematic.items()))
-    print(f"noise per survey: acc {an or 0:.3g} g, mag {mn or 0:.3g} nT; projection of the calibration covariance: "
+    print(f"noise per survey: acc {an:.3g} g, mag {mn:.3g} nT, from {src}")
+    print(f"projection of the calibration covariance: "
           f"sigma ratio {f['sigma_ratio_min']:.2f}-{f['sigma_ratio_max']:.2f} (RMS {f['sigma_ratio_rms']:.1%} off) "
           f"over {f['attitudes']} attitudes at dip {f['dip_deg']:.2f} deg, {f['field_nT']:.0f} nT")
     mc = f["monte_carlo"]
@@ -142,14 +223,22 @@ def _cmd_trajectory(args) -> int:
 
     from inclino.formats import safeio
 
+    if not args.uncertainty:
+        given = [o for o, v in (("--tool-model", args.tool_model), ("--cal", args.cal),
+                                ("--acc-noise", args.acc_noise), ("--mag-noise", args.mag_noise),
+                                ("--ref-terms", args.ref_terms)) if v is not None]
+        if given:
+            raise DataError(f"{', '.join(given)} set the error model of --uncertainty: add --uncertainty "
+                            "(or leave them out)")
     for out in (args.output, args.las):
         if out:
             safeio.check_output(out, args.input)  # never over a survey file it reads
     sv = wp.concat([wp.read_survey(p) for p in args.input])
     rf = _reference(args)
-    tm = _tool_model(args, rf) if args.uncertainty else None
-    ref_terms = args.ref_terms or ("srgm" if rf.source.startswith(("IGRF", "WMM")) else "ifr1")
-    tr = wp.trajectory(sv, rf, tm, ref_terms if tm is not None else "none")
+    from inclino.survey import models
+
+    model = _error_model(args, rf, default_base=models.DEFAULT_BASE) if args.uncertainty else None
+    tr = wp.trajectory(sv, rf, model)
     if args.output.lower().endswith(".las"):
         wp.write_las(tr, args.output)
     else:
@@ -165,36 +254,52 @@ def _cmd_trajectory(args) -> int:
             raise DataError(f"cannot write {args.plot}: {e.strerror}")
     s = tr.summary
     e = s["end"]
-    msg = (f"{s['stations']} stations, MD {s['md_m'][0]:g}-{s['md_m'][1]:g} m; declination "
-           f"{rf.declination_deg:.2f} deg ({rf.source})"
+    stream = sys.stderr if args.output == "-" else sys.stdout
+    parts = e.get("parts", {})
+    msg = (f"{s['stations']} stations ({s.get('run') or 'survey'}), MD {s['md_m'][0]:g}-{s['md_m'][1]:g} m; "
+           f"declination {rf.declination_deg:.2f} deg ({rf.source})"
            + (f", grid convergence {rf.convergence_deg:.3f} deg (EPSG {rf.grid_epsg})" if rf.grid_epsg else "")
            + f"; end TVD {e['tvd_m']:.2f} m, N {e['north_m']:.2f} m, E {e['east_m']:.2f} m"
-           + (f"; 1-sigma ellipse {e['ell_major_m']:.3f} x {e['ell_minor_m']:.3f} m" if tm is not None else "")
-           + f"; QC: {s['stations'] - s['qc_fail']} pass, {s['qc_fail']} fail")
-    print(msg, file=sys.stderr if args.output == "-" else sys.stdout)
+           + (f"; 1-sigma ellipse {e['ell_major_m']:.3f} x {e['ell_minor_m']:.3f} m" if model is not None else "")
+           + (" (" + ", ".join(f"{model.part_label(k)} {v['ell_major_m']:.3f} x {v['ell_minor_m']:.3f} m"
+                               for k, v in parts.items()) + ")" if len(parts) > 1 else "")
+           + f"; QC: {s['stations'] - s['qc_fail']} pass, {s['qc_fail']} fail (checked: "
+           + "; ".join(s.get("qc_checked", [])) + ")")
+    print(msg, file=stream)
+    if model is not None:
+        print(model.describe(), file=stream)
+        for n in model.notes:
+            print(f"  {n}", file=stream)
     return 1 if (args.fail_on_qc and s["qc_fail"]) else 0
 
 
 def _cmd_compare(args) -> int:
     from inclino.survey import compare as cmp
+    from inclino.survey import geomag
     from inclino.survey import wellpath as wp
 
     a, b = wp.read_survey(args.first), wp.read_survey(args.second)
     rf = _reference(args) if (args.lat is not None or args.ref or args.declination is not None) else None
-    tm = _tool_model(args, rf)
+    model = _error_model(args, rf)
+    fit = model.probe or (model.base.inclino if model.base is not None else None)
     dip = rf.dip_deg if rf is not None and math.isfinite(rf.dip_deg) else \
-        args.dip if args.dip is not None else tm.fit.get("dip_deg", 60.0)
+        args.dip if args.dip is not None else (fit.fit.get("dip_deg", 60.0) if fit else 60.0)
     tot = rf.total_nT if rf is not None and math.isfinite(rf.total_nT) else \
-        args.total if args.total is not None else tm.fit.get("field_nT", 50000.0)
-    r = cmp.compare(a, b, tm, dip, tot, k=args.k, md_tol=args.md_tol, two_probes=args.two_probes)
+        args.total if args.total is not None else (fit.fit.get("field_nT", 50000.0) if fit else 50000.0)
+    ref = geomag.ReferenceField(rf.declination_deg if rf is not None else 0.0, dip, tot,
+                                rf.gravity_g if rf is not None and math.isfinite(rf.gravity_g) else 1.0)
+    r = cmp.compare(a, b, model, ref, k=args.k, md_tol=args.md_tol, two_probes=args.two_probes)
     if args.json:
         print(r.to_json())
     else:
-        print(f"{'MD m':>9} {'inc':>8} {'d inc':>9} {'k sig':>8} {'d azi':>9} {'k sig':>8}  verdict")
+        print(f"{args.first}: {r.runs[0] or 'survey'}; {args.second}: {r.runs[1] or 'survey'}; {model.describe()}")
+        for n in model.notes:
+            print(f"  {n}")
+        print(f"{'MD m':>9} {'MD out m':>9} {'inc':>8} {'d inc':>9} {'k sig':>8} {'d azi':>9} {'k sig':>8}  verdict")
         for s in r.stations:
             da = "" if s["d_azi_deg"] is None else f"{s['d_azi_deg']:9.4f} {r.k * s['sigma_d_azi_deg']:8.4f}"
-            print(f"{s['md_m']:9.2f} {s['inc_deg']:8.3f} {s['d_inc_deg']:9.4f} {r.k * s['sigma_d_inc_deg']:8.4f} "
-                  f"{da:18s}  {s['verdict']}")
+            print(f"{s['md_m']:9.2f} {s['md_out_m']:9.2f} {s['inc_deg']:8.3f} {s['d_inc_deg']:9.4f} "
+                  f"{r.k * s['sigma_d_inc_deg']:8.4f} {da:18s}  {s['verdict']}")
         sm = r.summary
         print(f"{sm['pairs']} station pairs ({r.mode}, k = {r.k:g}): {sm['pairs'] - sm['failed']} pass, "
               f"{sm['failed']} fail; unmatched {sm['unmatched_in']} + {sm['unmatched_out']}; verdict: "
@@ -206,21 +311,32 @@ def add_parser(sub) -> None:
     p = sub.add_parser("reffield", help="reference field of a survey: declination, dip, total field, gravity, grid")
     _add_reference(p)
     p.add_argument("-o", "--output", help="write the reference field as JSON (stored with the run)")
-    p.add_argument("--port", help="also write it to the probe as its QC reference (QCREF_WRITE)")
-    p.add_argument("--baud", type=int, default=115200)
-    p.add_argument("--timeout", type=float, default=1.0)
+    p.add_argument("--port", help="also write it to the probe as its QC reference (QCREF_WRITE), read it back "
+                                  "and print it")
+    p.add_argument("--baud", type=int, help="with --port: baud rate (default 115200)")
+    p.add_argument("--timeout", type=float, help="with --port: seconds to wait for an answer (default 1)")
     p.add_argument("--json", action="store_true")
     p.set_defaults(func=_cmd_reffield)
 
     p = sub.add_parser("toolmodel", help="the calibrated probe's error model as an ISCWSA tool model (JSON)")
     p.add_argument("cal", help="calibration JSON with its fit report (inclino calibrate)")
     _add_reference(p, grid=False)
-    p.add_argument("--noise", help="a survey listing of repeated surveys at rest: the per-survey noise")
-    p.add_argument("--acc-noise", type=float, help="accelerometer noise per survey and axis, g")
-    p.add_argument("--mag-noise", type=float, help="fluxgate noise per survey and axis, nT")
+    p.add_argument("--noise", help="a survey listing of repeated surveys at rest: the per-survey noise (default: the "
+                                   "calibration's fit report)")
+    p.add_argument("--acc-noise", type=float, help="accelerometer noise per survey and axis, g (default: the "
+                                                   "calibration's fit report)")
+    p.add_argument("--mag-noise", type=float, help="fluxgate noise per survey and axis, nT (default: the "
+                                                   "calibration's fit report)")
+    p.add_argument("--tool-model", help="write the complete model: this standard model (iscwsa-mwd-rev5, a name "
+                                        "welleng ships, or an ISCWSA JSON file) with the probe's sensor terms in "
+                                        "place of its own")
+    p.add_argument("--revision", type=int, choices=(4, 5), help="ISCWSA revision of the probe's terms (default 5: "
+                                                                "XYM3E/XYM4E random, damped; 4: XYM3/XYM4 "
+                                                                "systematic)")
     p.add_argument("--name", default="INCLINO", help="the tool model's short name")
-    p.add_argument("--ref-terms", choices=("none", "srgm", "ifr1"), default="none",
-                   help="reference-field terms to include (default none: trajectory adds them per survey)")
+    p.add_argument("--ref-terms", choices=("none", "srgm", "ifr1"),
+                   help="reference-field terms to include (default: none for the probe's terms, trajectory adds "
+                        "them per survey; with --tool-model its own)")
     p.add_argument("-o", "--output", required=True, help="tool model JSON")
     p.set_defaults(func=_cmd_toolmodel)
 
@@ -230,12 +346,19 @@ def add_parser(sub) -> None:
                                             "several files are one survey, sorted by depth")
     _add_reference(p)
     p.add_argument("--uncertainty", action="store_true", help="position covariance (1-sigma ellipse) per station")
-    p.add_argument("--tool-model", help="tool model JSON (inclino toolmodel)")
-    p.add_argument("--cal", help="or a calibration JSON to build the tool model from")
-    p.add_argument("--acc-noise", type=float, help="with --cal: accelerometer noise per survey and axis, g")
-    p.add_argument("--mag-noise", type=float, help="with --cal: fluxgate noise per survey and axis, nT")
+    p.add_argument("--tool-model", help="with --uncertainty: the error model: a standard model by name "
+                                        "(iscwsa-mwd-rev5, iscwsa-mwd-rev4, any name welleng ships) or an ISCWSA "
+                                        "JSON file (inclino toolmodel writes one) (default with --cal: "
+                                        "iscwsa-mwd-rev5)")
+    p.add_argument("--cal", help="with --uncertainty: the probe's calibration: its fitted sensor terms and measured "
+                                 "noise replace the model's sensor terms")
+    p.add_argument("--acc-noise", type=float, help="with --cal: accelerometer noise per survey and axis, g "
+                                                   "(default: the calibration's fit report)")
+    p.add_argument("--mag-noise", type=float, help="with --cal: fluxgate noise per survey and axis, nT "
+                                                   "(default: the calibration's fit report)")
     p.add_argument("--ref-terms", choices=("none", "srgm", "ifr1"),
-                   help="reference-field error terms (default: srgm for a main-field model, ifr1 for user values)")
+                   help="with --uncertainty: reference-field terms in place of the model's (default: the model's "
+                        "own; for a model without them srgm for a main-field model, ifr1 for user values)")
     p.add_argument("--las", help="also write the trajectory as LAS 2.0")
     p.add_argument("--fail-on-qc", action="store_true", help="exit 1 when a station fails QC")
     p.add_argument("--plot", help="a PNG of the path (plan view with the ellipses, vertical section)")
@@ -243,12 +366,16 @@ def add_parser(sub) -> None:
     p.set_defaults(func=_cmd_trajectory)
 
     p = sub.add_parser("compare", help="repeatability QC of two surveys station by station")
-    p.add_argument("first", help="in-run survey listing")
-    p.add_argument("second", help="out-run (or second probe) survey listing")
-    p.add_argument("--tool-model", help="tool model JSON (inclino toolmodel)")
-    p.add_argument("--cal", help="or a calibration JSON to build it from")
-    p.add_argument("--acc-noise", type=float, help="with --cal: accelerometer noise per survey and axis, g")
-    p.add_argument("--mag-noise", type=float, help="with --cal: fluxgate noise per survey and axis, nT")
+    p.add_argument("first", help="a survey listing (in-run or out-run)")
+    p.add_argument("second", help="the other survey listing of the same stations (out-run, in-run, second probe)")
+    p.add_argument("--tool-model", help="the error model: a standard model by name (iscwsa-mwd-rev5, ...) or an "
+                                        "ISCWSA JSON file (inclino toolmodel writes one)")
+    p.add_argument("--cal", help="the probe's calibration: its fitted sensor terms and measured noise (alone: the "
+                                 "probe's terms only; with --tool-model: in place of its sensor terms)")
+    p.add_argument("--acc-noise", type=float, help="with --cal: accelerometer noise per survey and axis, g "
+                                                   "(default: the calibration's fit report)")
+    p.add_argument("--mag-noise", type=float, help="with --cal: fluxgate noise per survey and axis, nT "
+                                                   "(default: the calibration's fit report)")
     _add_reference(p, grid=False)
     p.add_argument("--two-probes", action="store_true", help="two probes: every sensor term differs")
     p.add_argument("--k", type=float, default=3.0, help="pass within k x the expected sigma (default 3)")

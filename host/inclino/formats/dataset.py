@@ -32,8 +32,10 @@ SENSOR_META = ("sensor", "sensor_sha256", "log_sha256", "acc_axes", "acc_unit", 
                "acc_lsb_g", "acc_noise_g", "acc_range_g", "mag_lsb_nT", "mag_noise_nT", "mag_range_nT",
                "reflection", "static", "rows_dropped")
 META_KEYS = ("field_nT", "dip_deg", "declination_deg", "gravity_g", "lat_deg", "lon_deg",
-             "date", "probe_serial", "source", "samples_averaged") + SENSOR_META
+             "date", "probe_serial", "source", "samples_averaged", "start_utc", "firmware", "calibration_crc",
+             "calibration_sequence", "reading_noise_acc_g", "reading_noise_mag_nT", "readings_per_row") + SENSOR_META
 NUMERIC_META = {"field_nT", "dip_deg", "declination_deg", "gravity_g", "lat_deg", "lon_deg", "samples_averaged",
+                "reading_noise_acc_g", "reading_noise_mag_nT", "readings_per_row",
                 "acc_lsb_g", "acc_noise_g", "acc_range_g", "mag_lsb_nT", "mag_noise_nT", "mag_range_nT"}
 ACC_COLS = ("ax_g", "ay_g", "az_g")
 MAG_COLS = ("mx_nT", "my_nT", "mz_nT")
@@ -102,7 +104,10 @@ RULES = {
     "azi_deg": (-360.0, 360.0),
     "tf_deg": (-360.0, 360.0),
     "temp_c": (-100.0, 300.0),
-    "samples_averaged": (1.0, 1_000_000.0),  # sensor samples per reading (acquire --average)
+    "samples_averaged": (1.0, 1_000_000.0),  # sensor samples per reading (the probe's, recorded by acquire)
+    "reading_noise_acc_g": (0.0, 1.0),  # 1 sigma of one reading per axis, measured by acquire at each pose
+    "reading_noise_mag_nT": (0.0, 100_000.0),
+    "readings_per_row": (1.0, 1000.0),  # readings averaged into one row (acquire's stability window)
     # the sensor description's figures (> 0; generous bounds: any part a log could come from)
     "acc_lsb_g": (1e-3, 1.0), "acc_noise_g": (1e-3, 1.0), "acc_range_g": (1e-3, 1000.0),
     "mag_lsb_nT": (1e-3, 1e6), "mag_noise_nT": (1e-3, 1e6), "mag_range_nT": (1e-3, 1e9),
@@ -222,8 +227,9 @@ def _read(lines: _Lines, path: str, bar) -> RawDataset:
         raise DataError(f"{path}:{header_line}: missing column(s) {', '.join(SENSOR_COLS)}: no sensor triad (the "
                         f"accelerometer's ax_g, ay_g, az_g and/or the magnetometer's mx_nT, my_nT, mz_nT; a log in "
                         f"other columns or units: inclino import LOG --sensor S.toml)")
-    if len(set(header)) != len(header):
-        raise DataError(f"{path}:{header_line}: a column name appears twice")
+    twice = sorted({h for h in header if header.count(h) > 1})
+    if twice:  # never read one copy and drop the other: which one the file meant is unknown
+        raise DataError(f"{path}:{header_line}: column name repeated in the header: {', '.join(twice)}")
     ncells = len(header)
     wanted = [c for c in COLUMN_ORDER if c in header]
     idx = [header.index(c) for c in wanted]

@@ -61,20 +61,23 @@ Exit statuses: 0 written; 2 bad option; 4 port, probe or bench problem.
 from __future__ import annotations
 
 import contextlib
-import datetime as _dt
+import math
 import os
 import sys
 import time
 from dataclasses import dataclass, field
 
-from inclino.errors import DataError
+from inclino.errors import DataError, InclinoError
 from inclino.engines.reference import ACC_LSB_G, MAG_LSB_NT  # noqa: F401 (one place for the sensor scales)
 from inclino.procedures.poses import Step, wrap_deg
 from inclino.procedures.readings import (Tolerance, Unsettled, gravity_toolface, mean_row, progress_bar, read_once,
                                          read_stable, set_average)
 
 PROCEDURES = ("twelve-position", "multi-position", "continuous", "temperature", "adaptive")
-COLUMNS = ("t_s", "inc_deg", "azi_deg", "tf_deg", "temp_c", "ax_g", "ay_g", "az_g", "mx_nT", "my_nT", "mz_nT")
+COLUMNS = ("t_s", "inc_deg", "azi_deg", "tf_deg", "temp_c", "ax_g", "ay_g", "az_g", "mx_nT", "my_nT", "mz_nT",
+           "utc_s")
+# header keys that must match when a run is resumed (the probe, its firmware and calibration, the procedure)
+RESUME_KEYS = ("probe_serial", "firmware", "calibration_crc", "calibration_sequence", "samples_averaged", "source")
 
 
 # ---------------------------------------------------------------- poses
@@ -128,26 +131,40 @@ class AcquireResult:
 def run_header(link, table, world, average):
     """Set the probe's averaging, identify it and build a run file's header:
     the world (given values first, then the turntable's), the probe's serial,
-    today's date and, with `average`, the sensor samples behind each reading."""
+    firmware and active calibration, the start of the run (UTC, ISO 8601)
+    and the sensor samples the probe averages per reading (asked of the
+    probe: one survey's sample count, whether or not --average set it)."""
+    from inclino.formats.survey_log import utc_iso
+
     set_average(link, average)
     ident = link.identify()
     meta = {k: v for k, v in (world or {}).items() if v is not None}
     meta.update({k: v for k, v in table.world().items() if k not in meta})
     meta["probe_serial"] = ident.serial
-    meta["date"] = _dt.date.today().isoformat()
-    if average is not None:  # sensor samples behind each reading (a row averages one or more readings)
-        meta["samples_averaged"] = int(average)
+    meta["firmware"] = ".".join(map(str, ident.fw_version))
+    meta["calibration_crc"] = f"{ident.cal_crc:04X}"
+    meta["calibration_sequence"] = ident.cal_sequence
+    meta["start_utc"] = utc_iso(time.time())
+    meta["date"] = meta["start_utc"][:10]
+    meta["samples_averaged"] = int(average) if average is not None else int(link.survey().count)
     return ident, meta
 
 
 @contextlib.contextmanager
 def recording(out, bar, res, t0):
     """The rows written inside go to the output file only when the block
-    ends normally (`out.commit()`); on any exception, Ctrl-C included, the
-    partial file is abandoned and nothing is written. Fills res.rows and
-    res.elapsed_s."""
+    ends normally (`out.commit()`); on any exception, Ctrl-C and `q`
+    included, the rows so far stay in RUN.csv.part and the exception says
+    so (and how to continue).  Fills res.rows and res.elapsed_s."""
     try:
         yield
+    except KeyboardInterrupt as e:
+        bar.close()
+        raise KeyboardInterrupt("; ".join(x for x in (str(e), out.abort()) if x)) from None
+    except InclinoError as e:
+        bar.close()
+        e.args = (f"{e}; {out.abort()}",)
+        raise
     except BaseException:
         out.abort()
         bar.close()
@@ -159,55 +176,161 @@ def recording(out, bar, res, t0):
 
 
 class _RowWriter:
-    def __init__(self, path: str, meta: dict):
+    """RUN.csv.part, written and flushed row by row; renamed to RUN.csv at
+    the end.  A .part is never overwritten: `resume` (its path) continues it
+    when its header is this run's; without it an existing .part is refused."""
+
+    def __init__(self, path: str, meta: dict, resume: str | None = None):
         from inclino.formats import safeio
+        from inclino.formats.dataset import META_KEYS
+        from inclino.formats.survey_log import parse_utc
 
         safeio.check_output(path)
         self.path = path
         self.part = path + ".part"
+        self.rows = 0
+        self.noise = _Noise()
+        if resume is not None:
+            old_meta, old_rows = _read_part(resume)
+            def key(k, m):  # the procedure, not who turned the table, must match
+                v = str(m.get(k, ""))
+                return v.split(" (")[0] if k == "source" else v
+
+            diff = [f"{k} {key(k, old_meta)} in the file, {key(k, meta)} now" for k in RESUME_KEYS
+                    if key(k, old_meta) != key(k, meta)]
+            if diff:
+                raise DataError(f"{resume}: not this run ({'; '.join(diff)}): not resumed")
+            self.rows = old_rows
+            meta.clear()
+            meta.update(old_meta)
+            self.start = parse_utc(old_meta["start_utc"], resume)
+            mode = "a"
+        else:
+            if os.path.exists(self.part):
+                _, n = _read_part(self.part, check=False)
+                raise DataError(f"{self.part} exists ({n} rows an earlier run kept): continue it with --resume "
+                                f"{self.part}, or remove it to start again")
+            self.start = parse_utc(meta["start_utc"], path)
+            mode = "w"
         try:
-            self.f = open(self.part, "w", newline="", encoding="utf-8")
+            self.f = open(self.part, mode, newline="", encoding="utf-8")
         except OSError as e:
             raise DataError(f"cannot write {path}: {e.strerror}")
-        from inclino.formats.dataset import META_KEYS
+        if mode == "w":
+            for k in META_KEYS:
+                if k in meta and meta[k] is not None:
+                    self.f.write(f"# {k}={meta[k]}\n")
+            self.f.write("# utc_s=seconds since start_utc (host clock when the row was taken)\n")
+            self.f.write(",".join(COLUMNS) + "\n")
+            self.f.flush()
 
-        for k in META_KEYS:
-            if k in meta and meta[k] is not None:
-                self.f.write(f"# {k}={meta[k]}\n")
-        self.f.write(",".join(COLUMNS) + "\n")
-        self.rows = 0
-
-    def write(self, row: dict) -> None:
+    def write(self, row: dict, window=None) -> None:
+        row = {**row, "utc_s": time.time() - self.start}
         self.f.write(",".join(repr(float(row[c])) for c in COLUMNS) + "\n")
         self.f.flush()
         self.rows += 1
+        if window is not None:
+            self.noise.add(window)
 
     def commit(self) -> None:
         """The finished run goes to the output path through inclino.formats.safeio
         (atomic, never over a device or through a replaced symlink, the
-        target's permissions kept); the .part file is then removed."""
+        target's permissions kept), with the reading noise measured over the
+        run in its header; the .part file is then removed."""
         from inclino.formats import safeio
 
         self.f.close()
         try:
-            with open(self.part, "rb") as src:
-                data = src.read()
+            with open(self.part, encoding="utf-8") as src:
+                lines = src.read().splitlines(keepends=True)
         except OSError as e:
             raise DataError(f"cannot read back {self.part}: {e.strerror}") from None
-        safeio.write_output(self.path, data)
+        head = [ln for ln in lines if ln.startswith("#")]
+        body = lines[len(head):]
+        head = [ln for ln in head if not ln.startswith(("# reading_noise", "# readings_per_row"))] + self.noise.lines()
+        safeio.write_output(self.path, "".join(head + body))
         os.unlink(self.part)
 
-    def abort(self) -> None:
+    def abort(self) -> str:
+        """Close the .part; what it kept, and how to continue."""
         try:
             self.f.close()
         except OSError:  # pragma: no cover
             pass
+        if self.rows == 0:
+            with contextlib.suppress(OSError):
+                os.unlink(self.part)
+            return "no row taken, nothing kept"
+        return (f"{self.rows} row{'s' if self.rows != 1 else ''} kept in {self.part} (continue with --resume "
+                f"{self.part})")
+
+
+class _Noise:
+    """The reading noise of the run: the spread of the readings taken at each
+    pose (the stability window), pooled per sensor over the three axes."""
+
+    def __init__(self):
+        self.ss = [0.0, 0.0]
+        self.dof = 0
+        self.n = 0
+
+    def add(self, window) -> None:
+        if len(window) < 2:
+            return
+        import numpy as np
+
+        a = np.array([w.acc for w in window], float) * ACC_LSB_G
+        m = np.array([w.mag for w in window], float) * MAG_LSB_NT
+        self.ss[0] += float(((a - a.mean(0)) ** 2).sum())
+        self.ss[1] += float(((m - m.mean(0)) ** 2).sum())
+        self.dof += 3 * (len(window) - 1)
+        self.n = len(window)
+
+    def lines(self) -> list:
+        if self.dof < 6:
+            return []
+        sa, sm = (math.sqrt(x / self.dof) for x in self.ss)
+        return [f"# reading_noise_acc_g={sa:.4g}\n", f"# reading_noise_mag_nT={sm:.4g}\n",
+                f"# readings_per_row={self.n}\n"]
+
+
+def _read_part(path: str, check: bool = True):
+    """(header, rows) of a RUN.csv.part."""
+    from inclino.formats.dataset import META_KEYS, NUMERIC_META
+
+    if check and not path.endswith(".part"):
+        raise DataError(f"--resume {path}: the .part file an interrupted run left (RUN.csv.part)")
+    meta, rows, cols = {}, 0, None
+    try:
+        with open(path, encoding="utf-8") as f:
+            for line in f:
+                if line.startswith("#"):
+                    if "=" in line:
+                        k, v = (t.strip() for t in line[1:].split("=", 1))
+                        if k in META_KEYS:
+                            try:
+                                meta[k] = float(v) if k in NUMERIC_META else v
+                            except ValueError:
+                                raise DataError(f"{path}: header {k}={v!r} is not a number") from None
+                            if k in ("samples_averaged", "readings_per_row") and float(meta[k]).is_integer():
+                                meta[k] = int(meta[k])
+                elif cols is None:
+                    cols = line.strip().split(",")
+                elif line.strip():
+                    rows += 1
+    except OSError as e:
+        raise DataError(f"cannot read {path}: {e.strerror}") from None
+    except UnicodeDecodeError:
+        raise DataError(f"{path}: not a text file") from None
+    if check and (tuple(cols or ()) != COLUMNS or "start_utc" not in meta):
+        raise DataError(f"{path}: not a run inclino acquire left (its columns or header differ): not resumed")
+    return meta, rows
 
 
 def acquire(link, procedure: str, out_path: str, table, *, points: int = 36, d1: float = 30.0,
             azimuth: float = 2.0, step_deg: float = 10.0, tol: Tolerance | None = None,
             max_reads: int = 30, world: dict | None = None, quiet: bool = False,
-            turn_timeout_s: float = 120.0, average: int | None = None) -> AcquireResult:
+            turn_timeout_s: float = 120.0, average: int | None = None, resume: str | None = None) -> AcquireResult:
     """Take the procedure's positions on `table` (turntable.ManualTurntable or
     turntable_emulated.EmulatedTurntable) and
     write the raw dataset to out_path.  world: field_nT / dip_deg /
@@ -222,8 +345,11 @@ def acquire(link, procedure: str, out_path: str, table, *, points: int = 36, d1:
     meta["source"] = (f"inclino acquire {procedure} ({who}; probe {ident.product} fw "
                       f"{'.'.join(map(str, ident.fw_version))}, {tol.reads} reads within {tol.acc_mg:g} mg "
                       f"/ {tol.mag_nT:g} nT)")
+    if resume is not None and procedure == "continuous" and not table.unattended:
+        raise DataError("--resume: an operator's continuous run is read as whole turns; start it again")
+    out = _RowWriter(out_path, meta, resume)
     res = AcquireResult(out_path, procedure, 0, ident.serial, meta)
-    out = _RowWriter(out_path, meta)
+    done = out.rows
     bar = progress_bar(len(steps), procedure, quiet)
     def say(m):  # instructions and warnings stay visible with --quiet (an operator needs them)
         bar.write(m, file=sys.stderr)
@@ -234,7 +360,12 @@ def acquire(link, procedure: str, out_path: str, table, *, points: int = 36, d1:
         if procedure == "continuous" and not table.unattended:
             _continuous_operator(link, table, steps, out, res, bar, say, turn_timeout_s)
         else:
+            if done >= len(steps):
+                raise DataError(f"{out.part} already holds {done} rows, the whole procedure: nothing to resume")
+            bar.update(done)
             for i, st in enumerate(steps, start=1):
+                if i <= done:  # taken before the interruption (--resume)
+                    continue
                 table.move(st, i, len(steps))
                 if st.rotation:  # the bench's stepped rotation: one reading per step
                     win = [read_once(link)]
@@ -247,7 +378,7 @@ def acquire(link, procedure: str, out_path: str, table, *, points: int = 36, d1:
 
                     win = read_stable(link, tol, max_reads if table.unattended else None, waiting)
                     res.reads += len(win)
-                out.write({**mean_row(win), "inc_deg": st.inc, "azi_deg": st.azi, "tf_deg": st.tf})
+                out.write({**mean_row(win), "inc_deg": st.inc, "azi_deg": st.azi, "tf_deg": st.tf}, win)
                 bar.update(1)
     return res
 

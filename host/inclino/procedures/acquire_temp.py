@@ -239,7 +239,7 @@ def acquire_temperature(link, out_path: str, table, plan: ThermalPlan, *, tol=No
                 table.move(Step(st.inc, st.azi, st.tf, f"{sp:g} degC: {st.label}"), i, len(poses))
                 win = read_stable(link, tol, max_reads if table.unattended else None)
                 res.reads += len(win)
-                out.write({**mean_row(win), "inc_deg": st.inc, "azi_deg": st.azi, "tf_deg": st.tf})
+                out.write({**mean_row(win), "inc_deg": st.inc, "azi_deg": st.azi, "tf_deg": st.tf}, win)
                 bar.update(1)
     return res
 

@@ -194,7 +194,7 @@ class _Run:
         from inclino.formats.dataset import META_KEYS, RawDataset
 
         rows = self.rows if rows is None else rows
-        cols = {c: np.array([r[c] for r in rows], float) for c in COLUMNS}
+        cols = {c: np.array([r[c] for r in rows], float) for c in COLUMNS if c in rows[0]}
         return RawDataset(cols, {k: v for k, v in self.meta.items() if k in META_KEYS})
 
     def poses(self, rows=None):
@@ -541,7 +541,7 @@ def _loop(link, table, run: _Run, res: AdaptiveResult, out, bar, tell, clock, ch
         win = read_stable(link, tol, max_reads if table.unattended else None)
         res.reads += len(win)
         row = {**mean_row(win), "inc_deg": cur[0], "azi_deg": wrap_deg(cur[1]), "tf_deg": wrap_deg(cur[2])}
-        out.write(row)
+        out.write(row, win)
         bench, tb = clock.read()
         tp0 = time.monotonic()
         if thermal:

@@ -1,15 +1,17 @@
 """Repeatability QC: two surveys of the same hole (in-run and out-run, or two
 probes) station by station, against the spread the error model expects.
 
-Stations are paired by measured depth (nearest, within md_tol metres).  At
-each pair the inclination and azimuth differences are set against the
-expected 1-sigma of a difference, from the tool model's terms at the pair's
-attitude (toolface-independent ISCWSA weighting functions):
+Stations are paired by measured depth (nearest, within md_tol metres): an
+in-run (depth increasing) and an out-run (decreasing) pair as well as two
+in-runs.  At each pair the inclination and azimuth differences are set
+against the expected 1-sigma of a difference, from the error model's terms
+at the pair's attitude (welleng's per-term station covariance):
 
-* the same probe (default): the random terms (noise) of both surveys, and
-  the toolface-dependent systematic terms (the XY sensor terms and the
-  tool-axis misalignment), which a different toolface at the same depth
-  changes; the Z-axis terms and the reference field cancel;
+* the same probe (default): the random terms (noise, random declination
+  and misalignment) of both surveys, and the toolface-dependent systematic
+  terms (the XY sensor terms and the tool-axis misalignment), which a
+  different toolface at the same depth changes; the Z-axis terms and the
+  reference field's systematic terms cancel;
 * two probes (two_probes): every sensor term of both.
 
 A station passes when both |d inc| and |d azi| are within k (default 3)
@@ -22,12 +24,8 @@ from dataclasses import asdict, dataclass, field
 
 import numpy as np
 
-from inclino.survey import errormodel as em
 from inclino.errors import DataError
 from inclino.formats.jsonout import dumps
-
-XY_GROUPS = ("ABXY", "ASXY", "MBXY", "MSXY", "XYM34")
-
 
 @dataclass
 class CompareResult:
@@ -36,6 +34,7 @@ class CompareResult:
     unmatched_out: list = field(default_factory=list)
     k: float = 3.0
     mode: str = "same probe"
+    runs: list = field(default_factory=list)  # "in-run"/"out-run" of the two listings
     passed: bool = True
     summary: dict = field(default_factory=dict)
 
@@ -43,54 +42,88 @@ class CompareResult:
         return dumps(asdict(self))
 
 
-def _expected(tm: em.ToolModel, inc, azi, dip, field_nT, two_probes):
-    if two_probes:
-        sub = tm
-    else:
-        sub = em.ToolModel(systematic={g: v for g, v in tm.systematic.items() if g in XY_GROUPS}, noise=tm.noise)
-    si, sa = em.station_sigma(sub, inc, azi, dip, field_nT)
-    return math.sqrt(2.0) * si, math.sqrt(2.0) * sa
+def counts(code: str, propagation: str, two_probes: bool) -> bool:
+    """Whether a term differs between the two surveys of a station: a random
+    term always; the same probe's toolface-dependent systematic terms (the
+    X/Y sensor terms, misalignment), which another toolface at the same depth
+    changes; with two probes every sensor term.  Depth (course length) and
+    the reference field's systematic terms are common to both."""
+    from inclino.survey.models import family
+
+    f = family(code)
+    if f == "depth":
+        return False
+    if propagation == "random":
+        return True
+    if f == "misalignment":
+        return True
+    if f == "sensor":
+        return two_probes or "XY" in code.upper()
+    return False
 
 
-def compare(a, b, tm: em.ToolModel, dip_deg: float, field_nT: float, k: float = 3.0, md_tol: float = 0.5,
-            two_probes: bool = False) -> CompareResult:
-    """a, b: wellpath.Survey (in-run, out-run)."""
+def expected(model, md, inc, azi, rf, two_probes=False, fallback=(60.0, 50000.0)):
+    """1-sigma (deg) of the inclination and azimuth difference between two
+    surveys at each station (md increasing), from the model's terms."""
+    prop = model.propagate(md, inc, azi, rf, fallback)
+    vi = np.zeros(len(md))
+    va = np.zeros(len(md))
+    for (part, code), (propagation, dia) in prop.sources.items():
+        if counts(code, propagation, two_probes):
+            vi += dia[:, 1, 1]
+            va += dia[:, 2, 2]
+    return np.degrees(np.sqrt(2.0 * vi)), np.degrees(np.sqrt(2.0 * va))
+
+
+def compare(a, b, model, rf, k: float = 3.0, md_tol: float = 0.5, two_probes: bool = False,
+            fallback=(60.0, 50000.0)) -> CompareResult:
+    """a, b: wellpath.Survey (in-run and out-run, in either order; each sorted
+    by depth when read); model: models.ErrorModel; rf: the reference field
+    (its dip and total field enter the weights)."""
     if not (k > 0 and math.isfinite(k)):
         raise DataError("--k must be > 0")
     if not (md_tol >= 0 and math.isfinite(md_tol)):
         raise DataError("--md-tol must be >= 0")
     res = CompareResult(k=k, mode="two probes" if two_probes else "same probe")
-    used_b = set()
+    res.runs = [a.meta.get("run", ""), b.meta.get("run", "")]
+    used_b, pairs = set(), []
     for i, md in enumerate(a.md_m):
         j = int(np.argmin(np.abs(b.md_m - md)))
         if abs(b.md_m[j] - md) > md_tol or j in used_b:
             res.unmatched_in.append(float(md))
             continue
         used_b.add(j)
-        inc = 0.5 * (a.inc_deg[i] + b.inc_deg[j])
-        d_azi = ((b.azi_mag_deg[j] - a.azi_mag_deg[i] + 180.0) % 360.0) - 180.0
-        azi = (a.azi_mag_deg[i] + 0.5 * d_azi) % 360.0
-        si, sa = _expected(tm, np.array([inc]), np.array([azi]), dip_deg, field_nT, two_probes)
-        d_inc = float(b.inc_deg[j] - a.inc_deg[i])
-        si, sa = float(si[0]), float(sa[0])
-        azi_defined = math.isfinite(sa) and min(a.inc_deg[i], b.inc_deg[j]) >= 0.5
-        ok_i = abs(d_inc) <= k * si
-        ok_a = (abs(d_azi) <= k * sa) if azi_defined else True
-        res.stations.append({"md_m": float(md), "md_out_m": float(b.md_m[j]), "inc_deg": float(a.inc_deg[i]),
-                             "d_inc_deg": d_inc, "sigma_d_inc_deg": si,
-                             "d_azi_deg": float(d_azi) if azi_defined else None,
-                             "sigma_d_azi_deg": sa if azi_defined else None,
-                             "verdict": "PASS" if ok_i and ok_a else
-                             "FAIL " + ",".join(n for n, ok in (("inc", ok_i), ("azi", ok_a)) if not ok)})
+        pairs.append((i, j))
     res.unmatched_out = [float(m) for j, m in enumerate(b.md_m) if j not in used_b]
-    if not res.stations:
+    if not pairs:
         raise DataError(f"no station of the two surveys is within {md_tol:g} m of measured depth of the other")
+    ia, ib = np.array([p[0] for p in pairs]), np.array([p[1] for p in pairs])
+    inc = 0.5 * (a.inc_deg[ia] + b.inc_deg[ib])
+    d_azi = ((b.azi_mag_deg[ib] - a.azi_mag_deg[ia] + 180.0) % 360.0) - 180.0
+    azi = (a.azi_mag_deg[ia] + 0.5 * d_azi) % 360.0
+    md = a.md_m[ia]
+    pad = len(md) == 1  # welleng needs two stations: one more above, its result unused
+    si, sa = expected(model, np.r_[md[0] - 10.0, md] if pad else md, np.r_[inc[0], inc] if pad else inc,
+                      np.r_[azi[0], azi] if pad else azi, rf, two_probes, fallback)
+    si, sa = (si[1:], sa[1:]) if pad else (si, sa)
+    for n, (i, j) in enumerate(pairs):
+        d_inc = float(b.inc_deg[j] - a.inc_deg[i])
+        azi_defined = math.isfinite(sa[n]) and min(a.inc_deg[i], b.inc_deg[j]) >= 0.5
+        ok_i = abs(d_inc) <= k * si[n]
+        ok_a = (abs(d_azi[n]) <= k * sa[n]) if azi_defined else True
+        res.stations.append({"md_m": float(md[n]), "md_out_m": float(b.md_m[j]), "inc_deg": float(a.inc_deg[i]),
+                             "d_inc_deg": d_inc, "sigma_d_inc_deg": float(si[n]),
+                             "d_azi_deg": float(d_azi[n]) if azi_defined else None,
+                             "sigma_d_azi_deg": float(sa[n]) if azi_defined else None,
+                             "verdict": "PASS" if ok_i and ok_a else
+                             "FAIL " + ",".join(nm for nm, ok in (("inc", ok_i), ("azi", ok_a)) if not ok)})
     nf = sum(s["verdict"] != "PASS" for s in res.stations)
     res.passed = nf == 0
-    res.summary = {"pairs": len(res.stations), "failed": nf, "unmatched_in": len(res.unmatched_in),
-                   "unmatched_out": len(res.unmatched_out),
+    res.summary = {"pairs": len(res.stations), "failed": nf, "passed_fraction": 1.0 - nf / len(res.stations),
+                   "unmatched_in": len(res.unmatched_in), "unmatched_out": len(res.unmatched_out),
                    "d_inc_rms_deg": float(np.sqrt(np.mean([s["d_inc_deg"] ** 2 for s in res.stations]))),
-                   "d_azi_rms_deg": _rms([s["d_azi_deg"] for s in res.stations])}
+                   "d_azi_rms_deg": _rms([s["d_azi_deg"] for s in res.stations]),
+                   "error_model": model.describe()}
     return res
 
 

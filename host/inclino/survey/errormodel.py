@@ -33,7 +33,13 @@ Terms and where their magnitudes come from:
 
 Not in the probe's model: the depth terms (the depth system's), the
 tool-axis misalignment and sag terms (XYM, SAG: the tool's centralisation in
-the hole).  A planner adds those for the conveyance it uses.
+the hole), axial interference.  inclino.survey.models sets the probe's terms
+into a standard model that has them (`--tool-model iscwsa-mwd-rev5 --cal`).
+
+Revision: the terms are written in ISCWSA revision 5 (default; XYM3E/XYM4E
+random with the short-course damping, as Rev 5 and the OWSG models
+propagate them) or 4 (XYM3/XYM4 systematic, undamped); the metadata states
+it (`revision_number`, `framework`).
 """
 from __future__ import annotations
 
@@ -72,16 +78,21 @@ def _owsg(short_name: str) -> dict:
         return json.load(f)
 
 
-def _template_terms() -> dict:
-    """The OWSG MWD+SRGM terms this model uses.  XYM3/XYM4 (tool-axis
-    misalignment, systematic as in ISCWSA revision 4) are Rev 5's XYM3E/XYM4E
-    without the short-course damping factor, which belongs to random
-    propagation between closely spaced stations."""
+def _template_terms(revision: int = 4) -> dict:
+    """The OWSG MWD+SRGM terms this model uses, keyed by GROUPS' names.
+    Revision 5: XYM3/XYM4 are Rev 5's XYM3E/XYM4E as ISCWSA Rev 5 (and the
+    OWSG model) propagates them: random, with the short-course damping
+    factor.  Revision 4 (and the attitude-only weights of the projection):
+    ISCWSA Rev 4's XYM3/XYM4, systematic, no damping (the same weighting
+    functions; checked against welleng's Rev 4 model in the tests)."""
     out = {}
     for t in _owsg("MWD+SRGM")["terms"]:
         if t["name"] not in SENSOR_TERMS:
             continue
         t = dict(t)
+        if t["name"] in ("XYM3E", "XYM4E") and revision >= 5:
+            out[t["name"][:-1]] = t
+            continue
         if t["name"] in ("XYM3E", "XYM4E"):
             t["name"] = t["name"][:-1]
             t["propagation_mode"] = "Systematic"
@@ -110,14 +121,15 @@ class ToolModel:
     noise: dict = field(default_factory=dict)  # NOISE_GROUPS key -> 1 sigma per survey
     fit: dict = field(default_factory=dict)  # how the projection matched (relative RMS, attitudes)
     source: dict = field(default_factory=dict)
+    revision: int = 5  # the ISCWSA revision its terms are written in (XYM3/XYM4 as that revision propagates them)
 
     def to_json(self) -> str:
         return dumps(asdict(self))
 
-    def terms(self) -> list:
+    def terms(self, revision: int | None = None) -> list:
         """The ISCWSA JSON terms (the weighting functions of the OWSG
-        MWD+SRGM model, this probe's magnitudes)."""
-        tpl = _template_terms()
+        MWD+SRGM model, this probe's magnitudes) in `revision` (default its own)."""
+        tpl = _template_terms(self.revision if revision is None else revision)
         out = []
         for g, names in GROUPS.items():
             for n in names:
@@ -135,38 +147,23 @@ class ToolModel:
                 out.append(t)
         return out
 
-    def iscwsa(self, reference: str = "none") -> dict:
+    def iscwsa(self, reference: str = "none", revision: int | None = None) -> dict:
         """The tool model as an ISCWSA JSON dict (welleng ErrorModel loads it
         as is), with the reference-field terms of `reference` appended."""
+        rev = self.revision if revision is None else revision
         return {"metadata": {"model_id": self.name, "short_name": self.name,
                              "long_name": f"{self.name}: calibrated magnetic probe (inclino)",
-                             "revision_number": 5, "tool_type": "Magnetic", "framework": "ISCWSA Rev5",
+                             "revision_number": rev, "tool_type": "Magnetic", "framework": f"ISCWSA Rev{rev}",
                              "source": "inclino toolmodel: " + json.dumps(self.source, sort_keys=True),
                              "author": "inclino", "application": "magnetic survey probe, calibrated",
                              "reference_terms": reference},
                 "parameters": {"inc_min": 0, "inc_max": 180},
-                "terms": self.terms() + reference_terms(reference)}
+                "terms": self.terms(rev) + reference_terms(reference)}
 
     def save(self, path: str, reference: str = "none") -> None:
         d = self.iscwsa(reference)
         d["inclino"] = asdict(self)
         _write(path, json.dumps(d, indent=2) + "\n")
-
-    @staticmethod
-    def load(path: str) -> "ToolModel":
-        try:
-            with open(path, encoding="utf-8") as f:
-                d = json.load(f)
-        except OSError as e:
-            raise DataError(f"cannot read tool model {path}: {e.strerror}")
-        except json.JSONDecodeError as e:
-            raise DataError(f"{path}: not JSON ({e.msg} at line {e.lineno})")
-        if not isinstance(d, dict) or not isinstance(d.get("inclino"), dict):
-            raise DataError(f"{path}: not a tool model written by inclino toolmodel")
-        try:
-            return ToolModel(**d["inclino"])
-        except TypeError as e:
-            raise DataError(f"{path}: tool model fields are mangled ({e})")
 
 
 def reference_terms(which: str) -> list:
@@ -336,7 +333,7 @@ def project(cal, cov, dip, field_nT, gravity=1.0):
 
 
 def from_calibration(cal, dip_deg, field_nT, gravity_g=1.0, acc_noise_g=0.0, mag_noise_nT=0.0,
-                     name="INCLINO") -> ToolModel:
+                     name="INCLINO", noise_source: str = "given", revision: int = 5) -> ToolModel:
     """The probe's tool model from a calibration (its covariance) and the
     probe's measured noise per survey (per axis, g and nT)."""
     if not (math.isfinite(dip_deg) and abs(dip_deg) < 90.0):
@@ -351,7 +348,8 @@ def from_calibration(cal, dip_deg, field_nT, gravity_g=1.0, acc_noise_g=0.0, mag
                    fit=fit,
                    source={"calibration": cal.method, "probe_serial": cal.probe_serial,
                            "covariance": what, "data": (cal.data or {}).get("sha256", ""),
-                           "acc_noise_g": acc_noise_g, "mag_noise_nT": mag_noise_nT})
+                           "acc_noise_g": acc_noise_g, "mag_noise_nT": mag_noise_nT, "noise_source": noise_source},
+                   revision=revision)
     for g, v in tm.noise.items():
         if not (math.isfinite(v) and v >= 0):
             raise DataError("noise must be a finite value >= 0")
@@ -373,6 +371,28 @@ def mc_check(tm, cal, cov, dip_deg, field_nT, gravity_g=1.0, n=3000, seed=1):
     ri, ra = pi / mi, pa / ma
     return {"draws": n, "inc_deg": list(MC_INC), "azi_deg": list(MC_AZI), "inc_ratio": ri.tolist(),
             "azi_ratio": ra.tolist(), "within_20pct": bool(np.all(np.abs(ri - 1) <= 0.2) and np.all(np.abs(ra - 1) <= 0.2))}
+
+
+def calibration_noise(cal) -> tuple[float, float, str]:
+    """(accelerometer g, fluxgate nT, where from): the noise of one probe
+    reading per axis that the calibration's fit report records
+    (report.uncertainty.reading_noise: measured by acquire at the poses, or
+    the fit's residuals of G total and B total); an older report's
+    residuals of G total and B total.  DataError when the report has neither: the noise is
+    never taken as zero."""
+    rep = cal.report or {}
+    rn = (rep.get("uncertainty") or {}).get("reading_noise")
+    if isinstance(rn, dict) and all(isinstance(rn.get(k), (int, float)) for k in ("acc_g", "mag_nT")):
+        a, m = float(rn["acc_g"]), float(rn["mag_nT"])
+        if math.isfinite(a) and math.isfinite(m) and a >= 0 and m >= 0:
+            return a, m, f"the calibration's fit report ({rn.get('source', 'reading noise')})"
+    res = rep.get("residuals") or {}
+    ga, bm = res.get("acc_norm_rms_mg"), res.get("mag_norm_rms_nT")
+    if all(isinstance(v, (int, float)) and math.isfinite(v) and v >= 0 for v in (ga, bm)):
+        return (ga * 1e-3, float(bm), "the calibration's fit report (its RMS residual of G total and B total: the "
+                                      "noise along the field and what the calibration leaves)")
+    raise DataError("the calibration's fit report records no reading noise: give --acc-noise G and --mag-noise NT "
+                    "(or toolmodel --noise NOISE.csv, repeated surveys at rest); the noise is never taken as zero")
 
 
 def noise_from_survey(rows) -> tuple[float, float]:

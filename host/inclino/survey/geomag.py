@@ -21,7 +21,9 @@ A_grid = A_true - gamma.
 """
 from __future__ import annotations
 
+import contextlib
 import datetime as _dt
+import functools
 import json
 import math
 from dataclasses import asdict, dataclass, field
@@ -125,9 +127,14 @@ def main_field(lat_deg: float, lon_deg: float, date, alt_m: float = 0.0, model: 
         import numpy as np
         import ppigrf
 
-        if not 1900 <= d.year <= 2030:
-            raise DataError(f"IGRF covers 1900-2030, not {d.isoformat()}")
-        be, bn, bu = ppigrf.igrf(lon_deg, lat_deg, alt_m / 1000.0, _dt.datetime(d.year, d.month, d.day))
+        first, last = igrf_range()
+        when = _dt.datetime(d.year, d.month, d.day)
+        if not first <= when <= last:
+            raise DataError(f"--date {d.isoformat()}: outside the IGRF model's validity, {first:%Y-%m-%d} to "
+                            f"{last:%Y-%m-%d} (ppigrf {_version('ppigrf')}); give the field with --declination, "
+                            "--dip, --total")
+        with _library_output():
+            be, bn, bu = ppigrf.igrf(lon_deg, lat_deg, alt_m / 1000.0, when)
         dec, dip, f = _decompose(float(np.ravel(bn)[0]), float(np.ravel(be)[0]), -float(np.ravel(bu)[0]))
         return dec, dip, f, f"IGRF (ppigrf {_version('ppigrf')})"
     if model == "wmm":
@@ -137,11 +144,37 @@ def main_field(lat_deg: float, lon_deg: float, date, alt_m: float = 0.0, model: 
             raise DataError("--model wmm needs the pygeomag package (pip install pygeomag)")
         year0 = 2025 if d.year >= 2025 else 2020 if d.year >= 2020 else 2015
         if d.year >= 2030 or d.year < 2015:
-            raise DataError(f"WMM (pygeomag) covers 2015-2029, not {d.isoformat()}")
-        gm = GeoMag(coefficients_file=f"wmm/WMM_{year0}.COF", high_resolution=False)
-        r = gm.calculate(glat=lat_deg, glon=lon_deg, alt=alt_m / 1000.0, time=_decimal_year(d))
+            raise DataError(f"--date {d.isoformat()}: outside the WMM models' validity (pygeomag "
+                            f"{_version('pygeomag')}: WMM2015, WMM2020, WMM2025), 2015-01-01 to 2029-12-31; give the "
+                            "field with --declination, --dip, --total")
+        with _library_output():
+            gm = GeoMag(coefficients_file=f"wmm/WMM_{year0}.COF", high_resolution=False)
+            r = gm.calculate(glat=lat_deg, glon=lon_deg, alt=alt_m / 1000.0, time=_decimal_year(d))
         return float(r.d), float(r.i), float(r.f), f"WMM{year0} (pygeomag {_version('pygeomag')})"
     raise DataError(f"unknown geomagnetic model {model!r} (igrf or wmm)")
+
+
+@functools.lru_cache(maxsize=1)
+def igrf_range():
+    """(first, last) datetime of the IGRF coefficients ppigrf evaluates (the
+    main field's validity: 1900-01-01 to 2030-01-01 for IGRF-14)."""
+    import ppigrf
+
+    with _library_output():
+        from ppigrf import ppigrf as _pp
+
+        g, _ = _pp.read_shc(_pp.shc_fn)
+    return g.index[0].to_pydatetime(), g.index[-1].to_pydatetime()
+
+
+@contextlib.contextmanager
+def _library_output():
+    """What a library prints (ppigrf prints its warnings) goes to standard
+    error, never into standard output, where JSON and CSV results go."""
+    import sys
+
+    with contextlib.redirect_stdout(sys.stderr):
+        yield
 
 
 def _version(dist: str) -> str:
@@ -183,7 +216,11 @@ def grid(lat_deg: float, lon_deg: float, epsg: int):
     x, y = tr.transform(lon_deg, lat_deg)
     if not (math.isfinite(x) and math.isfinite(y)):
         raise DataError(f"--grid {epsg}: the position is outside {crs.name}")
-    f = proj.get_factors(lon_deg, lat_deg, errcheck=False)
+    # the projection's factors at the position in the CRS's own datum (ED50, OSGB36, ...), not at the WGS 84
+    # latitude and longitude read as if they were that datum's
+    to_own = pyproj.Transformer.from_crs("EPSG:4326", crs.geodetic_crs, always_xy=True)
+    lon_own, lat_own = to_own.transform(lon_deg, lat_deg)
+    f = proj.get_factors(lon_own, lat_own, errcheck=False)
     gamma = float(f.meridian_convergence)
     k = math.sqrt(float(f.meridional_scale) * float(f.parallel_scale))
     if not (math.isfinite(gamma) and math.isfinite(k)):
@@ -191,8 +228,8 @@ def grid(lat_deg: float, lon_deg: float, epsg: int):
     # PROJ's meridian convergence may be defined against the CRS's axis order; what matters
     # is the grid azimuth of true north, measured here from the projection itself
     tn = _grid_azimuth_of_true_north(tr, lat_deg, lon_deg)
-    if abs(((-tn - gamma) + 180.0) % 360.0 - 180.0) > 1e-3:
-        gamma = -tn
+    if abs(-tn - gamma) > abs(-tn + gamma):  # PROJ's sign convention for this CRS's axes: the value stays PROJ's
+        gamma = -gamma
     return gamma, k, float(x), float(y)
 
 

@@ -34,3 +34,16 @@ def write_probe(link, rf) -> tuple:
     if got != want:
         raise InclinoError(f"the probe's QC reference reads back {got}, not {want}")
     return got
+
+
+def readable(rec) -> dict:
+    """A QC reference record (qc_ref_t, fixed point) in units."""
+    gt, gtt, bt, btt, dip, dipt = rec
+    return {"gt_g": gt / 2**27, "gt_tol_g": gtt / 2**27, "bt_nT": bt / 256.0, "bt_tol_nT": btt / 256.0,
+            "dip_deg": dip / 65536.0, "dip_tol_deg": dipt / 65536.0}
+
+
+def text(rec) -> str:
+    r = readable(rec)
+    return (f"G total {r['gt_g']:.6f} +- {r['gt_tol_g']:.4f} g, B total {r['bt_nT']:.1f} +- {r['bt_tol_nT']:.0f} nT, "
+            f"dip {r['dip_deg']:.4f} +- {r['dip_tol_deg']:.2f} deg")

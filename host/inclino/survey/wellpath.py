@@ -31,6 +31,9 @@ from inclino.survey.geomag import ReferenceField
 from inclino.formats.jsonout import dumps
 
 HOST_QC = (("G", "gt_g", "gravity_g"), ("B", "bt_nT", "total_nT"), ("dip", "dip_deg", "dip_deg"))
+# what a survey log's header says about the run, carried into the trajectory's outputs
+SURVEY_META = ("run", "file", "start_utc", "product", "probe_serial", "firmware", "calibration_slot",
+               "calibration_sequence", "calibration_crc")
 FT = 0.3048
 
 
@@ -56,6 +59,27 @@ def _num(v, what, where):
     return x
 
 
+def _where(path, i, md=None):
+    """'FILE: row N (MD x m)': the place of a station in an input file."""
+    return f"{path}: row {i + 1}" + (f" (MD {md:g} m)" if md is not None and math.isfinite(md) else "")
+
+
+def run_direction(md, path: str = "survey") -> str:
+    """'in-run' (measured depth increasing down the file), 'out-run'
+    (decreasing: the probe pulled out of the hole) or 'station' (one depth);
+    DataError naming the row and depth where a file turns."""
+    d = np.diff(np.asarray(md, float))
+    up, down = np.flatnonzero(d > 0), np.flatnonzero(d < 0)
+    if len(up) and len(down):
+        first = min(up[0], down[0])
+        turn = int(max(up[0], down[0]))  # the first step against the file's direction
+        what = "increases" if first == down[0] else "decreases"
+        raise DataError(f"{_where(path, turn + 1, float(md[turn + 1]))}: measured depth {what} against the run's "
+                        f"direction (from {md[turn]:g} m): a file is an in-run (depth increasing) or an out-run "
+                        "(decreasing), not both; split it")
+    return "out-run" if len(down) else "in-run" if len(up) else "station"
+
+
 def _rows_to_survey(rows: list[dict], path: str, meta: dict) -> Survey:
     if not rows:
         raise DataError(f"{path}: no survey stations")
@@ -67,11 +91,14 @@ def _rows_to_survey(rows: list[dict], path: str, meta: dict) -> Survey:
     if missing:
         raise DataError(f"{path}: missing column {', '.join(missing)} (a survey listing needs md_m, inc_deg, azi_deg)")
     md, inc, azi = [], [], []
-    extra = {k: [] for k in ("gt_g", "bt_nT", "dip_deg", "flags", "qc")}
+    extra = {k: [] for k in ("gt_g", "bt_nT", "dip_deg", "flags", "qc", "utc_s")}
     for i, r in enumerate(rows):
-        where = f"{path}: station {i + 1}"
-        md.append(_num(r.get(mdk), "md_m", where))
+        m = _num(r.get(mdk), "md_m", _where(path, i))
+        where = _where(path, i, m)
+        md.append(m)
         inc.append(_num(r.get("inc_deg"), "inc_deg", where))
+        if not 0.0 <= inc[-1] <= 180.0:
+            raise DataError(f"{where}: inclination {inc[-1]:g} deg is outside 0-180")
         azi.append(_num(r.get(azk), azk, where))
         for k in extra:
             v = r.get(k)
@@ -86,12 +113,17 @@ def _rows_to_survey(rows: list[dict], path: str, meta: dict) -> Survey:
                     raise DataError(f"{where}: {k} {v!r} is not a number")
             extra[k].append(x)
     md, inc, azi = np.array(md), np.array(inc), np.array(azi)
-    if np.any(inc < 0) or np.any(inc > 180):
-        raise DataError(f"{path}: inclination outside 0-180 deg")
-    if np.any(np.diff(md) < 0):
-        i = int(np.argmax(np.diff(md) < 0)) + 2
-        raise DataError(f"{path}: measured depth must increase from station to station (station {i})")
-    return _merge_repeats(Survey(md, inc, np.mod(azi, 360.0), {k: np.array(v) for k, v in extra.items()}, meta))
+    meta = {**meta, "run": run_direction(md, path), "file": path}
+    order = np.argsort(md, kind="stable")  # an out-run reads bottom up: the path is computed top down
+    ex = {k: np.array(v)[order] for k, v in extra.items()}
+    utc = ex.pop("utc_s")
+    from inclino.formats.survey_log import parse_utc
+
+    if np.any(np.isfinite(utc)) and meta.get("start_utc"):
+        ex["utc"] = parse_utc(meta["start_utc"], path) + utc  # POSIX seconds, UTC
+    elif all(isinstance(r.get("utc"), str) for r in rows):  # JSON lines: each reading's time in ISO 8601
+        ex["utc"] = np.array([parse_utc(r["utc"], _where(path, i)) for i, r in enumerate(rows)])[order]
+    return _merge_repeats(Survey(md[order], inc[order], np.mod(azi[order], 360.0), ex, meta))
 
 
 def _merge_repeats(sv: Survey) -> Survey:
@@ -129,7 +161,10 @@ def concat(surveys: list) -> Survey:
     extra = {k: np.concatenate([s.extra.get(k, np.full(len(s), np.nan)) for s in surveys])[order] for k in keys}
     meta = {}
     for s in surveys:
-        meta.update(s.meta)
+        meta.update({k: v for k, v in s.meta.items() if k not in ("run", "file")})
+    runs = sorted({s.meta.get("run", "") for s in surveys} - {"", "station"})
+    meta["run"] = runs[0] if len(runs) == 1 else "in-run and out-run" if runs else "stations"
+    meta["file"] = ", ".join(s.meta.get("file", "?") for s in surveys)
     return _merge_repeats(Survey(md[order], np.concatenate([s.inc_deg for s in surveys])[order],
                                  np.concatenate([s.azi_mag_deg for s in surveys])[order], extra, meta))
 
@@ -166,7 +201,9 @@ def _csv_rows(text: str, path: str):
 
 
 def _read_json(text: str, path: str) -> Survey:
-    return _rows_to_survey(_json_rows(text, path), path, {})
+    rows = _json_rows(text, path)
+    probe = rows[0].get("probe") if rows else None
+    return _rows_to_survey(rows, path, {k: str(v) for k, v in probe.items()} if isinstance(probe, dict) else {})
 
 
 def _json_rows(text: str, path: str) -> list:
@@ -187,34 +224,36 @@ LAS_CURVES = {"INC": "inc_deg", "AZI": "azi_deg", "AZIM": "azi_deg", "GTOT": "gt
               "DIP": "dip_deg", "FLAGS": "flags", "QC": "qc"}
 
 
-def _read_las(text: str, path: str) -> Survey:
-    import lasio
+LAS_META = {"PSERIAL": "probe_serial", "PRODUCT": "product", "FWVER": "firmware", "CALSLOT": "calibration_slot",
+            "CALSEQ": "calibration_sequence", "CALCRC": "calibration_crc", "TSTART": "start_utc"}
 
-    try:
-        las = lasio.read(io.StringIO(text))
-    except Exception as e:  # lasio raises many kinds for a malformed file
-        raise DataError(f"{path}: not a readable LAS file ({e})")
+
+def _read_las(text: str, path: str) -> Survey:
+    from inclino.formats import las as lasfmt
+
+    las = lasfmt.read(text, path)
     curves = {c.mnemonic.upper(): c for c in las.curves}
     md = None
-    for m in ("MD", "DEPT", "DEPTH"):
+    for m in ("DEPT", "DEPTH", "MD"):
         if m in curves:
             c = curves[m]
-            unit = (c.unit or "").strip().lower()
-            if unit in ("s", "ms"):
-                continue
-            md = np.asarray(c.data, float) * (FT if unit in ("ft", "f", "feet") else 1.0)
+            md = np.asarray(c.data, float) * lasfmt.depth_factor(c.unit, f"{path}: curve {c.mnemonic}")
             break
     if md is None:
-        raise DataError(f"{path}: no measured-depth curve (MD or DEPT in m or ft)")
+        raise DataError(f"{path}: no measured-depth curve (DEPT, DEPTH or MD)")
     n = len(md)
     rows = [{"md_m": md[i]} for i in range(n)]
-    for m, key in LAS_CURVES.items():
+    for m, key in {**LAS_CURVES, "TIME": "utc_s"}.items():
         if m in curves:
             d = np.asarray(curves[m].data, float)
             for i in range(n):
                 if not math.isnan(d[i]):
                     rows[i].setdefault(key, d[i])
-    return _rows_to_survey(rows, path, {})
+    meta = {}
+    for p in las.params:
+        if p.mnemonic.upper() in LAS_META and str(p.value).strip():
+            meta[LAS_META[p.mnemonic.upper()]] = str(p.value).strip()
+    return _rows_to_survey(rows, path, meta)
 
 
 def _text(path: str) -> str:
@@ -272,28 +311,19 @@ class Trajectory:
     rows: list  # one dict per station (columns of COLUMNS + optional ones)
     columns: list
     reference: dict
-    tool_model: dict | None = None
+    survey: dict | None = None  # the survey's header (probe, calibration, run direction, start time)
     summary: dict = field(default_factory=dict)
 
     def to_json(self) -> str:
-        return dumps(asdict(self))
+        d = asdict(self)
+        d["summary"].pop("parts", None)
+        return dumps(d)
 
 
 def _welleng_survey(md, inc, azi_mag, rf: ReferenceField, error_model=None, fallback=(60.0, 50000.0)):
-    """welleng's Survey of magnetic azimuths.  Dip and field only enter the
-    error model's weights; when the reference lacks them (declination-only
-    referencing) `fallback` (the tool model's own) stands in."""
-    from welleng.survey import Survey as WSurvey, SurveyHeader
+    from inclino.survey.models import welleng_survey
 
-    dip = rf.dip_deg if math.isfinite(rf.dip_deg) else fallback[0]
-    bt = rf.total_nT if math.isfinite(rf.total_nT) else fallback[1]
-    grav = rf.gravity_g if math.isfinite(rf.gravity_g) else 1.0
-    h = SurveyHeader(latitude=rf.lat_deg if rf.lat_deg is not None else 0.0,
-                     longitude=rf.lon_deg if rf.lon_deg is not None else 0.0, altitude=rf.alt_m,
-                     survey_date=rf.date, b_total=bt, dip=dip, declination=rf.declination_deg,
-                     convergence=0.0, azi_reference="magnetic", G=grav * 9.80665)
-    return WSurvey(md=np.asarray(md, float), inc=np.asarray(inc, float), azi=np.asarray(azi_mag, float),
-                   header=h, error_model=error_model)
+    return welleng_survey(md, inc, azi_mag, rf, error_model, fallback)
 
 
 def dogleg_deg(inc1, azi1, inc2, azi2):
@@ -312,25 +342,25 @@ def ellipse(cov_ne):
     return math.sqrt(max(w[1], 0.0)), math.sqrt(max(w[0], 0.0)), az
 
 
-def trajectory(sv: Survey, rf: ReferenceField, tool_model=None, ref_terms: str = "none") -> Trajectory:
+def trajectory(sv: Survey, rf: ReferenceField, model=None) -> Trajectory:
     """The well path of a survey: azimuth references, minimum curvature,
-    station QC and, with a tool model (errormodel.ToolModel), the position
-    covariance at each station."""
+    station QC and, with an error model (inclino.survey.models.ErrorModel),
+    the position covariance at each station."""
     if not math.isfinite(rf.declination_deg):
         raise DataError("the declination is not known")
     if len(sv) < 2:
         raise DataError("a trajectory needs at least two stations at different measured depths")
-    model = tool_model.iscwsa(ref_terms) if tool_model is not None else None
     import warnings
 
+    fit = (getattr(model, "probe", None) or getattr(getattr(model, "base", None), "inclino", None))
+    fb = (fit.fit.get("dip_deg", 60.0), fit.fit.get("field_nT", 50000.0)) if fit is not None else (60.0, 50000.0)
     with warnings.catch_warnings():
         warnings.simplefilter("ignore")
         try:
-            fb = (tool_model.fit.get("dip_deg", 60.0), tool_model.fit.get("field_nT", 50000.0)) \
-                if tool_model is not None else (60.0, 50000.0)
-            ws = _welleng_survey(sv.md_m, sv.inc_deg, sv.azi_mag_deg, rf, model, fb)
+            ws = _welleng_survey(sv.md_m, sv.inc_deg, sv.azi_mag_deg, rf, None, fb)
         except (ValueError, AssertionError, ArithmeticError, KeyError, IndexError, np.linalg.LinAlgError) as e:
             raise DataError(f"the survey cannot be computed: {e}")
+    prop = model.propagate(sv.md_m, sv.inc_deg, sv.azi_mag_deg, rf, fb) if model is not None else None
     n = len(sv)
     north, east, tvd = np.asarray(ws.n, float) - ws.n[0], np.asarray(ws.e, float) - ws.e[0], \
         np.asarray(ws.tvd, float) - ws.tvd[0]
@@ -359,10 +389,11 @@ def trajectory(sv: Survey, rf: ReferenceField, tool_model=None, ref_terms: str =
             k = rf.scale_factor
             r["northing_m"] = rf.northing_m + k * (north[i] * math.cos(g) + east[i] * math.sin(g))
             r["easting_m"] = rf.easting_m + k * (east[i] * math.cos(g) - north[i] * math.sin(g))
-        fails = []
+        fails, checked = [], []
         for name, key, refkey in HOST_QC:
             v, ref = ex.get(key, [float("nan")] * n)[i], getattr(rf, refkey)
             if math.isfinite(v) and math.isfinite(ref):
+                checked.append(name)
                 r[f"d{key}"] = v - ref
                 if abs(v - ref) > rf.tol[key]:
                     fails.append(name)
@@ -371,22 +402,37 @@ def trajectory(sv: Survey, rf: ReferenceField, tool_model=None, ref_terms: str =
         near_vertical = (math.isfinite(fl) and int(fl) & 1) or sv.inc_deg[i] < 0.5 or sv.inc_deg[i] > 179.5
         if near_vertical:
             nq["near-vertical"] += 1
-        if math.isfinite(pq) and int(pq) & 0x7F:
-            fails.append("probe")
-            nq["probe"] += 1
-        r["qc"] = "PASS" if not fails else "FAIL " + ",".join(fails)
+        if math.isfinite(pq):
+            checked.append("probe (G only)" if int(pq) & 0x80 else "probe")
+            if int(pq) & 0x7F:
+                fails.append("probe")
+                nq["probe"] += 1
+        what = ",".join(checked) if checked else "nothing: no field values or no reference"
+        r["qc_checked"] = what
+        r["qc"] = (f"FAIL {','.join(fails)} (checked {what})" if fails else
+                   f"PASS {what}" if checked else f"not checked ({what})")
         r["note"] = "near-vertical: azimuth undefined" if near_vertical else ""
         rows.append(r)
     for key in ("gt_g", "bt_nT", "dip_deg"):
         if any(f"d{key}" in r for r in rows):
             cols.append(f"d{key}")
     cols += ["qc", "note"]
-    summary = {"stations": n, "qc_fail": sum(r["qc"] != "PASS" for r in rows), "qc_fail_by": nq,
+    summary = {"stations": n, "qc_fail": sum(r["qc"].startswith("FAIL") for r in rows), "qc_fail_by": nq,
+               "qc_checked": sorted({r["qc_checked"] for r in rows}),
                "md_m": [float(sv.md_m[0]), float(sv.md_m[-1])],
                "end": {"tvd_m": float(tvd[-1]), "north_m": float(north[-1]), "east_m": float(east[-1])}}
-    if tool_model is not None:
-        cov = np.asarray(ws.cov_nev, float)
-        dia = np.asarray(ws.err.errors.cov_DIAs, float)
+    if "utc" in ex:
+        t0 = float(np.nanmin(ex["utc"]))
+        from inclino.formats.survey_log import utc_iso
+
+        summary["start_utc"] = utc_iso(t0)
+        for i, r in enumerate(rows):
+            r["utc_s"] = float(ex["utc"][i] - t0)
+        cols[cols.index("qc"):cols.index("qc")] = ["utc_s"]
+    summary["run"] = sv.meta.get("run", "")
+    if prop is not None:
+        cov = prop.cov_nev
+        dia = prop.cov_dia
         for i, r in enumerate(rows):
             c = cov[i]
             a, b, az = ellipse(c[:2, :2])
@@ -401,9 +447,14 @@ def trajectory(sv: Survey, rf: ReferenceField, tool_model=None, ref_terms: str =
                                                    "sigma_east_m", "sigma_tvd_m", "ell_major_m", "ell_minor_m",
                                                    "ell_azi_deg", "cov_nn", "cov_ne", "cov_nv", "cov_ee",
                                                    "cov_ev", "cov_vv"]
-        summary["end"].update(ell_major_m=rows[-1]["ell_major_m"], ell_minor_m=rows[-1]["ell_minor_m"])
+        summary["end"].update(ell_major_m=rows[-1]["ell_major_m"], ell_minor_m=rows[-1]["ell_minor_m"],
+                              parts={k: dict(zip(("ell_major_m", "ell_minor_m"), ellipse(c[-1][:2, :2])[:2]))
+                                     for k, c in prop.parts.items()})
+        summary["error_model"] = model.describe()
+        summary["parts"] = prop.parts
+    meta = {k: v for k, v in sv.meta.items() if k in SURVEY_META}
     return Trajectory([{k: (float(v) if not isinstance(v, str) else v) for k, v in r.items()} for r in rows],
-                      cols, rf.header(), model, summary)
+                      cols, rf.header(), {"survey": meta, "start_utc": summary.get("start_utc")}, summary)
 
 
 def _fmt(v):
@@ -411,7 +462,7 @@ def _fmt(v):
         return v
     if v is None or (isinstance(v, float) and not math.isfinite(v)):
         return ""
-    return f"{v:.6f}" if abs(v) < 1e6 else f"{v:.3f}"
+    return f"{v:.10g}"
 
 
 def write_csv(tr: Trajectory, path: str) -> None:
@@ -419,6 +470,8 @@ def write_csv(tr: Trajectory, path: str) -> None:
     then a header row and one row per station."""
     buf = io.StringIO()
     for k, v in tr.reference.items():
+        buf.write(f"# {k}={v}\n")
+    for k, v in _survey_header(tr).items():
         buf.write(f"# {k}={v}\n")
     w = csv.writer(buf, lineterminator="\n")
     w.writerow(tr.columns)
@@ -447,20 +500,35 @@ LAS_OUT = (("inc_deg", "INC", "deg", "inclination"), ("azi_mag_deg", "AZIM", "de
            ("sigma_tvd_m", "SIGTVD", "m", "1-sigma TVD"))
 
 
-def write_las(tr: Trajectory, path: str) -> None:
-    """The trajectory as LAS 2.0, indexed by measured depth, with the
-    reference field in the ~Parameter section."""
-    import lasio
+def _survey_header(tr: Trajectory) -> dict:
+    """What the trajectory's outputs say about the survey and the error model."""
+    d = {}
+    sv = (tr.survey or {}).get("survey") or {}
+    for k in SURVEY_META:
+        if k == "start_utc":
+            continue
+        if sv.get(k) not in (None, ""):
+            d["survey_file" if k == "file" else k] = sv[k]
+    if (tr.survey or {}).get("start_utc"):
+        d["start_utc"] = tr.survey["start_utc"]
+        d["utc_s"] = "seconds since start_utc of each station's reading"
+    if tr.summary.get("error_model"):
+        d["error_model"] = tr.summary["error_model"]
+    return d
 
-    las = lasio.LASFile()
-    las.well["COMP"] = lasio.HeaderItem("COMP", value="")
-    las.well["WELL"] = lasio.HeaderItem("WELL", value="")
-    las.other = "Trajectory by inclino (minimum curvature, welleng); first station at the origin."
+
+def write_las(tr: Trajectory, path: str) -> None:
+    """The trajectory as LAS 2.0, indexed by measured depth (DEPT, M), with
+    the reference field, the survey's probe and the error model in the
+    ~Parameter section."""
+    from inclino.formats import las as lasfmt
+
     md = np.array([r["md_m"] for r in tr.rows])
-    las.append_curve("MD", md, unit="m", descr="measured depth")
-    for key, mnem, unit, descr in LAS_OUT:
-        if key in tr.columns:
-            las.append_curve(mnem, np.array([r.get(key, np.nan) for r in tr.rows], float), unit=unit, descr=descr)
+    curves = [(mnem, unit, descr, np.array([r.get(key, np.nan) for r in tr.rows], float))
+              for key, mnem, unit, descr in LAS_OUT if key in tr.columns]
+    if "utc_s" in tr.columns:
+        curves.append(("TIME", "s", "time of the station's reading since the survey's start (DATE, UTC)",
+                       np.array([r.get("utc_s", np.nan) for r in tr.rows], float)))
     pmap = {"declination_deg": ("MAGDEC", "deg", "magnetic declination, east positive"),
             "dip_deg": ("MAGDIP", "deg", "magnetic dip, down positive"), "field_nT": ("MAGFLD", "nT", "total field"),
             "gravity_g": ("GRAV", "g", "reference gravity"), "lat_deg": ("LAT", "deg", "latitude WGS 84"),
@@ -470,13 +538,21 @@ def write_las(tr: Trajectory, path: str) -> None:
             "convergence_deg": ("GRIDCONV", "deg", "grid convergence: A_grid = A_true - GRIDCONV"),
             "scale_factor": ("GRIDSF", "", "grid point scale factor"),
             "easting_m": ("WHEAST", "m", "wellhead easting"), "northing_m": ("WHNORTH", "m", "wellhead northing")}
-    for k, v in tr.reference.items():
-        if k in pmap:
-            m, u, d = pmap[k]
-            las.params[m] = lasio.HeaderItem(m, unit=u, value=v, descr=d)
-    buf = io.StringIO()
-    las.write(buf, version=2.0)
-    _write(path, buf.getvalue())
+    params = [(pmap[k][0], pmap[k][1], v, pmap[k][2]) for k, v in tr.reference.items() if k in pmap]
+    smap = {"run": ("RUN", "in-run (depth increasing), out-run (decreasing)"), "product": ("PRODUCT", "probe product"),
+            "probe_serial": ("PSERIAL", "probe serial"), "firmware": ("FWVER", "probe firmware version"),
+            "calibration_slot": ("CALSLOT", "active calibration slot"),
+            "calibration_sequence": ("CALSEQ", "active calibration sequence"),
+            "calibration_crc": ("CALCRC", "active calibration image CRC (hex)"),
+            "start_utc": ("TSTART", "the survey's first reading, UTC (ISO 8601)"),
+            "error_model": ("ERRMODEL", "error model of the ellipses")}
+    for k, v in _survey_header(tr).items():
+        if k in smap:
+            params.append((smap[k][0], "", ("0x" + str(v)) if k == "calibration_crc" else v, smap[k][1]))
+    text = lasfmt.render("DEPT", "M", "measured depth", md, curves, params,
+                         date=(tr.survey or {}).get("start_utc") or tr.reference.get("date", "") or "",
+                         other="Trajectory by inclino (minimum curvature, welleng); first station at the origin.")
+    _write(path, text)
 
 
 def read_trajectory(path: str) -> list[dict]:

@@ -1,0 +1,281 @@
+"""The complete error model: `trajectory --uncertainty --tool-model NAME`
+against the ISCWSA example workbooks (#1 Rev 4 and Rev 5, #2 Rev 5: their
+well paths and total covariance per station, tests/data/iscwsa); with
+`--cal` the probe's fitted sensor terms in place of the standard model's,
+every other term kept, and the whole never smaller than either part;
+edited terms take effect or are refused; the exported model states its
+revision and propagates XYM3/XYM4 as that revision does; the noise is
+never a silent zero and options that do nothing alone are refused."""
+import copy
+import json
+import math
+import pathlib
+
+import numpy as np
+import pytest
+
+from inclino import cli
+from inclino.survey import errormodel as em, geomag, models, wellpath as wp
+
+RNG = np.random.default_rng()
+DATA = pathlib.Path(__file__).parent / "data" / "iscwsa" / "iscwsa_examples.json"
+SENSOR = ("ABXY-TI1S", "ABXY-TI2S", "ABZ", "ASXY-TI1S", "ASXY-TI2S", "ASXY-TI3S", "ASZ", "MBXY-TI1S", "MBXY-TI2S",
+          "MBZ", "MSXY-TI1S", "MSXY-TI2S", "MSXY-TI3S", "MSZ")
+
+
+def run(capsys, *argv):
+    rc = cli.main([str(a) for a in argv])
+    out, err = capsys.readouterr()
+    return rc, out, err
+
+
+def _cov(rows):
+    return np.array([[[float(r["cov_nn"]), float(r["cov_ne"]), float(r["cov_nv"])],
+                      [float(r["cov_ne"]), float(r["cov_ee"]), float(r["cov_ev"])],
+                      [float(r["cov_nv"]), float(r["cov_ev"]), float(r["cov_vv"])]] for r in rows])
+
+
+def _example_listing(tmp_path, e):
+    """The workbook's well path as a survey listing of magnetic azimuths (the
+    probe's), depths in metres; the reference options of its header."""
+    h = e["header"]
+    f = 0.3048 if h["depth_unit"] == "ft" else 1.0
+    p = tmp_path / "well.csv"
+    with open(p, "w") as fh:
+        fh.write("md_m,inc_deg,azi_deg\n")
+        for m, i, a in zip(e["md"], e["inc_deg"], e["azi_deg"]):
+            fh.write(f"{m * f!r},{i!r},{(a - h['declination_deg']) % 360.0!r}\n")
+    return p, ["--declination", h["declination_deg"], "--dip", h["dip_deg"], "--total", h["b_total_nT"],
+               "--gravity", h["g_m_s2"] / 9.80665]
+
+
+@pytest.mark.parametrize("example,model", [("iscwsa-1-rev4", "iscwsa-mwd-rev4"),
+                                           ("iscwsa-1-rev5", "iscwsa-mwd-rev5"),
+                                           ("iscwsa-2-rev5", "ISCWSA MWD Rev5.11")])
+def test_standard_model_reproduces_the_iscwsa_examples(tmp_path, capsys, example, model):
+    """Done-when: the total north, east and vertical variance within +-5 %
+    of the workbook's at >= 95 % of the stations (where it is not zero)."""
+    e = json.loads(DATA.read_text())[example]
+    listing, ref = _example_listing(tmp_path, e)
+    out = tmp_path / "t.csv"
+    rc, text, err = run(capsys, "trajectory", listing, *ref, "--uncertainty", "--tool-model", model, "-o", out)
+    assert rc == 0, err
+    assert "revision" in text and "no depth" not in text
+    got = _cov(wp.read_trajectory(str(out)))
+    want = np.array(e["cov_nev"])
+    for k, (i, j) in enumerate(((0, 0), (1, 1), (2, 2))):
+        ref_v = want[:, k]
+        ok = ref_v > 1e-9
+        ratio = got[ok, i, j] / ref_v[ok]
+        within = np.abs(ratio - 1.0) <= 0.05
+        assert within.mean() >= 0.95, (example, "NEV"[k], within.mean(), ratio.min(), ratio.max())
+
+
+@pytest.fixture(scope="module")
+def calibration(tmp_path_factory):
+    """A joint calibration (covariance and noise in its fit report) of the typical probe."""
+    from inclino.calib import fit, runs
+    from inclino.model.scenario import generate_raw, load_scenario
+
+    s = load_scenario("typical")
+    ds = generate_raw(s, *runs.multi_position(), seed=int(RNG.integers(1 << 30)))
+    ds.meta.update(field_nT=50000.0, dip_deg=60.0)
+    cal, _ = fit(ds, "joint")
+    p = tmp_path_factory.mktemp("cal") / "cal.json"
+    cal.save(str(p))
+    return cal, str(p)
+
+
+def _well(tmp_path):
+    md = np.arange(0.0, 1500.0 + 1, 30.0)
+    kop = float(RNG.uniform(100, 400))
+    inc = np.clip((md - kop) / 30.0 * RNG.uniform(1.5, 3.5), 0, RNG.uniform(30, 90))
+    azi = (RNG.uniform(0, 360) + np.clip(md - kop, 0, None) / 30.0 * RNG.uniform(-1, 1)) % 360
+    p = tmp_path / "well.csv"
+    p.write_text("md_m,inc_deg,azi_deg\n" + "".join(f"{float(m)!r},{float(i)!r},{float(a)!r}\n" for m, i, a in zip(md, inc, azi)))
+    return p, md, inc, azi
+
+
+def _welleng_cov(md, inc, azi, rf, model):
+    import warnings
+
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")
+        return np.asarray(models.welleng_survey(md, inc, azi, rf, model).cov_nev, float)
+
+
+def test_cal_replaces_only_the_sensor_terms_and_the_ellipse_is_never_smaller_than_a_part(calibration, tmp_path,
+                                                                                       capsys):
+    """Done-when: with --cal the complete ellipse (every horizontal semi-axis,
+    every 3-D variance) is never smaller than either part: the probe's own
+    terms, and the standard model without its sensor terms.  The parts are
+    computed here independently (welleng on the dicts built in the test)."""
+    cal, cal_path = calibration
+    p, md, inc, azi = _well(tmp_path)
+    dip, tot = float(RNG.uniform(50, 75)), float(RNG.uniform(45000, 55000))
+    ref = ["--declination", 2.0, "--dip", dip, "--total", tot, "--gravity", 1.0]
+    out = tmp_path / "t.csv"
+    rc, text, err = run(capsys, "trajectory", p, *ref, "--uncertainty", "--tool-model", "iscwsa-mwd-rev5",
+                        "--cal", cal_path, "-o", out)
+    assert rc == 0, err
+    assert "with the probe's sensor terms" in text and "noise per survey" in text and "fit report" in text
+    total = _cov(wp.read_trajectory(str(out)))
+    rf = geomag.ReferenceField(2.0, dip, tot, 1.0)
+    an, mn, _ = em.calibration_noise(cal)
+    assert an > 0 and mn > 0
+    probe = em.from_calibration(cal, dip, tot, acc_noise_g=an, mag_noise_nT=mn).iscwsa("none")
+    import warnings
+
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")
+        std_sources = models.welleng_survey(md, inc, azi, rf, "ISCWSA MWD Rev5.11").err.errors.errors
+    rest = [c for c in std_sources if c not in SENSOR]
+    assert len(rest) == len(std_sources) - 14  # depth, reference, axial, sag, misalignment, XCL stay
+    a = _welleng_cov(md, inc, azi, rf, probe)
+    b = sum(np.asarray(std_sources[c].cov_NEV, float) for c in rest)
+    assert np.allclose(total, a + b, rtol=1e-6, atol=1e-9)
+    for part in (a, b):
+        d = total - part
+        assert np.all(np.linalg.eigvalsh(d) >= -1e-9 * np.abs(total).max())  # total - part is a covariance
+        for k in range(1, len(md)):
+            big, small = np.sqrt(np.linalg.eigvalsh(total[k, :2, :2])), np.sqrt(np.linalg.eigvalsh(part[k, :2, :2]))
+            assert np.all(big >= small * (1 - 1e-6) - 1e-9)
+    # the standard model alone: its own sensor terms; the probe's calibrated ones are far smaller
+    rc, text, err = run(capsys, "trajectory", p, *ref, "--uncertainty", "--tool-model", "iscwsa-mwd-rev5",
+                        "-o", tmp_path / "s.csv")
+    std = _cov(wp.read_trajectory(str(tmp_path / "s.csv")))
+    assert np.allclose(std, _welleng_cov(md, inc, azi, rf, "ISCWSA MWD Rev5.11"), rtol=1e-4, atol=1e-8)
+    assert np.trace(total[-1]) < np.trace(std[-1])
+    # --cal alone: the same complete model (iscwsa-mwd-rev5 is the default base)
+    rc, text, err = run(capsys, "trajectory", p, *ref, "--uncertainty", "--cal", cal_path, "-o", tmp_path / "c.csv")
+    assert rc == 0 and np.allclose(_cov(wp.read_trajectory(str(tmp_path / "c.csv"))), total, rtol=1e-6, atol=1e-9)
+
+
+def test_edited_terms_take_effect_or_are_refused(calibration, tmp_path, capsys):
+    cal, cal_path = calibration
+    tool = tmp_path / "tool.json"
+    rc, text, err = run(capsys, "toolmodel", cal_path, "--dip", 60, "--total", 50000, "-o", tool)
+    assert rc in (0, 1), err
+    p, md, inc, azi = _well(tmp_path)
+    ref = ["--declination", 0.0, "--dip", 60, "--total", 50000, "--gravity", 1.0, "--ref-terms", "none"]
+    d = json.loads(tool.read_text())
+    name = str(RNG.choice(["MBZ", "ABZ", "MSZ", "ASZ"]))
+    edited = copy.deepcopy(d)
+    for t in edited["terms"]:
+        if t["name"] == name:  # a standard MWD magnitude or more: far above the calibrated probe's
+            t["value"] = t["value"] + float(RNG.uniform(1, 3)) * {"AB": 0.004, "MB": 70.0, "AS": 5e-4,
+                                                                   "MS": 1.6e-3}[name[:2]]
+    f2 = tmp_path / "edited.json"
+    f2.write_text(json.dumps(edited))
+    outs = []
+    for f in (tool, f2):
+        o = tmp_path / (f.stem + ".csv")
+        rc, text, err = run(capsys, "trajectory", p, *ref, "--uncertainty", "--tool-model", f, "-o", o)
+        assert rc == 0, err
+        outs.append(_cov(wp.read_trajectory(str(o))))
+    assert "edited" in text  # says the file's terms, not the recorded fit, are the model
+    rf = geomag.ReferenceField(0.0, 60.0, 50000.0, 1.0)
+    want = _welleng_cov(md, inc, azi, rf, {k: v for k, v in edited.items() if k != "inclino"})
+    assert np.allclose(outs[1], want, rtol=1e-6, atol=1e-9)
+    original = _welleng_cov(md, inc, azi, rf, {k: v for k, v in d.items() if k != "inclino"})
+    assert np.allclose(outs[0], original, rtol=1e-6, atol=1e-9)
+    assert not np.allclose(outs[1], outs[0], rtol=1e-4, atol=0)  # the edit took effect
+    for change, msg in (({"value": -1.0}, "must be a number >= 0"), ({"value": "big"}, "must be a number"),
+                        ({"units": "furlong"}, "unit 'furlong'"), ({"propagation_mode": "Often"}, "propagation_mode"),
+                        ({"azimuth_formula": "Foo(Inc)"}, "cannot be evaluated")):
+        bad = copy.deepcopy(d)
+        bad["terms"][int(RNG.integers(len(bad["terms"])))].update(change)
+        f3 = tmp_path / "bad.json"
+        f3.write_text(json.dumps(bad))
+        rc, text, err = run(capsys, "trajectory", p, *ref, "--uncertainty", "--tool-model", f3, "-o",
+                            tmp_path / "x.csv")
+        assert rc == 2 and msg in err and "term" in err and err.count("\n") == 1, (change, err)
+    rc, text, err = run(capsys, "trajectory", p, *ref, "--uncertainty", "--tool-model", "no-such-model",
+                        "-o", tmp_path / "x.csv")
+    assert rc == 2 and "welleng" in err
+
+
+def test_exported_model_states_its_revision_and_propagates_xym_as_it_does(calibration, tmp_path, capsys):
+    cal, cal_path = calibration
+    srgm = {t["name"]: t for t in models._json_of_name("ISCWSA MWD Rev5.11")["terms"]}
+    t5 = tmp_path / "t5.json"
+    assert run(capsys, "toolmodel", cal_path, "--dip", 60, "--total", 50000, "-o", t5)[0] in (0, 1)
+    d5 = json.loads(t5.read_text())
+    assert d5["metadata"]["revision_number"] == 5 and d5["metadata"]["framework"] == "ISCWSA Rev5"
+    x5 = {t["name"]: t for t in d5["terms"] if t["name"].startswith("XYM")}
+    assert set(x5) == {"XYM1", "XYM2", "XYM3E", "XYM4E"}
+    for n in ("XYM3E", "XYM4E"):  # Rev 5's weighting, damping and propagation, as the OWSG model has them
+        for k in ("propagation_mode", "inclination_formula", "azimuth_formula"):
+            assert x5[n][k] == srgm[n][k]
+    t4 = tmp_path / "t4.json"
+    assert run(capsys, "toolmodel", cal_path, "--dip", 60, "--total", 50000, "--revision", 4, "-o", t4)[0] in (0, 1)
+    d4 = json.loads(t4.read_text())
+    assert d4["metadata"]["revision_number"] == 4
+    x4 = {t["name"]: t for t in d4["terms"] if t["name"].startswith("XYM")}
+    assert set(x4) == {"XYM1", "XYM2", "XYM3", "XYM4"} and all(t["propagation_mode"] == "Systematic"
+                                                               for t in x4.values())
+    # Rev 4's XYM3/XYM4 as welleng's ISCWSA MWD Rev4 model propagates them (magnitude scaled), on ISCWSA #1
+    e = json.loads(DATA.read_text())["iscwsa-1-rev4"]
+    h = e["header"]
+    rf = geomag.ReferenceField(h["declination_deg"], h["dip_deg"], h["b_total_nT"], 1.0)
+    azm = (np.array(e["azi_deg"]) - h["declination_deg"]) % 360
+    import warnings
+
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")
+        ref4 = models.welleng_survey(e["md"], e["inc_deg"], azm, rf, "ISCWSA MWD Rev4").err.errors.errors
+        ours = models.welleng_survey(e["md"], e["inc_deg"], azm, rf, {**d4, "terms": list(x4.values())}
+                                     ).err.errors.errors
+    for n in ("XYM3", "XYM4"):
+        s = (x4[n]["value"] / 0.1) ** 2  # Rev 4's magnitude is 0.1 deg
+        a, b = ours[n].cov_NEV[-1], ref4[n].cov_NEV[-1] * s
+        assert np.abs(a - b).max() <= 0.02 * np.abs(b).max()
+    # the complete model as one file, welleng loads it; Rev 4 (hand-coded in welleng) is refused with a reason
+    full = tmp_path / "full.json"
+    rc, text, err = run(capsys, "toolmodel", cal_path, "--dip", 60, "--total", 50000, "--tool-model",
+                        "iscwsa-mwd-rev5", "-o", full)
+    assert rc in (0, 1), err
+    df = json.loads(full.read_text())
+    names = [t["name"] for t in df["terms"]]
+    assert len(names) == len(set(names)) and {"DRFR", "SAGE", "AMIL", "DEC-U", "XYM3E"} <= set(names)
+    assert df["metadata"]["revision_number"] == 5
+    rc, text, err = run(capsys, "toolmodel", cal_path, "--dip", 60, "--total", 50000, "--tool-model",
+                        "iscwsa-mwd-rev4", "-o", tmp_path / "r4.json")
+    assert rc == 2 and "hand-coded" in err
+
+
+def test_noise_is_never_a_silent_zero_and_options_alone_are_refused(calibration, tmp_path, capsys):
+    cal, cal_path = calibration
+    an, mn, src = em.calibration_noise(cal)
+    assert "fit report" in src and 2e-5 < an < 1e-3 and 0.5 < mn < 50
+    rc, text, err = run(capsys, "toolmodel", cal_path, "--dip", 60, "--total", 50000, "-o", tmp_path / "t.json")
+    assert rc in (0, 1) and f"acc {an:.3g} g, mag {mn:.3g} nT, from the calibration's fit report" in text
+    d = json.loads((tmp_path / "t.json").read_text())
+    noise = {t["name"]: t["value"] for t in d["terms"] if t["name"].endswith("R")}
+    assert noise["ABZR"] == pytest.approx(an * 9.80665) and noise["MBZR"] == pytest.approx(mn)
+    # a calibration whose report has no noise: refused, never zero
+    bare = json.loads(pathlib.Path(cal_path).read_text())
+    bare["report"]["uncertainty"].pop("reading_noise", None)
+    bare["report"]["residuals"].pop("acc_norm_rms_mg", None)
+    bp = tmp_path / "bare.json"
+    bp.write_text(json.dumps(bare))
+    p, md, inc, azi = _well(tmp_path)
+    for argv in (["toolmodel", bp, "--dip", 60, "--total", 50000, "-o", tmp_path / "x.json"],
+                 ["trajectory", p, "--declination", 0, "--uncertainty", "--cal", bp, "-o", tmp_path / "x.csv"],
+                 ["compare", p, p, "--cal", bp]):
+        rc, out, err = run(capsys, *argv)
+        assert rc == 2 and "never taken as zero" in err, (argv, err)
+    rc, out, err = run(capsys, "trajectory", p, "--declination", 0, "--uncertainty", "--cal", bp, "--acc-noise",
+                       1e-4, "--mag-noise", 5, "-o", tmp_path / "x.csv")
+    assert rc == 0 and "given (--acc-noise, --mag-noise)" in out, err
+    for argv, msg in ((["trajectory", p, "--declination", 0, "--tool-model", "iscwsa-mwd-rev5", "-o",
+                        tmp_path / "x.csv"], "--uncertainty"),
+                      (["trajectory", p, "--declination", 0, "--cal", cal_path, "-o", tmp_path / "x.csv"],
+                       "--uncertainty"),
+                      (["trajectory", p, "--declination", 0, "--uncertainty", "--tool-model", "iscwsa-mwd-rev5",
+                        "--acc-noise", 1e-4, "-o", tmp_path / "x.csv"], "--cal"),
+                      (["compare", p, p, "--tool-model", "iscwsa-mwd-rev5", "--mag-noise", 3], "--cal"),
+                      (["toolmodel", cal_path, "--tool-model", "iscwsa-mwd-rev5", "--revision", 4, "-o",
+                        tmp_path / "x.json"], "--revision")):
+        rc, out, err = run(capsys, *argv)
+        assert rc == 2 and msg in err and err.count("\n") == 1, (argv, err)
