@@ -15,8 +15,8 @@ from inclino.procedures.accept_result import AcceptResult
 from inclino.formats.calfile import Calibration
 from inclino.formats.dataset import POSE_COLS, read_raw
 
-FIGURES = ("fluxgate_sphere.png", "circles.png", "errors_li2021.png", "errors_ren2014.png")  # no circles in the
-# adaptive run, so no run_circles.png
+FIGURES = ("fluxgate_sphere.png", "circles.png", "errors_li2021.png", "errors_ren2014.png")  # and run_circles.png
+# when the adaptive run happens to hold a circle rotation (plots.circle_groups)
 
 
 def test_demo_runs_the_whole_bench(tmp_path, monkeypatch, capsys):
@@ -24,8 +24,12 @@ def test_demo_runs_the_whole_bench(tmp_path, monkeypatch, capsys):
     assert cli.main(["demo", "--quiet"]) == 0
     capsys.readouterr()
     d = tmp_path / "inclino-demo"
+    from inclino.procedures.plots import circle_groups
+
+    run = read_raw(str(d / "run.csv"))
+    circles = ("run_circles.png",) if circle_groups(*(run.columns[c] for c in POSE_COLS)) else ()
     assert sorted(p.name for p in d.iterdir()) == sorted(
-        ("run.csv", "cal.json", "accept_li2021.json", "accept_ren2014.json") + FIGURES)
+        ("run.csv", "cal.json", "accept_li2021.json", "accept_ren2014.json") + FIGURES + circles)
     for name in FIGURES:
         data = (d / name).read_bytes()
         assert data.startswith(b"\x89PNG\r\n\x1a\n") and len(data) > 1000, name

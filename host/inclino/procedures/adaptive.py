@@ -433,27 +433,30 @@ class _Run:
 def acceptance_prediction(cal, rep, n_run: int, n_accept: int, world: dict) -> dict | None:
     """The fit report's acceptance prediction (calib.predict: coefficients,
     reading noise, input resolution, linear-model bias on the Li grid at
-    toolfaces 0/120/240) for an acceptance read at n_accept samples per
-    reading: the run's noise per reading (the fit's noise model x sqrt(s^2),
-    readings of n_run samples) scaled by sqrt(n_run / n_accept).  The
-    report's own `prediction_acceptance_grid` when the two averagings agree."""
+    toolfaces 0/120/240; its readings "as the run's") for an acceptance read
+    at n_accept samples per reading: the report's noise per reading (readings
+    of n_run samples) scaled by sqrt(n_run / n_accept), everything else as
+    the report has it.  The report's own `prediction_acceptance_grid` when
+    the two averagings agree."""
     u = rep.uncertainty
-    if n_run == n_accept:
-        return u.get("prediction_acceptance_grid")
-    from inclino.calib import joint
+    pa = u.get("prediction_acceptance_grid")
+    if n_run == n_accept or not pa:
+        return pa
     from inclino.calib.predict import predict
 
     if "covariance" not in u:
         return None
-    s2 = float(rep.residuals.get("s2", 1.0))
-    k = math.sqrt(s2) * math.sqrt(n_run / n_accept)
-    nl = u.get("nonlinear_model")
+    f = math.sqrt(n_run / n_accept)
+    sg = pa.get("sigmas") or {}
+    kw = {}
+    if sg.get("pose_deg") is not None:  # the run's fitted pose error, when the report has one
+        kw["sigma_pose_deg"] = sg["pose_deg"]
     dip = float(u.get("dip_deg", world["dip_deg"]))
-    p = predict(cal, np.asarray(u["covariance"]), world, dip, k * joint.SIGMA_ACC, k * joint.SIGMA_MAG, n_avg=1,
-                nonlinear=nl, resolution_n=n_accept)
+    p = predict(cal, np.asarray(u["covariance"]), world, dip, np.asarray(sg["acc_g"], float) * f,
+                np.asarray(sg["mag_nT"], float) * f, n_avg=1, nonlinear=u.get("nonlinear_model"),
+                resolution_n=n_accept, **kw)
     out = p.to_dict()
-    out["readings"] = (f"at {n_accept} samples per reading: the run's noise x sqrt(s^2) = {math.sqrt(s2):.3g} x "
-                       f"sqrt({n_run}/{n_accept})")
+    out["readings"] = f"at {n_accept} samples per reading: the report's noise per reading x sqrt({n_run}/{n_accept})"
     return out
 
 
