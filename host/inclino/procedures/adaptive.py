@@ -515,7 +515,6 @@ def _loop(link, table, run: _Run, res: AdaptiveResult, out, bar, tell, clock, ch
         ramp_state.program(tb0, plan.ramp.rate_c_per_min)
     first_pred = None
     run_planning = 0.0
-    stay = False
     k = 0
     while True:
         k += 1
