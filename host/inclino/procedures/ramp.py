@@ -180,3 +180,24 @@ class RampPlan:
         if self.lo_c - self.air_margin_c < -70.0 or self.hi_c + self.air_margin_c > 180.0:
             raise DataError("the air's limits (the range's ends -/+ --air-margin) must stay within the chamber's "
                             "-70 to 180 degC")
+
+
+def simulate(plan: RampPlan, tau_s: float, start_c: float = 25.0, step_s: float = 10.0) -> dict:
+    """The ramp's timing by the lag model alone (a probe of lag tau_s,
+    starting at start_c with the air): when the run turns the air, when the
+    probe reaches HI, how far it overshoots LO.  What the ramp rate and the
+    air margin buy, without an emulator."""
+    air = AirProfile.start(0.0, start_c)
+    air.set(0.0, plan.lo_c - plan.air_margin_c, plan.rate_c_per_min)
+    t, turn, lowest = 0.0, None, start_c
+    while t < 86400.0:
+        t += step_s
+        tp = float(air.probe([t], tau_s, 0.0, start_c)[0])
+        lowest = min(lowest, tp)
+        if turn is None and turning_point(air.at(t), tp, plan.rate_c_per_min, tau_s) <= plan.lo_c - plan.overshoot_c:
+            turn = t
+            air.set(t, plan.hi_c + plan.air_margin_c, plan.rate_c_per_min)
+        elif turn is not None and tp >= plan.hi_c:
+            break
+    return {"rate_c_per_min": plan.rate_c_per_min, "turn_min": (turn or float("nan")) / 60.0,
+            "done_min": t / 60.0, "probe_min_c": lowest}
