@@ -31,9 +31,11 @@ demo: $(STAMP)
 
 # the whole suite on every core (pytest-xdist, one module at a time per worker,
 # the modules with heavy tests first: tests/conftest.py), in a random order whose
-# seed is printed at the end
+# seed is printed at the end; PYTEST_ARGS adds options (docs/testing.md), e.g.
+#   make test PYTEST_ARGS="-p randomly --randomly-seed=N --durations=20"
+PYTEST_ARGS ?=
 test: $(STAMP)
-	$(VPY) -m pytest -q -n auto --dist loadscope --no-loadscope-reorder
+	$(VPY) -m pytest -q -n auto --dist loadscope --no-loadscope-reorder $(PYTEST_ARGS)
 
 clean:
 	rm -rf $(VENV) build *.egg-info host/*.egg-info host/inclino/engines/_core.c host/inclino/engines/*.so emulator/inclino_emu/_fw.c emulator/inclino_emu/*.so

@@ -86,14 +86,14 @@ def test_acquire_calibrate_download_verify_accept(emu, capsys, tmp_path):
     azi_fit, inc_fit = grid_errors(cal)
     assert azi_fit < azi_id / 10 and inc_fit < inc_id / 10
 
-    rc, out, err = run(capsys, "download", "--port", emu.path, cal_json, "--quiet")
+    rc, out, err = run(capsys, "download", "--port", emu.path, "--cal", cal_json, "--quiet")
     assert rc == 0, err
-    rc, out, err = run(capsys, "verify", "--port", emu.path, cal_json)
+    rc, out, err = run(capsys, "verify", "--port", emu.path, "--cal", cal_json)
     assert rc == 0 and "correction: pass" in out
 
     save = tmp_path / "accept.json"
     rc, out, err = run(capsys, "accept", "--port", emu.path, "--bench", bench_of(emu), "--grid", "li2021",
-                       "--save", save, "--quiet")
+                       "-o", save, "--quiet")
     assert rc == 0, out + err
     assert "Li 2021 Table 5 layout" in out and "verdict: PASS" in out
     r = AcceptResult.load(str(save))
@@ -120,7 +120,7 @@ def test_accept_downloads_the_file_ren_grid_and_plots(emu, capsys, tmp_path):
     assert verdict_of(rc, cal_json)["passed"], out + err  # the seeded typical probe's twelve positions: a pass
     save, plots = tmp_path / "ren.json", tmp_path / "plots"
     rc, out, err = run(capsys, "accept", "--port", emu.path, "--bench", bench_of(emu), "--cal", cal_json,
-                       "--grid", "ren2014", "--circles", "--save", save, "--plot", plots, "--quiet")
+                       "--grid", "ren2014", "--circles", "-o", save, "--plot", plots, "--quiet")
     r = AcceptResult.load(str(save))
     assert rc == (0 if r.passed else 1) and r.passed, (rc, r.reasons, err)  # li2021's fit meets Ren's grid
     assert r.download is not None and r.before.startswith("as found: identity")
@@ -372,3 +372,14 @@ def test_bench_calibration_cli(monkeypatch, capsys, small_calibration_bench, pas
     for k in ("joint", "ren2014", "li2021", "guo2009", "Cramer-Rao floor"):
         assert k in out, out
     assert ("targets met" in out) == passed
+
+
+@pytest.mark.parametrize("before, after, says", [
+    (0.8, 0.05, "16.0x smaller"), (0.25, 0.5, "2.0x larger"), (0.5, 0.51, "about the same"),
+    (0.5, 0.5, "about the same"), (None, 0.5, "-"), (0.3, 0.0, "down to 0"),
+])
+def test_accept_words_a_change_the_right_way_round(before, after, says):
+    """An error that grew is `larger`, never `0.5x smaller`."""
+    from inclino.procedures.accept import change
+
+    assert change(before, after) == says

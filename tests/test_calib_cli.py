@@ -44,7 +44,9 @@ def test_calibrate_writes_a_loadable_file(data, method, capsys):
     assert d["data"]["sha256"] == hashlib.sha256((data / "run.csv").read_bytes()).hexdigest()
     assert d["fixed"]["acc_m"][0] == round(d["acc_m"][0][0] * 2**29)
     assert d["report"]["method"] == method and d["report"]["passed"] is True
-    assert "verdict: pass" in text
+    last, c = text.strip().splitlines()[-1], d["report"]["closest"]
+    assert last.startswith("verdict: PASS: every check within its limit; the nearest") and c["value"] <= c["limit"]
+    assert last.endswith(f"{c['what']}, {c['value']:.4g} against {c['limit']:g}")
 
 
 def test_calibrate_json_output(data, capsys):

@@ -178,11 +178,11 @@ def test_a_short_span_is_refused_when_asked_and_skipped_in_auto(tmp_path, capsys
     path = tmp_path / "short.csv"
     dataset.write_raw(str(path), ds)
     out = tmp_path / "cal.json"
-    rc = cli.main(["calibrate", str(path), "--method", "joint", "--temperature", "on", "-o", str(out)])
+    rc = cli.main(["calibrate", str(path), "--method", "joint", "--temperature-terms", "on", "-o", str(out)])
     err = capsys.readouterr().err
     assert rc == 3 and "not determined" in err and err.count("\n") == 1 and not out.exists()
-    rc = cli.main(["calibrate", str(path), "--method", "li2021", "--temperature", "on", "-o", str(out)])
-    assert rc == 2 and "--temperature" in capsys.readouterr().err
+    rc = cli.main(["calibrate", str(path), "--method", "li2021", "--temperature-terms", "on", "-o", str(out)])
+    assert rc == 2 and "--temperature-terms" in capsys.readouterr().err
 
 
 def test_cli_writes_the_temperature_block_and_it_round_trips(tmp_path, capsys, rng):
@@ -199,7 +199,7 @@ def test_cli_writes_the_temperature_block_and_it_round_trips(tmp_path, capsys, r
     assert all(r.startswith("coefficients poorly determined: predicted azimuth") for r in o["report"]["reasons"])
     c = Calibration.load(str(out))
     assert c.temperature == json.loads(out.read_text())["temperature"] and c.temperature["span_c"][1] > 50
-    rc = cli.main(["calibrate", str(path), "--method", "joint", "--temperature", "off", "-o", str(out)])
+    rc = cli.main(["calibrate", str(path), "--method", "joint", "--temperature-terms", "off", "-o", str(out)])
     text = capsys.readouterr().out
     assert "temperature" not in json.loads(out.read_text()) and "temperature terms" not in text
     # off: written all the same (the 12-parameter fit; a verdict of 0 or 1 by the drawn tempcos' size)
@@ -212,7 +212,7 @@ def test_diagnose_no_longer_names_the_temperature_effects_the_terms_corrected(tm
     path, cal_path = tmp_path / "run.csv", tmp_path / "cal.json"
     dataset.write_raw(str(path), ds)
     # written (0) or written with a failed verdict (1): what is checked here is what diagnose then sees
-    rc = cli.main(["calibrate", str(path), "--method", "joint", "--temperature", "on", "-o", str(cal_path)])
+    rc = cli.main(["calibrate", str(path), "--method", "joint", "--temperature-terms", "on", "-o", str(cal_path)])
     assert rc == (0 if json.loads(cal_path.read_text())["report"]["passed"] else 1)
     capsys.readouterr()
     named = {}

@@ -223,7 +223,7 @@ def test_probe_readings_follow_the_chamber_with_the_scenarios_tempcos(rng):
 def test_acquire_temperature_procedure_on_the_bench(emu, capsys, tmp_path):
     out = tmp_path / "chamber.csv"
     rc = cli.main(["acquire", "--port", emu.path, "--bench", f"127.0.0.1:{emu.control_port}", "--procedure",
-                   "temperature", "--temperatures", "10,40", "--ramp-rate", "5", "--interval", "4",
+                   "temperature", "--temperatures", "10,40", "--ramp-rate", "5", "--interval-min", "4",
                    "--ramp-poses", "2", "-o", str(out), "--quiet"])
     o, err = capsys.readouterr()
     assert rc == 0, err
@@ -247,7 +247,7 @@ def test_acquire_temperature_bad_options(emu, capsys, tmp_path):
     base = ["acquire", "--port", emu.path, "--bench", f"127.0.0.1:{emu.control_port}", "--procedure",
             "temperature", "-o", str(out)]
     for extra in (["--temperatures", "a,b"], ["--temperatures", "200"], ["--temperatures", "nan"],
-                  ["--ramp-rate", "0"], ["--ramp-poses", "9"], ["--interval", "-1"], ["--soak-tol", "inf"]):
+                  ["--ramp-rate", "0"], ["--ramp-poses", "9"], ["--interval-min", "-1"], ["--soak-tol", "inf"]):
         rc = cli.main(base + extra)
         err = capsys.readouterr().err
         assert rc == 2 and err.count("\n") == 1, (extra, err)

@@ -46,9 +46,10 @@ def test_demo_runs_the_whole_bench(tmp_path, monkeypatch, capsys):
     for grid in GRIDS:
         a = AcceptResult.load(str(d / f"accept_{grid}.json"))
         assert a.grid == grid and a.passed and not a.survey_mismatches
-        assert len(a.points) == len(grid_points(grid))
-        assert [(p["set_inc"], p["set_azi"]) for p in a.points] == [(p.set_inc, p.set_azi) for p in
-                                                                      grid_points(grid)]
+        want = grid_points(grid, toolfaces=demo.DEMO_TOOLFACES[grid])
+        assert len(a.points) == len(want)
+        assert [(p["set_inc"], p["set_azi"], p["tf"]) for p in a.points] == [(p.set_inc, p.set_azi, p.tf)
+                                                                            for p in want]
         b, f = a.stats["before"], a.stats["after"]
         assert f["azi_rms_deg"] < b["azi_rms_deg"] / 8 and f["inc_rms_deg"] < b["inc_rms_deg"] / 20
     assert AcceptResult.load(str(d / "accept_li2021.json")).circles  # Li's horizontal circles, li2021 only
@@ -73,7 +74,7 @@ def test_temperature_demo_fits_and_checks_the_terms_of_an_emulated_chamber_run(t
     from inclino.procedures.accept_temp import TempAcceptResult
 
     out = tmp_path / "demo_t"
-    rc = cli.main(["demo", "--temperature", "--quiet", "--out", str(out),
+    rc = cli.main(["demo", "--chamber", "--quiet", "-o", str(out),
                    "--tempco-draw", str(int(np.random.default_rng().integers(1000)))])
     capsys.readouterr()
     assert rc == 0

@@ -57,6 +57,9 @@ def test_text_report_and_plots(tmp_path, capsys, tb_dataset):
     assert rc == 0, err
     assert "effect: temperature-bias (mag y)" in out
     assert "unexplained: no" in out
+    last = out.strip().splitlines()[-1]  # the conclusion, with the figure that decided it
+    assert last.startswith("conclusion: FAIL: the 12-parameter model misses temperature-bias (mag y, p = ")
+    assert "azimuth RMS " in last and " -> " in last
     assert "not testable: sample-skew" in out  # static data: said, not guessed
     for name in ("temperature-bias_mag_y.png", "baseline.png"):
         data = (out_dir / name).read_bytes()
@@ -68,6 +71,9 @@ def test_null_dataset_text_says_none(tmp_path, capsys):
     rc, out, err = _run(capsys, "diagnose", _write(tmp_path, ds))
     assert rc == 0, err
     assert "effects found: none" in out and "(continuous)" in out
+    last = out.strip().splitlines()[-1]
+    assert last.startswith("conclusion: PASS: the 12-parameter model leaves nothing to name: no effect at "
+                           "alpha = 0.01, no unexplained structure (residual RMS")
 
 
 def test_too_few_poses(tmp_path, capsys, tb_dataset):

@@ -112,6 +112,9 @@ def test_inclino_emulate_cli_runs_and_stops(tmp_path):
         assert line.startswith("inclino emulator: probe on /dev/pts/"), line
         ctl_line = proc.stdout.readline()
         port = int(re.search(r"127\.0\.0\.1:(\d+)", ctl_line).group(1))
+        # the next commands to try, printed before the probe starts (read here: communicate() below reads the
+        # pipe itself and would miss lines this reader has already buffered)
+        said = [proc.stdout.readline() for _ in range(8)]
         with ProbeLink(lp, timeout=2.0) as link:
             assert link.identify().product == "INCLINO-PROBE"
         c = ControlClient(port=port)
@@ -128,6 +131,15 @@ def test_inclino_emulate_cli_runs_and_stops(tmp_path):
     assert proc.returncode == 0, err
     assert "stopped" in out and "Traceback" not in err
     assert not os.path.exists(lp)
+    # the next commands to try: the technician's loop on this probe, each one a command line inclino takes
+    from inclino.cli import build_parser
+
+    assert said[0].startswith("next, in another terminal")
+    tries = [x.strip().split() for x in said if x.startswith("  inclino ")]
+    assert [t[1] for t in tries] == ["identify", "survey", "acquire", "calibrate", "download", "verify", "accept"]
+    for t in tries:
+        a = build_parser().parse_args(t[1:])
+        assert getattr(a, "port", lp) == lp and getattr(a, "bench", None) in (None, f"127.0.0.1:{port}")
 
 
 def test_wrong_port_is_one_clear_error(tmp_path):

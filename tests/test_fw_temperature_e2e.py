@@ -1,7 +1,7 @@
 """The emulated probe's firmware removes the temperature dependence its
 sensors have: a probe whose tempcos are drawn at test time from the typical
 scenario's spread (size and axis unknown to the test) is calibrated from a
-chamber run (joint --temperature on), the calibration is downloaded as an
+chamber run (joint --temperature-terms on), the calibration is downloaded as an
 image of version 2, and surveys through the firmware at -5 and 55 degC err
 about as much as at 25 degC; without the terms (the same raw readings
 through survey_compute) they err more where the effect is visible above

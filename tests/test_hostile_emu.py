@@ -367,11 +367,11 @@ def test_real_time_mode_keeps_to_the_wall_clock_while_acquiring():
     (["identify", "--port", "/nonexistent", "--timeout", "0"], "--timeout 0"),
     (["identify", "--port", "/nonexistent", "--baud", "0"], "--baud 0"),
     (["survey", "--port", "/nonexistent", "--count", "-1"], "--count -1"),
-    (["survey", "--port", "/nonexistent", "--period", "-5"], "--period -5"),
-    (["survey", "--port", "/nonexistent", "--stream", "--period", "70000"], "--period 70000"),
+    (["survey", "--port", "/nonexistent", "--period-ms", "-5"], "--period-ms -5"),
+    (["survey", "--port", "/nonexistent", "--stream", "--period-ms", "70000"], "--period-ms 70000"),
     (["survey", "--port", "/nonexistent", "--count", "0"], "needs --stream"),
-    (["verify", "--port", "/nonexistent", "x.json", "--surveys", "-1"], "--surveys -1"),
-    (["download", "--port", "/nonexistent", "x.json", "--timeout", "inf"], "--timeout inf"),
+    (["verify", "--port", "/nonexistent", "--cal", "x.json", "--surveys", "-1"], "--surveys -1"),
+    (["download", "--port", "/nonexistent", "--cal", "x.json", "--timeout", "inf"], "--timeout inf"),
     (["flash", "--port", "/nonexistent", "x.s19", "--timeout", "nan"], "--timeout nan"),
     (["flash", "--port", "/nonexistent", "x.s19", "--attempts", "0"], "--attempts 0"),
 ])
@@ -401,8 +401,8 @@ def test_interrupted_flash_then_every_command_says_bootloader(emu, tmp_path, cap
                                          "its bootloader (no application) until inclino flash is run again")
     cal = inverse_cal(emu.probe.scenario)
     cal.save(str(tmp_path / "cal.json"))
-    for argv in (["identify"], ["survey"], ["verify", str(tmp_path / "cal.json")],
-                 ["download", str(tmp_path / "cal.json"), "--quiet"]):
+    for argv in (["identify"], ["survey"], ["verify", "--cal", str(tmp_path / "cal.json")],
+                 ["download", "--cal", str(tmp_path / "cal.json"), "--quiet"]):
         rc, out, err = run(capsys, argv[0], "--port", emu.path, *argv[1:])
         assert rc == 4 and err.count("\n") == 1, (argv, err)
         assert "is in its bootloader with no application (erased: a flash did not finish)" in err
@@ -451,13 +451,13 @@ def test_download_refuses_a_failed_report_unless_forced(emu, tmp_path, capsys):
     cal.save(str(tmp_path / "bad.json"))
     with ProbeLink(emu.path) as link:
         seq0 = link.identify().cal_sequence
-    rc, _, err = run(capsys, "download", "--port", emu.path, str(tmp_path / "bad.json"), "--quiet")
+    rc, _, err = run(capsys, "download", "--port", emu.path, "--cal", str(tmp_path / "bad.json"), "--quiet")
     assert rc == 3 and "report did not pass (azimuth residual 0.9 deg > 0.3 deg)" in err and "--force" in err
     with ProbeLink(emu.path) as link:
         assert link.identify().cal_sequence == seq0              # nothing written
         with pytest.raises(Exception, match="report did not pass"):
             calops.download(link, cal)
-    rc, out, _ = run(capsys, "download", "--port", emu.path, str(tmp_path / "bad.json"), "--quiet", "--force")
+    rc, out, _ = run(capsys, "download", "--port", emu.path, "--cal", str(tmp_path / "bad.json"), "--quiet", "--force")
     assert rc == 0 and "downloaded with --force although the calibration's own report did not pass" in out
 
 
@@ -484,7 +484,7 @@ def test_verify_on_an_uncalibrated_probe_is_one_line(emu, tmp_path, capsys):
     cal.save(str(tmp_path / "cal.json"))
     with ProbeLink(emu.path) as link, pytest.raises(Exception, match="at least 1 survey"):
         calops.verify(link, cal, surveys=0)
-    rc, out, _ = run(capsys, "verify", "--port", emu.path, str(tmp_path / "cal.json"))
+    rc, out, _ = run(capsys, "verify", "--port", emu.path, "--cal", str(tmp_path / "cal.json"))
     assert rc == 1 and out.count("\n") == 1 and "the probe has no calibration" in out
 
 

@@ -242,8 +242,8 @@ def test_hostile_calfile_is_one_line_for_every_command(tmp_path, capsys, command
     port = str(tmp_path / "no-such-port")  # the file must be refused before the port is opened
     for name, p in _cal_variants(tmp_path, good).items():
         argv = {"attitude": ["attitude", str(src), "--cal", str(p), "-o", str(tmp_path / "o.csv")],
-                "download": ["download", "--port", port, str(p)],
-                "verify": ["verify", "--port", port, str(p)],
+                "download": ["download", "--port", port, "--cal", str(p)],
+                "verify": ["verify", "--port", port, "--cal", str(p)],
                 "accept": ["accept", "--port", port, "--cal", str(p)]}[command]
         rc = cli.main(argv)
         err = capsys.readouterr().err
@@ -471,6 +471,75 @@ def test_progress_bar_on_a_terminal(monkeypatch):
     assert b"calibrate: joint fit of run.csv: 00:00 elapsed" in seen and b"\n" not in seen.replace(b"\r\n", b"")
 
 
+def _drain(fd) -> bytes:
+    """All a pseudo-terminal's master end holds once its slave end is closed."""
+    import select
+
+    data = b""
+    while select.select([fd], [], [], 5.0)[0]:
+        try:
+            chunk = os.read(fd, 1 << 16)
+        except OSError:  # EIO: the slave is closed and everything was read
+            break
+        if not chunk:
+            break
+        data += chunk
+    return data
+
+
+def _screen(data: str) -> list[str]:
+    """The lines a terminal shows for this output (carriage return: back to
+    the line's start, overwriting; newline: the next line)."""
+    lines, cur, col = [], [], 0
+    for ch in data:
+        if ch == "\r":
+            col = 0
+        elif ch == "\n":
+            lines.append("".join(cur).rstrip())
+            cur, col = [], 0
+        else:
+            if col < len(cur):
+                cur[col] = ch
+            else:
+                cur.append(ch)
+            col += 1
+    return lines + ["".join(cur).rstrip()]
+
+
+@pytest.mark.parametrize("work", ["phase", "bar"])
+def test_a_result_after_progress_starts_on_a_clean_line(monkeypatch, work):
+    """The status a phase or a bar showed on the terminal is gone when the
+    result is printed: `cal.json: ...` never runs into `00:05 elapsed`."""
+    import pty
+    import time
+
+    from inclino import progress
+
+    monkeypatch.setenv("INCLINO_PROGRESS_PERIOD", "0.05")
+    master, slave = pty.openpty()
+    term = os.fdopen(slave, "w")
+    try:
+        if work == "phase":
+            with progress.phase("calibrate: joint fit of run.csv", stream=term):
+                time.sleep(0.4)
+        else:
+            with progress.bar(4, "reading run.csv", unit=" rows", stream=term) as b:
+                for _ in range(4):
+                    time.sleep(0.06)
+                    b.update(1)
+        term.write("cal.json: joint calibration\n")
+        term.flush()
+        term.close()  # then everything written is read back, however the terminal chunked it
+        seen = _drain(master).decode()
+    finally:
+        if not term.closed:
+            term.close()
+        os.close(master)
+    assert "elapsed" in seen or "reading run.csv" in seen  # the status was shown
+    screen = _screen(seen)
+    assert "cal.json: joint calibration" in screen, screen
+
+
 def test_new_output_beside_a_vanished_input_is_written(tmp_path):
     out = tmp_path / "new.csv"
     safeio.write_output(str(out), "x\n", inputs=[str(tmp_path / "gone.csv"), None, "-"])
@@ -503,11 +572,37 @@ def test_trajectory_output_that_is_a_survey_input_is_refused(tmp_path, capsys):
 
 
 # ------------------------------------------------------------ the rules' edges
+def _documented_rules() -> dict:
+    """docs/dataset.md's table of rules: field -> (low, high), low None for '> 0'."""
+    import pathlib
+    import re
+
+    doc = (pathlib.Path(__file__).resolve().parents[1] / "docs" / "dataset.md").read_text()
+    rules = {}
+    for line in doc.splitlines():
+        cells = [c.strip() for c in line.strip().strip("|").split("|")] if line.strip().startswith("| `") else []
+        if len(cells) != 2:
+            continue
+        num = r"(−?[\d ]+(?:\.\d+)?)"
+        m = re.match(r"> 0 and ≤ " + num, cells[1]) or re.match(num + r" … " + num, cells[1])
+        if not m:
+            continue
+        vals = [float(g.replace("−", "-").replace(" ", "")) for g in m.groups()]
+        lo, hi = (None, vals[0]) if cells[1].startswith(">") else vals
+        for key in re.findall(r"`(\w+)`", cells[0]):
+            rules[key] = (lo, hi)
+    return rules
+
+
 def _rule_cases():
-    for key, (lo, hi) in dataset.RULES.items():
-        step = max(abs(lo), abs(hi), 1.0) * 1e-6
+    doc = _documented_rules()
+    assert len(doc) >= 11 and doc["dip_deg"] == (-90.0, 90.0) and doc["field_nT"] == (None, 200000.0)
+    for key in dataset.RULES:
+        # the documented rule where the table gives one; else the rule as RULES and POSITIVE state it
+        lo, hi = doc.get(key) or (None if key in dataset.POSITIVE else dataset.RULES[key][0], dataset.RULES[key][1])
+        step = max(abs(lo or 0.0), abs(hi), 1.0) * 1e-6
         edges = [(hi, True), (hi + step, False)]
-        if key in dataset.POSITIVE:  # > 0: the lower bound in RULES is a placeholder
+        if lo is None:  # > 0
             edges += [(1e-9, True), (0.0, False), (-1e-9, False)]
         else:
             edges += [(lo, True), (lo - step, False)]
@@ -520,10 +615,12 @@ def _rule_cases():
 
 @pytest.mark.parametrize("where,key,value,ok", list(_rule_cases()))
 def test_every_rule_is_inclusive_at_both_ends(tmp_path, where, key, value, ok):
-    """dataset.RULES at their ends, for every header key and column that
-    has one: both ends read, a millionth beyond either refused with the
-    line and the rule named (a quantity that must be > 0: any positive
-    value read, 0 refused); check_meta holds an option to the same rule."""
+    """Every rule at its ends as docs/dataset.md's table states it (the
+    expectations come from the documentation, not from dataset.RULES), for
+    every header key and column that has one: both ends read, a millionth
+    beyond either refused with the line and the rule named (a quantity that
+    must be > 0: any positive value read, 0 refused); check_meta holds an
+    option to the same rule."""
     inc, azi, tf, g, b = _rows(3, seed=11)
     text = _csv_text(inc, azi, tf, g, b, meta="")
     lines = text.splitlines()

@@ -275,7 +275,7 @@ def test_calfile_loader_never_tracebacks(work, small_run, case, command):
         _check("CAL.json loader", ["attitude", small_run, "--cal", src, "-o", out], (0, 3), 3,
                0 if cal is not None else None, out)
     else:  # the file is checked before the port is opened: 3, or 4 for the missing port
-        _check("CAL.json loader", ["verify", "--port", os.path.join(work, "no-port"), src], (3, 4), 3,
+        _check("CAL.json loader", ["verify", "--port", os.path.join(work, "no-port"), "--cal", src], (3, 4), 3,
                4 if cal is not None else None)
     if cal is not None:
         assert Calibration.load(src).to_fixed() == cal.to_fixed()

@@ -51,17 +51,17 @@ def test_identify_and_survey_formats(emu, ctl, capsys, tmp_path):
     ctl.call("move", inc=30, azi=120, tf=45)
     rc, out, _ = run(capsys, "identify", "--port", emu.path, "--json")
     assert rc == 0 and json.loads(out)["product"] == "INCLINO-PROBE"
-    rc, out, _ = run(capsys, "survey", "--port", emu.path, "--count", "3", "--format", "csv")
+    rc, out, _ = run(capsys, "survey", "--port", emu.path, "--count", "3", "--csv")
     lines = [ln for ln in out.strip().splitlines() if not ln.startswith("#")]
     assert rc == 0 and lines[0].startswith("t_s,inc_deg,azi_deg") and len(lines) == 4
     meta = dict(ln[2:].split("=", 1) for ln in out.splitlines() if ln.startswith("# ") and "=" in ln)
     assert meta["probe_serial"] == str(emu.probe.scenario.serial) and meta["start_utc"].endswith("Z")
-    rc, out, _ = run(capsys, "survey", "--port", emu.path, "--format", "json")
+    rc, out, _ = run(capsys, "survey", "--port", emu.path, "--json")
     d = json.loads(out)
     assert abs(d["inc_deg"] - 30) < 5 and d["qc_verdict"].startswith(("PASS", "FAIL"))
     assert d["samples"] == 16 and d["utc"].endswith("Z") and d["probe"]["firmware"].count(".") == 2
     las = tmp_path / "run.las"
-    rc, out, _ = run(capsys, "survey", "--port", emu.path, "--stream", "--period", "20", "--count", "5",
+    rc, out, _ = run(capsys, "survey", "--port", emu.path, "--stream", "--period-ms", "20", "--count", "5",
                      "--las", str(las))
     rows = [ln for ln in out.strip().splitlines() if "PASS" in ln or "FAIL" in ln]
     assert rc == 0 and len(rows) == 5
@@ -77,21 +77,21 @@ def test_download_verify_and_the_correction(emu, ctl, capsys, tmp_path):
     cal = inverse_cal(scn)
     f = tmp_path / "cal.json"
     f.write_text(cal.to_json())
-    rc, out, _ = run(capsys, "download", "--port", emu.path, str(f), "--quiet")
+    rc, out, _ = run(capsys, "download", "--port", emu.path, "--cal", str(f), "--quiet")
     assert rc == 0 and out.startswith("downloaded: slot")
-    rc, out, _ = run(capsys, "verify", "--port", emu.path, str(f), "--json")
+    rc, out, _ = run(capsys, "verify", "--port", emu.path, "--cal", str(f), "--json")
     v = json.loads(out)
     assert rc == 0 and v["storage_ok"] and v["correction_ok"] and v["checks"] == 3
     # the probe is now calibrated: surveys are near the turntable pose
     ctl.call("move", inc=45, azi=200, tf=300)
-    rc, out, _ = run(capsys, "survey", "--port", emu.path, "--format", "json")
+    rc, out, _ = run(capsys, "survey", "--port", emu.path, "--json")
     d = json.loads(out)
     assert abs(d["inc_deg"] - 45) < 0.1 and abs(d["azi_deg"] - 200) < 0.5
     # another file does not verify, and says why
     other = inverse_cal(scn, scale=1.01)
     g = tmp_path / "other.json"
     g.write_text(other.to_json())
-    rc, out, _ = run(capsys, "verify", "--port", emu.path, str(g))
+    rc, out, _ = run(capsys, "verify", "--port", emu.path, "--cal", str(g))
     assert rc == 1 and "FAIL" in out and "not the file's" in out
 
 
@@ -110,18 +110,18 @@ def test_download_verify_temperature_terms(emu, ctl, capsys, tmp_path):
     scn = emu.probe.scenario
     f = tmp_path / "cal_t.json"
     f.write_text(with_terms(inverse_cal(scn)).to_json())
-    rc, out, _ = run(capsys, "download", "--port", emu.path, str(f), "--quiet")
+    rc, out, _ = run(capsys, "download", "--port", emu.path, "--cal", str(f), "--quiet")
     assert rc == 0 and out.startswith("downloaded: slot")
     with ProbeLink(emu.path, timeout=2.0) as link:
         slot = link.identify().cal_slot
         assert len(link.cal_read(slot)[3]) == 192
         assert link.raw().temp_q6 is not None
-    rc, out, _ = run(capsys, "verify", "--port", emu.path, str(f), "--json")
+    rc, out, _ = run(capsys, "verify", "--port", emu.path, "--cal", str(f), "--json")
     v = json.loads(out)
     assert rc == 0 and v["storage_ok"] and v["correction_ok"] and v["checks"] == 3
     g = tmp_path / "cal_plain.json"
     g.write_text(inverse_cal(scn).to_json())
-    rc, out, _ = run(capsys, "verify", "--port", emu.path, str(g))
+    rc, out, _ = run(capsys, "verify", "--port", emu.path, "--cal", str(g))
     assert rc == 1 and "not the file's" in out
 
 
@@ -136,24 +136,24 @@ def test_refusals_write_nothing(emu, ctl, capsys, tmp_path):
     scn = emu.probe.scenario
     wrong = tmp_path / "wrong.json"
     wrong.write_text(inverse_cal(scn, serial=scn.serial + 1).to_json())
-    rc, _, err = run(capsys, "download", "--port", emu.path, str(wrong), "--quiet")
+    rc, _, err = run(capsys, "download", "--port", emu.path, "--cal", str(wrong), "--quiet")
     assert rc == 3 and "another probe" in err or "is for probe" in err
     assert err.count("\n") == 1 and _active(emu) == before
     corrupt = tmp_path / "corrupt.json"
     corrupt.write_text('{"format": 1, "acc_m": [[1, 0')
-    rc, _, err = run(capsys, "download", "--port", emu.path, str(corrupt))
+    rc, _, err = run(capsys, "download", "--port", emu.path, "--cal", str(corrupt))
     assert rc == 3 and "not valid JSON" in err and _active(emu) == before
     singular = json.loads(inverse_cal(scn).to_json())
     singular["mag_m"] = [[1, 0, 0], [1, 0, 0], [0, 0, 1]]
     singular.pop("fixed", None)
     s = tmp_path / "singular.json"
     s.write_text(json.dumps(singular))
-    rc, _, err = run(capsys, "download", "--port", emu.path, str(s))
+    rc, _, err = run(capsys, "download", "--port", emu.path, "--cal", str(s))
     assert rc == 3 and "singular" in err and _active(emu) == before
     rc, _, err = run(capsys, "identify", "--port", str(tmp_path / "no-such-port"))
     assert rc == 4 and "cannot open port" in err
     # --force accepts the other serial's file
-    rc, _, _ = run(capsys, "download", "--port", emu.path, str(wrong), "--force", "--quiet")
+    rc, _, _ = run(capsys, "download", "--port", emu.path, "--cal", str(wrong), "--force", "--quiet")
     assert rc == 0 and _active(emu) != before
 
 
@@ -162,10 +162,10 @@ def test_download_on_a_noisy_line(emu, ctl, capsys, tmp_path):
     f.write_text(inverse_cal(emu.probe.scenario).to_json())
     ctl.call("faults", bit_error_rate=1e-4, drop_rate=1e-4, dup_rate=1e-4, seed=11)
     for _ in range(3):
-        rc, out, err = run(capsys, "download", "--port", emu.path, str(f), "--quiet", "--json")
+        rc, out, err = run(capsys, "download", "--port", emu.path, "--cal", str(f), "--quiet", "--json")
         assert rc == 0, err
         assert json.loads(out)["ok"] is True
-    rc, out, _ = run(capsys, "verify", "--port", emu.path, str(f))
+    rc, out, _ = run(capsys, "verify", "--port", emu.path, "--cal", str(f))
     assert rc == 0
 
 
@@ -174,11 +174,11 @@ def test_disconnect_mid_download_then_retry(emu, ctl, capsys, tmp_path):
     f.write_text(inverse_cal(emu.probe.scenario, scale=0.999).to_json())
     before = _active(emu)
     ctl.call("faults", disconnected=True)
-    rc, _, err = run(capsys, "download", "--port", emu.path, str(f), "--quiet", "--timeout", "0.3")
+    rc, _, err = run(capsys, "download", "--port", emu.path, "--cal", str(f), "--quiet", "--timeout", "0.3")
     assert rc == 4 and "no answer from the probe" in err and "keeps the calibration" in err
     ctl.call("faults", disconnected=False)
     assert _active(emu) == before  # nothing changed
-    rc, out, _ = run(capsys, "download", "--port", emu.path, str(f), "--quiet")
+    rc, out, _ = run(capsys, "download", "--port", emu.path, "--cal", str(f), "--quiet")
     assert rc == 0 and _active(emu) != before
 
 
@@ -194,19 +194,19 @@ def test_power_cut_at_every_flash_step_of_a_download(emu, ctl, capsys, tmp_path,
     old.write_text(inverse_cal(scn, scale=1.002).to_json())
     new_cal = inverse_cal(scn, scale=0.998)
     new.write_text((with_terms(new_cal) if new_terms else new_cal).to_json())
-    assert run(capsys, "download", "--port", emu.path, str(old), "--quiet")[0] == 0
+    assert run(capsys, "download", "--port", emu.path, "--cal", str(old), "--quiet")[0] == 0
     old_state = _active(emu)
     n_ops = 27 if new_terms else 18  # 1 erase + 1 header + 24 (15) payload programs + 1 commit (docs/flash.md)
     for n in range(1, n_ops + 1):
-        assert run(capsys, "download", "--port", emu.path, str(old), "--quiet")[0] == 0
+        assert run(capsys, "download", "--port", emu.path, "--cal", str(old), "--quiet")[0] == 0
         before = _active(emu)
         ctl.call("power_cut", n=n, mode="random")
-        rc, out, err = run(capsys, "download", "--port", emu.path, str(new), "--quiet", "--json",
+        rc, out, err = run(capsys, "download", "--port", emu.path, "--cal", str(new), "--quiet", "--json",
                            "--timeout", "0.1")
         after = _active(emu)
         # verify against whichever file the probe now reports
-        rc_old = run(capsys, "verify", "--port", emu.path, str(old), "--surveys", "1")[0]
-        rc_new = run(capsys, "verify", "--port", emu.path, str(new), "--surveys", "1")[0]
+        rc_old = run(capsys, "verify", "--port", emu.path, "--cal", str(old), "--surveys", "1")[0]
+        rc_new = run(capsys, "verify", "--port", emu.path, "--cal", str(new), "--surveys", "1")[0]
         assert (rc_old, rc_new) in ((0, 1), (1, 0)), (n, rc, err)
         if rc == 0:
             assert rc_new == 0 and json.loads(out)["ok"]
@@ -227,3 +227,24 @@ def test_set_average(emu, ctl):
         with pytest.raises(ProbeNak, match="E_ARGUMENT"):
             link.set_average(0)
         assert link.set_average(16) == 16
+
+
+def test_a_crc_is_the_same_hex_string_in_every_json(emu, ctl, capsys, tmp_path):
+    """download --json and identify --json name the stored image's CRC the
+    same way (one form per value: upper-case hex, zero-padded), and it is
+    the CRC-16 of the image the probe holds."""
+    import binascii
+    import re
+
+    f = tmp_path / "cal.json"
+    f.write_text(inverse_cal(emu.probe.scenario, scale=1.0005).to_json())
+    rc, out, _ = run(capsys, "download", "--port", emu.path, "--cal", str(f), "--quiet", "--json")
+    crc = json.loads(out)["image_crc"]
+    rc2, out2, _ = run(capsys, "identify", "--port", emu.path, "--json")
+    ident = json.loads(out2)
+    assert rc == rc2 == 0 and re.fullmatch(r"[0-9A-F]{4}", crc) and ident["calibration_crc"] == crc
+    with ProbeLink(emu.path) as link:
+        slot = {"A": 0, "B": 1}[ident["calibration_slot"]]
+        image = link.cal_read(slot)[3]
+    n = len(image) - 4  # the image ends with its CRC and two pad bytes (formats/calimage.py)
+    assert f"{binascii.crc_hqx(image[:n], 0xFFFF):04X}" == crc

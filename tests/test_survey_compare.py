@@ -38,7 +38,7 @@ def test_in_run_and_out_run_of_the_same_stations_agree(tmp_path, capsys):
     files = {"in": tmp_path / "in.csv", "out": tmp_path / "out.csv"}
     with Emulator(scen, seed=seed, control_port=0, realtime=False) as emu:
         ctl = ControlClient(port=emu.control_port)
-        assert run(capsys, "download", "--port", emu.path, cal, "--quiet")[0] == 0
+        assert run(capsys, "download", "--port", emu.path, "--cal", cal, "--quiet")[0] == 0
         for run_name, order in (("in", range(N)), ("out", reversed(range(N)))):
             for n, i in enumerate(order):
                 ctl.call("move", inc=float(inc[i]), azi=float(azi[i]), tf=float(RNG.uniform(0, 360)))

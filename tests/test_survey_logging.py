@@ -59,7 +59,7 @@ def test_stream_interrupted_at_a_random_moment_keeps_every_printed_reading(emu, 
     what it kept.  (Before: no LAS file at all, no word about it.)"""
     las = tmp_path / "st.las"
     p = subprocess.Popen([sys.executable, "-m", "inclino", "survey", "--port", emu.path, "--stream", "--count", "0",
-                          "--period", "20", "--format", "csv", "--las", str(las)],
+                          "--period-ms", "20", "--csv", "--las", str(las)],
                          stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True,
                          preexec_fn=lambda: signal.signal(signal.SIGINT, signal.SIG_DFL))
     time.sleep(RNG.uniform(1.5, 4.0))
@@ -84,8 +84,8 @@ def test_a_link_that_fails_mid_stream_keeps_the_readings(emu, ctl, tmp_path, cap
 
     csvp, las = tmp_path / "r.csv", tmp_path / "r.las"
     threading.Timer(1.0, lambda: ctl.call("faults", disconnected=True)).start()
-    rc, out, err = run(capsys, "survey", "--port", emu.path, "--stream", "--count", "0", "--period", "20",
-                       "--timeout", "0.2", "-o", csvp, "--las", las, "--format", "csv")
+    rc, out, err = run(capsys, "survey", "--port", emu.path, "--stream", "--count", "0", "--period-ms", "20",
+                       "--timeout", "0.2", "-o", csvp, "--las", las, "--csv")
     ctl.call("faults", disconnected=False)
     printed = _csv_rows(out)
     assert rc == 4 and len(printed) > 3, err
@@ -101,7 +101,7 @@ def test_every_output_says_who_and_when_and_the_table_shows_depth(emu, ctl, tmp_
     ident = json.loads(run(capsys, "identify", "--port", emu.path, "--json")[1])
     md = float(RNG.uniform(10, 900))
     t0 = time.time()
-    rc, out, err = run(capsys, "survey", "--port", emu.path, "--md", md, "--count", 3, "--format", "csv",
+    rc, out, err = run(capsys, "survey", "--port", emu.path, "--md", md, "--count", 3, "--csv",
                        "-o", tmp_path / "a.csv", "--las", tmp_path / "a.las")
     assert rc == 0, err
     for text in (out, (tmp_path / "a.csv").read_text()):
@@ -125,7 +125,7 @@ def test_every_output_says_who_and_when_and_the_table_shows_depth(emu, ctl, tmp_
     assert sl.parse_utc(str(log.well["DATE"].value), "las") == pytest.approx(start, abs=1e-3)
     assert list(log["NSAMP"]) == [16, 16, 16]
     assert conformance((tmp_path / "a.las").read_text()) == []
-    rc, out, err = run(capsys, "survey", "--port", emu.path, "--md", md, "--format", "json")
+    rc, out, err = run(capsys, "survey", "--port", emu.path, "--md", md, "--json")
     d = json.loads(out)
     assert d["md_m"] == md and d["samples"] == 16 and abs(sl.parse_utc(d["utc"], "json") - time.time()) < 30
     assert d["probe"]["probe_serial"] == str(ident["serial"])
@@ -176,17 +176,17 @@ def test_qc_verdict_names_the_checks_and_reffield_reads_back(emu, ctl, tmp_path,
     the verdict then names G, B and dip.  The LAS QC curve's description
     gives every bit."""
     ctl.call("move", inc=30.0, azi=100.0, tf=200.0)
-    rc, out, err = run(capsys, "survey", "--port", emu.path, "--format", "json")
+    rc, out, err = run(capsys, "survey", "--port", emu.path, "--json")
     d = json.loads(out)
     if d["qc"] & sl.QC_NO_REF:
         assert d["qc_checked"] == "G only" and "no reference field on the probe" in d["qc_verdict"]
         assert "inclino reffield --port" in d["qc_verdict"]
-    rc, out, err = run(capsys, "reffield", "--declination", 0, "--dip", 60, "--total", 50000, "--gravity", 1.0,
+    rc, out, err = run(capsys, "reffield", "--declination", 0, "--dip", 60, "--field", 50000, "--gravity", 1.0,
                        "--port", emu.path)
     assert rc == 0, err
     line = [ln for ln in out.splitlines() if ln.startswith("probe QC reference")][0]
     assert "read back" in line and "49999.9" not in line and "50000.0" in line and "60.0000" in line
-    rc, out, err = run(capsys, "survey", "--port", emu.path, "--format", "json")
+    rc, out, err = run(capsys, "survey", "--port", emu.path, "--json")
     d = json.loads(out)
     assert not d["qc"] & sl.QC_NO_REF and d["qc_checked"] == "G,B,dip"
     assert d["qc_verdict"] == ("PASS G,B,dip" if d["qc"] == 0 else d["qc_verdict"])

@@ -145,11 +145,11 @@ def test_reference_field_options_and_their_limits():
     with DataError (exit 2 at the CLI), the range's ends accepted."""
     from inclino.errors import DataError
 
-    rf = geomag.reference(lat=57.0, lon=2.0, date="2026-03-01", total=48123.0, gravity=1.0012)
-    assert rf.total_nT == 48123.0 and rf.gravity_g == 1.0012
-    assert rf.source.startswith("user (total); else IGRF (ppigrf ")
-    assert geomag.reference(declination=1.5, dip=-70.0).source == "user (declination, dip)"
-    for kw in ({"total": 0.0}, {"total": -48000.0}, {"gravity": 0.3}, {"gravity": 1.6}, {"dip": 90.5}):
+    rf = geomag.reference(lat=57.0, lon=2.0, date="2026-03-01", field=48123.0, gravity=1.0012)
+    assert rf.field_nT == 48123.0 and rf.gravity_g == 1.0012
+    assert rf.ref_source.startswith("user (field); else IGRF (ppigrf ")
+    assert geomag.reference(declination=1.5, dip=-70.0).ref_source == "user (declination, dip)"
+    for kw in ({"field": 0.0}, {"field": -48000.0}, {"gravity": 0.3}, {"gravity": 1.6}, {"dip": 90.5}):
         with pytest.raises(DataError):
             geomag.reference(declination=1.0, **kw)
     for lat, lon in ((89.9, 179.5), (-89.9, -180.0), (0.0, 180.0)):  # (ppigrf gives NaN at a pole itself)
@@ -269,7 +269,7 @@ def test_tool_model_matches_a_monte_carlo_over_the_calibration_covariance(calibr
 def test_welleng_loads_the_written_tool_model(calibration, tmp_path, capsys):
     cal, cal_path = calibration
     out = tmp_path / "tool.json"
-    rc, text, err = run(capsys, "toolmodel", cal_path, "--dip", 60, "--total", 50000, "--acc-noise", 1e-4,
+    rc, text, err = run(capsys, "toolmodel", "--cal", cal_path, "--dip", 60, "--field", 50000, "--acc-noise", 1e-4,
                         "--mag-noise", 4, "-o", out)
     assert rc == 0, err
     assert "sigma ratio" in text
@@ -322,7 +322,7 @@ def test_trajectory_reads_csv_json_las_and_appended_survey_outputs(tmp_path, cap
     outs = []
     for p in (csvp, jsp, lasp):
         o = tmp_path / (p.name + ".out.csv")
-        rc, text, err = run(capsys, "trajectory", p, "--declination", 3.0, "--dip", 60, "--total", 50000,
+        rc, text, err = run(capsys, "trajectory", p, "--declination", 3.0, "--dip", 60, "--field", 50000,
                             "--gravity", 1.0, "-o", o, "--las", tmp_path / (p.name + ".las"))
         assert rc == 0, err
         assert "QC: 10 pass, 1 fail" in text
@@ -418,7 +418,7 @@ def test_reffield_writes_the_probe_qc_reference(tmp_path, capsys):
         rf = geomag.ReferenceField.from_json(ref.read_text())
         with ProbeLink(emu.path) as link:
             got = link.qcref_read()
-        assert got[2] == round(rf.total_nT * 256) and got[4] == round(rf.dip_deg * 65536)
+        assert got[2] == round(rf.field_nT * 256) and got[4] == round(rf.dip_deg * 65536)
         assert got[0] == round(g * 2**27)
 
 
@@ -467,10 +467,10 @@ def test_survey_md_outputs_read_as_one_survey(tmp_path, capsys):
         for i, (m, a) in enumerate(zip(md, inc)):
             ctl.call("move", inc=float(a), azi=azi, tf=float(RNG.uniform(0, 360)))
             run(capsys, "survey", "--port", emu.path)  # settle
-            rc, out, err = run(capsys, "survey", "--port", emu.path, "--md", m, "--format", "json")
+            rc, out, err = run(capsys, "survey", "--port", emu.path, "--md", m, "--json")
             assert rc == 0, err
             js.append(out)
-            rc, out, err = run(capsys, "survey", "--port", emu.path, "--md", m, "--format", "csv", "--count", 3)
+            rc, out, err = run(capsys, "survey", "--port", emu.path, "--md", m, "--csv", "--count", 3)
             assert rc == 0, err
             cs.append(out)
             lasfiles.append(tmp_path / f"st{i}.las")
@@ -546,3 +546,26 @@ def test_calibration_report_measures_azimuth_from_magnetic_north():
     assert rep.passed, rep.reasons
     note = [n for n in rep.notes if "linear calibration written leaves" in n]
     assert note and float(note[0].split("leaves ")[1].split(" deg")[0]) < 0.1, note
+
+
+def test_reffield_table_and_json_name_each_value_alike(tmp_path, capsys):
+    """One name per value: the keys `inclino reffield` prints are its JSON's,
+    in the same order, with the same values; a file written with the older
+    keys (total_nT, source) still reads."""
+    argv = ["reffield", "--lat", 51.5, "--lon", 3.2, "--date", "2025-06-01", "--grid", 32631, "--alt", 120]
+    rc, text, _ = run(capsys, *argv)
+    rc2, js, _ = run(capsys, *argv, "--json")
+    assert rc == rc2 == 0
+    d = json.loads(js)
+    rows = [line.split(None, 1) for line in text.splitlines()]
+    assert [k for k, _ in rows] == list(d)
+    for k, v in rows:
+        if isinstance(d[k], (int, float)) and not isinstance(d[k], bool):
+            places = len(v.split(".")[1]) if "." in v else 0
+            assert float(v) == pytest.approx(d[k], abs=0.5 * 10 ** -places * 1.0001), k  # as printed
+        elif isinstance(d[k], str):
+            assert v == d[k], k
+    assert d["field_nT"] > 40000 and "total_nT" not in d and d["ref_source"].startswith("IGRF")
+    old = dict(d, total_nT=d.pop("field_nT"), source=d.pop("ref_source"))
+    rf = geomag.ReferenceField.from_json(json.dumps(old))
+    assert rf.field_nT == old["total_nT"] and rf.ref_source == old["source"]

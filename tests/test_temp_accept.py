@@ -26,7 +26,7 @@ CHECK = (-5.0, 25.0, 55.0)
 def chamber_calibrated(tmp_path_factory):
     """(seed, scenario, calibration, CAL.json path) of a probe drawn now,
     calibrated from its emulated chamber run (acquire --procedure
-    temperature, joint --temperature on)."""
+    temperature, joint --temperature-terms on)."""
     seed = int(np.random.default_rng().integers(1 << 20))
     d = tmp_path_factory.mktemp("chamber")
     sc = bench_temp.drawn_probe(seed)
@@ -127,7 +127,7 @@ def test_accept_temperatures_cli_on_the_emulator(chamber_calibrated, tmp_path, c
     try:
         rc = cli.main(["accept", "--port", emu.path, "--bench", f"127.0.0.1:{emu.control_port}", "--cal", path,
                        "--temperatures", "-5,25,55", "--toolfaces", "0", "--vertical-takings", "3", "--force", "--quiet",
-                       "--json", "--save", str(save)])
+                       "--json", "-o", str(save)])
     finally:
         emu.stop()
     out, err = capsys.readouterr()
@@ -136,6 +136,16 @@ def test_accept_temperatures_cli_on_the_emulator(chamber_calibrated, tmp_path, c
     # 0 when no ratio is above the target by more than --significance-z of its uncertainties, 1 with the
     # reasons otherwise (docs/calibration.md: the pooled takings and the ratio's uncertainty)
     assert rc == (0 if r["passed"] else 1) and r["passed"] == (not r["reasons"]), (rc, r["reasons"], err)
+    # the text report ends with its verdict and, on a pass, the largest ratio with the terms it rests on
+    from inclino.procedures.accept_temp import TempAcceptResult, render
+
+    last = render(TempAcceptResult.from_json(out)).splitlines()[-1]
+    if r["passed"]:
+        worst = max((s[f"{q}_ratio_with"], s[f"{q}_ratio_with_u"]) for s in r["setpoints"] for q in ("azi", "inc")
+                    if s["setpoint_c"] != 25.0)
+        assert last.startswith(f"verdict: PASS: worst ratio with the terms {worst[0]:.2f} +- {worst[1]:.2f} ("), last
+    else:
+        assert last == "verdict: FAIL: " + "; ".join(r["reasons"])
     assert r["takings"] == 1 and r["vertical_takings"] == 3 and r["significance_z"] == 2.0
     assert r["setpoints_c"] == list(CHECK) and r["reference_c"] == 25.0 and r["target_ratio"] == 1.2
     assert r["engine"] == temp_engine.get("auto").name

@@ -78,6 +78,11 @@ def _again(work: str, module: str):
 
     name = module.replace("/", "_").replace(".py", "")
     cfg, db = os.path.join(work, f"{name}.toml"), os.path.join(work, f"{name}.sqlite")
+    src = os.path.join(work, "src")
+    base = subprocess.run(f"{PYTEST} {MODULES[module]}", shell=True, cwd=src, capture_output=True, text=True)
+    if base.returncode != 0:  # the current tests against the kept sources: every mutant would count as killed
+        raise SystemExit(f"{module}: the current tests fail on the kept (unmutated) sources; start a new "
+                         f"session:\n{base.stdout[-3000:]}")
     with sqlite3.connect(db) as c:
         c.execute("DELETE FROM work_results WHERE test_outcome = 'SURVIVED'")
     return cfg, db
@@ -140,7 +145,7 @@ def main(argv=None) -> int:
             r = _report(module, db)
             results.append(r)
             print(f"{module}: {r['killed']} of {r['run']} mutants killed ({100 * (r['kill_ratio'] or 0):.0f} %; "
-                  f"{r['mutants']} in all, a sample of {a.sample or r['mutants']} run)", flush=True)
+                  f"{r['mutants']} in all, a seeded sample run)", flush=True)
             for s in r["survivors"]:
                 print(f"  survived: line {s['line']} {s['operator']}\n    " + s["diff"].replace("\n", "\n    "))
             with open(a.out, "w") as f:

@@ -101,6 +101,9 @@ def phase(desc: str, quiet: bool = False, stream=None):
         while not stop.wait(step):
             if b.format_dict["elapsed"] >= first:
                 b.refresh()
+                # what tqdm's close() reads to know the status was shown (refresh() alone leaves it as at
+                # the start): without it the status stays on the line and the next output runs into it
+                b.last_print_t = b._time()
 
     t = threading.Thread(target=beat, daemon=True)
     try:

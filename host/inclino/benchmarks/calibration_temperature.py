@@ -13,7 +13,7 @@ For each probe:
    ramps and soaks, 64 samples per reading; the probe lags the chamber with
    the scenario's 600 s);
 2. the joint fit with its temperature terms (`calibrate --method joint
-   --temperature on`);
+   --temperature-terms on`);
 3. the acceptance grid (Li 2021: I 2, 5, 10, 20 ... 90 deg, A 0-300 every 60
    deg, toolfaces 0, 120, 240 deg) at each of CHECK_C, the probe soaked at
    that temperature, as the firmware's correction receives the readings --

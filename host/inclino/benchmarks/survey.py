@@ -8,8 +8,8 @@ calibrated (`joint`, on the multi-position run of the same probe model),
 the calibration downloaded to the emulated probe, its noise measured with
 12 surveys at rest, the tool model written (`inclino toolmodel`); then the
 control channel moves the probe to each station's true attitude (true
-azimuth; a random toolface per station) and `inclino survey --md M --format
-csv` takes one survey per station (after one discarded while the probe
+azimuth; a random toolface per station) and `inclino survey --md M
+--csv` takes one survey per station (after one discarded while the probe
 settles); `inclino trajectory --lat --lon --date
 --uncertainty --tool-model` computes the path.  The known path is the
 analytic build-and-hold geometry (a circular arc of constant azimuth, then a
@@ -160,12 +160,12 @@ def run_seed(seed: int, workdir: str, cal_path: str, scen_path: str, rng=None, f
     emu = Emulator(scen_path, seed=seed, control_port=0, realtime=False).start()
     try:
         ctl = ControlClient(port=emu.control_port)
-        _cli(cli_main, "download", "--port", emu.path, cal_path, "--quiet")
+        _cli(cli_main, "download", "--port", emu.path, "--cal", cal_path, "--quiet")
         ctl.call("move", inc=45.0, azi=float(rng.uniform(0, 360)), tf=float(rng.uniform(0, 360)))
-        _cli(cli_main, "survey", "--port", emu.path, "--format", "csv")  # settle (see below)
+        _cli(cli_main, "survey", "--port", emu.path, "--csv")  # settle (see below)
         with open(noise_csv, "w", encoding="utf-8") as f:
-            f.write(_cli(cli_main, "survey", "--port", emu.path, "--count", 12, "--format", "csv"))
-        _cli(cli_main, "toolmodel", cal_path, "--noise", noise_csv, "--lat", LAT, "--lon", LON, "--date", DATE,
+            f.write(_cli(cli_main, "survey", "--port", emu.path, "--count", 12, "--csv"))
+        _cli(cli_main, "toolmodel", "--cal", cal_path, "--noise", noise_csv, "--lat", LAT, "--lon", LON, "--date", DATE,
              "-o", tool)
         parts = []
         for m, i in zip(md, inc):
@@ -173,8 +173,8 @@ def run_seed(seed: int, workdir: str, cal_path: str, scen_path: str, rng=None, f
             ctl.call("move", inc=float(i), azi=w["azi_true_deg"], tf=tf)
             # the probe settles first: the ADIS16210's averaging and the ADS1256's filter still hold
             # readings from before the move, so the first survey after it is discarded (docs/survey.md)
-            _cli(cli_main, "survey", "--port", emu.path, "--format", "csv")
-            parts.append(_cli(cli_main, "survey", "--port", emu.path, "--md", m, "--format", "csv"))
+            _cli(cli_main, "survey", "--port", emu.path, "--csv")
+            parts.append(_cli(cli_main, "survey", "--port", emu.path, "--md", m, "--csv"))
         ctl.close()
     finally:
         emu.stop()

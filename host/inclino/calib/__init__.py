@@ -67,7 +67,7 @@ def fit(ds, method: str = DEFAULT_METHOD, data_hash: dict | None = None, report:
         raise CalibrationError(f"{method}: singular fit ({e})")
     elapsed = time.perf_counter() - t0
     cal.data = data_hash
-    rep_ds = info.pop("report_dataset", ds)  # joint --temperature: the readings brought to t_ref
+    rep_ds = info.pop("report_dataset", ds)  # joint --temperature-terms: the readings brought to t_ref
     rep = None
     if report:
         refit = (lambda d: mod.fit(d, **opts)[0]) if "covariance" not in info else None

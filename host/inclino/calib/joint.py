@@ -149,11 +149,25 @@ def _linearised(raw, q, S):
     return raw + q * raw * raw / S
 
 
-def _pose_residuals(x, acc, mag, poses, F, dec, G, Linv):
+def _whiten(Linv, r):
+    """r (n, 6) or a Jacobian (n, 6, p) whitened by per-row whiteners Linv
+    (n, 6, 6), or by a covariance.ClusterWhitener (rows at one pose as one
+    cluster)."""
+    if hasattr(Linv, "apply"):
+        return Linv.apply(r) if r.ndim == 2 else Linv.apply_jac(r)
+    if r.ndim == 2:
+        return np.einsum("nij,nj->ni", Linv, r).ravel()
+    return np.einsum("nij,njk->nik", Linv, r).reshape(-1, r.shape[2])
+
+
+def _raw_pose_residuals(x, acc, mag, poses, F, dec, G):
     Ma, ca, Mm, cm, dip, qa, qm = _unpack_pose(x)
     g, f = ref.body_vectors(*poses, F, dip, dec, G)
-    r = np.concatenate([_linearised(acc, qa, G) @ Ma.T - ca - g, _linearised(mag, qm, F) @ Mm.T - cm - f], -1)
-    return np.einsum("nij,nj->ni", Linv, r).ravel()
+    return np.concatenate([_linearised(acc, qa, G) @ Ma.T - ca - g, _linearised(mag, qm, F) @ Mm.T - cm - f], -1)
+
+
+def _pose_residuals(x, acc, mag, poses, F, dec, G, Linv):
+    return _whiten(Linv, _raw_pose_residuals(x, acc, mag, poses, F, dec, G))
 
 
 def _pose_jacobian_params(x, acc, mag, poses, F, dec, G, Linv):
@@ -175,7 +189,7 @@ def _pose_jacobian_params(x, acc, mag, poses, F, dec, G, Linv):
     _, f1 = ref.body_vectors(*poses, F, dip + h, dec, G)
     _, f0 = ref.body_vectors(*poses, F, dip - h, dec, G)
     Jr[:, 3:, p - 1] = -(f1 - f0) / (2 * h)
-    return np.einsum("nij,njk->nik", Linv, Jr).reshape(6 * n, p)
+    return Jr if Linv is None else _whiten(Linv, Jr)
 
 
 # --------------------------------------------------------------------------
@@ -299,7 +313,70 @@ def _linear_start(acc, mag, g, f):
     return np.concatenate(out)
 
 
-def _fit_poses(ds, w, sa, sm, sp, fix_dip, nonlinear=False):
+def _refit_with_components(comps, x, fun, jac, acc, mag, poses, FdG, fix_dip, dip0, labels):
+    """The final Gauss-Newton pass whitened by fitted noise components
+    (calib/covariance.py): (result, whitener)."""
+    from . import covariance
+
+    xx = np.concatenate([x, [dip0]]) if fix_dip else x
+    Ma, _, Mm, _, dip, _, _ = _unpack_pose(xx)
+    B = covariance.block_diag2(Ma, Mm)
+    Jp = _pose_jacobian(*poses, *FdG[:1], dip, *FdG[1:])
+    S = B @ np.diag(comps.sigma ** 2) @ B.T
+    Crow = B @ np.diag(comps.sigma_cluster ** 2) @ B.T
+    if comps.sigma_pose_deg is not None:
+        Crow = Crow + np.einsum("nik,k,njk->nij", Jp, comps.sigma_pose_deg ** 2, Jp)
+    else:
+        Crow = np.broadcast_to(Crow, (len(acc), 6, 6))
+    lab, k = covariance._relabel(labels)
+    C = np.zeros((k, 6, 6))
+    np.add.at(C, lab, Crow)
+    C /= np.bincount(lab, minlength=k)[:, None, None]
+    W = covariance.ClusterWhitener(S, C, lab)
+    res = optimize.least_squares(fun, x, jac=jac, args=(acc, mag, poses, *FdG, W), method="lm", x_scale="jac")
+    return res, W
+
+
+def _refit_fitted_noise(x, fun, jac, ds, keep, poses, FdG, fix_dip, dip0, names, cov_lin, noise_info):
+    """Fit the run's own noise (per channel, the pose error per turntable
+    axis, and a cluster effect where several rows share a pose: REML,
+    calib/covariance.py), refit whitened by it, and take the covariance
+    from that fit.  Returns (x, covariance, info): on a failure the nominal
+    fit stands, with a note."""
+    from . import covariance
+
+    F, dec, G = FdG
+    acc, mag = ds.acc[keep], ds.mag[keep]
+    pk = tuple(p[keep] for p in poses)
+    labels = covariance.cluster_labels(ds)[keep]
+    try:
+        for _ in range(2):  # the components from the current fit's residuals, then the fit whitened by them
+            xx = np.concatenate([x, [dip0]]) if fix_dip else x
+            Ma, _, Mm, _, dip, _, _ = _unpack_pose(xx)
+            Bi = np.linalg.inv(covariance.block_diag2(Ma, Mm))
+            r = _raw_pose_residuals(xx, acc, mag, pk, F, dec, G)
+            Jp = _pose_jacobian(*pk, F, dip, dec, G)
+            X = _pose_jacobian_params(xx, acc, mag, pk, F, dec, G, None)
+            X = X[:, :, :-1] if fix_dip else X
+            comps = covariance.fit_components(r @ Bi.T, labels, Jpose=np.einsum("ij,njk->nik", Bi, Jp),
+                                              X=np.einsum("ij,njk->nik", Bi, X),
+                                              channels=["acc_x_g", "acc_y_g", "acc_z_g", "mag_x_nT", "mag_y_nT",
+                                                        "mag_z_nT"])
+            res, W = _refit_with_components(comps, x, fun, jac, acc, mag, pk, FdG, fix_dip, dip0, labels)
+            x = res.x
+        cov = np.linalg.pinv(res.jac.T @ res.jac)
+        if not np.all(np.isfinite(cov)):
+            raise np.linalg.LinAlgError("covariance not finite")
+    except (np.linalg.LinAlgError, ValueError) as e:
+        noise_info["noise_note"] = f"the run's own noise could not be fitted ({e}); nominal noise scaled by s^2"
+        return x, cov_lin, noise_info
+    chi2 = float((res.fun ** 2).sum())
+    noise_info = {**noise_info, "noise": comps.to_dict(), "noise_components": comps,
+                  "chi2_fitted_noise": chi2}
+    return x, cov, noise_info
+
+
+def _fit_poses(ds, w, sa, sm, sp, fix_dip, nonlinear=False, noise="fit"):
     poses = tuple(ds.columns[c] for c in ("inc_deg", "azi_deg", "tf_deg"))
     F, dec, G = w["field_nT"], w["declination_deg"], w["gravity_g"]
     dip0 = w["dip_deg"] if w["dip_deg"] is not None else None
@@ -350,9 +427,13 @@ def _fit_poses(ds, w, sa, sm, sp, fix_dip, nonlinear=False):
             keep = d2 <= robust_threshold(d2, 6)[0]
             if keep.sum() < MIN_ROWS_POSES:
                 raise CalibrationError("joint: too many readings rejected as outliers to fit")
-    x = np.concatenate([x, [dip0]]) if fix_dip else x
     names = PARAM_NAMES_POSE[:24] + (PARAM_NAMES_POSE[24:] if nonlinear else []) + ([] if fix_dip else ["dip"])
     chi2, dof, s2, cond, cov_lin = _covariance(res, "poses", names)
+    noise_info = {"sigmas": {"acc_g": sa, "mag_nT": sm, "pose_deg": sp}}
+    if noise == "fit":
+        x, cov_lin, noise_info = _refit_fitted_noise(x, fun, jac, ds, keep, poses, (F, dec, G), fix_dip, dip0,
+                                                     names, cov_lin, noise_info)
+    x = np.concatenate([x, [dip0]]) if fix_dip else x
     Ma, ca, Mm, cm, dip, qa, qm = _unpack_pose(x)
     ba = np.linalg.solve(Ma, ca)
     bm = np.linalg.solve(Mm, cm)
@@ -381,8 +462,7 @@ def _fit_poses(ds, w, sa, sm, sp, fix_dip, nonlinear=False):
     return (Ma, ba, Mm, bm, float(dip)), cov, {**extra,
         "mode": "poses", "s2": s2, "chi2": chi2, "dof": dof, "outliers": outliers.tolist(),
         "normal_matrix_cond": cond, "dip_fitted": not fix_dip,
-        "dip_sigma_deg": None if fix_dip else float(np.sqrt(cov[24, 24])),
-        "sigmas": {"acc_g": sa, "mag_nT": sm, "pose_deg": sp}}
+        "dip_sigma_deg": None if fix_dip else float(np.sqrt(cov[24, 24])), **noise_info}
 
 
 def fisher_covariance(cal, dip, F, dec, G, poses, sa=SIGMA_ACC, sm=SIGMA_MAG, sp=SIGMA_POSE_DEG):
@@ -541,7 +621,7 @@ def _fit_invariants(ds, w, sa, sm, fix_dip, prior=None, mount_tolerance_deg=None
 def fit(ds: RawDataset, use_poses: bool | None = None, sigma_acc: float = SIGMA_ACC,
         sigma_mag: float = SIGMA_MAG, sigma_pose_deg: float = SIGMA_POSE_DEG, fix_dip: bool = False,
         prior=None, nonlinear: bool | None = None, mount_tolerance_deg: float | None = None,
-        accept_mount_tolerance: bool = False, **_):
+        accept_mount_tolerance: bool = False, noise: str = "fit", **_):
     """prior: a Calibration whose body frame (accelerometer rotation) a
     fit without poses keeps; without it the accelerometer's axes are the
     body frame.  nonlinear (default: with poses): also fit each axis'
@@ -553,7 +633,12 @@ def fit(ds: RawDataset, use_poses: bool | None = None, sigma_acc: float = SIGMA_
     default field.DEFAULT_MOUNT_TOLERANCE_DEG); accept_mount_tolerance
     records that the user accepts it (the verdict then judges the fit's own
     uncertainty; see calib/field.py and report._verdict).
-    The temperature terms (--temperature) are added by calib.fit
+    noise (with poses): "fit" (default) fits the run's own noise -- per
+    channel, the pose error per turntable axis, a cluster effect where rows
+    share a pose (calib/covariance.py) -- after the fit with the nominal
+    sigmas, refits whitened by it and takes the covariance from that fit
+    (info["noise"]); "nominal": the sigmas given, scaled by s^2.
+    The temperature terms (--temperature-terms) are added by calib.fit
     (inclino.calib.thermal)."""
     w = common.world_of(ds)
     if use_poses is None:
@@ -564,6 +649,8 @@ def fit(ds: RawDataset, use_poses: bool | None = None, sigma_acc: float = SIGMA_
             raise DataError(f"joint needs >= {MIN_ROWS_POSES} readings; the data have {len(ds)}")
         if fix_dip and w["dip_deg"] is None:
             raise DataError("joint --fix-dip needs a '# dip_deg=...' header line")
+        if noise not in ("fit", "nominal"):
+            raise DataError(f"joint: noise must be 'fit' or 'nominal', not {noise!r}")
         args = (ds, w, sigma_acc, sigma_mag, sigma_pose_deg, fix_dip)
         if nonlinear is None:
             # the second-order terms only when the poses determine them: a run
@@ -573,7 +660,7 @@ def fit(ds: RawDataset, use_poses: bool | None = None, sigma_acc: float = SIGMA_
             fits, errors = {}, []
             for nl in (True, False):
                 try:
-                    r = _fit_poses(*args, nl)
+                    r = _fit_poses(*args, nl, noise)
                 except CalibrationError as e:
                     errors.append(e)
                     continue
@@ -590,7 +677,7 @@ def fit(ds: RawDataset, use_poses: bool | None = None, sigma_acc: float = SIGMA_
                                            f"would be {fits[True][1]:.3g} deg against {fits[False][1]:.3g} "
                                            f"(the poses do not determine it)")
         else:
-            (Ma, ba, Mm, bm, dip), cov, info = _fit_poses(*args, bool(nonlinear))
+            (Ma, ba, Mm, bm, dip), cov, info = _fit_poses(*args, bool(nonlinear), noise)
     else:
         if nonlinear:
             raise DataError("joint: the scale nonlinearity is fitted only with turntable poses")

@@ -80,6 +80,18 @@ class FitReport:
     notes: list = field(default_factory=list)
     paper_parameters: dict | None = None
     fit_time_s: float = 0.0
+    closest: dict = field(default_factory=dict)  # the check nearest its limit: what, value, limit
+
+    def conclusion(self) -> str:
+        """The report's last line: the verdict and the figure that decided it
+        (on a pass, the check that came nearest its limit)."""
+        if not self.passed:
+            return "verdict: FAIL: " + "; ".join(self.reasons)
+        c = self.closest
+        if not c:
+            return "verdict: PASS"
+        return (f"verdict: PASS: every check within its limit; the nearest, {c['what']}, "
+                f"{c['value']:.4g} against {c['limit']:g}")
 
     def to_dict(self) -> dict:
         return json_safe(asdict(self))
@@ -92,7 +104,8 @@ class FitReport:
         d = json.loads(text) if isinstance(text, str) else dict(text)
         return FitReport(**d)
 
-    def summary(self) -> str:
+    def summary(self, verdict: bool = True) -> str:
+        """The report as text; `verdict`: ending with conclusion()."""
         r = self.residuals
         lines = [f"method {self.method} ({self.mode}): {self.rows_used} of {self.rows} rows used"
                  + (f", {len(self.outliers)} outlier(s) rejected" if self.outliers else "")]
@@ -131,7 +144,8 @@ class FitReport:
             lines.append(f"  input resolution at {'n = %g samples averaged' % n if n else 'n unknown (taken as 1)'}: "
                          f"azimuth sigma RMS {res['azi_rms_deg']:.4f} deg (max {res['azi_max_deg']:.4f}) over the "
                          f"Li grid, inclination {res['inc_rms_deg']:.5f} deg (the probe's, reported, not judged)")
-        lines.append("  verdict: " + ("pass" if self.passed else "FAIL: " + "; ".join(self.reasons)))
+        if verdict:
+            lines.append("  " + self.conclusion())
         return "\n".join(lines)
 
 
@@ -288,7 +302,11 @@ def build(ds: RawDataset, cal: Calibration, method: str, info: dict, refit=None,
     sm = opts.get("sigma_mag", SIGMA_MAG)
     sp = opts.get("sigma_pose_deg", SIGMA_POSE_DEG)
     cov = info.get("covariance")
-    if cov is not None:
+    if cov is not None and info.get("noise") is not None:
+        nz = info["noise"]
+        src = (f"GLS covariance under the run's own noise ({nz['method']}: per channel, pose error per turntable "
+               f"axis; {nz['clusters']} poses as clusters of their {nz['rows']} rows)")
+    elif cov is not None:
         src = f"GLS covariance, scaled by s^2 = {info.get('s2', 1.0):.3g}"
     elif refit is not None:
         cov, nok = bootstrap_cov(ds, refit, rows_used, sa, sm, sp if ds.has_pose else 0.0,
@@ -310,20 +328,34 @@ def build(ds: RawDataset, cal: Calibration, method: str, info: dict, refit=None,
                                             GRID, sa, sm)
             bias_name = "prior_nonlinearity_bias"
         p_cal = predict(cal, cov, w, dip, sa, sm, reading_noise=False, nonlinear=nl, bias=bias, bias_name=bias_name)
-        # acceptance: readings taken as the run's (the fit's noise model, scaled by its s^2 when it has one)
-        k = float(np.sqrt(info["s2"])) if info.get("s2") else 1.0
+        # acceptance: readings taken as the run's -- the run's own noise per channel and its pose error
+        # when the fit estimated them (calib/covariance.py), else the fit's noise model scaled by its s^2
         n_run = ds.meta.get("samples_averaged")
-        p_acc = predict(cal, cov, w, dip, k * sa, k * sm, n_avg=1, nonlinear=nl, resolution_n=n_run, bias=bias,
-                        bias_name=bias_name)
+        comps = info.get("noise_components")
+        if comps is not None:
+            cell = comps.per_cell()
+            s_acc, s_mag, s_pose = cell[:3], cell[3:], comps.sigma_pose_deg
+            readings = (f"as the run's: its own noise per reading, fitted per channel ({comps.method}: "
+                        f"{', '.join(f'{v:.3g}' for v in s_acc)} g, {', '.join(f'{v:.3g}' for v in s_mag)} nT), "
+                        + ("pose error " + ", ".join(f"{v:.3g}" for v in s_pose) + " deg (inc, azi, tf); "
+                           if s_pose is not None else "")
+                        + f"input resolution at {'n = %g' % n_run if n_run else 'n unknown, taken as 1'}")
+        else:
+            k = float(np.sqrt(info["s2"])) if info.get("s2") else 1.0
+            s_acc, s_mag, s_pose = k * sa, k * sm, None
+            readings = (f"as the run's: noise {k * sa:.3g} g, {k * sm:.3g} nT per reading (the fit's noise "
+                        f"model x sqrt(s^2) = {k:.3g}); input resolution at "
+                        f"{'n = %g' % n_run if n_run else 'n unknown, taken as 1'}")
+        p_acc = predict(cal, cov, w, dip, s_acc, s_mag, n_avg=1, nonlinear=nl, resolution_n=n_run, bias=bias,
+                        bias_name=bias_name, sigma_pose_deg=s_pose)
         rep.uncertainty = {"source": src, "sigma": dict(zip(common.PARAM_NAMES, sig.tolist())),
                            "predicted_azi_rms_deg": p_cal.azi_rms_deg, "predicted_inc_rms_deg": p_cal.inc_rms_deg,
                            # the full 24x24 (PARAM_NAMES order): inclino toolmodel projects it onto ISCWSA terms
                            "covariance": np.asarray(cov, float)[:24, :24].tolist(),
                            "prediction_calibration_grid": p_cal.to_dict(),
-                           "prediction_acceptance_grid": {**p_acc.to_dict(), "readings": (
-                               f"as the run's: noise {k * sa:.3g} g, {k * sm:.3g} nT per reading (the fit's noise "
-                               f"model x sqrt(s^2) = {k:.3g}); input resolution at "
-                               f"{'n = %g' % n_run if n_run else 'n unknown, taken as 1'}")}}
+                           "prediction_acceptance_grid": {**p_acc.to_dict(), "readings": readings}}
+        if info.get("noise") is not None:
+            rep.uncertainty["noise"] = info["noise"]
         if info.get("dip_sigma_deg") is not None:
             rep.uncertainty["dip_deg"] = dip
             rep.uncertainty["dip_sigma_deg"] = info["dip_sigma_deg"]
@@ -377,9 +409,14 @@ def reading_noise(ds: RawDataset, residuals: dict) -> dict | None:
 def _verdict(rep: FitReport, info: dict) -> None:
     t = THRESHOLDS
     r, reasons = rep.residuals, []
+    closest = {}
+
     def over(value, key, what):
         if value is not None and np.isfinite(value) and value > t[key]:
             reasons.append(f"{what} {value:.4g} exceeds {t[key]:g}")
+        if value is not None and np.isfinite(value) and t[key] > 0 and \
+                value / t[key] > closest.get("fraction", -1.0):
+            closest.update(what=what, value=float(value), limit=float(t[key]), fraction=float(value / t[key]))
     over(r.get("inc_rms_deg"), "inc_rms_deg", "inclination residual RMS (deg)")
     over(r.get("azi_rms_deg"), "azi_rms_deg", "azimuth residual RMS (deg)")
     over(r.get("acc_norm_rms_mg"), "acc_norm_rms_mg", "|g| residual RMS (mg)")
@@ -415,3 +452,4 @@ def _verdict(rep: FitReport, info: dict) -> None:
                            f"{t['coverage_min_eig']:g})")
     rep.reasons = reasons
     rep.passed = not reasons
+    rep.closest = {k: v for k, v in closest.items() if k != "fraction"}

@@ -1,5 +1,5 @@
 """Temperature terms of the joint calibration (`inclino calibrate --method
-joint --temperature auto|on|off`, docs/calibration.md).
+joint --temperature-terms auto|on|off`, docs/calibration.md).
 
 The model is the emulator's (inclino.model.effects: BiasTempco, ScaleTempco,
 to_reference_temperature; one definition of each effect): per axis of each
@@ -27,7 +27,7 @@ with and without them, on the Li 2021 grid, for the fitted probe.
 
 The terms are determined when the run spans at least MIN_SPAN_C, the
 normal matrix is regular, and (for K = 2) the temperatures fall in at least
-three clusters MIN_CLUSTER_SEP_C apart.  --temperature on refuses otherwise
+three clusters MIN_CLUSTER_SEP_C apart.  --temperature-terms on refuses otherwise
 (CalibrationError, exit 3, with the reason); auto fits only then.
 """
 from __future__ import annotations
@@ -337,16 +337,16 @@ def _fit(ds, cal, info, mode, sigma_acc, sigma_mag, sigma_pose_deg, fix_dip, see
     from . import joint
 
     if mode not in MODES:
-        raise DataError(f"--temperature must be one of {', '.join(MODES)}")
+        raise DataError(f"--temperature-terms must be one of {', '.join(MODES)}")
     if mode == "off":
         return cal, info
     if "temp_c" not in ds.columns:
         if mode == "on":
-            raise DataError("joint --temperature on: the data have no temp_c column")
+            raise DataError("joint --temperature-terms on: the data have no temp_c column")
         return cal, info
     if info.get("mode") != "poses":
         if mode == "on":
-            raise DataError("joint --temperature on needs the turntable poses (inc_deg, azi_deg, tf_deg)")
+            raise DataError("joint --temperature-terms on needs the turntable poses (inc_deg, azi_deg, tf_deg)")
         return cal, info
     T_all = np.asarray(ds.columns["temp_c"], float)
     if not np.all(np.isfinite(T_all)):
@@ -356,7 +356,7 @@ def _fit(ds, cal, info, mode, sigma_acc, sigma_mag, sigma_pose_deg, fix_dip, see
     max_order, why = determined(T_all[rows])
     if max_order == 0:
         if mode == "on":
-            raise CalibrationError(f"joint --temperature on: the temperature terms are not determined: {why}")
+            raise CalibrationError(f"joint --temperature-terms on: the temperature terms are not determined: {why}")
         info["notes"].append(f"temperature terms not fitted ({why})")
         return cal, info
     w = common.world_of(ds)
@@ -418,7 +418,7 @@ def _fit(ds, cal, info, mode, sigma_acc, sigma_mag, sigma_pose_deg, fix_dip, see
         cov_c, cov_th, lin, cov_nl, cond = _cov_24(x, prob, chosen, J, s2, w)
     except CalibrationError as e:
         if mode == "on":
-            raise CalibrationError(f"joint --temperature on: {e}")
+            raise CalibrationError(f"joint --temperature-terms on: {e}")
         info["notes"].append(f"temperature terms not fitted ({e})")
         return cal, info
     Ma, ca, Mm, cm, qa, qm, dip, th = prob.unpack(x, chosen)

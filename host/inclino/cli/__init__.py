@@ -27,7 +27,16 @@ from inclino.errors import InclinoError
 
 
 def build_parser() -> argparse.ArgumentParser:
-    p = argparse.ArgumentParser(prog="inclino", description="Toolkit for magnetic borehole inclinometer probes.")
+    from inclino.cli.options import HelpFormatter
+
+    p = argparse.ArgumentParser(
+        prog="inclino", formatter_class=HelpFormatter,
+        description="Toolkit for magnetic borehole inclinometer probes: talk to the probe, calibrate it on a "
+                    "turntable, check the result, diagnose what a model misses, turn surveys into a well path. "
+                    "`inclino COMMAND --help` describes a command with an example; docs/cli.md has them all.",
+        epilog="to start, with no probe: the emulated one and the technician's loop it prints:\n"
+               "  inclino emulate --unthrottled --link probe\n\n"
+               "or the whole calibration bench in one command:\n  inclino demo")
     p.add_argument("--version", action="version", version=f"inclino {__version__}")
     sub = p.add_subparsers(dest="command", required=True)
 

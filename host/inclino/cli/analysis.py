@@ -21,6 +21,7 @@ from __future__ import annotations
 import csv
 import json
 
+from inclino.cli.options import add_cal, add_json, add_output, add_plot, command, deprecated
 from inclino.errors import CalibrationError, DataError
 
 MAX_BOOTSTRAP = 1000  # refits at most (each is a whole fit: a bound on the time a typo can cost)
@@ -50,10 +51,10 @@ def calibrate_main(args) -> int:
             raise DataError(f"--prior: {e}")
         if args.method != "joint":
             raise DataError("--prior is used by --method joint only")
-    if getattr(args, "temperature", None) is not None:
+    if getattr(args, "temperature_terms", None) is not None:
         if args.method != "joint":
-            raise DataError("--temperature is an option of --method joint")
-        opts["temperature"] = args.temperature
+            raise DataError("--temperature-terms is an option of --method joint")
+        opts["temperature"] = args.temperature_terms
     if getattr(args, "mount_tolerance_deg", None) is not None:
         if not (args.mount_tolerance_deg >= 0 and np.isfinite(args.mount_tolerance_deg)):
             raise DataError("--mount-tolerance-deg must be a finite number >= 0")
@@ -75,7 +76,7 @@ def calibrate_main(args) -> int:
     else:
         print(f"{args.output}: {cal.method} calibration of probe {cal.probe_serial or '(no serial)'} "
               f"from {args.input} (sha256 {cal.data['sha256'][:16]}...)")
-        print(rep.summary())
+        print(rep.summary(verdict=False))
         if cal.temperature:
             from inclino.calib.thermal import summary
 
@@ -83,31 +84,42 @@ def calibrate_main(args) -> int:
         for note in rep.notes:
             if note.startswith(dataset.THIN_NOTE):
                 print(f"  note: {note}")
+        print(rep.conclusion())
     return 0 if rep.passed else 1
 
 
 def add_calibrate(subparsers):
     from inclino.calib import DEFAULT_METHOD, METHODS
 
-    c = subparsers.add_parser("calibrate", help="fit a calibration to a raw dataset (writes CAL.json)")
+    c = command(subparsers, "calibrate", "fit a calibration to a raw dataset (writes CAL.json)",
+                "Fit the probe's calibration (both triads' scale, misalignment and bias; with --method joint "
+                "also their relative rotation and, when the run's temperatures determine them, temperature "
+                "terms) to a raw dataset, write it as CAL.json and print the fit report: residuals, the "
+                "predicted azimuth and inclination accuracy and its verdict. Exit 1: written, but the "
+                "verdict is FAIL; exit 3: refused (singular, out of the firmware's range), nothing written.",
+                ["inclino calibrate run.csv -o cal.json",
+                 "inclino calibrate chamber.csv --method joint --temperature-terms on -o cal_t.json"])
     c.add_argument("input", help="raw dataset CSV (docs/dataset.md)")
     c.add_argument("--method", choices=tuple(METHODS), default=DEFAULT_METHOD,
-                   help=f"fitting method (default {DEFAULT_METHOD})")
-    c.add_argument("-o", "--output", required=True, help="calibration file to write (CAL.json)")
-    c.add_argument("--json", action="store_true", help="print the fit report as one JSON object")
+                   help="fitting method (default %(default)s)")
+    add_output(c, "calibration file to write", metavar="CAL.json")
+    add_json(c, "print the fit report as one JSON object")
     c.add_argument("--no-poses", action="store_true",
                    help="joint: ignore the pose columns (field recalibration from the invariants)")
-    c.add_argument("--prior", help="joint without poses: take what the invariants cannot see (the common rotation "
-                                   "of the sensor block) from this turntable calibration of the same probe")
-    c.add_argument("--temperature", choices=("auto", "on", "off"), default=None,
+    c.add_argument("--prior", metavar="CAL.json",
+                   help="joint without poses: take what the invariants cannot see (the common rotation "
+                        "of the sensor block) from this turntable calibration of the same probe")
+    c.add_argument("--temperature-terms", choices=("auto", "on", "off"), default=None,
                    help="joint: fit the temperature terms (auto, the default: when the run's temperatures determine "
                         "them; on: or refuse; off: never)")
+    deprecated(c, "--temperature", "--temperature-terms", choices=("auto", "on", "off"))
     c.add_argument("--mount-tolerance-deg", type=float,
                    help="joint without poses or prior: 1-sigma of the sensor block's unobservable rotation, per axis "
                         "(default 0.3; docs/calibration.md)")
     c.add_argument("--accept-mount-tolerance", action="store_true",
                    help="joint without poses or prior: accept that tolerance (the verdict then judges the fit itself)")
-    c.add_argument("--bootstrap", type=int, help="paper methods: refits for the uncertainty (default 40)")
+    c.add_argument("--bootstrap", type=int, help=f"paper methods: refits for the uncertainty, 2-{MAX_BOOTSTRAP} "
+                                                 "(default 40)")
     c.set_defaults(func=calibrate_main)
     return c
 
@@ -153,21 +165,30 @@ def _cmd_attitude(args) -> int:
 
 
 def add_bitexact(sub):
-    b = sub.add_parser("bitexact", help="firmware C against the golden model, bit for bit")
-    b.add_argument("--vectors", type=int, default=1_000_000, help="random vectors besides the edge cases")
-    b.add_argument("--seed", type=int, default=1)
+    b = command(sub, "bitexact", "firmware C against the golden model, bit for bit",
+                "Run the firmware's fixed-point C (compiled for the host) and the NumPy golden model on the "
+                "same raw counts, the edge cases and --vectors random vectors, and compare every output bit "
+                "for bit. Exit 1 on any mismatch.",
+                ["inclino bitexact", "inclino bitexact --vectors 10000 --seed 7"])
+    b.add_argument("--vectors", type=int, default=1_000_000,
+                   help="random vectors besides the edge cases (default %(default)s)")
+    b.add_argument("--seed", type=int, default=1, help="seed of the random vectors (default %(default)s)")
     b.set_defaults(func=_cmd_bitexact)
 
 
 def add_attitude(sub):
-    a = sub.add_parser("attitude", help="attitude of every row of a raw dataset")
+    a = command(sub, "attitude", "attitude of every row of a raw dataset",
+                "Compute the attitude (inclination, azimuth, toolface, G total, B total, dip, flags, magnetic "
+                "toolface) of every row of a raw dataset through the firmware's C, the golden model or the "
+                "float64 reference, with a calibration or the identity, and write it as CSV.",
+                ["inclino attitude run.csv --cal cal.json -o attitude.csv",
+                 "inclino attitude run.csv --engine reference -o -"])
     a.add_argument("input", help="raw dataset CSV")
-    a.add_argument("--cal", help="calibration JSON (default: identity)")
-    a.add_argument("--engine", choices=("firmware", "golden", "reference"), default="firmware")
-    a.add_argument("-o", "--output", required=True, help="output CSV ('-' for stdout)")
+    add_cal(a, "calibration to apply (default: the identity)")
+    a.add_argument("--engine", choices=("firmware", "golden", "reference"), default="firmware",
+                   help="the firmware's C, the NumPy golden model, or float64 (default %(default)s)")
+    add_output(a, "output CSV ('-' for stdout)", metavar="OUT.csv")
     a.set_defaults(func=_cmd_attitude)
-
-
 
 
 PAPERS = ("li2021", "ren2014")
@@ -212,16 +233,16 @@ def diagnose_main(args) -> int:
     if args.json:
         print(r.to_json())
     else:
-        print(f"{args.input}:")
-        print(r.summary())
         for w in written:
             print(f"wrote {w}")
+        print(f"{args.input}:")
+        print(r.summary())  # its last line: the conclusion
     return 0
 
 
 def _temperature_corrected(ds, path):
     """The readings brought to the calibration's reference temperature with
-    its temperature terms (CAL.json's temperature block, joint --temperature):
+    its temperature terms (CAL.json's temperature block, joint --temperature-terms):
     what the diagnosis then sees is what those terms leave."""
     from inclino.formats.calfile import Calibration
     from inclino.calib import thermal
@@ -232,7 +253,7 @@ def _temperature_corrected(ds, path):
     except CalibrationError as e:
         raise DataError(str(e))
     if not cal.temperature:
-        raise DataError(f"{path} has no temperature terms (fit them with calibrate --method joint --temperature)")
+        raise DataError(f"{path} has no temperature terms (fit them with calibrate --method joint --temperature-terms)")
     if "temp_c" not in ds.columns:
         raise DataError("--cal: the data have no temp_c column to apply the temperature terms with")
     try:
@@ -244,18 +265,23 @@ def _temperature_corrected(ds, path):
 def add_diagnose(subparsers):
     from inclino.diagnose import EFFECT_NAMES
 
-    p = subparsers.add_parser("diagnose", help="find what the 12-parameter model gets wrong in a raw dataset, "
-                                               "name the effect, measure the gain")
+    p = command(subparsers, "diagnose", "find what the 12-parameter model gets wrong in a raw dataset, "
+                                        "name the effect, measure the gain",
+                "Fit the 12-parameter model to a raw dataset with the turntable's poses, test what its residuals "
+                "hold against the candidate effects (temperature, nonlinearity, turntable errors, field drift, "
+                "skew), name those that cross-validate at the --alpha false-alarm level, and say how much each "
+                "would gain; outlier rows are listed. --paper compares the papers' own tables instead.",
+                ["inclino diagnose run.csv", "inclino diagnose run.csv --plot figures --json",
+                 "inclino diagnose --paper li2021"])
     p.add_argument("input", nargs="?", help="raw dataset CSV with the turntable's poses (docs/dataset.md)")
-    p.add_argument("--json", action="store_true", help="print one JSON object")
-    p.add_argument("--plot", metavar="DIR", help="write PNGs of the residuals (before/after) into DIR")
+    add_json(p)
+    add_plot(p, "write PNGs of the residuals (before/after) into this folder")
     p.add_argument("--effects", help="comma-separated effects to test (default: all): " + ", ".join(EFFECT_NAMES))
     p.add_argument("--alpha", type=float, default=0.01,
-                   help="false-alarm level: the chance of naming an effect on data without any (default 0.01)")
-    p.add_argument("--folds", type=int, default=5, help="cross-validation folds (default 5)")
-    p.add_argument("--cal", metavar="CAL.json",
-                   help="first bring the readings to the reference temperature with this calibration's "
-                        "temperature terms (joint --temperature): diagnose what they leave")
+                   help="false-alarm level: the chance of naming an effect on data without any (default %(default)s)")
+    p.add_argument("--folds", type=int, default=5, help="cross-validation folds (default %(default)s)")
+    add_cal(p, "first bring the readings to the reference temperature with this calibration's temperature "
+               "terms (joint --temperature-terms): diagnose what they leave")
     p.add_argument("--paper", choices=PAPERS,
                    help="instead of a dataset: the papers' measured tables against the simulation (docs/diagnose.md)")
     p.set_defaults(func=diagnose_main)

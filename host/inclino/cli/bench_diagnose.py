@@ -10,23 +10,34 @@ import argparse
 import sys
 
 
-def diagnose_main(argv=None) -> int:
-    """The diagnosis benchmark with its sizes chosen, or its near-limit miss rates."""
-    from inclino.benchmarks.diagnose import bench_diagnose, __doc__ as doc
+def build_parser() -> argparse.ArgumentParser:
+    from inclino.benchmarks.diagnose import __doc__ as doc
+    from inclino.cli.options import HelpFormatter
 
-    p = argparse.ArgumentParser(prog="python -m inclino.cli.bench_diagnose", description=doc.split("\n\n")[0])
+    p = argparse.ArgumentParser(prog="python -m inclino.cli.bench_diagnose", description=doc.split("\n\n")[0],
+                                formatter_class=HelpFormatter,
+                                epilog="examples:\n  python -m inclino.cli.bench_diagnose --quick\n"
+                                       "  python -m inclino.cli.bench_diagnose --near-limit 6,7.5,9 --draws 50")
     p.add_argument("--json", action="store_true", help="print one JSON object")
     p.add_argument("--quick", action="store_true", help="a small set (for the tests; not the targets' figures)")
     p.add_argument("--per-size", type=int, help="datasets per effect and size (default 4; quick 1)")
     p.add_argument("--nulls", type=int, help="null datasets (default 216; quick 12)")
     p.add_argument("--pairs", type=int, help="two-effect datasets (default 12; quick 2)")
-    p.add_argument("--seed", type=int, default=1000, help="first seed (default 1000)")
+    p.add_argument("--seed", type=int, default=1000, help="first seed (default %(default)s)")
     p.add_argument("--cases", action="store_true", help="with --json: every dataset's record too")
     p.add_argument("--near-limit", metavar="Z[,Z...]", help="instead: the miss rate at these sizes just above the "
                    "detection limit, per effect and plan (e.g. 6,7.5,9; what the hidden-effect tests' range rests on)")
     p.add_argument("--draws", type=int, default=100, help="with --near-limit: datasets per effect, plan and z "
-                   "(default 100)")
+                   "(default %(default)s)")
     p.add_argument("--effects", help="with --near-limit: only these effects (comma-separated)")
+    return p
+
+
+def diagnose_main(argv=None) -> int:
+    """The diagnosis benchmark with its sizes chosen, or its near-limit miss rates."""
+    from inclino.benchmarks.diagnose import bench_diagnose
+
+    p = build_parser()
     a = p.parse_args(argv)
     if a.near_limit is not None:
         from inclino.benchmarks.diagnose import EFFECT_PLANS, near_limit, near_limit_text

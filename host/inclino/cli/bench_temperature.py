@@ -12,20 +12,30 @@ import json
 import sys
 
 
-def temperature_main(argv=None) -> int:
-    """The temperature bench with its sizes chosen, or accept's verdicts."""
+def build_parser() -> argparse.ArgumentParser:
     from inclino.benchmarks import calibration_temperature as bench_temp
+    from inclino.cli.options import HelpFormatter
 
     p = argparse.ArgumentParser(prog="python -m inclino.cli.bench_temperature",
-                                description=__doc__.split("\n\n")[0])
+                                description=" ".join(__doc__.split("\n\n")[0].split()), formatter_class=HelpFormatter,
+                                epilog="examples:\n  python -m inclino.cli.bench_temperature --probes 4\n"
+                                       "  python -m inclino.cli.bench_temperature --verdicts --probes 6 --seed 3000")
     p.add_argument("--json", action="store_true", help="print one JSON object")
-    p.add_argument("--probes", type=int, default=bench_temp.N_PROBES, help="probes drawn (default 8)")
-    p.add_argument("--seed", type=int, default=bench_temp.SEED0, help="first seed (default 500)")
+    p.add_argument("--probes", type=int, default=bench_temp.N_PROBES, help="probes drawn (default %(default)s)")
+    p.add_argument("--seed", type=int, default=bench_temp.SEED0, help="first seed (default %(default)s)")
     p.add_argument("--average", type=int, help="the chamber run's samples per reading (default: the procedure's, 64)")
     p.add_argument("--noise-free-run", action="store_true", help="the chamber run without sensor noise (what the "
                                                                   "noise costs the terms)")
     p.add_argument("--verdicts", action="store_true", help="instead: accept --temperatures's verdicts for probes "
                                                            "as fitted and with their terms scaled")
+    return p
+
+
+def temperature_main(argv=None) -> int:
+    """The temperature bench with its sizes chosen, or accept's verdicts."""
+    from inclino.benchmarks import calibration_temperature as bench_temp
+
+    p = build_parser()
     a = p.parse_args(argv)
     if not 1 <= a.probes <= 10000:
         print("inclino: error: --probes must be within 1-10000", file=sys.stderr)

@@ -12,6 +12,7 @@ from __future__ import annotations
 import argparse
 import json
 
+from inclino.cli.options import add_json, add_plot, command
 from inclino.errors import InclinoError
 
 
@@ -64,7 +65,17 @@ def _calibration(args) -> int:
     if args.section == "time":  # alone (benchmarks/calibration_time.py)
         from inclino.benchmarks import calibration_time as bench_time
 
-        t = bench_time.bench_time(plot=args.plot)
+        plot = None
+        if args.plot:
+            import os
+
+            from inclino.cli.options import plot_target
+            from inclino.plotting import make_dir
+
+            folder, name = plot_target(args.plot, "calibration-time.png")
+            make_dir(folder, "the figures' folder")
+            plot = os.path.join(folder, name)
+        t = bench_time.bench_time(plot=plot)
         print(t.to_json() if args.json else bench_time.text(t))
         return 0 if t.passed else 1
     r = bench_calibration()
@@ -96,14 +107,32 @@ def _diagnose(args) -> int:
     return 0 if r.passed else 1
 
 
+def _demo(args) -> int:
+    """`inclino bench demo [--json] [--quick]`: the demo's prediction against its acceptance over seeds."""
+    from inclino.benchmarks.demo_prediction import bench_demo
+
+    r = bench_demo(seeds=3 if getattr(args, "quick", False) else 10)
+    print(r.to_json() if getattr(args, "json", False) else r.summary())
+    return 0 if r.passed else 1
+
+
 def _survey(args) -> int:
     """`inclino bench survey [--json] [--plot PNG]`: the benchmark drives the
     real commands in-process through the command runner add_bench was given
     (inclino.cli.main: this module does not import its own package)."""
     from inclino.benchmarks.survey import bench, text
 
+    plot = None
+    if args.plot:
+        import os
+
+        from inclino.cli.options import plot_target
+
+        folder, name = plot_target(args.plot, "survey-wellpath.png")
+        os.makedirs(folder, exist_ok=True)
+        plot = os.path.join(folder, name)
     try:
-        r = bench(plot=args.plot, cli_main=args.cli_main)
+        r = bench(plot=plot, cli_main=args.cli_main)
     except RuntimeError as e:  # a step of the chain (emulator, a command) failed: its message, no traceback
         raise InclinoError(str(e))
     print(r.to_json() if args.json else text(r))
@@ -142,7 +171,8 @@ def _mcu(args) -> int:
 
 # NAME -> function(args) -> exit status; the order is the order `--help` lists them
 BENCHMARKS = {"accuracy": _accuracy, "speed": _speed, "mcu": _mcu, "emulator": _emulator, "link": _link,
-              "calibration": _calibration, "diagnose": _diagnose, "input": _input, "survey": _survey}
+              "calibration": _calibration, "diagnose": _diagnose, "input": _input, "survey": _survey,
+              "demo": _demo}
 
 
 def _cmd_bench(args) -> int:
@@ -150,16 +180,23 @@ def _cmd_bench(args) -> int:
 
 
 def add_bench(sub, cli_main):
-    be = sub.add_parser("bench", help="benchmarks (figures, JSON with --json)")
-    be.add_argument("what", choices=tuple(BENCHMARKS))
-    be.add_argument("--json", action="store_true", help="print one JSON object")
-    be.add_argument("--field", type=float, default=50000.0, help="accuracy: field total, nT")
-    be.add_argument("--dip", type=float, default=60.0, help="accuracy: dip, degrees")
-    be.add_argument("--vectors", type=int, default=1_000_000, help="speed: batch size")
-    be.add_argument("--quick", action="store_true", help="diagnose: a small set (not the targets' figures)")
-    be.add_argument("--plot", help="survey: also draw the first seed's well path and ellipses; calibration "
-                                   "--section time: the first probe's predicted accuracy against bench time (PNG)")
+    be = command(sub, "bench", "benchmarks (figures, JSON with --json)",
+                 "Measure and print a benchmark's figures next to its targets (JSON with --json): fixed-point "
+                 "accuracy and speed, the S08's cycles and size, the emulator's and the link's throughput, the "
+                 "calibration methods against the Cramer-Rao floor, the diagnosis's detection rates, input "
+                 "memory, the survey chain, the demo's prediction against its acceptance over seeds. Exit 1 when a benchmark states targets and misses them.",
+                 ["inclino bench accuracy", "inclino bench calibration --json",
+                  "inclino bench survey --plot figures"])
+    be.add_argument("what", choices=tuple(BENCHMARKS), help="the benchmark to run")
+    add_json(be, "print one JSON object")
+    be.add_argument("--field", type=float, default=50000.0, help="accuracy: total field, nT (default %(default)g)")
+    be.add_argument("--dip", type=float, default=60.0, help="accuracy: dip, degrees (default %(default)g)")
+    be.add_argument("--vectors", type=int, default=1_000_000, help="speed: batch size (default %(default)s)")
+    be.add_argument("--quick", action="store_true", help="diagnose, demo: a small set (not the targets' figures)")
+    add_plot(be, "survey: also draw the first seed's well path and ellipses into this folder (survey-wellpath.png); "
+                 "calibration --section time: the first probe's predicted accuracy against bench time "
+                 "(calibration-time.png)")
     be.add_argument("--section", choices=("all", "temperature", "time"), default="all",
                     help="calibration: only the temperature section, or only bench time against accuracy "
-                         "(today's procedures and the adaptive ones; default all)")
+                         "(today's procedures and the adaptive ones; default %(default)s)")
     be.set_defaults(func=_cmd_bench, cli_main=cli_main)

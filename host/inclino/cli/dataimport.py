@@ -29,15 +29,25 @@ def import_main(args) -> int:
 
 
 def add_import(sub):
-    p = sub.add_parser("import", help="a log of any accelerometer/magnetometer into the canonical dataset, "
-                                      "through a sensor description (docs/dataset.md)")
+    from inclino.cli.options import add_json, add_output, command
+
+    p = command(sub, "import", "a log of any accelerometer/magnetometer into the canonical dataset, "
+                               "through a sensor description (docs/dataset.md)",
+                "Turn a log of any accelerometer and magnetometer (any columns, units and axis map; both triads "
+                "or one) into the canonical raw dataset the other commands read, through a sensor description "
+                "(a TOML file, or a preset citing its data sheet), and check it before anything is fitted: "
+                "wrong units or an undeclared reflection of the axes is refused (exit 2, nothing written). The "
+                "header records the log (path, SHA-256) and the description.",
+                ["inclino import log.csv --sensor mpu9250 -o run.csv",
+                 "inclino import tests/data/real/ck_acc_mag/acc_mag_log.csv "
+                 "--sensor tests/data/real/ck_acc_mag/sensor.toml -o run.csv"])
     p.add_argument("log", help="the log: delimited text (comma, semicolon, tab or whitespace)")
     p.add_argument("--sensor", metavar="S.toml",
                    help="sensor description (a TOML file, or a preset name: adis16210, mpu9250, icm20948, bno055; "
                         "default: adis16210, the canonical columns as they are)")
-    p.add_argument("-o", "--output", required=True, help="canonical dataset to write (RUN.csv; '-' for stdout)")
+    add_output(p, "canonical dataset to write ('-' for stdout)", metavar="RUN.csv")
     p.add_argument("--static", action="store_true",
                    help="declare the run static (step-and-hold: every row at rest), recorded in the header")
-    p.add_argument("--json", action="store_true", help="print what the import did as one JSON object")
+    add_json(p, "print what the import did as one JSON object")
     p.set_defaults(func=import_main)
     return p

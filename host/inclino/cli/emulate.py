@@ -2,6 +2,7 @@
 interrupted (the emulator package, imported when the command runs)."""
 from __future__ import annotations
 
+from inclino.cli.options import command
 from inclino.errors import DataError, InclinoError
 
 
@@ -31,14 +32,15 @@ def _cmd_emulate(args) -> int:
     print(f"inclino emulator: probe on {emu.path}" + (f" (link {args.link})" if args.link else ""), flush=True)
     if emu.control_port is not None:
         print(f"control channel: 127.0.0.1:{emu.control_port} (JSON lines, docs/emulator.md)", flush=True)
+    print(next_steps(args.link or emu.path, emu.control_port), flush=True)
     stop = {"now": False}
 
     def _term(*_):
         stop["now"] = True
 
     signal.signal(signal.SIGTERM, _term)
-    emu.start()
-    try:
+    try:  # Ctrl-C from here on, also while start() waits for the loop's thread (a host may already use it)
+        emu.start()
         while not stop["now"] and emu.error is None:
             time.sleep(0.1)
     except KeyboardInterrupt:
@@ -51,14 +53,35 @@ def _cmd_emulate(args) -> int:
     return 0
 
 
+def next_steps(port: str, control: int | None) -> str:
+    """The technician's loop on this probe, to try in another terminal
+    (README, "Five minutes on the emulator")."""
+    bench = f" --bench 127.0.0.1:{control}" if control is not None else ""
+    lines = [f"inclino identify --port {port}",
+             f"inclino survey --port {port} --count 3"]
+    if bench:
+        lines += [f"inclino acquire --port {port}{bench} --procedure twelve-position -o run.csv",
+                  "inclino calibrate run.csv -o cal.json",
+                  f"inclino download --port {port} --cal cal.json",
+                  f"inclino verify --port {port} --cal cal.json",
+                  f"inclino accept --port {port}{bench}"]
+    return "next, in another terminal (Ctrl-C here stops the probe):\n" + "\n".join("  " + x for x in lines)
+
+
 def add_emulate(sub):
-    em = sub.add_parser("emulate", help="run the emulated probe on a pseudo-terminal until interrupted")
-    em.add_argument("--scenario", default="typical", help="built-in scenario name or TOML file (default typical)")
+    em = command(sub, "emulate", "run the emulated probe on a pseudo-terminal until interrupted",
+                 "Run the emulated probe (the firmware's C against register-level models of the ADIS16210 and "
+                 "the fluxgate's ADC, on a turntable in the Earth's field) on a pseudo-terminal until "
+                 "interrupted, and print its port and the control channel's address: every probe command works "
+                 "on that port as on a real probe, and acquire/accept --bench turn its turntable.",
+                 ["inclino emulate", "inclino emulate --unthrottled --link /tmp/probe --scenario ideal --seed 3"])
+    em.add_argument("--scenario", default="typical",
+                    help="built-in scenario name or TOML file (default %(default)s)")
     em.add_argument("--seed", type=int, default=None, help="override the scenario's seed")
-    em.add_argument("--baud", type=int, default=115200)
-    em.add_argument("--link", help="also make this path a symlink to the pseudo-terminal")
+    em.add_argument("--baud", type=int, default=115200, help="serial speed, bits/s (default %(default)s)")
+    em.add_argument("--link", metavar="PATH", help="also make this path a symlink to the pseudo-terminal")
     em.add_argument("--control", type=int, default=0,
-                    help="control channel TCP port on 127.0.0.1 (default: any free port)")
+                    help="control channel TCP port on 127.0.0.1 (default %(default)s: any free port)")
     em.add_argument("--unthrottled", action="store_true", help="run faster than real time")
     em.add_argument("--tempco-draw", type=int, metavar="N", default=None,
                     help="draw this probe's tempcos from the scenario's spread with seed N (docs/emulator.md)")

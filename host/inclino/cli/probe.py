@@ -11,6 +11,7 @@ import json
 import sys
 import time
 
+from inclino.cli.options import add_cal, add_json, add_port, command, deprecated, require
 from inclino.errors import DataError
 
 
@@ -21,23 +22,43 @@ def _link(args):
     return ProbeLink(args.port, baud=args.baud, timeout=args.timeout)
 
 
-def _add_port(p):
-    p.add_argument("--port", required=True, help="serial port name or pyserial URL")
-    p.add_argument("--baud", type=int, default=115200)
-    p.add_argument("--timeout", type=float, default=1.0, help="seconds to wait for an answer (default 1)")
+# IDENTIFY's self-test status word (firmware/src/app_main.c, docs/protocol.md): a bit a failed part
+SELFTEST_BITS = (
+    (0x0001, "accelerometer failed to start (ADIS16210 absent, wrong PROD_ID, no answer, self-test stuck or its "
+             "configuration did not read back)"),
+    (0x0002, "fluxgate ADC failed to start (ADS1256 absent, wrong ID, no DRDY or its configuration did not read "
+             "back)"),
+    (0x0004, "accelerometer self-test failed (ADIS16210 DIAG_STAT[5] after the automatic self-test, MSC_CTRL[10])"),
+)
+
+
+def selftest_text(word: int) -> list[str]:
+    """What each set bit of the self-test status means; 0: every part passed."""
+    if word == 0:
+        return ["pass: the ADIS16210 passed its automatic self-test and the ADS1256 answered and self-calibrated"]
+    out = [text for bit, text in SELFTEST_BITS if word & bit]
+    rest = word & ~sum(bit for bit, _ in SELFTEST_BITS)
+    if rest:
+        out.append(f"bits 0x{rest:04X}: not defined by this host's protocol version")
+    return out
 
 
 def _cmd_identify(args) -> int:
     with _link(args) as link:
         i = link.identify()
     slot = {0: "A", 1: "B", 0xFF: "none (identity)"}.get(i.cal_slot, str(i.cal_slot))
+    meaning = selftest_text(i.selftest)
     d = {"product": i.product, "firmware": ".".join(map(str, i.fw_version)), "protocol": i.proto_version,
          "serial": i.serial, "calibration_slot": slot, "calibration_sequence": i.cal_sequence,
-         "calibration_crc": f"{i.cal_crc:04X}", "selftest": i.selftest}
+         "calibration_crc": f"{i.cal_crc:04X}", "selftest": i.selftest, "selftest_meaning": meaning}
     if args.json:
         print(json.dumps(d, indent=2))
     else:
         for k, v in d.items():
+            if k == "selftest_meaning":
+                continue
+            if k == "selftest":
+                v = f"0x{v:04X}: " + "; ".join(meaning)
             print(f"{k:22s} {v}")
     return 0
 
@@ -62,16 +83,23 @@ def _records(link, args):
         yield link.survey()
         return
     if args.stream:
-        yield from link.stream(args.period, args.count)
+        yield from link.stream(args.period_ms, args.count)
         return
     for _ in range(args.count):
         yield link.survey()
-        if args.period:
-            time.sleep(args.period / 1000.0)
+        if args.period_ms:
+            time.sleep(args.period_ms / 1000.0)
+
+
+def _survey_format(args) -> str:
+    if args.json and args.csv:
+        raise DataError("--json and --csv: give one")
+    return "json" if args.json else "csv" if args.csv else "table"
 
 
 def _cmd_survey(args) -> int:
     _validate(args)
+    args.format = _survey_format(args)
     from inclino.errors import InclinoError
     from inclino.formats import survey_log as sl
 
@@ -80,9 +108,9 @@ def _cmd_survey(args) -> int:
     if args.append and not (args.output or args.las):
         raise DataError("--append continues a file: give -o RUN.csv or --las RUN.las")
     if args.output == "-":
-        raise DataError("-o -: the run goes to standard output anyway (--format csv)")
+        raise DataError("-o -: the run goes to standard output anyway (--csv)")
     if args.output and args.output.lower().endswith((".json", ".jsonl", ".las")):
-        raise DataError(f"-o {args.output}: -o writes the run as CSV (--las for LAS 2.0, --format json for JSON "
+        raise DataError(f"-o {args.output}: -o writes the run as CSV (--las for LAS 2.0, --json for JSON "
                         "lines on standard output)")
     out = sys.stdout
     with _link(args) as link:
@@ -192,6 +220,7 @@ def _cmd_download(args) -> int:
     from inclino.link.serial_link import check_link_options
 
     check_link_options(args.baud, args.timeout)
+    require(args, "cal", "--cal CAL.json", "the calibration to write")
     cal = Calibration.load(args.cal)  # a refused file fails here, before the port is opened
     cal.check()
     refusal = calops.report_refusal(cal)
@@ -225,6 +254,7 @@ def _cmd_verify(args) -> int:
 
     if not 1 <= args.surveys <= 1000:
         raise DataError(f"--surveys {args.surveys}: surveys to check, 1-1000")
+    require(args, "cal", "--cal CAL.json", "the calibration to check against")
     cal = Calibration.load(args.cal)
     with _link(args) as link:
         r = calops.verify(link, cal, surveys=args.surveys)
@@ -232,7 +262,7 @@ def _cmd_verify(args) -> int:
         print(r.to_json())
     else:
         if r.slot == "none":
-            print(f"verify: FAIL: {r.mismatches[0]}")
+            print(f"verdict: FAIL: {r.mismatches[0]}")
             return 1
         print(f"storage: {'pass' if r.storage_ok else 'FAIL'} (slot {r.slot}, sequence {r.sequence}); "
               f"correction: {'pass' if r.correction_ok else 'FAIL'} ({r.checks} surveys checked bit for bit)")
@@ -240,21 +270,51 @@ def _cmd_verify(args) -> int:
             print(f"  {m}")
         if len(r.mismatches) > 10:
             print(f"  ... {len(r.mismatches) - 10} more (--json lists every differing field)")
+        print(verify_conclusion(r))
     return 0 if r.ok else 1
 
 
+def verify_conclusion(r) -> str:
+    """`inclino verify`'s last line: the verdict and what decided it."""
+    bad = sum(1 for m in r.mismatches if m.startswith("survey "))
+    if r.ok:
+        return (f"verdict: PASS: slot {r.slot} holds the file's coefficients and {r.checks} of {r.checks} surveys "
+                "are the file's correction bit for bit")
+    why = ([] if r.storage_ok else [f"slot {r.slot} does not hold the file's coefficients"]) + \
+        ([] if r.correction_ok else [f"{bad or 'some'} of {r.checks} surveys differ from the file's correction"])
+    return "verdict: FAIL: " + "; ".join(why)
+
+
 def add_parser(sub) -> None:
-    p = sub.add_parser("identify", help="product, firmware, serial and active calibration of the probe")
-    _add_port(p)
-    p.add_argument("--json", action="store_true")
+    p = command(sub, "identify", "product, firmware, serial and active calibration of the probe",
+                "Ask the probe who it is: product, firmware and protocol version, serial number, the active "
+                "calibration (slot, sequence, image CRC) and the self-test result with its meaning. The first "
+                "thing to run on a new port: exit 4 says the port, the baud rate or the probe is wrong.",
+                ["inclino identify --port /dev/ttyUSB0", "inclino identify --port /dev/pts/5 --json"])
+    add_port(p)
+    add_json(p)
     p.set_defaults(func=_cmd_identify)
 
-    p = sub.add_parser("survey", help="surveys from the probe: a live table, CSV or JSON lines; LAS export")
-    _add_port(p)
-    p.add_argument("--count", type=int, default=1, help="surveys to take (0 with --stream: until interrupted)")
-    p.add_argument("--period", type=int, default=0, help="milliseconds between surveys")
-    p.add_argument("--stream", action="store_true", help="let the probe stream at --period (>= 1 ms)")
-    p.add_argument("--format", choices=("table", "csv", "json"), default="table")
+    p = command(sub, "survey", "surveys from the probe: a live table, CSV or JSON lines; LAS export",
+                "Take surveys from the probe (inclination, azimuth, toolface, G total, B total, dip and the QC "
+                "verdict against the probe's reference), one at a time every --period-ms or streamed by the "
+                "probe, printed as a table, CSV (--csv) or JSON lines (--json), each with the run's UTC start, "
+                "the probe serial, firmware and calibration; -o and --las also log the run to CSV and LAS 2.0 "
+                "as it goes (--append continues a log), and --md tags the station's measured depth for "
+                "`inclino trajectory`.",
+                ["inclino survey --port /dev/ttyUSB0 --count 5",
+                 "inclino survey --port /dev/ttyUSB0 --md 120.5 --count 3 -o stations.csv --append",
+                 "inclino survey --port /dev/ttyUSB0 --stream --period-ms 100 --count 0 --json"])
+    add_port(p)
+    p.add_argument("--count", type=int, default=1,
+                   help="surveys to take (0 with --stream: until interrupted; default %(default)s)")
+    p.add_argument("--period-ms", type=int, default=0, help="milliseconds between surveys (default %(default)s)")
+    deprecated(p, "--period", "--period-ms", type=int)
+    p.add_argument("--stream", action="store_true", help="let the probe stream at --period-ms (>= 1 ms)")
+    p.add_argument("--csv", action="store_true", help="print CSV (a header, then one row a survey)")
+    add_json(p, "print JSON lines (one object a survey)")
+    deprecated(p, "--format", "--csv or --json", dest="format", choices=("table", "csv", "json"),
+               apply=lambda ns, v: (setattr(ns, "csv", v == "csv"), setattr(ns, "json", v == "json")))
     p.add_argument("-o", "--output", metavar="RUN.csv",
                    help="also write the run as CSV to this file, row by row (never replaces a file: --append)")
     p.add_argument("--las", metavar="RUN.las", help="also write the run as LAS 2.0 to this file (at checkpoints and "
@@ -265,20 +325,29 @@ def add_parser(sub) -> None:
                                             "LAS) for inclino trajectory")
     p.set_defaults(func=_cmd_survey)
 
-    p = sub.add_parser("download", help="write a calibration into the probe, read it back, activate it")
-    _add_port(p)
-    p.add_argument("cal", help="calibration JSON")
+    p = command(sub, "download", "write a calibration into the probe, read it back, activate it",
+                "Write a calibration file into the probe's inactive slot, read it back byte for byte, activate "
+                "it and confirm; the probe keeps its previous calibration when any step fails. A file made "
+                "for another probe serial, or whose own fit report did not pass, is refused (exit 3, nothing "
+                "written) unless --force.",
+                "inclino download --port /dev/ttyUSB0 --cal cal.json")
+    add_port(p)
+    add_cal(p, "the calibration to write (inclino calibrate -o)", positional_alias=True)
     p.add_argument("--force", action="store_true",
                    help="accept a file made for another probe serial, or whose fit report did not pass")
-    p.add_argument("--json", action="store_true")
+    add_json(p)
     p.add_argument("--quiet", action="store_true", help="no progress bar")
     p.set_defaults(func=_cmd_download)
 
-    p = sub.add_parser("verify", help="check the stored calibration and the probe's correction against a file")
-    _add_port(p)
-    p.add_argument("cal", help="calibration JSON")
-    p.add_argument("--surveys", type=int, default=3, help="surveys to check bit for bit (default 3)")
-    p.add_argument("--json", action="store_true")
+    p = command(sub, "verify", "check the stored calibration and the probe's correction against a file",
+                "Check that the probe holds this calibration (the stored image, byte for byte) and applies it: "
+                "--surveys surveys taken with their raw counts, corrected on the host with the firmware's own "
+                "arithmetic and compared with the probe's result bit for bit. Exit 1 on any difference.",
+                "inclino verify --port /dev/ttyUSB0 --cal cal.json --surveys 5")
+    add_port(p)
+    add_cal(p, "the calibration the probe should hold", positional_alias=True)
+    p.add_argument("--surveys", type=int, default=3, help="surveys to check bit for bit, 1-1000 (default %(default)s)")
+    add_json(p)
     p.set_defaults(func=_cmd_verify)
 
 
@@ -288,19 +357,19 @@ def _validate(args) -> None:
     check_link_options(args.baud, args.timeout)
     if args.count < 0:
         raise DataError(f"--count {args.count}: surveys to take, >= 0 (0 only with --stream)")
-    if args.period < 0:
-        raise DataError(f"--period {args.period}: milliseconds, >= 0")
+    if args.period_ms < 0:
+        raise DataError(f"--period-ms {args.period_ms}: milliseconds, >= 0")
     if args.stream:
-        if not 1 <= args.period <= 65535:
-            raise DataError(f"--period {args.period}: the probe streams at 1-65535 ms")
+        if not 1 <= args.period_ms <= 65535:
+            raise DataError(f"--period-ms {args.period_ms}: the probe streams at 1-65535 ms")
         if args.count > 65535:
             raise DataError(f"--count {args.count}: the probe streams at most 65535 surveys (0: until "
                             "interrupted)")
     else:
         if args.count == 0:
             raise DataError("--count 0 (until interrupted) needs --stream")
-        if args.period > 86_400_000:
-            raise DataError(f"--period {args.period}: at most 86400000 ms (a day)")
+        if args.period_ms > 86_400_000:
+            raise DataError(f"--period-ms {args.period_ms}: at most 86400000 ms (a day)")
 
 
 def _cmd_flash(args) -> int:
@@ -325,17 +394,20 @@ def _cmd_flash(args) -> int:
 
 
 def add_flash(subparsers) -> None:
-    p = subparsers.add_parser("flash", help="program an S-record image through the probe's bootloader, "
-                                            "verify every range")
+    p = command(subparsers, "flash", "program an S-record image through the probe's bootloader, verify every range",
+                "Program a firmware image (S-records) through the probe's serial bootloader: erase, program, "
+                "read back and CRC-check every range, then commit and start the application. A flash cut "
+                "short is started again (--attempts); nothing is committed until every range verified, so a "
+                "failure leaves the probe in its bootloader, never with a half-written application.",
+                ["inclino flash app.s19 --port /dev/ttyUSB0",
+                 "inclino flash app.s19 --port /dev/ttyUSB0 --readback probe.s19 --json"])
     p.add_argument("image", help="S-record file (S2/S3 records with MC9S12XEP100 global addresses)")
-    p.add_argument("--port", required=True, help="serial port name or pyserial URL")
-    p.add_argument("--baud", type=int, default=115200)
-    p.add_argument("--timeout", type=float, default=0.5, help="seconds to wait for an answer (default 0.5)")
+    add_port(p, timeout=0.5)
     p.add_argument("--attempts", type=int, default=2,
-                   help="whole flashes to start at most when one is cut short (default 2)")
+                   help="whole flashes to start at most when one is cut short, 1-10 (default %(default)s)")
     p.add_argument("--no-run", action="store_true", help="leave the probe in its bootloader")
     p.add_argument("--readback", metavar="FILE.s19", help="also write what was read back as S-records")
-    p.add_argument("--json", action="store_true", help="print the result as one JSON object")
+    add_json(p)
     p.set_defaults(func=_cmd_flash)
 
 

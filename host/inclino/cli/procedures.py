@@ -6,20 +6,25 @@ from __future__ import annotations
 
 import sys
 
+from inclino.cli.options import add_cal, add_json, add_output, add_port, command, deprecated
+from inclino.cli.options import add_plot as add_plot_option
 from inclino.errors import DataError
 
 
 def add_common(p) -> None:
     """Options acquire and accept share: port, bench, stability."""
-    p.add_argument("--port", required=True, help="serial port name or pyserial URL of the probe")
-    p.add_argument("--baud", type=int, default=115200)
-    p.add_argument("--timeout", type=float, default=1.0, help="seconds to wait for an answer (default 1)")
+    add_port(p)
     p.add_argument("--bench", metavar="HOST:PORT",
-                   help="drive the emulator's turntable over its control channel (unattended)")
-    p.add_argument("--reads", type=int, default=3, help="readings that must agree at each position (default 3)")
-    p.add_argument("--tol-acc-mg", type=float, default=1.0, help="stability: accelerometer spread, mg (default 1)")
-    p.add_argument("--tol-mag-nt", type=float, default=20.0, help="stability: fluxgate spread, nT (default 20)")
-    p.add_argument("--max-reads", type=int, default=30, help="bench: readings before a position is given up")
+                   help="drive the emulator's turntable over its control channel (unattended; the address "
+                        "`inclino emulate` prints); without it a person turns the table when asked")
+    p.add_argument("--reads", type=int, default=3,
+                   help="readings that must agree at each position (default %(default)s)")
+    p.add_argument("--tol-acc-mg", type=float, default=1.0,
+                   help="stability: accelerometer spread, mg (default %(default)g)")
+    p.add_argument("--tol-mag-nt", type=float, default=20.0,
+                   help="stability: fluxgate spread, nT (default %(default)g)")
+    p.add_argument("--max-reads", type=int, default=30,
+                   help="bench: readings before a position is given up (default %(default)s)")
     p.add_argument("--average", type=int, help="set the probe's samples per reading first (SET_AVERAGE, 1-64; "
                                               "the probe's default is 16, acquire --procedure temperature's "
                                               "64; it keeps it until it restarts)")
@@ -66,41 +71,65 @@ def _cmd_acquire_poses(args) -> int:
     return 0
 
 
+def _add_soak(t, interval_help: str) -> None:
+    """The chamber's timing options, acquire and accept --temperatures alike."""
+    t.add_argument("--ramp-rate", type=float, default=1.0, help="chamber ramp, degC/min (default %(default)g)")
+    t.add_argument("--interval-min", type=float, default=2.0, help=interval_help + " (default %(default)g)")
+    deprecated(t, "--interval", "--interval-min", type=float)
+    return t
+
+
+def _add_settle(t) -> None:
+    t.add_argument("--soak-band", type=float, default=1.0,
+                   help="settled: within this of the set point, degC (default %(default)g) ...")
+    t.add_argument("--soak-tol", type=float, default=0.5,
+                   help="... and changing by at most this, degC (default %(default)g) ...")
+    t.add_argument("--soak-window-min", type=float, default=10.0,
+                   help="... over this many minutes (default %(default)g)")
+    deprecated(t, "--soak-window", "--soak-window-min", type=float)
+    t.add_argument("--max-soak-min", type=float, default=240.0,
+                   help="bench: give up after this many minutes at one set point (default %(default)g)")
+    deprecated(t, "--max-soak", "--max-soak-min", type=float)
+
+
 def add_acquire(sub):
     from inclino.procedures.acquire import PROCEDURES
 
-    p = sub.add_parser("acquire", help="take a calibration run from the probe (operator or emulated bench)")
+    p = command(sub, "acquire", "take a calibration run from the probe (operator or emulated bench)",
+                "Take a calibration run: the probe read at each pose of the procedure until --reads readings "
+                "agree, the turntable turned by a person (asked at each pose) or, with --bench, the emulator's "
+                "turntable over its control channel; the temperature procedure takes the poses at each chamber "
+                "set point after a soak. Writes the raw dataset that `inclino calibrate` fits.",
+                ["inclino acquire --port /dev/ttyUSB0 --procedure twelve-position -o run.csv",
+                 "inclino acquire --port /dev/pts/5 --bench 127.0.0.1:40123 --procedure multi-position "
+                 "-o run.csv"])
     add_common(p)
     p.add_argument("--procedure", required=True, choices=PROCEDURES,
                    help="twelve-position (Li 2021), multi-position (Li + Ren 2014 + orientations), "
                         "continuous (Guo 2009), temperature (a chamber run: --temperatures), adaptive (poses "
                         "chosen until the predicted acceptance reaches the target; --chamber-range-c)")
-    p.add_argument("-o", "--output", help="raw dataset CSV to write (rows go to OUTPUT.part as they are taken)")
+    add_output(p, "raw dataset CSV to write (rows go to RUN.csv.part as they are taken; renamed at the end); "
+                  "required unless --resume", required=False, metavar="RUN.csv")
     p.add_argument("--resume", metavar="RUN.csv.part", help="continue the run an interruption left in RUN.csv.part "
                                                             "(same probe, calibration and procedure): the positions "
                                                             "it holds are not taken again")
-    p.add_argument("--points", type=int, default=36, help="multi-position: quasi-uniform orientations (default 36)")
-    p.add_argument("--d1", type=float, default=30.0, help="continuous: first inclination (default 30)")
-    p.add_argument("--azimuth", type=float, default=2.0, help="continuous: azimuth of both rotations (default 2)")
-    p.add_argument("--step", type=float, default=10.0, help="continuous on the bench: toolface step (default 10)")
-    p.add_argument("--field", type=float, help="field total, nT, for the header (the bench reports its own)")
+    p.add_argument("--points", type=int, default=36,
+                   help="multi-position: quasi-uniform orientations (default %(default)s)")
+    p.add_argument("--d1", type=float, default=30.0, help="continuous: first inclination, deg (default %(default)g)")
+    p.add_argument("--azimuth", type=float, default=2.0,
+                   help="continuous: azimuth of both rotations, deg (default %(default)g)")
+    p.add_argument("--step", type=float, default=10.0,
+                   help="continuous on the bench: toolface step, deg (default %(default)g)")
+    p.add_argument("--field", type=float, help="total field, nT, for the header (the bench reports its own)")
     p.add_argument("--dip", type=float, help="magnetic dip, deg, for the header")
     p.add_argument("--declination", type=float, help="declination, deg, for the header")
     t = p.add_argument_group("temperature procedure (docs/bench.md)")
-    t.add_argument("--temperatures", default="-5,25,55", help="chamber set points, degC (default -5,25,55)")
+    t.add_argument("--temperatures", default="-5,25,55", help="chamber set points, degC (default %(default)s)")
     t.add_argument("--poses", default="twelve-position", choices=("twelve-position", "multi-position"),
-                   help="the pose set taken at each set point (default twelve-position)")
-    t.add_argument("--ramp-rate", type=float, default=1.0, help="chamber ramp, degC/min (default 1)")
-    t.add_argument("--interval", type=float, default=2.0, help="minutes between readings while the chamber "
-                                                               "ramps and soaks (default 2)")
-    t.add_argument("--ramp-poses", type=int, default=4, help="poses read through each ramp (1-6, default 4)")
-    t.add_argument("--soak-band", type=float, default=1.0, help="settled within this of the set point, degC "
-                                                                "(default 1)")
-    t.add_argument("--soak-tol", type=float, default=0.5, help="... and changing by at most this, degC "
-                                                               "(default 0.5) ...")
-    t.add_argument("--soak-window", type=float, default=10.0, help="... over this many minutes (default 10)")
-    t.add_argument("--max-soak", type=float, default=240.0, help="bench: give up after this many minutes at "
-                                                                 "one set point (default 240)")
+                   help="the pose set taken at each set point (default %(default)s)")
+    _add_soak(t, "minutes between readings while the chamber ramps and soaks")
+    t.add_argument("--ramp-poses", type=int, default=4, help="poses read through each ramp, 1-6 (default %(default)s)")
+    _add_settle(t)
     from inclino.cli.adaptive import add_adaptive_options
 
     add_adaptive_options(p)
@@ -139,8 +168,8 @@ def _cmd_acquire(args) -> int:
     tol.check()
     if args.average is not None and not 1 <= args.average <= 64:
         raise DataError("--average must be within 1-64 samples")
-    plan = ThermalPlan(parse_temperatures(args.temperatures), args.poses, args.ramp_rate, args.interval,
-                       args.ramp_poses, args.soak_band, args.soak_tol, args.soak_window, args.max_soak)
+    plan = ThermalPlan(parse_temperatures(args.temperatures), args.poses, args.ramp_rate, args.interval_min,
+                       args.ramp_poses, args.soak_band, args.soak_tol, args.soak_window_min, args.max_soak_min)
     plan.check()
     world = {"field_nT": args.field, "dip_deg": args.dip, "declination_deg": args.declination}
     for key, opt in (("field_nT", "--field"), ("dip_deg", "--dip"), ("declination_deg", "--declination")):
@@ -203,8 +232,8 @@ def _cmd_accept(args) -> int:
                          declination=args.declination, limits=limits, quiet=args.quiet, average=args.average)
     finally:
         table.close()
-    if args.save:
-        _write(args.save, res.to_json() + "\n")
+    if args.output:
+        _write(args.output, res.to_json() + "\n")
     if args.plot:
         from inclino.procedures import plots
 
@@ -237,8 +266,8 @@ def _cmd_accept_temperatures(args) -> int:
     if not (math.isfinite(args.target_ratio) and args.target_ratio >= 1.0):
         raise DataError("--target-ratio must be a number >= 1")
     check_takings(args.takings, args.vertical_takings, args.significance_z)
-    plan = ThermalPlan(sps, "twelve-position", args.ramp_rate, args.interval, 1, args.soak_band, args.soak_tol,
-                       args.soak_window, args.max_soak)
+    plan = ThermalPlan(sps, "twelve-position", args.ramp_rate, args.interval_min, 1, args.soak_band, args.soak_tol,
+                       args.soak_window_min, args.max_soak_min)
     plan.check()
     eng = temp_engine.get(args.engine)
     if args.circles or args.plot or args.before != "auto":
@@ -250,11 +279,11 @@ def _cmd_accept_temperatures(args) -> int:
     grid_points(args.grid, incs, azis, tfs)
     if not args.cal:
         raise DataError("--temperatures needs --cal CAL.json with temperature terms (inclino calibrate --method "
-                        "joint --temperature on)")
+                        "joint --temperature-terms on)")
     cal = Calibration.load(args.cal)
     cal.check()
     if not temp_engine.has_terms(cal):
-        raise DataError(f"{args.cal} has no temperature terms (inclino calibrate --method joint --temperature on, "
+        raise DataError(f"{args.cal} has no temperature terms (inclino calibrate --method joint --temperature-terms on, "
                         "from a chamber run)")
     eng.check(cal)  # exit 3 before the port when the firmware cannot hold the terms
     table = open_table(args)
@@ -267,8 +296,8 @@ def _cmd_accept_temperatures(args) -> int:
                                       significance_z=args.significance_z)
     finally:
         table.close()
-    if args.save:
-        _write(args.save, res.to_json() + "\n")
+    if args.output:
+        _write(args.output, res.to_json() + "\n")
     print(res.to_json() if args.json else render(res))
     return 0 if res.passed else 1
 
@@ -291,47 +320,57 @@ def _write(path: str, text: str) -> None:
 def add_accept(sub) -> None:
     from inclino.procedures.accept import DEFAULT_MAX_AZI_RMS, DEFAULT_MAX_INC_RMS, GRIDS
 
-    p = sub.add_parser("accept", help="the papers' check grids on the probe, before and after calibration")
+    p = command(sub, "accept", "the papers' check grids on the probe, before and after calibration",
+                "Run an acceptance grid (Li 2021's or Ren 2014's positions) on the turntable and print the "
+                "azimuth and inclination errors at each position before and after the calibration, in the "
+                "paper's layout, with their RMS; with --cal the calibration is downloaded first and the "
+                "'before' column is the probe as found. Exit 1 when the RMS after exceeds --max-azi-rms or "
+                "--max-inc-rms. --temperatures runs the grid at each chamber set point instead, with and "
+                "without the calibration's temperature terms.",
+                ["inclino accept --port /dev/ttyUSB0 --cal cal.json",
+                 "inclino accept --port /dev/pts/5 --bench 127.0.0.1:40123 --cal cal.json --grid ren2014 "
+                 "-o accept.json",
+                 "inclino accept --port /dev/pts/5 --bench 127.0.0.1:40123 --cal cal_t.json "
+                 "--temperatures -5,25,55"])
     add_common(p)
-    p.add_argument("--cal", help="download this calibration first; before = the probe as found")
-    p.add_argument("--grid", choices=GRIDS, default="li2021", help="li2021 (default) or ren2014")
+    add_cal(p, "download this calibration first; before = the probe as found")
+    p.add_argument("--grid", choices=GRIDS, default="li2021", help="the check grid (default %(default)s)")
     p.add_argument("--before", choices=("auto", "identity", "as-found"), default="auto",
-                   help="the before column (default: as found with --cal, identity without)")
+                   help="the before column (default auto: as found with --cal, identity without)")
     p.add_argument("--inclinations", help="replace the grid's inclinations (ren2014: signed tilts), e.g. 5,30,60")
     p.add_argument("--azimuths", help="replace the grid's azimuths")
-    p.add_argument("--toolfaces", default="0", help="toolfaces at every position (default 0)")
+    p.add_argument("--toolfaces", help="toolfaces at every position (default 0; 0,120,240 with --temperatures)")
     p.add_argument("--declination", type=float, help="declination of the turntable's north (default: the "
                                                      "bench's, else 0)")
     p.add_argument("--circles", action="store_true", help="also the horizontal circles of Li 2021 Fig. 2")
-    p.add_argument("--max-azi-rms", type=float, default=DEFAULT_MAX_AZI_RMS, help="verdict: azimuth RMS after, deg")
+    p.add_argument("--max-azi-rms", type=float, default=DEFAULT_MAX_AZI_RMS,
+                   help="verdict: azimuth RMS after, deg (default %(default)g)")
     p.add_argument("--max-inc-rms", type=float, default=DEFAULT_MAX_INC_RMS,
-                   help="verdict: inclination RMS after, deg")
-    p.add_argument("--json", action="store_true", help="print the result as one JSON object")
-    p.add_argument("--save", help="write the result as JSON (for inclino plot --accept)")
-    p.add_argument("--plot", metavar="DIR", help="write the error maps (and circles) as PNG into DIR")
+                   help="verdict: inclination RMS after, deg (default %(default)g)")
+    add_json(p)
+    add_output(p, "also write the result as JSON (for inclino plot --accept)", required=False,
+               metavar="ACCEPT.json")
+    deprecated(p, "--save", "-o/--output", dest="output")
+    add_plot_option(p, "write the error maps (and circles) as PNG into this folder")
     t = p.add_argument_group("at chamber set points (--temperatures; docs/calibration.md)")
     t.add_argument("--temperatures", help="run the grid at each chamber set point, degC (e.g. -5,25,55); needs "
                                           "--cal with temperature terms; toolfaces default 0,120,240")
     t.add_argument("--reference-temp", type=float, default=25.0,
-                   help="the set point the others are compared with (default 25)")
+                   help="the set point the others are compared with, degC (default %(default)g)")
     t.add_argument("--target-ratio", type=float, default=1.2,
-                   help="verdict: RMS with the terms at every set point <= this x the reference's (default 1.2)")
+                   help="verdict: RMS with the terms at every set point <= this x the reference's (default %(default)g)")
     t.add_argument("--takings", type=int, default=1, help="takings of the whole grid per set point, pooled "
-                                                          "(default 1)")
+                                                          "(default %(default)s)")
     t.add_argument("--vertical-takings", type=int, default=8,
                    help="takings in all of the positions within 5 deg of vertical, whose reading noise makes the "
-                        "azimuth RMS's spread (default 8)")
+                        "azimuth RMS's spread (default %(default)s)")
     t.add_argument("--significance-z", type=float, default=2.0,
                    help="verdict: a ratio fails when above --target-ratio by more than this many of its standard "
-                        "uncertainties (default 2; 0: the ratio alone)")
+                        "uncertainties (default %(default)g; 0: the ratio alone)")
     t.add_argument("--engine", choices=("auto", "firmware", "golden", "host-terms"), default="auto",
                    help="the correction with the terms (default auto: the firmware's when it applies them)")
-    t.add_argument("--ramp-rate", type=float, default=1.0, help="chamber ramp, degC/min (default 1)")
-    t.add_argument("--interval", type=float, default=2.0, help="minutes between soak readings (default 2)")
-    t.add_argument("--soak-band", type=float, default=1.0, help="settled: within this of the set point, degC")
-    t.add_argument("--soak-tol", type=float, default=0.5, help="settled: change over the window, degC")
-    t.add_argument("--soak-window", type=float, default=10.0, help="settled: the window, minutes")
-    t.add_argument("--max-soak", type=float, default=240.0, help="bench: give up after this long, minutes")
+    _add_soak(t, "minutes between soak readings")
+    _add_settle(t)
     t.add_argument("--force", action="store_true", help="download the calibration even when its own fit report "
                                                         "did not pass (as download --force)")
     negative_lists(p)
@@ -362,11 +401,16 @@ def _cmd_plot(args) -> int:
 
 
 def add_plot(sub) -> None:
-    p = sub.add_parser("plot", help="calibration figures (PNG): fluxgate sphere, horizontal circles, error maps")
-    p.add_argument("--run", help="a calibration run (raw dataset CSV)")
-    p.add_argument("--cal", help="its calibration (CAL.json)")
-    p.add_argument("--accept", help="an accept result (inclino accept --save)")
-    p.add_argument("-o", "--output", required=True, metavar="DIR", help="folder for the PNG files")
+    p = command(sub, "plot", "calibration figures (PNG): fluxgate sphere, horizontal circles, error maps",
+                "Draw a calibration run through its calibration (the fluxgate readings on their sphere before "
+                "and after, the horizontal circles) and an accept result's error maps, as PNG files in the "
+                "folder -o names.",
+                ["inclino plot --run run.csv --cal cal.json -o figures",
+                 "inclino plot --accept accept.json -o figures"])
+    p.add_argument("--run", metavar="RUN.csv", help="a calibration run (raw dataset CSV)")
+    add_cal(p, "the run's calibration (needed with --run)")
+    p.add_argument("--accept", metavar="ACCEPT.json", help="an accept result (inclino accept -o)")
+    add_output(p, "folder for the PNG files", metavar="DIR")
     p.set_defaults(func=_cmd_plot)
 
 
@@ -376,13 +420,13 @@ def _cmd_demo(args) -> int:
     if args.core:
         print(render(run(field_nT=args.field, dip_deg=args.dip)))
         return 0
-    if args.temperature:  # the temperature step (demo_temp.py)
+    if args.chamber:  # the temperature step (demo_temp.py)
         from inclino.procedures import demo_temp
 
-        r = demo_temp.run(args.out, tempco_draw=args.tempco_draw, seed=args.seed, quiet=args.quiet)
+        r = demo_temp.run(args.output, tempco_draw=args.tempco_draw, seed=args.seed, quiet=args.quiet)
         gain = r.get("accept_gain_min")  # the acceptance grid at the set points, with / without the terms
         return 0 if r["passed"] and r["gain"] >= 10.0 and gain is not None and gain > 1.0 else 1
-    res = calibration_demo(args.out, scenario=args.scenario, seed=args.seed, quiet=args.quiet)
+    res = calibration_demo(args.output, scenario=args.scenario, seed=args.seed, quiet=args.quiet)
     print(summary(res))
     ok = res.verify_ok and all(a.passed for a in res.accept.values())
     return 0 if ok else 1
@@ -391,20 +435,28 @@ def _cmd_demo(args) -> int:
 def add_demo(sub) -> None:
     from inclino.procedures.demo import DEFAULT_OUT
 
-    d = sub.add_parser("demo", help="the whole calibration bench on the emulated probe (--core: the C core "
-                                    "on a table of poses)")
-    d.add_argument("--out", default=DEFAULT_OUT, help=f"folder for the run, calibration and figures "
-                                                      f"(default ./{DEFAULT_OUT})")
-    d.add_argument("--scenario", default="typical", help="emulator scenario (default typical)")
+    d = command(sub, "demo", "the whole calibration bench on the emulated probe (--core: the C core "
+                             "on a table of poses)",
+                "The calibration bench from end to end on the emulated probe, in about 20 s: start a typical "
+                "uncalibrated probe, acquire a multi-position run on the emulated turntable, fit it, download "
+                "and verify the calibration, and run the Li 2021 and Ren 2014 acceptance grids before and after; "
+                "the run, the calibration, the results and the figures go into the -o folder. --chamber does "
+                "the temperature step instead, --core the firmware's C on a table of poses.",
+                ["inclino demo", "inclino demo --chamber -o demo-chamber", "inclino demo --core"])
+    add_output(d, "folder for the run, calibration and figures (default ./%(default)s)", required=False,
+               metavar="DIR", default=DEFAULT_OUT)
+    deprecated(d, "--out", "-o/--output", dest="output")
+    d.add_argument("--scenario", default="typical", help="emulator scenario (default %(default)s)")
     d.add_argument("--seed", type=int, default=None, help="override the scenario's seed")
     d.add_argument("--quiet", action="store_true", help="no progress bars")
     d.add_argument("--core", action="store_true",
                    help="instead: attitude of a table of poses through the firmware C, next to float64")
-    d.add_argument("--field", type=float, default=50000.0, help="--core: field total, nT (default 50000)")
-    d.add_argument("--dip", type=float, default=60.0, help="--core: dip, degrees (default 60)")
-    d.add_argument("--temperature", action="store_true",
+    d.add_argument("--field", type=float, default=50000.0, help="--core: total field, nT (default %(default)g)")
+    d.add_argument("--dip", type=float, default=60.0, help="--core: dip, degrees (default %(default)g)")
+    d.add_argument("--chamber", action="store_true",
                    help="instead: the temperature step (chamber run, temperature terms, diagnose before/after, "
                         "the acceptance grid at each set point with and without the terms)")
-    d.add_argument("--tempco-draw", type=int, default=1, help="--temperature: the probe's tempcos drawn with "
-                                                              "this seed (default 1)")
+    deprecated(d, "--temperature", "--chamber", flag=True)
+    d.add_argument("--tempco-draw", type=int, default=1, help="--chamber: the probe's tempcos drawn with "
+                                                              "this seed (default %(default)s)")
     d.set_defaults(func=_cmd_demo)

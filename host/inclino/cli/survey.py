@@ -12,6 +12,8 @@ import json
 import math
 import sys
 
+from inclino.cli.options import add_cal, add_json, add_output, add_plot, command, deprecated, plot_target, \
+    require
 from inclino.errors import DataError
 
 
@@ -19,17 +21,19 @@ def _add_reference(p, grid=True):
     g = p.add_argument_group("reference field (docs/survey.md)")
     g.add_argument("--lat", type=float, help="wellhead latitude, deg (WGS 84)")
     g.add_argument("--lon", type=float, help="wellhead longitude, deg (WGS 84)")
-    g.add_argument("--alt", type=float, default=0.0, help="height above the ellipsoid, m (default 0)")
+    g.add_argument("--alt", type=float, default=0.0, help="height above the ellipsoid, m (default %(default)g)")
     g.add_argument("--date", help="survey date YYYY-MM-DD (main-field model)")
     g.add_argument("--model", choices=("igrf", "wmm"), default="igrf",
-                   help="main-field model: igrf (ppigrf, default) or wmm (needs pygeomag)")
+                   help="main-field model: igrf (ppigrf) or wmm (needs pygeomag) (default %(default)s)")
     g.add_argument("--declination", type=float, help="declination, deg east (in-field referencing; overrides the model)")
     g.add_argument("--dip", type=float, help="dip, deg down (overrides the model)")
-    g.add_argument("--total", type=float, help="total field, nT (overrides the model)")
+    g.add_argument("--field", type=float, help="total field, nT (overrides the model)")
+    deprecated(g, "--total", "--field", type=float)
     g.add_argument("--gravity", type=float, help="local gravity, g (default: WGS 84 normal gravity)")
     if grid:
         g.add_argument("--grid", type=int, metavar="EPSG", help="projected CRS: grid azimuth, easting/northing")
-    g.add_argument("--ref", help="a reference-field file written by inclino reffield (instead of the options)")
+    g.add_argument("--ref", metavar="REF.json",
+                   help="a reference-field file written by inclino reffield -o (instead of the options)")
 
 
 def _reference(args):
@@ -42,7 +46,7 @@ def _reference(args):
         except OSError as e:
             raise DataError(f"cannot read {args.ref}: {e.strerror}")
     return geomag.reference(lat=args.lat, lon=args.lon, date=args.date, alt_m=args.alt, model=args.model,
-                            declination=args.declination, dip=args.dip, total=args.total, gravity=args.gravity,
+                            declination=args.declination, dip=args.dip, field=args.field, gravity=args.gravity,
                             grid_epsg=getattr(args, "grid", None))
 
 
@@ -67,7 +71,7 @@ def _noise(args, cal):
 
 def _field_for(rf, cal=None):
     dip = rf.dip_deg if rf is not None and math.isfinite(rf.dip_deg) else _cal_dip(cal) if cal else 60.0
-    tot = rf.total_nT if rf is not None and math.isfinite(rf.total_nT) else 50000.0
+    tot = rf.field_nT if rf is not None and math.isfinite(rf.field_nT) else 50000.0
     return dip, tot
 
 
@@ -98,7 +102,7 @@ def _error_model(args, rf=None, default_base=None):
         probe = em.from_calibration(cal, dip, tot, acc_noise_g=an, mag_noise_nT=mn, noise_source=src, revision=rev)
     m = models.ErrorModel(base, probe, getattr(args, "ref_terms", None))
     if m.reference is None and not m.has_reference_terms() and rf is not None:
-        m.reference = "srgm" if rf.source.startswith(("IGRF", "WMM")) else "ifr1"
+        m.reference = "srgm" if rf.ref_source.startswith(("IGRF", "WMM")) else "ifr1"
         m.notes.append(f"reference-field terms {m.reference} added (the model has none; --ref-terms sets them)")
     if base is not None:
         m.notes += base.notes
@@ -136,13 +140,33 @@ def _cmd_reffield(args) -> int:
             d["probe_qc_reference"] = {"port": args.port, "read_back": qcref.readable(stored)}
         print(json.dumps(d))
     else:
-        for k, v in rf.header().items():
+        for k, v in reffield_table(rf):
             print(f"{k:16s} {v}")
         if stored is not None:
             from inclino.survey import qcref
 
             print(f"probe QC reference on {args.port}, written and read back: {qcref.text(stored)}")
     return 0
+
+
+def reffield_table(rf):
+    """(key, text) rows of `inclino reffield`: the JSON's keys, in its order
+    (an unknown value: `unknown`; the QC windows: key=value)."""
+    fmt = {"declination_deg": ".4f", "dip_deg": ".4f", "field_nT": ".1f", "gravity_g": ".6f", "lat_deg": ".6f",
+           "lon_deg": ".6f", "alt_m": "g", "convergence_deg": ".6f", "scale_factor": ".8f", "easting_m": ".3f",
+           "northing_m": ".3f"}
+    rows = []
+    for k, v in rf.to_dict().items():
+        if v is None:
+            text = "unknown"
+        elif isinstance(v, dict):
+            text = " ".join(f"{a}={b:g}" for a, b in v.items())
+        elif isinstance(v, float) and k in fmt:
+            text = format(v, fmt[k])
+        else:
+            text = str(v)
+        rows.append((k, text))
+    return rows
 
 
 def _open_link(args):
@@ -160,11 +184,12 @@ def _cmd_toolmodel(args) -> int:
 
     if args.tool_model and args.revision is not None:
         raise DataError("--revision: the model is written in --tool-model's revision; give one of them")
+    require(args, "cal", "--cal CAL.json", "the calibration with its fit report")
     cal = Calibration.load(args.cal)
     rf = _reference(args) if (args.lat is not None or args.declination is not None or args.ref) else None
     dip = rf.dip_deg if rf is not None and math.isfinite(rf.dip_deg) else \
         args.dip if args.dip is not None else _cal_dip(cal)
-    tot = rf.total_nT if rf is not None and math.isfinite(rf.total_nT) else args.total or 50000.0
+    tot = rf.field_nT if rf is not None and math.isfinite(rf.field_nT) else args.field or 50000.0
     if args.noise:
         from inclino.survey.wellpath import read_survey_rows
 
@@ -246,18 +271,23 @@ def _cmd_trajectory(args) -> int:
     if args.las:
         wp.write_las(tr, args.las)
     if args.plot:
+        import os
+
         from inclino.survey import wellplot
 
+        folder, name = plot_target(args.plot, "trajectory.png")
+        path = os.path.join(folder, name)
         try:
-            wellplot.plot(tr.rows, args.plot, title=f"{' '.join(args.input)}: {len(tr.rows)} stations")
+            os.makedirs(folder, exist_ok=True)
+            wellplot.plot(tr.rows, path, title=f"{' '.join(args.input)}: {len(tr.rows)} stations")
         except OSError as e:
-            raise DataError(f"cannot write {args.plot}: {e.strerror}")
+            raise DataError(f"cannot write {path}: {e.strerror}")
     s = tr.summary
     e = s["end"]
     stream = sys.stderr if args.output == "-" else sys.stdout
     parts = e.get("parts", {})
     msg = (f"{s['stations']} stations ({s.get('run') or 'survey'}), MD {s['md_m'][0]:g}-{s['md_m'][1]:g} m; "
-           f"declination {rf.declination_deg:.2f} deg ({rf.source})"
+           f"declination {rf.declination_deg:.2f} deg ({rf.ref_source})"
            + (f", grid convergence {rf.convergence_deg:.3f} deg (EPSG {rf.grid_epsg})" if rf.grid_epsg else "")
            + f"; end TVD {e['tvd_m']:.2f} m, N {e['north_m']:.2f} m, E {e['east_m']:.2f} m"
            + (f"; 1-sigma ellipse {e['ell_major_m']:.3f} x {e['ell_minor_m']:.3f} m" if model is not None else "")
@@ -284,8 +314,8 @@ def _cmd_compare(args) -> int:
     fit = model.probe or (model.base.inclino if model.base is not None else None)
     dip = rf.dip_deg if rf is not None and math.isfinite(rf.dip_deg) else \
         args.dip if args.dip is not None else (fit.fit.get("dip_deg", 60.0) if fit else 60.0)
-    tot = rf.total_nT if rf is not None and math.isfinite(rf.total_nT) else \
-        args.total if args.total is not None else (fit.fit.get("field_nT", 50000.0) if fit else 50000.0)
+    tot = rf.field_nT if rf is not None and math.isfinite(rf.field_nT) else \
+        args.field if args.field is not None else (fit.fit.get("field_nT", 50000.0) if fit else 50000.0)
     ref = geomag.ReferenceField(rf.declination_deg if rf is not None else 0.0, dip, tot,
                                 rf.gravity_g if rf is not None and math.isfinite(rf.gravity_g) else 1.0)
     r = cmp.compare(a, b, model, ref, k=args.k, md_tol=args.md_tol, two_probes=args.two_probes)
@@ -308,50 +338,75 @@ def _cmd_compare(args) -> int:
 
 
 def add_parser(sub) -> None:
-    p = sub.add_parser("reffield", help="reference field of a survey: declination, dip, total field, gravity, grid")
+    p = command(sub, "reffield", "reference field of a survey: declination, dip, total field, gravity, grid",
+                "The reference a survey is corrected and checked against: declination, dip and total field "
+                "from a main-field model (IGRF or WMM) at the wellhead's position, height and date, or given "
+                "by hand (in-field referencing: --declination, --dip, --field override the model), WGS 84 "
+                "normal gravity, and with --grid the grid convergence of a projected CRS. -o keeps it as a "
+                "file for trajectory --ref; --port writes it into the probe as its QC reference, reads it back "
+                "and prints it.",
+                ["inclino reffield --lat 52.1 --lon 4.3 --date 2024-06-01 -o ref.json",
+                 "inclino reffield --declination 1.8 --dip 67.2 --field 49800 --json"])
     _add_reference(p)
-    p.add_argument("-o", "--output", help="write the reference field as JSON (stored with the run)")
+    add_output(p, "write the reference field as JSON (stored with the run)", required=False, metavar="REF.json")
     p.add_argument("--port", help="also write it to the probe as its QC reference (QCREF_WRITE), read it back "
                                   "and print it")
-    p.add_argument("--baud", type=int, help="with --port: baud rate (default 115200)")
+    p.add_argument("--baud", type=int, help="with --port: serial speed, bits/s (default 115200)")
     p.add_argument("--timeout", type=float, help="with --port: seconds to wait for an answer (default 1)")
-    p.add_argument("--json", action="store_true")
+    add_json(p)
     p.set_defaults(func=_cmd_reffield)
 
-    p = sub.add_parser("toolmodel", help="the calibrated probe's error model as an ISCWSA tool model (JSON)")
-    p.add_argument("cal", help="calibration JSON with its fit report (inclino calibrate)")
+    p = command(sub, "toolmodel", "the calibrated probe's error model as an ISCWSA tool model (JSON)",
+                "Turn a calibration's fit covariance into the probe's ISCWSA error terms (the systematic terms "
+                "and the per-survey noise, from --noise, the given values or the fit report), checked by a "
+                "Monte Carlo over the covariance; exit 1 when the model's 1-sigma misses the Monte Carlo's by "
+                "more than 20 % (the file is written either way). With --tool-model the whole standard model "
+                "is written with the probe's sensor terms in place of its own. `trajectory --uncertainty` and "
+                "`compare` use it.",
+                ["inclino toolmodel --cal cal.json --dip 67 --field 49800 --noise rest.csv -o tool.json",
+                 "inclino toolmodel --cal cal.json --dip 67 --field 49800 --tool-model iscwsa-mwd-rev5 -o mwd.json"])
+    add_cal(p, "calibration JSON with its fit report (inclino calibrate)", positional_alias=True)
     _add_reference(p, grid=False)
-    p.add_argument("--noise", help="a survey listing of repeated surveys at rest: the per-survey noise (default: the "
-                                   "calibration's fit report)")
+    p.add_argument("--noise", metavar="SURVEYS.csv",
+                   help="a survey listing of repeated surveys at rest: the per-survey noise (default: the "
+                        "calibration's fit report)")
     p.add_argument("--acc-noise", type=float, help="accelerometer noise per survey and axis, g (default: the "
                                                    "calibration's fit report)")
     p.add_argument("--mag-noise", type=float, help="fluxgate noise per survey and axis, nT (default: the "
                                                    "calibration's fit report)")
-    p.add_argument("--tool-model", help="write the complete model: this standard model (iscwsa-mwd-rev5, a name "
-                                        "welleng ships, or an ISCWSA JSON file) with the probe's sensor terms in "
-                                        "place of its own")
+    p.add_argument("--tool-model", metavar="MODEL",
+                   help="write the complete model: this standard model (iscwsa-mwd-rev5, a name welleng ships, or "
+                        "an ISCWSA JSON file) with the probe's sensor terms in place of its own")
     p.add_argument("--revision", type=int, choices=(4, 5), help="ISCWSA revision of the probe's terms (default 5: "
                                                                 "XYM3E/XYM4E random, damped; 4: XYM3/XYM4 "
                                                                 "systematic)")
-    p.add_argument("--name", default="INCLINO", help="the tool model's short name")
+    p.add_argument("--name", default="INCLINO", help="the tool model's short name (default %(default)s)")
     p.add_argument("--ref-terms", choices=("none", "srgm", "ifr1"),
                    help="reference-field terms to include (default: none for the probe's terms, trajectory adds "
                         "them per survey; with --tool-model its own)")
-    p.add_argument("-o", "--output", required=True, help="tool model JSON")
+    add_output(p, "tool model JSON", metavar="TOOL.json")
     p.set_defaults(func=_cmd_toolmodel)
 
-    p = sub.add_parser("trajectory", help="well path by minimum curvature from a survey listing, with QC "
-                                          "and position uncertainty")
+    p = command(sub, "trajectory", "well path by minimum curvature from a survey listing, with QC "
+                                   "and position uncertainty",
+                "Compute the well path (TVD, north, east, dogleg) by minimum curvature from survey listings, "
+                "with azimuths referred to true or grid north, each station's QC against the reference field "
+                "(naming the checks that ran), and with --uncertainty the position covariance and 1-sigma "
+                "ellipse from an ISCWSA error model (a standard one, or the probe's from --cal). Writes CSV or "
+                "LAS 2.0; exit 1 with --fail-on-qc when a station fails QC.",
+                ["inclino trajectory stations.csv --ref ref.json -o path.csv",
+                 "inclino trajectory stations.csv --ref ref.json --uncertainty --cal cal.json --plot figures "
+                 "-o path.csv"])
     p.add_argument("input", nargs="+", help="survey listing(s) (CSV, JSON lines or LAS) with md_m, inc_deg, azi_deg; "
                                             "several files are one survey, sorted by depth")
     _add_reference(p)
     p.add_argument("--uncertainty", action="store_true", help="position covariance (1-sigma ellipse) per station")
-    p.add_argument("--tool-model", help="with --uncertainty: the error model: a standard model by name "
-                                        "(iscwsa-mwd-rev5, iscwsa-mwd-rev4, any name welleng ships) or an ISCWSA "
-                                        "JSON file (inclino toolmodel writes one) (default with --cal: "
-                                        "iscwsa-mwd-rev5)")
-    p.add_argument("--cal", help="with --uncertainty: the probe's calibration: its fitted sensor terms and measured "
-                                 "noise replace the model's sensor terms")
+    p.add_argument("--tool-model", metavar="MODEL",
+                   help="with --uncertainty: the error model: a standard model by name (iscwsa-mwd-rev5, "
+                        "iscwsa-mwd-rev4, any name welleng ships) or an ISCWSA JSON file (inclino toolmodel writes "
+                        "one) (default with --cal: iscwsa-mwd-rev5)")
+    add_cal(p, "with --uncertainty: the probe's calibration: its fitted sensor terms and measured noise replace "
+               "the model's sensor terms")
     p.add_argument("--acc-noise", type=float, help="with --cal: accelerometer noise per survey and axis, g "
                                                    "(default: the calibration's fit report)")
     p.add_argument("--mag-noise", type=float, help="with --cal: fluxgate noise per survey and axis, nT "
@@ -359,26 +414,35 @@ def add_parser(sub) -> None:
     p.add_argument("--ref-terms", choices=("none", "srgm", "ifr1"),
                    help="with --uncertainty: reference-field terms in place of the model's (default: the model's "
                         "own; for a model without them srgm for a main-field model, ifr1 for user values)")
-    p.add_argument("--las", help="also write the trajectory as LAS 2.0")
+    p.add_argument("--las", metavar="FILE.las", help="also write the trajectory as LAS 2.0")
     p.add_argument("--fail-on-qc", action="store_true", help="exit 1 when a station fails QC")
-    p.add_argument("--plot", help="a PNG of the path (plan view with the ellipses, vertical section)")
-    p.add_argument("-o", "--output", required=True, help="trajectory CSV ('-' for stdout; .las for LAS 2.0)")
+    add_plot(p, "write a PNG of the path (plan view with the ellipses, vertical section) into this folder, "
+                "as trajectory.png")
+    add_output(p, "trajectory CSV ('-' for stdout; .las for LAS 2.0)", metavar="OUT.csv")
     p.set_defaults(func=_cmd_trajectory)
 
-    p = sub.add_parser("compare", help="repeatability QC of two surveys station by station")
+    p = command(sub, "compare", "repeatability QC of two surveys station by station",
+                "Compare two surveys of the same stations (in-run and out-run, or two probes), paired by depth: "
+                "each pair's inclination and azimuth difference against k times the spread the error model "
+                "expects for it (the probe's terms from --cal, a standard model, or both). Exit 1 when a pair "
+                "is outside.",
+                ["inclino compare in.csv out.csv --cal cal.json",
+                 "inclino compare a.csv b.csv --tool-model iscwsa-mwd-rev5 --cal cal.json --two-probes --json"])
     p.add_argument("first", help="a survey listing (in-run or out-run)")
     p.add_argument("second", help="the other survey listing of the same stations (out-run, in-run, second probe)")
-    p.add_argument("--tool-model", help="the error model: a standard model by name (iscwsa-mwd-rev5, ...) or an "
-                                        "ISCWSA JSON file (inclino toolmodel writes one)")
-    p.add_argument("--cal", help="the probe's calibration: its fitted sensor terms and measured noise (alone: the "
-                                 "probe's terms only; with --tool-model: in place of its sensor terms)")
+    p.add_argument("--tool-model", metavar="MODEL",
+                   help="the error model: a standard model by name (iscwsa-mwd-rev5, ...) or an ISCWSA JSON file "
+                        "(inclino toolmodel writes one)")
+    add_cal(p, "the probe's calibration: its fitted sensor terms and measured noise (alone: the probe's terms "
+               "only; with --tool-model: in place of its sensor terms)")
     p.add_argument("--acc-noise", type=float, help="with --cal: accelerometer noise per survey and axis, g "
                                                    "(default: the calibration's fit report)")
     p.add_argument("--mag-noise", type=float, help="with --cal: fluxgate noise per survey and axis, nT "
                                                    "(default: the calibration's fit report)")
     _add_reference(p, grid=False)
     p.add_argument("--two-probes", action="store_true", help="two probes: every sensor term differs")
-    p.add_argument("--k", type=float, default=3.0, help="pass within k x the expected sigma (default 3)")
-    p.add_argument("--md-tol", type=float, default=0.5, help="pair stations within this many m of MD (default 0.5)")
-    p.add_argument("--json", action="store_true")
+    p.add_argument("--k", type=float, default=3.0, help="pass within k x the expected sigma (default %(default)g)")
+    p.add_argument("--md-tol", type=float, default=0.5,
+                   help="pair stations within this many m of MD (default %(default)g)")
+    add_json(p)
     p.set_defaults(func=_cmd_compare)

@@ -130,4 +130,29 @@ class Diagnosis:
         else:
             lines.append(f"unexplained: no (smallest of {s['tests']} structure-test p-values {s['min_p']:.2g}, "
                          f"threshold {s['threshold']:.2g})")
+        lines.append(self.conclusion())
         return "\n".join(lines)
+
+    def conclusion(self) -> str:
+        """The report's last line: PASS when the baseline model leaves nothing
+        to name (no effect, no unexplained structure), else FAIL, with the
+        figures that decided it.  A finding, not a check: `inclino diagnose`
+        exits 0 either way."""
+        b = self.baseline
+        base = (f"azimuth {b['azi_rms_deg']:.4f} deg, " if b.get("azi_rms_deg") is not None else "") + \
+            f"inclination {b['inc_rms_deg']:.4f} deg"
+        alpha = b["selection"]["alpha"]
+        if not self.effects and not self.unexplained:
+            return (f"conclusion: PASS: the 12-parameter model leaves nothing to name: no effect at alpha = {alpha:g}, "
+                    f"no unexplained structure (residual RMS {base})")
+        parts = []
+        for e in self.effects:
+            g = e.gain
+            fig = (f"azimuth RMS {g.azi_rms_before_deg:.4f} -> {g.azi_rms_after_deg:.4f} deg"
+                   if g.azi_rms_before_deg is not None else
+                   f"inclination RMS {g.inc_rms_before_deg:.4f} -> {g.inc_rms_after_deg:.4f} deg")
+            parts.append(f"{e.name} ({e.sensor} {e.axis}, p = {e.p_value:.2g}; {fig})")
+        if self.unexplained:
+            parts.append("structure no library effect explains (p = "
+                         f"{self.structure['min_p']:.2g} < {self.structure['threshold']:.2g})")
+        return "conclusion: FAIL: the 12-parameter model misses " + "; ".join(parts)

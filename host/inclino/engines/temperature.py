@@ -1,6 +1,6 @@
 """The correction with the calibration's temperature terms, as an engine:
 what `inclino accept --temperatures`, the temperature section of `inclino
-bench calibration` and `inclino demo --temperature` put the probe's raw
+bench calibration` and `inclino demo --chamber` put the probe's raw
 records through (docs/calibration.md, "Temperature terms in the firmware").
 
 An engine takes what the probe's acquisition hands its correction -- the

@@ -12,7 +12,7 @@ method, the probe serial and, for a fitted calibration, "data" (the hash of
 the dataset it was fitted from) and "report" (the fit report,
 inclino.calib.report.FitReport as a JSON object).  "data" and "report" are
 optional (as is "temperature", the temperature terms of joint
---temperature, inclino.calib.thermal) and were added without changing the format number: a reader of the
+--temperature-terms, inclino.calib.thermal) and were added without changing the format number: a reader of the
 first files ignores them, and this reader accepts files without them.  When
 a file carries "fixed", it must equal the image of its floats (a hand-edited
 float with a stale image is refused).
@@ -58,7 +58,7 @@ class Calibration:
     data: dict | None = None
     # the fit report as a JSON object (inclino.calib.report.FitReport) (optional)
     report: dict | None = None
-    # temperature terms (inclino.calib.thermal; joint --temperature) (optional;
+    # temperature terms (inclino.calib.thermal; joint --temperature-terms) (optional;
     # the firmware does not apply them)
     temperature: dict | None = None
 

@@ -85,7 +85,9 @@ class DownloadResult:
     events: list = field(default_factory=list)
 
     def to_json(self) -> str:
-        return dumps(asdict(self))
+        """CRCs as upper-case hex strings, zero-padded to their width (as
+        `identify --json` and `flash --json` write them)."""
+        return dumps({**asdict(self), "image_crc": f"{self.image_crc:04X}"})
 
 
 def download(link: ProbeLink, cal: Calibration, force: bool = False, when: int | None = None,

@@ -45,7 +45,7 @@ every survey equal to the stored calibration's prediction.
 --circles adds Li 2021's horizontal-circle check (Fig. 2): body X, Y and Z
 up in turn, turned about the vertical every 30 deg.  --plot DIR writes the
 error maps (errors_<grid>.png) and, with --circles, circles.png
-(inclino.procedures.plots); --save FILE keeps everything as JSON for `inclino plot`.
+(inclino.procedures.plots); -o FILE keeps everything as JSON for `inclino plot`.
 """
 from __future__ import annotations
 
@@ -232,7 +232,8 @@ def accept(link, table, grid: str = "li2021", cal=None, before: str = "auto", in
                 eb.append(_measure((b["inc"] / 65536.0, b["azi"] / 65536.0), int(b["flags"]), p, decl))
                 ea.append(_measure((r.survey["inc_deg"], r.survey["azi_deg"]), int(r.survey["flags"]), p, decl))
             res.points.append({"set_inc": p.set_inc, "set_azi": p.set_azi, "tf": p.tf, "pose": list(p.pose),
-                               "before": _mean_err(eb), "after": _mean_err(ea), "reads": len(win)})
+                               "before": _mean_err(eb), "after": _mean_err(ea), "reads": len(win),
+                               "temp_c": mean_row(win).get("temp_c")})
             bar.update(1)
         for i, st in enumerate(csteps, start=len(steps) + 1):
             table.move(st, i, len(steps) + len(csteps))
@@ -291,8 +292,7 @@ def render(res: AcceptResult) -> str:
     out.append("")
     b, a = res.stats["before"], res.stats["after"]
 
-    def ratio(x, y):
-        return f"{x / y:.1f}x smaller" if x is not None and y else "-"
+    ratio = change
     out.append(f"azimuth     RMS {_f(b['azi_rms_deg'], 0, 3)} -> {_f(a['azi_rms_deg'], 0, 3)} deg "
                f"({ratio(b['azi_rms_deg'], a['azi_rms_deg'])}), max {_f(b['azi_max_deg'], 0, 3)} -> "
                f"{_f(a['azi_max_deg'], 0, 3)} deg over {a['azi_points']} positions")
@@ -304,10 +304,26 @@ def render(res: AcceptResult) -> str:
     if res.circles:
         out.append(f"horizontal circles (Li 2021 Fig. 2): {len(res.circles)} readings, X/Y/Z up")
     lim = res.limits
-    out.append(f"verdict: {'PASS' if res.passed else 'FAIL'} (after: azimuth RMS <= {lim['max_azi_rms_deg']:g} deg, "
-               f"inclination RMS <= {lim['max_inc_rms_deg']:g} deg, surveys bit for bit)"
-               + ("" if res.passed else ": " + "; ".join(res.reasons)))
+    if res.passed:
+        out.append(f"verdict: PASS: after, azimuth RMS {a['azi_rms_deg']:.3f} deg <= {lim['max_azi_rms_deg']:g}, "
+                   f"inclination RMS {a['inc_rms_deg']:.3f} deg <= {lim['max_inc_rms_deg']:g}, "
+                   f"{res.surveys_checked} of {res.surveys_checked} surveys bit for bit")
+    else:
+        out.append("verdict: FAIL: " + "; ".join(res.reasons))
     return "\n".join(out)
+
+
+def change(before, after) -> str:
+    """How an error changed, worded the right way round: `4.2x smaller`,
+    `1.6x larger`, `about the same` (within 5 %)."""
+    if before is None or after is None or not (before == before and after == after) or before < 0 or after < 0:
+        return "-"
+    if after == 0 or before == 0:
+        return "about the same" if before == after else ("down to 0" if after == 0 else "up from 0")
+    r = before / after
+    if 1 / 1.05 <= r <= 1.05:
+        return "about the same"
+    return f"{r:.1f}x smaller" if r > 1 else f"{1 / r:.1f}x larger"
 
 
 def _cells(res, key_inc, key_azi, which, what):

@@ -1,4 +1,4 @@
-"""The result of an acceptance run (`inclino accept --save`): a dataclass
+"""The result of an acceptance run (`inclino accept -o`): a dataclass
 with to_json/load, and the error arrays the plots draw.
 
 Its own module so that the acceptance procedure (accept.py) and the plots
@@ -44,11 +44,11 @@ class AcceptResult:
 
         d = safeio.load_json(path, "accept result")  # bounded: size, nesting, numbers
         if not isinstance(d, dict):
-            raise DataError(f"{path} is not an accept result (inclino accept --save)")
+            raise DataError(f"{path} is not an accept result (inclino accept -o)")
         try:
             return AcceptResult(**d)
         except (ValueError, TypeError) as e:
-            raise DataError(f"{path} is not an accept result (inclino accept --save): {str(e)[:80]}") from None
+            raise DataError(f"{path} is not an accept result (inclino accept -o): {str(e)[:80]}") from None
 
     # arrays over the points
     def errors(self, which: str):

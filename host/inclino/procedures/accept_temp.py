@@ -6,11 +6,11 @@ At each set point in turn:
 
 1. the chamber is set (the emulator's control channel `chamber` on a bench,
    the person otherwise; a ramp at --ramp-rate degC/min) and the probe is
-   read at the grid's first position every --interval minutes until its own
+   read at the grid's first position every --interval-min minutes until its own
    temperature has settled (acquire_temp.settled: within --soak-band of the
-   set point, changed by at most --soak-tol over --soak-window minutes; a
+   set point, changed by at most --soak-tol over --soak-window-min minutes; a
    bench also waits for its air to reach the set point and gives up after
-   --max-soak minutes, exit 4);
+   --max-soak-min minutes, exit 4);
 2. the grid (accept's li2021 or ren2014, or --inclinations/--azimuths) is
    taken with the usual stability check (--reads readings that agree).
 
@@ -278,7 +278,7 @@ def accept_temperatures(link, table, cal, setpoints=(-5.0, 25.0, 55.0), grid: st
     parse_setpoints(",".join(repr(t) for t in sps), reference_c)
     if not temp_engine.has_terms(cal):
         raise DataError("the calibration has no temperature terms (fit them: inclino calibrate --method joint "
-                        "--temperature on, from a chamber run)")
+                        "--temperature-terms on, from a chamber run)")
     if not (math.isfinite(target_ratio) and target_ratio >= 1.0):
         raise DataError("--target-ratio must be a number >= 1")
     check_takings(takings, vertical_takings, significance_z)
@@ -457,12 +457,34 @@ def render(res: TempAcceptResult) -> str:
     out.append(f"the probe's surveys against its stored calibration: {res.surveys_checked - len(res.survey_mismatches)}"
                f" of {res.surveys_checked} equal bit for bit; the \"with\" column is the probe's own survey in "
                f"{res.with_equals_probe} of them")
-    out.append(f"verdict: {'PASS' if res.passed else 'FAIL'} (with the terms, azimuth and inclination RMS at every "
-               f"set point <= {res.target_ratio:g}x the {res.reference_c:g} degC figure, or above it by at most "
-               f"{res.significance_z:g} standard uncertainties of the ratio (+-, from the reading noise); "
-               "surveys bit for bit)" + ("" if res.passed else ": " + "; ".join(res.reasons)))
+    out.append(f"rule: with the terms, azimuth and inclination RMS at every set point <= {res.target_ratio:g}x the "
+               f"{res.reference_c:g} degC figure, or above it by at most {res.significance_z:g} standard "
+               "uncertainties of the ratio (+-, from the reading noise); surveys bit for bit")
     out += [f"note: {x}" for x in res.above_within_uncertainty]
+    if res.passed:
+        worst = _worst_ratio(res)
+        out.append("verdict: PASS" + (f": worst ratio with the terms {worst}, target {res.target_ratio:g}x" if worst
+                                      else ""))
+    else:
+        out.append("verdict: FAIL: " + "; ".join(res.reasons))
     return "\n".join(out)
+
+
+def _worst_ratio(res) -> str:
+    """`1.08 +- 0.05 (azimuth, -5 degC)`: the largest ratio with the terms
+    away from the reference set point, the figure a PASS rests on."""
+    best = None
+    for s in res.setpoints:
+        if s["setpoint_c"] == res.reference_c:
+            continue
+        for q, name in (("azi", "azimuth"), ("inc", "inclination")):
+            r, u = s.get(f"{q}_ratio_with"), s.get(f"{q}_ratio_with_u")
+            if r is not None and (best is None or r > best[0]):
+                best = (r, u, name, s["setpoint_c"])
+    if best is None:
+        return ""
+    r, u, name, sp = best
+    return f"{r:.2f}" + (f" +- {u:.2f}" if u is not None else "") + f" ({name}, {sp:g} degC)"
 
 
 __all__ = ["TempAcceptResult", "accept_temperatures", "check_takings", "near_vertical", "parse_setpoints",

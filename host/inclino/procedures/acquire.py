@@ -17,11 +17,11 @@ Procedures (pose lists from inclino.calib.runs, our conventions):
   joint).
 * temperature -- through a thermal chamber: at each set point of
   --temperatures a few poses read through the ramp and soak, then the
-  --poses set (inclino.procedures.acquire_temp; joint --temperature).
+  --poses set (inclino.procedures.acquire_temp; joint --temperature-terms).
 * adaptive -- poses chosen one at a time for what the probe still needs,
   until the predicted acceptance reaches the target; with
   --chamber-range-c through a continuous chamber ramp
-  (inclino.procedures.adaptive; joint, with --temperature).
+  (inclino.procedures.adaptive; joint, with --temperature-terms).
 
 Who turns the table:
 

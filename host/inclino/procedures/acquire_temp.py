@@ -4,15 +4,15 @@ thermal chamber, for the temperature terms (docs/calibration.md).
 At each chamber set point in turn (--temperatures, default -5,25,55 degC):
 
 1. the ramp and soak: the chamber is set (a ramp at --ramp-rate degC/min)
-   and, every --interval minutes until the probe has settled, the probe is
+   and, every --interval-min minutes until the probe has settled, the probe is
    read at a few poses (the first --ramp-poses of RAMP_POSES): a bench visits
    all of them at every interval (its turntable turns inside the chamber), a
    person's probe holds one of them (the k-th set point's, in turn) through
    the whole ramp and soak, as a fixture in a closed chamber does;
 2. settled: the probe's own temperature reading is within --soak-band of the
    set point and has changed by at most --soak-tol over the last
-   --soak-window minutes (a bench also waits for its air to reach the set
-   point); a bench gives up after --max-soak minutes (exit 4);
+   --soak-window-min minutes (a bench also waits for its air to reach the set
+   point); a bench gives up after --max-soak-min minutes (exit 4);
 3. the pose set (--poses: twelve-position or multi-position, the static
    procedures of `inclino acquire`) is taken at the set point, each position
    with the usual stability check.
@@ -90,13 +90,13 @@ class ThermalPlan:
         if self.poses not in POSE_SETS:
             raise DataError(f"--poses must be one of {', '.join(POSE_SETS)}")
         fin("--ramp-rate", self.ramp_rate, 0.0, 30.0, True)
-        fin("--interval", self.interval_min, 0.0, 60.0, True)
+        fin("--interval-min", self.interval_min, 0.0, 60.0, True)
         if not 1 <= int(self.ramp_poses) <= len(RAMP_POSES) or int(self.ramp_poses) != self.ramp_poses:
             raise DataError(f"--ramp-poses must be within 1-{len(RAMP_POSES)}")
         fin("--soak-band", self.soak_band, 0.0, 20.0, True)
         fin("--soak-tol", self.soak_tol, 0.0, 20.0, True)
-        fin("--soak-window", self.soak_window_min, 0.0, 600.0, True)
-        fin("--max-soak", self.max_soak_min, 0.0, 10000.0, True)
+        fin("--soak-window-min", self.soak_window_min, 0.0, 600.0, True)
+        fin("--max-soak-min", self.max_soak_min, 0.0, 10000.0, True)
         if int(self.average) != self.average or not 1 <= int(self.average) <= 64:
             raise DataError("--average must be within 1-64 samples")
 

@@ -1,11 +1,11 @@
-"""`inclino demo --temperature`: the temperature step on the emulated probe.
+"""`inclino demo --chamber`: the temperature step on the emulated probe.
 
 1. start the emulated probe (typical scenario, its tempcos drawn from the
    scenario's spread: `--tempco-draw`, default 1) with its thermal chamber;
 2. acquire a chamber run on the emulated turntable (`inclino acquire
    --procedure temperature`, set points -5, 25, 55 degC by default);
 3. fit it with joint and its temperature terms (`inclino calibrate --method
-   joint --temperature on`) and print them, with the azimuth and
+   joint --temperature-terms on`) and print them, with the azimuth and
    inclination error over the run's temperatures with and without them;
 4. diagnose the run as it is and with the terms applied (`inclino diagnose`,
    `--cal`): the temperature effects named before and after, with their
@@ -19,9 +19,9 @@
    without them, the gain and the ratio to the 25 degC figure (the set point
    nearest the terms' t_ref when 25 is not among them).
 
-Files in --out: run_temperature.csv, cal_temperature.json,
+Files in -o: run_temperature.csv, cal_temperature.json,
 accept_temperature.json (accept_temp.TempAcceptResult).  `inclino demo
---temperature` exits 0 when the fit passed and, at every set point other
+--chamber` exits 0 when the fit passed and, at every set point other
 than the reference, the terms brought the acceptance grid's azimuth and
 inclination RMS down (gain > 1); the 1.2x verdict of step 5 is printed and
 saved, not the exit status (`inclino accept --temperatures` exits on it).

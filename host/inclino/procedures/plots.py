@@ -16,7 +16,7 @@
 
 CLI: `inclino plot --run RUN.csv --cal CAL.json [--accept ACCEPT.json] -o DIR`
 (the run gives the sphere and, when it holds circle rotations, the circles;
-the accept result of `inclino accept --save` gives the error maps and its
+the accept result of `inclino accept -o` gives the error maps and its
 circles); `inclino accept --plot DIR` writes its figures directly.
 """
 from __future__ import annotations

@@ -80,26 +80,28 @@ def _owsg(short_name: str) -> dict:
 
 def _template_terms(revision: int = 4) -> dict:
     """The OWSG MWD+SRGM terms this model uses, keyed by GROUPS' names.
-    Revision 5: XYM3/XYM4 are Rev 5's XYM3E/XYM4E as ISCWSA Rev 5 (and the
-    OWSG model) propagates them: random, with the short-course damping
-    factor.  Revision 4 (and the attitude-only weights of the projection):
-    ISCWSA Rev 4's XYM3/XYM4, systematic, no damping (the same weighting
-    functions; checked against welleng's Rev 4 model in the tests)."""
+    XYM3/XYM4 (the calibration's misalignment in the toolface-independent
+    form): ISCWSA Rev 4's XYM3/XYM4, systematic, no damping (Rev 5's
+    XYM3E/XYM4E weighting without the damping factor; checked against
+    welleng's Rev 4 model in the tests).  In revision 5 ISCWSA's XYM3E/XYM4E
+    are random (the tool's misalignment in the hole changes from station to
+    station): the calibration's misalignment does not, so a revision 5 file
+    names these terms XYM3-CAL/XYM4-CAL, systematic, and leaves XYM3E/XYM4E
+    to the standard model they may be set into (models.ErrorModel)."""
     out = {}
     for t in _owsg("MWD+SRGM")["terms"]:
         if t["name"] not in SENSOR_TERMS:
             continue
         t = dict(t)
-        if t["name"] in ("XYM3E", "XYM4E") and revision >= 5:
-            out[t["name"][:-1]] = t
-            continue
         if t["name"] in ("XYM3E", "XYM4E"):
-            t["name"] = t["name"][:-1]
+            t["name"] = t["name"][:-1] + ("-CAL" if revision >= 5 else "")
             t["propagation_mode"] = "Systematic"
+            t["description"] = ("the calibration's triad misalignment in the XYM3/XYM4 weighting (systematic over "
+                                "the run)")
             for k in ("inclination_formula", "azimuth_formula", "north_singularity", "east_singularity"):
                 if isinstance(t.get(k), str):
                     t[k] = t[k].replace("* Max(1, sqrt(10/(MD-MDPrev)))", "").replace("Max(1, sqrt(10/(MD-MDPrev)))", "1")
-        out[t["name"]] = t
+        out[t["name"][:4] if t["name"].startswith(("XYM3", "XYM4")) else t["name"]] = t
     return out
 
 

@@ -42,9 +42,9 @@ DEFAULT_TOL = {"gt_g": 0.0025, "bt_nT": 300.0, "dip_deg": 0.25}
 class ReferenceField:
     declination_deg: float
     dip_deg: float
-    total_nT: float
+    field_nT: float  # the total field
     gravity_g: float = 1.0  # NaN when unknown (no position, no --gravity)
-    source: str = "user"  # "igrf (ppigrf x.y)", "wmm (pygeomag)", "user" (in-field referencing)
+    ref_source: str = "user"  # "IGRF ...", "WMM ...", "user (...)" (in-field referencing)
     lat_deg: float | None = None
     lon_deg: float | None = None
     alt_m: float = 0.0
@@ -56,15 +56,22 @@ class ReferenceField:
     northing_m: float | None = None
     tol: dict = field(default_factory=lambda: dict(DEFAULT_TOL))
 
+    def to_dict(self) -> dict:
+        """The JSON's keys, in the order `inclino reffield` prints them; an unknown value is None."""
+        return {k: (None if isinstance(v, float) and not math.isfinite(v) else v) for k, v in asdict(self).items()}
+
     def to_json(self) -> str:
-        d = {k: (None if isinstance(v, float) and not math.isfinite(v) else v) for k, v in asdict(self).items()}
-        return dumps(d)  # an unknown value is null
+        return dumps(self.to_dict())  # an unknown value is null
 
     @staticmethod
     def from_json(text: str) -> "ReferenceField":
         try:
             d = json.loads(text)
-            for k in ("declination_deg", "dip_deg", "total_nT", "gravity_g"):
+            if isinstance(d, dict):  # files written before the keys were the table's
+                for old, new in (("total_nT", "field_nT"), ("source", "ref_source")):
+                    if old in d and new not in d:
+                        d[new] = d.pop(old)
+            for k in ("declination_deg", "dip_deg", "field_nT", "gravity_g"):
                 if d.get(k) is None:
                     d[k] = float("nan")
             rf = ReferenceField(**d)
@@ -76,8 +83,8 @@ class ReferenceField:
 
     def header(self) -> dict:
         """key=value pairs written with a run (CSV '# key=value' lines, LAS ~Parameter)."""
-        d = {"ref_source": self.source, "declination_deg": f"{self.declination_deg:.4f}"}
-        for k, v, f in (("dip_deg", self.dip_deg, ".4f"), ("field_nT", self.total_nT, ".1f"),
+        d = {"ref_source": self.ref_source, "declination_deg": f"{self.declination_deg:.4f}"}
+        for k, v, f in (("dip_deg", self.dip_deg, ".4f"), ("field_nT", self.field_nT, ".1f"),
                         ("gravity_g", self.gravity_g, ".6f")):
             if v is not None and math.isfinite(v):  # unknown (declination-only referencing): left out
                 d[k] = format(v, f)
@@ -240,9 +247,9 @@ def _grid_azimuth_of_true_north(tr, lat, lon, dlat=1e-5):
 
 
 def reference(lat=None, lon=None, date=None, alt_m=0.0, model="igrf", declination=None, dip=None,
-              total=None, gravity=None, grid_epsg=None, tol=None) -> ReferenceField:
+              field=None, gravity=None, grid_epsg=None, tol=None) -> ReferenceField:
     """The reference field of a survey.  A position and date give the
-    model's values; any of declination, dip, total (nT), gravity (g) given
+    model's values; any of declination, dip, field (the total, nT), gravity (g) given
     override it (in-field referencing).  Declination alone is enough for
     azimuths (dip and total then default to NaN: no field QC)."""
     have_pos = lat is not None or lon is not None
@@ -261,7 +268,7 @@ def reference(lat=None, lon=None, date=None, alt_m=0.0, model="igrf", declinatio
     elif not have_pos and declination is None:
         raise DataError("give the position and date (--lat --lon --date) or --declination")
     user = []
-    for name, v in (("declination", declination), ("dip", dip), ("total", total)):
+    for name, v in (("declination", declination), ("dip", dip), ("field", field)):
         if v is not None:
             if not math.isfinite(v):
                 raise DataError(f"--{name} is not a number")
@@ -272,10 +279,10 @@ def reference(lat=None, lon=None, date=None, alt_m=0.0, model="igrf", declinatio
         if abs(dip) > 90:
             raise DataError("--dip must be within +-90 deg")
         dip0 = float(dip)
-    if total is not None:
-        if total <= 0:
-            raise DataError("--total must be > 0 nT")
-        f0 = float(total)
+    if field is not None:
+        if field <= 0:
+            raise DataError("--field must be > 0 nT")
+        f0 = float(field)
     if user:
         src = f"user ({', '.join(user)})" + ("" if src == "user" else f"; else {src}")
     if gravity is not None:

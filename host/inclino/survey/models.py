@@ -403,7 +403,7 @@ def welleng_survey(md, inc, azi_mag, rf, error_model=None, fallback=(60.0, 50000
     from welleng.survey import Survey as WSurvey, SurveyHeader
 
     dip = rf.dip_deg if math.isfinite(rf.dip_deg) else fallback[0]
-    bt = rf.total_nT if math.isfinite(rf.total_nT) else fallback[1]
+    bt = rf.field_nT if math.isfinite(rf.field_nT) else fallback[1]
     grav = rf.gravity_g if math.isfinite(rf.gravity_g) else 1.0
     h = SurveyHeader(latitude=rf.lat_deg if rf.lat_deg is not None else 0.0,
                      longitude=rf.lon_deg if rf.lon_deg is not None else 0.0, altitude=rf.alt_m,

@@ -11,12 +11,12 @@ from inclino.errors import DataError
 
 def fixed(rf) -> tuple:
     """(gt_ref, gt_tol Q27 g, bt_ref, bt_tol Q8 nT, dip_ref, dip_tol Q16 deg): qc_ref_t."""
-    if not (math.isfinite(rf.total_nT) and math.isfinite(rf.dip_deg)):
+    if not (math.isfinite(rf.field_nT) and math.isfinite(rf.dip_deg)):
         raise DataError("the probe's QC reference needs the dip and the total field (a position and date, "
-                        "or --dip and --total)")
+                        "or --dip and --field)")
     t = rf.tol
     g = rf.gravity_g if math.isfinite(rf.gravity_g) else 1.0  # the firmware's default reference (qc_default)
-    vals = (g * 2**27, t["gt_g"] * 2**27, rf.total_nT * 256.0, t["bt_nT"] * 256.0,
+    vals = (g * 2**27, t["gt_g"] * 2**27, rf.field_nT * 256.0, t["bt_nT"] * 256.0,
             rf.dip_deg * 65536.0, t["dip_deg"] * 65536.0)
     out = tuple(int(round(v)) for v in vals)
     if any(not -2**31 <= v < 2**31 for v in out) or min(out[1], out[3], out[5]) < 0:

@@ -30,7 +30,7 @@ from inclino.errors import DataError
 from inclino.survey.geomag import ReferenceField
 from inclino.formats.jsonout import dumps
 
-HOST_QC = (("G", "gt_g", "gravity_g"), ("B", "bt_nT", "total_nT"), ("dip", "dip_deg", "dip_deg"))
+HOST_QC = (("G", "gt_g", "gravity_g"), ("B", "bt_nT", "field_nT"), ("dip", "dip_deg", "dip_deg"))
 # what a survey log's header says about the run, carried into the trajectory's outputs
 SURVEY_META = ("run", "file", "start_utc", "product", "probe_serial", "firmware", "calibration_slot",
                "calibration_sequence", "calibration_crc")
@@ -192,7 +192,7 @@ def _csv_rows(text: str, path: str):
     rows = []
     for n, rec in enumerate(rdr, start=2):
         rec = [c.strip() for c in rec]
-        if rec == header:  # several `inclino survey --format csv` outputs appended
+        if rec == header:  # several `inclino survey --csv` outputs appended
             continue
         if len(rec) != len(header):
             raise DataError(f"{path}: row {n} has {len(rec)} fields, the header {len(header)}")
