@@ -331,3 +331,35 @@ def test_a_fluxgate_behind_temp_out_is_measured_from_a_ramp():
         est = templag.estimate(a, cal)["mag"]
         assert abs(est["tau_s"] - tau) <= 0.25 * tau + 3.0 * est["tau_se_s"], (tau, est)
         assert est["tau_se_s"] < 8.0  # a few seconds: the ramp down and back up determines it
+
+
+def test_the_diagnose_floor_measures_diagnoses_signatures_and_its_gains_are_exact():
+    """procedures.diagnosable: each static candidate's z on multi-position's
+    poses is diagnose's own signature_z (computed there through its design's
+    separability); the floor's running Gram gives the same z once it holds
+    every pose; a reading's gain is the exact decrease of the criterion."""
+    from inclino.diagnose import plans
+    from inclino.procedures import diagnosable
+    from inclino.procedures.acquire import procedure_steps
+
+    st = procedure_steps("multi-position")
+    I, A, T = (np.array([getattr(x, a) for x in st]) for a in ("inc", "azi", "tf"))
+    z_ref = np.array(diagnosable.reference_z())
+    plan = {"kind": "static", "inc": I, "azi": A, "tf": T, "t_s": np.arange(len(I), dtype=float),
+            "temp_c": np.full(len(I), 25.0)}
+    for k, cand in enumerate(diagnosable._candidates()):
+        assert z_ref[k] == pytest.approx(plans.signature_z(plans.PROBE, plan, cand), rel=1e-4), cand.key
+    f = diagnosable.Floor((I, A, T), share=0.5)
+    for j in range(12):
+        f.add(j)
+    assert not f.met()  # 12 of the 94 poses: below half of today's signature somewhere
+    g = f.gains()
+    before = f.criterion()
+    for j in (3, 40, 77):
+        f.add(j)
+        assert before - f.criterion() == pytest.approx(g[j], rel=1e-6)
+        f.G -= f.Xc[j].T @ f.Xc[j]
+    for j in range(12, len(I)):
+        f.add(j)
+    r = f.ratios()
+    assert f.met() and all(v == pytest.approx(1.0, rel=1e-6) for v in r.values())

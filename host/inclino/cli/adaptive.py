@@ -32,6 +32,10 @@ def add_adaptive_options(p) -> None:
                    help="stop when each of the last --patience poses lowered the prediction by less than this "
                         "fraction (default %(default)g)")
     a.add_argument("--patience", type=int, default=8, help="see --plateau (default %(default)s)")
+    a.add_argument("--diagnose-share", type=float, default=0.5,
+                   help="do not stop before every static effect diagnose tests (nonlinearity, turntable offsets "
+                        "and axes) shows at least this share of the signature the multi-position run gives; 0: "
+                        "no floor (default %(default)g)")
     a.add_argument("--accept-average", type=int, default=16,
                    help="samples per reading of the acceptance the prediction is for (default %(default)s, the "
                         "probe's default)")
@@ -66,7 +70,7 @@ def plan_of(args):
     plan = AdaptivePlan(target_azi_deg=_auto_or_float(args.target_azi_deg),
                         target_inc_deg=_auto_or_float(args.target_inc_deg), target_ratio=args.target_ratio,
                         min_poses=args.min_poses, max_poses=args.max_poses, plateau=args.plateau,
-                        patience=args.patience, average=args.average, accept_average=args.accept_average,
+                        patience=args.patience, diagnose_share=args.diagnose_share, average=args.average, accept_average=args.accept_average,
                         table_rate_deg_s=args.table_rate_deg_s, table_settle_s=args.table_settle_s, ramp=ramp)
     plan.check()
     return plan

@@ -21,6 +21,12 @@ on:
   less than `plateau` (relative) for `patience` poses running;
 * the pose limit `max_poses`.
 
+The first two wait for the run to stay diagnosable: every static effect
+`inclino diagnose` tests (scale nonlinearity, turntable offsets and axis
+errors) with a signature at least `diagnose_share` times what the
+multi-position procedure gives (procedures.diagnosable, whose part of the
+criterion the design adds to its own).
+
 Targets by default ("auto"): the calibration's share of the acceptance
 (its coefficient term) at most AUTO_COEF_SHARE of the acceptance's own
 floor (reading noise, resolution and the linear model's bias at the run's
@@ -78,6 +84,7 @@ class AdaptivePlan:
     patience: int = 8
     average: int | None = None  # samples per reading: 16 at room temperature, 64 through a chamber
     accept_average: int = 16  # the acceptance the prediction is for (`inclino accept` at the probe's default)
+    diagnose_share: float = 0.5  # procedures.diagnosable: each static effect's signature >= this x multi-position's (0: off)
     table_rate_deg_s: float = 10.0  # the turntable's motion model (world.TurntableMotion): the moves' cost
     table_settle_s: float = 3.0
     inc_step_deg: float = 15.0
@@ -95,6 +102,8 @@ class AdaptivePlan:
             raise DataError("--min-poses must be an integer within 8-1000")
         if int(self.max_poses) != self.max_poses or not self.min_poses <= self.max_poses <= 5000:
             raise DataError("--max-poses must be an integer within --min-poses and 5000")
+        if not (math.isfinite(self.diagnose_share) and 0.0 <= self.diagnose_share <= 2.0):
+            raise DataError(f"--diagnose-share must be within 0-2, got {self.diagnose_share:g}")
         if not (0.0 < self.plateau < 1.0) or int(self.patience) != self.patience or self.patience < 1:
             raise DataError("the plateau rule wants 0 < plateau < 1 and patience >= 1")
         if self.average is not None and (int(self.average) != self.average or not 1 <= self.average <= 64):
@@ -124,6 +133,7 @@ class AdaptiveResult(AcquireResult):
     planning_s: float = 0.0  # the host's computing between readings (wall time)
     trace: list = field(default_factory=list)  # per pose: bench time, pose, temperature, predicted RMS
     ramp: dict = field(default_factory=dict)  # with a chamber: phases, turns, the fitted lag
+    diagnosable: dict = field(default_factory=dict)  # each static effect's signature over multi-position's, at the stop
 
     def to_dict(self) -> dict:
         return asdict(self)
@@ -174,6 +184,12 @@ class _Run:
         self.best_drop: list[float] = []
         self.planning_s = 0.0
         self.fits = 0
+        self.diag = None
+        if plan.diagnose_share > 0:
+            from inclino.procedures.diagnosable import Floor
+
+            self.diag = Floor(self.cand, plan.diagnose_share)
+        self.cur_index = None  # the candidate the table stands at
         self.last_full = 0
         self.next_confirm = 0
 
@@ -272,7 +288,7 @@ class _Run:
         ds = self.dataset(rows)
         try:
             with np.errstate(all="ignore"):
-                cal, info = joint.fit(ds, nonlinear=True)
+                cal, info = joint.fit(ds, nonlinear=True, noise="nominal")  # the estimate only: fast
         except (CalibrationError, DataError, np.linalg.LinAlgError, ValueError):
             return False
         self.fits += 1
@@ -401,6 +417,8 @@ class _Run:
         d = self.design_mod
         Jc = self.Jc.at(None if not self.thermal else np.full(len(self.cand[0]), temp_next))
         g = self.design.gains(Jc)
+        if self.diag is not None:
+            g = g + self.diag.gains()
         cost = self.motion.duration(cur, self.cand) + self.read_s
         same = self.motion.turn_deg(cur, self.cand) < 1e-6
         score = np.where(same, -np.inf, g / cost)
@@ -424,7 +442,12 @@ class _Run:
         after = (math.sqrt(self.floor[0] ** 2 + Va), math.sqrt(self.floor[1] ** 2 + Vi))
         return max((b - a) / b for b, a in zip(before, after) if b > 0)
 
-    def add_row(self, row: dict) -> None:
+    def add_row(self, row: dict, j: int | None = None) -> None:
+        """j: the candidate pose read (None: the table held its pose)."""
+        if j is not None:
+            self.cur_index = j
+        if self.diag is not None and self.cur_index is not None:
+            self.diag.add(self.cur_index)
         self.rows.append(row)
         T = np.array([row["temp_c"]]) if self.thermal else None
         self.design.add(self.design_mod.row_jacobians(self.est, self.poses([row]), T))
@@ -552,7 +575,7 @@ def _loop(link, table, run: _Run, res: AdaptiveResult, out, bar, tell, clock, ch
             if turn is not None:
                 chamber.set(turn, plan.ramp.rate_c_per_min)
                 ramp_state.program(tb, plan.ramp.rate_c_per_min)
-        run.add_row(row)
+        run.add_row(row, j if j >= 0 else None)
         run.refresh(ramp_state.span() if thermal else 0.0)
         pa, pi = run.predicted()
         ratios = run.predicted_ratios()
@@ -571,7 +594,7 @@ def _loop(link, table, run: _Run, res: AdaptiveResult, out, bar, tell, clock, ch
             bar.update(0)  # shown at the bar's own pace (on a terminal; every PERIOD off one)
         # the stopping rule
         reason = None
-        covered = ramp_state.covered() if thermal else True
+        covered = (ramp_state.covered() if thermal else True) and (run.diag is None or run.diag.met())
         if covered and len(run.rows) >= max(plan.min_poses, run.next_confirm) and run.targets_met((pa, pi), ratios):
             run.next_confirm = len(run.rows) + (CONFIRM_AGAIN_RAMP if thermal else CONFIRM_AGAIN)
             if run.full_fit():  # confirm on the fit `inclino calibrate` runs
@@ -614,6 +637,8 @@ def _loop(link, table, run: _Run, res: AdaptiveResult, out, bar, tell, clock, ch
             from inclino.calib import templag
 
             res.ramp["sensor_lag"] = templag.estimate(run.dataset(), run.cal)
+    if run.diag is not None:
+        res.diagnosable = {"share": plan.diagnose_share, "met": run.diag.met(), "ratios": run.diag.ratios()}
     res.notes.append({"poses": len(run.rows), "fits": run.fits, "stop": reason})
     if tell is not None:
         pa = res.prediction.get("acceptance_grid", {}) or {}
