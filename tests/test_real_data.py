@@ -80,3 +80,67 @@ def test_imucal_faces_get_their_poses():
     C = ref.pose_matrix(ds.columns["inc_deg"], np.zeros(len(ds)), ds.columns["tf_deg"])
     down = C[:, :, 2]
     assert np.all(np.einsum("ni,ni->n", down, ds.acc) > 0.95)
+
+
+def test_presets_load_and_cite_their_data_sheet():
+    for name in sensor.presets():
+        d = sensor.load(name)
+        assert d.triads and d.source
+        text = (sensor.PRESET_DIR / f"{name}.toml").read_text()
+        assert text.lstrip().startswith("#")  # the data sheet facts are said where they are used
+        for t in d.triads:
+            assert t.det == 1  # a package's own axes, turned into its accelerometer's frame: a rotation
+    assert sensor.default().name.startswith("ADIS16210")
+
+
+def test_a_preset_with_overrides_imports_a_log(tmp_path):
+    """An MPU-9250 log in counts with its own column names: the preset gives
+    the scales and the magnetometer's axes (X_mag = Y_acc, Y_mag = X_acc,
+    Z_mag = -Z_acc), the file only the columns."""
+    g = np.array([[0.0, 0.0, 1.0], [1.0, 0.0, 0.0], [0.0, -1.0, 0.0]])  # specific force (up), g
+    b_acc = np.array([[20.0, 5.0, -40.0], [10.0, -30.0, 15.0], [-25.0, 12.0, 33.0]])  # field in acc axes, uT
+    b_mag = np.column_stack([b_acc[:, 1], b_acc[:, 0], -b_acc[:, 2]])  # the AK8963's own axes
+    log = tmp_path / "mpu.csv"
+    rows = ["AX;AY;AZ;HX;HY;HZ"] + [";".join(str(int(round(v))) for v in np.concatenate([a * 16384, m / 0.15]))
+                                    for a, m in zip(g, b_mag)]
+    log.write_text("\n".join(rows) + "\n")
+    desc = tmp_path / "mpu.toml"
+    desc.write_text('preset = "mpu9250"\nname = "a breakout"\n[accelerometer]\ncolumns = ["AX", "AY", "AZ"]\n'
+                    '[magnetometer]\ncolumns = ["HX", "HY", "HZ"]\n')
+    ds, rep = importlog.import_log(str(log), sensor.load(str(desc)))
+    assert np.allclose(ds.acc, -g, atol=1e-4)  # +1 g on the axis pointing down
+    assert np.allclose(ds.mag, b_acc * 1000.0, atol=100.0)  # nT, in the accelerometer's frame
+    assert ds.meta["mag_axes"] == "x = my, y = mx, z = -mz"
+
+
+@pytest.mark.parametrize("toml, message", [
+    ('[accelerometer]\ncolumns = ["a", "b", "c"]\nunit = "counts"\n', "needs lsb"),
+    ('[accelerometer]\ncolumns = ["a", "b", "c"]\nunit = "furlongs"\n', "unknown unit"),
+    ('[accelerometer]\ncolumns = ["a", "b", "c"]\naxes = "x = ax, y = ax, z = az"\n', "uses a sensor axis twice"),
+    ('[accelerometer]\ncolumns = ["a", "b", "c"]\nx = "-ax"\ny = "ay"\nz = "az"\n', "reflection"),
+    ('[accelerometer]\ncolumns = ["a", "b"]\n', "three column names"),
+    ('[magnetometer]\ncolumns = ["a", "b", "c"]\nreads = "up"\n', "only the accelerometer"),
+    ('[accelerometer]\ncolumns = ["a", "b", "c"]\nreads = "sideways"\n', "'up'"),
+    ('name = "x"\n', "describes no triad"),
+    ('[acclerometer]\ncolumns = ["a", "b", "c"]\n', "unknown key(s) acclerometer"),
+    ('[accelerometer\n', "not valid TOML"),
+])
+def test_a_bad_description_is_one_line_naming_the_key(toml, message):
+    with pytest.raises(Exception) as e:
+        sensor.from_toml(toml)
+    assert message in str(e.value) and "\n" not in str(e.value)
+
+
+def test_import_bad_input_is_one_line_exit_2(tmp_path, capsys):
+    log = tmp_path / "log.csv"
+    log.write_text("ax,ay,az\n0.1,0.2,0.97\n0.1,oops,0.97\n")
+    desc = tmp_path / "d.toml"
+    desc.write_text('[accelerometer]\ncolumns = ["ax", "ay", "az"]\n')
+    assert main(["import", str(log), "--sensor", str(desc), "-o", str(tmp_path / "o.csv")]) == 2
+    err = capsys.readouterr().err
+    assert ":3:" in err and "ay" in err and err.count("\n") == 1
+    desc.write_text('[accelerometer]\ncolumns = ["ax", "ay", "AZZ"]\n')
+    assert main(["import", str(log), "--sensor", str(desc), "-o", str(tmp_path / "o.csv")]) == 2
+    assert "no column 'AZZ'" in capsys.readouterr().err
+    assert main(["import", str(log), "--sensor", "nosuchpreset", "-o", str(tmp_path / "o.csv")]) == 2
+    assert "not a preset" in capsys.readouterr().err

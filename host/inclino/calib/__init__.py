@@ -35,7 +35,7 @@ def __getattr__(name):
 
 
 def fit(ds, method: str = DEFAULT_METHOD, data_hash: dict | None = None, report: bool = True,
-        max_rows: int | None = MAX_FIT_ROWS, **opts):
+        max_rows: int | None = MAX_FIT_ROWS, check: bool = True, static: bool = False, **opts):
     import numpy as np
 
     from inclino.formats.dataset import thin
@@ -51,7 +51,39 @@ def fit(ds, method: str = DEFAULT_METHOD, data_hash: dict | None = None, report:
         raise DataError("the dataset has no rows")
     mod = importlib.import_module(f"inclino.calib.{method}")
     data_hash = data_hash or common.dataset_hash(ds)  # of every row, before thinning
+    found = None
+    if check:  # inclino.checks: data that cannot be right stop here (DataError, exit 2), before any fit
+        from inclino import checks
+
+        found = checks.run(ds, declared_static=static)
+        found.raise_errors()
+        if found.saturated:  # readings at the declared range are not readings of the field
+            keep = np.setdiff1d(np.arange(len(ds)), found.saturated)
+            ds = common.subset(ds, keep)
+        if found.mag_to_acc is not None and method == "joint":
+            opts.setdefault("mag_start", found.mag_to_acc)
     ds, thinned = thin(ds, max_rows)
+    if ds.triads != "both":  # one triad: calib.single (joint only: the papers' methods need both)
+        if method != "joint":
+            raise DataError(f"{method} fits both triads; this is an "
+                            f"{'accelerometer' if ds.has_acc else 'magnetometer'}-only dataset (--method joint)")
+        from . import single
+
+        t0 = time.perf_counter()
+        with np.errstate(all="ignore"):
+            cal, info = single.fit(ds, **{k: v for k, v in opts.items() if k in ("use_poses",)})
+        cal.data = data_hash
+        rep = None
+        if report:
+            rep = report_mod.build_single(ds, cal, info)
+            rep.fit_time_s = time.perf_counter() - t0
+            if thinned:
+                rep.notes.append(thinned)
+            if found is not None:
+                rep.checks = found.to_dict()
+                rep.notes += [f"check: {line}" for line in found.lines(("warning",))]
+            cal.report = rep.to_dict()
+        return cal, rep
     t0 = time.perf_counter()
     try:
         with np.errstate(all="ignore"):
@@ -76,5 +108,10 @@ def fit(ds, method: str = DEFAULT_METHOD, data_hash: dict | None = None, report:
         rep.fit_time_s = elapsed
         if thinned:
             rep.notes.append(thinned)
+        if found is not None:
+            rep.checks = found.to_dict()
+            rep.notes += [f"check: {line}" for line in found.lines(("warning",))]
+            if found.saturated:
+                rep.notes.append(f"{len(found.saturated)} saturated row(s) left out of the fit")
         cal.report = rep.to_dict()
     return cal, rep

@@ -31,8 +31,14 @@ def world_of(ds: RawDataset) -> dict:
     header lacks it (it only sets the unit of the corrected field)."""
     m = ds.meta
     F = m.get("field_nT")
+    if F is None and ds.has_mag:
+        # the radius of the sphere the readings lie on (offsets do not move it), else the median |b|
+        from .ellipsoid import sphere
+
+        sph = sphere(ds.mag) if len(ds) >= 10 else None
+        F = (sph[1] if sph is not None else float(np.median(np.linalg.norm(ds.mag, axis=1)))) or DEFAULT_FIELD_NT
     if F is None:
-        F = float(np.median(np.linalg.norm(ds.mag, axis=1))) or DEFAULT_FIELD_NT
+        F = DEFAULT_FIELD_NT
     return {"field_nT": float(F), "dip_deg": m.get("dip_deg"),
             "declination_deg": float(m.get("declination_deg", 0.0)),
             "gravity_g": float(m.get("gravity_g", 1.0))}

@@ -42,6 +42,7 @@ from inclino.formats.dataset import RawDataset
 from inclino.errors import CalibrationError, DataError
 
 from . import common
+from .ellipsoid import ellipsoid_start  # noqa: F401 (callers import it from here too)
 
 SIGMA_ACC = 1.5e-4  # g, ADIS16210-class noise of one reading
 SIGMA_MAG = 5.0  # nT
@@ -497,27 +498,6 @@ def _sym(v):
     return np.array([[a, b, c], [b, d, e], [c, e, f]])
 
 
-def ellipsoid_start(raw, R):
-    """Algebraic general ellipsoid fit: (M symmetric, b) with |M (raw - b)| ~ R."""
-    x, y, z = np.asarray(raw, float).T
-    D = np.column_stack([x * x, y * y, z * z, 2 * x * y, 2 * x * z, 2 * y * z, 2 * x, 2 * y, 2 * z,
-                         np.ones_like(x)])
-    _, _, Vt = np.linalg.svd(D / np.abs(D).max(0), full_matrices=False)
-    v = Vt[-1] / np.abs(D).max(0)
-    Q = np.array([[v[0], v[3], v[4]], [v[3], v[1], v[5]], [v[4], v[5], v[2]]])
-    if np.linalg.eigvalsh(Q).min() * np.linalg.eigvalsh(Q).max() <= 0:
-        raise DataError("joint: the readings do not lie on an ellipsoid (too few orientations)")
-    if np.trace(Q) < 0:
-        Q, v = -Q, -v
-    c = -np.linalg.solve(Q, v[6:9])
-    k = c @ Q @ c - v[9]
-    if k <= 0:
-        raise DataError("joint: degenerate ellipsoid fit")
-    w, U = np.linalg.eigh(Q / k)
-    M = U @ np.diag(np.sqrt(w)) @ U.T * R
-    return M, c
-
-
 def _inv_residuals(x, acc, mag, G, F, sa, sm, R0):
     Ma = _sym(x[0:6]) @ R0
     ba = x[6:9]
@@ -539,62 +519,28 @@ def _polar_rotation(M):
     return R if np.linalg.det(R) > 0 else U @ np.diag([1, 1, -1]) @ Vt
 
 
-def _fit_invariants(ds, w, sa, sm, fix_dip, prior=None, mount_tolerance_deg=None):
-    from . import field
+def _fit_invariants(ds, w, sa, sm, fix_dip, prior=None, mount_tolerance_deg=None, mag_start=None):
+    """Without poses: triad by triad (calib.pose_free): the accelerometer's
+    ellipsoid fit alone, the magnetometer's, then its rotation against the
+    accelerometer and the dip from the dip constraint, each with its own
+    noise.  Then the gauge: the common rotation from the prior, or the
+    accelerometer's axes with the mounting tolerance in the covariance."""
+    from . import field, pose_free
 
-    G, F = w["gravity_g"], w["field_nT"]
-    # the unobservable common rotation is fixed by a convention here (M_a
-    # symmetric: the accelerometer's axes); with a prior it is then taken
-    # from the prior (field.align_to_prior), after the fit
-    R0 = np.eye(3)
-    if len(ds) < MIN_ROWS_INVARIANTS:
-        raise DataError(f"joint without poses needs >= {MIN_ROWS_INVARIANTS} readings in varied orientations; "
+    if len(ds) < pose_free.MIN_ROWS:
+        raise DataError(f"joint without poses needs >= {pose_free.MIN_ROWS} readings in varied orientations; "
                         f"the data have {len(ds)}")
-    Ma0, ba0 = ellipsoid_start(ds.acc, G)
-    Mm0, bm0 = ellipsoid_start(ds.mag, F)
-    Mm0 = R0 @ Mm0
-    g0 = (ds.acc - ba0) @ (R0 @ Ma0).T
-    b0 = (ds.mag - bm0) @ Mm0.T
-    dip0 = w["dip_deg"] if (fix_dip and w["dip_deg"] is not None) else float(
-        np.degrees(np.arcsin(np.median((g0 * b0).sum(1) / (np.linalg.norm(g0, axis=1) * np.linalg.norm(b0, axis=1))))))
-    x = np.concatenate([(R0 @ Ma0 @ R0.T)[np.triu_indices(3)], ba0, Mm0.ravel(), bm0, [dip0]])
-    n = len(ds)
-    keep = np.ones(n, bool)
-    def fun(xf, *args):
-        return _inv_residuals(np.concatenate([xf, [dip0]]) if fix_dip else xf, *args)
+    (Ma, ba, Mm, bm, dip), cov, st = pose_free.fit(ds, w, sa, sm, fix_dip, mag_start=mag_start)
     if fix_dip:
-        x = x[:21]
-    for loss in ("soft_l1", "linear"):
-        res = optimize.least_squares(fun, x, args=(ds.acc[keep], ds.mag[keep], G, F, sa, sm, R0),
-                                     loss=loss, f_scale=3.0, x_scale="jac")
-        x = res.x
-        if loss == "soft_l1":
-            r = fun(x, ds.acc, ds.mag, G, F, sa, sm, R0).reshape(3, n)
-            keep = (r ** 2).sum(0) <= robust_threshold((r ** 2).sum(0), 3)[0]
-            if keep.sum() < MIN_ROWS_INVARIANTS:
-                raise CalibrationError("joint: too many readings rejected as outliers to fit")
-    if fix_dip:
-        x = np.concatenate([x, [dip0]])
-    inv_names = ([f"acc M[{i}{j}] (symmetric)" for i, j in zip(*np.triu_indices(3))]
-                 + [f"acc offset {a}" for a in "xyz"] + PARAM_NAMES_POSE[12:24] + ([] if fix_dip else ["dip"]))
-    chi2, dof, s2, cond, cov_x = _covariance(res, "orientations", inv_names)
-    # map (sym 6, ba, Mm 9, bm [, dip]) -> 24-layout (+ dip)
-    iu = np.triu_indices(3)
-    T = np.zeros((25 if not fix_dip else 24, cov_x.shape[0]))
-    for k, (i, j) in enumerate(zip(*iu)):
-        E = np.zeros((3, 3))
-        E[i, j] = E[j, i] = 1.0
-        T[0:9, k] = (E @ R0).ravel()
-    T[9:12, 6:9] = np.eye(3)
-    T[12:24, 9:21] = np.eye(12)
-    if not fix_dip:
-        T[24, 21] = 1.0
-    cov = T @ cov_x @ T.T
-    Ma, ba, Mm, bm, dip = _sym(x[0:6]) @ R0, x[6:9], x[9:18].reshape(3, 3), x[18:21], float(x[21])
-    info = {"mode": "invariants", "s2": s2, "chi2": chi2, "dof": dof, "outliers": np.flatnonzero(~keep).tolist(),
-            "normal_matrix_cond": cond, "dip_fitted": not fix_dip,
-            "dip_sigma_deg": None if fix_dip else float(np.sqrt(cov[24, 24])),
-            "sigmas": {"acc_g": sa, "mag_nT": sm}, "unobservable": field.UNOBSERVABLE}
+        cov = cov[:24, :24]
+    keep = st["keep_acc"] & st["keep_mag"]
+    info = {"mode": "invariants", "s2": st["s2"], "chi2": st["chi2"], "dof": st["dof"],
+            "outliers": np.flatnonzero(~keep).tolist(), "normal_matrix_cond": st["normal_matrix_cond"],
+            "dip_fitted": not fix_dip, "dip_sigma_deg": st["dip_sigma_deg"],
+            "sigmas": {"acc_g": sa, "mag_nT": sm}, "unobservable": field.UNOBSERVABLE,
+            "triad_noise": st["noise"], "s2_by_triad": st["s2_by_triad"], "acc_misfit": st["acc_misfit"],
+            "mag_misfit": st["mag_misfit"],
+            "fit": "triad by triad: each triad's ellipsoid alone, then the magnetometer's rotation and the dip"}
     if prior is not None:
         Q = field.align_to_prior(Ma, Mm, prior)
         Ma, Mm = Q @ Ma, Q @ Mm
@@ -621,7 +567,7 @@ def _fit_invariants(ds, w, sa, sm, fix_dip, prior=None, mount_tolerance_deg=None
 def fit(ds: RawDataset, use_poses: bool | None = None, sigma_acc: float = SIGMA_ACC,
         sigma_mag: float = SIGMA_MAG, sigma_pose_deg: float = SIGMA_POSE_DEG, fix_dip: bool = False,
         prior=None, nonlinear: bool | None = None, mount_tolerance_deg: float | None = None,
-        accept_mount_tolerance: bool = False, noise: str = "fit", **_):
+        accept_mount_tolerance: bool = False, mag_start=None, noise: str = "fit", **_):
     """prior: a Calibration whose body frame (accelerometer rotation) a
     fit without poses keeps; without it the accelerometer's axes are the
     body frame.  nonlinear (default: with poses): also fit each axis'
@@ -682,7 +628,7 @@ def fit(ds: RawDataset, use_poses: bool | None = None, sigma_acc: float = SIGMA_
         if nonlinear:
             raise DataError("joint: the scale nonlinearity is fitted only with turntable poses")
         (Ma, ba, Mm, bm, dip), cov, info = _fit_invariants(ds, w, sigma_acc, sigma_mag, fix_dip, prior,
-                                                           mount_tolerance_deg)
+                                                           mount_tolerance_deg, mag_start)
         info["prior"] = prior is not None
         info["prior_calibration"] = prior  # for the report's prediction (not written anywhere)
         info["accept_mount_tolerance"] = bool(accept_mount_tolerance)
@@ -693,6 +639,7 @@ def fit(ds: RawDataset, use_poses: bool | None = None, sigma_acc: float = SIGMA_
             str(prior.probe_serial) != str(ds.meta.get("probe_serial")):
         prior_notes.append(f"the prior is of probe {prior.probe_serial}, the data of probe {ds.meta.get('probe_serial')}")
     cal = common.make_cal(Ma, ba, Mm, bm, "joint", ds)
+    info["world"] = w
     info.update({"rows_used": np.setdiff1d(np.arange(len(ds)), info["outliers"]), "covariance": cov[:24, :24],
                  "dip_deg": dip, "notes": [f"mode {info['mode']}; s^2 = {info['s2']:.3g} (chi^2/dof; 1 when the "
                                            f"noise model is right)"]})

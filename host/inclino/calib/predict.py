@@ -117,14 +117,16 @@ def predict(cal: Calibration, cov, w: dict, dip: float, sigma_acc, sigma_mag,
             n_avg: float | None = None, reading_noise: bool = True, nonlinear: dict | None = None,
             grid=None, grid_name: str = "Li 2021 grid, toolfaces 0/120/240",
             resolution_n: float | None = None, bias=None, bias_name: str = "linear_model_bias",
-            sigma_pose_deg=None) -> Prediction:
+            sigma_pose_deg=None, lsb=(None, None)) -> Prediction:
     """sigma_acc, sigma_mag: noise of one sample (a number, or one per
     axis); n_avg samples per reading (noise / sqrt(n_avg)); resolution_n:
     the samples behind the input resolution term when it differs from n_avg
     (e.g. sigmas already given per averaged reading, n_avg = 1);
     sigma_pose_deg: (3,) the error of the pose each grid reading is set to
     (turntable inc, azi, tf; the calibration run's fitted pose error when
-    the check is on the same bench), a term of its own."""
+    the check is on the same bench), a term of its own; lsb: (g, nT) per
+    count of the sensor that read the run (its description), else the
+    ADIS16210's and the fluxgate's."""
     I, A, T = grid if grid is not None else GRID
     g, f = ref.body_vectors(I, A, T, w["field_nT"], dip, 0.0, w["gravity_g"])
     acc = g @ np.linalg.inv(np.asarray(cal.acc_m)).T + np.asarray(cal.acc_b)
@@ -145,6 +147,10 @@ def predict(cal: Calibration, cov, w: dict, dip: float, sigma_acc, sigma_mag,
                                   np.broadcast_to(np.asarray(sigma_mag, float), (3,))]) / np.sqrt(n)
         nr = float(resolution_n) if resolution_n else n
         s_res = np.array([ref.ACC_LSB_G] * 3 + [ref.MAG_LSB_NT] * 3) * np.sqrt(1.0 / (12 * nr) + 1.0 / (12 * 64.0**2))
+        if lsb[0] or lsb[1]:  # the sensor's own resolution (its description), then the firmware's Q6 rounding
+            own = np.array([float(lsb[0] or ref.ACC_LSB_G)] * 3 + [float(lsb[1] or ref.MAG_LSB_NT)] * 3)
+            probe = np.array([ref.ACC_LSB_G] * 3 + [ref.MAG_LSB_NT] * 3)
+            s_res = np.sqrt(own ** 2 / (12 * nr) + probe ** 2 / (12 * 64.0**2))
         for name, s in (("reading_noise", s_noise), ("input_resolution", s_res)):
             terms_a[name] = (Ra ** 2) @ (s ** 2)
             terms_i[name] = (Ri ** 2) @ (s ** 2)

@@ -80,6 +80,11 @@ class FitReport:
     notes: list = field(default_factory=list)
     paper_parameters: dict | None = None
     fit_time_s: float = 0.0
+    checks: dict = field(default_factory=dict)  # inclino.checks before the fit (findings, noise, static)
+    # contiguous blocks of misfitting rows (rows from-to, what varies over them): structure, not outliers
+    segments: list = field(default_factory=list)
+    noise: dict = field(default_factory=dict)   # each triad's noise from its own residuals (g, nT)
+    triads: str = "both"
     closest: dict = field(default_factory=dict)  # the check nearest its limit: what, value, limit
 
     def conclusion(self) -> str:
@@ -106,6 +111,8 @@ class FitReport:
 
     def summary(self, verdict: bool = True) -> str:
         """The report as text; `verdict`: ending with conclusion()."""
+        if self.triads != "both":
+            return _summary_single(self, verdict)
         r = self.residuals
         lines = [f"method {self.method} ({self.mode}): {self.rows_used} of {self.rows} rows used"
                  + (f", {len(self.outliers)} outlier(s) rejected" if self.outliers else "")]
@@ -141,11 +148,13 @@ class FitReport:
         res = q.get("input_resolution")
         if res:
             n = res.get("samples_averaged")
-            lines.append(f"  input resolution at {'n = %g samples averaged' % n if n else 'n unknown (taken as 1)'}: "
+            lsb = res.get("lsb") or {}
+            src = (f" ({lsb['acc_g']:.3g} g, {lsb['mag_nT']:.3g} nT per count: {lsb['from']})"
+                   if lsb.get("from") == "the sensor description" else "")
+            lines.append(f"  input resolution{src} at {'n = %g samples averaged' % n if n else 'n unknown (taken as 1)'}: "
                          f"azimuth sigma RMS {res['azi_rms_deg']:.4f} deg (max {res['azi_max_deg']:.4f}) over the "
-                         f"Li grid, inclination {res['inc_rms_deg']:.5f} deg (the probe's, reported, not judged)")
-        if verdict:
-            lines.append("  " + self.conclusion())
+                         f"Li grid, inclination {res['inc_rms_deg']:.5f} deg (the sensor's, reported, not judged)")
+        lines += _common_tail(self, verdict)
         return "\n".join(lines)
 
 
@@ -161,8 +170,8 @@ def _coverage(v):
     return cells, float(np.linalg.eigvalsh(S).min())
 
 
-def residuals(ds: RawDataset, cal: Calibration, dip_deg=None) -> dict:
-    w = common.world_of(ds)
+def residuals(ds: RawDataset, cal: Calibration, dip_deg=None, w: dict | None = None) -> dict:
+    w = w or common.world_of(ds)
     g = ref.correct(ds.acc, cal.acc_m, cal.acc_b)
     b = ref.correct(ds.mag, cal.mag_m, cal.mag_b)
     a = ref.attitude(g, b)
@@ -214,7 +223,8 @@ def probe_inputs(acc, mag):
     return ref.readings_acc(acc) / 64.0 * ref.ACC_LSB_G, ref.readings_mag(mag) / 64.0 * ref.MAG_LSB_NT
 
 
-def input_resolution(cal: Calibration, acc, mag, n_avg: float | None, inc_min: float = 1.0) -> dict:
+def input_resolution(cal: Calibration, acc, mag, n_avg: float | None, inc_min: float = 1.0,
+                     lsb=(None, None)) -> dict:
     """Azimuth/inclination sigma (RMS over the readings' poses) from the
     input's resolution: each axis' mean of n whole-count samples carries a
     rounding error of 1/sqrt(12 n) count once the noise dithers the counts
@@ -224,6 +234,13 @@ def input_resolution(cal: Calibration, acc, mag, n_avg: float | None, inc_min: f
     n = float(n_avg) if n_avg else 1.0
     s_cnt = np.sqrt(1.0 / (12.0 * n) + 1.0 / (12.0 * 64.0**2))
     sig = np.array([ref.ACC_LSB_G] * 3 + [ref.MAG_LSB_NT] * 3) * s_cnt
+    # the sensor's own resolution when its description gives it (docs/dataset.md: acc_lsb_g, mag_lsb_nT),
+    # plus the firmware's Q6 rounding of the probe's counts
+    la, lm = lsb
+    if la or lm:
+        own = np.array([float(la or ref.ACC_LSB_G)] * 3 + [float(lm or ref.MAG_LSB_NT)] * 3)
+        probe = np.array([ref.ACC_LSB_G] * 3 + [ref.MAG_LSB_NT] * 3)
+        sig = np.sqrt(own ** 2 / (12.0 * n) + probe ** 2 / (12.0 * 64.0**2))
     X = np.concatenate([acc, mag], axis=1)
     base = ref.attitude(ref.correct(X[:, :3], cal.acc_m, cal.acc_b), ref.correct(X[:, 3:], cal.mag_m, cal.mag_b))
     va = np.zeros(len(X))
@@ -240,11 +257,25 @@ def input_resolution(cal: Calibration, acc, mag, n_avg: float | None, inc_min: f
         vi += ((d[0]["inc"] - d[1]["inc"]) / 2.0) ** 2
     ok = (base["inc"] >= inc_min) & (base["inc"] <= 180.0 - inc_min)
     return {"samples_averaged": n_avg, "assumed_n": n, "count_sigma": float(s_cnt),
+            "lsb": {"acc_g": float(la or ref.ACC_LSB_G), "mag_nT": float(lm or ref.MAG_LSB_NT),
+                    "from": "the sensor description" if (la or lm) else "the ADIS16210's and the fluxgate's"},
             "azi_rms_deg": float(np.sqrt(va[ok].mean())), "azi_max_deg": float(np.sqrt(va[ok].max())),
             "inc_rms_deg": float(np.sqrt(vi.mean()))}
 
 
-def quantisation_loss(ds: RawDataset, cal: Calibration, w: dict, dip: float, n_avg=None) -> dict:
+def _noise_from_residuals(ds, cal, w, dip) -> dict:
+    """Each triad's residual scale on its own: per axis RMS of the corrected
+    vector against the poses' (with poses), else of |g| and |b|."""
+    g = ref.correct(ds.acc, cal.acc_m, cal.acc_b)
+    b = ref.correct(ds.mag, cal.mag_m, cal.mag_b)
+    if ds.has_pose and dip is not None:
+        gt, ft = common.true_vectors(ds, dip, w["field_nT"], w["declination_deg"], w["gravity_g"])
+        return {"acc_g": _rms(g - gt), "mag_nT": _rms(b - ft)}
+    return {"acc_g": _rms(np.linalg.norm(g, axis=1) - w["gravity_g"]),
+            "mag_nT": _rms(np.linalg.norm(b, axis=1) - w["field_nT"])}
+
+
+def quantisation_loss(ds: RawDataset, cal: Calibration, w: dict, dip: float, n_avg=None, lsb=(None, None)) -> dict:
     """On the calibration rows plus the Li grid:
     coef -- float64 attitude with the coefficients as quantised (dequantised
     back) against the float coefficients: what the Q formats of M and b cost;
@@ -271,7 +302,7 @@ def quantisation_loss(ds: RawDataset, cal: Calibration, w: dict, dip: float, n_a
         out[f"{name}_inc_max_deg"] = float(di.max())
         out[f"{name}_azi_max_deg"] = float(da.max())
         out[f"{name}_azi_rms_deg"] = _rms(da)
-    out["input_resolution"] = input_resolution(cal, gacc, gmag, n_avg)
+    out["input_resolution"] = input_resolution(cal, gacc, gmag, n_avg, lsb=lsb)
     return out
 
 
@@ -279,17 +310,24 @@ def build(ds: RawDataset, cal: Calibration, method: str, info: dict, refit=None,
     from .joint import SIGMA_ACC, SIGMA_MAG, SIGMA_POSE_DEG
 
     opts = opts or {}
-    w = common.world_of(ds)
+    w = info.get("world") or common.world_of(ds)  # the world the fit used (a data-derived F is of every row)
     dip = info.get("dip_deg")
     if dip is None:
         dip = w["dip_deg"] if w["dip_deg"] is not None else float(np.mean(ref.attitude(
             ref.correct(ds.acc, cal.acc_m, cal.acc_b), ref.correct(ds.mag, cal.mag_m, cal.mag_b))["dip"]))
     rows_used = np.asarray(info.get("rows_used", np.arange(len(ds))))
     used = common.subset(ds, rows_used)
+    # misfitting rows: contiguous blocks are segments (structure: diagnose looks at them), the rest outliers
+    from .triad import segments as _segments
+
+    bad = np.zeros(len(ds), bool)
+    bad[np.asarray(info.get("outliers", []), dtype=np.int64)] = True
+    segs, scattered = _segments(bad, ds)
     rep = FitReport(method=method, mode=info.get("mode", "turntable poses"), rows=len(ds),
-                    rows_used=int(len(rows_used)), outliers=list(info.get("outliers", [])),
+                    rows_used=int(len(rows_used)), outliers=scattered, segments=segs,
                     notes=list(info.get("notes", [])), paper_parameters=info.get("paper_parameters"))
-    rep.residuals = residuals(used, cal, dip)
+    rep.residuals = residuals(used, cal, dip, w)
+    rep.noise = dict(info["triad_noise"]) if info.get("triad_noise") else _noise_from_residuals(used, cal, w, dip)
     g = ref.correct(used.acc, cal.acc_m, cal.acc_b)
     b = ref.correct(used.mag, cal.mag_m, cal.mag_b)
     ca, ea = _coverage(g)
@@ -329,8 +367,10 @@ def build(ds: RawDataset, cal: Calibration, method: str, info: dict, refit=None,
             bias_name = "prior_nonlinearity_bias"
         p_cal = predict(cal, cov, w, dip, sa, sm, reading_noise=False, nonlinear=nl, bias=bias, bias_name=bias_name)
         # acceptance: readings taken as the run's -- the run's own noise per channel and its pose error
-        # when the fit estimated them (calib/covariance.py), else the fit's noise model scaled by its s^2
+        # when the fit estimated them (calib/covariance.py); without poses each triad's own residual scale
+        # (never one s^2 for both); else the fit's noise model scaled by its s^2
         n_run = ds.meta.get("samples_averaged")
+        lsb = (ds.meta.get("acc_lsb_g"), ds.meta.get("mag_lsb_nT"))
         comps = info.get("noise_components")
         if comps is not None:
             cell = comps.per_cell()
@@ -340,6 +380,10 @@ def build(ds: RawDataset, cal: Calibration, method: str, info: dict, refit=None,
                         + ("pose error " + ", ".join(f"{v:.3g}" for v in s_pose) + " deg (inc, azi, tf); "
                            if s_pose is not None else "")
                         + f"input resolution at {'n = %g' % n_run if n_run else 'n unknown, taken as 1'}")
+        elif info.get("triad_noise"):
+            s_acc, s_mag, s_pose = max(sa, info["triad_noise"]["acc_g"]), max(sm, info["triad_noise"]["mag_nT"]), None
+            readings = (f"as the run's: noise {s_acc:.3g} g, {s_mag:.3g} nT per reading (each triad's own residual "
+                        f"scale); input resolution at {'n = %g' % n_run if n_run else 'n unknown, taken as 1'}")
         else:
             k = float(np.sqrt(info["s2"])) if info.get("s2") else 1.0
             s_acc, s_mag, s_pose = k * sa, k * sm, None
@@ -347,7 +391,7 @@ def build(ds: RawDataset, cal: Calibration, method: str, info: dict, refit=None,
                         f"model x sqrt(s^2) = {k:.3g}); input resolution at "
                         f"{'n = %g' % n_run if n_run else 'n unknown, taken as 1'}")
         p_acc = predict(cal, cov, w, dip, s_acc, s_mag, n_avg=1, nonlinear=nl, resolution_n=n_run, bias=bias,
-                        bias_name=bias_name, sigma_pose_deg=s_pose)
+                        bias_name=bias_name, sigma_pose_deg=s_pose, lsb=lsb)
         rep.uncertainty = {"source": src, "sigma": dict(zip(common.PARAM_NAMES, sig.tolist())),
                            "predicted_azi_rms_deg": p_cal.azi_rms_deg, "predicted_inc_rms_deg": p_cal.inc_rms_deg,
                            # the full 24x24 (PARAM_NAMES order): inclino toolmodel projects it onto ISCWSA terms
@@ -374,7 +418,8 @@ def build(ds: RawDataset, cal: Calibration, method: str, info: dict, refit=None,
     else:
         rep.uncertainty = {"source": "not available (the method could not be refitted on perturbed data)"}
     rep.uncertainty["reading_noise"] = reading_noise(ds, rep.residuals)
-    rep.quantisation = quantisation_loss(used, cal, w, dip, ds.meta.get("samples_averaged"))
+    rep.quantisation = quantisation_loss(used, cal, w, dip, ds.meta.get("samples_averaged"),
+                                         (ds.meta.get("acc_lsb_g"), ds.meta.get("mag_lsb_nT")))
     for k in ("s2", "chi2", "dof"):
         if k in info:
             rep.residuals[k] = info[k]
@@ -445,6 +490,10 @@ def _verdict(rep: FitReport, info: dict) -> None:
     over(max(rep.conditioning["acc_m_cond"], rep.conditioning["mag_m_cond"]), "m_cond", "cond(M)")
     if rep.rows and len(rep.outliers) / rep.rows > t["outlier_fraction"]:
         reasons.append(f"{len(rep.outliers)} of {rep.rows} readings rejected as outliers")
+    seg_rows = sum(sg["rows"] for sg in rep.segments)
+    if rep.rows and seg_rows / rep.rows > t["outlier_fraction"]:
+        reasons.append(f"{seg_rows} of {rep.rows} readings misfit in {len(rep.segments)} contiguous segment(s): "
+                       f"structure the model lacks, left out of the fit (inclino diagnose)")
     if info.get("mode") == "invariants":
         over_cov = min(rep.coverage["acc_min_eig"], rep.coverage["mag_min_eig"])
         if over_cov < t["coverage_min_eig"]:
@@ -453,3 +502,165 @@ def _verdict(rep: FitReport, info: dict) -> None:
     rep.reasons = reasons
     rep.passed = not reasons
     rep.closest = {k: v for k, v in closest.items() if k != "fraction"}
+
+
+def _common_tail(rep, verdict: bool = True) -> list:
+    lines = []
+    if rep.noise:
+        lines.append("  noise from each triad's own residuals: " + ", ".join(
+            f"{k.split('_')[0]} {v * (1e3 if k == 'acc_g' else 1):.3g} {'mg' if k == 'acc_g' else k.split('_')[1]}"
+            for k, v in rep.noise.items() if v is not None))
+    from .triad import segment_text
+
+    for seg in rep.segments:
+        lines.append(f"  segment of misfit (structure, not outliers; left out of the fit): {segment_text(seg)}")
+    for note in rep.notes:
+        if note.startswith("check: "):
+            lines.append(f"  {note}")
+    if verdict:
+        lines.append("  " + rep.conclusion())
+    return lines
+
+
+def _summary_single(rep, verdict: bool = True) -> str:
+    r = rep.residuals
+    name = "accelerometer" if rep.triads == "acc" else "magnetometer"
+    lines = [f"method {rep.method} ({rep.mode}, {name} only): {rep.rows_used} of {rep.rows} rows used"
+             + (f", {len(rep.outliers)} outlier(s) rejected" if rep.outliers else "")]
+    if rep.triads == "acc":
+        lines.append(f"  |g| RMS {r.get('acc_norm_rms_mg', float('nan')):.3f} mg"
+                     + (f"; against the poses: vector RMS {r['acc_vec_rms_mg']:.3f} mg, inclination RMS "
+                        f"{r['inc_rms_deg']:.4f} deg (max {r['inc_max_deg']:.4f})" if "inc_rms_deg" in r else ""))
+    else:
+        lines.append(f"  |b| RMS {r.get('mag_norm_rms_nT', float('nan')):.1f} nT"
+                     + (f"; against the poses: vector RMS {r['mag_vec_rms_nT']:.1f} nT" if "mag_vec_rms_nT" in r
+                        else ""))
+    u = rep.uncertainty
+    if "predicted_inc_rms_deg" in u:
+        lines.append(f"  uncertainty ({u.get('source', '')}): predicted inclination RMS "
+                     f"{u['predicted_inc_rms_deg']:.4f} deg over the Li grid")
+    if u.get("unobservable"):
+        lines.append(f"  unobservable without poses: {u['unobservable']}")
+    c = rep.coverage
+    k = rep.triads
+    lines.append(f"  coverage: {c.get(f'{k}_cells', 0)}/26 cells (min eig {c.get(f'{k}_min_eig', 0):.3f})")
+    res = rep.quantisation.get("input_resolution")
+    if res:
+        lines.append(f"  input resolution ({res['lsb']}) at n = {res['assumed_n']:g}: inclination sigma RMS "
+                     f"{res['inc_rms_deg']:.5f} deg over the Li grid (the sensor's, reported, not judged)")
+    lines += _common_tail(rep, verdict)
+    return "\n".join(lines)
+
+
+SINGLE_PARAM_NAMES = {t: [f"{t}_m{i}{j}" for i in range(3) for j in range(3)] + [f"{t}_b{i}" for i in range(3)]
+                      for t in ("acc", "mag")}
+
+
+def build_single(ds: RawDataset, cal: Calibration, info: dict) -> FitReport:
+    """The fit report of a one-triad calibration (calib.single)."""
+    from .predict import GRID
+
+    kind = info["kind"]
+    M = np.asarray(cal.acc_m if kind == "acc" else cal.mag_m)
+    b = np.asarray(cal.acc_b if kind == "acc" else cal.mag_b)
+    w = info["world"]
+    rows = np.asarray(info["rows_used"])
+    raw = (ds.acc if kind == "acc" else ds.mag)[rows]
+    v = (raw - b) @ M.T
+    rep = FitReport(method="joint", mode=info["mode"], rows=len(ds), rows_used=int(len(rows)),
+                    outliers=list(info.get("outliers", [])), segments=list(info.get("segments", [])),
+                    notes=[], triads=kind)
+    nv = np.linalg.norm(v, axis=1)
+    if kind == "acc":
+        rep.residuals = {"acc_norm_rms_mg": 1e3 * _rms(nv - w["gravity_g"])}
+    else:
+        rep.residuals = {"mag_norm_rms_nT": _rms(nv - w["field_nT"])}
+    if info["mode"] == "poses":
+        from . import single
+
+        t = single.truth(common.subset(ds, rows), kind, w)
+        if kind == "acc":
+            inc_fit = np.degrees(np.arctan2(np.hypot(v[:, 0], v[:, 1]), v[:, 2]))
+            inc_true = np.degrees(np.arctan2(np.hypot(t[:, 0], t[:, 1]), t[:, 2]))
+            di = inc_fit - inc_true
+            rep.residuals.update({"acc_vec_rms_mg": 1e3 * _rms(np.linalg.norm(v - t, axis=1)),
+                                  "inc_rms_deg": _rms(di), "inc_max_deg": float(np.abs(di).max())})
+        else:
+            rep.residuals["mag_vec_rms_nT"] = _rms(np.linalg.norm(v - t, axis=1))
+    rep.residuals["s2"] = info.get("s2")
+    rep.noise = {f"{kind}_{'g' if kind == 'acc' else 'nT'}": info.get("noise")}
+    cells, eig = _coverage(v)
+    rep.coverage = {f"{kind}_cells": cells, f"{kind}_min_eig": eig}
+    rep.conditioning = {f"{kind}_m_cond": float(np.linalg.cond(M))}
+    cov = np.asarray(info["covariance12"])
+    sig = np.sqrt(np.clip(np.diag(cov), 0, None))
+    rep.uncertainty = {"source": info.get("covariance_source", ""),
+                       "sigma": dict(zip(SINGLE_PARAM_NAMES[kind], sig.tolist())),
+                       "covariance": cov.tolist()}
+    if info.get("unobservable"):
+        rep.uncertainty["unobservable"] = info["unobservable"]
+    I, A, T = GRID
+    if kind == "acc":
+        # the inclination the coefficients' uncertainty predicts over the Li grid (first order)
+        g = ref.pose_matrix(I, A, T)[:, :, 2] * w["gravity_g"]
+        rawg = g @ np.linalg.inv(M).T + b
+
+        def inc_of(p):
+            Mp, bp = p[:9].reshape(3, 3), p[9:12]
+            u = (rawg - bp) @ Mp.T
+            return np.degrees(np.arctan2(np.hypot(u[:, 0], u[:, 1]), u[:, 2]))
+
+        p0 = np.concatenate([M.ravel(), b])
+        J = np.zeros((len(I), 12))
+        for k in range(12):
+            h = 1e-7
+            e = np.zeros(12)
+            e[k] = h
+            J[:, k] = (inc_of(p0 + e) - inc_of(p0 - e)) / (2 * h)
+        var = np.einsum("ij,jk,ik->i", J, cov, J)
+        rep.uncertainty["predicted_inc_rms_deg"] = float(np.sqrt(np.mean(var)))
+        # input resolution: the sensor's LSB from the description (else the ADIS16210's)
+        lsb = ds.meta.get("acc_lsb_g")
+        n = float(ds.meta.get("samples_averaged") or 1.0)
+        step = float(lsb) if lsb else ref.ACC_LSB_G
+        s_cnt = step * np.sqrt(1.0 / (12.0 * n))
+        vi = np.zeros(len(I))
+        for k in range(3):
+            d = np.zeros(3)
+            d[k] = s_cnt
+            up = (rawg + d - b) @ M.T
+            dn = (rawg - d - b) @ M.T
+            vi += ((np.degrees(np.arctan2(np.hypot(up[:, 0], up[:, 1]), up[:, 2]))
+                    - np.degrees(np.arctan2(np.hypot(dn[:, 0], dn[:, 1]), dn[:, 2]))) / 2.0) ** 2
+        rep.quantisation = {"input_resolution": {
+            "lsb": f"{step:.4g} g per count" + (" (the sensor description)" if lsb else " (the ADIS16210's)"),
+            "samples_averaged": ds.meta.get("samples_averaged"), "assumed_n": n,
+            "inc_rms_deg": float(np.sqrt(np.mean(vi)))}}
+    # verdict
+    t = THRESHOLDS
+    reasons = []
+    r = rep.residuals
+    if kind == "acc" and r["acc_norm_rms_mg"] > t["acc_norm_rms_mg"]:
+        reasons.append(f"|g| residual RMS (mg) {r['acc_norm_rms_mg']:.4g} exceeds {t['acc_norm_rms_mg']:g}")
+    if kind == "mag" and r["mag_norm_rms_nT"] > t["mag_norm_rms_nT"]:
+        reasons.append(f"|b| residual RMS (nT) {r['mag_norm_rms_nT']:.4g} exceeds {t['mag_norm_rms_nT']:g}")
+    if r.get("inc_rms_deg") is not None and r["inc_rms_deg"] > t["inc_rms_deg"]:
+        reasons.append(f"inclination residual RMS (deg) {r['inc_rms_deg']:.4g} exceeds {t['inc_rms_deg']:g}")
+    if rep.conditioning[f"{kind}_m_cond"] > t["m_cond"]:
+        reasons.append(f"cond(M) {rep.conditioning[f'{kind}_m_cond']:.4g} exceeds {t['m_cond']:g}")
+    if info["mode"] != "poses" and eig < t["coverage_min_eig"]:
+        reasons.append(f"orientations cover too little of the sphere (min eigenvalue {eig:.3g} < "
+                       f"{t['coverage_min_eig']:g})")
+    if rep.rows and len(rep.outliers) / rep.rows > t["outlier_fraction"]:
+        reasons.append(f"{len(rep.outliers)} of {rep.rows} readings rejected as outliers")
+    rep.reasons = reasons
+    rep.passed = not reasons
+    checked = [(r.get("acc_norm_rms_mg") if kind == "acc" else None, "acc_norm_rms_mg", "|g| residual RMS (mg)"),
+               (r.get("mag_norm_rms_nT") if kind == "mag" else None, "mag_norm_rms_nT", "|b| residual RMS (nT)"),
+               (r.get("inc_rms_deg"), "inc_rms_deg", "inclination residual RMS (deg)"),
+               (rep.conditioning[f"{kind}_m_cond"], "m_cond", "cond(M)")]
+    near = [(v / t[k], what, v, t[k]) for v, k, what in checked if v is not None and np.isfinite(v) and t[k] > 0]
+    if near:
+        _, what, v, lim = max(near)
+        rep.closest = {"what": what, "value": float(v), "limit": float(lim)}
+    return rep

@@ -63,6 +63,8 @@ def calibrate_main(args) -> int:
         opts["accept_mount_tolerance"] = True
     if getattr(args, "bootstrap", None) is not None:
         opts["bootstrap"] = args.bootstrap
+    if getattr(args, "static", False):
+        opts["static"] = True
     try:
         with progress.phase(f"calibrate: {args.method} fit of {args.input}"):
             cal, rep = fit(ds, args.method, data_hash=common.file_hash(args.input, ds), **opts)
@@ -120,6 +122,8 @@ def add_calibrate(subparsers):
                    help="joint without poses or prior: accept that tolerance (the verdict then judges the fit itself)")
     c.add_argument("--bootstrap", type=int, help=f"paper methods: refits for the uncertainty, 2-{MAX_BOOTSTRAP} "
                                                  "(default 40)")
+    c.add_argument("--static", action="store_true",
+                   help="declare the run static (step-and-hold: every row at rest), whatever its time column")
     c.set_defaults(func=calibrate_main)
     return c
 
@@ -138,30 +142,85 @@ ATTITUDE_CHUNK = 1 << 16  # rows computed and written at a time (bounded memory 
 
 
 def _cmd_attitude(args) -> int:
+    import sys
+
     import numpy as np
 
     from inclino.formats import dataset, safeio
     from inclino.engines import attitude as engines
+    from inclino.engines import temperature as te
     from inclino import progress
     from inclino.formats.calfile import Calibration
 
     safeio.check_output(args.output, [args.input, args.cal])  # before any work
     cal = Calibration.load(args.cal) if args.cal else Calibration()  # a refused file costs no reading
+    at_t = getattr(args, "at_temperature", None)
+    if at_t is not None and not (np.isfinite(at_t) and -100.0 <= at_t <= 300.0):
+        raise DataError(f"--at-temperature {at_t:g}: a temperature in degC, -100 ... 300")
     ds = dataset.read_raw(args.input, progress=True)
-    cols = ["inc_deg", "azi_deg", "tf_deg", "gt_g", "bt_nT", "dip_deg", "flags", "mtf_deg"]
+    _checked(ds, fatal=False)
+    # what the data and the calibration both hold
+    have = {"both": {"acc", "mag"}, "acc": {"acc"}, "mag": {"mag"}}
+    common_ = have[ds.triads] & have[cal.triads]
+    if not common_:
+        raise DataError(f"{args.cal} calibrates the {'accelerometer' if cal.triads == 'acc' else 'magnetometer'} "
+                        f"only, and {args.input} has no such columns")
+    triads = "both" if common_ == {"acc", "mag"} else common_.pop()
+    if triads != ds.triads:
+        print(f"inclino: note: {args.cal} holds only the {'accelerometer' if triads == 'acc' else 'magnetometer'}: "
+              f"only what it determines is written", file=sys.stderr)
+    temp = None
+    if te.has_terms(cal):
+        if "temp_c" in ds.columns and at_t is None:
+            temp = ds.columns["temp_c"]
+        elif at_t is not None:
+            temp = at_t
+        else:
+            raise DataError(f"{args.cal} has temperature terms and {args.input} has no temp_c column: give the "
+                            f"probe's temperature with --at-temperature C (or apply a calibration without terms)")
+    elif at_t is not None:
+        print(f"inclino: note: {args.cal or 'the identity calibration'} has no temperature terms: "
+              f"--at-temperature changes nothing", file=sys.stderr)
+    cols = list(engines.COLS_BY_TRIADS[triads])
+    notes: list = []
     with safeio.output_file(args.output, [args.input, args.cal]) as f, \
             progress.bar(len(ds), f"attitude {args.input}", unit=" rows") as bar:
         w = csv.writer(f)
         w.writerow(cols)
-        acc, mag = ds.acc, ds.mag
+        acc = ds.acc if "acc" in have[triads] else None
+        mag = ds.mag if "mag" in have[triads] else None
         for lo in range(0, len(ds), ATTITUDE_CHUNK):
             hi = min(lo + ATTITUDE_CHUNK, len(ds))
-            out = engines.run(acc[lo:hi], mag[lo:hi], cal, args.engine)
+            t = temp[lo:hi] if isinstance(temp, np.ndarray) else temp
+            out = engines.run_dataset(None if acc is None else acc[lo:hi], None if mag is None else mag[lo:hi],
+                                      cal, args.engine, temp_c=t, triads=triads, notes=notes)
             text = {c: (out[c].astype(np.int64).astype(str) if c == "flags"
                         else np.char.mod("%.6f", np.asarray(out[c], dtype=float))) for c in cols}
             w.writerows(zip(*(text[c] for c in cols)))
             bar.update(hi - lo)
+    for n in notes:
+        print(f"inclino: note: {n}", file=sys.stderr)
     return 0
+
+
+def _checked(ds, static: bool = False, fatal: bool = True):
+    """inclino.checks on a dataset before a command uses it: data that cannot
+    be right are one error line (exit 2) before any fit; `fatal` False (attitude,
+    which fits nothing and computes each row as the probe would): said on
+    stderr, and the rows are computed.  Warnings go to stderr."""
+    import sys
+
+    from inclino import checks
+
+    found = checks.run(ds, declared_static=static)
+    if fatal:
+        found.raise_errors()
+        levels = ("warning",)
+    else:
+        levels = ("error", "warning")
+    for line in found.lines(levels):
+        print(f"inclino: {line.replace('error: ', 'warning: ', 1)}", file=sys.stderr)
+    return found
 
 
 def add_bitexact(sub):
@@ -186,7 +245,11 @@ def add_attitude(sub):
     a.add_argument("input", help="raw dataset CSV")
     add_cal(a, "calibration to apply (default: the identity)")
     a.add_argument("--engine", choices=("firmware", "golden", "reference"), default="firmware",
-                   help="the firmware's C, the NumPy golden model, or float64 (default %(default)s)")
+                   help="the firmware's C, the NumPy golden model, or float64 (default %(default)s); every engine "
+                        "applies every term of the calibration, its temperature terms from temp_c")
+    a.add_argument("--at-temperature", type=float, metavar="C",
+                   help="the probe's temperature (degC) for a calibration with temperature terms when the data "
+                        "have no temp_c column (it also overrides temp_c)")
     add_output(a, "output CSV ('-' for stdout)", metavar="OUT.csv")
     a.set_defaults(func=_cmd_attitude)
 
@@ -217,6 +280,9 @@ def diagnose_main(args) -> int:
     from inclino.diagnose.analysis import diagnose
 
     ds = dataset.read_raw(args.input, progress=True)
+    if getattr(args, "static", False):
+        ds.meta["static"] = "true"
+    _checked(ds, bool(getattr(args, "static", False)))
     if getattr(args, "cal", None):
         ds = _temperature_corrected(ds, args.cal)
     try:
@@ -270,10 +336,12 @@ def add_diagnose(subparsers):
                 "Fit the 12-parameter model to a raw dataset with the turntable's poses, test what its residuals "
                 "hold against the candidate effects (temperature, nonlinearity, turntable errors, field drift, "
                 "skew), name those that cross-validate at the --alpha false-alarm level, and say how much each "
-                "would gain; outlier rows are listed. --paper compares the papers' own tables instead.",
+                "would gain; outlier rows are listed. Without poses (or with one triad) it fits what the "
+                "invariants determine and reports that. The checks before any fit (units, handedness, row "
+                "alignment) run first. --paper compares the papers' own tables instead.",
                 ["inclino diagnose run.csv", "inclino diagnose run.csv --plot figures --json",
                  "inclino diagnose --paper li2021"])
-    p.add_argument("input", nargs="?", help="raw dataset CSV with the turntable's poses (docs/dataset.md)")
+    p.add_argument("input", nargs="?", help="raw dataset CSV, with the turntable's poses or without (docs/dataset.md)")
     add_json(p)
     add_plot(p, "write PNGs of the residuals (before/after) into this folder")
     p.add_argument("--effects", help="comma-separated effects to test (default: all): " + ", ".join(EFFECT_NAMES))
@@ -282,6 +350,9 @@ def add_diagnose(subparsers):
     p.add_argument("--folds", type=int, default=5, help="cross-validation folds (default %(default)s)")
     add_cal(p, "first bring the readings to the reference temperature with this calibration's temperature "
                "terms (joint --temperature-terms): diagnose what they leave")
+    p.add_argument("--static", action="store_true",
+                   help="declare the run static (step-and-hold: every row at rest): no row is read as turning, "
+                        "whatever the time column")
     p.add_argument("--paper", choices=PAPERS,
                    help="instead of a dataset: the papers' measured tables against the simulation (docs/diagnose.md)")
     p.set_defaults(func=diagnose_main)

@@ -169,10 +169,28 @@ def _mcu(args) -> int:
     return 0
 
 
+def _realdata(args) -> int:
+    """`inclino bench realdata`: held-out |g| of a pose-free calibration of real logs (benchmarks/realdata.py)."""
+    from inclino.benchmarks import realdata
+
+    r = realdata.run()
+    print(r.to_json() if args.json else "\n".join(r.lines()))
+    return 0 if r.passed else 1
+
+
+def _attitude_temperature(args) -> int:
+    """`inclino bench attitude-temperature`: attitude --cal with temperature terms on an oven run, every engine."""
+    from inclino.benchmarks import attitude_temperature as bench_at
+
+    r = bench_at.run(args.cli_main)
+    print(r.to_json() if args.json else "\n".join(r.lines()))
+    return 0 if r.passed else 1
+
+
 # NAME -> function(args) -> exit status; the order is the order `--help` lists them
 BENCHMARKS = {"accuracy": _accuracy, "speed": _speed, "mcu": _mcu, "emulator": _emulator, "link": _link,
               "calibration": _calibration, "diagnose": _diagnose, "input": _input, "survey": _survey,
-              "demo": _demo}
+              "demo": _demo, "realdata": _realdata, "attitude-temperature": _attitude_temperature}
 
 
 def _cmd_bench(args) -> int:

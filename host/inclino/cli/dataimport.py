@@ -16,15 +16,22 @@ def import_main(args) -> int:
 
     safeio.check_output(args.output, [args.log, args.sensor])
     desc = sensor.load(args.sensor) if args.sensor else sensor.default()
+    from inclino import checks
+
     ds, rep = importlog.import_log(args.log, desc, static=True if args.static else None)
+    found = checks.run(ds, declared_static=bool(args.static))
+    found.raise_errors()  # data that cannot be right: exit 2, nothing written
     dataset.write_raw(args.output, ds, inputs=[args.log, args.sensor])
     if args.json:
-        print(json.dumps({"output": args.output, **rep.to_dict()}, indent=2))
+        print(json.dumps({"output": args.output, **rep.to_dict(), "checks": found.to_dict()}, indent=2,
+                         default=float))
     else:
-        print(f"{args.output}: {rep.rows} rows ({'accelerometer and magnetometer' if rep.triads == 'both' else ('accelerometer only' if rep.triads == 'acc' else 'magnetometer only')}) "
-              f"from {args.log} through {desc.name}")
+        what = {"both": "accelerometer and magnetometer", "acc": "accelerometer only", "mag": "magnetometer only"}
+        print(f"{args.output}: {rep.rows} rows ({what[rep.triads]}) from {args.log} through {desc.name}")
         for reason, n in rep.dropped.items():
             print(f"  dropped {n} row(s): {reason}")
+        for line in found.lines(("warning", "note")):
+            print(f"  {line}")
     return 0
 
 

@@ -195,6 +195,9 @@ def prepare(ds: RawDataset) -> Data:
         # tenth of the fastest axis of that row, its rate is taken as 0
         fastest = np.abs(rates).max(1, keepdims=True)
         rates[np.abs(rates) < np.maximum(MOVING_MIN_RATE_DEG_S, 0.1 * fastest)] = 0.0
+    if str(m.get("static", "")).lower() == "true":  # declared step-and-hold (# static=true, --static): never turning
+        moving[:] = False
+        rates[:] = 0.0
     kind = "continuous" if moving.mean() >= 0.5 else "static"
     return Data(n=n, Y=Y, inc=inc, azi=azi, tf=tf, t=t, temp=temp, field_nT=float(F),
                 dip_header=m.get("dip_deg"), declination_deg=float(m.get("declination_deg", 0.0)),

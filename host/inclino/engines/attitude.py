@@ -67,3 +67,71 @@ def run(acc_g, mag_nT, cal: Calibration | None = None, engine: str = "firmware")
     if engine == "golden":
         return _from_fixed(golden.survey_compute(acc, mag, *fc.arrays()))
     raise ValueError(f"unknown engine {engine!r} (one of {', '.join(ENGINES)})")
+
+
+# ------------------------------------------------------------------ offline processing of a dataset
+COLS_BY_TRIADS = {
+    "both": ("inc_deg", "azi_deg", "tf_deg", "gt_g", "bt_nT", "dip_deg", "flags", "mtf_deg"),
+    "acc": ("inc_deg", "tf_deg", "gt_g", "flags"),      # what gravity alone determines
+    "mag": ("bt_nT", "mtf_deg", "flags"),               # what the field alone determines
+}
+# the status flags of each triad (docs/conventions.md)
+ACC_FLAGS = 0x0001 | 0x0002 | 0x0008 | 0x0020 | 0x0040
+MAG_FLAGS = 0x0004 | 0x0010 | 0x0020 | 0x0080
+_STANDIN_MAG = np.array([50000.0, 0.0, 0.0])  # nT: a field that leaves every gravity output alone
+_STANDIN_ACC = np.array([1.0, 0.0, 0.0])      # g: horizontal, so nothing is flagged near vertical
+
+
+def temp_q6_of(temp_c) -> np.ndarray:
+    """TEMP_OUT as the probe's correction receives it for a temperature in
+    degC: the mean in Q6 counts (inclino.formats.caltemp.temp_c_to_q6)."""
+    from inclino.formats import caltemp
+
+    return np.asarray(caltemp.temp_c_to_q6(np.atleast_1d(np.asarray(temp_c, float))), np.int64)
+
+
+def run_dataset(acc_g, mag_nT, cal: Calibration, engine: str = "firmware", temp_c=None, triads: str = "both",
+                notes: list | None = None) -> dict:
+    """Attitude of a dataset's rows through `engine`, applying every term of
+    the calibration: with temperature terms (CAL.json "temperature"), each
+    row's temp_c (an array, or one temperature for every row).  The firmware
+    and golden engines apply them as the probe does (its fixed-point
+    correction with image version 2's terms); terms the image cannot hold are
+    applied on the host in float64 before the firmware's correction (said in
+    `notes`).  The reference engine applies them in float64.  triads "acc"
+    or "mag": the other triad is a stand-in, and only what the present
+    triad determines is returned (COLS_BY_TRIADS)."""
+    from inclino.engines import temperature as te
+
+    n = len(acc_g) if acc_g is not None else len(mag_nT)
+    acc = np.broadcast_to(_STANDIN_ACC, (n, 3)) if acc_g is None else np.asarray(acc_g, float)
+    mag = np.broadcast_to(_STANDIN_MAG, (n, 3)) if mag_nT is None else np.asarray(mag_nT, float)
+    terms = te.has_terms(cal)
+    if terms and temp_c is None:
+        raise ValueError("temperature terms need temp_c")
+    if not terms:
+        out = run(acc, mag, cal, engine)
+    elif engine == "reference":
+        from inclino.calib import thermal
+
+        T = np.broadcast_to(np.asarray(temp_c, float), (n,))
+        a, m = thermal.to_reference(acc, mag, T, cal, cal.temperature)
+        out = run(a, m, te.without_terms(cal), "reference")
+    else:
+        tq6 = np.broadcast_to(temp_q6_of(temp_c), (n,))
+        aq, mq = reference.readings_acc(acc), reference.readings_mag(mag)
+        try:
+            eng = te.get(engine)
+            eng.check(cal)
+        except Exception as e:  # the image cannot hold the terms (or this build lacks the path): the host applies them
+            if notes is not None and not any(x.startswith("temperature terms") for x in notes):
+                notes.append(f"temperature terms applied on the host (float64) before the {engine}'s correction: {e}")
+            eng = te.HostTerms()
+        out = _from_fixed(eng.survey(aq, mq, tq6, cal, terms=True))
+    keep = COLS_BY_TRIADS[triads]
+    out = {k: out[k] for k in keep}
+    if triads == "acc":
+        out["flags"] = np.asarray(out["flags"], np.int64) & ACC_FLAGS
+    elif triads == "mag":
+        out["flags"] = np.asarray(out["flags"], np.int64) & MAG_FLAGS
+    return out

@@ -29,6 +29,7 @@ from inclino.engines.firmware import FixedCal
 from inclino.errors import CalibrationError
 
 FORMAT_VERSION = 1
+TRIADS = ("both", "acc", "mag")
 M_FRAC = 29
 ACC_B_FRAC = 29  # Q29 g
 MAG_B_FRAC = 10  # Q10 nT
@@ -61,6 +62,10 @@ class Calibration:
     # temperature terms (inclino.calib.thermal; joint --temperature-terms) (optional;
     # the firmware does not apply them)
     temperature: dict | None = None
+    # which triads the calibration holds: "both", or "acc" / "mag" when it was
+    # fitted from a one-triad dataset (the other triad's coefficients are then
+    # the identity, a placeholder that corrects nothing) (optional: "both")
+    triads: str = "both"
 
     def check(self) -> None:
         """Raise CalibrationError for a matrix that is not 3x3, not finite,
@@ -122,6 +127,8 @@ class Calibration:
         for k in ("data", "report", "temperature"):
             if d[k] is None:
                 del d[k]
+        if d["triads"] == "both":  # as every file before one-triad calibrations
+            del d["triads"]
         d["fixed"] = asdict(self.to_fixed())
         if d["fixed"]["temp"] is None:  # image version 1: as before the temperature terms
             del d["fixed"]["temp"]
@@ -156,7 +163,10 @@ class Calibration:
                 data=d.get("data") if isinstance(d.get("data"), dict) else None,
                 report=d.get("report") if isinstance(d.get("report"), dict) else None,
                 temperature=d.get("temperature") if isinstance(d.get("temperature"), dict) else None,
+                triads=str(d.get("triads", "both")),
             )
+            if cal.triads not in TRIADS:
+                raise ValueError(f"triads {cal.triads[:20]!r} is not one of {', '.join(TRIADS)}")
         except (KeyError, TypeError, ValueError, OverflowError) as e:
             raise CalibrationError(f"calibration file lacks or mangles a coefficient ({_short(e)})") from None
         cal.check()

@@ -209,12 +209,22 @@ def _import(lines, path: str, desc: SensorDescription, static) -> tuple[RawDatas
     data = np.array(rows, float)
     col = {k: data[:, i] for i, k in enumerate(keys)}
     out = {}
+    # a triad logged out of step ([section].lag = k: its row i + k belongs to row i):
+    # the rows without a partner at either end are dropped
+    lags = [t.lag for t in desc.triads]
+    lo, hi = -min(0, min(lags)), len(data) - max(0, max(lags))
+    if hi - lo < 1:
+        raise DataError(f"{path}: no rows left after the lag of {max(lags, key=abs)} rows")
+    if lo or hi < len(data):
+        dropped["a triad's lag (rows without a partner)"] = len(data) - (hi - lo)
     for t in desc.triads:
         cols = ACC_COLS if t.kind == "acc" else MAG_COLS
-        raw = np.stack([col[f"_{c}"] for c in cols], -1)
+        raw = np.stack([col[f"_{c}"] for c in cols], -1)[lo + t.lag:hi + t.lag]
         body = t.convert(raw)
         for i, c in enumerate(cols):
             out[c] = np.ascontiguousarray(body[:, i])
+    col = {k: v[lo:hi] for k, v in col.items()}
+    labels = labels[lo:hi]
     if "t_s" in col:
         out["t_s"] = col["t_s"] * desc.time_scale
     if "temp_c" in col:

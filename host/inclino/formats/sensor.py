@@ -62,7 +62,7 @@ READS = ("up", "down")
 TOP_KEYS = {"name", "preset", "notes", "source", "log", "accelerometer", "magnetometer", "header", "poses"}
 LOG_KEYS = {"delimiter", "comment", "header", "skip_rows", "time", "time_unit", "temperature", "samples_averaged",
             "static", "keep"}
-TRIAD_KEYS = {"columns", "unit", "lsb", "reads", "x", "y", "z", "axes", "reflection", "range", "noise"}
+TRIAD_KEYS = {"columns", "unit", "lsb", "reads", "x", "y", "z", "axes", "reflection", "range", "noise", "lag"}
 POSE_KEYS = {"inc", "azi", "tf", "label", "labels", "unit"}
 
 
@@ -88,6 +88,7 @@ class Triad:
     lsb: float | None = None        # resolution, canonical units
     noise: float | None = None      # RMS noise of one sample, canonical units
     range: float | None = None      # full scale (+-), canonical units
+    lag: int = 0                    # this triad's row i + lag belongs to the log's row i (two files joined out of step)
 
     @property
     def matrix(self) -> np.ndarray:
@@ -155,15 +156,19 @@ class SensorDescription:
         for t in self.triads:
             u = "g" if t.kind == "acc" else "nT"
             m[f"{t.kind}_axes"] = t.axes_text()
-            m[f"{t.kind}_unit"] = t.unit + (f" x {t.scale:.10g} {u}" if t.unit == "counts" else "") + (
-                ", reads +1 g pointing up (sign turned)" if t.kind == "acc" and t.reads == "up" else "")
+            m[f"{t.kind}_unit"] = t.unit + (f" x {t.scale:.10g} {u}" if t.unit == "counts" else "")
+            if t.kind == "acc":
+                m["acc_reads"] = t.reads + (" (an axis pointing up read +1 g: the sign was turned)"
+                                            if t.reads == "up" else "")
+            if t.lag:
+                m[f"{t.kind}_lag_rows"] = str(t.lag)
             for k in ("lsb", "noise", "range"):
                 v = getattr(t, k)
                 if v is not None:
                     m[f"{t.kind}_{k}_{u}"] = v
         refl = [t.kind for t in self.triads if t.reflection]
         if refl:
-            m["reflection"] = ",".join(refl)
+            m["axes_reflection"] = ",".join(refl)
         if self.static is not None:
             m["static"] = "true" if self.static else "false"
         if self.samples_averaged is not None:
@@ -291,6 +296,10 @@ def _triad(spec: dict, section: str, log_what: str) -> Triad:
         raise DataError(f"{what}.reflection: true or false")
     t = Triad(kind=kind, columns=list(cols), unit=unit, scale=scale, axes=_axis_map(spec, kind, what), reads=reads,
               reflection=refl, lsb=lsb)
+    lag = spec.get("lag", 0)
+    if isinstance(lag, bool) or not isinstance(lag, int) or abs(lag) > 1000:
+        raise DataError(f"{what}.lag: a whole number of rows (-1000 ... 1000)")
+    t.lag = lag
     for k in ("noise", "range"):
         if k in spec:
             setattr(t, k, _quantity(spec[k], units, canon, f"{what}.{k}", scale, lsb))

@@ -320,10 +320,10 @@ class Chamber:
                                  "(0: a step)")
         tc, tp = self._eval(t_s)
         self._pieces = [p for p in self._pieces if p[0] < t_s] or [self._pieces[0]]
-        if not rate_c_per_min or setpoint_c == tc:
+        r = math.copysign(rate_c_per_min / 60.0, setpoint_c - tc) if rate_c_per_min else 0.0
+        if r == 0.0 or setpoint_c == tc:  # a rate too small to count per second (1e-320 degC/min) is a step
             self._pieces.append((t_s, setpoint_c, 0.0, tp))
         else:
-            r = math.copysign(rate_c_per_min / 60.0, setpoint_c - tc)
             self._pieces.append((t_s, tc, r, tp))
             t_end = t_s + (setpoint_c - tc) / r
             _, tp_end = self._eval(t_end)

@@ -1,0 +1,78 @@
+"""Ellipsoid and sphere fits of one triad's readings: the algebraic
+starting points every pose-free fit and check begins from (a leaf module:
+numpy only)."""
+from __future__ import annotations
+
+import numpy as np
+
+from inclino.errors import DataError
+
+
+# the second-smallest singular value of the (column-scaled) quadric design matrix over its largest: below it
+# more than one quadric fits the readings (two circles, a cone, a plane: orientations that do not determine
+# an ellipsoid); the smallest carries the noise.  Readings over the sphere give 0.015-0.3, two toolface
+# circles at one azimuth 2e-4.
+DETERMINED_SV = 2e-3
+
+
+def _design(raw):
+    x, y, z = np.asarray(raw, float).T
+    D = np.column_stack([x * x, y * y, z * z, 2 * x * y, 2 * x * z, 2 * y * z, 2 * x, 2 * y, 2 * z,
+                         np.ones_like(x)])
+    s = np.abs(D).max(0)
+    s[s == 0] = 1.0
+    return D, s
+
+
+def determined(raw) -> bool:
+    """Whether the readings' orientations determine an ellipsoid (DETERMINED_SV)."""
+    if len(raw) < 10:
+        return False
+    D, s = _design(raw)
+    sv = np.linalg.svd(D / s, compute_uv=False)
+    return bool(sv[0] > 0 and sv[-2] / sv[0] >= DETERMINED_SV)
+
+
+def ellipsoid_start(raw, R):
+    """Algebraic general ellipsoid fit: (M symmetric, b) with |M (raw - b)| ~ R."""
+    D, s = _design(raw)
+    _, sv, Vt = np.linalg.svd(D / s, full_matrices=False)
+    if len(raw) < 10 or not sv[-2] / sv[0] >= DETERMINED_SV:
+        raise DataError("joint: too few orientations to determine an ellipsoid (readings on a few circles or in "
+                        "a plane: turn the sensor through more of the sphere)")
+    v = Vt[-1] / s
+    Q = np.array([[v[0], v[3], v[4]], [v[3], v[1], v[5]], [v[4], v[5], v[2]]])
+    if np.linalg.eigvalsh(Q).min() * np.linalg.eigvalsh(Q).max() <= 0:
+        raise DataError("joint: the readings do not lie on an ellipsoid (too few orientations)")
+    if np.trace(Q) < 0:
+        Q, v = -Q, -v
+    c = -np.linalg.solve(Q, v[6:9])
+    k = c @ Q @ c - v[9]
+    if k <= 0:
+        raise DataError("joint: degenerate ellipsoid fit")
+    w, U = np.linalg.eigh(Q / k)
+    M = U @ np.diag(np.sqrt(w)) @ U.T * R
+    return M, c
+
+
+def sphere(v):
+    """Centre and radius of the best sphere through the readings (linear
+    least squares |v|^2 = 2 v.c + k), or None when they do not span 3-D."""
+    v = np.asarray(v, float)
+    if len(v) < 10:
+        return None
+    A = np.column_stack([2 * v, np.ones(len(v))])
+    y = (v * v).sum(1)
+    scale = np.abs(A).max(0)
+    scale[scale == 0] = 1.0
+    sol, *_ = np.linalg.lstsq(A / scale, y, rcond=None)
+    sol = sol / scale
+    c, k = sol[:3], sol[3]
+    r2 = k + c @ c
+    if not np.isfinite(r2) or r2 <= 0:
+        return None
+    u = v - c
+    u = u / np.maximum(np.linalg.norm(u, axis=1, keepdims=True), 1e-300)
+    if np.linalg.eigvalsh(u.T @ u / len(u)).min() < 0.02:  # directions in a plane: the centre is not determined
+        return None
+    return c, float(np.sqrt(r2))

@@ -1,0 +1,164 @@
+"""`joint` without poses, triad by triad: each triad keeps its own quality.
+
+1. The accelerometer alone: the ellipsoid fit |M_a (a - b_a)| = G
+   (calib.triad.fit_sphere, M_a symmetric: the body frame is the
+   accelerometer's axes).  Nothing the magnetometer does can move it.
+2. The magnetometer alone: the ellipsoid fit |S_m (m - b_m)| = F.
+3. The magnetometer's rotation against the accelerometer, Q, and the dip,
+   from the dip constraint g.b = |g||b| sin(dip) with the corrected gravity of
+   step 1 held fixed; then M_m = Q S_m and b_m refined on the magnetometer's
+   own residuals (|b| - F and the dip), each kind weighted by its own
+   robust scale.  Robust: a soft-L1 pass, rows beyond the robust threshold
+   left out, a least-squares pass.
+
+A magnetometer disturbed by the rig (a field that moves with the gimbal's
+axes, a steel clamp) misfits in steps 2-3 and is left out there; the
+accelerometer's calibration is the accelerometer-only fit whatever the
+magnetometer reads.  The noise of each triad is its own residual scale (no
+single s^2 for both).
+
+Returns the layout calib.joint's invariants fit returns: (M_a, b_a, M_m,
+b_m, dip), the 25x25 covariance (24 coefficients, dip; the accelerometer's
+and the magnetometer's blocks estimated apart, no cross terms), info.
+"""
+from __future__ import annotations
+
+import itertools
+
+import numpy as np
+from scipy import optimize
+from scipy.spatial.transform import Rotation
+
+from inclino.errors import CalibrationError, DataError
+
+from . import triad
+
+MIN_ROWS = 12
+
+
+def _rotations24():
+    out = []
+    for p in itertools.permutations(range(3)):
+        for s in itertools.product((1, -1), repeat=3):
+            m = np.zeros((3, 3))
+            for i in range(3):
+                m[i, p[i]] = s[i]
+            if np.linalg.det(m) > 0:
+                out.append(m)
+    return out
+
+
+def _dip_res(ug, ub):
+    return np.degrees(np.arcsin(np.clip((ug * ub).sum(1), -1.0, 1.0)))
+
+
+def _robust_std(x):
+    return float(1.4826 * np.median(np.abs(x - np.median(x))))
+
+
+def _mag_residuals(x, mag, g_unit, F, sm, sd):
+    Mm = x[0:9].reshape(3, 3)
+    bm = x[9:12]
+    dip = x[12]
+    b = (mag - bm) @ Mm.T
+    nb = np.linalg.norm(b, axis=1)
+    sdip = (g_unit * b).sum(1) / np.maximum(nb, 1e-300)
+    return np.concatenate([(nb - F) / sm, (np.degrees(np.arcsin(np.clip(sdip, -1, 1))) - dip) / sd])
+
+
+def fit(ds, w, sa, sm, fix_dip=False, mag_start=None):
+    """The staged fit (module docstring).  mag_start: a signed permutation
+    (3x3) that the checks found to align the magnetometer's axes with the
+    accelerometer's, a start for Q."""
+    G, F = w["gravity_g"], w["field_nT"]
+    n = len(ds)
+    if n < MIN_ROWS:
+        raise DataError(f"joint without poses needs >= {MIN_ROWS} readings in varied orientations; the data have {n}")
+    acc, mag = ds.acc, ds.mag
+    # 1. the accelerometer alone
+    Ma, ba, cov_a, ia = triad.fit_sphere(acc, G, sa, min_rows=MIN_ROWS)
+    # 2. the magnetometer alone
+    Sm, bm, _, im = triad.fit_sphere(mag, F, sm, min_rows=MIN_ROWS)
+    g = (acc - ba) @ Ma.T
+    ug = g / np.maximum(np.linalg.norm(g, axis=1, keepdims=True), 1e-300)
+    bs = (mag - bm) @ Sm.T
+    ubs = bs / np.maximum(np.linalg.norm(bs, axis=1, keepdims=True), 1e-300)
+    use = ia["keep"] & im["keep"]
+    # 3. the rotation: the best of the 24 axis-aligned starts, then refined
+    starts = _rotations24() if mag_start is None else [np.asarray(mag_start, float)] + _rotations24()
+    best = None
+    for Q0 in starts:
+        if np.linalg.det(Q0) < 0:
+            continue
+        d = _dip_res(ug[use], ubs[use] @ Q0.T)
+        s = _robust_std(d)
+        if best is None or s < best[0]:
+            best = (s, Q0)
+    Q = best[1]
+
+    def rot_res(r):
+        R = Rotation.from_rotvec(r[:3]).as_matrix() @ Q
+        return _dip_res(ug[use], ubs[use] @ R.T) - r[3]
+
+    d0 = _dip_res(ug[use], ubs[use] @ Q.T)
+    r0 = np.array([0.0, 0.0, 0.0, float(np.median(d0))])
+    sd0 = max(_robust_std(d0), 1e-3)
+    res = optimize.least_squares(rot_res, r0, loss="soft_l1", f_scale=3.0 * sd0)
+    Q = Rotation.from_rotvec(res.x[:3]).as_matrix() @ Q
+    dip0 = float(w["dip_deg"]) if (fix_dip and w["dip_deg"] is not None) else float(res.x[3])
+    dres = _dip_res(ug, ubs @ Q.T) - dip0
+    sd = max(_robust_std(dres[use]), 1e-4)
+    sm_hat = max(im["noise"], 1e-6)
+    # 4. the magnetometer refined on its own residuals, the accelerometer held
+    x = np.concatenate([(Q @ Sm).ravel(), bm, [dip0]])
+    keep = use.copy()
+
+    def fun(xf, *args):
+        return _mag_residuals(np.concatenate([xf, [dip0]]) if fix_dip else xf, *args)
+
+    if fix_dip:
+        x = x[:12]
+    out = None
+    for loss in ("soft_l1", "linear"):
+        out = optimize.least_squares(fun, x, args=(mag[keep], ug[keep], F, sm_hat, sd), loss=loss, f_scale=3.0,
+                                     x_scale="jac")
+        x = out.x
+        if loss == "soft_l1" and n >= triad.MIN_ROWS_REJECT:
+            r = fun(x, mag, ug, F, sm_hat, sd).reshape(2, n)
+            d2 = (r ** 2).sum(0)
+            thr, _ = triad.robust_threshold(d2[use], 2)
+            keep = use & (d2 <= thr)
+            if keep.sum() < 8:  # 13 parameters, two residuals a row
+                raise CalibrationError("joint: too many readings rejected as outliers to fit the magnetometer")
+    if fix_dip:
+        x = np.concatenate([x, [dip0]])
+    J = out.jac
+    dof = max(1, J.shape[0] - J.shape[1])
+    s2m = float((out.fun ** 2).sum() / dof)
+    JtJ = J.T @ J
+    cn = np.sqrt(np.abs(np.diag(JtJ)))
+    if not np.all(np.isfinite(JtJ)) or not np.all(cn > 0) or np.linalg.cond(JtJ / np.outer(cn, cn)) > 1e12:
+        raise CalibrationError("joint: the orientations do not determine the magnetometer's calibration "
+                               "(they cover too little of the sphere; singular fit)")
+    cov_m = s2m * np.linalg.inv(JtJ)
+    Mm, bm, dip = x[0:9].reshape(3, 3), x[9:12], float(x[12])
+    cov = np.zeros((25, 25))
+    cov[0:12, 0:12] = cov_a
+    k = cov_m.shape[0]
+    cov[12:12 + k, 12:12 + k] = cov_m if k == 13 else cov_m
+    # the noise of each triad from its own residuals
+    rb = np.linalg.norm((mag - bm) @ Mm.T, axis=1) - F
+    dd = _dip_res(ug, ((mag - bm) @ Mm.T) / np.maximum(np.linalg.norm((mag - bm) @ Mm.T, axis=1, keepdims=True),
+                                                      1e-300)) - dip
+    noise = {"acc_g": ia["noise"], "mag_nT": float(np.sqrt(np.mean(rb[keep] ** 2))),
+             "dip_deg": float(np.sqrt(np.mean(dd[keep] ** 2)))}
+    acc_bad = ~ia["keep"]
+    mag_bad = ~keep & ia["keep"]
+    info = {"mode": "invariants", "staged": True, "noise": noise,
+            "s2": float((ia["s2"] * ia["dof"] + s2m * dof) / (ia["dof"] + dof)),
+            "s2_by_triad": {"acc": ia["s2"], "mag": s2m}, "chi2": float(ia["s2"] * ia["dof"] + s2m * dof),
+            "dof": int(ia["dof"] + dof), "keep_acc": ia["keep"], "keep_mag": keep,
+            "acc_misfit": acc_bad, "mag_misfit": mag_bad,
+            "normal_matrix_cond": float(np.linalg.cond(JtJ)), "dip_fitted": not fix_dip,
+            "dip_sigma_deg": None if fix_dip else float(np.sqrt(cov_m[12, 12]))}
+    return (Ma, ba, Mm, bm, dip), cov, info

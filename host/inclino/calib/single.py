@@ -1,0 +1,125 @@
+"""`joint` on a one-triad dataset: an accelerometer-only or a
+magnetometer-only run calibrates the triad it has.
+
+* With poses (inc_deg and tf_deg; a magnetometer also needs azi_deg and the
+  header's dip_deg): the 12-parameter model against the poses' gravity
+  (field) in body axes, least squares, robust (calib.triad.fit_poses).  When
+  rows repeat poses (a step-and-hold run), the covariance is the larger of
+  the row-level one and the pose-level one (the fit to the poses' means,
+  scaled by their own scatter): readings at one pose share its placement
+  error and are not independent measurements.
+* Without poses: the ellipsoid fit (calib.triad.fit_sphere), the triad's
+  own axes as the body frame.
+
+The calibration (Calibration.triads = "acc" or "mag") holds the fitted
+triad; the other triad's coefficients are the identity.  The report gives
+what that triad determines: |g| (|b|) residual, with poses the vector and
+inclination residuals, the coefficients' 1-sigma and the inclination they
+predict (accelerometer), coverage, conditioning; the verdict judges those.
+"""
+from __future__ import annotations
+
+import numpy as np
+
+from inclino.engines import reference as ref
+from inclino.formats.calfile import Calibration
+from inclino.errors import DataError
+
+from . import triad
+from .joint import SIGMA_ACC, SIGMA_MAG
+
+MIN_ROWS_POSES = 6
+MIN_ROWS_SPHERE = 12
+
+
+def _poses(ds, kind):
+    have = "inc_deg" in ds.columns and "tf_deg" in ds.columns
+    if kind == "mag":
+        have = have and "azi_deg" in ds.columns
+    return have
+
+
+def _pose_groups(ds):
+    cols = [ds.columns[c] for c in ("inc_deg", "azi_deg", "tf_deg") if c in ds.columns]
+    key = np.round(np.column_stack(cols), 3)
+    _, inv = np.unique(key, axis=0, return_inverse=True)
+    return inv.ravel()
+
+
+def truth(ds, kind, w):
+    inc, tf = ds.columns["inc_deg"], ds.columns["tf_deg"]
+    azi = ds.columns.get("azi_deg", np.zeros(len(ds)))
+    if kind == "acc":
+        C = ref.pose_matrix(inc, azi, tf)
+        return C[:, :, 2] * w["gravity_g"]
+    if w["dip_deg"] is None:
+        raise DataError("a magnetometer-only fit with poses needs the field's dip: add a '# dip_deg=...' header line")
+    return ref.body_vectors(inc, azi, tf, w["field_nT"], w["dip_deg"], w["declination_deg"], w["gravity_g"])[1]
+
+
+def world(ds) -> dict:
+    m = ds.meta
+    F = m.get("field_nT")
+    if F is None and ds.has_mag:
+        from .ellipsoid import sphere
+
+        s = sphere(ds.mag)
+        F = s[1] if s is not None else float(np.median(np.linalg.norm(ds.mag, axis=1)))
+    return {"field_nT": float(F or 50000.0), "dip_deg": m.get("dip_deg"),
+            "declination_deg": float(m.get("declination_deg", 0.0)), "gravity_g": float(m.get("gravity_g", 1.0))}
+
+
+def fit(ds, use_poses=None, sigma_acc=None, sigma_mag=None, **_):
+    kind = "acc" if ds.has_acc else "mag"
+    raw = ds.acc if kind == "acc" else ds.mag
+    w = world(ds)
+    unit = "g" if kind == "acc" else "nT"
+    declared = ds.meta.get(f"{kind}_noise_{unit}")
+    sigma = (sigma_acc if kind == "acc" else sigma_mag) or (float(declared) if declared else
+                                                           (SIGMA_ACC if kind == "acc" else SIGMA_MAG))
+    poses = _poses(ds, kind) if use_poses is None else bool(use_poses)
+    if poses and not _poses(ds, kind):
+        raise DataError("the dataset lacks the pose columns (inc_deg, tf_deg" + (", azi_deg" if kind == "mag" else "")
+                        + ")")
+    if poses:
+        t = truth(ds, kind, w)
+        M, b, cov, info = triad.fit_poses(raw, t, sigma, min_rows=MIN_ROWS_POSES)
+        groups = _pose_groups(ds)
+        ng = int(groups.max()) + 1
+        info["poses"] = ng
+        if ng < len(ds) and 3 * ng > 12:
+            # the pose-level covariance: the fit to each pose's mean reading, scaled by the means' own scatter
+            keep = info["keep"]
+            gm = np.array([raw[keep & (groups == k)].mean(0) if (keep & (groups == k)).any() else np.full(3, np.nan)
+                           for k in range(ng)])
+            tm = np.array([t[groups == k][0] for k in range(ng)])
+            ok = np.all(np.isfinite(gm), axis=1)
+            if ok.sum() * 3 > 12:
+                Mp, bp, covp, ip = triad.fit_poses(gm[ok], tm[ok], sigma, min_rows=5)
+                if np.trace(covp) > np.trace(cov):
+                    cov = covp
+                    info["covariance_source"] = (f"pose level: the fit to the {int(ok.sum())} poses' mean readings, "
+                                                 f"scaled by their scatter (readings at one pose share its "
+                                                 f"placement error)")
+        info.setdefault("covariance_source", "row level, scaled by the residual variance")
+        info["mode"] = "poses"
+    else:
+        R = w["gravity_g"] if kind == "acc" else w["field_nT"]
+        M, b, cov, info = triad.fit_sphere(raw, R, sigma, min_rows=MIN_ROWS_SPHERE)
+        info["covariance_source"] = "ellipsoid fit, scaled by the residual variance"
+        info["unobservable"] = ("the triad's rotation: without poses |g| (|b|) alone leaves it free; the body frame "
+                                "is the sensor's own axes (M symmetric)")
+    eye = np.eye(3).tolist()
+    zero = [0.0, 0.0, 0.0]
+    if kind == "acc":
+        cal = Calibration(acc_m=M.tolist(), acc_b=b.tolist(), mag_m=eye, mag_b=zero, method="joint",
+                          probe_serial=str(ds.meta.get("probe_serial", "")), triads="acc")
+    else:
+        cal = Calibration(acc_m=eye, acc_b=zero, mag_m=M.tolist(), mag_b=b.tolist(), method="joint",
+                          probe_serial=str(ds.meta.get("probe_serial", "")), triads="mag")
+    cal.check()
+    bad = ~info["keep"]
+    segs, scattered = triad.segments(bad, ds)
+    info.update({"kind": kind, "sigma": sigma, "covariance12": cov, "segments": segs, "outliers": scattered,
+                 "rows_used": np.flatnonzero(info["keep"]), "world": w})
+    return cal, info

@@ -1,0 +1,228 @@
+"""One triad by itself: the fits that see only that triad's readings.
+
+* `fit_poses(raw, truth, sigma)`: with the reference vectors (the poses'
+  gravity or field in body axes), the 12-parameter linear model
+  corrected = M (raw - b), least squares, robust to outliers, with the
+  covariance scaled by this triad's own residual variance.
+* `fit_sphere(raw, R, sigma)`: without poses, the ellipsoid fit: an
+  algebraic quadric fit, then a geometric refinement of the centre b and a
+  symmetric M with |M (raw - b)| = R (the rotation of the triad is not
+  observable from |g| or |b| alone: M symmetric fixes it to the sensor's
+  own axes).
+
+Both report the triad's noise from its own residuals (never pooled with the
+other triad's), the rows left out, and misfits that come in contiguous
+blocks as segments (rows from-to, with what varies over them) rather than as
+scattered outliers (`segments`).
+"""
+from __future__ import annotations
+
+import numpy as np
+from scipy import optimize, stats
+
+from inclino.errors import CalibrationError, DataError
+
+MIN_ROWS_REJECT = 27       # outliers are looked for with at least 3 rows a parameter (ellipsoid: 9)
+SEGMENT_MIN_ROWS = 5       # a run of misfitting rows this long (and SEGMENT_MIN_FRACTION of the run) is a segment
+SEGMENT_MIN_FRACTION = 0.01
+SEGMENT_GAP = 2            # misfitting rows at most this far apart belong to one run ...
+SEGMENT_MIN_DENSITY = 0.8  # ... and a segment is a run where most rows misfit
+
+
+def _sym(v):
+    a, b, c, d, e, f = v
+    return np.array([[a, b, c], [b, d, e], [c, e, f]])
+
+
+def robust_threshold(d2, dof):
+    """The chi-square 99.9 % point of d2 (dof components), scaled by the
+    residuals' robust variance (median over the chi-square median), never
+    below 1: as calib.joint's."""
+    scale = max(1.0, float(np.median(d2)) / stats.chi2.ppf(0.5, dof))
+    return scale * stats.chi2.ppf(0.999, dof), scale
+
+
+def segments(bad, ds=None, rows=None) -> tuple[list, list]:
+    """Split misfitting rows (boolean over the fitted rows, in file order)
+    into contiguous segments and scattered outliers.  `rows` maps fitted
+    rows to the dataset's rows; `ds` (the dataset) names what varies over
+    each segment.  Returns (segments, outlier row indices)."""
+    idx = np.flatnonzero(bad)
+    n = len(bad)
+    rows = np.arange(n) if rows is None else np.asarray(rows)
+    if idx.size == 0:
+        return [], []
+    runs, start, prev = [], idx[0], idx[0]
+    for i in idx[1:]:
+        if i - prev > SEGMENT_GAP + 1:
+            runs.append((start, prev))
+            start = i
+        prev = i
+    runs.append((start, prev))
+    segs, scattered = [], []
+    min_len = max(SEGMENT_MIN_ROWS, int(np.ceil(SEGMENT_MIN_FRACTION * n)))
+    for a, b in runs:
+        members = idx[(idx >= a) & (idx <= b)]
+        if len(members) >= min_len and len(members) >= SEGMENT_MIN_DENSITY * (b - a + 1):
+            seg = {"from_row": int(rows[a]), "to_row": int(rows[b]), "rows": int(len(members)),
+                   "fraction": float(len(members) / n)}
+            if ds is not None:
+                seg["varies"] = _what_varies(ds, rows[a:b + 1])
+            segs.append(seg)
+        else:
+            scattered += [int(rows[i]) for i in members]
+    return segs, scattered
+
+
+def _what_varies(ds, sel) -> dict:
+    """Per column that the dataset has (poses, time, temperature): the
+    range over the segment, and over the run."""
+    out = {}
+    for c in ("inc_deg", "azi_deg", "tf_deg", "t_s", "temp_c"):
+        if c in ds.columns:
+            v = ds.columns[c]
+            out[c] = {"segment": [float(v[sel].min()), float(v[sel].max())], "run": [float(v.min()), float(v.max())]}
+    return out
+
+
+def segment_text(seg) -> str:
+    t = f"rows {seg['from_row']}-{seg['to_row']} ({seg['rows']} rows, {100 * seg['fraction']:.0f} %)"
+    v = seg.get("varies") or {}
+    parts = [f"{c.split('_')[0]} {r['segment'][0]:.4g}..{r['segment'][1]:.4g}" for c, r in v.items()]
+    return t + (": " + ", ".join(parts) if parts else "")
+
+
+# --------------------------------------------------------------------------
+def fit_poses(raw, truth, sigma: float, min_rows: int = 4):
+    """corrected = M (raw - b) against the reference `truth` (n, 3).
+    Returns (M, b, cov (12: M row-major, b), info)."""
+    raw = np.asarray(raw, float)
+    truth = np.asarray(truth, float)
+    n = len(raw)
+    if n < min_rows:
+        raise DataError(f"a fit of one triad with poses needs >= {min_rows} readings; the data have {n}")
+    X = np.column_stack([raw, -np.ones(n)])
+    keep = np.ones(n, bool)
+    for _ in range(3):  # fit, drop what misfits beyond the robust threshold, refit
+        sol, *_ = np.linalg.lstsq(X[keep], truth[keep], rcond=None)
+        r = X @ sol - truth
+        d2 = (r ** 2).sum(1) / sigma ** 2
+        thr, _ = robust_threshold(d2[keep], 3)
+        new = d2 <= thr
+        if new.sum() < min_rows:
+            raise CalibrationError("too many readings misfit the poses to fit the triad")
+        if np.array_equal(new, keep):
+            break
+        keep = new
+    Xk = X[keep]
+    sol, *_ = np.linalg.lstsq(Xk, truth[keep], rcond=None)
+    r = Xk @ sol - truth[keep]
+    dof = max(1, 3 * int(keep.sum()) - 12)
+    s2 = float((r ** 2).sum() / sigma ** 2 / dof)
+    if np.linalg.matrix_rank(Xk) < 4:
+        raise CalibrationError("the poses do not determine the triad's 12 parameters (too few distinct "
+                               "orientations)")
+    # each output axis i: truth_i = X @ [M_i; c_i]; cov of each row's 4 numbers = s2 sigma^2 (X^T X)^-1
+    XtXi = np.linalg.inv(Xk.T @ Xk) * s2 * sigma ** 2
+    M = sol[:3].T
+    c = sol[3]
+    cov_mc = np.zeros((12, 12))  # (M row-major 9, c 3)
+    for i in range(3):
+        ids = [3 * i, 3 * i + 1, 3 * i + 2, 9 + i]
+        cov_mc[np.ix_(ids, ids)] = XtXi
+    Minv = np.linalg.inv(M)
+    b = Minv @ c
+    T = np.eye(12)
+    for i in range(3):
+        for j in range(3):
+            E = np.zeros((3, 3))
+            E[i, j] = 1.0
+            T[9:12, 3 * i + j] = -Minv @ (E @ b)
+    T[9:12, 9:12] = Minv
+    cov = T @ cov_mc @ T.T
+    res = np.linalg.norm(X @ sol - truth, axis=1)
+    return M, b, cov, {"s2": s2, "dof": dof, "keep": keep, "residual": res,
+                       "noise": float(np.sqrt(s2) * sigma), "mode": "poses"}
+
+
+def ellipsoid_algebraic(raw, R):
+    """Algebraic quadric fit: (M symmetric, b) with |M (raw - b)| ~ R."""
+    from .ellipsoid import ellipsoid_start
+
+    return ellipsoid_start(raw, R)
+
+
+def _sphere_residual(x, raw, R):
+    M = _sym(x[:6])
+    g = (raw - x[6:9]) @ M.T
+    return np.linalg.norm(g, axis=1) - R
+
+
+def _sphere_jac(x, raw, R):
+    M = _sym(x[:6])
+    d = raw - x[6:9]
+    g = d @ M.T
+    n = np.maximum(np.linalg.norm(g, axis=1), 1e-300)
+    u = g / n[:, None]
+    J = np.zeros((len(raw), 9))
+    # d|g|/dM_ij = u_i d_j (+ u_j d_i off the diagonal: M symmetric)
+    pairs = [(0, 0), (0, 1), (0, 2), (1, 1), (1, 2), (2, 2)]
+    for k, (i, j) in enumerate(pairs):
+        J[:, k] = u[:, i] * d[:, j] + (u[:, j] * d[:, i] if i != j else 0.0)
+    J[:, 6:9] = -u @ M
+    return J
+
+
+def fit_sphere(raw, R: float, sigma: float, min_rows: int = 10, start=None):
+    """Ellipsoid fit of one triad: (M symmetric, b) with |M (raw - b)| = R,
+    robust (soft-L1 pass, rows beyond the robust threshold dropped, a final
+    least-squares pass).  Returns (M, b, cov (12: M row-major, b; the
+    symmetric M's 6 free numbers mapped onto its 9 entries), info)."""
+    raw = np.asarray(raw, float)
+    n = len(raw)
+    if n < min_rows:
+        raise DataError(f"a fit of one triad without poses needs >= {min_rows} readings in varied orientations; "
+                        f"the data have {n}")
+    if start is None:
+        M0, b0 = ellipsoid_algebraic(raw, R)
+    else:
+        M0, b0 = start
+    x = np.concatenate([M0[np.triu_indices(3)], b0])
+    keep = np.ones(n, bool)
+    res = None
+    robust = n >= MIN_ROWS_REJECT  # fewer rows cannot tell an outlier from the model's misfit: least squares alone
+    for loss in (("soft_l1", "linear") if robust else ("linear",)):
+        # the soft-L1 scale follows the residuals' own robust size (3 sigma), not the nominal sigma
+        r0 = _sphere_residual(x, raw, R) / sigma
+        f_scale = 3.0 * max(1.0, 1.4826 * float(np.median(np.abs(r0)))) if loss == "soft_l1" else 1.0
+        res = optimize.least_squares(lambda p, a: _sphere_residual(p, a, R) / sigma, x,
+                                     jac=lambda p, a: _sphere_jac(p, a, R) / sigma, args=(raw[keep],),
+                                     loss=loss, f_scale=f_scale, x_scale="jac",
+                                     method="trf" if loss != "linear" else "lm")
+        x = res.x
+        if loss == "soft_l1":
+            r = _sphere_residual(x, raw, R) / sigma
+            thr, _ = robust_threshold(r ** 2, 1)
+            keep = r ** 2 <= thr
+            if keep.sum() < 10:  # 9 parameters
+                raise CalibrationError("too many readings rejected as outliers to fit the triad")
+    r = res.fun
+    dof = max(1, int(keep.sum()) - 9)
+    s2 = float((r ** 2).sum() / dof)
+    J = res.jac
+    JtJ = J.T @ J
+    cn = np.sqrt(np.diag(JtJ))
+    if not np.all(cn > 0) or np.linalg.cond(JtJ / np.outer(cn, cn)) > 1e12:  # scale-free: the geometry alone
+        raise CalibrationError("the orientations do not determine the triad's ellipsoid (they cover too little "
+                               "of the sphere)")
+    cov9 = s2 * np.linalg.inv(JtJ)
+    T = np.zeros((12, 9))
+    for k, (i, j) in enumerate(zip(*np.triu_indices(3))):
+        T[3 * i + j, k] = 1.0
+        T[3 * j + i, k] = 1.0
+    T[9:12, 6:9] = np.eye(3)
+    cov = T @ cov9 @ T.T
+    M, b = _sym(x[:6]), x[6:9]
+    resid = _sphere_residual(x, raw, R)
+    return M, b, cov, {"s2": s2, "dof": dof, "keep": keep, "residual": resid,
+                       "noise": float(np.sqrt(s2) * sigma), "mode": "invariants", "cov9": cov9}

@@ -1,0 +1,544 @@
+"""Checks before any fit: does a dataset look like what it says it is?
+
+    rep = checks.run(ds)          # a CheckReport
+    rep.raise_errors()            # DataError (exit 2) on data that cannot be right
+
+Each finding is one line that names the likely cause and the fix.  Data
+that cannot be right are errors (the commands exit 2 before any fit):
+
+* units -- |g| far from 1 g (or the header's gravity_g), |b| outside the
+  geomagnetic range (or far from the header's field_nT): the unit it looks
+  like is named;
+* handedness -- the magnetometer's axes mirrored against the
+  accelerometer's (the dip angle g.b/|g||b| is consistent only through a
+  reflection), or a triad mirrored against the poses, unless the header
+  declares the reflection intended (`# reflection=acc|mag`);
+* row alignment -- the triads paired out of step: the dip angle (or a
+  triad's fit to the poses) is far more consistent with the rows shifted;
+* dip sign -- the dip opposite to the header's: the accelerometer's gravity
+  sign turned.
+
+Suspicious data are warnings (the fit runs; the warning is in its report):
+a scale or field off by more than a sensor plausibly is, the magnetometer's
+axes rotated against the accelerometer's, a smaller shift, readings at the
+declared range (saturated: left out of the fit), a run declared static
+whose readings move.  Notes: whether the run is static or moving (from the
+readings' own spread, not from a time column), the noise of each triad.
+
+The thresholds are physical (docs/dataset.md, "Checks before any fit"):
+GRAVITY_TOL, GEOMAGNETIC_NT, FIELD_TOL, DIP_* below.
+"""
+from __future__ import annotations
+
+import itertools
+import math
+from dataclasses import dataclass, field
+
+import numpy as np
+
+from inclino.calib.ellipsoid import determined, sphere
+from inclino.errors import DataError
+
+# |g| / G: uncalibrated MEMS accelerometers are within a few % in scale and
+# ~0.1 g in offset; beyond +-20 % is a warning, beyond 0.5x-2x cannot be g
+GRAVITY_TOL = (0.8, 1.25)
+GRAVITY_UNITS = (0.5, 2.0)
+# the main field at the Earth's surface (IGRF): 22 000 nT (South Atlantic) to 67 000 nT (magnetic poles)
+GEOMAGNETIC_NT = (22_000.0, 67_000.0)
+GEOMAGNETIC_SLACK = 1.5   # a sensor's scale error and a steel building: a warning within 1.5x, an error beyond
+FIELD_TOL = (0.8, 1.25)   # |b| / header field_nT: a warning outside
+FIELD_UNITS = (0.4, 2.5)  # |b| / header field_nT: an error outside (a unit)
+DIP_MISMATCH_DEG = 10.0   # |dip - header dip| beyond it: a warning
+MAX_LAG = 3               # row shifts tried between the triads
+LAG_RATIO = 3.0           # spread as paired / spread at the best shift: an error beyond (and > 2 deg)
+LAG_MIN_GAIN = 0.1        # a warning when the best shift cuts the spread by more than this fraction ...
+LAG_MIN_DEG = 0.1         # ... and by more than this
+MIN_SPREAD_DEG = 1.0      # a dip spread below this is consistent whatever the shift
+AXES_RATIO = 3.0          # dip spread with the declared maps / with the best other map
+RAW_DIRS_MAX_CV = 0.1     # raw directions compared only when |v| varies less than this (offsets small)
+# the noise (1 sigma, one reading, per axis) a static sensor of each kind stays within when the
+# description gives none: MEMS accelerometers 100-300 ug/sqrt(Hz) over a few hundred Hz (<= 5 mg);
+# MEMS magnetometers 0.15-0.6 uT per LSB (<= 1 uT); the fluxgate a few nT
+NOISE_BOUND = {"acc": 5e-3, "mag": 1000.0}
+CHECK_ROWS = 200_000      # rows looked at (thinned evenly beyond; the lag on the first LAG_ROWS consecutive rows)
+LAG_ROWS = 50_000
+
+ACC_UNIT_GUESS = {"m/s^2": 9.80665, "mg": 1000.0, "cm/s^2 (Gal)": 980.665, "ft/s^2": 32.174, "ug": 1e6,
+                  **{f"counts at {2 ** k} per g": float(2 ** k) for k in range(8, 16)}}
+MAG_UNIT_GUESS = {"uT": 1e-3, "gauss": 1e-5, "mG": 1e-2, "tesla": 1e-9, "counts of 0.15 uT": 1 / 150.0,
+                  "counts of 0.3 uT": 1 / 300.0, "counts of 0.6 uT": 1 / 600.0}  # values per nT
+
+
+@dataclass
+class Finding:
+    check: str          # units, handedness, row-alignment, dip-sign, axes, saturation, motion, noise
+    level: str          # error, warning, note
+    message: str        # one line: what, the likely cause, the fix
+    triad: str | None = None
+    figures: dict = field(default_factory=dict)
+
+    def to_dict(self) -> dict:
+        return {"check": self.check, "level": self.level, "triad": self.triad, "message": self.message,
+                "figures": self.figures}
+
+
+@dataclass
+class CheckReport:
+    rows: int
+    triads: str
+    findings: list = field(default_factory=list)
+    static: bool | None = None           # measured (None: not decidable)
+    declared_static: bool = False
+    lag_rows: int = 0                    # magnetometer rows behind the accelerometer's (0: in step)
+    mag_to_acc: list | None = None       # the signed permutation that best aligns the magnetometer (3x3)
+    noise: dict = field(default_factory=dict)   # per triad, RMS of one reading (g, nT), from the data
+    saturated: list = field(default_factory=list)  # row indices at the declared range
+
+    @property
+    def errors(self):
+        return [f for f in self.findings if f.level == "error"]
+
+    @property
+    def warnings(self):
+        return [f for f in self.findings if f.level == "warning"]
+
+    def lines(self, levels=("error", "warning")) -> list:
+        return [f"{f.level}: {f.message}" for f in self.findings if f.level in levels]
+
+    def raise_errors(self) -> None:
+        errs = self.errors
+        if errs:
+            more = f" (and {len(errs) - 1} more: {'; '.join(e.check for e in errs[1:])})" if len(errs) > 1 else ""
+            raise DataError(errs[0].message + more)
+
+    def to_dict(self) -> dict:
+        return {"rows": self.rows, "triads": self.triads, "static": self.static,
+                "declared_static": self.declared_static, "lag_rows": self.lag_rows,
+                "mag_to_acc": self.mag_to_acc, "noise": self.noise, "saturated_rows": len(self.saturated),
+                "findings": [f.to_dict() for f in self.findings]}
+
+
+# ------------------------------------------------------------------ helpers
+def _robust_std(x) -> float:
+    x = np.asarray(x, float)
+    x = x[np.isfinite(x)]
+    if x.size < 2:
+        return float("nan")
+    return float(1.4826 * np.median(np.abs(x - np.median(x))))
+
+
+def _imported(ds) -> bool:
+    return "sensor" in ds.meta
+
+
+def _fix(ds, section: str, what: str) -> str:
+    if _imported(ds):
+        return f"fix {what} in the sensor description's [{section}] and import again"
+    return f"import the log with a sensor description that says {what} (inclino import LOG --sensor S.toml; " \
+           f"docs/dataset.md)"
+
+
+def _unit_dirs(v, R):
+    """Readings as unit directions, after an algebraic ellipsoid fit when
+    the orientations determine one (raw directions otherwise)."""
+    from inclino.calib.ellipsoid import ellipsoid_start
+
+    v = np.asarray(v, float)
+    u = v / np.maximum(np.linalg.norm(v, axis=1, keepdims=True), 1e-300)
+    distinct = len(np.unique(np.round(u, 1), axis=0))
+    if distinct >= 20 and determined(v):
+        try:
+            with np.errstate(all="ignore"):
+                M, b = ellipsoid_start(v, R)
+            w = (v - b) @ M.T
+            n = np.linalg.norm(w, axis=1)
+            if np.all(np.isfinite(w)) and np.median(np.abs(n / R - 1.0)) < 0.2:
+                return w / np.maximum(n[:, None], 1e-300), True
+        except (DataError, np.linalg.LinAlgError, ValueError):
+            pass
+    return u, False
+
+
+def _signed_perms():
+    out = []
+    for p in itertools.permutations(range(3)):
+        for s in itertools.product((1, -1), repeat=3):
+            m = np.zeros((3, 3))
+            for i in range(3):
+                m[i, p[i]] = s[i]
+            out.append(m)
+    return out
+
+
+def _perm_text(m, letter="m") -> str:
+    parts = []
+    for i, b in enumerate("xyz"):
+        j = int(np.argmax(np.abs(m[i])))
+        parts.append(f"{b} = {'-' if m[i, j] < 0 else ''}{letter}{'xyz'[j]}")
+    return ", ".join(parts)
+
+
+def _dip(ug, ub):
+    return np.degrees(np.arcsin(np.clip((ug * ub).sum(1), -1.0, 1.0)))
+
+
+def _thin(n, limit):
+    k = max(1, -(-n // limit))
+    return np.arange(0, n, k)
+
+
+# ------------------------------------------------------------------ checks
+def _units_acc(ds, rows, rep):
+    G = float(ds.meta.get("gravity_g") or 1.0)
+    a = ds.acc[rows]
+    n = np.linalg.norm(a, axis=1)
+    med = float(np.median(n))
+    ratio = med / G
+    fig = {"median_g": med, "expected_g": G, "ratio": ratio}
+    if GRAVITY_TOL[0] <= ratio <= GRAVITY_TOL[1]:
+        return
+    if not (np.isfinite(ratio) and ratio > 0):
+        rep.findings.append(Finding("units", "error", (
+            f"accelerometer: |g| is {med:.4g} (median of {len(a)} rows): no gravity in the readings (a dead sensor, "
+            f"or the wrong columns)"), "acc", fig))
+        return
+    if GRAVITY_UNITS[0] <= ratio <= GRAVITY_UNITS[1]:
+        rep.findings.append(Finding("units", "warning", (
+            f"accelerometer: |g| is {med:.4g} g (median of {len(a)} rows), {100 * (ratio - 1):+.0f} % from "
+            f"{G:g} g: more than a sensor's scale error; check the unit and lsb (the range setting?)"), "acc", fig))
+        return
+    guesses = [u for u, f in sorted(ACC_UNIT_GUESS.items(), key=lambda kv: abs(math.log(ratio / kv[1])))
+               if abs(math.log(ratio / f)) < 0.2][:2]
+    like = (f"the readings look like {' or '.join(guesses)}" if guesses else
+            f"the readings are {ratio:.4g}x what g would be")
+    unit = ds.meta.get("acc_unit", "g")
+    rep.findings.append(Finding("units", "error", (
+        f"accelerometer: |g| is {med:.4g} (median of {len(a)} rows), not {G:g} g: {like}, not {unit}; "
+        + _fix(ds, "accelerometer", "the unit (unit = \"m/s2\", \"mg\", or \"counts\" with lsb)")), "acc",
+        {**fig, "looks_like": guesses}))
+
+
+def _units_mag(ds, rows, rep):
+    m = ds.mag[rows]
+    sph = sphere(m)
+    med = float(np.median(np.linalg.norm(m, axis=1)))
+    R = sph[1] if sph is not None else med
+    how = "the radius of the sphere the readings lie on" if sph is not None else "the median |b|"
+    F = ds.meta.get("field_nT")
+    fig = {"field_nT": R, "how": how, "median_abs_nT": med}
+    if not (np.isfinite(R) and R > 0):
+        rep.findings.append(Finding("units", "error", (
+            f"magnetometer: |b| is {R:.4g} nT ({how}): no field in the readings (a dead sensor, or the wrong "
+            f"columns)"), "mag", fig))
+        return
+    unit = ds.meta.get("mag_unit", "nT")
+    if F:
+        ratio = R / float(F)
+        fig.update(header_field_nT=F, ratio=ratio)
+        if FIELD_TOL[0] <= ratio <= FIELD_TOL[1]:
+            return
+        if FIELD_UNITS[0] <= ratio <= FIELD_UNITS[1]:
+            rep.findings.append(Finding("units", "warning", (
+                f"magnetometer: |b| is {R:.4g} nT ({how}), {100 * (ratio - 1):+.0f} % from the header's field_nT "
+                f"{F:g}: a magnetic disturbance near the bench, a wrong field_nT, or a scale error"), "mag", fig))
+            return
+        target = float(F)
+    else:
+        lo, hi = GEOMAGNETIC_NT
+        if lo <= R <= hi:
+            return
+        if lo / GEOMAGNETIC_SLACK <= R <= hi * GEOMAGNETIC_SLACK:
+            rep.findings.append(Finding("units", "warning", (
+                f"magnetometer: |b| is {R:.4g} nT ({how}), outside the geomagnetic range {lo:.0f}-{hi:.0f} nT: "
+                f"steel or a magnet near the sensor, or a scale error; give # field_nT= if it is the site's "
+                f"field"), "mag", fig))
+            return
+        target = 45_000.0
+    guesses = [u for u, f in sorted(MAG_UNIT_GUESS.items(), key=lambda kv: abs(math.log(R / (target * kv[1]))))
+               if abs(math.log(R / (target * f))) < 0.6][:2]
+    like = (f"the readings look like {' or '.join(guesses)}" if guesses else
+            f"{R / target:.3g}x a geomagnetic field")
+    rng = f"the header's field_nT {F:g}" if F else f"the geomagnetic range {GEOMAGNETIC_NT[0]:.0f}-" \
+                                                   f"{GEOMAGNETIC_NT[1]:.0f} nT"
+    rep.findings.append(Finding("units", "error", (
+        f"magnetometer: |b| is {R:.4g} nT ({how}), not {rng}: {like}, not {unit}; "
+        + _fix(ds, "magnetometer", "the unit (unit = \"uT\", \"G\", \"mG\", or \"counts\" with lsb)")), "mag",
+        {**fig, "looks_like": guesses}))
+
+
+def _intended(ds, triad) -> bool:
+    return triad in str(ds.meta.get("reflection", "")).replace(" ", "").split(",")
+
+
+def _axes_and_lag(ds, rows_all, rep, ug_src=None):
+    """Inter-triad: the magnetometer's axes against the accelerometer's (or
+    the poses' gravity) from the dip angle's consistency, then the row
+    shift that makes it most consistent."""
+    n = len(ds)
+    block = np.arange(min(n, LAG_ROWS))  # consecutive rows (the lag needs neighbours)
+    if ug_src is None:
+        ug, ok_g = _unit_dirs(ds.acc[block], float(ds.meta.get("gravity_g") or 1.0))
+        other = "accelerometer's"
+    else:
+        ug, ok_g = ug_src[block], True
+        other = "poses' gravity"
+    F = float(ds.meta.get("field_nT") or 50_000.0)
+    ub, ok_b = _unit_dirs(ds.mag[block], F)
+    if len(block) < 6:
+        return
+    # raw directions (no ellipsoid: too few orientations) are only worth comparing when the offsets are
+    # small against the vector: |v| nearly constant
+    for ok, v in ((ok_g, None if ug_src is not None else ds.acc[block]), (ok_b, ds.mag[block])):
+        if not ok and v is not None:
+            n = np.linalg.norm(v, axis=1)
+            if np.std(n) > RAW_DIRS_MAX_CV * np.mean(n):
+                rep.findings.append(Finding("axes", "note", (
+                    "the axes and the pairing of the triads were not checked: too few orientations for an "
+                    "ellipsoid fit, and offsets too large to compare raw directions"), None, {}))
+                return
+    spreads, dips = {}, {}
+    for P in _signed_perms():
+        d = _dip(ug, ub @ P.T)
+        spreads[tuple(P.ravel())] = _robust_std(d)
+        dips[tuple(P.ravel())] = float(np.median(d))
+    ident = tuple(np.eye(3).ravel())
+    s_id = spreads[ident]
+    s_min = min(spreads.values())
+    # P and -P fit the dip equally well (with opposite signs): among the maps
+    # as good as the best, the one with the header's dip sign, then the one
+    # closest to the declared map (fewest axes changed), then a rotation
+    hdr = ds.meta.get("dip_deg")
+    tied = [k for k in spreads if spreads[k] <= 1.05 * s_min + 0.05]
+    best = min(tied, key=lambda k: (0 if hdr is None or abs(float(hdr)) < 5.0 or np.sign(dips[k]) == np.sign(float(hdr))
+                                    else 1, int(np.sum(np.any(np.array(k).reshape(3, 3) != np.eye(3), axis=1))),
+                                    np.linalg.det(np.array(k).reshape(3, 3)) < 0))
+    s_best = spreads[best]
+    P = np.array(best).reshape(3, 3)
+    fig = {"dip_spread_declared_deg": s_id, "dip_spread_best_deg": s_best, "best_map": _perm_text(P)}
+    if best != ident and s_id > max(AXES_RATIO * s_best, MIN_SPREAD_DEG + s_best):
+        det = int(round(np.linalg.det(P)))
+        if det < 0:
+            if not _intended(ds, "mag") and not _intended(ds, "acc"):
+                rep.findings.append(Finding("handedness", "error", (
+                    f"the magnetometer's axes are mirrored against the {other}: the dip angle spreads "
+                    f"{s_id:.3g} deg with the axes as given, {s_best:.3g} deg with magnetometer {_perm_text(P)} "
+                    f"(a reflection, determinant -1): one triad's map has a sign or a swap wrong (without poses the "
+                    f"data cannot tell which triad's): "
+                    + _fix(ds, "magnetometer", "the axis map (or reflection = true if the sensor's axes are "
+                                               "left-handed)")), "mag", fig))
+        else:
+            rep.findings.append(Finding("axes", "warning", (
+                f"the magnetometer's axes are not the {other}: the dip angle spreads {s_id:.3g} deg with the "
+                f"axes as given, {s_best:.3g} deg with magnetometer {_perm_text(P)} (a rotation; the fit "
+                f"absorbs it, started from that map); "
+                + _fix(ds, "magnetometer", "that axis map")), "mag", fig))
+        rep.mag_to_acc = P.tolist()
+    else:
+        P = np.eye(3)
+    ubp = ub @ P.T
+    lags = {}
+    m = len(block)
+    for k in range(-MAX_LAG, MAX_LAG + 1):
+        if m - abs(k) < 6:
+            continue
+        if k >= 0:  # magnetometer row i + k paired with accelerometer row i
+            lags[k] = _robust_std(_dip(ug[:m - k], ubp[k:]))
+        else:
+            lags[k] = _robust_std(_dip(ug[-k:], ubp[:m + k]))
+    if not lags:
+        return
+    kb = min(lags, key=lambda k: lags[k])
+    fig = {"dip_spread_by_lag_deg": {str(k): v for k, v in lags.items()}}
+    s0, sb = lags[0], lags[kb]
+    # the spread's own relative precision is about 1/sqrt(2n): a shift must
+    # beat it many times over (and LAG_MIN_GAIN) to be named
+    if kb != 0 and s0 > sb * (1.0 + max(LAG_MIN_GAIN, 5.0 / math.sqrt(m))) and s0 - sb > LAG_MIN_DEG:
+        level = "error" if s0 > LAG_RATIO * sb and s0 > 2.0 else "warning"
+        which = "behind" if kb > 0 else "ahead of"
+        rep.lag_rows = kb
+        rep.findings.append(Finding("row-alignment", level, (
+            f"the triads are paired out of step: the dip angle spreads {s0:.3g} deg as paired, {sb:.3g} deg with "
+            f"the magnetometer's rows shifted by {kb:+d} (its row i + {kb} belongs to the accelerometer's row i: "
+            f"one {which} the other, as when two files are joined and a line is lost); "
+            + (f"re-import with [magnetometer] lag = {kb}" if _imported(ds) else
+               f"shift the magnetometer columns by {kb} row(s) (inclino import with [magnetometer] lag = {kb})")),
+            None, {**fig, "lag_rows": kb}))
+    # the dip's sign against the header
+    if rep.lag_rows:
+        k = rep.lag_rows
+        d = _dip(ug[:m - k], ubp[k:]) if k > 0 else _dip(ug[-k:], ubp[:m + k])
+    else:
+        d = _dip(ug, ubp)
+    dip = float(np.median(d))
+    rep.noise["dip_deg"] = dip
+    hdr = ds.meta.get("dip_deg")
+    if hdr is not None and ug_src is None:
+        hdr = float(hdr)
+        if abs(hdr) > 5.0 and np.sign(dip) != np.sign(hdr) and abs(dip + hdr) < max(DIP_MISMATCH_DEG, 0.3 * abs(hdr)):
+            rep.findings.append(Finding("dip-sign", "error", (
+                f"the dip angle is {dip:+.1f} deg against the header's {hdr:+.1f}: the accelerometer's gravity sign "
+                f"is turned (an axis pointing down must read +1 g: reads = \"up\" or \"down\"), or every "
+                f"magnetometer axis is reversed; "
+                + _fix(ds, "accelerometer", "reads")), "acc", {"dip_deg": dip, "header_dip_deg": hdr}))
+        elif abs(dip - hdr) > DIP_MISMATCH_DEG:
+            rep.findings.append(Finding("dip-sign", "warning", (
+                f"the dip angle is {dip:+.1f} deg (median, before calibration) against the header's {hdr:+.1f}: a "
+                f"wrong dip_deg, a disturbed field, or a large misalignment"), None,
+                {"dip_deg": dip, "header_dip_deg": hdr}))
+
+
+def _acc_poses(ds, rows, rep):
+    """The accelerometer's directions against the poses' gravity:
+    orthogonal Procrustes with and without a reflection; the lag that fits
+    best."""
+    from inclino.engines import reference as ref
+
+    inc = ds.columns["inc_deg"]
+    tf = ds.columns["tf_deg"]
+    azi = ds.columns.get("azi_deg", np.zeros(len(ds)))
+    n = len(ds)
+    block = np.arange(min(n, LAG_ROWS))
+    C = ref.pose_matrix(inc[block], azi[block], tf[block])
+    gp = C[:, :, 2]  # gravity (down) in body axes
+    a = ds.acc[block]
+    ua = a / np.maximum(np.linalg.norm(a, axis=1, keepdims=True), 1e-300)
+
+    def procrustes(x, y):
+        U, _, Vt = np.linalg.svd(x.T @ y)
+        R = U @ Vt
+        Rr = U @ np.diag([1.0, 1.0, -1.0]) @ Vt
+        if np.linalg.det(R) < 0:
+            R, Rr = Rr, R
+        e = lambda M: float(np.sqrt(np.mean(np.sum((x - y @ M.T) ** 2, 1))))
+        return R, e(R), Rr, e(Rr)
+
+    if len(np.unique(np.round(gp, 2), axis=0)) < 3:
+        return gp
+    R, e_rot, Rr, e_ref = procrustes(ua, gp)
+    fig = {"rms_rotation": e_rot, "rms_reflection": e_ref}
+    if e_ref < 0.3 * e_rot and e_rot > 0.1 and not _intended(ds, "acc"):
+        if np.allclose(Rr, -np.eye(3), atol=0.2):
+            msg = (f"the accelerometer reads gravity with the wrong sign against the poses (its directions are the "
+                   f"poses' reversed: RMS {e_ref:.3g} reversed, {e_rot:.3g} as a rotation): an axis pointing down "
+                   f"must read +1 g; " + _fix(ds, "accelerometer", "reads (\"up\" for most MEMS parts)"))
+            rep.findings.append(Finding("dip-sign", "error", msg, "acc", fig))
+        else:
+            rep.findings.append(Finding("handedness", "error", (
+                f"the accelerometer's axes are mirrored against the poses (direction RMS {e_ref:.3g} with a "
+                f"reflection, {e_rot:.3g} with the best rotation): a left-handed axis map; "
+                + _fix(ds, "accelerometer", "the axis map (or reflection = true if intended)")), "acc", fig))
+    # the accelerometer rows against the poses' rows, shifted
+    m = len(block)
+    errs = {}
+    for k in range(-MAX_LAG, MAX_LAG + 1):
+        if m - abs(k) < 6:
+            continue
+        x, y = (ua[k:], gp[:m - k]) if k >= 0 else (ua[:m + k], gp[-k:])
+        Rk = procrustes(x, y)[0]
+        errs[k] = float(np.degrees(np.sqrt(np.median(np.sum((x - y @ Rk.T) ** 2, 1)))))
+    if not errs:
+        return gp
+    kb = min(errs, key=lambda k: errs[k])
+    if kb != 0 and errs[0] > 1.5 * errs[kb] and errs[0] > MIN_SPREAD_DEG:
+        level = "error" if errs[0] > LAG_RATIO * errs[kb] and errs[0] > 2.0 else "warning"
+        rep.findings.append(Finding("row-alignment", level, (
+            f"the accelerometer's rows and the poses are out of step: the gravity direction misses the poses by "
+            f"{errs[0]:.3g} deg (median) as paired, {errs[kb]:.3g} deg with the readings shifted by {kb:+d} rows; "
+            f"the pose columns and the readings were joined one row off"), "acc",
+            {"misfit_by_lag_deg": {str(k): v for k, v in errs.items()}}))
+    return gp
+
+
+def _motion(ds, rep):
+    """Static or moving, from the readings' own spread: consecutive readings
+    (or the readings within one pose) against each triad's noise -- the
+    declared noise, else the most a MEMS part of that kind has
+    (NOISE_BOUND).  A time column says nothing about it."""
+    n = len(ds)
+    block = np.arange(min(n, LAG_ROWS))
+    if len(block) < 8:
+        return
+    verdicts = []
+    for t in ("acc", "mag"):
+        if not getattr(ds, f"has_{t}"):
+            continue
+        unit = "g" if t == "acc" else "nT"
+        v = getattr(ds, t)[block]
+        d1 = np.abs(np.diff(v, axis=0))
+        # per-axis step: a static reading's consecutive difference is sqrt(2) x its noise
+        step = float(np.median(d1) / 0.6745 / math.sqrt(2.0))
+        declared = ds.meta.get(f"{t}_noise_{unit}")
+        lsb = ds.meta.get(f"{t}_lsb_{unit}")
+        bound = float(declared) if declared else NOISE_BOUND[t]
+        bound = max(bound, float(lsb) if lsb else 0.0)
+        rep.noise[f"{t}_step_{unit}"] = step
+        if step <= 3.0 * bound:
+            verdicts.append(True)
+            rep.noise[f"{t}_{unit}"] = step
+        else:
+            verdicts.append(False)
+        rep.noise[f"{t}_bound_{unit}"] = bound
+    declared = str(ds.meta.get("static", "")).lower() == "true" or rep.declared_static
+    rep.declared_static = declared
+    if all(verdicts):
+        rep.static = True
+        return
+    rep.static = False if not declared else None
+    steps = ", ".join(f"{'accelerometer' if k.startswith('acc') else 'magnetometer'} "
+                      f"{v * (1e3 if k.startswith('acc') else 1):.3g} {'mg' if k.startswith('acc') else 'nT'}"
+                      for k, v in rep.noise.items() if "_step_" in k)
+    if declared:
+        rep.findings.append(Finding("motion", "note", (
+            f"declared static; consecutive readings differ by a median of {steps} per axis (more than a static "
+            f"sensor's noise): each row is a position of its own, or the sensor moved"), None,
+            {k: v for k, v in rep.noise.items() if "_step_" in k}))
+    else:
+        rep.findings.append(Finding("motion", "note", (
+            f"consecutive readings differ by a median of {steps} per axis, more than a static sensor's noise: "
+            f"the sensor moved between rows (hand-held, continuous rotation), or each row is a position of its "
+            f"own (declare a step-and-hold run static: --static, or [log] static = true)"), None,
+            {k: v for k, v in rep.noise.items() if "_step_" in k}))
+
+
+def _saturation(ds, rep):
+    bad = np.zeros(len(ds), bool)
+    for t, unit in (("acc", "g"), ("mag", "nT")):
+        rng = ds.meta.get(f"{t}_range_{unit}")
+        if not rng or not getattr(ds, f"has_{t}"):
+            continue
+        v = np.abs(getattr(ds, t))
+        hit = (v >= 0.999 * float(rng)).any(1)
+        if hit.any():
+            bad |= hit
+            rep.findings.append(Finding("saturation", "warning", (
+                f"{int(hit.sum())} row(s) at the {'accelerometer' if t == 'acc' else 'magnetometer'}'s declared "
+                f"range +-{float(rng):g} {unit} (saturated): left out of the fit"), t,
+                {"rows": int(hit.sum()), "range": float(rng)}))
+    rep.saturated = np.flatnonzero(bad).tolist()
+
+
+def run(ds, declared_static: bool = False) -> CheckReport:
+    """Every check that the dataset's columns allow (docs/dataset.md)."""
+    rep = CheckReport(rows=len(ds), triads=ds.triads, declared_static=bool(declared_static))
+    rows = _thin(len(ds), CHECK_ROWS)
+    with np.errstate(all="ignore"):
+        if ds.has_acc:
+            _units_acc(ds, rows, rep)
+        if ds.has_mag:
+            _units_mag(ds, rows, rep)
+        units_bad = any(f.check == "units" and f.level == "error" for f in rep.findings)
+        gp = None
+        if ds.has_acc and "inc_deg" in ds.columns and "tf_deg" in ds.columns and not units_bad and len(ds) >= 6:
+            gp = _acc_poses(ds, rows, rep)
+        if not units_bad and len(ds) >= 6:
+            if ds.has_acc and ds.has_mag:
+                _axes_and_lag(ds, rows, rep)
+            elif ds.has_mag and "inc_deg" in ds.columns and "tf_deg" in ds.columns:
+                from inclino.engines import reference as ref
+
+                C = ref.pose_matrix(ds.columns["inc_deg"], ds.columns.get("azi_deg", np.zeros(len(ds))),
+                                    ds.columns["tf_deg"])
+                _axes_and_lag(ds, rows, rep, ug_src=C[:, :, 2])
+        _motion(ds, rep)
+        _saturation(ds, rep)
+    return rep

@@ -1,0 +1,173 @@
+"""Checks before any fit (inclino.checks) on the real-data corpus and on
+corrupted copies of it: each corruption gives its named error or warning,
+the clean logs give none, and the commands exit 2 before any fit."""
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from inclino import checks
+from inclino.cli import main
+from inclino.formats import dataset, importlog, sensor
+
+REAL = Path(__file__).parent / "data" / "real"
+BOTH = [("sap6/BB.csv", "sap6/sensor.toml"), ("sap6/CF.csv", "sap6/sensor.toml"), ("sap6/JG.csv", "sap6/sensor.toml"),
+        ("ck_acc_mag/acc_mag_log.csv", "ck_acc_mag/sensor.toml")]
+ACC_POSES = ("imucal_ferraris/annotated_session.csv", "imucal_ferraris/sensor.toml")
+ALL = BOTH + [ACC_POSES, ("ck_acc_mag/acc_log.csv", "ck_acc_mag/acc_only.toml")]
+
+
+def _load(log, desc):
+    return importlog.import_log(str(REAL / log), sensor.load(str(REAL / desc)))[0]
+
+
+def _with(ds, **cols):
+    c = {k: v.copy() for k, v in ds.columns.items()}
+    c.update(cols)
+    return dataset.RawDataset(c, dict(ds.meta))
+
+
+def _shifted(ds, k):
+    """The magnetometer's rows k behind (its row i + k is the accelerometer's row i's)."""
+    c = {key: v.copy() for key, v in ds.columns.items()}
+    for m in dataset.MAG_COLS:
+        c[m] = np.roll(c[m], k)  # the magnetometer's row j is now the true row j - k
+    n = len(ds)
+    return dataset.RawDataset({key: v[k:] if k > 0 else v[:n + k] for key, v in c.items()}, dict(ds.meta))
+
+
+def _found(rep, check, level):
+    return [f for f in rep.findings if f.check == check and f.level == level]
+
+
+@pytest.mark.parametrize("log,desc", ALL)
+def test_clean_corpus_logs_pass_the_checks(log, desc):
+    rep = checks.run(_load(log, desc))
+    assert not rep.errors and not rep.warnings, rep.lines()
+
+
+@pytest.mark.parametrize("log,desc", BOTH + [ACC_POSES])
+def test_acceleration_in_m_s2_is_named(log, desc):
+    ds = _load(log, desc)
+    rep = checks.run(_with(ds, **{c: ds.columns[c] * 9.80665 for c in dataset.ACC_COLS}))
+    (f,) = _found(rep, "units", "error")
+    assert "m/s^2" in f.message and f.triad == "acc"
+
+
+@pytest.mark.parametrize("log,desc", BOTH)
+def test_field_in_microtesla_is_named(log, desc):
+    ds = _load(log, desc)
+    rep = checks.run(_with(ds, **{c: ds.columns[c] / 1000.0 for c in dataset.MAG_COLS}))
+    (f,) = _found(rep, "units", "error")
+    assert "uT" in f.message and f.triad == "mag"
+
+
+@pytest.mark.parametrize("log,desc", BOTH)
+@pytest.mark.parametrize("col", ["my_nT", "ay_g", "mz_nT"])
+def test_a_mirrored_axis_is_named(log, desc, col):
+    ds = _load(log, desc)
+    rep = checks.run(_with(ds, **{col: -ds.columns[col]}))
+    assert _found(rep, "handedness", "error"), rep.lines()
+
+
+@pytest.mark.parametrize("log,desc", BOTH)
+def test_swapped_magnetometer_axes_are_named(log, desc):
+    ds = _load(log, desc)
+    rep = checks.run(_with(ds, mx_nT=ds.columns["my_nT"], my_nT=ds.columns["mx_nT"]))
+    assert _found(rep, "handedness", "error"), rep.lines()
+
+
+def test_a_mirrored_axis_against_the_poses_is_named():
+    ds = _load(*ACC_POSES)
+    rep = checks.run(_with(ds, ay_g=-ds.columns["ay_g"]))
+    assert _found(rep, "handedness", "error"), rep.lines()
+
+
+def test_a_flipped_accelerometer_sign_is_named_against_the_poses():
+    ds = _load(*ACC_POSES)
+    rep = checks.run(_with(ds, **{c: -ds.columns[c] for c in dataset.ACC_COLS}))
+    (f,) = _found(rep, "dip-sign", "error")
+    assert "sign" in f.message and "reads" in f.message
+
+
+@pytest.mark.parametrize("log,desc", BOTH[:3])
+def test_a_flipped_accelerometer_sign_is_named_against_the_header_dip(log, desc):
+    ds = _load(log, desc)
+    ds.meta["dip_deg"] = 67.8  # the instruments' own fitted dip (their .cfg)
+    assert not checks.run(ds).errors
+    rep = checks.run(_with(ds, **{c: -ds.columns[c] for c in dataset.ACC_COLS}))
+    (f,) = _found(rep, "dip-sign", "error")
+    assert "gravity sign" in f.message
+
+
+@pytest.mark.parametrize("log,desc", BOTH[:3])
+@pytest.mark.parametrize("k", [1, -1, 2])
+def test_triads_shifted_by_rows_are_named_with_the_shift(log, desc, k):
+    rep = checks.run(_shifted(_load(log, desc), k))
+    (f,) = _found(rep, "row-alignment", "error")
+    assert rep.lag_rows == k and f"{k:+d}" in f.message
+
+
+def test_the_lag_named_is_the_lag_that_fixes_the_import(tmp_path):
+    rows = (REAL / "sap6" / "BB.csv").read_text().splitlines()
+    head, body = rows[0], [r.split(",") for r in rows[1:]]
+    shifted = [",".join(a[:5] + b[5:]) for a, b in zip(body[:-1], body[1:])]  # magnetometer one row ahead
+    log = tmp_path / "two_files_joined.csv"
+    log.write_text("\n".join([head] + shifted) + "\n")
+    desc = sensor.load(str(REAL / "sap6" / "sensor.toml"))
+    rep = checks.run(importlog.import_log(str(log), desc)[0])
+    assert rep.lag_rows == -1
+    desc.mag.lag = rep.lag_rows
+    fixed = importlog.import_log(str(log), desc)[0]
+    assert len(fixed) == 22 and not checks.run(fixed).errors
+
+
+def test_import_refuses_data_that_cannot_be_right_and_writes_nothing(tmp_path, capsys):
+    text = (REAL / "sap6" / "sensor.toml").read_text().replace('unit = "m/s2"', 'unit = "g"')
+    desc = tmp_path / "wrong.toml"
+    desc.write_text(text)
+    out = tmp_path / "run.csv"
+    assert main(["import", str(REAL / "sap6" / "BB.csv"), "--sensor", str(desc), "-o", str(out)]) == 2
+    err = capsys.readouterr().err
+    assert err.count("\n") == 1 and "m/s^2" in err and not out.exists()
+
+
+def test_calibrate_refuses_wrong_units_before_any_fit(tmp_path, capsys):
+    ds = _load("sap6/CF.csv", "sap6/sensor.toml")
+    bad = _with(ds, **{c: ds.columns[c] / 1000.0 for c in dataset.MAG_COLS})
+    run = tmp_path / "run.csv"
+    dataset.write_raw(str(run), bad)
+    cal = tmp_path / "cal.json"
+    assert main(["calibrate", str(run), "-o", str(cal)]) == 2
+    err = capsys.readouterr().err
+    assert "uT" in err and err.count("\n") == 1 and not cal.exists()
+
+
+def test_a_left_handed_map_in_a_description_is_refused_unless_declared(tmp_path):
+    text = (REAL / "ck_acc_mag" / "sensor.toml").read_text().replace('axes = "x = mx, y = my, z = mz"',
+                                                                      'axes = "x = mx, y = -my, z = mz"')
+    with pytest.raises(Exception) as e:
+        sensor.from_toml(text)
+    assert "reflection" in str(e.value) and "determinant -1" in str(e.value)
+    ok = sensor.from_toml(text.replace('lsb = "0.14 mG"', 'lsb = "0.14 mG"\nreflection = true'))
+    assert ok.mag.det == -1
+
+
+def test_saturated_rows_are_named():
+    ds = _load("ck_acc_mag/acc_mag_log.csv", "ck_acc_mag/sensor.toml")
+    ax = ds.columns["ax_g"].copy()
+    ax[:7] = 2.0
+    ds.meta["acc_range_g"] = 2.0
+    rep = checks.run(_with(ds, ax_g=ax))
+    (f,) = _found(rep, "saturation", "warning")
+    assert rep.saturated == list(range(7))
+
+
+def test_static_or_moving_from_the_readings_not_the_time_column():
+    faces = _load(*ACC_POSES)  # static faces, with a time column
+    assert checks.run(faces).static is True
+    tumbled = _load("ck_acc_mag/acc_mag_log.csv", "ck_acc_mag/sensor.toml")  # no time column, moving
+    rep = checks.run(tumbled)
+    assert rep.static is False and _found(rep, "motion", "note")
+    rep = checks.run(tumbled, declared_static=True)
+    assert rep.declared_static and rep.static is None
