@@ -108,6 +108,25 @@ def test_triads_shifted_by_rows_are_named_with_the_shift(log, desc, k):
     assert rep.lag_rows == k and f"{k:+d}" in f.message
 
 
+@pytest.mark.parametrize("log,desc", BOTH[:3])
+@pytest.mark.parametrize("k", [1, -1])
+def test_a_shift_in_a_step_and_hold_log_is_named(log, desc, k):
+    """Many rows per position (each shot held for 30 readings, with noise):
+    a one-row shift mispairs only the rows where the position changes."""
+    ds = _load(log, desc)
+    rng = np.random.default_rng(7)
+    c = {key: np.repeat(v, 30) for key, v in ds.columns.items()}
+    for key in dataset.ACC_COLS:
+        c[key] = c[key] + rng.normal(0.0, 1e-3, len(c[key]))
+    for key in dataset.MAG_COLS:
+        c[key] = c[key] + rng.normal(0.0, 100.0, len(c[key]))
+    held = dataset.RawDataset(c, dict(ds.meta))
+    assert checks.run(held, declared_static=True).lag_rows == 0
+    rep = checks.run(_shifted(held, k), declared_static=True)
+    (f,) = _found(rep, "row-alignment", "warning")
+    assert rep.lag_rows == k and f"lag = {k}" in f.message
+
+
 def test_the_lag_named_is_the_lag_that_fixes_the_import(tmp_path):
     rows = (REAL / "sap6" / "BB.csv").read_text().splitlines()
     head, body = rows[0], [r.split(",") for r in rows[1:]]

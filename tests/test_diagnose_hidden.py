@@ -110,10 +110,10 @@ def test_gain_and_json_shape():
     p = plans.hide(plans.PROBE, "scale-nonlinearity", "acc", "z", 5e-4)
     r = diagnose(plans.generate(p, plans.oven_plan(seed=4), 4))
     d = json.loads(r.to_json())
-    assert list(d) == ["baseline", "effects", "unexplained"]
+    assert list(d) == ["baseline", "effects", "contradicted", "confounded", "unexplained"]
     assert isinstance(d["unexplained"], bool)
     (e,) = d["effects"]
-    assert list(e) == ["name", "sensor", "axis", "estimate", "stderr", "units", "gain"]
+    assert list(e) == ["name", "sensor", "axis", "estimate", "stderr", "units", "gain", "detail"]
     assert list(e["gain"]) == ["rms_before", "rms_after", "cv_rms_before", "cv_rms_after", "azi_rms_before_deg",
                                "azi_rms_after_deg", "inc_rms_before_deg", "inc_rms_after_deg"]
     assert (e["name"], e["sensor"], e["axis"], e["units"]) == ("scale-nonlinearity", "acc", "z", "1/g")

@@ -114,20 +114,22 @@ def test_strong_hidden_effect_named_and_estimated(effect):
     """One effect at a random sensor, axis, sign and size between z = 10 and
     the strong magnitude of the issue (turntable 2 deg, drift 2000 nT over
     the run, 50 ug/degC, 5 nT/degC, 2000 ppm/degC, 1 % nonlinearity, 50 ms
-    skew), log-uniform, drawn at test time; every other run with 1 % spiked
-    rows."""
+    skew, a rig field of 500 nT RMS beyond what the baseline absorbs),
+    log-uniform, drawn at test time; every other run with 1 % spiked rows."""
     seed = SEED0 + core.EFFECT_NAMES.index(effect)
     rng = np.random.default_rng([seed, 3])
     kinds = bench.EFFECT_PLANS[effect]
     kind = kinds[int(rng.integers(len(kinds)))]
     plan = plans.oven_plan(seed=seed) if kind == "static" else plans.rotation_plan()
     cand = bench._pick(effect, rng)
-    zu = plans.signature_z(plans.PROBE, plan, cand)
+    # a rig field: a random one, scaled so that its size is what the baseline cannot absorb (what is reported)
+    pattern = plans.unit_rig_pattern(plans.PROBE, plan, cand.axis, rng) if effect == "rig-field" else None
+    zu = plans.signature_z(plans.PROBE, plan, cand, pattern=pattern)
     big = bench.strong_value(cand, plan)
     lo = min(10.0 / zu, big)
     size = float(np.exp(rng.uniform(np.log(lo), np.log(big))))
-    value = size * (1.0 if rng.random() < 0.5 else -1.0)
-    ds = plans.generate(plans.hide(plans.PROBE, cand.name, cand.sensor, cand.axis, value), plan, seed)
+    value = size * (1.0 if rng.random() < 0.5 or pattern is not None else -1.0)
+    ds = plans.generate(plans.hide(plans.PROBE, cand.name, cand.sensor, cand.axis, value, pattern=pattern), plan, seed)
     if seed % 2:
         plans.add_outlier_rows(ds, np.random.default_rng([seed, 98]), 0.01)
     r = diagnose(ds)

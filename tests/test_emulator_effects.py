@@ -169,3 +169,37 @@ def test_li2021_scenario_level_reading_by_hand():
     bias = np.array([-17.5863, -46.3725, -6.8975]) / 16384
     expected = np.array([k[0] * f_zx, k[1] * f_zy, k[2]]) + bias
     np.testing.assert_allclose(ds.acc[0], np.round(expected * 16384) / 16384, atol=0)
+
+
+def test_rig_field_of_a_part_on_the_inclination_arm():
+    """A magnetised part riding on the inclination arm is a constant field in
+    the arm's frame Ry(I) Rz(A) W; in the frame the inclination axis turns
+    in (the azimuth platform, Rz(A) W) that is Ry(I)^T b_arm, the first
+    harmonic of I: cos I (b_x, 0, b_z) + sin I (b_z, 0, -b_x) + (0, b_y, 0)
+    at h = 0.  The body then reads Rz(T) b_arm at every pose, and the
+    emulated world adds it to the Earth field; the accelerometer is not
+    touched."""
+    rng = np.random.default_rng(5)
+    b = rng.normal(0, 300, 3)
+    rf = fx.RigField("inc", [[0.0, b[1], 0.0], [b[0], 0.0, b[2]]], [[0.0, 0.0, 0.0], [b[2], 0.0, -b[0]]])
+    I, A, T = rng.uniform(0, 180, 50), rng.uniform(0, 360, 50), rng.uniform(0, 360, 50)
+    want = (ref.rz(T) @ b[:, None])[..., 0]
+    assert np.allclose(rf.apply(I, A, T), want, atol=1e-9)
+    s = scenario_from_dict({"world": {"rig_field": {"axis": "inc", "cos_nT": rf.cos_nT.tolist(),
+                                                    "sin_nT": rf.sin_nT.tolist()}}})
+    g0, b0 = scenario_from_dict({}).world.truth(I, A, T)
+    g1, b1 = s.world.truth(I, A, T)
+    assert np.array_equal(g0, g1) and np.allclose(b1 - b0, want, atol=1e-9)
+
+
+def test_rig_field_of_the_azimuth_axis_is_in_the_world_frame():
+    """On the azimuth axis a field given in the world frame at harmonic 1:
+    cos A (1, 0, 0) + sin A (0, 1, 0) points along the platform's x axis
+    (north turned by A), so the body reads C(I, A, T) (cos A, sin A, 0)."""
+    rf = fx.RigField("azi", [[0, 0, 0], [100.0, 0, 0]], [[0, 0, 0], [0, 100.0, 0]])
+    I, A, T = np.array([30.0, 90.0]), np.array([40.0, 200.0]), np.array([10.0, 300.0])
+    a = np.radians(A)
+    want = (ref.pose_matrix(I, A, T) @ np.stack([100 * np.cos(a), 100 * np.sin(a), 0 * a], -1)[..., None])[..., 0]
+    assert np.allclose(rf.apply(I, A, T), want)
+    with pytest.raises(ValueError):
+        fx.RigField("pitch")

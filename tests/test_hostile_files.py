@@ -398,14 +398,36 @@ def test_bootstrap_2_prints_no_numpy_warnings(run_csv, tmp_path, capsys):
 
 
 # ------------------------------------------------------------ 7: long runs
-def test_thinning_rule_keeps_every_kth_row():
+def test_thinning_rule_keeps_one_row_per_stretch():
     n = int(np.random.default_rng().integers(1000, 5000))
     m = int(np.random.default_rng().integers(50, 400))
     ds = dataset.RawDataset({c: np.arange(n, dtype=float) + j for j, c in enumerate(dataset.SENSOR_COLS)})
     sub, note = dataset.thin(ds, m)
-    k = -(-n // m)
-    assert len(sub) <= m and np.array_equal(sub.columns["ax_g"], np.arange(0, n, k, dtype=float))
-    assert f"one row in {k} was used" in note and dataset.thin(ds, n) == (ds, None)
+    kept = sub.columns["ax_g"].astype(int)
+    assert len(kept) == m and np.all(np.diff(kept) > 0)
+    edges = (np.arange(m + 1) * n) // m  # m stretches of the run, one row kept in each
+    assert np.all((kept >= edges[:-1]) & (kept < edges[1:]))
+    assert f"{m} of them were used" in note and dataset.thin(ds, n) == (ds, None)
+    again, _ = dataset.thin(ds, m)  # seeded: the same file gives the same rows
+    assert np.array_equal(again.columns["ax_g"], sub.columns["ax_g"])
+
+
+@pytest.mark.parametrize("period", [2, 3, 120])
+def test_thinning_does_not_alias_a_repeated_pattern(period):
+    """A run whose rows repeat a pattern of `period` (alternating poses, a
+    repeated pose table): the rows kept hold every phase of the pattern in
+    its share.  A stride of k = ceil(n / m) kept only phase 0 when k was a
+    multiple of the period (n = 2 m + 2 with period 2: every row kept was
+    phase 0)."""
+    m = 6000
+    n = (period - 1) * m + 2 if period <= 3 else 2 * m + 2  # a stride k = ceil(n / m) of 2, 3, 3
+    phase = np.arange(n) % period
+    ds = dataset.RawDataset({c: phase.astype(float) for c in dataset.SENSOR_COLS})
+    sub, _ = dataset.thin(ds, m)
+    share = np.bincount(sub.columns["ax_g"].astype(int), minlength=period) / len(sub)
+    # each phase's share is a sum of independent draws: 1/period within 6 binomial sigmas
+    sd = np.sqrt((1 / period) * (1 - 1 / period) / m)
+    assert np.all(np.abs(share - 1 / period) <= 6 * sd + 1 / m), share
 
 
 def test_calibrate_and_diagnose_state_the_thinning(run_csv, monkeypatch, capsys):
@@ -413,12 +435,12 @@ def test_calibrate_and_diagnose_state_the_thinning(run_csv, monkeypatch, capsys)
 
     ds = dataset.read_raw(str(run_csv))
     cal, rep = calib.fit(ds, "joint", max_rows=len(ds) // 2)
-    assert any(f"the run has {len(ds)} rows; one row in 2 was used" in n for n in rep.notes)
+    assert any(f"the run has {len(ds)} rows; {len(ds) // 2} of them were used" in n for n in rep.notes)
     assert rep.rows <= len(ds) // 2 + 1 and cal.data["rows"] == len(ds)
     m = len(ds) // 3
     monkeypatch.setattr(analysis, "MAX_ROWS", m)
     r = analysis.diagnose(ds)
-    assert any(f"one row in {-(-len(ds) // m)} was used" in n for n in r.baseline["selection"]["notes"])
+    assert any(f"; {m} of them were used" in n for n in r.baseline["selection"]["notes"])
 
 
 def test_progress_lines_off_a_terminal(run_csv, tmp_path):
@@ -663,6 +685,7 @@ def test_thinning_note_names_the_rows_kept():
     ds = dataset.RawDataset({c: np.arange(100.0) for c in dataset.SENSOR_COLS})
     assert len(dataset.RawDataset()) == 0
     sub, note = dataset.thin(ds, 30)
-    assert len(sub) == 25 and list(sub.columns["ax_g"][:3]) == [0.0, 4.0, 8.0]
-    assert note.startswith("the run has 100 rows; one row in 4 was used (rows 0, 4, 8, ...: 25 rows; the limit is 30")
+    assert len(sub) == 30 and np.all(np.diff(sub.columns["ax_g"]) > 0)
+    assert note.startswith("the run has 100 rows; 30 of them were used, one drawn at random from each of 30 "
+                           "equal stretches of the run (stratified, seed ")
     assert dataset.thin(ds, 100) == (ds, None)

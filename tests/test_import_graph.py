@@ -27,7 +27,7 @@ from importgraph import cycles, import_graph, modules_under
 ROOT = Path(__file__).resolve().parent.parent
 PACKAGES = {"inclino": ROOT / "host" / "inclino", "inclino_emu": ROOT / "emulator" / "inclino_emu"}
 
-APPLICATION = ("inclino.__main__", "inclino.cli", "inclino.benchmarks", "inclino.procedures.turntable_emulated",
+APPLICATION = ("inclino.__main__", "inclino.entry", "inclino.cli", "inclino.benchmarks", "inclino.procedures.turntable_emulated",
                "inclino.procedures.demo", "inclino.procedures.demo_temp")
 ORDER = {"library": 0, "emulator": 1, "application": 2}
 

@@ -144,3 +144,65 @@ def test_import_bad_input_is_one_line_exit_2(tmp_path, capsys):
     assert "no column 'AZZ'" in capsys.readouterr().err
     assert main(["import", str(log), "--sensor", "nosuchpreset", "-o", str(tmp_path / "o.csv")]) == 2
     assert "not a preset" in capsys.readouterr().err
+
+
+@pytest.mark.parametrize("acc_unit,acc_factor", [("m/s^2", 9.80665), ("m/s²", 9.80665), ("m s^-2", 9.80665),
+                                                  ("M/S2", 9.80665), ("m/s/s", 9.80665), ("milli-g", 1000.0),
+                                                  ("mg", 1000.0), ("G", 1.0), ("cm/s^2", 980.665)])
+@pytest.mark.parametrize("mag_unit,mag_factor", [("µT", 1e-3), ("μT", 1e-3), ("microtesla", 1e-3), ("uT", 1e-3),
+                                                  ("mG", 1e-2), ("milligauss", 1e-2), ("Gauss", 1e-5),
+                                                  ("nT", 1.0)])
+def test_units_as_people_spell_them_import_to_g_and_nT(tmp_path, acc_unit, acc_factor, mag_unit, mag_factor):
+    """The same readings written in another unit, with that unit's usual
+    spelling in the description, import to the same g and nT."""
+    ds0 = importlog.import_log(str(REAL / "sap6" / "BB.csv"), sensor.load(str(REAL / "sap6" / "sensor.toml")))[0]
+    raw = np.column_stack([-ds0.acc[:, [2, 1, 0]] * [1, 1, -1] * acc_factor, ds0.mag * mag_factor])
+    # sensor axes: a = (z, y, -x) of the body, read up; m = body axes
+    log = tmp_path / "log.csv"
+    log.write_text("ax,ay,az,mx,my,mz\n" + "\n".join(",".join(f"{v:.9g}" for v in r) for r in raw) + "\n",
+                   encoding="utf-8")
+    desc = sensor.from_toml(f'[accelerometer]\ncolumns = ["ax", "ay", "az"]\nunit = "{acc_unit}"\nreads = "up"\n'
+                            f'axes = "x = -az, y = ay, z = ax"\n[magnetometer]\ncolumns = ["mx", "my", "mz"]\n'
+                            f'unit = "{mag_unit}"\n')
+    ds = importlog.import_log(str(log), desc)[0]
+    assert np.allclose(ds.acc, ds0.acc, rtol=1e-6, atol=1e-9)
+    assert np.allclose(ds.mag, ds0.mag, rtol=1e-6, atol=1e-6)
+
+
+@pytest.mark.parametrize("axes", ['"x = -ay, y = ax, z = az"', '"-y, x, z"', '"-Y+X+Z"', '["-acc_y", "acc_x", "acc_z"]',
+                                  '"x = -acc_y, y = acc_x, z = acc_z"'])
+def test_axis_maps_as_people_write_them_mean_the_same_map(axes):
+    d = sensor.from_toml(f'[accelerometer]\ncolumns = ["acc_x", "acc_y", "acc_z"]\naxes = {axes}\n')
+    assert d.acc.axes_text() == "x = -ay, y = ax, z = az"
+
+
+@pytest.mark.parametrize("axes", ['"-Y-X+Z"', '"x = acc_y, y = acc_x, z = acc_z"'])
+def test_a_left_handed_map_in_any_spelling_is_refused_with_the_fix(axes):
+    with pytest.raises(Exception) as e:
+        sensor.from_toml(f'[accelerometer]\ncolumns = ["acc_x", "acc_y", "acc_z"]\naxes = {axes}\n')
+    msg = str(e.value)
+    assert "reflection" in msg and "reflection = true" in msg and "\n" not in msg
+
+
+def test_a_log_with_decimal_commas_and_iso_time_stamps_imports(tmp_path):
+    """A log as a spreadsheet in a comma-decimal locale writes it: semicolons,
+    decimal commas, ISO 8601 time stamps."""
+    ds0 = importlog.import_log(str(REAL / "sap6" / "BB.csv"), sensor.load(str(REAL / "sap6" / "sensor.toml")))[0]
+    lines = ["time;gx;gy;gz;mx;my;mz"]
+    for i, (a, m) in enumerate(zip(ds0.acc, ds0.mag)):
+        stamp = f"2024-05-01T12:00:{i * 2.5:06.3f}Z"
+        cells = [f"{v:.9g}".replace(".", ",") for v in list(a) + list(m / 1000.0)]
+        lines.append(";".join([stamp] + cells))
+    log = tmp_path / "locale.csv"
+    log.write_text("\n".join(lines) + "\n", encoding="utf-8")
+    desc = sensor.from_toml('[log]\ndecimal = ","\ntime = "time"\n[accelerometer]\ncolumns = ["gx", "gy", "gz"]\n'
+                            '[magnetometer]\ncolumns = ["mx", "my", "mz"]\nunit = "µT"\n')
+    ds = importlog.import_log(str(log), desc)[0]
+    assert np.allclose(ds.acc, ds0.acc, rtol=1e-6) and np.allclose(ds.mag, ds0.mag, rtol=1e-6)
+    assert np.allclose(ds.columns["t_s"], 2.5 * np.arange(len(ds0)))
+
+
+def test_decimal_comma_with_a_comma_delimiter_is_one_line():
+    with pytest.raises(Exception) as e:
+        sensor.from_toml('[log]\ndecimal = ","\ndelimiter = ","\n[accelerometer]\ncolumns = ["a", "b", "c"]\n')
+    assert "decimal" in str(e.value) and "delimiter" in str(e.value)

@@ -38,6 +38,25 @@ def imported(tmp_path_factory):
     return out
 
 
+@pytest.mark.parametrize("log", ["imucal_ferraris/annotated_session.csv", "ck_acc_mag/acc_mag_log.csv",
+                                 "ck_acc_mag/acc_log.csv", "sap6/BB.csv"])
+def test_diagnose_runs_on_pose_free_and_one_triad_data(imported, log, capsys):
+    """Without the turntable's poses, or with one triad, diagnose reports
+    (what it reports is the pose-free diagnosis's); it does not refuse."""
+    assert main(["diagnose", str(imported[log])]) == 0
+    out = capsys.readouterr().out
+    assert str(imported[log]) in out and out.strip().splitlines()[-1].startswith("conclusion: ")
+
+
+def test_diagnose_without_poses_still_refuses_data_that_cannot_be_right(imported, tmp_path):
+    ds = dataset.read_raw(str(imported["ck_acc_mag/acc_mag_log.csv"]))
+    for c in dataset.ACC_COLS:
+        ds.columns[c] = ds.columns[c] * 9.80665
+    bad = tmp_path / "ms2.csv"
+    dataset.write_raw(str(bad), ds)
+    assert main(["diagnose", str(bad)]) == 2
+
+
 @pytest.mark.parametrize("log", [c[0] for c in CORPUS])
 def test_every_corpus_dataset_calibrates(imported, tmp_path, log, capsys):
     cal_path = tmp_path / "cal.json"

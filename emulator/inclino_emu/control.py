@@ -25,7 +25,14 @@ Whatever a client does, the emulator keeps serving the probe (docs/emulator.md,
   full (it does not read) is dropped, never waited on;
 * each poll handles at most LINES_PER_POLL requests per client and accepts
   at most ACCEPT_PER_POLL connections; at most MAX_CLIENTS are connected
-  (one more is answered `too many clients` and closed).
+  (one more is answered `too many clients` and closed);
+* a client that sends nothing and has nothing to receive for `idle_timeout`
+  seconds (IDLE_TIMEOUT_S by default) is closed, so that idle connections
+  cannot fill the MAX_CLIENTS places;
+* a request whose work takes long (`advance`) answers with a `Pending`: its
+  work is done a bounded slice per poll, between which the emulator serves
+  the serial side and the other clients; that client's next request waits
+  for the answer.
 """
 from __future__ import annotations
 
@@ -33,6 +40,7 @@ import json
 import math
 import selectors
 import socket
+import time
 from typing import Callable
 
 MAX_LINE = 65536          # bytes in one request line (newline excluded)
@@ -43,6 +51,7 @@ MAX_CLIENTS = 64
 LINES_PER_POLL = 32       # requests handled per client per poll
 REQUESTS_PER_POLL = 256   # requests handled per poll over all clients (taken in turn)
 ACCEPT_PER_POLL = 64
+IDLE_TIMEOUT_S = 600.0    # a client silent this long (nothing sent, nothing to receive) is closed
 RECV_SIZE = 16384
 SOCK_SNDBUF = 16384       # kernel send buffer asked for each client's socket
 
@@ -169,20 +178,34 @@ def choice(r: dict, key: str, options: tuple, default: str) -> str:
 
 
 # ---- the server --------------------------------------------------------------------
+class Pending:
+    """The answer of a request whose work goes on over several polls:
+    `step()` does a bounded slice of it and returns None, or the answer's
+    fields when the work is done (an ArgError or ValueError: the error
+    answer)."""
+
+    def __init__(self, step: Callable[[], dict | None], cmd: str = ""):
+        self.step, self.cmd = step, cmd
+
+
 class _Client:
-    __slots__ = ("sock", "inbuf", "outbuf", "closing")
+    __slots__ = ("sock", "inbuf", "outbuf", "closing", "pending", "active")
 
     def __init__(self, sock):
         self.sock = sock
         self.inbuf = bytearray()
         self.outbuf = bytearray()
         self.closing = False   # close once the queue is sent (after `line too long`)
+        self.pending: Pending | None = None
+        self.active = time.monotonic()
 
 
 class ControlServer:
-    def __init__(self, handlers: dict[str, Callable[[dict], dict | None]], port: int = 0):
+    def __init__(self, handlers: dict[str, Callable[[dict], dict | None]], port: int = 0,
+                 idle_timeout: float = IDLE_TIMEOUT_S):
         if not isinstance(port, int) or not 0 <= port <= 65535:
             raise ValueError(f"control port {port} is not within 0-65535")
+        self.idle_timeout = idle_timeout
         self.handlers = handlers
         self._sel = selectors.DefaultSelector()
         self._srv = socket.socket(socket.AF_INET, socket.SOCK_STREAM)
@@ -198,7 +221,8 @@ class ControlServer:
         self.port = self._srv.getsockname()[1]
         self._clients: dict[socket.socket, _Client] = {}
         self._turn = 0
-        self.stats = {"accepted": 0, "refused": 0, "dropped_slow": 0, "dropped_long": 0, "requests": 0}
+        self.stats = {"accepted": 0, "refused": 0, "dropped_slow": 0, "dropped_long": 0, "dropped_idle": 0,
+                      "requests": 0}
 
     @property
     def clients(self) -> int:
@@ -231,6 +255,15 @@ class ControlServer:
                     continue
                 if data:
                     c.inbuf += data
+                    c.active = time.monotonic()
+        now = time.monotonic()
+        for c in list(self._clients.values()):
+            if c.pending is not None:
+                self._step_pending(c)
+                c.active = now
+            elif now - c.active > self.idle_timeout:
+                self.stats["dropped_idle"] += 1
+                self._drop(c)
         clients = list(self._clients.values())
         if clients:   # start with a different client each poll: a busy one cannot starve the others
             k = self._turn % len(clients)
@@ -238,7 +271,7 @@ class ControlServer:
             clients = clients[k:] + clients[:k]
         budget = REQUESTS_PER_POLL
         for c in clients:
-            if budget > 0 and not c.closing and c.inbuf:
+            if budget > 0 and not c.closing and c.inbuf and c.pending is None:
                 budget -= self._handle_lines(c, min(LINES_PER_POLL, budget))
             if c.sock in self._clients:
                 self._flush(c)
@@ -283,12 +316,31 @@ class ControlServer:
             line = bytes(c.inbuf[:i])
             del c.inbuf[:i + 1]
             done += 1
-            self._queue(c, self.handle_line(line))
+            ans = self.handle_line(line, pending_ok=True)
+            if isinstance(ans, Pending):  # answered when its work is done; the next request waits
+                c.pending = ans
+                break
+            self._queue(c, ans)
             if c.sock not in self._clients:
                 break
         return done
 
-    def handle_line(self, line: bytes) -> dict:
+    def _step_pending(self, c: _Client) -> None:
+        p = c.pending
+        try:
+            ans = p.step()
+        except (KeyError, TypeError, ValueError, OverflowError) as e:
+            c.pending = None
+            self._queue(c, {"ok": False, "error": f"bad arguments for {p.cmd}: {e}"})
+            return
+        if ans is not None:
+            c.pending = None
+            self._queue(c, {"ok": True, **ans})
+
+    def handle_line(self, line: bytes, pending_ok: bool = False):
+        """The answer to one request line.  A request whose work goes on
+        over several polls returns its Pending when pending_ok (the
+        server's own loop), else runs it to the end here."""
         self.stats["requests"] += 1
         try:
             req = parse_request(line.rstrip(b"\r"))
@@ -301,6 +353,16 @@ class ControlServer:
             ans = h(req) or {}
         except (KeyError, TypeError, ValueError, OverflowError) as e:
             return {"ok": False, "error": f"bad arguments for {req['cmd']}: {e}"}
+        if isinstance(ans, Pending):
+            ans.cmd = req["cmd"]
+            if pending_ok:
+                return ans
+            try:
+                while (done := ans.step()) is None:
+                    pass
+            except (KeyError, TypeError, ValueError, OverflowError) as e:
+                return {"ok": False, "error": f"bad arguments for {req['cmd']}: {e}"}
+            return {"ok": True, **done}
         return {"ok": True, **ans}
 
     def _queue(self, c: _Client, obj) -> None:
@@ -319,6 +381,8 @@ class ControlServer:
                 self._drop(c)
                 return
             del c.outbuf[:n]
+            if n:
+                c.active = time.monotonic()
         if c.closing and not c.outbuf:
             self._drop(c)
 

@@ -12,6 +12,11 @@ clock, so the SCI runs at its baud rate as a real probe's would; with
 advances by the firmware's own waits and the byte times), and while nothing
 comes from the host it waits for it (IDLE_WAIT_S per 5 ms step) rather than
 spinning.
+
+The control channel's `advance` fast-forwards emulated time in either mode:
+a slice of at most ADVANCE_SLICE_S of wall time per turn of the loop, the
+serial side served between slices; in real time the pacing then goes on
+from the new emulated time (the jump is not waited for).
 """
 from __future__ import annotations
 
@@ -20,7 +25,7 @@ import threading
 import time
 from dataclasses import asdict
 
-from .control import ArgError, ControlServer, boolean, choice, integer, known, number
+from .control import IDLE_TIMEOUT_S, ArgError, ControlServer, Pending, boolean, choice, integer, known, number
 from .probe import EmulatedProbe
 from .serial_pty import PtyLink
 from inclino.model.world import CHAMBER_MAX_RATE_C_PER_MIN, CHAMBER_RANGE_C
@@ -29,6 +34,7 @@ MAX_STEP_S = 0.02
 MAX_ADVANCE_S = 86400.0   # one `advance` request: at most a day of emulated time
 ADVANCE_QUANTUM_S = 0.01  # the firmware's idle loop runs every 10 ms of a fast-forward,
 ADVANCE_MAX_POLLS = 20000  # or every s / 20000 for a long one (bounded wall time)
+ADVANCE_SLICE_S = 0.02     # wall time an `advance` runs before the loop serves the serial side again
 # unthrottled: after IDLE_STEPS steps with nothing on the line or the control
 # channel, the loop waits for the host (at most IDLE_WAIT_S per step) instead of
 # spinning: idle emulated time then runs at 5 ms per ms at least, and an idle
@@ -55,7 +61,8 @@ class _Device:
 class Emulator:
     def __init__(self, scenario="typical", seed: int | None = None, baud: int = 115200,
                  link: str | None = None, control_port: int | None = 0, realtime: bool = True,
-                 serial: int | None = None, tempco_draw: int | None = None, hold_idle: bool = False):
+                 serial: int | None = None, tempco_draw: int | None = None, hold_idle: bool = False,
+                 control_idle_s: float = IDLE_TIMEOUT_S):
         if isinstance(baud, bool) or not isinstance(baud, int) or not BAUD_RANGE[0] <= baud <= BAUD_RANGE[1]:
             raise ValueError(f"baud rate {baud} is not within {BAUD_RANGE[0]}-{BAUD_RANGE[1]}")
         if control_port is not None and (isinstance(control_port, bool) or not isinstance(control_port, int)
@@ -72,7 +79,7 @@ class Emulator:
         self.realtime = realtime
         self.control = None
         if control_port is not None:
-            self.control = ControlServer(self._handlers(), control_port)
+            self.control = ControlServer(self._handlers(), control_port, idle_timeout=control_idle_s)
         self._stop = threading.Event()
         self._thread: threading.Thread | None = None
         self.error: BaseException | None = None
@@ -83,6 +90,7 @@ class Emulator:
         self.hold_idle = bool(hold_idle)  # unthrottled: stop the clock while idle (run())
         self._was_idle = False
         self._last_idle = False
+        self._jumped = 0.0   # emulated seconds `advance` moved the clock since the loop last looked
 
     @property
     def control_port(self) -> int | None:
@@ -132,13 +140,26 @@ class Emulator:
             return {"t": p.clock.now, **ch.state(p.clock.now)}
 
         def advance(r):
-            """Fast-forward emulated time by s seconds (the firmware idles through it)."""
+            """Fast-forward emulated time by s seconds (the firmware idles
+            through it), a slice of wall time per turn of the loop: the
+            serial side is served between slices; answered when done."""
             known(r, "s")
             s = number(r, "s", 0.0, MAX_ADVANCE_S, " s")
             if s <= 0.0:
                 raise ArgError(f"s must be within (0, {MAX_ADVANCE_S:g}] seconds")
-            self._run_for(s)
-            return {"t": p.clock.now, "temp_c": float(p.phys.temperature(p.clock.now))}
+            t_end = p.clock.now + s
+            quantum = max(ADVANCE_QUANTUM_S, s / ADVANCE_MAX_POLLS)
+
+            def step():
+                w0 = time.monotonic()
+                while p.clock.now < t_end and time.monotonic() - w0 < ADVANCE_SLICE_S:
+                    before = p.clock.now
+                    p.step(min(t_end - p.clock.now, 50 * quantum), quantum=quantum)
+                    self._jumped += p.clock.now - before
+                if p.clock.now < t_end:
+                    return None
+                return {"t": p.clock.now, "temp_c": float(p.phys.temperature(p.clock.now))}
+            return Pending(step)
 
         def faults(r):
             known(r, "bit_error_rate", "drop_rate", "dup_rate", "disconnected", "seed")
@@ -261,6 +282,12 @@ class Emulator:
                         n0 = self.control.stats["requests"] + self.control.stats["accepted"]
                         self.control.poll(0.0)
                         asked = self.control.stats["requests"] + self.control.stats["accepted"] != n0
+                        if self._jumped:  # an advance's slice ran: what the probe said meanwhile goes out
+                            self.pty.pump(self._device, 0.0)
+                    if self._jumped:   # an advance moved the clock: pacing goes on from there
+                        t_emu0 += self._jumped
+                        self._jumped = 0.0
+                        asked = True
                 if self.realtime:
                     target = t_emu0 + (time.monotonic() - t_wall0)
                     ahead = clk.now - target

@@ -1,3 +1,3 @@
-from inclino.cli import main
+from inclino.entry import main
 
 raise SystemExit(main())

@@ -54,6 +54,9 @@ LAG_RATIO = 3.0           # spread as paired / spread at the best shift: an erro
 LAG_MIN_GAIN = 0.1        # a warning when the best shift cuts the spread by more than this fraction ...
 LAG_MIN_DEG = 0.1         # ... and by more than this
 MIN_SPREAD_DEG = 1.0      # a dip spread below this is consistent whatever the shift
+LAG_T = 3.0               # step-and-hold logs: the paired mean-deviation gain of a shift must be this many
+                          # standard errors (of blocks of rows) to be named ...
+LAG_T_GAIN = 1.5          # ... and cut the mean deviation by this factor
 AXES_RATIO = 3.0          # dip spread with the declared maps / with the best other map
 RAW_DIRS_MAX_CV = 0.1     # raw directions compared only when |v| varies less than this (offsets small)
 # the noise (1 sigma, one reading, per axis) a static sensor of each kind stays within when the
@@ -352,13 +355,23 @@ def _axes_and_lag(ds, rows_all, rep, ug_src=None):
     s0, sb = lags[0], lags[kb]
     # the spread's own relative precision is about 1/sqrt(2n): a shift must
     # beat it many times over (and LAG_MIN_GAIN) to be named
-    if kb != 0 and s0 > sb * (1.0 + max(LAG_MIN_GAIN, 5.0 / math.sqrt(m))) and s0 - sb > LAG_MIN_DEG:
+    named = kb != 0 and s0 > sb * (1.0 + max(LAG_MIN_GAIN, 5.0 / math.sqrt(m))) and s0 - sb > LAG_MIN_DEG
+    how = f"the dip angle spreads {s0:.3g} deg as paired, {sb:.3g} deg with the magnetometer's rows shifted by {kb:+d}"
+    if not named:
+        # a step-and-hold log of many rows per position: a shift mispairs only the rows where the
+        # position changes, which the robust spread ignores; the mean deviation sees them
+        kt, gain, t = _lag_transitions(ug, ubp)
+        fig.update({"transition_lag_rows": kt, "transition_gain": gain, "transition_t": t})
+        if kt != 0 and t > LAG_T and gain > LAG_T_GAIN:
+            named, kb, sb = True, kt, lags[kt]
+            how = (f"the dip angle's mean deviation is {gain:.3g} times larger as paired than with the "
+                   f"magnetometer's rows shifted by {kt:+d} (the rows where the position changes are mispaired)")
+    if named:
         level = "error" if s0 > LAG_RATIO * sb and s0 > 2.0 else "warning"
         which = "behind" if kb > 0 else "ahead of"
         rep.lag_rows = kb
         rep.findings.append(Finding("row-alignment", level, (
-            f"the triads are paired out of step: the dip angle spreads {s0:.3g} deg as paired, {sb:.3g} deg with "
-            f"the magnetometer's rows shifted by {kb:+d} (its row i + {kb} belongs to the accelerometer's row i: "
+            f"the triads are paired out of step: {how} (its row i + {kb} belongs to the accelerometer's row i: "
             f"one {which} the other, as when two files are joined and a line is lost); "
             + (f"re-import with [magnetometer] lag = {kb}" if _imported(ds) else
                f"shift the magnetometer columns by {kb} row(s) (inclino import with [magnetometer] lag = {kb})")),
@@ -385,6 +398,35 @@ def _axes_and_lag(ds, rows_all, rep, ug_src=None):
                 f"the dip angle is {dip:+.1f} deg (median, before calibration) against the header's {hdr:+.1f}: a "
                 f"wrong dip_deg, a disturbed field, or a large misalignment"), None,
                 {"dip_deg": dip, "header_dip_deg": hdr}))
+
+
+def _lag_transitions(ug, ub):
+    """(best shift, gain, t) from the mean absolute deviation of the dip,
+    paired row by row against the rows as logged: the same accelerometer
+    rows at every shift, the rows' differences averaged in blocks (neighbours
+    are not independent), t = the blocks' mean over its standard error."""
+    m = len(ug)
+    K = MAX_LAG
+    if m < 4 * K + 40:
+        return 0, 1.0, 0.0
+    i = np.arange(K, m - K)
+    dev = {}
+    for k in range(-K, K + 1):
+        d = _dip(ug[i], ub[i + k])
+        dev[k] = np.abs(d - np.median(d))
+    mean = {k: float(np.mean(v)) for k, v in dev.items()}
+    kb = min(mean, key=mean.get)
+    if kb == 0 or not mean[kb] > 0:
+        return 0, 1.0, 0.0
+    diff = dev[0] - dev[kb]
+    L = max(10, len(diff) // 200)
+    nb = len(diff) // L
+    if nb < 8:
+        return 0, 1.0, 0.0
+    bm = diff[:nb * L].reshape(nb, L).mean(1)
+    se = float(np.std(bm, ddof=1) / math.sqrt(nb))
+    t = float(np.mean(bm) / se) if se > 0 else float("inf")
+    return kb, mean[0] / mean[kb], t
 
 
 def _acc_poses(ds, rows, rep):

@@ -54,6 +54,7 @@ EFFECT_PLANS = {
     "sample-skew": ("continuous",),
     "turntable-azimuth-axis-tilt": ("static", "continuous"),
     "turntable-inclination-axis-skew": ("static", "continuous"),
+    "rig-field": ("static", "continuous"),
 }
 # the hidden-effect tests' range (tests/test_diagnose_hidden.py): 2.5-3.5 times the detection
 # threshold (z ~ 3.6).  Nearer the limit the hardest draws are missed often enough to fail a test
@@ -65,6 +66,10 @@ Z_RANGE = (9.0, 12.0)
 Z_SWEEP = (2.0, 4.0, 6.0, 12.0, 30.0, 90.0, 270.0)
 Z_SWEEP_QUICK = (2.0, 6.0, 30.0, 270.0)
 Z_DETECT_MIN = 6.0
+# A rig field is one candidate of 12-15 columns (harmonics x components of its axis' frame), tested together:
+# the same signal norm z clears the F-test's Bonferroni point later than a one-column effect's (at z = 6 a
+# one-column effect is found ~99 % of the time, a 15-column one ~75 %), so its detection target starts higher
+Z_DETECT_MIN_OF = {"rig-field": 12.0}
 OUTLIER_FRACTION = 0.01
 NULL_NOISE = ((30e-6, 2.0), (150e-6, 5.0), (300e-6, 20.0))  # (g, nT)
 NULL_PLANS = ("static", "continuous", "li-grid", "ren-grid")
@@ -87,6 +92,8 @@ def strong_value(cand, plan) -> float:
         return 0.01 if cand.sensor == "acc" else 0.01 / 50000.0
     if cand.name == "sample-skew":
         return 0.05
+    if cand.name == "rig-field":
+        return 500.0  # nT RMS the baseline cannot absorb (a steel part near the probe; the issue's gimbal: ~750 nT)
     raise KeyError(cand.key)
 
 
@@ -121,7 +128,11 @@ def run_case(effect, kind, seed, z=None, alpha=core.DEFAULT_ALPHA, sigma_pose_de
     for name, zz, st in todo:
         cand = _pick(name, rng)
         sign = 1.0 if rng.random() < 0.5 else -1.0
-        zu, peak = plans.signature_z(probe, plan, cand, sigma_pose_deg, with_peak=True)
+        pattern = None
+        if cand.name == "rig-field":  # a random field, scaled to 1 nT RMS of what the baseline cannot absorb
+            pattern = plans.unit_rig_pattern(probe, plan, cand.axis, rng)
+            sign = 1.0  # its size is an RMS
+        zu, peak = plans.signature_z(probe, plan, cand, sigma_pose_deg, with_peak=True, pattern=pattern)
         if st:
             value = sign * strong_value(cand, plan)
             zz = abs(value) * zu
@@ -129,7 +140,7 @@ def run_case(effect, kind, seed, z=None, alpha=core.DEFAULT_ALPHA, sigma_pose_de
             if zz is None:
                 zz = float(rng.uniform(*Z_RANGE))
             value = sign * zz / zu
-        probe = plans.hide(probe, cand.name, cand.sensor, cand.axis, value)
+        probe = plans.hide(probe, cand.name, cand.sensor, cand.axis, value, pattern=pattern)
         case["hidden_all"].append({"name": cand.name, "sensor": cand.sensor, "axis": cand.axis, "value": value,
                                    "units": cand.units, "z": zz, "peak_over_noise": abs(value) * peak})
     if case["hidden_all"]:
@@ -289,9 +300,10 @@ def _bench(zs, per_size, nulls, pairs, with_strong, seed0, alpha, progress) -> D
         j = 0  # datasets at z >= 6 of this effect: every other one spiked
         for z in zs:
             got = []
+            zmin = max(Z_DETECT_MIN, Z_DETECT_MIN_OF.get(name, 0.0))
             for i in range(per_size):
                 out = 0.0
-                if z >= Z_DETECT_MIN:
+                if z >= zmin:
                     out = OUTLIER_FRACTION if j % 2 == 1 else 0.0
                     j += 1
                 c = run(name, kinds[(i + j) % len(kinds)], z=z, outliers=out)
@@ -302,13 +314,15 @@ def _bench(zs, per_size, nulls, pairs, with_strong, seed0, alpha, progress) -> D
                 if "within" in c:
                     within.append(c["within"])
             rates.append(float(np.mean(got)))
-        big = [r for z, r in zip(zs, rates) if z >= Z_DETECT_MIN]
-        sweep["effects"][name] = {"rate": rates, "z50": _z50(zs, rates), "min_rate_z_ge_6": float(min(big)),
+        zmin = max(Z_DETECT_MIN, Z_DETECT_MIN_OF.get(name, 0.0))
+        big = [r for z, r in zip(zs, rates) if z >= zmin]
+        sweep["effects"][name] = {"rate": rates, "z50": _z50(zs, rates), "z_detect_min": zmin,
+                                  "min_rate_z_ge_6": float(min(big)),
                                   "rate_outliers_z_ge_6": float(np.mean(spiked)) if spiked else None,
                                   "within_rate": float(np.mean(within)) if within else None,
                                   "missed": [(c["seed"], c["hidden"]["z"]) for c in cases
                                              if c.get("section") == "sweep" and c["hidden"]["name"] == name
-                                             and c["hidden"]["z"] >= Z_DETECT_MIN and not c["detected"]]}
+                                             and c["hidden"]["z"] >= zmin and not c["detected"]]}
     # strong effects
     strong = {}
     if with_strong:

@@ -145,7 +145,11 @@ class _Flasher:
         self.link, self.image, self.progress, self.res = link, image, progress, result
         self.mark = 0          # the mark the bootloader holds since our last IDENTIFY
         self.in_bootloader = False   # the bootloader answered: the probe no longer runs its application
+        self.asked_bootloader = False  # BOOTLOADER was sent: the probe may be restarting into its bootloader
         self.erase_started = False   # an ERASE was sent: the bootloader invalidates the application first
+        self.erase_done = False      # an ERASE was answered: the old application is gone
+        self.commit_sent = False     # COMMIT was sent: the new application may be valid from now on
+        self.run_sent = False        # RUN was sent: the new application may be starting
         self.restart_seen = False
         self.readback = {}
 
@@ -185,6 +189,7 @@ class _Flasher:
                     raise
                 # the application answered: ask it to start the bootloader
                 self.res.events.append("the probe ran its application: asked it to start the bootloader")
+                self.asked_bootloader = True
                 self.link.request(CMD_BOOTLOADER, struct.pack(">I", BOOT_KEY))
                 asked = True
                 time.sleep(0.05)
@@ -231,6 +236,7 @@ class _Flasher:
         for k, a in enumerate(sectors):
             self.erase_started = True
             self._nak_to_retry(B_ERASE, struct.pack(">I", a), timeout=self.link.timeout + 0.2)
+            self.erase_done = True
             self._tick("erase", k + 1, len(sectors))
         res.sectors_erased = len(sectors)
         done = 0
@@ -267,6 +273,7 @@ class _Flasher:
         ident = self.identify_after("programming")
         payload = struct.pack(">IB", img.entry, len(img.ranges)) + b"".join(
             struct.pack(">III", r.addr, len(r.data), r.crc) for r in img.ranges)
+        self.commit_sent = True
         p = self._nak_to_retry(B_COMMIT, payload, timeout=self._long(total_verify))
         hdr_crc, total = struct.unpack(">II", p)
         ident = self.identify_after("the commit")
@@ -362,30 +369,60 @@ def flash(link_or_port, image_path: str, progress: Progress = None, *, attempts:
 
 
 def _interrupted_state(fl: "_Flasher", res: FlashResult) -> str:
-    """What Ctrl-C left on the probe, for `inclino: interrupted: ...`."""
-    if not fl.in_bootloader:
-        return "nothing was changed on the probe"
+    """What Ctrl-C left on the probe, for `inclino: interrupted: ...`: true
+    in every window of the flash (docs/bootloader.md, "Interrupted").  Where
+    the host cannot know (a request sent, its answer not yet back), it asks
+    the probe once."""
     if res.committed:
-        return ("the new application is flashed and committed; power-cycle the probe to start it"
-                if not res.app_running else "the new application is flashed and runs")
-    status = None
-    if fl.erase_started:
-        old = fl.link.retries
-        try:   # one quick question: did the bootloader already invalidate the old application?
-            fl.link.retries = 0
-            status = fl.identify().app_status
-        except (ProbeError, KeyboardInterrupt):
-            status = None
-        finally:
-            fl.link.retries = old
-    if not fl.erase_started or status == 0:
+        if res.app_running:
+            return "the new application is flashed and runs"
+        if fl.run_sent:
+            return ("the new application is flashed and committed, and was told to start: power-cycle the probe "
+                    "if it does not answer")
+        return "the new application is flashed and committed; power-cycle the probe to start it"
+    if not fl.in_bootloader and not fl.asked_bootloader:
+        return "nothing was changed on the probe"
+    status, app = _ask_status(fl)
+    if app:
+        return "nothing was changed on the probe: it runs its application"
+    if not fl.erase_started:
+        if status is None:
+            return ("nothing was erased: the probe was asked to start its bootloader; power-cycle it to start its "
+                    "old application, or run inclino flash again")
         return ("nothing was erased: the probe waits in its bootloader with its old application; power-cycle "
                 "it to start that, or run inclino flash again")
+    if status == 0:
+        if fl.commit_sent:
+            return ("the new application is flashed and committed (the commit finished as Ctrl-C came); "
+                    "power-cycle the probe to start it, or run inclino flash again to check it")
+        if not fl.erase_done:
+            return ("nothing was erased (the first erase had not run): the probe waits in its bootloader with "
+                    "its old application; power-cycle it to start that, or run inclino flash again")
+        return ("the bootloader reports a valid application although an erase ran: run inclino flash again "
+                "before using the probe")
     if status is None:
+        if fl.commit_sent:
+            return ("the commit was under way and the probe does not answer: it holds either the new application "
+                    "or none; run inclino flash again")
         return ("an erase was under way, so the application is probably erased: the probe stays in its "
                 "bootloader until inclino flash is run again")
     return ("the application is erased: the probe stays in its bootloader (no application) until inclino "
             "flash is run again")
+
+
+def _ask_status(fl: "_Flasher"):
+    """(bootloader's application status or None when it does not answer,
+    True when the application answered instead): one quick question."""
+    old = fl.link.retries
+    try:
+        fl.link.retries = 0
+        return fl.identify().app_status, False
+    except ProbeNak as e:
+        return None, e.code in (E_COMMAND, E_STATE)
+    except (ProbeError, KeyboardInterrupt):
+        return None, False
+    finally:
+        fl.link.retries = old
 
 
 def _flash(fl, link, image, res, attempts, run, readback_path, t0) -> FlashResult:
@@ -467,6 +504,7 @@ def _state(fl: _Flasher) -> str:
 
 
 def _run(fl: _Flasher, res: FlashResult):
+    fl.run_sent = True
     fl.link.request(B_RUN)
     deadline = time.monotonic() + max(2.0, fl.link.timeout * 4)
     while time.monotonic() < deadline:

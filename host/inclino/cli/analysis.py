@@ -21,6 +21,7 @@ from __future__ import annotations
 import csv
 import json
 
+from inclino.cli.paths import Input
 from inclino.cli.options import add_cal, add_json, add_output, add_plot, command, deprecated
 from inclino.errors import CalibrationError, DataError
 
@@ -101,14 +102,14 @@ def add_calibrate(subparsers):
                 "verdict is FAIL; exit 3: refused (singular, out of the firmware's range), nothing written.",
                 ["inclino calibrate run.csv -o cal.json",
                  "inclino calibrate chamber.csv --method joint --temperature-terms on -o cal_t.json"])
-    c.add_argument("input", help="raw dataset CSV (docs/dataset.md)")
+    c.add_argument("input", action=Input, help="raw dataset CSV (docs/dataset.md)")
     c.add_argument("--method", choices=tuple(METHODS), default=DEFAULT_METHOD,
                    help="fitting method (default %(default)s)")
     add_output(c, "calibration file to write", metavar="CAL.json")
     add_json(c, "print the fit report as one JSON object")
     c.add_argument("--no-poses", action="store_true",
                    help="joint: ignore the pose columns (field recalibration from the invariants)")
-    c.add_argument("--prior", metavar="CAL.json",
+    c.add_argument("--prior", metavar="CAL.json", action=Input,
                    help="joint without poses: take what the invariants cannot see (the common rotation "
                         "of the sensor block) from this turntable calibration of the same probe")
     c.add_argument("--temperature-terms", choices=("auto", "on", "off"), default=None,
@@ -242,7 +243,7 @@ def add_attitude(sub):
                 "float64 reference, with a calibration or the identity, and write it as CSV.",
                 ["inclino attitude run.csv --cal cal.json -o attitude.csv",
                  "inclino attitude run.csv --engine reference -o -"])
-    a.add_argument("input", help="raw dataset CSV")
+    a.add_argument("input", action=Input, help="raw dataset CSV")
     add_cal(a, "calibration to apply (default: the identity)")
     a.add_argument("--engine", choices=("firmware", "golden", "reference"), default="firmware",
                    help="the firmware's C, the NumPy golden model, or float64 (default %(default)s); every engine "
@@ -285,10 +286,19 @@ def diagnose_main(args) -> int:
     _checked(ds, bool(getattr(args, "static", False)))
     if getattr(args, "cal", None):
         ds = _temperature_corrected(ds, args.cal)
+    pose_free = not ds.has_pose or ds.triads != "both"
+    if pose_free and not _posefree_diagnosis_available():
+        return _diagnose_invariants(ds, args)
     try:
         with np.errstate(all="ignore"), progress.phase(f"diagnose {args.input}"):
             r = diagnose(ds, effects=args.effects, alpha=args.alpha, folds=args.folds,
                          keep_plot_data=bool(args.plot))
+    except DataError as e:
+        if pose_free and str(e).startswith("too few distinct orientations"):
+            # too few orientations to test anything on the invariants (a six-face session): what each triad's
+            # own fit leaves, nothing named
+            return _diagnose_invariants(ds, args)
+        raise
     except (ArithmeticError, ValueError, np.linalg.LinAlgError) as e:  # one line, never a traceback
         raise DataError(f"diagnose failed on {args.input}: {type(e).__name__}: {e}")
     written = []
@@ -306,26 +316,71 @@ def diagnose_main(args) -> int:
     return 0
 
 
+def _posefree_diagnosis_available() -> bool:
+    import importlib.util
+
+    return importlib.util.find_spec("inclino.diagnose.posefree") is not None
+
+
+def _diagnose_invariants(ds, args) -> int:
+    """Data without the turntable's poses, or with one triad: the pose-based
+    effect tests need both; what the invariants show is reported instead
+    (each triad fitted on its own, |g|, |b| and the dip left over, each
+    triad's noise, contiguous blocks of misfit as segments)."""
+    import json as _json
+
+    import numpy as np
+
+    from inclino import progress
+    from inclino.calib import fit
+    from inclino.errors import CalibrationError
+
+    if args.effects:
+        raise DataError("--effects needs a dataset with both triads and the turntable's poses (inc_deg, azi_deg, "
+                        "tf_deg): without them the invariants are reported")
+    need = ["inc_deg", "tf_deg"] + (["azi_deg"] if ds.has_mag else [])
+    missing = [c for c in need if c not in ds.columns]
+    if missing and len(missing) < len(need):
+        raise DataError(f"diagnose needs the turntable's pose for every reading, or no pose at all; missing "
+                        f"column(s): {', '.join(missing)} (add them, or drop the other pose columns for the "
+                        f"pose-free report)")
+    poses = not missing
+    why = ("one triad only (the effect tests need both)" if ds.triads != "both" and poses
+           else "no turntable poses")
+    try:
+        with np.errstate(all="ignore"), progress.phase(f"diagnose {args.input}"):
+            _, rep = fit(ds, "joint", use_poses=poses, accept_mount_tolerance=True, check=False,
+                         static=bool(getattr(args, "static", False)))
+    except (CalibrationError, ArithmeticError, ValueError, np.linalg.LinAlgError) as e:
+        raise DataError(f"diagnose failed on {args.input}: {e}")
+    note = (f"{why}: " + ("the residuals against the poses and the invariants after the triad's own fit"
+                          if poses else "the invariants |g|, |b| and the dip after each triad's own fit")
+            + "; no effect is named")
+    if args.json:
+        print(_json.dumps({"mode": "invariants", "note": note, "effects": [], "report": rep.to_dict()}))
+    else:
+        print(f"{args.input}:")
+        print(f"  {note}")
+        print(rep.summary(verdict=False))
+        print("conclusion: " + ("PASS: the invariants fit within their limits; no effect named" if rep.passed else
+                                "FAIL: the invariants do not fit (" + "; ".join(rep.reasons) + "); no effect "
+                                "named without the turntable's poses and both triads"))
+    return 0
+
+
 def _temperature_corrected(ds, path):
     """The readings brought to the calibration's reference temperature with
     its temperature terms (CAL.json's temperature block, joint --temperature-terms):
     what the diagnosis then sees is what those terms leave."""
     from inclino.formats.calfile import Calibration
     from inclino.calib import thermal
-    from inclino.errors import CalibrationError
 
-    try:
-        cal = Calibration.load(path)
-    except CalibrationError as e:
-        raise DataError(str(e))
+    cal = Calibration.load(path)  # a corrupt calibration: exit 3, as for every command that reads one
     if not cal.temperature:
         raise DataError(f"{path} has no temperature terms (fit them with calibrate --method joint --temperature-terms)")
     if "temp_c" not in ds.columns:
         raise DataError("--cal: the data have no temp_c column to apply the temperature terms with")
-    try:
-        return thermal.corrected_dataset(ds, cal, cal.temperature)
-    except (KeyError, TypeError, ValueError) as e:
-        raise DataError(f"{path}: the temperature block is mangled ({e})")
+    return thermal.corrected_dataset(ds, cal, cal.temperature)  # the block's rules: calfile.check_temperature
 
 
 def add_diagnose(subparsers):
@@ -341,7 +396,8 @@ def add_diagnose(subparsers):
                 "alignment) run first. --paper compares the papers' own tables instead.",
                 ["inclino diagnose run.csv", "inclino diagnose run.csv --plot figures --json",
                  "inclino diagnose --paper li2021"])
-    p.add_argument("input", nargs="?", help="raw dataset CSV, with the turntable's poses or without (docs/dataset.md)")
+    p.add_argument("input", nargs="?", action=Input,
+                   help="raw dataset CSV, with the turntable's poses or without (docs/dataset.md)")
     add_json(p)
     add_plot(p, "write PNGs of the residuals (before/after) into this folder")
     p.add_argument("--effects", help="comma-separated effects to test (default: all): " + ", ".join(EFFECT_NAMES))

@@ -37,6 +37,7 @@ def import_main(args) -> int:
 
 def add_import(sub):
     from inclino.cli.options import add_json, add_output, command
+    from inclino.cli.paths import Input
 
     p = command(sub, "import", "a log of any accelerometer/magnetometer into the canonical dataset, "
                                "through a sensor description (docs/dataset.md)",
@@ -48,8 +49,8 @@ def add_import(sub):
                 ["inclino import log.csv --sensor mpu9250 -o run.csv",
                  "inclino import tests/data/real/ck_acc_mag/acc_mag_log.csv "
                  "--sensor tests/data/real/ck_acc_mag/sensor.toml -o run.csv"])
-    p.add_argument("log", help="the log: delimited text (comma, semicolon, tab or whitespace)")
-    p.add_argument("--sensor", metavar="S.toml",
+    p.add_argument("log", action=Input, help="the log: delimited text (comma, semicolon, tab or whitespace)")
+    p.add_argument("--sensor", metavar="S.toml", action=Input,
                    help="sensor description (a TOML file, or a preset name: adis16210, mpu9250, icm20948, bno055; "
                         "default: adis16210, the canonical columns as they are)")
     add_output(p, "canonical dataset to write ('-' for stdout)", metavar="RUN.csv")

@@ -3,6 +3,7 @@ interrupted (the emulator package, imported when the command runs)."""
 from __future__ import annotations
 
 from inclino.cli.options import command
+from inclino.cli.paths import Input, Output
 from inclino.errors import DataError, InclinoError
 
 
@@ -75,11 +76,11 @@ def add_emulate(sub):
                  "interrupted, and print its port and the control channel's address: every probe command works "
                  "on that port as on a real probe, and acquire/accept --bench turn its turntable.",
                  ["inclino emulate", "inclino emulate --unthrottled --link /tmp/probe --scenario ideal --seed 3"])
-    em.add_argument("--scenario", default="typical",
+    em.add_argument("--scenario", default="typical", action=Input,
                     help="built-in scenario name or TOML file (default %(default)s)")
     em.add_argument("--seed", type=int, default=None, help="override the scenario's seed")
     em.add_argument("--baud", type=int, default=115200, help="serial speed, bits/s (default %(default)s)")
-    em.add_argument("--link", metavar="PATH", help="also make this path a symlink to the pseudo-terminal")
+    em.add_argument("--link", metavar="PATH", action=Output, help="also make this path a symlink to the pseudo-terminal")
     em.add_argument("--control", type=int, default=0,
                     help="control channel TCP port on 127.0.0.1 (default %(default)s: any free port)")
     em.add_argument("--unthrottled", action="store_true", help="run faster than real time")

@@ -102,10 +102,17 @@ def deprecated(p, old: str, new: str, dest: str | None = None, flag: bool = Fals
 
 
 def add_port(p, timeout: float = 1.0, required: bool = True, what: str = "the probe") -> None:
-    """--port, --baud, --timeout: every command that opens the link."""
-    p.add_argument("--port", required=required, metavar="PORT",
+    """--port, --baud, --timeout: every command that opens the link.  The
+    port is a declared input (no output may name it, inclino.cli.paths);
+    a required port defaults to $INCLINO_PORT (docs/cli.md, "The port")."""
+    import os
+
+    from inclino.cli.paths import PORT_ENV, Input
+
+    env = (os.environ.get(PORT_ENV) or None) if required else None
+    p.add_argument("--port", action=Input, required=required and env is None, default=env, metavar="PORT",
                    help=f"serial port of {what}: a name (/dev/ttyUSB0, COM3), a pyserial URL, or the path "
-                        "`inclino emulate` prints")
+                        "`inclino emulate` prints" + (f" (default: ${PORT_ENV})" if required else ""))
     p.add_argument("--baud", type=int, default=115200, help="serial speed, bits/s (default %(default)s)")
     p.add_argument("--timeout", type=float, default=timeout,
                    help="seconds to wait for an answer (default %(default)g)")
@@ -120,7 +127,9 @@ def add_cal(p, help: str, positional_alias: bool = False, **kw) -> None:
     positional argument, still accepted."""
     if positional_alias:  # required, checked by the command (require()): argparse's would refuse the old form
         help = "required: " + help
-    p.add_argument("--cal", metavar="CAL.json", help=help, **kw)
+    from inclino.cli.paths import Input
+
+    p.add_argument("--cal", metavar="CAL.json", action=Input, help=help, **kw)
     if positional_alias:
         deprecated(p, "cal_file", "--cal CAL.json", dest="cal", metavar="CAL.json")
 
@@ -135,11 +144,18 @@ def require(args, dest: str, option: str, what: str) -> None:
 
 
 def add_output(p, help: str, required: bool = True, metavar: str = "FILE", **kw) -> None:
-    p.add_argument("-o", "--output", required=required, metavar=metavar, help=help, **kw)
+    """-o/--output: a declared output (inclino.cli.paths), a folder when
+    its metavar is DIR."""
+    from inclino.cli.paths import Output, OutputDir
+
+    p.add_argument("-o", "--output", required=required, metavar=metavar, help=help,
+                   action=OutputDir if metavar == "DIR" else Output, **kw)
 
 
 def add_plot(p, help: str) -> None:
-    p.add_argument("--plot", metavar="DIR", help=help)
+    from inclino.cli.paths import OutputPlot
+
+    p.add_argument("--plot", metavar="DIR", action=OutputPlot, help=help)
 
 
 def plot_target(value: str, default_name: str):

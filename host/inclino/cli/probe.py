@@ -11,6 +11,7 @@ import json
 import sys
 import time
 
+from inclino.cli.paths import Input, Output
 from inclino.cli.options import add_cal, add_json, add_port, command, deprecated, require
 from inclino.errors import DataError
 
@@ -285,7 +286,44 @@ def verify_conclusion(r) -> str:
     return "verdict: FAIL: " + "; ".join(why)
 
 
+def _cmd_ports(args) -> int:
+    from inclino.link.ports import list_ports
+    from inclino.link.serial_link import check_link_options
+
+    check_link_options(115200, args.timeout)
+    r = list_ports(identify=args.identify, timeout=args.timeout, only=args.devices)
+    if args.json:
+        print(r.to_json())
+        return 0
+    if not r.ports:
+        print("no serial ports found")
+    for p in r.ports:
+        what = ", ".join(x for x in (p.description, p.hwid) if x)
+        line = f"{p.device:20s} {what}"
+        if p.held_by:
+            line += f"  [in use by {', '.join(p.held_by)}]"
+        if p.probe is not None:
+            line += ("  probe: " + (p.probe["error"] if "error" in p.probe else
+                                    f"{p.probe['product']} serial {p.probe['serial']} fw {p.probe['firmware']}"))
+        print(line.rstrip())
+    print(f"INCLINO_PORT: {r.env_port or '(not set)'}")
+    return 0
+
+
 def add_parser(sub) -> None:
+    p = command(sub, "ports", "list the serial ports a probe may be on (and $INCLINO_PORT)",
+                "List the serial devices (USB adapters, on-board UARTs) and the pseudo-terminals no session uses "
+                "(an emulated probe), with any program that holds each open, and the port $INCLINO_PORT gives "
+                "every command as its default. Listing opens no port; --identify asks each free one for the "
+                "probe's identity (opening it exclusively, as every command does).",
+                ["inclino ports", "inclino ports --identify /dev/ttyUSB0 /dev/ttyUSB1"])
+    p.add_argument("devices", nargs="*", action=Input, metavar="DEVICE", help="only these ports")
+    p.add_argument("--identify", action="store_true",
+                   help="ask each port no other program holds for the probe's identity (opens it)")
+    p.add_argument("--timeout", type=float, default=0.3, help="seconds to wait for each answer (default %(default)g)")
+    add_json(p)
+    p.set_defaults(func=_cmd_ports)
+
     p = command(sub, "identify", "product, firmware, serial and active calibration of the probe",
                 "Ask the probe who it is: product, firmware and protocol version, serial number, the active "
                 "calibration (slot, sequence, image CRC) and the self-test result with its meaning. The first "
@@ -315,9 +353,9 @@ def add_parser(sub) -> None:
     add_json(p, "print JSON lines (one object a survey)")
     deprecated(p, "--format", "--csv or --json", dest="format", choices=("table", "csv", "json"),
                apply=lambda ns, v: (setattr(ns, "csv", v == "csv"), setattr(ns, "json", v == "json")))
-    p.add_argument("-o", "--output", metavar="RUN.csv",
+    p.add_argument("-o", "--output", metavar="RUN.csv", action=Output,
                    help="also write the run as CSV to this file, row by row (never replaces a file: --append)")
-    p.add_argument("--las", metavar="RUN.las", help="also write the run as LAS 2.0 to this file (at checkpoints and "
+    p.add_argument("--las", metavar="RUN.las", action=Output, help="also write the run as LAS 2.0 to this file (at checkpoints and "
                                                     "at any exit, Ctrl-C included; never replaces a file: --append)")
     p.add_argument("--append", action="store_true", help="continue the existing -o/--las file of the same probe, "
                                                          "calibration and columns (one header; a mismatch is refused)")
@@ -401,12 +439,12 @@ def add_flash(subparsers) -> None:
                 "failure leaves the probe in its bootloader, never with a half-written application.",
                 ["inclino flash app.s19 --port /dev/ttyUSB0",
                  "inclino flash app.s19 --port /dev/ttyUSB0 --readback probe.s19 --json"])
-    p.add_argument("image", help="S-record file (S2/S3 records with MC9S12XEP100 global addresses)")
+    p.add_argument("image", action=Input, help="S-record file (S2/S3 records with MC9S12XEP100 global addresses)")
     add_port(p, timeout=0.5)
     p.add_argument("--attempts", type=int, default=2,
                    help="whole flashes to start at most when one is cut short, 1-10 (default %(default)s)")
     p.add_argument("--no-run", action="store_true", help="leave the probe in its bootloader")
-    p.add_argument("--readback", metavar="FILE.s19", help="also write what was read back as S-records")
+    p.add_argument("--readback", metavar="FILE.s19", action=Output, help="also write what was read back as S-records")
     add_json(p)
     p.set_defaults(func=_cmd_flash)
 

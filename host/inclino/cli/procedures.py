@@ -6,6 +6,7 @@ from __future__ import annotations
 
 import sys
 
+from inclino.cli.paths import Input, Output
 from inclino.cli.options import add_cal, add_json, add_output, add_port, command, deprecated
 from inclino.cli.options import add_plot as add_plot_option
 from inclino.errors import DataError
@@ -110,7 +111,7 @@ def add_acquire(sub):
                         "chosen until the predicted acceptance reaches the target; --chamber-range-c)")
     add_output(p, "raw dataset CSV to write (rows go to RUN.csv.part as they are taken; renamed at the end); "
                   "required unless --resume", required=False, metavar="RUN.csv")
-    p.add_argument("--resume", metavar="RUN.csv.part", help="continue the run an interruption left in RUN.csv.part "
+    p.add_argument("--resume", metavar="RUN.csv.part", action=Output, help="continue the run an interruption left in RUN.csv.part "
                                                             "(same probe, calibration and procedure): the positions "
                                                             "it holds are not taken again")
     p.add_argument("--points", type=int, default=36,
@@ -407,9 +408,9 @@ def add_plot(sub) -> None:
                 "folder -o names.",
                 ["inclino plot --run run.csv --cal cal.json -o figures",
                  "inclino plot --accept accept.json -o figures"])
-    p.add_argument("--run", metavar="RUN.csv", help="a calibration run (raw dataset CSV)")
+    p.add_argument("--run", metavar="RUN.csv", action=Input, help="a calibration run (raw dataset CSV)")
     add_cal(p, "the run's calibration (needed with --run)")
-    p.add_argument("--accept", metavar="ACCEPT.json", help="an accept result (inclino accept -o)")
+    p.add_argument("--accept", metavar="ACCEPT.json", action=Input, help="an accept result (inclino accept -o)")
     add_output(p, "folder for the PNG files", metavar="DIR")
     p.set_defaults(func=_cmd_plot)
 
@@ -447,7 +448,7 @@ def add_demo(sub) -> None:
     add_output(d, "folder for the run, calibration and figures (default ./%(default)s)", required=False,
                metavar="DIR", default=DEFAULT_OUT)
     deprecated(d, "--out", "-o/--output", dest="output")
-    d.add_argument("--scenario", default="typical", help="emulator scenario (default %(default)s)")
+    d.add_argument("--scenario", default="typical", action=Input, help="emulator scenario (default %(default)s)")
     d.add_argument("--seed", type=int, default=None, help="override the scenario's seed")
     d.add_argument("--quiet", action="store_true", help="no progress bars")
     d.add_argument("--core", action="store_true",

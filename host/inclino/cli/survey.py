@@ -12,6 +12,7 @@ import json
 import math
 import sys
 
+from inclino.cli.paths import Input, Output
 from inclino.cli.options import add_cal, add_json, add_output, add_plot, command, deprecated, plot_target, \
     require
 from inclino.errors import DataError
@@ -32,7 +33,7 @@ def _add_reference(p, grid=True):
     g.add_argument("--gravity", type=float, help="local gravity, g (default: WGS 84 normal gravity)")
     if grid:
         g.add_argument("--grid", type=int, metavar="EPSG", help="projected CRS: grid azimuth, easting/northing")
-    g.add_argument("--ref", metavar="REF.json",
+    g.add_argument("--ref", metavar="REF.json", action=Input,
                    help="a reference-field file written by inclino reffield -o (instead of the options)")
 
 
@@ -40,14 +41,25 @@ def _reference(args):
     from inclino.survey import geomag
 
     if getattr(args, "ref", None):
-        try:
-            with open(args.ref, encoding="utf-8") as f:
-                return geomag.ReferenceField.from_json(f.read())
-        except OSError as e:
-            raise DataError(f"cannot read {args.ref}: {e.strerror}")
+        return geomag.ReferenceField.load(args.ref)  # bounded JSON, every field by its rule
     return geomag.reference(lat=args.lat, lon=args.lon, date=args.date, alt_m=args.alt, model=args.model,
                             declination=args.declination, dip=args.dip, field=args.field, gravity=args.gravity,
                             grid_epsg=getattr(args, "grid", None))
+
+
+def _field_options(args) -> None:
+    """--declination, --dip, --field and --gravity by the reference field's
+    rules (geomag.RULES) also where no reference field is built from them."""
+    from inclino.survey.geomag import RULES
+
+    for name, key, unit in (("declination", "declination_deg", "deg"), ("dip", "dip_deg", "deg"),
+                            ("field", "field_nT", "nT"), ("gravity", "gravity_g", "g")):
+        v = getattr(args, name, None)
+        if v is None:
+            continue
+        lo, hi, lo_open = RULES[key]
+        if not (math.isfinite(v) and (lo < v if lo_open else lo <= v) and v <= hi):
+            raise DataError(f"--{name} {v:g}: {unit} within {'(' if lo_open else '['}{lo:g}, {hi:g}]")
 
 
 def _noise(args, cal):
@@ -119,6 +131,7 @@ def _cal_dip(cal) -> float:
 
 
 def _cmd_reffield(args) -> int:
+    _field_options(args)
     if not args.port and (args.baud is not None or args.timeout is not None):
         raise DataError("--baud and --timeout set the link of --port: give --port P (or leave them out)")
     rf = _reference(args)
@@ -179,6 +192,7 @@ def _open_link(args):
 
 
 def _cmd_toolmodel(args) -> int:
+    _field_options(args)
     from inclino.survey import errormodel as em, models
     from inclino.formats.calfile import Calibration
 
@@ -244,6 +258,7 @@ def _show(g, v):
 
 
 def _cmd_trajectory(args) -> int:
+    _field_options(args)
     from inclino.survey import wellpath as wp
 
     from inclino.formats import safeio
@@ -279,7 +294,7 @@ def _cmd_trajectory(args) -> int:
         path = os.path.join(folder, name)
         try:
             os.makedirs(folder, exist_ok=True)
-            wellplot.plot(tr.rows, path, title=f"{' '.join(args.input)}: {len(tr.rows)} stations")
+            wellplot.plot(tr, path, title=f"{' '.join(args.input)}: {len(tr)} stations")
         except OSError as e:
             raise DataError(f"cannot write {path}: {e.strerror}")
     s = tr.summary
@@ -304,6 +319,7 @@ def _cmd_trajectory(args) -> int:
 
 
 def _cmd_compare(args) -> int:
+    _field_options(args)
     from inclino.survey import compare as cmp
     from inclino.survey import geomag
     from inclino.survey import wellpath as wp
@@ -349,7 +365,7 @@ def add_parser(sub) -> None:
                  "inclino reffield --declination 1.8 --dip 67.2 --field 49800 --json"])
     _add_reference(p)
     add_output(p, "write the reference field as JSON (stored with the run)", required=False, metavar="REF.json")
-    p.add_argument("--port", help="also write it to the probe as its QC reference (QCREF_WRITE), read it back "
+    p.add_argument("--port", action=Input, help="also write it to the probe as its QC reference (QCREF_WRITE), read it back "
                                   "and print it")
     p.add_argument("--baud", type=int, help="with --port: serial speed, bits/s (default 115200)")
     p.add_argument("--timeout", type=float, help="with --port: seconds to wait for an answer (default 1)")
@@ -367,14 +383,14 @@ def add_parser(sub) -> None:
                  "inclino toolmodel --cal cal.json --dip 67 --field 49800 --tool-model iscwsa-mwd-rev5 -o mwd.json"])
     add_cal(p, "calibration JSON with its fit report (inclino calibrate)", positional_alias=True)
     _add_reference(p, grid=False)
-    p.add_argument("--noise", metavar="SURVEYS.csv",
+    p.add_argument("--noise", metavar="SURVEYS.csv", action=Input,
                    help="a survey listing of repeated surveys at rest: the per-survey noise (default: the "
                         "calibration's fit report)")
     p.add_argument("--acc-noise", type=float, help="accelerometer noise per survey and axis, g (default: the "
                                                    "calibration's fit report)")
     p.add_argument("--mag-noise", type=float, help="fluxgate noise per survey and axis, nT (default: the "
                                                    "calibration's fit report)")
-    p.add_argument("--tool-model", metavar="MODEL",
+    p.add_argument("--tool-model", metavar="MODEL", action=Input,
                    help="write the complete model: this standard model (iscwsa-mwd-rev5, a name welleng ships, or "
                         "an ISCWSA JSON file) with the probe's sensor terms in place of its own")
     p.add_argument("--revision", type=int, choices=(4, 5), help="ISCWSA revision of the probe's terms (default 5: "
@@ -397,11 +413,11 @@ def add_parser(sub) -> None:
                 ["inclino trajectory stations.csv --ref ref.json -o path.csv",
                  "inclino trajectory stations.csv --ref ref.json --uncertainty --cal cal.json --plot figures "
                  "-o path.csv"])
-    p.add_argument("input", nargs="+", help="survey listing(s) (CSV, JSON lines or LAS) with md_m, inc_deg, azi_deg; "
+    p.add_argument("input", nargs="+", action=Input, help="survey listing(s) (CSV, JSON lines or LAS) with md_m, inc_deg, azi_deg; "
                                             "several files are one survey, sorted by depth")
     _add_reference(p)
     p.add_argument("--uncertainty", action="store_true", help="position covariance (1-sigma ellipse) per station")
-    p.add_argument("--tool-model", metavar="MODEL",
+    p.add_argument("--tool-model", metavar="MODEL", action=Input,
                    help="with --uncertainty: the error model: a standard model by name (iscwsa-mwd-rev5, "
                         "iscwsa-mwd-rev4, any name welleng ships) or an ISCWSA JSON file (inclino toolmodel writes "
                         "one) (default with --cal: iscwsa-mwd-rev5)")
@@ -414,7 +430,7 @@ def add_parser(sub) -> None:
     p.add_argument("--ref-terms", choices=("none", "srgm", "ifr1"),
                    help="with --uncertainty: reference-field terms in place of the model's (default: the model's "
                         "own; for a model without them srgm for a main-field model, ifr1 for user values)")
-    p.add_argument("--las", metavar="FILE.las", help="also write the trajectory as LAS 2.0")
+    p.add_argument("--las", metavar="FILE.las", action=Output, help="also write the trajectory as LAS 2.0")
     p.add_argument("--fail-on-qc", action="store_true", help="exit 1 when a station fails QC")
     add_plot(p, "write a PNG of the path (plan view with the ellipses, vertical section) into this folder, "
                 "as trajectory.png")
@@ -428,9 +444,9 @@ def add_parser(sub) -> None:
                 "is outside.",
                 ["inclino compare in.csv out.csv --cal cal.json",
                  "inclino compare a.csv b.csv --tool-model iscwsa-mwd-rev5 --cal cal.json --two-probes --json"])
-    p.add_argument("first", help="a survey listing (in-run or out-run)")
-    p.add_argument("second", help="the other survey listing of the same stations (out-run, in-run, second probe)")
-    p.add_argument("--tool-model", metavar="MODEL",
+    p.add_argument("first", action=Input, help="a survey listing (in-run or out-run)")
+    p.add_argument("second", action=Input, help="the other survey listing of the same stations (out-run, in-run, second probe)")
+    p.add_argument("--tool-model", metavar="MODEL", action=Input,
                    help="the error model: a standard model by name (iscwsa-mwd-rev5, ...) or an ISCWSA JSON file "
                         "(inclino toolmodel writes one)")
     add_cal(p, "the probe's calibration: its fitted sensor terms and measured noise (alone: the probe's terms "

@@ -10,10 +10,11 @@ from inclino.engines import reference as ref
 from inclino.formats.dataset import RawDataset
 from inclino.errors import DataError
 
-from . import core, forward, robust, selection, study
+from . import core, forward, invariants, robust, selection, study
 from ._blas import one_blas_thread
 from .core import CHANNELS, EFFECT_NAMES, SEPARABLE_MIN, TRIAD_UNITS, TRIADS, Design
 from .result import Diagnosis, Effect, Gain
+from .runvars import run_variable_confounds
 
 AZI_MIN_INC_DEG = 5.0  # azimuth is compared only where it is well defined
 AMBIGUOUS_CORR = 0.9
@@ -67,6 +68,24 @@ def diagnose(ds: RawDataset, effects=None, alpha: float = core.DEFAULT_ALPHA, fo
     from inclino.formats.dataset import thin
 
     ds, thinned = thin(ds, MAX_ROWS)
+    if not ds.has_pose or not (ds.has_acc and ds.has_mag):
+        # without the turntable's poses (or with one triad): what the invariants show (posefree.py)
+        if effects is not None:
+            raise DataError("--effects needs a dataset with both triads and the turntable's poses (inc_deg, "
+                            "azi_deg, tf_deg): without them the diagnosis tests what the invariants can show")
+        from .posefree import diagnose_posefree
+
+        with one_blas_thread():
+            r = diagnose_posefree(ds, alpha=alpha, folds=folds)
+        missing = [c for c in ("inc_deg", "azi_deg", "tf_deg") if c not in ds.columns]
+        why = ("one triad only (the pose-based model needs both)" if ds.has_pose else
+               "no turntable poses" if len(missing) == 3 else
+               f"poses incomplete: no {', '.join(missing)} column; the angles there are read as rig angles")
+        r.baseline["selection"]["notes"].insert(0, f"pose-free diagnosis ({why}): the invariants |g|, |b| and the "
+                                                   f"dip against time, temperature, reading order and rig angles")
+        if thinned:
+            r.baseline["selection"]["notes"].append(thinned)
+        return r
     with one_blas_thread():
         r = _diagnose(ds, effects, alpha, folds, keep_plot_data)
     if thinned:
@@ -97,8 +116,10 @@ class _Model:
     the 12-parameter baseline fitted with the noise and the outlier rows
     (core.fit_baseline); `noise_base` keeps that first noise.  `use(testable)`
     sets the candidates the design carries (their columns follow the
-    baseline's NB); `refit(kept)` re-linearises by Gauss-Newton at the
-    estimate of baseline + kept and re-estimates noise and outlier rows."""
+    baseline's NB; a one-parameter effect has one column, the rig field one
+    per direction of its basis: `idx[key]` is the list); `refit(kept)`
+    re-linearises by Gauss-Newton at the estimate of baseline + kept and
+    re-estimates noise and outlier rows."""
 
     def __init__(self, ds, folds):
         d = core.prepare(ds)
@@ -123,46 +144,102 @@ class _Model:
     def use(self, testable):
         """Build the design at the current state with these candidates."""
         self.testable = testable
-        self.bl, self.X, self.y0 = self.build(self.state, testable)
+        self.bl, self.X, self.y0, sizes = self.build(self.state, testable)
         self.des = self.design(self.bl, self.noise, ~self.out_rows)
-        self.idx = {c.key: NB + j for j, c in enumerate(testable)}
+        self.idx, j = {}, NB
+        for cd, k in zip(testable, sizes):
+            self.idx[cd.key] = list(range(j, j + k))
+            j += k
+
+    def cols(self, keys) -> list:
+        return [i for k in keys for i in self.idx[k]]
 
     def build(self, st, cands_now):
-        """The model linearised at the state: (Baseline, X, pseudo-observation)."""
+        """The model linearised at the state: (Baseline, X, pseudo-observation, columns per candidate)."""
         d = self.d
         A, c, dip, th = st["A"], st["c"], st["dip"], st["theta"]
         G, Bv = forward.truth(d, dip, th)
         J = forward.pose_jacobian(d, A, c, dip, th)
         b = core.Baseline(A, c, dip, G, Bv, J, theta=dict(th), data=d)
         cols = forward.baseline_columns(d, A, c, dip, th, G, Bv)
-        ccols = [forward.column(d, A, c, dip, th, cd) for cd in cands_now]
+        ccols, sizes = [], []
         y = d.Y - forward.readings(d, A, c, dip, th)
-        for j, cd in enumerate(cands_now):
+        for cd in cands_now:
+            cl = forward.columns(d, A, c, dip, th, cd)
+            ccols += cl
+            sizes.append(len(cl))
             if cd.key in th:
-                y = y + th[cd.key] * ccols[j]
-        return b, np.stack(cols + ccols, -1), y
+                for v, col in zip(np.atleast_1d(th[cd.key]), cl):
+                    y = y + float(v) * col
+        return b, np.stack(cols + ccols, -1), y, sizes
 
     def design(self, b, nz, rows):
         return Design(self.y0, self.X, nz.whitener(b.Jpose), self.fold_of, self.K, rows=rows)
 
+    def state_after(self, kept_now, beta):
+        """The state a Gauss-Newton step of the model base + kept_now gives
+        (beta unscaled, in the order of base + cols(kept_now))."""
+        st = self.state
+        A = {t: st["A"][t] + beta[12 * ti: 12 * ti + 12].reshape(3, 4)[:, :3] for ti, t in enumerate(TRIADS)}
+        c = {t: st["c"][t] + beta[12 * ti: 12 * ti + 12].reshape(3, 4)[:, 3] for ti, t in enumerate(TRIADS)}
+        th, pos = {}, NB
+        for k in kept_now:
+            n = len(self.idx[k])
+            v = np.asarray(beta[pos:pos + n], float)
+            th[k] = float(v[0]) if n == 1 and not k.startswith("rig-field:") else v.copy()
+            pos += n
+        return {"A": A, "c": c, "dip": st["dip"] + float(beta[24]), "theta": th}
+
     def refit(self, kept_now):
         """Gauss-Newton: re-linearise at the estimate of the model base +
         kept_now, re-estimate the noise (robustly) and the outlier rows."""
-        state, d = self.state, self.d
-        S = self.base + [self.idx[k] for k in kept_now]
+        d = self.d
+        S = self.base + self.cols(kept_now)
         for _ in range(GN_ITERATIONS):
             beta, _ = self.des.fit(S)
-            beta = beta / self.des.colscale[S]
-            A = {t: state["A"][t] + beta[12 * ti: 12 * ti + 12].reshape(3, 4)[:, :3] for ti, t in enumerate(TRIADS)}
-            c = {t: state["c"][t] + beta[12 * ti: 12 * ti + 12].reshape(3, 4)[:, 3] for ti, t in enumerate(TRIADS)}
-            th = {k: float(beta[NB + j]) for j, k in enumerate(kept_now)}
-            state.update(A=A, c=c, dip=state["dip"] + float(beta[24]), theta=th)
-            self.bl, self.X, self.y0 = self.build(state, self.testable)
+            self.state = self.state_after(kept_now, beta / self.des.colscale[S])
+            self.bl, self.X, self.y0, _ = self.build(self.state, self.testable)
             R = d.Y - self.bl.predict()
             self.noise, self.out_rows = robust.robust_noise(R, self.bl.Jpose,
-                                                            dof_frac=1.0 - (4.5 + len(kept_now)) / d.n,
+                                                            dof_frac=1.0 - (4.5 + len(S) - NB) / d.n,
                                                             start=self.noise)
             self.des = self.design(self.bl, self.noise, ~self.out_rows)
+
+
+def _rig_bases(m: _Model, cands) -> dict:
+    """Per rig-field candidate, the directions of its full parameter vector
+    (harmonics x components in its axis' frame) that the baseline does not
+    absorb: the whitened columns with the baseline projected out, their
+    singular directions kept where at least RIG_SEPARABLE_MIN of the
+    direction is left.  Sets d.rig_basis (forward.columns reads it);
+    returns axis -> the reason it is not testable, when none is left."""
+    d, bl = m.d, m.bl0
+    d.rig_basis = {}
+    why = {}
+    rows = ~m.out_rows
+    Linv = m.noise_base.whitener(bl.Jpose)[rows]
+    Xb = np.stack(forward.baseline_columns(d, bl.A, bl.c, bl.dip, {}, bl.G, bl.B), -1)[rows]
+    Bw = np.einsum("nij,njp->nip", Linv, Xb).reshape(-1, Xb.shape[-1])
+    Q, _ = np.linalg.qr(Bw)
+    for cd in cands:
+        if cd.name != "rig-field":
+            continue
+        F = np.einsum("ij,njp->nip", bl.A["mag"], forward.rig_full(d, cd.axis))  # (n, 3, P)
+        Xf = np.zeros((d.n, 6, F.shape[-1]))
+        Xf[:, 3:, :] = F
+        W = np.einsum("nij,njp->nip", Linv, Xf[rows]).reshape(-1, F.shape[-1])
+        norms = np.sqrt((W ** 2).sum(0))
+        norms[norms == 0] = 1.0
+        Wn = W / norms
+        Wp = Wn - Q @ (Q.T @ Wn)
+        _, sv, Vt = np.linalg.svd(Wp, full_matrices=False)
+        pre = np.sqrt(((Wn @ Vt.T) ** 2).sum(0))
+        keep = sv > core.RIG_SEPARABLE_MIN * np.maximum(pre, 1e-300)
+        if not keep.any():
+            why[cd.axis] = "on these poses the 12-parameter baseline absorbs a field that moves with this axis"
+            continue
+        d.rig_basis[cd.axis] = (Vt[keep].T / norms[:, None])
+    return why
 
 
 def _screen_candidates(m: _Model, wanted):
@@ -178,8 +255,14 @@ def _screen_candidates(m: _Model, wanted):
     for c in cands:
         why = core.untestable_reason(d, c)
         (not_testable.append((c, why)) if why else testable.append(c))
+    rig_why = _rig_bases(m, testable)
+    for c in list(testable):
+        if c.name == "rig-field" and c.axis in rig_why:
+            testable.remove(c)
+            not_testable.append((c, rig_why[c.axis]))
     m.start(testable)
-    sep = {c.key: m.des.separability(m.base, m.idx[c.key]) for c in testable}
+    sep = {c.key: (1.0 if c.name == "rig-field" else m.des.separability(m.base, m.idx[c.key][0]))
+           for c in testable}
     keep = []
     for c in testable:
         if sep[c.key] < SEPARABLE_MIN:
@@ -197,56 +280,84 @@ def _screen_candidates(m: _Model, wanted):
                 raise DataError(f"cannot test {name}: {why}")
         for i, a in enumerate(testable):
             for b in testable[i + 1:]:
-                r = m.des.partial_corr(m.base, m.idx[a.key], m.idx[b.key])
+                r = m.des.canon_corr(m.base, m.idx[a.key], m.idx[b.key])
                 if abs(r) > 0.999:
                     raise DataError(f"the poses cannot separate {a.name} ({a.sensor} {a.axis}) from {b.name} "
                                     f"({b.sensor} {b.axis}): their signatures agree to a correlation of {r:.4f}")
     return testable, not_testable
 
 
+def _part(m: _Model, R, cand):
+    """The residual a candidate's gain is measured on: the sensor part (net
+    of each row's turntable readout error) for an effect of the sensors or
+    the world, the whole residual for a turntable effect -- a turntable
+    offset is a pose error, which the sensor part would take out as readout
+    error."""
+    return R if cand.sensor == "turntable" else m.noise.sensor_part(R, m.bl.Jpose)
+
+
+def _own_cv(m: _Model, S, cand) -> float:
+    """The held-out RMS of the candidate's own channels (outlier rows left
+    out) under the model columns S: what its printed gain is."""
+    return _rms_ok(_part(m, m.des.cv_residuals(S), cand), cand.channels, ~m.out_rows)
+
+
 def _select(m: _Model, alpha):
     """Forward selection under the false-alarm control, then backward: keep
-    the candidate with the smallest F-test p-value if p < alpha/m and it
-    lowers the cross-validated residual, refit (m.refit) after each change;
-    then drop kept effects whose p exceeds alpha once the others are in.
-    Returns (steps, kept keys, p-values by key)."""
-    base, idx = m.base, m.idx
+    the candidate with the smallest F-test p-value if p < alpha/m, it lowers
+    the cross-validated residual (whitened, all channels) and it lowers the
+    held-out residual of its own channels (the gain the report prints);
+    refit (m.refit) after each change; then drop kept effects whose p
+    exceeds alpha once the others are in.  Returns (steps, kept keys,
+    p-values by key)."""
+    base = m.base
     steps = []
     kept: list = []
     remaining = [c.key for c in m.testable]
+    by_key = {c.key: c for c in m.testable}
     pvals = {}
     while remaining:
         des = m.des
-        S = base + [idx[k] for k in kept]
+        S = base + m.cols(kept)
         cv0 = des.cv(S)
         n_left = len(remaining)
-        tests = sorted((des.ftest(S, [idx[k]])[0], k) for k in remaining)
+        tests = sorted((des.ftest(S, m.idx[k])[0], k) for k in remaining)
         chosen = None
         for p, k in tests:
             if p >= alpha / n_left:
                 break
-            cv1 = des.cv(S + [idx[k]])
-            if cv1 < cv0:
-                chosen = (k, p, cv0, cv1)
+            S1 = S + m.idx[k]
+            cv1 = des.cv(S1)
+            own0, own1 = _own_cv(m, S, by_key[k]), _own_cv(m, S1, by_key[k])
+            if cv1 < cv0 and own1 < own0:
+                chosen = (k, p, cv0, cv1, own0, own1)
                 break
             steps.append({"effect": k, "p": p, "threshold": alpha / n_left, "cv_before": cv0, "cv_after": cv1,
-                          "kept": False, "why": "no gain on held-out data"})
+                          "own_cv_rms_before": own0, "own_cv_rms_after": own1, "kept": False,
+                          "why": "no gain on held-out data" if cv1 >= cv0 else
+                          "its own channels' held-out residual does not fall"})
         if chosen is None:
             if tests:
                 steps.append({"effect": tests[0][1], "p": tests[0][0], "threshold": alpha / n_left, "kept": False,
                               "why": "p above the threshold" if tests[0][0] >= alpha / n_left else "no CV gain"})
             break
-        k, p, cv0, cv1 = chosen
+        k, p, cv0, cv1, own0, own1 = chosen
         steps.append({"effect": k, "p": p, "threshold": alpha / n_left, "cv_before": cv0, "cv_after": cv1,
-                      "kept": True})
+                      "own_cv_rms_before": own0, "own_cv_rms_after": own1, "kept": True})
         kept.append(k)
         pvals[k] = p
         remaining.remove(k)
         m.refit(kept)
+    _backward(m, kept, pvals, steps, alpha)
+    return steps, kept, pvals
+
+
+def _backward(m: _Model, kept, pvals, steps, alpha):
+    """Drop kept effects whose p-value rose above alpha once the others are in."""
     while kept:
         des = m.des
-        S = base + [idx[k] for k in kept]
-        drops = [(des.ftest([i for i in S if i != idx[k]], [idx[k]])[0], k) for k in kept]
+        S = m.base + m.cols(kept)
+        drops = [(des.ftest([i for i in S if i not in m.idx[k]], m.idx[k])[0], k) for k in kept]
         p, k = max(drops)
         if p <= alpha:
             for p2, k2 in drops:
@@ -256,7 +367,6 @@ def _select(m: _Model, alpha):
         steps.append({"effect": k, "p": p, "threshold": alpha, "kept": False, "why": "dropped: not significant "
                       "once the other effects were in"})
         m.refit(kept)
-    return steps, kept, pvals
 
 
 def _rms_ok(R, chans, ok):
@@ -264,38 +374,231 @@ def _rms_ok(R, chans, ok):
     return float(np.sqrt(np.mean(R[ok][:, chans] ** 2)))
 
 
-def _kept_effects(m: _Model, kept, pvals, est, se, S, R_final, Rs_final, Rs_cv_final, att, keep_plot_data):
-    """Each kept effect with its estimate, standard error, p-value and gain
-    (residual and attitude RMS without it vs with it, raw and held-out), the
-    notes on candidates that look alike on these poses, and the plot entries.
-    Returns (effects, notes, plot entries)."""
-    des, d, bl, idx, noise = m.des, m.d, m.bl, m.idx, m.noise
+def _invariants(m: _Model, keys, S):
+    """Invariant residuals (invariants.residuals) of the model base + keys
+    after a Gauss-Newton step from the current state."""
+    beta, _ = m.des.fit(S)
+    st = m.state_after(keys, beta / m.des.colscale[S])
+    return invariants.residuals(m.d, st["A"], st["c"], st["dip"], st["theta"])
+
+
+def _rig_amplitude(m: _Model, k, theta_k, cov_k):
+    """(RMS over the rows and fluxgate axes of the rig field's reading change
+    that the baseline cannot absorb (nT), its standard error, per-harmonic
+    amplitudes in the axis' frame): the size of the disturbance as the data
+    show it (forward.unabsorbed; the rest of it went into the fitted
+    calibration, _rig_calibration_error says how much that costs)."""
+    d = m.d
+    axis = k.split(":")[2]
+    V = d.rig_basis[axis]
+    A_mag = m.state["A"]["mag"]
+    Z = np.einsum("ij,njp->nip", A_mag, forward.rig_full(d, axis, m.state["theta"]) @ V)  # (n, 3, r)
+    Zr = forward.unabsorbed(d, A_mag, m.state["dip"], Z)
+    Q = np.einsum("nip,niq->pq", Zr, Zr) / (3 * d.n)
+    th = np.asarray(theta_k, float)
+    # the noise in the estimate adds tr(Q cov) to its square on average: taken off
+    a = float(np.sqrt(max(th @ Q @ th - float(np.trace(Q @ cov_k)), 0.0)))
+    g = Q @ th / max(a, float(np.sqrt(max(th @ Q @ th, 0.0))) * 0.5, 1e-300)
+    se = float(np.sqrt(max(g @ cov_k @ g, 0.0)))
+    full = V @ th
+    harm = {}
+    for j, (h, kind) in enumerate(forward.rig_terms(axis)):
+        harm.setdefault(h, np.zeros(3))
+        harm[h] = harm[h] + full[3 * j:3 * j + 3] ** 2
+    return a, se, {f"h{h}_nT": float(np.sqrt(v.sum())) for h, v in harm.items()}
+
+
+def _rig_calibration_error(m: _Model, kept, k) -> dict:
+    """The error a calibration made on this rig carries when it ignores the
+    rig field: the fit without it (the baseline then absorbs what it can of
+    the field into the fluxgate's 3x3 and offset) against the fit with it,
+    over the Li 2021 grid at toolfaces 0/120/240 (azimuth where I >= 5 deg)."""
+    from inclino.calib.runs import li2021_grid
+
+    S = m.base + m.cols(kept)
+    Sb = [i for i in S if i not in m.idx[k]]
+    sw = m.state_after(kept, m.des.fit(S)[0] / m.des.colscale[S])
+    so = m.state_after([x for x in kept if x != k], m.des.fit(Sb)[0] / m.des.colscale[Sb])
+    I, A, T = li2021_grid((0.0, 120.0, 240.0))
+    d = m.d
+    g, f = ref.body_vectors(I, A, T, d.field_nT, sw["dip"], d.declination_deg, d.gravity_g)
+    acc = g @ sw["A"]["acc"].T + sw["c"]["acc"]
+    mag = f @ sw["A"]["mag"].T + sw["c"]["mag"]
+    a = ref.attitude((acc - so["c"]["acc"]) @ np.linalg.inv(so["A"]["acc"]).T,
+                     (mag - so["c"]["mag"]) @ np.linalg.inv(so["A"]["mag"]).T)
+    ok = I >= AZI_MIN_INC_DEG
+    da = ref.angle_diff(a["azi"], A + d.declination_deg)[ok]
+    di = a["inc"] - I
+    return {"azi_rms_deg": float(np.sqrt(np.mean(da ** 2))), "inc_rms_deg": float(np.sqrt(np.mean(di ** 2))),
+            "what": "a calibration fitted on this rig without the rig field, against one with it, over the Li 2021 "
+                    "grid (toolfaces 0/120/240): the error the rig's field leaves in the probe's calibration when "
+                    "it is not modelled"}
+
+
+def _effect_checks(m: _Model, kept, att):
+    """Per kept effect, the checks before it is named: its gain (the final
+    model without it against with it, raw and held-out, on its own
+    channels), its own held-out residual must fall, and it must not make
+    the invariants of what it acts on worse (invariants.compare).  Returns
+    key -> dict(gain, invariants, passed, reason)."""
+    des, d, bl, noise = m.des, m.d, m.bl, m.noise
     ok = ~m.out_rows
     J = bl.Jpose
     by_key = {c.key: c for c in m.testable}
-    effects_out, plot_effects, notes = [], [], []
-    for j, k in enumerate(kept):
+    S = m.base + m.cols(kept)
+    R_final = des.raw_residuals(S)
+    inv_with = _invariants(m, kept, S)
+    out = {}
+    R_cv_final = des.cv_residuals(S)
+    for k in kept:
         c = by_key[k]
-        Sb = [i for i in S if i != idx[k]]
-        Rb, Rbcv = noise.sensor_part(des.raw_residuals(Sb), J), noise.sensor_part(des.cv_residuals(Sb), J)
+        Sb = [i for i in S if i not in m.idx[k]]
+        Rb, Rbcv = _part(m, des.raw_residuals(Sb), c), _part(m, des.cv_residuals(Sb), c)
+        Ra, Racv = _part(m, R_final, c), _part(m, R_cv_final, c)
         ch = c.channels
         azb, inb = att.rms(Rb)
-        aza, ina = att.rms(Rs_final)
-        gain = Gain(_rms_ok(Rb, ch, ok), _rms_ok(Rs_final, ch, ok), _rms_ok(Rbcv, ch, ok),
-                    _rms_ok(Rs_cv_final, ch, ok), azb, aza, inb, ina)
-        e = Effect(c.name, c.sensor, c.axis, float(est[NB + j]), float(se[NB + j]), c.units, gain,
-                   rms_units=TRIAD_UNITS[c.triad], p_value=float(pvals.get(k, np.nan)))
+        aza, ina = att.rms(Ra)
+        gain = Gain(_rms_ok(Rb, ch, ok), _rms_ok(Ra, ch, ok), _rms_ok(Rbcv, ch, ok),
+                    _rms_ok(Racv, ch, ok), azb, aza, inb, ina)
+        inv = invariants.compare(inv_with, _invariants(m, [x for x in kept if x != k], Sb), invariants.which(c), ok)
+        reasons = []
+        if not gain.cv_rms_after < gain.cv_rms_before:
+            reasons.append(f"it raises its own cross-validated residual ({gain.cv_rms_before:.4g} -> "
+                           f"{gain.cv_rms_after:.4g} {TRIAD_UNITS[c.triad]})")
+        for name, r in inv.items():
+            if r["worse"]:
+                reasons.append(f"it makes the pose-free {name} residual worse ({r['rms_without']:.4g} -> "
+                               f"{r['rms_with']:.4g})")
+        out[k] = {"gain": gain, "invariants": inv, "passed": not reasons, "reasons": reasons,
+                  "Rb": Rb, "Rs_final": Ra, "Sb": Sb}
+    return out
+
+
+def _cross_check(m: _Model, kept, pvals, steps, alpha, att):
+    """Drop, one at a time (the worst first), kept effects that fail their
+    checks, refitting after each: they fit the poses but contradict the
+    invariants (or their own held-out data), a sign of pose error or of a
+    rig effect the model lacks -- reported, not named as causes.  Returns
+    (checks of the effects that stay, contradicted records)."""
+    contradicted = []
+    while True:
+        checks = _effect_checks(m, kept, att)
+        bad = [k for k in kept if not checks[k]["passed"]]
+        if not bad:
+            return checks, contradicted
+        worst = max(bad, key=lambda k: (len(checks[k]["reasons"]),
+                                        checks[k]["gain"].cv_rms_after / max(checks[k]["gain"].cv_rms_before, 1e-300)))
+        est = m.state["theta"].get(worst)
+        ck = checks[worst]
+        contradicted.append({"effect": worst, "estimate": est, "p": float(pvals.get(worst, np.nan)),
+                             "reasons": ck["reasons"], "gain": ck["gain"].to_dict(),
+                             "invariants": ck["invariants"],
+                             "verdict": "fits the poses but contradicts the invariants" if any(
+                                 "pose-free" in r for r in ck["reasons"]) else
+                             "fits the poses but not its own held-out data"})
+        kept.remove(worst)
+        pvals.pop(worst, None)
+        steps.append({"effect": worst, "kept": False, "why": "cross-check failed: " + "; ".join(ck["reasons"])})
+        m.refit(kept)
+        _backward(m, kept, pvals, steps, alpha)
+
+
+def _kept_effects(m: _Model, kept, pvals, est, cov, S, checks, keep_plot_data):
+    """Each kept effect with its estimate, standard error, p-value and gain
+    (from its checks), and the plot entries.  Returns (effects, plot entries)."""
+    d, bl, noise = m.d, m.bl, m.noise
+    by_key = {c.key: c for c in m.testable}
+    effects_out, plot_effects = [], []
+    pos = NB
+    for k in kept:
+        c = by_key[k]
+        n = len(m.idx[k])
+        ck = checks[k]
+        detail = {"checks": {"own_cv": "passed", "invariants": ck["invariants"]}}
+        if c.name == "rig-field":
+            a, se, harm = _rig_amplitude(m, k, est[pos:pos + n], cov[pos:pos + n, pos:pos + n])
+            detail.update({"model": f"a field moving with the turntable's {c.axis} axis, harmonics "
+                                    f"{', '.join(str(h) for h in sorted({h for h, _ in forward.rig_terms(c.axis)}))} "
+                                    f"of its angle in the frame that axis turns in (effects.RigField)",
+                           "harmonics_rms_nT": harm, "directions": n, "whose": "the rig's, not the probe's",
+                           "calibration_error_if_ignored": _rig_calibration_error(m, kept, k)})
+            value, stderr, units = a, se, "nT RMS"
+        else:
+            value, stderr, units = float(est[pos]), float(np.sqrt(max(cov[pos, pos], 0.0))), c.units
+        e = Effect(c.name, c.sensor, c.axis, value, stderr, units, ck["gain"],
+                   rms_units=TRIAD_UNITS[c.triad], p_value=float(pvals.get(k, np.nan)), detail=detail)
         effects_out.append(e)
-        for other in m.testable:
-            if other.key in kept:
-                continue
-            r = des.partial_corr(Sb, idx[k], idx[other.key])
-            if abs(r) > AMBIGUOUS_CORR:
-                notes.append(f"{c.name} ({c.sensor} {c.axis}) and {other.name} ({other.sensor} {other.axis}) look "
-                             f"alike on these poses (correlation {r:.3f}): the data barely tell them apart")
         if keep_plot_data:
-            plot_effects.append(_plot_entry(d, bl, c, m.X[:, :, idx[k]], noise, Rb, Rs_final))
-    return effects_out, notes, plot_effects
+            plot_effects.append(_plot_entry(d, bl, c, m.X[:, :, m.idx[k][0]], noise, ck["Rb"], ck["Rs_final"]))
+        pos += n
+    return effects_out, plot_effects
+
+
+CONFOUND_CORR = 0.9
+
+
+def _driver(c) -> str:
+    if c.name.startswith("temperature-"):
+        return "temperature"
+    if c.name == "field-drift":
+        return "time"
+    if c.name == "sample-skew":
+        return "rotation"
+    if c.name == "scale-nonlinearity":
+        return "reading"
+    return "pose"
+
+
+def separating_acquisition(a, b) -> str:
+    """What acquisition would tell candidates a and b apart."""
+    da, db = _driver(a), _driver(b)
+    pair = {da, db}
+    if pair == {"time", "pose"}:
+        return ("randomise the pose order (or read the first poses again at the end of the run), so that time and "
+                "pose stop rising together")
+    if pair == {"temperature", "time"}:
+        return "cycle the temperature up and down (or hold it while time passes), so that it stops rising with time"
+    if pair == {"temperature", "pose"}:
+        return "visit the poses in a fresh random order at each temperature"
+    if "rotation" in pair:
+        return "rotate both ways and at two rates"
+    if pair == {"reading", "pose"}:
+        return ("add poses at which each axis reads between its extremes (tilts between the faces), and turn the "
+                "probe in its clamp so that a reading is not tied to one rig position")
+    if a.name == "rig-field" or b.name == "rig-field":
+        return ("turn the probe in its clamp (the same rig position at another toolface) or turn the axis the "
+                "rig field follows through a full turn at several settings of the others")
+    if pair == {"temperature"}:
+        return "a wider temperature range, with poses that load each axis at every temperature"
+    if pair == {"time"}:
+        return "a longer run, or the field measured by a reference magnetometer beside the bench"
+    return "more poses, spread over every axis of the turntable"
+
+
+def _confounds(m: _Model, kept, contradicted):
+    """For each named (and each contradicted) effect, the other candidates
+    the run cannot tell from it: how much of its fitted signature another
+    candidate's columns reproduce (the multiple correlation, whitened, once
+    the baseline and the other kept effects are projected out), from
+    CONFOUND_CORR up, with the acquisition that would separate them."""
+    by_key = {c.key: c for c in m.testable}
+    out = []
+    est = {c["effect"]: c["estimate"] for c in contradicted if c["effect"] in by_key}
+    est.update({k: m.state["theta"][k] for k in kept})
+    for k, th in est.items():
+        if th is None:
+            continue
+        others_kept = [x for x in kept if x != k]
+        for c in m.testable:
+            j = c.key
+            if j == k:
+                continue
+            base = m.base + m.cols([x for x in others_kept if x != j])
+            r = m.des.signal_corr(base, m.idx[k], np.atleast_1d(th), m.idx[j])
+            if r >= CONFOUND_CORR:
+                out.append({"effect": k, "with": j, "correlation": r, "named": k in kept,
+                            "separate_by": separating_acquisition(by_key[k], c)})
+    return out
 
 
 def _residual_study(m: _Model, S, R, nz, ok):
@@ -312,22 +615,30 @@ def _assemble(m: _Model, alpha, testable, not_testable, steps, kept, pvals, keep
     the kept effects' gains, the residual study of the baseline and the
     structure test of the final model, the outlier rows, and the baseline
     section of the report."""
+    checks, contradicted = _cross_check(m, kept, pvals, steps, alpha, _Attitude(m.bl, ~m.out_rows))
     des, d, bl, base, noise, noise_base = m.des, m.d, m.bl, m.base, m.noise, m.noise_base
     out_rows = m.out_rows
-    S = base + [m.idx[k] for k in kept]
-    est, se, s2 = des.coef(S)
-    best_subset = _best_subset(des, base, kept, testable, m.idx, alpha, m.fold_of)
     att = _Attitude(bl, ~out_rows)
+    S = base + m.cols(kept)
+    est, se, s2 = des.coef(S)
+    cov = des.coef_cov(S)
+    best_subset = _best_subset(des, base, kept, testable, m.idx, alpha, m.fold_of)
     J = bl.Jpose
     ok = ~out_rows
 
     R_final = des.raw_residuals(S)
-    Rs_final, Rs_cv_final = noise.sensor_part(R_final, J), noise.sensor_part(des.cv_residuals(S), J)
     R_base = des.raw_residuals(base)
     Rs_base, Rs_base_cv = noise_base.sensor_part(R_base, J), noise_base.sensor_part(des.cv_residuals(base), J)
 
-    effects_out, notes, plot_effects = _kept_effects(m, kept, pvals, est, se, S, R_final, Rs_final, Rs_cv_final,
-                                                     att, keep_plot_data)
+    effects_out, plot_effects = _kept_effects(m, kept, pvals, est, cov, S, checks, keep_plot_data)
+    confounds = _confounds(m, kept, contradicted)
+    by_key = {c.key: c for c in testable}
+    notes = []
+    for cf in confounds:
+        a, b = by_key[cf["effect"]], by_key[cf["with"]]
+        notes.append(f"{_label(a)} and {_label(b)} are confounded in this run (correlation {cf['correlation']:.3f}): "
+                     f"the data cannot tell them apart; {cf['separate_by']}")
+    run_conf = run_variable_confounds(d)
 
     # ---- residual study (baseline) and structure test (final)
     final_study = _residual_study(m, S, R_final, noise, ok)
@@ -369,13 +680,22 @@ def _assemble(m: _Model, alpha, testable, not_testable, steps, kept, pvals, keep
             "alpha": alpha, "folds": m.K, "tested": [c.key for c in testable],
             "not_testable": [{"effect": c.key, "reason": why} for c, why in not_testable],
             "steps": steps, "final_noise": noise.to_dict(), "final_s2": s2, "notes": notes,
-            "best_subset": best_subset},
+            "best_subset": best_subset,
+            "checks": ("a kept effect is named only when its own channels' held-out residual falls and it does not "
+                       "make the pose-free invariants (|g|, |b|, dip of the readings it corrects) worse; one that "
+                       "fails is reported under 'contradicted', not as a cause")},
         "structure": verdict,
+        "run_variables": run_conf,
     }
-    out = Diagnosis(baseline=baseline, effects=effects_out, unexplained=verdict["unexplained"], structure=verdict)
+    out = Diagnosis(baseline=baseline, effects=effects_out, unexplained=verdict["unexplained"], structure=verdict,
+                    contradicted=contradicted, confounded=confounds)
     if keep_plot_data:
         out.plot_data = {"effects": plot_effects, "baseline": _baseline_plot(d, bl, base_study, Rs_base)}
     return out
+
+
+def _label(c) -> str:
+    return f"{c.name} ({c.sensor} {c.axis})"
 
 
 # --------------------------------------------------------------------------
@@ -397,16 +717,18 @@ def _best_subset(des, base, kept, testable, idx, alpha, fold_of):
         # C(20, 8) subsets, each cross-validated nested, did not finish):
         # the stepwise choice stands alone
         return None
-    S = base + [idx[k] for k in kept]
-    rest = sorted((des.ftest(S, [idx[c.key]])[0], c.key) for c in testable if c.key not in kept)
-    pool_keys = list(kept) + [k for p, k in rest if p < alpha][:max(0, BEST_SUBSET_POOL - len(kept))]
+    S = base + [i for k in kept for i in idx[k]]
+    single = [k for k in kept if len(idx[k]) == 1]  # the rig field (several columns) is not a pool term
+    rest = sorted((des.ftest(S, idx[c.key])[0], c.key) for c in testable if c.key not in kept and len(idx[c.key]) == 1)
+    pool_keys = single + [k for p, k in rest if p < alpha][:max(0, BEST_SUBSET_POOL - len(single))]
     if not pool_keys:
         return None
+    base = base + [i for k in kept if len(idx[k]) > 1 for i in idx[k]]  # a kept rig field stays in the model
     rows = np.repeat(des.rows, 6)
     Xw = des.Xw.reshape(-1, des.Xw.shape[-1])[rows]
     yw = des.yw.reshape(-1)[rows]
     B = Xw[:, base]
-    C = Xw[:, [idx[k] for k in pool_keys]]
+    C = Xw[:, [idx[k][0] for k in pool_keys]]
     coef = np.linalg.lstsq(B, np.column_stack([C, yw]), rcond=None)[0]
     R = np.column_stack([C, yw]) - B @ coef
     groups = np.repeat(fold_of, 6)[rows]
@@ -416,7 +738,7 @@ def _best_subset(des, base, kept, testable, idx, alpha, fold_of):
     return {"method": "best subset of the pool (kept effects and the other candidates with p < alpha), scored by "
                       "the K-fold held-out residual (whitened, baseline projected out), nested K-fold for the "
                       "procedure, drop-from-pool test per kept effect (selection.py)",
-            "pool": d["pool"], "chosen": d["chosen"], "agrees_with_the_stepwise_choice": set(d["chosen"]) == set(kept),
+            "pool": d["pool"], "chosen": d["chosen"], "agrees_with_the_stepwise_choice": set(d["chosen"]) == set(single),
             "nested_cv_rms_whitened": d["nested_group_rms"],
             "rivals": [r["terms"] for r in d["rivals"]],
             "drop_tests": [{k: t[k] for k in ("term", "asked_for_by_the_data", "model_without_it",

@@ -49,7 +49,7 @@ from inclino.errors import CalibrationError, DataError
 from inclino.model import effects as fx
 from inclino.model.world import EncoderErrors, TurntableGeometry
 
-from .names import AXES, CHANNELS, EFFECT_NAMES, TRIAD_UNITS, TRIADS  # noqa: F401
+from .names import AXES, CHANNELS, EFFECT_NAMES, RIG_AXES, TRIAD_UNITS, TRIADS  # noqa: F401
 from .noise import Noise, _ml_variances, fit_noise  # noqa: F401
 
 MIN_ROWS = 16
@@ -61,6 +61,8 @@ MOVING_MIN_RATE_DEG_S = 1.0  # slower than this is a static pose for the skew
 MOVING_MAX_STEP_DEG = 30.0  # consecutive rows further apart are separate poses
 MOVE_DEADBAND_DEG = 0.5  # smaller pose changes are the turntable's readout jitter, not moves
 SEPARABLE_MIN = 1e-3  # fraction of a regressor left once the baseline is projected out
+RIG_SEPARABLE_MIN = 1e-3  # a rig-field direction kept when this fraction of it is not absorbed by the baseline
+RIG_MIN_SPAN_DEG = 30.0
 POSE_STEP_DEG = 1e-3
 JOINT_START_ROWS = 240
 
@@ -115,6 +117,8 @@ def all_candidates() -> list:
     out.append(Candidate("turntable-azimuth-axis-tilt", "turntable", "north", "deg"))
     out.append(Candidate("turntable-azimuth-axis-tilt", "turntable", "east", "deg"))
     out.append(Candidate("turntable-inclination-axis-skew", "turntable", "inc", "deg"))
+    for ax in RIG_AXES:  # a field that moves with a turntable axis (effects.RigField): several columns
+        out.append(Candidate("rig-field", "rig", ax, "nT"))
     return out
 
 
@@ -381,6 +385,12 @@ def untestable_reason(d: Data, cand: Candidate) -> str | None:
             return "the data have no time column (t_s)"
         if float(d.t.max() - d.t.min()) <= 0:
             return "every reading has the same time stamp"
+    if cand.name == "rig-field":
+        phi = {"azi": d.azi, "inc": d.inc, "tf": d.tf}[cand.axis]
+        span = float(np.ptp(np.unwrap(np.radians(phi))) if cand.axis != "inc" else np.radians(np.ptp(phi)))
+        if np.degrees(span) < RIG_MIN_SPAN_DEG:
+            return (f"the turntable's {cand.axis} axis hardly turns in the data ({np.degrees(span):.1f} deg; a field "
+                    f"that moves with it needs {RIG_MIN_SPAN_DEG:g} deg or more)")
     if cand.name == "sample-skew" and d.moving.sum() < 10:
         return ("no continuous rotation in the data (a skew shows only while the probe turns: "
                 f"consecutive readings <= {MOVING_MAX_STEP_DEG:g} deg apart at >= {MOVING_MIN_RATE_DEG_S:g} deg/s)")
@@ -408,7 +418,10 @@ class Design:
         self.colscale = s
         Xw = Xw / s
         self.Xw, self.yw = Xw, yw
-        self.N = 6 * int(self.rows.sum())
+        self.N = X.shape[1] * int(self.rows.sum())
+        # serially correlated rows (a log read while the probe moves): how much a smooth regressor's
+        # apparent gain is inflated, (1 + rho) / (1 - rho) for a lag-1 correlation rho; 1 for independent rows
+        self.inflation = 1.0
         self.K = K
         self.folds = folds
         self.Gf = np.zeros((K, p, p))
@@ -457,8 +470,8 @@ class Design:
         dof = self.N - len(S) - q
         if r1 <= 0 or dof <= 0:
             return 0.0, np.inf
-        F = ((r0 - r1) / q) / (r1 / dof)
-        return float(stats.f.sf(F, q, dof)), float(F)
+        F = ((r0 - r1) / q) / (r1 / dof) / self.inflation
+        return float(stats.f.sf(F, q, dof / self.inflation)), float(F)
 
     def coef(self, S):
         """Estimates and standard errors of the columns S (unscaled)."""
@@ -493,6 +506,52 @@ class Design:
         gbk = self.G[base, k]
         proj = gbk @ self._solve(Gbb, gbk)
         return float(np.sqrt(max(self.G[k, k] - proj, 0.0) / self.G[k, k]))
+
+    def coef_cov(self, S) -> np.ndarray:
+        """Covariance of the (unscaled) estimates of the columns S."""
+        S = np.asarray(S)
+        _, rss = self.fit(S)
+        s2 = rss / max(self.N - len(S), 1)
+        C = s2 * np.linalg.pinv(self.G[np.ix_(S, S)])
+        return C / np.outer(self.colscale[S], self.colscale[S])
+
+    def canon_corr(self, base, a, b) -> float:
+        """The largest canonical correlation between the spans of the columns
+        a and b (lists) once the columns `base` are projected out (whitened):
+        for one column each, the absolute partial correlation; for a group,
+        how well the best combination of one matches the other."""
+        base, a, b = np.asarray(base), list(a), list(b)
+        Gbb = self.G[np.ix_(base, base)]
+
+        def res(x, y):
+            return self.G[np.ix_(x, y)] - self.G[np.ix_(base, x)].T @ self._solve(Gbb, self.G[np.ix_(base, y)])
+        Raa, Rbb, Rab = res(a, a), res(b, b), res(a, b)
+
+        def inv_sqrt(M):
+            w, V = np.linalg.eigh((M + M.T) / 2)
+            keep = w > 1e-12 * max(w.max(), 1e-300)
+            return (V[:, keep] / np.sqrt(w[keep])) @ V[:, keep].T
+        K = inv_sqrt(Raa) @ Rab @ inv_sqrt(Rbb)
+        sv = np.linalg.svd(K, compute_uv=False)
+        return float(min(sv.max(), 1.0)) if len(sv) else 0.0
+
+    def signal_corr(self, base, a, w, b) -> float:
+        """How much of one signal -- the columns a combined with the
+        (unscaled) coefficients w, e.g. an effect's fitted signature -- the
+        columns b can reproduce once `base` is projected out: the multiple
+        correlation of that signal with the span of b (whitened)."""
+        base, a, b = np.asarray(base), list(a), list(b)
+        ws = np.asarray(w, float) * self.colscale[a]
+        Gbb = self.G[np.ix_(base, base)]
+
+        def res(x, y):
+            return self.G[np.ix_(x, y)] - self.G[np.ix_(base, x)].T @ self._solve(Gbb, self.G[np.ix_(base, y)])
+        Raa, Rbb, Rab = res(a, a), res(b, b), res(a, b)
+        vv = float(ws @ Raa @ ws)
+        if vv <= 0:
+            return 0.0
+        g = Rab.T @ ws
+        return float(np.sqrt(min(max(g @ np.linalg.pinv(Rbb) @ g / vv, 0.0), 1.0)))
 
     def partial_corr(self, base, j, k) -> float:
         base = np.asarray(base)

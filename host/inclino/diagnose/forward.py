@@ -27,9 +27,64 @@ from __future__ import annotations
 import numpy as np
 
 from inclino.engines import reference as ref
+from inclino.model.effects import rig_frame_to_body
 from inclino.model.world import EncoderErrors, TurntableGeometry
 
-from .names import AXES, TRIADS
+from .names import AXES, RIG_AXES, TRIADS
+
+RIG_HARMONICS = 2  # the rig field's harmonics of its axis angle: 0 (where not absorbed), 1, 2
+
+
+def rig_terms(axis: str) -> list:
+    """(h, 'cos'|'sin') of the rig field's full parameter vector, 3
+    components (x, y, z of the axis' stator frame) each.  A constant field
+    in the world frame (h = 0 on the azimuth axis) is the Earth field's
+    business (its size the scale, its direction the dip and the azimuth
+    offset), so that axis starts at h = 1."""
+    h0 = 1 if axis == "azi" else 0
+    out = []
+    for h in range(h0, RIG_HARMONICS + 1):
+        out.append((h, "cos"))
+        if h > 0:
+            out.append((h, "sin"))
+    return out
+
+
+def rig_key(axis: str) -> str:
+    return f"rig-field:rig:{axis}"
+
+
+def _true_angles(d, theta, pose_offset=(0.0, 0.0, 0.0)):
+    off = [_val(theta, "turntable-inclination-offset:turntable:inc") + pose_offset[0],
+           _val(theta, "turntable-azimuth-offset:turntable:azi") + pose_offset[1], pose_offset[2]]
+    return EncoderErrors(off).true_pose(d.inc, d.azi, d.tf)
+
+
+def rig_full(d, axis, theta=None, pose_offset=(0.0, 0.0, 0.0)) -> np.ndarray:
+    """(n, 3, P): the body-frame field per unit (nT) of each entry of the
+    axis' full rig-field parameter vector (rig_terms x 3 components)."""
+    I, A, T = _true_angles(d, theta or {}, pose_offset)
+    C = rig_frame_to_body(axis, I, A, T)  # (n, 3, 3)
+    phi = np.radians({"azi": A, "inc": I, "tf": T}[axis])
+    cols = []
+    for h, kind in rig_terms(axis):
+        trig = np.cos(h * phi) if kind == "cos" else np.sin(h * phi)
+        for j in range(3):
+            cols.append(C[:, :, j] * trig[:, None])
+    return np.stack(cols, -1)
+
+
+def rig_body(d, theta, pose_offset=(0.0, 0.0, 0.0)) -> np.ndarray | None:
+    """(n, 3) nT: the rig fields of theta in the body frame (None without)."""
+    basis = d.__dict__.get("rig_basis", {})
+    out = None
+    for axis in RIG_AXES:
+        v = theta.get(rig_key(axis)) if theta else None
+        if v is None or axis not in basis:
+            continue
+        f = rig_full(d, axis, theta, pose_offset) @ (basis[axis] @ np.asarray(v, float))
+        out = f if out is None else out + f
+    return out
 
 STEP = {"deg": 1e-3, "g/degC": 1e-6, "nT/degC": 1e-2, "ppm/degC": 1.0, "1/g": 1e-4, "1/nT": 1e-9,
         "nT/s": 1e-3, "s": 1e-4}
@@ -81,6 +136,9 @@ def truth(d, dip, theta, pose_offset=(0.0, 0.0, 0.0)):
         B = (Cm @ ned[..., None])[..., 0]
     else:
         B = Cm @ ref.field_ned(d.field_nT, dip, d.declination_deg)
+    rb = rig_body(d, theta, pose_offset)
+    if rb is not None:
+        B = B + rb
     return G, B
 
 
@@ -146,6 +204,44 @@ def column(d, A, c, dip, theta, cand) -> np.ndarray:
         th[k] = th.get(k, 0.0) + s
         ys.append(readings(d, A, c, dip, th))
     return (ys[0] - ys[1]) / (2 * h)
+
+
+def unabsorbed(d, A_mag, dip, Z) -> np.ndarray:
+    """Z (n, 3, ...) : fluxgate reading changes (nT) with what the baseline's
+    fluxgate part (a 3x3 on the true field, an offset, the dip) can absorb
+    removed by least squares: the part of a rig field that shows in the
+    readings as itself, the rest being taken into the probe's calibration."""
+    _, B = truth(d, dip, {})
+    h = 1e-3
+    dipcol = (truth(d, dip + h, {})[1] - truth(d, dip - h, {})[1]) @ A_mag.T / (2 * h)
+    X = np.zeros((d.n, 3, 13))
+    for i in range(3):
+        X[:, i, 4 * i:4 * i + 3] = B
+        X[:, i, 4 * i + 3] = 1.0
+    X[:, :, 12] = dipcol
+    Xf = X.reshape(-1, 13)
+    Zf = np.asarray(Z, float).reshape(d.n * 3, -1)
+    coef = np.linalg.lstsq(Xf, Zf, rcond=None)[0]
+    return (Zf - Xf @ coef).reshape(np.shape(Z))
+
+
+def columns(d, A, c, dip, theta, cand) -> list:
+    """The candidate's columns (n, 6) at the state: one for a one-parameter
+    effect (`column`); for the rig field one per direction of its basis
+    (d.rig_basis, set when the diagnosis screens it), exact (the field is
+    linear in its parameters) through the fluxgate chain's slope."""
+    if cand.name != "rig-field":
+        return [column(d, A, c, dip, theta, cand)]
+    V = d.rig_basis[cand.axis]
+    G, B = truth(d, dip, theta)
+    _, slope = chain(d, theta, "mag", B @ A["mag"].T)
+    F = np.einsum("ij,njp->nip", A["mag"], rig_full(d, cand.axis, theta) @ V)  # (n, 3, r)
+    out = []
+    for k in range(V.shape[1]):
+        col = np.zeros((d.n, 6))
+        col[:, 3:] = slope * F[:, :, k]
+        out.append(col)
+    return out
 
 
 def pose_jacobian(d, A, c, dip, theta, h=1e-3) -> np.ndarray:

@@ -106,15 +106,23 @@ def _ml_variances(R, J, v0, q0, scale):
         grad = np.concatenate([gv, gq]) * e
         return 0.5 * val / n, 0.5 * grad / n
 
-    theta0 = np.maximum(np.log(np.concatenate([v0, q0])), lo)
-    try:
-        hi = np.log(np.concatenate([(10.0 * scale) ** 2, np.full(3, 100.0)]))  # <= 10x the RMS; <= 10 deg
-        theta0 = np.minimum(theta0, hi)
-        res = optimize.minimize(nll, theta0, jac=True, method="L-BFGS-B",
-                                bounds=list(zip(lo, hi)), options={"maxiter": 200})
-        th = res.x
-    except np.linalg.LinAlgError:
-        th = theta0
+    hi = np.log(np.concatenate([(10.0 * scale) ** 2, np.full(3, 100.0)]))  # <= 10x the RMS; <= 10 deg
+    # two starts: the given one, and one with each pose variance at a tenth of what the channels show
+    # through it -- a variance started near zero barely moves in log-variance (its gradient is
+    # proportional to it), so a start from a fit where one effect swamped the pose error would stay there
+    jk = np.mean((J / scale[None, :, None]) ** 2, axis=(0, 1))
+    q_mod = 0.1 / np.maximum(jk, 1e-300)
+    best, th = None, None
+    for q_start in (q0, np.maximum(q0, q_mod)):
+        theta0 = np.minimum(np.maximum(np.log(np.concatenate([v0, q_start])), lo), hi)
+        try:
+            res = optimize.minimize(nll, theta0, jac=True, method="L-BFGS-B",
+                                    bounds=list(zip(lo, hi)), options={"maxiter": 200})
+            cand, f = res.x, res.fun
+        except np.linalg.LinAlgError:
+            cand, f = theta0, np.inf
+        if best is None or f < best:
+            best, th = f, cand
     e = np.exp(th)
     return e[:6], e[6:]
 

@@ -101,10 +101,61 @@ def rotation_plan(rates=(90.0, 45.0), sample_hz: float = 10.0, tf_poses=((45, 30
 PLANS = {"static": oven_plan, "continuous": rotation_plan}
 
 
-def hide(probe: dict, effect: str, sensor: str, axis: str, value: float) -> dict:
+def rig_pattern(rng, axis: str) -> dict:
+    """A random rig field of the axis (effects.RigField): N(0, 1) nT
+    coefficients for harmonics 0-2 in the axis' frame (none at h = 0 for the
+    azimuth axis: a constant world field is the Earth field's)."""
+    from .forward import RIG_HARMONICS
+
+    cos = rng.standard_normal((RIG_HARMONICS + 1, 3))
+    sin = rng.standard_normal((RIG_HARMONICS + 1, 3))
+    sin[0] = 0.0
+    if axis == "azi":
+        cos[0] = 0.0
+    return {"axis": axis, "cos_nT": cos, "sin_nT": sin}
+
+
+def rig_unabsorbed_rms(probe: dict, plan: dict, pattern: dict) -> float:
+    """The RMS (nT, over the rows and fluxgate axes) of the pattern's reading
+    change that the baseline cannot absorb on this plan (forward.unabsorbed):
+    what the diagnosis reports as the rig field's size."""
+    from inclino.model import effects as fx
+    from inclino.model.scenario import scenario_from_dict
+
+    from . import forward
+
+    ds = generate(probe, plan, seed=0, sigma_pose_deg=0.0, noise=False)
+    d = core.prepare(ds)
+    s = scenario_from_dict(probe)
+    A_mag, _ = s.mag.linear()
+    rf = fx.RigField(pattern["axis"], pattern["cos_nT"], pattern["sin_nT"])
+    Z = rf.apply(d.inc, d.azi, d.tf) @ A_mag.T
+    return float(np.sqrt(np.mean(forward.unabsorbed(d, A_mag, s.world.earth.dip_deg, Z) ** 2)))
+
+
+def unit_rig_pattern(probe: dict, plan: dict, axis: str, rng) -> dict:
+    """A random rig field (rig_pattern) scaled so that what the baseline
+    cannot absorb of it on this plan is 1 nT RMS: hide(..., value, pattern)
+    then hides a field the diagnosis should report as `value` nT RMS."""
+    pattern = rig_pattern(rng, axis)
+    u = rig_unabsorbed_rms(probe, plan, pattern)
+    return {k: (np.asarray(v) / u if k != "axis" else v) for k, v in pattern.items()}
+
+
+def hide(probe: dict, effect: str, sensor: str, axis: str, value: float, pattern: dict | None = None) -> dict:
     """A copy of the scenario dict with one library effect of the given
-    size (the emulator's parameter, in the diagnosis's units)."""
+    size (the emulator's parameter, in the diagnosis's units).  A rig field
+    is `pattern` (rig_pattern) scaled by `value`."""
     d = copy.deepcopy(probe)
+    if effect == "rig-field":
+        if pattern is None:
+            pattern = rig_pattern(np.random.default_rng(0), axis)
+        d["world"].setdefault("rig_field", [])
+        if isinstance(d["world"]["rig_field"], dict):
+            d["world"]["rig_field"] = [d["world"]["rig_field"]]
+        d["world"]["rig_field"].append({"axis": axis, "cos_nT": (value * np.asarray(pattern["cos_nT"])).tolist(),
+                                        "sin_nT": (value * np.asarray(pattern["sin_nT"])).tolist()})
+        return d
     if sensor in core.TRIADS:
         e = [0.0, 0.0, 0.0]
         if axis in core.AXES:
@@ -188,7 +239,7 @@ def generate(probe: dict, plan: dict, seed: int, sigma_pose_deg: float = TURNTAB
 
 
 def signature_z(probe: dict, plan: dict, cand: core.Candidate, sigma_pose_deg: float = TURNTABLE_SIGMA_DEG,
-                with_peak: bool = False):
+                with_peak: bool = False, pattern: dict | None = None):
     """How many noise standard deviations one unit of the candidate's
     parameter is on this plan, once the baseline has absorbed what it can:
     the norm of its whitened regressor outside the baseline's span, under the
@@ -207,7 +258,15 @@ def signature_z(probe: dict, plan: dict, cand: core.Candidate, sigma_pose_deg: f
     G, B = core._truth(d, d.inc, d.azi, d.tf, dip)
     bl = core.Baseline(A, c, dip, G, B, core.pose_jacobian(d, A["acc"], A["mag"], dip))
     cols, _ = core.baseline_columns(d, bl)
-    X = np.stack(cols + [core.regressor(d, bl, cand)], -1)
+    if cand.name == "rig-field":  # the pattern's reading change per unit of the pattern
+        from inclino.model import effects as fx
+
+        pattern = pattern or rig_pattern(np.random.default_rng(0), cand.axis)
+        reg = np.zeros((d.n, 6))
+        reg[:, 3:] = fx.RigField(cand.axis, pattern["cos_nT"], pattern["sin_nT"]).apply(d.inc, d.azi, d.tf) @ A["mag"].T
+    else:
+        reg = core.regressor(d, bl, cand)
+    X = np.stack(cols + [reg], -1)
     noise = core.Noise(np.array([ACC_SIGMA_G] * 3 + [MAG_SIGMA_NT] * 3) * np.sqrt(1 + 1 / (12 * np.array(
         [(ACC_SIGMA_G * 16384) ** 2] * 3 + [MAG_SIGMA_NT ** 2] * 3))), np.full(3, sigma_pose_deg))
     des = core.Design(np.zeros((d.n, 6)), X, noise.whitener(bl.Jpose), np.zeros(d.n, int), 1)

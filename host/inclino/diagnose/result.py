@@ -44,10 +44,12 @@ class Effect:
     # not in the JSON: what the text report and the plots use
     rms_units: str = ""
     p_value: float = 1.0
+    detail: dict = field(default_factory=dict)  # in the JSON: the checks it passed, a rig field's harmonics
 
     def to_dict(self):
         return json_safe({"name": self.name, "sensor": self.sensor, "axis": self.axis, "estimate": self.estimate,
-                      "stderr": self.stderr, "units": self.units, "gain": self.gain.to_dict()})
+                          "stderr": self.stderr, "units": self.units, "gain": self.gain.to_dict(),
+                          "detail": self.detail})
 
 
 @dataclass
@@ -59,9 +61,14 @@ class Diagnosis:
     structure: dict = field(default_factory=dict)
     plot_data: dict = field(default_factory=dict, repr=False)
     elapsed_s: float = 0.0
+    # effects the selection kept that failed the checks: not causes ("fits the poses but contradicts the invariants")
+    contradicted: list = field(default_factory=list)
+    # named (or contradicted) effects and the candidates the run cannot tell them from
+    confounded: list = field(default_factory=list)
 
     def to_dict(self) -> dict:
         return {"baseline": json_safe(self.baseline), "effects": [e.to_dict() for e in self.effects],
+                "contradicted": json_safe(self.contradicted), "confounded": json_safe(self.confounded),
                 "unexplained": bool(self.unexplained)}
 
     def to_json(self, indent=2) -> str:
@@ -72,40 +79,74 @@ class Diagnosis:
 
     def summary(self) -> str:
         b = self.baseline
-        nz = b["noise"]
-        lines = [f"baseline: {b['model']}; {b['rows']} readings ({b['kind']}), {b['orientations']} orientations, "
-                 f"dip {b['dip_deg']:.3f} deg",
-                 "  noise from the data: acc " + ", ".join(f"{s * 1e6:.0f}" for s in nz["acc_g"]) + " ug; mag "
-                 + ", ".join(f"{s:.2f}" for s in nz["mag_nT"]) + " nT; turntable "
-                 + ", ".join(f"{k} {v:.3f}" for k, v in nz["pose_deg"].items()) + " deg",
-                 "  residual RMS: acc " + ", ".join(f"{s * 1e6:.0f}" for s in b["rms"]["acc_g"]) + " ug; mag "
-                 + ", ".join(f"{s:.2f}" for s in b["rms"]["mag_nT"]) + " nT; "
-                 + (f"azimuth {b['azi_rms_deg']:.4f} deg, " if b.get("azi_rms_deg") is not None else "")
-                 + f"inclination {b['inc_rms_deg']:.4f} deg"]
+        if b.get("mode") == "invariants":
+            u = {"|g|": "g", "|b|": "nT", "dip": "deg"}
+            lines = [f"baseline: {b['model']}; {b['rows']} readings in {b['clusters']} poses (clusters of rows at one "
+                     f"pose count once), invariants " + ", ".join(b["invariants"])
+                     + (f", dip {b['dip_deg']:.3f} deg" if b.get("dip_deg") is not None else ""),
+                     "  residual RMS: " + ", ".join(f"{k} {v:.4g} {u[k]}" for k, v in b["rms"].items())]
+        else:
+            nz = b["noise"]
+            lines = [f"baseline: {b['model']}; {b['rows']} readings ({b['kind']}), {b['orientations']} orientations, "
+                     f"dip {b['dip_deg']:.3f} deg",
+                     "  noise from the data: acc " + ", ".join(f"{s * 1e6:.0f}" for s in nz["acc_g"]) + " ug; mag "
+                     + ", ".join(f"{s:.2f}" for s in nz["mag_nT"]) + " nT; turntable "
+                     + ", ".join(f"{k} {v:.3f}" for k, v in nz["pose_deg"].items()) + " deg",
+                     "  residual RMS: acc " + ", ".join(f"{s * 1e6:.0f}" for s in b["rms"]["acc_g"]) + " ug; mag "
+                     + ", ".join(f"{s:.2f}" for s in b["rms"]["mag_nT"]) + " nT; "
+                     + (f"azimuth {b['azi_rms_deg']:.4f} deg, " if b.get("azi_rms_deg") is not None else "")
+                     + f"inclination {b['inc_rms_deg']:.4f} deg"]
         sel = b["selection"]
         lines.append(f"effects tested: {len(sel['tested'])} (F-test at alpha = {sel['alpha']:g}, Bonferroni over the "
                      f"candidates, and {sel['folds']}-fold cross-validation)")
         groups = {}
         for nt in sel["not_testable"]:
-            name, sensor, axis = nt["effect"].split(":")
-            groups.setdefault((name, nt["reason"]), []).append(f"{sensor} {axis}")
+            parts = nt["effect"].split(":")
+            where = groups.setdefault((parts[0], nt["reason"]), [])
+            if len(parts) == 3:
+                where.append(f"{parts[1]} {parts[2]}")
         for (name, reason), where in groups.items():
-            lines.append(f"  not testable: {name} ({', '.join(where)}): {reason}")
+            needs = "needs the poses" if b.get("mode") == "invariants" and name in sel.get("needs_poses", ()) else \
+                "not testable"
+            lines.append(f"  {needs}: {name}" + (f" ({', '.join(where)})" if where else "") + f": {reason}")
         if not self.effects:
             lines.append("effects found: none")
         for e in self.effects:
             g = e.gain
             lines.append(f"effect: {e.name} ({e.sensor} {e.axis}) = {e.estimate:.4g} +- {e.stderr:.2g} {e.units}"
                          f"  (p = {e.p_value:.2g})")
+            ce = e.detail.get("calibration_error_if_ignored")
+            if ce:
+                lines.append(f"  the rig's field, not the probe's: keep it out of the probe's calibration -- ignored, "
+                             f"it leaves {ce['azi_rms_deg']:.3f} deg azimuth and {ce['inc_rms_deg']:.4f} deg "
+                             f"inclination RMS over the Li grid")
             lines.append(f"  residual RMS {g.rms_before:.4g} -> {g.rms_after:.4g} {e.rms_units} (cross-validated "
-                         f"{g.cv_rms_before:.4g} -> {g.cv_rms_after:.4g}); inclination {g.inc_rms_before_deg:.4f} -> "
-                         f"{g.inc_rms_after_deg:.4f} deg"
+                         f"{g.cv_rms_before:.4g} -> {g.cv_rms_after:.4g})"
+                         + (f"; inclination {g.inc_rms_before_deg:.4f} -> {g.inc_rms_after_deg:.4f} deg"
+                            if g.inc_rms_before_deg == g.inc_rms_before_deg else "")
                          + (f", azimuth {g.azi_rms_before_deg:.4f} -> {g.azi_rms_after_deg:.4f} deg"
                             if g.azi_rms_before_deg is not None else ""))
+        for c in self.contradicted:
+            name, sensor, axis = c["effect"].split(":")
+            lines.append(f"not a cause: {name} ({sensor} {axis}) {c['verdict']} -- " + "; ".join(c["reasons"])
+                         + " (a sign of pose error or of a rig effect the model lacks)")
+        for cf in self.confounded:
+            e1, e2 = (x.split(":")[0] + " (" + " ".join(x.split(":")[1:]) + ")" if ":" in x else x
+                      for x in (cf["effect"], cf["with"]))
+            lines.append(f"confounded: {e1} {'(named)' if cf['named'] else '(not a cause)'} and {e2}, correlation "
+                         f"{cf['correlation']:.3f} in this run: the data cannot tell them apart; to separate them, "
+                         f"{cf['separate_by']}")
+        for rv in b.get("run_variables", []):
+            lines.append(f"run: {rv['a']} and {rv['b']} go together (correlation {rv['correlation']:.2f}): an effect "
+                         f"of one is also a function of the other here")
         bs = sel.get("best_subset")
         if bs:
+            named = {f"{e.name}:{e.sensor}:{e.axis}" for e in self.effects}
+            extra = [c for c in bs["chosen"] if c not in named]
             lines.append("best-subset check (nested K-fold): chosen " + (" + ".join(bs["chosen"]) or "none")
-                         + ("" if bs["agrees_with_the_stepwise_choice"] else " (differs from the stepwise choice)"))
+                         + ("" if bs["agrees_with_the_stepwise_choice"] else " (differs from the stepwise choice)")
+                         + (f"; {', '.join(extra)} not named: the stepwise selection or its checks did not keep "
+                            f"{'it' if len(extra) == 1 else 'them'}" if extra else ""))
             for t in bs["drop_tests"]:
                 lines.append(f"  {t['term']}: " + ("asked for by the data (removing it from the pool worsens the "
                                                     "nested CV by more than 1 SE)" if t["asked_for_by_the_data"] else
@@ -139,20 +180,30 @@ class Diagnosis:
         figures that decided it.  A finding, not a check: `inclino diagnose`
         exits 0 either way."""
         b = self.baseline
-        base = (f"azimuth {b['azi_rms_deg']:.4f} deg, " if b.get("azi_rms_deg") is not None else "") + \
-            f"inclination {b['inc_rms_deg']:.4f} deg"
+        pose_free = b.get("mode") == "invariants"
+        if pose_free:
+            u = {"|g|": "g", "|b|": "nT", "dip": "deg"}
+            base = ", ".join(f"{k} {v:.4g} {u[k]}" for k, v in b["rms"].items())
+            model = "the pose-free model (invariants only)"
+        else:
+            base = (f"azimuth {b['azi_rms_deg']:.4f} deg, " if b.get("azi_rms_deg") is not None else "") + \
+                f"inclination {b['inc_rms_deg']:.4f} deg"
+            model = "the 12-parameter model"
         alpha = b["selection"]["alpha"]
         if not self.effects and not self.unexplained:
-            return (f"conclusion: PASS: the 12-parameter model leaves nothing to name: no effect at alpha = {alpha:g}, "
+            return (f"conclusion: PASS: {model} leaves nothing to name: no effect at alpha = {alpha:g}, "
                     f"no unexplained structure (residual RMS {base})")
         parts = []
         for e in self.effects:
             g = e.gain
-            fig = (f"azimuth RMS {g.azi_rms_before_deg:.4f} -> {g.azi_rms_after_deg:.4f} deg"
-                   if g.azi_rms_before_deg is not None else
-                   f"inclination RMS {g.inc_rms_before_deg:.4f} -> {g.inc_rms_after_deg:.4f} deg")
+            if pose_free or g.inc_rms_before_deg != g.inc_rms_before_deg:
+                fig = f"residual RMS {g.rms_before:.4g} -> {g.rms_after:.4g} {e.rms_units}"
+            elif g.azi_rms_before_deg is not None:
+                fig = f"azimuth RMS {g.azi_rms_before_deg:.4f} -> {g.azi_rms_after_deg:.4f} deg"
+            else:
+                fig = f"inclination RMS {g.inc_rms_before_deg:.4f} -> {g.inc_rms_after_deg:.4f} deg"
             parts.append(f"{e.name} ({e.sensor} {e.axis}, p = {e.p_value:.2g}; {fig})")
         if self.unexplained:
             parts.append("structure no library effect explains (p = "
                          f"{self.structure['min_p']:.2g} < {self.structure['threshold']:.2g})")
-        return "conclusion: FAIL: the 12-parameter model misses " + "; ".join(parts)
+        return f"conclusion: FAIL: {model} misses " + "; ".join(parts)

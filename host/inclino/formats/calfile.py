@@ -106,10 +106,8 @@ class Calibration:
             return None
         from inclino.formats import caltemp
 
-        try:
-            return caltemp.to_fixed(t)
-        except (KeyError, TypeError, ValueError) as e:
-            raise CalibrationError(f"temperature block unreadable: {_short(e)}")
+        check_temperature(t)
+        return caltemp.to_fixed(t)
 
     @staticmethod
     def from_fixed(fc: FixedCal, **kw) -> "Calibration":
@@ -152,42 +150,38 @@ class Calibration:
             raise CalibrationError("calibration file must hold a JSON object")
         if d.get("format") != FORMAT_VERSION:
             raise CalibrationError(f"calibration format {str(d.get('format'))[:20]!r} is not {FORMAT_VERSION}")
-        try:
-            cal = Calibration(
-                acc_m=[[float(v) for v in row] for row in d["acc_m"]],
-                acc_b=[float(v) for v in d["acc_b"]],
-                mag_m=[[float(v) for v in row] for row in d["mag_m"]],
-                mag_b=[float(v) for v in d["mag_b"]],
-                method=str(d.get("method", "")),
-                probe_serial=str(d.get("probe_serial", "")),
-                data=d.get("data") if isinstance(d.get("data"), dict) else None,
-                report=d.get("report") if isinstance(d.get("report"), dict) else None,
-                temperature=d.get("temperature") if isinstance(d.get("temperature"), dict) else None,
-                triads=str(d.get("triads", "both")),
-            )
-            if cal.triads not in TRIADS:
-                raise ValueError(f"triads {cal.triads[:20]!r} is not one of {', '.join(TRIADS)}")
-        except (KeyError, TypeError, ValueError, OverflowError) as e:
-            raise CalibrationError(f"calibration file lacks or mangles a coefficient ({_short(e)})") from None
+        from inclino.formats.fields import Fields
+
+        f = Fields(d, "calibration file", CalibrationError)
+        cal = Calibration(
+            acc_m=f.numbers("acc_m", (3, 3)).tolist(),
+            acc_b=f.numbers("acc_b", (3,)).tolist(),
+            mag_m=f.numbers("mag_m", (3, 3)).tolist(),
+            mag_b=f.numbers("mag_b", (3,)).tolist(),
+            method=str(f.string("method", required=False, default="", null=True) or ""),
+            probe_serial=_serial_text(d.get("probe_serial", "")),
+            data=d.get("data") if isinstance(d.get("data"), dict) else None,
+            report=d.get("report") if isinstance(d.get("report"), dict) else None,
+            temperature=check_temperature(d["temperature"]) if d.get("temperature") is not None else None,
+            triads=f.string("triads", required=False, default="both", choices=TRIADS),
+        )
         cal.check()
         if "fixed" in d:
-            try:
-                fixed = FixedCal(**{k: tuple(_fixed_int(v) for v in d["fixed"][k])
-                                    for k in ("acc_m", "acc_b", "mag_m", "mag_b")})
-            except (KeyError, TypeError, ValueError, OverflowError) as e:
-                raise CalibrationError(f"calibration file's fixed-point image is mangled ({_short(e)})") from None
-            want = cal.to_fixed()
-            ft = d["fixed"].get("temp") if isinstance(d["fixed"], dict) else None
-            if ft is not None:
+            fx = Fields(d["fixed"], "calibration file: fixed", CalibrationError)
+            kw = {}
+            for k, n in (("acc_m", 9), ("acc_b", 3), ("mag_m", 9), ("mag_b", 3)):
+                v = fx.d.get(k)
+                if not isinstance(v, list) or len(v) != n:
+                    raise CalibrationError(f"calibration file's fixed-point image is mangled ({k} must be a list "
+                                           f"of {n} integers)")
                 try:
-                    from inclino.engines.firmware import FixedTemp
-
-                    fixed = replace(fixed, temp=FixedTemp(**{k: (int(v) if k in ("t_ref", "order") else
-                                                                  tuple(_fixed_int(x) for x in v))
-                                                              for k, v in ft.items()}))
-                except (KeyError, TypeError, ValueError, OverflowError) as e:
-                    raise CalibrationError(f"calibration file's fixed-point temperature terms are mangled "
-                                           f"({_short(e)})") from None
+                    kw[k] = tuple(_fixed_int(x) for x in v)
+                except (TypeError, ValueError) as e:
+                    raise CalibrationError(f"calibration file's fixed-point image is mangled ({k}: {e})") from None
+            fixed = FixedCal(**kw)
+            want = cal.to_fixed()
+            if isinstance(d["fixed"], dict) and "temp" in d["fixed"]:
+                fixed = replace(fixed, temp=_fixed_temp(d["fixed"]["temp"]))
             if fixed != want:
                 raise CalibrationError("calibration file's fixed-point image does not match its float coefficients")
         return cal
@@ -204,6 +198,74 @@ class Calibration:
             return Calibration.from_json(text)
         except CalibrationError as e:
             raise CalibrationError(f"{path}: {e}") from None
+
+
+def _serial_text(v) -> str:
+    """The probe serial as the file gives it (text, or a JSON integer)."""
+    if isinstance(v, bool) or not isinstance(v, (str, int)) or len(str(v)) > 40:
+        raise CalibrationError(f"calibration file: probe_serial must be text or an integer, not "
+                               f"{str(v)[:20]!r}")
+    return str(v)
+
+
+# the temperature block's terms (inclino.calib.thermal): per unit, the largest magnitude a term may have
+TEMP_TERM_LIMIT = {"acc": {"bias": 1.0, "scale_ppm": 1e5}, "mag": {"bias": 1e5, "scale_ppm": 1e5}}
+
+
+def check_temperature(block) -> dict:
+    """CAL.json's temperature block (image version 2 when the firmware
+    applies it): structure, types and ranges of every field the readers use
+    (CalibrationError naming the field); returns the block."""
+    from inclino.formats.fields import Fields
+
+    f = Fields(block, "calibration file: temperature", CalibrationError)
+    order = f.integer("order", 0, 2)
+    f.number("t_ref_c", -100.0, 300.0)
+    if f.has("span_c"):
+        f.numbers("span_c", (2,), -100.0, 300.0)
+    f.boolean("applied_by_firmware", required=False)
+    for tri, lim in TEMP_TERM_LIMIT.items():
+        t = f.obj(tri)
+        for k, v in lim.items():
+            t.numbers(k, (order, 3), -v, v)
+    sig = f.obj("sigma", required=False, null=True)
+    if sig is not None:
+        for tri, lim in TEMP_TERM_LIMIT.items():
+            t = sig.obj(tri)
+            for k, v in lim.items():
+                t.numbers(k, (order, 3), 0.0, v)
+    if f.has("covariance") and f.d["covariance"] is not None:
+        f.numbers("covariance", (12 * order, 12 * order))
+    if f.has("firmware") and not isinstance(f.d["firmware"], dict):
+        raise CalibrationError("calibration file: temperature: firmware must be a JSON object")
+    return block
+
+
+FIXED_TEMP_FIELDS = {"t_ref": None, "order": None, "acc_c1": 2**31, "acc_c2": 2**15, "acc_r1": 2**31,
+                     "acc_r2": 2**15, "mag_c1": 2**31, "mag_c2": 2**15, "mag_r1": 2**31, "mag_r2": 2**15}
+
+
+def _fixed_temp(ft):
+    """The fixed-point image's temperature terms ("fixed": {"temp": ...})."""
+    from inclino.engines.firmware import FixedTemp
+    from inclino.formats.fields import Fields
+
+    f = Fields(ft, "calibration file: fixed: temp", CalibrationError)
+    f.known(*FIXED_TEMP_FIELDS)
+    kw = {"t_ref": f.integer("t_ref", -2**15, 2**15 - 1), "order": f.integer("order", 1, 2)}
+    for k, lim in FIXED_TEMP_FIELDS.items():
+        if lim is None:
+            continue
+        v = f.d.get(k)
+        if not isinstance(v, list) or len(v) != 3:
+            raise CalibrationError(f"calibration file: fixed: temp: {k} must be a list of 3 integers")
+        try:
+            kw[k] = tuple(_fixed_int(x) for x in v)
+        except (TypeError, ValueError) as e:
+            raise CalibrationError(f"calibration file: fixed: temp: {k}: {e}") from None
+        if any(not -lim <= x < lim for x in kw[k]):
+            raise CalibrationError(f"calibration file: fixed: temp: {k} beyond {lim.bit_length()} bits")
+    return FixedTemp(**kw)
 
 
 def _array(value, name: str, what: str) -> np.ndarray:

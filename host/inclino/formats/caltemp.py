@@ -81,7 +81,8 @@ def firmware_coefficients(block: dict, tri: str):
 
 
 def _q(v, frac, lim, what):
-    q = np.floor(np.asarray(v, float) * 2.0**frac + 0.5)
+    with np.errstate(over="ignore", invalid="ignore"):  # a term beyond the range: the error below, no warning
+        q = np.floor(np.asarray(v, float) * 2.0**frac + 0.5)
     if not np.all(np.isfinite(q)) or np.abs(q).max() > lim:
         rng = lim / 2.0**frac
         raise CalibrationError(f"temperature term {what} {np.asarray(v).tolist()} beyond the calibration "

@@ -65,11 +65,34 @@ def _split(line: str, delim: str | None) -> list:
     return next(csv.reader([line], delimiter=delim))
 
 
-def _sniff(line: str) -> str:
-    for d in (",", ";", "\t"):
+def _sniff(line: str, decimal: str = ".") -> str:
+    for d in ((";", "\t") if decimal == "," else (",", ";", "\t")):
         if d in line:
             return d
     return "whitespace"
+
+
+def _clock(text: str):
+    """Seconds of a date-time (ISO 8601: '2024-05-01T12:00:00.125Z',
+    '2024-05-01 12:00:00') or of a time of day ('12:00:00.125'); None when
+    the text is neither."""
+    from datetime import datetime, time, timezone
+
+    t = text.strip()
+    if t.endswith(("Z", "z")):
+        t = t[:-1] + "+00:00"
+    try:
+        d = datetime.fromisoformat(t)
+        if d.tzinfo is None:
+            d = d.replace(tzinfo=timezone.utc)
+        return d.timestamp()
+    except ValueError:
+        pass
+    try:
+        c = time.fromisoformat(t)
+        return c.hour * 3600.0 + c.minute * 60.0 + c.second + c.microsecond * 1e-6
+    except ValueError:
+        return None
 
 
 def _index(col, names, what, path, lineno):
@@ -120,7 +143,7 @@ def _import(lines, path: str, desc: SensorDescription, static) -> tuple[RawDatas
         break
     if first is None:
         raise DataError(f"{path}: no data")
-    delim = desc.delimiter if desc.delimiter is not None else _sniff(first)
+    delim = desc.delimiter if desc.delimiter is not None else _sniff(first, desc.decimal)
     if delim == "\\t":
         delim = "\t"
     names = _split(first, delim) if desc.has_header else None
@@ -151,6 +174,7 @@ def _import(lines, path: str, desc: SensorDescription, static) -> tuple[RawDatas
     keys = list(wanted)
     idx = [wanted[k] for k in keys]
     rows, labels = [], []
+    clock = [False]  # the time column holds date-times (ISO 8601) or times of day, not numbers
     dropped: dict = {}
     read = 0
     pending = [] if names is not None else [first]
@@ -182,12 +206,20 @@ def _import(lines, path: str, desc: SensorDescription, static) -> tuple[RawDatas
             if text_.lower() in MISSING:
                 dropped["a missing value"] = dropped.get("a missing value", 0) + 1
                 return
+            if desc.decimal == ",":
+                text_ = text_.replace(",", ".")
             try:
                 if "_" in text_:
                     raise ValueError
                 v = float(text_)
             except ValueError:
-                hint = " (a decimal comma? set [log].delimiter)" if re.fullmatch(r"-?\d+,\d+", text_) else ""
+                v = _clock(text_) if k == "t_s" else None
+                if v is not None:
+                    clock[0] = True
+                    vals.append(v)
+                    continue
+                hint = (" (a decimal comma? set [log] decimal = \",\" and a delimiter other than the comma)"
+                        if re.fullmatch(r"-?\d+,\d+", text_) else "")
                 raise DataError(f"{path}:{lineno}: column {k.lstrip('_')} ({names[j].strip() if names else j + 1}): "
                                 f"{text_[:40]!r} is not a number{hint}") from None
             if not math.isfinite(v):
@@ -226,7 +258,8 @@ def _import(lines, path: str, desc: SensorDescription, static) -> tuple[RawDatas
     col = {k: v[lo:hi] for k, v in col.items()}
     labels = labels[lo:hi]
     if "t_s" in col:
-        out["t_s"] = col["t_s"] * desc.time_scale
+        # date-times are seconds since the first row; numbers in the declared time unit
+        out["t_s"] = col["t_s"] - col["t_s"][0] if clock[0] else col["t_s"] * desc.time_scale
     if "temp_c" in col:
         out["temp_c"] = col["temp_c"]
     if label_idx is not None:

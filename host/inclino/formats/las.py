@@ -97,12 +97,24 @@ def render(index_name: str, index_unit: str, index_descr: str, index, curves, pa
 
 def read(text: str, where: str):
     """A lasio LASFile from text; DataError when it is not readable."""
+    import logging
+
     import lasio
 
+    log = logging.getLogger("lasio")  # lasio logs its own notes ("Only engine='normal' ..."): kept off stderr
+    level = log.level
+    log.setLevel(logging.CRITICAL + 1)
     try:
-        return lasio.read(io.StringIO(text))
+        # read_policy=(): none of lasio's regular-expression rewrites of the data
+        # lines -- its run-on pattern (-?\d*\.\d*\.\d*) backtracks in time
+        # quadratic in a line's length (a line of a million digits ran for hours), and
+        # its decimal-comma rewrite read "1,5" as 1.5 where every other reader refuses
+        # it: a cell that is not a plain number stays text and is refused by name
+        return lasio.read(io.StringIO(text), read_policy=())
     except Exception as e:  # lasio raises many kinds for a malformed file
-        raise DataError(f"{where}: not a readable LAS file ({e})")
+        raise DataError(f"{where}: not a readable LAS file ({str(e)[:80]})") from None
+    finally:
+        log.setLevel(level)
 
 
 def finite(v) -> bool:

@@ -28,6 +28,14 @@ leading byte-order mark is dropped), `parse_json` refuses nesting deeper
 than MAX_JSON_DEPTH, non-finite numbers (NaN, Infinity, 1e999) and integers
 of more than MAX_INT_DIGITS digits -- each as one line (the error class the
 caller gives), never a RecursionError, OverflowError or UnicodeDecodeError.
+
+A command's files (`command_files`): the command line declares every file a
+command reads and writes (inclino.cli.paths); `command_files(inputs,
+outputs)` refuses, before any work, an output that is one of the inputs or
+names the same file as another output, and, while the command runs, every
+file written through this module is checked against those inputs and
+against every file the command already wrote (a figure written into an
+output folder through a planted symbolic link, two figures of one name).
 """
 from __future__ import annotations
 
@@ -40,13 +48,79 @@ import stat
 import sys
 import tempfile
 
-import numpy as np
-
 from inclino.errors import DataError
 
 MAX_JSON_BYTES = 16 * 2**20  # a CAL.json with its fit report is a few tens of kB
 MAX_JSON_DEPTH = 32  # CAL.json nests 4 deep; the fit report a few more
 MAX_INT_DIGITS = 30  # the largest integer in CAL.json is a 32-bit coefficient (10 digits)
+
+
+# ---------------------------------------------------------------- the command's files
+class _Scope:
+    """The files of the running command: its inputs, and what it wrote."""
+
+    def __init__(self, inputs):
+        self.inputs = [p for p in inputs if p and p != "-"]
+        self.written: dict = {}  # identity or real path -> the path as given
+
+
+_SCOPES: list = []
+
+
+def _scope():
+    return _SCOPES[-1] if _SCOPES else None
+
+
+def _key(path: str):
+    """What names a file: (device, inode) when it exists, else its real path."""
+    return _ident(path) or os.path.realpath(path)
+
+
+def check_outputs(inputs, outputs) -> None:
+    """The rule between a command's files, before any work: each output
+    (path, kind 'file' or 'dir', option name) is neither an input nor the
+    file of another output; at most one output is standard output."""
+    inputs = [p for p in inputs if p and p != "-"]
+    seen: dict = {}
+    stdout = []
+    for path, kind, name in outputs:
+        if path == "-":
+            stdout.append(name)
+            if len(stdout) > 1:
+                raise DataError(f"{stdout[0]} and {name} both write to standard output")
+            continue
+        if kind == "dir":
+            if not path:
+                raise DataError(f"{name}: an empty folder path")
+            for p in inputs:
+                if _ident(p) is not None and _ident(p) == _ident(path):
+                    raise DataError(f"refusing to write into {path}: it is the input {p}")
+            if os.path.exists(path) and not os.path.isdir(path):
+                raise DataError(f"refusing to write into {path} ({name}): it is not a folder")
+        else:
+            check_output(path, inputs)
+            try:
+                if not stat.S_ISREG(os.stat(path).st_mode):
+                    continue  # a device (/dev/null) may take several outputs
+            except (OSError, ValueError):
+                pass
+        k = _key(path)
+        if k in seen:
+            other, oname = seen[k]
+            raise DataError(f"{oname} {other} and {name} {path} name the same "
+                            f"{'folder' if kind == 'dir' else 'file'}: one output would replace the other")
+        seen[k] = (path, name)
+
+
+@contextlib.contextmanager
+def command_files(inputs, outputs=()):
+    """Run a command with its declared files (see the module's docstring)."""
+    check_outputs(inputs, outputs)
+    _SCOPES.append(_Scope(inputs))
+    try:
+        yield
+    finally:
+        _SCOPES.pop()
 
 
 # ---------------------------------------------------------------- outputs
@@ -74,6 +148,13 @@ def check_output(path: str, inputs=()) -> None:
         raise DataError(f"refusing to write {path}: it is a directory")
 
 
+def _regular_or_new(path: str) -> bool:
+    try:
+        return stat.S_ISREG(os.stat(path).st_mode)
+    except (OSError, ValueError):
+        return True
+
+
 def _new_file_mode() -> int:
     mask = os.umask(0)
     os.umask(mask)
@@ -84,7 +165,14 @@ def _new_file_mode() -> int:
 def output_file(path: str, inputs=(), *, binary: bool = False, newline: str | None = ""):
     """Open `path` for writing by the rules above; yields a file object.  The
     content is committed when the with-block ends without an exception."""
+    scope = _scope()
+    inputs = list(inputs) + (scope.inputs if scope is not None else [])
     check_output(path, inputs)
+    if scope is not None and path != "-":
+        k = _key(path)
+        if k in scope.written and scope.written[k] != path and _regular_or_new(path):
+            raise DataError(f"refusing to write {path}: this command already wrote that file "
+                            f"({scope.written[k]})")
     if path == "-":
         f = sys.stdout.buffer if binary else sys.stdout
         try:
@@ -134,6 +222,8 @@ def output_file(path: str, inputs=(), *, binary: bool = False, newline: str | No
                 raise DataError(f"refusing to write {path}: it is the input file")
             os.replace(tmp, real)
             ok = True
+            if scope is not None:
+                scope.written[_key(real)] = path
         except OSError as e:
             raise DataError(f"cannot write {path}: {e.strerror}") from None
     finally:
@@ -156,6 +246,29 @@ def save_figure(fig, path: str, **kw) -> None:
     write_output(path, buf.getvalue())
 
 
+def open_log(path: str, mode: str = "a", inputs=()):
+    """A log file written as a run goes, row by row ("w": a new one, "a":
+    continued; a survey run's CSV, acquire's RUN.csv.part): by the same
+    rules as every output (never one of the inputs, a directory, or a file
+    this command already wrote under another name); the caller flushes each
+    row, and what it wrote stays on any exit."""
+    scope = _scope()
+    inputs = list(inputs) + (scope.inputs if scope is not None else [])
+    check_output(path, inputs)
+    if scope is not None:
+        k = _key(path)
+        if k in scope.written and scope.written[k] != path:
+            raise DataError(f"refusing to write {path}: this command already wrote that file "
+                            f"({scope.written[k]})")
+    try:
+        f = open(path, "a" if mode == "a" else "w", encoding="utf-8", newline="")
+    except OSError as e:
+        raise DataError(f"cannot write {path}: {e.strerror}") from None
+    if scope is not None:
+        scope.written[_key(path)] = path
+    return f
+
+
 # ---------------------------------------------------------------- inputs
 def read_text(path: str, what: str = "file", max_bytes: int = MAX_JSON_BYTES, error=DataError) -> str:
     """The whole text of a small input file (UTF-8, BOM dropped), at most
@@ -172,12 +285,74 @@ def read_text(path: str, what: str = "file", max_bytes: int = MAX_JSON_BYTES, er
     try:
         return raw.decode("utf-8-sig")
     except UnicodeDecodeError as e:
-        raise error(f"{what} {path} is not UTF-8 text (byte {e.start})") from None
+        line, col = line_of(raw, e.start + (3 if raw.startswith(b"\xef\xbb\xbf") else 0))
+        raise error(f"{what} {path}:{line}: not UTF-8 text (byte 0x{raw[line_start(raw, line) + col - 1]:02X} at "
+                    f"column {col})") from None
+
+
+def line_of(raw: bytes, offset: int) -> tuple[int, int]:
+    """(line, column), both from 1, of a byte offset in raw text (lines end
+    in LF, CRLF or a lone CR, as Python's text files read them)."""
+    head = raw[:offset]
+    line = head.count(b"\n") + head.count(b"\r") - head.count(b"\r\n") + 1
+    start = max(head.rfind(b"\n"), head.rfind(b"\r")) + 1
+    return line, offset - start + 1
+
+
+def line_start(raw: bytes, line: int) -> int:
+    """The byte offset of a line (from 1) in raw text."""
+    off, n = 0, 1
+    while n < line:
+        i, j = raw.find(b"\n", off), raw.find(b"\r", off)
+        ends = [x for x in (i, j) if x >= 0]
+        if not ends:
+            break
+        k = min(ends)
+        off = k + (2 if raw[k:k + 2] == b"\r\n" else 1)
+        n += 1
+    return off
+
+
+def utf8_error(path: str, chunk: int = 1 << 20):
+    """(line, column, byte) of the first byte of a file that is not UTF-8
+    (None when it all decodes): read in binary, for the error line of a
+    reader that decodes as it streams."""
+    import codecs
+
+    dec = codecs.getincrementaldecoder("utf-8")()
+    lines, col, last_cr = 1, 0, False
+    with open(path, "rb") as f:
+        while True:
+            buf = f.read(chunk)
+            try:
+                dec.decode(buf, final=not buf)
+            except UnicodeDecodeError as e:
+                # the error's offset is within what the decoder held: the pending bytes and this buffer
+                pend = len(e.object) - len(buf)
+                bad = e.start - pend
+                head = buf[:max(bad, 0)]
+                n = head.count(b"\n") + head.count(b"\r") - head.count(b"\r\n")
+                if last_cr and head.startswith(b"\n"):
+                    n -= 1
+                cut = max(head.rfind(b"\n"), head.rfind(b"\r"))
+                c = (bad - cut) if cut >= 0 else col + bad + 1
+                return lines + n, c, e.object[e.start]
+            if not buf:
+                return None
+            n = buf.count(b"\n") + buf.count(b"\r") - buf.count(b"\r\n")
+            if last_cr and buf.startswith(b"\n"):
+                n -= 1
+            cut = max(buf.rfind(b"\n"), buf.rfind(b"\r"))
+            col = (len(buf) - cut - 1) if cut >= 0 else col + len(buf)
+            lines += n
+            last_cr = buf.endswith(b"\r")
 
 
 def json_depth(text: str) -> int:
     """Deepest nesting of [ and { outside strings, in linear time (no
     regular expression that could backtrack on hostile text)."""
+    import numpy as np
+
     a = np.frombuffer(text.encode("utf-8", "surrogatepass"), dtype=np.uint8)
     if a.size == 0:
         return 0

@@ -61,17 +61,55 @@ TIME_UNITS = {"s": 1.0, "ms": 1e-3, "us": 1e-6, "µs": 1e-6, "ns": 1e-9, "min": 
 READS = ("up", "down")
 TOP_KEYS = {"name", "preset", "notes", "source", "log", "accelerometer", "magnetometer", "header", "poses"}
 LOG_KEYS = {"delimiter", "comment", "header", "skip_rows", "time", "time_unit", "temperature", "samples_averaged",
-            "static", "keep"}
+            "static", "keep", "decimal"}
 TRIAD_KEYS = {"columns", "unit", "lsb", "reads", "x", "y", "z", "axes", "reflection", "range", "noise", "lag"}
 POSE_KEYS = {"inc", "azi", "tf", "label", "labels", "unit"}
 
 
+# other spellings people log units in, after _norm (lower case, no spaces, micro as u, ^2/**2/² as 2)
+UNIT_ALIASES = {
+    "acc": {"gee": "g", "g0": "g", "gn": "g", "milli-g": "mg", "millig": "mg", "mgee": "mg", "micro-g": "ug",
+            "m/s/s": "m/s2", "ms-2": "m/s2", "m.s-2": "m/s2", "m/sec2": "m/s2", "m/sec/sec": "m/s2",
+            "mps2": "m/s2", "mpss": "m/s2", "meter/s2": "m/s2", "meters/s2": "m/s2", "metre/s2": "m/s2",
+            "metres/s2": "m/s2", "mm/s/s": "mm/s2", "mms-2": "mm/s2", "cm/s2": "cm/s2", "cms-2": "cm/s2",
+            "gal": "cm/s2"},
+    "mag": {"nanotesla": "nt", "microtesla": "ut", "millitesla": "mt", "tesla": "t", "gs": "gauss",
+            "milligauss": "mgauss", "mgs": "mgauss", "mgs.": "mgauss", "mgauss": "mgauss", "kgauss": "kgauss",
+            "oe": "gauss", "oersted": "gauss", "mOe": "mgauss", "moe": "mgauss"},
+}
+ACC_UNITS["cm/s2"] = 1e-2 / STANDARD_GRAVITY
+MAG_UNITS["kgauss"] = 1e8
+TIME_ALIASES = {"sec": "s", "secs": "s", "second": "s", "seconds": "s", "msec": "ms", "millisecond": "ms",
+                "milliseconds": "ms", "usec": "us", "microsecond": "us", "microseconds": "us",
+                "nanosecond": "ns", "nanoseconds": "ns", "minute": "min", "minutes": "min", "hour": "h",
+                "hours": "h", "hr": "h"}
+
+
+def _norm(u: str) -> str:
+    u = u.strip().lower().replace(" ", "").replace("\u00b7", ".").replace("*", "")
+    for a, b in (("\u03bc", "u"), ("\u00b5", "u"), ("\u00b2", "2"), ("\u207b", "-"), ("^", ""), ("/sec", "/s")):
+        u = u.replace(a, b)
+    return u.replace("ms22", "ms2")
+
+
 def _unit_key(u: str, units: dict) -> str | None:
+    """The key of `units` (ACC_UNITS, MAG_UNITS, TIME_UNITS) that the
+    spelling `u` means: exact, then case and spaces ignored, micro as u,
+    "^2", "**2" and "²" as 2, then the usual other spellings."""
     u = u.strip()
     for k in (u, u.lower(), u.replace(" ", ""), u.lower().replace(" ", "")):
         if k in units:
             return k
-    return None
+    n = _norm(u)
+    if n in units:
+        return n
+    n2 = n.replace("u", "µ", 1) if n.startswith("u") else n
+    if n2 in units:
+        return n2
+    aliases = (UNIT_ALIASES["acc"] if units is ACC_UNITS else UNIT_ALIASES["mag"] if units is MAG_UNITS
+               else TIME_ALIASES if units is TIME_UNITS else {})
+    k = aliases.get(n)
+    return k if k in units else None
 
 
 @dataclass
@@ -121,6 +159,7 @@ class SensorDescription:
     mag: Triad | None = None
     # the log
     delimiter: str | None = None
+    decimal: str = "."                # the decimal mark: "." or "," (then the delimiter is not a comma)
     comment: str = "#"
     has_header: bool = True
     skip_rows: int = 0
@@ -222,9 +261,14 @@ def _quantity(value, units: dict, canon: str, what: str, logged_scale: float | N
 _AXIS = re.compile(r"\s*([+-]?)\s*([am]?)([xyz])\s*", re.I)
 
 
-def _axis_map(spec: dict, kind: str, what: str) -> list:
+_COMPACT = re.compile(r"\s*([+-]?)\s*([xyz])\s*,?\s*([+-]?)\s*([xyz])\s*,?\s*([+-]?)\s*([xyz])\s*", re.I)
+
+
+def _axis_map(spec: dict, kind: str, what: str, columns=()) -> list:
     """[[sign, sensor index] for body x, y, z] from x/y/z keys or an `axes`
-    string ("x = -ay, y = ax, z = az"); default identity."""
+    string ("x = -ay, y = ax, z = az"; or body x, y, z in order: "-y, -x, z",
+    "-Y-X+Z"); a sensor axis by its letter (with or without the triad's
+    a/m) or by its column's name ("-acc_y"); default identity."""
     letter = "a" if kind == "acc" else "m"
     entries = {}
     if "axes" in spec:
@@ -233,6 +277,9 @@ def _axis_map(spec: dict, kind: str, what: str) -> list:
             if len(text) != 3:
                 raise DataError(f"{what}.axes: three entries (body x, y, z)")
             entries = dict(zip("xyz", text))
+        elif isinstance(text, str) and "=" not in text and _COMPACT.fullmatch(text):
+            g = _COMPACT.fullmatch(text).groups()
+            entries = {b: g[2 * i] + g[2 * i + 1] for i, b in enumerate("xyz")}
         elif isinstance(text, str):
             for part in text.split(","):
                 if "=" not in part:
@@ -249,12 +296,21 @@ def _axis_map(spec: dict, kind: str, what: str) -> list:
     if set(entries) != set("xyz"):
         raise DataError(f"{what}: the axis map needs body x, y and z (has {', '.join(sorted(entries))})")
     out = []
+    names = [str(c).strip().lower() for c in columns]
     for b in "xyz":
         s = entries[b]
         m = _AXIS.fullmatch(str(s))
-        if not m or (m.group(2) and m.group(2).lower() != letter):
-            raise DataError(f"{what}: {b} = {s!r} is not an axis of this triad (e.g. '-{letter}y')")
-        out.append([-1 if m.group(1) == "-" else 1, "xyz".index(m.group(3).lower())])
+        if m and (not m.group(2) or m.group(2).lower() == letter):
+            out.append([-1 if m.group(1) == "-" else 1, "xyz".index(m.group(3).lower())])
+            continue
+        t = str(s).strip()
+        sign = -1 if t.startswith("-") else 1
+        t = t.lstrip("+-").strip().lower()
+        if t in names:
+            out.append([sign, names.index(t)])
+            continue
+        raise DataError(f"{what}: {b} = {s!r} is not an axis of this triad (e.g. '-{letter}y', or a column "
+                        f"name with a sign: '-{columns[1] if len(columns) == 3 else 'ay'}')")
     if sorted(j for _, j in out) != [0, 1, 2]:
         raise DataError(f"{what}: the axis map uses a sensor axis twice ({', '.join(f'{b} = {entries[b]}' for b in 'xyz')})")
     return out
@@ -294,7 +350,7 @@ def _triad(spec: dict, section: str, log_what: str) -> Triad:
     refl = spec.get("reflection", False)
     if not isinstance(refl, bool):
         raise DataError(f"{what}.reflection: true or false")
-    t = Triad(kind=kind, columns=list(cols), unit=unit, scale=scale, axes=_axis_map(spec, kind, what), reads=reads,
+    t = Triad(kind=kind, columns=list(cols), unit=unit, scale=scale, axes=_axis_map(spec, kind, what, cols), reads=reads,
               reflection=refl, lsb=lsb)
     lag = spec.get("lag", 0)
     if isinstance(lag, bool) or not isinstance(lag, int) or abs(lag) > 1000:
@@ -388,6 +444,12 @@ def from_dict(d: dict, what: str = "sensor description") -> SensorDescription:
     if s.delimiter is not None and (not isinstance(s.delimiter, str) or len(s.delimiter) not in (1,) and
                                     s.delimiter not in ("whitespace", "\\t")):
         raise DataError(f"{what}[log].delimiter: one character, or 'whitespace'")
+    dec = log.get("decimal", ".")
+    if dec not in (".", ","):
+        raise DataError(f"{what}[log].decimal: \".\" or \",\"")
+    if dec == "," and s.delimiter == ",":
+        raise DataError(f"{what}[log]: decimal = \",\" needs another delimiter (\";\", a tab, or whitespace)")
+    s.decimal = dec
     s.comment = str(log.get("comment", "#"))
     hdr = log.get("header", True)
     if not isinstance(hdr, bool):
@@ -399,8 +461,9 @@ def from_dict(d: dict, what: str = "sensor description") -> SensorDescription:
     s.skip_rows = sk
     s.time = log.get("time")
     tu = str(log.get("time_unit", "s")).strip()
-    if tu in TIME_UNITS:
-        s.time_scale = TIME_UNITS[tu]
+    tk = _unit_key(tu, TIME_UNITS)
+    if tk is not None:
+        s.time_scale = TIME_UNITS[tk]
     else:  # "1/102.4 s": the time column counts samples of 1/102.4 s
         s.time_scale = _quantity(tu, TIME_UNITS, "s", f"{what}[log].time_unit", None)
     s.time_unit = tu

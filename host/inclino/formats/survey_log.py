@@ -135,10 +135,9 @@ class CsvLog:
                 raise DataError(f"{path}: its columns ({','.join(cols)}) are not this run's "
                                 f"({','.join(columns)}): not appended; start a new file")
             self.start = parse_utc(meta.get("start_utc", ""), path)
-        try:
-            self.f = open(path, "a", encoding="utf-8", newline="")
-        except OSError as e:
-            raise DataError(f"cannot write {path}: {e.strerror}") from None
+        from inclino.formats import safeio
+
+        self.f = safeio.open_log(path, "a")  # the output rules: never an input, never another output
         self.w = csv.writer(self.f, lineterminator="\n")
 
     def write(self, row: dict, checked: str) -> None:

@@ -240,3 +240,24 @@ class Identity:
 
 
 QCREF = struct.Struct(">6i")
+
+# The answer payload lengths of each application command (docs/protocol.md,
+# "Commands"): a set of lengths, or a (min, max) range.  Any other length of
+# a valid frame is a link error, never a record read by position.
+_RAW_SIZES = {RawRecord.FMT.size, RawRecord.FMT_V1.size, RawRecord.FMT_WHOLE.size}
+ANSWER_SIZES = {
+    "IDENTIFY": {Identity.FMT.size},
+    "SURVEY": {SurveyRecord.FMT.size},
+    "RAW": _RAW_SIZES,
+    "SURVEY_RAW": {SurveyRecord.FMT.size + n for n in _RAW_SIZES},
+    "QCREF_READ": {QCREF.size},
+    "QCREF_WRITE": {0},
+    "SET_AVERAGE": {1},
+    "STREAM": {0},
+    "STOP": {2},
+    "RESET": {0},
+    "BOOTLOADER": {0},
+    "CAL_READ": (6, MAX_PAYLOAD),
+    "CAL_WRITE": {7},
+    "CAL_ACTIVATE": {5},
+}

@@ -4,10 +4,25 @@
 retried with the same sequence number when its answer is lost, corrupt or a
 CRC refusal, so the probe (which keeps its last answer) never executes a
 command twice; what happened is counted in `link.stats`.
+
+The port (docs/cli.md, "The port"):
+
+* A local serial device is opened exclusively (pyserial's `exclusive=True`,
+  an advisory lock every inclino command takes): a second command on the
+  same port is refused with "port ... is busy", never shares it.
+* A terminal that is the controlling terminal of a running session (a
+  shell's window) is refused before a byte is written to it.
+* A device that never answers with a valid frame gets its terminal settings
+  back (those it had before the port was opened) when the link closes.
+* An answer with a valid CRC but a payload of the wrong length for its
+  command is a link error naming the command and the length (exit 4).
+* When nothing answers, the error names any other process that holds the
+  port open (it may be taking the answers).
 """
 from __future__ import annotations
 
 import math
+import os
 import struct
 import time
 from dataclasses import dataclass, field
@@ -101,13 +116,31 @@ class ProbeLink:
         self._parser = FrameParser()
         self._pending: list[Event] = []
         self.detect_bootloader = True   # an application command refused E_STATE: ask the bootloader
+        self._saved_tty = None    # the device's terminal settings before the link changed them
+        self._answered = False    # a valid frame came back: the device speaks the protocol
+        self._lines: list[str] = []  # text the device sent outside frames (the last few lines)
+        local = isinstance(port, str) and "://" not in port
+        if local:
+            self._saved_tty = _check_terminal(port)
         try:
-            self._ser = serial.serial_for_url(port, baudrate=baud, timeout=0.01, write_timeout=2.0)
+            self._ser = serial.serial_for_url(port, baudrate=baud, timeout=0.01, write_timeout=2.0,
+                                              **({"exclusive": True} if local and os.name == "posix" else {}))
         except (serial.SerialException, ValueError, OSError) as e:
+            text = str(e)
+            if "exclusively lock" in text:
+                raise ProbeError(f"port {port} is busy: another program has it open and locked "
+                                 f"(another inclino command?){_holders_text(port)}") from None
             raise ProbeError(f"cannot open port {port}: {e}") from None
 
     # ----------------------------------------------------------- plumbing
     def close(self) -> None:
+        if self._saved_tty is not None and not self._answered:  # not a probe: its settings back
+            try:
+                import termios
+
+                termios.tcsetattr(self._ser.fd, termios.TCSANOW, self._saved_tty)
+            except Exception:  # pragma: no cover - a device that went away
+                pass
         try:
             self._ser.close()
         except Exception:  # pragma: no cover - closing a dead port
@@ -147,7 +180,12 @@ class ProbeLink:
             if data:
                 last_rx = now
                 self.stats.bytes_in += len(data)
-                self._pending.extend(self._parser.feed(data))
+                for ev in self._parser.feed(data):
+                    if ev.kind == "frame":
+                        self._answered = True
+                    elif ev.kind == "line":
+                        self._lines = (self._lines + [ev.line])[-3:]
+                    self._pending.append(ev)
             elif self._parser.in_frame and now - last_rx > 0.02:
                 self._parser.idle()
 
@@ -156,10 +194,16 @@ class ProbeLink:
         return self._seq
 
     # ----------------------------------------------------------- requests
-    def request(self, cmd: str | int, payload: bytes = b"", timeout: float | None = None) -> bytes:
+    def request(self, cmd: str | int, payload: bytes = b"", timeout: float | None = None,
+                expect=None) -> bytes:
         """Send a request and return the answer's payload; retry lost or
-        corrupt exchanges with the same sequence number."""
+        corrupt exchanges with the same sequence number.  expect: the
+        answer's payload lengths this command allows (a set, or a (min,
+        max) range; default protocol.ANSWER_SIZES for a named command): any
+        other is a ProbeError naming the command and the length."""
         code = CMD[cmd] if isinstance(cmd, str) else cmd
+        if expect is None and isinstance(cmd, str):
+            expect = protocol.ANSWER_SIZES.get(cmd)
         seq = self.next_seq()
         frame = protocol.encode_frame(seq, code, payload)
         self.stats.requests += 1
@@ -197,18 +241,22 @@ class ProbeLink:
                     raise ProbeNak(f.payload[0] if f.payload else code, f.payload[1] if len(f.payload) > 1 else 0,
                                    f.payload[2] if len(f.payload) > 2 else None)
                 if f.cmd == (code | 0x80):
+                    _check_size(cmd if isinstance(cmd, str) else f"0x{code:02X}", f.payload, expect, self.port_name)
                     return f.payload
                 self.stats.stale_answers += 1
         name = cmd if isinstance(cmd, str) else hex(code)
         got, bad = self.stats.bytes_in - in0, self.stats.bad_frames - bad0
+        if self._lines and not (bad or hit0 or self._answered):  # text, never a frame: not a probe
+            raise ProbeError(f"the device on {self.port_name} answered {name} with text, not frames "
+                             f"({self._lines[-1][:32]!r}): not an inclino probe, or the wrong baud rate")
         if got or hit0:   # something came back: the probe is there, the line corrupts or loses bytes
             raise ProbeError(f"no valid answer from the probe on {self.port_name} to {name} after "
                              f"{self.retries + 1} tries: the link is noisy ({got} bytes received, {bad} "
                              f"corrupt answer(s), {hit0} request(s) the probe received corrupt); check the "
-                             "cable, its connectors and screening")
+                             f"cable, its connectors and screening{_holders_text(self.port_name)}")
         raise ProbeError(f"no answer from the probe on {self.port_name} to {name} after "
                          f"{self.retries + 1} tries, nothing received (wrong port, wrong baud rate, or the "
-                         "probe is off)")
+                         f"probe is off){_holders_text(self.port_name)}")
 
     def _raise_if_bootloader(self, code: int) -> None:
         """An application command answered E_STATE: if the bootloader runs,
@@ -241,8 +289,6 @@ class ProbeLink:
 
     def cal_read(self, slot: int) -> tuple[int, bool, int, bytes]:
         p = self.request("CAL_READ", bytes([slot]))
-        if len(p) < 6:
-            raise ProbeError("short CAL_READ answer")
         s, valid, seqn = struct.unpack(">BBI", p[:6])
         return s, bool(valid), seqn, p[6:]
 
@@ -273,6 +319,8 @@ class ProbeLink:
                     raise ProbeError(f"survey stream stopped after {got} frames")
                 if ev.kind == "frame" and ev.frame.cmd == STREAM_FRAME:
                     got += 1
+                    _check_size("a streamed survey", ev.frame.payload, protocol.ANSWER_SIZES["SURVEY"],
+                                self.port_name)
                     yield protocol.SurveyRecord.unpack(ev.frame.payload)
                 elif ev.kind != "frame":
                     self.stats.bad_frames += 1
@@ -282,3 +330,141 @@ class ProbeLink:
                     self.request("STOP")
                 except ProbeError:
                     pass
+
+
+# ---------------------------------------------------------------- the port
+def _check_size(name: str, payload: bytes, expect, port: str) -> None:
+    """A valid frame whose payload length this command never has: a link
+    error (exit 4) naming the command and the length."""
+    if expect is None:
+        return
+    n = len(payload)
+    if isinstance(expect, tuple):
+        ok = expect[0] <= n <= expect[1]
+        want = f"{expect[0]}-{expect[1]}"
+    else:
+        ok = n in expect
+        want = " or ".join(str(x) for x in sorted(expect))
+    if not ok:
+        raise ProbeError(f"the answer to {name} on {port} has a payload of {n} bytes, expected {want}: a valid "
+                         "frame of the wrong length (another protocol version, or not an inclino probe)")
+
+
+def _check_terminal(port: str):
+    """Before the link touches a local device: refuse the controlling
+    terminal of a running session (a shell's window: writing the protocol
+    into it would type into that session); return the device's terminal
+    settings to restore if it does not answer like a probe (None when it
+    is not a terminal, or cannot be opened: pyserial then says why)."""
+    try:
+        fd = os.open(port, os.O_RDWR | os.O_NOCTTY | os.O_NONBLOCK)
+    except OSError:
+        return None
+    try:
+        if not os.isatty(fd):
+            return None
+        session = _session_on(os.fstat(fd).st_rdev)
+        if session is not None:
+            raise ProbeError(f"port {port} is the terminal of a running session ({session}), not a probe's "
+                             "serial port: nothing was written to it")
+        try:
+            import termios
+
+            return termios.tcgetattr(fd)
+        except Exception:
+            return None
+    finally:
+        os.close(fd)
+
+
+def _session_on(rdev: int) -> str | None:
+    """'NAME (pid N)' of a process whose controlling terminal is the device
+    `rdev` (Linux /proc: field tty_nr of /proc/PID/stat), else None."""
+    if not os.path.isdir("/proc"):
+        return None
+    for d in os.listdir("/proc"):
+        if not d.isdigit():
+            continue
+        try:
+            with open(f"/proc/{d}/stat", encoding="utf-8", errors="replace") as f:
+                text = f.read()
+        except OSError:
+            continue
+        name, _, rest = text.rpartition(")")
+        fields = rest.split()
+        try:
+            if int(fields[4]) == rdev and rdev != 0:
+                return f"{name.partition('(')[2]} (pid {d})"
+        except (IndexError, ValueError):
+            continue
+    return None
+
+
+def port_holders(port: str) -> list[tuple[int, str]]:
+    """(pid, name) of the other processes that hold `port` open (Linux
+    /proc; an empty list elsewhere).  The process holding a pseudo-terminal's
+    other side (an emulator) is not counted."""
+    try:
+        st = os.stat(port)
+    except (OSError, ValueError):
+        return []
+    if not os.path.isdir("/proc"):
+        return []
+    import stat as _stat
+
+    if not _stat.S_ISCHR(st.st_mode):
+        return []
+    me, found = os.getpid(), []
+    pts_index = None
+    real = os.path.realpath(port)
+    if real.startswith("/dev/pts/") and real[9:].isdigit():
+        pts_index = int(real[9:])
+    for d in os.listdir("/proc"):
+        if not d.isdigit() or int(d) == me:
+            continue
+        fdir = f"/proc/{d}/fd"
+        holds, owns_master = False, False
+        try:
+            for fd in os.listdir(fdir):
+                try:
+                    t = os.readlink(f"{fdir}/{fd}")
+                    if t == "/dev/ptmx" or t.startswith("/dev/pts/ptmx"):
+                        if pts_index is not None and _ptmx_index(d, fd) in (pts_index, None):
+                            owns_master = True
+                        continue
+                    if t.startswith("/dev/") and os.stat(f"{fdir}/{fd}").st_rdev == st.st_rdev:
+                        holds = True
+                except OSError:
+                    continue
+        except OSError:
+            continue
+        if holds and not owns_master:
+            try:
+                with open(f"/proc/{d}/comm", encoding="utf-8", errors="replace") as f:
+                    name = f.read().strip()
+            except OSError:
+                name = "?"
+            found.append((int(d), name))
+    return found
+
+
+def _ptmx_index(pid: str, fd: str):
+    try:
+        with open(f"/proc/{pid}/fdinfo/{fd}", encoding="ascii", errors="replace") as f:
+            for line in f:
+                if line.startswith("tty-index:"):
+                    return int(line.split()[1])
+    except (OSError, ValueError, IndexError):
+        pass
+    return None
+
+
+def _holders_text(port: str) -> str:
+    try:
+        h = port_holders(port)
+    except Exception:  # pragma: no cover - /proc changing under the walk
+        return ""
+    if not h:
+        return ""
+    who = ", ".join(f"{n} (pid {p})" for p, n in h[:3])
+    return f"; the port is also open in {who}, which may be taking the answers"

@@ -26,8 +26,9 @@ T - T_ref (temp_poly).
     out = Quantisation(v7)                         (optional; the register
                                                     models quantise themselves)
 
-SamplingSkew and FieldDrift act on time and on the world, not on a vector;
-they live here so that the same parameters are fitted and simulated.
+SamplingSkew, FieldDrift and RigField act on time and on the world, not on
+a sensor's vector; they live here so that the same parameters are fitted and
+simulated.
 """
 from __future__ import annotations
 
@@ -451,6 +452,74 @@ class FieldDrift:
         return (field_nT + self.rate_nT_per_s * t,
                 dip_deg + self.dip_rate_deg_per_s * t,
                 declination_deg + self.declination_rate_deg_per_s * t)
+
+
+RIG_AXES = ("azi", "inc", "tf")
+
+
+def rig_frame_to_body(axis: str, inc, azi, tf):
+    """(..., 3, 3): the matrix taking a vector in the frame that turntable
+    axis `axis` turns in (its stator) to the body frame, at the true axis
+    angles (deg).  C = Rz(T) Ry(I) Rz(A) (docs/conventions.md): the azimuth
+    axis turns in the world (NED) frame, the inclination axis in the azimuth
+    platform's frame Rz(A) W, the toolface axis in the inclination arm's
+    frame Ry(I) Rz(A) W."""
+    from inclino.engines import reference as ref
+
+    if axis == "azi":
+        return ref.pose_matrix(inc, azi, tf)
+    if axis == "inc":
+        return ref.rz(tf) @ ref.ry(inc)
+    if axis == "tf":
+        return ref.rz(tf) + 0.0 * np.asarray(inc, float)[..., None, None]
+    raise ValueError(f"rig axis must be one of {', '.join(RIG_AXES)}, not {axis!r}")
+
+
+@dataclass
+class RigField:
+    """A field disturbance that moves with one turntable axis: a stepper
+    motor, a steel bearing or a clamp on the rig (a turntable that is not
+    non-magnetic).  In the frame that axis turns in (rig_frame_to_body), the
+    field at the probe is a low-order harmonic function of the axis angle phi:
+
+        b_s(phi) = sum_h [ cos(h phi) cos_nT[h] + sin(h phi) sin_nT[h] ]   (nT)
+
+    h = 0, 1, ... len(cos_nT) - 1 (sin_nT[0] is unused).  A part fixed to
+    the axis' stator (the stage it turns in) is the h = 0 term; a part on
+    its rotor, or one whose distance to the probe changes as the axis
+    turns, gives the h >= 1 terms.  The fluxgate reads b_body += C_s->body
+    b_s(phi); the accelerometer is not affected.  axis: "azi", "inc" or
+    "tf"; cos_nT, sin_nT: (H+1, 3) nT."""
+    axis: str = "inc"
+    cos_nT: np.ndarray = field(default_factory=lambda: np.zeros((1, 3)))
+    sin_nT: np.ndarray = field(default_factory=lambda: np.zeros((1, 3)))
+
+    def __post_init__(self):
+        if self.axis not in RIG_AXES:
+            raise ValueError(f"RigField.axis must be one of {', '.join(RIG_AXES)}, not {self.axis!r}")
+        self.cos_nT = np.atleast_2d(np.asarray(self.cos_nT, float))
+        self.sin_nT = np.atleast_2d(np.asarray(self.sin_nT, float))
+        H = max(len(self.cos_nT), len(self.sin_nT))
+        pad = lambda a: np.vstack([a, np.zeros((H - len(a), 3))])  # noqa: E731
+        self.cos_nT, self.sin_nT = pad(self.cos_nT), pad(self.sin_nT)
+        if self.cos_nT.shape[1] != 3:
+            raise ValueError("RigField.cos_nT and sin_nT are (H+1, 3) nT")
+
+    def angle(self, inc, azi, tf):
+        return {"azi": azi, "inc": inc, "tf": tf}[self.axis]
+
+    def field_stator(self, phi_deg) -> np.ndarray:
+        """(..., 3) nT in the axis' stator frame."""
+        ph = np.radians(np.asarray(phi_deg, float))[..., None]
+        out = np.zeros(np.shape(ph)[:-1] + (3,))
+        for h in range(len(self.cos_nT)):
+            out = out + np.cos(h * ph) * self.cos_nT[h] + np.sin(h * ph) * self.sin_nT[h]
+        return out
+
+    def apply(self, inc, azi, tf) -> np.ndarray:
+        """(..., 3) nT: the disturbance in the body frame at the true pose."""
+        C = rig_frame_to_body(self.axis, inc, azi, tf)
+        return (C @ self.field_stator(self.angle(inc, azi, tf))[..., None])[..., 0]
 
 
 # --------------------------------------------------------------------------

@@ -24,6 +24,10 @@ A scenario file (host/inclino/model/scenarios/*.toml) looks like::
     scale = [0.0, 0.0, 0.0]
     [world.field_drift]              # optional (effects.FieldDrift)
     rate_nT_per_s = 0.0
+    [world.rig_field]                # optional (effects.RigField; [[world.rig_field]] for several)
+    axis = "inc"                     # the turntable axis it moves with: azi, inc, tf
+    cos_nT = [[0.0, 0.0, 0.0], [300.0, 0.0, -150.0]]   # per harmonic 0, 1, ... in that axis' frame
+    sin_nT = [[0.0, 0.0, 0.0], [0.0, 120.0, 0.0]]
     [acc.bias]                       # one table per effect, any subset
     value = [0.001, 0.0, 0.0]        # g
     [mag.hard_iron]
@@ -347,6 +351,15 @@ def _motion(t: dict) -> TurntableMotion:
     return TurntableMotion(**{k: float(v) for k, v in t.items()})
 
 
+def _rig_tables(v) -> list:
+    """[world.rig_field] (one table) or [[world.rig_field]] (several): each
+    axis = "azi" | "inc" | "tf", cos_nT = [[x, y, z], ...] and sin_nT the
+    same, nT per harmonic 0, 1, ... (effects.RigField)."""
+    if v is None:
+        return []
+    return [v] if isinstance(v, dict) else list(v)
+
+
 def scenario_from_dict(d: dict, name: str = "") -> Scenario:
     w = dict(d.get("world", {}))
     if "lat_deg" in w and "lon_deg" in w and "date" in w:
@@ -379,6 +392,8 @@ def scenario_from_dict(d: dict, name: str = "") -> Scenario:
         gravity_g=float(w.get("gravity_g", 1.0)),
         temperature=temperature,
         drift=fx.FieldDrift(**drift) if drift else None,
+        rig_fields=[fx.RigField(str(r.get("axis", "inc")), r.get("cos_nT", [[0.0] * 3]), r.get("sin_nT", [[0.0] * 3]))
+                    for r in _rig_tables(w.get("rig_field"))],
     )
     spreads = {"acc": {}, "mag": {}}
     meta = {k: w[k] for k in ("lat_deg", "lon_deg") if k in w}
@@ -406,10 +421,18 @@ def builtin_scenarios():
 
 def load_scenario(path_or_name) -> Scenario:
     """Load a scenario from a TOML path, or a built-in one by name
-    ("ideal", "typical", "li2021")."""
+    ("ideal", "typical", "li2021").  The file is read with bounds
+    (inclino.formats.safeio) and every table and field checked by its rule
+    (inclino.model.scenario_rules) before the scenario is built: one
+    DataError line naming the file and the field."""
+    from inclino.errors import DataError
+    from inclino.formats import safeio
+    from inclino.model.scenario_rules import check_scenario
+
     p = Path(str(path_or_name))
     if p.suffix == ".toml" or p.exists():
-        text = p.read_text(encoding="utf-8")
+        where = f"scenario {p}"
+        text = safeio.read_text(str(p), "scenario", 4 * 2**20)
         name = p.stem
     else:
         res = resources.files("inclino.model").joinpath("scenarios", f"{path_or_name}.toml")
@@ -417,7 +440,20 @@ def load_scenario(path_or_name) -> Scenario:
             raise FileNotFoundError(f"no scenario {path_or_name!r} (built-in: {', '.join(builtin_scenarios())})")
         text = res.read_text(encoding="utf-8")
         name = str(path_or_name)
-    return scenario_from_dict(tomllib.loads(text), name)
+        where = f"scenario {name}"
+    try:
+        d = tomllib.loads(text)
+    except tomllib.TOMLDecodeError as e:
+        raise DataError(f"{where}: not TOML ({str(e)[:80]})") from None
+    except ValueError:  # a number tomllib cannot convert (an integer of thousands of digits)
+        raise DataError(f"{where}: not TOML (a number out of range)") from None
+    except RecursionError:
+        raise DataError(f"{where}: nests too deep") from None
+    check_scenario(d, where)
+    try:
+        return scenario_from_dict(d, name)
+    except (ValueError, TypeError, KeyError, ArithmeticError) as e:  # a rule the checks above do not state
+        raise DataError(f"{where}: {str(e)[:100]}") from None
 
 
 # --------------------------------------------------------------------------

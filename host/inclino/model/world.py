@@ -25,7 +25,7 @@ import numpy as np
 
 from inclino.engines import reference as ref
 
-from inclino.model.effects import FieldDrift
+from inclino.model.effects import FieldDrift, RigField
 
 
 @dataclass
@@ -343,6 +343,7 @@ class World:
     gravity_g: float = 1.0
     temperature: Temperature = field(default_factory=Temperature)  # or a Chamber
     drift: Optional[FieldDrift] = None
+    rig_fields: list = field(default_factory=list)  # effects.RigField: fields that move with the turntable's axes
 
     def field_params(self, t=0.0):
         """(F nT, dip deg, declination deg) at time t, drift included."""
@@ -364,4 +365,8 @@ class World:
         C = self.turntable.pose_matrix(inc, azi, tf)
         g = C @ ref.gravity_ned(self.gravity_g)
         b = (C @ self.field_ned(t)[..., None])[..., 0]
+        if self.rig_fields:
+            I, A, T = self.turntable.true_pose(inc, azi, tf)
+            for rf in self.rig_fields:
+                b = b + rf.apply(I, A, T)
         return g, b

@@ -212,10 +212,7 @@ class _RowWriter:
                                 f"{self.part}, or remove it to start again")
             self.start = parse_utc(meta["start_utc"], path)
             mode = "w"
-        try:
-            self.f = open(self.part, mode, newline="", encoding="utf-8")
-        except OSError as e:
-            raise DataError(f"cannot write {path}: {e.strerror}")
+        self.f = safeio.open_log(self.part, mode)  # the output rules: never an input or another output
         if mode == "w":
             for k in META_KEYS:
                 if k in meta and meta[k] is not None:

@@ -18,7 +18,7 @@ class EmulatedTurntable:
         host, sep, port = str(spec).rpartition(":")
         if not sep or not port.isdigit():
             raise DataError(f"--bench wants HOST:PORT, got {spec!r}")
-        self.spec = spec
+        self.spec, self.timeout = spec, timeout
         try:
             from inclino_emu.control import ControlClient
         except ImportError as e:
@@ -31,7 +31,19 @@ class EmulatedTurntable:
     def call(self, cmd: str, **kw) -> dict:
         try:
             ans = self.ctl.call(cmd, **kw)
-        except (OSError, ConnectionError, ValueError) as e:
+        except ConnectionError:
+            # the channel closes connections idle for long (docs/emulator.md): the request was never
+            # read, so it is sent again once on a new connection
+            try:
+                self.ctl.close()
+                host, _, port = self.spec.rpartition(":")
+                from inclino_emu.control import ControlClient
+
+                self.ctl = ControlClient(host or "127.0.0.1", int(port), timeout=self.timeout)
+                ans = self.ctl.call(cmd, **kw)
+            except (OSError, ConnectionError, ValueError) as e:
+                raise TurntableError(f"the bench's control channel at {self.spec} failed: {e}") from None
+        except (OSError, ValueError) as e:
             raise TurntableError(f"the bench's control channel at {self.spec} failed: {e}") from None
         if not ans.get("ok"):
             raise TurntableError(f"the bench refused {cmd}: {ans.get('error', ans)}")

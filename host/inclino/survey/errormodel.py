@@ -165,7 +165,43 @@ class ToolModel:
     def save(self, path: str, reference: str = "none") -> None:
         d = self.iscwsa(reference)
         d["inclino"] = asdict(self)
-        _write(path, json.dumps(d, indent=2) + "\n")
+        try:  # every number finite: never NaN in the file (a degenerate model is refused before this)
+            text = json.dumps(d, indent=2, allow_nan=False)
+        except ValueError:
+            raise DataError("the tool model has a value that is not a finite number; nothing written") from None
+        _write(path, text + "\n")
+
+    @staticmethod
+    def from_dict(d, where: str = "tool model") -> "ToolModel":
+        """The "inclino" block of a tool model file, every field by its rule
+        (type and range: one DataError line naming the file and the field)."""
+        from inclino.formats.fields import Fields
+
+        f = Fields(d, f"{where}: inclino")
+        name = f.string("name", required=False, default="INCLINO", max_len=64)
+        out = {}
+        for key, groups in (("systematic", GROUPS), ("noise", NOISE_GROUPS)):
+            g = f.obj(key, required=False)
+            out[key] = {}
+            if g is None:
+                continue
+            for k in g.d:
+                if k not in groups:
+                    raise DataError(f"{g.where}: unknown term group {str(k)[:20]!r} (known: {', '.join(groups)})")
+            # magnitudes in SI (m/s^2, nT, scale, rad): finite, >= 0, within what a probe could have
+            out[key] = {k: g.number(k, 0.0, 1e6) for k in g.d}
+        fit = f.obj("fit", required=False)
+        fd = {}
+        if fit is not None:
+            fd = dict(fit.d)
+            if fit.has("dip_deg"):
+                fd["dip_deg"] = fit.number("dip_deg", -90.0, 90.0, lo_open=True, hi_open=True)
+            if fit.has("field_nT"):
+                fd["field_nT"] = fit.number("field_nT", 0.0, 2e5, lo_open=True)
+        src = f.obj("source", required=False)
+        rev = f.integer("revision", 4, 5, required=False, default=5)
+        return ToolModel(name=name, systematic=out["systematic"], noise=out["noise"], fit=fd,
+                         source=dict(src.d) if src is not None else {}, revision=rev)
 
 
 def reference_terms(which: str) -> list:
@@ -256,18 +292,32 @@ def calibration_covariance(cal):
     the full covariance when the report carries it, else the coefficients'
     1-sigma as a diagonal."""
     from inclino.calib.common import PARAM_NAMES
+    from inclino.errors import CalibrationError
+    from inclino.formats.fields import check_array, check_number
 
     unc = (cal.report or {}).get("uncertainty") or {}
+    if not isinstance(unc, dict):
+        raise CalibrationError("the calibration file's report: uncertainty must be a JSON object")
+    where = "the calibration file's report: uncertainty"
     cov = unc.get("covariance")
-    if cov is not None:
-        c = np.asarray(cov, float)
-        if c.shape == (24, 24) and np.all(np.isfinite(c)):
-            return 0.5 * (c + c.T), "the fit's covariance of the 24 coefficients"
+    if cov is not None:  # the rules: 24 x 24 finite numbers, symmetric, positive semi-definite, not all zero
+        c = check_array(cov, f"{where}: covariance", (24, 24), error=CalibrationError)
+        c = 0.5 * (c + c.T)
+        w = np.linalg.eigvalsh(c)
+        if not w.max() > 0 or w.min() < -1e-9 * w.max() or np.any(np.diag(c) < 0):
+            raise CalibrationError(f"{where}: covariance is not a covariance (eigenvalues {w.min():.3g} to "
+                                   f"{w.max():.3g}: it must be positive semi-definite and not zero)")
+        return c, "the fit's covariance of the 24 coefficients"
     sig = unc.get("sigma")
-    if isinstance(sig, dict) and all(k in sig for k in PARAM_NAMES):
-        s = np.array([float(sig[k]) for k in PARAM_NAMES])
-        if np.all(np.isfinite(s)):
-            return np.diag(s ** 2), "the coefficients' 1-sigma (diagonal: the report has no covariance)"
+    if sig is not None:
+        if not isinstance(sig, dict) or not all(k in sig for k in PARAM_NAMES):
+            raise CalibrationError(f"{where}: sigma must give the 1-sigma of each of the 24 coefficients "
+                                   f"({PARAM_NAMES[0]} ... {PARAM_NAMES[-1]})")
+        s = np.array([check_number(sig[k], f"{where}: sigma: {k}", 0.0, 1e6, error=CalibrationError)
+                      for k in PARAM_NAMES])
+        if not s.max() > 0:
+            raise CalibrationError(f"{where}: sigma is zero for every coefficient")
+        return np.diag(s ** 2), "the coefficients' 1-sigma (diagonal: the report has no covariance)"
     raise DataError("the calibration file has no uncertainty (fit report) to build an error model from; "
                     "calibrate with a method that reports one")
 
@@ -401,8 +451,8 @@ def noise_from_survey(rows) -> tuple[float, float]:
     """(accelerometer g, fluxgate nT) per-axis noise of one survey from
     repeated surveys at rest: the spread of G total and B total (each the
     projection of the axes' noise on the measured vector)."""
-    gt = np.array([r["gt_g"] for r in rows if r.get("gt_g") is not None], float)
-    bt = np.array([r["bt_nT"] for r in rows if r.get("bt_nT") is not None], float)
+    gt = np.array([r["gt_g"] for r in rows if isinstance(r.get("gt_g"), (int, float))], float)
+    bt = np.array([r["bt_nT"] for r in rows if isinstance(r.get("bt_nT"), (int, float))], float)
     if len(gt) < 3 or len(bt) < 3:
         raise DataError("the noise run needs at least 3 surveys with gt_g and bt_nT")
     return float(np.std(gt, ddof=1)), float(np.std(bt, ddof=1))

@@ -24,7 +24,6 @@ from __future__ import annotations
 import contextlib
 import datetime as _dt
 import functools
-import json
 import math
 from dataclasses import asdict, dataclass, field
 
@@ -36,6 +35,17 @@ G0 = 9.80665  # standard gravity, m/s^2: the probe's unit of G total
 # 300 nT and dip within 0.25 deg of the reference are "within acceptable
 # tolerances"; G total within 2.5 mg (the firmware's defaults, qc.h).
 DEFAULT_TOL = {"gt_g": 0.0025, "bt_nT": 300.0, "dip_deg": 0.25}
+
+
+# The rule of each number of a reference field (lo, hi, lo open): a reference
+# file's fields and the command-line values alike.
+RULES = {"declination_deg": (-180.0, 180.0, False), "dip_deg": (-90.0, 90.0, False),
+         "field_nT": (0.0, 200_000.0, True),  # beyond what the +-100 000 nT fluxgate axes measure
+         "gravity_g": (0.5, 1.5, False), "lat_deg": (-90.0, 90.0, False), "lon_deg": (-180.0, 360.0, False),
+         "alt_m": (-12_000.0, 1.0e6, False), "convergence_deg": (-90.0, 90.0, False),
+         "scale_factor": (0.5, 1.5, False), "easting_m": (-1e8, 1e8, False), "northing_m": (-1e8, 1e8, False)}
+TOL_MAX = {"gt_g": 0.5, "bt_nT": 50_000.0, "dip_deg": 45.0}
+POLE_LAT = 89.99  # closer to a geographic pole, north (and the declination) is not defined well enough
 
 
 @dataclass
@@ -64,22 +74,55 @@ class ReferenceField:
         return dumps(self.to_dict())  # an unknown value is null
 
     @staticmethod
-    def from_json(text: str) -> "ReferenceField":
-        try:
-            d = json.loads(text)
-            if isinstance(d, dict):  # files written before the keys were the table's
-                for old, new in (("total_nT", "field_nT"), ("source", "ref_source")):
-                    if old in d and new not in d:
-                        d[new] = d.pop(old)
-            for k in ("declination_deg", "dip_deg", "field_nT", "gravity_g"):
-                if d.get(k) is None:
-                    d[k] = float("nan")
-            rf = ReferenceField(**d)
-        except (json.JSONDecodeError, TypeError, AttributeError) as e:
-            raise DataError(f"not a reference-field file: {e}")
-        if not isinstance(rf.tol, dict) or not all(k in rf.tol for k in DEFAULT_TOL):
-            raise DataError("not a reference-field file: tolerances missing")
-        return rf
+    def from_json(text: str, where: str = "reference-field file") -> "ReferenceField":
+        from inclino.formats import safeio
+
+        return ReferenceField.from_dict(safeio.parse_json(text, where), where)
+
+    @staticmethod
+    def load(path: str) -> "ReferenceField":
+        """A reference-field file (`inclino reffield -o`): bounded JSON
+        (inclino.formats.safeio) and every field checked (RULES)."""
+        from inclino.formats import safeio
+
+        where = f"reference-field file {path}"
+        return ReferenceField.from_dict(safeio.load_json(path, "reference-field file"), where)
+
+    @staticmethod
+    def from_dict(d, where: str = "reference-field file") -> "ReferenceField":
+        """Every field by its rule (RULES: type and range; unknown values
+        null), one error line naming the file and the field."""
+        from inclino.formats.fields import Fields
+
+        f = Fields(d, where)
+        for old, new in (("total_nT", "field_nT"), ("source", "ref_source")):  # files written before the renames
+            if old in f.d and new not in f.d:
+                f.d = {**f.d, new: f.d[old]}
+                del f.d[old]
+        f.known(*(k for k in ReferenceField.__dataclass_fields__))
+        kw = {}
+        for k, (lo, hi, lo_open) in RULES.items():
+            v = f.number(k, lo, hi, lo_open=lo_open, null=True, required=k in ("declination_deg",))
+            if k in ("declination_deg", "dip_deg", "field_nT", "gravity_g"):
+                v = float("nan") if v is None else v
+            elif v is None and k in ("alt_m", "convergence_deg", "scale_factor"):
+                v = {"alt_m": 0.0, "convergence_deg": 0.0, "scale_factor": 1.0}[k]
+            kw[k] = v
+        if (kw["lat_deg"] is None) != (kw["lon_deg"] is None):
+            raise DataError(f"{where}: lat_deg and lon_deg go together")
+        kw["ref_source"] = f.string("ref_source", required=False, default="user", max_len=200)
+        date = f.string("date", required=False, null=True, max_len=10)
+        if date is not None:
+            try:
+                _dt.date.fromisoformat(date)
+            except ValueError:
+                raise DataError(f"{where}: date must be YYYY-MM-DD, not {date[:12]!r}") from None
+        kw["date"] = date
+        kw["grid_epsg"] = f.integer("grid_epsg", 1024, 32767, required=False, null=True)
+        tol = f.obj("tol")
+        tol.known(*DEFAULT_TOL)
+        kw["tol"] = {k: tol.number(k, 0.0, TOL_MAX[k], lo_open=True) for k in DEFAULT_TOL}
+        return ReferenceField(**kw)
 
     def header(self) -> dict:
         """key=value pairs written with a run (CSV '# key=value' lines, LAS ~Parameter)."""
@@ -115,6 +158,10 @@ def _check_position(lat, lon, alt_m):
     for name, v, lim in (("latitude", lat, 90.0), ("longitude", lon, 180.0)):
         if v is None or not math.isfinite(v) or abs(v) > lim:
             raise DataError(f"{name} {v} is outside +-{lim:g} deg")
+    if abs(lat) > POLE_LAT:
+        raise DataError(f"latitude {lat:g}: at a geographic pole north, and so the declination and every "
+                        f"azimuth, is undefined (the model is used within +-{POLE_LAT:g} deg); give --declination "
+                        "with the grid north you survey to")
     if not math.isfinite(alt_m) or not -12000.0 <= alt_m <= 1.0e6:
         raise DataError(f"altitude {alt_m} m is out of range")
 
@@ -268,26 +315,24 @@ def reference(lat=None, lon=None, date=None, alt_m=0.0, model="igrf", declinatio
     elif not have_pos and declination is None:
         raise DataError("give the position and date (--lat --lon --date) or --declination")
     user = []
-    for name, v in (("declination", declination), ("dip", dip), ("field", field)):
+    for name, key, v in (("declination", "declination_deg", declination), ("dip", "dip_deg", dip),
+                         ("field", "field_nT", field), ("gravity", "gravity_g", gravity)):
         if v is not None:
-            if not math.isfinite(v):
-                raise DataError(f"--{name} is not a number")
-            user.append(name)
+            lo, hi, lo_open = RULES[key]
+            unit = {"field": "nT", "gravity": "g"}.get(name, "deg")
+            if not (math.isfinite(v) and (lo < v if lo_open else lo <= v) and v <= hi):
+                raise DataError(f"--{name} {v:g}: {unit} within {'(' if lo_open else '['}{lo:g}, {hi:g}]")
+            if name != "gravity":
+                user.append(name)
     if declination is not None:
         dec0 = float(declination)
     if dip is not None:
-        if abs(dip) > 90:
-            raise DataError("--dip must be within +-90 deg")
         dip0 = float(dip)
     if field is not None:
-        if field <= 0:
-            raise DataError("--field must be > 0 nT")
         f0 = float(field)
     if user:
         src = f"user ({', '.join(user)})" + ("" if src == "user" else f"; else {src}")
     if gravity is not None:
-        if not 0.5 < gravity < 1.5:
-            raise DataError("--gravity must be in g (0.5-1.5)")
         g = float(gravity)
     else:
         g = normal_gravity_g(lat, alt_m) if have_pos else float("nan")  # unknown: no G-total QC

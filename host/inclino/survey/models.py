@@ -122,9 +122,9 @@ def check_terms(terms, where: str) -> list:
         v = t.get("value")
         if isinstance(v, bool) or not isinstance(v, (int, float)) or not math.isfinite(v) or v < 0:
             raise DataError(f"{w}: value {v!r} must be a number >= 0 (a 1-sigma magnitude)")
-        if t.get("units", "") not in units:
+        if not isinstance(t.get("units", ""), str) or t.get("units", "") not in units:
             raise DataError(f"{w}: unit {t.get('units')!r} is not one welleng converts ({', '.join(sorted(units))})")
-        if t.get("propagation_mode") not in PROPAGATION:
+        if not isinstance(t.get("propagation_mode"), str) or t.get("propagation_mode") not in PROPAGATION:
             raise DataError(f"{w}: propagation_mode {t.get('propagation_mode')!r} is not one of "
                             f"{', '.join(PROPAGATION)}")
         for k in ("depth_formula", "inclination_formula", "azimuth_formula"):
@@ -201,10 +201,7 @@ def load(spec: str) -> Base:
     if isinstance(ib, dict):
         from inclino.survey.errormodel import ToolModel
 
-        try:
-            tm = ToolModel(**{k: v for k, v in ib.items() if k in ToolModel.__dataclass_fields__})
-        except TypeError as e:
-            raise DataError(f"{spec}: its inclino block is mangled ({e})")
+        tm = ToolModel.from_dict(ib, f"tool model {spec}")  # every field by its rule
         written = {t["name"]: t["value"] for t in tm.iscwsa(meta.get("reference_terms", "none"))["terms"]} \
             if tm.revision == rev else {}
         now = {t["name"]: t["value"] for t in terms}

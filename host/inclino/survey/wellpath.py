@@ -20,9 +20,8 @@ from __future__ import annotations
 
 import csv
 import io
-import json
 import math
-from dataclasses import asdict, dataclass, field
+from dataclasses import dataclass, field
 
 import numpy as np
 
@@ -30,6 +29,7 @@ from inclino.errors import DataError
 from inclino.survey.geomag import ReferenceField
 from inclino.formats.jsonout import dumps
 
+QC_DIFF = ("dgt_g", "dbt_nT", "ddip_deg")
 HOST_QC = (("G", "gt_g", "gravity_g"), ("B", "bt_nT", "field_nT"), ("dip", "dip_deg", "dip_deg"))
 # what a survey log's header says about the run, carried into the trajectory's outputs
 SURVEY_META = ("run", "file", "start_utc", "product", "probe_serial", "firmware", "calibration_slot",
@@ -59,6 +59,37 @@ def _num(v, what, where):
     return x
 
 
+# One rule per column of a survey listing (lo, hi), every value finite: a
+# measured depth within 100 km (the deepest wells are about 15 km), angles
+# as docs/conventions.md gives them, field values a probe can report.
+RULES = {"md_m": (-1.0e4, 1.0e5), "inc_deg": (0.0, 180.0), "azi_deg": (-360.0, 720.0),
+         "azi_mag_deg": (-360.0, 720.0), "gt_g": (0.0, 4.0), "bt_nT": (0.0, 2.0e5), "dip_deg": (-90.0, 90.0),
+         "flags": (0.0, 2.0**32), "qc": (0.0, 2.0**32)}
+LABELS = {"inc_deg": ("inclination", " deg"), "md_m": ("md_m", " m")}
+MAX_LISTING_BYTES = 256 * 2**20  # a listing of 10^6 stations with every column is about 100 MB
+
+
+def _check_rules(cols: dict, path: str) -> None:
+    """Each column within its rule (RULES); NaN stands for an absent
+    optional value.  DataError naming the station (row) and the column."""
+    for k, v in cols.items():
+        if k not in RULES or v is None:
+            continue
+        v = np.asarray(v, float)
+        lo, hi = RULES[k]
+        with np.errstate(invalid="ignore"):
+            bad = (v < lo) | (v > hi) | np.isinf(v)
+        if k in ("md_m", "inc_deg", "azi_deg", "azi_mag_deg"):
+            bad |= np.isnan(v)
+        if bad.any():
+            i = int(np.argmax(bad))
+            span = f"{lo:g}-{hi:g}" if lo >= 0 else f"{lo:g} to {hi:g}"
+            md = cols.get("md_m")
+            at = _where(path, i, float(md[i]) if md is not None and k != "md_m" else None)
+            name, unit = LABELS.get(k, (k, ""))
+            raise DataError(f"{at}: {name} {float(v[i]):g}{unit} is outside {span}")
+
+
 def _where(path, i, md=None):
     """'FILE: row N (MD x m)': the place of a station in an input file."""
     return f"{path}: row {i + 1}" + (f" (MD {md:g} m)" if md is not None and math.isfinite(md) else "")
@@ -80,56 +111,82 @@ def run_direction(md, path: str = "survey") -> str:
     return "out-run" if len(down) else "in-run" if len(up) else "station"
 
 
+EXTRA = ("gt_g", "bt_nT", "dip_deg", "flags", "qc", "utc_s")
+TEXT_OK = ("qc", "flags")  # a trajectory listing's qc column is text: read as absent
+
+
+def _numbers(vals, key: str, path: str, lines=None, md=None, text_ok: bool = False) -> np.ndarray:
+    """A column's values (a list of cells or values, or an array) as floats:
+    empty or absent cells NaN; a cell that is not a number a DataError
+    naming its row (and the file's line), unless text_ok (then NaN)."""
+    if isinstance(vals, np.ndarray) and vals.dtype.kind == "f":
+        return vals
+    try:
+        out = np.array([np.nan if v is None or v == "" else v for v in vals], dtype=float)
+    except (TypeError, ValueError, OverflowError):
+        out = np.empty(len(vals))
+        for i, v in enumerate(vals):
+            try:
+                out[i] = np.nan if v is None or v == "" else float(v)
+            except (TypeError, ValueError, OverflowError):
+                if text_ok:
+                    out[i] = np.nan
+                    continue
+                where = _where(path, i, None if md is None else float(md[i]))
+                if lines is not None:
+                    where = f"{path}:{lines[i]}" + where[len(path):]
+                raise DataError(f"{where}: {key} {str(v)[:40]!r} is not a number") from None
+    return out
+
+
 def _rows_to_survey(rows: list[dict], path: str, meta: dict) -> Survey:
+    """Stations given as objects (JSON, LAS): their columns."""
     if not rows:
         raise DataError(f"{path}: no survey stations")
     keys = set().union(*(r.keys() for r in rows))
-    azk = "azi_deg" if "azi_deg" in keys else "azi_mag_deg" if "azi_mag_deg" in keys else None
-    mdk = "md_m" if "md_m" in keys else None
-    missing = [k for k, v in (("md_m", mdk), ("inc_deg", "inc_deg" if "inc_deg" in keys else None),
-                              ("azi_deg", azk)) if v is None]
+    cols = {k: [r.get(k) for r in rows] for k in ("md_m", "inc_deg", "azi_deg", "azi_mag_deg") + EXTRA if k in keys}
+    utc_text = [r.get("utc") for r in rows] if all(isinstance(r.get("utc"), str) for r in rows) else None
+    return _cols_to_survey(cols, len(rows), path, meta, utc_text=utc_text)
+
+
+def _cols_to_survey(cols: dict, n: int, path: str, meta: dict, lines=None, utc_text=None) -> Survey:
+    """A survey from its columns (lists of cells or float arrays, n
+    stations; `lines`: each station's line in the file, for the errors),
+    every value by its rule (RULES), in linear time."""
+    if not n:
+        raise DataError(f"{path}: no survey stations")
+    azk = "azi_deg" if "azi_deg" in cols else "azi_mag_deg" if "azi_mag_deg" in cols else None
+    missing = [k for k, v in (("md_m", "md_m" in cols), ("inc_deg", "inc_deg" in cols), ("azi_deg", azk)) if not v]
     if missing:
         raise DataError(f"{path}: missing column {', '.join(missing)} (a survey listing needs md_m, inc_deg, azi_deg)")
-    md, inc, azi = [], [], []
-    extra = {k: [] for k in ("gt_g", "bt_nT", "dip_deg", "flags", "qc", "utc_s")}
-    for i, r in enumerate(rows):
-        m = _num(r.get(mdk), "md_m", _where(path, i))
-        where = _where(path, i, m)
-        md.append(m)
-        inc.append(_num(r.get("inc_deg"), "inc_deg", where))
-        if not 0.0 <= inc[-1] <= 180.0:
-            raise DataError(f"{where}: inclination {inc[-1]:g} deg is outside 0-180")
-        azi.append(_num(r.get(azk), azk, where))
-        for k in extra:
-            v = r.get(k)
-            try:
-                x = float(v)
-            except (TypeError, ValueError):
-                if k in ("qc", "flags"):  # a trajectory listing's qc column is text
-                    x = float("nan")
-                elif v in (None, ""):
-                    x = float("nan")
-                else:
-                    raise DataError(f"{where}: {k} {v!r} is not a number")
-            extra[k].append(x)
-    md, inc, azi = np.array(md), np.array(inc), np.array(azi)
+    md = _numbers(cols["md_m"], "md_m", path, lines)
+    inc = _numbers(cols["inc_deg"], "inc_deg", path, lines, md)
+    azi = _numbers(cols[azk], azk, path, lines, md)
+    extra = {k: (_numbers(cols[k], k, path, lines, md, text_ok=k in TEXT_OK) if k in cols else np.full(n, np.nan))
+             for k in EXTRA}
+    for k, v in (("md_m", md), ("inc_deg", inc), (azk, azi)):
+        bad = ~np.isfinite(v)
+        if bad.any():
+            i = int(np.argmax(bad))
+            raise DataError(f"{_where(path, i, md[i] if k != 'md_m' else None)}: {k} is not a finite number")
+    _check_rules({"md_m": md, "inc_deg": inc, azk: azi, **extra}, path)
     meta = {**meta, "run": run_direction(md, path), "file": path}
     order = np.argsort(md, kind="stable")  # an out-run reads bottom up: the path is computed top down
-    ex = {k: np.array(v)[order] for k, v in extra.items()}
+    ex = {k: v[order] for k, v in extra.items()}
     utc = ex.pop("utc_s")
     from inclino.formats.survey_log import parse_utc
 
     if np.any(np.isfinite(utc)) and meta.get("start_utc"):
         ex["utc"] = parse_utc(meta["start_utc"], path) + utc  # POSIX seconds, UTC
-    elif all(isinstance(r.get("utc"), str) for r in rows):  # JSON lines: each reading's time in ISO 8601
-        ex["utc"] = np.array([parse_utc(r["utc"], _where(path, i)) for i, r in enumerate(rows)])[order]
+    elif utc_text is not None:  # JSON lines: each reading's time in ISO 8601
+        ex["utc"] = np.array([parse_utc(t, _where(path, i)) for i, t in enumerate(utc_text)])[order]
     return _merge_repeats(Survey(md[order], inc[order], np.mod(azi[order], 360.0), ex, meta))
 
 
 def _merge_repeats(sv: Survey) -> Survey:
     """Repeated surveys at one depth (`inclino survey --count N --md M`) as one
     station: inclination and the field values averaged, azimuth the mean
-    direction, flags and QC bits or-ed."""
+    direction, flags and QC bits or-ed (linear time: sums by group)."""
     md, first = np.unique(sv.md_m, return_index=True)
     if len(md) == len(sv.md_m):
         return sv
@@ -140,13 +197,16 @@ def _merge_repeats(sv: Survey) -> Survey:
     azi = np.degrees(np.arctan2(np.bincount(grp, np.sin(a), n), np.bincount(grp, np.cos(a), n))) % 360.0
     extra = {}
     for k, v in sv.extra.items():
-        out = np.full(n, np.nan)
-        for g in range(n):
-            x = v[grp == g]
-            x = x[np.isfinite(x)]
-            if len(x):
-                out[g] = float(np.bitwise_or.reduce(x.astype(np.int64))) if k in ("flags", "qc") else float(x.mean())
-        extra[k] = out
+        ok = np.isfinite(v)
+        cnt = np.bincount(grp[ok], None, n)
+        if k in ("flags", "qc"):
+            out = np.zeros(n, np.int64)
+            np.bitwise_or.at(out, grp[ok], v[ok].astype(np.int64))
+            out = out.astype(float)
+        else:
+            with np.errstate(invalid="ignore", divide="ignore"):
+                out = np.bincount(grp[ok], v[ok], n) / cnt
+        extra[k] = np.where(cnt > 0, out, np.nan)
     return Survey(md, inc, azi, extra, sv.meta)
 
 
@@ -170,13 +230,14 @@ def concat(surveys: list) -> Survey:
 
 
 def _read_csv(text: str, path: str) -> Survey:
-    rows, meta = _csv_rows(text, path)
-    return _rows_to_survey(rows, path, meta)
+    cols, n, lines, meta = _csv_columns(text, path, ("md_m", "inc_deg", "azi_deg", "azi_mag_deg") + EXTRA)
+    return _cols_to_survey(cols, n, path, meta, lines=lines)
 
 
-def _csv_rows(text: str, path: str):
-    meta, lines = {}, []
-    for line in text.splitlines():
+def _csv_lines(text: str, meta: dict, numbers: list):
+    """The listing's lines that are not comments or blank; its `# key=value`
+    lines into meta; each line's number (from 1) appended to numbers."""
+    for n, line in enumerate(io.StringIO(text), start=1):
         s = line.strip()
         if s.startswith("#"):
             if "=" in s:
@@ -184,19 +245,78 @@ def _csv_rows(text: str, path: str):
                 meta[k.strip()] = v.strip()
             continue
         if s:
+            numbers.append(n)
+            yield line
+
+
+CHUNK = 1 << 16  # rows converted to numbers at a time (bounded memory on a long listing)
+
+
+def _csv_columns(text: str, path: str, wanted):
+    """(columns: name -> float array, with text cells of TEXT_OK columns
+    NaN; stations; each station's line; meta) of a CSV listing, read in
+    linear time and bounded memory (cells converted a chunk at a time)."""
+    meta, numbers = {}, []
+    rdr = csv.reader(_csv_lines(text, meta, numbers))
+    try:
+        head = next(rdr, None)
+        if head is None:
+            raise DataError(f"{path}: no header row")
+        header = [h.strip() for h in head]
+        idx = {k: header.index(k) for k in wanted if k in header}
+        cols = {k: [] for k in idx}
+        lines, buf = [], {k: [] for k in idx}
+
+        def flush():
+            n0 = len(lines) - len(next(iter(buf.values()))) if buf else 0
+            md = None
+            if "md_m" in buf:  # first: the other columns' errors name the station's depth
+                md = _numbers(buf["md_m"], "md_m", path, lines[n0:])
+                cols["md_m"].append(md)
+                buf["md_m"].clear()
+            for k, cells in buf.items():
+                if k != "md_m":
+                    cols[k].append(_numbers(cells, k, path, lines[n0:], md, text_ok=k in TEXT_OK))
+                    cells.clear()
+        for rec in rdr:
+            line = numbers[-1]
+            rec = [c.strip() for c in rec]
+            if rec == header:  # several `inclino survey --csv` outputs appended
+                continue
+            if len(rec) != len(header):
+                raise DataError(f"{path}:{line}: {len(rec)} fields, the header {len(header)}")
             lines.append(line)
-    if not lines:
-        raise DataError(f"{path}: no header row")
-    rdr = csv.reader(lines)
-    header = [h.strip() for h in next(rdr)]
-    rows = []
-    for n, rec in enumerate(rdr, start=2):
-        rec = [c.strip() for c in rec]
-        if rec == header:  # several `inclino survey --csv` outputs appended
-            continue
-        if len(rec) != len(header):
-            raise DataError(f"{path}: row {n} has {len(rec)} fields, the header {len(header)}")
-        rows.append(dict(zip(header, rec)))
+            for k, j in idx.items():
+                buf[k].append(rec[j])
+            if idx and len(buf[next(iter(idx))]) >= CHUNK:
+                flush()
+        if idx:
+            flush()
+    except csv.Error as e:
+        raise DataError(f"{path}:{numbers[-1] if numbers else 1}: not CSV ({e})") from None
+    n = len(lines)
+    return {k: (np.concatenate(v) if v else np.empty(0)) for k, v in cols.items()}, n, lines, meta
+
+
+def _csv_rows(text: str, path: str):
+    """The rows of a CSV listing as objects (a noise run's few rows)."""
+    meta, numbers = {}, []
+    rdr = csv.reader(_csv_lines(text, meta, numbers))
+    try:
+        head = next(rdr, None)
+        if head is None:
+            raise DataError(f"{path}: no header row")
+        header = [h.strip() for h in head]
+        rows = []
+        for rec in rdr:
+            rec = [c.strip() for c in rec]
+            if rec == header:
+                continue
+            if len(rec) != len(header):
+                raise DataError(f"{path}:{numbers[-1]}: {len(rec)} fields, the header {len(header)}")
+            rows.append(dict(zip(header, rec)))
+    except csv.Error as e:
+        raise DataError(f"{path}:{numbers[-1] if numbers else 1}: not CSV ({e})") from None
     return rows, meta
 
 
@@ -207,14 +327,16 @@ def _read_json(text: str, path: str) -> Survey:
 
 
 def _json_rows(text: str, path: str) -> list:
+    """A JSON array of objects or JSON lines, through safeio's bounded
+    parser (nesting, number size): every defect one line."""
+    from inclino.formats import safeio
+
     s = text.strip()
-    try:
-        if s.startswith("["):
-            rows = json.loads(s)
-        else:
-            rows = [json.loads(line) for line in s.splitlines() if line.strip()]
-    except json.JSONDecodeError as e:
-        raise DataError(f"{path}: not JSON ({e.msg} at line {e.lineno})")
+    if s.startswith("["):
+        rows = safeio.parse_json(s, path)
+    else:
+        rows = [safeio.parse_json(line, f"{path}:{n}") for n, line in enumerate(s.splitlines(), start=1)
+                if line.strip()]
     if not isinstance(rows, list) or not all(isinstance(r, dict) for r in rows):
         raise DataError(f"{path}: each station must be a JSON object")
     return rows
@@ -222,6 +344,21 @@ def _json_rows(text: str, path: str) -> list:
 
 LAS_CURVES = {"INC": "inc_deg", "AZI": "azi_deg", "AZIM": "azi_deg", "GTOT": "gt_g", "BTOT": "bt_nT",
               "DIP": "dip_deg", "FLAGS": "flags", "QC": "qc"}
+
+
+def _las_numbers(c, path: str) -> np.ndarray:
+    """A LAS curve's values as numbers (a value lasio could not read as one:
+    DataError naming the curve and the data line)."""
+    try:
+        return np.asarray(c.data, float)
+    except (TypeError, ValueError):
+        for i, v in enumerate(c.data):
+            try:
+                float(v)
+            except (TypeError, ValueError):
+                raise DataError(f"{path}: curve {c.mnemonic}, data line {i + 1}: {str(v)[:20]!r} is not a "
+                                "number") from None
+        raise DataError(f"{path}: curve {c.mnemonic} is not numbers") from None
 
 
 LAS_META = {"PSERIAL": "probe_serial", "PRODUCT": "product", "FWVER": "firmware", "CALSLOT": "calibration_slot",
@@ -237,7 +374,7 @@ def _read_las(text: str, path: str) -> Survey:
     for m in ("DEPT", "DEPTH", "MD"):
         if m in curves:
             c = curves[m]
-            md = np.asarray(c.data, float) * lasfmt.depth_factor(c.unit, f"{path}: curve {c.mnemonic}")
+            md = _las_numbers(c, path) * lasfmt.depth_factor(c.unit, f"{path}: curve {c.mnemonic}")
             break
     if md is None:
         raise DataError(f"{path}: no measured-depth curve (DEPT, DEPTH or MD)")
@@ -245,7 +382,7 @@ def _read_las(text: str, path: str) -> Survey:
     rows = [{"md_m": md[i]} for i in range(n)]
     for m, key in {**LAS_CURVES, "TIME": "utc_s"}.items():
         if m in curves:
-            d = np.asarray(curves[m].data, float)
+            d = _las_numbers(curves[m], path)
             for i in range(n):
                 if not math.isnan(d[i]):
                     rows[i].setdefault(key, d[i])
@@ -257,13 +394,11 @@ def _read_las(text: str, path: str) -> Survey:
 
 
 def _text(path: str) -> str:
-    try:
-        with open(path, encoding="utf-8") as f:
-            return f.read()
-    except OSError as e:
-        raise DataError(f"cannot read {path}: {e.strerror}")
-    except UnicodeDecodeError:
-        raise DataError(f"{path}: not a text file")
+    """The listing's text: UTF-8 (a byte-order mark dropped), bounded
+    (inclino.formats.safeio.read_text)."""
+    from inclino.formats import safeio
+
+    return safeio.read_text(path, "survey listing", MAX_LISTING_BYTES)
 
 
 def read_survey_rows(path: str) -> list[dict]:
@@ -272,16 +407,15 @@ def read_survey_rows(path: str) -> list[dict]:
     text = _text(path)
     s = text.lstrip()
     if s.startswith("~"):
-        import lasio
+        from inclino.formats import las as lasfmt
 
-        try:
-            las = lasio.read(io.StringIO(text))
-        except Exception as e:
-            raise DataError(f"{path}: not a readable LAS file ({e})")
-        cur = {c.mnemonic.upper(): np.asarray(c.data, float) for c in las.curves}
+        las = lasfmt.read(text, path)
+        cur = {c.mnemonic.upper(): _las_numbers(c, path) for c in las.curves}
         n = len(las.index)
         return [{key: float(cur[m][i]) for m, key in LAS_CURVES.items() if m in cur} for i in range(n)]
     rows = _json_rows(text, path) if s.startswith(("{", "[")) else _csv_rows(text, path)[0]
+    if not isinstance(rows, list) or not all(isinstance(r, dict) for r in rows):
+        raise DataError(f"{path}: each survey must be a JSON object")
     out = []
     for i, r in enumerate(rows):
         d = {}
@@ -289,6 +423,7 @@ def read_survey_rows(path: str) -> list[dict]:
             if k in ("gt_g", "bt_nT", "inc_deg", "azi_deg", "dip_deg"):
                 d[k] = _num(v, k, f"{path}: row {i + 1}")
         out.append(d)
+    _check_rules({k: [r.get(k, float("nan")) for r in out] for k in ("gt_g", "bt_nT", "dip_deg")}, path)
     return out
 
 
@@ -308,15 +443,44 @@ def read_survey(path: str) -> Survey:
 
 @dataclass
 class Trajectory:
-    rows: list  # one dict per station (columns of COLUMNS + optional ones)
+    data: dict  # column -> one value per station (a float array, or a list of text)
     columns: list
     reference: dict
     survey: dict | None = None  # the survey's header (probe, calibration, run direction, start time)
     summary: dict = field(default_factory=dict)
 
+    def __len__(self) -> int:
+        return len(self.data["md_m"])
+
+    def column(self, key) -> np.ndarray:
+        """One column as floats (NaN where a station has none)."""
+        v = self.data.get(key)
+        return np.full(len(self), np.nan) if v is None else np.asarray(v, float)
+
+    @property
+    def rows(self) -> list:
+        """One dict per station (a view built on demand: the trajectory
+        itself is held column by column); a QC difference (dgt_g, ...) only
+        where the station has one."""
+        keys = list(self.data)
+        out = []
+        for i in range(len(self)):
+            r = {}
+            for k in keys:
+                v = self.data[k][i]
+                if isinstance(v, str):
+                    r[k] = v
+                else:
+                    v = float(v)
+                    if k in QC_DIFF and not math.isfinite(v):
+                        continue
+                    r[k] = v
+            out.append(r)
+        return out
+
     def to_json(self) -> str:
-        d = asdict(self)
-        d["summary"].pop("parts", None)
+        d = {"rows": self.rows, "columns": self.columns, "reference": self.reference, "survey": self.survey,
+             "summary": {k: v for k, v in self.summary.items() if k != "parts"}}
         return dumps(d)
 
 
@@ -364,61 +528,77 @@ def trajectory(sv: Survey, rf: ReferenceField, model=None) -> Trajectory:
     n = len(sv)
     north, east, tvd = np.asarray(ws.n, float) - ws.n[0], np.asarray(ws.e, float) - ws.e[0], \
         np.asarray(ws.tvd, float) - ws.tvd[0]
+    del ws  # welleng's survey holds many arrays per station: freed before the columns are built
     azi_true = np.mod(sv.azi_mag_deg + rf.declination_deg, 360.0)
     dls = np.zeros(n)
     if n > 1:
         dls[1:] = dogleg_deg(sv.inc_deg[:-1], azi_true[:-1], sv.inc_deg[1:], azi_true[1:]) / np.diff(sv.md_m) * 30.0
     cols = ["md_m", "inc_deg", "azi_mag_deg", "azi_true_deg"]
+    data = {"md_m": sv.md_m, "inc_deg": sv.inc_deg, "azi_mag_deg": sv.azi_mag_deg, "azi_true_deg": azi_true}
     grid = rf.grid_epsg is not None
     if grid:
         cols.append("azi_grid_deg")
+        data["azi_grid_deg"] = (azi_true - rf.convergence_deg) % 360.0
     cols += ["tvd_m", "north_m", "east_m"]
+    data.update(tvd_m=tvd, north_m=north, east_m=east)
     if grid:
         cols += ["northing_m", "easting_m"]
+        g, k = math.radians(rf.convergence_deg), rf.scale_factor
+        data["northing_m"] = rf.northing_m + k * (north * math.cos(g) + east * math.sin(g))
+        data["easting_m"] = rf.easting_m + k * (east * math.cos(g) - north * math.sin(g))
     cols += ["dls_deg_per_30m"]
-    g = math.radians(rf.convergence_deg)
-    rows = []
+    data["dls_deg_per_30m"] = dls
+    # station QC, column by column (linear time)
     ex = sv.extra
+    nan = np.full(n, np.nan)
     nq = {"G": 0, "B": 0, "dip": 0, "probe": 0, "near-vertical": 0}
-    for i in range(n):
-        r = {"md_m": sv.md_m[i], "inc_deg": sv.inc_deg[i], "azi_mag_deg": sv.azi_mag_deg[i],
-             "azi_true_deg": azi_true[i], "tvd_m": tvd[i], "north_m": north[i], "east_m": east[i],
-             "dls_deg_per_30m": dls[i]}
-        if grid:
-            r["azi_grid_deg"] = (azi_true[i] - rf.convergence_deg) % 360.0
-            k = rf.scale_factor
-            r["northing_m"] = rf.northing_m + k * (north[i] * math.cos(g) + east[i] * math.sin(g))
-            r["easting_m"] = rf.easting_m + k * (east[i] * math.cos(g) - north[i] * math.sin(g))
-        fails, checked = [], []
-        for name, key, refkey in HOST_QC:
-            v, ref = ex.get(key, [float("nan")] * n)[i], getattr(rf, refkey)
-            if math.isfinite(v) and math.isfinite(ref):
-                checked.append(name)
-                r[f"d{key}"] = v - ref
-                if abs(v - ref) > rf.tol[key]:
-                    fails.append(name)
-                    nq[name] += 1
-        fl, pq = ex.get("flags", [float("nan")] * n)[i], ex.get("qc", [float("nan")] * n)[i]
-        near_vertical = (math.isfinite(fl) and int(fl) & 1) or sv.inc_deg[i] < 0.5 or sv.inc_deg[i] > 179.5
-        if near_vertical:
-            nq["near-vertical"] += 1
-        if math.isfinite(pq):
-            checked.append("probe (G only)" if int(pq) & 0x80 else "probe")
-            if int(pq) & 0x7F:
-                fails.append("probe")
-                nq["probe"] += 1
-        what = ",".join(checked) if checked else "nothing: no field values or no reference"
-        r["qc_checked"] = what
-        r["qc"] = (f"FAIL {','.join(fails)} (checked {what})" if fails else
-                   f"PASS {what}" if checked else f"not checked ({what})")
-        r["note"] = "near-vertical: azimuth undefined" if near_vertical else ""
-        rows.append(r)
+    checked = np.zeros((n, 5), bool)  # G, B, dip, probe, probe (G only)
+    failed = np.zeros((n, 4), bool)   # G, B, dip, probe
+    for j, (name, key, refkey) in enumerate(HOST_QC):
+        v, ref = np.asarray(ex.get(key, nan), float), getattr(rf, refkey)
+        if not math.isfinite(ref):
+            continue
+        ok = np.isfinite(v)
+        checked[:, j] = ok
+        d = np.where(ok, v - ref, np.nan)
+        if ok.any():
+            data[f"d{key}"] = d
+        with np.errstate(invalid="ignore"):
+            failed[:, j] = ok & (np.abs(d) > rf.tol[key])
+        nq[name] = int(failed[:, j].sum())
+    fl, pq = np.asarray(ex.get("flags", nan), float), np.asarray(ex.get("qc", nan), float)
+    flv = np.where(np.isfinite(fl), fl, 0).astype(np.int64)
+    near_vertical = (np.isfinite(fl) & (flv & 1 != 0)) | (sv.inc_deg < 0.5) | (sv.inc_deg > 179.5)
+    nq["near-vertical"] = int(near_vertical.sum())
+    pok = np.isfinite(pq)
+    pqv = np.where(pok, pq, 0).astype(np.int64)
+    checked[:, 3] = pok & (pqv & 0x80 == 0)
+    checked[:, 4] = pok & (pqv & 0x80 != 0)
+    failed[:, 3] = pok & (pqv & 0x7F != 0)
+    nq["probe"] = int(failed[:, 3].sum())
+    names = ("G", "B", "dip", "probe", "probe (G only)")
+    qc_of = {}
+    qc_checked, qc = [], []
+    codes = checked.astype(np.int64) @ (1 << np.arange(5)) * 16 + failed.astype(np.int64) @ (1 << np.arange(4))
+    for c in codes.tolist():  # one text per distinct combination: a dictionary lookup a station
+        t = qc_of.get(c)
+        if t is None:
+            ck = [names[j] for j in range(5) if c >> (4 + j) & 1]
+            fs = [names[j] for j in range(4) if c >> j & 1]
+            what = ",".join(ck) if ck else "nothing: no field values or no reference"
+            t = qc_of[c] = (what, f"FAIL {','.join(fs)} (checked {what})" if fs else
+                            f"PASS {what}" if ck else f"not checked ({what})")
+        qc_checked.append(t[0])
+        qc.append(t[1])
+    data["qc_checked"] = qc_checked
+    data["qc"] = qc
+    data["note"] = np.where(near_vertical, "near-vertical: azimuth undefined", "").tolist()
     for key in ("gt_g", "bt_nT", "dip_deg"):
-        if any(f"d{key}" in r for r in rows):
+        if f"d{key}" in data:
             cols.append(f"d{key}")
     cols += ["qc", "note"]
-    summary = {"stations": n, "qc_fail": sum(r["qc"].startswith("FAIL") for r in rows), "qc_fail_by": nq,
-               "qc_checked": sorted({r["qc_checked"] for r in rows}),
+    summary = {"stations": n, "qc_fail": int(failed.any(axis=1).sum()), "qc_fail_by": nq,
+               "qc_checked": sorted(set(what for what, _ in qc_of.values())),
                "md_m": [float(sv.md_m[0]), float(sv.md_m[-1])],
                "end": {"tvd_m": float(tvd[-1]), "north_m": float(north[-1]), "east_m": float(east[-1])}}
     if "utc" in ex:
@@ -426,35 +606,46 @@ def trajectory(sv: Survey, rf: ReferenceField, model=None) -> Trajectory:
         from inclino.formats.survey_log import utc_iso
 
         summary["start_utc"] = utc_iso(t0)
-        for i, r in enumerate(rows):
-            r["utc_s"] = float(ex["utc"][i] - t0)
+        data["utc_s"] = np.asarray(ex["utc"], float) - t0
         cols[cols.index("qc"):cols.index("qc")] = ["utc_s"]
     summary["run"] = sv.meta.get("run", "")
     if prop is not None:
-        cov = prop.cov_nev
-        dia = prop.cov_dia
-        for i, r in enumerate(rows):
-            c = cov[i]
-            a, b, az = ellipse(c[:2, :2])
-            s_azi = math.degrees(math.sqrt(max(dia[i, 2, 2], 0)))
-            r.update(sigma_inc_deg=math.degrees(math.sqrt(max(dia[i, 1, 1], 0))),
-                     sigma_azi_deg=s_azi if (r["note"] == "" and math.isfinite(s_azi) and s_azi < 360) else math.nan,
-                     sigma_north_m=math.sqrt(max(c[0, 0], 0)), sigma_east_m=math.sqrt(max(c[1, 1], 0)),
-                     sigma_tvd_m=math.sqrt(max(c[2, 2], 0)), ell_major_m=a, ell_minor_m=b, ell_azi_deg=az,
-                     cov_nn=c[0, 0], cov_ne=c[0, 1], cov_nv=c[0, 2], cov_ee=c[1, 1], cov_ev=c[1, 2],
-                     cov_vv=c[2, 2])
+        cov = np.asarray(prop.cov_nev, float)
+        dia = np.asarray(prop.cov_dia, float)
+        maj, mnr, az = ellipses(cov[:, :2, :2])
+        with np.errstate(invalid="ignore"):
+            s_azi = np.degrees(np.sqrt(np.maximum(dia[:, 2, 2], 0)))
+        data.update(sigma_inc_deg=np.degrees(np.sqrt(np.maximum(dia[:, 1, 1], 0))),
+                    sigma_azi_deg=np.where(~near_vertical & np.isfinite(s_azi) & (s_azi < 360), s_azi, np.nan),
+                    sigma_north_m=np.sqrt(np.maximum(cov[:, 0, 0], 0)), sigma_east_m=np.sqrt(np.maximum(cov[:, 1, 1], 0)),
+                    sigma_tvd_m=np.sqrt(np.maximum(cov[:, 2, 2], 0)), ell_major_m=maj, ell_minor_m=mnr, ell_azi_deg=az,
+                    cov_nn=cov[:, 0, 0], cov_ne=cov[:, 0, 1], cov_nv=cov[:, 0, 2], cov_ee=cov[:, 1, 1],
+                    cov_ev=cov[:, 1, 2], cov_vv=cov[:, 2, 2])
         cols[cols.index("qc"):cols.index("qc")] = ["sigma_inc_deg", "sigma_azi_deg", "sigma_north_m",
                                                    "sigma_east_m", "sigma_tvd_m", "ell_major_m", "ell_minor_m",
                                                    "ell_azi_deg", "cov_nn", "cov_ne", "cov_nv", "cov_ee",
                                                    "cov_ev", "cov_vv"]
-        summary["end"].update(ell_major_m=rows[-1]["ell_major_m"], ell_minor_m=rows[-1]["ell_minor_m"],
+        summary["end"].update(ell_major_m=float(maj[-1]), ell_minor_m=float(mnr[-1]),
                               parts={k: dict(zip(("ell_major_m", "ell_minor_m"), ellipse(c[-1][:2, :2])[:2]))
                                      for k, c in prop.parts.items()})
         summary["error_model"] = model.describe()
         summary["parts"] = prop.parts
     meta = {k: v for k, v in sv.meta.items() if k in SURVEY_META}
-    return Trajectory([{k: (float(v) if not isinstance(v, str) else v) for k, v in r.items()} for r in rows],
-                      cols, rf.header(), {"survey": meta, "start_utc": summary.get("start_utc")}, summary)
+    order = cols + [k for k in data if k not in cols]
+    return Trajectory({k: data[k] for k in order}, cols, rf.header(),
+                      {"survey": meta, "start_utc": summary.get("start_utc")}, summary)
+
+
+def ellipses(cov_ne):
+    """`ellipse` for a stack of 2x2 covariances (n, 2, 2), vectorised:
+    (semi-major, semi-minor, azimuth of the major axis 0-180) arrays."""
+    a, b, d = cov_ne[:, 0, 0], cov_ne[:, 0, 1], cov_ne[:, 1, 1]
+    half = 0.5 * (a + d)
+    r = np.sqrt(np.maximum((0.5 * (a - d)) ** 2 + b ** 2, 0.0))
+    major = np.sqrt(np.maximum(half + r, 0.0))
+    minor = np.sqrt(np.maximum(half - r, 0.0))
+    az = np.degrees(0.5 * np.arctan2(2 * b, a - d)) % 180.0
+    return major, minor, az
 
 
 def _fmt(v):
@@ -475,9 +666,32 @@ def write_csv(tr: Trajectory, path: str) -> None:
         buf.write(f"# {k}={v}\n")
     w = csv.writer(buf, lineterminator="\n")
     w.writerow(tr.columns)
-    for r in tr.rows:
-        w.writerow([_fmt(r.get(c)) for c in tr.columns])
-    _write(path, buf.getvalue())
+    from inclino.formats import safeio
+
+    n = len(tr)
+    with safeio.output_file(path) as f:  # written a chunk of stations at a time (bounded memory)
+        f.write(buf.getvalue())
+        for lo in range(0, n, CHUNK):
+            hi = min(n, lo + CHUNK)
+            cells = [_texts(tr.data.get(c), lo, hi) for c in tr.columns]
+            chunk = io.StringIO()
+            csv.writer(chunk, lineterminator="\n").writerows(zip(*cells))
+            f.write(chunk.getvalue())
+
+
+def _texts(v, lo, hi) -> list:
+    """Cells of one column for stations lo..hi: text as it is, numbers as
+    _fmt writes them (10 significant digits, empty for none)."""
+    if v is None:
+        return [""] * (hi - lo)
+    part = v[lo:hi]
+    if isinstance(part, list):
+        return part
+    x = np.asarray(part, float)
+    out = np.char.mod("%.10g", np.where(np.isfinite(x), x, 0.0)).tolist()
+    if not np.all(np.isfinite(x)):
+        out = [t if ok else "" for t, ok in zip(out, np.isfinite(x).tolist())]
+    return out
 
 
 def _write(path: str, text: str) -> None:
@@ -523,12 +737,11 @@ def write_las(tr: Trajectory, path: str) -> None:
     ~Parameter section."""
     from inclino.formats import las as lasfmt
 
-    md = np.array([r["md_m"] for r in tr.rows])
-    curves = [(mnem, unit, descr, np.array([r.get(key, np.nan) for r in tr.rows], float))
-              for key, mnem, unit, descr in LAS_OUT if key in tr.columns]
+    md = tr.column("md_m")
+    curves = [(mnem, unit, descr, tr.column(key)) for key, mnem, unit, descr in LAS_OUT if key in tr.columns]
     if "utc_s" in tr.columns:
         curves.append(("TIME", "s", "time of the station's reading since the survey's start (DATE, UTC)",
-                       np.array([r.get("utc_s", np.nan) for r in tr.rows], float)))
+                       tr.column("utc_s")))
     pmap = {"declination_deg": ("MAGDEC", "deg", "magnetic declination, east positive"),
             "dip_deg": ("MAGDIP", "deg", "magnetic dip, down positive"), "field_nT": ("MAGFLD", "nT", "total field"),
             "gravity_g": ("GRAV", "g", "reference gravity"), "lat_deg": ("LAT", "deg", "latitude WGS 84"),

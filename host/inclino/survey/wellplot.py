@@ -8,6 +8,9 @@ import math
 import numpy as np
 
 
+MAX_ELLIPSES = 200  # stations whose ellipses are drawn (evenly spread): more cannot be told apart
+
+
 def plot(rows, path: str, truth=None, title: str = "", scale: float | None = None) -> str:
     """rows: trajectory CSV rows (dicts); truth: optional (tvd, north, east)
     arrays of the known path.  Ellipses are drawn magnified (`scale`, by
@@ -19,9 +22,12 @@ def plot(rows, path: str, truth=None, title: str = "", scale: float | None = Non
 
     plt = plotting.pyplot()
 
-    f = lambda k: np.array([float(r[k]) if r.get(k, "") != "" else np.nan for r in rows])
+    if hasattr(rows, "column"):  # a wellpath.Trajectory: its columns as they are
+        f, has_ell = rows.column, "ell_major_m" in rows.data
+    else:
+        f = lambda k: np.array([float(r[k]) if r.get(k, "") != "" else np.nan for r in rows])  # noqa: E731
+        has_ell = all("ell_major_m" in r for r in rows)
     n, e, tvd, md = f("north_m"), f("east_m"), f("tvd_m"), f("md_m")
-    has_ell = all("ell_major_m" in r for r in rows)
     if truth is not None and has_ell:
         fig, (ax1, ax2, ax3) = plt.subplots(1, 3, figsize=(16, 5.2), gridspec_kw={"width_ratios": [1.1, 1.1, 1]})
     else:
@@ -33,7 +39,7 @@ def plot(rows, path: str, truth=None, title: str = "", scale: float | None = Non
         a, b, az = f("ell_major_m"), f("ell_minor_m"), f("ell_azi_deg")
         amax = np.nanmax(a) if np.any(np.isfinite(a)) else 0
         k = scale if scale is not None else (span / 8 / (2 * amax) if amax > 0 else 1.0)
-        for i in range(len(rows)):
+        for i in np.unique(np.linspace(0, len(md) - 1, min(len(md), MAX_ELLIPSES)).astype(int)):
             if not (np.isfinite(a[i]) and a[i] > 0):
                 continue
             for m, ls in ((1, "-"), (2, "--")):
@@ -66,8 +72,8 @@ def plot(rows, path: str, truth=None, title: str = "", scale: float | None = Non
         t_tvd, t_n, t_e = truth
         dn, de = n - t_n, e - t_e
         cnn, cne, cee = f("cov_nn"), f("cov_ne"), f("cov_ee")
-        d = np.full(len(rows), np.nan)
-        for i in range(len(rows)):
+        d = np.full(len(md), np.nan)
+        for i in range(len(md)):
             c = np.array([[cnn[i], cne[i]], [cne[i], cee[i]]])
             if np.all(np.isfinite(c)) and np.linalg.det(c) > 0:
                 v = np.array([dn[i], de[i]])

@@ -1,0 +1,785 @@
+"""Diagnosis without poses: what the invariants show.
+
+Without the turntable's poses (a field recalibration, a hand-tumbled log, a
+bench whose poses are not trusted) each row still has what holds at any
+orientation: |g| = G, |b| = F and, with both triads, the angle between them
+= the dip.  The baseline is the pose-free calibration -- per triad a
+symmetric 3x3 and an offset (the accelerometer's axes are the body frame),
+the fluxgate's full 3x3 when the dip ties it to the accelerometer, and the
+dip -- fitted to those invariants by Gauss-Newton.  Candidates are the
+library effects an invariant can see, in the same parameters as the
+pose-based diagnosis (inclino.model.effects):
+
+* scale-nonlinearity per axis (raw = v + k2 v^2 + b),
+* temperature-bias and temperature-scale per axis (with a temp_c column
+  that changes),
+* field-drift of the total and of the dip (with time, or the reading order),
+* rig-field per rig axis angle in the file (inc_deg, azi_deg, tf_deg
+  columns that turn): the |b| and dip invariants as harmonics 1-2 of the
+  angle -- a field that changes with the rig's position (its direction
+  across the field, which no invariant sees, needs the poses).
+
+The selection is the pose-based one (core.Design: forward stepwise, F-test
+at alpha/m, K-fold cross-validation that must fall overall and on the
+effect's own invariant, backward pass), on cluster means where several
+rows share a pose (calib.covariance.cluster_labels): hundreds of readings
+at one face are one observation of that face, not hundreds.  What needs
+the poses is listed as such: the turntable's own errors, a declination
+drift, the sampling skew, the absolute orientation of either triad.
+"""
+from __future__ import annotations
+
+import time as _time
+
+import numpy as np
+from scipy import stats
+
+from inclino.errors import DataError
+from inclino.formats.dataset import RawDataset
+
+from .core import DEFAULT_ALPHA, DEFAULT_FOLDS, Design, make_folds
+from .result import Diagnosis, Effect, Gain
+
+INV = ("|g|", "|b|", "dip")
+UNITS = {"|g|": "g", "|b|": "nT", "dip": "deg"}
+MIN_CLUSTERS = 12
+TEMP_MIN_RANGE_C = 1.0
+RIG_MIN_SPAN_DEG = 30.0
+GN_ITERATIONS = 4
+OUTLIER_P = 1e-3
+
+NEEDS_POSES = [
+    ("turntable-inclination-offset", "an offset of the turntable's inclination scale shows only against the poses"),
+    ("turntable-azimuth-offset", "the turntable's north reference (a declination offset) is a rotation no invariant "
+                                 "sees"),
+    ("turntable-azimuth-axis-tilt", "the turntable's own geometry shows only against the poses"),
+    ("turntable-inclination-axis-skew", "the turntable's own geometry shows only against the poses"),
+    ("field-drift (declination)", "a declination drift turns the field about the vertical: |b| and the dip stay"),
+    ("sample-skew", "the fluxgate's sampling skew needs the rotation rate, i.e. poses with time"),
+    ("rig-field (its direction)", "the part of a rig field across the Earth field changes no invariant: with the "
+                                  "poses its full vector is fitted"),
+    ("misalignment", "the rotation of the sensor block against the probe's axes: no invariant sees it"),
+]
+
+
+class _PF:
+    """The data reduced to clusters, and the invariant model."""
+
+    def __init__(self, ds: RawDataset):
+        from inclino.calib.covariance import cluster_labels
+
+        self.has_acc, self.has_mag = ds.has_acc, ds.has_mag
+        n0 = len(ds)
+        lab = cluster_labels(ds)
+        if not any(c in ds.columns for c in ("pose_id", "segment", "cluster")):
+            present = [c for c in ("inc_deg", "azi_deg", "tf_deg") if c in ds.columns]
+            if present and not ds.has_pose:  # partial poses (a face label): consecutive rows at one of them
+                P = np.stack([np.asarray(ds.columns[c], float) for c in present], -1)
+                new = np.ones(n0, bool)
+                new[1:] = np.any(np.abs(np.diff(P, axis=0)) > 1e-6, axis=1)
+                lab = np.cumsum(new) - 1
+        k = int(lab.max()) + 1
+        self.n_rows, self.k = n0, k
+        cnt = np.bincount(lab, minlength=k).astype(float)
+        self.count = cnt
+
+        def mean(x):
+            out = np.zeros((k,) + np.shape(x)[1:])
+            np.add.at(out, lab, np.asarray(x, float))
+            return out / cnt.reshape((-1,) + (1,) * (np.ndim(x) - 1))
+        self.acc = mean(ds.acc) if self.has_acc else None
+        self.mag = mean(ds.mag) if self.has_mag else None
+        t = ds.columns.get("t_s")
+        self.time_name = "time" if t is not None and np.ptp(t) > 0 else "reading order"
+        self.t = mean(t) if t is not None and np.ptp(t) > 0 else mean(np.arange(n0, dtype=float))
+        temp = ds.columns.get("temp_c")
+        self.temp = mean(temp) if temp is not None and np.ptp(temp) >= TEMP_MIN_RANGE_C else None
+        self.angles = {}
+        for c, name in (("inc_deg", "inc"), ("azi_deg", "azi"), ("tf_deg", "tf")):
+            if c in ds.columns:
+                r = np.unwrap(np.radians(np.asarray(ds.columns[c], float)))
+                if np.degrees(np.ptp(r)) >= RIG_MIN_SPAN_DEG:
+                    self.angles[name] = np.degrees(np.arctan2(mean(np.sin(r)), mean(np.cos(r))))
+        m = ds.meta
+        self.G = float(m.get("gravity_g", 1.0))
+        F = m.get("field_nT")
+        self.F = float(F) if F is not None else (float(np.median(np.linalg.norm(self.mag, axis=1)))
+                                                 if self.has_mag else 50000.0)
+        self.F_given = F is not None
+        self.dip0 = m.get("dip_deg")
+        self.chans = [x for x, ok in (("|g|", self.has_acc), ("|b|", self.has_mag),
+                                      ("dip", self.has_acc and self.has_mag)) if ok]
+        if k < MIN_CLUSTERS:
+            raise DataError(f"too few distinct orientations for a pose-free diagnosis: {k} (needs {MIN_CLUSTERS}; "
+                            f"rows at one pose count once)")
+
+    # ---- parameters: the baseline's, then each candidate's
+    def base_params(self) -> list:
+        out = []
+        if self.has_acc:
+            out += [("acc", "M", i) for i in range(6)] + [("acc", "b", i) for i in range(3)]
+        if self.has_mag:
+            out += [("mag", "M", i) for i in range(9 if self.has_acc else 6)] + [("mag", "b", i) for i in range(3)]
+        if "dip" in self.chans:
+            out.append(("dip",))
+        return out
+
+
+def _sym(v):
+    return np.array([[v[0], v[3], v[4]], [v[3], v[1], v[5]], [v[4], v[5], v[2]]])
+
+
+def _ellipsoid_start(raw, target):
+    """A sphere of radius `target` through the readings: algebraic fit of
+    x^T Q x + 2 p^T x = 1, then M = chol-like square root (symmetric)."""
+    x = np.asarray(raw, float)
+    s = np.abs(x).max()
+    xs = x / s
+    D = np.column_stack([xs[:, 0] ** 2, xs[:, 1] ** 2, xs[:, 2] ** 2, 2 * xs[:, 0] * xs[:, 1],
+                         2 * xs[:, 0] * xs[:, 2], 2 * xs[:, 1] * xs[:, 2], 2 * xs])
+    sol = np.linalg.lstsq(D, np.ones(len(xs)), rcond=None)[0]
+    Q = _sym(sol[[0, 1, 2, 3, 4, 5]])
+    p = sol[6:]
+    try:
+        c = -np.linalg.solve(Q, p)
+        k = 1.0 + c @ Q @ c
+        w, V = np.linalg.eigh(Q / k)
+        if np.any(w <= 0):
+            raise np.linalg.LinAlgError
+        M = (V * np.sqrt(w)) @ V.T * target / s
+        return M, c * s
+    except np.linalg.LinAlgError:
+        return np.eye(3) * target / np.median(np.linalg.norm(x - x.mean(0), axis=1)), x.mean(0)
+
+
+class _Model:
+    def __init__(self, pf: _PF):
+        self.pf = pf
+        self.base = pf.base_params()
+        self.cands = self._candidates()
+        self.theta = {}  # candidate key -> value(s)
+        self.x = self._start()
+
+    def _candidates(self) -> list:
+        pf = self.pf
+        out = []
+        for tri, ok in (("acc", pf.has_acc), ("mag", pf.has_mag)):
+            if not ok:
+                continue
+            u = "g" if tri == "acc" else "nT"
+            for ax in "xyz":
+                out.append(("scale-nonlinearity", tri, ax, f"1/{u}", 1))
+            if pf.temp is not None:
+                for ax in "xyz":
+                    out.append(("temperature-bias", tri, ax, f"{u}/degC", 1))
+                for ax in "xyz":
+                    out.append(("temperature-scale", tri, ax, "ppm/degC", 1))
+        per = "s" if pf.time_name == "time" else "reading"
+        if pf.has_mag:
+            out.append(("field-drift", "field", "total", f"nT/{per}", 1))
+        if "dip" in pf.chans:
+            out.append(("field-drift", "field", "dip", f"deg/{per}", 1))
+        if pf.has_mag:
+            for ax in pf.angles:
+                out.append(("rig-field", "rig", ax, "nT", 4 * len([c for c in pf.chans if c in ("|b|", "dip")])))
+        return [c for c in out]
+
+    def _start(self) -> dict:
+        pf = self.pf
+        x = {}
+        if pf.has_acc:
+            M, b = _ellipsoid_start(pf.acc, pf.G)
+            x["acc"] = (M, b)
+        if pf.has_mag:
+            M, b = _ellipsoid_start(pf.mag, pf.F)
+            x["mag"] = (M, b)
+        if "dip" in pf.chans:
+            g, bb = self.corrected(x, {})
+            x["dip"] = float(np.median(self._dip(g, bb)))
+        return x
+
+    @staticmethod
+    def _dip(g, b):
+        c = np.einsum("ni,ni->n", g, b) / (np.linalg.norm(g, axis=1) * np.linalg.norm(b, axis=1))
+        return np.degrees(np.arcsin(np.clip(c, -1, 1)))
+
+    def corrected(self, x, theta):
+        pf = self.pf
+        out = {}
+        for tri, raw in (("acc", pf.acc), ("mag", pf.mag)):
+            if raw is None:
+                out[tri] = None
+                continue
+            M, b = x[tri]
+            z = raw - b
+            if pf.temp is not None:
+                dT = (pf.temp - pf.temp.mean())[:, None]
+                cT = np.array([theta.get(f"temperature-bias:{tri}:{a}", 0.0) for a in "xyz"])
+                ppm = np.array([theta.get(f"temperature-scale:{tri}:{a}", 0.0) for a in "xyz"])
+                z = (z - cT * dT) / (1.0 + 1e-6 * ppm * dT)
+            k2 = np.array([theta.get(f"scale-nonlinearity:{tri}:{a}", 0.0) for a in "xyz"])
+            v = 2.0 * z / (1.0 + np.sqrt(np.maximum(1.0 + 4.0 * k2 * z, 1e-12)))
+            out[tri] = v @ M.T
+        return out["acc"], out["mag"]
+
+    def residuals(self, x, theta) -> np.ndarray:
+        """(k, channels): the invariants' residuals (g, nT, deg)."""
+        pf = self.pf
+        g, b = self.corrected(x, theta)
+        tau = pf.t - pf.t.mean()
+        cols = []
+        for ch in pf.chans:
+            if ch == "|g|":
+                cols.append(np.linalg.norm(g, axis=1) - pf.G)
+            elif ch == "|b|":
+                F = pf.F + theta.get("field-drift:field:total", 0.0) * tau
+                r = np.linalg.norm(b, axis=1) - F
+                cols.append(r - self._rig(theta, "|b|"))
+            else:
+                d = x["dip"] + theta.get("field-drift:field:dip", 0.0) * tau
+                cols.append(self._dip(g, b) - d - self._rig(theta, "dip"))
+        return np.column_stack(cols)
+
+    def _rig_cols(self, ax):
+        ph = np.radians(self.pf.angles[ax])
+        return np.column_stack([np.cos(ph), np.sin(ph), np.cos(2 * ph), np.sin(2 * ph)])
+
+    def _rig(self, theta, ch):
+        out = 0.0
+        chans = [c for c in self.pf.chans if c in ("|b|", "dip")]
+        for ax in self.pf.angles:
+            v = theta.get(f"rig-field:rig:{ax}")
+            if v is None:
+                continue
+            j = chans.index(ch)
+            out = out + self._rig_cols(ax) @ np.asarray(v)[4 * j:4 * j + 4]
+        return out
+
+    def cand_columns(self, v, theta, key, n) -> np.ndarray:
+        """(k, m, n): the residuals' change per unit of each entry of the
+        candidate, central differences at (v, theta)."""
+        x = self.unpack(v)
+        cur = np.atleast_1d(np.asarray(theta.get(key, np.zeros(n)), float))
+        h = _step(self, key)
+        cols = []
+        for e in range(n):
+            tp, tm = dict(theta), dict(theta)
+            a, b = cur.copy(), cur.copy()
+            a[e] += h
+            b[e] -= h
+            tp[key] = a if n > 1 else float(a[0])
+            tm[key] = b if n > 1 else float(b[0])
+            cols.append((self.residuals(x, tp) - self.residuals(x, tm)) / (2 * h))
+        return np.stack(cols, -1)
+
+    # ---- the parameters as one vector
+    def pack(self, x):
+        out = []
+        for tri in ("acc", "mag"):
+            if tri not in x:
+                continue
+            M, b = x[tri]
+            if tri == "mag" and self.pf.has_acc:
+                out += list(M.ravel())
+            else:
+                out += [M[0, 0], M[1, 1], M[2, 2], M[0, 1], M[0, 2], M[1, 2]]
+            out += list(b)
+        if "dip" in x:
+            out.append(x["dip"])
+        return np.array(out)
+
+    def unpack(self, v):
+        x, i = {}, 0
+        for tri, ok in (("acc", self.pf.has_acc), ("mag", self.pf.has_mag)):
+            if not ok:
+                continue
+            if tri == "mag" and self.pf.has_acc:
+                M = v[i:i + 9].reshape(3, 3)
+                i += 9
+            else:
+                M = _sym(v[i:i + 6])
+                i += 6
+            x[tri] = (M, v[i:i + 3].copy())
+            i += 3
+        if "dip" in self.pf.chans:
+            x["dip"] = float(v[i])
+        return x
+
+    def jacobian(self, v, theta, keys) -> tuple:
+        """(residual (k, m), columns (k, m, p)): the baseline's parameters,
+        then each candidate of keys (one column per entry)."""
+        x = self.unpack(v)
+        r0 = self.residuals(x, theta)
+        cols = []
+        scale = np.maximum(np.abs(v), 1e-6)
+        for j in range(len(v)):
+            h = 1e-6 * scale[j]
+            vp, vm = v.copy(), v.copy()
+            vp[j] += h
+            vm[j] -= h
+            cols.append((self.residuals(self.unpack(vp), theta) - self.residuals(self.unpack(vm), theta)) / (2 * h))
+        for key, n in keys:
+            cur = np.atleast_1d(np.asarray(theta.get(key, np.zeros(n)), float))
+            for e in range(n):
+                h = _step(self, key)
+                tp, tm = dict(theta), dict(theta)
+                a, b = cur.copy(), cur.copy()
+                a[e] += h
+                b[e] -= h
+                tp[key] = a if n > 1 else float(a[0])
+                tm[key] = b if n > 1 else float(b[0])
+                cols.append((self.residuals(x, tp) - self.residuals(x, tm)) / (2 * h))
+        return r0, np.stack(cols, -1)
+
+
+def _step(model, key):
+    name, tri, _ = key.split(":")
+    F = model.pf.F
+    if name == "scale-nonlinearity":
+        return 1e-4 if tri == "acc" else 1e-4 / F
+    if name == "temperature-bias":
+        return 1e-5 if tri == "acc" else 0.1
+    if name == "temperature-scale":
+        return 1.0
+    if name == "field-drift":
+        return 1e-3
+    return 1.0
+
+
+def signature_z(ds: RawDataset, key: str, w=None, folds: int = DEFAULT_FOLDS) -> float:
+    """How many noise standard deviations one unit of candidate `key` (for
+    a group, the combination w of its columns) is in this dataset's
+    invariants, once the baseline has absorbed what it can: the pose-free
+    counterpart of plans.signature_z, under the data's own noise and serial
+    correlation (what the F-test sees).  For injecting effects into real
+    readings at the benchmark's sizes."""
+    return diagnose_posefree(ds, folds=folds, _signature=(key, w))
+
+
+def diagnose_posefree(ds: RawDataset, alpha: float = DEFAULT_ALPHA, folds: int = DEFAULT_FOLDS,
+                      _signature=None) -> Diagnosis:
+    t_start = _time.perf_counter()
+    if not (0.0 < alpha < 1.0):
+        raise DataError("alpha must be between 0 and 1")
+    pf = _PF(ds)
+    mdl = _Model(pf)
+    k, chans = pf.k, pf.chans
+    K = min(int(folds), k // 4)
+    if K < 2:
+        raise DataError("too few distinct orientations to cross-validate a pose-free diagnosis")
+    fold_of = make_folds(k, K)
+    cand_keys = {f"{c[0]}:{c[1]}:{c[2]}": c for c in mdl.cands}
+    ncol = {key: c[4] for key, c in cand_keys.items()}
+    state = {"v": mdl.pack(mdl.x), "theta": {}}
+    nb = len(state["v"])
+
+    def refit(kept):
+        keys = [(kk, ncol[kk]) for kk in kept]
+        for _ in range(GN_ITERATIONS):
+            r, X = mdl.jacobian(state["v"], state["theta"], keys)
+            W, rows = _weights(r)
+            des = Design(-r, X, W, fold_of, K, rows=rows)
+            beta, _ = des.fit(list(range(X.shape[-1])))
+            beta = beta / des.colscale
+            state["v"] = state["v"] + beta[:nb]
+            pos = nb
+            for kk, n in keys:
+                cur = np.atleast_1d(np.asarray(state["theta"].get(kk, np.zeros(n)), float)) + beta[pos:pos + n]
+                state["theta"][kk] = cur if n > 1 else float(cur[0])
+                pos += n
+
+    def design(testable):
+        """The model at the state with every testable candidate's columns,
+        the pseudo-observation giving kept effects' totals."""
+        keys = [(kk, ncol[kk]) for kk in testable]
+        r, X = mdl.jacobian(state["v"], state["theta"], keys)
+        y = -r
+        pos = nb
+        idx = {}
+        for kk, n in keys:
+            idx[kk] = list(range(pos, pos + n))
+            if kk in state["theta"]:
+                y = y + X[:, :, pos:pos + n] @ np.atleast_1d(state["theta"][kk])
+            pos += n
+        W, rows = _weights(r)
+        des = Design(y, X, W, fold_of, K, rows=rows)
+        des._W = W
+        des.inflation = serial["inflation"]
+        return des, idx, r, rows
+
+    def _weights(r):
+        """Per channel the residuals' robust spread; rows beyond the chi-square
+        point (Bonferroni) set aside."""
+        s = np.maximum(1.4826 * np.median(np.abs(r - np.median(r, 0)), 0), 1e-12)
+        d2 = ((r / s) ** 2).sum(1)
+        # the threshold follows the rows' own typical size (as calib.joint.robust_threshold): an effect the
+        # model does not hold yet inflates many rows and must not make them outliers; a few spikes do not
+        # move the median
+        scale_ = max(1.0, float(np.median(d2)) / stats.chi2.ppf(0.5, r.shape[1]))
+        rows = d2 <= scale_ * stats.chi2.isf(OUTLIER_P / len(r), r.shape[1])
+        if rows.mean() < 0.8:
+            rows = np.ones(len(r), bool)
+        s = np.maximum(np.sqrt(np.mean(r[rows] ** 2, 0)), 1e-12)
+        W = np.zeros((len(r), r.shape[1], r.shape[1]))
+        W[:, range(r.shape[1]), range(r.shape[1])] = 1.0 / s
+        return W, rows
+
+    serial = {"inflation": 1.0}
+    refit([])
+    testable = list(cand_keys)
+    base = list(range(nb))
+    des, idx, r_base, rows = design(testable)
+    # the noise's own serial correlation between neighbouring rows (in time order), of the baseline's
+    # residuals with their slow part (a trend an effect makes) taken off
+    order_t = np.argsort(pf.t, kind="stable")
+    rho = max(_lag1(_highpass(r_base[order_t][rows[order_t]])), _lag1(_highpass(r_base[rows])))
+    serial.update(rho=rho, inflation=(1.0 + rho) / (1.0 - rho))
+    des.inflation = serial["inflation"]
+    shift_test = serial["rho"] >= SHIFT_TEST_RHO and not _declared_static(ds)
+    base_rms = {c: float(np.sqrt(np.mean(r_base[rows, j] ** 2))) for j, c in enumerate(chans)}
+    scale = np.array([max(base_rms[c], 1e-300) for c in chans])
+    if _signature is not None and _signature != "debug":
+        key, w = _signature
+        if key not in idx:
+            raise DataError(f"{key} is not a candidate on these data")
+        cols = idx[key]
+        ws = (np.ones(len(cols)) if w is None else np.asarray(w, float)) * des.colscale[cols]
+        Gbb = des.G[np.ix_(base, base)]
+        Rcc = des.G[np.ix_(cols, cols)] - des.G[np.ix_(base, cols)].T @ np.linalg.solve(Gbb, des.G[np.ix_(base, cols)])
+        return float(np.sqrt(max(ws @ Rcc @ ws, 0.0) / des.inflation))
+    own = {kk: _own_chan(kk, chans) for kk in testable}
+    kept, steps, pvals = [], [], {}
+    remaining = list(testable)
+    if _signature == "debug":
+        return {kk: des.ftest(base, idx[kk]) for kk in testable}
+    while remaining:
+        S = base + [i for kk in kept for i in idx[kk]]
+        cv0 = des.cv(S)
+        tests = sorted((des.ftest(S, idx[kk])[0], kk) for kk in remaining)
+        chosen = None
+        for p, kk in tests:
+            if p >= alpha / len(remaining):
+                break
+            S1 = S + idx[kk]
+            cv1 = des.cv(S1)
+            o0, o1 = _own_cv(des, S, own[kk], rows, scale), _own_cv(des, S1, own[kk], rows, scale)
+            f0 = _own_cv(des, S, own[kk], rows, scale, fold_of)
+            f1 = _own_cv(des, S1, own[kk], rows, scale, fold_of)
+            better = int(np.sum(f1 < f0))
+            if shift_test and kk.split(":")[0] in DRIVEN and cv1 < cv0 and o1 < o0 and better >= K - 1:
+                ps = _shift_p(mdl, state, des, S, kk, ncol[kk], alpha / len(remaining))
+                if ps >= alpha / len(remaining):
+                    steps.append({"effect": kk, "p": p, "p_circular_shift": ps, "kept": False,
+                                  "why": "its driver shifted in time explains the data as well (circular-shift "
+                                         "test: the log's rows are serially correlated)"})
+                    continue
+            # every held-out block but one must gain: on a log whose neighbouring rows share their errors (a
+            # probe turned by hand) a small gain on the pooled blocks can come from one or two of them
+            if cv1 < cv0 and o1 < o0 and better >= K - 1:
+                chosen = (kk, p, o0, o1)
+                break
+            steps.append({"effect": kk, "p": p, "kept": False, "folds_gaining": better,
+                          "why": "no gain on held-out data" if not (cv1 < cv0 and o1 < o0) else
+                          f"it gains on only {better} of {K} held-out blocks"})
+        if chosen is None:
+            if tests and tests[0][0] >= alpha / len(remaining):
+                steps.append({"effect": tests[0][1], "p": tests[0][0], "kept": False, "why": "p above the threshold"})
+            break
+        kk, p, o0, o1 = chosen
+        steps.append({"effect": kk, "p": p, "kept": True, "own_cv_rms_before": o0, "own_cv_rms_after": o1})
+        kept.append(kk)
+        pvals[kk] = p
+        remaining.remove(kk)
+        refit(kept)
+        des, idx, _, rows = design(testable)
+    # backward
+    while kept:
+        S = base + [i for kk in kept for i in idx[kk]]
+        drops = [(des.ftest([i for i in S if i not in idx[kk]], idx[kk])[0], kk) for kk in kept]
+        p, kk = max(drops)
+        if p <= alpha:
+            pvals.update({k2: p2 for p2, k2 in drops})
+            break
+        kept.remove(kk)
+        state["theta"].pop(kk, None)
+        steps.append({"effect": kk, "p": p, "kept": False, "why": "dropped: not significant once the others were in"})
+        refit(kept)
+        des, idx, _, rows = design(testable)
+    # the final model: estimates, gains (on the effect's own invariant), confounds
+    S = base + [i for kk in kept for i in idx[kk]]
+    est, se, s2 = des.coef(S)
+    cov = des.coef_cov(S)
+    R_final, R_cv = des.raw_residuals(S), des.cv_residuals(S)
+    effects = []
+    pos = nb
+    for kk in kept:
+        name, sensor, axis, units, n = cand_keys[kk]
+        Sb = [i for i in S if i not in idx[kk]]
+        Rb, Rbcv = des.raw_residuals(Sb), des.cv_residuals(Sb)
+        j = own[kk][:1]  # the gain on the effect's first invariant, in its units
+        rms = lambda R: float(np.sqrt(np.mean(R[rows][:, j] ** 2)))  # noqa: E731
+        gain = Gain(rms(Rb), rms(R_final), rms(Rbcv), rms(R_cv), None, None, float("nan"), float("nan"))
+        if n > 1:
+            ph = mdl._rig_cols(axis)
+            th = est[pos:pos + n]
+            amp = float(np.sqrt(np.mean((ph @ th[:4]) ** 2)))
+            detail = {"model": f"|b| (and dip) as harmonics 1-2 of the {axis} angle in the file: a field that changes "
+                               f"with the rig's position (pose-free: its direction across the field is not seen)",
+                      "whose": "the rig's, not the probe's"}
+            e = Effect(name, sensor, axis, amp, float(np.sqrt(np.trace(cov[pos:pos + 4, pos:pos + 4]) / 2)),
+                       "nT RMS of |b|", gain, rms_units=UNITS[chans[j[0]]], p_value=pvals.get(kk, np.nan),
+                       detail=detail)
+        else:
+            e = Effect(name, sensor, axis, float(est[pos]), float(np.sqrt(max(cov[pos, pos], 0))), units, gain,
+                       rms_units=UNITS[chans[j[0]]], p_value=pvals.get(kk, np.nan),
+                       detail={"gain_on": [chans[i] for i in j]})
+        effects.append(e)
+        pos += n
+    confounded = []
+    for kk in kept:
+        others = [x for x in kept if x != kk]
+        for jj in testable:
+            if jj == kk:
+                continue
+            b2 = base + [i for x in others if x != jj for i in idx[x]]
+            rc = des.signal_corr(b2, idx[kk], np.atleast_1d(state["theta"][kk]), idx[jj])
+            if rc >= 0.9:
+                confounded.append({"effect": kk, "with": jj, "correlation": rc, "named": True,
+                                   "separate_by": _separate(kk, jj, pf)})
+    if serial["rho"] >= MOVING_RHO and not _declared_static(ds):
+        for kk in kept:
+            confounded.append({"effect": kk, "with": "the motion between neighbouring rows", "correlation": serial["rho"],
+                               "named": True,
+                               "separate_by": "a static log: hold each orientation still while it is read (or declare "
+                                              "the run static if it is), so that motion and sampling between the "
+                                              "axes stop shaping the invariants"})
+    structure = _structure(pf, R_final, rows, chans, alpha)
+    from .runvars import run_variable_confounds
+
+    run_conf = run_variable_confounds(_RunVars(pf))
+    not_testable = [{"effect": n, "reason": why} for n, why in NEEDS_POSES]
+    if pf.temp is None:
+        not_testable.append({"effect": "temperature-bias, temperature-scale",
+                             "reason": "no temp_c column that changes by 1 degC or more"})
+    if not pf.angles and pf.has_mag:
+        not_testable.append({"effect": "rig-field", "reason": "no rig angle column (inc_deg, azi_deg, tf_deg) that "
+                                                              f"turns by {RIG_MIN_SPAN_DEG:g} deg or more"})
+    if not pf.has_mag:
+        not_testable.append({"effect": "field-drift, rig-field, magnetometer effects",
+                             "reason": "no magnetometer columns"})
+    if not pf.has_acc:
+        not_testable.append({"effect": "accelerometer effects, the dip", "reason": "no accelerometer columns"})
+    baseline = {
+        "model": ("pose-free: per triad a symmetric 3x3 and an offset fitted to the invariants (|g| = G, |b| = F"
+                  + (", the dip angle constant; the fluxgate's full 3x3 against the accelerometer's axes"
+                     if "dip" in chans else "") + ")"),
+        "mode": "invariants", "rows": pf.n_rows, "clusters": k, "rows_per_cluster_max": int(pf.count.max()),
+        "invariants": chans, "field_nT": pf.F, "field_from_header": pf.F_given, "gravity_g": pf.G,
+        "dip_deg": mdl.unpack(state["v"]).get("dip"),
+        "rms": base_rms, "time_axis": pf.time_name,
+        "serial_correlation": {"lag1": serial["rho"], "f_test_inflation": serial["inflation"],
+                               "what": "neighbouring rows' residuals correlate (a log read while moving): the F-tests "
+                                       "count n (1 - rho) / (1 + rho) independent rows"},
+        "selection": {"method": "forward stepwise on the invariants (F-test at alpha/m, K-fold CV overall and on the "
+                                "effect's own invariant must fall), backward pass at alpha; clusters of rows at one "
+                                "pose count once",
+                      "alpha": alpha, "folds": K, "tested": testable, "not_testable": not_testable,
+                      "needs_poses": [n for n, _ in NEEDS_POSES], "steps": steps, "final_s2": s2,
+                      "notes": [], "best_subset": None},
+        "structure": structure, "run_variables": run_conf,
+    }
+    out = Diagnosis(baseline=baseline, effects=effects, unexplained=structure["unexplained"], structure=structure,
+                    confounded=confounded)
+    out.elapsed_s = _time.perf_counter() - t_start
+    return out
+
+
+MOVING_RHO = 0.5  # a lag-1 correlation of the residuals from which a log is read as taken while moving
+
+
+def _declared_static(ds) -> bool:
+    v = str(ds.meta.get("static", "")).strip().lower()
+    return v in ("1", "true", "yes")
+
+
+SHIFT_TEST_RHO = 0.3  # from this lag-1 correlation on, a driver's effect also needs the circular-shift test
+SHIFT_MIN_FRACTION = 0.05
+SHIFTS = 199
+
+
+def _highpass(r, frac: float = 0.02):
+    """r minus its running mean over about frac of the rows (at least 5):
+    what varies from one row to the next, without the slow part."""
+    n = len(r)
+    w = max(5, int(frac * n)) | 1
+    if n < 3 * w:
+        return r - r.mean(0)
+    k = np.ones(w) / w
+    sm = np.column_stack([np.convolve(np.pad(r[:, j], w // 2, mode="edge"), k, mode="valid") for j in range(r.shape[1])])
+    return r - sm
+
+
+def _lag1(r) -> float:
+    """The largest lag-1 correlation (in the file's order) of the baseline's
+    invariant residuals over the channels, robust (Spearman), in [0, 0.98]:
+    neighbouring rows of a log read while the probe moves share its motion,
+    so n of them are worth about n (1 - rho) / (1 + rho) independent ones."""
+    best = 0.0
+    for j in range(r.shape[1]):
+        x = r[:, j]
+        if len(x) < 10 or np.ptp(x) == 0:
+            continue
+        rho = stats.spearmanr(x[1:], x[:-1]).statistic
+        if np.isfinite(rho):
+            best = max(best, float(rho))
+    return float(min(max(best, 0.0), 0.98))
+
+
+DRIVEN = ("temperature-bias", "temperature-scale", "field-drift", "rig-field")
+
+
+def _shift_p(mdl, state, des, S, key, n, threshold) -> float:
+    """Circular-shift test of a driven candidate (temperature, time, a rig
+    angle) on serially correlated rows: its driver is rolled against the
+    readings by SHIFTS shifts of at least SHIFT_MIN_FRACTION of the run (the
+    driver's own smoothness and the noise's correlation kept, their link
+    broken) and the F statistic recomputed for each.  Their mean, against
+    the F distribution's, is how much the rows' correlation inflates F for
+    this driver; the data's own F, deflated by it, gives p (threshold: not
+    used, kept for the call's symmetry)."""
+    pf = mdl.pf
+    name, _, ax = key.split(":")
+    attr = {"temperature-bias": "temp", "temperature-scale": "temp", "field-drift": "t"}.get(name)
+    k = pf.k
+    keep = des.rows
+    Xs = des.Xw[keep][:, :, S].reshape(-1, len(S))
+    y = des.yw[keep].ravel()
+    Q, _ = np.linalg.qr(Xs)
+    ry = y - Q @ (Q.T @ y)
+    rss0 = float(ry @ ry)
+    W = np.diagonal(_weights_of(des), axis1=1, axis2=2)[keep]  # (k_kept, m)
+    dof = len(y) - len(S) - n
+
+    def F_of():
+        X = mdl.cand_columns(state["v"], state["theta"], key, n)[keep] * W[:, :, None]
+        Xc = X.reshape(-1, n)
+        Xc = Xc - Q @ (Q.T @ Xc)
+        c = np.linalg.lstsq(Xc, ry, rcond=None)[0]
+        gain = float(ry @ (Xc @ c))
+        return (gain / n) / (max(rss0 - gain, 1e-300) / max(dof, 1))
+    f_obs = F_of()
+    lo = max(1, int(SHIFT_MIN_FRACTION * k))
+    shifts = np.unique(np.linspace(lo, k - lo, min(SHIFTS, max(k - 2 * lo + 1, 1))).astype(int))
+    orig = getattr(pf, attr) if attr else pf.angles[ax]
+    fs = []
+    try:
+        for sh in shifts:
+            v = np.roll(orig, sh)
+            if attr:
+                setattr(pf, attr, v)
+            else:
+                pf.angles[ax] = v
+            fs.append(F_of())
+    finally:
+        if attr:
+            setattr(pf, attr, orig)
+        else:
+            pf.angles[ax] = orig
+    if not fs:
+        return 1.0
+    c = max(1.0, float(np.mean(fs)) / (dof / max(dof - 2, 1)))
+    return float(stats.f.sf(f_obs / c, n, max(dof / c, 1.0)))
+
+
+def _weights_of(des):
+    """The per-row whitening the design was built with (diagonal)."""
+    return des._W
+
+
+class _RunVars:
+    """What runvars.run_variable_confounds reads, from the cluster means."""
+
+    def __init__(self, pf):
+        self.n = pf.k
+        self.t = pf.t if pf.time_name == "time" else None
+        self.temp = pf.temp
+        z = np.zeros(pf.k)
+        self.inc = pf.angles.get("inc", z)
+        self.azi = pf.angles.get("azi", z)
+        self.tf = pf.angles.get("tf", z)
+
+
+def _own_chan(key, chans) -> list:
+    name, sensor, axis = key.split(":")
+    if name == "rig-field":
+        return [chans.index(c) for c in ("|b|", "dip") if c in chans]
+    if name == "field-drift":
+        return [chans.index("|b|" if axis == "total" else "dip")]
+    if sensor == "acc":
+        return [chans.index("|g|")]
+    return [chans.index("|b|")]
+
+
+def _own_cv(des, S, j, rows, scale, folds=None) -> float:
+    """Held-out RMS of the effect's own invariant(s), each in units of its
+    baseline RMS (|b| in nT and the dip in degrees pooled); with folds, one
+    per fold."""
+    R = des.cv_residuals(S)[:, j] / scale[j]
+    if folds is None:
+        return float(np.sqrt(np.mean(R[rows] ** 2)))
+    return np.array([np.sqrt(np.mean(R[rows & (folds == f)] ** 2)) for f in range(int(folds.max()) + 1)])
+
+
+def _separate(a, b, pf) -> str:
+    drivers = {a.split(":")[0], b.split(":")[0]}
+    if "field-drift" in drivers and "rig-field" in drivers:
+        return ("randomise the order of the positions (or repeat the first ones at the end), so that time and the "
+                "rig's position stop rising together")
+    if "field-drift" in drivers and drivers & {"temperature-bias", "temperature-scale"}:
+        return "cycle the temperature up and down, so that it stops rising with time"
+    return "more orientations, spread over the sphere, in a random order"
+
+
+def _structure(pf, R, rows, chans, alpha) -> dict:
+    """The final invariant residuals against generic families: time (or the
+    reading order), temperature, each rig angle (harmonics 1-2), the
+    channel's own triad's direction (quadratic terms); Ljung-Box in order."""
+    from .study import ljung_box
+
+    tests = []
+    tau = (pf.t - pf.t.mean()) / max(np.ptp(pf.t), 1e-300)
+    fams = {"time" if pf.time_name == "time" else "reading order": np.column_stack([tau, tau ** 2])}
+    if pf.temp is not None:
+        dT = (pf.temp - pf.temp.mean()) / max(np.ptp(pf.temp), 1e-300)
+        fams["temperature"] = np.column_stack([dT, dT ** 2])
+    for ax, a in pf.angles.items():
+        ph = np.radians(a)
+        fams[f"{ax} angle"] = np.column_stack([np.cos(ph), np.sin(ph), np.cos(2 * ph), np.sin(2 * ph)])
+    for tri, raw in (("acc", pf.acc), ("mag", pf.mag)):
+        if raw is None:
+            continue
+        u = raw / np.linalg.norm(raw, axis=1, keepdims=True)
+        iu = np.triu_indices(3)
+        fams[f"{tri} direction"] = (u[:, :, None] * u[:, None, :])[:, iu[0], iu[1]]
+    for j, ch in enumerate(chans):
+        y = R[rows, j]
+        for fam, Z in fams.items():
+            X0 = np.ones((len(y), 1))
+            X1 = np.column_stack([X0, Z[rows]])
+            r0 = y - X0 @ np.linalg.lstsq(X0, y, rcond=None)[0]
+            r1 = y - X1 @ np.linalg.lstsq(X1, y, rcond=None)[0]
+            q = np.linalg.matrix_rank(X1) - 1
+            dof = len(y) - q - 1
+            if q <= 0 or dof <= 0:
+                continue
+            rss0, rss1 = float(r0 @ r0), float(r1 @ r1)
+            F = ((rss0 - rss1) / q) / (rss1 / dof) if rss1 > 0 else np.inf
+            tests.append((float(stats.f.sf(F, q, dof)), ch, fam))
+        p_lb, _ = ljung_box(y / max(np.std(y), 1e-300), int(min(10, max(1, len(y) // 5))))
+        tests.append((p_lb, ch, "whiteness"))
+    m = len(tests)
+    p, ch, fam = min(tests) if tests else (1.0, None, None)
+    thr = alpha / max(m, 1)
+    return {"alpha": alpha, "tests": m, "threshold": thr, "min_p": p, "worst": {"channel": ch, "test": fam},
+            "unexplained": bool(p < thr), "significant": [{"channel": c, "test": f, "p": q}
+                                                           for q, c, f in sorted(tests) if q < thr]}

@@ -1,0 +1,45 @@
+"""The `inclino` command's entry point (pyproject.toml [project.scripts]).
+
+Ctrl-C is handled from its first line: the command line package, the
+library behind it and the option parser are imported and built inside the
+handler, so an interruption at any moment -- also while the command is
+still starting -- is one line (`inclino: interrupted`) and exit status 130,
+never a traceback (docs/cli.md, "Interrupts").  From the moment this module
+is imported (the console script's first statement) until main's handler is
+in place, a Ctrl-C is held and raised inside it.  This module imports
+nothing but the standard library's sys and signal."""
+import signal
+import sys
+
+_state = {"armed": False, "pending": False}
+
+
+def _hold(signum, frame):
+    if _state["armed"]:
+        raise KeyboardInterrupt
+    _state["pending"] = True
+
+
+if signal.getsignal(signal.SIGINT) is signal.default_int_handler:  # never where SIGINT is ignored
+    signal.signal(signal.SIGINT, _hold)
+
+
+def main(argv=None) -> int:
+    try:
+        _state["armed"] = True
+        if _state["pending"]:
+            raise KeyboardInterrupt
+        from inclino.cli import main as run
+
+        return run(argv)
+    except KeyboardInterrupt:  # while starting (cli.main handles those of the command)
+        try:
+            sys.stderr.write("inclino: interrupted\n")
+            sys.stderr.flush()
+        except BaseException:  # interrupted again, or stderr closed
+            pass
+        return 130
+
+
+if __name__ == "__main__":  # pragma: no cover
+    raise SystemExit(main())
