@@ -15,12 +15,34 @@ def _auto_or_float(text: str):
         raise DataError(f"a target is a number of degrees or 'auto', got {text!r}")
 
 
+def _target(text: str):
+    """--target-*-deg: 'auto' or degrees."""
+    import argparse
+
+    try:
+        v = _auto_or_float(text)
+    except DataError as e:
+        raise argparse.ArgumentTypeError(str(e))
+    return "auto" if v is None else v
+
+
+def _chamber_range(text: str) -> tuple:
+    """--chamber-range-c: LO,HI in degC."""
+    import argparse
+
+    try:
+        lo, hi = (float(x) for x in str(text).split(","))
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"--chamber-range-c wants LO,HI in degC, got {text!r}")
+    return lo, hi
+
+
 def add_adaptive_options(p) -> None:
     a = p.add_argument_group("adaptive procedure (docs/calibration.md, \"Adaptive runs\")")
-    a.add_argument("--target-azi-deg", default="auto",
+    a.add_argument("--target-azi-deg", default="auto", type=_target,
                    help="stop when the predicted acceptance azimuth RMS is at or below this, deg; auto: 1.12 x the "
                         "acceptance's own floor, the calibration's share at most half of it (default %(default)s)")
-    a.add_argument("--target-inc-deg", default="auto",
+    a.add_argument("--target-inc-deg", default="auto", type=_target,
                    help="... and the inclination RMS at or below this, deg (default %(default)s)")
     a.add_argument("--target-ratio", type=float, default=1.1,
                    help="through a chamber: ... and the predicted RMS at the range's ends at most this times the "
@@ -43,7 +65,7 @@ def add_adaptive_options(p) -> None:
                    help="the turntable's speed per axis, for the moves' cost, deg/s (default %(default)g)")
     a.add_argument("--table-settle-s", type=float, default=3.0,
                    help="the turntable's settling time after a move, s (default %(default)g)")
-    a.add_argument("--chamber-range-c", metavar="LO,HI",
+    a.add_argument("--chamber-range-c", metavar="LO,HI", type=_chamber_range,
                    help="through a chamber: ramp continuously so that the probe spans LO..HI degC, no soaks "
                         "(default none: room temperature)")
     a.add_argument("--chamber-rate-c-per-min", type=float, default=5.0,
@@ -63,9 +85,10 @@ def plan_of(args):
     ramp = None
     if args.chamber_range_c is not None:
         try:
-            lo, hi = (float(x) for x in str(args.chamber_range_c).split(","))
-        except ValueError:
-            raise DataError(f"--chamber-range-c wants LO,HI in degC, got {args.chamber_range_c!r}")
+            lo, hi = (args.chamber_range_c if isinstance(args.chamber_range_c, tuple)
+                      else _chamber_range(args.chamber_range_c))
+        except Exception as e:
+            raise DataError(str(e))
         ramp = RampPlan(lo, hi, args.chamber_rate_c_per_min, args.air_margin_c, tau_guess_s=args.probe_tau_s)
     plan = AdaptivePlan(target_azi_deg=_auto_or_float(args.target_azi_deg),
                         target_inc_deg=_auto_or_float(args.target_inc_deg), target_ratio=args.target_ratio,
