@@ -206,3 +206,15 @@ def test_decimal_comma_with_a_comma_delimiter_is_one_line():
     with pytest.raises(Exception) as e:
         sensor.from_toml('[log]\ndecimal = ","\ndelimiter = ","\n[accelerometer]\ncolumns = ["a", "b", "c"]\n')
     assert "decimal" in str(e.value) and "delimiter" in str(e.value)
+
+
+def test_a_units_line_under_the_header_is_dropped_and_counted(tmp_path):
+    body = (REAL / "sap6" / "BB.csv").read_text().splitlines()
+    log = tmp_path / "units.csv"
+    log.write_text("\n".join([body[0], "n,n,m/s2,m/s2,m/s2,uT,uT,uT"] + body[1:]) + "\n")
+    ds, rep = importlog.import_log(str(log), sensor.load(str(REAL / "sap6" / "sensor.toml")))
+    assert len(ds) == 24 and rep.dropped == {"a second header line (units or descriptions)": 1}
+    log.write_text("\n".join([body[0]] + body[1:3] + ["n,n,m/s2,m/s2,m/s2,uT,uT,uT"] + body[3:]) + "\n")
+    with pytest.raises(Exception) as e:  # text among the data is still an error naming the row
+        importlog.import_log(str(log), sensor.load(str(REAL / "sap6" / "sensor.toml")))
+    assert ":4:" in str(e.value) and "not a number" in str(e.value)

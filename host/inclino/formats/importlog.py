@@ -72,6 +72,15 @@ def _sniff(line: str, decimal: str = ".") -> str:
     return "whitespace"
 
 
+def _numeric(text: str) -> bool:
+    t = text.strip().replace(",", ".")
+    try:
+        float(t)
+        return True
+    except ValueError:
+        return t.lower() in MISSING
+
+
 def _clock(text: str):
     """Seconds of a date-time (ISO 8601: '2024-05-01T12:00:00.125Z',
     '2024-05-01 12:00:00') or of a time of day ('12:00:00.125'); None when
@@ -201,6 +210,12 @@ def _import(lines, path: str, desc: SensorDescription, static) -> tuple[RawDatas
                 dropped[key] = dropped.get(key, 0) + 1
                 return
         vals = []
+        if not rows and names is not None and not any(_numeric(cells[j]) for j in idx):
+            # a second header line right after the names (units, descriptions): no cell a number
+            key = "a second header line (units or descriptions)"
+            if not dropped.get(key):
+                dropped[key] = 1
+                return
         for k, j in zip(keys, idx):
             text_ = cells[j].strip()
             if text_.lower() in MISSING:
