@@ -6,6 +6,7 @@ the library's own readers; the console wording is free to change."""
 import json
 
 import numpy as np
+import pytest
 
 from inclino import cli
 from inclino.procedures import demo
@@ -72,6 +73,7 @@ def test_demo_core_prints_the_library_table(capsys):
     assert list(near) == [i < 0.5 or i > 179.5 for i, _, _ in demo.POSES]
 
 
+@pytest.mark.heavy
 def test_temperature_demo_fits_and_checks_the_terms_of_an_emulated_chamber_run(tmp_path, capsys):
     """`inclino demo --temperature` on a probe drawn now: exit status and the
     files, read back through the library's readers."""

@@ -244,7 +244,26 @@ def _cmd_toolmodel(args) -> int:
           f"{min(mc['inc_deg']):g}-{max(mc['inc_deg']):g} deg): model/MC 1-sigma inclination "
           f"{min(mc['inc_ratio']):.2f}-{max(mc['inc_ratio']):.2f}, azimuth {min(mc['azi_ratio']):.2f}-"
           f"{max(mc['azi_ratio']):.2f} ({'within' if mc['within_20pct'] else 'NOT within'} +-20 %)")
-    return 0 if mc["within_20pct"] else 1  # the file is written either way
+    line = toolmodel_verdict(mc, args.output)
+    print(line)
+    if not mc["within_20pct"]:  # exit 1 says why on stderr too (the file is written either way)
+        print(f"inclino: {line}", file=sys.stderr)
+    return 0 if mc["within_20pct"] else 1
+
+
+def toolmodel_verdict(mc, output) -> str:
+    """`inclino toolmodel`'s last line: the Monte Carlo check's verdict and
+    the ratio that decided it (the one furthest outside +-20 %, in the
+    Monte Carlo's standard errors)."""
+    from inclino.survey.errormodel import mc_worst
+
+    q, r, se, inc, azi = mc_worst(mc)
+    what = (f"model/Monte Carlo 1-sigma of {q} {r:.3f} (+-{se:.3f}) at inclination {inc:g} deg, azimuth {azi:g} "
+            f"deg")
+    if mc["within_20pct"]:
+        return f"verdict: PASS: every ratio within +-20 %; the furthest out: {what}"
+    return (f"verdict: FAIL: {what} is outside +-20 % by more than two of its standard errors; {output} is "
+            "written, but its 1-sigma misstates the calibration's")
 
 
 def _show(g, v):
