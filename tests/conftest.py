@@ -249,9 +249,9 @@ def root():
 @pytest.fixture(scope="session")
 def small_calibration_bench():
     """`inclino bench calibration` at its smallest (one seeded run per method,
-    one temperature probe, no peer): about 30 CPU seconds, read by the
+    one temperature probe, no peer, not the bench-time section): about 30 CPU seconds, read by the
     library's test (test_calib_cli) and the command's (test_acquire_accept),
     scheduled together (SHARED_SESSION_FIXTURE): built once, on one worker."""
     from inclino.benchmarks import calibration as bench
 
-    return bench.bench_calibration(n_runs=1, include_peer=False, temperature_probes=1)
+    return bench.bench_calibration(n_runs=1, include_peer=False, temperature_probes=1, time_probes=0)

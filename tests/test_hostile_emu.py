@@ -307,7 +307,7 @@ def test_download_completes_while_the_control_channel_is_attacked(tmp_path):
         # afterwards the channel serves a new client and the probe its link
         c = ControlClient(port=emu.control_port)
         assert c.call("status")["ok"] is True
-        assert c.call("move", inc=10, azi=20, tf=30) == {"ok": True}
+        assert c.call("move", inc=10, azi=20, tf=30)["ok"] is True
         c.close()
         assert emu.error is None
 
