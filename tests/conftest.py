@@ -25,6 +25,31 @@ _BLAS_LIMIT = threadpool_limits(1, "blas")
 
 ROOT = pathlib.Path(__file__).resolve().parents[1]
 
+# Hypothesis profiles of the hostile-input property suites
+# (tests/test_hostile_props*.py, tests/test_hostile_emu.py; docs/testing.md):
+# `make test` runs each property with the module's small count; the profile
+# "full" (pytest --hypothesis-profile=full) runs 10 000 generated inputs per
+# property, each reader and each format its own property.
+try:
+    from hypothesis import HealthCheck, settings as _hsettings
+
+    _hsettings.register_profile("full", max_examples=10_000, deadline=None, database=None,
+                                suppress_health_check=list(HealthCheck))
+except ImportError:  # hypothesis is a test extra: its modules skip without it
+    pass
+
+
+def hypothesis_examples(default: int) -> int:
+    """Examples per property: INCLINO_HYPOTHESIS_EXAMPLES, else the full
+    profile's 10 000 under --hypothesis-profile=full, else `default`."""
+    v = os.environ.get("INCLINO_HYPOTHESIS_EXAMPLES")
+    if v:
+        return int(v)
+    from hypothesis import settings
+
+    return settings.get_profile("full").max_examples if settings.get_current_profile_name() == "full" else default
+
+
 # CI (.ci/run, CI=true) installs every tool the suite uses (sdcc, ucsim,
 # cppcheck, clang-format, clang/libFuzzer, binutils-m68hc1x, cmake) and the
 # test extra: there a test that skips (a tool or package missing) is a
@@ -80,29 +105,127 @@ SHARED_SESSION_FIXTURE = {
     "test_bench_calibration_small": "small_calibration_bench",  # test_calib_cli
     "test_bench_calibration_cli": "small_calibration_bench",  # test_acquire_accept
 }
+_SHARED_SCOPES = ("module", "session", "package", "class")
+# Modules whose module-scoped fixtures are cheap to build (an emulated probe starts in a fraction of a second)
+# and whose tests are long: each test a unit, each worker builds the fixture it needs.
+SPLIT_MODULES = {
+    "tests/test_probe_cli.py",  # the power cut at every flash step, the noisy line: ~50 s on one emulator
+}
+
+
+# Modules whose tests share state that neither their arguments nor their source's fixtures show: one unit.
+WHOLE_MODULES = {
+    # test_the_makefile_stamp_covers_every_compiled_input sets fx_ops.h's mtime ahead for `make -n`;
+    # test_compiled_firmware_is_not_older_than_its_sources reads the mtimes: side by side they raced
+    "tests/test_build.py",
+}
+
+
+def _module_sharing(path: pathlib.Path) -> tuple[bool, set]:
+    """(whole, names) for a test module, read from its source (the
+    controller of pytest-xdist schedules by node id and never imports the
+    tests): `whole` when the module shares state in a way a test's
+    arguments do not show (an autouse fixture of a wider scope,
+    setup_module, test classes); else the names of its test functions
+    that reach a module-scoped fixture of the module, directly or through
+    its other fixtures."""
+    import ast
+
+    try:
+        tree = ast.parse(path.read_text(encoding="utf-8"))
+    except (OSError, SyntaxError, ValueError):
+        return True, set()
+    fixtures, wide = {}, set()
+    for node in tree.body:
+        if isinstance(node, ast.ClassDef) and node.name.startswith("Test"):
+            return True, set()
+        if isinstance(node, ast.FunctionDef) and node.name in ("setup_module", "teardown_module"):
+            return True, set()
+        if not isinstance(node, ast.FunctionDef):
+            continue
+        for d in node.decorator_list:
+            call = d if isinstance(d, ast.Call) else None
+            target = call.func if call else d
+            if ast.unparse(target) not in ("pytest.fixture", "fixture"):
+                continue
+            kw = {k.arg: k.value for k in (call.keywords if call else [])}
+            scope = kw.get("scope")
+            autouse = kw.get("autouse")
+            is_wide = isinstance(scope, ast.Constant) and scope.value in _SHARED_SCOPES
+            if is_wide and isinstance(autouse, ast.Constant) and autouse.value:
+                return True, set()
+            fixtures[node.name] = [a.arg for a in node.args.args]
+            if is_wide:
+                wide.add(node.name)
+    def reaches(names, seen):
+        for n in names:
+            if n in wide:
+                return True
+            if n in fixtures and n not in seen and reaches(fixtures[n], seen | {n}):
+                return True
+        return False
+    users = {node.name for node in tree.body if isinstance(node, ast.FunctionDef) and node.name.startswith("test")
+             and reaches([a.arg for a in node.args.args], set())}
+    return False, users
+
+
+_SHARING: dict = {}
+
+
+def scheduling_unit(nodeid: str) -> str:
+    """The unit of work a test belongs to under `make test`: the tests that
+    read one session fixture across modules (SHARED_SESSION_FIXTURE) are
+    one unit; the tests of a module that reach one of its module-scoped
+    fixtures (an emulated chamber run, a firmware built for the S08
+    simulator) are one unit, so that the fixture is built once, on one
+    worker; every other test is a unit of its own, free to run on either
+    worker."""
+    module, _, rest = nodeid.partition("::")
+    name = rest.split("[", 1)[0].split("::")[-1]
+    if name in SHARED_SESSION_FIXTURE:
+        return SHARED_SESSION_FIXTURE[name]
+    if module not in _SHARING:
+        _SHARING[module] = _module_sharing(ROOT / module)
+    whole, users = _SHARING[module]
+    if module in SPLIT_MODULES:
+        return nodeid
+    if module in WHOLE_MODULES:
+        return module
+    if whole or "::" in rest or name in users:
+        return module
+    return nodeid
 
 
 @pytest.hookimpl(optionalhook=True)  # a hook of pytest-xdist: unknown (and unused) under -p no:xdist
 def pytest_xdist_make_scheduler(config, log):
-    """make test (-n auto --dist loadscope --no-loadscope-reorder): every
-    module is one unit of work, so that a module-scoped fixture (an emulated
-    chamber run, a firmware built for the S08 simulator) is built once, on
-    one worker, and the tests that share a session fixture across modules
-    (SHARED_SESSION_FIXTURE) are one unit too.  Units are handed out in the
-    collection's order, which puts the modules with `heavy` tests first
-    (pytest_collection_modifyitems below), so that no long module starts
-    last and leaves the other core idle at the end."""
+    """make test (-n auto --dist loadscope --no-loadscope-reorder): units of
+    work as `scheduling_unit` says, handed out in the collection's order,
+    which puts the `heavy` tests first (pytest_collection_modifyitems
+    below), so that no long test starts last and leaves the other core
+    idle at the end.  A worker is given its next unit only when it is down
+    to its last test (xdist's default: two), so that the queue stays
+    shared as long as it can."""
     if config.getvalue("dist") != "loadscope":
         return None
     from xdist.scheduler import LoadScopeScheduling
 
-    class ModuleScheduling(LoadScopeScheduling):
+    class UnitScheduling(LoadScopeScheduling):
         def _split_scope(self, nodeid: str) -> str:
-            module, _, rest = nodeid.partition("::")
-            name = rest.split("[", 1)[0].split("::")[-1]
-            return SHARED_SESSION_FIXTURE.get(name, module)
+            return scheduling_unit(nodeid)
 
-    return ModuleScheduling(config, log)
+        def _reschedule(self, node) -> None:
+            if node.shutting_down:
+                return
+            if not self.workqueue:
+                node.shutdown()
+                return
+            # the worker runs a test once it knows the next one (its teardown depends on it): one pending
+            # test is the one it is about to run
+            if self._pending_of(self.assigned_work[node]) > 1:
+                return
+            self._assign_work_unit(node)
+
+    return UnitScheduling(config, log)
 
 
 @pytest.hookimpl(trylast=True)
@@ -126,9 +249,9 @@ def root():
 @pytest.fixture(scope="session")
 def small_calibration_bench():
     """`inclino bench calibration` at its smallest (one seeded run per method,
-    one temperature probe, no peer): about 30 CPU seconds, read by the
+    one temperature probe, no peer, not the bench-time section): about 30 CPU seconds, read by the
     library's test (test_calib_cli) and the command's (test_acquire_accept),
     scheduled together (SHARED_SESSION_FIXTURE): built once, on one worker."""
     from inclino.benchmarks import calibration as bench
 
-    return bench.bench_calibration(n_runs=1, include_peer=False, temperature_probes=1)
+    return bench.bench_calibration(n_runs=1, include_peer=False, temperature_probes=1, time_probes=0)

@@ -1,11 +1,13 @@
 """The firmware C and the golden model agree bit for bit on a million
 vectors plus the edge cases, and the comparison does catch a difference."""
 import numpy as np
+import pytest
 
 from inclino.engines import bitexact, golden
 from inclino import cli
 
 
+@pytest.mark.heavy
 def test_million_vectors_zero_mismatches(capsys):
     assert cli.main(["bitexact", "--vectors", "1000000", "--seed", "11"]) == 0
     out = capsys.readouterr().out.strip()

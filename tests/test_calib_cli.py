@@ -149,3 +149,4 @@ def test_bench_calibration_small(small_calibration_bench):
     t = d["temperature"]
     assert t["probes"] == 1 and len(t["per_probe"]) + len(t["failed_probes"]) == 1
     assert d["met"]["temperature_within_1_2x_room"] == t["passed"]
+    assert d["time"] == {"not_run": "time_probes=0"} and d["met"]["time_targets"] is None and not d["passed"]

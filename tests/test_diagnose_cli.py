@@ -154,6 +154,7 @@ def test_unknown_effect_and_missing_input(tmp_path, capsys, tb_dataset):
     assert rc == 2 and "cannot read" in _one_error_line(err)
 
 
+@pytest.mark.heavy
 def test_bench_module_quick_set(capsys):
     """The quick bench (a size sweep at z = 2, 6, 30, 270 with one dataset
     per size and effect, every other one at z >= 6 spiked, two nulls):

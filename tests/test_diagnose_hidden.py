@@ -47,6 +47,7 @@ def test_hidden_effect_is_named_and_estimated_within_its_stderr(effect, k):
     assert f["stderr"] < abs(h["value"]) / 3.0  # the uncertainty is informative, not a blanket
 
 
+@pytest.mark.heavy
 def test_null_datasets_name_nothing():
     """Twelve nulls drawn afresh (six static, six continuous). The bench
     measures a false-alarm rate near 1.5 % (3 of 216; 1 of 40 continuous and

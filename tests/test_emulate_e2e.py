@@ -39,7 +39,7 @@ def test_surveys_follow_the_turntable(emu):
         assert ident.product == "INCLINO-PROBE" and ident.cal_slot == 0xFF
         for inc, azi, tf in [(0.0, 0.0, 0.0), (5.0, 45.0, 30.0), (30.0, 120.0, 200.0), (90.0, 270.0, 10.0),
                              (135.0, 330.0, 95.0)]:
-            assert ctl.call("move", inc=inc, azi=azi, tf=tf) == {"ok": True}
+            assert ctl.call("move", inc=inc, azi=azi, tf=tf)["ok"] is True
             truth = ctl.call("truth")
             assert truth["pose"] == [inc, azi, tf]
             s = link.survey().to_units()

@@ -27,10 +27,11 @@ from inclino_emu.control import ControlClient, RequestError, parse_request
 from inclino_emu.runner import Emulator
 
 from bootimg import random_chunks, write_srec
+from conftest import hypothesis_examples
 from test_probe_cli import inverse_cal, run
 
 # generated inputs per property in the suite; the run reported in docs/emulator.md used 10000
-EXAMPLES = int(os.environ.get("INCLINO_HYPOTHESIS_EXAMPLES", "300"))
+EXAMPLES = hypothesis_examples(300)
 
 
 # ---- the request parser, property-based -----------------------------------------------
@@ -306,7 +307,7 @@ def test_download_completes_while_the_control_channel_is_attacked(tmp_path):
         # afterwards the channel serves a new client and the probe its link
         c = ControlClient(port=emu.control_port)
         assert c.call("status")["ok"] is True
-        assert c.call("move", inc=10, azi=20, tf=30) == {"ok": True}
+        assert c.call("move", inc=10, azi=20, tf=30)["ok"] is True
         c.close()
         assert emu.error is None
 

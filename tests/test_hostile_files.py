@@ -689,3 +689,27 @@ def test_thinning_note_names_the_rows_kept():
     assert note.startswith("the run has 100 rows; 30 of them were used, one drawn at random from each of 30 "
                            "equal stretches of the run (stratified, seed ")
     assert dataset.thin(ds, 100) == (ds, None)
+
+
+def test_trajectory_and_compare_show_progress_off_a_terminal(tmp_path):
+    """The survey commands' long work (reading, the path, writing; the
+    pairing and the error model) shows its status lines on stderr."""
+    n = 3000
+    md = np.arange(n, dtype=float)
+    inc = np.clip(md / 30.0, 0, 60)
+    for name, az in (("a.csv", 40.0), ("b.csv", 40.05)):
+        (tmp_path / name).write_text("md_m,inc_deg,azi_deg\n" + "".join(
+            f"{m:g},{i:.3f},{az}\n" for m, i in zip(md, inc)))
+    env = dict(os.environ, INCLINO_PROGRESS_PERIOD="0.01")
+    for argv, phases in (
+            (["trajectory", str(tmp_path / "a.csv"), "--declination", "2", "-o", str(tmp_path / "t.csv")],
+             ("reading", "trajectory of 3000 stations", "writing 3000 stations")),
+            (["compare", str(tmp_path / "a.csv"), str(tmp_path / "b.csv"), "--tool-model", "iscwsa-mwd-rev5",
+              "--declination", "2", "--dip", "60", "--field", "50000", "--json"],
+             ("comparing 3000 and 3000 stations",))):
+        r = subprocess.run([sys.executable, "-m", "inclino", *argv], capture_output=True, text=True, env=env)
+        assert r.returncode in (0, 1), r.stderr
+        lines = r.stderr.splitlines()
+        assert lines and all(l.startswith("inclino: ") and "elapsed" in l for l in lines), r.stderr
+        for p in phases:
+            assert any(p in l for l in lines), (p, r.stderr)

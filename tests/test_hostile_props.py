@@ -10,10 +10,11 @@ refused, 4 no port), never with an exception; a refusal is exactly one line
 on stderr starting `inclino: error:`, and nothing is written; a well-formed
 file is read back exactly (values built here, not by the code under test).
 
-Examples per property: INCLINO_HYPOTHESIS_EXAMPLES (default 100 in the
-suite).  The long run (docs/fuzzing.md):
-    INCLINO_HYPOTHESIS_EXAMPLES=10000 .venv/bin/python -m pytest -q -s tests/test_hostile_props.py
-prints, per parser, how many inputs ran and how many ended in a traceback.
+Examples per property: 100 in `make test`; 10 000 with the full profile
+(docs/testing.md):
+    .venv/bin/python -m pytest -q -s -p no:randomly -n 0 --hypothesis-profile=full tests/test_hostile_props.py
+prints, per parser, how many inputs ran and how many ended in a traceback
+(INCLINO_HYPOTHESIS_EXAMPLES=N sets any other count).
 """
 import collections
 import contextlib
@@ -35,8 +36,9 @@ from inclino import cli  # noqa: E402
 from inclino.formats.calfile import Calibration  # noqa: E402
 from inclino.formats.dataset import MAX_LINE_CHARS, read_raw  # noqa: E402
 from inclino.boot.image import load_image  # noqa: E402
+from conftest import hypothesis_examples  # noqa: E402
 
-EXAMPLES = int(os.environ.get("INCLINO_HYPOTHESIS_EXAMPLES", "100"))
+EXAMPLES = hypothesis_examples(100)
 settings.register_profile("inclino-hostile", max_examples=EXAMPLES, deadline=None, database=None,
                           suppress_health_check=[HealthCheck.too_slow, HealthCheck.data_too_large])
 SETTINGS = settings.get_profile("inclino-hostile")

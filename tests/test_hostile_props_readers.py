@@ -13,12 +13,13 @@ calibration refused) and whose text is one line without Python internals;
 anything else is a traceback and fails.  A well-formed file is read back
 exactly.
 
-Examples per property: INCLINO_HYPOTHESIS_EXAMPLES (default 60 here).  The
-long run (docs/fuzzing.md):
-    INCLINO_HYPOTHESIS_EXAMPLES=10000 .venv/bin/python -m pytest -q -s -p no:randomly \\
+Examples per property (each reader, and each format of the survey listing
+and the noise file, its own property): 60 in `make test`; 10 000 with the
+full profile (docs/testing.md):
+    .venv/bin/python -m pytest -q -s -p no:randomly -n 0 --hypothesis-profile=full \\
         tests/test_hostile_props_readers.py
 prints, per reader, how many inputs ran, were refused, were read back, and
-ended in a traceback.
+ended in a traceback (INCLINO_HYPOTHESIS_EXAMPLES=N sets any other count).
 """
 import collections
 import itertools
@@ -37,8 +38,9 @@ from hypothesis import strategies as st  # noqa: E402
 
 from inclino.errors import CalibrationError, DataError, InclinoError  # noqa: E402
 from test_hostile_props import mutate_text  # noqa: E402
+from conftest import hypothesis_examples  # noqa: E402
 
-EXAMPLES = int(os.environ.get("INCLINO_HYPOTHESIS_EXAMPLES", "60"))
+EXAMPLES = hypothesis_examples(60)
 SETTINGS = settings(max_examples=EXAMPLES, deadline=None, database=None,
                     suppress_health_check=[HealthCheck.too_slow, HealthCheck.data_too_large,
                                            HealthCheck.function_scoped_fixture])
@@ -186,18 +188,18 @@ def _survey_case(draw, fmt):
 
 
 @st.composite
-def survey_files(draw):
-    fmt = draw(st.sampled_from(["csv", "json", "las"]))
+def survey_files(draw, fmt):
     data, expected = _survey_case(draw, fmt)
-    return fmt, data, expected
+    return data, expected
 
 
+@pytest.mark.parametrize("fmt", ["csv", "json", "las"])
 @SETTINGS
-@given(case=survey_files())
-def test_survey_listing_reader(work, case):
+@given(data=st.data())
+def test_survey_listing_reader(work, fmt, data):
     from inclino.survey import wellpath as wp
 
-    fmt, data, expected = case
+    data, expected = data.draw(survey_files(fmt))
     path = _file(work, data, "." + fmt)
     sv = check(f"survey listing ({fmt})", wp.read_survey, path, 2, expected is not None)
     if expected is not None:
@@ -209,19 +211,19 @@ def test_survey_listing_reader(work, case):
 
 
 @st.composite
-def noise_files(draw):
-    fmt = draw(st.sampled_from(["csv", "json"]))
+def noise_files(draw, fmt):
     data, expected = _survey_case(draw, fmt)
-    return fmt, data, expected
+    return data, expected
 
 
+@pytest.mark.parametrize("fmt", ["csv", "json"])
 @SETTINGS
-@given(case=noise_files())
-def test_noise_file_reader(work, case):
+@given(data=st.data())
+def test_noise_file_reader(work, fmt, data):
     from inclino.survey import errormodel as em
     from inclino.survey import wellpath as wp
 
-    fmt, data, expected = case
+    data, expected = data.draw(noise_files(fmt))
 
     def read(path):
         rows = wp.read_survey_rows(path)

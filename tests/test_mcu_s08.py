@@ -44,6 +44,7 @@ def _mismatch_report(got: dict, want: dict, keys) -> tuple[int, str]:
     return int(bad.sum()), f"per field {per}, first at {first}"
 
 
+@pytest.mark.heavy
 def test_survey_bit_exact_on_s08(fw):
     rng = np.random.default_rng(2024)
     cals = bitexact.random_cals(rng, 8)  # identity, 4 random, 3 saturating/zero
@@ -607,6 +608,7 @@ TEMP_MUTANTS = {
 }
 
 
+@pytest.mark.heavy
 def test_temp_check_fails_on_broken_assembly(tmp_path):
     """The comparison above is not vacuous: copies of the tree whose
     corr_temp_s08.c has one partial product, carry, sign correction or

@@ -58,3 +58,46 @@ def test_in_run_and_out_run_of_the_same_stations_agree(tmp_path, capsys):
                        "--json")
     zero = json.loads(out)
     assert rc == 1 and zero["summary"]["passed_fraction"] < r["summary"]["passed_fraction"]
+
+
+def _pairs_by_scan(md_a, md_b, md_tol):
+    """The pairing rule written out: each station of a in order takes the
+    nearest unused station of b (the first of equals) within md_tol."""
+    used, pairs = set(), []
+    for i, md in enumerate(md_a):
+        j = int(np.argmin(np.abs(md_b - md)))
+        if abs(md_b[j] - md) <= md_tol and j not in used:
+            used.add(j)
+            pairs.append((i, j))
+    return pairs
+
+
+def test_pairing_by_sorted_search_is_the_scan():
+    from inclino.survey.compare import pair_stations
+
+    for _ in range(200):
+        # depths on a coarse grid: equal distances and stations wanted twice happen often
+        na, nb = (int(v) for v in RNG.integers(1, 40, 2))
+        md_a = np.sort(RNG.choice(np.arange(0.0, 60.0, 0.5), na, replace=False))
+        md_b = np.sort(RNG.choice(np.arange(0.0, 60.0, 0.5), nb, replace=False))
+        tol = float(RNG.choice([0.0, 0.25, 0.5, 1.0, 5.0]))
+        ia, ib = pair_stations(md_a, md_b, tol)
+        assert list(zip(ia.tolist(), ib.tolist())) == _pairs_by_scan(md_a, md_b, tol), (md_a, md_b, tol)
+
+
+def test_expected_spread_in_stretches_is_the_spread_at_once():
+    """A station's survey covariance is its own: the error model called on
+    stretches of the survey gives what one call on the whole does."""
+    from inclino.survey import compare, geomag, models
+
+    n = 700
+    md = np.cumsum(RNG.uniform(5, 30, n))
+    inc = np.clip(np.cumsum(RNG.normal(0.3, 1.0, n)), 0.5, 120)
+    azi = np.mod(np.cumsum(RNG.normal(0, 2, n)) + 40, 360)
+    rf = geomag.ReferenceField(2.0, 60.0, 50000.0, 1.0)
+    model = models.ErrorModel(models.load("iscwsa-mwd-rev5"), None, None)
+    for two in (False, True):
+        whole = compare.expected(model, md, inc, azi, rf, two, chunk=n)
+        parts = compare.expected(model, md, inc, azi, rf, two, chunk=int(RNG.integers(2, 200)))
+        assert np.allclose(whole[0], parts[0], rtol=1e-12, atol=0) and np.allclose(whole[1], parts[1], rtol=1e-12,
+                                                                                   atol=0)

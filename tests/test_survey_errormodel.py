@@ -284,3 +284,57 @@ def test_noise_is_never_a_silent_zero_and_options_alone_are_refused(calibration,
                         tmp_path / "x.json"], "--revision")):
         rc, out, err = run(capsys, *argv)
         assert rc == 2 and msg in err and err.count("\n") == 1, (argv, err)
+
+
+def test_toolmodel_exit_1_says_why_in_one_line(calibration, tmp_path, capsys, monkeypatch):
+    """A model whose 1-sigma misses the Monte Carlo's (here: the projection's
+    magnitudes x 1.5, so every ratio is about 1.5) exits 1 with the verdict
+    as the report's last line and as one line on stderr naming the ratio;
+    the file is written.  A passing model ends with a PASS line and says
+    nothing on stderr."""
+    cal, cal_path = calibration
+    tool = tmp_path / "tool.json"
+    rc, out, err = run(capsys, "toolmodel", "--cal", cal_path, "--dip", 60, "--field", 50000, "--acc-noise", 1e-4,
+                       "--mag-noise", 4, "-o", tool)
+    mc = json.loads(tool.read_text())["inclino"]["fit"]["monte_carlo"] if "inclino" in json.loads(
+        tool.read_text()) else models.load_toolmodel(str(tool)).fit["monte_carlo"]
+    assert rc == (0 if mc["within_20pct"] else 1)
+    assert out.strip().splitlines()[-1].startswith("verdict: PASS" if rc == 0 else "verdict: FAIL")
+    assert (err == "") == (rc == 0)
+    project = em.project
+
+    def inflated(*a, **k):
+        mags, fit = project(*a, **k)
+        return {g: 1.5 * v for g, v in mags.items()}, fit
+
+    monkeypatch.setattr(em, "project", inflated)
+    tool.unlink()
+    rc, out, err = run(capsys, "toolmodel", "--cal", cal_path, "--dip", 60, "--field", 50000, "--acc-noise", 1e-4,
+                       "--mag-noise", 4, "-o", tool)
+    assert rc == 1 and tool.exists()
+    assert err.count("\n") == 1 and err.startswith("inclino: verdict: FAIL: model/Monte Carlo 1-sigma of "), err
+    ratio = float(err.split(" 1-sigma of ")[1].split()[1])
+    assert 1.5 * 0.8 < ratio < 1.5 * 1.2 and "outside +-20 %" in err
+    assert out.strip().splitlines()[-1] == err.strip()[len("inclino: "):]
+
+
+def test_monte_carlo_ratio_standard_error_matches_its_spread_over_seeds(calibration):
+    """The verdict allows each model/Monte Carlo ratio two of its standard
+    errors beyond +-20 % (a ratio of 1.2 in truth would otherwise pass or
+    fail with the Monte Carlo's seed).  mc_ratio_se's formula (sample
+    standard deviation of draws of kurtosis k: var(s)/s^2 = (k-1)/(4n)) is
+    checked against the spread of the ratio over 40 Monte Carlo seeds."""
+    cal, _ = calibration
+    tm = em.from_calibration(cal, 60.0, 50000.0)
+    cov, _ = em.calibration_covariance(cal)
+    n = 500
+    rs, ses = [], []
+    for seed in range(40):
+        mc = em.mc_check(tm, cal, cov, 60.0, 50000.0, n=n, seed=1000 + seed)
+        rs.append(mc["inc_ratio"] + mc["azi_ratio"])
+        ses.append(mc["inc_ratio_se"] + mc["azi_ratio_se"])
+    spread, se = np.std(rs, axis=0, ddof=1), np.mean(ses, axis=0)
+    # the spread of 40 draws is known to about +-11 % (1 / sqrt(2 x 39)): each attitude within 0.6-1.5 of the
+    # formula, and over all 16 ratios within 0.8-1.25
+    assert np.all((spread / se > 0.6) & (spread / se < 1.5)), spread / se
+    assert 0.8 < np.sqrt(np.mean((spread / se) ** 2)) < 1.25, spread / se

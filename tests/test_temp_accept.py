@@ -85,6 +85,7 @@ def test_engine_without_terms_is_the_firmware_with_m_b(chamber_calibrated):
         assert np.array_equal(z[k], ref[k]), k
 
 
+@pytest.mark.heavy
 def test_firmware_engine_is_the_golden_model_and_the_host_model(chamber_calibrated):
     """With the terms, the firmware's C and the golden model agree bit for
     bit on random readings and temperatures; on the noise-free grid at -5,

@@ -61,7 +61,7 @@ class _Device:
 class Emulator:
     def __init__(self, scenario="typical", seed: int | None = None, baud: int = 115200,
                  link: str | None = None, control_port: int | None = 0, realtime: bool = True,
-                 serial: int | None = None, tempco_draw: int | None = None,
+                 serial: int | None = None, tempco_draw: int | None = None, hold_idle: bool = False,
                  control_idle_s: float = IDLE_TIMEOUT_S):
         if isinstance(baud, bool) or not isinstance(baud, int) or not BAUD_RANGE[0] <= baud <= BAUD_RANGE[1]:
             raise ValueError(f"baud rate {baud} is not within {BAUD_RANGE[0]}-{BAUD_RANGE[1]}")
@@ -86,6 +86,10 @@ class Emulator:
         self._device = _Device(self.probe)
         self._lock = threading.Lock()
         self.pacing = {"max_ahead_s": 0.0}   # real time: how far a single step ran ahead of the wall clock
+        self.idle_s = 0.0   # unthrottled: emulated seconds spent waiting for the host (active_s)
+        self.hold_idle = bool(hold_idle)  # unthrottled: stop the clock while idle (run())
+        self._was_idle = False
+        self._last_idle = False
         self._jumped = 0.0   # emulated seconds `advance` moved the clock since the loop last looked
 
     @property
@@ -97,9 +101,17 @@ class Emulator:
         p = self.probe
 
         def move(r):
+            """Turn the table to a pose; the emulated clock runs through the
+            move (world.TurntableMotion: the axes' rate and settling)."""
             known(r, "inc", "azi", "tf")
-            p.move_to(number(r, "inc", 0.0, 180.0, " deg"), number(r, "azi", 0.0, 360.0, " deg"),
-                      number(r, "tf", 0.0, 360.0, " deg"))
+            to = (number(r, "inc", 0.0, 180.0, " deg"), number(r, "azi", 0.0, 360.0, " deg"),
+                  number(r, "tf", 0.0, 360.0, " deg"))
+            frm = tuple(float(x) for x in p.phys.trajectory(p.clock.now))
+            d = float(p.phys.scenario.world.turntable.motion.duration(frm, to))
+            p.move_to(*to)
+            if d > 0.0:
+                self._run_for(d)
+            return {"t": p.clock.now, "move_s": d}
 
         def temperature(r):
             known(r, "temp_c")
@@ -178,7 +190,7 @@ class Emulator:
 
         def status(r):
             known(r)
-            return {"t": p.clock.now, "power_cuts": p.power_cuts, "restarts": p.restarts,
+            return {"t": p.clock.now, "active_s": self.active_s, "power_cuts": p.power_cuts, "restarts": p.restarts,
                     "boot_status": p.boot_status, "bytes_to_host": self.pty.bytes_to_host,
                     "bytes_to_probe": self.pty.bytes_to_probe, "tx_dropped": int(p.lib.app_main_tx_dropped()),
                     "flash_ops": getattr(p.flash, "ops", None),
@@ -188,27 +200,58 @@ class Emulator:
                 "power_cut": power_cut, "power_cycle": power_cycle, "status": status,
                 "chamber": chamber, "advance": advance}
 
+    def _run_for(self, s: float) -> None:
+        """Run s seconds of emulated time in one go (the firmware idles
+        through it): a chamber wait, a turntable move."""
+        self.probe.step(s, quantum=max(ADVANCE_QUANTUM_S, s / ADVANCE_MAX_POLLS))
+
+    @property
+    def active_s(self) -> float:
+        """The emulated time the probe and the bench were doing something:
+        the clock less the time the unthrottled emulator ran while nothing
+        was on the line and the firmware was idle, waiting for the host.
+        Unthrottled, that idle time depends only on how fast the host
+        computes, so active_s is the bench time of a run (turntable moves,
+        chamber waits, the probe's readings, the bytes on the line);
+        in real time it is the clock."""
+        return self.probe.clock.now - self.idle_s
+
     # ------------------------------------------------------------ loop
     def run_once(self, dt: float, release: bool = True) -> bool:
         """Advance the emulator by dt seconds of emulated time.  release:
         pass what the probe sent to the host right away (else at the next
         call, once the wall clock has caught up: real-time mode).  Returns
-        whether any byte moved between the host and the probe."""
+        whether any byte moved between the host and the probe.  An
+        unthrottled step in which no byte moved either way, the probe's SCI
+        held nothing and the firmware made no long call counts as idle
+        (active_s; self._last_idle)."""
         with self._lock:
-            moved = self.pty.bytes_to_host + self.pty.bytes_to_probe
-            self.pty.pump(self._device, 0.0)
+            pty, sci, clk = self.pty, self.probe.sci, self.probe.clock
+            n0 = (pty.bytes_to_probe, pty.bytes_to_host)
+            quiet = not (sci.rx or sci.tx or sci.out or pty._to_host)
+            t0 = clk.now
+            pty.pump(self._device, 0.0)
             self.probe.step(dt)
             if release:
-                self.pty.pump(self._device, 0.0)
-            return self.pty.bytes_to_host + self.pty.bytes_to_probe != moved
+                pty.pump(self._device, 0.0)
+            moved = (pty.bytes_to_probe, pty.bytes_to_host) != n0
+            idle = (not self.realtime and quiet and not moved and not (sci.rx or sci.tx or sci.out)
+                    and clk.now - t0 <= dt + 1e-12)
+            if idle:
+                self.idle_s += clk.now - t0
+            self._last_idle = idle
+            return moved
 
-    def _wait_for_host(self, timeout: float) -> None:
-        """Block until the host writes to the line or the control channel, at most timeout."""
+    def _wait_for_host(self, timeout: float) -> bool:
+        """Block until the host writes to the line or the control channel, at
+        most timeout; whether something came."""
         fds = [self.pty.master] + (self.control.fileobjs() if self.control else [])
         try:
-            select.select(fds, [], [], timeout)
+            r, _, _ = select.select(fds, [], [], timeout)
         except (OSError, ValueError):  # a descriptor closed under us (stop()): the loop ends
             time.sleep(timeout)
+            return True
+        return bool(r)
 
     def run(self) -> None:
         """Run until stop() (or KeyboardInterrupt in the caller's thread).
@@ -218,7 +261,16 @@ class Emulator:
         advanced the clock in one go: the loop then waits, and the bytes the
         probe sent in that call reach the host only when the wall clock has
         reached the emulated instant.  An emulator that falls behind by more
-        than MAX_STEP_S does not catch up (the lag is dropped)."""
+        than MAX_STEP_S does not catch up (the lag is dropped).
+
+        Unthrottled with hold_idle: after a step in which nothing happened
+        (run_once's idle test: no byte either way, the firmware idle) the
+        clock stops until the host sends a byte or a control request runs,
+        so emulated time is the bench's time (turntable moves, chamber
+        waits, readings, bytes) and not how long the host took to think;
+        the chamber does not drift while the host computes.  Not for a
+        probe that should act on its own while the host is silent (a
+        stream's frames, the protocol's idle timeout)."""
         try:
             clk = self.probe.clock
             t_wall0, t_emu0 = time.monotonic(), clk.now
@@ -248,8 +300,12 @@ class Emulator:
                     self.run_once(target - clk.now, release=False)
                     self.pacing["max_ahead_s"] = max(self.pacing["max_ahead_s"], clk.now - (
                         t_emu0 + (time.monotonic() - t_wall0)))
+                elif self.hold_idle and self._was_idle and not asked and not self._wait_for_host(IDLE_WAIT_S):
+                    continue  # the clock holds until the host sends something
                 else:
-                    if self.run_once(0.005) or asked:
+                    moved = self.run_once(0.005)
+                    self._was_idle = self._last_idle
+                    if moved or asked:
                         idle = 0
                     else:
                         idle += 1

@@ -41,6 +41,11 @@ scenario's tempco spread, each calibrated from an emulated chamber run and
 checked at -5, 25 and 55 degC through the firmware's correction with and
 without its temperature terms; target 1.2x of the 25 degC figure.
 
+Bench time (key `time`, benchmarks/calibration_time.py; alone: `inclino bench
+calibration --section time`): today's procedures and the adaptive ones on
+the same drawn probes, the emulated bench's time against the acceptance
+each reaches, and the prediction at the adaptive run's stop.
+
 Peers from PyPI: magcal (a magnetometer ellipsoid fit, the kind users
 install for hard/soft iron) is used when it is installed -- it is not a
 project dependency -- for the fluxgate, paired with Ren 2014's
@@ -94,6 +99,7 @@ class CalibrationBench:
     prediction: dict = field(default_factory=dict)  # bench_predict.prediction_ratios
     field_prior: dict = field(default_factory=dict)  # bench_prior.field_prior_bench
     temperature: dict = field(default_factory=dict)  # bench_temp.bench_temperature
+    time: dict = field(default_factory=dict)  # calibration_time.bench_time: today's procedures and the adaptive ones
     papers_measured: dict = field(default_factory=lambda: dict(PAPERS))
     targets: dict = field(default_factory=lambda: dict(TARGETS))
     met: dict = field(default_factory=dict)
@@ -223,9 +229,10 @@ def _run_methods(s, n_runs, seed0, include_peer):
 
 
 def bench_calibration(n_runs: int = 100, seed: int = 100, include_peer: bool | None = None,
-                      temperature_probes: int | None = None) -> CalibrationBench:
-    """The calibration benchmark; temperature_probes: probes of the temperature
-    section (None: its default, calibration_temperature.N_PROBES)."""
+                      temperature_probes: int | None = None, time_probes: int | None = None) -> CalibrationBench:
+    """The calibration benchmark; temperature_probes, time_probes: probes of
+    the temperature and the bench-time sections (None: their defaults,
+    calibration_temperature.N_PROBES, calibration_time.N_PROBES)."""
     if include_peer is None:
         try:
             import magcal.core  # noqa: F401
@@ -278,8 +285,19 @@ def bench_calibration(n_runs: int = 100, seed: int = 100, include_peer: bool | N
     res.temperature = t.to_dict()
     res.targets["temperature_ratio_with_terms_max"] = TARGET_RATIO
     res.met["temperature_within_1_2x_room"] = t.passed
+    from inclino.benchmarks import calibration_time
+
+    time_passed = None  # time_probes=0: the section is not run, and the bench does not pass
+    if time_probes != 0:
+        bt = calibration_time.bench_time(n_probes=time_probes or calibration_time.N_PROBES)
+        res.time = bt.to_dict()
+        time_passed = bt.passed
+    else:
+        res.time = {"not_run": "time_probes=0"}
+    res.targets["time"] = dict(calibration_time.TARGETS)
+    res.met["time_targets"] = time_passed
     # every target must have been evaluated: no peer installed means the peer target is not shown met
     res.passed = bool(res.met["joint_lowest_azi_rms"] and res.met["ratio_to_best_paper_ok"]
                       and res.met["ratio_to_cramer_rao_ok"] and res.met["ratio_to_best_peer_ok"] is True
-                      and res.prediction["met"] and res.field_prior["met"] and t.passed)
+                      and res.prediction["met"] and res.field_prior["met"] and t.passed and time_passed is True)
     return res

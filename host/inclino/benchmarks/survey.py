@@ -115,14 +115,15 @@ def load_field(scen_path):
     return e.field_nT, e.dip_deg, e.declination_deg
 
 
-def _cli(cli_main, *argv):
+def _cli(cli_main, *argv, ok=(0,)):
     """Run one `inclino` command in-process through `cli_main` (inclino.cli.main,
     passed in by the caller: the CLI dispatches this benchmark, so the
-    benchmark takes the command runner as a parameter instead of importing it)."""
+    benchmark takes the command runner as a parameter instead of importing it).
+    An exit status outside `ok` raises, with the command's stderr."""
     out, err = io.StringIO(), io.StringIO()
     with contextlib.redirect_stdout(out), contextlib.redirect_stderr(err):
         rc = cli_main([str(a) for a in argv])
-    if rc != 0:
+    if rc not in ok:
         raise RuntimeError(f"inclino {' '.join(map(str, argv))}: exit {rc}: {err.getvalue().strip()}")
     return out.getvalue()
 
@@ -165,8 +166,10 @@ def run_seed(seed: int, workdir: str, cal_path: str, scen_path: str, rng=None, f
         _cli(cli_main, "survey", "--port", emu.path, "--csv")  # settle (see below)
         with open(noise_csv, "w", encoding="utf-8") as f:
             f.write(_cli(cli_main, "survey", "--port", emu.path, "--count", 12, "--csv"))
+        # exit 1: the model's 1-sigma misses the Monte Carlo's (the file is written): recorded in the
+        # result (tool_model.mc_within_20pct) and in `passed`, the surveys go on
         _cli(cli_main, "toolmodel", "--cal", cal_path, "--noise", noise_csv, "--lat", LAT, "--lon", LON, "--date", DATE,
-             "-o", tool)
+             "-o", tool, ok=(0, 1))
         parts = []
         for m, i in zip(md, inc):
             tf = float(rng.uniform(0, 360)) if fixed_toolface is None else float(fixed_toolface)
@@ -280,6 +283,7 @@ def bench(seeds=tuple(range(1, 9)), workdir: str | None = None, plot: str | None
                             "azi": [min(r["station_mc_azi_ratio"][0] for r in runs),
                                     max(r["station_mc_azi_ratio"][1] for r in runs)]}
     res.passed = (res.inside_2sigma >= res.target_inside_2sigma and res.declination_agrees
+                  and all(r["tool_model"]["mc_within_20pct"] for r in runs)
                   and all(0.8 <= v <= 1.2 for k in ("inc", "azi") for v in res.station_mc_ratio[k]))
     return res
 

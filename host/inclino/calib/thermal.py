@@ -414,6 +414,7 @@ def _fit(ds, cal, info, mode, sigma_acc, sigma_mag, sigma_pose_deg, fix_dip, see
     J = res.jac
     dof = max(1, J.shape[0] - J.shape[1])
     s2 = float((res.fun ** 2).sum()) / dof
+    noise = _noise_components(prob, x, chosen, J, keep, ds, rows, w)
     try:
         cov_c, cov_th, lin, cov_nl, cond = _cov_24(x, prob, chosen, J, s2, w)
     except CalibrationError as e:
@@ -475,7 +476,41 @@ def _fit(ds, cal, info, mode, sigma_acc, sigma_mag, sigma_pose_deg, fix_dip, see
            else "(Li grid); the firmware applies M, b only: "
            + block["firmware"]["why_not"])]
     info["report_dataset"] = corrected_dataset(ds, new, block)
+    # the reading noise the report's acceptance prediction takes: joint's components were fitted to
+    # residuals that still held the temperature effects (tens of times the sensors' noise on a chamber
+    # run); these are the residuals with the terms
+    info.pop("noise", None)
+    info.pop("noise_components", None)
+    if isinstance(noise, str):
+        info["notes"].append(f"the run's own noise was not fitted with the temperature terms ({noise}); the "
+                             "acceptance prediction takes the nominal noise scaled by s^2")
+    else:
+        info["noise_components"] = noise
     return new, info
+
+
+def _noise_components(prob: _Problem, x, order, J, keep, ds, rows, w):
+    """The run's noise per channel and its pose error (REML, calib/covariance.py,
+    as joint fits them) from the residuals of the fit with the temperature
+    terms, in raw units, with that fit's Jacobian for the restricted
+    likelihood; the reason as a string when it cannot be fitted."""
+    from . import covariance, joint
+
+    try:
+        Ma, ca, Mm, cm, qa, qm, dip, th = prob.unpack(x, order)
+        L = np.linalg.inv(prob.Linv[keep])  # un-whiten: the residuals in corrected units
+        r = np.einsum("nij,nj->ni", L, prob.residuals(x, order)[keep])
+        Ju = np.einsum("nij,njk->nik", L, J.reshape(len(keep), 6, -1))
+        Bi = np.linalg.inv(covariance.block_diag2(Ma, Mm))
+        poses = tuple(ds.columns[c][rows][keep] for c in ("inc_deg", "azi_deg", "tf_deg"))
+        Jp = joint._pose_jacobian(*poses, w["field_nT"], float(dip), w["declination_deg"], w["gravity_g"])
+        labels = covariance.cluster_labels(ds)[rows][keep]
+        return covariance.fit_components(r @ Bi.T, labels, Jpose=np.einsum("ij,njk->nik", Bi, Jp),
+                                         X=np.einsum("ij,njk->nik", Bi, Ju),
+                                         channels=["acc_x_g", "acc_y_g", "acc_z_g", "mag_x_nT", "mag_y_nT",
+                                                   "mag_z_nT"])
+    except (np.linalg.LinAlgError, ValueError) as e:
+        return str(e) or type(e).__name__
 
 
 def summary(block: dict) -> str:

@@ -62,6 +62,22 @@ def _calibration(args) -> int:
         t = bench_temp.bench_temperature()
         print(t.to_json() if args.json else bench_temp.text(t))
         return 0 if t.passed else 1
+    if args.section == "time":  # alone (benchmarks/calibration_time.py)
+        from inclino.benchmarks import calibration_time as bench_time
+
+        plot = None
+        if args.plot:
+            import os
+
+            from inclino.cli.options import plot_target
+            from inclino.plotting import make_dir
+
+            folder, name = plot_target(args.plot, "calibration-time.png")
+            make_dir(folder, "the figures' folder")
+            plot = os.path.join(folder, name)
+        t = bench_time.bench_time(plot=plot)
+        print(t.to_json() if args.json else bench_time.text(t))
+        return 0 if t.passed else 1
     r = bench_calibration()
     if args.json:
         print(r.to_json())
@@ -77,7 +93,7 @@ def _calibration(args) -> int:
 def _input(args) -> int:
     from inclino.benchmarks import input as bench_input
 
-    r = bench_input.bench()
+    r = bench_input.bench(quick=getattr(args, "quick", False))
     print(r.to_json() if args.json else bench_input.text(r))
     return 0 if r.passed else 1
 
@@ -194,8 +210,11 @@ def add_bench(sub, cli_main):
     be.add_argument("--field", type=float, default=50000.0, help="accuracy: total field, nT (default %(default)g)")
     be.add_argument("--dip", type=float, default=60.0, help="accuracy: dip, degrees (default %(default)g)")
     be.add_argument("--vectors", type=int, default=1_000_000, help="speed: batch size (default %(default)s)")
-    be.add_argument("--quick", action="store_true", help="diagnose, demo: a small set (not the targets' figures)")
-    add_plot(be, "survey: also draw the first seed's well path and ellipses into this folder (survey-wellpath.png)")
-    be.add_argument("--section", choices=("all", "temperature"), default="all",
-                    help="calibration: only the temperature section (default %(default)s)")
+    be.add_argument("--quick", action="store_true", help="diagnose, demo, input: a small set (not the targets' figures)")
+    add_plot(be, "survey: also draw the first seed's well path and ellipses into this folder (survey-wellpath.png); "
+                 "calibration --section time: the first probe's predicted accuracy against bench time "
+                 "(calibration-time.png)")
+    be.add_argument("--section", choices=("all", "temperature", "time"), default="all",
+                    help="calibration: only the temperature section, or only bench time against accuracy "
+                         "(today's procedures and the adaptive ones; default %(default)s)")
     be.set_defaults(func=_cmd_bench, cli_main=cli_main)

@@ -107,7 +107,8 @@ def add_acquire(sub):
     add_common(p)
     p.add_argument("--procedure", required=True, choices=PROCEDURES,
                    help="twelve-position (Li 2021), multi-position (Li + Ren 2014 + orientations), "
-                        "continuous (Guo 2009), temperature (a chamber run: --temperatures)")
+                        "continuous (Guo 2009), temperature (a chamber run: --temperatures), adaptive (poses "
+                        "chosen until the predicted acceptance reaches the target; --chamber-range-c)")
     add_output(p, "raw dataset CSV to write (rows go to RUN.csv.part as they are taken; renamed at the end); "
                   "required unless --resume", required=False, metavar="RUN.csv")
     p.add_argument("--resume", metavar="RUN.csv.part", action=Output, help="continue the run an interruption left in RUN.csv.part "
@@ -130,6 +131,9 @@ def add_acquire(sub):
     _add_soak(t, "minutes between readings while the chamber ramps and soaks")
     t.add_argument("--ramp-poses", type=int, default=4, help="poses read through each ramp, 1-6 (default %(default)s)")
     _add_settle(t)
+    from inclino.cli.adaptive import add_adaptive_options
+
+    add_adaptive_options(p)
     negative_lists(p)
     p.set_defaults(func=_cmd_acquire)
     return p
@@ -151,6 +155,12 @@ def _cmd_acquire(args) -> int:
         args.output = args.resume[:-5]
     elif args.output is None:
         raise DataError("acquire needs -o RUN.csv (or --resume RUN.csv.part)")
+    if args.procedure == "adaptive":
+        if args.resume is not None:
+            raise DataError("--resume: an adaptive run chooses each pose from the readings before it; start it again")
+        from inclino.cli.adaptive import cmd_acquire_adaptive
+
+        return cmd_acquire_adaptive(args, open_table)
     if args.procedure != "temperature":
         return _cmd_acquire_poses(args)
     if args.resume is not None:
@@ -429,7 +439,8 @@ def add_demo(sub) -> None:
     d = command(sub, "demo", "the whole calibration bench on the emulated probe (--core: the C core "
                              "on a table of poses)",
                 "The calibration bench from end to end on the emulated probe, in about 20 s: start a typical "
-                "uncalibrated probe, acquire a multi-position run on the emulated turntable, fit it, download "
+                "uncalibrated probe, acquire an adaptive run on the emulated motorised turntable (poses chosen "
+                "until the predicted acceptance reaches its target), fit it, download "
                 "and verify the calibration, and run the Li 2021 and Ren 2014 acceptance grids before and after; "
                 "the run, the calibration, the results and the figures go into the -o folder. --chamber does "
                 "the temperature step instead, --core the firmware's C on a table of poses.",

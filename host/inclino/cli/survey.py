@@ -244,7 +244,26 @@ def _cmd_toolmodel(args) -> int:
           f"{min(mc['inc_deg']):g}-{max(mc['inc_deg']):g} deg): model/MC 1-sigma inclination "
           f"{min(mc['inc_ratio']):.2f}-{max(mc['inc_ratio']):.2f}, azimuth {min(mc['azi_ratio']):.2f}-"
           f"{max(mc['azi_ratio']):.2f} ({'within' if mc['within_20pct'] else 'NOT within'} +-20 %)")
-    return 0 if mc["within_20pct"] else 1  # the file is written either way
+    line = toolmodel_verdict(mc, args.output)
+    print(line)
+    if not mc["within_20pct"]:  # exit 1 says why on stderr too (the file is written either way)
+        print(f"inclino: {line}", file=sys.stderr)
+    return 0 if mc["within_20pct"] else 1
+
+
+def toolmodel_verdict(mc, output) -> str:
+    """`inclino toolmodel`'s last line: the Monte Carlo check's verdict and
+    the ratio that decided it (the one furthest outside +-20 %, in the
+    Monte Carlo's standard errors)."""
+    from inclino.survey.errormodel import mc_worst
+
+    q, r, se, inc, azi = mc_worst(mc)
+    what = (f"model/Monte Carlo 1-sigma of {q} {r:.3f} (+-{se:.3f}) at inclination {inc:g} deg, azimuth {azi:g} "
+            f"deg")
+    if mc["within_20pct"]:
+        return f"verdict: PASS: every ratio within +-20 %; the furthest out: {what}"
+    return (f"verdict: FAIL: {what} is outside +-20 % by more than two of its standard errors; {output} is "
+            "written, but its 1-sigma misstates the calibration's")
 
 
 def _show(g, v):
@@ -273,18 +292,23 @@ def _cmd_trajectory(args) -> int:
     for out in (args.output, args.las):
         if out:
             safeio.check_output(out, args.input)  # never over a survey file it reads
-    sv = wp.concat([wp.read_survey(p) for p in args.input])
+    from inclino import progress
+
+    with progress.phase(f"reading {len(args.input)} survey listing(s)"):  # long work shows its progress on stderr
+        sv = wp.concat([wp.read_survey(p) for p in args.input])
     rf = _reference(args)
     from inclino.survey import models
 
     model = _error_model(args, rf, default_base=models.DEFAULT_BASE) if args.uncertainty else None
-    tr = wp.trajectory(sv, rf, model)
-    if args.output.lower().endswith(".las"):
-        wp.write_las(tr, args.output)
-    else:
-        wp.write_csv(tr, args.output)
-    if args.las:
-        wp.write_las(tr, args.las)
+    with progress.phase(f"trajectory of {len(sv)} stations"):
+        tr = wp.trajectory(sv, rf, model)
+    with progress.phase(f"writing {len(tr)} stations"):
+        if args.output.lower().endswith(".las"):
+            wp.write_las(tr, args.output)
+        else:
+            wp.write_csv(tr, args.output)
+        if args.las:
+            wp.write_las(tr, args.las)
     if args.plot:
         import os
 
@@ -324,7 +348,10 @@ def _cmd_compare(args) -> int:
     from inclino.survey import geomag
     from inclino.survey import wellpath as wp
 
-    a, b = wp.read_survey(args.first), wp.read_survey(args.second)
+    from inclino import progress
+
+    with progress.phase("reading the two survey listings"):  # long work shows its progress on stderr
+        a, b = wp.read_survey(args.first), wp.read_survey(args.second)
     rf = _reference(args) if (args.lat is not None or args.ref or args.declination is not None) else None
     model = _error_model(args, rf)
     fit = model.probe or (model.base.inclino if model.base is not None else None)
@@ -334,7 +361,8 @@ def _cmd_compare(args) -> int:
         args.field if args.field is not None else (fit.fit.get("field_nT", 50000.0) if fit else 50000.0)
     ref = geomag.ReferenceField(rf.declination_deg if rf is not None else 0.0, dip, tot,
                                 rf.gravity_g if rf is not None and math.isfinite(rf.gravity_g) else 1.0)
-    r = cmp.compare(a, b, model, ref, k=args.k, md_tol=args.md_tol, two_probes=args.two_probes)
+    with progress.phase(f"comparing {len(a)} and {len(b)} stations"):
+        r = cmp.compare(a, b, model, ref, k=args.k, md_tol=args.md_tol, two_probes=args.two_probes)
     if args.json:
         print(r.to_json())
     else:

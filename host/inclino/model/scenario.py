@@ -16,6 +16,9 @@ A scenario file (host/inclino/model/scenarios/*.toml) looks like::
     temperature_c = 25.0             # air and probe at the start
     tau_s = 300.0                    # the probe's thermal time constant
     profile = [[60.0, 55.0, 1.0]]    # [t_s, setpoint_c, rate_c_per_min (absent: step)]
+    [world.turntable]                # optional: how long a move takes (world.TurntableMotion;
+    rate_deg_s = 10.0                # default instantaneous); each axis, all three together,
+    settle_s = 3.0                   # then at rest
     [world.encoder]                  # optional turntable encoder errors
     offset_deg = [0.0, 0.0, 0.0]     # inc, azi, tf
     scale = [0.0, 0.0, 0.0]
@@ -56,7 +59,8 @@ from inclino.engines import reference as ref
 from inclino.formats.dataset import RawDataset
 
 from inclino.model import effects as fx
-from inclino.model.world import Chamber, EarthField, EncoderErrors, Temperature, Trajectory, Turntable, World
+from inclino.model.world import (Chamber, EarthField, EncoderErrors, Temperature, Trajectory, Turntable,
+                                 TurntableMotion, World)
 
 ACC_RANGE_G = 1.7  # ADIS16210 specified measurement range
 MAG_RANGE_NT = 100000.0  # fluxgate range (Ren 2014)
@@ -340,6 +344,13 @@ def _triad(kind, tab: dict, spreads: Optional[dict] = None) -> fx.TriadModel:
     return fx.TriadModel(**kw)
 
 
+def _motion(t: dict) -> TurntableMotion:
+    bad = set(t) - {"rate_deg_s", "settle_s"}
+    if bad:
+        raise ValueError(f"unknown [world.turntable] key(s) {', '.join(sorted(bad))} (rate_deg_s, settle_s)")
+    return TurntableMotion(**{k: float(v) for k, v in t.items()})
+
+
 def _rig_tables(v) -> list:
     """[world.rig_field] (one table) or [[world.rig_field]] (several): each
     axis = "azi" | "inc" | "tf", cos_nT = [[x, y, z], ...] and sin_nT the
@@ -375,7 +386,8 @@ def scenario_from_dict(d: dict, name: str = "") -> Scenario:
     else:
         temperature = Temperature(float(w.get("temperature_c", 25.0)), float(w.get("temperature_rate_c_per_s", 0.0)))
     world = World(
-        turntable=Turntable(EncoderErrors(enc.get("offset_deg", [0.0] * 3), enc.get("scale", [0.0] * 3))),
+        turntable=Turntable(EncoderErrors(enc.get("offset_deg", [0.0] * 3), enc.get("scale", [0.0] * 3)),
+                            motion=_motion(w.get("turntable", {}))),
         earth=earth,
         gravity_g=float(w.get("gravity_g", 1.0)),
         temperature=temperature,

@@ -78,12 +78,61 @@ class TurntableGeometry:
 
 
 @dataclass
+class TurntableMotion:
+    """How long the turntable takes to go from one indicated pose to
+    another: its three axes turn together at rate_deg_s (azimuth and
+    toolface the short way round, inclination within 0-180 deg), then it
+    waits settle_s for the mechanics to come to rest (seconds).
+
+        duration = max(|dI|, |dA|, |dT|) / rate_deg_s + settle_s   (0 when the pose does not change)
+
+    The bench's time between two readings at different poses (the control
+    channel's `move` runs the emulated clock through it).  The default is
+    the instantaneous table (rate_deg_s = inf, settle_s = 0), as the
+    emulator always had; MOTORISED (10 deg/s per axis, 3 s to settle: an
+    assumption for a motorised non-magnetic three-axis table, not a
+    datasheet figure) is what the bench-time figures use
+    (`[world.turntable]` in a scenario, benchmarks/calibration_time.py)."""
+    rate_deg_s: float = math.inf
+    settle_s: float = 0.0
+
+    def __post_init__(self):
+        self.rate_deg_s, self.settle_s = float(self.rate_deg_s), float(self.settle_s)
+        if not (self.rate_deg_s > 0.0) or math.isnan(self.rate_deg_s):
+            raise ValueError("turntable rate_deg_s must be > 0 (inf: instantaneous)")
+        if not (math.isfinite(self.settle_s) and self.settle_s >= 0.0):
+            raise ValueError("turntable settle_s must be a finite number >= 0")
+
+    @staticmethod
+    def turn_deg(a, b):
+        """The largest axis turn from pose a to pose b (each (inc, azi, tf),
+        deg; arrays broadcast): azimuth and toolface the short way round."""
+        a = [np.asarray(x, float) for x in a]
+        b = [np.asarray(x, float) for x in b]
+        d_inc = np.abs(b[0] - a[0])
+        d_azi = np.abs((b[1] - a[1] + 180.0) % 360.0 - 180.0)
+        d_tf = np.abs((b[2] - a[2] + 180.0) % 360.0 - 180.0)
+        return np.maximum(d_inc, np.maximum(d_azi, d_tf))
+
+    def duration(self, a, b):
+        """Seconds from indicated pose a to b (arrays broadcast)."""
+        turn = self.turn_deg(a, b)
+        return np.where(turn > 1e-9, turn / self.rate_deg_s + self.settle_s, 0.0)
+
+
+MOTORISED = {"rate_deg_s": 10.0, "settle_s": 3.0}
+
+
+@dataclass
 class Turntable:
     """Non-magnetic three-axis turntable: inclination 0-180 deg, azimuth and
     toolface 0-360 deg (checked on the indicated pose; a trajectory may
-    unwrap azimuth/toolface beyond 360 for continuous rotation)."""
+    unwrap azimuth/toolface beyond 360 for continuous rotation).  `motion`:
+    how long it takes to move (TurntableMotion; the emulator's control
+    channel, not the instantaneous `move_to` of the physics)."""
     encoder: EncoderErrors = field(default_factory=EncoderErrors)
     geometry: Optional[TurntableGeometry] = None
+    motion: TurntableMotion = field(default_factory=TurntableMotion)
 
     INC_RANGE = (0.0, 180.0)
 

@@ -18,6 +18,10 @@ Procedures (pose lists from inclino.calib.runs, our conventions):
 * temperature -- through a thermal chamber: at each set point of
   --temperatures a few poses read through the ramp and soak, then the
   --poses set (inclino.procedures.acquire_temp; joint --temperature-terms).
+* adaptive -- poses chosen one at a time for what the probe still needs,
+  until the predicted acceptance reaches the target; with
+  --chamber-range-c through a continuous chamber ramp
+  (inclino.procedures.adaptive; joint, with --temperature-terms).
 
 Who turns the table:
 
@@ -69,7 +73,7 @@ from inclino.procedures.poses import Step, wrap_deg
 from inclino.procedures.readings import (Tolerance, Unsettled, gravity_toolface, mean_row, progress_bar, read_once,
                                          read_stable, set_average)
 
-PROCEDURES = ("twelve-position", "multi-position", "continuous", "temperature")
+PROCEDURES = ("twelve-position", "multi-position", "continuous", "temperature", "adaptive")
 COLUMNS = ("t_s", "inc_deg", "azi_deg", "tf_deg", "temp_c", "ax_g", "ay_g", "az_g", "mx_nT", "my_nT", "mz_nT",
            "utc_s")
 # header keys that must match when a run is resumed (the probe, its firmware and calibration, the procedure)

@@ -5,8 +5,12 @@ With no arguments (the README's first command, `make demo`):
 1. start the emulated probe (host/inclino/model/scenarios/typical.toml: a typical
    uncalibrated probe; unthrottled) on a pseudo-terminal, with its control
    channel;
-2. acquire a multi-position calibration run on the emulated turntable,
-   unattended over the control channel (`inclino acquire --bench`);
+2. acquire an adaptive calibration run on the emulated turntable,
+   unattended over the control channel (`inclino acquire --procedure
+   adaptive --bench`): poses chosen one at a time until the predicted
+   acceptance reaches its target; the turntable's moves take the time of a
+   motorised table (world.MOTORISED) and the emulated clock holds while the
+   host computes, so the bench time printed is the bench's;
 3. fit it with `joint` (`inclino calibrate`);
 4. download the calibration (write, read back, activate) and verify it bit
    for bit (`inclino download`, `inclino verify`);
@@ -15,8 +19,9 @@ With no arguments (the README's first command, `make demo`):
    accept --bench`), and print them in the papers' layout;
 6. write the run, the calibration, the accept results and the figures into
    ./inclino-demo/ (-o): run.csv, cal.json, accept_li2021.json,
-   accept_ren2014.json, fluxgate_sphere.png, run_circles.png, circles.png,
-   errors_li2021.png, errors_ren2014.png.
+   accept_ren2014.json, fluxgate_sphere.png, circles.png, errors_li2021.png,
+   errors_ren2014.png (and run_circles.png when the run holds circle
+   rotations: `procedure="multi-position"`).
 
 `inclino demo --core` is the earlier demo: a table of turntable poses read by
 ideal sensors, through the firmware's C core and the float64 reference side
@@ -114,10 +119,11 @@ class CalibrationDemo:
     files: list = field(default_factory=list)
     timings: dict = field(default_factory=dict)
     elapsed_s: float = 0.0
+    bench: dict = field(default_factory=dict)  # the run's bench time and, adaptive, its stop
 
 
 def calibration_demo(out_dir: str = DEFAULT_OUT, scenario: str = "typical", seed: int | None = None,
-                     procedure: str = "multi-position", grids=("li2021", "ren2014"), quiet: bool = False,
+                     procedure: str = "adaptive", grids=("li2021", "ren2014"), quiet: bool = False,
                      say=None, figures: bool = True) -> CalibrationDemo:
     """The whole calibration procedure on the emulated probe and its turntable;
     prints each step with `say`.  figures=False skips the PNGs (the demo
@@ -156,7 +162,12 @@ def calibration_demo(out_dir: str = DEFAULT_OUT, scenario: str = "typical", seed
 
     t0 = time.monotonic()
     step(1, f"starting the emulated probe ({scenario} scenario, unthrottled) ...")
-    emu = Emulator(scenario, seed=seed, control_port=0, realtime=False).start()
+    from inclino.model.scenario import Scenario, load_scenario
+    from inclino.model.world import MOTORISED, TurntableMotion
+
+    sc = scenario if isinstance(scenario, Scenario) else load_scenario(scenario)
+    sc.world.turntable.motion = TurntableMotion(**MOTORISED)  # the moves take a motorised table's time
+    emu = Emulator(sc, seed=seed, control_port=0, realtime=False, hold_idle=True).start()
     table = None
     try:
         table = EmulatedTurntable(f"127.0.0.1:{emu.control_port}")
@@ -169,11 +180,31 @@ def calibration_demo(out_dir: str = DEFAULT_OUT, scenario: str = "typical", seed
             lap("start", t0)
 
             t0 = time.monotonic()
-            step(2, f"acquiring a {procedure} calibration run on the emulated turntable -> {run_csv}")
-            r = acq.acquire(link, procedure, run_csv, table, quiet=quiet, average=DEMO_AVERAGE)
+            step(2, f"acquiring a{'n' if procedure[0] in 'aeiou' else ''} {procedure} calibration run on the "
+                    f"emulated turntable -> {run_csv}")
+            a0 = float(table.call("status")["active_s"])
+            if procedure == "adaptive":
+                from inclino.procedures.adaptive import AdaptivePlan, acquire_adaptive
+
+                r = acquire_adaptive(link, run_csv, table, AdaptivePlan(average=DEMO_AVERAGE), quiet=quiet)
+            else:
+                r = acq.acquire(link, procedure, run_csv, table, quiet=quiet, average=DEMO_AVERAGE)
             res.run_rows = r.rows
-            say(f"      {r.rows} positions, {r.reads} readings ({r.unsettled_windows} windows waited for the "
-                f"probe to settle), field {r.meta.get('field_nT', 0):g} nT, dip {r.meta.get('dip_deg', 0):g} deg")
+            res.bench = {"bench_s": float(table.call("status")["active_s"]) - a0,
+                         "turntable": dict(MOTORISED)}
+            say(f"      {r.rows} positions, {r.reads} readings, field {r.meta.get('field_nT', 0):g} nT, dip "
+                f"{r.meta.get('dip_deg', 0):g} deg; bench time {res.bench['bench_s'] / 60:.1f} min "
+                f"(turntable {MOTORISED['rate_deg_s']:g} deg/s, {MOTORISED['settle_s']:g} s to settle)")
+            if procedure == "adaptive":
+                pa = (r.prediction or {}).get("acceptance_grid") or {}
+                res.bench.update({"stop": r.stop_reason, "targets": r.targets, "planning_s": r.planning_s,
+                                  "predicted_azi_rms_deg": pa.get("azi_rms_deg"),
+                                  "trace": [{k: t[k] for k in ("pose", "bench_s", "predicted_azi_deg",
+                                                               "predicted_inc_deg")} for t in r.trace]})
+                say(f"      stopped: {r.stop_reason}; predicted acceptance azimuth RMS "
+                    f"{pa.get('azi_rms_deg', float('nan')):.4f} deg (target {r.targets.get('azi_deg') or 0:.4f}), "
+                    f"inclination {pa.get('inc_rms_deg', float('nan')):.4f} deg; the host computed "
+                    f"{r.planning_s:.1f} s between readings")
             lap("acquire", t0)
 
             t0 = time.monotonic()
@@ -227,6 +258,24 @@ def calibration_demo(out_dir: str = DEFAULT_OUT, scenario: str = "typical", seed
                                          run=dataset.read_raw(run_csv), cal=cal)
     res.elapsed_s = time.monotonic() - t_all
     return res
+
+
+def multi_position_minutes(turntable: dict, average: int = DEMO_AVERAGE, reads: int = 3) -> float:
+    """The bench time of `acquire --procedure multi-position` on a turntable
+    of this motion (world.TurntableMotion) from home, by the motion model:
+    its moves plus `reads` readings a pose (docs/emulator.md: 0.09 s a
+    16-sample reading)."""
+    import numpy as np
+
+    from inclino.model.world import TurntableMotion
+    from inclino.procedures.acquire import procedure_steps
+
+    m = TurntableMotion(**turntable)
+    st = procedure_steps("multi-position")
+    p = np.array([(0.0, 0.0, 0.0)] + [(x.inc, x.azi, x.tf) for x in st])
+    moves = m.duration(tuple(p[:-1].T), tuple(p[1:].T))
+    read = reads * (0.0052 * average + 0.007)
+    return float((moves.sum() + read * len(st)) / 60.0)
 
 
 def acting_effects(scenario: str, run, acc_li, cal) -> list[tuple[str, float]]:
@@ -351,6 +400,13 @@ def summary(res: CalibrationDemo) -> str:
                      f"(max {b['azi_max_deg']:.3f} -> {f['azi_max_deg']:.3f}); inclination RMS "
                      f"{b['inc_rms_deg']:.3f} -> {f['inc_rms_deg']:.3f} deg (max {b['inc_max_deg']:.3f} -> "
                      f"{f['inc_max_deg']:.3f}); {'PASS' if a.passed else 'FAIL'}")
+    if res.bench:
+        b = res.bench
+        line = f"  bench time of the run: {b['bench_s'] / 60:.1f} min for {res.run_rows} poses"
+        if "stop" in b:
+            line += (f" (stopped: {b['stop']}); the multi-position procedure's 94 poses take "
+                     f"{multi_position_minutes(b['turntable']):.1f} min on the same table")
+        lines.append(line)
     if res.agreement:
         lines.append("  " + res.agreement)
     lines.append(f"  files in {res.out_dir}/: " + ", ".join(sorted(os.path.basename(p) for p in res.files)))

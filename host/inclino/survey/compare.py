@@ -62,16 +62,28 @@ def counts(code: str, propagation: str, two_probes: bool) -> bool:
     return False
 
 
-def expected(model, md, inc, azi, rf, two_probes=False, fallback=(60.0, 50000.0)):
+# Stations per call of the error model: a station's survey covariance is its
+# own (the position covariance, which adds up along the hole, is not used
+# here), so a long survey goes through in stretches of bounded memory
+# (welleng holds some 13 kB per station and term set: 10^5 pairs at once took 1.3 GB)
+CHUNK = 5000
+
+
+def expected(model, md, inc, azi, rf, two_probes=False, fallback=(60.0, 50000.0), chunk: int = CHUNK):
     """1-sigma (deg) of the inclination and azimuth difference between two
     surveys at each station (md increasing), from the model's terms."""
-    prop = model.propagate(md, inc, azi, rf, fallback)
-    vi = np.zeros(len(md))
-    va = np.zeros(len(md))
-    for (part, code), (propagation, dia) in prop.sources.items():
-        if counts(code, propagation, two_probes):
-            vi += dia[:, 1, 1]
-            va += dia[:, 2, 2]
+    n = len(md)
+    vi = np.zeros(n)
+    va = np.zeros(n)
+    for lo in range(0, n, chunk):
+        hi = min(n, lo + chunk)
+        a = max(0, lo - 1)  # each stretch starts at the last station of the one before
+        prop = model.propagate(md[a:hi], inc[a:hi], azi[a:hi], rf, fallback)
+        for (part, code), (propagation, dia) in prop.sources.items():
+            if counts(code, propagation, two_probes):
+                vi[lo:hi] += dia[lo - a:, 1, 1]
+                va[lo:hi] += dia[lo - a:, 2, 2]
+        del prop
     return np.degrees(np.sqrt(2.0 * vi)), np.degrees(np.sqrt(2.0 * va))
 
 
@@ -86,18 +98,16 @@ def compare(a, b, model, rf, k: float = 3.0, md_tol: float = 0.5, two_probes: bo
         raise DataError("--md-tol must be >= 0")
     res = CompareResult(k=k, mode="two probes" if two_probes else "same probe")
     res.runs = [a.meta.get("run", ""), b.meta.get("run", "")]
-    used_b, pairs = set(), []
-    for i, md in enumerate(a.md_m):
-        j = int(np.argmin(np.abs(b.md_m - md)))
-        if abs(b.md_m[j] - md) > md_tol or j in used_b:
-            res.unmatched_in.append(float(md))
-            continue
-        used_b.add(j)
-        pairs.append((i, j))
-    res.unmatched_out = [float(m) for j, m in enumerate(b.md_m) if j not in used_b]
-    if not pairs:
+    ia, ib = pair_stations(a.md_m, b.md_m, md_tol)
+    used = np.zeros(len(b.md_m), bool)
+    used[ib] = True
+    unpaired = np.ones(len(a.md_m), bool)
+    unpaired[ia] = False
+    res.unmatched_in = a.md_m[unpaired].astype(float).tolist()
+    res.unmatched_out = b.md_m[~used].astype(float).tolist()
+    if not len(ia):
         raise DataError(f"no station of the two surveys is within {md_tol:g} m of measured depth of the other")
-    ia, ib = np.array([p[0] for p in pairs]), np.array([p[1] for p in pairs])
+    pairs = list(zip(ia.tolist(), ib.tolist()))
     inc = 0.5 * (a.inc_deg[ia] + b.inc_deg[ib])
     d_azi = ((b.azi_mag_deg[ib] - a.azi_mag_deg[ia] + 180.0) % 360.0) - 180.0
     azi = (a.azi_mag_deg[ia] + 0.5 * d_azi) % 360.0
@@ -125,6 +135,29 @@ def compare(a, b, model, rf, k: float = 3.0, md_tol: float = 0.5, two_probes: bo
                    "d_azi_rms_deg": _rms([s["d_azi_deg"] for s in res.stations]),
                    "error_model": model.describe()}
     return res
+
+
+def pair_stations(md_a, md_b, md_tol):
+    """(ia, ib): each station of a (in order) with the nearest station of b
+    by measured depth (the shallower of two equally near), when within
+    md_tol and not taken by an earlier station of a.  Sorted search: time
+    n log n (a search of every b station for each a station took 6 ms a pair
+    at 10^5 pairs)."""
+    md_a, md_b = np.asarray(md_a, float), np.asarray(md_b, float)
+    if not len(md_a) or not len(md_b):
+        return np.zeros(0, int), np.zeros(0, int)
+    order = np.argsort(md_b, kind="stable")
+    sb = md_b[order]
+    k = np.clip(np.searchsorted(sb, md_a), 1, len(sb) - 1) if len(sb) > 1 else np.zeros(len(md_a), int)
+    lo = np.maximum(k - 1, 0)
+    near = np.where(np.abs(sb[k] - md_a) < np.abs(sb[lo] - md_a), k, lo)
+    # the lowest index among equal depths and equal distances, as a scan of b in order finds it
+    j = order[near]
+    ok = np.abs(md_b[j] - md_a) <= md_tol
+    ia = np.flatnonzero(ok)
+    _, first = np.unique(j[ia], return_index=True)  # a station of b goes to the first station of a that wants it
+    ia = np.sort(ia[first])
+    return ia, j[ia]
 
 
 def _rms(v):
