@@ -232,3 +232,15 @@ def test_diagnose_no_longer_names_the_temperature_effects_the_terms_corrected(tm
     Calibration().save(str(plain))
     assert cli.main(["diagnose", str(path), "--cal", str(plain)]) == 2
     assert "no temperature terms" in capsys.readouterr().err
+
+
+def test_diagnose_cal_keeps_its_fit_bounded_when_kept_terms_are_collinear(tmp_path, capsys):
+    """The probe and run of seed 1727113473: with --cal, a rig field kept on
+    this short chamber run is nearly collinear with the baseline, and an
+    undamped Gauss-Newton step took the pose Jacobian to 1e13 and the
+    diagnosis to `LinAlgError: Matrix is not positive definite` (exit 2).
+    The step is halved until the fit stays bounded (diagnose/analysis.py,
+    _Model.refit)."""
+    import numpy as np
+    test_diagnose_no_longer_names_the_temperature_effects_the_terms_corrected(
+        tmp_path, capsys, np.random.default_rng(1727113473))

@@ -190,6 +190,18 @@ class _Model:
             pos += n
         return {"A": A, "c": c, "dip": st["dip"] + float(beta[24]), "theta": th}
 
+    def _bounded(self, state, bl) -> bool:
+        """A step keeps each triad's matrix, and the readings' sensitivity to
+        the pose, within a factor 2 of the current ones: a larger change is
+        collinear terms cancelling each other (their sum fits, each one is
+        arbitrary), not a calibration."""
+        for t in TRIADS:
+            a0, a1 = np.linalg.norm(self.state["A"][t]), np.linalg.norm(state["A"][t])
+            if not (np.isfinite(a1) and 0.5 * a0 <= a1 <= 2.0 * a0):
+                return False
+        j0, j1 = np.abs(self.bl.Jpose).max(), np.abs(bl.Jpose).max()
+        return bool(np.isfinite(j1) and j1 <= 2.0 * j0)
+
     def refit(self, kept_now):
         """Gauss-Newton: re-linearise at the estimate of the model base +
         kept_now, re-estimate the noise (robustly) and the outlier rows."""
@@ -197,8 +209,24 @@ class _Model:
         S = self.base + self.cols(kept_now)
         for _ in range(GN_ITERATIONS):
             beta, _ = self.des.fit(S)
-            self.state = self.state_after(kept_now, beta / self.des.colscale[S])
-            self.bl, self.X, self.y0, _ = self.build(self.state, self.testable)
+            # a full Gauss-Newton step can run far from the start when kept
+            # terms are nearly collinear (a rig field and the baseline on a
+            # short run): their sum fits, each is arbitrary, and the pose
+            # Jacobian grows by decades until no covariance factors.  The
+            # step is halved until the state stays bounded (_bounded); none
+            # that does keeps the current state (the kept terms at zero)
+            for h in (1.0, 0.5, 0.25, 0.125, 0.0625):
+                state = self.state_after(kept_now, h * beta / self.des.colscale[S])
+                built = self.build(state, self.testable)
+                with np.errstate(all="ignore"):
+                    finite = bool(np.isfinite(built[0].predict()).all())
+                if finite and self._bounded(state, built[0]):
+                    break
+            else:  # the kept terms enter at zero, the state as it was
+                state = self.state_after(kept_now, 0.0 * beta)
+                built = self.build(state, self.testable)
+            self.state = state
+            self.bl, self.X, self.y0, _ = built
             R = d.Y - self.bl.predict()
             self.noise, self.out_rows = robust.robust_noise(R, self.bl.Jpose,
                                                             dof_frac=1.0 - (4.5 + len(S) - NB) / d.n,

@@ -24,8 +24,8 @@ class Noise:
         return S
 
     def whitener(self, J) -> np.ndarray:
-        L = np.linalg.cholesky(self.row_cov(J))
-        return np.linalg.inv(L)
+        """Per row W with W S W^T = I (S = row_cov(J)): whitened r = W r."""
+        return whitener_of(self.row_cov(J))
 
     def sensor_part(self, R, J) -> np.ndarray:
         """R minus each row's turntable readout error, estimated from R by
@@ -40,6 +40,27 @@ class Noise:
         return {"acc_g": self.sigma[:3].tolist(), "mag_nT": self.sigma[3:].tolist(),
                 "pose_deg": {"inc": float(self.sigma_pose[0]), "azi": float(self.sigma_pose[1]),
                              "tf": float(self.sigma_pose[2])}}
+
+
+def whitener_of(S) -> np.ndarray:
+    """Per row W (n, 6, 6) with W S W^T = I, for covariances S (n, 6, 6).
+
+    The inverse Cholesky factor, where S factors.  S mixes g and nT (12
+    decades apart) and, where a pose Jacobian is large, a rank-3 pose part
+    many decades above the sensor noise, so Cholesky can fail on a matrix
+    that is positive definite in exact arithmetic.  Then the rows are
+    whitened on the correlation matrix D^-1 S D^-1 (D: the channels' sd) by
+    eigenvalues, a direction whose eigenvalue is below 1e-12 of the largest
+    (numerically null) counted at that floor: W = Lambda^-1/2 V^T D^-1."""
+    try:
+        return np.linalg.inv(np.linalg.cholesky(S))
+    except np.linalg.LinAlgError:
+        pass
+    sd = np.sqrt(np.diagonal(S, axis1=1, axis2=2))
+    C = S / (sd[:, :, None] * sd[:, None, :])
+    lam, V = np.linalg.eigh(C)
+    lam = np.maximum(lam, 1e-12 * lam[:, -1:])
+    return np.swapaxes(V, 1, 2) / np.sqrt(lam)[:, :, None] / sd[:, None, :]
 
 
 _IU = np.triu_indices(6)

@@ -35,8 +35,7 @@ def mad_sigma(R) -> np.ndarray:
 
 def _d2(R, noise, J):
     S = noise.row_cov(J)
-    L = np.linalg.cholesky(S)
-    w = np.linalg.solve(L, R[..., None])[..., 0]
+    w = np.einsum("nij,nj->ni", core_noise.whitener_of(S), R)
     return (w ** 2).sum(1), np.sqrt(np.diagonal(S, axis1=1, axis2=2))
 
 
