@@ -700,7 +700,9 @@ def test_trajectory_and_compare_show_progress_off_a_terminal(tmp_path):
     for name, az in (("a.csv", 40.0), ("b.csv", 40.05)):
         (tmp_path / name).write_text("md_m,inc_deg,azi_deg\n" + "".join(
             f"{m:g},{i:.3f},{az}\n" for m, i in zip(md, inc)))
-    env = dict(os.environ, INCLINO_PROGRESS_PERIOD="0.01")
+    # a status line every millisecond: reading 3000 stations can take under 10 ms on an idle machine,
+    # so a 10 ms period left the reading phase without a line now and then
+    env = dict(os.environ, INCLINO_PROGRESS_PERIOD="0.001")
     for argv, phases in (
             (["trajectory", str(tmp_path / "a.csv"), "--declination", "2", "-o", str(tmp_path / "t.csv")],
              ("reading", "trajectory of 3000 stations", "writing 3000 stations")),
