@@ -30,13 +30,12 @@ GRAVITY_TOL, GEOMAGNETIC_NT, FIELD_TOL, DIP_* below.
 """
 from __future__ import annotations
 
-import itertools
 import math
 from dataclasses import dataclass, field
 
 import numpy as np
 
-from inclino.calib.ellipsoid import determined, sphere
+from inclino.calib.ellipsoid import determined, signed_permutations, sphere
 from inclino.errors import DataError
 
 # |g| / G: uncalibrated MEMS accelerometers are within a few % in scale and
@@ -160,17 +159,6 @@ def _unit_dirs(v, R):
         except (DataError, np.linalg.LinAlgError, ValueError):
             pass
     return u, False
-
-
-def _signed_perms():
-    out = []
-    for p in itertools.permutations(range(3)):
-        for s in itertools.product((1, -1), repeat=3):
-            m = np.zeros((3, 3))
-            for i in range(3):
-                m[i, p[i]] = s[i]
-            out.append(m)
-    return out
 
 
 def _perm_text(m, letter="m") -> str:
@@ -300,7 +288,7 @@ def _axes_and_lag(ds, rows_all, rep, ug_src=None):
                     "ellipsoid fit, and offsets too large to compare raw directions"), None, {}))
                 return
     spreads, dips = {}, {}
-    for P in _signed_perms():
+    for P in signed_permutations():
         d = _dip(ug, ub @ P.T)
         spreads[tuple(P.ravel())] = _robust_std(d)
         dips[tuple(P.ravel())] = float(np.median(d))

@@ -3,6 +3,8 @@ starting points every pose-free fit and check begins from (a leaf module:
 numpy only)."""
 from __future__ import annotations
 
+import itertools
+
 import numpy as np
 
 from inclino.errors import DataError
@@ -76,3 +78,18 @@ def sphere(v):
     if np.linalg.eigvalsh(u.T @ u / len(u)).min() < 0.02:  # directions in a plane: the centre is not determined
         return None
     return c, float(np.sqrt(r2))
+
+
+def signed_permutations(proper: bool = False) -> list:
+    """The 48 axis maps that permute and sign-flip three axes (3x3, one +-1
+    per row and column); with proper=True the 24 of them that are rotations
+    (determinant +1)."""
+    out = []
+    for p in itertools.permutations(range(3)):
+        for s in itertools.product((1, -1), repeat=3):
+            m = np.zeros((3, 3))
+            for i in range(3):
+                m[i, p[i]] = s[i]
+            if not proper or np.linalg.det(m) > 0:
+                out.append(m)
+    return out

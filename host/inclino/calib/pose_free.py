@@ -23,8 +23,6 @@ and the magnetometer's blocks estimated apart, no cross terms), info.
 """
 from __future__ import annotations
 
-import itertools
-
 import numpy as np
 from scipy import optimize
 from scipy.spatial.transform import Rotation
@@ -32,20 +30,9 @@ from scipy.spatial.transform import Rotation
 from inclino.errors import CalibrationError, DataError
 
 from . import triad
+from .ellipsoid import signed_permutations
 
 MIN_ROWS = 12
-
-
-def _rotations24():
-    out = []
-    for p in itertools.permutations(range(3)):
-        for s in itertools.product((1, -1), repeat=3):
-            m = np.zeros((3, 3))
-            for i in range(3):
-                m[i, p[i]] = s[i]
-            if np.linalg.det(m) > 0:
-                out.append(m)
-    return out
 
 
 def _dip_res(ug, ub):
@@ -85,7 +72,9 @@ def fit(ds, w, sa, sm, fix_dip=False, mag_start=None):
     ubs = bs / np.maximum(np.linalg.norm(bs, axis=1, keepdims=True), 1e-300)
     use = ia["keep"] & im["keep"]
     # 3. the rotation: the best of the 24 axis-aligned starts, then refined
-    starts = _rotations24() if mag_start is None else [np.asarray(mag_start, float)] + _rotations24()
+    starts = signed_permutations(proper=True)
+    if mag_start is not None:
+        starts = [np.asarray(mag_start, float)] + starts
     best = None
     for Q0 in starts:
         if np.linalg.det(Q0) < 0:
