@@ -218,3 +218,23 @@ def test_a_units_line_under_the_header_is_dropped_and_counted(tmp_path):
     with pytest.raises(Exception) as e:  # text among the data is still an error naming the row
         importlog.import_log(str(log), sensor.load(str(REAL / "sap6" / "sensor.toml")))
     assert ":4:" in str(e.value) and "not a number" in str(e.value)
+
+
+def test_a_decimal_reading_in_a_decimal_unit_is_written_as_the_decimal_it_means(tmp_path):
+    """0.27356 G is 27356 nT: the canonical file says 27356.0, not the binary
+    product 27356.000000000004; the header's 0.14 mG is 14.0 nT.  Values
+    without a unit conversion pass bit for bit."""
+    out = tmp_path / "ck.csv"
+    assert main(["import", str(REAL / "ck_acc_mag" / "acc_mag_log.csv"), "--sensor",
+                 str(REAL / "ck_acc_mag" / "sensor.toml"), "-o", str(out)]) == 0
+    text = out.read_text()
+    assert "# mag_lsb_nT=14.0\n" in text
+    data = [line.split(",") for line in text.splitlines() if not line.startswith("#")]
+    rows = [dict(zip(data[0], r)) for r in data[1:]]
+    assert rows[1]["my_nT"] == "27356.0" and rows[1]["ax_g"] == "0.0936042"
+    # every field value is a whole number of the 14 nT quantum, written without binary noise
+    assert all(r[c].endswith(".0") for r in rows for c in dataset.MAG_COLS)
+    raw = np.loadtxt(REAL / "ck_acc_mag" / "acc_mag_log.csv", delimiter=",", skiprows=1)
+    ds = dataset.read_raw(str(out))
+    assert np.array_equal(ds.acc, -raw[:, :3])   # g in g: no conversion, bit for bit
+    assert np.allclose(ds.mag, raw[:, 3:] * 1e5, rtol=1e-15, atol=0)
