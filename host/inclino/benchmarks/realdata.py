@@ -142,7 +142,7 @@ class RealDataBench:
                     curve = (f"; lag curve {c['curve_lag_rows']:+.2f} +- {c['curve_lag_se_rows']:.2f} rows, halves "
                              + ", ".join(f"{h:+.2f}" for h in c.get("curve_lag_halves_rows") or [] if h is not None)
                              if "curve_lag_rows" in c else "")
-                    out.append(f"  not named: {c['log']} {c['corruption']} ({c['found'] or 'nothing found'}{curve})")
+                    out.append(f"  not named: {c['log']} {c['corruption']} ({c['found'] or 'no error or warning'}{curve})")
         out.append("  verdict: " + ("pass" if self.passed else "FAIL"))
         return out
 
