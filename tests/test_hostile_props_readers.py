@@ -483,3 +483,13 @@ def test_calfile_v2_reader(work, case):
     got = check("CAL.json version 2", read, _file(work, data, ".json"), 3, cal is not None)
     if cal is not None:
         assert got.to_fixed() == cal.to_fixed() and got.temperature["order"] == cal.temperature["order"]
+
+
+def test_las_reader_names_no_parser_internals(work):
+    """The draw the full profile found: a file of '~' alone made lasio's
+    parser fail with 'string index out of range'; the refusal says the file
+    is not LAS without it."""
+    from inclino.survey import wellpath as wp
+
+    for data in (b"~", b"~\n", b"~V\n~A\n"):
+        check("survey listing (las)", wp.read_survey, _file(work, data, ".las"), 2, False)

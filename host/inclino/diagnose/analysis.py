@@ -56,7 +56,7 @@ class _Attitude:
         return float(np.sqrt(np.mean(da ** 2))), inc
 
 
-# A longer run is thinned to every k-th row first (inclino.formats.dataset.thin;
+# A longer run is thinned first (stratified random rows: inclino.formats.dataset.thin;
 # peak memory about 11 kB per row)
 MAX_ROWS = 40_000
 
