@@ -12,7 +12,18 @@ The diagnosis must name exactly that effect and estimate it within its
 stated uncertainty; on null datasets it must name nothing.  Sensors,
 axes, signs, sizes and noise are drawn afresh at every run (SEED0 from the
 OS; the seed is in every failure message); `bench diagnose` holds the
-rates (docs/diagnose.md)."""
+rates (docs/diagnose.md).
+
+A rig field (12-15 columns, sized by its RMS in nT) is checked on what the
+plan allows, not on z: two turntable axes' fields overlap 0.85-0.98 on
+these plans, so the other axis' field may be kept provided the report says
+the run cannot tell them apart (3 % of draws at z 9-12); and its size's
+standard error is set by the noise along the field (the turntable's
+readout error across the meridian, ~4x the fluxgate's), so it is checked
+against the truth's (plans.rig_rms_stderr) instead of against z: at z =
+9-12 it is 1/8-1/2 of the size, not 1/9-1/12 (300 draws, refits of one
+draw under fresh noise scatter as the stated error says: 0.45 against
+0.49 nT over 40)."""
 import json
 import os
 
@@ -41,10 +52,25 @@ def test_hidden_effect_is_named_and_estimated_within_its_stderr(effect, k):
     # drawn afresh every run, so the checks are at rates the bench measures near 100 %: the hidden effect is
     # named on its sensor and axis (another name beside it, 0-7 % per dataset in the bench, is not a failure
     # here; the nulls below hold the false-alarm side)
+    if effect == "rig-field" and (h["name"], h["sensor"], h["axis"]) not in named:
+        # fields of two turntable axes overlap 0.85-0.98 on these plans (12-15 columns each): at z 9-12
+        # the other axis' field is kept in ~3 % of draws; the run cannot tell them apart, and the
+        # diagnosis must say so (the named field reported as confounded with the hidden axis')
+        assert c["named_with_confound"], f"hid {h}, named {named}, confounded {c['confounded']}"
+        return
     assert (h["name"], h["sensor"], h["axis"]) in named, f"hid {h}, named {named}"
     f = next(f for f in c["found"] if (f["name"], f["sensor"], f["axis"]) == (h["name"], h["sensor"], h["axis"]))
     assert abs(f["estimate"] - h["value"]) <= 4.0 * f["stderr"], (f, h)
-    assert f["stderr"] < abs(h["value"]) / 3.0  # the uncertainty is informative, not a blanket
+    if effect == "rig-field":
+        # its size is an RMS in nT, which z (the whitened norm, what detection needs) does not bound: the
+        # turntable's azimuth readout error moves the field ~20 nT across the magnetic meridian against
+        # the fluxgate's 5 nT, so a field lying there is known to 1/4-1/2 of its size at z = 9-12.  The
+        # stated stderr must match what the plan allows (plans.rig_rms_stderr, from the truth): over 300
+        # draws 0.66-1.43 times it, and 2.25 once, where a second effect named beside it shared its variance
+        assert 0.5 * h["stderr_truth"] < f["stderr"] < 3.0 * h["stderr_truth"], (f, h)
+        assert f["stderr"] < abs(h["value"]) / 1.5, (f, h)
+    else:
+        assert f["stderr"] < abs(h["value"]) / 3.0  # the uncertainty is informative, not a blanket
 
 
 @pytest.mark.heavy

@@ -135,6 +135,11 @@ def test_strong_hidden_effect_named_and_estimated(effect):
     r = diagnose(ds)
     got = {_key(e): e for e in r.effects}
     key = (cand.name, cand.sensor, cand.axis)
+    if effect == "rig-field" and key not in got:
+        # two turntable axes' fields overlap 0.85-0.98 on these plans: near z = 10 the other axis' field is
+        # kept in ~3 % of draws, and the report must then say the run cannot tell them apart
+        assert any(c["named"] and c["with"] == cand.key for c in r.confounded), (seed, key, value, list(got))
+        return
     assert key in got, (seed, key, value, list(got))
     assert _close_drawn(got[key].estimate, got[key].stderr, value), (seed, key, value, got[key].estimate,
                                                                       got[key].stderr)

@@ -218,3 +218,46 @@ def test_a_units_line_under_the_header_is_dropped_and_counted(tmp_path):
     with pytest.raises(Exception) as e:  # text among the data is still an error naming the row
         importlog.import_log(str(log), sensor.load(str(REAL / "sap6" / "sensor.toml")))
     assert ":4:" in str(e.value) and "not a number" in str(e.value)
+
+
+def test_a_decimal_reading_in_a_decimal_unit_is_written_as_the_decimal_it_means(tmp_path):
+    """0.27356 G is 27356 nT: the canonical file says 27356.0, not the binary
+    product 27356.000000000004; the header's 0.14 mG is 14.0 nT.  Values
+    without a unit conversion pass bit for bit."""
+    out = tmp_path / "ck.csv"
+    assert main(["import", str(REAL / "ck_acc_mag" / "acc_mag_log.csv"), "--sensor",
+                 str(REAL / "ck_acc_mag" / "sensor.toml"), "-o", str(out)]) == 0
+    text = out.read_text()
+    assert "# mag_lsb_nT=14.0\n" in text
+    data = [line.split(",") for line in text.splitlines() if not line.startswith("#")]
+    rows = [dict(zip(data[0], r)) for r in data[1:]]
+    assert rows[1]["my_nT"] == "27356.0" and rows[1]["ax_g"] == "0.0936042"
+    # every field value is a whole number of the 14 nT quantum, written without binary noise
+    assert all(r[c].endswith(".0") for r in rows for c in dataset.MAG_COLS)
+    raw = np.loadtxt(REAL / "ck_acc_mag" / "acc_mag_log.csv", delimiter=",", skiprows=1)
+    ds = dataset.read_raw(str(out))
+    assert np.array_equal(ds.acc, -raw[:, :3])   # g in g: no conversion, bit for bit
+    assert np.allclose(ds.mag, raw[:, 3:] * 1e5, rtol=1e-15, atol=0)
+
+
+def test_the_ck_description_is_what_its_data_say():
+    """CK's triads share one frame (no other signed permutation of the
+    magnetometer's axes comes close to the declared map's dip spread), and
+    with the source's gravity sign (+1 g on the axis pointing up: its
+    document's accelerometer senses (0, 0, -G) in NED) the dip is about
+    -18 deg: turning the sign turns it, nothing in the description makes
+    it +64 deg."""
+    from inclino import checks
+    from inclino.calib.ellipsoid import signed_permutations
+    from inclino.checks import _dip, _robust_std, _unit_dirs
+
+    ds = importlog.import_log(str(REAL / "ck_acc_mag" / "acc_mag_log.csv"),
+                              sensor.load(str(REAL / "ck_acc_mag" / "sensor.toml")))[0]
+    ug, _ = _unit_dirs(ds.acc, 1.0)
+    ub, _ = _unit_dirs(ds.mag, 50_000.0)
+    spread = {tuple(P.ravel()): _robust_std(_dip(ug, ub @ P.T)) for P in signed_permutations()}
+    declared = spread.pop(tuple(np.eye(3).ravel()))
+    spread.pop(tuple(-np.eye(3).ravel()))  # the same map with every sign turned: the same spread, the dip's sign
+    assert declared * 5 < min(spread.values())
+    rep = checks.run(ds)
+    assert rep.mag_to_acc is None and -20.0 < rep.noise["dip_deg"] < -15.0

@@ -56,6 +56,11 @@ MIN_SPREAD_DEG = 1.0      # a dip spread below this is consistent whatever the s
 LAG_T = 3.0               # step-and-hold logs: the paired mean-deviation gain of a shift must be this many
                           # standard errors (of blocks of rows) to be named ...
 LAG_T_GAIN = 1.5          # ... and cut the mean deviation by this factor
+LAG_CURVE_ROWS = 2000     # continuously moving logs: the dip invariant's lag curve needs this many rows ...
+LAG_CURVE_BLOCKS = 20     # ... cut in this many blocks for its jackknife standard error;
+LAG_CURVE_SE = 3.0        # a whole-row shift is named when the fractional lag is this many standard errors
+                          # beyond half a row (and each half of the log, fitted on its own, rounds to it)
+LAG_CURVE_MIN_SIN = 0.1   # |sin dip| below it (within ~6 deg of the magnetic equator): no invariant to scale
 AXES_RATIO = 3.0          # dip spread with the declared maps / with the best other map
 RAW_DIRS_MAX_CV = 0.1     # raw directions compared only when |v| varies less than this (offsets small)
 # the noise (1 sigma, one reading, per axis) a static sensor of each kind stays within when the
@@ -95,6 +100,7 @@ class CheckReport:
     mag_to_acc: list | None = None       # the signed permutation that best aligns the magnetometer (3x3)
     noise: dict = field(default_factory=dict)   # per triad, RMS of one reading (g, nT), from the data
     saturated: list = field(default_factory=list)  # row indices at the declared range
+    lag_curve: dict | None = None        # the dip invariant's fractional lag (rows), its standard error, halves
 
     @property
     def errors(self):
@@ -116,7 +122,7 @@ class CheckReport:
     def to_dict(self) -> dict:
         return {"rows": self.rows, "triads": self.triads, "static": self.static,
                 "declared_static": self.declared_static, "lag_rows": self.lag_rows,
-                "mag_to_acc": self.mag_to_acc, "noise": self.noise, "saturated_rows": len(self.saturated),
+                "mag_to_acc": self.mag_to_acc, "lag_curve": self.lag_curve, "noise": self.noise, "saturated_rows": len(self.saturated),
                 "findings": [f.to_dict() for f in self.findings]}
 
 
@@ -327,15 +333,8 @@ def _axes_and_lag(ds, rows_all, rep, ug_src=None):
     else:
         P = np.eye(3)
     ubp = ub @ P.T
-    lags = {}
     m = len(block)
-    for k in range(-MAX_LAG, MAX_LAG + 1):
-        if m - abs(k) < 6:
-            continue
-        if k >= 0:  # magnetometer row i + k paired with accelerometer row i
-            lags[k] = _robust_std(_dip(ug[:m - k], ubp[k:]))
-        else:
-            lags[k] = _robust_std(_dip(ug[-k:], ubp[:m + k]))
+    lags = _spread_by_lag(ug, ubp)
     if not lags:
         return
     kb = min(lags, key=lambda k: lags[k])
@@ -343,18 +342,67 @@ def _axes_and_lag(ds, rows_all, rep, ug_src=None):
     s0, sb = lags[0], lags[kb]
     # the spread's own relative precision is about 1/sqrt(2n): a shift must
     # beat it many times over (and LAG_MIN_GAIN) to be named
-    named = kb != 0 and s0 > sb * (1.0 + max(LAG_MIN_GAIN, 5.0 / math.sqrt(m))) and s0 - sb > LAG_MIN_DEG
-    how = f"the dip angle spreads {s0:.3g} deg as paired, {sb:.3g} deg with the magnetometer's rows shifted by {kb:+d}"
-    if not named:
+    route = None
+    if kb != 0 and s0 > sb * (1.0 + max(LAG_MIN_GAIN, 5.0 / math.sqrt(m))) and s0 - sb > LAG_MIN_DEG:
+        route = "spread"
+        how = (f"the dip angle spreads {s0:.3g} deg as paired, {sb:.3g} deg with the magnetometer's rows shifted "
+               f"by {kb:+d}")
+    else:
         # a step-and-hold log of many rows per position: a shift mispairs only the rows where the
         # position changes, which the robust spread ignores; the mean deviation sees them
         kt, gain, t = _lag_transitions(ug, ubp)
         fig.update({"transition_lag_rows": kt, "transition_gain": gain, "transition_t": t})
         if kt != 0 and t > LAG_T and gain > LAG_T_GAIN:
-            named, kb, sb = True, kt, lags[kt]
+            route, kb, sb = "transitions", kt, lags[kt]
             how = (f"the dip angle's mean deviation is {gain:.3g} times larger as paired than with the "
                    f"magnetometer's rows shifted by {kt:+d} (the rows where the position changes are mispaired)")
-    if named:
+    # a continuously moving log: neighbouring rows are close orientations, so a shift of a row or two
+    # changes the dip's spread by a few % only; the lag curve of the invariant, with the triads'
+    # calibration errors fitted out, locates the pairing to a fraction of a row
+    inv = _lag_curve(ug, ubp)
+    if inv is not None:
+        rep.lag_curve = {"lag_rows": inv["lag"], "se_rows": inv["se"], "halves_rows": inv["halves"]}
+        fig.update({"curve_lag_rows": inv["lag"], "curve_lag_se_rows": inv["se"],
+                    "curve_lag_halves_rows": inv["halves"]})
+        k = int(round(inv["lag"]))
+        if route is None and k != 0 and k in lags and abs(inv["lag"]) - 0.5 > LAG_CURVE_SE * inv["se"] and \
+                all(h is not None and round(h) == k for h in inv["halves"]):
+            route, kb, sb = "curve", k, lags[k]
+            how = (f"with the triads' calibration errors fitted out, the dip angle is most consistent with the "
+                   f"magnetometer's rows shifted by {inv['lag']:+.2f} +- {inv['se']:.2f} (each half of the log "
+                   f"on its own: {', '.join(f'{h:+.2f}' for h in inv['halves'])})")
+        elif route is None and k != 0 and k in lags and \
+                all(h is not None and round(h) == k for h in inv["halves"]):
+            rep.findings.append(Finding("row-alignment", "note", (
+                f"the dip invariant's lag curve puts the magnetometer's rows {inv['lag']:+.2f} +- {inv['se']:.2f} "
+                f"out of step (each half of the log: {', '.join(f'{h:+.2f}' for h in inv['halves'])}), within "
+                f"{LAG_CURVE_SE:g} standard errors of half a row: a shift of {k:+d} is possible, not named (the "
+                f"log's own scatter allows a skew within a row; a session held still at each position tells)"),
+                None, {"curve_lag_rows": inv["lag"], "curve_lag_se_rows": inv["se"], "lag_rows_possible": k}))
+        elif route is None and k == 0 and abs(inv["lag"]) > max(0.25, LAG_CURVE_SE * inv["se"]):
+            rep.findings.append(Finding("row-alignment", "note", (
+                f"the triads look sampled {inv['lag']:+.2f} +- {inv['se']:.2f} rows apart (the magnetometer's "
+                f"rows shifted by that fraction make the dip most consistent): a skew between the two "
+                f"sensors' sampling within a row, not a lost line; no whole-row lag fixes it"), None,
+                {"curve_lag_rows": inv["lag"], "curve_lag_se_rows": inv["se"]}))
+    if route in ("spread", "transitions"):
+        # a second view: each half of the log on its own must find the same shift (a half too short to
+        # tell is no objection)
+        h = m // 2
+        halves = [_route_lag(route, ug[sl], ubp[sl]) for sl in (slice(0, h), slice(h, m))]
+        fig["halves_lag_rows"] = halves
+        if any(x is not None and x != kb for x in halves):
+            rep.findings.append(Finding("row-alignment", "note", (
+                f"the triads may be paired out of step ({how}), but the two halves of the log find "
+                f"{' and '.join('no shift' if x == 0 else f'{x:+d}' for x in halves if x is not None)}: not named"),
+                None, {**fig, "lag_rows": kb}))
+            route = None
+    if route is not None:
+        if inv is not None and route != "curve":
+            how += f"; the lag curve puts it at {inv['lag']:+.2f} +- {inv['se']:.2f} rows"
+        if inv is not None and abs(inv["lag"] - kb) > 0.25 and abs(inv["lag"] - kb) > LAG_CURVE_SE * inv["se"]:
+            how += (f" (a whole-row lag leaves {inv['lag'] - kb:+.2f} rows: a skew between the sensors' sampling "
+                    f"that no lag removes)")
         level = "error" if s0 > LAG_RATIO * sb and s0 > 2.0 else "warning"
         which = "behind" if kb > 0 else "ahead of"
         rep.lag_rows = kb
@@ -363,7 +411,7 @@ def _axes_and_lag(ds, rows_all, rep, ug_src=None):
             f"one {which} the other, as when two files are joined and a line is lost); "
             + (f"re-import with [magnetometer] lag = {kb}" if _imported(ds) else
                f"shift the magnetometer columns by {kb} row(s) (inclino import with [magnetometer] lag = {kb})")),
-            None, {**fig, "lag_rows": kb}))
+            None, {**fig, "lag_rows": kb, "route": route}))
     # the dip's sign against the header
     if rep.lag_rows:
         k = rep.lag_rows
@@ -386,6 +434,28 @@ def _axes_and_lag(ds, rows_all, rep, ug_src=None):
                 f"the dip angle is {dip:+.1f} deg (median, before calibration) against the header's {hdr:+.1f}: a "
                 f"wrong dip_deg, a disturbed field, or a large misalignment"), None,
                 {"dip_deg": dip, "header_dip_deg": hdr}))
+
+
+def _spread_by_lag(ug, ub) -> dict:
+    """{k: robust spread of the dip (deg)} with the magnetometer's row i + k
+    paired with the accelerometer's row i, k = -MAX_LAG..MAX_LAG."""
+    m = len(ug)
+    out = {}
+    for k in range(-MAX_LAG, MAX_LAG + 1):
+        if m - abs(k) < 6:
+            continue
+        out[k] = _robust_std(_dip(ug[:m - k], ub[k:])) if k >= 0 else _robust_std(_dip(ug[-k:], ub[:m + k]))
+    return out
+
+
+def _route_lag(route, ug, ub):
+    """The shift a route finds on part of a log (None: too short to tell)."""
+    if route == "spread":
+        lags = _spread_by_lag(ug, ub)
+        return min(lags, key=lambda k: lags[k]) if 0 in lags and len(lags) == 2 * MAX_LAG + 1 else None
+    if len(ug) < max(80, 4 * MAX_LAG + 40):  # _lag_transitions: 8 blocks of 10 rows
+        return None
+    return _lag_transitions(ug, ub)[0]
 
 
 def _lag_transitions(ug, ub):
@@ -415,6 +485,64 @@ def _lag_transitions(ug, ub):
     se = float(np.std(bm, ddof=1) / math.sqrt(nb))
     t = float(np.mean(bm) / se) if se > 0 else float("inf")
     return kb, mean[0] / mean[kb], t
+
+
+def _invariant_misfit(ug, ub):
+    """The dip invariant's misfit with the triads' linear calibration errors
+    fitted out: g^T C b + u.g + v.b = 1 (15 coefficients: a constant dip
+    through any small misalignment, scale, cross-axis and offset error of
+    either triad) by least squares; the residual per row."""
+    X = np.column_stack([(ug[:, :, None] * ub[:, None, :]).reshape(len(ug), 9), ug, ub])
+    y = np.ones(len(ug))
+    c = np.linalg.lstsq(X, y, rcond=None)[0]
+    return y - X @ c
+
+
+def _curve_vertex(V, K):
+    """Fractional minimum of V[-K-1 .. K+1] (a parabola through the best
+    trial within -K..K and its neighbours); None if not convex there."""
+    kb = min(range(-K, K + 1), key=lambda k: V[k + K + 1])
+    a, b, c = V[kb + K], V[kb + K + 1], V[kb + K + 2]
+    den = a - 2.0 * b + c
+    return kb + 0.5 * (a - c) / den if den > 0 else None
+
+
+def _lag_curve(ug, ub, halves=True):
+    """The fractional row shift of the magnetometer against the
+    accelerometer that makes the dip invariant most consistent, for a
+    continuously moving log: for each trial shift -K-1..K+1 the mean squared
+    misfit of the invariant after fitting out the triads' calibration
+    (_invariant_misfit), the vertex of that curve, its standard error by a
+    jackknife over LAG_CURVE_BLOCKS blocks of consecutive rows, and the same
+    vertex from each half of the log fitted on its own.  None when the log is
+    too short or the dip too close to 0 to scale the invariant."""
+    m = len(ug)
+    K = MAX_LAG
+    if m < (LAG_CURVE_ROWS if halves else LAG_CURVE_ROWS // 2):
+        return None
+    if abs(float(np.median((ug * ub).sum(1)))) < LAG_CURVE_MIN_SIN:
+        return None
+    i = np.arange(K + 1, m - K - 1)
+    R = np.array([_invariant_misfit(ug[i], ub[i + k]) ** 2 for k in range(-K - 1, K + 2)])
+    nb = LAG_CURVE_BLOCKS
+    L = R.shape[1] // nb
+    S = R[:, :nb * L].reshape(len(R), nb, L).sum(2)
+    tot = S.sum(1)
+    lag = _curve_vertex(tot, K)
+    if lag is None:
+        return None
+    tj = [_curve_vertex(tot - S[:, j], K) for j in range(nb)]
+    if any(t is None for t in tj):
+        return None
+    tj = np.array(tj)
+    se = float(np.sqrt((nb - 1) / nb * np.sum((tj - tj.mean()) ** 2)))
+    out = {"lag": float(lag), "se": se, "halves": []}
+    if halves:
+        h = m // 2
+        for sl in (slice(0, h), slice(h, m)):
+            r = _lag_curve(ug[sl], ub[sl], halves=False)
+            out["halves"].append(None if r is None else r["lag"])
+    return out
 
 
 def _acc_poses(ds, rows, rep):

@@ -143,6 +143,9 @@ def run_case(effect, kind, seed, z=None, alpha=core.DEFAULT_ALPHA, sigma_pose_de
         probe = plans.hide(probe, cand.name, cand.sensor, cand.axis, value, pattern=pattern)
         case["hidden_all"].append({"name": cand.name, "sensor": cand.sensor, "axis": cand.axis, "value": value,
                                    "units": cand.units, "z": zz, "peak_over_noise": abs(value) * peak})
+        if pattern is not None:  # how well the plan lets its size in nT be known (not the detection's z)
+            case["hidden_all"][-1]["stderr_truth"] = plans.rig_rms_stderr(plans.PROBE, plan, pattern, value,
+                                                                          sigma_pose_deg)
     if case["hidden_all"]:
         case["hidden"] = case["hidden_all"][0]
     if noise is None:
@@ -165,6 +168,8 @@ def run_case(effect, kind, seed, z=None, alpha=core.DEFAULT_ALPHA, sigma_pose_de
     case["found"] = [{"name": e.name, "sensor": e.sensor, "axis": e.axis, "estimate": e.estimate, "stderr": e.stderr}
                      for e in r.effects]
     case["unexplained"] = r.unexplained
+    case["confounded"] = [{"effect": c["effect"], "with": c["with"], "correlation": c["correlation"]}
+                          for c in r.confounded if c.get("named")]
     case["outliers_flagged"] = len(r.baseline["outliers"]["rows"])
     key = lambda f: (f["name"], f["sensor"], f["axis"])  # noqa: E731
     if case["hidden_all"]:
@@ -173,6 +178,9 @@ def run_case(effect, kind, seed, z=None, alpha=core.DEFAULT_ALPHA, sigma_pose_de
         h = case["hidden"]
         hit = [f for f in case["found"] if key(f) == key(h)]
         case["detected"] = bool(hit)
+        # not told apart: a named effect reported as confounded with the hidden one (the run cannot separate them)
+        hkey = ":".join(key(h))
+        case["named_with_confound"] = bool(hit) or any(c["with"] == hkey for c in case["confounded"])
         case["wrong_axis"] = (not hit) and any(f["name"] == h["name"] for f in case["found"])
         case["extra"] = any(key(f) not in hk for f in case["found"])
         if hit:

@@ -24,9 +24,10 @@ difference of the 12 coefficients in units of the fit's reported
 uncertainty (largest |z|, and chi-square with 12 degrees of freedom against
 its 99 % point, 26.2).  The checks before any fit on corrupted copies of the
 corpus logs with both triads (acceleration in m/s^2, the field in uT, a
-mirrored axis, the magnetometer's rows one behind or ahead, the SAP6 shots
-also held for 30 noisy rows each): which corruptions the checks name, and
-that the clean logs give no error or warning.
+mirrored axis, the magnetometer's rows one behind or ahead, and for the
+hand-tumbled CK log also two and three; the SAP6 shots also held for 30
+noisy rows each): which corruptions the checks name (a shift with the lag
+that fixes it), and that the clean logs give no error or warning.
 
 A figure, not an assertion: exit status 1 when a target is missed.
 """
@@ -138,7 +139,10 @@ class RealDataBench:
                        f"clean logs without error or warning: {'yes' if clean_ok else 'NO'}")
             for c in self.checks:
                 if not c["named"]:
-                    out.append(f"  not named: {c['log']} {c['corruption']} ({c['found'] or 'nothing found'})")
+                    curve = (f"; lag curve {c['curve_lag_rows']:+.2f} +- {c['curve_lag_se_rows']:.2f} rows, halves "
+                             + ", ".join(f"{h:+.2f}" for h in c.get("curve_lag_halves_rows") or [] if h is not None)
+                             if "curve_lag_rows" in c else "")
+                    out.append(f"  not named: {c['log']} {c['corruption']} ({c['found'] or 'no error or warning'}{curve})")
         out.append("  verdict: " + ("pass" if self.passed else "FAIL"))
         return out
 
@@ -286,6 +290,10 @@ def corrupted_checks(root) -> list:
                         ("handedness", "")),
         "rows +1": (lambda ds: shifted(ds, 1), ("row-alignment", "+1")),
         "rows -1": (lambda ds: shifted(ds, -1), ("row-alignment", "-1")),
+        "rows +2": (lambda ds: shifted(ds, 2), ("row-alignment", "+2")),
+        "rows -2": (lambda ds: shifted(ds, -2), ("row-alignment", "-2")),
+        "rows +3": (lambda ds: shifted(ds, 3), ("row-alignment", "+3")),
+        "rows -3": (lambda ds: shifted(ds, -3), ("row-alignment", "-3")),
     }
     logs = [(f"sap6/{n}.csv", "sap6/sensor.toml") for n in ("BB", "CF", "FG", "HC", "IB", "JG")]
     logs.append(("ck_acc_mag/acc_mag_log.csv", "ck_acc_mag/sensor.toml"))
@@ -297,14 +305,24 @@ def corrupted_checks(root) -> list:
             variants.append((log + " held 30 rows a shot", held(ds0), True))
         for name, base, static in variants:
             for case, (make, want) in cases.items():
-                if log.startswith("ck_") and case.startswith("rows"):
-                    continue  # a hand-tumbled log: a one-row shift is below its own sampling skew (dataset.md)
+                if case in ("rows +2", "rows -2", "rows +3", "rows -3") and not log.startswith("ck_"):
+                    continue  # one-row shifts already mispair every row of a shot-by-shot log
                 rep = checks.run(make(base), declared_static=static)
                 found = [f for f in rep.findings if f.level in ("error", "warning")]
                 if want is None:
                     named = not found
                 else:
-                    named = any(f.check == want[0] and want[1] in f.message for f in found)
-                out.append({"log": name, "corruption": case, "named": bool(named),
-                            "found": "; ".join(f"{f.check} ({f.level})" for f in found)})
+                    named = any(f.check == want[0] and f.figures.get("lag_rows") == int(want[1])
+                                if want[0] == "row-alignment" else f.check == want[0] and want[1] in f.message
+                                for f in found)
+                row = {"log": name, "corruption": case, "named": bool(named),
+                       "found": "; ".join(f"{f.check} ({f.level})" for f in found)}
+                if case.startswith("rows") or case == "clean":
+                    # the lag curve of the dip invariant (continuously moving logs): fractional lag,
+                    # jackknife standard error, and each half's own
+                    if rep.lag_curve:
+                        row.update({"curve_lag_rows": rep.lag_curve["lag_rows"],
+                                    "curve_lag_se_rows": rep.lag_curve["se_rows"],
+                                    "curve_lag_halves_rows": rep.lag_curve["halves_rows"]})
+                out.append(row)
     return out

@@ -424,10 +424,16 @@ def _rig_amplitude(m: _Model, k, theta_k, cov_k):
     Zr = forward.unabsorbed(d, A_mag, m.state["dip"], Z)
     Q = np.einsum("nip,niq->pq", Zr, Zr) / (3 * d.n)
     th = np.asarray(theta_k, float)
+    QS = Q @ cov_k
+    q = float(th @ Q @ th)
     # the noise in the estimate adds tr(Q cov) to its square on average: taken off
-    a = float(np.sqrt(max(th @ Q @ th - float(np.trace(Q @ cov_k)), 0.0)))
-    g = Q @ th / max(a, float(np.sqrt(max(th @ Q @ th, 0.0))) * 0.5, 1e-300)
-    se = float(np.sqrt(max(g @ cov_k @ g, 0.0)))
+    a = float(np.sqrt(max(q - float(np.trace(QS)), 0.0)))
+    # var(a^2) = 4 th'Q cov Q th + 2 tr((Q cov)^2) (Gaussian), and d a = d a^2 / 2a; th'Q cov Q th at the
+    # estimate is high by tr((Q cov)^2) on average, taken off (with the first-order plug-in alone the
+    # stated error came out 0.8-1.6 x what the plan allows, plans.rig_rms_stderr)
+    t2 = float(np.trace(QS @ QS))
+    v = max(float(th @ QS @ Q @ th) - 0.5 * t2, 0.5 * t2)
+    se = float(np.sqrt(v)) / max(a, 0.5 * float(np.sqrt(max(q, 0.0))), 1e-300)
     full = V @ th
     harm = {}
     for j, (h, kind) in enumerate(forward.rig_terms(axis)):
@@ -603,12 +609,22 @@ def separating_acquisition(a, b) -> str:
     return "more poses, spread over every axis of the turntable"
 
 
-def _confounds(m: _Model, kept, contradicted):
+def _confounds(m: _Model, kept, contradicted, alpha=core.DEFAULT_ALPHA):
     """For each named (and each contradicted) effect, the other candidates
     the run cannot tell from it: how much of its fitted signature another
     candidate's columns reproduce (the multiple correlation, whitened, once
     the baseline and the other kept effects are projected out), from
-    CONFOUND_CORR up, with the acquisition that would separate them."""
+    CONFOUND_CORR up, with the acquisition that would separate them.
+
+    A rig field has 12-15 columns: one correlation of its fitted signature
+    says little of whether another axis' field would do as well (on the
+    bench's oven plan an azimuth-axis field is reproduced 0.85-0.9 by a
+    toolface-axis field, and at z = 9-12 the wrong one was kept in ~1 % of
+    draws, silently).  Where either side is a rig field, the other is also
+    reported when it explains the signal on its own and the named one adds
+    nothing beside it that the selection would keep (F-tests at the forward
+    selection's Bonferroni threshold, alpha over the candidates): the run
+    cannot tell them apart."""
     by_key = {c.key: c for c in m.testable}
     out = []
     est = {c["effect"]: c["estimate"] for c in contradicted if c["effect"] in by_key}
@@ -623,6 +639,13 @@ def _confounds(m: _Model, kept, contradicted):
                 continue
             base = m.base + m.cols([x for x in others_kept if x != j])
             r = m.des.signal_corr(base, m.idx[k], np.atleast_1d(th), m.idx[j])
+            multi = len(m.idx[k]) > 1 or len(m.idx[j]) > 1
+            if r < CONFOUND_CORR and multi and r > 0.5:
+                bonf = alpha / len(m.testable)  # the forward selection's threshold
+                if m.des.ftest(base, m.idx[j])[0] < bonf and m.des.ftest(base + m.idx[j], m.idx[k])[0] >= bonf:
+                    out.append({"effect": k, "with": j, "correlation": r, "named": k in kept,
+                                "separate_by": separating_acquisition(by_key[k], c)})
+                continue
             if r >= CONFOUND_CORR:
                 out.append({"effect": k, "with": j, "correlation": r, "named": k in kept,
                             "separate_by": separating_acquisition(by_key[k], c)})
@@ -659,7 +682,7 @@ def _assemble(m: _Model, alpha, testable, not_testable, steps, kept, pvals, keep
     Rs_base, Rs_base_cv = noise_base.sensor_part(R_base, J), noise_base.sensor_part(des.cv_residuals(base), J)
 
     effects_out, plot_effects = _kept_effects(m, kept, pvals, est, cov, S, checks, keep_plot_data)
-    confounds = _confounds(m, kept, contradicted)
+    confounds = _confounds(m, kept, contradicted, alpha)
     by_key = {c.key: c for c in testable}
     notes = []
     for cf in confounds:

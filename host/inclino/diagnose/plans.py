@@ -277,6 +277,55 @@ def signature_z(probe: dict, plan: dict, cand: core.Candidate, sigma_pose_deg: f
     return z
 
 
+def rig_rms_stderr(probe: dict, plan: dict, pattern: dict, value: float,
+                   sigma_pose_deg: float = TURNTABLE_SIGMA_DEG) -> float:
+    """The standard error (nT) of a rig field's unabsorbed RMS
+    (rig_unabsorbed_rms) that the plan allows, from the truth: the
+    delta method on the RMS of `value` x `pattern`, with the covariance of
+    the field's full harmonic coefficients fitted beside the 12-parameter
+    baseline under the true noise (sensor noise and the turntable's readout
+    error).  signature_z says how far the field is above the detection
+    limit; this says how well its size in nT can be known, which is worse
+    by up to the ratio of the noise across the magnetic meridian (an
+    azimuth readout error of 0.05 deg moves the field ~20 nT) to the
+    fluxgate's own (5 nT) when the field lies there."""
+    from inclino.model.scenario import scenario_from_dict
+
+    from . import forward
+
+    ds = generate(probe, plan, seed=0, sigma_pose_deg=0.0, noise=False)
+    d = core.prepare(ds)
+    s = scenario_from_dict(probe)
+    A, c = {}, {}
+    for tri in core.TRIADS:
+        A[tri], c[tri] = getattr(s, tri).linear()
+    dip = s.world.earth.dip_deg
+    G, B = core._truth(d, d.inc, d.azi, d.tf, dip)
+    bl = core.Baseline(A, c, dip, G, B, core.pose_jacobian(d, A["acc"], A["mag"], dip))
+    cols, _ = core.baseline_columns(d, bl)
+    axis = pattern["axis"]
+    F = np.einsum("ij,njp->nip", A["mag"], forward.rig_full(d, axis))  # (n, 3, P)
+    theta = np.concatenate([value * np.asarray(pattern[f"{kind}_nT"], float)[h]
+                            for h, kind in forward.rig_terms(axis)])
+    Fr = forward.unabsorbed(d, A["mag"], dip, F)
+    Q = np.einsum("nip,niq->pq", Fr, Fr) / (3 * d.n)
+    a = float(np.sqrt(theta @ Q @ theta))
+    Xf = np.zeros((d.n, 6, F.shape[-1]))
+    Xf[:, 3:] = F
+    X = np.concatenate([np.stack(cols, -1), Xf], -1)
+    noise = core.Noise(np.array([ACC_SIGMA_G] * 3 + [MAG_SIGMA_NT] * 3) * np.sqrt(1 + 1 / (12 * np.array(
+        [(ACC_SIGMA_G * 16384) ** 2] * 3 + [MAG_SIGMA_NT ** 2] * 3))), np.full(3, sigma_pose_deg))
+    Xw = np.einsum("nij,njp->nip", noise.whitener(bl.Jpose), X).reshape(-1, X.shape[-1])
+    sc = np.sqrt((Xw ** 2).sum(0))
+    sc[sc == 0] = 1.0
+    cov = np.linalg.pinv((Xw / sc).T @ (Xw / sc), rcond=1e-12, hermitian=True) / np.outer(sc, sc)
+    nb = len(cols)
+    S = cov[nb:, nb:]
+    QS = Q @ S
+    # RMS^2 = theta' Q theta: its variance 4 theta'QSQ theta + 2 tr(QSQS) (Gaussian), through d RMS = d RMS^2 / 2a
+    return float(np.sqrt(max(theta @ QS @ Q @ theta + 0.5 * float(np.trace(QS @ QS)), 0.0)) / a)
+
+
 def _oven_temperature(n, dwell_s=60.0, t_mean=25.0, t_amp=30.0, cycles=2.5):
     t = np.arange(n) * dwell_s
     return t, t_mean + t_amp * np.sin(2 * np.pi * cycles * t / (n * dwell_s))

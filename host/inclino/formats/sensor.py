@@ -112,6 +112,23 @@ def _unit_key(u: str, units: dict) -> str | None:
     return k if k in units else None
 
 
+SIGNIFICANT = 15  # digits a unit conversion keeps: a double holds 15-17, no sensor resolves 10
+
+
+def decimal_clean(x):
+    """x rounded to SIGNIFICANT digits: a logged decimal times a decimal
+    scale (0.27356 G x 100 000 nT/G) is the decimal it means (27356.0), not
+    the binary product's 27356.000000000004.  Values beyond 1e15 or of
+    exponent below -300 pass unchanged."""
+    x = np.asarray(x, float)
+    a = np.abs(x)
+    ok = np.isfinite(x) & (a > 1e-300) & (a < 1e15)
+    e = np.floor(np.log10(np.where(ok, a, 1.0)))
+    f = 10.0 ** (SIGNIFICANT - 1 - e)  # an exact power of ten (exponent <= 22 for |x| > 1e-8)
+    exact = ok & (SIGNIFICANT - 1 - e <= 22)
+    return np.where(exact, np.round(np.where(exact, x, 0.0) * f) / f, x)
+
+
 @dataclass
 class Triad:
     """One triad's reading of the log, in canonical units."""
@@ -144,7 +161,8 @@ class Triad:
         """(n, 3) logged x, y, z -> (n, 3) body-frame readings in g or nT,
         with the gravity sign of docs/conventions.md (+1 g on the axis
         pointing down)."""
-        out = (np.asarray(raw, float) * self.scale) @ self.matrix.T
+        raw = np.asarray(raw, float)
+        out = (raw if self.scale == 1.0 else decimal_clean(raw * self.scale)) @ self.matrix.T
         return -out if self.reads == "up" else out
 
     def axes_text(self) -> str:
@@ -204,7 +222,7 @@ class SensorDescription:
             for k in ("lsb", "noise", "range"):
                 v = getattr(t, k)
                 if v is not None:
-                    m[f"{t.kind}_{k}_{u}"] = v
+                    m[f"{t.kind}_{k}_{u}"] = float(decimal_clean(v))
         refl = [t.kind for t in self.triads if t.reflection]
         if refl:
             m["axes_reflection"] = ",".join(refl)
