@@ -63,6 +63,16 @@ def _skip_reason(longrepr) -> str:
     return str(longrepr)
 
 
+def test_seed() -> int:
+    """The seed of a test's random draws: INCLINO_TEST_SEED when set (to
+    replay a failure), else drawn now."""
+    env = os.environ.get("INCLINO_TEST_SEED", "").strip()
+    return int(env) if env else int.from_bytes(os.urandom(4), "little")
+
+
+test_seed.__test__ = False  # a helper, not a test
+
+
 @pytest.fixture
 def rng(request):
     """A NumPy generator for a test's random draws, with its seed recorded:
@@ -71,10 +81,21 @@ def rng(request):
     its user properties (--junitxml)."""
     import numpy as np
 
-    env = os.environ.get("INCLINO_TEST_SEED", "").strip()
-    seed = int(env) if env else int.from_bytes(os.urandom(4), "little")
+    seed = test_seed()
     request.node.inclino_seed = seed
     request.node.user_properties.append(("seed", seed))
+    return np.random.default_rng(seed)
+
+
+@pytest.fixture(scope="module")
+def module_rng(request):
+    """`rng` for a module-scoped fixture's draws (a calibration shared by
+    the module's tests): its own seed, by the same rule, named in the
+    report of any of the module's tests that fails."""
+    import numpy as np
+
+    seed = test_seed()
+    request.node.inclino_module_seed = seed
     return np.random.default_rng(seed)
 
 
@@ -85,6 +106,10 @@ def pytest_runtest_makereport(item, call):
     seed = getattr(item, "inclino_seed", None)
     if seed is not None and rep.failed:
         rep.sections.append(("random draws", f"seed {seed}: replay with INCLINO_TEST_SEED={seed}"))
+    mseed = next((n.inclino_module_seed for n in item.listchain() if hasattr(n, "inclino_module_seed")), None)
+    if mseed is not None and rep.failed and mseed != seed:
+        rep.sections.append(("random draws (module fixtures)",
+                             f"seed {mseed}: replay with INCLINO_TEST_SEED={mseed}"))
     if IN_CI and rep.skipped and not hasattr(rep, "wasxfail"):
         rep.outcome = "failed"
         rep.longrepr = f"skipped under CI (CI is set: every tool is installed there): {_skip_reason(rep.longrepr)}"

@@ -14,8 +14,6 @@ from inclino.procedures.turntable_emulated import EmulatedTurntable
 from inclino.link.serial_link import ProbeLink
 from inclino_emu.runner import Emulator
 
-RNG = np.random.default_rng()
-
 
 def run(capsys, *argv):
     rc = cli.main([str(a) for a in argv])
@@ -36,10 +34,10 @@ class StopsAt(EmulatedTurntable):
         super().move(step, index, total)
 
 
-def test_interrupted_run_says_what_it_kept_and_resumes(tmp_path, capsys):
+def test_interrupted_run_says_what_it_kept_and_resumes(tmp_path, capsys, rng):
     out = tmp_path / "run.csv"
     part = tmp_path / "run.csv.part"
-    k = int(RNG.integers(3, 11))
+    k = int(rng.integers(3, 11))
     with Emulator("typical", control_port=0, realtime=False) as emu:
         bench = f"127.0.0.1:{emu.control_port}"
         ident = cli.main(["identify", "--port", emu.path])

@@ -10,11 +10,10 @@ from inclino.formats.dataset import RawDataset
 from inclino.model.scenario import generate_raw
 
 
-def test_components_recovered_from_clustered_residuals():
+def test_components_recovered_from_clustered_residuals(rng):
     """Residuals drawn from the model itself (per-channel noise, a pose error
     through a pose Jacobian and a per-channel drift, both shared by a
     cluster's rows): REML returns each within its sampling error."""
-    rng = np.random.default_rng(int(np.random.default_rng().integers(1 << 30)))
     k, m = 300, 4
     n_c = rng.integers(1, 9, k)
     lab = np.repeat(np.arange(k), n_c)
@@ -82,7 +81,7 @@ def _held_poses_run(s, seed, per_pose, sigma_pose):
 
 
 @pytest.mark.parametrize("noise, ok", [("fit", True), ("nominal", False)])
-def test_covariance_holds_when_readings_share_a_pose(noise, ok):
+def test_covariance_holds_when_readings_share_a_pose(noise, ok, rng):
     """40 readings at each of 70 poses, 0.05 deg of pose error shared by a
     pose's readings: the coefficients' errors against the truth, in units of
     the reported sigma, have an RMS near 1 with the fitted cluster model;
@@ -91,7 +90,7 @@ def test_covariance_holds_when_readings_share_a_pose(noise, ok):
     s = bench.bench_probe(linear=True)
     truth = common.cal_vector(bench.truth_calibration(s))
     z = []
-    seed0 = int(np.random.default_rng().integers(1 << 20))
+    seed0 = int(rng.integers(1 << 20))
     for seed in range(seed0, seed0 + 4):
         ds = _held_poses_run(s, seed, 40, 0.05)
         cal, info = joint.fit(ds, nonlinear=False, noise=noise)

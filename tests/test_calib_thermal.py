@@ -244,3 +244,29 @@ def test_diagnose_cal_keeps_its_fit_bounded_when_kept_terms_are_collinear(tmp_pa
     import numpy as np
     test_diagnose_no_longer_names_the_temperature_effects_the_terms_corrected(
         tmp_path, capsys, np.random.default_rng(1727113473))
+
+
+def test_diagnose_cal_on_a_long_run_corrects_only_the_rows_it_keeps(tmp_path, capsys, rng, monkeypatch):
+    """diagnose --cal on a run longer than the diagnosis keeps: the rows kept
+    are corrected (not a corrected copy of the whole run), and the diagnosis
+    is the one of the whole run corrected and then thinned, the thinning
+    note included."""
+    from inclino.diagnose import analysis
+
+    sc = drawn_probe(rng)
+    ds = chamber_run(sc, seed=int(rng.integers(1 << 30)))
+    path, cal_path = tmp_path / "run.csv", tmp_path / "cal.json"
+    dataset.write_raw(str(path), ds)
+    rc = cli.main(["calibrate", str(path), "--method", "joint", "--temperature-terms", "on", "-o", str(cal_path)])
+    assert rc in (0, 1)
+    capsys.readouterr()
+    m = len(ds) * 2 // 3
+    monkeypatch.setattr(analysis, "MAX_ROWS", m)
+    assert cli.main(["diagnose", str(path), "--json", "--cal", str(cal_path)]) == 0
+    got = json.loads(capsys.readouterr().out)
+    cal = Calibration.load(str(cal_path))
+    whole = thermal.corrected_dataset(dataset.read_raw(str(path)), cal, cal.temperature)
+    want = json.loads(analysis.diagnose(whole).to_json())
+    assert got["effects"] == want["effects"]
+    notes = got["baseline"]["selection"]["notes"]
+    assert any(n.startswith(f"the run has {len(ds)} rows; {m} of them were used") for n in notes), notes

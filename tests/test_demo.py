@@ -74,14 +74,14 @@ def test_demo_core_prints_the_library_table(capsys):
 
 
 @pytest.mark.heavy
-def test_temperature_demo_fits_and_checks_the_terms_of_an_emulated_chamber_run(tmp_path, capsys):
+def test_temperature_demo_fits_and_checks_the_terms_of_an_emulated_chamber_run(tmp_path, capsys, rng):
     """`inclino demo --temperature` on a probe drawn now: exit status and the
     files, read back through the library's readers."""
     from inclino.procedures.accept_temp import TempAcceptResult
 
     out = tmp_path / "demo_t"
     rc = cli.main(["demo", "--chamber", "--quiet", "-o", str(out),
-                   "--tempco-draw", str(int(np.random.default_rng().integers(1000)))])
+                   "--tempco-draw", str(int(rng.integers(1000)))])
     capsys.readouterr()
     assert rc == 0
     assert sorted(p.name for p in out.iterdir()) == ["accept_temperature.json", "cal_temperature.json",

@@ -52,8 +52,7 @@ def _errors(p, fc, fc_plain, cal):
     return rms[0], rms[1], exact, d_float
 
 
-def test_firmware_applies_the_temperature_terms_end_to_end():
-    rng = np.random.default_rng()
+def test_firmware_applies_the_temperature_terms_end_to_end(rng):
     sc = load_scenario("typical").draw_tempcos(int(rng.integers(1 << 30)))
     cal, _ = fit(chamber_run(sc, seed=int(rng.integers(1 << 30))), "joint", temperature="on")
     assert cal.temperature["applied_by_firmware"] is True

@@ -6,6 +6,7 @@ output never replaces an input, a device or a symbolic link.
 Named regressions for the file-and-option half of the hostile-input report
 (docs/cli.md "Output files", docs/dataset.md)."""
 import json
+import math
 import os
 import stat
 import subprocess
@@ -715,3 +716,45 @@ def test_trajectory_and_compare_show_progress_off_a_terminal(tmp_path):
         assert lines and all(l.startswith("inclino: ") and "elapsed" in l for l in lines), r.stderr
         for p in phases:
             assert any(p in l for l in lines), (p, r.stderr)
+
+
+@pytest.mark.parametrize("n", [40_002, 80_000, 80_001, 120_003])
+@pytest.mark.parametrize("period", [2, 3, 4, 7])
+def test_thinning_keeps_every_phase_of_a_repeated_run(n, period):
+    """A run whose rows repeat a pattern of `period` rows (alternating poses,
+    a pose table taken again and again), thinned to 40 000 rows: each phase
+    of the pattern keeps its share (1/period of the rows, within 5 binomial
+    standard deviations), also where n is a multiple of the period times the
+    stride a fixed stride would take (every 2nd row of 40 002 rows kept one
+    pose of an alternating run)."""
+    m = 40_000
+    keep = dataset.thin_rows(n, m)
+    assert len(keep) == m and np.all(np.diff(keep) > 0) and keep[0] >= 0 and keep[-1] < n
+    counts = np.bincount(keep % period, minlength=period)
+    sd = math.sqrt(m * (1 / period) * (1 - 1 / period))
+    assert np.all(np.abs(counts - m / period) < 5 * sd), counts
+    assert np.array_equal(keep, dataset.thin_rows(n, m))  # seeded: the same file, the same rows
+
+
+def test_checks_see_every_phase_of_a_repeated_run():
+    """The checks' rows on a run of 400 001 rows (beyond CHECK_ROWS: thinned)
+    whose accelerometer rows repeat a pattern of three, two of every three
+    rows logged in mg where the header says g: the units error is found. With
+    every 3rd row (the stride that fits 200 000 rows into 400 001) the checks
+    saw only the rows in g and passed the run."""
+    from inclino import checks
+
+    n = 400_001
+    rng = np.random.default_rng(3)
+    u = rng.standard_normal((n, 3))
+    u /= np.linalg.norm(u, axis=1, keepdims=True)
+    w = rng.standard_normal((n, 3))
+    w /= np.linalg.norm(w, axis=1, keepdims=True)
+    acc = u * np.where(np.arange(n) % 3 == 0, 1.0, 1000.0)[:, None]
+    cols = {"ax_g": acc[:, 0], "ay_g": acc[:, 1], "az_g": acc[:, 2],
+            "mx_nT": 50_000 * w[:, 0], "my_nT": 50_000 * w[:, 1], "mz_nT": 50_000 * w[:, 2]}
+    ds = dataset.RawDataset(cols, {"gravity_g": 1.0, "field_nT": 50_000.0})
+    assert n > checks.CHECK_ROWS and -(-n // checks.CHECK_ROWS) == 3
+    rep = checks.run(ds)
+    assert any(f.check == "units" and f.level == "error" and f.triad == "acc" for f in rep.findings), \
+        [f.message for f in rep.findings]

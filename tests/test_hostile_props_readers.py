@@ -129,13 +129,15 @@ def _bigint(draw, text: str) -> str:
 
 # ------------------------------------------------------------ survey listings
 @st.composite
-def stations(draw):
-    n = draw(st.integers(2, 15))
+def stations(draw, min_n=2, fields=None):
+    """Stations as a listing has them; `fields` True/False forces the field
+    columns (gt_g, bt_nT, dip_deg) in or out, None draws it."""
+    n = draw(st.integers(min_n, 15))
     md = np.cumsum([0.0] + [draw(st.floats(0.5, 200.0)) for _ in range(n - 1)])
     inc = [draw(st.floats(0.0, 180.0)) for _ in range(n)]
     azi = [draw(st.floats(0.0, 359.999)) for _ in range(n)]
     extra = {}
-    if draw(st.booleans()):
+    if draw(st.booleans()) if fields is None else fields:
         extra = {"gt_g": [draw(st.floats(0.9, 1.1)) for _ in range(n)],
                  "bt_nT": [draw(st.floats(30000, 70000)) for _ in range(n)],
                  "dip_deg": [draw(st.floats(-89, 89)) for _ in range(n)]}
@@ -167,8 +169,8 @@ def _las(md, inc, azi, extra):
     return "\n".join(head + rows) + "\n"
 
 
-def _survey_case(draw, fmt):
-    md, inc, azi, extra = draw(stations())
+def _survey_case(draw, fmt, stations_st=None):
+    md, inc, azi, extra = draw(stations_st if stations_st is not None else stations())
     bom = draw(st.booleans())
     text = {"csv": lambda: _csv(md, inc, azi, extra, bom), "json": lambda: _jsonl(md, inc, azi, extra,
                                                                                   draw(st.booleans())),
@@ -210,10 +212,24 @@ def test_survey_listing_reader(work, fmt, data):
             assert np.allclose(np.mod(sv.azi_mag_deg, 360), np.mod(azi, 360), rtol=0, atol=1e-9)
 
 
+# The noise file's documented rule (docs/survey.md, toolmodel --noise): at
+# least NOISE_MIN_SURVEYS surveys with gt_g and bt_nT. A well-formed file
+# follows it; a file with fewer, or without the field columns, must be
+# refused (one line, exit 2).
+NOISE_MIN_SURVEYS = 3
+
+
 @st.composite
 def noise_files(draw, fmt):
-    data, expected = _survey_case(draw, fmt)
-    return data, expected
+    kind = draw(st.sampled_from(["run", "run", "run", "few", "nofield"]))
+    if kind == "run":
+        return _survey_case(draw, fmt, stations(min_n=NOISE_MIN_SURVEYS, fields=True)) + (False,)
+    md, inc, azi, extra = draw(stations(min_n=1, fields=kind == "few"))
+    if kind == "few":
+        k = draw(st.integers(1, NOISE_MIN_SURVEYS - 1))
+        md, inc, azi, extra = md[:k], inc[:k], azi[:k], {c: v[:k] for c, v in extra.items()}
+    text = _csv(md, inc, azi, extra) if fmt == "csv" else _jsonl(md, inc, azi, extra, draw(st.booleans()))
+    return text.encode(), None, True
 
 
 @pytest.mark.parametrize("fmt", ["csv", "json"])
@@ -223,18 +239,15 @@ def test_noise_file_reader(work, fmt, data):
     from inclino.survey import errormodel as em
     from inclino.survey import wellpath as wp
 
-    data, expected = data.draw(noise_files(fmt))
+    data, expected, must_refuse = data.draw(noise_files(fmt))
 
     def read(path):
-        rows = wp.read_survey_rows(path)
-        try:
-            return em.noise_from_survey(rows)
-        except DataError:
-            if expected is not None and not any("gt_g" in r for r in rows):
-                return None  # a listing without field columns is no noise run: refused, as documented
-            raise
+        return em.noise_from_survey(wp.read_survey_rows(path))
     path = _file(work, data, "." + fmt)
-    check(f"noise file ({fmt})", read, path, 2, expected is not None)
+    got = check(f"noise file ({fmt})", read, path, 2, expected is not None)
+    assert not (must_refuse and got is not None), "a noise file below the documented rule was read"
+    if expected is not None:
+        assert all(math.isfinite(v) and v >= 0 for v in got)
 
 
 # ------------------------------------------------------------ the reference file
@@ -470,3 +483,13 @@ def test_calfile_v2_reader(work, case):
     got = check("CAL.json version 2", read, _file(work, data, ".json"), 3, cal is not None)
     if cal is not None:
         assert got.to_fixed() == cal.to_fixed() and got.temperature["order"] == cal.temperature["order"]
+
+
+def test_las_reader_names_no_parser_internals(work):
+    """The draw the full profile found: a file of '~' alone made lasio's
+    parser fail with 'string index out of range'; the refusal says the file
+    is not LAS without it."""
+    from inclino.survey import wellpath as wp
+
+    for data in (b"~", b"~\n", b"~V\n~A\n"):
+        check("survey listing (las)", wp.read_survey, _file(work, data, ".las"), 2, False)

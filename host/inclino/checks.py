@@ -67,7 +67,7 @@ RAW_DIRS_MAX_CV = 0.1     # raw directions compared only when |v| varies less th
 # description gives none: MEMS accelerometers 100-300 ug/sqrt(Hz) over a few hundred Hz (<= 5 mg);
 # MEMS magnetometers 0.15-0.6 uT per LSB (<= 1 uT); the fluxgate a few nT
 NOISE_BOUND = {"acc": 5e-3, "mag": 1000.0}
-CHECK_ROWS = 200_000      # rows looked at (thinned evenly beyond; the lag on the first LAG_ROWS consecutive rows)
+CHECK_ROWS = 200_000      # rows looked at (stratified random rows beyond: _thin; the lag on the first LAG_ROWS consecutive rows)
 LAG_ROWS = 50_000
 
 ACC_UNIT_GUESS = {"m/s^2": 9.80665, "mg": 1000.0, "cm/s^2 (Gal)": 980.665, "ft/s^2": 32.174, "ug": 1e6,
@@ -180,8 +180,13 @@ def _dip(ug, ub):
 
 
 def _thin(n, limit):
-    k = max(1, -(-n // limit))
-    return np.arange(0, n, k)
+    """The rows the checks look at: all, or `limit` of them stratified and
+    seeded (inclino.formats.dataset.thin_rows: one at random in each of
+    `limit` equal stretches), so a pattern repeating along the run cannot
+    line up with the rows kept as it could with every k-th row."""
+    from inclino.formats.dataset import thin_rows
+
+    return np.arange(n) if n <= limit else thin_rows(n, limit)
 
 
 # ------------------------------------------------------------------ checks

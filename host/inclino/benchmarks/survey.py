@@ -6,7 +6,7 @@ Per seed: the `typical` probe in the IGRF field of a North Sea location
 (52 N, 4 E, 2026-06-01; gravity the WGS 84 normal gravity there) is
 calibrated (`joint`, on the multi-position run of the same probe model),
 the calibration downloaded to the emulated probe, its noise measured with
-12 surveys at rest, the tool model written (`inclino toolmodel`); then the
+NOISE_SURVEYS surveys at rest, the tool model written (`inclino toolmodel`); then the
 control channel moves the probe to each station's true attitude (true
 azimuth; a random toolface per station) and `inclino survey --md M
 --csv` takes one survey per station (after one discarded while the probe
@@ -39,6 +39,11 @@ import numpy as np
 from inclino.formats.jsonout import dumps
 
 LAT, LON, DATE = 52.0, 4.0, "2026-06-01"
+# Surveys at rest that measure the probe's noise per survey (toolmodel --noise).  The noise sets the
+# ellipse in the vertical section, and a standard deviation from n surveys is itself uncertain by
+# 1/sqrt(2 (n - 1)): 21 % with 12, when one draw in 40 was 36 % low and put a well outside its 2-sigma
+# ellipse (docs/survey.md); 11 % with 40.
+NOISE_SURVEYS = 40
 WELL = {"kop_m": 300.0, "build_deg_per_30m": 3.0, "hold_inc_deg": 45.0, "azi_true_deg": 60.0, "td_m": 1200.0,
         "step_m": 30.0}
 
@@ -59,6 +64,7 @@ class SurveyBench:
     # the same wells surveyed with one toolface for the whole run (the probe not turning)
     fixed_toolface: dict | None = None
     # model / Monte Carlo station 1-sigma at the wells' stations (inclination >= 5 deg), over all seeds
+    # (with the largest standard error of one ratio, from the Monte Carlo's draws, and how many ratios)
     station_mc_ratio: dict | None = None
     well: dict = field(default_factory=lambda: dict(WELL))
     target_inside_2sigma: float = 0.9
@@ -165,7 +171,7 @@ def run_seed(seed: int, workdir: str, cal_path: str, scen_path: str, rng=None, f
         ctl.call("move", inc=45.0, azi=float(rng.uniform(0, 360)), tf=float(rng.uniform(0, 360)))
         _cli(cli_main, "survey", "--port", emu.path, "--csv")  # settle (see below)
         with open(noise_csv, "w", encoding="utf-8") as f:
-            f.write(_cli(cli_main, "survey", "--port", emu.path, "--count", 12, "--csv"))
+            f.write(_cli(cli_main, "survey", "--port", emu.path, "--count", NOISE_SURVEYS, "--csv"))
         # exit 1: the model's 1-sigma misses the Monte Carlo's (the file is written): recorded in the
         # result (tool_model.mc_within_20pct) and in `passed`, the surveys go on
         _cli(cli_main, "toolmodel", "--cal", cal_path, "--noise", noise_csv, "--lat", LAT, "--lon", LON, "--date", DATE,
@@ -209,10 +215,19 @@ def run_seed(seed: int, workdir: str, cal_path: str, scen_path: str, rng=None, f
     e = load_field(scen_path)
     at = inc >= 5.0
     azm = np.full(int(at.sum()), w["azi_true_deg"] - e[2])
-    mi, ma = em.monte_carlo(cal, cov, inc[at], azm, e[1], e[0], n=2000, seed=seed)
+    mi, ma, ki, ka = em.monte_carlo(cal, cov, inc[at], azm, e[1], e[0], n=em.MC_DRAWS, seed=seed, kurtosis=True)
     pi, pa = em.station_sigma(tm, inc[at], azm, e[1], e[0], noise=False)
-    return {"station_mc_inc_ratio": [float((pi / mi).min()), float((pi / mi).max())],
-            "station_mc_azi_ratio": [float((pa / ma).min()), float((pa / ma).max())],"seed": seed, "stations": len(d), "inside_2sigma": int(np.sum(d <= 2.0)),
+    ri, ra = pi / mi, pa / ma
+    # each ratio's standard error from the Monte Carlo's own draws (errormodel.mc_ratio_se)
+    si, sa = em.mc_ratio_se(ri, ki, em.MC_DRAWS), em.mc_ratio_se(ra, ka, em.MC_DRAWS)
+    return {"station_mc_inc_ratio": [float(ri.min()), float(ri.max())],
+            "station_mc_azi_ratio": [float(ra.min()), float(ra.max())],
+            "station_mc_ratio_se": float(max(si.max(), sa.max())),
+            "station_mc_ratios": int(2 * len(ri)),
+            "station_mc_within_20pct": bool(np.all(np.abs(ri - 1) <= em.MC_LIMIT + 2 * si)
+                                            and np.all(np.abs(ra - 1) <= em.MC_LIMIT + 2 * sa)),
+            "noise_surveys": NOISE_SURVEYS,
+            "seed": seed, "stations": len(d), "inside_2sigma": int(np.sum(d <= 2.0)),
             "inside_1sigma": int(np.sum(d <= 1.0)), "mahalanobis_max": float(d.max()),
             "max_horizontal_error_m": float(np.hypot(err[:, 0], err[:, 1]).max()),
             "max_tvd_error_m": float(np.abs(err[:, 2]).max()),
@@ -281,10 +296,13 @@ def bench(seeds=tuple(range(1, 9)), workdir: str | None = None, plot: str | None
     res.station_mc_ratio = {"inc": [min(r["station_mc_inc_ratio"][0] for r in runs),
                                     max(r["station_mc_inc_ratio"][1] for r in runs)],
                             "azi": [min(r["station_mc_azi_ratio"][0] for r in runs),
-                                    max(r["station_mc_azi_ratio"][1] for r in runs)]}
+                                    max(r["station_mc_azi_ratio"][1] for r in runs)],
+                            "se": max(r["station_mc_ratio_se"] for r in runs),
+                            "ratios": sum(r["station_mc_ratios"] for r in runs)}
+    # the station check judged as toolmodel's is: +-20 %, up to two standard errors of the Monte Carlo
     res.passed = (res.inside_2sigma >= res.target_inside_2sigma and res.declination_agrees
                   and all(r["tool_model"]["mc_within_20pct"] for r in runs)
-                  and all(0.8 <= v <= 1.2 for k in ("inc", "azi") for v in res.station_mc_ratio[k]))
+                  and all(r["station_mc_within_20pct"] for r in runs))
     return res
 
 

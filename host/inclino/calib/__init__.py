@@ -19,7 +19,7 @@ import time
 
 METHODS = ("joint", "ren2014", "li2021", "guo2009")
 DEFAULT_METHOD = "joint"
-# A longer run is thinned to every k-th row before the fit
+# A longer run is thinned (stratified random rows) before the fit
 # (inclino.formats.dataset.thin; peak memory about 12 kB per fitted row in joint)
 MAX_FIT_ROWS = 40_000
 

@@ -181,7 +181,9 @@ def fit_components(R, labels, Jpose=None, X=None, start_sigma=None, floor=None,
             if sgn <= 0:
                 return 1e300, np.zeros_like(th)
             val += ld
-            G = G - Y @ np.linalg.solve(F, np.swapaxes(Y, 1, 2))
+            # F^-1 Y_c^T for every cluster from one factorization of F (a stacked solve factorizes it k times)
+            Z = np.linalg.solve(F, Y.reshape(-1, Y.shape[2]).T).T.reshape(Y.shape)
+            G = G - Y @ np.swapaxes(Z, 1, 2)
         Gd = np.diagonal(G, axis1=1, axis2=2)  # (k, m)
         gv = (Gd / n_c[:, None]).sum(0)
         if within_n > 0:

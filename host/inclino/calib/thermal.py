@@ -89,9 +89,10 @@ def to_reference(acc, mag, temp_c, cal, block: dict):
 
 
 def corrected_dataset(ds: RawDataset, cal, block: dict) -> RawDataset:
-    """ds with its sensor columns brought to t_ref (rows without temp_c unchanged)."""
+    """ds with its sensor columns brought to t_ref (rows without temp_c
+    unchanged); its other columns are ds's own arrays (shared, not copied)."""
     acc, mag = to_reference(ds.acc, ds.mag, ds.columns["temp_c"], cal, block)
-    cols = {k: v.copy() for k, v in ds.columns.items()}
+    cols = dict(ds.columns)
     for k, c in enumerate(("ax_g", "ay_g", "az_g")):
         cols[c] = acc[:, k]
     for k, c in enumerate(("mx_nT", "my_nT", "mz_nT")):

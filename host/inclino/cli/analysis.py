@@ -284,7 +284,13 @@ def diagnose_main(args) -> int:
     if getattr(args, "static", False):
         ds.meta["static"] = "true"
     _checked(ds, bool(getattr(args, "static", False)))
+    thinned = None
     if getattr(args, "cal", None):
+        # the correction is row by row: only the rows the diagnosis keeps are corrected (the same rows
+        # diagnose() would keep: thin_rows depends on the row count alone), not a copy of the whole run
+        from inclino.diagnose.analysis import MAX_ROWS
+
+        ds, thinned = dataset.thin(ds, MAX_ROWS)
         ds = _temperature_corrected(ds, args.cal)
     pose_free = not ds.has_pose or ds.triads != "both"
     if pose_free and not _posefree_diagnosis_available():
@@ -292,7 +298,7 @@ def diagnose_main(args) -> int:
     try:
         with np.errstate(all="ignore"), progress.phase(f"diagnose {args.input}"):
             r = diagnose(ds, effects=args.effects, alpha=args.alpha, folds=args.folds,
-                         keep_plot_data=bool(args.plot))
+                         keep_plot_data=bool(args.plot), thinned=thinned)
     except DataError as e:
         if pose_free and str(e).startswith("too few distinct orientations"):
             # too few orientations to test anything on the invariants (a six-face session): what each triad's

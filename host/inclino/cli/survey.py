@@ -412,8 +412,8 @@ def add_parser(sub) -> None:
     add_cal(p, "calibration JSON with its fit report (inclino calibrate)", positional_alias=True)
     _add_reference(p, grid=False)
     p.add_argument("--noise", metavar="SURVEYS.csv", action=Input,
-                   help="a survey listing of repeated surveys at rest: the per-survey noise (default: the "
-                        "calibration's fit report)")
+                   help="a survey listing of repeated surveys at rest (at least 3 with gt_g and bt_nT): the "
+                        "per-survey noise (default: the calibration's fit report)")
     p.add_argument("--acc-noise", type=float, help="accelerometer noise per survey and axis, g (default: the "
                                                    "calibration's fit report)")
     p.add_argument("--mag-noise", type=float, help="fluxgate noise per survey and axis, nT (default: the "

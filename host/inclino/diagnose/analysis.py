@@ -56,18 +56,19 @@ class _Attitude:
         return float(np.sqrt(np.mean(da ** 2))), inc
 
 
-# A longer run is thinned to every k-th row first (inclino.formats.dataset.thin;
+# A longer run is thinned first (stratified random rows: inclino.formats.dataset.thin;
 # peak memory about 11 kB per row)
 MAX_ROWS = 40_000
 
 
 def diagnose(ds: RawDataset, effects=None, alpha: float = core.DEFAULT_ALPHA, folds: int = core.DEFAULT_FOLDS,
-             keep_plot_data: bool = False) -> Diagnosis:
+             keep_plot_data: bool = False, thinned: str | None = None) -> Diagnosis:
     """Diagnose a raw dataset with turntable poses; raises DataError on bad
     input.  effects: names (list or comma-separated) to test, default all."""
     from inclino.formats.dataset import thin
 
-    ds, thinned = thin(ds, MAX_ROWS)
+    ds, note = thin(ds, MAX_ROWS)
+    thinned = note or thinned  # `thinned`: the note of a run the caller thinned already (thin(ds, MAX_ROWS))
     if not ds.has_pose or not (ds.has_acc and ds.has_mag):
         # without the turntable's poses (or with one triad): what the invariants show (posefree.py)
         if effects is not None:

@@ -112,7 +112,11 @@ def read(text: str, where: str):
         # it: a cell that is not a plain number stays text and is refused by name
         return lasio.read(io.StringIO(text), read_policy=())
     except Exception as e:  # lasio raises many kinds for a malformed file
-        raise DataError(f"{where}: not a readable LAS file ({str(e)[:80]})") from None
+        # lasio's own errors name the defect; anything else is an internal of its parser (a file of
+        # "~" alone gave "string index out of range"), not worth a user's reading
+        own = type(e).__module__.startswith("lasio") and str(e).strip()
+        why = " ".join(str(e).split())[:80] if own else "its sections (~V, ~W, ~C, ~A) could not be parsed"
+        raise DataError(f"{where}: not a readable LAS file ({why})") from None
     finally:
         log.setLevel(level)
 

@@ -485,7 +485,8 @@ def calibration_noise(cal) -> tuple[float, float, str]:
 def noise_from_survey(rows) -> tuple[float, float]:
     """(accelerometer g, fluxgate nT) per-axis noise of one survey from
     repeated surveys at rest: the spread of G total and B total (each the
-    projection of the axes' noise on the measured vector)."""
+    projection of the axes' noise on the measured vector).  At least 3
+    surveys with both (docs/survey.md), else DataError."""
     gt = np.array([r["gt_g"] for r in rows if isinstance(r.get("gt_g"), (int, float))], float)
     bt = np.array([r["bt_nT"] for r in rows if isinstance(r.get("bt_nT"), (int, float))], float)
     if len(gt) < 3 or len(bt) < 3:
