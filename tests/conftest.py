@@ -107,6 +107,8 @@ def pytest_runtest_makereport(item, call):
     if seed is not None and rep.failed:
         rep.sections.append(("random draws", f"seed {seed}: replay with INCLINO_TEST_SEED={seed}"))
     mseed = next((n.inclino_module_seed for n in item.listchain() if hasattr(n, "inclino_module_seed")), None)
+    if mseed is None:  # a module's own generator at import: RNG_SEED = test_seed(); RNG = default_rng(RNG_SEED)
+        mseed = getattr(getattr(item, "module", None), "RNG_SEED", None)
     if mseed is not None and rep.failed and mseed != seed:
         rep.sections.append(("random draws (module fixtures)",
                              f"seed {mseed}: replay with INCLINO_TEST_SEED={mseed}"))

@@ -12,8 +12,7 @@ import pytest
 from inclino.formats.jsonout import dumps, json_safe
 
 
-def test_numpy_values_become_python_and_nonfinite_becomes_null():
-    rng = np.random.default_rng()
+def test_numpy_values_become_python_and_nonfinite_becomes_null(rng):
     a = rng.normal(size=(2, 3))
     d = {1: np.float32(0.5), "b": np.int16(-7), "c": np.bool_(True), "d": a, "e": (np.nan, -np.inf, 2.0),
          "f": [np.float64(np.inf), {"g": np.array([1, 2], np.uint8)}]}

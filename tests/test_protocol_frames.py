@@ -123,13 +123,12 @@ def test_random_corrupted_streams_same_events():
                 assert protocol.encode_frame(e["seq"], e["cmd"], bytes.fromhex(e["payload"])).hex() in frames.hex()
 
 
-def test_table_crc_equals_bitwise_for_every_byte_and_register():
+def test_table_crc_equals_bitwise_for_every_byte_and_register(rng):
     """crc16.c's table step against an independent bitwise CRC-16/CCITT
     (binascii.crc_hqx): every byte value from 64 register values, so every
     table entry is reached from many registers, and a few long buffers."""
     import binascii
 
-    rng = np.random.default_rng()
     regs = [0x0000, 0xFFFF, 0x8000, 0x00FF] + [int(x) for x in rng.integers(0, 1 << 16, 60)]
     one = ffi.new("uint8_t[1]")
     for r in regs:
