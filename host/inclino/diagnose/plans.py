@@ -238,14 +238,13 @@ def generate(probe: dict, plan: dict, seed: int, sigma_pose_deg: float = TURNTAB
     return ds
 
 
-def signature_z(probe: dict, plan: dict, cand: core.Candidate, sigma_pose_deg: float = TURNTABLE_SIGMA_DEG,
-                with_peak: bool = False, pattern: dict | None = None):
-    """How many noise standard deviations one unit of the candidate's
-    parameter is on this plan, once the baseline has absorbed what it can:
-    the norm of its whitened regressor outside the baseline's span, under the
-    true noise (the probe's sensor noise and the turntable's readout error).
-    with_peak: also the largest change of any reading per unit, in that
-    channel's sensor noise sigmas."""
+
+def true_baseline(probe: dict, plan: dict):
+    """The plan's noise-free dataset under the probe's true linear
+    calibration, and the diagnosis' baseline built at the truth:
+    (prepared data, the triads' linear matrices, dip in degrees, the
+    Baseline, its columns).  signature_z, rig_rms_stderr and the
+    adaptive procedure's diagnosability floor all start here."""
     from inclino.model.scenario import scenario_from_dict
 
     ds = generate(probe, plan, seed=0, sigma_pose_deg=0.0, noise=False)
@@ -258,6 +257,24 @@ def signature_z(probe: dict, plan: dict, cand: core.Candidate, sigma_pose_deg: f
     G, B = core._truth(d, d.inc, d.azi, d.tf, dip)
     bl = core.Baseline(A, c, dip, G, B, core.pose_jacobian(d, A["acc"], A["mag"], dip))
     cols, _ = core.baseline_columns(d, bl)
+    return d, A, dip, bl, cols
+
+
+def true_noise(sigma_pose_deg: float = TURNTABLE_SIGMA_DEG):
+    """The emulated probe's noise: each sensor's sigma with its LSB's
+    quantisation (LSB^2/12) added, and the turntable's readout error."""
+    return core.Noise(np.array([ACC_SIGMA_G] * 3 + [MAG_SIGMA_NT] * 3) * np.sqrt(1 + 1 / (12 * np.array(
+        [(ACC_SIGMA_G * 16384) ** 2] * 3 + [MAG_SIGMA_NT ** 2] * 3))), np.full(3, sigma_pose_deg))
+
+def signature_z(probe: dict, plan: dict, cand: core.Candidate, sigma_pose_deg: float = TURNTABLE_SIGMA_DEG,
+                with_peak: bool = False, pattern: dict | None = None):
+    """How many noise standard deviations one unit of the candidate's
+    parameter is on this plan, once the baseline has absorbed what it can:
+    the norm of its whitened regressor outside the baseline's span, under the
+    true noise (the probe's sensor noise and the turntable's readout error).
+    with_peak: also the largest change of any reading per unit, in that
+    channel's sensor noise sigmas."""
+    d, A, dip, bl, cols = true_baseline(probe, plan)
     if cand.name == "rig-field":  # the pattern's reading change per unit of the pattern
         from inclino.model import effects as fx
 
@@ -267,8 +284,7 @@ def signature_z(probe: dict, plan: dict, cand: core.Candidate, sigma_pose_deg: f
     else:
         reg = core.regressor(d, bl, cand)
     X = np.stack(cols + [reg], -1)
-    noise = core.Noise(np.array([ACC_SIGMA_G] * 3 + [MAG_SIGMA_NT] * 3) * np.sqrt(1 + 1 / (12 * np.array(
-        [(ACC_SIGMA_G * 16384) ** 2] * 3 + [MAG_SIGMA_NT ** 2] * 3))), np.full(3, sigma_pose_deg))
+    noise = true_noise(sigma_pose_deg)
     des = core.Design(np.zeros((d.n, 6)), X, noise.whitener(bl.Jpose), np.zeros(d.n, int), 1)
     k = X.shape[-1] - 1
     z = float(des.colscale[k] * des.separability(list(range(k)), k))
@@ -289,20 +305,9 @@ def rig_rms_stderr(probe: dict, plan: dict, pattern: dict, value: float,
     by up to the ratio of the noise across the magnetic meridian (an
     azimuth readout error of 0.05 deg moves the field ~20 nT) to the
     fluxgate's own (5 nT) when the field lies there."""
-    from inclino.model.scenario import scenario_from_dict
-
     from . import forward
 
-    ds = generate(probe, plan, seed=0, sigma_pose_deg=0.0, noise=False)
-    d = core.prepare(ds)
-    s = scenario_from_dict(probe)
-    A, c = {}, {}
-    for tri in core.TRIADS:
-        A[tri], c[tri] = getattr(s, tri).linear()
-    dip = s.world.earth.dip_deg
-    G, B = core._truth(d, d.inc, d.azi, d.tf, dip)
-    bl = core.Baseline(A, c, dip, G, B, core.pose_jacobian(d, A["acc"], A["mag"], dip))
-    cols, _ = core.baseline_columns(d, bl)
+    d, A, dip, bl, cols = true_baseline(probe, plan)
     axis = pattern["axis"]
     F = np.einsum("ij,njp->nip", A["mag"], forward.rig_full(d, axis))  # (n, 3, P)
     theta = np.concatenate([value * np.asarray(pattern[f"{kind}_nT"], float)[h]
@@ -313,8 +318,7 @@ def rig_rms_stderr(probe: dict, plan: dict, pattern: dict, value: float,
     Xf = np.zeros((d.n, 6, F.shape[-1]))
     Xf[:, 3:] = F
     X = np.concatenate([np.stack(cols, -1), Xf], -1)
-    noise = core.Noise(np.array([ACC_SIGMA_G] * 3 + [MAG_SIGMA_NT] * 3) * np.sqrt(1 + 1 / (12 * np.array(
-        [(ACC_SIGMA_G * 16384) ** 2] * 3 + [MAG_SIGMA_NT ** 2] * 3))), np.full(3, sigma_pose_deg))
+    noise = true_noise(sigma_pose_deg)
     Xw = np.einsum("nij,njp->nip", noise.whitener(bl.Jpose), X).reshape(-1, X.shape[-1])
     sc = np.sqrt((Xw ** 2).sum(0))
     sc[sc == 0] = 1.0

@@ -46,22 +46,10 @@ def whitened_columns(poses) -> tuple[np.ndarray, int, list]:
     I, A, T = (np.asarray(p, float) for p in poses)
     n = len(I)
     plan = {"kind": "static", "inc": I, "azi": A, "tf": T, "t_s": np.arange(n, dtype=float), "temp_c": np.full(n, 25.0)}
-    ds = plans.generate(plans.PROBE, plan, seed=0, sigma_pose_deg=0.0, noise=False)
-    d = core.prepare(ds)
-    from inclino.model.scenario import scenario_from_dict
-
-    s = scenario_from_dict(plans.PROBE)
-    Am, c = {}, {}
-    for tri in core.TRIADS:
-        Am[tri], c[tri] = getattr(s, tri).linear()
-    dip = s.world.earth.dip_deg
-    G, B = core._truth(d, d.inc, d.azi, d.tf, dip)
-    bl = core.Baseline(Am, c, dip, G, B, core.pose_jacobian(d, Am["acc"], Am["mag"], dip))
-    cols, _ = core.baseline_columns(d, bl)
+    d, _, _, bl, cols = plans.true_baseline(plans.PROBE, plan)
     cands = _candidates()
     X = np.stack(cols + [core.regressor(d, bl, k) for k in cands], -1)
-    noise = core.Noise(np.array([plans.ACC_SIGMA_G] * 3 + [plans.MAG_SIGMA_NT] * 3) * np.sqrt(1 + 1 / (12 * np.array(
-        [(plans.ACC_SIGMA_G * 16384) ** 2] * 3 + [plans.MAG_SIGMA_NT ** 2] * 3))), np.full(3, plans.TURNTABLE_SIGMA_DEG))
+    noise = plans.true_noise()
     Linv = noise.whitener(bl.Jpose)
     return np.einsum("nij,njp->nip", Linv, X), len(cols), [k.key for k in cands]
 
