@@ -18,6 +18,10 @@ from inclino.benchmarks import calibration_temperature as bench_temp
 from inclino_emu.probe import EmulatedProbe
 from inclino_emu.runner import Emulator
 from chamber_person import PersonAtChamber
+from conftest import test_seed
+
+RNG_SEED = test_seed()  # named in a failing test's report (conftest)
+RNG = np.random.default_rng(RNG_SEED)
 
 CHECK = (-5.0, 25.0, 55.0)
 
@@ -27,7 +31,7 @@ def chamber_calibrated(tmp_path_factory):
     """(seed, scenario, calibration, CAL.json path) of a probe drawn now,
     calibrated from its emulated chamber run (acquire --procedure
     temperature, joint --temperature-terms on)."""
-    seed = int(np.random.default_rng().integers(1 << 20))
+    seed = int(RNG.integers(1 << 20))
     d = tmp_path_factory.mktemp("chamber")
     sc = bench_temp.drawn_probe(seed)
     run = str(d / "run.csv")
@@ -65,7 +69,7 @@ def test_engine_without_terms_is_the_firmware_with_m_b(chamber_calibrated):
     """terms=False is the firmware's survey with the calibration's M, b bit
     for bit; a temperature block whose terms are zero changes nothing."""
     _, _, cal, _ = chamber_calibrated
-    rng = np.random.default_rng()
+    rng = RNG
     n = 50
     acc = rng.integers(-16384 * 64, 16384 * 64, (n, 3))
     mag = rng.integers(-60000 * 64, 60000 * 64, (n, 3))
@@ -93,7 +97,7 @@ def test_firmware_engine_is_the_golden_model_and_the_host_model(chamber_calibrat
     0.005 deg of the terms applied in float64 (host-terms)."""
     seed, sc, cal, _ = chamber_calibrated
     fw, gd, ht = (temp_engine.get(n) for n in ("firmware", "golden", "host-terms"))
-    rng = np.random.default_rng()
+    rng = RNG
     n = 200
     acc = rng.integers(-16384 * 64, 16384 * 64, (n, 3))
     mag = rng.integers(-60000 * 64, 60000 * 64, (n, 3))
@@ -114,7 +118,7 @@ def test_temp_q6_is_what_the_probe_reports():
     engine) against the emulated probe's own averaged reading."""
     p = EmulatedProbe(bench_temp.drawn_probe(1))
     p.poll = p.lib.app_main_poll
-    for T in np.random.default_rng().uniform(-30.0, 80.0, 4):
+    for T in RNG.uniform(-30.0, 80.0, 4):
         p.phys.set_temperature(float(T))
         r = p.raw()
         assert r["temp_q6"] == int(temp_engine.temp_q6_of(T)), T
@@ -254,7 +258,7 @@ def test_pooled_stats_weigh_positions_equally_and_state_their_spread():
     (within -15 %, +35 %), for grids whose noise and systematic errors are drawn."""
     from inclino.procedures.accept_temp import pooled_stats
 
-    rng = np.random.default_rng()
+    rng = RNG
     P, R = 60, 3
     sys_err = rng.normal(0.0, rng.uniform(0.002, 0.01), P)  # the calibration's error at each position, deg
     sigma = rng.uniform(0.003, 0.01, P)  # one reading's noise, deg
