@@ -370,14 +370,13 @@ def _axes_and_lag(ds, rows_all, rep, ug_src=None):
         fig.update({"curve_lag_rows": inv["lag"], "curve_lag_se_rows": inv["se"],
                     "curve_lag_halves_rows": inv["halves"]})
         k = int(round(inv["lag"]))
-        if route is None and k != 0 and k in lags and abs(inv["lag"]) - 0.5 > LAG_CURVE_SE * inv["se"] and \
-                all(h is not None and round(h) == k for h in inv["halves"]):
+        halves_agree = k != 0 and k in lags and all(h is not None and round(h) == k for h in inv["halves"])
+        if route is None and halves_agree and abs(inv["lag"]) - 0.5 > LAG_CURVE_SE * inv["se"]:
             route, kb, sb = "curve", k, lags[k]
             how = (f"with the triads' calibration errors fitted out, the dip angle is most consistent with the "
                    f"magnetometer's rows shifted by {inv['lag']:+.2f} +- {inv['se']:.2f} (each half of the log "
                    f"on its own: {', '.join(f'{h:+.2f}' for h in inv['halves'])})")
-        elif route is None and k != 0 and k in lags and \
-                all(h is not None and round(h) == k for h in inv["halves"]):
+        elif route is None and halves_agree:
             rep.findings.append(Finding("row-alignment", "note", (
                 f"the dip invariant's lag curve puts the magnetometer's rows {inv['lag']:+.2f} +- {inv['se']:.2f} "
                 f"out of step (each half of the log: {', '.join(f'{h:+.2f}' for h in inv['halves'])}), within "

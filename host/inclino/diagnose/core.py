@@ -492,6 +492,13 @@ class Design:
                                self.b[S] - self.bf[train][S])
         return self.yraw - np.einsum("nip,p->ni", self.Xraw[:, :, S], beta / self.colscale[S])
 
+    def leverage(self, S) -> np.ndarray:
+        """Each whitened value's leverage (n, 6) under the model S: the
+        diagonal of the hat matrix, Xw G^-1 Xw^T per row and channel (what
+        the fit leans on that value; its residual's variance is s2 (1 - h))."""
+        Xs = self.Xw[:, :, S]
+        return np.einsum("nip,pq,niq->ni", Xs, np.linalg.pinv(self.G[np.ix_(S, S)]), Xs)
+
     def cv_residuals(self, S) -> np.ndarray:
         R = np.zeros_like(self.yraw)
         for f in range(self.K):

@@ -465,8 +465,7 @@ def diagnose_posefree(ds: RawDataset, alpha: float = DEFAULT_ALPHA, folds: int =
         R1 = des.raw_residuals(S1)[des.rows]
         # each invariant's unbiased noise: its residuals' sum of squares over its own degrees of freedom (the
         # rows less the leverage the fit puts on that invariant), as the held-out prediction below
-        Xs = des.Xw[des.rows][:, :, S1]
-        h = np.einsum("nip,pq,niq->i", Xs, np.linalg.pinv(des.G[np.ix_(S1, S1)]), Xs)
+        h = des.leverage(S1)[des.rows].sum(0)
         s1 = np.sqrt((R1 ** 2).sum(0) / np.maximum(len(R1) - h, 1.0))
         W1 = np.zeros_like(des._W)
         W1[:, range(len(s1)), range(len(s1))] = 1.0 / np.maximum(s1, 1e-300)
@@ -539,9 +538,7 @@ def diagnose_posefree(ds: RawDataset, alpha: float = DEFAULT_ALPHA, folds: int =
     # its noise s_j^2 = sum r^2 / sum (1 - h) and each value's leverage h (what the fit leans on it; serially
     # correlated rows weigh (1 + rho) / (1 - rho) times more), a value held out erring by s_j^2 / (1 - h);
     # checked against the K-fold residuals of held-out blocks of poses
-    Xs = des.Xw[:, :, S]
-    Ginv = np.linalg.pinv(des.G[np.ix_(S, S)])
-    h = np.clip(np.einsum("nip,pq,niq->ni", Xs, Ginv, Xs) * des.inflation, 0.0, 0.95)
+    h = np.clip(des.leverage(S) * des.inflation, 0.0, 0.95)
     prediction = {}
     for j, c in enumerate(chans):
         hj = h[rows, j]
