@@ -359,8 +359,9 @@ def _refit_fitted_noise(x, fun, jac, ds, keep, poses, FdG, fix_dip, dip0, names,
             Jp = _pose_jacobian(*pk, F, dip, dec, G)
             X = _pose_jacobian_params(xx, acc, mag, pk, F, dec, G, None)
             X = X[:, :, :-1] if fix_dip else X
+            X = np.einsum("ij,njk->nik", Bi, X)  # (the Jacobian through Bi replaces it: n x 6 x P each)
             comps = covariance.fit_components(r @ Bi.T, labels, Jpose=np.einsum("ij,njk->nik", Bi, Jp),
-                                              X=np.einsum("ij,njk->nik", Bi, X),
+                                              X=X,
                                               channels=["acc_x_g", "acc_y_g", "acc_z_g", "mag_x_nT", "mag_y_nT",
                                                         "mag_z_nT"])
             res, W = _refit_with_components(comps, x, fun, jac, acc, mag, pk, FdG, fix_dip, dip0, labels)
