@@ -633,7 +633,9 @@ def build_single(ds: RawDataset, cal: Calibration, info: dict) -> FitReport:
             vi += ((np.degrees(np.arctan2(np.hypot(up[:, 0], up[:, 1]), up[:, 2]))
                     - np.degrees(np.arctan2(np.hypot(dn[:, 0], dn[:, 1]), dn[:, 2]))) / 2.0) ** 2
         rep.quantisation = {"input_resolution": {
-            "lsb": f"{step:.4g} g per count" + (" (the sensor description)" if lsb else " (the ADIS16210's)"),
+            "lsb": f"{step:.4g} g per count" + (" (the sensor description)" if lsb else
+                                                 " (not in the sensor description: the ADIS16210's assumed)"
+                                                 if ds.meta.get("sensor") else " (the ADIS16210's)"),
             "samples_averaged": ds.meta.get("samples_averaged"), "assumed_n": n,
             "inc_rms_deg": float(np.sqrt(np.mean(vi)))}}
     # verdict
