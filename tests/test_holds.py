@@ -64,8 +64,9 @@ def test_holds_follow_the_truth_of_a_step_and_hold_log(tmp_path):
         t = truth[h.labels == k]
         held = np.unique(t[t >= 0])
         assert len(held) == 1  # never two true holds in one
-        # a moving row at its edge can be as still as the noise (two orientations close together): a few at most
-        assert np.sum(t < 0) <= 2
+        # a moving row at its edge can be as still as the noise (two orientations close together): a few at
+        # most (3-4 rows in 2 of 150 draws)
+        assert np.sum(t < 0) <= 5
     assert h.rows_held >= 0.95 * np.sum(truth >= 0)
 
 
@@ -131,3 +132,49 @@ def test_a_slow_turn_is_cut_into_holds_no_wider_than_the_turn(rng):
     for k in range(h.count):
         a = np.degrees(ang[h.labels == k])
         assert np.ptp(a) <= holds.HOLD_TURN_DEG + holds.HOLD_ROWS * 0.02 + 1e-9
+
+
+def _calibrate_and_score(path, seed, rng):
+    """Calibrate a step-and-hold log whose holds also share an error of their
+    own (2 mg per axis: the hand's tilt, a slow drift) and return the
+    inclination error achieved over the sphere and the one the report
+    predicts (the truth: M = I, b = 0)."""
+    from inclino.calib import fit
+
+    lab = _step_and_hold(path, seed, n_holds=40, rows=40, trans=10, noise=1e-3, bump=0.1)
+    d = np.loadtxt(path, delimiter=",", skiprows=1)
+    for k in range(40):
+        d[lab == k, 1:4] += rng.normal(scale=2e-3, size=3)
+    np.savetxt(path, d, delimiter=",", header="t_s,ax_g,ay_g,az_g", comments="", fmt="%.7f")
+    cal, rep = fit(dataset.read_raw(str(path)), method="joint")
+    M, b = np.array(cal.acc_m), np.array(cal.acc_b)
+    i = np.arange(1000) + 0.5
+    phi, th = np.arccos(1 - 2 * i / 1000), np.pi * (1 + 5 ** 0.5) * i
+    U = np.column_stack([np.sin(phi) * np.cos(th), np.sin(phi) * np.sin(th), np.cos(phi)])
+
+    def inc(v):
+        return np.degrees(np.arccos(np.clip(v[:, 2] / np.linalg.norm(v, axis=1), -1, 1)))
+    return float(np.sqrt(np.mean((inc((U - b) @ M.T) - inc(U)) ** 2))), rep.uncertainty
+
+
+def test_calibrate_fits_the_holds_and_predicts_the_error_it_makes(tmp_path, monkeypatch):
+    """Over 8 logs: the achieved inclination error against the predicted one,
+    pooled; the rows read while moving left out, each hold counted once.
+    With the holds not used (the rows as independent readings, the moving
+    ones in the fit) the prediction is several times too small."""
+    def pooled():
+        rng = np.random.default_rng(RNG_SEED)
+        a, p, src = [], [], set()
+        for k in range(8):
+            ach, u = _calibrate_and_score(tmp_path / f"s{k}.csv", RNG_SEED + k, rng)
+            a.append(ach)
+            p.append(u["predicted_inc_rms_deg"])
+            src.add(u["source"].split(":")[0])
+        return float(np.sqrt(np.mean(np.square(a)) / np.mean(np.square(p)))), src
+
+    ratio, src = pooled()
+    assert src == {"hold level"}
+    assert 0.6 <= ratio <= 1.6
+    monkeypatch.setattr(holds, "STEP_AND_HOLD_FRACTION", 2.0)
+    ratio_rows, _ = pooled()
+    assert ratio_rows > 2.0
