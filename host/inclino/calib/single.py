@@ -173,8 +173,9 @@ def fit(ds, use_poses=None, sigma_acc=None, sigma_mag=None, **_):
         cal = Calibration(acc_m=eye, acc_b=zero, mag_m=M.tolist(), mag_b=b.tolist(), method="joint",
                           probe_serial=str(ds.meta.get("probe_serial", "")), triads="mag")
     cal.check()
-    bad = ~info["keep"] & ~moving  # rows read while moving between holds: left out, not outliers
-    segs, scattered = triad.segments(bad, ds)
+    # rows read while moving between holds: left out, neither outliers nor a break in a segment of misfit
+    fitted = np.flatnonzero(~moving)
+    segs, scattered = triad.segments(~info["keep"][fitted], ds, rows=fitted)
     info.update({"kind": kind, "sigma": sigma, "covariance12": cov, "segments": segs, "outliers": scattered,
                  "rows_used": np.flatnonzero(info["keep"]), "world": w})
     return cal, info
