@@ -37,6 +37,7 @@ import numpy as np
 
 from inclino.calib.ellipsoid import determined, signed_permutations, sphere
 from inclino.errors import DataError
+from inclino.holds import NOISE_BOUND  # the most noise a static sensor of each kind has (g, nT)
 
 # |g| / G: uncalibrated MEMS accelerometers are within a few % in scale and
 # ~0.1 g in offset; beyond +-20 % is a warning, beyond 0.5x-2x cannot be g
@@ -63,10 +64,6 @@ LAG_CURVE_SE = 3.0        # a whole-row shift is named when the fractional lag i
 LAG_CURVE_MIN_SIN = 0.1   # |sin dip| below it (within ~6 deg of the magnetic equator): no invariant to scale
 AXES_RATIO = 3.0          # dip spread with the declared maps / with the best other map
 RAW_DIRS_MAX_CV = 0.1     # raw directions compared only when |v| varies less than this (offsets small)
-# the noise (1 sigma, one reading, per axis) a static sensor of each kind stays within when the
-# description gives none: MEMS accelerometers 100-300 ug/sqrt(Hz) over a few hundred Hz (<= 5 mg);
-# MEMS magnetometers 0.15-0.6 uT per LSB (<= 1 uT); the fluxgate a few nT
-NOISE_BOUND = {"acc": 5e-3, "mag": 1000.0}
 CHECK_ROWS = 200_000      # rows looked at (stratified random rows beyond: _thin; the lag on the first LAG_ROWS consecutive rows)
 LAG_ROWS = 50_000
 HOLDS_MOVING_NOTE = 0.01   # a still log's rows read while moving between holds: a note from this share on

@@ -17,7 +17,7 @@ than HOLD_TURN_DEG from where the run began (a slow turn is not a hold).
 The noise per axis is the readings' own: the median absolute difference of
 neighbouring rows (/ 0.6745 / sqrt 2), a statistic that the still rows set
 when they are the majority; it is capped at the triad's declared noise, or
-at checks.NOISE_BOUND (the most a part of that kind has), so that a log that
+at NOISE_BOUND (the most a part of that kind has), so that a log that
 moves all the time is not read as still; and floored at the resolution's
 quantisation noise (LSB / sqrt 12).
 
@@ -33,6 +33,10 @@ from dataclasses import dataclass
 
 import numpy as np
 
+# the noise (1 sigma, one reading, per axis) a static sensor of each kind stays within when the
+# description gives none: MEMS accelerometers 100-300 ug/sqrt(Hz) over a few hundred Hz (<= 5 mg);
+# MEMS magnetometers 0.15-0.6 uT per LSB (<= 1 uT); the fluxgate a few nT
+NOISE_BOUND = {"acc": 5e-3, "mag": 1000.0}  # g, nT
 HOLD_ROWS = 10                 # a hold is at least this many consecutive still rows (and the window's length)
 HOLD_K = 3.0                   # a still window's per-axis standard deviation: at most this many times the noise
 HOLD_TURN_DEG = 0.5            # a run whose direction turns by more than this from its start is cut there
@@ -102,8 +106,6 @@ def _first_turn(m, i, b, anchor, cos_turn) -> int:
 
 def find(ds) -> Holds:
     """The static holds of a dataset (module docstring)."""
-    from inclino.checks import NOISE_BOUND
-
     n = len(ds)
     w = HOLD_ROWS
     still = np.zeros(n, bool)
