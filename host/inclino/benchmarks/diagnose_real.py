@@ -190,7 +190,9 @@ class RealDiagnoseBench:
         out = [f"real data ({', '.join(self.datasets)}), pose-free, effects injected at z = {self.z_inject:g}:"]
         for k, v in self.injected.items():
             out.append(f"  {k:20s} found {v['found']}/{v['cases']} ({v['rate']:.0%})"
-                       + (f"; missed {v['missed']}" if v["missed"] else ""))
+                       + (f"; missed {v['missed']}" if v["missed"] else "")
+                       + (f"; with a null driver's effect named too: {v['also_driven']}" if v.get("also_driven")
+                          else ""))
         n = self.nulls
         if n:
             out.append(f"  untouched, resampled with null temperature, rig angle and time: {n['false_alarms']} false "
@@ -242,7 +244,7 @@ def bench_real(seeds: int = 2, resamplings: int = 12, seed0: int = 2024, quick: 
         if pr:
             out.prediction[name] = pr
     for kind in ("temperature-bias", "scale-nonlinearity", "rig-field", "field-drift"):
-        rec = {"cases": 0, "found": 0, "missed": [], "errors": []}
+        rec = {"cases": 0, "found": 0, "missed": [], "errors": [], "also_driven": []}
         for i, (name, ds) in enumerate(data):
             for s in range(seeds):
                 rng = np.random.default_rng([seed0, i, s, len(kind)])
@@ -257,6 +259,10 @@ def bench_real(seeds: int = 2, resamplings: int = 12, seed0: int = 2024, quick: 
                     rec["errors"].append(f"{name}: {e}")
                     rec["missed"].append(f"{name} {key}")
                     continue
+                # beside the injected effect, anything tied to a driver the readings do not depend on
+                also = [k for k in _named(r) if k != key and k.split(":")[0] in NULL_DRIVERS]
+                if also:
+                    rec["also_driven"].append(f"{name} {key}: {', '.join(also)}")
                 if key in _named(r):
                     rec["found"] += 1
                 else:
