@@ -17,9 +17,12 @@ do not depend on may be named.
   with the rows in a randomised order (a t_s column in that order).  Each at
   Z_INJECT noise standard deviations of its signature in that dataset's
   invariants once the baseline has absorbed what it can, under the data's
-  own noise and serial correlation (diagnose.posefree.signature_z; the
-  benchmark's sweep sizes, where its detection target holds).  Found = the
-  right name, sensor and axis among the effects named.
+  own noise and serial correlation -- for a driven effect on a serially
+  correlated log, the inflation its circular-shift test measures on the
+  untouched data (diagnose.posefree.signature_z; the benchmark's sweep
+  sizes, where its detection target holds).  Found = the right name,
+  sensor and axis among the effects named; an effect tied to a driver the
+  readings do not depend on, named beside it, is listed (also_driven).
 * **Untouched, resampled**: a random 70 % of each dataset's poses (in their
   order; a log of fewer than 100 poses keeps them all) with null variables added -- a synthetic temperature column, a
   synthetic rig angle, a time column in a random order -- that the readings

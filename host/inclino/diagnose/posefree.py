@@ -481,14 +481,15 @@ def diagnose_posefree(ds: RawDataset, alpha: float = DEFAULT_ALPHA, folds: int =
         invariant down in its own test (a rig field of z = 12 on |b| of a
         24-shot log came out at p 5e-4-0.01, and was missed)."""
         S1 = list(S) + list(cols)
-        R1 = des.raw_residuals(S1)[des.rows]
+        d0, rows1 = des, des.rows
+        R1 = d0.raw_residuals(S1)[rows1]
         # each invariant's unbiased noise: its residuals' sum of squares over its own degrees of freedom (the
         # rows less the leverage the fit puts on that invariant), as the held-out prediction below
-        h = des.leverage(S1)[des.rows].sum(0)
+        h = d0.leverage(S1)[rows1].sum(0)
         s1 = np.sqrt((R1 ** 2).sum(0) / np.maximum(len(R1) - h, 1.0))
         W1 = np.zeros_like(des._W)
         W1[:, range(len(s1)), range(len(s1))] = 1.0 / np.maximum(s1, 1e-300)
-        d1 = Design(des.yraw, des.Xraw, W1, fold_of, K, rows=des.rows)
+        d1 = Design(des.yraw, des.Xraw, W1, fold_of, K, rows=rows1)
         d1.inflation = des.inflation
         d1.noise = np.maximum(s1, 1e-300)
         return d1.ftest(S, cols)[0], d1
@@ -508,10 +509,10 @@ def diagnose_posefree(ds: RawDataset, alpha: float = DEFAULT_ALPHA, folds: int =
             # test): in units of the baseline's spread, an invariant the effect inflated counts for little
             # beside one it does not touch (a rig field on |b| alone: its 4 dip columns' fitted noise
             # outweighed the gain on |b|)
-            o0, o1 = _own_cv(d1, S, own[kk], rows, d1.noise), _own_cv(d1, S1, own[kk], rows, d1.noise)
+            o0, o1 = _own_cv(d1, S, own[kk], d1.rows, d1.noise), _own_cv(d1, S1, own[kk], d1.rows, d1.noise)
             if blockwise:
-                f0 = _own_cv(d1, S, own[kk], rows, d1.noise, fold_of)
-                f1 = _own_cv(d1, S1, own[kk], rows, d1.noise, fold_of)
+                f0 = _own_cv(d1, S, own[kk], d1.rows, d1.noise, fold_of)
+                f1 = _own_cv(d1, S1, own[kk], d1.rows, d1.noise, fold_of)
                 better = int(np.sum(f1 < f0))
             else:
                 better = K
