@@ -84,6 +84,25 @@ class _PF:
                 new = np.ones(n0, bool)
                 new[1:] = np.any(np.abs(np.diff(P, axis=0)) > 1e-6, axis=1)
                 lab = np.cumsum(new) - 1
+        # no pose, no pose id: the readings' own static holds (inclino.holds) are the poses of a step-and-hold
+        # log when they determine the model; the rows read while moving between them are then left out.  Holds
+        # in too few directions (a six-face session) leave every row a pose of its own, and every effect named
+        # is then confounded with the motion
+        self.holds = None
+        sel = np.ones(n0, bool)
+        if not any(c in ds.columns for c in ("pose_id", "segment", "cluster", "inc_deg", "azi_deg", "tf_deg")):
+            from inclino import holds as _holds
+
+            H = _holds.find(ds)
+            if H.step_and_hold:
+                hl = H.labels
+                lev = max(_holds.ellipsoid_leverage(_holds.means(getattr(ds, t), hl, H.count))
+                          for t in ("acc", "mag") if getattr(ds, f"has_{t}"))
+                only = H.count >= MIN_CLUSTERS and lev <= _holds.HOLDS_MAX_LEVERAGE
+                if only:
+                    sel = hl >= 0
+                    lab = hl[sel]
+                self.holds = dict(H.to_dict(), moving_rows_left_out=bool(only), leverage_max=lev)
         k = int(lab.max()) + 1
         self.n_rows, self.k = n0, k
         cnt = np.bincount(lab, minlength=k).astype(float)
@@ -91,7 +110,7 @@ class _PF:
 
         def mean(x):
             out = np.zeros((k,) + np.shape(x)[1:])
-            np.add.at(out, lab, np.asarray(x, float))
+            np.add.at(out, lab, np.asarray(x, float)[sel])
             return out / cnt.reshape((-1,) + (1,) * (np.ndim(x) - 1))
         self.acc = mean(ds.acc) if self.has_acc else None
         self.mag = mean(ds.mag) if self.has_mag else None
@@ -387,12 +406,31 @@ def diagnose_posefree(ds: RawDataset, alpha: float = DEFAULT_ALPHA, folds: int =
             des = Design(-r, X, W, fold_of, K, rows=rows)
             beta, _ = des.fit(list(range(X.shape[-1])))
             beta = beta / des.colscale
-            state["v"] = state["v"] + beta[:nb]
-            pos = nb
-            for kk, n in keys:
-                cur = np.atleast_1d(np.asarray(state["theta"].get(kk, np.zeros(n)), float)) + beta[pos:pos + n]
-                state["theta"][kk] = cur if n > 1 else float(cur[0])
-                pos += n
+
+            def stepped(f):
+                v = state["v"] + f * beta[:nb]
+                th = dict(state["theta"])
+                pos = nb
+                for kk, n in keys:
+                    cur = np.atleast_1d(np.asarray(th.get(kk, np.zeros(n)), float)) + f * beta[pos:pos + n]
+                    th[kk] = cur if n > 1 else float(cur[0])
+                    pos += n
+                return v, th
+
+            # a full Gauss-Newton step unless it raises the weighted cost of the rows it was fitted on (a poor
+            # start far from the invariants' minimum): then halved until it does not
+            Wd = np.diagonal(W, axis1=1, axis2=2)[rows]
+            cost0 = float(np.sum((Wd * r[rows]) ** 2))
+            f = 1.0
+            for _ in range(12):
+                v, th = stepped(f)
+                r1 = mdl.residuals(mdl.unpack(v), th)
+                if np.all(np.isfinite(r1)) and float(np.sum((Wd * r1[rows]) ** 2)) <= cost0:
+                    break
+                f /= 2.0
+            else:
+                break
+            state["v"], state["theta"] = v, th
 
     def design(testable):
         """The model at the state with every testable candidate's columns,
@@ -620,6 +658,20 @@ def diagnose_posefree(ds: RawDataset, alpha: float = DEFAULT_ALPHA, folds: int =
                                "separate_by": "a static log: hold each orientation still while it is read (or declare "
                                               "the run static if it is), so that motion and sampling between the "
                                               "axes stop shaping the invariants"})
+    if pf.holds and not pf.holds["moving_rows_left_out"] and not _declared_static(ds):
+        # a step-and-hold log whose holds do not determine the model: what the selection found rests on the rows
+        # read while moving, whose acceleration no sensor effect models: not named (a second view, the holds
+        # alone, cannot confirm it)
+        h = pf.holds
+        for e in effects:
+            kk = f"{e.name}:{e.sensor}:{e.axis}"
+            confounded.append({"effect": kk, "with": f"the motion between the log's {h['holds']} static holds",
+                               "share": h["rows_moving"] / max(h["rows_moving"] + h["rows_held"], 1),
+                               "correlation": float("nan"),  # no regressor to correlate: a share of rows
+                               "named": False, "estimate": e.estimate, "units": e.units,
+                               "separate_by": "static holds in more directions (enough to determine the model: the "
+                                              "rows read while moving are then left out), or poses for the holds"})
+        effects = []
     structure = _structure(pf, R_final, rows, chans, alpha)
     from .runvars import run_variable_confounds
 
@@ -654,7 +706,8 @@ def diagnose_posefree(ds: RawDataset, alpha: float = DEFAULT_ALPHA, folds: int =
                                 "pass at alpha; clusters of rows at one pose count once",
                       "alpha": alpha, "folds": K, "tested": testable, "not_testable": not_testable,
                       "needs_poses": [n for n, _ in NEEDS_POSES], "steps": steps, "final_s2": s2,
-                      "notes": [], "best_subset": None},
+                      "notes": _hold_notes(pf), "best_subset": None},
+        "holds": pf.holds,
         "structure": structure, "run_variables": run_conf,
         "prediction": {"what": f"each invariant's residual RMS predicted on poses not fitted (the fit's noise "
                                f"and each value's leverage, {len(S)} parameters) and achieved on "
@@ -664,6 +717,20 @@ def diagnose_posefree(ds: RawDataset, alpha: float = DEFAULT_ALPHA, folds: int =
                     confounded=confounded)
     out.elapsed_s = _time.perf_counter() - t_start
     return out
+
+
+def _hold_notes(pf) -> list:
+    h = pf.holds
+    if not h:
+        return []
+    if h["moving_rows_left_out"]:
+        return [f"no poses: {h['holds']} static holds found in the readings ({h['rows_held']} rows, each hold one "
+                f"pose); the {h['rows_moving']} rows read while moving between them are left out (their motion's "
+                f"acceleration is no sensor effect)"]
+    return [f"no poses: {h['holds']} static holds found in the readings ({h['rows_held']} rows), but alone they leave "
+            f"the model undetermined (a hold's leverage {h['leverage_max']:.2f}: too few, or too few directions); so "
+            f"every row counts as a pose, and what the {h['rows_moving']} rows read while moving show is confounded "
+            f"with the motion"]
 
 
 MOVING_RHO = 0.5  # a lag-1 correlation of the residuals from which a log is read as taken while moving
