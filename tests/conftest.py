@@ -230,7 +230,7 @@ def scheduling_unit(nodeid: str) -> str:
 def pytest_xdist_make_scheduler(config, log):
     """make test (-n auto --dist loadscope --no-loadscope-reorder): units of
     work as `scheduling_unit` says, handed out in the collection's order,
-    which puts the `heavy` tests first (pytest_collection_modifyitems
+    which puts the longest units first (pytest_collection_modifyitems
     below), so that no long test starts last and leaves the other core
     idle at the end.  A worker is given its next unit only when it is down
     to its last test (xdist's default: two), so that the queue stays
@@ -258,11 +258,75 @@ def pytest_xdist_make_scheduler(config, log):
     return UnitScheduling(config, log)
 
 
+# Seconds per test (setup + call + teardown, wall) of a whole `make test` run, written by
+# `make test PYTEST_ARGS=--store-durations`: the scheduler hands out the longest units first.
+DURATIONS = ROOT / "tests" / "durations.json"
+DEFAULT_S = 0.5  # a test not in the file (added since): a short one
+HEAVY_S = 30.0  # ... unless marked heavy
+
+
+def pytest_addoption(parser):
+    parser.addoption("--store-durations", action="store_true",
+                     help=f"write each test's seconds (setup + call + teardown) to {DURATIONS.relative_to(ROOT)}")
+
+
+def unit_seconds(items, durations: dict) -> dict:
+    """Seconds of each scheduling unit: the sum over its tests, from
+    `durations` (node id -> s), a test missing there DEFAULT_S, HEAVY_S
+    when marked heavy."""
+    cost: dict = {}
+    for it in items:
+        s = durations.get(it.nodeid)
+        if s is None:
+            s = HEAVY_S if it.get_closest_marker("heavy") is not None else DEFAULT_S
+        u = scheduling_unit(it.nodeid)
+        cost[u] = cost.get(u, 0.0) + float(s)
+    return cost
+
+
+def order_class(seconds: float) -> int:
+    """Units within a factor of two of each other are one class (every unit
+    under a second is class 0): the classes run longest first, and within
+    a class pytest-randomly's shuffle stays in force."""
+    import math
+
+    return max(0, int(math.floor(math.log2(max(seconds, 1e-9)))) + 1)
+
+
 @pytest.hookimpl(trylast=True)
 def pytest_collection_modifyitems(config, items):
-    """`heavy` tests first (a stable sort after pytest-randomly's shuffle,
-    which stays in force among them and among the rest)."""
-    items.sort(key=lambda it: it.get_closest_marker("heavy") is None)
+    """The longest units first (tests/durations.json; a test missing there
+    counts as short unless marked `heavy`), so that no long test starts last
+    and leaves the other core idle at the end: a stable sort by class
+    (order_class) after pytest-randomly's shuffle, which stays in force
+    within each class."""
+    import json
+
+    try:
+        durations = json.loads(DURATIONS.read_text(encoding="utf-8"))
+    except (OSError, ValueError):
+        durations = {}
+    cost = unit_seconds(items, durations)
+    items.sort(key=lambda it: -order_class(cost[scheduling_unit(it.nodeid)]))
+
+
+_SECONDS: dict = {}
+
+
+def pytest_runtest_logreport(report):
+    if report.when in ("setup", "call", "teardown"):
+        _SECONDS[report.nodeid] = _SECONDS.get(report.nodeid, 0.0) + report.duration
+
+
+def pytest_sessionfinish(session, exitstatus):
+    """--store-durations: each test's seconds into tests/durations.json (on
+    the controller, which receives every worker's reports)."""
+    if not session.config.getoption("store_durations") or hasattr(session.config, "workerinput"):
+        return
+    import json
+
+    DURATIONS.write_text(json.dumps({k: round(v, 2) for k, v in sorted(_SECONDS.items())}, indent=0) + "\n",
+                         encoding="utf-8")
 
 
 def pytest_terminal_summary(terminalreporter, config):

@@ -149,3 +149,32 @@ def test_second_order_terms_in_the_float_model_and_the_image_form():
     bound = np.array(caltemp.truncation_bound(block, -5.0, 55.0)["acc"])
     quant = 2.0**-31 * (np.abs(dT) + dT ** 2)[:, None] * 2 + 2.0**-38 * np.abs(dT)[:, None] * 2
     assert np.all(np.abs(got - exact) <= bound * np.abs(raw - b) + quant + 1e-15)
+
+
+def test_batched_golden_temperature_call_is_the_per_calibration_call():
+    """bitexact.golden_temp (one golden call over all the calibrations'
+    rows) gives every output word of the golden model called once per
+    calibration on its own rows, as the comparison did before: edge and
+    random vectors, edge and random temperatures, terms of order 1 and 2,
+    calibrations with no terms and with terms of order 0 among them."""
+    from inclino.engines.firmware import FixedCal
+
+    rng = np.random.default_rng(5)
+    base = bitexact.random_cals(rng, 12)
+    tc = bitexact.random_temp_cals(rng, base)
+    order0 = FixedCal(tc[1].acc_m, tc[1].acc_b, tc[1].mag_m, tc[1].mag_b,
+                      type(tc[1].temp)(*([tc[1].temp.t_ref, 0] + list(tc[1].temp.__dict__.values())[2:])))
+    cals = tc[:5] + [base[5], order0] + tc[7:]
+    assert {c.temp.order for c in cals if c.temp is not None} == {0, 1, 2} and any(c.temp is None for c in cals)
+    ea, em = bitexact.edge_vectors()
+    ra, rm = bitexact.random_vectors(rng, 4000)
+    acc, mag = np.concatenate([ea, ra]), np.concatenate([em, rm])
+    temps = np.concatenate([np.resize(np.array(bitexact.EDGE_TEMPS), len(ea)), bitexact.random_temps(rng, 4000)])
+    got = bitexact.golden_temp(acc, mag, temps, cals)
+    idx = np.arange(len(acc)) % len(cals)
+    for k, cal in enumerate(cals):
+        sel = idx == k
+        want = golden.survey_compute(acc[sel], mag[sel], *cal.arrays(), temp=cal.temp, temp_q6=temps[sel])
+        assert set(want) == set(got)
+        for key, v in want.items():
+            assert np.array_equal(got[key][sel], v) and got[key].dtype == v.dtype, (k, key)

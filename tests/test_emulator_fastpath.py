@@ -57,12 +57,27 @@ def _custom(rate=0.0, drift=False):
     return scenario_from_dict(d, "custom")
 
 
-@pytest.mark.parametrize("scn", ["typical", "li2021", "ideal", "ramp", "drift"])
+def _chamber(draw):
+    """The typical probe with its tempcos drawn (first and second order on
+    every axis), a nonlinearity on every axis, ramping 0.05 degC/s."""
+    d = tomllib.loads(resources.files("inclino.model").joinpath("scenarios", "typical.toml").read_text())
+    d["world"]["temperature_rate_c_per_s"] = 0.05
+    d["mag"]["nonlinearity"] = {"k2": [2e-9, -3e-9, 1e-9]}
+    d["acc"]["nonlinearity"] = {"k2": [1e-3, 0.0, -2e-3]}
+    s = scenario_from_dict(d, "chamber").draw_tempcos(draw)
+    assert all(np.any(m.scale_tempco.ppm2 != 0) and np.any(m.bias_tempco.c2 != 0) for m in (s.acc, s.mag))
+    return s
+
+
+@pytest.mark.parametrize("scn", ["typical", "li2021", "ideal", "ramp", "drift", "chamber-3", "chamber-8"])
 def test_single_samples_equal_the_numpy_chain(scn):
-    """acc_sample / mag_sample (cached truth and chain, floats) against the
-    full chain on NumPy arrays with a plain Generator, sample by sample,
-    through moves, a held temperature, a rotating trajectory."""
-    s = {"ramp": lambda: _custom(rate=0.05), "drift": lambda: _custom(drift=True)}.get(
+    """acc_sample / mag_sample (cached truth and chain head, the
+    temperature-dependent tail on floats) against the full chain on NumPy
+    arrays with a plain Generator, sample by sample, through moves, a held
+    temperature, a rotating trajectory; the chamber cases with every
+    temperature term of both orders and a nonlinearity."""
+    s = {"ramp": lambda: _custom(rate=0.05), "drift": lambda: _custom(drift=True),
+         "chamber-3": lambda: _chamber(3), "chamber-8": lambda: _chamber(8)}.get(
         scn, lambda: load_scenario(scn))()
     p = s.probe(21)
     ga, gm = np.random.default_rng([21, 0]), np.random.default_rng([21, 1])

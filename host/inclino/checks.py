@@ -37,6 +37,7 @@ import numpy as np
 
 from inclino.calib.ellipsoid import determined, signed_permutations, sphere
 from inclino.errors import DataError
+from inclino.holds import NOISE_BOUND  # the most noise a static sensor of each kind has (g, nT)
 
 # |g| / G: uncalibrated MEMS accelerometers are within a few % in scale and
 # ~0.1 g in offset; beyond +-20 % is a warning, beyond 0.5x-2x cannot be g
@@ -63,12 +64,9 @@ LAG_CURVE_SE = 3.0        # a whole-row shift is named when the fractional lag i
 LAG_CURVE_MIN_SIN = 0.1   # |sin dip| below it (within ~6 deg of the magnetic equator): no invariant to scale
 AXES_RATIO = 3.0          # dip spread with the declared maps / with the best other map
 RAW_DIRS_MAX_CV = 0.1     # raw directions compared only when |v| varies less than this (offsets small)
-# the noise (1 sigma, one reading, per axis) a static sensor of each kind stays within when the
-# description gives none: MEMS accelerometers 100-300 ug/sqrt(Hz) over a few hundred Hz (<= 5 mg);
-# MEMS magnetometers 0.15-0.6 uT per LSB (<= 1 uT); the fluxgate a few nT
-NOISE_BOUND = {"acc": 5e-3, "mag": 1000.0}
 CHECK_ROWS = 200_000      # rows looked at (stratified random rows beyond: _thin; the lag on the first LAG_ROWS consecutive rows)
 LAG_ROWS = 50_000
+HOLDS_MOVING_NOTE = 0.01   # a still log's rows read while moving between holds: a note from this share on
 
 ACC_UNIT_GUESS = {"m/s^2": 9.80665, "mg": 1000.0, "cm/s^2 (Gal)": 980.665, "ft/s^2": 32.174, "ug": 1e6,
                   **{f"counts at {2 ** k} per g": float(2 ** k) for k in range(8, 16)}}
@@ -369,6 +367,16 @@ def _axes_and_lag(ds, rows_all, rep, ug_src=None):
         rep.lag_curve = {"lag_rows": inv["lag"], "se_rows": inv["se"], "halves_rows": inv["halves"]}
         fig.update({"curve_lag_rows": inv["lag"], "curve_lag_se_rows": inv["se"],
                     "curve_lag_halves_rows": inv["halves"]})
+        if route in ("spread", "transitions") and round(inv["lag"]) != kb:
+            # a continuously moving log: the dip's raw spread (the triads' calibration errors left in) is itself
+            # skewed along the shift (on the clean CK log its least value sits 1 to 2 rows off in stretches of
+            # 4 000 rows), so a shift it finds is named only where the calibrated curve puts the pairing too
+            rep.findings.append(Finding("row-alignment", "note", (
+                f"the triads may be paired out of step ({how}), but the dip invariant's lag curve, with the "
+                f"triads' calibration errors fitted out, puts the magnetometer's rows {inv['lag']:+.2f} +- "
+                f"{inv['se']:.2f} out of step (nearest row {int(round(inv['lag'])):+d}): not named"),
+                None, {**fig, "lag_rows": kb}))
+            route = None
         k = int(round(inv["lag"]))
         halves_agree = k != 0 and k in lags and all(h is not None and round(h) == k for h in inv["halves"])
         if route is None and halves_agree and abs(inv["lag"]) - 0.5 > LAG_CURVE_SE * inv["se"]:
@@ -644,6 +652,7 @@ def _motion(ds, rep):
     rep.declared_static = declared
     if all(verdicts):
         rep.static = True
+        _holds_note(ds, rep)
         return
     rep.static = False if not declared else None
     steps = ", ".join(f"{'accelerometer' if k.startswith('acc') else 'magnetometer'} "
@@ -660,6 +669,23 @@ def _motion(ds, rep):
             f"the sensor moved between rows (hand-held, continuous rotation), or each row is a position of its "
             f"own (declare a step-and-hold run static: --static, or [log] static = true)"), None,
             {k: v for k, v in rep.noise.items() if "_step_" in k}))
+
+
+def _holds_note(ds, rep):
+    """A still log that moved between its holds (a six-face session turned
+    by hand): the holds and the rows read while moving, from the readings
+    (inclino.holds); pose-free diagnose fits the holds, not the motion."""
+    if any(c in ds.columns for c in ("pose_id", "segment", "cluster", "inc_deg", "azi_deg", "tf_deg")):
+        return
+    from inclino import holds
+
+    h = holds.find(ds)
+    if h.step_and_hold and h.rows_moving >= HOLDS_MOVING_NOTE * len(ds):
+        rep.findings.append(Finding("motion", "note", (
+            f"step-and-hold: {h.count} static holds found in the readings ({h.rows_held} rows), {h.rows_moving} rows "
+            f"read while moving between them (a hand or a motor turning the sensor): their acceleration is no "
+            f"sensor effect; label the holds' poses ([poses] in the sensor description) to fit against them"), None,
+            {"holds": h.count, "rows_held": h.rows_held, "rows_moving": h.rows_moving}))
 
 
 def _saturation(ds, rep):

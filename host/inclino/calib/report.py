@@ -515,7 +515,7 @@ def _common_tail(rep, verdict: bool = True) -> list:
     for seg in rep.segments:
         lines.append(f"  segment of misfit (structure, not outliers; left out of the fit): {segment_text(seg)}")
     for note in rep.notes:
-        if note.startswith("check: "):
+        if note.startswith(("check: ", "holds: ")):
             lines.append(f"  {note}")
     if verdict:
         lines.append("  " + rep.conclusion())
@@ -570,6 +570,9 @@ def build_single(ds: RawDataset, cal: Calibration, info: dict) -> FitReport:
     rep = FitReport(method="joint", mode=info["mode"], rows=len(ds), rows_used=int(len(rows)),
                     outliers=list(info.get("outliers", [])), segments=list(info.get("segments", [])),
                     notes=[], triads=kind)
+    if info.get("moving_rows"):
+        rep.notes.append(f"holds: a step-and-hold log: {info['holds']} static holds found in the readings were "
+                         f"fitted; the {info['moving_rows']} rows read while moving between them were left out")
     nv = np.linalg.norm(v, axis=1)
     if kind == "acc":
         rep.residuals = {"acc_norm_rms_mg": 1e3 * _rms(nv - w["gravity_g"])}
@@ -633,7 +636,9 @@ def build_single(ds: RawDataset, cal: Calibration, info: dict) -> FitReport:
             vi += ((np.degrees(np.arctan2(np.hypot(up[:, 0], up[:, 1]), up[:, 2]))
                     - np.degrees(np.arctan2(np.hypot(dn[:, 0], dn[:, 1]), dn[:, 2]))) / 2.0) ** 2
         rep.quantisation = {"input_resolution": {
-            "lsb": f"{step:.4g} g per count" + (" (the sensor description)" if lsb else " (the ADIS16210's)"),
+            "lsb": f"{step:.4g} g per count" + (" (the sensor description)" if lsb else
+                                                 " (not in the sensor description: the ADIS16210's assumed)"
+                                                 if ds.meta.get("sensor") else " (the ADIS16210's)"),
             "samples_averaged": ds.meta.get("samples_averaged"), "assumed_n": n,
             "inc_rms_deg": float(np.sqrt(np.mean(vi)))}}
     # verdict

@@ -103,7 +103,9 @@ class Diagnosis:
                      + f"inclination {b['inc_rms_deg']:.4f} deg"]
         sel = b["selection"]
         lines.append(f"effects tested: {len(sel['tested'])} (F-test at alpha = {sel['alpha']:g}, Bonferroni over the "
-                     f"candidates, and {sel['folds']}-fold cross-validation)")
+                     f"candidates, and "
+                     + ("leave-one-pose-out cross-validation)" if b.get("clusters") == sel["folds"]
+                        else f"{sel['folds']}-fold cross-validation)"))
         groups = {}
         for nt in sel["not_testable"]:
             parts = nt["effect"].split(":")
@@ -138,6 +140,11 @@ class Diagnosis:
         for cf in self.confounded:
             e1, e2 = (x.split(":")[0] + " (" + " ".join(x.split(":")[1:]) + ")" if ":" in x else x
                       for x in (cf["effect"], cf["with"]))
+            if "share" in cf:  # an effect found on the rows read while moving only
+                lines.append(f"not named: {e1} = {cf['estimate']:.4g} {cf['units']}: it rests on {e2} "
+                             f"({100 * cf['share']:.0f} % of the rows, read while moving), which the holds alone "
+                             f"cannot confirm; to tell, {cf['separate_by']}")
+                continue
             lines.append(f"confounded: {e1} {'(named)' if cf['named'] else '(not a cause)'} and {e2}, correlation "
                          f"{cf['correlation']:.3f} in this run: the data cannot tell them apart; to separate them, "
                          f"{cf['separate_by']}")

@@ -193,17 +193,54 @@ def random_temps(rng, n: int) -> np.ndarray:
     return t
 
 
+def per_row_cals(cals: list[FixedCal], idx) -> tuple:
+    """The calibrations' coefficients row by row (row i: cals[idx[i]]):
+    (acc_m, acc_b, mag_m, mag_b) int64 arrays (n, 9), (n, 3), (n, 9), (n, 3)."""
+    return tuple(np.array([getattr(c, k) for c in cals], dtype=np.int64)[idx]
+                 for k in ("acc_m", "acc_b", "mag_m", "mag_b"))
+
+
+def per_row_temp(cals: list[FixedCal], idx) -> FixedTemp:
+    """The calibrations' temperature terms row by row (row i: cals[idx[i]],
+    each with terms of order 1 or 2): a FixedTemp of arrays, t_ref (n,) and
+    the terms (n, 3), which the golden model evaluates row by row as it
+    does one calibration's scalars."""
+    fields = [f for f in FixedTemp.__dataclass_fields__ if f not in ("t_ref", "order")]
+    none = FixedTemp(0, 0, *([(0, 0, 0)] * len(fields)))  # rows of calibrations without terms: not indexed
+    temps = [c.temp or none for c in cals]
+    return FixedTemp(np.array([t.t_ref for t in temps], dtype=np.int64)[idx], 1,
+                     *(np.array([getattr(t, f) for t in temps], dtype=np.int64)[idx] for f in fields))
+
+
+def golden_temp(acc, mag, temp_q6, cals: list[FixedCal]) -> dict:
+    """golden.survey_compute through survey_compute_temp, vector i with
+    cals[i % len(cals)]: one call for the vectors whose calibration has
+    terms and one for those without (order 0 or none), not one per
+    calibration."""
+    idx = np.arange(len(acc)) % len(cals)
+    has = np.array([c.temp is not None and int(c.temp.order) != 0 for c in cals])[idx]
+    out = None
+    for sel in (has, ~has):
+        if not sel.any():
+            continue
+        temp = per_row_temp(cals, idx[sel]) if sel is has else None
+        g = golden.survey_compute(acc[sel], mag[sel], *per_row_cals(cals, idx[sel]), temp=temp,
+                                  temp_q6=temp_q6[sel] if temp is not None else None)
+        if out is None:
+            out = {k: np.zeros((len(acc),) + v.shape[1:], dtype=v.dtype) for k, v in g.items()}
+        for k, v in g.items():
+            out[k][sel] = v
+    return out
+
+
 def compare_temp(acc, mag, temp_q6, cals: list[FixedCal]) -> tuple[int, int | None]:
     """As compare, through survey_compute_temp (vector i: cals[i % len])."""
     c = core.survey(acc, mag, cals, temp_q6=temp_q6)
-    idx = np.arange(len(acc)) % len(cals)
+    g = golden_temp(acc, mag, temp_q6, cals)
     bad = np.zeros(len(acc), dtype=bool)
-    for k, cal in enumerate(cals):
-        sel = idx == k
-        g = golden.survey_compute(acc[sel], mag[sel], *cal.arrays(), temp=cal.temp, temp_q6=temp_q6[sel])
-        for col in SURVEY_COLS[6:]:
-            bad[sel] |= c[col][sel].astype(np.int64) != g[col]
-        bad[sel] |= (c["g"][sel] != g["g"]).any(-1) | (c["b"][sel] != g["b"]).any(-1)
+    for col in SURVEY_COLS[6:]:
+        bad |= c[col].astype(np.int64) != g[col]
+    bad |= (c["g"] != g["g"]).any(-1) | (c["b"] != g["b"]).any(-1)
     first = int(np.argmax(bad)) if bad.any() else None
     return int(bad.sum()), first
 

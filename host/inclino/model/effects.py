@@ -555,15 +555,7 @@ class TriadModel:
     def deterministic(self, v, temp_c=25.0):
         """The chain up to the bias tempco (v1..v5): everything that does not
         draw noise.  apply = random_part(deterministic(v, T), ...)."""
-        y = np.asarray(v, dtype=float)
-        if self.soft_iron is not None:
-            y = self.soft_iron.apply(y)
-        if self.hard_iron is not None:
-            y = self.hard_iron.apply(y)
-        if self.misalignment is not None:
-            y = self.misalignment.apply(y)
-        if self.scale is not None:
-            y = self.scale.apply(y)
+        y = self.head(v)
         if self.scale_tempco is not None:
             y = self.scale_tempco.apply(y, temp_c)
         if self.nonlinearity is not None:
@@ -573,6 +565,67 @@ class TriadModel:
         if self.bias_tempco is not None:
             y = self.bias_tempco.apply(y, temp_c)
         return y
+
+    def head(self, v):
+        """The start of `deterministic` that the temperature does not touch:
+        soft iron, hard iron, misalignment, scale (for a static pose, the same
+        at every sample)."""
+        y = np.asarray(v, dtype=float)
+        if self.soft_iron is not None:
+            y = self.soft_iron.apply(y)
+        if self.hard_iron is not None:
+            y = self.hard_iron.apply(y)
+        if self.misalignment is not None:
+            y = self.misalignment.apply(y)
+        if self.scale is not None:
+            y = self.scale.apply(y)
+        return y
+
+    def tail3(self):
+        """A function (y, temp_c) -> the rest of `deterministic` (scale
+        tempco, nonlinearity, bias, bias tempco) for one sample as plain
+        floats: y the 3 floats of `head`, temp_c a float; returns a tuple of
+        3 floats.  It does the NumPy chain's operations in the same order on
+        floats -- temp_poly's dT = T - T_ref, c1 dT, + c2 (dT dT) when any c2
+        is non-zero; y (1 + p); y + (k2 y) y; y + b; y + p -- so the same bits
+        (build it once, call it per sample: a chamber run's temperature
+        changes at every sample, so the chain cannot be cached)."""
+        steps = []
+        st = self.scale_tempco
+        if st is not None:
+            c1, c2 = 1e-6 * st.ppm, 1e-6 * st.ppm2
+            steps.append(("scale_tempco", c1.tolist(), c2.tolist(), bool(np.any(c2 != 0.0)), float(st.t_ref_c)))
+        if self.nonlinearity is not None:
+            steps.append(("nonlinearity", self.nonlinearity.k2.tolist()))
+        if self.bias is not None:
+            steps.append(("bias", self.bias.b.tolist()))
+        bt = self.bias_tempco
+        if bt is not None:
+            steps.append(("bias_tempco", bt.c.tolist(), bt.c2.tolist(), bool(np.any(bt.c2 != 0.0)), float(bt.t_ref_c)))
+
+        def f(y, temp_c):
+            y0, y1, y2 = y
+            for step in steps:
+                kind = step[0]
+                if kind == "scale_tempco" or kind == "bias_tempco":
+                    _, (a0, a1, a2), (b0, b1, b2), second, t_ref = step
+                    dT = float(temp_c) - t_ref
+                    p0, p1, p2 = a0 * dT, a1 * dT, a2 * dT
+                    if second:
+                        dT2 = dT * dT
+                        p0, p1, p2 = p0 + b0 * dT2, p1 + b1 * dT2, p2 + b2 * dT2
+                    if kind == "scale_tempco":
+                        y0, y1, y2 = y0 * (1.0 + p0), y1 * (1.0 + p1), y2 * (1.0 + p2)
+                    else:
+                        y0, y1, y2 = y0 + p0, y1 + p1, y2 + p2
+                elif kind == "nonlinearity":
+                    k0, k1, k2 = step[1]
+                    y0, y1, y2 = y0 + k0 * y0 * y0, y1 + k1 * y1 * y1, y2 + k2 * y2 * y2
+                else:
+                    b0, b1, b2 = step[1]
+                    y0, y1, y2 = y0 + b0, y1 + b1, y2 + b2
+            return y0, y1, y2
+        return f
 
     def random_part(self, y, rng: np.random.Generator = None, n_avg=None, quantise=True):
         """The rest of the chain (v6, v7, out): noise, saturation, quantisation."""

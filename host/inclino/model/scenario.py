@@ -162,6 +162,8 @@ class Probe:
         self._b_static = None        # true b (3,) array while static and drift-free
         self._acc_det = (None, None)  # (temperature, 3 floats): deterministic chain output
         self._mag_det = (None, None)
+        self._acc_head = self._mag_head = None  # TriadModel.head of the static truth, 3 floats
+        self._acc_tail = self._mag_tail = None  # TriadModel.tail3 of each chain
         self._acc_rand = {}           # n_avg -> TriadModel.sampler (noise, saturation)
         self._mag_rand = None
 
@@ -211,29 +213,37 @@ class Probe:
         return len(self._trajectory.t_s) == 1
 
     def _acc_chain(self, t, temp):
-        """Deterministic accelerometer chain output at t, 3 floats."""
+        """Deterministic accelerometer chain output at t, 3 floats: the
+        chain's head (TriadModel.head) on NumPy, kept while static, and its
+        temperature-dependent tail on floats (TriadModel.tail3)."""
         key, y = self._acc_det
         if key is not None and key == temp:
             return y
+        if self._acc_tail is None:
+            self._acc_tail = self.scenario.acc.tail3()
         if self._static():
-            if self._g_static is None:
+            if self._acc_head is None:
                 self._g_static = self.true_acc(t)
-            y = tuple(self.scenario.acc.deterministic(self._g_static, temp).tolist())
+                self._acc_head = tuple(self.scenario.acc.head(self._g_static).tolist())
+            y = self._acc_tail(self._acc_head, temp)
             self._acc_det = (temp, y)
             return y
-        return tuple(self.scenario.acc.deterministic(self.true_acc(t), temp).tolist())
+        return self._acc_tail(tuple(self.scenario.acc.head(self.true_acc(t)).tolist()), temp)
 
     def _mag_chain(self, t, temp):
         key, y = self._mag_det
         if key is not None and key == temp:
             return y
+        if self._mag_tail is None:
+            self._mag_tail = self.scenario.mag.tail3()
         if self._static() and self.scenario.world.drift is None:
-            if self._b_static is None:
+            if self._mag_head is None:
                 self._b_static = self.true_mag(t)
-            y = tuple(self.scenario.mag.deterministic(self._b_static, temp).tolist())
+                self._mag_head = tuple(self.scenario.mag.head(self._b_static).tolist())
+            y = self._mag_tail(self._mag_head, temp)
             self._mag_det = (temp, y)
             return y
-        return tuple(self.scenario.mag.deterministic(self.true_mag(t), temp).tolist())
+        return self._mag_tail(tuple(self.scenario.mag.head(self.true_mag(t)).tolist()), temp)
 
     # ---- analog sensor outputs (all effects but quantisation) -------------
     def _sample_temp(self, t: float, temp_c=None) -> float:

@@ -1,0 +1,180 @@
+"""Static holds in a log without poses: the readings' own stillness.
+
+A step-and-hold log (a six-face session, a gimbal that stops at each
+position, a tool held still at each station) reads hundreds of rows at one
+orientation, and often moves by hand or by motor between orientations.  When
+the log has no pose or pose-id column, nothing says which rows belong
+together.  The rows of one hold share that orientation's error and any slow
+drift, so they are one pose, not hundreds of independent ones; and the rows
+read while moving carry the motion's own acceleration, which no sensor model
+explains.
+
+`find(ds)` marks a row as still when every window of HOLD_ROWS consecutive
+rows around it has, on every axis of every triad present, a standard
+deviation within HOLD_K times that axis's noise; a hold is then a run of
+still rows at least HOLD_ROWS long, cut where its direction turns by more
+than HOLD_TURN_DEG from where the run began (a slow turn is not a hold).
+The noise per axis is the readings' own: the median absolute difference of
+neighbouring rows (/ 0.6745 / sqrt 2), a statistic that the still rows set
+when they are the majority; it is capped at the triad's declared noise, or
+at NOISE_BOUND (the most a part of that kind has), so that a log that
+moves all the time is not read as still; and floored at the resolution's
+quantisation noise (LSB / sqrt 12).
+
+A log is read as step-and-hold when its holds hold at least
+STEP_AND_HOLD_FRACTION of the rows; otherwise (a log turned continuously by
+hand) the holds are not used.  Callers: diagnose's pose-free mode
+(diagnose/posefree.py), docs/diagnose.md.
+"""
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+
+import numpy as np
+
+# the noise (1 sigma, one reading, per axis) a static sensor of each kind stays within when the
+# description gives none: MEMS accelerometers 100-300 ug/sqrt(Hz) over a few hundred Hz (<= 5 mg);
+# MEMS magnetometers 0.15-0.6 uT per LSB (<= 1 uT); the fluxgate a few nT
+NOISE_BOUND = {"acc": 5e-3, "mag": 1000.0}  # g, nT
+HOLD_ROWS = 10                 # a hold is at least this many consecutive still rows (and the window's length)
+HOLD_K = 3.0                   # a still window's per-axis standard deviation: at most this many times the noise
+HOLD_TURN_DEG = 0.5            # a run whose direction turns by more than this from its start is cut there
+STEP_AND_HOLD_FRACTION = 0.5   # holds must hold this share of the rows for a log to be read as step-and-hold
+HOLDS_MAX_LEVERAGE = 0.8       # the holds alone determine a triad's ellipsoid when no hold's leverage exceeds this
+
+
+@dataclass
+class Holds:
+    """labels: (n,) the hold of each row (0 .. count-1), -1 for a row read
+    while moving; noise: per triad the per-axis noise used (g, nT)."""
+    labels: np.ndarray
+    count: int
+    rows_held: int
+    rows_moving: int
+    noise: dict
+
+    @property
+    def step_and_hold(self) -> bool:
+        n = self.rows_held + self.rows_moving
+        return self.count >= 2 and n > 0 and self.rows_held >= STEP_AND_HOLD_FRACTION * n
+
+    def to_dict(self) -> dict:
+        return {"holds": self.count, "rows_held": self.rows_held, "rows_moving": self.rows_moving,
+                "step_and_hold": self.step_and_hold, "hold_rows_min": HOLD_ROWS, "hold_k": HOLD_K,
+                "hold_turn_deg": HOLD_TURN_DEG,
+                "noise": {k: [float(x) for x in v] for k, v in self.noise.items()}}
+
+
+def _noise(ws, declared, lsb, bound) -> np.ndarray:
+    """Per axis: the median window standard deviation (the still windows'
+    when they are the majority; a quantised reading's median difference of
+    neighbours would be one LSB or zero), capped at the declared noise (else
+    bound), floored at LSB / sqrt 12."""
+    s = np.median(ws, axis=0)
+    cap = float(declared) if declared else bound
+    floor = float(lsb) / math.sqrt(12.0) if lsb else 0.0
+    return np.maximum(np.minimum(s, cap), max(floor, 1e-12))
+
+
+def _window_std(v, w) -> np.ndarray:
+    """(n - w + 1, 3): each window's per-axis standard deviation (cumulative
+    sums, centred on the log's mean so that large offsets cost no digits)."""
+    x = v - v.mean(axis=0)
+    c1 = np.concatenate([np.zeros((1, 3)), np.cumsum(x, axis=0)])
+    c2 = np.concatenate([np.zeros((1, 3)), np.cumsum(x * x, axis=0)])
+    s1 = c1[w:] - c1[:-w]
+    s2 = c2[w:] - c2[:-w]
+    var = np.maximum(s2 / w - (s1 / w) ** 2, 0.0) * w / (w - 1)
+    return np.sqrt(var)
+
+
+def _first_turn(m, i, b, anchor, cos_turn) -> int:
+    """The first window start k in [i, b - HOLD_ROWS] whose mean direction m[k]
+    is off the anchor by more than the turn; the cut is at its centre (b if
+    none).  Looked for in doubling stretches: linear time."""
+    step = 4 * HOLD_ROWS
+    lo, last = i, b - HOLD_ROWS + 1
+    while lo < last:
+        hi = min(last, lo + step)
+        turned = np.flatnonzero(m[lo:hi] @ anchor < cos_turn)
+        if len(turned):
+            return lo + int(turned[0]) + HOLD_ROWS // 2
+        lo, step = hi, 2 * step
+    return b
+
+
+def find(ds) -> Holds:
+    """The static holds of a dataset (module docstring)."""
+    n = len(ds)
+    w = HOLD_ROWS
+    still = np.zeros(n, bool)
+    noise = {}
+    ref = None
+    if n >= w:
+        quiet = np.ones(n - w + 1, bool)
+        for t, unit in (("acc", "g"), ("mag", "nT")):
+            if not getattr(ds, f"has_{t}", False):
+                continue
+            v = np.asarray(getattr(ds, t), float)
+            ws = _window_std(v, w)
+            s = _noise(ws, ds.meta.get(f"{t}_noise_{unit}"), ds.meta.get(f"{t}_lsb_{unit}"), NOISE_BOUND[t])
+            noise[t] = s
+            quiet &= np.all(ws <= HOLD_K * s, axis=1)
+            if ref is None:
+                ref = v
+        # a row is still when a quiet window covers it
+        cover = np.zeros(n + 1, int)
+        starts = np.flatnonzero(quiet)
+        np.add.at(cover, starts, 1)
+        np.add.at(cover, starts + w, -1)
+        still = np.cumsum(cover)[:n] > 0
+    labels = np.full(n, -1, int)
+    count = 0
+    if still.any():
+        edges = np.flatnonzero(np.diff(np.concatenate([[0], still.astype(int), [0]])))
+        cos_turn = math.cos(math.radians(HOLD_TURN_DEG))
+        u = ref / np.maximum(np.linalg.norm(ref, axis=1, keepdims=True), 1e-300)
+        cu = np.concatenate([np.zeros((1, 3)), np.cumsum(u, axis=0)])
+        m = (cu[w:] - cu[:-w]) / w  # each window's mean direction
+        m /= np.maximum(np.linalg.norm(m, axis=1, keepdims=True), 1e-300)
+        for a, b in zip(edges[::2], edges[1::2]):
+            i = a
+            while b - i >= w:
+                anchor = m[i]
+                j = _first_turn(m, i, b, anchor, cos_turn)
+                if j - i >= w:
+                    labels[i:j] = count
+                    count += 1
+                    i = j
+                else:  # the run starts turning at once: step past its first rows
+                    i = max(j, i + 1)
+    held = int(np.sum(labels >= 0))
+    return Holds(labels=labels, count=count, rows_held=held, rows_moving=n - held, noise=noise)
+
+
+def ellipsoid_leverage(means) -> float:
+    """The largest leverage (hat-matrix diagonal) among k mean readings of a
+    triad in the linearised pose-free model (a symmetric 3x3 and an offset:
+    |M v + b| = R, to first order a quadric in the reading's direction u and
+    its size: u_i u_j (6 columns) and u (3)).  Near 1: that reading alone
+    fixes a parameter (a face with no neighbour), so leaving it out is an
+    extrapolation; 1.0 when there are fewer readings than parameters."""
+    v = np.asarray(means, float)
+    if len(v) <= 9:
+        return 1.0
+    u = v / np.maximum(np.linalg.norm(v, axis=1, keepdims=True), 1e-300)
+    X = np.column_stack([u[:, 0] ** 2, u[:, 1] ** 2, u[:, 2] ** 2, 2 * u[:, 0] * u[:, 1], 2 * u[:, 0] * u[:, 2],
+                         2 * u[:, 1] * u[:, 2], u])
+    Q, R = np.linalg.qr(X)
+    if np.min(np.abs(np.diag(R))) < 1e-9 * np.max(np.abs(np.diag(R))):
+        return 1.0
+    return float(np.max(np.sum(Q * Q, axis=1)))
+
+
+def means(v, labels, count) -> np.ndarray:
+    """(count, 3): each hold's mean reading."""
+    keep = labels >= 0
+    out = np.zeros((count, 3))
+    np.add.at(out, labels[keep], np.asarray(v, float)[keep])
+    return out / np.maximum(np.bincount(labels[keep], minlength=count), 1)[:, None]
