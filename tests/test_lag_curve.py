@@ -136,3 +136,26 @@ def test_a_skew_beyond_half_a_row_names_the_nearest_row_and_the_skew_left():
     assert rep.lag_rows == -1 and ("a whole-row lag leaves +0.2" in f.message
                                    or "a whole-row lag leaves +0.3" in f.message), f.message
     assert abs(f.figures["curve_lag_rows"] + 0.7) < 0.05
+
+
+def _stretch(ds, a, b):
+    return dataset.RawDataset({k: v[a:b] for k, v in ds.columns.items()}, dict(ds.meta))
+
+
+@pytest.mark.parametrize("rows", [(0, 4000), (4000, 8000), (8000, 12000)])
+def test_a_held_out_stretch_of_the_ck_log_in_step_names_no_shift(ck, rows):
+    rep = checks.run(_stretch(ck[0], *rows))
+    assert rep.lag_rows == 0 and not _lag_findings(rep), rep.lines()
+
+
+@pytest.mark.parametrize("rows,k", [((8000, 12000), 2), ((4500, 10500), 2)])
+def test_a_held_out_stretch_shifted_never_gets_another_lag(ck, rows, k):
+    """On these stretches the dip's raw spread (calibration errors left in)
+    is least one row beyond the shift made (its least value on the clean
+    stretch sits at +1 to +2 rows); the calibrated lag curve rounds to the
+    shift, so no other lag is named."""
+    rep = checks.run(_shifted(_stretch(ck[0], *rows), k))
+    assert rep.lag_rows in (0, k), rep.lines()
+    assert round(rep.lag_curve["lag_rows"]) in (k - 1, k), rep.lag_curve
+    for f in _lag_findings(rep):
+        assert f"lag = {k}" in f.message, f.message

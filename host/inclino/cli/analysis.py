@@ -362,11 +362,20 @@ def _diagnose_invariants(ds, args) -> int:
     note = (f"{why}: " + ("the residuals against the poses and the invariants after the triad's own fit"
                           if poses else "the invariants |g|, |b| and the dip after each triad's own fit")
             + "; no effect is named")
+    from inclino.diagnose.runvars import drift_pose_confounds
+
+    # what the settings of the pose cannot tell apart: a drift over the session against errors that depend on
+    # the pose (a six-face session read face after face)
+    confounded = drift_pose_confounds(ds) if poses else []
     if args.json:
-        print(_json.dumps({"mode": "invariants", "note": note, "effects": [], "report": rep.to_dict()}))
+        print(_json.dumps({"mode": "invariants", "note": note, "effects": [], "confounded": confounded,
+                           "report": rep.to_dict()}))
     else:
         print(f"{args.input}:")
         print(f"  {note}")
+        for c in confounded:
+            print(f"  cannot be told apart on these {c['settings']} settings of the pose: {c['effect']} and "
+                  f"{c['with']} (correlation {c['correlation']:.2f}); to separate them: {c['separate_by']}")
         print(rep.summary(verdict=False))
         print("conclusion: " + ("PASS: the invariants fit within their limits; no effect named" if rep.passed else
                                 "FAIL: the invariants do not fit (" + "; ".join(rep.reasons) + "); no effect "

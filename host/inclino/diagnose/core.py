@@ -499,6 +499,21 @@ class Design:
         Xs = self.Xw[:, :, S]
         return np.einsum("nip,pq,niq->ni", Xs, np.linalg.pinv(self.G[np.ix_(S, S)]), Xs)
 
+    def heldout_factor(self, S) -> np.ndarray:
+        """(n, m): the variance of each whitened value's held-out residual
+        (its fold left out of the fit) over the noise's, 1 + x^T G_-f^-1 x
+        with G_-f the Gram matrix without the value's fold: the diagonal of
+        (I - H_ff)^-1 (Woodbury), what the fold's own values lean on one
+        another included (1 / (1 - h) only when a fold is one value)."""
+        S = np.asarray(S)
+        out = np.zeros(self.Xw.shape[:2])
+        for f in range(self.K):
+            m = self.folds == f
+            Gi = np.linalg.pinv(self.G[np.ix_(S, S)] - self.Gf[f][np.ix_(S, S)])
+            Xs = self.Xw[m][:, :, S]
+            out[m] = 1.0 + np.einsum("nip,pq,niq->ni", Xs, Gi, Xs)
+        return out
+
     def cv_residuals(self, S) -> np.ndarray:
         R = np.zeros_like(self.yraw)
         for f in range(self.K):

@@ -20,10 +20,13 @@ pose-based diagnosis (inclino.model.effects):
   across the field, which no invariant sees, needs the poses).
 
 The selection is the pose-based one (core.Design: forward stepwise, F-test
-at alpha/m, K-fold cross-validation that must fall overall and on the
-effect's own invariant, backward pass; each candidate tested with every
-invariant weighed by its noise with that candidate in the model; on a
-serially correlated log the held-out gain also in all blocks but one), on cluster means where several
+at alpha/m, cross-validation that must fall overall and on the effect's
+own invariants, backward pass; each candidate tested, and its own
+invariants pooled, with every invariant weighed by its noise with that
+candidate in the model).  Independent shots are held out one pose at a
+time; a serially correlated log is held out in K blocks, its held-out gain
+needed in all blocks but one, and a driven candidate (temperature, time, a
+rig angle) must also beat its driver shifted in time.  All on cluster means where several
 rows share a pose (calib.covariance.cluster_labels): hundreds of readings
 at one face are one observation of that face, not hundreds.  What needs
 the poses is listed as such: the turntable's own errors, a declination
@@ -49,6 +52,7 @@ TEMP_MIN_RANGE_C = 1.0
 RIG_MIN_SPAN_DEG = 30.0
 GN_ITERATIONS = 4
 OUTLIER_P = 1e-3
+LOO_MAX_CLUSTERS = 200  # independent shots up to this many poses are held out one at a time (beyond: K blocks)
 
 NEEDS_POSES = [
     ("turntable-inclination-offset", "an offset of the turntable's inclination scale shows only against the poses"),
@@ -477,8 +481,16 @@ def diagnose_posefree(ds: RawDataset, alpha: float = DEFAULT_ALPHA, folds: int =
     des.inflation = serial["inflation"]
     shift_test = serial["rho"] >= SHIFT_TEST_RHO and not _declared_static(ds)
     blockwise = serial["rho"] >= SHIFT_TEST_RHO
+    if not blockwise and k <= LOO_MAX_CLUSTERS:
+        # independent shots: each pose held out alone (leave-one-pose-out).  K blocks of a 24-shot log leave
+        # 19 shots to fit ~30 parameters, a harsher test than the calibration's own use of all 24 (an effect of
+        # 8 columns at z = 12 gained on such blocks about half the time); one pose out is the held-out error of
+        # a fit on the poses the log has.  Neighbouring rows that share their errors keep the blocks (one
+        # held-out row would be predicted by its neighbours)
+        K, fold_of = k, np.arange(k)
+        des, idx, r_base, rows = design(testable)
+        des.inflation = serial["inflation"]
     base_rms = {c: float(np.sqrt(np.mean(r_base[rows, j] ** 2))) for j, c in enumerate(chans)}
-    scale = np.array([max(base_rms[c], 1e-300) for c in chans])
     if _signature is not None and _signature != "debug":
         key, w = _signature
         if key not in idx:
@@ -487,7 +499,14 @@ def diagnose_posefree(ds: RawDataset, alpha: float = DEFAULT_ALPHA, folds: int =
         ws = (np.ones(len(cols)) if w is None else np.asarray(w, float)) * des.colscale[cols]
         Gbb = des.G[np.ix_(base, base)]
         Rcc = des.G[np.ix_(cols, cols)] - des.G[np.ix_(base, cols)].T @ np.linalg.solve(Gbb, des.G[np.ix_(base, cols)])
-        return float(np.sqrt(max(ws @ Rcc @ ws, 0.0) / des.inflation))
+        infl = des.inflation
+        if shift_test and key.split(":")[0] in DRIVEN:
+            # what the test deflates this driver's F by on these data: its circular-shift null (a log with
+            # slow structure in its residuals, as a tumbled one, gives any smooth driver a large F by chance:
+            # a null temperature cycled 2.5 times reaches F ~ 70-80 on CK's log, where the lag-1 correlation
+            # alone says 6)
+            infl = max(infl, _shift_p(mdl, state, des, base, key, len(cols), None))
+        return float(np.sqrt(max(ws @ Rcc @ ws, 0.0) / infl))
     own = {kk: _own_chan(kk, chans) for kk in testable}
     kept, steps, pvals = [], [], {}
     remaining = list(testable)
@@ -500,15 +519,17 @@ def diagnose_posefree(ds: RawDataset, alpha: float = DEFAULT_ALPHA, folds: int =
         invariant down in its own test (a rig field of z = 12 on |b| of a
         24-shot log came out at p 5e-4-0.01, and was missed)."""
         S1 = list(S) + list(cols)
-        R1 = des.raw_residuals(S1)[des.rows]
+        d0, rows1 = des, des.rows
+        R1 = d0.raw_residuals(S1)[rows1]
         # each invariant's unbiased noise: its residuals' sum of squares over its own degrees of freedom (the
         # rows less the leverage the fit puts on that invariant), as the held-out prediction below
-        h = des.leverage(S1)[des.rows].sum(0)
+        h = d0.leverage(S1)[rows1].sum(0)
         s1 = np.sqrt((R1 ** 2).sum(0) / np.maximum(len(R1) - h, 1.0))
         W1 = np.zeros_like(des._W)
         W1[:, range(len(s1)), range(len(s1))] = 1.0 / np.maximum(s1, 1e-300)
-        d1 = Design(des.yraw, des.Xraw, W1, fold_of, K, rows=des.rows)
+        d1 = Design(des.yraw, des.Xraw, W1, fold_of, K, rows=rows1)
         d1.inflation = des.inflation
+        d1.noise = np.maximum(s1, 1e-300)
         return d1.ftest(S, cols)[0], d1
 
     while remaining:
@@ -522,10 +543,17 @@ def diagnose_posefree(ds: RawDataset, alpha: float = DEFAULT_ALPHA, folds: int =
             # candidate in the model
             S1 = S + idx[kk]
             cv0, cv1 = d1.cv(S), d1.cv(S1)
-            o0, o1 = _own_cv(d1, S, own[kk], rows, scale), _own_cv(d1, S1, own[kk], rows, scale)
-            f0 = _own_cv(d1, S, own[kk], rows, scale, fold_of)
-            f1 = _own_cv(d1, S1, own[kk], rows, scale, fold_of)
-            better = int(np.sum(f1 < f0))
+            # the own invariants pooled each in units of its noise with the candidate in the model (as the
+            # test): in units of the baseline's spread, an invariant the effect inflated counts for little
+            # beside one it does not touch (a rig field on |b| alone: its 4 dip columns' fitted noise
+            # outweighed the gain on |b|)
+            o0, o1 = _own_cv(d1, S, own[kk], d1.rows, d1.noise), _own_cv(d1, S1, own[kk], d1.rows, d1.noise)
+            if blockwise:
+                f0 = _own_cv(d1, S, own[kk], d1.rows, d1.noise, fold_of)
+                f1 = _own_cv(d1, S1, own[kk], d1.rows, d1.noise, fold_of)
+                better = int(np.sum(f1 < f0))
+            else:
+                better = K
             if shift_test and kk.split(":")[0] in DRIVEN and cv1 < cv0 and o1 < o0 and better >= K - 1:
                 ps = _shift_p(mdl, state, des, S, kk, ncol[kk], alpha / len(remaining))
                 if ps >= alpha / len(remaining):
@@ -573,15 +601,17 @@ def diagnose_posefree(ds: RawDataset, alpha: float = DEFAULT_ALPHA, folds: int =
     cov = des.coef_cov(S)
     R_final, R_cv = des.raw_residuals(S), des.cv_residuals(S)
     # the held-out prediction: each invariant's residual RMS on poses the fit has not seen, from the fit alone:
-    # its noise s_j^2 = sum r^2 / sum (1 - h) and each value's leverage h (what the fit leans on it; serially
-    # correlated rows weigh (1 + rho) / (1 - rho) times more), a value held out erring by s_j^2 / (1 - h);
-    # checked against the K-fold residuals of held-out blocks of poses
+    # its noise s_j^2 = sum r^2 / sum (1 - h), h each value's leverage (what the fit leans on it; serially
+    # correlated rows weigh (1 + rho) / (1 - rho) times more), and a value held out with its fold erring by
+    # s_j^2 (1 + x^T G_-f^-1 x) (Design.heldout_factor: the fold's values leaning on one another included);
+    # checked against the residuals of the same held-out folds of poses
     h = np.clip(des.leverage(S) * des.inflation, 0.0, 0.95)
+    hf = 1.0 + (des.heldout_factor(S) - 1.0) * des.inflation
     prediction = {}
     for j, c in enumerate(chans):
         hj = h[rows, j]
         s2j = float(np.sum(R_final[rows, j] ** 2) / max(np.sum(1.0 - hj), 1e-12))
-        pin = float(np.sqrt(s2j * np.mean(1.0 / (1.0 - hj))))
+        pin = float(np.sqrt(s2j * np.mean(hf[rows, j])))
         ach = float(np.sqrt(np.mean(R_cv[rows, j] ** 2)))
         prediction[c] = {"predicted_heldout_rms": pin, "achieved_heldout_rms": ach,
                          "ratio": ach / pin if pin > 0 else float("nan")}
@@ -669,8 +699,9 @@ def diagnose_posefree(ds: RawDataset, alpha: float = DEFAULT_ALPHA, folds: int =
         "serial_correlation": {"lag1": serial["rho"], "f_test_inflation": serial["inflation"],
                                "what": "neighbouring rows' residuals correlate (a log read while moving): the F-tests "
                                        "count n (1 - rho) / (1 + rho) independent rows"},
-        "selection": {"method": "forward stepwise on the invariants (F-test at alpha/m, K-fold CV overall and on the "
-                                "effect's own invariant must fall, each invariant weighed by its noise with the candidate "
+        "selection": {"method": "forward stepwise on the invariants (F-test at alpha/m, cross-validation -- "
+                                "leave-one-pose-out on independent shots, K blocks on serially correlated rows -- "
+                                "overall and on the effect's own invariant must fall, each invariant weighed by its noise with the candidate "
                                 "in the model; on a serially correlated log in all held-out blocks but one), backward "
                                 "pass at alpha; clusters of rows at one pose count once",
                       "alpha": alpha, "folds": K, "tested": testable, "not_testable": not_testable,
@@ -679,8 +710,8 @@ def diagnose_posefree(ds: RawDataset, alpha: float = DEFAULT_ALPHA, folds: int =
         "holds": pf.holds,
         "structure": structure, "run_variables": run_conf,
         "prediction": {"what": f"each invariant's residual RMS predicted on poses not fitted (the fit's noise "
-                               f"and each value's leverage, {len(S)} parameters) and achieved on {K} held-out "
-                               f"blocks of poses", "by_invariant": prediction},
+                               f"and each value's leverage, {len(S)} parameters) and achieved on "
+                               + ("each pose held out alone" if K == k else f"{K} held-out blocks of poses"), "by_invariant": prediction},
     }
     out = Diagnosis(baseline=baseline, effects=effects, unexplained=structure["unexplained"], structure=structure,
                     confounded=confounded)
@@ -692,6 +723,8 @@ def _hold_notes(pf) -> list:
     h = pf.holds
     if not h:
         return []
+    if h["moving_rows_left_out"] and not h["rows_moving"]:
+        return [f"no poses: {h['holds']} static holds found in the readings ({h['rows_held']} rows), each hold one pose"]
     if h["moving_rows_left_out"]:
         return [f"no poses: {h['holds']} static holds found in the readings ({h['rows_held']} rows, each hold one "
                 f"pose); the {h['rows_moving']} rows read while moving between them are left out (their motion's "
@@ -713,6 +746,8 @@ def _declared_static(ds) -> bool:
 SHIFT_TEST_RHO = 0.3  # from this lag-1 correlation on, a driver's effect also needs the circular-shift test
 SHIFT_MIN_FRACTION = 0.05
 SHIFTS = 199
+SHIFT_MAX_CORR = 0.3
+SHIFT_MIN_COUNT = 20  # fewer unrelated shifts than this: all of them are used (the test errs towards refusing)
 
 
 def _highpass(r, frac: float = 0.02):
@@ -754,7 +789,8 @@ def _shift_p(mdl, state, des, S, key, n, threshold) -> float:
     broken) and the F statistic recomputed for each.  Their mean, against
     the F distribution's, is how much the rows' correlation inflates F for
     this driver; the data's own F, deflated by it, gives p (threshold: not
-    used, kept for the call's symmetry)."""
+    used, kept for the call's symmetry; None: that inflation is returned
+    instead of p)."""
     pf = mdl.pf
     name, _, ax = key.split(":")
     attr = {"temperature-bias": "temp", "temperature-scale": "temp", "field-drift": "t"}.get(name)
@@ -779,6 +815,24 @@ def _shift_p(mdl, state, des, S, key, n, threshold) -> float:
     lo = max(1, int(SHIFT_MIN_FRACTION * k))
     shifts = np.unique(np.linspace(lo, k - lo, min(SHIFTS, max(k - 2 * lo + 1, 1))).astype(int))
     orig = getattr(pf, attr) if attr else pf.angles[ax]
+    # only shifts whose driver is nearly unrelated to the original (|correlation| <= SHIFT_MAX_CORR): a
+    # periodic driver (a temperature cycled 2.5 times) rolled by about a period is the driver again, and
+    # its F would carry the effect itself into the null.  Shifts chosen by the driver alone, never by the
+    # readings, leave the null distribution as it was
+    def feats(v):
+        if attr:
+            return (np.asarray(v, float),)
+        r = np.radians(v)
+        return np.cos(r), np.sin(r), np.cos(2 * r), np.sin(2 * r)
+    f0 = feats(orig)
+
+    def corr(a, b):
+        a, b = a - a.mean(), b - b.mean()
+        d = np.sqrt((a @ a) * (b @ b))
+        return abs(float(a @ b) / d) if d > 0 else 0.0
+    far = [sh for sh in shifts if max(corr(a, b) for a, b in zip(f0, feats(np.roll(orig, sh)))) <= SHIFT_MAX_CORR]
+    if len(far) >= SHIFT_MIN_COUNT:
+        shifts = np.asarray(far)
     fs = []
     try:
         for sh in shifts:
@@ -796,6 +850,8 @@ def _shift_p(mdl, state, des, S, key, n, threshold) -> float:
     if not fs:
         return 1.0
     c = max(1.0, float(np.mean(fs)) / (dof / max(dof - 2, 1)))
+    if threshold is None:
+        return c
     return float(stats.f.sf(f_obs / c, n, max(dof / c, 1.0)))
 
 
@@ -829,9 +885,9 @@ def _own_chan(key, chans) -> list:
 
 
 def _own_cv(des, S, j, rows, scale, folds=None) -> float:
-    """Held-out RMS of the effect's own invariant(s), each in units of its
-    baseline RMS (|b| in nT and the dip in degrees pooled); with folds, one
-    per fold."""
+    """Held-out RMS of the effect's own invariant(s), each in units of
+    `scale` (its noise: |b| in nT and the dip in degrees pooled); with
+    folds, one per fold."""
     R = des.cv_residuals(S)[:, j] / scale[j]
     if folds is None:
         return float(np.sqrt(np.mean(R[rows] ** 2)))

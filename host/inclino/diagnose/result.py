@@ -103,7 +103,9 @@ class Diagnosis:
                      + f"inclination {b['inc_rms_deg']:.4f} deg"]
         sel = b["selection"]
         lines.append(f"effects tested: {len(sel['tested'])} (F-test at alpha = {sel['alpha']:g}, Bonferroni over the "
-                     f"candidates, and {sel['folds']}-fold cross-validation)")
+                     f"candidates, and "
+                     + ("leave-one-pose-out cross-validation)" if b.get("clusters") == sel["folds"]
+                        else f"{sel['folds']}-fold cross-validation)"))
         groups = {}
         for nt in sel["not_testable"]:
             parts = nt["effect"].split(":")
