@@ -13,7 +13,9 @@ explains.
 rows around it has, on every axis of every triad present, a standard
 deviation within HOLD_K times that axis's noise; a hold is then a run of
 still rows at least HOLD_ROWS long, cut where its direction turns by more
-than HOLD_TURN_DEG from where the run began (a slow turn is not a hold).
+than HOLD_TURN_DEG from where the run began (a slow turn is not a hold), and
+between two rows that differ by more than HOLD_JUMP_K times their noise on
+an axis (an abrupt change: the next face, with nothing read in between).
 The noise per axis is the readings' own: the median absolute difference of
 neighbouring rows (/ 0.6745 / sqrt 2), a statistic that the still rows set
 when they are the majority; it is capped at the triad's declared noise, or
@@ -40,6 +42,7 @@ NOISE_BOUND = {"acc": 5e-3, "mag": 1000.0}  # g, nT
 HOLD_ROWS = 10                 # a hold is at least this many consecutive still rows (and the window's length)
 HOLD_K = 3.0                   # a still window's per-axis standard deviation: at most this many times the noise
 HOLD_TURN_DEG = 0.5            # a run whose direction turns by more than this from its start is cut there
+HOLD_JUMP_K = 6.0              # neighbouring rows differing by this many times their noise on an axis: a new hold
 STEP_AND_HOLD_FRACTION = 0.5   # holds must hold this share of the rows for a log to be read as step-and-hold
 HOLDS_MAX_LEVERAGE = 0.8       # the holds alone determine a triad's ellipsoid when no hold's leverage exceeds this
 
@@ -91,15 +94,16 @@ def _window_std(v, w) -> np.ndarray:
 
 def _first_turn(m, i, b, anchor, cos_turn) -> int:
     """The first window start k in [i, b - HOLD_ROWS] whose mean direction m[k]
-    is off the anchor by more than the turn; the cut is at its centre (b if
-    none).  Looked for in doubling stretches: linear time."""
+    is off the anchor by more than the turn; the cut is at its last row, the
+    first that the window's mean can have turned with (b if none).  Looked
+    for in doubling stretches: linear time."""
     step = 4 * HOLD_ROWS
     lo, last = i, b - HOLD_ROWS + 1
     while lo < last:
         hi = min(last, lo + step)
         turned = np.flatnonzero(m[lo:hi] @ anchor < cos_turn)
         if len(turned):
-            return lo + int(turned[0]) + HOLD_ROWS // 2
+            return lo + int(turned[0]) + HOLD_ROWS - 1
         lo, step = hi, 2 * step
     return b
 
@@ -109,6 +113,7 @@ def find(ds) -> Holds:
     n = len(ds)
     w = HOLD_ROWS
     still = np.zeros(n, bool)
+    jump = np.zeros(n, bool)  # row i differs from row i - 1 beyond the noise: a hold cannot span them
     noise = {}
     ref = None
     if n >= w:
@@ -121,6 +126,7 @@ def find(ds) -> Holds:
             s = _noise(ws, ds.meta.get(f"{t}_noise_{unit}"), ds.meta.get(f"{t}_lsb_{unit}"), NOISE_BOUND[t])
             noise[t] = s
             quiet &= np.all(ws <= HOLD_K * s, axis=1)
+            jump[1:] |= np.any(np.abs(np.diff(v, axis=0)) > HOLD_JUMP_K * math.sqrt(2.0) * s, axis=1)
             if ref is None:
                 ref = v
         # a row is still when a quiet window covers it
@@ -138,7 +144,11 @@ def find(ds) -> Holds:
         cu = np.concatenate([np.zeros((1, 3)), np.cumsum(u, axis=0)])
         m = (cu[w:] - cu[:-w]) / w  # each window's mean direction
         m /= np.maximum(np.linalg.norm(m, axis=1, keepdims=True), 1e-300)
+        runs = []
         for a, b in zip(edges[::2], edges[1::2]):
+            cuts = [a, *(a + 1 + np.flatnonzero(jump[a + 1:b])).tolist(), b]
+            runs += list(zip(cuts[:-1], cuts[1:]))
+        for a, b in runs:
             i = a
             while b - i >= w:
                 anchor = m[i]
@@ -178,3 +188,24 @@ def means(v, labels, count) -> np.ndarray:
     out = np.zeros((count, 3))
     np.add.at(out, labels[keep], np.asarray(v, float)[keep])
     return out / np.maximum(np.bincount(labels[keep], minlength=count), 1)[:, None]
+
+
+POSE_COLUMNS = ("pose_id", "segment", "cluster", "inc_deg", "azi_deg", "tf_deg")
+
+
+def determining(ds, triads=("acc", "mag")):
+    """The holds of a step-and-hold log without poses when they alone
+    determine each present triad's ellipsoid (at least 12 holds, no hold's
+    leverage above HOLDS_MAX_LEVERAGE): (hold of each row, -1 moving;
+    hold count); else None (poses or a pose id given, not step-and-hold, or
+    too few directions)."""
+    if any(c in ds.columns for c in POSE_COLUMNS):
+        return None
+    h = find(ds)
+    if not h.step_and_hold or h.count < 12:
+        return None
+    for t in triads:
+        if getattr(ds, f"has_{t}", False):
+            if ellipsoid_leverage(means(getattr(ds, t), h.labels, h.count)) > HOLDS_MAX_LEVERAGE:
+                return None
+    return h.labels, h.count

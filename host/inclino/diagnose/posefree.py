@@ -723,6 +723,8 @@ def _hold_notes(pf) -> list:
     h = pf.holds
     if not h:
         return []
+    if h["moving_rows_left_out"] and not h["rows_moving"]:
+        return [f"no poses: {h['holds']} static holds found in the readings ({h['rows_held']} rows), each hold one pose"]
     if h["moving_rows_left_out"]:
         return [f"no poses: {h['holds']} static holds found in the readings ({h['rows_held']} rows, each hold one "
                 f"pose); the {h['rows_moving']} rows read while moving between them are left out (their motion's "
