@@ -103,3 +103,30 @@ def test_expected_spread_in_stretches_is_the_spread_at_once():
         parts = compare.expected(model, md, inc, azi, rf, two, chunk=int(RNG.integers(2, 200)))
         assert np.allclose(whole[0], parts[0], rtol=1e-12, atol=0) and np.allclose(whole[1], parts[1], rtol=1e-12,
                                                                                    atol=0)
+
+
+def test_streamed_json_is_the_text_of_to_json(tmp_path, capsys):
+    """compare --json writes its result as it encodes it (a 10^5-pair result
+    is never one string): the text is to_json()'s, NaN written as null."""
+    import io
+
+    from inclino.benchmarks import input as bench_input
+    from inclino.survey import compare as cmp
+
+    a, b = tmp_path / "a.csv", tmp_path / "b.csv"
+    bench_input.write_listing(str(a), 300, seed=1, step_m=1.0)
+    bench_input.write_listing(str(b), 300, seed=2, step_m=1.0)
+    rc, out, err = run(capsys, "compare", a, b, "--tool-model", "iscwsa-mwd-rev5", "--declination", 2, "--dip", 60,
+                       "--field", 50000, "--json")
+    assert rc in (0, 1), err
+    r = json.loads(out)
+    assert r["summary"]["pairs"] == 300
+    res = cmp.CompareResult(**r)
+    res.stations[0]["d_azi_deg"] = float("nan")  # written as null by both
+    f = io.StringIO()
+    res.write_json(f)
+    assert f.getvalue() == res.to_json()
+    assert json.loads(f.getvalue())["stations"][0]["d_azi_deg"] is None
+    f = io.StringIO()
+    cmp.CompareResult(**r).write_json(f)
+    assert f.getvalue() + "\n" == out

@@ -188,3 +188,24 @@ def means(v, labels, count) -> np.ndarray:
     out = np.zeros((count, 3))
     np.add.at(out, labels[keep], np.asarray(v, float)[keep])
     return out / np.maximum(np.bincount(labels[keep], minlength=count), 1)[:, None]
+
+
+POSE_COLUMNS = ("pose_id", "segment", "cluster", "inc_deg", "azi_deg", "tf_deg")
+
+
+def determining(ds, triads=("acc", "mag")):
+    """The holds of a step-and-hold log without poses when they alone
+    determine each present triad's ellipsoid (at least 12 holds, no hold's
+    leverage above HOLDS_MAX_LEVERAGE): (hold of each row, -1 moving;
+    hold count); else None (poses or a pose id given, not step-and-hold, or
+    too few directions)."""
+    if any(c in ds.columns for c in POSE_COLUMNS):
+        return None
+    h = find(ds)
+    if not h.step_and_hold or h.count < 12:
+        return None
+    for t in triads:
+        if getattr(ds, f"has_{t}", False):
+            if ellipsoid_leverage(means(getattr(ds, t), h.labels, h.count)) > HOLDS_MAX_LEVERAGE:
+                return None
+    return h.labels, h.count

@@ -137,16 +137,21 @@ def fit_components(R, labels, Jpose=None, X=None, start_sigma=None, floor=None,
         Jc = np.zeros((k, m, 3))
         np.add.at(Jc, lab, np.asarray(Jpose, float))
         Jc /= n_c[:, None, None]
-    Xc = None
+    Xcs = None
+    scale = rms  # work in units of each channel's RMS
     if X is not None:
         X = np.asarray(X, float)
-        Xc = np.zeros((k, m, X.shape[2]))
-        np.add.at(Xc, lab, X)
-        Xc /= n_c[:, None, None]
-    scale = rms  # work in units of each channel's RMS
+        if k == n and np.array_equal(lab, np.arange(n)):  # every row its own cluster: the mean is the row
+            Xcs = X / scale[None, :, None]
+        else:
+            Xc = np.zeros((k, m, X.shape[2]))
+            np.add.at(Xc, lab, X)
+            Xc /= n_c[:, None, None]
+            Xcs = Xc / scale[None, :, None]
+            del Xc
+        del X  # (n x 6 x P: with the cluster means, the largest arrays of the fit)
     ms, Ws = mean / scale, W / scale ** 2
     Jcs = None if Jc is None else Jc / scale[None, :, None]
-    Xcs = None if Xc is None else Xc / scale[None, :, None]
     within_n = float(np.sum(n_c - 1.0))
     Wsum = Ws.sum(0)
     n_q = 3 if Jc is not None else 0
@@ -230,7 +235,7 @@ def fit_components(R, labels, Jpose=None, X=None, start_sigma=None, floor=None,
                             sigma_cluster=np.sqrt(p) * scale if n_p else np.zeros(m),
                             sigma_pose_deg=np.sqrt(q) if n_q else None, n_rows=n, n_clusters=k,
                             rows_per_cluster_max=int(n_c.max()) if k else 0,
-                            method="REML" if X is not None else "ML")
+                            method="REML" if Xcs is not None else "ML")
     if not multi:
         comps.notes.append("one row per pose: a drift shared by a pose's readings cannot be told from the "
                            "sensor noise; both are in sigma")

@@ -359,8 +359,9 @@ def _refit_fitted_noise(x, fun, jac, ds, keep, poses, FdG, fix_dip, dip0, names,
             Jp = _pose_jacobian(*pk, F, dip, dec, G)
             X = _pose_jacobian_params(xx, acc, mag, pk, F, dec, G, None)
             X = X[:, :, :-1] if fix_dip else X
+            X = np.einsum("ij,njk->nik", Bi, X)  # (the Jacobian through Bi replaces it: n x 6 x P each)
             comps = covariance.fit_components(r @ Bi.T, labels, Jpose=np.einsum("ij,njk->nik", Bi, Jp),
-                                              X=np.einsum("ij,njk->nik", Bi, X),
+                                              X=X,
                                               channels=["acc_x_g", "acc_y_g", "acc_z_g", "mag_x_nT", "mag_y_nT",
                                                         "mag_z_nT"])
             res, W = _refit_with_components(comps, x, fun, jac, acc, mag, pk, FdG, fix_dip, dip0, labels)
@@ -530,17 +531,53 @@ def _fit_invariants(ds, w, sa, sm, fix_dip, prior=None, mount_tolerance_deg=None
     if len(ds) < pose_free.MIN_ROWS:
         raise DataError(f"joint without poses needs >= {pose_free.MIN_ROWS} readings in varied orientations; "
                         f"the data have {len(ds)}")
-    (Ma, ba, Mm, bm, dip), cov, st = pose_free.fit(ds, w, sa, sm, fix_dip, mag_start=mag_start)
+    from inclino import holds
+
+    from . import common, triad
+
+    # a step-and-hold log whose holds determine both ellipsoids: the holds are fitted, the rows read while
+    # turning between them left out (their acceleration is the motion's), each hold counted once in the
+    # covariance (calib.single does the same for one triad)
+    hs = holds.determining(ds)
+    fitted = np.arange(len(ds)) if hs is None else np.flatnonzero(hs[0] >= 0)
+    dsf = ds if hs is None else common.subset(ds, fitted)
+    (Ma, ba, Mm, bm, dip), cov, st = pose_free.fit(dsf, w, sa, sm, fix_dip, mag_start=mag_start)
     if fix_dip:
         cov = cov[:24, :24]
     keep = st["keep_acc"] & st["keep_mag"]
+
+    def full(mask):
+        out = np.zeros(len(ds), bool)
+        out[fitted] = mask
+        return out
     info = {"mode": "invariants", "s2": st["s2"], "chi2": st["chi2"], "dof": st["dof"],
-            "outliers": np.flatnonzero(~keep).tolist(), "normal_matrix_cond": st["normal_matrix_cond"],
+            "outliers": fitted[~keep].tolist(), "normal_matrix_cond": st["normal_matrix_cond"],
             "dip_fitted": not fix_dip, "dip_sigma_deg": st["dip_sigma_deg"],
             "sigmas": {"acc_g": sa, "mag_nT": sm}, "unobservable": field.UNOBSERVABLE,
-            "triad_noise": st["noise"], "s2_by_triad": st["s2_by_triad"], "acc_misfit": st["acc_misfit"],
-            "mag_misfit": st["mag_misfit"],
+            "triad_noise": st["noise"], "s2_by_triad": st["s2_by_triad"], "acc_misfit": full(st["acc_misfit"]),
+            "mag_misfit": full(st["mag_misfit"]),
             "fit": "triad by triad: each triad's ellipsoid alone, then the magnetometer's rotation and the dip"}
+    if hs is not None:
+        info["moving"] = np.flatnonzero(hs[0] < 0).tolist()
+        info["holds"] = hs[1]
+        # each triad's block scaled by how much more the holds' means scatter than the rows' independence
+        # claims: the hold-level ellipsoid fit's covariance against the row-level one, on the same rows
+        lab = hs[0][fitted]
+        scale = []
+        for t, R, sig, kt in (("acc", w["gravity_g"], sa, st["keep_acc"]), ("mag", w["field_nT"], sm, keep)):
+            raw = getattr(dsf, t)
+            try:
+                _, _, c_rows, _ = triad.fit_sphere(raw[kt], R, sig, min_rows=12)
+            except DataError:
+                scale.append(1.0)
+                continue
+            hc = triad.hold_covariance(raw, lab, kt, R, sig)
+            scale.append(max(1.0, float(np.trace(hc[0]) / np.trace(c_rows))) if hc is not None else 1.0)
+        sc = np.ones(cov.shape[0])
+        sc[0:12] = np.sqrt(scale[0])
+        sc[12:] = np.sqrt(scale[1])
+        cov = cov * np.outer(sc, sc)
+        info["hold_scale"] = {"acc": scale[0], "mag": scale[1]}
     if prior is not None:
         Q = field.align_to_prior(Ma, Mm, prior)
         Ma, Mm = Q @ Ma, Q @ Mm
@@ -640,13 +677,20 @@ def fit(ds: RawDataset, use_poses: bool | None = None, sigma_acc: float = SIGMA_
         prior_notes.append(f"the prior is of probe {prior.probe_serial}, the data of probe {ds.meta.get('probe_serial')}")
     cal = common.make_cal(Ma, ba, Mm, bm, "joint", ds)
     info["world"] = w
-    info.update({"rows_used": np.setdiff1d(np.arange(len(ds)), info["outliers"]), "covariance": cov[:24, :24],
+    info.update({"rows_used": np.setdiff1d(np.arange(len(ds)), info["outliers"] + info.get("moving", [])),
+                 "covariance": cov[:24, :24],
                  "dip_deg": dip, "notes": [f"mode {info['mode']}; s^2 = {info['s2']:.3g} (chi^2/dof; 1 when the "
                                            f"noise model is right)"]})
     if info["s2"] > 2.0 and info["s2"] > 1.0 + 5.0 * np.sqrt(2.0 / max(info["dof"], 1)):
         info["notes"].append(f"the residuals are {np.sqrt(info['s2']):.2g}x what the noise model expects: an effect "
                              "the 12-parameter model lacks (a turntable offset, drift, temperature) or noisier "
                              "sensors; the covariance is scaled by s^2; `inclino diagnose` names the effect")
+    if info.get("moving") is not None:
+        mv = len(info["moving"])
+        info["notes"].append(f"holds: a step-and-hold log: {info['holds']} static holds found in the readings were "
+                             f"fitted" + (f", the {mv} rows read while moving between them left out" if mv else "")
+                             + f"; the covariance counts each hold once (x{info['hold_scale']['acc']:.3g} "
+                             f"accelerometer, x{info['hold_scale']['mag']:.3g} magnetometer on the rows' own)")
     if "notes_nonlinear" in info:
         info["notes"].append(info.pop("notes_nonlinear"))
     info["notes"] += prior_notes

@@ -570,9 +570,10 @@ def build_single(ds: RawDataset, cal: Calibration, info: dict) -> FitReport:
     rep = FitReport(method="joint", mode=info["mode"], rows=len(ds), rows_used=int(len(rows)),
                     outliers=list(info.get("outliers", [])), segments=list(info.get("segments", [])),
                     notes=[], triads=kind)
-    if info.get("moving_rows"):
+    if info.get("holds"):
+        mv = info.get("moving_rows", 0)
         rep.notes.append(f"holds: a step-and-hold log: {info['holds']} static holds found in the readings were "
-                         f"fitted; the {info['moving_rows']} rows read while moving between them were left out")
+                         f"fitted" + (f", the {mv} rows read while moving between them left out" if mv else ""))
     nv = np.linalg.norm(v, axis=1)
     if kind == "acc":
         rep.residuals = {"acc_norm_rms_mg": 1e3 * _rms(nv - w["gravity_g"])}

@@ -69,43 +69,6 @@ def world(ds) -> dict:
             "declination_deg": float(m.get("declination_deg", 0.0)), "gravity_g": float(m.get("gravity_g", 1.0))}
 
 
-def _holds_of(ds, raw):
-    """A step-and-hold log without poses (inclino.holds) whose holds
-    determine the ellipsoid (at least 12, no hold's leverage above
-    holds.HOLDS_MAX_LEVERAGE): (hold of each row, -1 moving; hold count);
-    else None."""
-    from inclino import holds
-
-    if any(c in ds.columns for c in ("pose_id", "segment", "cluster", "inc_deg", "azi_deg", "tf_deg")):
-        return None
-    h = holds.find(ds)
-    if not h.step_and_hold or h.count < 12:
-        return None
-    if holds.ellipsoid_leverage(holds.means(raw, h.labels, h.count)) > holds.HOLDS_MAX_LEVERAGE:
-        return None
-    return h.labels, h.count
-
-
-def _hold_covariance(raw, labels, keep, R, sigma):
-    """The ellipsoid fit to the holds' mean readings (rows kept by the row
-    fit): its covariance, scaled by the means' own scatter, counts each
-    hold once.  None when too few holds keep a row."""
-    from inclino import holds
-
-    lab = np.where(keep, labels, -1)
-    used = np.unique(lab[lab >= 0])
-    if len(used) < 12:
-        return None
-    idx = np.full(int(labels.max()) + 1, -1)
-    idx[used] = np.arange(len(used))
-    lab = np.where(lab >= 0, idx[np.maximum(lab, 0)], -1)
-    try:
-        _, _, covh, _ = triad.fit_sphere(holds.means(raw, lab, len(used)), R, sigma, min_rows=12)
-    except DataError:
-        return None
-    return covh, len(used)
-
-
 def fit(ds, use_poses=None, sigma_acc=None, sigma_mag=None, **_):
     kind = "acc" if ds.has_acc else "mag"
     raw = ds.acc if kind == "acc" else ds.mag
@@ -143,7 +106,9 @@ def fit(ds, use_poses=None, sigma_acc=None, sigma_mag=None, **_):
         info["mode"] = "poses"
     else:
         R = w["gravity_g"] if kind == "acc" else w["field_nT"]
-        hs = _holds_of(ds, raw)
+        from inclino import holds
+
+        hs = holds.determining(ds, (kind,))
         if hs is not None:
             moving = hs[0] < 0
         # a step-and-hold log: the holds are fitted, the rows read while turning between them left out (their
@@ -156,7 +121,7 @@ def fit(ds, use_poses=None, sigma_acc=None, sigma_mag=None, **_):
         if hs is not None:
             info["moving_rows"] = int(moving.sum())
             info["holds"] = hs[1]
-            hold_cov = _hold_covariance(raw, hs[0], keep, R, sigma)
+            hold_cov = triad.hold_covariance(raw, hs[0], keep, R, sigma)
             if hold_cov is not None and np.trace(hold_cov[0]) > np.trace(cov):
                 cov = hold_cov[0]
                 info["covariance_source"] = (f"hold level: the fit to the {hold_cov[1]} static holds' mean "

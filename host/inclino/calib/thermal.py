@@ -411,6 +411,7 @@ def _fit(ds, cal, info, mode, sigma_acc, sigma_mag, sigma_pose_deg, fix_dip, see
             info["temperature_cv"] = cv
             return cal, info
     res = sols[chosen]
+    sols.clear()  # the other orders' fits (each holds its 6n x P Jacobian) are not used again
     x = res.x
     J = res.jac
     dof = max(1, J.shape[0] - J.shape[1])
@@ -501,13 +502,15 @@ def _noise_components(prob: _Problem, x, order, J, keep, ds, rows, w):
         Ma, ca, Mm, cm, qa, qm, dip, th = prob.unpack(x, order)
         L = np.linalg.inv(prob.Linv[keep])  # un-whiten: the residuals in corrected units
         r = np.einsum("nij,nj->ni", L, prob.residuals(x, order)[keep])
-        Ju = np.einsum("nij,njk->nik", L, J.reshape(len(keep), 6, -1))
         Bi = np.linalg.inv(covariance.block_diag2(Ma, Mm))
+        # the Jacobian un-whitened and through Bi, the intermediate dropped before the fit (n x 6 x P each)
+        X = np.einsum("nij,njk->nik", L, J.reshape(len(keep), 6, -1))
+        X = np.einsum("ij,njk->nik", Bi, X)
         poses = tuple(ds.columns[c][rows][keep] for c in ("inc_deg", "azi_deg", "tf_deg"))
         Jp = joint._pose_jacobian(*poses, w["field_nT"], float(dip), w["declination_deg"], w["gravity_g"])
         labels = covariance.cluster_labels(ds)[rows][keep]
         return covariance.fit_components(r @ Bi.T, labels, Jpose=np.einsum("ij,njk->nik", Bi, Jp),
-                                         X=np.einsum("ij,njk->nik", Bi, Ju),
+                                         X=X,
                                          channels=["acc_x_g", "acc_y_g", "acc_z_g", "mag_x_nT", "mag_y_nT",
                                                    "mag_z_nT"])
     except (np.linalg.LinAlgError, ValueError) as e:

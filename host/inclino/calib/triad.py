@@ -226,3 +226,23 @@ def fit_sphere(raw, R: float, sigma: float, min_rows: int = 10, start=None):
     resid = _sphere_residual(x, raw, R)
     return M, b, cov, {"s2": s2, "dof": dof, "keep": keep, "residual": resid,
                        "noise": float(np.sqrt(s2) * sigma), "mode": "invariants", "cov9": cov9}
+
+
+def hold_covariance(raw, labels, keep, R, sigma):
+    """The ellipsoid fit to the holds' mean readings (rows kept by the row
+    fit): its covariance, scaled by the means' own scatter, counts each
+    hold once.  None when too few holds keep a row."""
+    from inclino import holds
+
+    lab = np.where(keep, labels, -1)
+    used = np.unique(lab[lab >= 0])
+    if len(used) < 12:
+        return None
+    idx = np.full(int(labels.max()) + 1, -1)
+    idx[used] = np.arange(len(used))
+    lab = np.where(lab >= 0, idx[np.maximum(lab, 0)], -1)
+    try:
+        _, _, covh, _ = fit_sphere(holds.means(raw, lab, len(used)), R, sigma, min_rows=12)
+    except DataError:
+        return None
+    return covh, len(used)

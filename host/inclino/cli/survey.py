@@ -364,7 +364,8 @@ def _cmd_compare(args) -> int:
     with progress.phase(f"comparing {len(a)} and {len(b)} stations"):
         r = cmp.compare(a, b, model, ref, k=args.k, md_tol=args.md_tol, two_probes=args.two_probes)
     if args.json:
-        print(r.to_json())
+        r.write_json(sys.stdout)
+        print()
     else:
         print(f"{args.first}: {r.runs[0] or 'survey'}; {args.second}: {r.runs[1] or 'survey'}; {model.describe()}")
         for n in model.notes:

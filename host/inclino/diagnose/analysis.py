@@ -163,16 +163,23 @@ class _Model:
         J = forward.pose_jacobian(d, A, c, dip, th)
         b = core.Baseline(A, c, dip, G, Bv, J, theta=dict(th), data=d)
         cols = forward.baseline_columns(d, A, c, dip, th, G, Bv)
-        ccols, sizes = [], []
+        sizes = []
         y = d.Y - forward.readings(d, A, c, dip, th)
         for cd in cands_now:
             cl = forward.columns(d, A, c, dip, th, cd)
-            ccols += cl
+            cols += cl
             sizes.append(len(cl))
             if cd.key in th:
                 for v, col in zip(np.atleast_1d(th[cd.key]), cl):
                     y = y + float(v) * col
-        return b, np.stack(cols + ccols, -1), y, sizes
+            del cl
+        # the columns into the design one at a time, each dropped once copied (np.stack held the list
+        # and the stacked copy at once: two designs' worth)
+        X = np.empty(cols[0].shape + (len(cols),))
+        for j in range(len(cols)):
+            X[..., j] = cols[j]
+            cols[j] = None
+        return b, X, y, sizes
 
     def design(self, b, nz, rows):
         return Design(self.y0, self.X, nz.whitener(b.Jpose), self.fold_of, self.K, rows=rows)
@@ -210,6 +217,11 @@ class _Model:
         S = self.base + self.cols(kept_now)
         for _ in range(GN_ITERATIONS):
             beta, _ = self.des.fit(S)
+            colscale = self.des.colscale
+            # the design at the old state is not used again: its arrays (the largest of a diagnosis) go
+            # before the new state's are built
+            self.des = self.X = None
+            built = None
             # a full Gauss-Newton step can run far from the start when kept
             # terms are nearly collinear (a rig field and the baseline on a
             # short run): their sum fits, each is arbitrary, and the pose
@@ -217,7 +229,8 @@ class _Model:
             # step is halved until the state stays bounded (_bounded); none
             # that does keeps the current state (the kept terms at zero)
             for h in (1.0, 0.5, 0.25, 0.125, 0.0625):
-                state = self.state_after(kept_now, h * beta / self.des.colscale[S])
+                state = self.state_after(kept_now, h * beta / colscale[S])
+                built = None
                 built = self.build(state, self.testable)
                 with np.errstate(all="ignore"):
                     finite = bool(np.isfinite(built[0].predict()).all())
@@ -225,6 +238,7 @@ class _Model:
                     break
             else:  # the kept terms enter at zero, the state as it was
                 state = self.state_after(kept_now, 0.0 * beta)
+                built = None
                 built = self.build(state, self.testable)
             self.state = state
             self.bl, self.X, self.y0, _ = built
@@ -376,6 +390,7 @@ def _select(m: _Model, alpha):
         kept.append(k)
         pvals[k] = p
         remaining.remove(k)
+        des = None  # the old design goes before refit builds the new one
         m.refit(kept)
     _backward(m, kept, pvals, steps, alpha)
     return steps, kept, pvals
@@ -395,6 +410,7 @@ def _backward(m: _Model, kept, pvals, steps, alpha):
         kept.remove(k)
         steps.append({"effect": k, "p": p, "threshold": alpha, "kept": False, "why": "dropped: not significant "
                       "once the other effects were in"})
+        des = None  # the old design goes before refit builds the new one
         m.refit(kept)
 
 

@@ -416,7 +416,9 @@ class Design:
         s = np.sqrt((Xw ** 2).sum((0, 1)))
         s[s == 0] = 1.0
         self.colscale = s
-        Xw = Xw / s
+        # scaled in place: the whitened design is the largest array of a diagnosis (n x 6 x p, ~90
+        # columns on a chamber run), and a scaled copy of it was one more
+        Xw /= s
         self.Xw, self.yw = Xw, yw
         self.N = X.shape[1] * int(self.rows.sum())
         # serially correlated rows (a log read while the probe moves): how much a smooth regressor's

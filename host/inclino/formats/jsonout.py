@@ -31,3 +31,17 @@ def json_safe(o):
 def dumps(o, indent: int | None = 2) -> str:
     """json.dumps of json_safe(o); a value JSON cannot hold is an error, never NaN in the text."""
     return json.dumps(json_safe(o), indent=indent, allow_nan=False)
+
+
+def dump(o, f, indent: int | None = 2, batch: int = 1 << 16) -> None:
+    """dumps(o) written to the text stream f as it is encoded (the same
+    text): a long result (10^5 station pairs) is never one string in memory.
+    The pieces go out in writes of about `batch` characters."""
+    buf, size = [], 0
+    for piece in json.JSONEncoder(indent=indent, allow_nan=False).iterencode(json_safe(o)):
+        buf.append(piece)
+        size += len(piece)
+        if size >= batch:
+            f.write("".join(buf))
+            buf, size = [], 0
+    f.write("".join(buf))

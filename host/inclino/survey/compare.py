@@ -19,13 +19,14 @@ times their expected sigma.
 """
 from __future__ import annotations
 
+import gc
 import math
 from dataclasses import asdict, dataclass, field
 
 import numpy as np
 
 from inclino.errors import DataError
-from inclino.formats.jsonout import dumps
+from inclino.formats.jsonout import dump, dumps
 
 @dataclass
 class CompareResult:
@@ -40,6 +41,12 @@ class CompareResult:
 
     def to_json(self) -> str:
         return dumps(asdict(self))
+
+    def write_json(self, f) -> None:
+        """to_json()'s text written to f as it is encoded (a 10^5-pair result
+        is never held as one string, nor copied by asdict: the fields are
+        plain lists and dicts)."""
+        dump({k: getattr(self, k) for k in self.__dataclass_fields__}, f)
 
 
 def counts(code: str, propagation: str, two_probes: bool) -> bool:
@@ -84,6 +91,7 @@ def expected(model, md, inc, azi, rf, two_probes=False, fallback=(60.0, 50000.0)
                 vi[lo:hi] += dia[lo - a:, 1, 1]
                 va[lo:hi] += dia[lo - a:, 2, 2]
         del prop
+        gc.collect()  # welleng's survey objects hold reference cycles: a stretch's arrays go before the next
     return np.degrees(np.sqrt(2.0 * vi)), np.degrees(np.sqrt(2.0 * va))
 
 
