@@ -44,7 +44,11 @@ def test_in_run_and_out_run_of_the_same_stations_agree(tmp_path, capsys):
         for run_name, order in (("in", range(N)), ("out", reversed(range(N)))):
             for n, i in enumerate(order):
                 ctl.call("move", inc=float(inc[i]), azi=float(azi[i]), tf=float(RNG.uniform(0, 360)))
-                run(capsys, "survey", "--port", emu.path)  # the first survey after a move settles the filters
+                # the first surveys after a move settle the filters: with one, ~1 run in 20 had two stations beyond
+                # 3 sigma (d inc 0.03-0.05 deg) while the differences stay at 0.8 sigma RMS over 576 others, taken
+                # for a survey read before the filters settled (30 runs of 30 pass with two)
+                run(capsys, "survey", "--port", emu.path)
+                run(capsys, "survey", "--port", emu.path)
                 rc, out, err = run(capsys, "survey", "--port", emu.path, "--md", md[i], "-o", files[run_name],
                                    *(["--append"] if n else []))
                 assert rc == 0, err
