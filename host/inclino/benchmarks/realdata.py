@@ -286,12 +286,6 @@ def corrupted_checks(root) -> list:
         f(c)
         return RawDataset(c, dict(ds.meta))
 
-    def shifted(ds, k):
-        c = {key: v.copy() for key, v in ds.columns.items()}
-        for m in MAG_COLS:
-            c[m] = np.roll(c[m], k)
-        n = len(ds)
-        return RawDataset({key: v[k:] if k > 0 else v[:n + k] for key, v in c.items()}, dict(ds.meta))
 
     def held(ds, n=30, seed=7):
         rng = np.random.default_rng(seed)
@@ -312,12 +306,12 @@ def corrupted_checks(root) -> list:
                         ("handedness", "")),
         "mirrored ay": (lambda ds: with_cols(ds, lambda c: c.__setitem__("ay_g", -c["ay_g"])),
                         ("handedness", "")),
-        "rows +1": (lambda ds: shifted(ds, 1), ("row-alignment", "+1")),
-        "rows -1": (lambda ds: shifted(ds, -1), ("row-alignment", "-1")),
-        "rows +2": (lambda ds: shifted(ds, 2), ("row-alignment", "+2")),
-        "rows -2": (lambda ds: shifted(ds, -2), ("row-alignment", "-2")),
-        "rows +3": (lambda ds: shifted(ds, 3), ("row-alignment", "+3")),
-        "rows -3": (lambda ds: shifted(ds, -3), ("row-alignment", "-3")),
+        "rows +1": (lambda ds: _shifted(ds, 1), ("row-alignment", "+1")),
+        "rows -1": (lambda ds: _shifted(ds, -1), ("row-alignment", "-1")),
+        "rows +2": (lambda ds: _shifted(ds, 2), ("row-alignment", "+2")),
+        "rows -2": (lambda ds: _shifted(ds, -2), ("row-alignment", "-2")),
+        "rows +3": (lambda ds: _shifted(ds, 3), ("row-alignment", "+3")),
+        "rows -3": (lambda ds: _shifted(ds, -3), ("row-alignment", "-3")),
     }
     logs = [(f"sap6/{n}.csv", "sap6/sensor.toml") for n in ("BB", "CF", "FG", "HC", "IB", "JG")]
     logs.append(("ck_acc_mag/acc_mag_log.csv", "ck_acc_mag/sensor.toml"))
