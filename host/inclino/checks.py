@@ -675,9 +675,10 @@ def _holds_note(ds, rep):
     """A still log that moved between its holds (a six-face session turned
     by hand): the holds and the rows read while moving, from the readings
     (inclino.holds); pose-free diagnose fits the holds, not the motion."""
-    if any(c in ds.columns for c in ("pose_id", "segment", "cluster", "inc_deg", "azi_deg", "tf_deg")):
-        return
     from inclino import holds
+
+    if any(c in ds.columns for c in holds.POSE_COLUMNS):
+        return
 
     h = holds.find(ds)
     if h.step_and_hold and h.rows_moving >= HOLDS_MOVING_NOTE * len(ds):

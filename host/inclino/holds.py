@@ -190,22 +190,26 @@ def means(v, labels, count) -> np.ndarray:
     return out / np.maximum(np.bincount(labels[keep], minlength=count), 1)[:, None]
 
 
-POSE_COLUMNS = ("pose_id", "segment", "cluster", "inc_deg", "azi_deg", "tf_deg")
+POSE_COLUMNS = ("pose_id", "segment", "cluster", "inc_deg", "azi_deg", "tf_deg")  # a pose or a pose id given
+
+
+def leverage(ds, h: Holds, triads=("acc", "mag")) -> float:
+    """The largest leverage of a hold's mean reading over the present triads
+    (ellipsoid_leverage): the holds determine every triad's ellipsoid when
+    it is at most HOLDS_MAX_LEVERAGE."""
+    return max((ellipsoid_leverage(means(getattr(ds, t), h.labels, h.count))
+                for t in triads if getattr(ds, f"has_{t}", False)), default=1.0)
 
 
 def determining(ds, triads=("acc", "mag")):
     """The holds of a step-and-hold log without poses when they alone
-    determine each present triad's ellipsoid (at least 12 holds, no hold's
-    leverage above HOLDS_MAX_LEVERAGE): (hold of each row, -1 moving;
-    hold count); else None (poses or a pose id given, not step-and-hold, or
-    too few directions)."""
+    determine each present triad's ellipsoid (at least 12 holds, leverage at
+    most HOLDS_MAX_LEVERAGE): (hold of each row, -1 moving; hold count);
+    else None (poses or a pose id given, not step-and-hold, or too few
+    directions)."""
     if any(c in ds.columns for c in POSE_COLUMNS):
         return None
     h = find(ds)
-    if not h.step_and_hold or h.count < 12:
+    if not h.step_and_hold or h.count < 12 or leverage(ds, h, triads) > HOLDS_MAX_LEVERAGE:
         return None
-    for t in triads:
-        if getattr(ds, f"has_{t}", False):
-            if ellipsoid_leverage(means(getattr(ds, t), h.labels, h.count)) > HOLDS_MAX_LEVERAGE:
-                return None
     return h.labels, h.count

@@ -90,14 +90,13 @@ class _PF:
         # is then confounded with the motion
         self.holds = None
         sel = np.ones(n0, bool)
-        if not any(c in ds.columns for c in ("pose_id", "segment", "cluster", "inc_deg", "azi_deg", "tf_deg")):
-            from inclino import holds as _holds
+        from inclino import holds as _holds
 
+        if not any(c in ds.columns for c in _holds.POSE_COLUMNS):
             H = _holds.find(ds)
             if H.step_and_hold:
                 hl = H.labels
-                lev = max(_holds.ellipsoid_leverage(_holds.means(getattr(ds, t), hl, H.count))
-                          for t in ("acc", "mag") if getattr(ds, f"has_{t}"))
+                lev = _holds.leverage(ds, H)
                 only = H.count >= MIN_CLUSTERS and lev <= _holds.HOLDS_MAX_LEVERAGE
                 if only:
                     sel = hl >= 0
