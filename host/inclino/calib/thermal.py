@@ -152,11 +152,30 @@ class _Problem:
         r = np.einsum("nij,nj->ni", self.Linv, r)
         return r if rows is None else r[rows]
 
-    def solve(self, x0, order, rows, loss="linear"):
+    def solve(self, x0, order, rows, loss="linear", keep_jac=True):
+        """least_squares from x0; keep_jac False: the result without its
+        6n x P Jacobian (`jacobian` gives the same array again)."""
         res = optimize.least_squares(lambda x: self.residuals(x, order)[rows].ravel(), x0,
                                      method="lm" if loss == "linear" else "trf", loss=loss, f_scale=3.0,
                                      x_scale="jac")
+        if not keep_jac:
+            res.jac = None
         return res
+
+    def jacobian(self, x, order, rows):
+        """The Jacobian `solve` returns at its solution x, computed again as
+        least_squares computes it (its default "2-point" differences: step
+        sqrt(eps) max(1, |x_i|) with x_i's sign, divided by the step as
+        represented, from the residuals at x), one column at a time."""
+        x = np.asarray(x, float)
+        f0 = self.residuals(x, order)[rows].ravel()
+        h = np.sqrt(np.finfo(float).eps) * np.where(x >= 0, 1.0, -1.0) * np.maximum(1.0, np.abs(x))
+        J = np.empty((f0.size, x.size))
+        for i in range(x.size):
+            xi = x.copy()
+            xi[i] = x[i] + h[i]
+            J[:, i] = (self.residuals(xi, order)[rows].ravel() - f0) / (xi[i] - x[i])
+        return J
 
 
 def _levels(T: np.ndarray) -> int:
@@ -208,7 +227,7 @@ def _cv(prob: _Problem, x_full: dict, rows: np.ndarray, rng) -> dict:
         scores = []
         for f in folds:
             train = np.setdiff1d(rows, f)
-            res = prob.solve(x0, order, train)
+            res = prob.solve(x0, order, train, keep_jac=False)
             r = prob.residuals(res.x, order)[f]
             scores.append((r ** 2).sum(-1))
         s = np.concatenate(scores)
@@ -377,7 +396,7 @@ def _fit(ds, cal, info, mode, sigma_acc, sigma_mag, sigma_pose_deg, fix_dip, see
     # whitened squared residual passes the chi-square 99.9 % point are kept
     # (joint's rule), for every order
     th = np.zeros(12 * max_order)
-    r0 = prob.solve(np.concatenate([x0, th]), max_order, allrows, loss="soft_l1")
+    r0 = prob.solve(np.concatenate([x0, th]), max_order, allrows, loss="soft_l1", keep_jac=False)
     d2 = (prob.residuals(r0.x, max_order) ** 2).sum(-1)
     keep = np.flatnonzero(d2 <= stats.chi2.ppf(0.999, 6))
     if len(keep) < joint.MIN_ROWS_POSES:
@@ -395,7 +414,9 @@ def _fit(ds, cal, info, mode, sigma_acc, sigma_mag, sigma_pose_deg, fix_dip, see
             base = prev[:prob.nbase]
         else:
             base = x0
-        res = prob.solve(np.concatenate([base, th.ravel()]), order, keep)
+        # each order's Jacobian (6n x P) dropped: the chosen one is computed again below, not held
+        # through the other orders' fits and the cross-validation
+        res = prob.solve(np.concatenate([base, th.ravel()]), order, keep, keep_jac=False)
         sols[order] = res
         x_full[order] = res.x
     cv = _cv(prob, x_full, keep, np.random.default_rng(seed))
@@ -411,9 +432,9 @@ def _fit(ds, cal, info, mode, sigma_acc, sigma_mag, sigma_pose_deg, fix_dip, see
             info["temperature_cv"] = cv
             return cal, info
     res = sols[chosen]
-    sols.clear()  # the other orders' fits (each holds its 6n x P Jacobian) are not used again
+    sols.clear()
     x = res.x
-    J = res.jac
+    J = prob.jacobian(x, chosen, keep)
     dof = max(1, J.shape[0] - J.shape[1])
     s2 = float((res.fun ** 2).sum()) / dof
     noise = _noise_components(prob, x, chosen, J, keep, ds, rows, w)
