@@ -275,7 +275,9 @@ def test_diagnose_cal_on_a_long_run_corrects_only_the_rows_it_keeps(tmp_path, ca
 def test_the_jacobian_computed_again_is_the_one_the_fit_returned(rng):
     """The temperature fit keeps no order's 6n x P Jacobian through the
     other orders' fits and the cross-validation; the chosen order's is
-    computed again at its solution: the same array, value for value."""
+    computed again at its solution: the same array, value for value, and
+    the same as least_squares' own finite differences (the fit computes
+    them into one array, not a list of columns and a stacked copy)."""
     from inclino.calib import common, joint
 
     sc = drawn_probe(rng)
@@ -293,3 +295,9 @@ def test_the_jacobian_computed_again_is_the_one_the_fit_returned(rng):
     assert res.jac.shape == (6 * len(rows), len(x0))
     assert np.array_equal(prob.jacobian(res.x, 1, rows), res.jac)
     assert prob.solve(x0, 1, rows, keep_jac=False).jac is None
+    # and `jacobian` is least_squares' own default differences: the same fit, value for value
+    from scipy import optimize
+
+    own = optimize.least_squares(lambda x: prob.residuals(x, 1)[rows].ravel(), x0, method="lm", x_scale="jac")
+    assert np.array_equal(own.jac, prob.jacobian(own.x, 1, rows))
+    assert np.array_equal(own.x, res.x)

@@ -153,16 +153,20 @@ class _Problem:
         return r if rows is None else r[rows]
 
     def solve(self, x0, order, rows, loss="linear", keep_jac=True):
-        """least_squares from x0; keep_jac False: the result without its
-        6n x P Jacobian (`jacobian` gives the same array again)."""
+        """least_squares from x0, its Jacobian from `jacobian` (the values of
+        least_squares' own "2-point" differences, written into one array
+        instead of a list of columns and its stacked copy); keep_jac False:
+        the result without its 6n x P Jacobian (`jacobian` gives the same
+        array again)."""
         res = optimize.least_squares(lambda x: self.residuals(x, order)[rows].ravel(), x0,
+                                     jac=lambda x: self.jacobian(x, order, rows),
                                      method="lm" if loss == "linear" else "trf", loss=loss, f_scale=3.0,
                                      x_scale="jac")
         if not keep_jac:
             res.jac = None
         return res
 
-    def jacobian(self, x, order, rows):
+    def jacobian(self, x, order, rows, layout="F"):
         """The Jacobian `solve` returns at its solution x, computed again as
         least_squares computes it (its default "2-point" differences: step
         sqrt(eps) max(1, |x_i|) with x_i's sign, divided by the step as
@@ -170,7 +174,7 @@ class _Problem:
         x = np.asarray(x, float)
         f0 = self.residuals(x, order)[rows].ravel()
         h = np.sqrt(np.finfo(float).eps) * np.where(x >= 0, 1.0, -1.0) * np.maximum(1.0, np.abs(x))
-        J = np.empty((f0.size, x.size))
+        J = np.empty((f0.size, x.size), order=layout)  # "F" for least_squares; "C" to view as (n, 6, P)
         for i in range(x.size):
             xi = x.copy()
             xi[i] = x[i] + h[i]
@@ -434,7 +438,7 @@ def _fit(ds, cal, info, mode, sigma_acc, sigma_mag, sigma_pose_deg, fix_dip, see
     res = sols[chosen]
     sols.clear()
     x = res.x
-    J = prob.jacobian(x, chosen, keep)
+    J = prob.jacobian(x, chosen, keep, layout="C")
     dof = max(1, J.shape[0] - J.shape[1])
     s2 = float((res.fun ** 2).sum()) / dof
     noise = _noise_components(prob, x, chosen, J, keep, ds, rows, w)
@@ -445,6 +449,7 @@ def _fit(ds, cal, info, mode, sigma_acc, sigma_mag, sigma_pose_deg, fix_dip, see
             raise CalibrationError(f"joint --temperature-terms on: {e}")
         info["notes"].append(f"temperature terms not fitted ({e})")
         return cal, info
+    J = None  # (6n x P) not used again
     Ma, ca, Mm, cm, qa, qm, dip, th = prob.unpack(x, chosen)
     if lin is not None:
         # the nonlinear model the report's linear-model bias is computed from:
@@ -524,9 +529,8 @@ def _noise_components(prob: _Problem, x, order, J, keep, ds, rows, w):
         L = np.linalg.inv(prob.Linv[keep])  # un-whiten: the residuals in corrected units
         r = np.einsum("nij,nj->ni", L, prob.residuals(x, order)[keep])
         Bi = np.linalg.inv(covariance.block_diag2(Ma, Mm))
-        # the Jacobian un-whitened and through Bi, the intermediate dropped before the fit (n x 6 x P each)
-        X = np.einsum("nij,njk->nik", L, J.reshape(len(keep), 6, -1))
-        X = np.einsum("ij,njk->nik", Bi, X)
+        # the Jacobian un-whitened and through Bi in one product per row (n x 6 x P: one copy, not two)
+        X = np.einsum("nij,njk->nik", np.einsum("ij,njk->nik", Bi, L), J.reshape(len(keep), 6, -1))
         poses = tuple(ds.columns[c][rows][keep] for c in ("inc_deg", "azi_deg", "tf_deg"))
         Jp = joint._pose_jacobian(*poses, w["field_nT"], float(dip), w["declination_deg"], w["gravity_g"])
         labels = covariance.cluster_labels(ds)[rows][keep]
