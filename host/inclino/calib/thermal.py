@@ -157,11 +157,15 @@ class _Problem:
         least_squares' own "2-point" differences, written into one array
         instead of a list of columns and its stacked copy); keep_jac False:
         the result without its 6n x P Jacobian (`jacobian` gives the same
-        array again)."""
+        array again).  A robust loss (trf) solves its trust-region steps by
+        LSMR on the Jacobian itself: the exact solver held a scaled copy of
+        the 6n x P Jacobian and its SVD's U as well (the peak of a long
+        chamber run's calibration)."""
+        robust = loss != "linear"
         res = optimize.least_squares(lambda x: self.residuals(x, order)[rows].ravel(), x0,
                                      jac=lambda x: self.jacobian(x, order, rows),
-                                     method="lm" if loss == "linear" else "trf", loss=loss, f_scale=3.0,
-                                     x_scale="jac")
+                                     method="trf" if robust else "lm", loss=loss, f_scale=3.0,
+                                     x_scale="jac", **({"tr_solver": "lsmr"} if robust else {}))
         if not keep_jac:
             res.jac = None
         return res
