@@ -178,15 +178,23 @@ class _Problem:
         least_squares computes it (its default "2-point" differences: step
         sqrt(eps) max(1, |x_i|) with x_i's sign, divided by the step as
         represented, from the residuals at x), one column at a time."""
-        x = np.asarray(x, float)
-        f0 = self.residuals(x, order)[rows].ravel()
-        h = np.sqrt(np.finfo(float).eps) * np.where(x >= 0, 1.0, -1.0) * np.maximum(1.0, np.abs(x))
-        J = np.empty((f0.size, x.size), order=layout)  # "F" for least_squares; "C" to view as (n, 6, P)
-        for i in range(x.size):
-            xi = x.copy()
-            xi[i] = x[i] + h[i]
-            J[:, i] = (self.residuals(xi, order)[rows].ravel() - f0) / (xi[i] - x[i])
-        return J
+        return jacobian_2point(lambda xx: self.residuals(xx, order)[rows].ravel(), x, layout)
+
+
+def jacobian_2point(fun, x, layout="F"):
+    """least_squares' default "2-point" finite differences of fun at x (step
+    sqrt(eps) max(1, |x_i|) with x_i's sign, divided by the step as
+    represented, from fun(x)), written one column at a time into one array
+    ("F" order for least_squares; "C" to view the rows as (n, 6, P))."""
+    x = np.asarray(x, float)
+    f0 = fun(x)
+    h = np.sqrt(np.finfo(float).eps) * np.where(x >= 0, 1.0, -1.0) * np.maximum(1.0, np.abs(x))
+    J = np.empty((f0.size, x.size), order=layout)
+    for i in range(x.size):
+        xi = x.copy()
+        xi[i] = x[i] + h[i]
+        J[:, i] = (fun(xi) - f0) / (xi[i] - x[i])
+    return J
 
 
 def _levels(T: np.ndarray) -> int:
@@ -451,6 +459,7 @@ def _fit(ds, cal, info, mode, sigma_acc, sigma_mag, sigma_pose_deg, fix_dip, see
     noise = _noise_components(prob, x, chosen, J, keep, ds, rows, w)
     s2_cov = s2
     if not isinstance(noise, str):
+        J = None  # the refit has its own (6n x P: not two at once)
         # the nominal whitening's shape (its pose error, the triads' relative noise) is not the run's:
         # s^2 scales it as a whole and left the terms' 1-sigma about 1.3x small over drawn probes;
         # refit whitened by the run's own noise (joint's way) and take the covariance from that fit
@@ -461,6 +470,7 @@ def _fit(ds, cal, info, mode, sigma_acc, sigma_mag, sigma_pose_deg, fix_dip, see
         except (np.linalg.LinAlgError, ValueError) as e:
             info["notes"].append(f"the temperature fit was not refitted with the run's own noise ({e}); its "
                                  "covariance is the nominal noise's scaled by s^2")
+            J = prob.jacobian(x, chosen, keep, layout="C")
     try:
         cov_c, cov_th, lin, cov_nl, cond = _cov_24(x, prob, chosen, J, s2_cov, w)
     except CalibrationError as e:
@@ -558,8 +568,10 @@ def _refit_fitted_noise(prob: _Problem, x, order, keep, comps, ds, rows, w):
     np.add.at(C, lab, Crow)
     C /= np.bincount(lab, minlength=k)[:, None, None]
     W = covariance.ClusterWhitener(S, C, lab)
-    return optimize.least_squares(lambda xx: W.apply(prob.raw_residuals(xx, order)[keep]), x, method="lm",
-                                  x_scale="jac")
+    def fun(xx):
+        return W.apply(prob.raw_residuals(xx, order)[keep])
+
+    return optimize.least_squares(fun, x, jac=lambda xx: jacobian_2point(fun, xx), method="lm", x_scale="jac")
 
 
 def _noise_components(prob: _Problem, x, order, J, keep, ds, rows, w):
