@@ -615,13 +615,16 @@ def test_temp_check_fails_on_broken_assembly(tmp_path):
     shift wrong each give mismatches on the same kind of vectors."""
     root = pathlib.Path(s08_toolchain.repo_root())
     cases = _temp_cases(np.random.default_rng(5))[:4]
-    for name, (pat, rep) in TEMP_MUTANTS.items():
+    objects = {}  # the other sources are the same in every copy: compiled for the first mutant only
+    for i, (name, (pat, rep)) in enumerate(TEMP_MUTANTS.items()):
         tree = tmp_path / name.replace(" ", "_").replace("*", "x").replace("<", "lt")
         shutil.copytree(root / "firmware", tree / "firmware")
         src = tree / "firmware" / "port" / "s08" / "corr_temp_s08.c"
         text = src.read_text()
         assert text.count(pat) == 1, f"mutant {name!r}: pattern not found once"
         src.write_text(text.replace(pat, rep))
-        b = s08_toolchain.build(tree / "build", root=tree)
+        b = s08_toolchain.build(tree / "build", root=tree, objects=objects)
+        # each image has its own mutant, compiled from its copy, not an object of an earlier one
+        assert "corr_temp_s08.c" in b.compiled and (i == 0 or b.compiled == ["corr_temp_s08.c"]), b.compiled
         bad, _ = _temp_mismatches(b, cases)
         assert bad > 0, f"mutant {name!r} passed the bit-exact check"

@@ -111,7 +111,14 @@ class HostTerms:
     def check(self, cal) -> None:
         pass
 
-    def survey(self, acc_q6, mag_q6, temp_q6, cal, terms: bool = True) -> dict:
+    def prepare(self, cal, terms: bool = True):
+        """The calibration's fixed-point form this engine's survey uses: a
+        caller that surveys window after window with one calibration
+        converts it once and passes it as `fixed` (the conversion checks the
+        whole temperature block, which costs more than a window's survey)."""
+        return _fixed(cal, False)
+
+    def survey(self, acc_q6, mag_q6, temp_q6, cal, terms: bool = True, fixed=None) -> dict:
         acc_q6 = np.atleast_2d(np.asarray(acc_q6, np.int64))
         mag_q6 = np.atleast_2d(np.asarray(mag_q6, np.int64))
         if terms and has_terms(cal):
@@ -123,7 +130,7 @@ class HostTerms:
             a, m = thermal.to_reference(acc, mag, T, cal, cal.temperature)
             acc_q6 = np.floor(a / ref.ACC_LSB_G * Q6 + 0.5).astype(np.int64)
             mag_q6 = np.floor(m / ref.MAG_LSB_NT * Q6 + 0.5).astype(np.int64)
-        return core.survey(acc_q6, mag_q6, _fixed(cal, False))
+        return core.survey(acc_q6, mag_q6, self.prepare(cal, terms) if fixed is None else fixed)
 
 
 class Firmware:
@@ -133,23 +140,28 @@ class Firmware:
     def check(self, cal) -> None:
         _fixed(cal, True)
 
-    def survey(self, acc_q6, mag_q6, temp_q6, cal, terms: bool = True) -> dict:
+    def prepare(self, cal, terms: bool = True):
+        """As HostTerms.prepare: the image the firmware would hold, with the
+        terms or without."""
+        return _fixed(cal, terms)
+
+    def survey(self, acc_q6, mag_q6, temp_q6, cal, terms: bool = True, fixed=None) -> dict:
         acc_q6 = np.atleast_2d(np.asarray(acc_q6, np.int64))
         mag_q6 = np.atleast_2d(np.asarray(mag_q6, np.int64))
         tq6 = np.broadcast_to(np.asarray(temp_q6, np.int64), (len(acc_q6),))
-        return core.survey(acc_q6, mag_q6, _fixed(cal, terms), temp_q6=tq6)
+        return core.survey(acc_q6, mag_q6, self.prepare(cal, terms) if fixed is None else fixed, temp_q6=tq6)
 
 
 class Golden(Firmware):
     name = "golden"
 
-    def survey(self, acc_q6, mag_q6, temp_q6, cal, terms: bool = True) -> dict:
+    def survey(self, acc_q6, mag_q6, temp_q6, cal, terms: bool = True, fixed=None) -> dict:
         from inclino.engines import golden
 
         acc_q6 = np.atleast_2d(np.asarray(acc_q6, np.int64))
         mag_q6 = np.atleast_2d(np.asarray(mag_q6, np.int64))
         tq6 = np.broadcast_to(np.asarray(temp_q6, np.int64), (len(acc_q6),))
-        fc = _fixed(cal, terms)
+        fc = self.prepare(cal, terms) if fixed is None else fixed
         return golden.survey_compute(acc_q6, mag_q6, *fc.arrays(), temp=fc.temp, temp_q6=tq6)
 
 

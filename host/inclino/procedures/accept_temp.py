@@ -316,6 +316,7 @@ def accept_temperatures(link, table, cal, setpoints=(-5.0, 25.0, 55.0), grid: st
         table.say = say
     tell = table.say if not table.unattended else (None if quiet else say)
     chamber = _Chamber(table, sleep)
+    fixed = {terms: eng.prepare(cal, terms) for terms in (True, False)}  # converted once, not per window
     try:
         for sp in sps:
             soak_min, probe_c = _soak(link, table, chamber, sp, plan, tol, max_reads, steps[0], tell)
@@ -332,7 +333,7 @@ def accept_temperatures(link, table, cal, setpoints=(-5.0, 25.0, 55.0), grid: st
                 temps += [r.temp_c for r in win]
                 cols = {}
                 for key, terms in (("with", True), ("without", False)):
-                    cols[key] = eng.survey(acc, mag, tq6, cal, terms=terms)
+                    cols[key] = eng.survey(acc, mag, tq6, cal, terms=terms, fixed=fixed[terms])
                 # the probe's own surveys against what it stores (its terms too, image version 2)
                 want = _predict(acc, mag, tq6, stored_fc)
                 keys = ("inc", "azi", "gtf", "mtf", "gt", "bt", "dip", "flags")

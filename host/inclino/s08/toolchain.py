@@ -8,7 +8,7 @@ import os
 import shutil
 import subprocess
 import tempfile
-from dataclasses import asdict, dataclass
+from dataclasses import asdict, dataclass, field
 from pathlib import Path
 from inclino import fw_sources
 from inclino.s08.sizes import _AREA_MAP, _linked_modules
@@ -84,6 +84,7 @@ class McuBuild:
     core_rels: list
     other_rels: list
     cflags: list
+    compiled: list = field(default_factory=list)  # the sources compiled for this build (the rest: from objects)
 
     def to_json(self) -> str:
         return dumps(asdict(self))
@@ -96,8 +97,20 @@ def _sdcc(args, cwd):
     return r
 
 
+def _headers_digest(root: Path) -> str:
+    """One digest of every header of the tree (name and bytes): what any
+    source may include."""
+    import hashlib
+
+    h = hashlib.sha256()
+    for f in sorted((root / "firmware").rglob("*.h")) + sorted((root / "tools").rglob("*.h")):
+        h.update(str(f.relative_to(root)).encode() + b"\0" + f.read_bytes() + b"\0")
+    return h.hexdigest()
+
+
 def build(workdir: str | os.PathLike | None = None, program: str = "harness",
-          cflags: tuple | None = None, root: str | os.PathLike | None = None) -> McuBuild:
+          cflags: tuple | None = None, root: str | os.PathLike | None = None,
+          objects: dict | None = None) -> McuBuild:
     """Compile each source with `sdcc -ms08` and link an Intel-hex image.
 
     program "harness": the fixed-point core (firmware/src) and the test
@@ -106,7 +119,15 @@ def build(workdir: str | os.PathLike | None = None, program: str = "harness",
     "float": the float baseline (tools/s08/survey_float.c), by default with
     FLOAT_CFLAGS (not --stack-auto: it calls SDCC's float library, whose
     shipped build is the non-reentrant one).  A --stack-auto image that
-    links any SDCC helper library module is refused (_check_helpers)."""
+    links any SDCC helper library module is refused (_check_helpers).
+
+    objects: a dict shared by several builds (of copies of the tree that
+    differ in a source or two): an object whose source bytes, every
+    header's bytes and the flags are those of an object compiled before is
+    copied instead of compiled again (McuBuild.compiled lists what was
+    compiled).  The copy is that source compiled in the other tree: SDCC's
+    code for a header's inline function can differ by a few bytes with the
+    directory it was read from, as between any two copies of the tree."""
     if tools_missing():
         raise McuError(tools_missing())
     if cflags is None:
@@ -126,10 +147,28 @@ def build(workdir: str | os.PathLike | None = None, program: str = "harness",
         other = [root / "tools" / "s08" / s for s in FLOAT_SOURCES]
     else:
         raise ValueError(f"unknown program {program!r}")
-    rels = {}
+    rels, compiled = {}, []
+    headers = _headers_digest(root) if objects is not None else ""
+    from glob import escape as glob_escape
+
     for src in core + other:
         rel = wd / (src.stem + ".rel")
-        _sdcc([*cflags, *inc, "-c", str(src), "-o", str(rel)], wd)
+        key = None
+        if objects is not None:
+            import hashlib
+
+            key = (src.name, tuple(cflags), tuple(a for a in inc if a.startswith("-D")), headers,
+                   hashlib.sha256(src.read_bytes()).hexdigest())
+        if key is not None and key in objects and Path(objects[key]).is_file():
+            done = Path(objects[key])  # the object and what the linker reads beside it (.lst, .sym, .asm)
+            for f in done.parent.glob(glob_escape(done.stem) + ".*"):
+                if f.suffix not in (".ihx", ".map", ".mem", ".lk", ".noi", ".cdb"):
+                    shutil.copyfile(f, wd / f.name)
+        else:
+            _sdcc([*cflags, *inc, "-c", str(src), "-o", str(rel)], wd)
+            compiled.append(src.name)
+            if key is not None:
+                objects[key] = str(rel)
         rels[src] = rel
     # the object with main() first: SDCC's linker takes its start-up from it
     order = [rels[s] for s in other] + [rels[s] for s in core]
@@ -140,7 +179,7 @@ def build(workdir: str | os.PathLike | None = None, program: str = "harness",
     if "--stack-auto" in cflags:
         _check_helpers(ihx.with_suffix(".map"), {Path(r).stem for r in rels.values()})
     return McuBuild(program, str(wd), str(ihx), str(ihx.with_suffix(".map")),
-                    [str(rels[s]) for s in core], [str(rels[s]) for s in other], list(cflags))
+                    [str(rels[s]) for s in core], [str(rels[s]) for s in other], list(cflags), compiled)
 
 
 def _check_page0(map_path: Path) -> None:
