@@ -7,7 +7,8 @@ over two dozen candidates; 50 % points at z 2.8-4.6).  Nearer the limit
 the diagnosis benchmark measures the rates (`python -m
 inclino.cli.bench_diagnose --near-limit`): at z = 6 the hardest effects
 are missed 0.3-1.7 % of the time, which 21 draws per run would turn into a
-failing suite every few runs; at z = 9 none of 1 200 (docs/diagnose.md).
+failing suite every few runs; at z = 9 none of 1 200, nor of 300 field
+drifts (docs/diagnose.md).
 The diagnosis must name exactly that effect and estimate it within its
 stated uncertainty; on null datasets it must name nothing.  Sensors,
 axes, signs, sizes and noise are drawn afresh at every run (SEED0 from the
