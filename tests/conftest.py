@@ -2,6 +2,16 @@ import os
 import pathlib
 import sys
 
+# Bytecode caches on, also where PYTHONDONTWRITEBYTECODE is set (container
+# images set it): without them every worker rewrites and compiles every test
+# module at collection (some 4 CPU seconds each) and every Python subprocess a
+# test starts (the CLI, an emulator) compiles the package's modules again.
+# The caches go to the __pycache__ folders git ignores.
+# INCLINO_TEST_NO_BYTECODE=1 keeps the environment's setting.
+if not os.environ.get("INCLINO_TEST_NO_BYTECODE", "").strip():
+    sys.dont_write_bytecode = False
+    os.environ.pop("PYTHONDONTWRITEBYTECODE", None)
+
 # One BLAS thread per test process: in every subprocess a test starts (the
 # variables, read when OpenBLAS loads) and in this one (threadpoolctl: NumPy is
 # already loaded by the plugins). The fits work on matrices of tens of

@@ -141,7 +141,9 @@ def test_flash_interrupt_message_is_true_in_every_window(emu, tmp_path, capsys, 
     img = write_srec(tmp_path / "app.s19", chunks)
     monkeypatch.setattr(cli_probe, "_tqdm_progress", lambda: (None, lambda: None))
     state = _interrupt_at(monkeypatch, code, nth, when)
-    rc = cli.main(["flash", "--port", emu.path, img])
+    # the probe answers in every window (only the host is interrupted): a long timeout costs nothing here and
+    # keeps the state question after Ctrl-C from reading a slow answer on a loaded machine as none
+    rc = cli.main(["flash", "--port", emu.path, "--timeout", "5", img])
     err = capsys.readouterr().err
     assert not state["armed"], f"the flash never reached {window}"
     assert rc == 130 and err.count("\n") == 1 and err.startswith("inclino: interrupted: "), err

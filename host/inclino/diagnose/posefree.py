@@ -228,28 +228,30 @@ class _Model:
         return np.degrees(np.arcsin(np.clip(c, -1, 1)))
 
     def corrected(self, x, theta):
-        pf = self.pf
-        out = {}
-        for tri, raw in (("acc", pf.acc), ("mag", pf.mag)):
-            if raw is None:
-                out[tri] = None
-                continue
-            M, b = x[tri]
-            z = raw - b
-            if pf.temp is not None:
-                dT = (pf.temp - pf.temp.mean())[:, None]
-                cT = np.array([theta.get(f"temperature-bias:{tri}:{a}", 0.0) for a in "xyz"])
-                ppm = np.array([theta.get(f"temperature-scale:{tri}:{a}", 0.0) for a in "xyz"])
-                z = (z - cT * dT) / (1.0 + 1e-6 * ppm * dT)
-            k2 = np.array([theta.get(f"scale-nonlinearity:{tri}:{a}", 0.0) for a in "xyz"])
-            v = 2.0 * z / (1.0 + np.sqrt(np.maximum(1.0 + 4.0 * k2 * z, 1e-12)))
-            out[tri] = v @ M.T
-        return out["acc"], out["mag"]
+        return self._triad("acc", x, theta), self._triad("mag", x, theta)
 
-    def residuals(self, x, theta) -> np.ndarray:
-        """(k, channels): the invariants' residuals (g, nT, deg)."""
+    def _triad(self, tri, x, theta):
+        """One triad's corrected readings (None without the triad)."""
         pf = self.pf
-        g, b = self.corrected(x, theta)
+        raw = pf.acc if tri == "acc" else pf.mag
+        if raw is None:
+            return None
+        M, b = x[tri]
+        z = raw - b
+        if pf.temp is not None:
+            dT = (pf.temp - pf.temp.mean())[:, None]
+            cT = np.array([theta.get(f"temperature-bias:{tri}:{a}", 0.0) for a in "xyz"])
+            ppm = np.array([theta.get(f"temperature-scale:{tri}:{a}", 0.0) for a in "xyz"])
+            z = (z - cT * dT) / (1.0 + 1e-6 * ppm * dT)
+        k2 = np.array([theta.get(f"scale-nonlinearity:{tri}:{a}", 0.0) for a in "xyz"])
+        v = 2.0 * z / (1.0 + np.sqrt(np.maximum(1.0 + 4.0 * k2 * z, 1e-12)))
+        return v @ M.T
+
+    def residuals(self, x, theta, gb=None) -> np.ndarray:
+        """(k, channels): the invariants' residuals (g, nT, deg); gb: the
+        corrected readings (g, b) at (x, theta) when already computed."""
+        pf = self.pf
+        g, b = self.corrected(x, theta) if gb is None else gb
         tau = pf.t - pf.t.mean()
         cols = []
         for ch in pf.chans:
@@ -333,15 +335,26 @@ class _Model:
         """(residual (k, m), columns (k, m, p)): the baseline's parameters,
         then each candidate of keys (one column per entry)."""
         x = self.unpack(v)
-        r0 = self.residuals(x, theta)
+        g0, b0 = self.corrected(x, theta)
+        r0 = self.residuals(x, theta, (g0, b0))
         cols = []
         scale = np.maximum(np.abs(v), 1e-6)
+        # a baseline parameter moves one triad's corrected readings (the dip: neither); the other's are the
+        # ones at v, the same numbers a recomputation would give
+        owner = [p[0] for p in self.pf.base_params()]
         for j in range(len(v)):
             h = 1e-6 * scale[j]
             vp, vm = v.copy(), v.copy()
             vp[j] += h
             vm[j] -= h
-            cols.append((self.residuals(self.unpack(vp), theta) - self.residuals(self.unpack(vm), theta)) / (2 * h))
+            xp, xm = self.unpack(vp), self.unpack(vm)
+            if owner[j] == "acc":
+                gbp, gbm = (self._triad("acc", xp, theta), b0), (self._triad("acc", xm, theta), b0)
+            elif owner[j] == "mag":
+                gbp, gbm = (g0, self._triad("mag", xp, theta)), (g0, self._triad("mag", xm, theta))
+            else:
+                gbp = gbm = (g0, b0)
+            cols.append((self.residuals(xp, theta, gbp) - self.residuals(xm, theta, gbm)) / (2 * h))
         for key, n in keys:
             cur = np.atleast_1d(np.asarray(theta.get(key, np.zeros(n)), float))
             for e in range(n):

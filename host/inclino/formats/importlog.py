@@ -33,6 +33,7 @@ from .dataset import ACC_COLS, MAG_COLS, MAX_LINE_CHARS, RawDataset
 from .sensor import SensorDescription
 
 MAX_LOG_BYTES = 2 << 30  # a log is read whole into memory (8 bytes a value kept)
+MAX_BAD_ROWS_FRACTION = 0.05  # dropping more malformed rows than this: the description does not fit the log
 MISSING = {"", "nan", "na", "n/a", "null", "none", "-", "--"}
 
 
@@ -124,9 +125,14 @@ def _index(col, names, what, path, lineno):
                     f"{', '.join(stripped[:20])}{' ...' if len(stripped) > 20 else ''})")
 
 
-def import_log(path: str, desc: SensorDescription, static: bool | None = None) -> tuple[RawDataset, ImportReport]:
+def import_log(path: str, desc: SensorDescription, static: bool | None = None,
+               drop_bad_rows: bool | None = None) -> tuple[RawDataset, ImportReport]:
     """Read the log at `path` through the description `desc`: the canonical
-    dataset (body frame, g and nT) and what the import did."""
+    dataset (body frame, g and nT) and what the import did.  drop_bad_rows
+    (None: the description's [log].bad_rows) drops malformed rows -- cells
+    missing, a cell that is not a number: a line garbled on a serial link --
+    and counts them, up to MAX_BAD_ROWS_FRACTION of the rows read; otherwise
+    the first one is refused with its line number."""
     try:
         size = os.path.getsize(path)
         f = open(path, newline="", encoding="utf-8-sig")
@@ -136,10 +142,11 @@ def import_log(path: str, desc: SensorDescription, static: bool | None = None) -
         raise DataError(f"{path}: {size} bytes; the import reads at most {MAX_LOG_BYTES} bytes")
     with f:
         lines = dataset._Lines(f, path)
-        return _import(lines, path, desc, static)
+        drop = desc.bad_rows == "drop" if drop_bad_rows is None else bool(drop_bad_rows)
+        return _import(lines, path, desc, static, drop)
 
 
-def _import(lines, path: str, desc: SensorDescription, static) -> tuple[RawDataset, ImportReport]:
+def _import(lines, path: str, desc: SensorDescription, static, drop_bad=False) -> tuple[RawDataset, ImportReport]:
     for _ in range(desc.skip_rows):
         if next(lines, None) is None:
             break
@@ -188,6 +195,9 @@ def _import(lines, path: str, desc: SensorDescription, static) -> tuple[RawDatas
     read = 0
     pending = [] if names is not None else [first]
     need = max(idx + list(keep_idx) + ([label_idx] if label_idx is not None else []))
+    bad_lines = []  # malformed rows dropped (drop_bad)
+    first_row = "the header" if names is not None else "the first row"
+    drop_hint = "; a garbled or cut line? [log] bad_rows = \"drop\" (or --drop-bad-rows) drops such rows"
 
     def take(text, lineno):
         nonlocal read
@@ -196,8 +206,11 @@ def _import(lines, path: str, desc: SensorDescription, static) -> tuple[RawDatas
             return
         read += 1
         if need >= len(cells):
-            raise DataError(f"{path}:{lineno}: {len(cells)} cells, the header has {width}"
-                            + (" (a decimal comma? use a point: 1.5)" if delim == "," else ""))
+            if drop_bad:
+                bad_lines.append(lineno)
+                return
+            raise DataError(f"{path}:{lineno}: {len(cells)} cells, {first_row} has {width}"
+                            + (" (a decimal comma? use a point: 1.5)" if delim == "," else "") + drop_hint)
         for j, (c, vals) in keep_idx.items():
             if cells[j].strip() not in vals:
                 dropped[f"{c} not in [log].keep"] = dropped.get(f"{c} not in [log].keep", 0) + 1
@@ -235,8 +248,11 @@ def _import(lines, path: str, desc: SensorDescription, static) -> tuple[RawDatas
                     continue
                 hint = (" (a decimal comma? set [log] decimal = \",\" and a delimiter other than the comma)"
                         if re.fullmatch(r"-?\d+,\d+", text_) else "")
+                if drop_bad and not hint:
+                    bad_lines.append(lineno)
+                    return
                 raise DataError(f"{path}:{lineno}: column {k.lstrip('_')} ({names[j].strip() if names else j + 1}): "
-                                f"{text_[:40]!r} is not a number{hint}") from None
+                                f"{text_[:40]!r} is not a number{hint or drop_hint}") from None
             if not math.isfinite(v):
                 dropped["a missing value"] = dropped.get("a missing value", 0) + 1
                 return
@@ -250,6 +266,14 @@ def _import(lines, path: str, desc: SensorDescription, static) -> tuple[RawDatas
         if comment and line.lstrip().startswith(comment):
             continue
         take(line.rstrip("\r\n"), lines.lineno)
+    if bad_lines:
+        if len(bad_lines) > MAX_BAD_ROWS_FRACTION * read:
+            raise DataError(f"{path}: {len(bad_lines)} of {read} rows malformed (first at line {bad_lines[0]}): more "
+                            f"than {MAX_BAD_ROWS_FRACTION:.0%}, so the description does not fit the log (its "
+                            "delimiter, header or columns), nothing a dropped line mends")
+        shown = ", ".join(str(n) for n in bad_lines[:5]) + (", ..." if len(bad_lines) > 5 else "")
+        dropped[f"malformed: cells missing or not a number (line{'s' if len(bad_lines) > 1 else ''} {shown})"] = \
+            len(bad_lines)
     if not rows:
         raise DataError(f"{path}: no usable data rows ({read} read; dropped: "
                         + (", ".join(f"{n} for {r}" for r, n in dropped.items()) or "none") + ")")

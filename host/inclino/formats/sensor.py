@@ -59,9 +59,10 @@ MAG_UNITS = {"nt": 1.0, "ut": 1e3, "µt": 1e3, "mt": 1e6, "t": 1e9, "g": 1e5, "g
 TRIADS = {"accelerometer": ("acc", ACC_UNITS, "g", "a"), "magnetometer": ("mag", MAG_UNITS, "nT", "m")}
 TIME_UNITS = {"s": 1.0, "ms": 1e-3, "us": 1e-6, "µs": 1e-6, "ns": 1e-9, "min": 60.0, "h": 3600.0}
 READS = ("up", "down")
+BAD_ROWS = ("refuse", "drop")
 TOP_KEYS = {"name", "preset", "notes", "source", "log", "accelerometer", "magnetometer", "header", "poses"}
 LOG_KEYS = {"delimiter", "comment", "header", "skip_rows", "time", "time_unit", "temperature", "samples_averaged",
-            "static", "keep", "decimal"}
+            "static", "keep", "decimal", "bad_rows"}
 TRIAD_KEYS = {"columns", "unit", "lsb", "reads", "x", "y", "z", "axes", "reflection", "range", "noise", "lag"}
 POSE_KEYS = {"inc", "azi", "tf", "label", "labels", "unit"}
 
@@ -188,6 +189,7 @@ class SensorDescription:
     samples_averaged: float | None = None
     static: bool | None = None
     keep: dict | None = None          # {column: [values]}: rows to keep (others dropped, counted)
+    bad_rows: str = "refuse"          # a malformed row (cells missing, not a number): "refuse" or "drop"
     header: dict = field(default_factory=dict)  # canonical header values (dip_deg, field_nT, ...)
     poses: dict | None = None         # {"inc": col, "azi": col, "tf": col} or {"label": col, "labels": {...}}
     notes: str = ""
@@ -495,6 +497,11 @@ def from_dict(d: dict, what: str = "sensor description") -> SensorDescription:
     if st is not None and not isinstance(st, bool):
         raise DataError(f"{what}[log].static: true (a step-and-hold run: every row is at rest) or false")
     s.static = st
+    br = log.get("bad_rows", "refuse")
+    if br not in BAD_ROWS:
+        raise DataError(f"{what}[log].bad_rows: \"refuse\" (the first malformed row stops the import) or \"drop\" "
+                        "(malformed rows are dropped and counted)")
+    s.bad_rows = br
     keep = log.get("keep")
     if keep is not None:
         if not (isinstance(keep, dict) and all(isinstance(v, list) for v in keep.values())):
