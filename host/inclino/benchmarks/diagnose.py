@@ -61,7 +61,8 @@ EFFECT_PLANS = {
 # that draws 21 effects every run: at z = 6, 0.3-1.7 % of temperature biases and scales (a p-value
 # above the threshold) and of azimuth offsets (on the rotation plan some named as an
 # inclination-axis skew, the two being correlated there); at z = 9 none of 1 200 (near_limit below,
-# docs/diagnose.md)
+# docs/diagnose.md), nor of 300 field drifts (a declination drift was refused now and then by the
+# own-channel check while its gain was taken on the sensor part: analysis._part)
 Z_RANGE = (9.0, 12.0)
 Z_SWEEP = (2.0, 4.0, 6.0, 12.0, 30.0, 90.0, 270.0)
 Z_SWEEP_QUICK = (2.0, 6.0, 30.0, 270.0)

@@ -27,14 +27,17 @@ class Noise:
         """Per row W with W S W^T = I (S = row_cov(J)): whitened r = W r."""
         return whitener_of(self.row_cov(J))
 
-    def sensor_part(self, R, J) -> np.ndarray:
+    def sensor_part(self, R, J, axes=(0, 1, 2)) -> np.ndarray:
         """R minus each row's turntable readout error, estimated from R by
         its conditional mean given the noise model (P J^T Sigma^-1 r): the
-        error the probe makes against the pose it really sat at."""
+        error the probe makes against the pose it really sat at.  axes: the
+        turntable axes (0 inc, 1 azi, 2 tf) whose readout error is taken
+        out (the others' stays in R)."""
         S = self.row_cov(J)
         u = np.linalg.solve(S, R[..., None])[..., 0]
         delta = np.einsum("k,nik,ni->nk", self.sigma_pose ** 2, J, u)
-        return R - np.einsum("nik,nk->ni", J, delta)
+        ax = list(axes)
+        return R - np.einsum("nik,nk->ni", J[:, :, ax], delta[:, ax])
 
     def to_dict(self):
         return {"acc_g": self.sigma[:3].tolist(), "mag_nT": self.sigma[3:].tolist(),
