@@ -276,3 +276,34 @@ def test_diagnose_cal_on_a_long_run_corrects_only_the_rows_it_keeps(tmp_path, ca
     assert got["effects"] == want["effects"]
     notes = got["baseline"]["selection"]["notes"]
     assert any(n.startswith(f"the run has {len(ds)} rows; {m} of them were used") for n in notes), notes
+
+
+def test_the_jacobian_computed_again_is_the_one_the_fit_returned(rng):
+    """The temperature fit keeps no order's 6n x P Jacobian through the
+    other orders' fits and the cross-validation; the chosen order's is
+    computed again at its solution: the same array, value for value, and
+    the same as least_squares' own finite differences (the fit computes
+    them into one array, not a list of columns and a stacked copy)."""
+    from inclino.calib import common, joint
+
+    sc = drawn_probe(rng)
+    ds = chamber_run(sc, seed=int(rng.integers(1 << 30)))
+    with np.errstate(all="ignore"):
+        cal, info = joint.fit(ds)
+    w = common.world_of(ds)
+    x_base = thermal._start(cal, info, w, "nonlinear" in info)
+    n = len(ds)
+    Linv = np.broadcast_to(np.diag([1e3] * 3 + [1.0] * 3), (n, 6, 6)).copy()
+    prob = thermal._Problem(ds, np.arange(n), w, "nonlinear" in info, float(info["dip_deg"]), False, Linv, 25.0)
+    x0 = np.concatenate([x_base, [float(info["dip_deg"])], np.zeros(12)])
+    rows = np.arange(0, n, 2)
+    res = prob.solve(x0, 1, rows)
+    assert res.jac.shape == (6 * len(rows), len(x0))
+    assert np.array_equal(prob.jacobian(res.x, 1, rows), res.jac)
+    assert prob.solve(x0, 1, rows, keep_jac=False).jac is None
+    # and `jacobian` is least_squares' own default differences: the same fit, value for value
+    from scipy import optimize
+
+    own = optimize.least_squares(lambda x: prob.residuals(x, 1)[rows].ravel(), x0, method="lm", x_scale="jac")
+    assert np.array_equal(own.jac, prob.jacobian(own.x, 1, rows))
+    assert np.array_equal(own.x, res.x)

@@ -115,6 +115,46 @@ def _cluster_sums(R, lab, k):
     return n_c, mean, W
 
 
+# clusters whitened at a time in the restricted likelihood's term (bounds its work arrays to a few MB)
+REML_CHUNK = 4096
+# values per fitted parameter above which the starts are searched on the plain likelihood first (the
+# restricted one differs from it by about P / N of the variance) and only the best optima are refined
+# under REML; below it every start is fitted under REML directly
+STAGED_VALUES_PER_PARAMETER = 50
+
+
+def _reml_term(Linv, Xc, inv_scale, chunk=REML_CHUNK):
+    """log det F and, per cluster, Y_c F^-1 Y_c^T (k, m, m), for
+    F = sum_c Xs_c^T M_c^-1 Xs_c and Y_c = M_c^-1 Xs_c, where Xs_c = diag(inv_scale)
+    Xc_c and M_c^-1 = Linv_c^T Linv_c.  The clusters are whitened a chunk at
+    a time (Xw_c = Linv_c Xs_c; F = sum Xw_c^T Xw_c) and again for the second
+    term (T_c = Xw_c Lf^-T with F = Lf Lf^T: Y_c F^-1 Y_c^T = Linv_c^T T_c
+    T_c^T Linv_c), so that no (k, m, P) array besides Xc is held (the
+    channels' scaling goes into the whitener).  None when F does not factor
+    (the parameters not determined)."""
+    k, m, P = Xc.shape
+    Ls = Linv * inv_scale[None, None, :]
+    F = np.zeros((P, P))
+    for lo in range(0, k, chunk):
+        A = (Ls[lo:lo + chunk] @ Xc[lo:lo + chunk]).reshape(-1, P)
+        F += A.T @ A
+    try:
+        Lf = np.linalg.cholesky(F)
+    except np.linalg.LinAlgError:
+        return None
+    d = np.diagonal(Lf)
+    if not np.all(d > 0):
+        return None
+    ld = 2.0 * float(np.log(d).sum())
+    Q = np.empty((k, m, m))
+    for lo in range(0, k, chunk):
+        Li = Linv[lo:lo + chunk]
+        A = (Ls[lo:lo + chunk] @ Xc[lo:lo + chunk]).reshape(-1, P)
+        T = linalg.solve_triangular(Lf, A.T, lower=True, check_finite=False).T.reshape(-1, m, P)
+        Q[lo:lo + chunk] = np.swapaxes(Li, 1, 2) @ (T @ np.swapaxes(T, 1, 2)) @ Li
+    return ld, Q
+
+
 def fit_components(R, labels, Jpose=None, X=None, start_sigma=None, floor=None,
                    channels=None) -> NoiseComponents:
     """REML variance components of residuals R (n, m) in raw units.
@@ -124,7 +164,14 @@ def fit_components(R, labels, Jpose=None, X=None, start_sigma=None, floor=None,
     X: (n, m, p) the residual's Jacobian in the fitted parameters, raw units
     (for the restricted likelihood; None: plain maximum likelihood);
     start_sigma: (m,) a starting sensor sigma; floor: (m,) the smallest
-    sensor sigma allowed (default 1e-3 of each channel's RMS)."""
+    sensor sigma allowed (default 1e-3 of each channel's RMS).
+
+    With many more values than parameters (N = clusters x channels >=
+    STAGED_VALUES_PER_PARAMETER x p) each start is fitted on the plain
+    likelihood (cheap: no p-column term) and the distinct optima are then
+    refined under REML, the best REML value winning; a 40 000-row chamber
+    run with 55 parameters took over 15 CPU minutes fitting every start
+    under REML, for the same optimum."""
     R = np.asarray(R, float)
     n, m = R.shape
     lab, k = _relabel(labels)
@@ -137,19 +184,17 @@ def fit_components(R, labels, Jpose=None, X=None, start_sigma=None, floor=None,
         Jc = np.zeros((k, m, 3))
         np.add.at(Jc, lab, np.asarray(Jpose, float))
         Jc /= n_c[:, None, None]
-    Xcs = None
+    Xc = None  # the Jacobian's cluster means (k, m, P), raw units (the channels' scale goes into the whitener)
     scale = rms  # work in units of each channel's RMS
     if X is not None:
         X = np.asarray(X, float)
         if k == n and np.array_equal(lab, np.arange(n)):  # every row its own cluster: the mean is the row
-            Xcs = X / scale[None, :, None]
+            Xc = X  # not copied (n x 6 x P: the largest array of the fit)
         else:
             Xc = np.zeros((k, m, X.shape[2]))
             np.add.at(Xc, lab, X)
             Xc /= n_c[:, None, None]
-            Xcs = Xc / scale[None, :, None]
-            del Xc
-        del X  # (n x 6 x P: with the cluster means, the largest arrays of the fit)
+        del X
     ms, Ws = mean / scale, W / scale ** 2
     Jcs = None if Jc is None else Jc / scale[None, :, None]
     within_n = float(np.sum(n_c - 1.0))
@@ -161,8 +206,8 @@ def fit_components(R, labels, Jpose=None, X=None, start_sigma=None, floor=None,
         e = np.exp(th)
         return e[:m], e[m:m + n_q], e[m + n_q:m + n_q + n_p]
 
-    def nll(th):
-        """Half the negative restricted log-likelihood and its gradient in th."""
+    def nll(th, restricted=True):
+        """Half the negative (restricted) log-likelihood and its gradient in th."""
         v, q, p = unpack(th)
         M = np.zeros((k, m, m))
         M[:, range(m), range(m)] = v / n_c[:, None]
@@ -179,16 +224,12 @@ def fit_components(R, labels, Jpose=None, X=None, start_sigma=None, floor=None,
         u = np.einsum("cij,cj->ci", Mi, ms)
         val = 2.0 * np.log(np.diagonal(L, axis1=1, axis2=2)).sum() + float((u * ms).sum())
         G = Mi - u[:, :, None] * u[:, None, :]
-        if Xcs is not None:
-            Y = Mi @ Xcs  # (k, m, P)
-            F = Xcs.reshape(-1, Xcs.shape[2]).T @ Y.reshape(-1, Xcs.shape[2])
-            sgn, ld = np.linalg.slogdet(F)
-            if sgn <= 0:
+        if restricted and Xc is not None:
+            term = _reml_term(np.linalg.inv(L), Xc, 1.0 / scale)
+            if term is None:
                 return 1e300, np.zeros_like(th)
-            val += ld
-            # F^-1 Y_c^T for every cluster from one factorization of F (a stacked solve factorizes it k times)
-            Z = np.linalg.solve(F, Y.reshape(-1, Y.shape[2]).T).T.reshape(Y.shape)
-            G = G - Y @ np.swapaxes(Z, 1, 2)
+            val += term[0]
+            G -= term[1]
         Gd = np.diagonal(G, axis1=1, axis2=2)  # (k, m)
         gv = (Gd / n_c[:, None]).sum(0)
         if within_n > 0:
@@ -210,6 +251,14 @@ def fit_components(R, labels, Jpose=None, X=None, start_sigma=None, floor=None,
     v0 = np.maximum(v0, (floor / scale) ** 2)
     lo = np.concatenate([np.log((floor / scale) ** 2), np.full(n_q, np.log(1e-14)), np.full(n_p, np.log(1e-10))])
     hi = np.concatenate([np.full(m, np.log(100.0)), np.full(n_q, np.log(100.0)), np.full(n_p, np.log(100.0))])
+    bounds = list(zip(lo, hi))
+
+    def descend(th0, restricted):
+        f0 = nll(th0, restricted)[0]
+        res = optimize.minimize(nll, th0, args=(restricted,), jac=True, method="L-BFGS-B", bounds=bounds,
+                                options={"maxiter": 500})
+        return (res.x, res.fun) if np.isfinite(res.fun) and res.fun <= f0 else (th0, f0)
+
     # several starts: in log-variances a component started near zero barely moves (its gradient is
     # proportional to it), and the pose error and the per-channel cluster effect can trade places; the
     # best likelihood wins.  A "moderate" start puts a tenth of each channel's variance into the component.
@@ -219,13 +268,17 @@ def fit_components(R, labels, Jpose=None, X=None, start_sigma=None, floor=None,
               (np.full(n_q, 1e-6), np.full(n_p, 0.1)), (q_mod, np.full(n_p, 0.1))]
     if not n_q or not n_p:
         starts = starts[:2]
+    starts = [np.clip(np.log(np.concatenate([v0, q0, p0])), lo, hi) for q0, p0 in starts]
+    if Xc is not None and k * m >= STAGED_VALUES_PER_PARAMETER * Xc.shape[2]:
+        # the starts' optima on the plain likelihood, each distinct one refined under REML
+        found = sorted((descend(th0, False) for th0 in starts), key=lambda r: r[1])
+        starts = []
+        for th, _ in found:
+            if not any(np.max(np.abs(th - s)) < 1e-3 for s in starts):
+                starts.append(th)
     best = None
-    for q0, p0 in starts:
-        th0 = np.clip(np.log(np.concatenate([v0, q0, p0])), lo, hi)
-        f0 = nll(th0)[0]
-        res = optimize.minimize(nll, th0, jac=True, method="L-BFGS-B", bounds=list(zip(lo, hi)),
-                                options={"maxiter": 500})
-        th, f = (res.x, res.fun) if np.isfinite(res.fun) and res.fun <= f0 else (th0, f0)
+    for th0 in starts:
+        th, f = descend(th0, True)
         if best is None or f < best[1]:
             best = (th, f)
     th = best[0]
@@ -235,7 +288,7 @@ def fit_components(R, labels, Jpose=None, X=None, start_sigma=None, floor=None,
                             sigma_cluster=np.sqrt(p) * scale if n_p else np.zeros(m),
                             sigma_pose_deg=np.sqrt(q) if n_q else None, n_rows=n, n_clusters=k,
                             rows_per_cluster_max=int(n_c.max()) if k else 0,
-                            method="REML" if Xcs is not None else "ML")
+                            method="REML" if Xc is not None else "ML")
     if not multi:
         comps.notes.append("one row per pose: a drift shared by a pose's readings cannot be told from the "
                            "sensor noise; both are in sigma")

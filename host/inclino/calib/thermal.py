@@ -155,11 +155,46 @@ class _Problem:
         f = self.C @ ref.field_ned(self.F, dip, self.dec)
         return np.concatenate([ua @ Ma.T - ca - self.g, um @ Mm.T - cm - f], -1)
 
-    def solve(self, x0, order, rows, loss="linear"):
+    def solve(self, x0, order, rows, loss="linear", keep_jac=True):
+        """least_squares from x0, its Jacobian from `jacobian` (the values of
+        least_squares' own "2-point" differences, written into one array
+        instead of a list of columns and its stacked copy); keep_jac False:
+        the result without its 6n x P Jacobian (`jacobian` gives the same
+        array again).  A robust loss (trf) solves its trust-region steps by
+        LSMR on the Jacobian itself: the exact solver held a scaled copy of
+        the 6n x P Jacobian and its SVD's U as well (the peak of a long
+        chamber run's calibration)."""
+        robust = loss != "linear"
         res = optimize.least_squares(lambda x: self.residuals(x, order)[rows].ravel(), x0,
-                                     method="lm" if loss == "linear" else "trf", loss=loss, f_scale=3.0,
-                                     x_scale="jac")
+                                     jac=lambda x: self.jacobian(x, order, rows),
+                                     method="trf" if robust else "lm", loss=loss, f_scale=3.0,
+                                     x_scale="jac", **({"tr_solver": "lsmr"} if robust else {}))
+        if not keep_jac:
+            res.jac = None
         return res
+
+    def jacobian(self, x, order, rows, layout="F"):
+        """The Jacobian `solve` returns at its solution x, computed again as
+        least_squares computes it (its default "2-point" differences: step
+        sqrt(eps) max(1, |x_i|) with x_i's sign, divided by the step as
+        represented, from the residuals at x), one column at a time."""
+        return jacobian_2point(lambda xx: self.residuals(xx, order)[rows].ravel(), x, layout)
+
+
+def jacobian_2point(fun, x, layout="F"):
+    """least_squares' default "2-point" finite differences of fun at x (step
+    sqrt(eps) max(1, |x_i|) with x_i's sign, divided by the step as
+    represented, from fun(x)), written one column at a time into one array
+    ("F" order for least_squares; "C" to view the rows as (n, 6, P))."""
+    x = np.asarray(x, float)
+    f0 = fun(x)
+    h = np.sqrt(np.finfo(float).eps) * np.where(x >= 0, 1.0, -1.0) * np.maximum(1.0, np.abs(x))
+    J = np.empty((f0.size, x.size), order=layout)
+    for i in range(x.size):
+        xi = x.copy()
+        xi[i] = x[i] + h[i]
+        J[:, i] = (fun(xi) - f0) / (xi[i] - x[i])
+    return J
 
 
 def _levels(T: np.ndarray) -> int:
@@ -211,7 +246,7 @@ def _cv(prob: _Problem, x_full: dict, rows: np.ndarray, rng) -> dict:
         scores = []
         for f in folds:
             train = np.setdiff1d(rows, f)
-            res = prob.solve(x0, order, train)
+            res = prob.solve(x0, order, train, keep_jac=False)
             r = prob.residuals(res.x, order)[f]
             scores.append((r ** 2).sum(-1))
         s = np.concatenate(scores)
@@ -380,7 +415,7 @@ def _fit(ds, cal, info, mode, sigma_acc, sigma_mag, sigma_pose_deg, fix_dip, see
     # whitened squared residual passes the chi-square 99.9 % point are kept
     # (joint's rule), for every order
     th = np.zeros(12 * max_order)
-    r0 = prob.solve(np.concatenate([x0, th]), max_order, allrows, loss="soft_l1")
+    r0 = prob.solve(np.concatenate([x0, th]), max_order, allrows, loss="soft_l1", keep_jac=False)
     d2 = (prob.residuals(r0.x, max_order) ** 2).sum(-1)
     keep = np.flatnonzero(d2 <= stats.chi2.ppf(0.999, 6))
     if len(keep) < joint.MIN_ROWS_POSES:
@@ -398,7 +433,9 @@ def _fit(ds, cal, info, mode, sigma_acc, sigma_mag, sigma_pose_deg, fix_dip, see
             base = prev[:prob.nbase]
         else:
             base = x0
-        res = prob.solve(np.concatenate([base, th.ravel()]), order, keep)
+        # each order's Jacobian (6n x P) dropped: the chosen one is computed again below, not held
+        # through the other orders' fits and the cross-validation
+        res = prob.solve(np.concatenate([base, th.ravel()]), order, keep, keep_jac=False)
         sols[order] = res
         x_full[order] = res.x
     cv = _cv(prob, x_full, keep, np.random.default_rng(seed))
@@ -414,14 +451,15 @@ def _fit(ds, cal, info, mode, sigma_acc, sigma_mag, sigma_pose_deg, fix_dip, see
             info["temperature_cv"] = cv
             return cal, info
     res = sols[chosen]
-    sols.clear()  # the other orders' fits (each holds its 6n x P Jacobian) are not used again
+    sols.clear()
     x = res.x
-    J = res.jac
+    J = prob.jacobian(x, chosen, keep, layout="C")
     dof = max(1, J.shape[0] - J.shape[1])
     s2 = float((res.fun ** 2).sum()) / dof
     noise = _noise_components(prob, x, chosen, J, keep, ds, rows, w)
     s2_cov = s2
     if not isinstance(noise, str):
+        J = None  # the refit has its own (6n x P: not two at once)
         # the nominal whitening's shape (its pose error, the triads' relative noise) is not the run's:
         # s^2 scales it as a whole and left the terms' 1-sigma about 1.3x small over drawn probes;
         # refit whitened by the run's own noise (joint's way) and take the covariance from that fit
@@ -432,6 +470,7 @@ def _fit(ds, cal, info, mode, sigma_acc, sigma_mag, sigma_pose_deg, fix_dip, see
         except (np.linalg.LinAlgError, ValueError) as e:
             info["notes"].append(f"the temperature fit was not refitted with the run's own noise ({e}); its "
                                  "covariance is the nominal noise's scaled by s^2")
+            J = prob.jacobian(x, chosen, keep, layout="C")
     try:
         cov_c, cov_th, lin, cov_nl, cond = _cov_24(x, prob, chosen, J, s2_cov, w)
     except CalibrationError as e:
@@ -439,6 +478,7 @@ def _fit(ds, cal, info, mode, sigma_acc, sigma_mag, sigma_pose_deg, fix_dip, see
             raise CalibrationError(f"joint --temperature-terms on: {e}")
         info["notes"].append(f"temperature terms not fitted ({e})")
         return cal, info
+    J = None  # (6n x P) not used again
     Ma, ca, Mm, cm, qa, qm, dip, th = prob.unpack(x, chosen)
     if lin is not None:
         # the nonlinear model the report's linear-model bias is computed from:
@@ -528,8 +568,10 @@ def _refit_fitted_noise(prob: _Problem, x, order, keep, comps, ds, rows, w):
     np.add.at(C, lab, Crow)
     C /= np.bincount(lab, minlength=k)[:, None, None]
     W = covariance.ClusterWhitener(S, C, lab)
-    return optimize.least_squares(lambda xx: W.apply(prob.raw_residuals(xx, order)[keep]), x, method="lm",
-                                  x_scale="jac")
+    def fun(xx):
+        return W.apply(prob.raw_residuals(xx, order)[keep])
+
+    return optimize.least_squares(fun, x, jac=lambda xx: jacobian_2point(fun, xx), method="lm", x_scale="jac")
 
 
 def _noise_components(prob: _Problem, x, order, J, keep, ds, rows, w):
@@ -544,9 +586,8 @@ def _noise_components(prob: _Problem, x, order, J, keep, ds, rows, w):
         L = np.linalg.inv(prob.Linv[keep])  # un-whiten: the residuals in corrected units
         r = np.einsum("nij,nj->ni", L, prob.residuals(x, order)[keep])
         Bi = np.linalg.inv(covariance.block_diag2(Ma, Mm))
-        # the Jacobian un-whitened and through Bi, the intermediate dropped before the fit (n x 6 x P each)
-        X = np.einsum("nij,njk->nik", L, J.reshape(len(keep), 6, -1))
-        X = np.einsum("ij,njk->nik", Bi, X)
+        # the Jacobian un-whitened and through Bi in one product per row (n x 6 x P: one copy, not two)
+        X = np.einsum("nij,njk->nik", np.einsum("ij,njk->nik", Bi, L), J.reshape(len(keep), 6, -1))
         poses = tuple(ds.columns[c][rows][keep] for c in ("inc_deg", "azi_deg", "tf_deg"))
         Jp = joint._pose_jacobian(*poses, w["field_nT"], float(dip), w["declination_deg"], w["gravity_g"])
         labels = covariance.cluster_labels(ds)[rows][keep]

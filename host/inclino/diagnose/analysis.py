@@ -145,6 +145,7 @@ class _Model:
     def use(self, testable):
         """Build the design at the current state with these candidates."""
         self.testable = testable
+        self.des = self.X = None  # the design with the earlier candidates goes before this one is built
         self.bl, self.X, self.y0, sizes = self.build(self.state, testable)
         self.des = self.design(self.bl, self.noise, ~self.out_rows)
         self.idx, j = {}, NB
@@ -818,14 +819,14 @@ def _best_subset(des, base, kept, testable, idx, alpha, fold_of):
     if not pool_keys:
         return None
     base = base + [i for k in kept if len(idx[k]) > 1 for i in idx[k]]  # a kept rig field stays in the model
-    rows = np.repeat(des.rows, 6)
-    Xw = des.Xw.reshape(-1, des.Xw.shape[-1])[rows]
-    yw = des.yw.reshape(-1)[rows]
-    B = Xw[:, base]
-    C = Xw[:, [idx[k][0] for k in pool_keys]]
+    cols = list(base) + [idx[k][0] for k in pool_keys]  # only these columns are whitened, of the rows fitted
+    Xw = des.whitened(cols, des.rows).reshape(-1, len(cols))
+    yw = des.yw[des.rows].reshape(-1)
+    B = Xw[:, :len(base)]
+    C = Xw[:, len(base):]
     coef = np.linalg.lstsq(B, np.column_stack([C, yw]), rcond=None)[0]
     R = np.column_stack([C, yw]) - B @ coef
-    groups = np.repeat(fold_of, 6)[rows]
+    groups = np.repeat(fold_of[des.rows], 6)
     pb = selection.Problem(R[:, :-1], R[:, -1], np.ones(len(yw)), pool_keys, groups)
     s = selection.select(pb, max_terms=BEST_SUBSET_POOL, cv="group")
     d = s.to_dict()

@@ -403,23 +403,25 @@ class Design:
     """Whitened stacked model y = X beta + e, kept as Gram matrices of the
     whole data and of each cross-validation fold."""
 
+    ROW_CHUNK = 2048  # rows whitened at a time when the Gram matrices are built
+
     def __init__(self, y, X, Linv, folds, K, rows=None):
         """rows: (n,) bool, the rows the fit uses (outliers excluded: their
-        whitened equations are zero); default all."""
+        whitened equations are zero); default all.
+
+        The whitened design (n x 6 x p, ~90 columns on a chamber run: the
+        largest array of a diagnosis) is not kept: the Gram matrices are
+        summed a chunk of rows at a time, the columns scaled to unit norm
+        afterwards; `whitened(S)` (and `Xw`) compute it again from the raw
+        design and the whiteners where a row-level figure needs it."""
         n, _, p = X.shape
         self.Xraw, self.yraw = X, y
         if rows is not None and not np.all(rows):
             Linv = Linv * np.asarray(rows, float)[:, None, None]
         self.rows = np.ones(n, bool) if rows is None else np.asarray(rows, bool)
-        Xw = np.einsum("nij,njp->nip", Linv, X)
+        self.Linv = Linv
         yw = np.einsum("nij,nj->ni", Linv, y)
-        s = np.sqrt((Xw ** 2).sum((0, 1)))
-        s[s == 0] = 1.0
-        self.colscale = s
-        # scaled in place: the whitened design is the largest array of a diagnosis (n x 6 x p, ~90
-        # columns on a chamber run), and a scaled copy of it was one more
-        Xw /= s
-        self.Xw, self.yw = Xw, yw
+        self.yw = yw
         self.N = X.shape[1] * int(self.rows.sum())
         # serially correlated rows (a log read while the probe moves): how much a smooth regressor's
         # apparent gain is inflated, (1 + rho) / (1 - rho) for a lag-1 correlation rho; 1 for independent rows
@@ -430,15 +432,38 @@ class Design:
         self.bf = np.zeros((K, p))
         self.yyf = np.zeros(K)
         for f in range(K):
-            m = folds == f
-            A = Xw[m].reshape(-1, p)
-            yy = yw[m].ravel()
-            self.Gf[f] = A.T @ A
-            self.bf[f] = A.T @ yy
-            self.yyf[f] = yy @ yy
+            idx = np.flatnonzero(folds == f)
+            for lo in range(0, len(idx), self.ROW_CHUNK):
+                ix = idx[lo:lo + self.ROW_CHUNK]
+                A = np.einsum("nij,njp->nip", Linv[ix], X[ix]).reshape(-1, p)
+                yy = yw[ix].ravel()
+                self.Gf[f] += A.T @ A
+                self.bf[f] += A.T @ yy
+                self.yyf[f] += yy @ yy
+        s = np.sqrt(np.maximum(np.diagonal(self.Gf.sum(0)).copy(), 0.0))
+        s[s == 0] = 1.0
+        self.colscale = s
+        self.Gf /= np.outer(s, s)[None]
+        self.bf /= s[None]
         self.G = self.Gf.sum(0)
         self.b = self.bf.sum(0)
         self.yy = self.yyf.sum()
+
+    def whitened(self, S=None, rows=None) -> np.ndarray:
+        """The whitened design, columns scaled to unit norm: (n, 6, len(S))
+        for the columns S (default all), of the rows `rows` (default all)."""
+        X, L = self.Xraw, self.Linv
+        if rows is not None:
+            X, L = X[rows], L[rows]
+        if S is None:
+            return np.einsum("nij,njp->nip", L, X) / self.colscale
+        S = np.asarray(S)
+        return np.einsum("nij,njp->nip", L, X[:, :, S]) / self.colscale[S]
+
+    @property
+    def Xw(self) -> np.ndarray:
+        """The whole whitened, scaled design (computed on each use)."""
+        return self.whitened()
 
     @staticmethod
     def _solve(G, b):
@@ -498,7 +523,7 @@ class Design:
         """Each whitened value's leverage (n, 6) under the model S: the
         diagonal of the hat matrix, Xw G^-1 Xw^T per row and channel (what
         the fit leans on that value; its residual's variance is s2 (1 - h))."""
-        Xs = self.Xw[:, :, S]
+        Xs = self.whitened(S)
         return np.einsum("nip,pq,niq->ni", Xs, np.linalg.pinv(self.G[np.ix_(S, S)]), Xs)
 
     def heldout_factor(self, S) -> np.ndarray:
@@ -508,11 +533,11 @@ class Design:
         (I - H_ff)^-1 (Woodbury), what the fold's own values lean on one
         another included (1 / (1 - h) only when a fold is one value)."""
         S = np.asarray(S)
-        out = np.zeros(self.Xw.shape[:2])
+        out = np.zeros(self.Xraw.shape[:2])
         for f in range(self.K):
             m = self.folds == f
             Gi = np.linalg.pinv(self.G[np.ix_(S, S)] - self.Gf[f][np.ix_(S, S)])
-            Xs = self.Xw[m][:, :, S]
+            Xs = self.whitened(S, m)
             out[m] = 1.0 + np.einsum("nip,pq,niq->ni", Xs, Gi, Xs)
         return out
 

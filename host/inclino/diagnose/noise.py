@@ -118,15 +118,17 @@ def _ml_variances(R, J, v0, q0, scale):
     def nll(theta):
         e = np.exp(theta)
         v, q = e[:6] / scale ** 2, e[6:]
-        S = np.einsum("nik,k,njk->nij", Js, q, Js)
+        # batched products, not einsum's generic loops (this is most of a diagnosis' time); the gradient
+        # from W = Si - u u^T without forming W: diag(W) = diag(Si) - u^2, J^T W J = J^T Si J - (J^T u)^2
+        S = (Js * q) @ np.swapaxes(Js, 1, 2)
         S[:, range(6), range(6)] += v
         L = np.linalg.cholesky(S)
         Si = np.linalg.inv(S)
-        u = np.einsum("nij,nj->ni", Si, Rs)
+        u = (Si @ Rs[:, :, None])[:, :, 0]
         val = 2 * np.log(np.diagonal(L, axis1=1, axis2=2)).sum() + float((u * Rs).sum())
-        W = Si - u[:, :, None] * u[:, None, :]
-        gv = np.diagonal(W, axis1=1, axis2=2).sum(0) / scale ** 2
-        gq = np.einsum("nik,nij,njk->k", Js, W, Js)
+        gv = (np.diagonal(Si, axis1=1, axis2=2).sum(0) - (u * u).sum(0)) / scale ** 2
+        Ju = (np.swapaxes(Js, 1, 2) @ u[:, :, None])[:, :, 0]
+        gq = ((Si @ Js) * Js).sum((0, 1)) - (Ju * Ju).sum(0)
         grad = np.concatenate([gv, gq]) * e
         return 0.5 * val / n, 0.5 * grad / n
 

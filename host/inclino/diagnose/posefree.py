@@ -808,7 +808,7 @@ def _shift_p(mdl, state, des, S, key, n, threshold) -> float:
     attr = {"temperature-bias": "temp", "temperature-scale": "temp", "field-drift": "t"}.get(name)
     k = pf.k
     keep = des.rows
-    Xs = des.Xw[keep][:, :, S].reshape(-1, len(S))
+    Xs = des.whitened(S, keep).reshape(-1, len(S))
     y = des.yw[keep].ravel()
     Q, _ = np.linalg.qr(Xs)
     ry = y - Q @ (Q.T @ y)
