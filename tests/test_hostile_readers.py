@@ -268,6 +268,26 @@ def test_long_line_in_a_las_listing_is_read_in_linear_time(tmp_path, capsys):
     one_line(err, str(las))
 
 
+@pytest.mark.parametrize("where", ["STEP", "VERS", "curve"])
+def test_long_header_line_in_a_las_listing_is_refused_by_line(tmp_path, capsys, where):
+    """A header item of a million characters (a value, or a curve's
+    description): lasio formats each header item for its debug log in time
+    quadratic in its length (25 CPU s for 1 MB), so such a line is refused
+    by its number before lasio reads the file; the listing's data lines are
+    not limited by it."""
+    long = "7" * 1_000_000
+    head = {"STEP": LAS_HEAD.replace("NULL. -999.25 :", "NULL. -999.25 :\nSTEP.M 0 :" + long),
+            "VERS": LAS_HEAD.replace("VERS. 2.0 :", "VERS. 2.0 : " + long),
+            "curve": LAS_HEAD.replace("AZI.deg : azi", "AZI.deg : " + long)}[where]
+    lineno = head[:head.index(long)].count("\n") + 1
+    las = tmp_path / "s.las"
+    las.write_text(head + "30 5 10\n")
+    rc, out, err = run(capsys, "trajectory", las, "--declination", "2", "-o", tmp_path / "t.csv")
+    assert rc == 2, err
+    one_line(err, f"{las}:{lineno}:", "header line")
+    assert not (tmp_path / "t.csv").exists()
+
+
 def test_listing_with_a_byte_order_mark(tmp_path, capsys):
     s = listing(tmp_path, bom=True)
     rc, out, err = run(capsys, "trajectory", s, "--declination", "2", "-o", tmp_path / "t.csv")

@@ -6,15 +6,20 @@ handler, so an interruption at any moment -- also while the command is
 still starting -- is one line (`inclino: interrupted`) and exit status 130,
 never a traceback (docs/cli.md, "Interrupts").  From the moment this module
 is imported (the console script's first statement) until main's handler is
-in place, a Ctrl-C is held and raised inside it.  This module imports
-nothing but the standard library's sys and signal."""
+in place, a Ctrl-C is held and raised inside it.  An import that a Ctrl-C
+cuts short inside a C extension can surface as another exception (numpy's
+C core, interrupted while importing datetime, raises ImportError: the
+KeyboardInterrupt is lost); after a Ctrl-C such an exception is the
+interruption too.  This module imports nothing but the standard library's
+sys and signal."""
 import signal
 import sys
 
-_state = {"armed": False, "pending": False}
+_state = {"armed": False, "pending": False, "signalled": False}
 
 
 def _hold(signum, frame):
+    _state["signalled"] = True
     if _state["armed"]:
         raise KeyboardInterrupt
     _state["pending"] = True
@@ -33,12 +38,20 @@ def main(argv=None) -> int:
 
         return run(argv)
     except KeyboardInterrupt:  # while starting (cli.main handles those of the command)
-        try:
-            sys.stderr.write("inclino: interrupted\n")
-            sys.stderr.flush()
-        except BaseException:  # interrupted again, or stderr closed
-            pass
-        return 130
+        return _interrupted()
+    except Exception:
+        if _state["signalled"]:  # an import cut short by the Ctrl-C, reported as something else
+            return _interrupted()
+        raise
+
+
+def _interrupted() -> int:
+    try:
+        sys.stderr.write("inclino: interrupted\n")
+        sys.stderr.flush()
+    except BaseException:  # interrupted again, or stderr closed
+        pass
+    return 130
 
 
 if __name__ == "__main__":  # pragma: no cover

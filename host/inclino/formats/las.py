@@ -95,11 +95,26 @@ def render(index_name: str, index_unit: str, index_descr: str, index, curves, pa
     return buf.getvalue()
 
 
+MAX_HEADER_LINE = 4096  # characters in a header-section line (~V, ~W, ~C, ~P, ~O): LAS 2.0's are one item each
+
+
 def read(text: str, where: str):
-    """A lasio LASFile from text; DataError when it is not readable."""
+    """A lasio LASFile from text; DataError when it is not readable.  A
+    header line longer than MAX_HEADER_LINE is refused before lasio sees it:
+    lasio formats every header item for its debug log whether or not the log
+    is on, in time quadratic in the item's length (a 1 MB STEP value took 25
+    CPU s)."""
     import logging
 
     import lasio
+
+    for lineno, line in enumerate(io.StringIO(text), 1):  # the header only: no copy of the data section
+        line = line.rstrip("\r\n")
+        if line.lstrip().upper().startswith("~A"):
+            break
+        if len(line) > MAX_HEADER_LINE:
+            raise DataError(f"{where}:{lineno}: a header line of {len(line)} characters; a LAS header item fits "
+                            f"in {MAX_HEADER_LINE}: not a readable LAS file")
 
     log = logging.getLogger("lasio")  # lasio logs its own notes ("Only engine='normal' ..."): kept off stderr
     level = log.level
