@@ -350,3 +350,26 @@ class ClusterWhitener:
 
 def block_diag2(A, B) -> np.ndarray:
     return linalg.block_diag(np.asarray(A, float), np.asarray(B, float))
+
+
+CHANNELS_6 = ["acc_x_g", "acc_y_g", "acc_z_g", "mag_x_nT", "mag_y_nT", "mag_z_nT"]  # both triads' channels
+
+
+def component_whitener(comps: "NoiseComponents", Ma, Mm, Jp, labels) -> ClusterWhitener:
+    """The whitener of both triads' residuals in corrected units under noise
+    components fitted in raw units: per-row noise B diag(sigma^2) B^T (B the
+    triads' M's), and per cluster the cluster effect plus the pose error
+    (Jp (n, 6, 3) the residuals' pose Jacobian, deg), averaged over the
+    cluster's rows."""
+    B = block_diag2(Ma, Mm)
+    S = B @ np.diag(comps.sigma ** 2) @ B.T
+    Crow = B @ np.diag(comps.sigma_cluster ** 2) @ B.T
+    if comps.sigma_pose_deg is not None:
+        Crow = Crow + np.einsum("nik,k,njk->nij", Jp, comps.sigma_pose_deg ** 2, Jp)
+    else:
+        Crow = np.broadcast_to(Crow, (len(labels), 6, 6))
+    lab, k = _relabel(labels)
+    C = np.zeros((k, 6, 6))
+    np.add.at(C, lab, Crow)
+    C /= np.bincount(lab, minlength=k)[:, None, None]
+    return ClusterWhitener(S, C, lab)

@@ -321,19 +321,8 @@ def _refit_with_components(comps, x, fun, jac, acc, mag, poses, FdG, fix_dip, di
 
     xx = np.concatenate([x, [dip0]]) if fix_dip else x
     Ma, _, Mm, _, dip, _, _ = _unpack_pose(xx)
-    B = covariance.block_diag2(Ma, Mm)
     Jp = _pose_jacobian(*poses, *FdG[:1], dip, *FdG[1:])
-    S = B @ np.diag(comps.sigma ** 2) @ B.T
-    Crow = B @ np.diag(comps.sigma_cluster ** 2) @ B.T
-    if comps.sigma_pose_deg is not None:
-        Crow = Crow + np.einsum("nik,k,njk->nij", Jp, comps.sigma_pose_deg ** 2, Jp)
-    else:
-        Crow = np.broadcast_to(Crow, (len(acc), 6, 6))
-    lab, k = covariance._relabel(labels)
-    C = np.zeros((k, 6, 6))
-    np.add.at(C, lab, Crow)
-    C /= np.bincount(lab, minlength=k)[:, None, None]
-    W = covariance.ClusterWhitener(S, C, lab)
+    W = covariance.component_whitener(comps, Ma, Mm, Jp, labels)
     res = optimize.least_squares(fun, x, jac=jac, args=(acc, mag, poses, *FdG, W), method="lm", x_scale="jac")
     return res, W
 
@@ -362,8 +351,7 @@ def _refit_fitted_noise(x, fun, jac, ds, keep, poses, FdG, fix_dip, dip0, names,
             X = np.einsum("ij,njk->nik", Bi, X)  # (the Jacobian through Bi replaces it: n x 6 x P each)
             comps = covariance.fit_components(r @ Bi.T, labels, Jpose=np.einsum("ij,njk->nik", Bi, Jp),
                                               X=X,
-                                              channels=["acc_x_g", "acc_y_g", "acc_z_g", "mag_x_nT", "mag_y_nT",
-                                                        "mag_z_nT"])
+                                              channels=covariance.CHANNELS_6)
             res, W = _refit_with_components(comps, x, fun, jac, acc, mag, pk, FdG, fix_dip, dip0, labels)
             x = res.x
         cov = np.linalg.pinv(res.jac.T @ res.jac)

@@ -554,20 +554,10 @@ def _refit_fitted_noise(prob: _Problem, x, order, keep, comps, ds, rows, w):
     from . import covariance, joint
 
     Ma, ca, Mm, cm, qa, qm, dip, th = prob.unpack(x, order)
-    B = covariance.block_diag2(Ma, Mm)
-    S = B @ np.diag(comps.sigma ** 2) @ B.T
-    Crow = B @ np.diag(comps.sigma_cluster ** 2) @ B.T
-    if comps.sigma_pose_deg is not None:
-        poses = tuple(ds.columns[c][rows][keep] for c in ("inc_deg", "azi_deg", "tf_deg"))
-        Jp = joint._pose_jacobian(*poses, w["field_nT"], float(dip), w["declination_deg"], w["gravity_g"])
-        Crow = Crow + np.einsum("nik,k,njk->nij", Jp, comps.sigma_pose_deg ** 2, Jp)
-    else:
-        Crow = np.broadcast_to(Crow, (len(keep), 6, 6))
-    lab, k = covariance._relabel(covariance.cluster_labels(ds)[rows][keep])
-    C = np.zeros((k, 6, 6))
-    np.add.at(C, lab, Crow)
-    C /= np.bincount(lab, minlength=k)[:, None, None]
-    W = covariance.ClusterWhitener(S, C, lab)
+    poses = tuple(ds.columns[c][rows][keep] for c in ("inc_deg", "azi_deg", "tf_deg"))
+    Jp = joint._pose_jacobian(*poses, w["field_nT"], float(dip), w["declination_deg"], w["gravity_g"])
+    W = covariance.component_whitener(comps, Ma, Mm, Jp, covariance.cluster_labels(ds)[rows][keep])
+
     def fun(xx):
         return W.apply(prob.raw_residuals(xx, order)[keep])
 
@@ -593,8 +583,7 @@ def _noise_components(prob: _Problem, x, order, J, keep, ds, rows, w):
         labels = covariance.cluster_labels(ds)[rows][keep]
         return covariance.fit_components(r @ Bi.T, labels, Jpose=np.einsum("ij,njk->nik", Bi, Jp),
                                          X=X,
-                                         channels=["acc_x_g", "acc_y_g", "acc_z_g", "mag_x_nT", "mag_y_nT",
-                                                   "mag_z_nT"])
+                                         channels=covariance.CHANNELS_6)
     except (np.linalg.LinAlgError, ValueError) as e:
         return str(e) or type(e).__name__
 
