@@ -278,13 +278,14 @@ def test_diagnose_cal_on_a_long_run_corrects_only_the_rows_it_keeps(tmp_path, ca
     assert any(n.startswith(f"the run has {len(ds)} rows; {m} of them were used") for n in notes), notes
 
 
-def test_the_jacobian_computed_again_is_the_one_the_fit_returned(rng):
-    """The temperature fit keeps no order's 6n x P Jacobian through the
-    other orders' fits and the cross-validation; the chosen order's is
-    computed again at its solution: the same array, value for value, and
-    the same as least_squares' own finite differences (the fit computes
-    them into one array, not a list of columns and a stacked copy)."""
-    from inclino.calib import common, joint
+def test_the_chunked_fit_is_least_squares_own(rng, monkeypatch):
+    """The temperature fit builds its Jacobian a chunk of rows at a time
+    (calib/chunked_lm.py: never the 6n x P array, of which least_squares'
+    lm held four): the minimum least_squares finds with the whole Jacobian,
+    and its J^T J at that minimum (the covariance)."""
+    from scipy import optimize
+
+    from inclino.calib import chunked_lm, common, joint
 
     sc = drawn_probe(rng)
     ds = chamber_run(sc, seed=int(rng.integers(1 << 30)))
@@ -295,15 +296,22 @@ def test_the_jacobian_computed_again_is_the_one_the_fit_returned(rng):
     n = len(ds)
     Linv = np.broadcast_to(np.diag([1e3] * 3 + [1.0] * 3), (n, 6, 6)).copy()
     prob = thermal._Problem(ds, np.arange(n), w, "nonlinear" in info, float(info["dip_deg"]), False, Linv, 25.0)
-    x0 = np.concatenate([x_base, [float(info["dip_deg"])], np.zeros(12)])
+    x0 = np.concatenate([x_base, [float(info["dip_deg"])], np.zeros(24)])
     rows = np.arange(0, n, 2)
-    res = prob.solve(x0, 1, rows)
-    assert res.jac.shape == (6 * len(rows), len(x0))
-    assert np.array_equal(prob.jacobian(res.x, 1, rows), res.jac)
-    assert prob.solve(x0, 1, rows, keep_jac=False).jac is None
-    # and `jacobian` is least_squares' own default differences: the same fit, value for value
-    from scipy import optimize
+    monkeypatch.setattr(chunked_lm, "CHUNK_ROWS", 6 * 100)  # several chunks
+    got = prob.solve(x0, 2, rows)
 
-    own = optimize.least_squares(lambda x: prob.residuals(x, 1)[rows].ravel(), x0, method="lm", x_scale="jac")
-    assert np.array_equal(own.jac, prob.jacobian(own.x, 1, rows))
-    assert np.array_equal(own.x, res.x)
+    def fun(x):
+        return prob.residuals(x, 2, rows).ravel()
+
+    want = optimize.least_squares(fun, x0, jac=lambda x: chunked_lm.jacobian_2point(fun, x), method="lm",
+                                  x_scale="jac")
+    J = want.jac
+    d = np.sqrt(np.diag(J.T @ J))  # the parameters' units differ by decades: inverted scaled
+    sigma = np.sqrt(np.diag(np.linalg.inv((J.T @ J) / np.outer(d, d))) * 2 * want.cost
+                    / (J.shape[0] - J.shape[1])) / d
+    assert np.max(np.abs(got.x - want.x) / sigma) < 2e-3  # both within ~1e-4 sigma of the exact minimum
+    assert got.cost == pytest.approx(want.cost, rel=1e-7)
+    J = chunked_lm.jacobian_2point(fun, got.x)
+    d = np.sqrt(np.diag(J.T @ J))
+    np.testing.assert_allclose(got.jtj / np.outer(d, d), (J.T @ J) / np.outer(d, d), atol=1e-9)

@@ -331,6 +331,37 @@ class ClusterWhitener:
         mw = np.einsum("cij,cj->ci", self.LM, mean)
         return np.concatenate([dev.ravel(), mw.ravel()])
 
+    def starts(self) -> np.ndarray:
+        """The rows at which a cluster starts (0 first), when each cluster's
+        rows are consecutive (labels from cluster_labels: runs of rows);
+        else [0] (one part: the whole)."""
+        if np.any(np.diff(self.lab) < 0) or np.any(np.diff(self.lab) > 1):
+            return np.zeros(1, int)
+        return np.flatnonzero(np.diff(self.lab, prepend=-1))
+
+    def apply_rows(self, A, rows: slice) -> np.ndarray:
+        """`apply` (A: residuals (n, m)) or `apply_jac` (A: a Jacobian (n,
+        m, p)) of the rows in `rows` alone, a slice that starts and ends at
+        cluster starts (see `starts`): the values those give for these
+        clusters, the deviations first then the means, so that a fit can
+        whiten its residuals a part of the run at a time."""
+        A = np.asarray(A, float)
+        tail = A.shape[2:]
+        lab = self.lab[rows]
+        if self.single:
+            return np.einsum("nij,nj...->ni...", self.LM[lab], A).reshape((-1,) + tail)
+        c0 = int(lab[0])
+        first = np.flatnonzero(np.diff(lab, prepend=c0 - 1))  # the rows at which each cluster starts
+        k = len(first)
+        mean = np.add.reduceat(A, first, axis=0) / self.n_c[c0:c0 + k].reshape((-1,) + (1,) * (A.ndim - 1))
+        dev = np.einsum("ij,nj...->ni...", self.LS, A - np.repeat(mean, np.diff(np.append(first, len(lab))), 0))
+        mw = np.einsum("cij,cj...->ci...", self.LM[c0:c0 + k], mean)
+        return np.concatenate([dev.reshape((-1,) + tail), mw.reshape((-1,) + tail)])
+
+    def part(self, rows: slice) -> "WhitenerPart":
+        """The whitener of the rows in `rows` alone (apply_rows)."""
+        return WhitenerPart(self, rows)
+
     def apply_jac(self, J) -> np.ndarray:
         """J: (n, m, p) -> the whitened Jacobian, rows as `apply`'s."""
         J = np.asarray(J, float)
@@ -346,6 +377,20 @@ class ClusterWhitener:
         """Each row's whitened squared norm under its marginal covariance S + C_c."""
         w = np.einsum("nij,nj->ni", self.Lrow[self.lab], np.asarray(r, float))
         return (w ** 2).sum(-1)
+
+
+class WhitenerPart:
+    """A ClusterWhitener restricted to whole clusters (rows: a slice from
+    one cluster start to another): apply / apply_jac of those rows."""
+
+    def __init__(self, w: ClusterWhitener, rows: slice):
+        self.w, self.rows = w, rows
+
+    def apply(self, r) -> np.ndarray:
+        return self.w.apply_rows(r, self.rows)
+
+    def apply_jac(self, J) -> np.ndarray:
+        return self.w.apply_rows(J, self.rows)
 
 
 def block_diag2(A, B) -> np.ndarray:

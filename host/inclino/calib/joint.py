@@ -87,16 +87,17 @@ def undetermined(J, names=None):
 
 
 def _covariance(res, what: str, names=None):
-    """(chi2, dof, s2, cond, covariance) of a least-squares result, the
-    residuals scaled to unit variance; SingularFit (a CalibrationError)
-    when `what` do not determine all parameters, naming the parameter the
-    null direction loads most on."""
-    J = res.jac
-    dof = max(1, J.shape[0] - J.shape[1])
-    chi2 = float((res.fun ** 2).sum())
+    """(chi2, dof, s2, cond, covariance) of a least-squares result
+    (chunked_lm's: R with R^T R = J^T J), the residuals scaled to unit
+    variance; SingularFit (a CalibrationError) when `what` do not determine
+    all parameters, naming the parameter the null direction loads most on
+    (J's scaled singular values and vectors are R's: J = Q R)."""
+    R = res.R
+    dof = max(1, res.m - R.shape[1])
+    chi2 = 2.0 * res.cost
     s2 = chi2 / dof
-    JtJ = J.T @ J
-    cond, worst = undetermined(J, names)
+    JtJ = R.T @ R
+    cond, worst = undetermined(R, names)
     if not np.isfinite(cond) or cond > SINGULAR_COND:
         raise SingularFit(f"joint: the {what} do not determine all parameters ({worst} is undetermined; "
                           f"singular fit)", worst)
@@ -314,6 +315,29 @@ def _linear_start(acc, mag, g, f):
     return np.concatenate(out)
 
 
+def _least_squares(fun, jac, x, acc, mag, poses, FdG, whiten):
+    """The least-squares fit of fun (jac) from x over the rows, whitened by
+    per-row whiteners (n, 6, 6) or a covariance.ClusterWhitener, by
+    chunked_lm: the rows a chunk at a time (whole clusters), so that the
+    6n x P Jacobian is never held (least_squares' lm held it four times,
+    and whitening it by clusters made as many copies again: the peak of a
+    long run's calibration).  Returns chunked_lm's result (x, cost, m, R)."""
+    from . import chunked_lm
+
+    n = len(acc)
+    if hasattr(whiten, "part"):
+        chunks = chunked_lm.row_chunks(n, 6, whiten.starts())
+        part = whiten.part
+    else:
+        chunks = chunked_lm.row_chunks(n, 6)
+        part = whiten.__getitem__
+
+    def args(c):
+        return (acc[c], mag[c], tuple(p[c] for p in poses), *FdG, part(c))
+
+    return chunked_lm.solve(lambda xx, c: fun(xx, *args(c)), chunks, x, jac=lambda xx, c: jac(xx, *args(c)))
+
+
 def _refit_with_components(comps, x, fun, jac, acc, mag, poses, FdG, fix_dip, dip0, labels):
     """The final Gauss-Newton pass whitened by fitted noise components
     (calib/covariance.py): (result, whitener)."""
@@ -323,8 +347,8 @@ def _refit_with_components(comps, x, fun, jac, acc, mag, poses, FdG, fix_dip, di
     Ma, _, Mm, _, dip, _, _ = _unpack_pose(xx)
     Jp = _pose_jacobian(*poses, *FdG[:1], dip, *FdG[1:])
     W = covariance.component_whitener(comps, Ma, Mm, Jp, labels)
-    res = optimize.least_squares(fun, x, jac=jac, args=(acc, mag, poses, *FdG, W), method="lm", x_scale="jac")
-    return res, W
+    del Jp
+    return _least_squares(fun, jac, x, acc, mag, poses, FdG, W), W
 
 
 def _refit_fitted_noise(x, fun, jac, ds, keep, poses, FdG, fix_dip, dip0, names, cov_lin, noise_info):
@@ -354,13 +378,13 @@ def _refit_fitted_noise(x, fun, jac, ds, keep, poses, FdG, fix_dip, dip0, names,
                                               channels=covariance.CHANNELS_6)
             res, W = _refit_with_components(comps, x, fun, jac, acc, mag, pk, FdG, fix_dip, dip0, labels)
             x = res.x
-        cov = np.linalg.pinv(res.jac.T @ res.jac)
+        cov = np.linalg.pinv(res.jtj)
         if not np.all(np.isfinite(cov)):
             raise np.linalg.LinAlgError("covariance not finite")
     except (np.linalg.LinAlgError, ValueError) as e:
         noise_info["noise_note"] = f"the run's own noise could not be fitted ({e}); nominal noise scaled by s^2"
         return x, cov_lin, noise_info
-    chi2 = float((res.fun ** 2).sum())
+    chi2 = 2.0 * res.cost
     noise_info = {**noise_info, "noise": comps.to_dict(), "noise_components": comps,
                   "chi2_fitted_noise": chi2}
     return x, cov, noise_info
@@ -408,8 +432,11 @@ def _fit_poses(ds, w, sa, sm, sp, fix_dip, nonlinear=False, noise="fit"):
             f_scale = 3.0 * np.sqrt(robust_threshold((r0 ** 2).sum(-1), 6)[1])
         else:
             f_scale = 3.0
-        res = optimize.least_squares(fun, x, jac=jac, args=args, loss=loss, f_scale=f_scale,
-                                     method="lm" if loss == "linear" else "trf", x_scale="jac")
+        if loss == "linear":
+            res = _least_squares(fun, jac, x, *args[:3], args[3:6], args[6])
+        else:
+            res = optimize.least_squares(fun, x, jac=jac, args=args, loss=loss, f_scale=f_scale, method="trf",
+                                         x_scale="jac")
         x = res.x
         if loss == "soft_l1":
             rall = fun(x, ds.acc, ds.mag, poses, F, dec, G, Linv)

@@ -41,7 +41,7 @@ from inclino.errors import CalibrationError, DataError
 
 from inclino.formats import caltemp
 
-from . import common
+from . import chunked_lm, common
 
 MODES = ("auto", "on", "off")
 MIN_SPAN_C = 10.0
@@ -128,73 +128,54 @@ class _Problem:
         th = np.asarray(x[self.nbase:], float).reshape(2, 2, order, 3)
         return Ma, ca, Mm, cm, qa, qm, dip, th
 
-    def _ref(self, raw, b, th_tri, order):
-        """raw brought to t_ref: effects.to_reference_temperature with the
-        triad's (bias, scale) coefficients th_tri (2, order, 3)."""
+    def _ref(self, raw, T, b, th_tri, order):
+        """raw (at temperatures T) brought to t_ref: effects.to_reference_temperature
+        with the triad's (bias, scale) coefficients th_tri (2, order, 3)."""
         if order == 0:
             return raw
         fx = _effects()
         z = np.zeros(3)
         bt = fx.BiasTempco(th_tri[0, 0], self.t_ref, th_tri[0, 1] if order > 1 else z)
         st = fx.ScaleTempco(th_tri[1, 0], self.t_ref, th_tri[1, 1] if order > 1 else z)
-        return fx.to_reference_temperature(raw, self.T, b, bt, st)
+        return fx.to_reference_temperature(raw, T, b, bt, st)
 
     def residuals(self, x, order, rows=None):
-        r = np.einsum("nij,nj->ni", self.Linv, self.raw_residuals(x, order))
-        return r if rows is None else r[rows]
+        """(n, 6) whitened residuals of `rows` (every row: None)."""
+        s = slice(None) if rows is None else rows
+        return np.einsum("nij,nj->ni", self.Linv[s], self.raw_residuals(x, order, rows))
 
-    def raw_residuals(self, x, order):
-        """(n, 6): the model's residuals in corrected units (g, nT), unwhitened."""
+    def raw_residuals(self, x, order, rows=None):
+        """(n, 6): the model's residuals of `rows` (every row: None) in
+        corrected units (g, nT), unwhitened; each row's from its own data."""
+        s = slice(None) if rows is None else rows
         Ma, ca, Mm, cm, qa, qm, dip, th = self.unpack(x, order)
         ba = np.linalg.solve(Ma, ca)
         bm = np.linalg.solve(Mm, cm)
-        ua = self._ref(self.acc, ba, th[0], order)
-        um = self._ref(self.mag, bm, th[1], order)
+        T = self.T[s]
+        ua = self._ref(self.acc[s], T, ba, th[0], order)
+        um = self._ref(self.mag[s], T, bm, th[1], order)
         ua = ua + qa * ua * ua / self.G
         um = um + qm * um * um / self.F
-        f = self.C @ ref.field_ned(self.F, dip, self.dec)
-        return np.concatenate([ua @ Ma.T - ca - self.g, um @ Mm.T - cm - f], -1)
+        C = self.C[s]
+        f = C @ ref.field_ned(self.F, dip, self.dec)
+        return np.concatenate([ua @ Ma.T - ca - self.g[s], um @ Mm.T - cm - f], -1)
 
-    def solve(self, x0, order, rows, loss="linear", keep_jac=True):
-        """least_squares from x0, its Jacobian from `jacobian` (the values of
-        least_squares' own "2-point" differences, written into one array
-        instead of a list of columns and its stacked copy); keep_jac False:
-        the result without its 6n x P Jacobian (`jacobian` gives the same
-        array again).  A robust loss (trf) solves its trust-region steps by
-        LSMR on the Jacobian itself: the exact solver held a scaled copy of
-        the 6n x P Jacobian and its SVD's U as well (the peak of a long
-        chamber run's calibration)."""
-        robust = loss != "linear"
-        res = optimize.least_squares(lambda x: self.residuals(x, order)[rows].ravel(), x0,
-                                     jac=lambda x: self.jacobian(x, order, rows),
-                                     method="trf" if robust else "lm", loss=loss, f_scale=3.0,
-                                     x_scale="jac", **({"tr_solver": "lsmr"} if robust else {}))
-        if not keep_jac:
-            res.jac = None
+    def solve(self, x0, order, rows, loss="linear", factor_at_x=True):
+        """The fit of `rows` from x0: least squares by chunked_lm (the
+        Jacobian a chunk of rows at a time, never the whole 6n x P array;
+        the result's R gives J^T J), or with a robust loss by least_squares
+        (trf), whose trust-region steps LSMR solves on the Jacobian itself
+        (the exact solver held a scaled copy of the 6n x P Jacobian and its
+        SVD's U as well)."""
+        if loss == "linear":
+            return chunked_lm.solve(lambda x, c: self.residuals(x, order, rows[c]).ravel(),
+                                    chunked_lm.row_chunks(len(rows), 6), x0, factor_at_x=factor_at_x)
+        res = optimize.least_squares(lambda x: self.residuals(x, order, rows).ravel(), x0,
+                                     jac=lambda x: chunked_lm.jacobian_2point(
+                                         lambda xx: self.residuals(xx, order, rows).ravel(), x),
+                                     method="trf", loss=loss, f_scale=3.0, x_scale="jac", tr_solver="lsmr")
+        res.jac = None
         return res
-
-    def jacobian(self, x, order, rows, layout="F"):
-        """The Jacobian `solve` returns at its solution x, computed again as
-        least_squares computes it (its default "2-point" differences: step
-        sqrt(eps) max(1, |x_i|) with x_i's sign, divided by the step as
-        represented, from the residuals at x), one column at a time."""
-        return jacobian_2point(lambda xx: self.residuals(xx, order)[rows].ravel(), x, layout)
-
-
-def jacobian_2point(fun, x, layout="F"):
-    """least_squares' default "2-point" finite differences of fun at x (step
-    sqrt(eps) max(1, |x_i|) with x_i's sign, divided by the step as
-    represented, from fun(x)), written one column at a time into one array
-    ("F" order for least_squares; "C" to view the rows as (n, 6, P))."""
-    x = np.asarray(x, float)
-    f0 = fun(x)
-    h = np.sqrt(np.finfo(float).eps) * np.where(x >= 0, 1.0, -1.0) * np.maximum(1.0, np.abs(x))
-    J = np.empty((f0.size, x.size), order=layout)
-    for i in range(x.size):
-        xi = x.copy()
-        xi[i] = x[i] + h[i]
-        J[:, i] = (fun(xi) - f0) / (xi[i] - x[i])
-    return J
 
 
 def _levels(T: np.ndarray) -> int:
@@ -246,22 +227,22 @@ def _cv(prob: _Problem, x_full: dict, rows: np.ndarray, rng) -> dict:
         scores = []
         for f in folds:
             train = np.setdiff1d(rows, f)
-            res = prob.solve(x0, order, train, keep_jac=False)
-            r = prob.residuals(res.x, order)[f]
+            res = prob.solve(x0, order, train, factor_at_x=False)  # its J^T J not used
+            r = prob.residuals(res.x, order, f)
             scores.append((r ** 2).sum(-1))
         s = np.concatenate(scores)
         out[order] = {"cv_chi2_per_row": float(s.mean()), "se": float(s.std(ddof=1) / np.sqrt(len(s)))}
     return out
 
 
-def _cov_24(x, prob: _Problem, order, J, s2, w):
+def _cov_24(x, prob: _Problem, order, JtJ, s2, w):
     """Covariance of the written (M, b) [and dip], and of the temperature
-    coefficients, from the GLS covariance of x; with the scale nonlinearity
+    coefficients, from the GLS covariance of x (JtJ: the whitened J^T J);
+    with the scale nonlinearity
     also the best linear calibration and the covariance of (M, b, q[, dip])
     for the report's nonlinear block (None, None without it)."""
     from . import joint
 
-    JtJ = J.T @ J
     d = np.sqrt(np.diag(JtJ))  # the parameters' units differ by decades: condition of the scaled matrix
     if not np.all(np.isfinite(d)) or np.any(d == 0):
         raise CalibrationError("the poses at the run's temperatures do not separate the temperature terms "
@@ -415,7 +396,7 @@ def _fit(ds, cal, info, mode, sigma_acc, sigma_mag, sigma_pose_deg, fix_dip, see
     # whitened squared residual passes the chi-square 99.9 % point are kept
     # (joint's rule), for every order
     th = np.zeros(12 * max_order)
-    r0 = prob.solve(np.concatenate([x0, th]), max_order, allrows, loss="soft_l1", keep_jac=False)
+    r0 = prob.solve(np.concatenate([x0, th]), max_order, allrows, loss="soft_l1")
     d2 = (prob.residuals(r0.x, max_order) ** 2).sum(-1)
     keep = np.flatnonzero(d2 <= stats.chi2.ppf(0.999, 6))
     if len(keep) < joint.MIN_ROWS_POSES:
@@ -433,9 +414,7 @@ def _fit(ds, cal, info, mode, sigma_acc, sigma_mag, sigma_pose_deg, fix_dip, see
             base = prev[:prob.nbase]
         else:
             base = x0
-        # each order's Jacobian (6n x P) dropped: the chosen one is computed again below, not held
-        # through the other orders' fits and the cross-validation
-        res = prob.solve(np.concatenate([base, th.ravel()]), order, keep, keep_jac=False)
+        res = prob.solve(np.concatenate([base, th.ravel()]), order, keep)
         sols[order] = res
         x_full[order] = res.x
     cv = _cv(prob, x_full, keep, np.random.default_rng(seed))
@@ -453,32 +432,29 @@ def _fit(ds, cal, info, mode, sigma_acc, sigma_mag, sigma_pose_deg, fix_dip, see
     res = sols[chosen]
     sols.clear()
     x = res.x
-    J = prob.jacobian(x, chosen, keep, layout="C")
-    dof = max(1, J.shape[0] - J.shape[1])
-    s2 = float((res.fun ** 2).sum()) / dof
-    noise = _noise_components(prob, x, chosen, J, keep, ds, rows, w)
+    JtJ = res.jtj  # of the whitened 6n x P Jacobian at x (chunked_lm: the Jacobian itself is not held)
+    dof = max(1, 6 * len(keep) - len(x))
+    s2 = 2.0 * res.cost / dof
+    noise = _noise_components(prob, x, chosen, keep, ds, rows, w)
     s2_cov = s2
     if not isinstance(noise, str):
-        J = None  # the refit has its own (6n x P: not two at once)
         # the nominal whitening's shape (its pose error, the triads' relative noise) is not the run's:
         # s^2 scales it as a whole and left the terms' 1-sigma about 1.3x small over drawn probes;
         # refit whitened by the run's own noise (joint's way) and take the covariance from that fit
         try:
             res = _refit_fitted_noise(prob, x, chosen, keep, noise, ds, rows, w)
-            x, J, s2_cov = res.x, res.jac, 1.0
-            s2 = float((prob.residuals(x, chosen)[keep] ** 2).sum()) / dof
+            x, JtJ, s2_cov = res.x, res.jtj, 1.0
+            s2 = float((prob.residuals(x, chosen, keep) ** 2).sum()) / dof
         except (np.linalg.LinAlgError, ValueError) as e:
             info["notes"].append(f"the temperature fit was not refitted with the run's own noise ({e}); its "
                                  "covariance is the nominal noise's scaled by s^2")
-            J = prob.jacobian(x, chosen, keep, layout="C")
     try:
-        cov_c, cov_th, lin, cov_nl, cond = _cov_24(x, prob, chosen, J, s2_cov, w)
+        cov_c, cov_th, lin, cov_nl, cond = _cov_24(x, prob, chosen, JtJ, s2_cov, w)
     except CalibrationError as e:
         if mode == "on":
             raise CalibrationError(f"joint --temperature-terms on: {e}")
         info["notes"].append(f"temperature terms not fitted ({e})")
         return cal, info
-    J = None  # (6n x P) not used again
     Ma, ca, Mm, cm, qa, qm, dip, th = prob.unpack(x, chosen)
     if lin is not None:
         # the nonlinear model the report's linear-model bias is computed from:
@@ -550,40 +526,43 @@ def _refit_fitted_noise(prob: _Problem, x, order, keep, comps, ds, rows, w):
     """The fit whitened by the run's noise components (calib/covariance.py;
     joint._refit_with_components for the model without temperature terms):
     per-channel noise, the cluster effect and the pose error per turntable
-    axis, in corrected units.  Returns scipy's result (x, jac)."""
+    axis, in corrected units.  Returns chunked_lm's result (x, R), its
+    chunks whole clusters (the whitening couples a cluster's rows)."""
     from . import covariance, joint
 
     Ma, ca, Mm, cm, qa, qm, dip, th = prob.unpack(x, order)
     poses = tuple(ds.columns[c][rows][keep] for c in ("inc_deg", "azi_deg", "tf_deg"))
     Jp = joint._pose_jacobian(*poses, w["field_nT"], float(dip), w["declination_deg"], w["gravity_g"])
     W = covariance.component_whitener(comps, Ma, Mm, Jp, covariance.cluster_labels(ds)[rows][keep])
+    del Jp
 
-    def fun(xx):
-        return W.apply(prob.raw_residuals(xx, order)[keep])
+    def fun(xx, c):
+        return W.apply_rows(prob.raw_residuals(xx, order, keep[c]), c)
 
-    return optimize.least_squares(fun, x, jac=lambda xx: jacobian_2point(fun, xx), method="lm", x_scale="jac")
+    return chunked_lm.solve(fun, chunked_lm.row_chunks(len(keep), 6, W.starts()), x)
 
 
-def _noise_components(prob: _Problem, x, order, J, keep, ds, rows, w):
+def _noise_components(prob: _Problem, x, order, keep, ds, rows, w):
     """The run's noise per channel and its pose error (REML, calib/covariance.py,
     as joint fits them) from the residuals of the fit with the temperature
-    terms, in raw units, with that fit's Jacobian for the restricted
-    likelihood; the reason as a string when it cannot be fitted."""
+    terms, in raw units, with that fit's Jacobian in raw units for the
+    restricted likelihood (n x 6 x P, computed a chunk of rows at a time
+    into its one array); the reason as a string when it cannot be fitted."""
     from . import covariance, joint
 
     try:
         Ma, ca, Mm, cm, qa, qm, dip, th = prob.unpack(x, order)
-        L = np.linalg.inv(prob.Linv[keep])  # un-whiten: the residuals in corrected units
-        r = np.einsum("nij,nj->ni", L, prob.residuals(x, order)[keep])
         Bi = np.linalg.inv(covariance.block_diag2(Ma, Mm))
-        # the Jacobian un-whitened and through Bi in one product per row (n x 6 x P: one copy, not two)
-        X = np.einsum("nij,njk->nik", np.einsum("ij,njk->nik", Bi, L), J.reshape(len(keep), 6, -1))
+        r = prob.raw_residuals(x, order, keep) @ Bi.T  # raw units
+        X = np.empty((len(keep), 6, len(x)))
+        for c in chunked_lm.row_chunks(len(keep), 6):
+            Jc = chunked_lm.jacobian_2point(lambda xx: prob.raw_residuals(xx, order, keep[c]).ravel(), x, "C")
+            X[c] = np.einsum("ij,njk->nik", Bi, Jc.reshape(-1, 6, len(x)))
         poses = tuple(ds.columns[c][rows][keep] for c in ("inc_deg", "azi_deg", "tf_deg"))
         Jp = joint._pose_jacobian(*poses, w["field_nT"], float(dip), w["declination_deg"], w["gravity_g"])
         labels = covariance.cluster_labels(ds)[rows][keep]
-        return covariance.fit_components(r @ Bi.T, labels, Jpose=np.einsum("ij,njk->nik", Bi, Jp),
-                                         X=X,
-                                         channels=covariance.CHANNELS_6)
+        return covariance.fit_components(r, labels, Jpose=np.einsum("ij,njk->nik", Bi, Jp),
+                                         X=X, channels=covariance.CHANNELS_6)
     except (np.linalg.LinAlgError, ValueError) as e:
         return str(e) or type(e).__name__
 
