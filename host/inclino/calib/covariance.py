@@ -156,7 +156,7 @@ def _reml_term(Linv, Xc, inv_scale, chunk=REML_CHUNK):
 
 
 def fit_components(R, labels, Jpose=None, X=None, start_sigma=None, floor=None,
-                   channels=None) -> NoiseComponents:
+                   channels=None, X_means=None) -> NoiseComponents:
     """REML variance components of residuals R (n, m) in raw units.
 
     labels: (n,) cluster of each row; Jpose: (n, m, 3) the residual's change
@@ -164,7 +164,10 @@ def fit_components(R, labels, Jpose=None, X=None, start_sigma=None, floor=None,
     X: (n, m, p) the residual's Jacobian in the fitted parameters, raw units
     (for the restricted likelihood; None: plain maximum likelihood);
     start_sigma: (m,) a starting sensor sigma; floor: (m,) the smallest
-    sensor sigma allowed (default 1e-3 of each channel's RMS).
+    sensor sigma allowed (default 1e-3 of each channel's RMS); X_means:
+    instead of X, its cluster means (k, m, p) in the order of the sorted
+    labels (a caller that builds them a chunk of rows at a time, without
+    the n x m x p array).
 
     With many more values than parameters (N = clusters x channels >=
     STAGED_VALUES_PER_PARAMETER x p) each start is fitted on the plain
@@ -186,7 +189,11 @@ def fit_components(R, labels, Jpose=None, X=None, start_sigma=None, floor=None,
         Jc /= n_c[:, None, None]
     Xc = None  # the Jacobian's cluster means (k, m, P), raw units (the channels' scale goes into the whitener)
     scale = rms  # work in units of each channel's RMS
-    if X is not None:
+    if X_means is not None:
+        Xc = np.asarray(X_means, float)
+        if Xc.shape[0] != k:
+            raise ValueError(f"X_means has {Xc.shape[0]} clusters, the labels {k}")
+    elif X is not None:
         X = np.asarray(X, float)
         if k == n and np.array_equal(lab, np.arange(n)):  # every row its own cluster: the mean is the row
             Xc = X  # not copied (n x 6 x P: the largest array of the fit)

@@ -546,23 +546,27 @@ def _noise_components(prob: _Problem, x, order, keep, ds, rows, w):
     """The run's noise per channel and its pose error (REML, calib/covariance.py,
     as joint fits them) from the residuals of the fit with the temperature
     terms, in raw units, with that fit's Jacobian in raw units for the
-    restricted likelihood (n x 6 x P, computed a chunk of rows at a time
-    into its one array); the reason as a string when it cannot be fitted."""
+    restricted likelihood: its cluster means (k x 6 x P), summed a chunk of
+    rows at a time (the n x 6 x P Jacobian is never held); the
+    reason as a string when it cannot be fitted."""
     from . import covariance, joint
 
     try:
         Ma, ca, Mm, cm, qa, qm, dip, th = prob.unpack(x, order)
         Bi = np.linalg.inv(covariance.block_diag2(Ma, Mm))
         r = prob.raw_residuals(x, order, keep) @ Bi.T  # raw units
-        X = np.empty((len(keep), 6, len(x)))
+        labels = covariance.cluster_labels(ds)[rows][keep]
+        lab, k = covariance._relabel(labels)
+        n_c = np.bincount(lab, minlength=k).astype(float)
+        Xc = np.zeros((k, 6, len(x)))
         for c in chunked_lm.row_chunks(len(keep), 6):
             Jc = chunked_lm.jacobian_2point(lambda xx: prob.raw_residuals(xx, order, keep[c]).ravel(), x, "C")
-            X[c] = np.einsum("ij,njk->nik", Bi, Jc.reshape(-1, 6, len(x)))
+            np.add.at(Xc, lab[c], np.einsum("ij,njk->nik", Bi, Jc.reshape(-1, 6, len(x))))
+        Xc /= n_c[:, None, None]
         poses = tuple(ds.columns[c][rows][keep] for c in ("inc_deg", "azi_deg", "tf_deg"))
         Jp = joint._pose_jacobian(*poses, w["field_nT"], float(dip), w["declination_deg"], w["gravity_g"])
-        labels = covariance.cluster_labels(ds)[rows][keep]
         return covariance.fit_components(r, labels, Jpose=np.einsum("ij,njk->nik", Bi, Jp),
-                                         X=X, channels=covariance.CHANNELS_6)
+                                         X_means=Xc, channels=covariance.CHANNELS_6)
     except (np.linalg.LinAlgError, ValueError) as e:
         return str(e) or type(e).__name__
 

@@ -66,8 +66,13 @@ def calibrate_main(args) -> int:
         opts["bootstrap"] = args.bootstrap
     if getattr(args, "static", False):
         opts["static"] = True
+    from inclino.diagnose._blas import one_blas_thread
+
     try:
-        with progress.phase(f"calibrate: {args.method} fit of {args.input}"):
+        # one BLAS thread (as diagnose): the fits work on matrices of tens of columns, and OpenBLAS's
+        # worker threads only contend for them (on a loaded machine they doubled the CPU time of a long
+        # temperature run's calibration)
+        with progress.phase(f"calibrate: {args.method} fit of {args.input}"), one_blas_thread():
             cal, rep = fit(ds, args.method, data_hash=common.file_hash(args.input, ds), **opts)
     except (ArithmeticError, ValueError, np.linalg.LinAlgError) as e:  # one line, never a traceback
         raise CalibrationError(f"{args.method}: the fit failed ({type(e).__name__}: {e})")

@@ -152,7 +152,7 @@ def select_terms(chk, y, cands, colfn, max_terms=sel.MAX_TERMS, groups=None, sca
         pool = [j for j, t in enumerate(terms) if len(t[4]) == 1]
     pb = _problem(chk, y, terms, cols, w, groups)
     if pool:
-        subs, _ = sel.search(pb, pool, max_terms)
+        subs, _ = sel.search(pb, pool, max_terms, errors=False)
         _, _, r = sel.fit(pb, subs[0])
         w = _kind_weights(chk.kind, r)
         pb = _problem(chk, y, terms, cols, w, groups)

@@ -199,11 +199,14 @@ def _group_batch(Xw, yw, subsets, groups):
     return out
 
 
-def search(pb: Problem, pool: list, max_terms: int = MAX_TERMS, forced: tuple = (), cv: str = "loo"):
+def search(pb: Problem, pool: list, max_terms: int = MAX_TERMS, forced: tuple = (), cv: str = "loo",
+           errors: bool = True):
     """All subsets of the terms `pool` up to max_terms terms, plus the
     `forced` terms in every model.  Returns (subsets as tuples of terms,
     weighted held-out residuals (m, n): leave-one-out, or leave-one-group-
-    out with cv='group'), best first."""
+    out with cv='group'), best first; errors False: (subsets, None), the
+    residuals not kept (the nested runs need only the order: each (m, n)
+    array of a 40 000-row run's residuals is over 100 MB)."""
     Xw = pb.X * pb.w[:, None]
     yw = pb.y * pb.w
     n = len(yw)
@@ -215,7 +218,9 @@ def search(pb: Problem, pool: list, max_terms: int = MAX_TERMS, forced: tuple = 
             cols = pb.columns(S)
             if len(cols) <= n - 2:
                 by_cols.setdefault(len(cols), []).append((S, cols))
-    subs, errs = [], []
+    m = sum(len(items) for items in by_cols.values())
+    E = np.empty((m, n)) if errors else None
+    subs, score = [], np.empty(m)
     for k, items in sorted(by_cols.items()):
         combos = np.array([cols for _, cols in items], int).reshape(len(items), k)
         # the subsets a batch at a time: each batch gathers a (subsets, n, k) design (and its training
@@ -223,13 +228,15 @@ def search(pb: Problem, pool: list, max_terms: int = MAX_TERMS, forced: tuple = 
         step = max(1, SEARCH_BATCH_VALUES // max(n * k, 1))
         for lo in range(0, len(combos), step):
             part = combos[lo:lo + step]
-            errs.append(_group_batch(Xw, yw, part, pb.groups) if cv == "group" else _loo_batch(Xw, yw, part)[0])
+            e = _group_batch(Xw, yw, part, pb.groups) if cv == "group" else _loo_batch(Xw, yw, part)[0]
+            at = len(subs) + lo
+            with np.errstate(invalid="ignore", over="ignore"):
+                score[at:at + len(part)] = np.mean(e ** 2, 1)
+            if errors:
+                E[at:at + len(part)] = e
         subs += [S for S, _ in items]
-    E = np.concatenate(errs, 0)
-    with np.errstate(invalid="ignore", over="ignore"):
-        score = np.mean(E ** 2, 1)
     order = np.argsort(score, kind="stable")
-    return [subs[i] for i in order], E[order]
+    return [subs[i] for i in order], (E[order] if errors else None)
 
 
 def fit(pb: Problem, S):
@@ -276,7 +283,7 @@ def nested(pb: Problem, pool, max_terms=MAX_TERMS, by="one", forced=(), cv="loo"
         else:
             m = pb.groups == key
         train = pb.subset(~m)
-        subs, _ = search(train, pool, max_terms, forced, cv)
+        subs, _ = search(train, pool, max_terms, forced, cv, errors=False)
         S = subs[0]
         beta, _, _ = fit(train, S)
         out[m] = pb.y[m] - (pb.X[m][:, pb.columns(S)] @ beta if len(S) else 0.0)
@@ -366,6 +373,7 @@ def select(pb: Problem, pool=None, max_terms=MAX_TERMS, drop_tests=True, units=N
                            "loo_rms": rms(loo_cv(pb, subs[j])) if cv == "loo" else None,
                            "group_rms": rms(group_cv(pb, subs[j])) if pb.groups is not None else None,
                            "loo_ms_minus_chosen": diff, "one_se": se})
+    E = se_best = None  # (m, n): not used again, not held through the nested runs
     if cv == "group":
         def nested_run(p):
             return nested(pb, p, max_terms, "group", cv="group")
@@ -394,7 +402,7 @@ def select(pb: Problem, pool=None, max_terms=MAX_TERMS, drop_tests=True, units=N
             sq = (nl2 * pb.w) ** 2
             diff = float(np.mean(sq) - np.mean(base_sq))
             se = _paired_se(sq, base_sq)
-            subs2, _ = search(pb, p2, max_terms, cv=cv)
+            subs2, _ = search(pb, p2, max_terms, cv=cv, errors=False)
             alt = subs2[0]
             out.drop_tests.append({
                 "term": pb.names[i], "nested_loo_rms_without": rms(nl2), "nested_loo_rms_with": rms(nl),
