@@ -236,7 +236,27 @@ def search(pb: Problem, pool: list, max_terms: int = MAX_TERMS, forced: tuple = 
                 E[at:at + len(part)] = e
         subs += [S for S, _ in items]
     order = np.argsort(score, kind="stable")
-    return [subs[i] for i in order], (E[order] if errors else None)
+    if errors:
+        _permute_rows(E, order)  # E[order] in place: a sorted copy doubled the largest array of the search
+    return [subs[i] for i in order], E
+
+
+def _permute_rows(E, order):
+    """E[:] = E[order] in place, one row of scratch (each cycle of the
+    permutation followed once)."""
+    done = np.zeros(len(order), bool)
+    for i in range(len(order)):
+        if done[i]:
+            continue
+        tmp, j = E[i].copy(), i
+        while True:
+            done[j] = True
+            k = int(order[j])
+            if k == i:
+                E[j] = tmp
+                break
+            E[j] = E[k]
+            j = k
 
 
 def fit(pb: Problem, S):
