@@ -217,3 +217,36 @@ def test_declination_drift_near_the_limit_is_named():
     assert c["detected"], c
     f = next(f for f in c["found"] if (f["name"], f["axis"]) == ("field-drift", "declination"))
     assert abs(f["estimate"] - h["value"]) <= 4.0 * f["stderr"], (f, h)
+
+
+@pytest.mark.parametrize("seed", [525331931, 1059])
+def test_inclination_axis_skew_near_the_limit_is_named(seed):
+    """Draws the diagnosis missed while it took a turntable effect's own
+    held-out residual on one triad in its units: an inclination-axis skew on
+    the continuous plan at z = 10.8 and 9.6, p = 1e-26 and 5e-15, the
+    whitened held-out residual falling, but the fluxgate's whole residual
+    (34 nT of it the turntable's readout error) rising by 0.02-0.06 nT.  A
+    pose error moves both triads; its gain is now on both, each channel in
+    its noise standard deviation."""
+    c = bench.run_case("turntable-inclination-axis-skew", "continuous", seed)
+    h = c["hidden"]
+    assert h["name"] == "turntable-inclination-axis-skew" and bench.Z_RANGE[0] <= h["z"] <= bench.Z_RANGE[1]
+    assert c["detected"], c
+    f = next(f for f in c["found"] if f["name"] == "turntable-inclination-axis-skew")
+    assert abs(f["estimate"] - h["value"]) <= 4.0 * f["stderr"], (f, h)
+
+
+def test_turntable_gain_is_on_both_triads_in_noise_sd():
+    """The gain a turntable effect is named on: both triads, each channel
+    divided by its noise standard deviation (about 1 when the model fits)."""
+    from inclino.diagnose import analysis
+    from inclino.diagnose.analysis import diagnose as diag
+
+    plan = bench._plan("static", 7)
+    cand = next(c for c in core.all_candidates() if c.name == "turntable-azimuth-offset")
+    zu = plans.signature_z(plans.PROBE, plan, cand)
+    ds = plans.generate(plans.hide(plans.PROBE, cand.name, cand.sensor, cand.axis, 30.0 / zu), plan, 7)
+    r = diag(ds)
+    (e,) = [e for e in r.effects if e.name == "turntable-azimuth-offset"]
+    assert e.rms_units == analysis.TURNTABLE_GAIN_UNITS
+    assert 0.8 < e.gain.cv_rms_after < e.gain.cv_rms_before and e.gain.cv_rms_after < 1.2
