@@ -3,7 +3,8 @@ errors predicted from the fit alone match the held-out errors achieved on
 SAP6's 24-shot runs; an effect injected into the real readings at the
 benchmark's size is named -- a rig field on 24 independent shots, a
 temperature bias on CK's tumbled log -- and a temperature column the
-readings do not depend on is not.  Injections are drawn at test time."""
+readings do not depend on is not.  Injections are drawn at test time (the `rng` fixture: the seed is in a
+failing test's report, INCLINO_TEST_SEED replays it)."""
 import numpy as np
 import pytest
 
@@ -20,10 +21,9 @@ def corpus():
     return data
 
 
-def test_heldout_factor_is_the_fold_inverse_of_the_hat_matrix():
+def test_heldout_factor_is_the_fold_inverse_of_the_hat_matrix(rng):
     """Design.heldout_factor (Woodbury) against the direct diag((I - H_ff)^-1)
     of every fold, for folds of one row and of several."""
-    rng = np.random.default_rng()
     n, m, p = 30, 3, 7
     X = rng.normal(size=(n, m, p))
     y = rng.normal(size=(n, m))
@@ -57,12 +57,11 @@ def test_sap6_held_out_poses_are_predicted(corpus, log):
         assert 0.7 <= v["ratio"] <= 1.4, (log, inv, v)
 
 
-def test_a_rig_field_injected_into_24_shots_is_named(corpus):
+def test_a_rig_field_injected_into_24_shots_is_named(corpus, rng):
     """A field changing with a synthetic rig angle (harmonics 1-2, random
     mix) at the benchmark's z = 12 on each SAP6 run: named as the rig's in
     at least five of six (the benchmark: 14 of 14 and 30 of 30 on fresh
     seeds; 11 of 14 while blocks of five shots were held out)."""
-    rng = np.random.default_rng()
     found = 0
     for d in ("BB", "CF", "FG", "HC", "IB", "JG"):
         ds, key, value = dr.inject(corpus[f"sap6/{d}"], "rig-field", rng)
@@ -71,13 +70,12 @@ def test_a_rig_field_injected_into_24_shots_is_named(corpus):
 
 
 @pytest.mark.heavy
-def test_tumbled_log_temperature_named_when_there_and_not_when_not(corpus):
+def test_tumbled_log_temperature_named_when_there_and_not_when_not(corpus, rng):
     """On CK's tumbled log (residuals with slow structure: a null temperature
     cycled 2.5 times gets F ~ 70-80 by chance) a temperature column the
     readings do not depend on names nothing tied to it, and a magnetometer
     temperature bias injected at z = 12 of what the circular-shift test
     sees is named."""
-    rng = np.random.default_rng()
     ds = corpus["ck/acc_mag_log.csv"]
     null = dr._with_nulls(ds, rng)
     null.columns.pop("tf_deg")
@@ -110,7 +108,7 @@ def _diagnose_json(path, capsys):
     return json.loads(capsys.readouterr().out)
 
 
-def test_six_faces_read_in_order_name_nothing_and_say_drift_and_pose_order_are_one(tmp_path, capsys):
+def test_six_faces_read_in_order_name_nothing_and_say_drift_and_pose_order_are_one(tmp_path, capsys, rng):
     """imucal's six faces (accelerometer only, poses from the face labels,
     read face after face): nothing is named -- no effect raises its held-out
     residual or contradicts the invariants because none is claimed -- and
@@ -128,7 +126,6 @@ def test_six_faces_read_in_order_name_nothing_and_say_drift_and_pose_order_are_o
     order = [c for c in d["confounded"] if c["with"] == "the pose order"]
     assert len(order) == 1 and order[0]["settings"] == 6 and "again at the end" in order[0]["separate_by"]
     ds = dataset.read_raw(str(p))
-    rng = np.random.default_rng()
     col = ("ax_g", "ay_g", "az_g")[int(rng.integers(3))]
     t = ds.columns["t_s"]
     ds.columns[col] = ds.columns[col] + 2e-4 * (t - t.min())
