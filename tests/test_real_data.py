@@ -18,6 +18,9 @@ CORPUS = [
     ("imucal_ferraris/annotated_session.csv", "imucal_ferraris/sensor.toml", "acc", 5596),
     ("ck_acc_mag/acc_mag_log.csv", "ck_acc_mag/sensor.toml", "both", 12000),
     ("ck_acc_mag/acc_log.csv", "ck_acc_mag/acc_only.toml", "acc", 16000),
+    ("broad/05.csv", "broad/sensor.toml", "mag", 2861),
+    ("broad/02.csv", "broad/sensor.toml", "mag", 2577),
+    ("broad/05.csv", "broad/with_acc.toml", "both", 2861),
 ] + [(f"sap6/{d}.csv", "sap6/sensor.toml", "both", 24) for d in SAP6]
 
 
