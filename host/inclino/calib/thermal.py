@@ -522,18 +522,28 @@ def _fit(ds, cal, info, mode, sigma_acc, sigma_mag, sigma_pose_deg, fix_dip, see
     return new, info
 
 
+def _at_the_rows(prob: _Problem, x, order, keep, ds, rows, w):
+    """(Ma, Mm, the residuals' pose Jacobian (n, 6, 3) at x, cluster labels)
+    of the rows kept: what the run's noise components are fitted with and
+    what their whitener is built from."""
+    from . import covariance, joint
+
+    Ma, ca, Mm, cm, qa, qm, dip, th = prob.unpack(x, order)
+    poses = tuple(ds.columns[c][rows][keep] for c in ("inc_deg", "azi_deg", "tf_deg"))
+    Jp = joint._pose_jacobian(*poses, w["field_nT"], float(dip), w["declination_deg"], w["gravity_g"])
+    return Ma, Mm, Jp, covariance.cluster_labels(ds)[rows][keep]
+
+
 def _refit_fitted_noise(prob: _Problem, x, order, keep, comps, ds, rows, w):
     """The fit whitened by the run's noise components (calib/covariance.py;
     joint._refit_with_components for the model without temperature terms):
     per-channel noise, the cluster effect and the pose error per turntable
     axis, in corrected units.  Returns chunked_lm's result (x, R), its
     chunks whole clusters (the whitening couples a cluster's rows)."""
-    from . import covariance, joint
+    from . import covariance
 
-    Ma, ca, Mm, cm, qa, qm, dip, th = prob.unpack(x, order)
-    poses = tuple(ds.columns[c][rows][keep] for c in ("inc_deg", "azi_deg", "tf_deg"))
-    Jp = joint._pose_jacobian(*poses, w["field_nT"], float(dip), w["declination_deg"], w["gravity_g"])
-    W = covariance.component_whitener(comps, Ma, Mm, Jp, covariance.cluster_labels(ds)[rows][keep])
+    Ma, Mm, Jp, labels = _at_the_rows(prob, x, order, keep, ds, rows, w)
+    W = covariance.component_whitener(comps, Ma, Mm, Jp, labels)
     del Jp
 
     def fun(xx, c):
@@ -549,13 +559,12 @@ def _noise_components(prob: _Problem, x, order, keep, ds, rows, w):
     restricted likelihood: its cluster means (k x 6 x P), summed a chunk of
     rows at a time (the n x 6 x P Jacobian is never held); the
     reason as a string when it cannot be fitted."""
-    from . import covariance, joint
+    from . import covariance
 
     try:
-        Ma, ca, Mm, cm, qa, qm, dip, th = prob.unpack(x, order)
+        Ma, Mm, Jp, labels = _at_the_rows(prob, x, order, keep, ds, rows, w)
         Bi = np.linalg.inv(covariance.block_diag2(Ma, Mm))
         r = prob.raw_residuals(x, order, keep) @ Bi.T  # raw units
-        labels = covariance.cluster_labels(ds)[rows][keep]
         lab, k = covariance._relabel(labels)
         n_c = np.bincount(lab, minlength=k).astype(float)
         Xc = np.zeros((k, 6, len(x)))
@@ -563,8 +572,6 @@ def _noise_components(prob: _Problem, x, order, keep, ds, rows, w):
             Jc = chunked_lm.jacobian_2point(lambda xx: prob.raw_residuals(xx, order, keep[c]).ravel(), x, "C")
             np.add.at(Xc, lab[c], np.einsum("ij,njk->nik", Bi, Jc.reshape(-1, 6, len(x))))
         Xc /= n_c[:, None, None]
-        poses = tuple(ds.columns[c][rows][keep] for c in ("inc_deg", "azi_deg", "tf_deg"))
-        Jp = joint._pose_jacobian(*poses, w["field_nT"], float(dip), w["declination_deg"], w["gravity_g"])
         return covariance.fit_components(r, labels, Jpose=np.einsum("ij,njk->nik", Bi, Jp),
                                          X_means=Xc, channels=covariance.CHANNELS_6)
     except (np.linalg.LinAlgError, ValueError) as e:

@@ -66,8 +66,6 @@ def calibrate_main(args) -> int:
         opts["bootstrap"] = args.bootstrap
     if getattr(args, "static", False):
         opts["static"] = True
-    import scipy.linalg  # noqa: F401  (SciPy's OpenBLAS loaded now: one_blas_thread limits the libraries loaded)
-
     from inclino.diagnose._blas import one_blas_thread
 
     try:

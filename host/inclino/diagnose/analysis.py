@@ -568,7 +568,7 @@ def _effect_checks(m: _Model, kept, att):
             if r["worse"]:
                 reasons.append(f"it makes the pose-free {name} residual worse ({r['rms_without']:.4g} -> "
                                f"{r['rms_with']:.4g})")
-        out[k] = {"gain": gain, "invariants": inv, "passed": not reasons, "reasons": reasons,
+        out[k] = {"gain": gain, "units": units, "invariants": inv, "passed": not reasons, "reasons": reasons,
                   "Rb": Rb, "Rs_final": Ra, "Sb": Sb}
     return out
 
@@ -625,7 +625,7 @@ def _kept_effects(m: _Model, kept, pvals, est, cov, S, checks, keep_plot_data):
         else:
             value, stderr, units = float(est[pos]), float(np.sqrt(max(cov[pos, pos], 0.0))), c.units
         e = Effect(c.name, c.sensor, c.axis, value, stderr, units, ck["gain"],
-                   rms_units=_gain_space(m, c)[2], p_value=float(pvals.get(k, np.nan)), detail=detail)
+                   rms_units=ck["units"], p_value=float(pvals.get(k, np.nan)), detail=detail)
         effects_out.append(e)
         if keep_plot_data:
             plot_effects.append(_plot_entry(d, bl, c, m.X[:, :, m.idx[k][0]], noise, ck["Rb"], ck["Rs_final"]))
@@ -798,9 +798,11 @@ def _assemble(m: _Model, alpha, testable, not_testable, steps, kept, pvals, keep
             "steps": steps, "final_noise": noise.to_dict(), "final_s2": s2, "notes": notes,
             "best_subset": best_subset,
             "checks": ("a kept effect is named only when its own channels' held-out residual (net of the turntable's "
-                       "readout error on the turntable axes it does not act as: the whole residual for a turntable "
-                       "effect, net of the inclination and toolface readout errors for a declination drift) falls and it does not make the pose-free invariants (|g|, |b|, dip of the readings it corrects) worse; one that "
-                       "fails is reported under 'contradicted', not as a cause")},
+                       "readout error on the turntable axes it does not act as: for a declination drift net of the "
+                       "inclination and toolface readout errors; for a turntable effect the whole residual of both "
+                       "triads, each channel in its noise SD) falls and it does not make the pose-free invariants "
+                       "(|g|, |b|, dip of the readings it corrects) worse; one that fails is reported under "
+                       "'contradicted', not as a cause")},
         "structure": verdict,
         "run_variables": run_conf,
     }

@@ -144,7 +144,7 @@ def select_terms(chk, y, cands, colfn, max_terms=sel.MAX_TERMS, groups=None, sca
     tt = [j for j, t in enumerate(terms) if t[4][0].kind == "turntable"]
     if scan and len(tt) < len(terms):
         pb0 = _problem(chk, y, terms, cols, w, None)
-        base = sel.search(pb0, tt, max_terms)[0][0] if tt else ()
+        base = sel.search(pb0, tt, max_terms, errors=False)[0][0] if tt else ()
         scan_out = toolface_scan(chk, y, terms, colfn, w, list(base))
         pool = [j for j in range(len(terms)) if j in tt or scan_out[j]["stable"]]
     else:
@@ -152,7 +152,7 @@ def select_terms(chk, y, cands, colfn, max_terms=sel.MAX_TERMS, groups=None, sca
         pool = [j for j, t in enumerate(terms) if len(t[4]) == 1]
     pb = _problem(chk, y, terms, cols, w, groups)
     if pool:
-        subs, _ = sel.search(pb, pool, max_terms, errors=False)
+        subs = sel.search(pb, pool, max_terms, errors=False)[0]
         _, _, r = sel.fit(pb, subs[0])
         w = _kind_weights(chk.kind, r)
         pb = _problem(chk, y, terms, cols, w, groups)

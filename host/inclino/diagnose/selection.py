@@ -203,10 +203,12 @@ def search(pb: Problem, pool: list, max_terms: int = MAX_TERMS, forced: tuple = 
            errors: bool = True):
     """All subsets of the terms `pool` up to max_terms terms, plus the
     `forced` terms in every model.  Returns (subsets as tuples of terms,
-    weighted held-out residuals (m, n): leave-one-out, or leave-one-group-
-    out with cv='group'), best first; errors False: (subsets, None), the
-    residuals not kept (the nested runs need only the order: each (m, n)
-    array of a 40 000-row run's residuals is over 100 MB)."""
+    best first; their weighted held-out residuals E (m, n): leave-one-out,
+    or leave-one-group-out with cv='group'; order), E's row order[j] being
+    the j-th subset's (E is not sorted: a sorted copy doubled the largest
+    array of the search); errors False: E is None, the residuals not kept
+    (the nested runs need only the order: each (m, n) array of a
+    40 000-row run's residuals is over 100 MB)."""
     Xw = pb.X * pb.w[:, None]
     yw = pb.y * pb.w
     n = len(yw)
@@ -236,27 +238,7 @@ def search(pb: Problem, pool: list, max_terms: int = MAX_TERMS, forced: tuple = 
                 E[at:at + len(part)] = e
         subs += [S for S, _ in items]
     order = np.argsort(score, kind="stable")
-    if errors:
-        _permute_rows(E, order)  # E[order] in place: a sorted copy doubled the largest array of the search
-    return [subs[i] for i in order], E
-
-
-def _permute_rows(E, order):
-    """E[:] = E[order] in place, one row of scratch (each cycle of the
-    permutation followed once)."""
-    done = np.zeros(len(order), bool)
-    for i in range(len(order)):
-        if done[i]:
-            continue
-        tmp, j = E[i].copy(), i
-        while True:
-            done[j] = True
-            k = int(order[j])
-            if k == i:
-                E[j] = tmp
-                break
-            E[j] = E[k]
-            j = k
+    return [subs[i] for i in order], E, order
 
 
 def fit(pb: Problem, S):
@@ -303,7 +285,7 @@ def nested(pb: Problem, pool, max_terms=MAX_TERMS, by="one", forced=(), cv="loo"
         else:
             m = pb.groups == key
         train = pb.subset(~m)
-        subs, _ = search(train, pool, max_terms, forced, cv, errors=False)
+        subs = search(train, pool, max_terms, forced, cv, errors=False)[0]
         S = subs[0]
         beta, _, _ = fit(train, S)
         out[m] = pb.y[m] - (pb.X[m][:, pb.columns(S)] @ beta if len(S) else 0.0)
@@ -374,18 +356,19 @@ def select(pb: Problem, pool=None, max_terms=MAX_TERMS, drop_tests=True, units=N
     nested_loo_rms fields then hold the nested leave-one-group-out."""
     pool = list(range(len(pb.terms))) if pool is None else list(pool)
     units = units or {}
-    subs, E = search(pb, pool, max_terms, cv=cv)
+    subs, E, order = search(pb, pool, max_terms, cv=cv)
     S = subs[0]
     beta, cov, r = fit(pb, S)
-    se_best = E[0] ** 2
+    se_best = E[order[0]] ** 2
     rivals = []
     for j in range(1, len(subs)):
         if len(rivals) >= max_rivals:
             break
-        if not np.all(np.isfinite(E[j])):
+        e = E[order[j]]
+        if not np.all(np.isfinite(e)):
             break  # the rest are not identifiable (sorted last)
-        diff = float(np.mean(E[j] ** 2) - np.mean(se_best))
-        se = _paired_se(E[j] ** 2, se_best)
+        diff = float(np.mean(e ** 2) - np.mean(se_best))
+        se = _paired_se(e ** 2, se_best)
         if diff <= se:
             b, c, _ = fit(pb, subs[j])
             rivals.append({"terms": [pb.names[i] for i in subs[j]],
@@ -393,7 +376,7 @@ def select(pb: Problem, pool=None, max_terms=MAX_TERMS, drop_tests=True, units=N
                            "loo_rms": rms(loo_cv(pb, subs[j])) if cv == "loo" else None,
                            "group_rms": rms(group_cv(pb, subs[j])) if pb.groups is not None else None,
                            "loo_ms_minus_chosen": diff, "one_se": se})
-    E = se_best = None  # (m, n): not used again, not held through the nested runs
+    E = e = se_best = None  # (m, n): not used again, not held through the nested runs
     if cv == "group":
         def nested_run(p):
             return nested(pb, p, max_terms, "group", cv="group")
@@ -422,7 +405,7 @@ def select(pb: Problem, pool=None, max_terms=MAX_TERMS, drop_tests=True, units=N
             sq = (nl2 * pb.w) ** 2
             diff = float(np.mean(sq) - np.mean(base_sq))
             se = _paired_se(sq, base_sq)
-            subs2, _ = search(pb, p2, max_terms, cv=cv, errors=False)
+            subs2 = search(pb, p2, max_terms, cv=cv, errors=False)[0]
             alt = subs2[0]
             out.drop_tests.append({
                 "term": pb.names[i], "nested_loo_rms_without": rms(nl2), "nested_loo_rms_with": rms(nl),
