@@ -164,6 +164,23 @@ def test_diagnose_names_the_skew_the_poses_show_and_its_names_hold(tmp_path, cap
     assert -0.025 < independent < -0.008
     assert abs(skew[0]["estimate"] - independent) < 0.003 + 3 * skew[0]["stderr"]
     assert res["contradicted"] == []
+    # the rows are serially correlated (a hand-turned IMU read 14 times a second): independently of the
+    # diagnosis, the magnetometer's residual from a 12-parameter fit to the poses (no skew) keeps a lag-1
+    # correlation well above the 2/sqrt(n) of independent rows; the diagnosis sees it and widens each named
+    # effect's test and standard error by its own factor
+    t = _table("05.csv")
+    C = _body_from_ned(t)
+    m = np.c_[t["mag_x"], t["mag_y"], t["mag_z"]]
+    dip = np.radians(69.5)
+    X = np.c_[C @ np.array([np.cos(dip), 0.0, np.sin(dip)]), np.ones(len(m))]
+    r = m - X @ np.linalg.lstsq(X, m, rcond=None)[0]
+    lag1 = [np.corrcoef(r[1:, i], r[:-1, i])[0, 1] for i in range(3)]
+    assert max(lag1) > 10 / np.sqrt(len(r))
+    sc = res["baseline"]["serial_correlation"]
+    assert sc["correlated"] and sc["ljung_box_p"] < 1e-6
+    assert set(sc["inflation_by_effect"]) == {f"{e['name']}:{e['sensor']}:{e['axis']}" for e in res["effects"]}
+    assert all(f >= 1.0 for f in sc["inflation_by_effect"].values())
+    assert max(sc["inflation_by_effect"].values()) > 1.2
     for e in res["effects"]:
         checks = e["detail"]["checks"]
         assert checks["own_cv"] == "passed", e["name"]

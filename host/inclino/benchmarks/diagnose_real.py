@@ -77,6 +77,13 @@ def corpus() -> list:
     for log, desc in (("acc_mag_log.csv", "sensor.toml"), ("acc_log.csv", "acc_only.toml")):
         ds, _ = importlog.import_log(str(root / "ck_acc_mag" / log), sensor.load(str(root / "ck_acc_mag" / desc)))
         out.append((f"ck/{log}", _rows(ds, np.arange(0, len(ds), CK_THIN))))
+    # BROAD's hand-turned IMU, its magnetometer alone, without the optical poses and the time (a pose-free log:
+    # the bench's synthetic rig angle and time are then its only ones)
+    for trial in ("05", "02"):
+        ds, _ = importlog.import_log(str(root / "broad" / f"{trial}.csv"), sensor.load(str(root / "broad" / "sensor.toml")))
+        for c in ("inc_deg", "azi_deg", "tf_deg", "t_s"):
+            ds.columns.pop(c, None)
+        out.append((f"broad/{trial}", ds))
     return out
 
 

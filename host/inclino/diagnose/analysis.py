@@ -10,7 +10,7 @@ from inclino.engines import reference as ref
 from inclino.formats.dataset import RawDataset
 from inclino.errors import DataError
 
-from . import core, forward, invariants, robust, selection, study
+from . import core, forward, invariants, robust, selection, serial, study
 from ._blas import one_blas_thread
 from .core import CHANNELS, EFFECT_NAMES, SEPARABLE_MIN, TRIAD_UNITS, TRIADS, Design
 from .result import Diagnosis, Effect, Gain
@@ -183,7 +183,9 @@ class _Model:
         return b, X, y, sizes
 
     def design(self, b, nz, rows):
-        return Design(self.y0, self.X, nz.whitener(b.Jpose), self.fold_of, self.K, rows=rows)
+        des = Design(self.y0, self.X, nz.whitener(b.Jpose), self.fold_of, self.K, rows=rows)
+        des.serial = True  # rows in time order: neighbours that share their error deflate the F-tests (serial)
+        return des
 
     def state_after(self, kept_now, beta):
         """The state a Gauss-Newton step of the model base + kept_now gives
@@ -738,6 +740,7 @@ def _assemble(m: _Model, alpha, testable, not_testable, steps, kept, pvals, keep
     S = base + m.cols(kept)
     est, se, s2 = des.coef(S)
     cov = des.coef_cov(S)
+    serial_f = dict(zip(kept, serial.scale_cov(des, S, cov, [m.idx[k] for k in kept])))
     best_subset = _best_subset(des, base, kept, testable, m.idx, alpha, m.fold_of)
     J = bl.Jpose
     ok = ~out_rows
@@ -747,6 +750,8 @@ def _assemble(m: _Model, alpha, testable, not_testable, steps, kept, pvals, keep
     Rs_base, Rs_base_cv = noise_base.sensor_part(R_base, J), noise_base.sensor_part(des.cv_residuals(base), J)
 
     effects_out, plot_effects = _kept_effects(m, kept, pvals, est, cov, S, checks, keep_plot_data)
+    for e, k in zip(effects_out, kept):
+        e.detail["serial_inflation"] = serial_f[k]
     confounds = _confounds(m, kept, contradicted, alpha)
     by_key = {c.key: c for c in testable}
     notes = []
@@ -805,6 +810,8 @@ def _assemble(m: _Model, alpha, testable, not_testable, steps, kept, pvals, keep
                        "'contradicted', not as a cause")},
         "structure": verdict,
         "run_variables": run_conf,
+        "serial_correlation": dict(serial.summary(des, S), channels=list(CHANNELS),
+                                   inflation_by_effect=serial_f),
     }
     out = Diagnosis(baseline=baseline, effects=effects_out, unexplained=verdict["unexplained"], structure=verdict,
                     contradicted=contradicted, confounded=confounds)

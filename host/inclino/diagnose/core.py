@@ -426,6 +426,10 @@ class Design:
         # serially correlated rows (a log read while the probe moves): how much a smooth regressor's
         # apparent gain is inflated, (1 + rho) / (1 - rho) for a lag-1 correlation rho; 1 for independent rows
         self.inflation = 1.0
+        # per test, the Bartlett inflation of serially correlated rows (diagnose.serial), where the caller
+        # asks for it (the posed diagnosis); key (S, extra) -> serial.factor's record
+        self.serial = False
+        self.serial_factors = {}
         self.K = K
         self.folds = folds
         self.Gf = np.zeros((K, p, p))
@@ -497,8 +501,20 @@ class Design:
         dof = self.N - len(S) - q
         if r1 <= 0 or dof <= 0:
             return 0.0, np.inf
-        F = ((r0 - r1) / q) / (r1 / dof) / self.inflation
-        return float(stats.f.sf(F, q, dof / self.inflation)), float(F)
+        infl = max(self.inflation, self.serial_factor(S, extra))
+        F = ((r0 - r1) / q) / (r1 / dof) / infl
+        return float(stats.f.sf(F, q, dof / infl)), float(F)
+
+    def serial_factor(self, S, extra) -> float:
+        """The serial-correlation inflation of the test of `extra` against S
+        (diagnose.serial.factor), 1 unless `serial` is set."""
+        if not self.serial:
+            return 1.0
+        key = (tuple(int(i) for i in S), tuple(int(i) for i in extra))
+        if key not in self.serial_factors:
+            from . import serial
+            self.serial_factors[key] = serial.factor(self, S, extra)
+        return self.serial_factors[key]["f"]
 
     def coef(self, S):
         """Estimates and standard errors of the columns S (unscaled)."""

@@ -42,6 +42,7 @@ from scipy import stats
 from inclino.errors import DataError
 from inclino.formats.dataset import RawDataset
 
+from . import serial as bartlett
 from .core import DEFAULT_ALPHA, DEFAULT_FOLDS, Design, make_folds
 from .result import Diagnosis, Effect, Gain
 
@@ -461,6 +462,9 @@ def diagnose_posefree(ds: RawDataset, alpha: float = DEFAULT_ALPHA, folds: int =
         des = Design(y, X, W, fold_of, K, rows=rows)
         des._W = W
         des.inflation = serial["inflation"]
+        # each test's own Bartlett inflation too (diagnose.serial), in time order: the lag-1 figure above
+        # counts the neighbouring rows only, while a smooth candidate gathers the slow part of the error
+        des.serial, des.serial_order = True, order_t
         return des, idx, r, rows
 
     def _weights(r):
@@ -481,18 +485,39 @@ def diagnose_posefree(ds: RawDataset, alpha: float = DEFAULT_ALPHA, folds: int =
         return W, rows
 
     serial = {"inflation": 1.0}
+    order_t = np.argsort(pf.t, kind="stable")
     refit([])
     testable = list(cand_keys)
     base = list(range(nb))
     des, idx, r_base, rows = design(testable)
     # the noise's own serial correlation between neighbouring rows (in time order), of the baseline's
     # residuals with their slow part (a trend an effect makes) taken off
-    order_t = np.argsort(pf.t, kind="stable")
     rho = max(_lag1(_highpass(r_base[order_t][rows[order_t]])), _lag1(_highpass(r_base[rows])))
     serial.update(rho=rho, inflation=(1.0 + rho) / (1.0 - rho))
     des.inflation = serial["inflation"]
     shift_test = serial["rho"] >= SHIFT_TEST_RHO and not _declared_static(ds)
     blockwise = serial["rho"] >= SHIFT_TEST_RHO
+
+    def shift_tested(d, S, cols) -> bool:
+        """Whether a driven candidate also needs the circular-shift test: on a
+        log whose neighbouring rows correlate, or whose residual, with the
+        candidate in the model, still shares its slow part (a hand-turned IMU
+        under a large white noise: BROAD's lag-1 is 0.06, its Ljung-Box p
+        1e-40; the candidate in the model, so that an effect the baseline
+        lacks does not make its own log look correlated).  Not on the means of
+        static holds: their noise is independent from hold to hold, and what
+        correlates neighbouring holds is an effect of the orientation not yet
+        in the model (the orientation changes little from one hold to the
+        next: on CK's accelerometer holds, its two nonlinearities), which
+        the shift test would count against a driver that is there."""
+        if _declared_static(ds):
+            return False
+        if shift_test:
+            return True
+        if pf.holds and pf.holds["moving_rows_left_out"]:
+            return False
+        d.serial_factor(S, cols)
+        return d.serial_factors[(tuple(int(i) for i in S), tuple(int(i) for i in cols))]["gated"]
     if not blockwise and k <= LOO_MAX_CLUSTERS:
         # independent shots: each pose held out alone (leave-one-pose-out).  K blocks of a 24-shot log leave
         # 19 shots to fit ~30 parameters, a harsher test than the calibration's own use of all 24 (an effect of
@@ -511,8 +536,10 @@ def diagnose_posefree(ds: RawDataset, alpha: float = DEFAULT_ALPHA, folds: int =
         ws = (np.ones(len(cols)) if w is None else np.asarray(w, float)) * des.colscale[cols]
         Gbb = des.G[np.ix_(base, base)]
         Rcc = des.G[np.ix_(cols, cols)] - des.G[np.ix_(base, cols)].T @ np.linalg.solve(Gbb, des.G[np.ix_(base, cols)])
-        infl = des.inflation
-        if shift_test and key.split(":")[0] in DRIVEN:
+        sf = bartlett.factor(des, base, cols, ws)
+        infl = max(des.inflation, sf["f"])
+        if key.split(":")[0] in DRIVEN and (shift_test or (sf["gated"] and not _declared_static(ds) and not (
+                pf.holds and pf.holds["moving_rows_left_out"]))):
             # what the test deflates this driver's F by on these data: its circular-shift null (a log with
             # slow structure in its residuals, as a tumbled one, gives any smooth driver a large F by chance:
             # a null temperature cycled 2.5 times reaches F ~ 70-80 on CK's log, where the lag-1 correlation
@@ -541,6 +568,7 @@ def diagnose_posefree(ds: RawDataset, alpha: float = DEFAULT_ALPHA, folds: int =
         W1[:, range(len(s1)), range(len(s1))] = 1.0 / np.maximum(s1, 1e-300)
         d1 = Design(des.yraw, des.Xraw, W1, fold_of, K, rows=rows1)
         d1.inflation = des.inflation
+        d1.serial, d1.serial_order = des.serial, des.serial_order
         d1.noise = np.maximum(s1, 1e-300)
         return d1.ftest(S, cols)[0], d1
 
@@ -566,7 +594,8 @@ def diagnose_posefree(ds: RawDataset, alpha: float = DEFAULT_ALPHA, folds: int =
                 better = int(np.sum(f1 < f0))
             else:
                 better = K
-            if shift_test and kk.split(":")[0] in DRIVEN and cv1 < cv0 and o1 < o0 and better >= K - 1:
+            if (kk.split(":")[0] in DRIVEN and cv1 < cv0 and o1 < o0 and better >= K - 1
+                    and shift_tested(d1, S, idx[kk])):
                 ps = _shift_p(mdl, state, des, S, kk, ncol[kk], alpha / len(remaining))
                 if ps >= alpha / len(remaining):
                     steps.append({"effect": kk, "p": p, "p_circular_shift": ps, "kept": False,
@@ -611,6 +640,7 @@ def diagnose_posefree(ds: RawDataset, alpha: float = DEFAULT_ALPHA, folds: int =
     S = base + [i for kk in kept for i in idx[kk]]
     est, se, s2 = des.coef(S)
     cov = des.coef_cov(S)
+    serial_f = dict(zip(kept, bartlett.scale_cov(des, S, cov, [idx[kk] for kk in kept])))
     R_final, R_cv = des.raw_residuals(S), des.cv_residuals(S)
     # the held-out prediction: each invariant's residual RMS on poses the fit has not seen, from the fit alone:
     # its noise s_j^2 = sum r^2 / sum (1 - h), h each value's leverage (what the fit leans on it; serially
@@ -650,6 +680,7 @@ def diagnose_posefree(ds: RawDataset, alpha: float = DEFAULT_ALPHA, folds: int =
             e = Effect(name, sensor, axis, float(est[pos]), float(np.sqrt(max(cov[pos, pos], 0))), units, gain,
                        rms_units=UNITS[chans[j[0]]], p_value=pvals.get(kk, np.nan),
                        detail={"gain_on": [chans[i] for i in j]})
+        e.detail["serial_inflation"] = serial_f[kk]
         effects.append(e)
         pos += n
     confounded = []
@@ -709,8 +740,14 @@ def diagnose_posefree(ds: RawDataset, alpha: float = DEFAULT_ALPHA, folds: int =
         "dip_deg": mdl.unpack(state["v"]).get("dip"),
         "rms": base_rms, "time_axis": pf.time_name,
         "serial_correlation": {"lag1": serial["rho"], "f_test_inflation": serial["inflation"],
+                               "ljung_box_p": bartlett.summary(des, S)["ljung_box_p"],
+                               "inflation_by_effect": serial_f,
                                "what": "neighbouring rows' residuals correlate (a log read while moving): the F-tests "
-                                       "count n (1 - rho) / (1 + rho) independent rows"},
+                                       "count n (1 - rho) / (1 + rho) independent rows, or fewer where a test's own "
+                                       "Bartlett factor 1 + 2 sum_k rho_e(k) rho_x(k) (its candidate's signature x "
+                                       "against the residual e of the model with it, time order, where a Ljung-Box "
+                                       "test finds the residual correlated) is larger; a named effect's standard "
+                                       "error grows by the square root of its factor"},
         "selection": {"method": "forward stepwise on the invariants (F-test at alpha/m, cross-validation -- "
                                 "leave-one-pose-out on independent shots, K blocks on serially correlated rows -- "
                                 "overall and on the effect's own invariant must fall, each invariant weighed by its noise with the candidate "

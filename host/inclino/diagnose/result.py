@@ -101,6 +101,15 @@ class Diagnosis:
                      + ", ".join(f"{s:.2f}" for s in b["rms"]["mag_nT"]) + " nT; "
                      + (f"azimuth {b['azi_rms_deg']:.4f} deg, " if b.get("azi_rms_deg") is not None else "")
                      + f"inclination {b['inc_rms_deg']:.4f} deg"]
+            sc = b.get("serial_correlation") or {}
+            if sc.get("correlated"):
+                lines.append("  rows serially correlated in time (lag-1 "
+                             + ", ".join(f"{c} {v:+.2f}" for c, v in zip(sc["channels"], sc["lag1"]))
+                             + f"; Ljung-Box p = {sc['ljung_box_p']:.2g}): each F-test and standard error is widened "
+                             "by its effect's Bartlett factor" + (" (" + ", ".join(
+                                 f"{k.split(':')[0]} {k.split(':')[2]} {v:.2f}"
+                                 for k, v in sc["inflation_by_effect"].items()) + ")"
+                                 if sc["inflation_by_effect"] else ""))
         sel = b["selection"]
         lines.append(f"effects tested: {len(sel['tested'])} (F-test at alpha = {sel['alpha']:g}, Bonferroni over the "
                      f"candidates, and "
