@@ -41,7 +41,6 @@ from scipy import stats
 LJUNG_BOX_LAGS = 10
 GATE_P = 1e-3
 SERIAL_MAX_LAG = 200  # the Bartlett window: sqrt(n) lags, at most this many
-ROW_CHUNK = 4096
 
 
 def max_lag(n: int) -> int:
@@ -51,25 +50,31 @@ def max_lag(n: int) -> int:
 def _lagged_sums(des, S1, w_x, w_e, L):
     """Per channel, sum_n z[n] z[n+k] for k = 0..L of the signature
     x = Xw[S1] w_x and of the residual e = yw - Xw[S1] w_e (whitened, rows in
-    the design's order: core.prepare sorts them by time), a chunk of rows at
-    a time with L rows of overlap.  Returns (gx, ge), each (L + 1, m)."""
+    time order: the design's, or its `serial_order`).  The columns are
+    combined before they are whitened (whitening is linear: one n x 6 x 6
+    product instead of one per column), and the lagged sums are taken by
+    FFT.  Returns (gx, ge), each (L + 1, m)."""
     n, m = des.yw.shape
+    p = des.Xraw.shape[-1]
+    S1 = np.asarray(S1, int)
+    W = np.zeros((p, 2))
+    W[S1, 0] = np.asarray(w_x, float) / des.colscale[S1]
+    W[S1, 1] = np.asarray(w_e, float) / des.colscale[S1]
+    XW = (des.Xraw.reshape(-1, p) @ W).reshape(n, m, 2)
+    x = np.einsum("nij,nj->ni", des.Linv, XW[:, :, 0])
+    e = des.yw - np.einsum("nij,nj->ni", des.Linv, XW[:, :, 1])
     order = getattr(des, "serial_order", None)
-    gx, ge = np.zeros((L + 1, m)), np.zeros((L + 1, m))
-    for lo in range(0, n, ROW_CHUNK):
-        hi = min(n, lo + ROW_CHUNK + L)
-        rows = slice(lo, hi) if order is None else order[lo:hi]
-        Xs = des.whitened(S1, rows)
-        x = Xs @ w_x
-        e = des.yw[rows] - Xs @ w_e
-        own = min(ROW_CHUNK, n - lo)  # the rows this chunk starts lags from
-        for k in range(L + 1):
-            j = min(own, hi - lo - k)
-            if j <= 0:
-                break
-            gx[k] += np.einsum("ni,ni->i", x[:j], x[k:k + j])
-            ge[k] += np.einsum("ni,ni->i", e[:j], e[k:k + j])
-    return gx, ge
+    if order is not None:
+        x, e = x[order], e[order]
+    return _autocov(x, L), _autocov(e, L)
+
+
+def _autocov(z, L):
+    """(L + 1, m): sum_n z[n] z[n+k] per column, k = 0..L (zero-padded FFT)."""
+    n = len(z)
+    nfft = 1 << int(np.ceil(np.log2(max(2 * n, 2))))
+    F = np.fft.rfft(z, nfft, axis=0)
+    return np.fft.irfft(F * np.conj(F), nfft, axis=0)[:L + 1]
 
 
 def ljung_box_p(ge, n) -> float:
