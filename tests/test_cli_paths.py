@@ -189,14 +189,18 @@ def _write_mode(call: ast.Call) -> bool:
     return any(c in str(mode.value) for c in "wax+")
 
 
-def writes_outside_safeio():
+def writes_outside_safeio(root=ROOT):
     found = []
     for base in ("host/inclino", "emulator/inclino_emu"):
-        for f in sorted((ROOT / base).rglob("*.py")):
-            rel = f.relative_to(ROOT).as_posix()
+        for f in sorted((root / base).rglob("*.py")):
+            rel = f.relative_to(root).as_posix()
             if rel == SAFEIO or rel.startswith(TEMP_ONLY):
                 continue
-            tree = ast.parse(f.read_text(encoding="utf-8"))
+            try:
+                text = f.read_text(encoding="utf-8")
+            except FileNotFoundError:  # a module another test planted for a moment (test_build) and removed
+                continue
+            tree = ast.parse(text)
             for node in ast.walk(tree):
                 if not isinstance(node, ast.Call):
                     continue
@@ -226,12 +230,16 @@ def test_no_module_writes_a_file_except_through_safeio():
         f"{f}:{n}: {what}" for f, n, what in found)
 
 
-def test_the_source_walk_sees_a_planted_write(tmp_path, monkeypatch):
-    """The walk is live: a module that opens a file for writing is found."""
-    planted = ROOT / "host/inclino/formats/_planted_write_check.py"
+def test_the_source_walk_sees_a_planted_write(tmp_path):
+    """The walk is live: a module that opens a file for writing is found.
+    Planted in a copy of the sources (a file planted in the checkout itself
+    vanished under the import-graph test's walk running beside it)."""
+    import shutil
+
+    for base in ("host/inclino", "emulator/inclino_emu"):
+        shutil.copytree(ROOT / base, tmp_path / base, ignore=shutil.ignore_patterns("__pycache__", "*.so", "*.c"))
+    assert writes_outside_safeio(tmp_path) == writes_outside_safeio()
+    planted = tmp_path / "host/inclino/formats/_planted_write_check.py"
     planted.write_text('def w(p):\n    with open(p, "w") as f:\n        f.write("x")\n')
-    try:
-        found = writes_outside_safeio()
-    finally:
-        planted.unlink()
+    found = writes_outside_safeio(tmp_path)
     assert any(f.endswith("_planted_write_check.py") for f, _, _ in found)
