@@ -214,7 +214,11 @@ def _two_triads(path, seed, n_holds=40, rows=30, trans=10, bump=0.1):
 def test_joint_calibrate_without_poses_fits_the_holds(tmp_path, monkeypatch):
     """Both triads, no poses: the holds are fitted and the motion left out;
     the accelerometer's bias comes out within ~1 mg of the truth, where the
-    rows read while turning pull it off by 4-8 mg (5 draws each)."""
+    rows read while turning pull it further off.  Over 400 draws (seeds
+    1000-1399): the holds' largest bias error median 0.8 mg, at most 2.5 mg;
+    the rows' median 5.6 mg, at least 2.4 mg, and always at least 1.2 mg
+    more than the holds' (a fixed 3 mg bound on the rows failed about one
+    draw in 50: seed 3201826158, 2.35 mg)."""
     from inclino.calib import fit
 
     _two_triads(tmp_path / "j.csv", RNG_SEED)
@@ -222,7 +226,8 @@ def test_joint_calibrate_without_poses_fits_the_holds(tmp_path, monkeypatch):
     cal, rep = fit(ds, method="joint", accept_mount_tolerance=True)
     assert any(n.startswith("holds: a step-and-hold log: 40 static holds") for n in rep.notes)
     assert rep.rows_used <= 40 * 30
-    assert np.abs(cal.acc_b).max() < 2.5e-3
+    err = np.abs(cal.acc_b).max()
+    assert err < 3.5e-3
     monkeypatch.setattr(holds, "STEP_AND_HOLD_FRACTION", 2.0)
     cal_rows, _ = fit(ds, method="joint", accept_mount_tolerance=True)
-    assert np.abs(cal_rows.acc_b).max() > 3e-3
+    assert np.abs(cal_rows.acc_b).max() > err + 0.6e-3
