@@ -204,9 +204,9 @@ def test_unattended_run_stops_on_the_fits_prediction_and_calibrates(tmp_path, ca
         assert r.stop_reason.startswith(("the pose limit", "more poses stop helping"))
     assert rep.passed
     # the trace's prediction falls (with the noise of the refits) toward the stop.  The trace depends on the
-    # timing of the link (under load the readings land differently): in seven traces it fell within stretches
+    # timing of the link (under load the readings land differently): in six traces it fell within stretches
     # and jumped up once, after its eighth value (the refit's noise from more poses), e.g. 0.0595 ... 0.0400,
-    # 0.0574 ... 0.0525; one ended at 0.0528 above its first value, 0.0505.  So: from its largest value after
+    # 0.0574 ... 0.0525; a seventh ended at 0.0528, above its first value 0.0505.  So: from its largest value after
     # the first third, it falls to the stop
     preds = [t["predicted_azi_deg"] for t in r.trace if t["predicted_azi_deg"] is not None]
     assert len(preds) >= 3 and preds[-1] < max(preds[len(preds) // 3:-1])
