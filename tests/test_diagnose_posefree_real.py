@@ -89,17 +89,12 @@ def test_tumbled_log_temperature_named_when_there_and_not_when_not(corpus, rng):
 
 
 def _broad_null(ds, seed):
-    """70 % of BROAD's rows with a null temperature cycled 2.5 times (a
-    seeded phase), a random rig angle and the time in the rows' order: the
-    bench's null resampling."""
+    """70 % of BROAD's rows with the bench's null columns (dr._with_nulls: a
+    temperature cycled 2.5 times at a seeded phase, a random rig angle, the
+    time in the rows' order): the bench's null resampling."""
     rng = np.random.default_rng([5, seed])
     keep = np.sort(rng.choice(len(ds), int(0.7 * len(ds)), replace=False))
-    d = dr._rows(ds, keep)
-    m = len(d)
-    d.columns["temp_c"] = 25 + 20 * np.sin(2 * np.pi * 2.5 * np.arange(m) / m + rng.uniform(0, 2 * np.pi))
-    d.columns["tf_deg"] = rng.uniform(0, 360, m)
-    d.columns["t_s"] = np.arange(m) * 10.0
-    return d
+    return dr._with_nulls(dr._rows(ds, keep), rng, time_order=np.arange(len(keep)))
 
 
 def test_slow_structure_under_white_noise_does_not_pass_for_a_temperature(corpus, monkeypatch):

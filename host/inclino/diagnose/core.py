@@ -49,6 +49,7 @@ from inclino.errors import CalibrationError, DataError
 from inclino.model import effects as fx
 from inclino.model.world import EncoderErrors, TurntableGeometry
 
+from . import serial
 from .names import AXES, CHANNELS, EFFECT_NAMES, RIG_AXES, TRIAD_UNITS, TRIADS  # noqa: F401
 from .noise import Noise, _ml_variances, fit_noise  # noqa: F401
 
@@ -505,16 +506,18 @@ class Design:
         F = ((r0 - r1) / q) / (r1 / dof) / infl
         return float(stats.f.sf(F, q, dof / infl)), float(F)
 
-    def serial_factor(self, S, extra) -> float:
-        """The serial-correlation inflation of the test of `extra` against S
-        (diagnose.serial.factor), 1 unless `serial` is set."""
-        if not self.serial:
-            return 1.0
+    def serial_record(self, S, extra) -> dict:
+        """serial.factor's record of the test of `extra` against S (once per
+        design and test)."""
         key = (tuple(int(i) for i in S), tuple(int(i) for i in extra))
         if key not in self.serial_factors:
-            from . import serial
             self.serial_factors[key] = serial.factor(self, S, extra)
-        return self.serial_factors[key]["f"]
+        return self.serial_factors[key]
+
+    def serial_factor(self, S, extra) -> float:
+        """The serial-correlation inflation of the test of `extra` against S,
+        1 unless `serial` is set."""
+        return self.serial_record(S, extra)["f"] if self.serial else 1.0
 
     def coef(self, S):
         """Estimates and standard errors of the columns S (unscaled)."""

@@ -498,26 +498,24 @@ def diagnose_posefree(ds: RawDataset, alpha: float = DEFAULT_ALPHA, folds: int =
     shift_test = serial["rho"] >= SHIFT_TEST_RHO and not _declared_static(ds)
     blockwise = serial["rho"] >= SHIFT_TEST_RHO
 
-    def shift_tested(d, S, cols) -> bool:
-        """Whether a driven candidate also needs the circular-shift test: on a
-        log whose neighbouring rows correlate, or whose residual, with the
-        candidate in the model, still shares its slow part (a hand-turned IMU
-        under a large white noise: BROAD's lag-1 is 0.06, its Ljung-Box p
-        1e-40; the candidate in the model, so that an effect the baseline
-        lacks does not make its own log look correlated).  Not on the means of
-        static holds: their noise is independent from hold to hold, and what
-        correlates neighbouring holds is an effect of the orientation not yet
-        in the model (the orientation changes little from one hold to the
-        next: on CK's accelerometer holds, its two nonlinearities), which
-        the shift test would count against a driver that is there."""
+    def shift_tested(rec) -> bool:
+        """Whether a driven candidate also needs the circular-shift test, from
+        the record of its Bartlett factor (serial.factor): on a log whose
+        neighbouring rows correlate, or whose residual, with the candidate in
+        the model, still shares its slow part (a hand-turned IMU under a large
+        white noise: BROAD's lag-1 is 0.06, its Ljung-Box p 1e-40; the
+        candidate in the model, so that an effect the baseline lacks does not
+        make its own log look correlated).  Not on the means of static holds:
+        their noise is independent from hold to hold, and what correlates
+        neighbouring holds is an effect of the orientation not yet in the
+        model (the orientation changes little from one hold to the next: on
+        CK's accelerometer holds, its two nonlinearities), which the shift
+        test would count against a driver that is there."""
         if _declared_static(ds):
             return False
         if shift_test:
             return True
-        if pf.holds and pf.holds["moving_rows_left_out"]:
-            return False
-        d.serial_factor(S, cols)
-        return d.serial_factors[(tuple(int(i) for i in S), tuple(int(i) for i in cols))]["gated"]
+        return rec["gated"] and not (pf.holds and pf.holds["moving_rows_left_out"])
     if not blockwise and k <= LOO_MAX_CLUSTERS:
         # independent shots: each pose held out alone (leave-one-pose-out).  K blocks of a 24-shot log leave
         # 19 shots to fit ~30 parameters, a harsher test than the calibration's own use of all 24 (an effect of
@@ -538,8 +536,7 @@ def diagnose_posefree(ds: RawDataset, alpha: float = DEFAULT_ALPHA, folds: int =
         Rcc = des.G[np.ix_(cols, cols)] - des.G[np.ix_(base, cols)].T @ np.linalg.solve(Gbb, des.G[np.ix_(base, cols)])
         sf = bartlett.factor(des, base, cols, ws)
         infl = max(des.inflation, sf["f"])
-        if key.split(":")[0] in DRIVEN and (shift_test or (sf["gated"] and not _declared_static(ds) and not (
-                pf.holds and pf.holds["moving_rows_left_out"]))):
+        if key.split(":")[0] in DRIVEN and shift_tested(sf):
             # what the test deflates this driver's F by on these data: its circular-shift null (a log with
             # slow structure in its residuals, as a tumbled one, gives any smooth driver a large F by chance:
             # a null temperature cycled 2.5 times reaches F ~ 70-80 on CK's log, where the lag-1 correlation
@@ -595,7 +592,7 @@ def diagnose_posefree(ds: RawDataset, alpha: float = DEFAULT_ALPHA, folds: int =
             else:
                 better = K
             if (kk.split(":")[0] in DRIVEN and cv1 < cv0 and o1 < o0 and better >= K - 1
-                    and shift_tested(d1, S, idx[kk])):
+                    and shift_tested(d1.serial_record(S, idx[kk]))):
                 ps = _shift_p(mdl, state, des, S, kk, ncol[kk], alpha / len(remaining))
                 if ps >= alpha / len(remaining):
                     steps.append({"effect": kk, "p": p, "p_circular_shift": ps, "kept": False,

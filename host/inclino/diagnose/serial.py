@@ -77,14 +77,21 @@ def _autocov(z, L):
     return np.fft.irfft(F * np.conj(F), nfft, axis=0)[:L + 1]
 
 
+def ljung_box_q(rho, n) -> tuple:
+    """(p, Q) of the Ljung-Box test of the autocorrelations rho (lags
+    1..h) of n values: Q = n (n + 2) sum_k rho_k^2 / (n - k), chi-square
+    with h degrees of freedom."""
+    h = len(rho)
+    Q = n * (n + 2) * float(np.sum(np.asarray(rho) ** 2 / np.maximum(n - np.arange(1, h + 1), 1)))
+    return float(stats.chi2.sf(Q, h)), Q
+
+
 def ljung_box_p(ge, n) -> float:
     """The smallest Ljung-Box p-value over the channels of the lags in ge."""
     m = min(LJUNG_BOX_LAGS, ge.shape[0] - 1)
     with np.errstate(all="ignore"):
         rho = ge[1:m + 1] / np.maximum(ge[0], 1e-300)
-    k = np.arange(1, m + 1)[:, None]
-    Q = n * (n + 2) * np.sum(rho ** 2 / np.maximum(n - k, 1), 0)
-    return float(np.min(stats.chi2.sf(Q, m)))
+    return min(ljung_box_q(rho[:, j], n)[0] for j in range(rho.shape[1]))
 
 
 def factor(des, S, extra, w=None) -> dict:
@@ -126,8 +133,7 @@ def scale_cov(des, S, cov, groups) -> list:
     S = list(S)
     fs = []
     for cols in groups:
-        f = des.serial_factor([i for i in S if i not in cols], cols) if des.serial else 1.0
-        f = max(f, des.inflation)
+        f = max(des.serial_factor([i for i in S if i not in cols], cols), des.inflation)
         pos = [S.index(i) for i in cols]
         s = np.ones(len(S))
         s[pos] = np.sqrt(f)

@@ -29,6 +29,7 @@ import numpy as np
 from scipy import stats
 
 from .core import CHANNELS, TRIADS, Data
+from .serial import ljung_box_q
 
 FAMILIES = ("pose", "temperature", "time", "field", "move", "rate")
 
@@ -85,8 +86,7 @@ def ljung_box(r, h):
     if den <= 0 or n <= h + 1:
         return 1.0, 0.0
     rho = np.array([float(r[k:] @ r[:-k]) / den for k in range(1, h + 1)])
-    Q = n * (n + 2) * float(np.sum(rho ** 2 / (n - np.arange(1, h + 1))))
-    return float(stats.chi2.sf(Q, h)), Q
+    return ljung_box_q(rho, n)
 
 
 def study(d: Data, bl, R, var, own_cols) -> dict:
