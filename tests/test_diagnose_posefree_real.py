@@ -74,8 +74,9 @@ def test_tumbled_log_temperature_named_when_there_and_not_when_not(corpus, rng):
     """On CK's tumbled log (residuals with slow structure: a null temperature
     cycled 2.5 times gets F ~ 70-80 by chance) a temperature column the
     readings do not depend on names nothing tied to it, and a magnetometer
-    temperature bias injected at z = 12 of what the circular-shift test
-    sees is named."""
+    temperature bias injected at z = 12 of what its test sees (the level
+    of the log's slow structure at the temperature's timescale) is
+    named."""
     ds = corpus["ck/acc_mag_log.csv"]
     null = dr._with_nulls(ds, rng)
     null.columns.pop("tf_deg")

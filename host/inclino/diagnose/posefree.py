@@ -25,8 +25,13 @@ own invariants, backward pass; each candidate tested, and its own
 invariants pooled, with every invariant weighed by its noise with that
 candidate in the model).  Independent shots are held out one pose at a
 time; a serially correlated log is held out in K blocks, its held-out gain
-needed in all blocks but one, and a driven candidate (temperature, time, a
-rig angle) must also beat its driver shifted in time.  All on cluster means where several
+needed in all blocks but one, and a driven candidate must also beat what
+the log's slow structure gives any such driver: time or a rig angle its
+own values shifted in time (a circular-shift test), a temperature the
+same effect driven by generic slow profiles in reading order at the
+temperature's own timescale (_slow_rival: a line against its continuum;
+where it cannot, the candidate is listed as confounded with that slow
+structure, not named).  All on cluster means where several
 rows share a pose (calib.covariance.cluster_labels): hundreds of readings
 at one face are one observation of that face, not hundreds.  What needs
 the poses is listed as such: the turntable's own errors, a declination
@@ -502,7 +507,8 @@ def diagnose_posefree(ds: RawDataset, alpha: float = DEFAULT_ALPHA, folds: int =
     blockwise = serial["rho"] >= SHIFT_TEST_RHO
 
     def shift_tested(rec) -> bool:
-        """Whether a driven candidate also needs the circular-shift test, from
+        """Whether a driven candidate also needs the circular-shift test (a
+        temperature: the test against slow profiles, _slow_rival), from
         the record of its Bartlett factor (serial.factor): on a log whose
         neighbouring rows correlate, or whose residual, with the candidate in
         the model, still shares its slow part (a hand-turned IMU under a large
