@@ -160,6 +160,14 @@ def test_a_null_temperature_meets_the_slow_structure_of_a_hand_turned_log(corpus
     assert _broad02_temperature(ds, 6)[0] != []
 
 
+def test_a_temperature_that_is_there_is_named_over_the_slow_structure(corpus, rng):
+    """The same trial 02 with a magnetometer temperature bias injected at
+    the benchmark's size (z = 12 of what its test sees: the slow
+    structure's level at the temperature's timescale): named, on its axis."""
+    d, key, value = dr.inject(corpus["broad/02"], "temperature-bias", rng)
+    assert key in [f"{e.name}:{e.sensor}:{e.axis}" for e in diagnose(d).effects], key
+
+
 def _imucal(tmp_path):
     from inclino.cli import main
 
