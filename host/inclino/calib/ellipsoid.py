@@ -15,6 +15,9 @@ from inclino.errors import DataError
 # an ellipsoid); the smallest carries the noise.  Readings over the sphere give 0.015-0.3, two toolface
 # circles at one azimuth 2e-4.
 DETERMINED_SV = 2e-3
+# the readings' spread (RMS distance from their mean) below this share of their size: one orientation (a static
+# log, noise and drift only), whose "sphere" is a ball of noise a few hundred nT across, not the field
+SPHERE_MIN_SPREAD = 0.05
 
 
 def _design(raw):
@@ -59,9 +62,15 @@ def ellipsoid_start(raw, R):
 
 def sphere(v):
     """Centre and radius of the best sphere through the readings (linear
-    least squares |v|^2 = 2 v.c + k), or None when they do not span 3-D."""
+    least squares |v|^2 = 2 v.c + k), or None when they do not span 3-D
+    (directions from the centre in a plane, or the readings at one
+    orientation: SPHERE_MIN_SPREAD)."""
     v = np.asarray(v, float)
     if len(v) < 10:
+        return None
+    mean = v.mean(0)
+    spread = float(np.sqrt(((v - mean) ** 2).sum(1).mean()))
+    if not spread > SPHERE_MIN_SPREAD * float(np.linalg.norm(mean)):
         return None
     A = np.column_stack([2 * v, np.ones(len(v))])
     y = (v * v).sum(1)

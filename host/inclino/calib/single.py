@@ -113,7 +113,8 @@ def fit(ds, use_poses=None, sigma_acc=None, sigma_mag=None, **_):
             moving = hs[0] < 0
         # a step-and-hold log: the holds are fitted, the rows read while turning between them left out (their
         # acceleration is the motion's, not the sensor's)
-        M, b, cov, info = triad.fit_sphere(raw[~moving], R, sigma, min_rows=MIN_ROWS_SPHERE)
+        M, b, cov, info = triad.fit_sphere(raw[~moving], R, sigma, min_rows=MIN_ROWS_SPHERE,
+                                        what="the accelerometer" if kind == "acc" else "the magnetometer")
         keep = np.zeros(len(raw), bool)
         keep[~moving] = info["keep"]
         info["keep"] = keep
