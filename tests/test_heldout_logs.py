@@ -82,3 +82,62 @@ def test_a_static_log_is_not_read_as_a_sphere_of_noise():
     cols_ut = {k: (v / 1000.0 if k in dataset.MAG_COLS else v) for k, v in cols.items()}
     (f,) = [f for f in checks.run(dataset.RawDataset(cols_ut, {})).findings if f.check == "units"]
     assert f.level == "error" and "uT" in f.message
+
+
+# ---------------------------------------------------------------- the importer's reading of a log
+_DESC = """
+[accelerometer]
+columns = ["ax", "ay", "az"]
+unit = "counts"
+lsb = "1/16384 g"
+"""
+_ROWS = ["-12,-812,15032,-447,156,-86", "-208,-828,14796,-398,132,-63", "-252,-828,14884,-478,124,-91"] * 20
+
+
+def _import(tmp_path, lines, capsys, desc=_DESC):
+    log, d, out = tmp_path / "log.csv", tmp_path / "s.toml", tmp_path / "run.csv"
+    log.write_text("\n".join(lines) + "\n")
+    d.write_text(desc)
+    rc = main(["import", str(log), "--sensor", str(d), "-o", str(out)])
+    return rc, capsys.readouterr().err, out
+
+
+@pytest.mark.parametrize("bad,cells", [("-12,-812,150", 3),            # cut inside a column it does not use
+                                       ("-12,-812,15032,-447,156", 5),  # cut inside one it does not use
+                                       ("-0,012,-0,812,15032,-447,156,-86", 8)])  # decimal commas: values shift
+def test_a_row_of_another_length_is_refused_even_when_the_used_columns_are_there(tmp_path, capsys, bad, cells):
+    """A row cut short after the columns used (az read as 150 for 15032) or
+    split by decimal commas (ax read as -0, ay as 12) was imported by
+    position, silently."""
+    rows = list(_ROWS)
+    rows[7] = bad
+    rc, err, out = _import(tmp_path, ["ax,ay,az,gx,gy,gz"] + rows, capsys)
+    assert rc == 2 and f":9: {cells} cells, the header has 6" in err and err.count("\n") == 1 and not out.exists()
+
+
+def test_trailing_delimiters_are_not_cells(tmp_path, capsys):
+    for lines in (["ax,ay,az,gx,gy,gz"] + [r + "," for r in _ROWS],     # after every value (Arduino print(","))
+                  ["ax,ay,az,gx,gy,gz,"] + _ROWS,                       # after the last name only
+                  ["ax,ay,az,gx,gy,gz,"] + [r + "," for r in _ROWS]):
+        rc, err, out = _import(tmp_path, lines, capsys)
+        assert rc == 0, err
+        assert len(dataset.read_raw(str(out))) == len(_ROWS)
+
+
+def test_the_default_description_imports_a_one_triad_canonical_file(tmp_path, capsys):
+    """`inclino import run.csv` (the probe's preset: the canonical columns as
+    they are) refused an accelerometer-only file: 'no column mx_nT'.  A
+    preset's triad whose columns are all absent is left out, with a note; a
+    user's own description that names a triad the log lacks is refused with
+    the fix."""
+    rng = np.random.default_rng(2)
+    u = rng.normal(size=(200, 3))
+    u /= np.linalg.norm(u, axis=1, keepdims=True)
+    run, out = tmp_path / "acc.csv", tmp_path / "out.csv"
+    _write(run, dataset.ACC_COLS, u)
+    assert main(["import", str(run), "-o", str(out)]) == 0
+    assert "the accelerometer alone is imported" in capsys.readouterr().out
+    assert dataset.read_raw(str(out)).triads == "acc"
+    both = _DESC + '[magnetometer]\ncolumns = ["mx", "my", "mz"]\nunit = "uT"\n'
+    rc, err, out = _import(tmp_path, ["ax,ay,az,gx,gy,gz"] + _ROWS, capsys, desc=both)
+    assert rc == 2 and "leave the [magnetometer] table out" in err and err.count("\n") == 1
