@@ -141,3 +141,29 @@ def test_the_default_description_imports_a_one_triad_canonical_file(tmp_path, ca
     both = _DESC + '[magnetometer]\ncolumns = ["mx", "my", "mz"]\nunit = "uT"\n'
     rc, err, out = _import(tmp_path, ["ax,ay,az,gx,gy,gz"] + _ROWS, capsys, desc=both)
     assert rc == 2 and "leave the [magnetometer] table out" in err and err.count("\n") == 1
+
+
+def test_import_keeps_a_canonical_header_and_checks_against_it(tmp_path, capsys):
+    """`inclino import run.csv` of a canonical file whose header gives the
+    site's dip dropped the '# dip_deg' line with the other comments, so a
+    turned accelerometer sign went unseen at import (RepoIMU's T-stick with
+    Gliwice's dip 67.4 deg written in: calibrate refused it, import did not)."""
+    from pathlib import Path
+
+    from inclino.formats import importlog, sensor
+
+    real = Path(__file__).parent / "data" / "real" / "sap6"
+    ds = importlog.import_log(str(real / "BB.csv"), sensor.load(str(real / "sensor.toml")))[0]
+    cols = {c: v.copy() for c, v in ds.columns.items()}
+    for c in dataset.ACC_COLS:
+        cols[c] = -cols[c]
+    flipped = tmp_path / "flipped.csv"
+    dataset.write_raw(str(flipped), dataset.RawDataset(cols, {"dip_deg": 67.8, "field_nT": 49000.0}))
+    out = tmp_path / "run.csv"
+    assert main(["import", str(flipped), "-o", str(out)]) == 2
+    err = capsys.readouterr().err
+    assert "gravity sign" in err and err.count("\n") == 1 and not out.exists()
+    clean = tmp_path / "clean.csv"
+    dataset.write_raw(str(clean), dataset.RawDataset(dict(ds.columns), {"dip_deg": 67.8, "field_nT": 49000.0}))
+    assert main(["import", str(clean), "-o", str(out)]) == 0
+    assert dataset.read_raw(str(out)).meta["dip_deg"] == 67.8

@@ -38,23 +38,26 @@ def determined(raw) -> bool:
     return bool(sv[0] > 0 and sv[-2] / sv[0] >= DETERMINED_SV)
 
 
-def ellipsoid_start(raw, R):
-    """Algebraic general ellipsoid fit: (M symmetric, b) with |M (raw - b)| ~ R."""
+def ellipsoid_start(raw, R, what: str = "the triad"):
+    """Algebraic general ellipsoid fit: (M symmetric, b) with |M (raw - b)| ~ R.
+    DataError naming `what` when the readings determine no ellipsoid."""
     D, s = _design(raw)
     _, sv, Vt = np.linalg.svd(D / s, full_matrices=False)
     if len(raw) < 10 or not sv[-2] / sv[0] >= DETERMINED_SV:
-        raise DataError("joint: too few orientations to determine an ellipsoid (readings on a few circles or in "
-                        "a plane: turn the sensor through more of the sphere)")
+        raise DataError(f"too few orientations to determine {what}'s ellipsoid (readings on a few circles or in "
+                        f"a plane: turn the sensor through more of the sphere)")
     v = Vt[-1] / s
     Q = np.array([[v[0], v[3], v[4]], [v[3], v[1], v[5]], [v[4], v[5], v[2]]])
     if np.linalg.eigvalsh(Q).min() * np.linalg.eigvalsh(Q).max() <= 0:
-        raise DataError("joint: the readings do not lie on an ellipsoid (too few orientations)")
+        raise DataError(f"{what}'s readings do not lie on an ellipsoid (too few orientations, or the readings of "
+                        f"a moving sensor, whose acceleration is no sensor effect): log it at rest, or turned "
+                        f"slowly, through more of the sphere")
     if np.trace(Q) < 0:
         Q, v = -Q, -v
     c = -np.linalg.solve(Q, v[6:9])
     k = c @ Q @ c - v[9]
     if k <= 0:
-        raise DataError("joint: degenerate ellipsoid fit")
+        raise DataError(f"{what}: degenerate ellipsoid fit (too few orientations, or a moving sensor)")
     w, U = np.linalg.eigh(Q / k)
     M = U @ np.diag(np.sqrt(w)) @ U.T * R
     return M, c

@@ -160,11 +160,11 @@ def fit_poses(raw, truth, sigma: float, min_rows: int = 4):
                        "noise": float(np.sqrt(s2) * sigma), "mode": "poses"}
 
 
-def ellipsoid_algebraic(raw, R):
+def ellipsoid_algebraic(raw, R, what: str = "the triad"):
     """Algebraic quadric fit: (M symmetric, b) with |M (raw - b)| ~ R."""
     from .ellipsoid import ellipsoid_start
 
-    return ellipsoid_start(raw, R)
+    return ellipsoid_start(raw, R, what)
 
 
 def _sphere_residual(x, raw, R):
@@ -202,7 +202,7 @@ def fit_sphere(raw, R: float, sigma: float, min_rows: int = 10, start=None, what
         raise DataError(f"a fit of one triad without poses needs >= {min_rows} readings in varied orientations; "
                         f"the data have {n}")
     if start is None:
-        M0, b0 = ellipsoid_algebraic(raw, R)
+        M0, b0 = ellipsoid_algebraic(raw, R, what)
     else:
         M0, b0 = start
     x = np.concatenate([M0[np.triu_indices(3)], b0])
@@ -231,7 +231,7 @@ def fit_sphere(raw, R: float, sigma: float, min_rows: int = 10, start=None, what
     JtJ = J.T @ J
     cn = np.sqrt(np.diag(JtJ))
     if not np.all(cn > 0) or np.linalg.cond(JtJ / np.outer(cn, cn)) > 1e12:  # scale-free: the geometry alone
-        raise CalibrationError("the orientations do not determine the triad's ellipsoid (they cover too little "
+        raise CalibrationError(f"the orientations do not determine {what}'s ellipsoid (they cover too little "
                                "of the sphere)")
     spread = direction_spread((raw[keep] - x[6:9]) @ _sym(x[:6]).T)
     if spread < SPHERE_RUNAWAY_EIG:

@@ -53,6 +53,12 @@ class ImportReport:
                 "dropped": self.dropped, "triads": self.triads, "notes": self.notes}
 
 
+# the canonical header keys a log's own '# key=value' lines carry into the dataset (the site and the run; never
+# the import's record of a description, which the import writes itself)
+LOG_META = ("field_nT", "dip_deg", "declination_deg", "gravity_g", "lat_deg", "lon_deg", "date", "probe_serial",
+            "samples_averaged", "start_utc")
+
+
 def _sha256(path: str) -> str:
     h = hashlib.sha256()
     with open(path, "rb") as f:
@@ -153,8 +159,14 @@ def _import(lines, path: str, desc: SensorDescription, static, drop_bad=False) -
             break
     comment = desc.comment or None
     first = None
+    log_meta = {}  # a canonical header's '# key=value' lines before the names: the site's field, dip, ...
     for line in lines:
         if not line.strip() or (comment and line.lstrip().startswith(comment)):
+            body = line.strip()
+            if body.startswith("#") and "=" in body:
+                k, v = (t.strip() for t in body.lstrip("#").split("=", 1))
+                if k in LOG_META:
+                    log_meta[k] = dataset._meta_value(k, v, path, lines.lineno)
             continue
         first = line.rstrip("\r\n")
         break
@@ -336,7 +348,7 @@ def _import(lines, path: str, desc: SensorDescription, static, drop_bad=False) -
         for k in ("inc_deg", "azi_deg", "tf_deg"):
             if k in col:
                 out[k] = col[k]
-    meta = {}
+    meta = dict(log_meta)  # the description's [header] below overrides the log's own
     for k, v in desc.header.items():
         if k not in dataset.META_KEYS or k in dataset.SENSOR_META:
             raise DataError(f"{desc.path or 'sensor description'}: [header].{k} is not a dataset header key "
