@@ -128,6 +128,15 @@ def fit(ds, use_poses=None, sigma_acc=None, sigma_mag=None, **_):
                 info["covariance_source"] = (f"hold level: the fit to the {hold_cov[1]} static holds' mean "
                                              f"readings (found in the readings), scaled by their scatter (the rows "
                                              f"of one hold share its orientation's error)")
+        else:
+            hc = holds.correlated(ds, (kind,))
+            hold_cov = triad.hold_covariance(raw, hc[0], keep, R, sigma) if hc is not None else None
+            if hold_cov is not None and np.trace(hold_cov[0]) > np.trace(cov):
+                cov = hold_cov[0]
+                info["covariance_source"] = (f"hold level: the fit to the {hold_cov[1]} static holds' mean "
+                                             f"readings (found in the readings, too few or too few directions to "
+                                             f"fit alone: every row is fitted), scaled by their scatter (the rows "
+                                             f"of one hold share its orientation's error)")
         info["unobservable"] = ("the triad's rotation: without poses |g| (|b|) alone leaves it free; the body frame "
                                 "is the sensor's own axes (M symmetric)")
     eye = np.eye(3).tolist()
