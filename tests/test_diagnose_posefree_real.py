@@ -156,6 +156,12 @@ def test_a_null_temperature_meets_the_slow_structure_of_a_hand_turned_log(corpus
         assert named == [], (seed, named)
         slow = [c for c in r.confounded if c["with"].startswith("slow structure")]
         assert slow and all(not c["named"] and c["effect"].startswith("temperature") for c in slow)
+        # the structure left against the temperature column is that slow course, and the report says so
+        # rather than pointing at a temperature effect it has just refused
+        temp = [x for x in r.structure["significant"] if x["test"] == "temperature"]
+        assert temp and all(x.get("follows", "").startswith("not told apart") for x in temp)
+        assert all("see confounded" in line for line in r.summary().splitlines()
+                   if line.startswith("unexplained") and "vs temperature" in line)
     monkeypatch.setattr(posefree, "_slow_rival", lambda *a, **k: {"p": 0.0, "inflation": 1.0})
     assert _broad02_temperature(ds, 6)[0] != []
 

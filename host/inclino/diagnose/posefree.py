@@ -747,6 +747,12 @@ def diagnose_posefree(ds: RawDataset, alpha: float = DEFAULT_ALPHA, folds: int =
                                               "rows read while moving are then left out), or poses for the holds"})
         effects = []
     structure = _structure(pf, R_final, rows, chans, alpha)
+    if any(kk not in kept for kk in slow_confounds):
+        # the temperature's own terms were refused as the run's slow course: the same structure against the
+        # temperature column is that slow course again, not a temperature the library lacks
+        for x in structure["significant"]:
+            if x["test"] == "temperature":
+                x["follows"] = f"not told apart from the run's slow course in {pf.time_name}: see confounded"
     from .runvars import run_variable_confounds
 
     run_conf = run_variable_confounds(_RunVars(pf))

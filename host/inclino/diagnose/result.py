@@ -187,7 +187,8 @@ class Diagnosis:
             lines.append(f"  note: {note}")
         s = self.structure
         if self.unexplained:
-            sig = ", ".join(f"{x['channel']} vs {x['test']} (p = {x['p']:.2g})" for x in s["significant"][:4])
+            sig = ", ".join(f"{x['channel']} vs {x['test']} (p = {x['p']:.2g}"
+                            + (f"; {x['follows']}" if x.get("follows") else "") + ")" for x in s["significant"][:4])
             lines.append(f"unexplained: YES -- structure no library effect explains: {sig}")
         else:
             lines.append(f"unexplained: no (smallest of {s['tests']} structure-test p-values {s['min_p']:.2g}, "
