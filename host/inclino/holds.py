@@ -213,3 +213,17 @@ def determining(ds, triads=("acc", "mag")):
     if not h.step_and_hold or h.count < 12 or leverage(ds, h, triads) > HOLDS_MAX_LEVERAGE:
         return None
     return h.labels, h.count
+
+
+def correlated(ds, triads=("acc", "mag")):
+    """The holds of a step-and-hold log without poses, whether or not they
+    determine the ellipsoids (at least 12): (hold of each row, -1 moving;
+    hold count), else None.  When the holds alone leave a triad's model
+    undetermined every row is fitted, but the rows of one hold still share
+    its orientation's error: the fit's covariance counts each hold once."""
+    if any(c in ds.columns for c in POSE_COLUMNS):
+        return None
+    h = find(ds)
+    if not h.step_and_hold or h.count < 12:
+        return None
+    return h.labels, h.count

@@ -15,6 +15,9 @@ from inclino.errors import DataError
 # an ellipsoid); the smallest carries the noise.  Readings over the sphere give 0.015-0.3, two toolface
 # circles at one azimuth 2e-4.
 DETERMINED_SV = 2e-3
+# the readings' spread (RMS distance from their mean) below this share of their size: one orientation (a static
+# log, noise and drift only), whose "sphere" is a ball of noise a few hundred nT across, not the field
+SPHERE_MIN_SPREAD = 0.05
 
 
 def _design(raw):
@@ -35,23 +38,26 @@ def determined(raw) -> bool:
     return bool(sv[0] > 0 and sv[-2] / sv[0] >= DETERMINED_SV)
 
 
-def ellipsoid_start(raw, R):
-    """Algebraic general ellipsoid fit: (M symmetric, b) with |M (raw - b)| ~ R."""
+def ellipsoid_start(raw, R, what: str = "the triad"):
+    """Algebraic general ellipsoid fit: (M symmetric, b) with |M (raw - b)| ~ R.
+    DataError naming `what` when the readings determine no ellipsoid."""
     D, s = _design(raw)
     _, sv, Vt = np.linalg.svd(D / s, full_matrices=False)
     if len(raw) < 10 or not sv[-2] / sv[0] >= DETERMINED_SV:
-        raise DataError("joint: too few orientations to determine an ellipsoid (readings on a few circles or in "
-                        "a plane: turn the sensor through more of the sphere)")
+        raise DataError(f"too few orientations to determine {what}'s ellipsoid (readings on a few circles or in "
+                        f"a plane: turn the sensor through more of the sphere)")
     v = Vt[-1] / s
     Q = np.array([[v[0], v[3], v[4]], [v[3], v[1], v[5]], [v[4], v[5], v[2]]])
     if np.linalg.eigvalsh(Q).min() * np.linalg.eigvalsh(Q).max() <= 0:
-        raise DataError("joint: the readings do not lie on an ellipsoid (too few orientations)")
+        raise DataError(f"{what}'s readings do not lie on an ellipsoid (too few orientations, or the readings of "
+                        f"a moving sensor, whose acceleration is no sensor effect): log it at rest, or turned "
+                        f"slowly, through more of the sphere")
     if np.trace(Q) < 0:
         Q, v = -Q, -v
     c = -np.linalg.solve(Q, v[6:9])
     k = c @ Q @ c - v[9]
     if k <= 0:
-        raise DataError("joint: degenerate ellipsoid fit")
+        raise DataError(f"{what}: degenerate ellipsoid fit (too few orientations, or a moving sensor)")
     w, U = np.linalg.eigh(Q / k)
     M = U @ np.diag(np.sqrt(w)) @ U.T * R
     return M, c
@@ -59,9 +65,15 @@ def ellipsoid_start(raw, R):
 
 def sphere(v):
     """Centre and radius of the best sphere through the readings (linear
-    least squares |v|^2 = 2 v.c + k), or None when they do not span 3-D."""
+    least squares |v|^2 = 2 v.c + k), or None when they do not span 3-D
+    (directions from the centre in a plane, or the readings at one
+    orientation: SPHERE_MIN_SPREAD)."""
     v = np.asarray(v, float)
     if len(v) < 10:
+        return None
+    mean = v.mean(0)
+    spread = float(np.sqrt(((v - mean) ** 2).sum(1).mean()))
+    if not spread > SPHERE_MIN_SPREAD * float(np.linalg.norm(mean)):
         return None
     A = np.column_stack([2 * v, np.ones(len(v))])
     y = (v * v).sum(1)

@@ -572,12 +572,15 @@ def _fit_invariants(ds, w, sa, sm, fix_dip, prior=None, mount_tolerance_deg=None
             "triad_noise": st["noise"], "s2_by_triad": st["s2_by_triad"], "acc_misfit": full(st["acc_misfit"]),
             "mag_misfit": full(st["mag_misfit"]),
             "fit": "triad by triad: each triad's ellipsoid alone, then the magnetometer's rotation and the dip"}
+    # holds that do not determine the ellipsoids: every row fitted, but each hold's rows share its error
+    hl = hs[0] if hs is not None else (holds.correlated(ds) or (None,))[0]
     if hs is not None:
         info["moving"] = np.flatnonzero(hs[0] < 0).tolist()
         info["holds"] = hs[1]
+    if hl is not None:
         # each triad's block scaled by how much more the holds' means scatter than the rows' independence
         # claims: the hold-level ellipsoid fit's covariance against the row-level one, on the same rows
-        lab = hs[0][fitted]
+        lab = hl[fitted]
         scale = []
         for t, R, sig, kt in (("acc", w["gravity_g"], sa, st["keep_acc"]), ("mag", w["field_nT"], sm, keep)):
             raw = getattr(dsf, t)

@@ -63,9 +63,9 @@ def fit(ds, w, sa, sm, fix_dip=False, mag_start=None):
         raise DataError(f"joint without poses needs >= {MIN_ROWS} readings in varied orientations; the data have {n}")
     acc, mag = ds.acc, ds.mag
     # 1. the accelerometer alone
-    Ma, ba, cov_a, ia = triad.fit_sphere(acc, G, sa, min_rows=MIN_ROWS)
+    Ma, ba, cov_a, ia = triad.fit_sphere(acc, G, sa, min_rows=MIN_ROWS, what="the accelerometer")
     # 2. the magnetometer alone
-    Sm, bm, _, im = triad.fit_sphere(mag, F, sm, min_rows=MIN_ROWS)
+    Sm, bm, _, im = triad.fit_sphere(mag, F, sm, min_rows=MIN_ROWS, what="the magnetometer")
     g = (acc - ba) @ Ma.T
     ug = g / np.maximum(np.linalg.norm(g, axis=1, keepdims=True), 1e-300)
     bs = (mag - bm) @ Sm.T

@@ -113,7 +113,8 @@ def fit(ds, use_poses=None, sigma_acc=None, sigma_mag=None, **_):
             moving = hs[0] < 0
         # a step-and-hold log: the holds are fitted, the rows read while turning between them left out (their
         # acceleration is the motion's, not the sensor's)
-        M, b, cov, info = triad.fit_sphere(raw[~moving], R, sigma, min_rows=MIN_ROWS_SPHERE)
+        M, b, cov, info = triad.fit_sphere(raw[~moving], R, sigma, min_rows=MIN_ROWS_SPHERE,
+                                        what="the accelerometer" if kind == "acc" else "the magnetometer")
         keep = np.zeros(len(raw), bool)
         keep[~moving] = info["keep"]
         info["keep"] = keep
@@ -126,6 +127,15 @@ def fit(ds, use_poses=None, sigma_acc=None, sigma_mag=None, **_):
                 cov = hold_cov[0]
                 info["covariance_source"] = (f"hold level: the fit to the {hold_cov[1]} static holds' mean "
                                              f"readings (found in the readings), scaled by their scatter (the rows "
+                                             f"of one hold share its orientation's error)")
+        else:
+            hc = holds.correlated(ds, (kind,))
+            hold_cov = triad.hold_covariance(raw, hc[0], keep, R, sigma) if hc is not None else None
+            if hold_cov is not None and np.trace(hold_cov[0]) > np.trace(cov):
+                cov = hold_cov[0]
+                info["covariance_source"] = (f"hold level: the fit to the {hold_cov[1]} static holds' mean "
+                                             f"readings (found in the readings, too few or too few directions to "
+                                             f"fit alone: every row is fitted), scaled by their scatter (the rows "
                                              f"of one hold share its orientation's error)")
         info["unobservable"] = ("the triad's rotation: without poses |g| (|b|) alone leaves it free; the body frame "
                                 "is the sensor's own axes (M symmetric)")

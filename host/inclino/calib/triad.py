@@ -27,6 +27,21 @@ SEGMENT_MIN_ROWS = 5       # a run of misfitting rows this long (and SEGMENT_MIN
 SEGMENT_MIN_FRACTION = 0.01
 SEGMENT_GAP = 2            # misfitting rows at most this far apart belong to one run ...
 SEGMENT_MIN_DENSITY = 0.8  # ... and a segment is a run where most rows misfit
+# An ellipsoid fit without poses whose corrected readings point within a plane (the least eigenvalue of their
+# directions' second moment below this; 1/3 for readings spread evenly over the sphere, 0 for one plane) has run
+# away: orientations near one great circle leave the ellipsoid free across it (a cylinder, a flat disc or a far
+# centre fits the circle as well as the sphere), and the motion's acceleration or the noise picks one of them.
+# The report's verdict already fails below 0.02 (calib.report THRESHOLDS["coverage_min_eig"]); this far below it
+# the coefficients are not a calibration at all (offsets of hundreds of g on a hand-turned log: RepoIMU's T-stick).
+SPHERE_RUNAWAY_EIG = 0.005
+
+
+def direction_spread(v) -> float:
+    """The least eigenvalue of the second moment of the readings' directions
+    (0: all in one plane through the origin; 1/3: evenly over the sphere)."""
+    v = np.asarray(v, float)
+    u = v / np.maximum(np.linalg.norm(v, axis=1, keepdims=True), 1e-300)
+    return float(np.linalg.eigvalsh(u.T @ u / max(len(u), 1)).min())
 
 
 def _sym(v):
@@ -145,11 +160,11 @@ def fit_poses(raw, truth, sigma: float, min_rows: int = 4):
                        "noise": float(np.sqrt(s2) * sigma), "mode": "poses"}
 
 
-def ellipsoid_algebraic(raw, R):
+def ellipsoid_algebraic(raw, R, what: str = "the triad"):
     """Algebraic quadric fit: (M symmetric, b) with |M (raw - b)| ~ R."""
     from .ellipsoid import ellipsoid_start
 
-    return ellipsoid_start(raw, R)
+    return ellipsoid_start(raw, R, what)
 
 
 def _sphere_residual(x, raw, R):
@@ -173,18 +188,21 @@ def _sphere_jac(x, raw, R):
     return J
 
 
-def fit_sphere(raw, R: float, sigma: float, min_rows: int = 10, start=None):
+def fit_sphere(raw, R: float, sigma: float, min_rows: int = 10, start=None, what: str = "the triad"):
     """Ellipsoid fit of one triad: (M symmetric, b) with |M (raw - b)| = R,
     robust (soft-L1 pass, rows beyond the robust threshold dropped, a final
     least-squares pass).  Returns (M, b, cov (12: M row-major, b; the
-    symmetric M's 6 free numbers mapped onto its 9 entries), info)."""
+    symmetric M's 6 free numbers mapped onto its 9 entries), info).
+    CalibrationError when the orientations do not determine the ellipsoid:
+    a singular normal matrix, or a fit that runs away (its corrected
+    readings point within a plane: SPHERE_RUNAWAY_EIG)."""
     raw = np.asarray(raw, float)
     n = len(raw)
     if n < min_rows:
         raise DataError(f"a fit of one triad without poses needs >= {min_rows} readings in varied orientations; "
                         f"the data have {n}")
     if start is None:
-        M0, b0 = ellipsoid_algebraic(raw, R)
+        M0, b0 = ellipsoid_algebraic(raw, R, what)
     else:
         M0, b0 = start
     x = np.concatenate([M0[np.triu_indices(3)], b0])
@@ -213,8 +231,16 @@ def fit_sphere(raw, R: float, sigma: float, min_rows: int = 10, start=None):
     JtJ = J.T @ J
     cn = np.sqrt(np.diag(JtJ))
     if not np.all(cn > 0) or np.linalg.cond(JtJ / np.outer(cn, cn)) > 1e12:  # scale-free: the geometry alone
-        raise CalibrationError("the orientations do not determine the triad's ellipsoid (they cover too little "
+        raise CalibrationError(f"the orientations do not determine {what}'s ellipsoid (they cover too little "
                                "of the sphere)")
+    spread = direction_spread((raw[keep] - x[6:9]) @ _sym(x[:6]).T)
+    if spread < SPHERE_RUNAWAY_EIG:
+        raise CalibrationError(
+            f"the orientations do not determine {what}'s ellipsoid: the fit runs away (its corrected readings point "
+            f"within one plane: spread {spread:.2g} < {SPHERE_RUNAWAY_EIG:g}; the readings as logged "
+            f"{direction_spread(raw[keep]):.2g}, 1/3 for every direction): the "
+            f"sensor was turned about one axis, or the motion's acceleration swamps the tilt out of that plane; "
+            f"log it turned about more than one axis (or give poses)")
     cov9 = s2 * np.linalg.inv(JtJ)
     T = np.zeros((12, 9))
     for k, (i, j) in enumerate(zip(*np.triu_indices(3))):

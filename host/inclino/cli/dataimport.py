@@ -31,6 +31,8 @@ def import_main(args) -> int:
         print(f"{args.output}: {rep.rows} rows ({what[rep.triads]}) from {args.log} through {desc.name}")
         for reason, n in rep.dropped.items():
             print(f"  dropped {n} row(s): {reason}")
+        for note in rep.notes:
+            print(f"  note: {note}")
         for line in found.lines(("warning", "note")):
             print(f"  {line}")
     return 0

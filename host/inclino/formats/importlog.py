@@ -18,6 +18,7 @@ resolution, noise, range) and what was dropped.
 from __future__ import annotations
 
 import csv
+import dataclasses
 import hashlib
 import math
 import os
@@ -50,6 +51,12 @@ class ImportReport:
     def to_dict(self) -> dict:
         return {"log": self.log, "sensor": self.sensor, "rows_read": self.rows_read, "rows": self.rows,
                 "dropped": self.dropped, "triads": self.triads, "notes": self.notes}
+
+
+# the canonical header keys a log's own '# key=value' lines carry into the dataset (the site and the run; never
+# the import's record of a description, which the import writes itself)
+LOG_META = ("field_nT", "dip_deg", "declination_deg", "gravity_g", "lat_deg", "lon_deg", "date", "probe_serial",
+            "samples_averaged", "start_utc")
 
 
 def _sha256(path: str) -> str:
@@ -152,8 +159,14 @@ def _import(lines, path: str, desc: SensorDescription, static, drop_bad=False) -
             break
     comment = desc.comment or None
     first = None
+    log_meta = {}  # a canonical header's '# key=value' lines before the names: the site's field, dip, ...
     for line in lines:
         if not line.strip() or (comment and line.lstrip().startswith(comment)):
+            body = line.strip()
+            if body.startswith("#") and "=" in body:
+                k, v = (t.strip() for t in body.lstrip("#").split("=", 1))
+                if k in LOG_META:
+                    log_meta[k] = dataset._meta_value(k, v, path, lines.lineno)
             continue
         first = line.rstrip("\r\n")
         break
@@ -165,6 +178,24 @@ def _import(lines, path: str, desc: SensorDescription, static, drop_bad=False) -
     names = _split(first, delim) if desc.has_header else None
     header_line = lines.lineno
     width = len(names) if names is not None else len(_split(first, delim))
+    width_min = width  # a header's trailing empty names (a delimiter after its last name) need no cell
+    while names is not None and width_min > 1 and not names[width_min - 1].strip():
+        width_min -= 1
+    notes = []
+    if names is not None and len(desc.triads) == 2:
+        stripped = {n.strip().lower() for n in names}
+        absent = [t for t in desc.triads if not any(
+            (c.lower() in stripped) if isinstance(c, str) else 1 <= c <= len(names) for c in t.columns)]
+        if len(absent) == 1:
+            section = "magnetometer" if absent[0].kind == "mag" else "accelerometer"
+            other = "accelerometer" if section == "magnetometer" else "magnetometer"
+            cols = ", ".join(str(c) for c in absent[0].columns)
+            if not desc.preset:  # the user's own description names the triad: the log does not have it
+                raise DataError(f"{path}:{header_line}: none of the [{section}] columns ({cols}) is in the log "
+                                f"(its columns: {', '.join(n.strip() for n in names[:20])}): a log of the {other} "
+                                f"alone? leave the [{section}] table out of the sensor description")
+            desc = dataclasses.replace(desc, **{absent[0].kind: None})
+            notes.append(f"no {section} columns ({cols}) in the log: the {other} alone is imported")
     wanted = {}  # canonical name -> (index, what)
     for t in desc.triads:
         cols = ACC_COLS if t.kind == "acc" else MAG_COLS
@@ -205,11 +236,17 @@ def _import(lines, path: str, desc: SensorDescription, static, drop_bad=False) -
         if not cells or all(not c.strip() for c in cells):
             return
         read += 1
-        if need >= len(cells):
+        # a row of another length than the header is a cut or garbled line (a value cut short, a decimal
+        # comma splitting one), even when the columns used are all there: never read by position; cells
+        # past the header's that are empty are trailing delimiters (an Arduino's print(",") after each value)
+        n = len(cells)
+        while n > width and not cells[n - 1].strip():
+            n -= 1
+        if need >= n or not width_min <= n <= width:
             if drop_bad:
                 bad_lines.append(lineno)
                 return
-            raise DataError(f"{path}:{lineno}: {len(cells)} cells, {first_row} has {width}"
+            raise DataError(f"{path}:{lineno}: {n} cells, {first_row} has {width}"
                             + (" (a decimal comma? use a point: 1.5)" if delim == "," else "") + drop_hint)
         for j, (c, vals) in keep_idx.items():
             if cells[j].strip() not in vals:
@@ -311,7 +348,7 @@ def _import(lines, path: str, desc: SensorDescription, static, drop_bad=False) -
         for k in ("inc_deg", "azi_deg", "tf_deg"):
             if k in col:
                 out[k] = col[k]
-    meta = {}
+    meta = dict(log_meta)  # the description's [header] below overrides the log's own
     for k, v in desc.header.items():
         if k not in dataset.META_KEYS or k in dataset.SENSOR_META:
             raise DataError(f"{desc.path or 'sensor description'}: [header].{k} is not a dataset header key "
@@ -332,7 +369,8 @@ def _import(lines, path: str, desc: SensorDescription, static, drop_bad=False) -
     ds = RawDataset(out, meta)
     # the values the canonical format's rules refuse (poses, temperature) are refused here too
     _check(ds, path)
-    rep = ImportReport(log=path, sensor=desc.name, rows_read=read, rows=len(ds), dropped=dropped, triads=ds.triads)
+    rep = ImportReport(log=path, sensor=desc.name, rows_read=read, rows=len(ds), dropped=dropped, triads=ds.triads,
+                       notes=notes)
     return ds, rep
 
 

@@ -196,6 +196,8 @@ class SensorDescription:
     source: str = ""
     text_sha256: str = ""
     path: str = ""
+    preset: str = ""                  # loaded as a preset by name (--sensor NAME, or the default): a triad
+                                      # whose columns are all absent from a log is left out (a one-triad log)
 
     @property
     def triads(self) -> tuple:
@@ -427,6 +429,8 @@ def load(spec: str) -> SensorDescription:
     d = from_toml(text, str(p))
     d.text_sha256 = hashlib.sha256(raw).hexdigest()
     d.path = str(p)
+    if p.parent == PRESET_DIR and p.stem == spec:
+        d.preset = spec
     return d
 
 
