@@ -17,7 +17,7 @@ quantisation), so that a null dataset is exactly the 12-parameter model plus
 noise.  The turntable's readout error is 0.05 deg (1 sigma) on each of
 inclination, azimuth and toolface, as in the calibration bench: the probe
 sits at the indicated pose plus that error while the dataset records the
-indicated pose.
+indicated pose (at a vertical pose a tilt either way: `true_pose`).
 
 `hide(effect, sensor, axis, value)` puts one library effect into the
 scenario through the emulator's own scenario tables (host/inclino/model/scenario.py),
