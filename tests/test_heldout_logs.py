@@ -218,3 +218,26 @@ def test_qmc5883l_log_warns_of_its_scale_and_calibrates(tmp_path, capsys):
     dataset.write_raw(str(run), ds)
     assert main(["calibrate", str(run), "-o", str(cal)]) in (0, 1)  # a verdict, not a refusal
     assert "magnetometer only" in capsys.readouterr().out
+
+
+def test_a_column_name_the_header_repeats_is_refused(tmp_path, capsys):
+    """RepoIMU's second header line names four columns X (the optical
+    quaternion's, the accelerometer's, the gyroscope's, the magnetometer's):
+    columns = ["X", "Y", "Z"] took the first, the quaternion, and the units
+    check then blamed the unit."""
+    lines = ["Time (s);Vicon Orientation;;;;IMU Acceleration;;;IMU Magnetometer;;;",
+             ";W;X;Y;Z;X;Y;Z;X;Y;Z;"]
+    rng = np.random.default_rng(4)
+    for i in range(60):
+        q = rng.normal(size=4)
+        q /= np.linalg.norm(q)
+        a = rng.normal(size=3)
+        a *= 9.81 / np.linalg.norm(a)
+        m = rng.normal(size=3)
+        lines.append(";".join(f"{x:.6g}" for x in [i / 100, *q, *a, *(m / np.linalg.norm(m))]) + ";")
+    desc = '[log]\ndelimiter = ";"\nskip_rows = 1\n[accelerometer]\ncolumns = ["X", "Y", "Z"]\nunit = "m/s2"\n'
+    rc, err, out = _import(tmp_path, lines, capsys, desc=desc)
+    assert rc == 2 and "'X' names 3 columns of the log (numbers 3, 6, 9)" in err and not out.exists(), err
+    by_number = desc.replace('["X", "Y", "Z"]', "[6, 7, 8]")
+    rc, err, out = _import(tmp_path, lines, capsys, desc=by_number)
+    assert rc == 0, err
