@@ -235,11 +235,12 @@ def fit_sphere(raw, R: float, sigma: float, min_rows: int = 10, start=None, what
                                "of the sphere)")
     spread = direction_spread((raw[keep] - x[6:9]) @ _sym(x[:6]).T)
     if spread < SPHERE_RUNAWAY_EIG:
+        swamp = "the motion's acceleration" if "accelerometer" in what else "the noise or a disturbance"
         raise CalibrationError(
             f"the orientations do not determine {what}'s ellipsoid: the fit runs away (its corrected readings point "
             f"within one plane: spread {spread:.2g} < {SPHERE_RUNAWAY_EIG:g}; the readings as logged "
             f"{direction_spread(raw[keep]):.2g}, 1/3 for every direction): the "
-            f"sensor was turned about one axis, or the motion's acceleration swamps the tilt out of that plane; "
+            f"sensor was turned about one axis, or {swamp} swamps the turn out of that plane; "
             f"log it turned about more than one axis (or give poses)")
     cov9 = s2 * np.linalg.inv(JtJ)
     T = np.zeros((12, 9))
