@@ -187,6 +187,29 @@ def test_bench_module_quick_set(capsys):
     assert {"real_injected_found", "real_false_alarms", "real_prediction"} <= set(d["met"])
 
 
+def test_bench_module_real_only_takes_its_seed_and_sizes(capsys, monkeypatch):
+    """--real-only --seed/--per-size/--nulls reach the real-data section as
+    its first seed, injections per effect and log, and resamplings per log
+    (the figures docs/diagnose.md quotes are printed by these options);
+    without them: seed 2024, 2 and 12."""
+    from inclino.benchmarks import diagnose_real
+
+    calls = []
+
+    def fake(**k):
+        calls.append(k)
+        return diagnose_real.RealDiagnoseBench(note="stub", passed=True)
+    monkeypatch.setattr(diagnose_real, "bench_real", fake)
+    assert cli_bench_diagnose.diagnose_main(["--real-only", "--seed", "777", "--per-size", "4", "--nulls", "40"]) == 0
+    assert cli_bench_diagnose.diagnose_main(["--real-only", "--json"]) == 0
+    assert calls == [dict(seeds=4, resamplings=40, seed0=777, quick=False),
+                     dict(seeds=2, resamplings=12, seed0=2024, quick=False)]
+    capsys.readouterr()
+    with pytest.raises(SystemExit) as e:
+        cli_bench_diagnose.diagnose_main(["--real-only", "--nulls", "-1"])
+    assert e.value.code == 2 and ">= 0" in capsys.readouterr().err
+
+
 def test_bench_module_near_limit_rates(capsys):
     """--near-limit: per effect, plan and size, the misses with what was
     named instead; below the threshold (z = 2) nothing is found, far above

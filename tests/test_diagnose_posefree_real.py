@@ -74,8 +74,9 @@ def test_tumbled_log_temperature_named_when_there_and_not_when_not(corpus, rng):
     """On CK's tumbled log (residuals with slow structure: a null temperature
     cycled 2.5 times gets F ~ 70-80 by chance) a temperature column the
     readings do not depend on names nothing tied to it, and a magnetometer
-    temperature bias injected at z = 12 of what the circular-shift test
-    sees is named."""
+    temperature bias injected at z = 12 of what its test sees (the level
+    of the log's slow structure at the temperature's timescale) is
+    named."""
     ds = corpus["ck/acc_mag_log.csv"]
     null = dr._with_nulls(ds, rng)
     null.columns.pop("tf_deg")
@@ -113,6 +114,58 @@ def test_slow_structure_under_white_noise_does_not_pass_for_a_temperature(corpus
         assert named(_broad_null(ds, seed)) == [], seed
     monkeypatch.setattr(serial, "GATE_P", 0.0)
     assert named(_broad_null(ds, 1)) != []
+
+
+def test_a_magnetometer_turned_by_hand_is_diagnosed_on_every_row(corpus, rng):
+    """BROAD's trial 05, magnetometer alone, no poses: the hand pauses, so
+    about 110 rows runs look still, but in directions that leave the model
+    undetermined (one of them alone fixes a parameter).  A magnetometer
+    reads the field whether it turns or not, so the rows read while turning
+    are readings like the held ones: an injected scale nonlinearity (the
+    benchmark's z = 12) is named, not set aside as resting on the motion
+    (which an accelerometer's holds still are: test_holds)."""
+    ds = corpus["broad/05"]
+    d, key, value = dr.inject(ds, "scale-nonlinearity", rng)
+    r = diagnose(d)
+    h = r.baseline["holds"]
+    assert h["step_and_hold"] and not h["moving_rows_left_out"] and h["leverage_max"] > 0.8
+    assert key in [f"{e.name}:{e.sensor}:{e.axis}" for e in r.effects], (key, r.confounded)
+    assert not [c for c in r.confounded if "share" in c]
+    assert "rows read while turning included" in " ".join(r.baseline["selection"]["notes"])
+
+
+def _broad02_temperature(ds, seed):
+    r = diagnose(_broad_null(ds, seed))
+    return [e.name for e in r.effects if e.name.startswith("temperature")], r
+
+
+def test_a_null_temperature_meets_the_slow_structure_of_a_hand_turned_log(corpus, monkeypatch):
+    """BROAD's trial 02 (magnetometer alone): its |b| residual wanders slowly
+    over the run, and a null temperature cycled 2.5 times takes part of that
+    at the right phase (6 of the 12 resamplings _broad_null(ds, 0..11) named
+    a magnetometer temperature term before the test against slow profiles).
+    Set against the same effect with generic slow profiles in reading order
+    at its timescale, it is not named; it is reported as confounded with
+    that slow structure.  With the test switched off, the same resamplings
+    name one."""
+    from inclino.diagnose import posefree
+
+    ds = corpus["broad/02"]
+    for seed in (0, 6):
+        named, r = _broad02_temperature(ds, seed)
+        assert named == [], (seed, named)
+        slow = [c for c in r.confounded if c["with"].startswith("slow structure")]
+        assert slow and all(not c["named"] and c["effect"].startswith("temperature") for c in slow)
+    monkeypatch.setattr(posefree, "_slow_rival", lambda *a, **k: {"p": 0.0, "inflation": 1.0})
+    assert _broad02_temperature(ds, 6)[0] != []
+
+
+def test_a_temperature_that_is_there_is_named_over_the_slow_structure(corpus, rng):
+    """The same trial 02 with a magnetometer temperature bias injected at
+    the benchmark's size (z = 12 of what its test sees: the slow
+    structure's level at the temperature's timescale): named, on its axis."""
+    d, key, value = dr.inject(corpus["broad/02"], "temperature-bias", rng)
+    assert key in [f"{e.name}:{e.sensor}:{e.axis}" for e in diagnose(d).effects], key
 
 
 def _imucal(tmp_path):

@@ -25,8 +25,13 @@ own invariants, backward pass; each candidate tested, and its own
 invariants pooled, with every invariant weighed by its noise with that
 candidate in the model).  Independent shots are held out one pose at a
 time; a serially correlated log is held out in K blocks, its held-out gain
-needed in all blocks but one, and a driven candidate (temperature, time, a
-rig angle) must also beat its driver shifted in time.  All on cluster means where several
+needed in all blocks but one, and a driven candidate must also beat what
+the log's slow structure gives any such driver: time or a rig angle its
+own values shifted in time (a circular-shift test), a temperature the
+same effect driven by generic slow profiles in reading order at the
+temperature's own timescale (_slow_rival: a line against its continuum;
+where it cannot, the candidate is listed as confounded with that slow
+structure, not named).  All on cluster means where several
 rows share a pose (calib.covariance.cluster_labels): hundreds of readings
 at one face are one observation of that face, not hundreds.  What needs
 the poses is listed as such: the turntable's own errors, a declination
@@ -87,8 +92,11 @@ class _PF:
                 lab = np.cumsum(new) - 1
         # no pose, no pose id: the readings' own static holds (inclino.holds) are the poses of a step-and-hold
         # log when they determine the model; the rows read while moving between them are then left out.  Holds
-        # in too few directions (a six-face session) leave every row a pose of its own, and every effect named
-        # is then confounded with the motion
+        # in too few directions (a six-face session) leave every row a pose of its own; with an accelerometer,
+        # every effect named is then confounded with the motion (its acceleration is in |g| and the dip).  A
+        # magnetometer alone reads the field whether it turns or not (a delay common to its axes keeps |b|):
+        # its rows read while turning are readings like the held ones, and a hand that pauses at a few
+        # orientations (BROAD's trial 05: 109 holds, most with z down) does not make them suspect
         self.holds = None
         sel = np.ones(n0, bool)
         from inclino import holds as _holds
@@ -499,7 +507,8 @@ def diagnose_posefree(ds: RawDataset, alpha: float = DEFAULT_ALPHA, folds: int =
     blockwise = serial["rho"] >= SHIFT_TEST_RHO
 
     def shift_tested(rec) -> bool:
-        """Whether a driven candidate also needs the circular-shift test, from
+        """Whether a driven candidate also needs the circular-shift test (a
+        temperature: the test against slow profiles, _slow_rival), from
         the record of its Bartlett factor (serial.factor): on a log whose
         neighbouring rows correlate, or whose residual, with the candidate in
         the model, still shares its slow part (a hand-turned IMU under a large
@@ -541,10 +550,15 @@ def diagnose_posefree(ds: RawDataset, alpha: float = DEFAULT_ALPHA, folds: int =
             # slow structure in its residuals, as a tumbled one, gives any smooth driver a large F by chance:
             # a null temperature cycled 2.5 times reaches F ~ 70-80 on CK's log, where the lag-1 correlation
             # alone says 6)
-            infl = max(infl, _shift_p(mdl, state, des, base, key, len(cols), None))
+            if key.split(":")[0] in SLOW_DRIVERS:
+                # a temperature: the level of the slow structure at its timescale (_slow_rival)
+                infl = max(infl, _slow_rival(mdl, state, des, base, key, len(cols), order_t)["inflation"])
+            else:
+                infl = max(infl, _shift_p(mdl, state, des, base, key, len(cols), None))
         return float(np.sqrt(max(ws @ Rcc @ ws, 0.0) / infl))
     own = {kk: _own_chan(kk, chans) for kk in testable}
     kept, steps, pvals = [], [], {}
+    slow_confounds = {}
     remaining = list(testable)
     if _signature == "debug":
         return {kk: des.ftest(base, idx[kk]) for kk in testable}
@@ -593,11 +607,30 @@ def diagnose_posefree(ds: RawDataset, alpha: float = DEFAULT_ALPHA, folds: int =
                 better = K
             if (kk.split(":")[0] in DRIVEN and cv1 < cv0 and o1 < o0 and better >= K - 1
                     and shift_tested(d1.serial_record(S, idx[kk]))):
-                ps = _shift_p(mdl, state, des, S, kk, ncol[kk], alpha / len(remaining))
-                if ps >= alpha / len(remaining):
+                # a temperature is set against the same effect with generic slow profiles at its timescale
+                # (_slow_rival); time itself and a rig angle against their own circular shifts (_shift_p): a
+                # temperature cycled 2.5 times, rolled, is about the same sinusoid again, and the shifts far
+                # enough from it are its quadrature phase only, where an effect's own leakage counts as null
+                rv = (_slow_rival(mdl, state, des, S, kk, ncol[kk], order_t) if kk.split(":")[0] in SLOW_DRIVERS
+                      else None)
+                ps = None if rv else _shift_p(mdl, state, des, S, kk, ncol[kk], alpha / len(remaining))
+                if ps is not None and ps >= alpha / len(remaining):
                     steps.append({"effect": kk, "p": p, "p_circular_shift": ps, "kept": False,
                                   "why": "its driver shifted in time explains the data as well (circular-shift "
                                          "test: the log's rows are serially correlated)"})
+                    continue
+                if rv and rv["p"] >= alpha / len(remaining):
+                    steps.append({"effect": kk, "p": p, "slow_structure": rv, "kept": False,
+                                  "why": f"the same effect with a generic slow profile in {pf.time_name} (1-"
+                                         f"{2 * rv['half_cycles']} half-cycles over the run) takes about as much: "
+                                         f"p = {rv['p']:.2g} against that level"})
+                    slow_confounds[kk] = {"effect": kk, "with": f"slow structure in {pf.time_name} at its driver's "
+                                                               f"timescale ({rv['half_cycles']} half-cycles over the "
+                                                               f"run)",
+                                          "correlation": rv["correlation"], "named": False, "slow_structure": rv,
+                                          "separate_by": "a driver that does not follow the reading order's slow "
+                                                         "course: cycle it faster than the run's slow structure, or "
+                                                         "hold the probe still (a static log) while it changes"}
                     continue
             # every held-out block but one must gain: on a log whose neighbouring rows share their errors (a
             # probe turned by hand) a small gain on the pooled blocks can come from one or two of them.  Shots
@@ -691,6 +724,7 @@ def diagnose_posefree(ds: RawDataset, alpha: float = DEFAULT_ALPHA, folds: int =
             if rc >= 0.9:
                 confounded.append({"effect": kk, "with": jj, "correlation": rc, "named": True,
                                    "separate_by": _separate(kk, jj, pf)})
+    confounded += [c for kk, c in slow_confounds.items() if kk not in kept]
     if serial["rho"] >= MOVING_RHO and not _declared_static(ds):
         for kk in kept:
             confounded.append({"effect": kk, "with": "the motion between neighbouring rows", "correlation": serial["rho"],
@@ -698,7 +732,7 @@ def diagnose_posefree(ds: RawDataset, alpha: float = DEFAULT_ALPHA, folds: int =
                                "separate_by": "a static log: hold each orientation still while it is read (or declare "
                                               "the run static if it is), so that motion and sampling between the "
                                               "axes stop shaping the invariants"})
-    if pf.holds and not pf.holds["moving_rows_left_out"] and not _declared_static(ds):
+    if pf.holds and not pf.holds["moving_rows_left_out"] and pf.has_acc and not _declared_static(ds):
         # a step-and-hold log whose holds do not determine the model: what the selection found rests on the rows
         # read while moving, whose acceleration no sensor effect models: not named (a second view, the holds
         # alone, cannot confirm it)
@@ -775,6 +809,11 @@ def _hold_notes(pf) -> list:
         return [f"no poses: {h['holds']} static holds found in the readings ({h['rows_held']} rows, each hold one "
                 f"pose); the {h['rows_moving']} rows read while moving between them are left out (their motion's "
                 f"acceleration is no sensor effect)"]
+    if not pf.has_acc:
+        return [f"no poses: {h['holds']} static holds found in the readings ({h['rows_held']} rows), but alone they "
+                f"leave the model undetermined (a hold's leverage {h['leverage_max']:.2f}: too few, or too few "
+                f"directions); so every row counts as a pose, the {h['rows_moving']} rows read while turning "
+                f"included (a magnetometer reads the field whether it turns or not: no motion in |b|)"]
     return [f"no poses: {h['holds']} static holds found in the readings ({h['rows_held']} rows), but alone they leave "
             f"the model undetermined (a hold's leverage {h['leverage_max']:.2f}: too few, or too few directions); so "
             f"every row counts as a pose, and what the {h['rows_moving']} rows read while moving show is confounded "
@@ -993,3 +1032,120 @@ def _structure(pf, R, rows, chans, alpha) -> dict:
     return {"alpha": alpha, "tests": m, "threshold": thr, "min_p": p, "worst": {"channel": ch, "test": fam},
             "unexplained": bool(p < thr), "significant": [{"channel": c, "test": f, "p": q}
                                                            for q, c, f in sorted(tests) if q < thr]}
+
+
+SLOW_RIVALS_MAX = 40  # rival timescales at most (a driver without a slow course has no slow structure to meet)
+SLOW_DRIVERS = {"temperature-bias": "temp", "temperature-scale": "temp"}
+
+
+def _half_cycles(d, order) -> int:
+    """The driver's timescale in reading order: the number of half-cycles
+    (DCT-II index) at which the cumulative power of its detrended values, in
+    that order, reaches half (a ramp 1, a temperature cycled 2.5 times 5)."""
+    z = np.asarray(d, float)[order]
+    z = z - z.mean()
+    k = len(z)
+    if k < 4 or not np.any(z):
+        return 0
+    from scipy.fft import dct
+
+    c = dct(z, type=2, norm="ortho")[1:] ** 2
+    return int(np.searchsorted(np.cumsum(c) / c.sum(), 0.5) + 1)
+
+
+def _slow_rival(mdl, state, des, S, key, n, order) -> dict:
+    """The test of candidate `key` (a temperature term) against the slow
+    structure in reading order at its driver's own timescale: the driver is
+    replaced by a sinusoid of 1 .. 2 h half-cycles over the run in reading
+    order (h: the driver's own, _half_cycles), its phase free (two columns),
+    and what each such rival takes from the residual of the model S, per
+    degree of freedom, is the level of the slow structure the same effect
+    would meet with a generic profile at that timescale.  The driver's own
+    gain is set against their mean (a line against its continuum:
+    Thomson's harmonic F-test, with rivals for the neighbouring
+    frequencies): F(1, the rivals' degrees of freedom).  The rivals are
+    measured beyond the driver (its signature taken off them and the
+    residual): an effect that is there is not counted as structure, and
+    the rival at the driver's own timescale measures its quadrature.
+    A log read while moving carries slow structure of its own (the probe
+    carried through a field that changes in space, an offset that creeps
+    while the hand holds it): a smooth driver at the right phase takes part
+    of it, about as much as the rivals take.  Returns {"p", "inflation"
+    (the rivals' mean gain per degree of freedom over the residual
+    variance), "rivals", "dof", "half_cycles" (the driver's), "best"
+    (the half-cycles of the rival that takes most per degree of freedom),
+    "correlation" (the driver's signature with the span of the rival
+    closest to it: near 1 at its own timescale)}."""
+    pf = mdl.pf
+    attr = SLOW_DRIVERS.get(key.split(":")[0])
+    out = {"p": 0.0, "inflation": 1.0, "rivals": 0, "dof": 0, "half_cycles": 0, "best": 0, "correlation": 0.0}
+    if attr is None or getattr(pf, attr) is None:
+        return out
+    orig = getattr(pf, attr)
+    h = _half_cycles(orig, order)
+    if h < 1:
+        return out
+    keep = des.rows
+    W = np.diagonal(_weights_of(des), axis1=1, axis2=2)[keep]
+    Xs = des.whitened(S, keep).reshape(-1, len(S))
+    y = des.yw[keep].ravel()
+    Q, _ = np.linalg.qr(Xs)
+    ry = y - Q @ (Q.T @ y)
+    rss0 = float(ry @ ry)
+
+    def sig():
+        x = (mdl.cand_columns(state["v"], state["theta"], key, n)[keep] * W[:, :, None]).reshape(-1, n)
+        return x - Q @ (Q.T @ x)
+
+    def gain(x, r, scale=None):
+        """the gain of the columns x on r, and their rank (relative to `scale`, the columns' norm before a
+        projection took them off something)"""
+        sv = np.linalg.svd(x, compute_uv=False)
+        top = float(np.max(np.linalg.norm(x, axis=0))) if scale is None else scale
+        q = int(np.sum(sv > 1e-6 * max(top, 1e-300)))
+        if q == 0:
+            return 0.0, 0
+        c = np.linalg.lstsq(x, r, rcond=1e-6 * max(top, 1e-300) / max(sv[0], 1e-300))[0]
+        return float(r @ (x @ c)), q
+    xd = sig()
+    gd, qd = gain(xd, ry)
+    # the rivals are measured beyond the driver (its signature taken off them and off the residual), as the
+    # serial factor is on the residual with the candidate in the model: a driver that is there is not
+    # counted as structure, and a rival at its own timescale measures the structure in its quadrature
+    Qd, _ = np.linalg.qr(xd)
+    rd = ry - Qd @ (Qd.T @ ry)
+    tau = np.empty(pf.k)
+    tau[order] = (np.arange(pf.k) + 0.5) / pf.k
+    a = np.std(orig) * np.sqrt(2.0)
+    d = xd.ravel()
+    gains, dofs, best, cmax = [], [], (-1.0, 0, 0.0), 0.0
+    try:
+        for j in range(1, min(2 * h, SLOW_RIVALS_MAX) + 1):
+            xr = []
+            for f in (np.cos, np.sin):
+                setattr(pf, attr, orig.mean() + a * f(np.pi * j * tau))
+                xr.append(sig())
+            xr = np.column_stack(xr)
+            Qr, _ = np.linalg.qr(xr)
+            corr = float(np.sqrt(np.sum((Qr.T @ d) ** 2) / max(d @ d, 1e-300)))
+            cmax = max(cmax, corr)
+            g, q = gain(xr - Qd @ (Qd.T @ xr), rd, float(np.max(np.linalg.norm(xr, axis=0))))
+            if q == 0:
+                continue
+            gains.append(g)
+            dofs.append(q)
+            if g / q > best[0]:
+                best = (g / q, j, corr)
+    finally:
+        setattr(pf, attr, orig)
+    dof = len(y) - Q.shape[1] - qd
+    if not gains or qd == 0 or dof <= 0:
+        return dict(out, half_cycles=h)
+    s2 = max(rss0 - gd, 1e-300) / dof
+    level = sum(gains) / sum(dofs)
+    infl = max(1.0, level / s2)
+    F = (gd / qd) / (s2 * infl)
+    q2 = float(sum(dofs)) if infl > 1.0 else float(dof)
+    return {"p": float(stats.f.sf(F, qd, q2)), "inflation": infl, "rivals": len(gains), "dof": q2,
+            "half_cycles": h, "best": int(best[1]), "correlation": float(cmax)}
+
