@@ -684,8 +684,10 @@ def _holds_note(ds, rep):
     if h.step_and_hold and h.rows_moving >= HOLDS_MOVING_NOTE * len(ds):
         rep.findings.append(Finding("motion", "note", (
             f"step-and-hold: {h.count} static holds found in the readings ({h.rows_held} rows), {h.rows_moving} rows "
-            f"read while moving between them (a hand or a motor turning the sensor): their acceleration is no "
-            f"sensor effect; label the holds' poses ([poses] in the sensor description) to fit against them"), None,
+            f"read while moving between them (a hand or a motor turning the sensor): "
+            + ("their acceleration is no sensor effect" if ds.has_acc else
+               "a magnetometer reads the field while it turns too, so they are readings like the held ones")
+            + "; label the holds' poses ([poses] in the sensor description) to fit against them"), None,
             {"holds": h.count, "rows_held": h.rows_held, "rows_moving": h.rows_moving}))
 
 
