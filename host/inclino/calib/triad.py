@@ -29,8 +29,9 @@ SEGMENT_GAP = 2            # misfitting rows at most this far apart belong to on
 SEGMENT_MIN_DENSITY = 0.8  # ... and a segment is a run where most rows misfit
 # An ellipsoid fit without poses whose corrected readings point within a plane (the least eigenvalue of their
 # directions' second moment below this; 1/3 for readings spread evenly over the sphere, 0 for one plane) has run
-# away: orientations near one great circle leave the ellipsoid free across it (a cylinder, a flat disc or a far
-# centre fits the circle as well as the sphere), and the motion's acceleration or the noise picks one of them.
+# away: orientations near one circle (a great or a small one) leave the ellipsoid free across it (a cylinder, a
+# flat disc or a far centre fits the circle as well as the sphere), and the motion's acceleration or the noise
+# picks one of them.
 # The report's verdict already fails below 0.02 (calib.report THRESHOLDS["coverage_min_eig"]); this far below it
 # the coefficients are not a calibration at all (offsets of hundreds of g on a hand-turned log: RepoIMU's T-stick).
 SPHERE_RUNAWAY_EIG = 0.005
