@@ -218,3 +218,54 @@ def test_qmc5883l_log_warns_of_its_scale_and_calibrates(tmp_path, capsys):
     dataset.write_raw(str(run), ds)
     assert main(["calibrate", str(run), "-o", str(cal)]) in (0, 1)  # a verdict, not a refusal
     assert "magnetometer only" in capsys.readouterr().out
+
+
+def test_a_column_name_the_header_repeats_is_refused(tmp_path, capsys):
+    """RepoIMU's second header line names four columns X (the optical
+    quaternion's, the accelerometer's, the gyroscope's, the magnetometer's):
+    columns = ["X", "Y", "Z"] took the first, the quaternion, and the units
+    check then blamed the unit."""
+    lines = ["Time (s);Vicon Orientation;;;;IMU Acceleration;;;IMU Magnetometer;;;",
+             ";W;X;Y;Z;X;Y;Z;X;Y;Z;"]
+    rng = np.random.default_rng(4)
+    for i in range(60):
+        q = rng.normal(size=4)
+        q /= np.linalg.norm(q)
+        a = rng.normal(size=3)
+        a *= 9.81 / np.linalg.norm(a)
+        m = rng.normal(size=3)
+        lines.append(";".join(f"{x:.6g}" for x in [i / 100, *q, *a, *(m / np.linalg.norm(m))]) + ";")
+    desc = '[log]\ndelimiter = ";"\nskip_rows = 1\n[accelerometer]\ncolumns = ["X", "Y", "Z"]\nunit = "m/s2"\n'
+    rc, err, out = _import(tmp_path, lines, capsys, desc=desc)
+    assert rc == 2 and "'X' names 3 columns of the log (numbers 3, 6, 9)" in err and not out.exists(), err
+    by_number = desc.replace('["X", "Y", "Z"]', "[6, 7, 8]")
+    rc, err, out = _import(tmp_path, lines, capsys, desc=by_number)
+    assert rc == 0, err
+
+
+def test_diagnose_names_nothing_on_orientations_the_calibration_refuses(tmp_path, capsys):
+    """A compass turned by hand in the horizontal plane (a few degrees of
+    tilt; nliaudat/magnetometer_calibration's sample is such a log): the
+    calibration refuses it, the orientations leave the ellipsoid free across
+    the plane, and the pose-free diagnosis named a magnetometer z scale
+    nonlinearity (p = 4e-13) that the linear sensor drawn here does not
+    have.  It now names nothing, and says why."""
+    rng = np.random.default_rng(7)
+    n = 240
+    psi = np.cumsum(rng.uniform(0.02, 0.08, n)) * 2 * np.pi / (0.05 * n) * 2
+    tilt = np.radians(5.0) * np.sin(0.3 * np.arange(n))
+    bw = 48000.0 * np.array([np.cos(np.radians(60)), 0.0, np.sin(np.radians(60))])
+    rows = []
+    for p, t in zip(psi, tilt):
+        c, s = np.cos(p), np.sin(p)
+        ct, st = np.cos(t), np.sin(t)
+        rows.append(np.array([[1, 0, 0], [0, ct, st], [0, -st, ct]]) @ np.array([[c, s, 0], [-s, c, 0], [0, 0, 1]]) @ bw)
+    b = np.array(rows) @ np.diag([1.05, 0.97, 1.0]).T + [3000, -2000, 1500] + rng.normal(0, 100, (n, 3))
+    run = tmp_path / "compass.csv"
+    _write(run, dataset.MAG_COLS, b)
+    assert main(["calibrate", str(run), "-o", str(tmp_path / "cal.json")]) in (2, 3)
+    capsys.readouterr()
+    assert main(["diagnose", str(run)]) == 0
+    out = capsys.readouterr().out
+    assert "effects found: none" in out and "misses scale-nonlinearity" not in out, out
+    assert "not named: scale-nonlinearity (mag z)" in out and "the calibration refuses these data" in out

@@ -29,8 +29,9 @@ SEGMENT_GAP = 2            # misfitting rows at most this far apart belong to on
 SEGMENT_MIN_DENSITY = 0.8  # ... and a segment is a run where most rows misfit
 # An ellipsoid fit without poses whose corrected readings point within a plane (the least eigenvalue of their
 # directions' second moment below this; 1/3 for readings spread evenly over the sphere, 0 for one plane) has run
-# away: orientations near one great circle leave the ellipsoid free across it (a cylinder, a flat disc or a far
-# centre fits the circle as well as the sphere), and the motion's acceleration or the noise picks one of them.
+# away: orientations near one circle (a great or a small one) leave the ellipsoid free across it (a cylinder, a
+# flat disc or a far centre fits the circle as well as the sphere), and the motion's acceleration or the noise
+# picks one of them.
 # The report's verdict already fails below 0.02 (calib.report THRESHOLDS["coverage_min_eig"]); this far below it
 # the coefficients are not a calibration at all (offsets of hundreds of g on a hand-turned log: RepoIMU's T-stick).
 SPHERE_RUNAWAY_EIG = 0.005
@@ -235,11 +236,12 @@ def fit_sphere(raw, R: float, sigma: float, min_rows: int = 10, start=None, what
                                "of the sphere)")
     spread = direction_spread((raw[keep] - x[6:9]) @ _sym(x[:6]).T)
     if spread < SPHERE_RUNAWAY_EIG:
+        swamp = "the motion's acceleration" if "accelerometer" in what else "the noise or a disturbance"
         raise CalibrationError(
             f"the orientations do not determine {what}'s ellipsoid: the fit runs away (its corrected readings point "
             f"within one plane: spread {spread:.2g} < {SPHERE_RUNAWAY_EIG:g}; the readings as logged "
             f"{direction_spread(raw[keep]):.2g}, 1/3 for every direction): the "
-            f"sensor was turned about one axis, or the motion's acceleration swamps the tilt out of that plane; "
+            f"sensor was turned about one axis, or {swamp} swamps the turn out of that plane; "
             f"log it turned about more than one axis (or give poses)")
     cov9 = s2 * np.linalg.inv(JtJ)
     T = np.zeros((12, 9))
