@@ -269,3 +269,35 @@ def test_diagnose_names_nothing_on_orientations_the_calibration_refuses(tmp_path
     out = capsys.readouterr().out
     assert "effects found: none" in out and "misses scale-nonlinearity" not in out, out
     assert "not named: scale-nonlinearity (mag z)" in out and "the calibration refuses these data" in out
+
+
+def test_a_drifting_hand_held_orientation_counts_once_in_the_covariance():
+    """Each orientation held by a hand that drifts 1.5 deg while it holds:
+    the hold finder cuts it where it has turned 0.5 deg, so one orientation
+    became several holds, and the covariance counted each as independent
+    (the MPU-6050 session: 55 holds of about 16 orientations).  The stated
+    sigmas must be at least those of the fit to the orientations' own means
+    (the rows of one orientation share its placement error here)."""
+    from inclino.calib import fit
+
+    rng = np.random.default_rng(12)
+    k, per = 20, 300
+    u = rng.normal(size=(k, 3))
+    u /= np.linalg.norm(u, axis=1, keepdims=True)
+    rows, pos = [], []
+    for i, d in enumerate(u):
+        axis = np.cross(d, rng.normal(size=3))
+        axis /= np.linalg.norm(axis)
+        ang = np.radians(np.linspace(0.0, 1.5, per))[:, None]
+        v = d * np.cos(ang) + np.cross(axis, d) * np.sin(ang)  # the hand drifting about an axis across d
+        rows.append(v + rng.normal(0, 0.004, 3) + rng.normal(0, 5e-4, (per, 3)))  # placement error, noise
+        pos += [i] * per
+    raw = np.vstack(rows) @ np.diag([1.02, 0.98, 1.01]).T + np.array([0.02, -0.03, 0.05])
+    pos = np.array(pos)
+    ds = dataset.RawDataset(dict(zip(dataset.ACC_COLS, raw.T)), {})
+    _, rep = fit(ds, "joint")
+    means = np.array([raw[pos == i].mean(0) for i in range(k)])
+    _, _, cov_true, _ = triad.fit_sphere(means, 1.0, 1e-3, min_rows=12)
+    sig = rep.uncertainty["sigma"]
+    for i, name in enumerate(("acc_b0", "acc_b1", "acc_b2")):
+        assert sig[name] >= 0.7 * np.sqrt(cov_true[9 + i, 9 + i]), (name, sig[name], np.sqrt(cov_true[9 + i, 9 + i]))
