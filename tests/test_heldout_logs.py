@@ -218,3 +218,86 @@ def test_qmc5883l_log_warns_of_its_scale_and_calibrates(tmp_path, capsys):
     dataset.write_raw(str(run), ds)
     assert main(["calibrate", str(run), "-o", str(cal)]) in (0, 1)  # a verdict, not a refusal
     assert "magnetometer only" in capsys.readouterr().out
+
+
+def test_a_column_name_the_header_repeats_is_refused(tmp_path, capsys):
+    """RepoIMU's second header line names four columns X (the optical
+    quaternion's, the accelerometer's, the gyroscope's, the magnetometer's):
+    columns = ["X", "Y", "Z"] took the first, the quaternion, and the units
+    check then blamed the unit."""
+    lines = ["Time (s);Vicon Orientation;;;;IMU Acceleration;;;IMU Magnetometer;;;",
+             ";W;X;Y;Z;X;Y;Z;X;Y;Z;"]
+    rng = np.random.default_rng(4)
+    for i in range(60):
+        q = rng.normal(size=4)
+        q /= np.linalg.norm(q)
+        a = rng.normal(size=3)
+        a *= 9.81 / np.linalg.norm(a)
+        m = rng.normal(size=3)
+        lines.append(";".join(f"{x:.6g}" for x in [i / 100, *q, *a, *(m / np.linalg.norm(m))]) + ";")
+    desc = '[log]\ndelimiter = ";"\nskip_rows = 1\n[accelerometer]\ncolumns = ["X", "Y", "Z"]\nunit = "m/s2"\n'
+    rc, err, out = _import(tmp_path, lines, capsys, desc=desc)
+    assert rc == 2 and "'X' names 3 columns of the log (numbers 3, 6, 9)" in err and not out.exists(), err
+    by_number = desc.replace('["X", "Y", "Z"]', "[6, 7, 8]")
+    rc, err, out = _import(tmp_path, lines, capsys, desc=by_number)
+    assert rc == 0, err
+
+
+def test_diagnose_names_nothing_on_orientations_the_calibration_refuses(tmp_path, capsys):
+    """A compass turned by hand in the horizontal plane (a few degrees of
+    tilt; nliaudat/magnetometer_calibration's sample is such a log): the
+    calibration refuses it, the orientations leave the ellipsoid free across
+    the plane, and the pose-free diagnosis named a magnetometer z scale
+    nonlinearity (p = 4e-13) that the linear sensor drawn here does not
+    have.  It now names nothing, and says why."""
+    rng = np.random.default_rng(7)
+    n = 240
+    psi = np.cumsum(rng.uniform(0.02, 0.08, n)) * 2 * np.pi / (0.05 * n) * 2
+    tilt = np.radians(5.0) * np.sin(0.3 * np.arange(n))
+    bw = 48000.0 * np.array([np.cos(np.radians(60)), 0.0, np.sin(np.radians(60))])
+    rows = []
+    for p, t in zip(psi, tilt):
+        c, s = np.cos(p), np.sin(p)
+        ct, st = np.cos(t), np.sin(t)
+        rows.append(np.array([[1, 0, 0], [0, ct, st], [0, -st, ct]]) @ np.array([[c, s, 0], [-s, c, 0], [0, 0, 1]]) @ bw)
+    b = np.array(rows) @ np.diag([1.05, 0.97, 1.0]).T + [3000, -2000, 1500] + rng.normal(0, 100, (n, 3))
+    run = tmp_path / "compass.csv"
+    _write(run, dataset.MAG_COLS, b)
+    assert main(["calibrate", str(run), "-o", str(tmp_path / "cal.json")]) in (2, 3)
+    capsys.readouterr()
+    assert main(["diagnose", str(run)]) == 0
+    out = capsys.readouterr().out
+    assert "effects found: none" in out and "misses scale-nonlinearity" not in out, out
+    assert "not named: scale-nonlinearity (mag z)" in out and "the calibration refuses these data" in out
+
+
+def test_a_drifting_hand_held_orientation_counts_once_in_the_covariance():
+    """Each orientation held by a hand that drifts 1.5 deg while it holds:
+    the hold finder cuts it where it has turned 0.5 deg, so one orientation
+    became several holds, and the covariance counted each as independent
+    (the MPU-6050 session: 55 holds of about 16 orientations).  The stated
+    sigmas must be at least those of the fit to the orientations' own means
+    (the rows of one orientation share its placement error here)."""
+    from inclino.calib import fit
+
+    rng = np.random.default_rng(12)
+    k, per = 20, 300
+    u = rng.normal(size=(k, 3))
+    u /= np.linalg.norm(u, axis=1, keepdims=True)
+    rows, pos = [], []
+    for i, d in enumerate(u):
+        axis = np.cross(d, rng.normal(size=3))
+        axis /= np.linalg.norm(axis)
+        ang = np.radians(np.linspace(0.0, 1.5, per))[:, None]
+        v = d * np.cos(ang) + np.cross(axis, d) * np.sin(ang)  # the hand drifting about an axis across d
+        rows.append(v + rng.normal(0, 0.004, 3) + rng.normal(0, 5e-4, (per, 3)))  # placement error, noise
+        pos += [i] * per
+    raw = np.vstack(rows) @ np.diag([1.02, 0.98, 1.01]).T + np.array([0.02, -0.03, 0.05])
+    pos = np.array(pos)
+    ds = dataset.RawDataset(dict(zip(dataset.ACC_COLS, raw.T)), {})
+    _, rep = fit(ds, "joint")
+    means = np.array([raw[pos == i].mean(0) for i in range(k)])
+    _, _, cov_true, _ = triad.fit_sphere(means, 1.0, 1e-3, min_rows=12)
+    sig = rep.uncertainty["sigma"]
+    for i, name in enumerate(("acc_b0", "acc_b1", "acc_b2")):
+        assert sig[name] >= 0.7 * np.sqrt(cov_true[9 + i, 9 + i]), (name, sig[name], np.sqrt(cov_true[9 + i, 9 + i]))

@@ -233,7 +233,10 @@ def run() -> RealDataBench:
     # halves of at least MIN_HALF_ROWS positions (3 a parameter of the ellipsoid): the 24-shot SAP6 logs
     # cannot be halved (12 shots on a few circles do not determine an ellipsoid)
     logs = [("ck_acc_mag/acc_mag_log.csv", "ck_acc_mag/sensor.toml", False),
-            ("ck_acc_mag/acc_log.csv", "ck_acc_mag/acc_only.toml", False)]
+            ("ck_acc_mag/acc_log.csv", "ck_acc_mag/acc_only.toml", False),
+            # an MPU-6050 held by hand at one orientation after another (its holds alone do not determine the
+            # ellipsoid: every row is fitted)
+            ("mpu6050_tedaldi/example_data_calibration.csv", "mpu6050_tedaldi/sensor.toml", False)]
     for log, desc, static in logs:
         ds, _ = importlog.import_log(str(root / log), sensor.load(str(root / desc)))
         out.results.append(held_out(ds, log, "as logged", static))

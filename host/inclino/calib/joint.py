@@ -586,7 +586,7 @@ def _fit_invariants(ds, w, sa, sm, fix_dip, prior=None, mount_tolerance_deg=None
             raw = getattr(dsf, t)
             try:
                 _, _, c_rows, _ = triad.fit_sphere(raw[kt], R, sig, min_rows=12)
-            except DataError:
+            except (DataError, CalibrationError):
                 scale.append(1.0)
                 continue
             hc = triad.hold_covariance(raw, lab, kt, R, sig)

@@ -29,8 +29,9 @@ SEGMENT_GAP = 2            # misfitting rows at most this far apart belong to on
 SEGMENT_MIN_DENSITY = 0.8  # ... and a segment is a run where most rows misfit
 # An ellipsoid fit without poses whose corrected readings point within a plane (the least eigenvalue of their
 # directions' second moment below this; 1/3 for readings spread evenly over the sphere, 0 for one plane) has run
-# away: orientations near one great circle leave the ellipsoid free across it (a cylinder, a flat disc or a far
-# centre fits the circle as well as the sphere), and the motion's acceleration or the noise picks one of them.
+# away: orientations near one circle (a great or a small one) leave the ellipsoid free across it (a cylinder, a
+# flat disc or a far centre fits the circle as well as the sphere), and the motion's acceleration or the noise
+# picks one of them.
 # The report's verdict already fails below 0.02 (calib.report THRESHOLDS["coverage_min_eig"]); this far below it
 # the coefficients are not a calibration at all (offsets of hundreds of g on a hand-turned log: RepoIMU's T-stick).
 SPHERE_RUNAWAY_EIG = 0.005
@@ -235,11 +236,12 @@ def fit_sphere(raw, R: float, sigma: float, min_rows: int = 10, start=None, what
                                "of the sphere)")
     spread = direction_spread((raw[keep] - x[6:9]) @ _sym(x[:6]).T)
     if spread < SPHERE_RUNAWAY_EIG:
+        swamp = "the motion's acceleration" if "accelerometer" in what else "the noise or a disturbance"
         raise CalibrationError(
             f"the orientations do not determine {what}'s ellipsoid: the fit runs away (its corrected readings point "
             f"within one plane: spread {spread:.2g} < {SPHERE_RUNAWAY_EIG:g}; the readings as logged "
             f"{direction_spread(raw[keep]):.2g}, 1/3 for every direction): the "
-            f"sensor was turned about one axis, or the motion's acceleration swamps the tilt out of that plane; "
+            f"sensor was turned about one axis, or {swamp} swamps the turn out of that plane; "
             f"log it turned about more than one axis (or give poses)")
     cov9 = s2 * np.linalg.inv(JtJ)
     T = np.zeros((12, 9))
@@ -254,10 +256,17 @@ def fit_sphere(raw, R: float, sigma: float, min_rows: int = 10, start=None, what
                        "noise": float(np.sqrt(s2) * sigma), "mode": "invariants", "cov9": cov9}
 
 
+# neighbouring holds whose mean directions differ by less than this are one orientation held by a hand that
+# drifts (the hold finder cuts a run where it turns by 0.5 deg): their errors are shared, one cluster
+HOLD_MERGE_DEG = 1.0
+
+
 def hold_covariance(raw, labels, keep, R, sigma):
     """The ellipsoid fit to the holds' mean readings (rows kept by the row
     fit): its covariance, scaled by the means' own scatter, counts each
-    hold once.  None when too few holds keep a row."""
+    hold once -- and neighbouring holds within HOLD_MERGE_DEG of each other
+    once together, when that leaves at least 12 (the larger covariance of
+    the two).  None when too few holds keep a row."""
     from inclino import holds
 
     lab = np.where(keep, labels, -1)
@@ -267,8 +276,18 @@ def hold_covariance(raw, labels, keep, R, sigma):
     idx = np.full(int(labels.max()) + 1, -1)
     idx[used] = np.arange(len(used))
     lab = np.where(lab >= 0, idx[np.maximum(lab, 0)], -1)
-    try:
-        _, _, covh, _ = fit_sphere(holds.means(raw, lab, len(used)), R, sigma, min_rows=12)
-    except DataError:
-        return None
-    return covh, len(used)
+    means = holds.means(raw, lab, len(used))
+    u = means / np.maximum(np.linalg.norm(means, axis=1, keepdims=True), 1e-300)
+    same = np.sum(u[1:] * u[:-1], axis=1) > np.cos(np.radians(HOLD_MERGE_DEG))
+    merged = np.concatenate([[0], np.cumsum(~same)])  # hold -> cluster of neighbouring holds
+    best = None
+    for lab_k, k in ((lab, len(used)), (np.where(lab >= 0, merged[np.maximum(lab, 0)], -1), int(merged[-1]) + 1)):
+        if k < 12 or (best is not None and k == best[1]):
+            continue
+        try:
+            _, _, covh, _ = fit_sphere(holds.means(raw, lab_k, k), R, sigma, min_rows=12)
+        except (DataError, CalibrationError):
+            continue
+        if best is None or np.trace(covh) > np.trace(best[0]):
+            best = (covh, k)
+    return best

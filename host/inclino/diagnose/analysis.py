@@ -10,7 +10,7 @@ from inclino.engines import reference as ref
 from inclino.formats.dataset import RawDataset
 from inclino.errors import DataError
 
-from . import core, forward, invariants, robust, selection, serial, study
+from . import core, forward, invariants, robust, selection, serial, study, tails
 from ._blas import one_blas_thread
 from .core import CHANNELS, EFFECT_NAMES, SEPARABLE_MIN, TRIAD_UNITS, TRIADS, Design
 from .result import Diagnosis, Effect, Gain
@@ -185,6 +185,7 @@ class _Model:
     def design(self, b, nz, rows):
         des = Design(self.y0, self.X, nz.whitener(b.Jpose), self.fold_of, self.K, rows=rows)
         des.serial = True  # rows in time order: neighbours that share their error deflate the F-tests (serial)
+        des.tails = True  # heavy-tailed noise: a signature on a few rows is tested by its sandwich too (tails)
         return des
 
     def state_after(self, kept_now, beta):
@@ -812,6 +813,7 @@ def _assemble(m: _Model, alpha, testable, not_testable, steps, kept, pvals, keep
         "run_variables": run_conf,
         "serial_correlation": dict(serial.summary(des, S), channels=list(CHANNELS),
                                    inflation_by_effect=serial_f),
+        "heavy_tails": tails.summary(des, S),
     }
     out = Diagnosis(baseline=baseline, effects=effects_out, unexplained=verdict["unexplained"], structure=verdict,
                     contradicted=contradicted, confounded=confounds)

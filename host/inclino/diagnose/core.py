@@ -49,7 +49,7 @@ from inclino.errors import CalibrationError, DataError
 from inclino.model import effects as fx
 from inclino.model.world import EncoderErrors, TurntableGeometry
 
-from . import serial
+from . import serial, tails
 from .names import AXES, CHANNELS, EFFECT_NAMES, RIG_AXES, TRIAD_UNITS, TRIADS  # noqa: F401
 from .noise import Noise, _ml_variances, fit_noise  # noqa: F401
 
@@ -431,6 +431,11 @@ class Design:
         # asks for it (the posed diagnosis); key (S, extra) -> serial.factor's record
         self.serial = False
         self.serial_factors = {}
+        # heavy-tailed noise (diagnose.tails): where the caller asks for it (the posed diagnosis) and the
+        # residual's kurtosis test passes its gate, a test's p-value is also the sandwich test's
+        self.tails = False
+        self.tail_gates = {}
+        self.tail_tests = {}
         self.K = K
         self.folds = folds
         self.Gf = np.zeros((K, p, p))
@@ -504,7 +509,24 @@ class Design:
             return 0.0, np.inf
         infl = max(self.inflation, self.serial_factor(S, extra))
         F = ((r0 - r1) / q) / (r1 / dof) / infl
-        return float(stats.f.sf(F, q, dof / infl)), float(F)
+        p = float(stats.f.sf(F, q, dof / infl))
+        if self.tails and self.tail_gate(S)["gated"]:
+            p = max(p, self.tail_test(S, extra)["p"])
+        return p, float(F)
+
+    def tail_gate(self, S) -> dict:
+        """tails.gate's record of the residual of the model S (once per design and model)."""
+        key = tuple(int(i) for i in S)
+        if key not in self.tail_gates:
+            self.tail_gates[key] = tails.gate(self, S)
+        return self.tail_gates[key]
+
+    def tail_test(self, S, extra) -> dict:
+        """tails.sandwich's record of the test of `extra` against S (once per design and test)."""
+        key = (tuple(int(i) for i in S), tuple(int(i) for i in extra))
+        if key not in self.tail_tests:
+            self.tail_tests[key] = tails.sandwich(self, S, extra)
+        return self.tail_tests[key]
 
     def serial_record(self, S, extra) -> dict:
         """serial.factor's record of the test of `extra` against S (once per

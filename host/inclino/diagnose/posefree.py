@@ -746,6 +746,20 @@ def diagnose_posefree(ds: RawDataset, alpha: float = DEFAULT_ALPHA, folds: int =
                                "separate_by": "static holds in more directions (enough to determine the model: the "
                                               "rows read while moving are then left out), or poses for the holds"})
         effects = []
+    undetermined = _undetermined(ds, pf) if effects else None
+    if undetermined:
+        # the calibration refuses these data (the orientations leave a triad's ellipsoid free): an effect
+        # found on them rests on that freedom (a compass turned in one plane takes a scale nonlinearity of the
+        # axis it barely turns), so it is not named
+        demoted = {f"{e.name}:{e.sensor}:{e.axis}" for e in effects}
+        confounded = [c for c in confounded if c["effect"] not in demoted]
+        for e in effects:
+            confounded.append({"effect": f"{e.name}:{e.sensor}:{e.axis}", "with": undetermined,
+                               "undetermined": True, "correlation": float("nan"), "named": False,
+                               "estimate": e.estimate, "units": e.units,
+                               "separate_by": "orientations that determine the ellipsoid (turned about more than one "
+                                              "axis, through more of the sphere), or poses"})
+        effects = []
     structure = _structure(pf, R_final, rows, chans, alpha)
     if any(kk not in kept for kk in slow_confounds):
         # the temperature's own terms were refused as the run's slow course: the same structure against the
@@ -803,6 +817,29 @@ def diagnose_posefree(ds: RawDataset, alpha: float = DEFAULT_ALPHA, folds: int =
                     confounded=confounded)
     out.elapsed_s = _time.perf_counter() - t_start
     return out
+
+
+def _undetermined(ds, pf) -> str | None:
+    """Why the pose-free calibration refuses these data (a triad's
+    ellipsoid not determined by the orientations: calib.triad.fit_sphere on
+    the rows it would fit), or None."""
+    from inclino import holds
+    from inclino.calib import triad
+    from inclino.errors import CalibrationError
+
+    for kind, name, R in (("acc", "accelerometer", pf.G), ("mag", "magnetometer", pf.F)):
+        if not getattr(ds, f"has_{kind}", False):
+            continue
+        raw = np.asarray(getattr(ds, kind), float)
+        hs = holds.determining(ds, (kind,))
+        if hs is not None:
+            raw = raw[hs[0] >= 0]
+        try:
+            with np.errstate(all="ignore"):
+                triad.fit_sphere(raw, R, 1e-3 * R, min_rows=10, what=f"the {name}")
+        except (CalibrationError, DataError) as e:
+            return str(e)
+    return None
 
 
 def _hold_notes(pf) -> list:

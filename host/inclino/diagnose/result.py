@@ -149,6 +149,11 @@ class Diagnosis:
         for cf in self.confounded:
             e1, e2 = (x.split(":")[0] + " (" + " ".join(x.split(":")[1:]) + ")" if ":" in x else x
                       for x in (cf["effect"], cf["with"]))
+            if cf.get("undetermined"):  # the orientations leave the baseline's ellipsoid free
+                lines.append(f"not named: {e1} = {cf['estimate']:.4g} {cf['units']}: the calibration refuses these "
+                             f"data ({cf['with']}); an effect found on them rests on that freedom; to tell, "
+                             f"{cf['separate_by']}")
+                continue
             if "share" in cf:  # an effect found on the rows read while moving only
                 lines.append(f"not named: {e1} = {cf['estimate']:.4g} {cf['units']}: it rests on {e2} "
                              f"({100 * cf['share']:.0f} % of the rows, read while moving), which the holds alone "

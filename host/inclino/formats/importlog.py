@@ -123,11 +123,15 @@ def _index(col, names, what, path, lineno):
     if names is None:
         raise DataError(f"{what}: {col!r}: the log has no header line ([log].header = false): number the columns")
     stripped = [n.strip() for n in names]
-    if col in stripped:
-        return stripped.index(col)
     low = [n.lower() for n in stripped]
-    if col.lower() in low:
-        return low.index(col.lower())
+    for seq, key in ((stripped, col), (low, col.lower())):
+        hits = [i for i, n in enumerate(seq) if n == key]
+        if len(hits) > 1:  # which copy the description means is unknown: never the first by chance
+            raise DataError(f"{path}:{lineno}: {what}: {col!r} names {len(hits)} columns of the log (numbers "
+                            f"{', '.join(str(i + 1) for i in hits)}): give the column by its number, or the "
+                            f"header line that names it apart ([log] skip_rows)")
+        if hits:
+            return hits[0]
     raise DataError(f"{path}:{lineno}: {what}: no column {col!r} (the log's columns: "
                     f"{', '.join(stripped[:20])}{' ...' if len(stripped) > 20 else ''})")
 
