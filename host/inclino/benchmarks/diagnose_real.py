@@ -33,7 +33,9 @@ do not depend on may be named.
 
 Targets: every injected kind found in >= 95 % of its datasets; false alarms
 <= 2 % of the resamplings.  The corpus' pose-free logs are used (SAP6's six
-instruments, CK-Explorer's tumbled logs thinned to every third row);
+instruments, CK-Explorer's tumbled logs thinned to every third row,
+BROAD's two trials, an MPU-6050's step-and-hold session and a QMC5883L
+turned by hand);
 imucal's six faces are too few orientations for a pose-free diagnosis (the
 diagnosis says so).
 """
@@ -84,6 +86,12 @@ def corpus() -> list:
         for c in ("inc_deg", "azi_deg", "tf_deg", "t_s"):
             ds.columns.pop(c, None)
         out.append((f"broad/{trial}", ds))
+    # an MPU-6050's accelerometer held by hand at one orientation after another (55 holds in about 16
+    # directions: the holds alone leave the model undetermined) and a QMC5883L magnetometer turned by hand;
+    # last, so that the logs above keep their seeds
+    for name, log in (("mpu6050_tedaldi", "example_data_calibration.csv"), ("qmc5883l", "filtered_raw_data.csv")):
+        ds, _ = importlog.import_log(str(root / name / log), sensor.load(str(root / name / "sensor.toml")))
+        out.append((name, ds))
     return out
 
 
