@@ -31,13 +31,13 @@ from inclino.errors import DataError
 SENSOR_META = ("sensor", "sensor_sha256", "log_sha256", "acc_axes", "acc_unit", "acc_reads", "mag_axes", "mag_unit",
                "acc_lag_rows", "mag_lag_rows",
                "acc_lsb_g", "acc_noise_g", "acc_range_g", "mag_lsb_nT", "mag_noise_nT", "mag_range_nT",
-               "axes_reflection", "reflection", "static", "rows_dropped")
+               "axes_reflection", "reflection", "static", "rows_dropped", "rate_hz")
 META_KEYS = ("field_nT", "dip_deg", "declination_deg", "gravity_g", "lat_deg", "lon_deg",
              "date", "probe_serial", "source", "samples_averaged", "start_utc", "firmware", "calibration_crc",
              "calibration_sequence", "reading_noise_acc_g", "reading_noise_mag_nT", "readings_per_row") + SENSOR_META
 NUMERIC_META = {"field_nT", "dip_deg", "declination_deg", "gravity_g", "lat_deg", "lon_deg", "samples_averaged",
                 "reading_noise_acc_g", "reading_noise_mag_nT", "readings_per_row",
-                "acc_lsb_g", "acc_noise_g", "acc_range_g", "mag_lsb_nT", "mag_noise_nT", "mag_range_nT"}
+                "acc_lsb_g", "acc_noise_g", "acc_range_g", "mag_lsb_nT", "mag_noise_nT", "mag_range_nT", "rate_hz"}
 ACC_COLS = ("ax_g", "ay_g", "az_g")
 MAG_COLS = ("mx_nT", "my_nT", "mz_nT")
 SENSOR_COLS = ACC_COLS + MAG_COLS
@@ -112,9 +112,10 @@ RULES = {
     # the sensor description's figures (> 0; generous bounds: any part a log could come from)
     "acc_lsb_g": (1e-3, 1.0), "acc_noise_g": (1e-3, 1.0), "acc_range_g": (1e-3, 1000.0),
     "mag_lsb_nT": (1e-3, 1e6), "mag_noise_nT": (1e-3, 1e6), "mag_range_nT": (1e-3, 1e9),
+    "rate_hz": (1e-3, 1e9),  # the sample rate a log's rows were read at, when it has no time column
 }
 POSITIVE = {"field_nT", "gravity_g", "acc_lsb_g", "acc_noise_g", "acc_range_g", "mag_lsb_nT", "mag_noise_nT",
-            "mag_range_nT"}  # > 0: the lower bound in RULES is only a placeholder
+            "mag_range_nT", "rate_hz"}  # > 0: the lower bound in RULES is only a placeholder
 MAX_LINE_CHARS = 1 << 20  # a longer line is refused (bounded reading of a hostile file)
 CHUNK_ROWS = 1 << 16
 

@@ -31,7 +31,7 @@ from inclino.errors import DataError
 
 from . import dataset
 from .dataset import ACC_COLS, MAG_COLS, MAX_LINE_CHARS, RawDataset
-from .sensor import SensorDescription
+from .sensor import FIELD_UNIT, SensorDescription
 
 MAX_LOG_BYTES = 2 << 30  # a log is read whole into memory (8 bytes a value kept)
 MAX_BAD_ROWS_FRACTION = 0.05  # dropping more malformed rows than this: the description does not fit the log
@@ -176,6 +176,13 @@ def _import(lines, path: str, desc: SensorDescription, static, drop_bad=False) -
         break
     if first is None:
         raise DataError(f"{path}: no data")
+    for t in desc.triads:  # unit = "field" with no [header] field_nT: the log's own field_nT line gives it
+        if t.unit == FIELD_UNIT and t.scale is None:
+            if "field_nT" not in log_meta:
+                raise DataError(f"{desc.path or 'sensor description'}: [magnetometer] unit = \"field\" (1.0 = the "
+                                f"site's total field) needs that field: [header] field_nT = ... in the description "
+                                f"(or a '# field_nT=' line in the log)")
+            desc = dataclasses.replace(desc, mag=dataclasses.replace(t, scale=float(log_meta["field_nT"])))
     delim = desc.delimiter if desc.delimiter is not None else _sniff(first, desc.decimal)
     if delim == "\\t":
         delim = "\t"
@@ -225,6 +232,8 @@ def _import(lines, path: str, desc: SensorDescription, static, drop_bad=False) -
     keys = list(wanted)
     idx = [wanted[k] for k in keys]
     rows, labels = [], []
+    row_no = []  # each kept row's index among the log's rows read (rate_hz: its time)
+    units_lines = [0]  # a second header line read: not a sample
     clock = [False]  # the time column holds date-times (ISO 8601) or times of day, not numbers
     dropped: dict = {}
     read = 0
@@ -269,6 +278,7 @@ def _import(lines, path: str, desc: SensorDescription, static, drop_bad=False) -
             key = "a second header line (units or descriptions)"
             if not dropped.get(key):
                 dropped[key] = 1
+                units_lines[0] += 1
                 return
         for k, j in zip(keys, idx):
             text_ = cells[j].strip()
@@ -300,6 +310,7 @@ def _import(lines, path: str, desc: SensorDescription, static, drop_bad=False) -
             vals.append(v)
         rows.append(vals)
         labels.append(lab)
+        row_no.append(read - 1 - units_lines[0])
 
     for text in pending:
         take(text, header_line)
@@ -337,6 +348,10 @@ def _import(lines, path: str, desc: SensorDescription, static, drop_bad=False) -
             out[c] = np.ascontiguousarray(body[:, i])
     col = {k: v[lo:hi] for k, v in col.items()}
     labels = labels[lo:hi]
+    if desc.rate_hz is not None:
+        # no time column, a known rate: a row's index among the rows read (dropped ones too, so a dropped
+        # row leaves a gap) over the rate
+        out["t_s"] = np.asarray(row_no[lo:hi], float) / desc.rate_hz
     if "t_s" in col:
         # date-times are seconds since the first row; numbers in the declared time unit
         out["t_s"] = col["t_s"] - col["t_s"][0] if clock[0] else col["t_s"] * desc.time_scale

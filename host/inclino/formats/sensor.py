@@ -61,8 +61,10 @@ TIME_UNITS = {"s": 1.0, "ms": 1e-3, "us": 1e-6, "µs": 1e-6, "ns": 1e-9, "min": 
 READS = ("up", "down")
 BAD_ROWS = ("refuse", "drop")
 TOP_KEYS = {"name", "preset", "notes", "source", "log", "accelerometer", "magnetometer", "header", "poses"}
-LOG_KEYS = {"delimiter", "comment", "header", "skip_rows", "time", "time_unit", "temperature", "samples_averaged",
-            "static", "keep", "decimal", "bad_rows"}
+LOG_KEYS = {"delimiter", "comment", "header", "skip_rows", "time", "time_unit", "rate_hz", "temperature",
+            "samples_averaged", "static", "keep", "decimal", "bad_rows"}
+FIELD_UNIT = "field"  # magnetometer readings normalised to the site's total field: 1.0 = field_nT
+MAX_RATE_HZ = 1e9
 TRIAD_KEYS = {"columns", "unit", "lsb", "reads", "x", "y", "z", "axes", "reflection", "range", "noise", "lag"}
 POSE_KEYS = {"inc", "azi", "tf", "label", "labels", "unit"}
 
@@ -137,7 +139,8 @@ class Triad:
     kind: str                       # "acc" or "mag"
     columns: list                   # the sensor's x, y, z columns (names, or 1-based numbers)
     unit: str                       # as logged ("g", "m/s2", "uT", "counts", ...)
-    scale: float                    # canonical units (g or nT) per logged unit
+    scale: float | None             # canonical units (g or nT) per logged unit (None: unit "field" with the
+                                    # site's field not yet known: the log's own field_nT line gives it)
     axes: list                      # body x, y, z <- (sign, sensor axis index): [[+1, 0], ...]
     reads: str = "down"             # accelerometer: "up" = +1 g on the axis pointing up at rest
     reflection: bool = False        # the axis map is a reflection on purpose
@@ -185,6 +188,7 @@ class SensorDescription:
     time: str | int | None = None
     time_unit: str = "s"
     time_scale: float = 1.0           # seconds per unit of the time column
+    rate_hz: float | None = None      # no time column, a known sample rate: t_s = row index / rate_hz
     temperature: str | int | None = None
     samples_averaged: float | None = None
     static: bool | None = None
@@ -217,7 +221,8 @@ class SensorDescription:
         for t in self.triads:
             u = "g" if t.kind == "acc" else "nT"
             m[f"{t.kind}_axes"] = t.axes_text()
-            m[f"{t.kind}_unit"] = t.unit + (f" x {t.scale:.10g} {u}" if t.unit == "counts" else "")
+            m[f"{t.kind}_unit"] = t.unit + (f" x {t.scale:.10g} {u}" if t.unit in ("counts", FIELD_UNIT)
+                                            and t.scale is not None else "")
             if t.kind == "acc":
                 m["acc_reads"] = t.reads + (" (an axis pointing up read +1 g: the sign was turned)"
                                             if t.reads == "up" else "")
@@ -234,6 +239,8 @@ class SensorDescription:
             m["static"] = "true" if self.static else "false"
         if self.samples_averaged is not None:
             m["samples_averaged"] = self.samples_averaged
+        if self.rate_hz is not None:
+            m["rate_hz"] = self.rate_hz
         return m
 
 
@@ -278,6 +285,16 @@ def _quantity(value, units: dict, canon: str, what: str, logged_scale: float | N
     if not (math.isfinite(v) and v > 0):
         raise DataError(f"{what}: {value!r} must be a positive finite quantity")
     return v
+
+
+def _field_quantity(value, units, canon, what, scale, lsb=None):
+    """A quantity of a triad logged in field units: a plain number is in
+    field units, so it needs the field (the description's [header] field_nT)."""
+    if scale is None and (isinstance(value, (int, float)) and not isinstance(value, bool) or isinstance(value, str)
+                          and re.fullmatch(r"\s*[-+0-9.eE]+(?:\s*/\s*[0-9.eE+]+)?\s*", value)):
+        raise DataError(f"{what}: {value!r} in field units needs the site's field in the description ([header] "
+                        f"field_nT = ...); or give it with a unit ('0.15 uT')")
+    return _quantity(value, units, canon, what, scale, lsb)
 
 
 _AXIS = re.compile(r"\s*([+-]?)\s*([am]?)([xyz])\s*", re.I)
@@ -338,7 +355,17 @@ def _axis_map(spec: dict, kind: str, what: str, columns=()) -> list:
     return out
 
 
-def _triad(spec: dict, section: str, log_what: str) -> Triad:
+def _field_nT(header: dict, what: str) -> float | None:
+    """The site's total field from the description's [header] (None: not given)."""
+    v = header.get("field_nT") if isinstance(header, dict) else None
+    if v is None:
+        return None
+    if isinstance(v, bool) or not isinstance(v, (int, float)) or not (math.isfinite(v) and 0 < v <= 200_000):
+        raise DataError(f"{what}[header].field_nT: the site's total field in nT, a number > 0 and <= 200000")
+    return float(v)
+
+
+def _triad(spec: dict, section: str, log_what: str, field_nT: float | None = None) -> Triad:
     kind, units, canon, _ = TRIADS[section]
     what = f"{log_what}[{section}]"
     extra = set(spec) - TRIAD_KEYS
@@ -356,6 +383,13 @@ def _triad(spec: dict, section: str, log_what: str) -> Triad:
             raise DataError(f"{what}: unit = 'counts' needs lsb, what one count is (e.g. lsb = '1/2048 g')")
         scale = _quantity(spec["lsb"], units, canon, f"{what}.lsb", None)
         lsb = scale
+    elif kind == "mag" and unit.lower() in (FIELD_UNIT, "fields"):
+        # readings normalised to the local field (|b| about 1): 1.0 = the site's total field; from the
+        # description's [header] field_nT, else from the log's own '# field_nT=' line at import
+        unit = FIELD_UNIT
+        scale = field_nT
+        if "lsb" in spec:
+            lsb = _field_quantity(spec["lsb"], units, canon, f"{what}.lsb", scale)
     else:
         k = _unit_key(unit, units)
         if k is None:
@@ -380,7 +414,8 @@ def _triad(spec: dict, section: str, log_what: str) -> Triad:
     t.lag = lag
     for k in ("noise", "range"):
         if k in spec:
-            setattr(t, k, _quantity(spec[k], units, canon, f"{what}.{k}", scale, lsb))
+            setattr(t, k, _field_quantity(spec[k], units, canon, f"{what}.{k}", scale, lsb) if unit == FIELD_UNIT
+                    else _quantity(spec[k], units, canon, f"{what}.{k}", scale, lsb))
     if t.det < 0 and not t.reflection:
         raise DataError(f"{what}: the axis map ({t.axes_text()}) is a reflection (determinant -1): a left-handed "
                         f"frame; fix the map (flip one sign), or say reflection = true if the sensor's own axes are "
@@ -461,7 +496,7 @@ def from_dict(d: dict, what: str = "sensor description") -> SensorDescription:
         if section in d:
             if not isinstance(d[section], dict):
                 raise DataError(f"{what}: [{section}] must be a table")
-            setattr(s, TRIADS[section][0], _triad(d[section], section, what))
+            setattr(s, TRIADS[section][0], _triad(d[section], section, what, _field_nT(d.get("header", {}), what)))
     if not s.triads:
         raise DataError(f"{what}: describes no triad (an [accelerometer] and/or a [magnetometer] table)")
     s.delimiter = log.get("delimiter")
@@ -491,6 +526,22 @@ def from_dict(d: dict, what: str = "sensor description") -> SensorDescription:
     else:  # "1/102.4 s": the time column counts samples of 1/102.4 s
         s.time_scale = _quantity(tu, TIME_UNITS, "s", f"{what}[log].time_unit", None)
     s.time_unit = tu
+    rate = log.get("rate_hz")
+    if rate is not None:
+        if isinstance(rate, str):  # "100 Hz", "1.5 kHz"
+            m = re.fullmatch(r"\s*([-+0-9.eE]+|[-+]?(?:inf|nan))\s*(hz|khz)?\s*", rate, re.I)
+            try:
+                rate = float(m.group(1)) * (1e3 if (m.group(2) or "").lower() == "khz" else 1.0) if m else None
+            except ValueError:
+                rate = None
+        if isinstance(rate, bool) or not isinstance(rate, (int, float)) or not (
+                math.isfinite(rate) and 0 < rate <= MAX_RATE_HZ):
+            raise DataError(f"{what}[log].rate_hz: the sample rate in Hz, a finite number > 0 (e.g. rate_hz = 100), "
+                            f"not {log.get('rate_hz')!r}")
+        if s.time is not None:
+            raise DataError(f"{what}[log]: rate_hz and time both give the time of a row: keep the time column "
+                            f"(time = {s.time!r}) or the rate, not both")
+        s.rate_hz = float(rate)
     s.temperature = log.get("temperature")
     sa = log.get("samples_averaged")
     if sa is not None:
