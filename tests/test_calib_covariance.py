@@ -8,6 +8,7 @@ from inclino.benchmarks import calibration_runs as bench
 from inclino.calib import common, covariance, joint, runs
 from inclino.formats.dataset import RawDataset
 from inclino.model.scenario import generate_raw
+from inclino.model.world import pose_in_range
 
 
 def test_components_recovered_from_clustered_residuals(rng):
@@ -73,7 +74,7 @@ def _held_poses_run(s, seed, per_pose, sigma_pose):
     I, A, T = runs.union(runs.li2021_twelve(), runs.ren2014(), runs.multi_position(12))
     rng = np.random.default_rng([seed, 3])
     err = rng.normal(0, sigma_pose, (3, len(I)))
-    true = bench._normalise_pose(I + err[0], A + err[1], T + err[2])
+    true = pose_in_range(I + err[0], A + err[1], T + err[2])
     rep = lambda v: np.repeat(np.asarray(v, float), per_pose)  # noqa: E731
     ds = generate_raw(s, *(rep(v) for v in true), seed=seed)
     ds.columns["inc_deg"], ds.columns["azi_deg"], ds.columns["tf_deg"] = rep(I), rep(A), rep(T)

@@ -1,5 +1,5 @@
 """The posed diagnosis' F-test under heavy-tailed noise (diagnose.tails),
-and the emulated turntable error at a vertical pose (plans.true_pose).
+and the emulated turntable error at a vertical pose (model.world.pose_in_range).
 
 A candidate whose signature rests on a few rows, under Student-t noise
 (3 degrees of freedom), is named far more often than the test's alpha by
@@ -11,6 +11,7 @@ import numpy as np
 from inclino.diagnose import plans, tails
 from inclino.diagnose.core import Design, make_folds
 from inclino.engines import reference as ref
+from inclino.model.world import pose_in_range
 
 N = 150
 ALPHA = 1e-3
@@ -115,6 +116,6 @@ def test_turntable_error_at_a_vertical_pose_is_a_tilt_in_any_direction():
     rng = np.random.default_rng(5)
     inc = np.concatenate([rng.normal(0, 0.1, 50), 180 + rng.normal(0, 0.1, 50)])
     azi, tf = rng.uniform(0, 360, 100), rng.uniform(0, 360, 100)
-    i2, a2, t2 = plans.true_pose(inc, azi, tf)
+    i2, a2, t2 = pose_in_range(inc, azi, tf)
     assert np.all((i2 >= 0) & (i2 <= 180))
     assert np.allclose(ref.pose_matrix(i2, a2, t2), ref.pose_matrix(inc, azi, tf), atol=1e-12)

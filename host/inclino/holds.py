@@ -207,10 +207,8 @@ def determining(ds, triads=("acc", "mag")):
     most HOLDS_MAX_LEVERAGE): (hold of each row, -1 moving; hold count);
     else None (poses or a pose id given, not step-and-hold, or too few
     directions)."""
-    if any(c in ds.columns for c in POSE_COLUMNS):
-        return None
-    h = find(ds)
-    if not h.step_and_hold or h.count < 12 or leverage(ds, h, triads) > HOLDS_MAX_LEVERAGE:
+    h = _found(ds)
+    if h is None or leverage(ds, h, triads) > HOLDS_MAX_LEVERAGE:
         return None
     return h.labels, h.count
 
@@ -221,9 +219,14 @@ def correlated(ds, triads=("acc", "mag")):
     hold count), else None.  When the holds alone leave a triad's model
     undetermined every row is fitted, but the rows of one hold still share
     its orientation's error: the fit's covariance counts each hold once."""
+    h = _found(ds)
+    return None if h is None else (h.labels, h.count)
+
+
+def _found(ds) -> Holds | None:
+    """The holds of a step-and-hold log without poses or a pose id, at least
+    12 of them; else None."""
     if any(c in ds.columns for c in POSE_COLUMNS):
         return None
     h = find(ds)
-    if not h.step_and_hold or h.count < 12:
-        return None
-    return h.labels, h.count
+    return h if h.step_and_hold and h.count >= 12 else None

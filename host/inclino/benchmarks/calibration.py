@@ -67,7 +67,6 @@ from inclino.benchmarks.calibration_runs import (
     MAG_NOISE_NT,
     TURNTABLE_SIGMA_DEG,
     _errors,
-    _normalise_pose,
     bench_probe,
     calibration_poses,
     emulated_run,

@@ -16,6 +16,7 @@ from inclino.engines import reference as ref
 from inclino.formats.calfile import Calibration
 
 from inclino.calib import runs
+from inclino.model.world import pose_in_range
 
 TURNTABLE_SIGMA_DEG = 0.05
 MAG_NOISE_NT = 1.0
@@ -65,19 +66,6 @@ def calibration_poses():
     return runs.union(runs.li2021_twelve(), runs.ren2014(), runs.guo2009(), runs.multi_position(60))
 
 
-def _normalise_pose(I, A, T):
-    """Wrap a perturbed pose into the turntable's ranges (C(-I, A, T) =
-    C(I, A + 180, T + 180))."""
-    I = np.asarray(I, float).copy()
-    A = np.asarray(A, float).copy()
-    T = np.asarray(T, float).copy()
-    neg = I < 0
-    I[neg], A[neg], T[neg] = -I[neg], A[neg] + 180, T[neg] + 180
-    over = I > 180
-    I[over], A[over], T[over] = 360 - I[over], A[over] + 180, T[over] + 180
-    return I, np.mod(A, 360.0), np.mod(T, 360.0)
-
-
 def emulated_run(s, poses, seed, sigma_pose_deg=TURNTABLE_SIGMA_DEG):
     """Readings at the true poses (indicated + readout error), pose columns
     holding the indicated poses."""
@@ -85,7 +73,7 @@ def emulated_run(s, poses, seed, sigma_pose_deg=TURNTABLE_SIGMA_DEG):
 
     rng = np.random.default_rng([seed, 7])
     I, A, T = (np.asarray(p, float) for p in poses)
-    true = _normalise_pose(*(p + rng.normal(0, sigma_pose_deg, len(p)) for p in (I, A, T)))
+    true = pose_in_range(*(p + rng.normal(0, sigma_pose_deg, len(p)) for p in (I, A, T)))
     ds = generate_raw(s, *true, seed=seed)
     ds.columns["inc_deg"], ds.columns["azi_deg"], ds.columns["tf_deg"] = I.copy(), A.copy(), T.copy()
     return ds

@@ -122,21 +122,16 @@ def fit(ds, use_poses=None, sigma_acc=None, sigma_mag=None, **_):
         if hs is not None:
             info["moving_rows"] = int(moving.sum())
             info["holds"] = hs[1]
-            hold_cov = triad.hold_covariance(raw, hs[0], keep, R, sigma)
-            if hold_cov is not None and np.trace(hold_cov[0]) > np.trace(cov):
-                cov = hold_cov[0]
-                info["covariance_source"] = (f"hold level: the fit to the {hold_cov[1]} static holds' mean "
-                                             f"readings (found in the readings), scaled by their scatter (the rows "
-                                             f"of one hold share its orientation's error)")
-        else:
-            hc = holds.correlated(ds, (kind,))
-            hold_cov = triad.hold_covariance(raw, hc[0], keep, R, sigma) if hc is not None else None
-            if hold_cov is not None and np.trace(hold_cov[0]) > np.trace(cov):
-                cov = hold_cov[0]
-                info["covariance_source"] = (f"hold level: the fit to the {hold_cov[1]} static holds' mean "
-                                             f"readings (found in the readings, too few or too few directions to "
-                                             f"fit alone: every row is fitted), scaled by their scatter (the rows "
-                                             f"of one hold share its orientation's error)")
+        # the rows of one hold share its orientation's error, whether or not the holds alone are fitted
+        hl = hs if hs is not None else holds.correlated(ds, (kind,))
+        hold_cov = triad.hold_covariance(raw, hl[0], keep, R, sigma) if hl is not None else None
+        if hold_cov is not None and np.trace(hold_cov[0]) > np.trace(cov):
+            cov = hold_cov[0]
+            found = "found in the readings" + ("" if hs is not None else ", too few or too few directions to fit "
+                                                                          "alone: every row is fitted")
+            info["covariance_source"] = (f"hold level: the fit to the {hold_cov[1]} static holds' mean readings "
+                                         f"({found}), scaled by their scatter (the rows of one hold share its "
+                                         f"orientation's error)")
         info["unobservable"] = ("the triad's rotation: without poses |g| (|b|) alone leaves it free; the body frame "
                                 "is the sensor's own axes (M symmetric)")
     eye = np.eye(3).tolist()

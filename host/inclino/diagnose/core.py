@@ -428,14 +428,12 @@ class Design:
         # apparent gain is inflated, (1 + rho) / (1 - rho) for a lag-1 correlation rho; 1 for independent rows
         self.inflation = 1.0
         # per test, the Bartlett inflation of serially correlated rows (diagnose.serial), where the caller
-        # asks for it (the posed diagnosis); key (S, extra) -> serial.factor's record
+        # asks for it (the posed diagnosis)
         self.serial = False
-        self.serial_factors = {}
         # heavy-tailed noise (diagnose.tails): where the caller asks for it (the posed diagnosis) and the
         # residual's kurtosis test passes its gate, a test's p-value is also the sandwich test's
         self.tails = False
-        self.tail_gates = {}
-        self.tail_tests = {}
+        self._records = {}  # (function, S[, extra]) -> its record, computed once per design
         self.K = K
         self.folds = folds
         self.Gf = np.zeros((K, p, p))
@@ -514,27 +512,24 @@ class Design:
             p = max(p, self.tail_test(S, extra)["p"])
         return p, float(F)
 
+    def _record(self, fn, *cols) -> dict:
+        """fn(self, *cols) for these column lists, computed once per design."""
+        key = (fn,) + tuple(tuple(int(i) for i in c) for c in cols)
+        if key not in self._records:
+            self._records[key] = fn(self, *cols)
+        return self._records[key]
+
     def tail_gate(self, S) -> dict:
-        """tails.gate's record of the residual of the model S (once per design and model)."""
-        key = tuple(int(i) for i in S)
-        if key not in self.tail_gates:
-            self.tail_gates[key] = tails.gate(self, S)
-        return self.tail_gates[key]
+        """tails.gate's record of the residual of the model S."""
+        return self._record(tails.gate, S)
 
     def tail_test(self, S, extra) -> dict:
-        """tails.sandwich's record of the test of `extra` against S (once per design and test)."""
-        key = (tuple(int(i) for i in S), tuple(int(i) for i in extra))
-        if key not in self.tail_tests:
-            self.tail_tests[key] = tails.sandwich(self, S, extra)
-        return self.tail_tests[key]
+        """tails.sandwich's record of the test of `extra` against S."""
+        return self._record(tails.sandwich, S, extra)
 
     def serial_record(self, S, extra) -> dict:
-        """serial.factor's record of the test of `extra` against S (once per
-        design and test)."""
-        key = (tuple(int(i) for i in S), tuple(int(i) for i in extra))
-        if key not in self.serial_factors:
-            self.serial_factors[key] = serial.factor(self, S, extra)
-        return self.serial_factors[key]
+        """serial.factor's record of the test of `extra` against S."""
+        return self._record(serial.factor, S, extra)
 
     def serial_factor(self, S, extra) -> float:
         """The serial-correlation inflation of the test of `extra` against S,

@@ -17,7 +17,10 @@ quantisation), so that a null dataset is exactly the 12-parameter model plus
 noise.  The turntable's readout error is 0.05 deg (1 sigma) on each of
 inclination, azimuth and toolface, as in the calibration bench: the probe
 sits at the indicated pose plus that error while the dataset records the
-indicated pose (at a vertical pose a tilt either way: `true_pose`).
+indicated pose (at a vertical pose a tilt either way:
+`model.world.pose_in_range`; clipped at 0 instead, it was a real
+inclination offset, which the diagnosis found in 3 of 54 nulls on Ren
+2014's poses, 39 of whose 138 readings are vertical).
 
 `hide(effect, sensor, axis, value)` puts one library effect into the
 scenario through the emulator's own scenario tables (host/inclino/model/scenario.py),
@@ -35,6 +38,7 @@ import numpy as np
 
 from inclino.calib import runs
 from inclino.formats.dataset import RawDataset
+from inclino.model.world import pose_in_range
 
 from . import core
 
@@ -188,27 +192,6 @@ def hide(probe: dict, effect: str, sensor: str, axis: str, value: float, pattern
     return d
 
 
-def true_pose(inc, azi, tf):
-    """(inc, azi, tf) of the orientation Rz(tf) Ry(inc) Rz(azi) with the
-    inclination written in 0-180 deg: an inclination past 0 (or 180) is the
-    same orientation at -inc (360 - inc) with azimuth and toolface turned by
-    180 deg.  The readout error at a vertical pose is a tilt in any
-    direction: clipping it at 0 instead (as this generator once did) left
-    the probe at the indicated pose half the time and tilted toward the
-    indicated azimuth the other half, a mean inclination error of 0.4 sigma
-    at every vertical pose -- a real inclination offset, which the diagnosis
-    found in 3 of 54 nulls on Ren 2014's poses (39 of its 138 readings are
-    vertical)."""
-    inc, azi, tf = (np.array(v, float) for v in (inc, azi, tf))
-    lo, hi = inc < 0.0, inc > 180.0
-    inc[lo] = -inc[lo]
-    inc[hi] = 360.0 - inc[hi]
-    flip = lo | hi
-    azi[flip] += 180.0
-    tf[flip] += 180.0
-    return inc, np.mod(azi, 360.0), np.mod(tf, 360.0)
-
-
 def generate(probe: dict, plan: dict, seed: int, sigma_pose_deg: float = TURNTABLE_SIGMA_DEG,
              noise: bool = True) -> RawDataset:
     """The emulated dataset of `plan` for the scenario dict `probe`: the
@@ -242,7 +225,7 @@ def generate(probe: dict, plan: dict, seed: int, sigma_pose_deg: float = TURNTAB
         I, A, T = (np.asarray(plan[k], float) for k in ("inc", "azi", "tf"))
         e = rng.normal(0.0, sigma_pose_deg, (3, len(I))) if sigma_pose_deg > 0 else np.zeros((3, len(I)))
         # the true pose: indicated + readout error, written inside the turntable's range
-        Ti, Ta, Tt = true_pose(I + e[0], A + e[1], T + e[2])
+        Ti, Ta, Tt = pose_in_range(I + e[0], A + e[1], T + e[2])
         ds = generate_raw(s, Ti, Ta, Tt, t_s=plan["t_s"], temp_c=plan["temp_c"], seed=int(seed))
         ds.columns["inc_deg"], ds.columns["azi_deg"], ds.columns["tf_deg"] = I.copy(), A.copy(), T.copy()
         ds.meta.update({k: probe["world"][k] for k in ("field_nT", "dip_deg", "declination_deg")})

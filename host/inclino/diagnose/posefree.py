@@ -611,15 +611,14 @@ def diagnose_posefree(ds: RawDataset, alpha: float = DEFAULT_ALPHA, folds: int =
                 # (_slow_rival); time itself and a rig angle against their own circular shifts (_shift_p): a
                 # temperature cycled 2.5 times, rolled, is about the same sinusoid again, and the shifts far
                 # enough from it are its quadrature phase only, where an effect's own leakage counts as null
-                rv = (_slow_rival(mdl, state, des, S, kk, ncol[kk], order_t) if kk.split(":")[0] in SLOW_DRIVERS
-                      else None)
-                ps = None if rv else _shift_p(mdl, state, des, S, kk, ncol[kk], alpha / len(remaining))
-                if ps is not None and ps >= alpha / len(remaining):
-                    steps.append({"effect": kk, "p": p, "p_circular_shift": ps, "kept": False,
-                                  "why": "its driver shifted in time explains the data as well (circular-shift "
-                                         "test: the log's rows are serially correlated)"})
-                    continue
-                if rv and rv["p"] >= alpha / len(remaining):
+                if kk.split(":")[0] not in SLOW_DRIVERS:
+                    ps = _shift_p(mdl, state, des, S, kk, ncol[kk], alpha / len(remaining))
+                    if ps >= alpha / len(remaining):
+                        steps.append({"effect": kk, "p": p, "p_circular_shift": ps, "kept": False,
+                                      "why": "its driver shifted in time explains the data as well (circular-shift "
+                                             "test: the log's rows are serially correlated)"})
+                        continue
+                elif (rv := _slow_rival(mdl, state, des, S, kk, ncol[kk], order_t))["p"] >= alpha / len(remaining):
                     steps.append({"effect": kk, "p": p, "slow_structure": rv, "kept": False,
                                   "why": f"the same effect with a generic slow profile in {pf.time_name} (1-"
                                          f"{2 * rv['half_cycles']} half-cycles over the run) takes about as much: "

@@ -48,6 +48,8 @@ import numpy as np
 
 from inclino.errors import DataError
 
+from . import dataset
+
 STANDARD_GRAVITY = 9.80665  # m/s^2 per g (CGPM 1901)
 PRESET_DIR = Path(__file__).with_name("sensors")
 
@@ -64,7 +66,7 @@ TOP_KEYS = {"name", "preset", "notes", "source", "log", "accelerometer", "magnet
 LOG_KEYS = {"delimiter", "comment", "header", "skip_rows", "time", "time_unit", "rate_hz", "temperature",
             "samples_averaged", "static", "keep", "decimal", "bad_rows"}
 FIELD_UNIT = "field"  # magnetometer readings normalised to the site's total field: 1.0 = field_nT
-MAX_RATE_HZ = 1e9
+RATE_UNITS = {"Hz": 1.0, "hz": 1.0, "kHz": 1e3, "khz": 1e3}
 TRIAD_KEYS = {"columns", "unit", "lsb", "reads", "x", "y", "z", "axes", "reflection", "range", "noise", "lag"}
 POSE_KEYS = {"inc", "azi", "tf", "label", "labels", "unit"}
 
@@ -360,8 +362,9 @@ def _field_nT(header: dict, what: str) -> float | None:
     v = header.get("field_nT") if isinstance(header, dict) else None
     if v is None:
         return None
-    if isinstance(v, bool) or not isinstance(v, (int, float)) or not (math.isfinite(v) and 0 < v <= 200_000):
-        raise DataError(f"{what}[header].field_nT: the site's total field in nT, a number > 0 and <= 200000")
+    if isinstance(v, bool) or not isinstance(v, (int, float)):
+        raise DataError(f"{what}[header].field_nT: the site's total field in nT, a number")
+    dataset.check_meta("field_nT", float(v), f"{what}[header].field_nT")
     return float(v)
 
 
@@ -528,16 +531,12 @@ def from_dict(d: dict, what: str = "sensor description") -> SensorDescription:
     s.time_unit = tu
     rate = log.get("rate_hz")
     if rate is not None:
-        if isinstance(rate, str):  # "100 Hz", "1.5 kHz"
-            m = re.fullmatch(r"\s*([-+0-9.eE]+|[-+]?(?:inf|nan))\s*(hz|khz)?\s*", rate, re.I)
-            try:
-                rate = float(m.group(1)) * (1e3 if (m.group(2) or "").lower() == "khz" else 1.0) if m else None
-            except ValueError:
-                rate = None
-        if isinstance(rate, bool) or not isinstance(rate, (int, float)) or not (
-                math.isfinite(rate) and 0 < rate <= MAX_RATE_HZ):
+        try:  # 100, "100 Hz", "1.5 kHz"; within the canonical header's rule
+            rate = _quantity(rate, RATE_UNITS, "Hz", f"{what}[log].rate_hz", 1.0)
+            dataset.check_meta("rate_hz", rate, f"{what}[log].rate_hz")
+        except DataError:
             raise DataError(f"{what}[log].rate_hz: the sample rate in Hz, a finite number > 0 (e.g. rate_hz = 100), "
-                            f"not {log.get('rate_hz')!r}")
+                            f"not {log.get('rate_hz')!r}") from None
         if s.time is not None:
             raise DataError(f"{what}[log]: rate_hz and time both give the time of a row: keep the time column "
                             f"(time = {s.time!r}) or the rate, not both")

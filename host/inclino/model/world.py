@@ -123,6 +123,25 @@ class TurntableMotion:
 MOTORISED = {"rate_deg_s": 10.0, "settle_s": 3.0}
 
 
+def pose_in_range(inc, azi, tf):
+    """(inc, azi, tf) written inside the turntable's ranges (inclination
+    0-180 deg, azimuth and toolface 0-360 deg), the orientation unchanged:
+    C(-I, A, T) = C(I, A + 180, T + 180) and C(I, A, T) = C(360 - I, A + 180,
+    T + 180).  A readout error at a vertical pose is a tilt in any
+    direction; clipping the inclination at 0 instead would leave the probe
+    at the pose half the time and tilted toward the indicated azimuth the
+    other half (a mean inclination error of 0.4 sigma at every vertical
+    pose)."""
+    inc, azi, tf = (np.array(v, float) for v in (inc, azi, tf))
+    lo, hi = inc < 0.0, inc > 180.0
+    inc[lo] = -inc[lo]
+    inc[hi] = 360.0 - inc[hi]
+    flip = lo | hi
+    azi[flip] += 180.0
+    tf[flip] += 180.0
+    return inc, np.mod(azi, 360.0), np.mod(tf, 360.0)
+
+
 @dataclass
 class Turntable:
     """Non-magnetic three-axis turntable: inclination 0-180 deg, azimuth and
