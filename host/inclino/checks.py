@@ -677,7 +677,7 @@ def _holds_note(ds, rep):
     (inclino.holds); pose-free diagnose fits the holds, not the motion."""
     from inclino import holds
 
-    if any(c in ds.columns for c in holds.POSE_COLUMNS):
+    if holds.labelled(ds):
         return
 
     h = holds.find(ds)

@@ -15,7 +15,10 @@ deviation within HOLD_K times that axis's noise; a hold is then a run of
 still rows at least HOLD_ROWS long, cut where its direction turns by more
 than HOLD_TURN_DEG from where the run began (a slow turn is not a hold), and
 between two rows that differ by more than HOLD_JUMP_K times their noise on
-an axis (an abrupt change: the next face, with nothing read in between).
+an axis (an abrupt change: the next face, with nothing read in between),
+and where a partial pose column (a face label, a rig axis's setting)
+changes: a hold is at one setting (a column that changes on most rows is
+a variable read with each row, not a setting: setting_changes).
 The noise per axis is the readings' own: the median absolute difference of
 neighbouring rows (/ 0.6745 / sqrt 2), a statistic that the still rows set
 when they are the majority; it is capped at the triad's declared noise, or
@@ -113,7 +116,8 @@ def find(ds) -> Holds:
     n = len(ds)
     w = HOLD_ROWS
     still = np.zeros(n, bool)
-    jump = np.zeros(n, bool)  # row i differs from row i - 1 beyond the noise: a hold cannot span them
+    # row i differs from row i - 1 beyond the noise, or a rig axis's setting changes: a hold cannot span them
+    jump = setting_changes(ds)
     noise = {}
     ref = None
     if n >= w:
@@ -190,7 +194,34 @@ def means(v, labels, count) -> np.ndarray:
     return out / np.maximum(np.bincount(labels[keep], minlength=count), 1)[:, None]
 
 
-POSE_COLUMNS = ("pose_id", "segment", "cluster", "inc_deg", "azi_deg", "tf_deg")  # a pose or a pose id given
+ID_COLUMNS = ("pose_id", "segment", "cluster")
+PARTIAL_POSE_COLUMNS = ("inc_deg", "azi_deg", "tf_deg")
+SETTING_CHANGES_MAX = 0.5      # a partial pose column changing on more rows than this is read, not a setting
+
+
+def labelled(ds) -> bool:
+    """Whether the log says which rows belong together: a pose id, or the
+    three pose columns.  A partial pose (a face label, one rig axis's
+    setting) does not: it only cuts the holds the readings show (find)."""
+    cols = ds.columns
+    return any(c in cols for c in ID_COLUMNS) or all(c in cols for c in PARTIAL_POSE_COLUMNS)
+
+
+def setting_changes(ds) -> np.ndarray:
+    """(n,) bool: row i's partial pose (the inc_deg, azi_deg or tf_deg
+    columns present) differs from row i - 1's: a new setting.  All False
+    without one, and for a column that changes on more than
+    SETTING_CHANGES_MAX of the rows: a variable read with every row (a rig
+    axis logged as it turns), not a setting held."""
+    n = len(ds)
+    present = [c for c in PARTIAL_POSE_COLUMNS if c in ds.columns]
+    out = np.zeros(n, bool)
+    if present and n > 1:
+        P = np.stack([np.asarray(ds.columns[c], float) for c in present], -1)
+        out[1:] = np.any(np.abs(np.diff(P, axis=0)) > 1e-6, axis=1)
+        if np.mean(out[1:]) > SETTING_CHANGES_MAX:
+            out[:] = False
+    return out
 
 
 def leverage(ds, h: Holds, triads=("acc", "mag")) -> float:
@@ -226,7 +257,7 @@ def correlated(ds, triads=("acc", "mag")):
 def _found(ds) -> Holds | None:
     """The holds of a step-and-hold log without poses or a pose id, at least
     12 of them; else None."""
-    if any(c in ds.columns for c in POSE_COLUMNS):
+    if labelled(ds):
         return None
     h = find(ds)
     return h if h.step_and_hold and h.count >= 12 else None

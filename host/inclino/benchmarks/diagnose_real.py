@@ -24,7 +24,9 @@ do not depend on may be named.
   sensor and axis among the effects named; an effect tied to a driver the
   readings do not depend on, named beside it, is listed (also_driven).
 * **Untouched, resampled**: a random 70 % of each dataset's poses (in their
-  order; a log of fewer than 100 poses keeps them all) with null variables added -- a synthetic temperature column, a
+  order; in a step-and-hold log without poses whose holds determine the
+  model, of its holds, each with the rows read while moving on to the next;
+  a log of fewer than 100 keeps them all) with null variables added -- a synthetic temperature column, a
   synthetic rig angle, a time column in a random order -- that the readings
   do not depend on.  A false alarm is any effect named that is tied to them
   (temperature, rig field, field drift).  Effects of the sensor itself named
@@ -101,6 +103,27 @@ def _rows(ds, rows):
     return RawDataset({k: np.asarray(v)[rows].copy() for k, v in ds.columns.items()}, dict(ds.meta))
 
 
+def _units(ds) -> np.ndarray:
+    """What the diagnosis reads as its poses, one label per row, for a
+    resampling to keep or drop whole: the poses
+    (inclino.calib.covariance.cluster_labels); in a step-and-hold log
+    without them whose holds determine the model (inclino.holds.determining),
+    each hold with the rows read while moving on to the next, so that a
+    resampling keeps holds whole.  (A log whose holds do not is read row by
+    row, and resampled so.)"""
+    from inclino import holds
+    from inclino.calib.covariance import cluster_labels
+
+    h = holds.determining(ds)
+    if h is None:
+        return cluster_labels(ds)
+    labels = h[0]
+    start = np.zeros(len(ds), bool)
+    start[0] = True
+    start[1:] = (labels[1:] >= 0) & (labels[1:] != labels[:-1])
+    return np.cumsum(start) - 1
+
+
 def _raw_offset(x):
     """The centre of a triad's readings (the ellipsoid's), for injecting."""
     from inclino.diagnose.posefree import _ellipsoid_start
@@ -144,6 +167,10 @@ def inject(ds, kind, rng) -> tuple:
         d = _with_nulls(ds, rng)
         if kind != "rig-field":
             d.columns.pop("tf_deg")
+        elif (unit := _units(ds)).max() + 1 < len(ds):
+            # a rig that drives the field holds its axis through each hold the diagnosis reads (and the motion on
+            # to the next)
+            d.columns["tf_deg"] = rng.uniform(0.0, 360.0, int(unit.max()) + 1)[unit]
         if kind == "temperature-bias":
             tri = tris[int(rng.integers(len(tris)))]
             key = f"temperature-bias:{tri}:{'xyz'[int(rng.integers(3))]}"
@@ -291,9 +318,7 @@ def bench_real(seeds: int = 2, resamplings: int = 12, seed0: int = 2024, quick: 
     for i, (name, ds) in enumerate(data):
         for s in range(resamplings):
             rng = np.random.default_rng([seed0, i, s, 99])
-            from inclino.calib.covariance import cluster_labels
-
-            lab = cluster_labels(ds)
+            lab = _units(ds)
             if lab.max() + 1 >= SUBSAMPLE_MIN:
                 keep_c = np.sort(rng.choice(lab.max() + 1, int(NULL_FRACTION * (lab.max() + 1)), replace=False))
                 sub = _rows(ds, np.flatnonzero(np.isin(lab, keep_c)))

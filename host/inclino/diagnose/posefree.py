@@ -78,18 +78,15 @@ class _PF:
     """The data reduced to clusters, and the invariant model."""
 
     def __init__(self, ds: RawDataset):
+        from inclino import holds as _holds
         from inclino.calib.covariance import cluster_labels
 
         self.has_acc, self.has_mag = ds.has_acc, ds.has_mag
         n0 = len(ds)
         lab = cluster_labels(ds)
-        if not any(c in ds.columns for c in ("pose_id", "segment", "cluster")):
-            present = [c for c in ("inc_deg", "azi_deg", "tf_deg") if c in ds.columns]
-            if present and not ds.has_pose:  # partial poses (a face label): consecutive rows at one of them
-                P = np.stack([np.asarray(ds.columns[c], float) for c in present], -1)
-                new = np.ones(n0, bool)
-                new[1:] = np.any(np.abs(np.diff(P, axis=0)) > 1e-6, axis=1)
-                lab = np.cumsum(new) - 1
+        if not _holds.labelled(ds) and np.any(_holds.setting_changes(ds)):
+            # partial poses (a face label, a rig axis's setting): consecutive rows at one of them
+            lab = np.cumsum(_holds.setting_changes(ds) | (np.arange(n0) == 0)) - 1
         # no pose, no pose id: the readings' own static holds (inclino.holds) are the poses of a step-and-hold
         # log when they determine the model; the rows read while moving between them are then left out.  Holds
         # in too few directions (a six-face session) leave every row a pose of its own; with an accelerometer,
@@ -99,9 +96,7 @@ class _PF:
         # orientations (BROAD's trial 05: 109 holds, most with z down) does not make them suspect
         self.holds = None
         sel = np.ones(n0, bool)
-        from inclino import holds as _holds
-
-        if not any(c in ds.columns for c in _holds.POSE_COLUMNS):
+        if not _holds.labelled(ds):
             H = _holds.find(ds)
             if H.step_and_hold:
                 hl = H.labels
@@ -110,6 +105,9 @@ class _PF:
                 if only:
                     sel = hl >= 0
                     lab = hl[sel]
+                elif H.rows_moving:
+                    # a setting's rows are not one orientation when the sensor turns during them: every row a pose
+                    lab = np.arange(n0)
                 self.holds = dict(H.to_dict(), moving_rows_left_out=bool(only), leverage_max=lev)
         k = int(lab.max()) + 1
         self.n_rows, self.k = n0, k
@@ -514,17 +512,23 @@ def diagnose_posefree(ds: RawDataset, alpha: float = DEFAULT_ALPHA, folds: int =
         the model, still shares its slow part (a hand-turned IMU under a large
         white noise: BROAD's lag-1 is 0.06, its Ljung-Box p 1e-40; the
         candidate in the model, so that an effect the baseline lacks does not
-        make its own log look correlated).  Not on the means of static holds:
-        their noise is independent from hold to hold, and what correlates
-        neighbouring holds is an effect of the orientation not yet in the
-        model (the orientation changes little from one hold to the next: on
-        CK's accelerometer holds, its two nonlinearities), which the shift
-        test would count against a driver that is there."""
+        make its own log look correlated).  Always on the means of static
+        holds: their noise is independent from hold to hold, but they are
+        read in the order a hand or a rig took them, and what that order
+        shares -- neighbouring orientations, a part warming up -- can be
+        slower than a few holds' lag, where the Ljung-Box test does not look:
+        a driver slow in reading order takes it (on 70 % of QMC5883L's
+        1 142 holds a field drift in reading order at p 0.001, its circular
+        shifts at p 0.1; a null temperature on 70 % of CK's accelerometer
+        holds in 7 of 40 draws at p ~0.001, with lag-1 0.0 and Ljung-Box
+        p 0.2)."""
         if _declared_static(ds):
             return False
         if shift_test:
             return True
-        return rec["gated"] and not (pf.holds and pf.holds["moving_rows_left_out"])
+        if pf.holds and pf.holds["moving_rows_left_out"]:
+            return True
+        return rec["gated"]
     if not blockwise and k <= LOO_MAX_CLUSTERS:
         # independent shots: each pose held out alone (leave-one-pose-out).  K blocks of a 24-shot log leave
         # 19 shots to fit ~30 parameters, a harsher test than the calibration's own use of all 24 (an effect of
@@ -713,13 +717,19 @@ def diagnose_posefree(ds: RawDataset, alpha: float = DEFAULT_ALPHA, folds: int =
         effects.append(e)
         pos += n
     confounded = []
+    # each kept effect's signature: its refitted value, or (a refit whose Gauss-Newton step every halving made
+    # worse left it unset) its linear estimate in the final model
+    at, pos = {}, len(base)
+    for kk in kept:
+        at[kk] = state["theta"].get(kk, est[pos:pos + len(idx[kk])])
+        pos += len(idx[kk])
     for kk in kept:
         others = [x for x in kept if x != kk]
         for jj in testable:
             if jj == kk:
                 continue
             b2 = base + [i for x in others if x != jj for i in idx[x]]
-            rc = des.signal_corr(b2, idx[kk], np.atleast_1d(state["theta"][kk]), idx[jj])
+            rc = des.signal_corr(b2, idx[kk], np.atleast_1d(at[kk]), idx[jj])
             if rc >= 0.9:
                 confounded.append({"effect": kk, "with": jj, "correlation": rc, "named": True,
                                    "separate_by": _separate(kk, jj, pf)})
