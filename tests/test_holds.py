@@ -2,6 +2,7 @@
 pose-free `diagnose` does with them: a step-and-hold log's holds are its
 poses, the rows read while moving between them are left out, and an effect
 that only the moving rows show is not named."""
+import sys
 from pathlib import Path
 
 import numpy as np
@@ -231,3 +232,64 @@ def test_joint_calibrate_without_poses_fits_the_holds(tmp_path, monkeypatch):
     monkeypatch.setattr(holds, "STEP_AND_HOLD_FRACTION", 2.0)
     cal_rows, _ = fit(ds, method="joint", accept_mount_tolerance=True)
     assert np.abs(cal_rows.acc_b).max() > err + 0.6e-3
+
+
+def _with_rig_column(ds, values):
+    from inclino.formats.dataset import RawDataset
+
+    d = RawDataset({k: np.asarray(v).copy() for k, v in ds.columns.items()}, dict(ds.meta))
+    d.columns["tf_deg"] = np.asarray(values, float)
+    return d
+
+
+def test_a_rig_angle_read_with_every_row_does_not_hide_the_holds(tmp_path, rng):
+    """A rig axis angle logged with each row (it changes on every row) is a
+    variable read, not a setting: the holds are the readings' own, as
+    without it, and diagnose still fits them and leaves the motion out."""
+    _step_and_hold(tmp_path / "s.csv", RNG_SEED)
+    ds = dataset.read_raw(str(tmp_path / "s.csv"))
+    d = _with_rig_column(ds, rng.uniform(0.0, 360.0, len(ds)))
+    assert not holds.setting_changes(d).any()
+    assert np.array_equal(holds.find(d).labels, holds.find(ds).labels)
+    b = diagnose(d).baseline
+    assert b["clusters"] == 60 and b["holds"]["moving_rows_left_out"]
+
+
+def test_a_hold_is_at_one_rig_setting(tmp_path):
+    """A rig axis's setting held over runs of rows (a partial pose column)
+    cuts the holds where it changes: rows at two settings are never one
+    hold, even when the readings do not show the change."""
+    truth = _step_and_hold(tmp_path / "s.csv", RNG_SEED)
+    ds = dataset.read_raw(str(tmp_path / "s.csv"))
+    first = np.flatnonzero(truth == 0)
+    setting = np.zeros(len(ds))
+    cut = first[len(first) // 2]  # mid-way through the first hold
+    setting[cut:] = 90.0
+    d = _with_rig_column(ds, setting)
+    assert holds.setting_changes(d).sum() == 1 and not holds.labelled(d)
+    h0, h1 = holds.find(ds), holds.find(d)
+    assert h1.count == h0.count + 1
+    assert h1.labels[cut] != h1.labels[cut - 1] and h1.labels[cut] >= 0 and h1.labels[cut - 1] >= 0
+
+
+def test_an_effect_whose_refit_is_refused_is_still_reported(tmp_path, monkeypatch):
+    """The selection keeps an effect from the linearised test, then refits
+    the model with it by Gauss-Newton steps, each halved while it raises
+    the cost.  When every halving does (a poor start), the refit leaves the
+    effect without a refitted value: the report then gives its linear
+    estimate (it used to stop with a KeyError in the confound check)."""
+    from inclino.diagnose import posefree
+
+    _step_and_hold(tmp_path / "s.csv", RNG_SEED, k_z=0.01)
+    ds = dataset.read_raw(str(tmp_path / "s.csv"))
+    plain = posefree._Model.residuals
+
+    def refused(self, x, theta, gb=None):
+        r = plain(self, x, theta, gb)
+        # the refit's trial of a step with an effect in it raises the cost, so every halving is refused
+        return r * 1e3 if theta and sys._getframe(1).f_code.co_name == "refit" else r
+
+    monkeypatch.setattr(posefree._Model, "residuals", refused)
+    r = diagnose(ds)
+    e = [e for e in r.effects if (e.name, e.sensor, e.axis) == ("scale-nonlinearity", "acc", "z")]
+    assert e and abs(e[0].estimate - 0.01) < 5 * e[0].stderr + 1e-4
