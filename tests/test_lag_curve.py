@@ -1,9 +1,11 @@
 """The triads' row pairing on continuously moving logs: the dip invariant's
 lag curve (inclino.checks._lag_curve).  On the hand-tumbled CK log
 (neighbouring rows about 1 deg apart, a one-row shift changes the dip's
-spread by 2 %) and on an emulated tumble without the real log's dynamic
-acceleration: the lag named is the shift made, the unshifted log is not
-named, a skew within a row is a note, never a named shift."""
+spread by 2 %), on an emulated tumble without the real log's dynamic
+acceleration, and on a simulated sensor turned about a grip point (the
+hand's lever-arm acceleration the curve fits out): the lag named is the
+shift made, the unshifted log is not named, a skew within a row is a note,
+never a named shift."""
 from pathlib import Path
 
 import numpy as np
@@ -57,16 +59,109 @@ def test_a_shift_of_two_or_three_rows_of_the_ck_log_is_named(ck, k):
 
 @pytest.mark.parametrize("k", [1, -1])
 def test_a_one_row_shift_of_the_ck_log_moves_the_lag_curve_by_that_row(ck, k):
-    """The curve follows the shift to a fraction of a row; on this log the
-    fraction is within its own scatter of half a row (the accelerometer sees
-    tens of mg of the hand's acceleration), so the shift is a note naming the
-    possible lag, and never a wrong lag."""
+    """The curve follows the shift to a fraction of a row.  With the hand's
+    lever-arm acceleration fitted out the clean log sits a fraction of a row
+    off 0, so one direction clears half a row by 3 standard errors and is
+    named (next test), the other is within them: a note naming the possible
+    lag.  Never a wrong lag."""
     rep = checks.run(_shifted(ck[0], k))
     assert abs(rep.lag_curve["lag_rows"] - ck[1].lag_curve["lag_rows"] - k) < 0.2, rep.lag_curve
     assert rep.lag_rows in (0, k)
     if rep.lag_rows == 0:
         (note,) = _lag_findings(rep, ("note",))
         assert note.figures["lag_rows_possible"] == k and "not named" in note.message
+
+
+def test_a_one_row_shift_of_the_ck_log_is_named_where_the_curve_clears_half_a_row(ck):
+    """The clean log's curve sits at a fraction f of a row: a shift of k rows
+    puts it at k + f, and the shift whose k + f lies 3 standard errors beyond
+    half a row is named, as a warning with that lag, each half agreeing."""
+    c = ck[1].lag_curve
+    k = 1 if c["lag_rows"] > 0 else -1  # the side the clean log leans to: k + f is the farther from half a row
+    rep = checks.run(_shifted(ck[0], k))
+    (f,) = _lag_findings(rep)
+    assert rep.lag_rows == k and f.level == "warning" and f"lag = {k}" in f.message, rep.lines()
+    assert all(round(h) == k for h in rep.lag_curve["halves_rows"]), rep.lag_curve
+    assert abs(rep.lag_curve["lag_rows"]) - 0.5 > checks.LAG_CURVE_SE * rep.lag_curve["se_rows"], rep.lag_curve
+
+
+def _check_dirs(ds):
+    """The unit directions the row-alignment check pairs (both triads after
+    their ellipsoid fits; the CK log's axes are as declared)."""
+    block = slice(0, checks.LAG_ROWS)
+    ug = checks._unit_dirs(ds.acc[block], float(ds.meta.get("gravity_g") or 1.0))[0]
+    ub = checks._unit_dirs(ds.mag[block], float(ds.meta.get("field_nT") or 50_000.0))[0]
+    return ug, ub
+
+
+def test_the_lever_arm_terms_narrow_the_ck_log_lag_curve(ck):
+    """The hand's acceleration is what scatters the CK log's curve: fitted
+    out at each trial shift, the jackknife standard error is smaller than
+    with the triads' calibration alone."""
+    ds, rep = ck
+    ug, ub = _check_dirs(ds)
+    with_arm, without = checks._lag_curve(ug, ub), checks._lag_curve(ug, ub, lever_arm=False)
+    # the directions are the check's own: the curve is the one it reported
+    assert with_arm["lag"] == pytest.approx(rep.lag_curve["lag_rows"], abs=1e-9)
+    assert with_arm["se"] < without["se"], (with_arm, without)
+
+
+def _hand_turned(n=3000, r=(1.0, -0.7, 1.5), seed=3):
+    """A sensor turned by a hand about a grip point: a smooth random body
+    rate w (rad/row, ~1 deg/row), the orientation integrated from it
+    exactly, gravity and a 60 deg dip field as the body frame sees them, and
+    the accelerometer reading gravity plus alpha x r + w x (w x r)."""
+    from scipy.interpolate import CubicSpline
+    from scipy.spatial.transform import Rotation
+
+    rng = np.random.default_rng(seed)
+    knots = np.linspace(0.0, n, n // 50 + 1)
+    rate = CubicSpline(knots, rng.normal(0.0, 0.02, (len(knots), 3)))
+    t = np.arange(n, dtype=float)
+    w, alpha = rate(t), rate(t, 1)
+    steps = Rotation.from_rotvec(0.5 * (w[:-1] + w[1:]))
+    R = [Rotation.identity()]
+    for s in steps:
+        R.append(R[-1] * s)
+    R = Rotation.concatenate(R).inv()
+    dip = np.radians(60.0)
+    g, b = R.apply([0.0, 0.0, 1.0]), R.apply([np.cos(dip), 0.0, np.sin(dip)])
+    a_lin = np.cross(alpha, r) + np.cross(w, np.cross(w, r))
+    acc = g + a_lin
+    return acc / np.linalg.norm(acc, axis=1, keepdims=True), b, a_lin
+
+
+def test_the_lever_arm_columns_take_out_a_hand_s_acceleration():
+    """Rigid-body kinematics, not the columns' own formula: the accelerometer
+    of a sensor turned about a grip point 10-30 mg off gravity (CK's median
+    row: 22 mg).  The six columns (their r fitted) leave a small part of the
+    invariant's misfit the calibration terms alone leave, and the curve with
+    them sits closer to the true pairing (0) than without."""
+    for scale in (3.0, 10.0):
+        ug, ub, a_lin = _hand_turned(r=tuple(scale * np.array([1.0, -0.7, 1.5])))
+        assert 0.005 < np.sqrt(np.mean(np.sum(a_lin ** 2, 1))) < 0.03  # g: the acceleration meant
+        i = np.arange(checks.MAX_LAG + 1, len(ug) - checks.MAX_LAG - 1)
+        (cols,) = checks._lever_arm_columns(ug, ub, i, [0])
+        before = np.sqrt(np.mean(checks._invariant_misfit(ug[i], ub[i]) ** 2))
+        after = np.sqrt(np.mean(checks._invariant_misfit(ug[i], ub[i], cols) ** 2))
+        assert after < 0.25 * before, (scale, np.sqrt(np.mean(np.sum(a_lin ** 2, 1))), before, after)
+        c0, c1 = checks._lag_curve(ug, ub, lever_arm=False), checks._lag_curve(ug, ub)
+        assert abs(c1["lag"]) < abs(c0["lag"]) and abs(c1["lag"]) < 3 * c1["se"], (scale, c0, c1)
+
+
+def test_the_lever_arm_terms_leave_a_tumble_without_linear_acceleration_alone(tumble):
+    """No hand's acceleration: r fits to ~0 and the curve is where it was."""
+    ug, ub = _check_dirs(tumble)
+    c0, c1 = checks._lag_curve(ug, ub, lever_arm=False), checks._lag_curve(ug, ub)
+    assert abs(c1["lag"] - c0["lag"]) < 0.01 and abs(c1["se"] - c0["se"]) < 0.01, (c0, c1)
+
+
+def test_the_smoothing_is_scipy_s_savitzky_golay_filter():
+    from scipy.signal import savgol_filter
+
+    v = np.random.default_rng(0).normal(size=(200, 3)).cumsum(0)
+    n = checks.LAG_LEVER_ROWS
+    assert np.allclose(checks._savgol_rows(v, n), savgol_filter(v, n, 3, axis=0), rtol=0, atol=1e-10)
 
 
 def test_the_lag_named_on_the_ck_log_is_the_lag_that_fixes_its_import(tmp_path):

@@ -365,7 +365,8 @@ def _axes_and_lag(ds, rows_all, rep, ug_src=None):
                    f"magnetometer's rows shifted by {kt:+d} (the rows where the position changes are mispaired)")
     # a continuously moving log: neighbouring rows are close orientations, so a shift of a row or two
     # changes the dip's spread by a few % only; the lag curve of the invariant, with the triads'
-    # calibration errors fitted out, locates the pairing to a fraction of a row
+    # calibration errors and a turning lever arm's acceleration fitted out, locates the pairing to a fraction
+    # of a row
     inv = _lag_curve(ug, ubp)
     if inv is not None:
         rep.lag_curve = {"lag_rows": inv["lag"], "se_rows": inv["se"], "halves_rows": inv["halves"]}
@@ -377,7 +378,8 @@ def _axes_and_lag(ds, rows_all, rep, ug_src=None):
             # 4 000 rows), so a shift it finds is named only where the calibrated curve puts the pairing too
             rep.findings.append(Finding("row-alignment", "note", (
                 f"the triads may be paired out of step ({how}), but the dip invariant's lag curve, with the "
-                f"triads' calibration errors fitted out, puts the magnetometer's rows {inv['lag']:+.2f} +- "
+                f"triads' calibration errors and a turning lever arm's acceleration fitted out, puts the "
+                f"magnetometer's rows {inv['lag']:+.2f} +- "
                 f"{inv['se']:.2f} out of step (nearest row {int(round(inv['lag'])):+d}): not named"),
                 None, {**fig, "lag_rows": kb}))
             route = None
@@ -385,7 +387,8 @@ def _axes_and_lag(ds, rows_all, rep, ug_src=None):
         halves_agree = k != 0 and k in lags and all(h is not None and round(h) == k for h in inv["halves"])
         if route is None and halves_agree and abs(inv["lag"]) - 0.5 > LAG_CURVE_SE * inv["se"]:
             route, kb, sb = "curve", k, lags[k]
-            how = (f"with the triads' calibration errors fitted out, the dip angle is most consistent with the "
+            how = (f"with the triads' calibration errors and a turning lever arm's acceleration fitted out, the dip "
+                   f"angle is most consistent with the "
                    f"magnetometer's rows shifted by {inv['lag']:+.2f} +- {inv['se']:.2f} (each half of the log "
                    f"on its own: {', '.join(f'{h:+.2f}' for h in inv['halves'])})")
         elif route is None and halves_agree:
@@ -561,6 +564,7 @@ def _lever_arm_columns(ug, ub, i, shifts):
     m = len(ug)
     Ag, rg = normal_part(ug, LAG_LEVER_ACC_WEIGHT ** 2)
     Ab, rb = normal_part(ub, 1.0)
+    Ag += 1e-9 * np.eye(3)  # a row with g along b does not see the turn about them: 0 there, not singular
     out = []
     for k in shifts:
         j0, j1 = max(0, -k), min(m, m - k)  # every row the shift pairs: the fitted rows' neighbours too
