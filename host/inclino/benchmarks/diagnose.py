@@ -32,7 +32,9 @@ sensor noise, quantisation, 0.05 deg turntable readout error), seeded.
 Targets: detection >= 95 % for every effect at every size z >= 6, with and
 without spiked rows; every strong effect named and estimated within 2
 stderr or 10 %; both effects of a pair named in >= 90 %; false alarms <= 2 %
-over >= 200 nulls; no dataset ends in an error."""
+over >= 480 nulls (at the design's 1 %, a rate judged on 216 nulls reads
+above 2 % one time in fifteen, on 480 one time in forty); no dataset ends
+in an error."""
 from __future__ import annotations
 
 import time
@@ -74,7 +76,7 @@ Z_DETECT_MIN_OF = {"rig-field": 12.0}
 OUTLIER_FRACTION = 0.01
 NULL_NOISE = ((30e-6, 2.0), (150e-6, 5.0), (300e-6, 20.0))  # (g, nT)
 NULL_PLANS = ("static", "continuous", "li-grid", "ren-grid")
-TARGETS = {"detection_min": 0.95, "pair_detection_min": 0.9, "false_alarm_max": 0.02, "nulls_min": 200,
+TARGETS = {"detection_min": 0.95, "pair_detection_min": 0.9, "false_alarm_max": 0.02, "nulls_min": 480,
            "errors_max": 0}
 
 
@@ -285,7 +287,7 @@ def bench_diagnose(quick: bool = False, per_size: int | None = None, nulls: int 
     if per_size is None:
         per_size = 1 if quick else 4
     if nulls is None:
-        nulls = 12 if quick else 216
+        nulls = 12 if quick else 480
     if pairs is None:
         pairs = 2 if quick else 12
     from .diagnose_real import bench_real

@@ -22,7 +22,7 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--json", action="store_true", help="print one JSON object")
     p.add_argument("--quick", action="store_true", help="a small set (for the tests; not the targets' figures)")
     p.add_argument("--per-size", type=int, help="datasets per effect and size (default 4; quick 1)")
-    p.add_argument("--nulls", type=int, help="null datasets (default 216; quick 12)")
+    p.add_argument("--nulls", type=int, help="null datasets (default 480; quick 12)")
     p.add_argument("--pairs", type=int, help="two-effect datasets (default 12; quick 2)")
     p.add_argument("--seed", type=int, help="first seed (default 1000; with --real-only 2024)")
     p.add_argument("--cases", action="store_true", help="with --json: every dataset's record too")
