@@ -273,3 +273,23 @@ def test_a_one_row_shift_of_the_whole_ck_log_is_named_either_way(ck, k):
     (f,) = _lag_findings(rep)
     assert rep.lag_rows == k and f"lag = {k}" in f.message
     assert all(round(h) == k for h in rep.lag_curve["halves_rows"]), rep.lag_curve
+
+
+def test_a_log_held_at_one_orientation_has_no_lag_curve(rng):
+    """Both triads read one orientation with their noise (a static log):
+    every shift pairs rows alike, so there is no pairing to find, and the
+    lever-arm terms would fit the curve to the noise (a real static log,
+    4 orientations' worth of noise in 18 000 rows, came out at
+    +2.2 +- 0.13 rows and was named).  No curve, nothing named."""
+    from inclino.formats.dataset import RawDataset
+
+    n = 6000
+    g = np.array([0.1, -0.2, 0.97])
+    b = 48_000.0 * np.array([0.35, 0.1, 0.93])
+    acc = g + rng.normal(0.0, 8e-4, (n, 3))
+    mag = b + rng.normal(0.0, 80.0, (n, 3))
+    ds = RawDataset({"ax_g": acc[:, 0], "ay_g": acc[:, 1], "az_g": acc[:, 2],
+                     "mx_nT": mag[:, 0], "my_nT": mag[:, 1], "mz_nT": mag[:, 2]}, {"field_nT": 48_000.0})
+    for k in (0, 1, 2):
+        rep = checks.run(_shifted(ds, k) if k else ds)
+        assert rep.lag_curve is None and rep.lag_rows == 0 and not _lag_findings(rep), rep.lines()

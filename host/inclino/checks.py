@@ -62,6 +62,7 @@ LAG_CURVE_BLOCKS = 20     # ... cut in this many blocks for its jackknife standa
 LAG_CURVE_SE = 3.0        # a whole-row shift is named when the fractional lag is this many standard errors
                           # beyond half a row (and each half of the log, fitted on its own, rounds to it)
 LAG_CURVE_PARTS = 2        # ... and fitted in this many parts of the log, each with its own nuisance terms
+LAG_CURVE_MAX_RESULTANT = 0.95  # ... and both triads' directions to turn: their mean resultant length below this
 LAG_CURVE_MIN_SIN = 0.1   # |sin dip| below it (within ~6 deg of the magnetic equator): no invariant to scale
 LAG_LEVER_ROWS = 9        # the lag curve's lever-arm terms: the triads' directions smoothed over this many rows
                           # (Savitzky-Golay, cubic) before the rotation rate is taken from them ...
@@ -626,6 +627,10 @@ def _lag_curve(ug, ub, halves=True, lever_arm=True):
     if m < (LAG_CURVE_ROWS if halves else LAG_CURVE_ROWS // 2):
         return None
     if abs(float(np.median((ug * ub).sum(1)))) < LAG_CURVE_MIN_SIN:
+        return None
+    if max(np.linalg.norm(ug.mean(0)), np.linalg.norm(ub.mean(0))) > LAG_CURVE_MAX_RESULTANT:
+        # a log that hardly turns (one orientation held, or turned about gravity alone) pairs its rows alike
+        # at every shift: the curve would be its noise (fitted to it by the lever-arm terms)
         return None
     i = np.arange(K + 1, m - K - 1)
     shifts = range(-K - 1, K + 2)
