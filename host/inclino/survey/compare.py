@@ -74,6 +74,7 @@ def counts(code: str, propagation: str, two_probes: bool) -> bool:
 # here), so a long survey goes through in stretches of bounded memory
 # (welleng holds some 13 kB per station and term set: 10^5 pairs at once took 1.3 GB)
 CHUNK = 5000
+MIN_STATIONS = 4  # per call of the error model
 
 
 def expected(model, md, inc, azi, rf, two_probes=False, fallback=(60.0, 50000.0), chunk: int = CHUNK):
@@ -84,12 +85,16 @@ def expected(model, md, inc, azi, rf, two_probes=False, fallback=(60.0, 50000.0)
     va = np.zeros(n)
     for lo in range(0, n, chunk):
         hi = min(n, lo + chunk)
-        a = max(0, lo - 1)  # each stretch starts at the last station of the one before
-        prop = model.propagate(md[a:hi], inc[a:hi], azi[a:hi], rf, fallback)
+        # each stretch starts at the last station of the one before, and the call holds at least MIN_STATIONS
+        # (more of the survey's own on either side): the error model called on 3 stations gives the first and
+        # last a covariance of their own (NaN or off), not what the same stations get within the survey
+        a = max(0, min(lo - 1, hi - MIN_STATIONS))
+        b = min(n, max(hi, a + MIN_STATIONS))
+        prop = model.propagate(md[a:b], inc[a:b], azi[a:b], rf, fallback)
         for (part, code), (propagation, dia) in prop.sources.items():
             if counts(code, propagation, two_probes):
-                vi[lo:hi] += dia[lo - a:, 1, 1]
-                va[lo:hi] += dia[lo - a:, 2, 2]
+                vi[lo:hi] += dia[lo - a:hi - a, 1, 1]
+                va[lo:hi] += dia[lo - a:hi - a, 2, 2]
         del prop
         gc.collect()  # welleng's survey objects hold reference cycles: a stretch's arrays go before the next
     return np.degrees(np.sqrt(2.0 * vi)), np.degrees(np.sqrt(2.0 * va))
