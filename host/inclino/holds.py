@@ -38,6 +38,8 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from inclino.formats.dataset import ID_COLUMNS, POSE_COLS
+
 # the noise (1 sigma, one reading, per axis) a static sensor of each kind stays within when the
 # description gives none: MEMS accelerometers 100-300 ug/sqrt(Hz) over a few hundred Hz (<= 5 mg);
 # MEMS magnetometers 0.15-0.6 uT per LSB (<= 1 uT); the fluxgate a few nT
@@ -194,8 +196,6 @@ def means(v, labels, count) -> np.ndarray:
     return out / np.maximum(np.bincount(labels[keep], minlength=count), 1)[:, None]
 
 
-ID_COLUMNS = ("pose_id", "segment", "cluster")
-PARTIAL_POSE_COLUMNS = ("inc_deg", "azi_deg", "tf_deg")
 SETTING_CHANGES_MAX = 0.5      # a partial pose column changing on more rows than this is read, not a setting
 
 
@@ -204,7 +204,7 @@ def labelled(ds) -> bool:
     three pose columns.  A partial pose (a face label, one rig axis's
     setting) does not: it only cuts the holds the readings show (find)."""
     cols = ds.columns
-    return any(c in cols for c in ID_COLUMNS) or all(c in cols for c in PARTIAL_POSE_COLUMNS)
+    return any(c in cols for c in ID_COLUMNS) or all(c in cols for c in POSE_COLS)
 
 
 def setting_changes(ds) -> np.ndarray:
@@ -214,7 +214,7 @@ def setting_changes(ds) -> np.ndarray:
     SETTING_CHANGES_MAX of the rows: a variable read with every row (a rig
     axis logged as it turns), not a setting held."""
     n = len(ds)
-    present = [c for c in PARTIAL_POSE_COLUMNS if c in ds.columns]
+    present = [c for c in POSE_COLS if c in ds.columns]
     out = np.zeros(n, bool)
     if present and n > 1:
         P = np.stack([np.asarray(ds.columns[c], float) for c in present], -1)

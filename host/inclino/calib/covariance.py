@@ -38,9 +38,9 @@ from dataclasses import dataclass, field
 import numpy as np
 from scipy import optimize, linalg
 
-POSE_COLS = ("inc_deg", "azi_deg", "tf_deg")
+from inclino.formats.dataset import ID_COLUMNS, POSE_COLS
+
 POSE_TOL_DEG = 1e-6
-ID_COLUMNS = ("pose_id", "segment", "cluster")  # a dataset column naming each row's pose, if present
 
 
 def cluster_labels(ds) -> np.ndarray:

@@ -84,9 +84,9 @@ class _PF:
         self.has_acc, self.has_mag = ds.has_acc, ds.has_mag
         n0 = len(ds)
         lab = cluster_labels(ds)
-        if not _holds.labelled(ds) and np.any(_holds.setting_changes(ds)):
-            # partial poses (a face label, a rig axis's setting): consecutive rows at one of them
-            lab = np.cumsum(_holds.setting_changes(ds) | (np.arange(n0) == 0)) - 1
+        settings = np.zeros(n0, bool) if _holds.labelled(ds) else _holds.setting_changes(ds)
+        if settings.any():  # partial poses (a face label, a rig axis's setting): consecutive rows at one of them
+            lab = np.cumsum(settings)
         # no pose, no pose id: the readings' own static holds (inclino.holds) are the poses of a step-and-hold
         # log when they determine the model; the rows read while moving between them are then left out.  Holds
         # in too few directions (a six-face session) leave every row a pose of its own; with an accelerometer,

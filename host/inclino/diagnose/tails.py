@@ -47,7 +47,6 @@ import numpy as np
 from scipy import stats
 
 GATE_P = 1e-3
-ROW_CHUNK = 4096
 MIN_ROWS = 20  # the kurtosis test needs this many
 
 
@@ -61,8 +60,8 @@ def gate(des, S) -> dict:
     if len(rows) < MIN_ROWS:
         return {"p": 1.0, "gated": False, "kurtosis": [0.0] * des.yw.shape[1]}
     e = np.empty((len(rows), des.yw.shape[1]))
-    for lo in range(0, len(rows), ROW_CHUNK):
-        ix = rows[lo:lo + ROW_CHUNK]
+    for lo in range(0, len(rows), des.ROW_CHUNK):
+        ix = rows[lo:lo + des.ROW_CHUNK]
         e[lo:lo + len(ix)] = des.yw[ix] - np.einsum("nip,p->ni", des.whitened(S, ix), beta)
     with np.errstate(all="ignore"):
         ps = [float(stats.kurtosistest(e[:, j], alternative="greater").pvalue) for j in range(e.shape[1])]
@@ -88,8 +87,8 @@ def sandwich(des, S, extra) -> dict:
     B = np.zeros((q, q))
     sr = np.empty(len(rows))
     eye = np.eye(des.yw.shape[1])
-    for lo in range(0, len(rows), ROW_CHUNK):
-        ix = rows[lo:lo + ROW_CHUNK]
+    for lo in range(0, len(rows), des.ROW_CHUNK):
+        ix = rows[lo:lo + des.ROW_CHUNK]
         Xw = des.whitened(S1, ix)  # (c, 6, p), scaled columns
         e = des.yw[ix] - np.einsum("nip,p->ni", Xw, beta1)
         M = eye[None] - (Xw @ Gi) @ np.swapaxes(Xw, 1, 2)

@@ -42,6 +42,7 @@ ACC_COLS = ("ax_g", "ay_g", "az_g")
 MAG_COLS = ("mx_nT", "my_nT", "mz_nT")
 SENSOR_COLS = ACC_COLS + MAG_COLS
 POSE_COLS = ("inc_deg", "azi_deg", "tf_deg")
+ID_COLUMNS = ("pose_id", "segment", "cluster")  # a column naming each row's pose, if present
 OPTIONAL_COLS = ("t_s", "temp_c") + POSE_COLS
 COLUMN_ORDER = ("t_s",) + POSE_COLS + ("temp_c",) + SENSOR_COLS
 
