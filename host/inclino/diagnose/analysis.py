@@ -720,6 +720,71 @@ def _confounds(m: _Model, kept, contradicted, alpha=core.DEFAULT_ALPHA):
     return out
 
 
+_RUN_DRIVER = {"time": "time", "reading order": "time", "temperature": "temperature",
+               "inclination axis angle": "inc", "azimuth axis angle": "azi", "toolface axis angle": "tf"}
+
+
+def _run_driver(c) -> str | None:
+    """The run variable a candidate is a function of: time (a drift),
+    temperature, or the angle of one turntable axis (a rig field)."""
+    if c.name == "rig-field":
+        return c.axis
+    d = _driver(c)
+    return d if d in ("time", "temperature") else None
+
+
+def _run_variable_rivals(m: _Model, kept, effects_out, run_conf, alpha, confounds) -> list:
+    """Each named effect whose driver (time, temperature, a turntable axis's
+    angle) goes with another of the run's variables (run_variable_confounds:
+    time rising with the inclination axis when the poses are taken in
+    order) set beside the candidates driven by that other variable, one at
+    a time in its place: the cross-validated residual (whitened, all
+    channels) with the named effect and with the rival instead, and the
+    F-test of each beside the other at the forward selection's threshold.
+    Recorded in the effect's detail ("run_confounds"); the pairs the run
+    cannot tell apart (the named effect adds nothing the selection would
+    keep beside the rival, or the rival does as well on held-out data) are
+    returned as confounds, with the acquisition that would separate them."""
+    by_key = {c.key: c for c in m.testable}
+    des = m.des
+    bonf = alpha / max(len(m.testable), 1)
+    known = {(c["effect"], c["with"]) for c in confounds}
+    out = []
+    for e, k in zip(effects_out, kept):
+        dk = _run_driver(by_key[k])
+        if dk is None:
+            continue
+        others = m.base + m.cols([x for x in kept if x != k])
+        rows = []
+        for rv in run_conf:
+            a, b = _RUN_DRIVER.get(rv["a"]), _RUN_DRIVER.get(rv["b"])
+            if dk not in (a, b) or a == b:
+                continue
+            other, var = (b, rv["b"]) if a == dk else (a, rv["a"])
+            rivals = [c for c in m.testable if c.key not in kept and _run_driver(c) == other]
+            if not rivals:
+                continue
+            cv_none, cv_named = des.cv(others), des.cv(others + m.idx[k])
+            best = min(rivals, key=lambda c: des.cv(others + m.idx[c.key]))
+            cv_rival = des.cv(others + m.idx[best.key])
+            p_named = des.ftest(others + m.idx[best.key], m.idx[k])[0]
+            p_rival = des.ftest(others + m.idx[k], m.idx[best.key])[0]
+            # a pair the signatures' correlation already reports (_confounds) is not told apart, whatever the F-test
+            apart = bool(p_named < bonf and cv_named < cv_rival) and (k, best.key) not in known
+            row = {"variable": var, "correlation": float(rv["correlation"]), "rival": best.key,
+                   "cv_without_either": cv_none, "cv_with_effect": cv_named, "cv_with_rival_instead": cv_rival,
+                   "p_effect_beside_rival": p_named, "p_rival_beside_effect": p_rival, "told_apart": apart,
+                   "separate_by": separating_acquisition(by_key[k], best)}
+            rows.append(row)
+            if not apart and (k, best.key) not in known:
+                known.add((k, best.key))
+                out.append({"effect": k, "with": best.key, "correlation": float(abs(rv["correlation"])),
+                            "named": True, "via": var, "separate_by": row["separate_by"]})
+        if rows:
+            e.detail["run_confounds"] = rows
+    return out
+
+
 def _residual_study(m: _Model, S, R, nz, ok):
     """The residual study of R under the model's columns S, the noise nz;
     outlier rows have no weight (residual 0, variance huge)."""
@@ -761,6 +826,7 @@ def _assemble(m: _Model, alpha, testable, not_testable, steps, kept, pvals, keep
         notes.append(f"{_label(a)} and {_label(b)} are confounded in this run (correlation {cf['correlation']:.3f}): "
                      f"the data cannot tell them apart; {cf['separate_by']}")
     run_conf = run_variable_confounds(d)
+    confounds += _run_variable_rivals(m, kept, effects_out, run_conf, alpha, confounds)
 
     # ---- residual study (baseline) and structure test (final)
     final_study = _residual_study(m, S, R_final, noise, ok)

@@ -142,6 +142,18 @@ class Diagnosis:
                             if g.inc_rms_before_deg == g.inc_rms_before_deg else "")
                          + (f", azimuth {g.azi_rms_before_deg:.4f} -> {g.azi_rms_after_deg:.4f} deg"
                             if g.azi_rms_before_deg is not None else ""))
+            for rc in e.detail.get("run_confounds", []):
+                rival = rc["rival"].split(":")
+                lines.append(f"  confound: its driver goes with {_the(rc['variable'])} here (correlation "
+                             f"{rc['correlation']:.2f}); set beside {rival[0]} ({' '.join(rival[1:])}) in its place: "
+                             + (f"told apart (cross-validated residual {rc['cv_without_either']:.3g} without either, "
+                                f"{rc['cv_with_effect']:.3g} with it, "
+                                f"{rc['cv_with_rival_instead']:.3g} with the rival; p = {rc['p_effect_beside_rival']:.2g}"
+                                f" beside it)" if rc["told_apart"] else
+                                f"NOT told apart (cross-validated residual {rc['cv_without_either']:.3g} without either, "
+                                f"{rc['cv_with_effect']:.3g} with it, "
+                                f"{rc['cv_with_rival_instead']:.3g} with the rival); to separate them, "
+                                f"{rc['separate_by']}"))
         for c in self.contradicted:
             name, sensor, axis = c["effect"].split(":")
             lines.append(f"not a cause: {name} ({sensor} {axis}) {c['verdict']} -- " + "; ".join(c["reasons"])
@@ -234,3 +246,9 @@ class Diagnosis:
             parts.append("structure no library effect explains (p = "
                          f"{self.structure['min_p']:.2g} < {self.structure['threshold']:.2g})")
         return f"conclusion: FAIL: {model} misses " + "; ".join(parts)
+
+
+def _the(variable: str) -> str:
+    """A run variable as a sentence names it: time, temperature, the
+    inclination axis angle."""
+    return "the " + variable if variable.endswith("angle") else variable
