@@ -63,12 +63,18 @@ LAG_CURVE_SE = 3.0        # a whole-row shift is named when the fractional lag i
                           # beyond half a row (and each half of the log, fitted on its own, rounds to it)
 LAG_CURVE_PARTS = 2        # ... and fitted in this many parts of the log, each with its own nuisance terms
 LAG_CURVE_MAX_RESULTANT = 0.95  # ... and both triads' directions to turn: their mean resultant length below this
+HELD_FRAC = 0.5          # a triad whose reading repeats the row before on this share of rows, ...
+HELD_OTHER = 0.05        # ... the other's on less than this: sampled slower and held (no pairing to a row)
 LAG_CURVE_MIN_SIN = 0.1   # |sin dip| below it (within ~6 deg of the magnetic equator): no invariant to scale
 LAG_LEVER_ROWS = 9        # the lag curve's lever-arm terms: the triads' directions smoothed over this many rows
                           # (Savitzky-Golay, cubic) before the rotation rate is taken from them ...
 LAG_LEVER_ACC_WEIGHT = 0.1  # ... with the accelerometer's direction weighted this much against the magnetometer's
                             # (the accelerometer's carries the hand's acceleration the terms fit out)
 AXES_RATIO = 3.0          # dip spread with the declared maps / with the best other map
+HAND_WEAK_RATIO = 1.2     # below AXES_RATIO: a reflection that cuts the dip's spread this much (and HAND_WEAK_DEG) ...
+HAND_WEAK_DEG = 0.2
+HAND_WEAK_HALF = 1.1      # ... and cuts it this much in each half of the log on its own: a warning
+HAND_NOTE_RATIO = 1.5     # the declared map beats every one-axis mirror by less than this: a note (checked on little)
 RAW_DIRS_MAX_CV = 0.1     # raw directions compared only when |v| varies less than this (offsets small)
 CHECK_ROWS = 200_000      # rows looked at (stratified random rows beyond: _thin; the lag on the first LAG_ROWS consecutive rows)
 LAG_ROWS = 50_000
@@ -194,6 +200,35 @@ def _thin(n, limit):
 
 
 # ------------------------------------------------------------------ checks
+def _declared_factor(ds, triad: str):
+    """The declared unit's size in the canonical unit (g, nT) of an imported
+    triad (m/s2: 1/9.80665 g), or None (canonical data, counts, field units):
+    a reading ratio r off the expected is then the readings in the unit whose
+    size is that factor / r."""
+    from inclino.formats import sensor
+
+    unit = ds.meta.get(f"{triad}_unit")
+    if not unit or not _imported(ds):
+        return 1.0  # the canonical columns: g, nT
+    units = sensor.ACC_UNITS if triad == "acc" else sensor.MAG_UNITS
+    key = sensor._unit_key(str(unit), units)
+    return float(units[key]) if key is not None else None
+
+
+def _unit_guesses(ratio: float, guess: dict, canon: str, declared, tol: float) -> list:
+    """The units the readings look like: `guess` holds values per canonical
+    unit; a reading in unit U declared as D is ratio = size(D) x values-per-
+    canon(U) off.  The declared unit itself (ratio 1) is never a guess."""
+    cands = {canon: 1.0, **guess}
+    for size in ([] if declared is None else [declared]) + [1.0]:
+        # the log's numbers in another unit than declared; else the converted values (g, nT) in another unit
+        out = [(abs(math.log(ratio / (size * f))), u) for u, f in cands.items() if abs(math.log(size * f)) > 1e-6]
+        found = [u for d, u in sorted(out) if d < tol][:2]
+        if found:
+            return found
+    return []
+
+
 def _units_acc(ds, rows, rep):
     G = float(ds.meta.get("gravity_g") or 1.0)
     a = ds.acc[rows]
@@ -213,8 +248,7 @@ def _units_acc(ds, rows, rep):
             f"accelerometer: |g| is {med:.4g} g (median of {len(a)} rows), {100 * (ratio - 1):+.0f} % from "
             f"{G:g} g: more than a sensor's scale error; check the unit and lsb (the range setting?)"), "acc", fig))
         return
-    guesses = [u for u, f in sorted(ACC_UNIT_GUESS.items(), key=lambda kv: abs(math.log(ratio / kv[1])))
-               if abs(math.log(ratio / f)) < 0.2][:2]
+    guesses = _unit_guesses(ratio, ACC_UNIT_GUESS, "g", _declared_factor(ds, "acc"), 0.2)
     like = (f"the readings look like {' or '.join(guesses)}" if guesses else
             f"the readings are {ratio:.4g}x what g would be")
     unit = ds.meta.get("acc_unit", "g")
@@ -260,8 +294,7 @@ def _units_mag(ds, rows, rep):
                 f"field"), "mag", fig))
             return
         target = 45_000.0
-    guesses = [u for u, f in sorted(MAG_UNIT_GUESS.items(), key=lambda kv: abs(math.log(R / (target * kv[1]))))
-               if abs(math.log(R / (target * f))) < 0.6][:2]
+    guesses = _unit_guesses(R / target, MAG_UNIT_GUESS, "nT", _declared_factor(ds, "mag"), 0.6)
     like = (f"the readings look like {' or '.join(guesses)}" if guesses else
             f"{R / target:.3g}x a geomagnetic field")
     rng = f"the header's field_nT {F:g}" if F else f"the geomagnetic range {GEOMAGNETIC_NT[0]:.0f}-" \
@@ -340,11 +373,16 @@ def _axes_and_lag(ds, rows_all, rep, ug_src=None):
                 + _fix(ds, "magnetometer", "that axis map")), "mag", fig))
         rep.mag_to_acc = P.tolist()
     else:
+        _weak_handedness(ug, ub, spreads, best, ident, other, ds, rep)
         P = np.eye(3)
     ubp = ub @ P.T
     m = len(block)
-    lags = _spread_by_lag(ug, ubp)
+    held = _held(ds, block, ug, ub) if ug_src is None else None
+    if held is not None:
+        rep.findings.append(Finding("row-alignment", "note", held[0], None, held[1]))
+    lags = _spread_by_lag(ug, ubp) if held is None else {}
     if not lags:
+        _dip_sign(ds, _dip(ug, ubp), ug_src, rep)
         return
     kb = min(lags, key=lambda k: lags[k])
     fig = {"dip_spread_by_lag_deg": {str(k): v for k, v in lags.items()}}
@@ -439,9 +477,48 @@ def _axes_and_lag(ds, rows_all, rep, ug_src=None):
         d = _dip(ug[:m - k], ubp[k:]) if k > 0 else _dip(ug[-k:], ubp[:m + k])
     else:
         d = _dip(ug, ubp)
+    _dip_sign(ds, d, ug_src, rep)
+
+
+def _held(ds, block, ug, ub):
+    """A triad sampled slower than the other and repeated between its
+    updates (sample and hold: x-io's Fusion example logs its magnetometer
+    at a fifth of the accelerometer's rate, 80 % of its rows a copy of the
+    row before): each held reading is paired with accelerometer rows up to
+    a hold later than it was read, so the dip's lag curve sits at the hold's
+    mean age on the log as logged (+2 rows on Fusion's) and a whole-row
+    shift is not what the rows show.  (message, figures) or None."""
+    rep_frac = {}
+    for t in ("acc", "mag"):
+        v = getattr(ds, t)[block]
+        rep_frac[t] = float(np.mean(np.all(np.diff(v, axis=0) == 0, axis=1))) if len(v) > 1 else 0.0
+    slow = max(rep_frac, key=rep_frac.get)
+    fast = "acc" if slow == "mag" else "mag"
+    if not (rep_frac[slow] >= HELD_FRAC and rep_frac[fast] < HELD_OTHER):
+        return None
+    if max(np.linalg.norm(ug.mean(0)), np.linalg.norm(ub.mean(0))) > LAG_CURVE_MAX_RESULTANT:
+        return None  # a log that hardly turns: the repeats are a quantised reading at rest, not a hold
+    every = 1.0 / max(1.0 - rep_frac[slow], 1e-9)
+    name = {"acc": "accelerometer", "mag": "magnetometer"}
+    return (f"the pairing of the triads cannot be checked to a row on this log: the {name[slow]} repeats its "
+            f"previous reading on {100 * rep_frac[slow]:.0f} % of the rows (a slower sensor held between its "
+            f"updates, a new reading every {every:.1f} rows), so each of its readings is paired with "
+            f"{name[fast]} rows up to {every:.1f} rows younger; a lag of a row or two is not named"), \
+        {"held_triad": slow, "repeat_fraction": rep_frac[slow], "rows_per_update": every}
+
+
+def _dip_sign(ds, d, ug_src, rep):
+    """The dip's sign against the header's (a turned gravity sign), or a
+    note that it cannot be checked."""
     dip = float(np.median(d))
     rep.noise["dip_deg"] = dip
     hdr = ds.meta.get("dip_deg")
+    if hdr is None and ug_src is None and abs(dip) > 5.0:
+        rep.findings.append(Finding("dip-sign", "note", (
+            f"the accelerometer's gravity sign was not checked: the dip angle is {dip:+.1f} deg, and a turned sign "
+            f"(reads = \"up\" or \"down\") only turns it to {-dip:+.1f} deg, a site in the other magnetic hemisphere; "
+            f"give the site's dip ([header] dip_deg, or # dip_deg= in the log; inclino reffield) to have it checked"),
+            "acc", {"dip_deg": dip}))
     if hdr is not None and ug_src is None:
         hdr = float(hdr)
         if abs(hdr) > 5.0 and np.sign(dip) != np.sign(hdr) and abs(dip + hdr) < max(DIP_MISMATCH_DEG, 0.3 * abs(hdr)):
@@ -455,6 +532,48 @@ def _axes_and_lag(ds, rows_all, rep, ug_src=None):
                 f"the dip angle is {dip:+.1f} deg (median, before calibration) against the header's {hdr:+.1f}: a "
                 f"wrong dip_deg, a disturbed field, or a large misalignment"), None,
                 {"dip_deg": dip, "header_dip_deg": hdr}))
+
+
+def _weak_handedness(ug, ub, spreads, best, ident, other, ds, rep):
+    """Where no map cuts the dip's spread AXES_RATIO times: how well the data
+    tell a mirrored magnetometer axis at all.  A one-axis mirror moves the dip
+    only where that axis and gravity (or the field) share a plane the sensor
+    turns through: a sensor held nearly flat and turned about the vertical
+    (a hand-held IMU on a desk: x-io's Fusion example, the dip spreading 1.22
+    deg as logged, 1.56 with y mirrored) cannot tell, and a mirrored axis then
+    passed in silence.  A reflection that cuts the spread HAND_WEAK_RATIO
+    times (and HAND_WEAK_DEG), in each half of the log on its own too, is a
+    warning; a declared map that beats every one-axis mirror by less than
+    HAND_NOTE_RATIO is a note: the handedness was checked on too little."""
+    if _intended(ds, "mag") or _intended(ds, "acc"):
+        return
+    s_id = spreads[ident]
+    P = np.array(best).reshape(3, 3)
+    m = len(ug)
+    if best != ident and np.linalg.det(P) < 0 and s_id > HAND_WEAK_RATIO * spreads[best] \
+            and s_id - spreads[best] > HAND_WEAK_DEG and m >= 40:
+        h = m // 2
+        halves = [(_robust_std(_dip(ug[sl], ub[sl])), _robust_std(_dip(ug[sl], ub[sl] @ P.T)))
+                  for sl in (slice(0, h), slice(h, m))]
+        if all(a > HAND_WEAK_HALF * b for a, b in halves):
+            rep.findings.append(Finding("handedness", "warning", (
+                f"the magnetometer's axes may be mirrored against the {other}: the dip angle spreads {s_id:.3g} deg "
+                f"with the axes as given, {spreads[best]:.3g} deg with magnetometer {_perm_text(P)} (a reflection; "
+                f"each half of the log: {', '.join(f'{a:.3g} against {b:.3g}' for a, b in halves)}); the sensor "
+                f"turned through too few orientations to be sure (the error needs {AXES_RATIO:g}x): check the axis "
+                f"map of each triad against its data sheet, or log the sensor tilted through more orientations"),
+                "mag", {"dip_spread_declared_deg": s_id, "dip_spread_best_deg": spreads[best],
+                        "best_map": _perm_text(P), "halves_deg": halves}))
+            return
+    mirrors = {a: spreads[tuple(np.diag([-1.0 if j == a else 1.0 for j in range(3)]).ravel())] for a in range(3)}
+    a = min(mirrors, key=mirrors.get)
+    if s_id > 0 and mirrors[a] < HAND_NOTE_RATIO * s_id:
+        rep.findings.append(Finding("handedness", "note", (
+            f"the handedness of the triads was checked on too little: the dip angle spreads {s_id:.3g} deg with the "
+            f"axes as given, {mirrors[a]:.3g} deg with the magnetometer's {'xyz'[a]} axis mirrored (an error needs "
+            f"{AXES_RATIO:g}x): the sensor hardly tilts through the orientations that would show a mirrored axis; a "
+            f"mirrored axis may pass unnamed"), None, {"dip_spread_declared_deg": s_id,
+                                                        "dip_spread_mirrored_deg": {'xyz'[k]: v for k, v in mirrors.items()}}))
 
 
 def _spread_by_lag(ug, ub) -> dict:

@@ -18,6 +18,7 @@ DETERMINED_SV = 2e-3
 # the readings' spread (RMS distance from their mean) below this share of their size: one orientation (a static
 # log, noise and drift only), whose "sphere" is a ball of noise a few hundred nT across, not the field
 SPHERE_MIN_SPREAD = 0.05
+SPHERE_MIN_PLANE = 0.003  # the readings' least variance over their largest below this: on a circle, no sphere determined
 
 
 def _design(raw):
@@ -74,6 +75,12 @@ def sphere(v):
     mean = v.mean(0)
     spread = float(np.sqrt(((v - mean) ** 2).sum(1).mean()))
     if not spread > SPHERE_MIN_SPREAD * float(np.linalg.norm(mean)):
+        return None
+    ev = np.linalg.eigvalsh(np.cov((v - mean).T))
+    if not ev[0] > SPHERE_MIN_PLANE * ev[-1]:
+        # the readings on a circle (a sensor turned about one axis: a compass turned on a table): a circle lies
+        # on every sphere whose centre is on its axis, and the fit's radius is whichever the noise picks (a
+        # horizontal circle of 20 uT read as a sphere of 20 uT where |b| is 71 uT)
         return None
     A = np.column_stack([2 * v, np.ones(len(v))])
     y = (v * v).sum(1)
