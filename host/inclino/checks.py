@@ -373,7 +373,10 @@ def _axes_and_lag(ds, rows_all, rep, ug_src=None):
                 + _fix(ds, "magnetometer", "that axis map")), "mag", fig))
         rep.mag_to_acc = P.tolist()
     else:
-        _weak_handedness(ug, ub, spreads, best, ident, other, ds, rep)
+        if ug_src is None:
+            # with poses the fit is against the poses' field vectors, in which a mirrored axis leaves a
+            # residual many times the noise (or a determinant -1): the dip alone is not all that checks it
+            _weak_handedness(ug, ub, spreads, best, ident, other, ds, rep)
         P = np.eye(3)
     ubp = ub @ P.T
     m = len(block)
