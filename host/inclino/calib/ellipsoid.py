@@ -50,9 +50,11 @@ def ellipsoid_start(raw, R, what: str = "the triad"):
     v = Vt[-1] / s
     Q = np.array([[v[0], v[3], v[4]], [v[3], v[1], v[5]], [v[4], v[5], v[2]]])
     if np.linalg.eigvalsh(Q).min() * np.linalg.eigvalsh(Q).max() <= 0:
-        raise DataError(f"{what}'s readings do not lie on an ellipsoid (too few orientations, or the readings of "
-                        f"a moving sensor, whose acceleration is no sensor effect): log it at rest, or turned "
-                        f"slowly, through more of the sphere")
+        why = ("the readings of a moving sensor, whose acceleration is no sensor effect" if "acceler" in what else
+               "a field that changed while they were read (steel or a current near the sensor)")
+        raise DataError(f"{what}'s readings do not lie on an ellipsoid (too few orientations: a cap of the sphere, "
+                        f"as a sensor that hardly tilts reads; or {why}): log it at rest, or turned slowly, through "
+                        f"more of the sphere")
     if np.trace(Q) < 0:
         Q, v = -Q, -v
     c = -np.linalg.solve(Q, v[6:9])
