@@ -432,18 +432,18 @@ def _axes_and_lag(ds, rows_all, rep, ug_src=None):
             route, kb, sb = "curve", k, lags[k]
             how = (f"with the triads' calibration errors and a turning lever arm's acceleration fitted out, the dip "
                    f"angle is most consistent with the "
-                   f"magnetometer's rows shifted by {inv['lag']:+.2f} +- {inv['se']:.2f} (each half of the log "
+                   f"magnetometer's rows shifted by {inv['lag']:+.2f} +- {_se_text(inv['se'])} (each half of the log "
                    f"on its own: {', '.join(f'{h:+.2f}' for h in inv['halves'])})")
         elif route is None and halves_agree:
             rep.findings.append(Finding("row-alignment", "note", (
-                f"the dip invariant's lag curve puts the magnetometer's rows {inv['lag']:+.2f} +- {inv['se']:.2f} "
+                f"the dip invariant's lag curve puts the magnetometer's rows {inv['lag']:+.2f} +- {_se_text(inv['se'])} "
                 f"out of step (each half of the log: {', '.join(f'{h:+.2f}' for h in inv['halves'])}), within "
                 f"{LAG_CURVE_SE:g} standard errors of half a row: a shift of {k:+d} is possible, not named (the "
                 f"log's own scatter allows a skew within a row; a session held still at each position tells)"),
                 None, {"curve_lag_rows": inv["lag"], "curve_lag_se_rows": inv["se"], "lag_rows_possible": k}))
         elif route is None and k == 0 and abs(inv["lag"]) > max(0.25, LAG_CURVE_SE * inv["se"]):
             rep.findings.append(Finding("row-alignment", "note", (
-                f"the triads look sampled {inv['lag']:+.2f} +- {inv['se']:.2f} rows apart (the magnetometer's "
+                f"the triads look sampled {inv['lag']:+.2f} +- {_se_text(inv['se'])} rows apart (the magnetometer's "
                 f"rows shifted by that fraction make the dip most consistent): a skew between the two "
                 f"sensors' sampling within a row, not a lost line; no whole-row lag fixes it"), None,
                 {"curve_lag_rows": inv["lag"], "curve_lag_se_rows": inv["se"]}))
@@ -461,7 +461,7 @@ def _axes_and_lag(ds, rows_all, rep, ug_src=None):
             route = None
     if route is not None:
         if inv is not None and route != "curve":
-            how += f"; the lag curve puts it at {inv['lag']:+.2f} +- {inv['se']:.2f} rows"
+            how += f"; the lag curve puts it at {inv['lag']:+.2f} +- {_se_text(inv['se'])} rows"
         if inv is not None and abs(inv["lag"] - kb) > 0.25 and abs(inv["lag"] - kb) > LAG_CURVE_SE * inv["se"]:
             how += (f" (a whole-row lag leaves {inv['lag'] - kb:+.2f} rows: a skew between the sensors' sampling "
                     f"that no lag removes)")
@@ -645,6 +645,13 @@ def _savgol_rows(v, n, order=3):
     out[:h] = H[:h] @ v[:n]
     out[len(v) - h:] = H[h + 1:] @ v[len(v) - n:]
     return out
+
+
+def _se_text(se: float) -> str:
+    """A lag's standard error as printed: two decimals, or two significant
+    digits below 0.01 row (a clean smooth tumble's is a few thousandths: "0.00"
+    read as no error at all)."""
+    return f"{se:.2f}" if se >= 0.01 else f"{se:.2g}"
 
 
 def _lever_arm_columns(ug, ub, i, shifts):
