@@ -234,6 +234,28 @@ def test_joint_calibrate_without_poses_fits_the_holds(tmp_path, monkeypatch):
     assert np.abs(cal_rows.acc_b).max() > err + 0.6e-3
 
 
+def test_joint_without_poses_reports_the_dip_sigma_of_the_holds(tmp_path):
+    """The dip's reported 1-sigma counts each hold once, as the rest of the
+    magnetometer's block does: against the standard error of the holds' own
+    dips (their scatter over sqrt(40)).  Each hold's error (2 mg, 100 nT)
+    is shared by its 30 rows; the report gave the rows' own sigma, 0.22x
+    that standard error (and 1/5 of the dip's error over 30 such logs), while
+    the covariance's dip entry had been scaled with the magnetometer's."""
+    from inclino.calib import fit
+
+    _two_triads(tmp_path / "j.csv", 20261127)
+    ds = dataset.read_raw(str(tmp_path / "j.csv"))
+    cal, rep = fit(ds, method="joint", accept_mount_tolerance=True)
+    g = (ds.acc - cal.acc_b) @ np.array(cal.acc_m).T
+    b = (ds.mag - cal.mag_b) @ np.array(cal.mag_m).T
+    dips = []
+    for k in range(40):  # hold k: rows 40 k ... 40 k + 29 (10 rows turning between holds)
+        gm, bm = g[40 * k:40 * k + 30].mean(0), b[40 * k:40 * k + 30].mean(0)
+        dips.append(np.degrees(np.arcsin(gm @ bm / np.linalg.norm(gm) / np.linalg.norm(bm))))
+    se = np.std(dips, ddof=1) / np.sqrt(len(dips))
+    assert 0.7 * se <= rep.uncertainty["dip_sigma_deg"] <= 2.5 * se
+
+
 def _with_rig_column(ds, values):
     from inclino.formats.dataset import RawDataset
 

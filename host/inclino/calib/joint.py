@@ -596,6 +596,8 @@ def _fit_invariants(ds, w, sa, sm, fix_dip, prior=None, mount_tolerance_deg=None
         sc[12:] = np.sqrt(scale[1])
         cov = cov * np.outer(sc, sc)
         info["hold_scale"] = {"acc": scale[0], "mag": scale[1]}
+        if not fix_dip:  # the dip is the magnetometer block's: its sigma scaled with it
+            info["dip_sigma_deg"] = float(np.sqrt(cov[24, 24]))
     if prior is not None:
         Q = field.align_to_prior(Ma, Mm, prior)
         Ma, Mm = Q @ Ma, Q @ Mm
