@@ -6,6 +6,7 @@ import sys
 from pathlib import Path
 
 import numpy as np
+import pytest
 
 from conftest import test_seed
 from inclino import holds
@@ -181,9 +182,9 @@ def test_calibrate_fits_the_holds_and_predicts_the_error_it_makes(tmp_path, monk
     assert ratio_rows > 2.0
 
 
-def _two_triads(path, seed, n_holds=40, rows=30, trans=10, bump=0.1):
+def _two_triads(path, seed, n_holds=40, rows=30, trans=10, bump=0.1, hold_nT=100.0):
     """Both triads at n_holds random attitudes, each hold with an error of
-    its own (2 mg, 100 nT per axis) on top of the rows' noise (1 mg, 30 nT),
+    its own (2 mg, hold_nT = 100 nT per axis) on top of the rows' noise (1 mg, 30 nT),
     turned between holds (the accelerometer also reads up to `bump` g of the
     motion).  The truth: M = I, b = 0 for both."""
     from scipy.spatial.transform import Rotation
@@ -195,7 +196,7 @@ def _two_triads(path, seed, n_holds=40, rows=30, trans=10, bump=0.1):
     A, B = [], []
     for k in range(n_holds):
         A.append(np.repeat((rot[k].apply([0.0, 0.0, 1.0]) + rng.normal(scale=2e-3, size=3))[None], rows, 0))
-        B.append(np.repeat((rot[k].apply(field) + rng.normal(scale=100.0, size=3))[None], rows, 0))
+        B.append(np.repeat((rot[k].apply(field) + rng.normal(scale=1.0, size=3) * hold_nT)[None], rows, 0))
         if k + 1 < n_holds:
             step = (rot[k].inv() * rot[k + 1]).as_rotvec()
             for j in range(1, trans + 1):
@@ -232,6 +233,38 @@ def test_joint_calibrate_without_poses_fits_the_holds(tmp_path, monkeypatch):
     monkeypatch.setattr(holds, "STEP_AND_HOLD_FRACTION", 2.0)
     cal_rows, _ = fit(ds, method="joint", accept_mount_tolerance=True)
     assert np.abs(cal_rows.acc_b).max() > err + 0.6e-3
+
+
+@pytest.mark.parametrize("hold_nT", [100.0, 0.0])
+def test_joint_without_poses_reports_the_dip_sigma_of_the_holds(tmp_path, hold_nT):
+    """The dip's reported 1-sigma counts each hold once: against the
+    standard error of the holds' own dips (their scatter over sqrt(40)).
+    Each hold's error (2 mg, and 100 nT or none) is shared by its 30 rows.
+    The report gave the rows' own sigma, 0.22x that standard error (1/5 of
+    the dip's error over 30 simulated logs), while the covariance's dip
+    entry had been scaled with the magnetometer's block, by the factor of
+    its |b| ellipsoid; with the hold errors in the accelerometer alone that
+    factor is about 1 (the |b| residuals are white) while the dip residuals
+    share each hold's error: 0.3x the standard error (dip and b_m z-score
+    RMS 3.2 over 30 logs).  The magnetometer's block now takes the holds'
+    shared errors from its own |b| and dip residuals, and the
+    accelerometer's error carried through the dip residuals."""
+    from inclino.calib import fit
+
+    _two_triads(tmp_path / "j.csv", 20261127, hold_nT=hold_nT)
+    ds = dataset.read_raw(str(tmp_path / "j.csv"))
+    cal, rep = fit(ds, method="joint", accept_mount_tolerance=True)
+    g = (ds.acc - cal.acc_b) @ np.array(cal.acc_m).T
+    b = (ds.mag - cal.mag_b) @ np.array(cal.mag_m).T
+    dips = []
+    for k in range(40):  # hold k: rows 40 k ... 40 k + 29 (10 rows turning between holds)
+        gm, bm = g[40 * k:40 * k + 30].mean(0), b[40 * k:40 * k + 30].mean(0)
+        dips.append(np.degrees(np.arcsin(gm @ bm / np.linalg.norm(gm) / np.linalg.norm(bm))))
+    se = np.std(dips, ddof=1) / np.sqrt(len(dips))
+    assert 0.7 * se <= rep.uncertainty["dip_sigma_deg"] <= 2.5 * se
+    # the magnetometer's fit holds the corrected gravity fixed: its coefficients follow the accelerometer's error
+    cov = np.array(rep.uncertainty["covariance"])
+    assert np.abs(cov[12:24, 0:12]).max() > 0.0
 
 
 def _with_rig_column(ds, values):

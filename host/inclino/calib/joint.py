@@ -556,7 +556,10 @@ def _fit_invariants(ds, w, sa, sm, fix_dip, prior=None, mount_tolerance_deg=None
     hs = holds.determining(ds)
     fitted = np.arange(len(ds)) if hs is None else np.flatnonzero(hs[0] >= 0)
     dsf = ds if hs is None else common.subset(ds, fitted)
-    (Ma, ba, Mm, bm, dip), cov, st = pose_free.fit(dsf, w, sa, sm, fix_dip, mag_start=mag_start)
+    # holds that do not determine the ellipsoids: every row fitted, but each hold's rows share its error
+    hl = hs[0] if hs is not None else (holds.correlated(ds) or (None,))[0]
+    (Ma, ba, Mm, bm, dip), cov, st = pose_free.fit(dsf, w, sa, sm, fix_dip, mag_start=mag_start,
+                                                   labels=None if hl is None else hl[fitted])
     if fix_dip:
         cov = cov[:24, :24]
     keep = st["keep_acc"] & st["keep_mag"]
@@ -572,8 +575,6 @@ def _fit_invariants(ds, w, sa, sm, fix_dip, prior=None, mount_tolerance_deg=None
             "triad_noise": st["noise"], "s2_by_triad": st["s2_by_triad"], "acc_misfit": full(st["acc_misfit"]),
             "mag_misfit": full(st["mag_misfit"]),
             "fit": "triad by triad: each triad's ellipsoid alone, then the magnetometer's rotation and the dip"}
-    # holds that do not determine the ellipsoids: every row fitted, but each hold's rows share its error
-    hl = hs[0] if hs is not None else (holds.correlated(ds) or (None,))[0]
     if hs is not None:
         info["moving"] = np.flatnonzero(hs[0] < 0).tolist()
         info["holds"] = hs[1]
@@ -583,6 +584,9 @@ def _fit_invariants(ds, w, sa, sm, fix_dip, prior=None, mount_tolerance_deg=None
         lab = hl[fitted]
         scale = []
         for t, R, sig, kt in (("acc", w["gravity_g"], sa, st["keep_acc"]), ("mag", w["field_nT"], sm, keep)):
+            if t == "mag" and isinstance(st.get("mag_covariance"), dict):
+                scale.append(None)  # the magnetometer's block (and the dip) already counts each hold once
+                continue
             raw = getattr(dsf, t)
             try:
                 _, _, c_rows, _ = triad.fit_sphere(raw[kt], R, sig, min_rows=12)
@@ -591,11 +595,17 @@ def _fit_invariants(ds, w, sa, sm, fix_dip, prior=None, mount_tolerance_deg=None
                 continue
             hc = triad.hold_covariance(raw, lab, kt, R, sig)
             scale.append(max(1.0, float(np.trace(hc[0]) / np.trace(c_rows))) if hc is not None else 1.0)
-        sc = np.ones(cov.shape[0])
-        sc[0:12] = np.sqrt(scale[0])
-        sc[12:] = np.sqrt(scale[1])
-        cov = cov * np.outer(sc, sc)
+        # the magnetometer's own block scaled (unless it counts the holds itself), then the accelerometer's
+        # scaled error carried into it again
+        own = st["cov_mag_own"][:cov.shape[0] - 12, :cov.shape[0] - 12] * (scale[1] or 1.0)
+        cov = cov.copy()
+        cov[0:12, 0:12] *= scale[0]
+        cov = pose_free.propagate_acc(cov, st["acc_to_mag"], own)
         info["hold_scale"] = {"acc": scale[0], "mag": scale[1]}
+        if scale[1] is None:
+            info["hold_dip_var_ratio"] = st["mag_covariance"]["dip_var_ratio"]
+    if not fix_dip:  # the dip is the magnetometer block's: its sigma as the covariance has it
+        info["dip_sigma_deg"] = float(np.sqrt(cov[24, 24]))
     if prior is not None:
         Q = field.align_to_prior(Ma, Mm, prior)
         Ma, Mm = Q @ Ma, Q @ Mm
@@ -708,7 +718,11 @@ def fit(ds: RawDataset, use_poses: bool | None = None, sigma_acc: float = SIGMA_
         info["notes"].append(f"holds: a step-and-hold log: {info['holds']} static holds found in the readings were "
                              f"fitted" + (f", the {mv} rows read while moving between them left out" if mv else "")
                              + f"; the covariance counts each hold once (x{info['hold_scale']['acc']:.3g} "
-                             f"accelerometer, x{info['hold_scale']['mag']:.3g} magnetometer on the rows' own)")
+                             + ("accelerometer, x{:.3g} magnetometer on the rows' own)".format(
+                                 info['hold_scale']['mag']) if info['hold_scale']['mag'] is not None else
+                                "accelerometer on the rows' own; the magnetometer's and the dip's from the holds' "
+                                "shared errors in the |b| and dip residuals, x{:.3g} the dip's variance)".format(
+                                    info.get("hold_dip_var_ratio", float("nan")))))
     if "notes_nonlinear" in info:
         info["notes"].append(info.pop("notes_nonlinear"))
     info["notes"] += prior_notes

@@ -18,8 +18,9 @@ magnetometer reads.  The noise of each triad is its own residual scale (no
 single s^2 for both).
 
 Returns the layout calib.joint's invariants fit returns: (M_a, b_a, M_m,
-b_m, dip), the 25x25 covariance (24 coefficients, dip; the accelerometer's
-and the magnetometer's blocks estimated apart, no cross terms), info.
+b_m, dip), the 25x25 covariance (24 coefficients, dip; the magnetometer's
+block is its own fit's plus the accelerometer's error carried through the
+dip residuals, with the cross terms: propagate_acc), info.
 """
 from __future__ import annotations
 
@@ -53,10 +54,72 @@ def _mag_residuals(x, mag, g_unit, F, sm, sd):
     return np.concatenate([(nb - F) / sm, (np.degrees(np.arcsin(np.clip(sdip, -1, 1))) - dip) / sd])
 
 
-def fit(ds, w, sa, sm, fix_dip=False, mag_start=None):
+def cluster_covariance(J, r, labels, keep):
+    """Covariance of a least-squares fit whose rows come in clusters that
+    share an error (the rows of one static hold): J (2 m, k) and r (2 m,)
+    the whitened Jacobian and residuals of the m kept rows, |b| kind first,
+    then the dip kind; labels (n,) each row's cluster (-1: a row of its
+    own); keep (n,) the rows fitted.  Each kind's residual is split into a
+    within-cluster variance and a between-cluster (2 x 2, both kinds)
+    covariance, method of moments with each kind's share of the fitted
+    parameters (its part of the hat matrix's trace) taken out;
+    the fit's covariance is then A^-1 (sum_c J_c^T V_c J_c) A^-1, A = J^T J
+    (the row fit is not the clusters' GLS: its own weights, the clusters'
+    noise).  None when fewer than 12 clusters hold more than one row."""
+    m = int(keep.sum())
+    k = J.shape[1]
+    lab = np.asarray(labels)[keep]
+    lab = np.where(lab >= 0, lab, -1 - np.arange(m))  # a moving row is its own cluster
+    _, c = np.unique(lab, return_inverse=True)
+    H = int(c.max()) + 1
+    R = np.column_stack([r[:m], r[m:]])
+    cnt = np.bincount(c, minlength=H).astype(float)
+    if np.sum(cnt > 1) < 12 or H <= k + 1:
+        return None
+    mean = np.zeros((H, 2))
+    np.add.at(mean, c, R)
+    mean /= cnt[:, None]
+    within = R - mean[c]
+    v_w = (within ** 2).sum(0) / max(m - H, 1)  # each kind's within-cluster variance of one row
+    Jb, Jd = J[:m], J[m:]
+    Ai = np.linalg.inv(J.T @ J)
+    # between clusters: the means' scatter less the rows' own share, inflated for what the fitted parameters
+    # absorb of it: each kind's share of the k parameters (its part of the hat matrix's trace)
+    lev = np.array([np.sum(Ai * (Jb.T @ Jb)), np.sum(Ai * (Jd.T @ Jd))])
+    f = np.sqrt(H / np.maximum(H - lev, 1.0))
+    B = ((mean.T @ mean) / H - np.diag(v_w * np.mean(1.0 / cnt))) * np.outer(f, f)
+    wv, V = np.linalg.eigh(B)
+    B = (V * np.clip(wv, 0.0, None)) @ V.T
+    meat = Jb.T @ Jb * v_w[0] + Jd.T @ Jd * v_w[1]
+    Sb = np.zeros((H, k))
+    Sd = np.zeros((H, k))
+    np.add.at(Sb, c, Jb)
+    np.add.at(Sd, c, Jd)
+    meat += Sb.T @ Sb * B[0, 0] + Sd.T @ Sd * B[1, 1] + (Sb.T @ Sd + Sd.T @ Sb) * B[0, 1]
+    return Ai @ meat @ Ai
+
+
+def propagate_acc(cov, K, cov_mag_own=None):
+    """The covariance with the accelerometer's error carried into the
+    magnetometer's block: x_m's own covariance (the magnetometer's fit with
+    the accelerometer held; cov_mag_own, else the block as it stands) plus
+    K C_a K^T, and the cross terms K C_a (C_a: cov[0:12, 0:12])."""
+    k = K.shape[0]
+    out = cov.copy()
+    Ca = cov[0:12, 0:12]
+    own = cov[12:12 + k, 12:12 + k] if cov_mag_own is None else cov_mag_own
+    out[12:12 + k, 12:12 + k] = own + K @ Ca @ K.T
+    out[12:12 + k, 0:12] = K @ Ca
+    out[0:12, 12:12 + k] = (K @ Ca).T
+    return out
+
+
+def fit(ds, w, sa, sm, fix_dip=False, mag_start=None, labels=None):
     """The staged fit (module docstring).  mag_start: a signed permutation
     (3x3) that the checks found to align the magnetometer's axes with the
-    accelerometer's, a start for Q."""
+    accelerometer's, a start for Q.  labels: each row's static hold (-1:
+    none) when the log is step-and-hold: the magnetometer's covariance then
+    counts each hold's shared error once (cluster_covariance)."""
     G, F = w["gravity_g"], w["field_nT"]
     n = len(ds)
     if n < MIN_ROWS:
@@ -130,11 +193,39 @@ def fit(ds, w, sa, sm, fix_dip=False, mag_start=None):
         raise CalibrationError("joint: the orientations do not determine the magnetometer's calibration "
                                "(they cover too little of the sphere; singular fit)")
     cov_m = s2m * np.linalg.inv(JtJ)
+    cov_source = "rows"
+    if labels is not None:
+        # the rows of one hold share its error: the |b| and the dip residuals alike (an accelerometer's hold
+        # error is in the dip alone, so no factor from the magnetometer's ellipsoid can stand for it)
+        cc = cluster_covariance(J, out.fun, labels, keep)
+        if cc is not None and np.all(np.isfinite(cc)):
+            cov_source = {"dip_var_ratio": float(cc[-1, -1] / cov_m[-1, -1])}
+            cov_m = cc
+    # the accelerometer's calibration is held fixed in the magnetometer's fit, but its error moves the corrected
+    # gravity the dip residuals see: the magnetometer's parameters follow it (an error that tilts gravity is
+    # partly taken up by Q), d x_m / d x_a = -(J^T J)^-1 J^T d r / d x_a, over the 12 numbers of (M_a, b_a)
+    xm = x[:12] if fix_dip else x[:13]
+    Jra = np.zeros((J.shape[0], 12))
+    for j in range(12):
+        h = 1e-6 * (1.0 if j < 9 else G)
+        rr = []
+        for sgn in (1.0, -1.0):
+            Mp, bp = Ma.copy(), ba.copy()
+            if j < 9:
+                Mp[j // 3, j % 3] += sgn * h
+            else:
+                bp[j - 9] += sgn * h
+            gp = (acc[keep] - bp) @ Mp.T
+            rr.append(fun(xm, mag[keep], gp / np.maximum(np.linalg.norm(gp, axis=1, keepdims=True), 1e-300), F,
+                          sm_hat, sd))
+        Jra[:, j] = (rr[0] - rr[1]) / (2.0 * h)
+    K = -np.linalg.solve(JtJ, J.T @ Jra)
     Mm, bm, dip = x[0:9].reshape(3, 3), x[9:12], float(x[12])
     cov = np.zeros((25, 25))
     cov[0:12, 0:12] = cov_a
     k = cov_m.shape[0]
-    cov[12:12 + k, 12:12 + k] = cov_m if k == 13 else cov_m
+    cov[12:12 + k, 12:12 + k] = cov_m
+    cov = propagate_acc(cov, K)
     # the noise of each triad from its own residuals
     rb = np.linalg.norm((mag - bm) @ Mm.T, axis=1) - F
     dd = _dip_res(ug, ((mag - bm) @ Mm.T) / np.maximum(np.linalg.norm((mag - bm) @ Mm.T, axis=1, keepdims=True),
@@ -149,5 +240,6 @@ def fit(ds, w, sa, sm, fix_dip=False, mag_start=None):
             "dof": int(ia["dof"] + dof), "keep_acc": ia["keep"], "keep_mag": keep,
             "acc_misfit": acc_bad, "mag_misfit": mag_bad,
             "normal_matrix_cond": float(np.linalg.cond(JtJ)), "dip_fitted": not fix_dip,
-            "dip_sigma_deg": None if fix_dip else float(np.sqrt(cov_m[12, 12]))}
+            "dip_sigma_deg": None if fix_dip else float(np.sqrt(cov[24, 24])), "mag_covariance": cov_source,
+            "acc_to_mag": K, "cov_mag_own": cov_m}
     return (Ma, ba, Mm, bm, dip), cov, info
