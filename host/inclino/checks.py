@@ -210,9 +210,7 @@ def _declared_factor(ds, triad: str):
     unit = ds.meta.get(f"{triad}_unit")
     if not unit or not _imported(ds):
         return 1.0  # the canonical columns: g, nT
-    units = sensor.ACC_UNITS if triad == "acc" else sensor.MAG_UNITS
-    key = sensor._unit_key(str(unit), units)
-    return float(units[key]) if key is not None else None
+    return sensor.unit_size(unit, triad)
 
 
 def _unit_guesses(ratio: float, guess: dict, canon: str, declared, tol: float) -> list:

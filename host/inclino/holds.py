@@ -213,14 +213,24 @@ def setting_changes(ds) -> np.ndarray:
     without one, and for a column that changes on more than
     SETTING_CHANGES_MAX of the rows: a variable read with every row (a rig
     axis logged as it turns), not a setting held."""
+    out = setting_starts(ds)
+    out[:1] = False
+    if len(out) > 1 and np.mean(out[1:]) > SETTING_CHANGES_MAX:
+        out[:] = False
+    return out
+
+
+def setting_starts(ds) -> np.ndarray:
+    """(n,) bool: the rows at which a setting of the pose columns present
+    (inc_deg, azi_deg, tf_deg) starts: the first row, and each row whose
+    pose differs from the row before's (all False without a pose column)."""
     n = len(ds)
     present = [c for c in POSE_COLS if c in ds.columns]
     out = np.zeros(n, bool)
-    if present and n > 1:
+    if present and n:
         P = np.stack([np.asarray(ds.columns[c], float) for c in present], -1)
+        out[0] = True
         out[1:] = np.any(np.abs(np.diff(P, axis=0)) > 1e-6, axis=1)
-        if np.mean(out[1:]) > SETTING_CHANGES_MAX:
-            out[:] = False
     return out
 
 

@@ -42,6 +42,7 @@ from inclino.formats.dataset import RawDataset
 from inclino.errors import CalibrationError, DataError
 
 from . import common
+from .triad import robust_threshold  # noqa: F401 (the outlier threshold of every fit; callers import it from here)
 from .ellipsoid import ellipsoid_start  # noqa: F401 (callers import it from here too)
 
 SIGMA_ACC = 1.5e-4  # g, ADIS16210-class noise of one reading
@@ -102,47 +103,6 @@ def _covariance(res, what: str, names=None):
         raise SingularFit(f"joint: the {what} do not determine all parameters ({worst} is undetermined; "
                           f"singular fit)", worst)
     return chi2, dof, s2, cond, s2 * np.linalg.pinv(JtJ)
-
-
-def robust_threshold(d2, dof):
-    """Outlier threshold on the rows' whitened squared norms d2 (dof
-    components each): the chi-square 99.9 % point scaled by a robust
-    estimate of the residual variance (the median of d2 over the
-    chi-square median), never below the nominal noise.  A large effect
-    the model lacks inflates every row alike and must not make the rows
-    outliers; a few spiked rows do not move the median."""
-    scale = max(1.0, float(np.median(d2)) / stats.chi2.ppf(0.5, dof))
-    return scale * stats.chi2.ppf(0.999, dof), scale
-
-def outlier_keep(rw, p: float = 0.999, iterations: int = 4):
-    """The rows kept by the outlier test on whitened residuals rw (n, 6):
-    their Mahalanobis distance under the residuals' own 6x6 covariance,
-    estimated robustly (the covariance of the rows within the 97.5 % point,
-    corrected for that truncation, a few times over; its eigenvalues never
-    below 1: the nominal noise), within the chi-square point p with 6
-    degrees of freedom.  Whitened by the nominal noise (0.15 mg, 5 nT,
-    0.05 deg) the components of a run whose noise ratios are not the
-    nominal ones are neither equal nor independent (1 mg and 50 nT: the
-    magnetometer's carry the norm, and a pose error ties the components
-    together): one scale for the norms (robust_threshold) then set aside
-    5-10 % of clean Gaussian rows at its 99.9 % point, as structure that
-    is only the noise's shape."""
-    rw = np.asarray(rw, float)
-    n, k = rw.shape
-    q = stats.chi2.ppf(0.975, k)
-    c = stats.chi2.cdf(q, k + 2) / stats.chi2.cdf(q, k)  # E[x x^T | d2 <= q] = c Sigma for a Gaussian
-    sel = np.ones(n, bool)
-    for _ in range(iterations):
-        x = rw[sel] - rw[sel].mean(0)
-        C = x.T @ x / max(len(x) - 1, 1) / (c if sel.sum() < n else 1.0)
-        w, V = np.linalg.eigh(C)
-        Ci = (V / np.maximum(w, 1.0)) @ V.T
-        d2 = np.einsum("ni,ij,nj->n", rw - rw[sel].mean(0), Ci, rw - rw[sel].mean(0))
-        sel_new = d2 <= q
-        if sel_new.sum() < k + 2 or np.array_equal(sel_new, sel):
-            break
-        sel = sel_new
-    return d2 <= stats.chi2.ppf(p, k)
 
 
 def _pose_jacobian(inc, azi, tf, F, dip, dec, G, h=1e-3):
@@ -492,26 +452,27 @@ def _fit_poses(ds, w, sa, sm, sp, fix_dip, nonlinear=False, noise="fit"):
         x = res.x
         if loss == "soft_l1":
             rall = fun(x, ds.acc, ds.mag, poses, F, dec, G, Linv)
-            keep = outlier_keep(rall.reshape(-1, 6))
+            d2 = (rall.reshape(-1, 6) ** 2).sum(-1)
+            keep = d2 <= robust_threshold(d2, 6)[0]
             if keep.sum() < MIN_ROWS_POSES:
                 raise CalibrationError("joint: too many readings rejected as outliers to fit")
     names = PARAM_NAMES_POSE[:24] + (PARAM_NAMES_POSE[24:] if nonlinear else []) + ([] if fix_dip else ["dip"])
     chi2, dof, s2, cond, cov_lin = _covariance(res, "poses", names)
     noise_info = {"sigmas": {"acc_g": sa, "mag_nT": sm, "pose_deg": sp}}
     if noise == "fit":
-        x1 = x
-        x, cov_lin1, noise_info1 = _refit_fitted_noise(x1, fun, jac, ds, keep, poses, (F, dec, G), fix_dip, dip0,
-                                                       names, cov_lin, noise_info)
-        # the outlier rows again, under the run's own noise: the test above whitened by the nominal noise, whose
-        # ratios (0.15 mg, 5 nT, 0.05 deg) a run need not share; a row's pose error then weighs differently from
-        # row to row, and clean rows fell beyond the chi-square point (4-8 % of a Gaussian run at 1 mg, 60 nT,
-        # 0.02 deg)
-        keep2 = _outliers_under_fitted_noise(x, ds, poses, (F, dec, G), fix_dip, dip0, noise_info1)
+        # then the outlier rows again, under the run's own noise, and the noise refitted where they change: the
+        # test above whitened by the nominal noise, whose ratios (0.15 mg, 5 nT, 0.05 deg) a run need not share; a
+        # row's pose error then weighs differently from row to row, and clean rows fell beyond the chi-square
+        # point (4-8 % of a Gaussian run at 1 mg, 60 nT, 0.02 deg)
+        def refit(rows):
+            return _refit_fitted_noise(x, fun, jac, ds, rows, poses, (F, dec, G), fix_dip, dip0, names, cov_lin,
+                                       noise_info)
+        fitted = refit(keep)
+        keep2 = _outliers_under_fitted_noise(fitted[0], ds, poses, (F, dec, G), fix_dip, dip0, fitted[2])
         if keep2 is not None and not np.array_equal(keep2, keep) and keep2.sum() >= MIN_ROWS_POSES:
             keep = keep2
-            x, cov_lin1, noise_info1 = _refit_fitted_noise(x1, fun, jac, ds, keep, poses, (F, dec, G), fix_dip,
-                                                           dip0, names, cov_lin, noise_info)
-        cov_lin, noise_info = cov_lin1, noise_info1
+            fitted = refit(keep)
+        x, cov_lin, noise_info = fitted
     x = np.concatenate([x, [dip0]]) if fix_dip else x
     Ma, ca, Mm, cm, dip, qa, qm = _unpack_pose(x)
     ba = np.linalg.solve(Ma, ca)
@@ -777,14 +738,14 @@ def fit(ds: RawDataset, use_poses: bool | None = None, sigma_acc: float = SIGMA_
                              "sensors; the covariance is scaled by s^2; `inclino diagnose` names the effect")
     if info.get("moving") is not None:
         mv = len(info["moving"])
+        hs_ = info["hold_scale"]
         info["notes"].append(f"holds: a step-and-hold log: {info['holds']} static holds found in the readings were "
                              f"fitted" + (f", the {mv} rows read while moving between them left out" if mv else "")
-                             + f"; the covariance counts each hold once (x{info['hold_scale']['acc']:.3g} "
-                             + ("accelerometer, x{:.3g} magnetometer on the rows' own)".format(
-                                 info['hold_scale']['mag']) if info['hold_scale']['mag'] is not None else
-                                "accelerometer on the rows' own; the magnetometer's and the dip's from the holds' "
-                                "shared errors in the |b| and dip residuals, x{:.3g} the dip's variance)".format(
-                                    info.get("hold_dip_var_ratio", float("nan")))))
+                             + f"; the covariance counts each hold once (x{hs_['acc']:.3g} accelerometer"
+                             + (f", x{hs_['mag']:.3g} magnetometer on the rows' own)" if hs_["mag"] is not None else
+                                f" on the rows' own; the magnetometer's and the dip's from the holds' shared errors "
+                                f"in the |b| and dip residuals, x{info['hold_dip_var_ratio']:.3g} the dip's "
+                                f"variance)"))
     if "notes_nonlinear" in info:
         info["notes"].append(info.pop("notes_nonlinear"))
     info["notes"] += prior_notes

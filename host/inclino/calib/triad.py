@@ -51,9 +51,13 @@ def _sym(v):
 
 
 def robust_threshold(d2, dof):
-    """The chi-square 99.9 % point of d2 (dof components), scaled by the
-    residuals' robust variance (median over the chi-square median), never
-    below 1: as calib.joint's."""
+    """Outlier threshold on the rows' whitened squared norms d2 (dof
+    components each): the chi-square 99.9 % point scaled by a robust
+    estimate of the residual variance (the median of d2 over the
+    chi-square median), never below the nominal noise.  A large effect
+    the model lacks inflates every row alike and must not make the rows
+    outliers; a few spiked rows do not move the median.  Every fit's
+    (calib.joint takes it from here).  Returns (threshold, scale)."""
     scale = max(1.0, float(np.median(d2)) / stats.chi2.ppf(0.5, dof))
     return scale * stats.chi2.ppf(0.999, dof), scale
 

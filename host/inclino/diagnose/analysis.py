@@ -14,7 +14,7 @@ from . import core, forward, invariants, robust, selection, serial, study, tails
 from ._blas import one_blas_thread
 from .core import CHANNELS, EFFECT_NAMES, SEPARABLE_MIN, TRIAD_UNITS, TRIADS, Design
 from .result import Diagnosis, Effect, Gain
-from .runvars import run_variable_confounds
+from .runvars import AXIS_VARIABLES, run_variable_confounds
 
 AZI_MIN_INC_DEG = 5.0  # azimuth is compared only where it is well defined
 AMBIGUOUS_CORR = 0.9
@@ -721,7 +721,7 @@ def _confounds(m: _Model, kept, contradicted, alpha=core.DEFAULT_ALPHA):
 
 
 _RUN_DRIVER = {"time": "time", "reading order": "time", "temperature": "temperature",
-               "inclination axis angle": "inc", "azimuth axis angle": "azi", "toolface axis angle": "tf"}
+               **{v: k for k, v in AXIS_VARIABLES.items()}}
 
 
 def _run_driver(c) -> str | None:
@@ -765,8 +765,8 @@ def _run_variable_rivals(m: _Model, kept, effects_out, run_conf, alpha, confound
             if not rivals:
                 continue
             cv_none, cv_named = des.cv(others), des.cv(others + m.idx[k])
-            best = min(rivals, key=lambda c: des.cv(others + m.idx[c.key]))
-            cv_rival = des.cv(others + m.idx[best.key])
+            cvs = [des.cv(others + m.idx[c.key]) for c in rivals]
+            best, cv_rival = rivals[int(np.argmin(cvs))], min(cvs)
             p_named = des.ftest(others + m.idx[best.key], m.idx[k])[0]
             p_rival = des.ftest(others + m.idx[k], m.idx[best.key])[0]
             # a pair the signatures' correlation already reports (_confounds) is not told apart, whatever the F-test

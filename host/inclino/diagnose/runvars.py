@@ -6,6 +6,12 @@ from __future__ import annotations
 
 import numpy as np
 
+from inclino.holds import setting_starts
+
+
+# each turntable axis (a rig field's axis key) and the run variable its angle is named as
+AXIS_VARIABLES = {"inc": "inclination axis angle", "azi": "azimuth axis angle", "tf": "toolface axis angle"}
+
 
 def run_variable_confounds(d, min_r: float = 0.7) -> list:
     """The run's own variables set beside each other: time, temperature,
@@ -25,7 +31,8 @@ def run_variable_confounds(d, min_r: float = 0.7) -> list:
     if d.temp is not None and np.ptp(d.temp) > 0:
         scal["temperature"] = z(d.temp)
     angles = {}
-    for name, a in (("inclination axis", d.inc), ("azimuth axis", d.azi), ("toolface axis", d.tf)):
+    for axis, name in AXIS_VARIABLES.items():
+        a = getattr(d, axis)
         if np.ptp(a) >= 1.0:
             r = np.radians(a)
             angles[name] = np.column_stack([np.cos(r), np.sin(r), np.cos(2 * r), np.sin(2 * r)])
@@ -42,7 +49,7 @@ def run_variable_confounds(d, min_r: float = 0.7) -> list:
             beta = np.linalg.lstsq(X, x, rcond=None)[0]
             r2 = 1.0 - float(np.sum((x - X @ beta) ** 2)) / float(np.sum(x ** 2))
             if r2 >= min_r ** 2:
-                out.append({"a": a, "b": b + " angle", "correlation": float(np.sqrt(max(r2, 0.0)))})
+                out.append({"a": a, "b": b, "correlation": float(np.sqrt(max(r2, 0.0)))})
     return out
 
 
@@ -53,12 +60,8 @@ class _PoseRunVars:
 
     def __init__(self, ds):
         cols = ds.columns
-        present = [c for c in ("inc_deg", "azi_deg", "tf_deg") if c in cols]
-        n0 = len(ds)
-        P = np.stack([np.asarray(cols[c], float) for c in present], -1)
-        new = np.ones(n0, bool)
-        new[1:] = np.any(np.abs(np.diff(P, axis=0)) > 1e-6, axis=1)
-        lab = np.cumsum(new) - 1
+        self.new = new = setting_starts(ds)
+        self.lab = lab = np.cumsum(new) - 1
         self.n = int(lab.max()) + 1
         cnt = np.bincount(lab, minlength=self.n).astype(float)
 
@@ -104,11 +107,8 @@ def drift_pose_confounds(ds, min_settings: int = 3, min_r: float = 0.7) -> list:
         return []
     out = []
     cols = ds.columns
-    present = [c for c in ("inc_deg", "azi_deg", "tf_deg") if c in cols]
-    P = np.stack([np.asarray(cols[c], float) for c in present], -1)
-    new = np.ones(len(ds), bool)
-    new[1:] = np.any(np.abs(np.diff(P, axis=0)) > 1e-6, axis=1)
-    lab = np.cumsum(new) - 1
+    P = np.stack([np.asarray(cols[c], float) for c in ("inc_deg", "azi_deg", "tf_deg") if c in cols], -1)
+    new, lab = d.new, d.lab
     cnt = np.bincount(lab).astype(float)
     # a pose set again later is the same pose: distinct poses against settings
     distinct = len(np.unique(np.round(P[new], 3), axis=0))

@@ -117,6 +117,15 @@ def _unit_key(u: str, units: dict) -> str | None:
     return k if k in units else None
 
 
+def unit_size(u: str, triad: str) -> float | None:
+    """The size of the unit spelt `u` in the canonical unit of the triad
+    ("acc": g, "mag": nT), as the description reads it (m/s2: 1/9.80665);
+    None for a unit that is not a size (counts, field) or not known."""
+    units = ACC_UNITS if triad == "acc" else MAG_UNITS
+    k = _unit_key(str(u), units)
+    return float(units[k]) if k is not None else None
+
+
 SIGNIFICANT = 15  # digits a unit conversion keeps: a double holds 15-17, no sensor resolves 10
 
 
