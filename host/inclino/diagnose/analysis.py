@@ -14,11 +14,13 @@ from . import core, forward, invariants, robust, selection, serial, study, tails
 from ._blas import one_blas_thread
 from .core import CHANNELS, EFFECT_NAMES, SEPARABLE_MIN, TRIAD_UNITS, TRIADS, Design
 from .result import Diagnosis, Effect, Gain
+from .names import RIG_AXES
 from .runvars import AXIS_VARIABLES, run_variable_confounds
 
 AZI_MIN_INC_DEG = 5.0  # azimuth is compared only where it is well defined
 AMBIGUOUS_CORR = 0.9
 GN_ITERATIONS = 3  # re-linearisations after each change of the model (forward.py)
+COST_RTOL = 1e-6  # a refit step is kept when it raises the whitened cost by at most this share (rounding)
 
 
 def parse_effects(spec) -> list | None:
@@ -133,6 +135,7 @@ class _Model:
         self.noise = self.noise_base = noise
         self.base = list(range(NB))
         self.bl0 = bl0
+        self.dropped_rig = {}  # key -> full parameter vector of a rig field the cross-check dropped
         self.testable = []
         self.idx = {}
 
@@ -202,7 +205,60 @@ class _Model:
             pos += n
         return {"A": A, "c": c, "dip": st["dip"] + float(beta[24]), "theta": th}
 
-    def _bounded(self, state, bl) -> bool:
+    def step(self, kept_now, S):
+        """The state one Gauss-Newton step of the model base + kept_now
+        (columns S of the current design) gives, kept only where it lowers
+        the cost (the whitened residual under the current noise, _cost);
+        where it does not, damped (Levenberg-Marquardt: the step's normal
+        equations with lam times their diagonal added).  Nearly collinear
+        terms make the full step run far: a rig field of the inclination axis
+        on a continuous rotation at three inclinations, whose sum with the dip
+        and the fluxgate's 3x3 fits to 35 nT in the linear model, moved the
+        dip 22-93 deg and left 3 000-24 000 nT in the readings (the fit then
+        dropped both rig fields of that run as not significant); and the
+        pose Jacobian can grow by decades until no covariance factors
+        (_bounded).  No step that does: the state as it is."""
+        des = self.des
+        cs = des.colscale[S]
+        G, b = des.G[np.ix_(S, S)], des.b[S]
+        # the current state in the design's (scaled) columns: the baseline's part is the step, a kept
+        # term's its whole value (its signature is added back into the pseudo-observation)
+        cur = np.zeros(len(S))
+        pos = NB
+        for k in kept_now:
+            n = len(self.idx[k])
+            cur[pos:pos + n] = np.atleast_1d(self.state["theta"].get(k, np.zeros(n))) * cs[pos:pos + n]
+            pos += n
+        here = self.state_after(kept_now, cur / cs)  # the state as it is, in the model base + kept_now
+        cost0, _ = self._cost(here)
+        D = np.diag(np.diag(G))
+        for lam in (0.0, 1e-4, 1e-2, 1.0, 1e2, 1e4):
+            with np.errstate(all="ignore"):
+                step = Design._solve(G + lam * D, b - G @ cur)
+            if not np.isfinite(step).all():
+                continue
+            trial = self.state_after(kept_now, (cur + step) / cs)
+            cost, J = self._cost(trial)
+            if np.isfinite(cost) and self._bounded(trial, J) and cost <= cost0 * (1.0 + COST_RTOL):
+                return trial
+        return here
+
+    def _cost(self, st):
+        """(The whitened residual's sum of squares at the state st under the
+        current noise, outlier rows left out; the pose Jacobian there)."""
+        d = self.d
+        A, c, dip, th = st["A"], st["c"], st["dip"], st["theta"]
+        ok = ~self.out_rows
+        with np.errstate(all="ignore"):
+            J = forward.pose_jacobian(d, A, c, dip, th)
+            R = (d.Y - forward.readings(d, A, c, dip, th))[ok]
+            if not (np.isfinite(R).all() and np.isfinite(J).all()):
+                return np.inf, J
+            W = self.noise.whitener(J[ok])
+            cost = float((np.einsum("nij,nj->ni", W, R) ** 2).sum())
+        return (cost if np.isfinite(cost) else np.inf), J
+
+    def _bounded(self, state, J) -> bool:
         """A step keeps each triad's matrix, and the readings' sensitivity to
         the pose, within a factor 2 of the current ones: a larger change is
         collinear terms cancelling each other (their sum fits, each one is
@@ -211,39 +267,27 @@ class _Model:
             a0, a1 = np.linalg.norm(self.state["A"][t]), np.linalg.norm(state["A"][t])
             if not (np.isfinite(a1) and 0.5 * a0 <= a1 <= 2.0 * a0):
                 return False
-        j0, j1 = np.abs(self.bl.Jpose).max(), np.abs(bl.Jpose).max()
+        j0, j1 = np.abs(self.bl.Jpose).max(), np.abs(J).max()
         return bool(np.isfinite(j1) and j1 <= 2.0 * j0)
 
     def refit(self, kept_now):
         """Gauss-Newton: re-linearise at the estimate of the model base +
         kept_now, re-estimate the noise (robustly) and the outlier rows."""
         d = self.d
+        th = self.state["theta"]
+        stale = [k for k in th if k not in kept_now]  # dropped terms leave the state before the fit, so that
+        if stale:  # a step is weighed against the model it fits, not against one with them still in
+            self.state = dict(self.state, theta={k: v for k, v in th.items() if k in kept_now})
+        if not _rig_identify(self, kept_now) and stale:
+            self.use(self.testable)
         S = self.base + self.cols(kept_now)
         for _ in range(GN_ITERATIONS):
-            beta, _ = self.des.fit(S)
-            colscale = self.des.colscale
+            state = self.step(kept_now, S)
             # the design at the old state is not used again: its arrays (the largest of a diagnosis) go
             # before the new state's are built
             self.des = self.X = None
             built = None
-            # a full Gauss-Newton step can run far from the start when kept
-            # terms are nearly collinear (a rig field and the baseline on a
-            # short run): their sum fits, each is arbitrary, and the pose
-            # Jacobian grows by decades until no covariance factors.  The
-            # step is halved until the state stays bounded (_bounded); none
-            # that does keeps the current state (the kept terms at zero)
-            for h in (1.0, 0.5, 0.25, 0.125, 0.0625):
-                state = self.state_after(kept_now, h * beta / colscale[S])
-                built = None
-                built = self.build(state, self.testable)
-                with np.errstate(all="ignore"):
-                    finite = bool(np.isfinite(built[0].predict()).all())
-                if finite and self._bounded(state, built[0]):
-                    break
-            else:  # the kept terms enter at zero, the state as it was
-                state = self.state_after(kept_now, 0.0 * beta)
-                built = None
-                built = self.build(state, self.testable)
+            built = self.build(state, self.testable)
             self.state = state
             self.bl, self.X, self.y0, _ = built
             R = d.Y - self.bl.predict()
@@ -253,12 +297,14 @@ class _Model:
             self.des = self.design(self.bl, self.noise, ~self.out_rows)
 
 
-def _rig_bases(m: _Model, cands) -> dict:
+def _rig_bases(m: _Model, cands, joint=()) -> dict:
     """Per rig-field candidate, the directions of its full parameter vector
     (harmonics x components in its axis' frame) that the baseline does not
     absorb: the whitened columns with the baseline projected out, their
     singular directions kept where at least RIG_SEPARABLE_MIN of the
-    direction is left.  Sets d.rig_basis (forward.columns reads it);
+    direction is left.  The axes in `joint` are taken in RIG_AXES order
+    (azimuth, inclination, toolface), each also without what those before
+    it keep (_rig_identify).  Sets d.rig_basis (forward.columns reads it);
     returns axis -> the reason it is not testable, when none is left."""
     d, bl = m.d, m.bl0
     d.rig_basis = {}
@@ -267,10 +313,11 @@ def _rig_bases(m: _Model, cands) -> dict:
     Linv = m.noise_base.whitener(bl.Jpose)[rows]
     Xb = np.stack(forward.baseline_columns(d, bl.A, bl.c, bl.dip, {}, bl.G, bl.B), -1)[rows]
     Bw = np.einsum("nij,njp->nip", Linv, Xb).reshape(-1, Xb.shape[-1])
-    Q, _ = np.linalg.qr(Bw)
-    for cd in cands:
-        if cd.name != "rig-field":
-            continue
+    Q0, _ = np.linalg.qr(Bw)
+    Qj = Q0
+    order = {ax: i for i, ax in enumerate(RIG_AXES)}
+    for cd in sorted((c for c in cands if c.name == "rig-field"), key=lambda c: order[c.axis]):
+        Q = Qj if cd.axis in joint else Q0
         F = np.einsum("ij,njp->nip", bl.A["mag"], forward.rig_full(d, cd.axis))  # (n, 3, P)
         Xf = np.zeros((d.n, 6, F.shape[-1]))
         Xf[:, 3:, :] = F
@@ -286,7 +333,54 @@ def _rig_bases(m: _Model, cands) -> dict:
             why[cd.axis] = "on these poses the 12-parameter baseline absorbs a field that moves with this axis"
             continue
         d.rig_basis[cd.axis] = (Vt[keep].T / norms[:, None])
+        if cd.axis in joint:
+            Qj, _ = np.linalg.qr(np.concatenate([Qj, Wp @ Vt[keep].T], axis=1))
     return why
+
+
+def _rig_identify(m: _Model, kept_now) -> bool:
+    """The rig fields' bases for the model base + kept_now, made
+    identifiable.  A field fixed to the azimuth platform is the inclination
+    axis' h = 0 and part of the azimuth axis' h = 1 at once (forward.rig_full;
+    a field fixed to the inclination arm likewise the toolface axis' h = 0 and
+    part of the inclination axis' h = 0-1): with two such fields kept, the
+    pair is free along the shared directions.  The fit does not see that
+    freedom, but the sizes do -- they followed the start of the fit (BROAD
+    05: 133 to 995 nT between versions, with stated errors of 6-21 nT, as the
+    pseudo-inverse gives a free direction no variance; on the emulator, two
+    400 nT fields came out at 6 556 and 6 636 nT) -- and so do the tests that
+    project one out of the other (tails.sandwich then gave p = 1 to a field
+    worth 10^5 in F).  So, while two or more are kept, the shared directions
+    are the outer axis' (the one that turns the other: what is fixed to the
+    azimuth platform turns with the azimuth) and come out of the inner axis'
+    basis; with one kept, each axis has its own whole basis again.  The span
+    of the kept fields is the same either way, and the state's fields are
+    carried over.  Returns whether a basis changed (then m's design is
+    rebuilt at the carried-over state)."""
+    d = m.d
+    rig = [c for c in m.testable if c.name == "rig-field"]
+    axes = [c.axis for c in rig if c.key in kept_now]
+    old = dict(d.rig_basis)
+    why = _rig_bases(m, rig, joint=set(axes) if len(axes) >= 2 else ())
+    for c in rig:  # nothing left of an inner axis beside the outer ones: it keeps its basis (not expected: the
+        if c.axis in why:  # selection would not keep a field the kept ones already span)
+            d.rig_basis[c.axis] = old[c.axis]
+    if all(d.rig_basis[c.axis].shape == old[c.axis].shape and np.allclose(d.rig_basis[c.axis], old[c.axis])
+           for c in rig):
+        d.rig_basis = old
+        return False
+    th = dict(m.state["theta"])
+    have = [ax for ax in axes if forward.rig_key(ax) in th]
+    if have:
+        field = sum(forward.rig_full(d, ax, th) @ (old[ax] @ np.asarray(th[forward.rig_key(ax)], float))
+                    for ax in have)  # (n, 3) nT: the kept fields' sum at the state
+        cols = [forward.rig_full(d, ax, th) @ d.rig_basis[ax] for ax in axes]
+        coef = np.linalg.lstsq(np.concatenate(cols, -1).reshape(3 * d.n, -1), field.reshape(-1), rcond=None)[0]
+        for ax, v in zip(axes, np.split(coef, np.cumsum([c.shape[-1] for c in cols])[:-1])):
+            th[forward.rig_key(ax)] = v
+        m.state = dict(m.state, theta=th)
+    m.use(m.testable)
+    return True
 
 
 def _screen_candidates(m: _Model, wanted):
@@ -472,9 +566,8 @@ def _rms_ok(R, chans, ok):
 
 def _invariants(m: _Model, keys, S):
     """Invariant residuals (invariants.residuals) of the model base + keys
-    after a Gauss-Newton step from the current state."""
-    beta, _ = m.des.fit(S)
-    st = m.state_after(keys, beta / m.des.colscale[S])
+    after a Gauss-Newton step from the current state (_Model.step)."""
+    st = m.step(keys, S)
     return invariants.residuals(m.d, st["A"], st["c"], st["dip"], st["theta"])
 
 
@@ -591,6 +684,8 @@ def _cross_check(m: _Model, kept, pvals, steps, alpha, att):
         worst = max(bad, key=lambda k: (len(checks[k]["reasons"]),
                                         checks[k]["gain"].cv_rms_after / max(checks[k]["gain"].cv_rms_before, 1e-300)))
         est = m.state["theta"].get(worst)
+        if worst.startswith("rig-field:"):  # its field, whatever basis its axis has once it is gone (_rig_identify)
+            m.dropped_rig[worst] = m.d.rig_basis[worst.split(":")[2]] @ np.asarray(est, float)
         ck = checks[worst]
         contradicted.append({"effect": worst, "estimate": est, "p": float(pvals.get(worst, np.nan)),
                              "reasons": ck["reasons"], "gain": ck["gain"].to_dict(),
@@ -696,6 +791,9 @@ def _confounds(m: _Model, kept, contradicted, alpha=core.DEFAULT_ALPHA):
     by_key = {c.key: c for c in m.testable}
     out = []
     est = {c["effect"]: c["estimate"] for c in contradicted if c["effect"] in by_key}
+    for k, full in m.dropped_rig.items():  # a dropped rig field in its axis' basis as it is now
+        if k in est:
+            est[k] = np.linalg.lstsq(m.d.rig_basis[k.split(":")[2]], full, rcond=None)[0]
     est.update({k: m.state["theta"][k] for k in kept})
     for k, th in est.items():
         if th is None:

@@ -48,6 +48,7 @@ from scipy import stats
 
 GATE_P = 1e-3
 MIN_ROWS = 20  # the kurtosis test needs this many
+RANK_RTOL = 1e-9  # a direction of the tested columns that the model's others span: A's eigenvalue below this share
 
 
 def gate(des, S) -> dict:
@@ -99,15 +100,23 @@ def sandwich(des, S, extra) -> dict:
         u = np.einsum("niq,ni->nq", xt, e)
         B += u.T @ u
         sr[lo:lo + len(ix)] = (np.einsum("niq,q->ni", xt, b) ** 2).sum(1)
-    Ai = np.linalg.pinv(A)
-    Vb = Ai @ B @ Ai
-    wald = float(b @ np.linalg.pinv(Vb) @ b)
+    # the test in the directions of `extra` that S does not span: along one that S spans (a rig field's
+    # part that a kept field of another axis also is, analysis._rig_identify) the estimate is free and A
+    # has no weight, and its pseudo-inverse there only amplifies rounding (a Wald statistic of -4e8 on a
+    # field worth 1e5 in F, read as p = 1)
+    wA, UA = np.linalg.eigh((A + A.T) / 2)
+    keep = wA > RANK_RTOL * max(float(wA.max()), 1e-300)
+    T = UA[:, keep] / wA[keep]  # A^-1 on the kept directions, as (q, r) factor: A^-1 = T UA_k^T
+    bk = UA[:, keep].T @ b
+    Vb = T.T @ B @ T  # the kept directions' covariance
+    qe = int(keep.sum())
+    wald = float(bk @ np.linalg.pinv(Vb) @ bk) if qe else 0.0
     nu = float(sr.sum() ** 2 / max(float((sr ** 2).sum()), 1e-300)) if sr.sum() > 0 else 0.0
-    d2 = nu - q + 1.0
-    if not np.isfinite(wald) or d2 < 1.0:
-        return {"p": 1.0, "wald": wald, "nu": nu}
-    F = wald / q * d2 / nu
-    return {"p": float(stats.f.sf(F, q, d2)), "wald": wald, "nu": nu}
+    d2 = nu - qe + 1.0
+    if not np.isfinite(wald) or qe == 0 or d2 < 1.0:
+        return {"p": 1.0, "wald": wald, "nu": nu, "rank": qe}
+    F = max(wald, 0.0) / qe * d2 / nu
+    return {"p": float(stats.f.sf(F, qe, d2)), "wald": wald, "nu": nu, "rank": qe}
 
 
 def summary(des, S) -> dict:
