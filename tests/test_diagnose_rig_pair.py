@@ -25,9 +25,9 @@ from inclino.diagnose.analysis import diagnose
 SEED0 = test_seed() % 1_000_000
 
 
-def _two_fields(seed, size_nT=400.0):
-    rng = np.random.default_rng([seed, 17])
-    plan = plans.oven_plan(seed=seed)
+def _two_fields(seed, size_nT=400.0, kind="static", rng=None):
+    rng = np.random.default_rng([seed, 17]) if rng is None else rng
+    plan = plans.oven_plan(seed=seed) if kind == "static" else plans.rotation_plan()
     probe = plans.PROBE
     truth = {}
     for axis in ("azi", "inc"):
@@ -54,6 +54,19 @@ def test_two_rig_fields_are_each_sized_within_their_stated_error(k):
     # the two fields' bases no longer share a direction, so the report does not call them one another's
     assert not any({c["effect"], c["with"]} == {"rig-field:rig:azi", "rig-field:rig:inc"}
                    for c in r.confounded), (seed, r.confounded)
+
+
+def test_two_rig_fields_on_a_continuous_rotation_regression():
+    """The draw on which both fields were dropped: on the rotation plan
+    (three inclinations) the undamped refit step moved the dip by 22-93 deg,
+    and the sandwich test gave the azimuth field p = 1 beside the
+    inclination field's basis (analysis._Model.step, tails.sandwich)."""
+    ds, truth = _two_fields(5, kind="continuous", rng=np.random.default_rng(5))
+    r = diagnose(ds)
+    found = {e.axis: e for e in r.effects if e.name == "rig-field"}
+    assert set(found) >= {"azi", "inc"}, [(e.name, e.axis) for e in r.effects]
+    for axis, value in truth.items():
+        assert abs(found[axis].estimate - value) <= 4.0 * found[axis].stderr, (axis, found[axis], value)
 
 
 def _design(seed, spanned: bool):

@@ -101,6 +101,27 @@ def test_magnetometer_calibrates_to_its_noise_and_a_mirrored_frame_does_not(tmp_
     assert rep_m["rows_used"] < rep["rows_used"]
 
 
+def test_a_magnetometer_mirrored_against_the_poses_is_refused_after_the_fit(tmp_path, capsys):
+    """A general 3x3 absorbs a mirrored axis: with the magnetometer's x
+    column negated, the fit against the poses leaves the residuals of the
+    log as given, with a negative determinant.  The calibration must not be
+    written (exit 2) unless the header declares the reflection intended."""
+    ds = dataset.read_raw(str(_import(tmp_path, "05.csv")))
+    ds.columns["mx_nT"] = -ds.columns["mx_nT"]
+    mirrored = tmp_path / "mx_mirrored.csv"
+    dataset.write_raw(str(mirrored), ds)
+    capsys.readouterr()
+    assert main(["calibrate", str(mirrored), "-o", str(tmp_path / "cal.json")]) == 2
+    err = capsys.readouterr().err
+    assert "magnetometer matrix is a reflection" in err and "against the poses" in err
+    assert len(err.strip().splitlines()) == 1 and not (tmp_path / "cal.json").exists()
+    ds.meta["reflection"] = "mag"  # declared: the fit's reflection is the sensor's own
+    declared = tmp_path / "mx_declared.csv"
+    dataset.write_raw(str(declared), ds)
+    rep, cal = _calibrate(declared, tmp_path / "cal_d.json", capsys)
+    assert np.linalg.det(np.array(cal["mag_m"])) < 0
+
+
 @pytest.mark.parametrize("part", [0, 1])
 def test_calibration_predicts_its_held_out_half(tmp_path, capsys, part):
     """Interleaved 10 s blocks: calibrated on one set, the field residual on

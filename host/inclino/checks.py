@@ -303,8 +303,13 @@ def _units_mag(ds, rows, rep):
         {**fig, "looks_like": guesses}))
 
 
-def _intended(ds, triad) -> bool:
+def intended_reflection(ds, triad) -> bool:
+    """Whether the dataset's header declares the triad's reflection
+    intended (`# reflection=acc|mag`)."""
     return triad in str(ds.meta.get("reflection", "")).replace(" ", "").split(",")
+
+
+_intended = intended_reflection
 
 
 def _axes_and_lag(ds, rows_all, rep, ug_src=None):

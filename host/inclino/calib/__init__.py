@@ -73,6 +73,7 @@ def fit(ds, method: str = DEFAULT_METHOD, data_hash: dict | None = None, report:
         with np.errstate(all="ignore"):
             cal, info = single.fit(ds, **{k: v for k, v in opts.items() if k in ("use_poses",)})
         cal.data = data_hash
+        _refuse_reflection(ds, cal, bool(opts.get("use_poses", True)))
         rep = None
         if report:
             rep = report_mod.build_single(ds, cal, info)
@@ -99,6 +100,7 @@ def fit(ds, method: str = DEFAULT_METHOD, data_hash: dict | None = None, report:
         raise CalibrationError(f"{method}: singular fit ({e})")
     elapsed = time.perf_counter() - t0
     cal.data = data_hash
+    _refuse_reflection(ds, cal, bool(opts.get("use_poses", True)))
     rep_ds = info.pop("report_dataset", ds)  # joint --temperature-terms: the readings brought to t_ref
     rep = None
     if report:
@@ -115,3 +117,29 @@ def fit(ds, method: str = DEFAULT_METHOD, data_hash: dict | None = None, report:
                 rep.notes.append(f"{len(found.saturated)} saturated row(s) left out of the fit")
         cal.report = rep.to_dict()
     return cal, rep
+
+
+def _refuse_reflection(ds, cal, use_poses: bool) -> None:
+    """A fitted triad matrix with a negative determinant is a reflection:
+    the data's axes of that triad are mirrored against what it was fitted to
+    (the poses, or the other triad).  A general 3x3 absorbs it, so the fit
+    itself does not fail: BROAD 05 with the magnetometer's x column negated
+    fitted to the same residuals as the log as given, with det -1.40, and the
+    calibration was written.  Refused (DataError, exit 2; nothing written)
+    unless the header declares the reflection intended."""
+    import numpy as np
+
+    from inclino.checks import intended_reflection
+    from inclino.errors import DataError
+
+    ref = "the poses" if use_poses and ds.has_pose else None
+    for triad, name, M in (("acc", "accelerometer", cal.acc_m), ("mag", "magnetometer", cal.mag_m)):
+        if not getattr(ds, f"has_{triad}") or intended_reflection(ds, triad):
+            continue
+        det = float(np.linalg.det(np.asarray(M, float)))
+        if det < 0:
+            against = ref or ("the accelerometer" if triad == "mag" else "the magnetometer")
+            raise DataError(
+                f"the fitted {name} matrix is a reflection (determinant {det:+.3g}): the {name}'s axes in the data "
+                f"are mirrored against {against}; fix that triad's axis map in the sensor description (one sign), "
+                f"or declare the reflection intended (reflection = true); no calibration written")
