@@ -326,3 +326,40 @@ def test_an_effect_whose_refit_is_refused_is_still_reported(tmp_path, monkeypatc
     r = diagnose(ds)
     e = [e for e in r.effects if (e.name, e.sensor, e.axis) == ("scale-nonlinearity", "acc", "z")]
     assert e and abs(e[0].estimate - 0.01) < 5 * e[0].stderr + 1e-4
+
+
+def _stations(seed, n=40, rows=40, short=5, every=5, noise=1e-3):
+    """An accelerometer read at n random orientations with nothing read
+    between them; every `every`-th station read for `short` rows only (fewer
+    than a hold needs).  Returns (dataset, each row's station)."""
+    rng = np.random.default_rng(seed)
+    u = rng.normal(size=(n, 3))
+    u /= np.linalg.norm(u, axis=1, keepdims=True)
+    lab = np.concatenate([[i] * (short if i % every == every - 1 else rows) for i in range(n)])
+    a = u[lab] + rng.normal(scale=noise, size=(len(lab), 3))
+    cols = {"t_s": np.arange(len(lab)) * 0.01, "ax_g": a[:, 0], "ay_g": a[:, 1], "az_g": a[:, 2]}
+    return dataset.RawDataset(columns=cols, meta={}), lab
+
+
+def test_a_run_declared_static_keeps_its_short_stations():
+    """A step-and-hold log's station read for fewer rows than a hold needs
+    was left out as motion even when the run was declared static; declared,
+    each such station is a hold of its own, and nothing is motion."""
+    ds, truth = _stations(RNG_SEED)
+    short = np.isin(truth, np.arange(4, 40, 5))
+    h = holds.find(ds)
+    assert h.count == 32 and np.all(h.labels[short] == -1) and np.all(h.labels[~short] >= 0)
+    ds.meta["static"] = "true"
+    h = holds.find(ds)
+    assert h.count == 40 and h.rows_moving == 0
+    for k in range(40):  # each station one hold, each hold one station
+        assert len(np.unique(h.labels[truth == k])) == 1 and len(np.unique(truth[h.labels == h.labels[truth == k][0]])) == 1
+    r = diagnose(ds)
+    assert r.baseline["clusters"] == 40
+    # calibrate --static declares it the same way
+    from inclino.calib import fit
+
+    del ds.meta["static"]
+    for static, held in ((False, "32 static holds"), (True, "40 static holds")):
+        _, rep = fit(ds, "joint", static=static)
+        assert any(held in n for n in rep.notes), (static, rep.notes)

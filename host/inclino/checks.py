@@ -37,7 +37,7 @@ import numpy as np
 
 from inclino.calib.ellipsoid import determined, signed_permutations, sphere
 from inclino.errors import DataError
-from inclino.holds import NOISE_BOUND  # the most noise a static sensor of each kind has (g, nT)
+from inclino.holds import NOISE_BOUND, declared_static  # NOISE_BOUND: the most noise a static sensor has (g, nT)
 
 # |g| / G: uncalibrated MEMS accelerometers are within a few % in scale and
 # ~0.1 g in offset; beyond +-20 % is a warning, beyond 0.5x-2x cannot be g
@@ -882,7 +882,7 @@ def _motion(ds, rep):
         else:
             verdicts.append(False)
         rep.noise[f"{t}_bound_{unit}"] = bound
-    declared = str(ds.meta.get("static", "")).lower() == "true" or rep.declared_static
+    declared = declared_static(ds) or rep.declared_static
     rep.declared_static = declared
     if all(verdicts):
         rep.static = True

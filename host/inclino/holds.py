@@ -166,7 +166,35 @@ def find(ds) -> Holds:
                 else:  # the run starts turning at once: step past its first rows
                     i = max(j, i + 1)
     held = int(np.sum(labels >= 0))
+    if declared_static(ds) and count >= 2 and held >= STEP_AND_HOLD_FRACTION * n and held < n:
+        # a step-and-hold log declared static: a station read for fewer than HOLD_ROWS rows is a hold too (it
+        # was left out as motion), cut where its readings jump or turn like any other
+        labels, count = _short_holds(labels, count, jump, ref, math.cos(math.radians(HOLD_TURN_DEG)))
+        held = n
     return Holds(labels=labels, count=count, rows_held=held, rows_moving=n - held, noise=noise)
+
+
+def declared_static(ds) -> bool:
+    """Whether the dataset is declared static (`# static=true`, `[log]
+    static = true`, `--static`): every row read at rest."""
+    return str(ds.meta.get("static", "")).strip().lower() in ("1", "true", "yes")
+
+
+def _short_holds(labels, count, jump, ref, cos_turn):
+    """labels with each stretch of unlabelled rows made holds of their own:
+    a new hold at a jump (or a setting's change) and where the reading's
+    direction has turned by more than HOLD_TURN_DEG from the hold's first
+    row.  Returns (labels, count)."""
+    held = labels >= 0
+    labels = labels.copy()
+    u = ref / np.maximum(np.linalg.norm(ref, axis=1, keepdims=True), 1e-300)
+    start = None
+    for i in np.flatnonzero(~held):
+        if start is None or held[i - 1] or jump[i] or float(u[i] @ u[start]) < cos_turn:
+            start = i
+            count += 1
+        labels[i] = count - 1
+    return labels, count
 
 
 def ellipsoid_leverage(means) -> float:

@@ -51,6 +51,13 @@ def fit(ds, method: str = DEFAULT_METHOD, data_hash: dict | None = None, report:
         raise DataError("the dataset has no rows")
     mod = importlib.import_module(f"inclino.calib.{method}")
     data_hash = data_hash or common.dataset_hash(ds)  # of every row, before thinning
+    from inclino.holds import declared_static
+
+    if static and not declared_static(ds):
+        import dataclasses
+
+        # declared here (calibrate --static): the checks, and the holds (inclino.holds), read it from the header
+        ds = dataclasses.replace(ds, meta={**ds.meta, "static": "true"})
     found = None
     if check:  # inclino.checks: data that cannot be right stop here (DataError, exit 2), before any fit
         from inclino import checks

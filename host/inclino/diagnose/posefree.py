@@ -877,8 +877,9 @@ MOVING_RHO = 0.5  # a lag-1 correlation of the residuals from which a log is rea
 
 
 def _declared_static(ds) -> bool:
-    v = str(ds.meta.get("static", "")).strip().lower()
-    return v in ("1", "true", "yes")
+    from inclino.holds import declared_static
+
+    return declared_static(ds)
 
 
 SHIFT_TEST_RHO = 0.3  # from this lag-1 correlation on, a driver's effect also needs the circular-shift test
