@@ -344,6 +344,16 @@ def build(ds: RawDataset, cal: Calibration, method: str, info: dict, refit=None,
         nz = info["noise"]
         src = (f"GLS covariance under the run's own noise ({nz['method']}: per channel, pose error per turntable "
                f"axis; {nz['clusters']} poses as clusters of their {nz['rows']} rows)")
+    elif cov is not None and info.get("mode") == "invariants" and info.get("s2_by_triad"):
+        # without poses each triad is fitted on its own (calib.pose_free): one pooled s^2 is not what scales it
+        s2t = info["s2_by_triad"]
+        src = ("each triad's own fit covariance, scaled by its own residual variance (s^2: "
+               + ", ".join(f"{t} {v:.3g}" for t, v in s2t.items() if v is not None) + ")")
+        hsc = info.get("hold_scale")
+        if hsc:
+            src += ("; widened for the error each static hold's rows share: "
+                    + ", ".join(f"{t} x{v:.3g}" if v is not None else f"{t} counted at hold level"
+                                for t, v in hsc.items()))
     elif cov is not None:
         src = f"GLS covariance, scaled by s^2 = {info.get('s2', 1.0):.3g}"
     elif refit is not None:
