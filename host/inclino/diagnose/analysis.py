@@ -210,20 +210,22 @@ class _Model:
         (columns S of the current design) gives; damped (Levenberg-Marquardt:
         the step's normal equations with lam times their diagonal added)
         where the full step multiplies the cost (the whitened residual in the
-        current metric, _cost) by more than COST_GROWTH_MAX.  Not where it
-        merely raises it: a large term the noise still holds (a 2 deg
-        inclination offset, read as 2 deg of readout noise on that axis
-        before it is in the model) costs little in that metric, and the
-        step that puts it in leaves its second-order part (tens of nT) for
-        the next step to take -- kept only where the cost fell, the offset
-        never came in, and it was then dropped by the cross-checks.  Nearly collinear
-        terms make the full step run far: a rig field of the inclination axis
-        on a continuous rotation at three inclinations, whose sum with the dip
-        and the fluxgate's 3x3 fits to 35 nT in the linear model, moved the
-        dip 22-93 deg and left 3 000-24 000 nT in the readings (the fit then
-        dropped both rig fields of that run as not significant); and the
-        pose Jacobian can grow by decades until no covariance factors
-        (_bounded).  No step that does: the state as it is."""
+        current metric, _cost) by more than COST_GROWTH_MAX, or leaves the
+        triads' matrices or the pose Jacobian unbounded (_bounded); no step
+        that does not: the state as it is.
+
+        Nearly collinear terms make the full step run far: a rig field of the
+        inclination axis on a continuous rotation at three inclinations,
+        whose sum with the dip and the fluxgate's 3x3 fits to 35 nT in the
+        linear model, moved the dip 22-93 deg and left 3 000-24 000 nT in the
+        readings (the selection then dropped both rig fields of that run as
+        not significant).  A step is not damped where it merely raises the
+        cost: a large term the noise still holds (a 2 deg inclination
+        offset, read as 2 deg of readout noise before it is in the model)
+        costs little in that metric, and the step that puts it in leaves
+        its second-order part (tens of nT) for the next step to take; kept
+        only where the cost fell, the offset never came in and the
+        cross-checks then dropped it."""
         des = self.des
         cs = des.colscale[S]
         G, b = des.G[np.ix_(S, S)], des.b[S]
