@@ -136,6 +136,7 @@ class _Model:
         self.base = list(range(NB))
         self.bl0 = bl0
         self.dropped_rig = {}  # key -> full parameter vector of a rig field the cross-check dropped
+        self.rig_joint = frozenset()  # the kept rig axes the bases were made identifiable for (_rig_identify)
         self.testable = []
         self.idx = {}
 
@@ -371,8 +372,12 @@ def _rig_identify(m: _Model, kept_now) -> bool:
     d = m.d
     rig = [c for c in m.testable if c.name == "rig-field"]
     axes = [c.axis for c in rig if c.key in kept_now]
+    joint = frozenset(axes) if len(axes) >= 2 else frozenset()
+    if joint == m.rig_joint:  # the bases already made for these kept fields (the screening's, for none or one)
+        return False
+    m.rig_joint = joint
     old = dict(d.rig_basis)
-    why = _rig_bases(m, rig, joint=set(axes) if len(axes) >= 2 else ())
+    why = _rig_bases(m, rig, joint=joint)
     for c in rig:  # nothing left of an inner axis beside the outer ones: it keeps its basis (not expected: the
         if c.axis in why:  # selection would not keep a field the kept ones already span)
             d.rig_basis[c.axis] = old[c.axis]
