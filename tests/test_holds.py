@@ -328,7 +328,7 @@ def test_an_effect_whose_refit_is_refused_is_still_reported(tmp_path, monkeypatc
     assert e and abs(e[0].estimate - 0.01) < 5 * e[0].stderr + 1e-4
 
 
-def _stations(seed, n=40, rows=40, short=5, every=5, noise=1e-3):
+def _stations(seed, n=60, rows=40, short=5, every=5, noise=1e-3):
     """An accelerometer read at n random orientations with nothing read
     between them; every `every`-th station read for `short` rows only (fewer
     than a hold needs).  Returns (dataset, each row's station)."""
@@ -344,22 +344,27 @@ def _stations(seed, n=40, rows=40, short=5, every=5, noise=1e-3):
 def test_a_run_declared_static_keeps_its_short_stations():
     """A step-and-hold log's station read for fewer rows than a hold needs
     was left out as motion even when the run was declared static; declared,
-    each such station is a hold of its own, and nothing is motion."""
+    each such station is a hold of its own, and nothing is motion.  60
+    random stations: their holds determine the model (leverage <= 0.8) on
+    300 of 300 seeds, declared or not; 40 missed it once."""
     ds, truth = _stations(RNG_SEED)
-    short = np.isin(truth, np.arange(4, 40, 5))
+    n = int(truth.max()) + 1
+    short = np.isin(truth, np.arange(4, n, 5))
+    n_long = n - n // 5
     h = holds.find(ds)
-    assert h.count == 32 and np.all(h.labels[short] == -1) and np.all(h.labels[~short] >= 0)
+    assert h.count == n_long and np.all(h.labels[short] == -1) and np.all(h.labels[~short] >= 0)
     ds.meta["static"] = "true"
     h = holds.find(ds)
-    assert h.count == 40 and h.rows_moving == 0
-    for k in range(40):  # each station one hold, each hold one station
+    assert h.count == n and h.rows_moving == 0
+    for k in range(n):  # each station one hold, each hold one station
         assert len(np.unique(h.labels[truth == k])) == 1 and len(np.unique(truth[h.labels == h.labels[truth == k][0]])) == 1
     r = diagnose(ds)
-    assert r.baseline["clusters"] == 40
-    # calibrate --static declares it the same way
+    assert r.baseline["clusters"] == n
+    # calibrate --static declares it the same way: the holds it fits (or counts in its covariance) are all of them
     from inclino.calib import fit
 
     del ds.meta["static"]
-    for static, held in ((False, "32 static holds"), (True, "40 static holds")):
+    for static, held in ((False, f"{n_long} static holds"), (True, f"{n} static holds")):
         _, rep = fit(ds, "joint", static=static)
-        assert any(held in n for n in rep.notes), (static, rep.notes)
+        said = rep.notes + [rep.to_dict().get("uncertainty", {}).get("source", "")]
+        assert any(held in line for line in said), (static, said)
