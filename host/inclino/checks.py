@@ -309,9 +309,6 @@ def intended_reflection(ds, triad) -> bool:
     return triad in str(ds.meta.get("reflection", "")).replace(" ", "").split(",")
 
 
-_intended = intended_reflection
-
-
 def _axes_and_lag(ds, rows_all, rep, ug_src=None):
     """Inter-triad: the magnetometer's axes against the accelerometer's (or
     the poses' gravity) from the dip angle's consistency, then the row
@@ -360,7 +357,7 @@ def _axes_and_lag(ds, rows_all, rep, ug_src=None):
     if best != ident and s_id > max(AXES_RATIO * s_best, MIN_SPREAD_DEG + s_best):
         det = int(round(np.linalg.det(P)))
         if det < 0:
-            if not _intended(ds, "mag") and not _intended(ds, "acc"):
+            if not intended_reflection(ds, "mag") and not intended_reflection(ds, "acc"):
                 rep.findings.append(Finding("handedness", "error", (
                     f"the magnetometer's axes are mirrored against the {other}: the dip angle spreads "
                     f"{s_id:.3g} deg with the axes as given, {s_best:.3g} deg with magnetometer {_perm_text(P)} "
@@ -551,7 +548,7 @@ def _weak_handedness(ug, ub, spreads, best, ident, other, ds, rep):
     times (and HAND_WEAK_DEG), in each half of the log on its own too, is a
     warning; a declared map that beats every one-axis mirror by less than
     HAND_NOTE_RATIO is a note: the handedness was checked on too little."""
-    if _intended(ds, "mag") or _intended(ds, "acc"):
+    if intended_reflection(ds, "mag") or intended_reflection(ds, "acc"):
         return
     s_id = spreads[ident]
     P = np.array(best).reshape(3, 3)
@@ -820,7 +817,7 @@ def _acc_poses(ds, rows, rep):
         return gp
     R, e_rot, Rr, e_ref = procrustes(ua, gp)
     fig = {"rms_rotation": e_rot, "rms_reflection": e_ref}
-    if e_ref < 0.3 * e_rot and e_rot > 0.1 and not _intended(ds, "acc"):
+    if e_ref < 0.3 * e_rot and e_rot > 0.1 and not intended_reflection(ds, "acc"):
         if np.allclose(Rr, -np.eye(3), atol=0.2):
             msg = (f"the accelerometer reads gravity with the wrong sign against the poses (its directions are the "
                    f"poses' reversed: RMS {e_ref:.3g} reversed, {e_rot:.3g} as a rotation): an axis pointing down "

@@ -869,6 +869,7 @@ def _run_variable_rivals(m: _Model, kept, effects_out, run_conf, alpha, confound
         if dk is None:
             continue
         others = m.base + m.cols([x for x in kept if x != k])
+        cv_none = cv_named = None
         rows = []
         for rv in run_conf:
             a, b = _RUN_DRIVER.get(rv["a"]), _RUN_DRIVER.get(rv["b"])
@@ -878,7 +879,8 @@ def _run_variable_rivals(m: _Model, kept, effects_out, run_conf, alpha, confound
             rivals = [c for c in m.testable if c.key not in kept and _run_driver(c) == other]
             if not rivals:
                 continue
-            cv_none, cv_named = des.cv(others), des.cv(others + m.idx[k])
+            if cv_none is None:
+                cv_none, cv_named = des.cv(others), des.cv(others + m.idx[k])
             cvs = [des.cv(others + m.idx[c.key]) for c in rivals]
             best, cv_rival = rivals[int(np.argmin(cvs))], min(cvs)
             p_named = des.ftest(others + m.idx[best.key], m.idx[k])[0]

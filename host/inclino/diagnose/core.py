@@ -45,6 +45,7 @@ from scipy import stats
 
 from inclino.engines import reference as ref
 from inclino.formats.dataset import POSE_COLS, RawDataset
+from inclino.holds import declared_static
 from inclino.errors import CalibrationError, DataError
 from inclino.model import effects as fx
 from inclino.model.world import EncoderErrors, TurntableGeometry
@@ -200,7 +201,7 @@ def prepare(ds: RawDataset) -> Data:
         # tenth of the fastest axis of that row, its rate is taken as 0
         fastest = np.abs(rates).max(1, keepdims=True)
         rates[np.abs(rates) < np.maximum(MOVING_MIN_RATE_DEG_S, 0.1 * fastest)] = 0.0
-    if str(m.get("static", "")).lower() == "true":  # declared step-and-hold (# static=true, --static): never turning
+    if declared_static(ds):  # declared step-and-hold (# static=true, --static): never turning
         moving[:] = False
         rates[:] = 0.0
     kind = "continuous" if moving.mean() >= 0.5 else "static"

@@ -46,6 +46,7 @@ from scipy import stats
 
 from inclino.errors import DataError
 from inclino.formats.dataset import RawDataset
+from inclino.holds import declared_static
 
 from . import serial as bartlett
 from .core import DEFAULT_ALPHA, DEFAULT_FOLDS, Design, make_folds
@@ -501,7 +502,7 @@ def diagnose_posefree(ds: RawDataset, alpha: float = DEFAULT_ALPHA, folds: int =
     rho = max(_lag1(_highpass(r_base[order_t][rows[order_t]])), _lag1(_highpass(r_base[rows])))
     serial.update(rho=rho, inflation=(1.0 + rho) / (1.0 - rho))
     des.inflation = serial["inflation"]
-    shift_test = serial["rho"] >= SHIFT_TEST_RHO and not _declared_static(ds)
+    shift_test = serial["rho"] >= SHIFT_TEST_RHO and not declared_static(ds)
     blockwise = serial["rho"] >= SHIFT_TEST_RHO
 
     def shift_tested(rec) -> bool:
@@ -522,7 +523,7 @@ def diagnose_posefree(ds: RawDataset, alpha: float = DEFAULT_ALPHA, folds: int =
         shifts at p 0.1; a null temperature on 70 % of CK's accelerometer
         holds in 7 of 40 draws at p ~0.001, with lag-1 0.0 and Ljung-Box
         p 0.2)."""
-        if _declared_static(ds):
+        if declared_static(ds):
             return False
         if shift_test:
             return True
@@ -734,14 +735,14 @@ def diagnose_posefree(ds: RawDataset, alpha: float = DEFAULT_ALPHA, folds: int =
                 confounded.append({"effect": kk, "with": jj, "correlation": rc, "named": True,
                                    "separate_by": _separate(kk, jj, pf)})
     confounded += [c for kk, c in slow_confounds.items() if kk not in kept]
-    if serial["rho"] >= MOVING_RHO and not _declared_static(ds):
+    if serial["rho"] >= MOVING_RHO and not declared_static(ds):
         for kk in kept:
             confounded.append({"effect": kk, "with": "the motion between neighbouring rows", "correlation": serial["rho"],
                                "named": True,
                                "separate_by": "a static log: hold each orientation still while it is read (or declare "
                                               "the run static if it is), so that motion and sampling between the "
                                               "axes stop shaping the invariants"})
-    if pf.holds and not pf.holds["moving_rows_left_out"] and pf.has_acc and not _declared_static(ds):
+    if pf.holds and not pf.holds["moving_rows_left_out"] and pf.has_acc and not declared_static(ds):
         # a step-and-hold log whose holds do not determine the model: what the selection found rests on the rows
         # read while moving, whose acceleration no sensor effect models: not named (a second view, the holds
         # alone, cannot confirm it)
@@ -874,12 +875,6 @@ def _hold_notes(pf) -> list:
 
 
 MOVING_RHO = 0.5  # a lag-1 correlation of the residuals from which a log is read as taken while moving
-
-
-def _declared_static(ds) -> bool:
-    from inclino.holds import declared_static
-
-    return declared_static(ds)
 
 
 SHIFT_TEST_RHO = 0.3  # from this lag-1 correlation on, a driver's effect also needs the circular-shift test
