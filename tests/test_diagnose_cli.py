@@ -202,12 +202,46 @@ def test_bench_module_real_only_takes_its_seed_and_sizes(capsys, monkeypatch):
     monkeypatch.setattr(diagnose_real, "bench_real", fake)
     assert cli_bench_diagnose.diagnose_main(["--real-only", "--seed", "777", "--per-size", "4", "--nulls", "40"]) == 0
     assert cli_bench_diagnose.diagnose_main(["--real-only", "--json"]) == 0
-    assert calls == [dict(seeds=4, resamplings=40, seed0=777, quick=False),
-                     dict(seeds=2, resamplings=12, seed0=2024, quick=False)]
+    assert cli_bench_diagnose.diagnose_main(["--real-only", "--logs", "mpu6050, sap6/BB"]) == 0
+    assert calls == [dict(seeds=4, resamplings=40, seed0=777, quick=False, logs=None),
+                     dict(seeds=2, resamplings=12, seed0=2024, quick=False, logs=None),
+                     dict(seeds=2, resamplings=12, seed0=2024, quick=False, logs=["mpu6050", "sap6/BB"])]
     capsys.readouterr()
     with pytest.raises(SystemExit) as e:
         cli_bench_diagnose.diagnose_main(["--real-only", "--nulls", "-1"])
     assert e.value.code == 2 and ">= 0" in capsys.readouterr().err
+
+
+def test_bench_real_logs_keep_their_draws(monkeypatch):
+    """--logs picks corpus logs by the start of their names, each keeping
+    its place in the corpus (its seeds): the MPU-6050 alone gets the same
+    injections as in the whole section.  A name no log starts with is
+    exit 2."""
+    import numpy as np
+
+    from inclino.benchmarks import diagnose_real
+
+    data = diagnose_real.corpus()
+    if not data:
+        pytest.skip("the corpus is not in this checkout")
+    i = [n for n, _ in data].index("mpu6050_tedaldi")
+    want = [diagnose_real.inject(data[i][1], kind, np.random.default_rng([2024, i, 0, len(kind)]))[1:]
+            for kind in ("temperature-bias", "scale-nonlinearity")]
+    got, inject = [], diagnose_real.inject
+
+    def recorded(ds, kind, rng, key=None):
+        out = inject(ds, kind, rng, key)
+        if out is not None:
+            got.append(out[1:])
+        return out
+    monkeypatch.setattr(diagnose_real, "inject", recorded)
+    one = diagnose_real.bench_real(seeds=1, resamplings=0, logs=["mpu6050"])
+    assert one.datasets == ["mpu6050_tedaldi"]
+    assert got == want
+    assert not one.injected["rig-field"]["cases"] and "no case" in " ".join(one.lines())
+    with pytest.raises(SystemExit) as e:
+        cli_bench_diagnose.diagnose_main(["--real-only", "--logs", "nosuch"])
+    assert e.value.code == 2
 
 
 def test_bench_module_near_limit_rates(capsys):

@@ -3,7 +3,7 @@
 (`inclino bench diagnose`) with its sizes chosen; with `--near-limit
 Z[,Z...] [--draws N] [--effects E,...]` the miss rate just above the
 detection limit instead (docs/diagnose.md); with `--real-only [--seed S]
-[--per-size N] [--nulls N]` the real-data section alone.  Exit status 0, or 1 when the
+[--per-size N] [--nulls N] [--logs NAME,...]` the real-data section alone.  Exit status 0, or 1 when the
 benchmark's targets are not met; 2 on bad arguments."""
 from __future__ import annotations
 
@@ -35,6 +35,8 @@ def build_parser() -> argparse.ArgumentParser:
                    "tests/data/real: injected effects, resampled untouched logs, held-out prediction); there "
                    "--per-size is the injections per effect and log (default 2), --nulls the resamplings per log "
                    "(default 12)")
+    p.add_argument("--logs", metavar="NAME[,NAME...]", help="with --real-only: only the corpus logs whose names "
+                   "start with these (e.g. mpu6050,sap6/BB); each keeps the draws it has in the whole section")
     return p
 
 
@@ -68,7 +70,10 @@ def diagnose_main(argv=None) -> int:
         with one_blas_thread():
             r = bench_real(seeds=2 if a.per_size is None else a.per_size,
                            resamplings=12 if a.nulls is None else a.nulls,
-                           seed0=2024 if a.seed is None else a.seed, quick=a.quick)
+                           seed0=2024 if a.seed is None else a.seed, quick=a.quick,
+                           logs=[x.strip() for x in a.logs.split(",") if x.strip()] if a.logs else None)
+        if a.logs and r.note.startswith("no corpus log"):
+            p.error(r.note)
         print(r.to_json() if a.json else "\n".join(r.lines()))
         return 0 if r.passed else 1
     r = bench_diagnose(a.quick, a.per_size, a.nulls, a.pairs, 1000 if a.seed is None else a.seed)

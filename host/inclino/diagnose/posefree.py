@@ -396,8 +396,9 @@ def signature_z(ds: RawDataset, key: str, w=None, folds: int = DEFAULT_FOLDS) ->
     a group, the combination w of its columns) is in this dataset's
     invariants, once the baseline has absorbed what it can: the pose-free
     counterpart of plans.signature_z, under the data's own noise and serial
-    correlation (what the F-test sees).  For injecting effects into real
-    readings at the benchmark's sizes."""
+    correlation (what the F-test sees).  On a log whose effects are named
+    only where its holds confirm them (holds_view), in that view.  For
+    injecting effects into real readings at the benchmark's sizes."""
     return diagnose_posefree(ds, folds=folds, _signature=(key, w))
 
 
@@ -407,6 +408,10 @@ def diagnose_posefree(ds: RawDataset, alpha: float = DEFAULT_ALPHA, folds: int =
     if not (0.0 < alpha < 1.0):
         raise DataError("alpha must be between 0 and 1")
     pf = _PF(ds)
+    confirm = isinstance(_signature, tuple) and _signature[0] == "confirm"
+    if isinstance(_signature, tuple) and not confirm and (view := _holds_view(ds, pf)) is not None:
+        # an effect on such a log is named only where its held rows confirm it: its size is the one there
+        return diagnose_posefree(view, folds=folds, _signature=_signature)
     mdl = _Model(pf)
     k, chans = pf.k, pf.chans
     K = min(int(folds), k // 4)
@@ -540,16 +545,80 @@ def diagnose_posefree(ds: RawDataset, alpha: float = DEFAULT_ALPHA, folds: int =
         des, idx, r_base, rows = design(testable)
         des.inflation = serial["inflation"]
     base_rms = {c: float(np.sqrt(np.mean(r_base[rows, j] ** 2))) for j, c in enumerate(chans)}
+    def own_noise(S1):
+        """The design weighed by each invariant's noise taken from the model
+        S1 (the candidate in it): an effect not yet in the model inflates
+        the spread of the invariant it acts on, which would weigh that
+        invariant down in its own test (a rig field of z = 12 on |b| of a
+        24-shot log came out at p 5e-4-0.01, and was missed)."""
+        d0, rows1 = des, des.rows
+        R1 = d0.raw_residuals(S1)[rows1]
+        # each invariant's unbiased noise: its residuals' sum of squares over its own degrees of freedom (the
+        # rows less the leverage the fit puts on that invariant), as the held-out prediction below
+        h = d0.leverage(S1)[rows1].sum(0)
+        s1 = np.sqrt((R1 ** 2).sum(0) / np.maximum(len(R1) - h, 1.0))
+        W1 = np.zeros_like(des._W)
+        W1[:, range(len(s1)), range(len(s1))] = 1.0 / np.maximum(s1, 1e-300)
+        d1 = Design(des.yraw, des.Xraw, W1, fold_of, K, rows=rows1)
+        d1.inflation = des.inflation
+        d1.serial, d1.serial_order = des.serial, des.serial_order
+        d1.noise = np.maximum(s1, 1e-300)
+        return d1
+
+    def ftest_own_noise(S, cols):
+        """The F-test of adding cols under own_noise(S + cols)."""
+        d1 = own_noise(list(S) + list(cols))
+        return d1.ftest(S, cols)[0], d1
+
+    def _confirm(keys):
+        """{key: p} of the effects of `keys` on these data, a backward pass
+        as the selection's: all refitted together, each tested beside the
+        others as the selection tests it (the F-test under the invariants'
+        own noise; for a driven effect, the circular-shift or slow-structure
+        test where the selection asks for it), the least significant dropped
+        while its p is at alpha or above, the rest refitted.  A dropped
+        effect keeps the p it was dropped with; a key that is no candidate
+        here is left out."""
+        nonlocal des, idx, rows
+        keys = [kk for kk in keys if kk in idx]
+        out = {}
+        while keys:
+            refit(keys)
+            des, idx, _, rows = design(testable)
+            ps = {}
+            for kk in keys:
+                S = base + [i for x in keys if x != kk for i in idx[x]]
+                p, d1 = ftest_own_noise(S, idx[kk])
+                if kk.split(":")[0] in DRIVEN and shift_tested(d1.serial_record(S, idx[kk])):
+                    if kk.split(":")[0] in SLOW_DRIVERS:
+                        p = max(p, _slow_rival(mdl, state, des, S, kk, ncol[kk], order_t)["p"])
+                    else:
+                        p = max(p, _shift_p(mdl, state, des, S, kk, ncol[kk], alpha))
+                ps[kk] = float(p)
+            out.update(ps)
+            worst = max(keys, key=lambda kk: ps[kk])
+            if ps[worst] < alpha:
+                break
+            keys.remove(worst)
+            state["theta"].pop(worst, None)
+        return out
+
+    if confirm:
+        return _confirm(_signature[1])
     if _signature is not None and _signature != "debug":
         key, w = _signature
         if key not in idx:
             raise DataError(f"{key} is not a candidate on these data")
         cols = idx[key]
-        ws = (np.ones(len(cols)) if w is None else np.asarray(w, float)) * des.colscale[cols]
-        Gbb = des.G[np.ix_(base, base)]
-        Rcc = des.G[np.ix_(cols, cols)] - des.G[np.ix_(base, cols)].T @ np.linalg.solve(Gbb, des.G[np.ix_(base, cols)])
-        sf = bartlett.factor(des, base, cols, ws)
-        infl = max(des.inflation, sf["f"])
+        # under the noise the F-test weighs the invariants by (own_noise: each invariant's residual spread with
+        # the candidate in the model), so that a size is in the test's own units where a log has several
+        # invariants
+        d1 = own_noise(base + list(cols))
+        ws = (np.ones(len(cols)) if w is None else np.asarray(w, float)) * d1.colscale[cols]
+        Gbb = d1.G[np.ix_(base, base)]
+        Rcc = d1.G[np.ix_(cols, cols)] - d1.G[np.ix_(base, cols)].T @ np.linalg.solve(Gbb, d1.G[np.ix_(base, cols)])
+        sf = bartlett.factor(d1, base, cols, ws)
+        infl = max(d1.inflation, sf["f"])
         if key.split(":")[0] in DRIVEN and shift_tested(sf):
             # what the test deflates this driver's F by on these data: its circular-shift null (a log with
             # slow structure in its residuals, as a tumbled one, gives any smooth driver a large F by chance:
@@ -567,27 +636,6 @@ def diagnose_posefree(ds: RawDataset, alpha: float = DEFAULT_ALPHA, folds: int =
     remaining = list(testable)
     if _signature == "debug":
         return {kk: des.ftest(base, idx[kk]) for kk in testable}
-    def ftest_own_noise(S, cols):
-        """The F-test of adding cols with each invariant's noise taken from
-        the model that holds them: an effect not yet in the model inflates
-        the spread of the invariant it acts on, which would weigh that
-        invariant down in its own test (a rig field of z = 12 on |b| of a
-        24-shot log came out at p 5e-4-0.01, and was missed)."""
-        S1 = list(S) + list(cols)
-        d0, rows1 = des, des.rows
-        R1 = d0.raw_residuals(S1)[rows1]
-        # each invariant's unbiased noise: its residuals' sum of squares over its own degrees of freedom (the
-        # rows less the leverage the fit puts on that invariant), as the held-out prediction below
-        h = d0.leverage(S1)[rows1].sum(0)
-        s1 = np.sqrt((R1 ** 2).sum(0) / np.maximum(len(R1) - h, 1.0))
-        W1 = np.zeros_like(des._W)
-        W1[:, range(len(s1)), range(len(s1))] = 1.0 / np.maximum(s1, 1e-300)
-        d1 = Design(des.yraw, des.Xraw, W1, fold_of, K, rows=rows1)
-        d1.inflation = des.inflation
-        d1.serial, d1.serial_order = des.serial, des.serial_order
-        d1.noise = np.maximum(s1, 1e-300)
-        return d1.ftest(S, cols)[0], d1
-
     while remaining:
         S = base + [i for kk in kept for i in idx[kk]]
         tests = sorted(((*ftest_own_noise(S, idx[kk]), kk) for kk in remaining), key=lambda t: (t[0], t[2]))
@@ -742,20 +790,33 @@ def diagnose_posefree(ds: RawDataset, alpha: float = DEFAULT_ALPHA, folds: int =
                                "separate_by": "a static log: hold each orientation still while it is read (or declare "
                                               "the run static if it is), so that motion and sampling between the "
                                               "axes stop shaping the invariants"})
-    if pf.holds and not pf.holds["moving_rows_left_out"] and pf.has_acc and not declared_static(ds):
-        # a step-and-hold log whose holds do not determine the model: what the selection found rests on the rows
-        # read while moving, whose acceleration no sensor effect models: not named (a second view, the holds
-        # alone, cannot confirm it)
+    if effects and pf.holds and not pf.holds["moving_rows_left_out"] and pf.has_acc and not declared_static(ds):
+        # a step-and-hold log whose holds do not determine the model: what the selection found may rest on the
+        # rows read while moving, whose acceleration no sensor effect models.  The second view is the holds
+        # alone (each hold one pose, the baseline fitted to them again): an effect is named where it is
+        # significant there beside the others at alpha, and otherwise reported as confounded with the motion
         h = pf.holds
+        view = _holds_view(ds, pf)
+        try:
+            held = {} if view is None else diagnose_posefree(
+                view, alpha=alpha, folds=folds, _signature=("confirm", [f"{e.name}:{e.sensor}:{e.axis}" for e in effects]))
+        except DataError:
+            held = {}
+        named = []
         for e in effects:
             kk = f"{e.name}:{e.sensor}:{e.axis}"
+            p_held = held.get(kk)
+            if p_held is not None and p_held < alpha:
+                e.detail["holds_view"] = {"holds": h["holds"], "p": p_held}
+                named.append(e)
+                continue
             confounded.append({"effect": kk, "with": f"the motion between the log's {h['holds']} static holds",
                                "share": h["rows_moving"] / max(h["rows_moving"] + h["rows_held"], 1),
                                "correlation": float("nan"),  # no regressor to correlate: a share of rows
-                               "named": False, "estimate": e.estimate, "units": e.units,
+                               "named": False, "estimate": e.estimate, "units": e.units, "p_on_holds": p_held,
                                "separate_by": "static holds in more directions (enough to determine the model: the "
                                               "rows read while moving are then left out), or poses for the holds"})
-        effects = []
+        effects = named
     undetermined = _undetermined(ds, pf) if effects else None
     if undetermined:
         # the calibration refuses these data (the orientations leave a triad's ellipsoid free): an effect
@@ -829,6 +890,41 @@ def diagnose_posefree(ds: RawDataset, alpha: float = DEFAULT_ALPHA, folds: int =
     return out
 
 
+def holds_view(ds) -> RawDataset | None:
+    """The held rows of a step-and-hold log with an accelerometer whose
+    holds alone leave the pose-free model undetermined, each hold one pose:
+    the view in which an effect found on every row of it must be confirmed
+    to be named (and in which signature_z sizes one); None for any other
+    log."""
+    return _holds_view(ds, _PF(ds))
+
+
+def _holds_view(ds, pf):
+    """The second view of a step-and-hold log with an accelerometer whose
+    holds alone leave the model undetermined (every row is then a pose, the
+    rows read while moving among them): its held rows only, each hold one
+    pose (a pose_id column).  None for any other log, and for a run declared
+    static (its rows are all held)."""
+    h = pf.holds
+    if not (h and not h["moving_rows_left_out"] and pf.has_acc) or declared_static(ds):
+        return None
+    if h["leverage_max"] > HOLDS_VIEW_MAX_LEVERAGE:
+        # a term of the baseline rests on one hold (a six-face session: leverage 1.00): fitted to the holds
+        # again, that hold is fitted exactly, and an effect tested there takes what the others' small
+        # differences leave (imucal's session without its face labels: nonlinearities of -0.3 to -0.55 /g at
+        # p 1e-22 on its 31 holds).  Nothing can be confirmed there
+        return None
+    from inclino import holds as _holds
+
+    lab = _holds.find(ds).labels
+    sel = np.flatnonzero(lab >= 0)
+    if len(np.unique(lab[sel])) < MIN_CLUSTERS:
+        return None
+    cols = {c: np.asarray(v)[sel] for c, v in ds.columns.items() if c not in ("pose_id", "segment", "cluster")}
+    cols["pose_id"] = lab[sel].astype(float)
+    return RawDataset(cols, dict(ds.meta))
+
+
 def _undetermined(ds, pf) -> str | None:
     """Why the pose-free calibration refuses these data (a triad's
     ellipsoid not determined by the orientations: calib.triad.fit_sphere on
@@ -871,8 +967,12 @@ def _hold_notes(pf) -> list:
     return [f"no poses: {h['holds']} static holds found in the readings ({h['rows_held']} rows), but alone they leave "
             f"the model undetermined (a hold's leverage {h['leverage_max']:.2f}: too few, or too few directions); so "
             f"every row counts as a pose, and what the {h['rows_moving']} rows read while moving show is confounded "
-            f"with the motion"]
+            f"with the motion: an effect is named only where the holds alone confirm it"]
 
+
+# the second view of a log whose holds leave the model undetermined (_holds_view) needs no hold to carry more
+# than this of a baseline term (the MPU-6050's 55 holds: 0.87; a six-face session's: 1.00)
+HOLDS_VIEW_MAX_LEVERAGE = 0.95
 
 MOVING_RHO = 0.5  # a lag-1 correlation of the residuals from which a log is read as taken while moving
 

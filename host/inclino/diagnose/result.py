@@ -131,6 +131,10 @@ class Diagnosis:
             g = e.gain
             lines.append(f"effect: {e.name} ({e.sensor} {e.axis}) = {e.estimate:.4g} +- {e.stderr:.2g} {e.units}"
                          f"  (p = {e.p_value:.2g})")
+            hv = e.detail.get("holds_view")
+            if hv:
+                lines.append(f"  confirmed on the {hv['holds']} static holds alone (the rows read while moving left "
+                             f"out, the baseline fitted to the holds again): p = {hv['p']:.2g}")
             ce = e.detail.get("calibration_error_if_ignored")
             if ce:
                 lines.append(f"  the rig's field, not the probe's: keep it out of the probe's calibration -- ignored, "
@@ -169,7 +173,9 @@ class Diagnosis:
             if "share" in cf:  # an effect found on the rows read while moving only
                 lines.append(f"not named: {e1} = {cf['estimate']:.4g} {cf['units']}: it rests on {e2} "
                              f"({100 * cf['share']:.0f} % of the rows, read while moving), which the holds alone "
-                             f"cannot confirm; to tell, {cf['separate_by']}")
+                             + (f"do not confirm (p = {cf['p_on_holds']:.2g} on them)"
+                                if cf.get("p_on_holds") is not None else "cannot confirm")
+                             + f"; to tell, {cf['separate_by']}")
                 continue
             lines.append(f"confounded: {e1} {'(named)' if cf['named'] else '(not a cause)'} and {e2}, correlation "
                          f"{cf['correlation']:.3f} in this run: the data cannot tell them apart; to separate them, "
