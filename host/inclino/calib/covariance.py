@@ -310,7 +310,11 @@ class ClusterWhitener:
     V_c = I (x) S + 1 1^T (x) C_c.  With one row per cluster this is each row
     whitened by S + C_c."""
 
-    def __init__(self, S, C, labels):
+    def __init__(self, S, C, labels, means_only: bool = False):
+        """means_only: apply, apply_rows and apply_jac give the clusters'
+        whitened means alone (what a fit whose regressors are the readings
+        takes from a cluster at one pose: see component_whitener)."""
+        self.means_only = bool(means_only)
         self.lab, self.k = _relabel(labels)
         self.n_c = np.bincount(self.lab, minlength=self.k).astype(float)
         S = np.asarray(S, float)
@@ -334,8 +338,10 @@ class ClusterWhitener:
         if self.single:
             return np.einsum("nij,nj->ni", self.LM[self.lab], r).ravel()
         mean = self._means(r)
-        dev = (r - mean[self.lab]) @ self.LS.T
         mw = np.einsum("cij,cj->ci", self.LM, mean)
+        if self.means_only:
+            return mw.ravel()
+        dev = (r - mean[self.lab]) @ self.LS.T
         return np.concatenate([dev.ravel(), mw.ravel()])
 
     def starts(self) -> np.ndarray:
@@ -361,8 +367,10 @@ class ClusterWhitener:
         first = np.flatnonzero(np.diff(lab, prepend=c0 - 1))  # the rows at which each cluster starts
         k = len(first)
         mean = np.add.reduceat(A, first, axis=0) / self.n_c[c0:c0 + k].reshape((-1,) + (1,) * (A.ndim - 1))
-        dev = np.einsum("ij,nj...->ni...", self.LS, A - np.repeat(mean, np.diff(np.append(first, len(lab))), 0))
         mw = np.einsum("cij,cj...->ci...", self.LM[c0:c0 + k], mean)
+        if self.means_only:
+            return mw.reshape((-1,) + tail)
+        dev = np.einsum("ij,nj...->ni...", self.LS, A - np.repeat(mean, np.diff(np.append(first, len(lab))), 0))
         return np.concatenate([dev.reshape((-1,) + tail), mw.reshape((-1,) + tail)])
 
     def part(self, rows: slice) -> "WhitenerPart":
@@ -376,8 +384,10 @@ class ClusterWhitener:
         if self.single:
             return np.einsum("nij,njk->nik", self.LM[self.lab], J).reshape(-1, p)
         mean = self._means(J)
-        dev = np.einsum("ij,njk->nik", self.LS, J - mean[self.lab])
         mw = np.einsum("cij,cjk->cik", self.LM, mean)
+        if self.means_only:
+            return mw.reshape(-1, p)
+        dev = np.einsum("ij,njk->nik", self.LS, J - mean[self.lab])
         return np.concatenate([dev.reshape(-1, p), mw.reshape(-1, p)])
 
     def row_d2(self, r) -> np.ndarray:
@@ -407,12 +417,23 @@ def block_diag2(A, B) -> np.ndarray:
 CHANNELS_6 = ["acc_x_g", "acc_y_g", "acc_z_g", "mag_x_nT", "mag_y_nT", "mag_z_nT"]  # both triads' channels
 
 
-def component_whitener(comps: "NoiseComponents", Ma, Mm, Jp, labels) -> ClusterWhitener:
+def component_whitener(comps: "NoiseComponents", Ma, Mm, Jp, labels, means_only: bool = False) -> ClusterWhitener:
     """The whitener of both triads' residuals in corrected units under noise
     components fitted in raw units: per-row noise B diag(sigma^2) B^T (B the
     triads' M's), and per cluster the cluster effect plus the pose error
     (Jp (n, 6, 3) the residuals' pose Jacobian, deg), averaged over the
-    cluster's rows."""
+    cluster's rows.
+
+    means_only: the clusters' means alone, for a fit whose regressors are
+    the readings (r = M raw - c - f(pose)).  Within a cluster the pose, and
+    so f, is one: a row's deviation from its cluster's mean is the readings'
+    noise alone, and fitted it says M (noise) = 0, which pulls M towards
+    zero (errors in the regressors).  Weighed by the per-row noise, as the
+    block covariance weighs them, those deviations biased the magnetometer's
+    scale by -5e-4 (about one standard error) on holds of 20-50 rows with a
+    100 nT offset each (tools/independent_check, cluster_poses); the
+    readings' own scatter over the whole run is far larger than their noise,
+    so the same pull through the means is 1e-5 of it."""
     B = block_diag2(Ma, Mm)
     S = B @ np.diag(comps.sigma ** 2) @ B.T
     Crow = B @ np.diag(comps.sigma_cluster ** 2) @ B.T
@@ -424,4 +445,4 @@ def component_whitener(comps: "NoiseComponents", Ma, Mm, Jp, labels) -> ClusterW
     C = np.zeros((k, 6, 6))
     np.add.at(C, lab, Crow)
     C /= np.bincount(lab, minlength=k)[:, None, None]
-    return ClusterWhitener(S, C, lab)
+    return ClusterWhitener(S, C, lab, means_only=means_only)

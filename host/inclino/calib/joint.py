@@ -337,7 +337,9 @@ def _refit_with_components(comps, x, fun, jac, acc, mag, poses, FdG, fix_dip, di
     xx = np.concatenate([x, [dip0]]) if fix_dip else x
     Ma, _, Mm, _, dip, _, _ = _unpack_pose(xx)
     Jp = _pose_jacobian(*poses, *FdG[:1], dip, *FdG[1:])
-    W = covariance.component_whitener(comps, Ma, Mm, Jp, labels)
+    # the clusters' means alone: a row's deviation from its pose's mean is the readings' noise, which as a
+    # regressor pulls M towards zero (covariance.component_whitener)
+    W = covariance.component_whitener(comps, Ma, Mm, Jp, labels, means_only=True)
     del Jp
     return _least_squares(fun, jac, x, acc, mag, poses, FdG, W), W
 
