@@ -178,15 +178,10 @@ def inject(ds, kind, rng, key=None) -> tuple:
             # a rig that drives the field holds its axis through each hold the diagnosis reads (and the motion on
             # to the next)
             d.columns["tf_deg"] = rng.uniform(0.0, 360.0, int(unit.max()) + 1)[unit]
-        if key is not None:
-            pass
-        elif kind == "temperature-bias":
+        if key is None and kind in ("temperature-bias", "scale-nonlinearity"):
             tri = tris[int(rng.integers(len(tris)))]
-            key = f"temperature-bias:{tri}:{'xyz'[int(rng.integers(3))]}"
-        elif kind == "scale-nonlinearity":
-            tri = tris[int(rng.integers(len(tris)))]
-            key = f"scale-nonlinearity:{tri}:{'xyz'[int(rng.integers(3))]}"
-        else:
+            key = f"{kind}:{tri}:{'xyz'[int(rng.integers(3))]}"
+        elif key is None:
             key = "rig-field:rig:tf"
     w = None
     if kind == "rig-field":
