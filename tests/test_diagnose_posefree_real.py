@@ -318,3 +318,23 @@ def test_an_effect_only_the_moving_rows_carry_is_not_named(corpus, monkeypatch):
         return v if pf.holds and not pf.holds["moving_rows_left_out"] else None
     monkeypatch.setattr(posefree, "_holds_view", every_row_a_hold)
     assert key in [f"{e.name}:{e.sensor}:{e.axis}" for e in diagnose(d).effects]
+
+
+def test_holds_that_cannot_be_fitted_confirm_nothing(corpus, monkeypatch):
+    """Where the second view's fit fails (here made to raise a singular
+    matrix), the effects found on every row are listed as not named, and
+    the diagnosis still reports: no traceback."""
+    from inclino.diagnose import posefree
+
+    real = posefree.diagnose_posefree
+
+    def failing(ds, *a, _signature=None, **k):
+        if isinstance(_signature, tuple) and _signature[0] == "confirm":
+            raise np.linalg.LinAlgError("Singular matrix")
+        return real(ds, *a, _signature=_signature, **k)
+    monkeypatch.setattr(posefree, "diagnose_posefree", failing)
+    r = diagnose(corpus["mpu6050_tedaldi"])
+    assert r.effects == []
+    moved = [c for c in r.confounded if "share" in c]
+    assert moved and all(not c["named"] and c["p_on_holds"] is None for c in moved)
+    assert "cannot confirm" in r.summary()

@@ -800,8 +800,8 @@ def diagnose_posefree(ds: RawDataset, alpha: float = DEFAULT_ALPHA, folds: int =
         try:
             held = {} if view is None else diagnose_posefree(
                 view, alpha=alpha, folds=folds, _signature=("confirm", [f"{e.name}:{e.sensor}:{e.axis}" for e in effects]))
-        except DataError:
-            held = {}
+        except (DataError, np.linalg.LinAlgError, ValueError, ArithmeticError):
+            held = {}  # the holds alone cannot be fitted: they confirm nothing
         named = []
         for e in effects:
             kk = f"{e.name}:{e.sensor}:{e.axis}"
