@@ -328,13 +328,22 @@ def test_an_effect_whose_refit_is_refused_is_still_reported(tmp_path, monkeypatc
     assert e and abs(e[0].estimate - 0.01) < 5 * e[0].stderr + 1e-4
 
 
-def _stations(seed, n=60, rows=40, short=5, every=5, noise=1e-3):
+def _stations(seed, n=60, rows=40, short=5, every=5, noise=1e-3, apart_deg=5.0):
     """An accelerometer read at n random orientations with nothing read
-    between them; every `every`-th station read for `short` rows only (fewer
-    than a hold needs).  Returns (dataset, each row's station)."""
+    between them, each at least apart_deg from the one before (two
+    consecutive stations closer than the hold finder's 0.5 deg turn are one
+    hold by its rule: 0.41 deg apart on one seed, a short station's rows then
+    joined the next hold); every `every`-th station read for `short` rows
+    only (fewer than a hold needs).  Returns (dataset, each row's station)."""
     rng = np.random.default_rng(seed)
-    u = rng.normal(size=(n, 3))
-    u /= np.linalg.norm(u, axis=1, keepdims=True)
+    u = np.zeros((n, 3))
+    for i in range(n):
+        while True:
+            v = rng.normal(size=3)
+            v /= np.linalg.norm(v)
+            if i == 0 or v @ u[i - 1] < np.cos(np.radians(apart_deg)):
+                break
+        u[i] = v
     lab = np.concatenate([[i] * (short if i % every == every - 1 else rows) for i in range(n)])
     a = u[lab] + rng.normal(scale=noise, size=(len(lab), 3))
     cols = {"t_s": np.arange(len(lab)) * 0.01, "ax_g": a[:, 0], "ay_g": a[:, 1], "az_g": a[:, 2]}
