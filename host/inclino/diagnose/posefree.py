@@ -45,7 +45,7 @@ import numpy as np
 from scipy import stats
 
 from inclino.errors import DataError
-from inclino.formats.dataset import RawDataset
+from inclino.formats.dataset import ID_COLUMNS, RawDataset
 from inclino.holds import declared_static
 
 from . import serial as bartlett
@@ -96,6 +96,7 @@ class _PF:
         # its rows read while turning are readings like the held ones, and a hand that pauses at a few
         # orientations (BROAD's trial 05: 109 holds, most with z down) does not make them suspect
         self.holds = None
+        self.hold_labels = None  # (n,) each row's hold, -1 moving, of a step-and-hold log (inclino.holds.find)
         sel = np.ones(n0, bool)
         if not _holds.labelled(ds):
             H = _holds.find(ds)
@@ -110,6 +111,7 @@ class _PF:
                     # a setting's rows are not one orientation when the sensor turns during them: every row a pose
                     lab = np.arange(n0)
                 self.holds = dict(H.to_dict(), moving_rows_left_out=bool(only), leverage_max=lev)
+                self.hold_labels = hl
         k = int(lab.max()) + 1
         self.n_rows, self.k = n0, k
         cnt = np.bincount(lab, minlength=k).astype(float)
@@ -914,13 +916,11 @@ def _holds_view(ds, pf):
         # differences leave (imucal's session without its face labels: nonlinearities of -0.3 to -0.55 /g at
         # p 1e-22 on its 31 holds).  Nothing can be confirmed there
         return None
-    from inclino import holds as _holds
-
-    lab = _holds.find(ds).labels
-    sel = np.flatnonzero(lab >= 0)
-    if len(np.unique(lab[sel])) < MIN_CLUSTERS:
+    if h["holds"] < MIN_CLUSTERS:
         return None
-    cols = {c: np.asarray(v)[sel] for c, v in ds.columns.items() if c not in ("pose_id", "segment", "cluster")}
+    lab = pf.hold_labels
+    sel = np.flatnonzero(lab >= 0)
+    cols = {c: np.asarray(v)[sel] for c, v in ds.columns.items() if c not in ID_COLUMNS}
     cols["pose_id"] = lab[sel].astype(float)
     return RawDataset(cols, dict(ds.meta))
 
