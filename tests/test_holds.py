@@ -377,3 +377,29 @@ def test_a_run_declared_static_keeps_its_short_stations():
         _, rep = fit(ds, "joint", static=static)
         said = rep.notes + [rep.to_dict().get("uncertainty", {}).get("source", "")]
         assert any(held in line for line in said), (static, said)
+
+
+MPU = Path(__file__).parent / "data" / "real" / "mpu6050_tedaldi"
+
+
+def test_a_short_lone_stop_is_set_aside_where_the_other_holds_determine(monkeypatch):
+    """The MPU-6050's hand-held session: rows 8932-8941 are ten still rows
+    (0.1 s) 2.9 deg from the hold that follows 11 rows later, in a
+    direction no other hold has (leverage 0.87 > HOLDS_MAX_LEVERAGE).  They
+    are set aside with the rows read while moving, and the other holds
+    determine the ellipsoid.  The rule is what moves them: with
+    LONE_HOLD_MAX_ROWS below their length they stay a hold and the holds
+    do not determine it; nor are they set aside in a run declared static."""
+    ds = importlog.import_log(str(MPU / "example_data_calibration.csv"), sensor.load(str(MPU / "sensor.toml")))[0]
+    h = holds.find(ds)
+    assert [a["rows"] for a in h.set_aside] == [[8932, 8941]]
+    assert h.set_aside[0]["leverage"] > holds.HOLDS_MAX_LEVERAGE
+    assert np.all(h.labels[8932:8942] == -1)
+    assert holds.leverage(ds, h) <= holds.HOLDS_MAX_LEVERAGE and holds.determining(ds) is not None
+    monkeypatch.setattr(holds, "LONE_HOLD_MAX_ROWS", 9)
+    kept = holds.find(ds)
+    assert kept.set_aside == [] and kept.count == h.count + 1
+    assert holds.leverage(ds, kept) > holds.HOLDS_MAX_LEVERAGE and holds.determining(ds) is None
+    monkeypatch.setattr(holds, "LONE_HOLD_MAX_ROWS", 3 * holds.HOLD_ROWS)
+    ds.meta["static"] = "true"
+    assert holds.find(ds).set_aside == []

@@ -26,6 +26,11 @@ at NOISE_BOUND (the most a part of that kind has), so that a log that
 moves all the time is not read as still; and floored at the resolution's
 quantisation noise (LSB / sqrt 12).
 
+One short stop in a direction no other hold has, whose leverage alone
+keeps the holds from determining the model while the others determine it
+without it, is set aside with the rows read while moving
+(_lone_stop_aside).
+
 A log is read as step-and-hold when its holds hold at least
 STEP_AND_HOLD_FRACTION of the rows; otherwise (a log turned continuously by
 hand) the holds are not used.  Callers: diagnose's pose-free mode
@@ -34,7 +39,7 @@ hand) the holds are not used.  Callers: diagnose's pose-free mode
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 
 import numpy as np
 
@@ -50,6 +55,8 @@ HOLD_TURN_DEG = 0.5            # a run whose direction turns by more than this f
 HOLD_JUMP_K = 6.0              # neighbouring rows differing by this many times their noise on an axis: a new hold
 STEP_AND_HOLD_FRACTION = 0.5   # holds must hold this share of the rows for a log to be read as step-and-hold
 HOLDS_MAX_LEVERAGE = 0.8       # the holds alone determine a triad's ellipsoid when no hold's leverage exceeds this
+LONE_HOLD_MAX_ROWS = 3 * HOLD_ROWS  # a hold this short that alone keeps the others from determining is set aside
+MIN_HOLDS = 12                 # a step-and-hold log's holds are used as its poses from this many on
 
 
 @dataclass
@@ -61,6 +68,7 @@ class Holds:
     rows_held: int
     rows_moving: int
     noise: dict
+    set_aside: list = field(default_factory=list)  # [{"rows": [first, last], "leverage": ...}] (lone stops)
 
     @property
     def step_and_hold(self) -> bool:
@@ -71,7 +79,8 @@ class Holds:
         return {"holds": self.count, "rows_held": self.rows_held, "rows_moving": self.rows_moving,
                 "step_and_hold": self.step_and_hold, "hold_rows_min": HOLD_ROWS, "hold_k": HOLD_K,
                 "hold_turn_deg": HOLD_TURN_DEG,
-                "noise": {k: [float(x) for x in v] for k, v in self.noise.items()}}
+                "noise": {k: [float(x) for x in v] for k, v in self.noise.items()},
+                "set_aside": list(self.set_aside)}
 
 
 def _noise(ws, declared, lsb, bound) -> np.ndarray:
@@ -171,7 +180,40 @@ def find(ds) -> Holds:
         # was left out as motion), cut where its readings jump or turn like any other
         labels, count = _short_holds(labels, count, jump, ref, math.cos(math.radians(HOLD_TURN_DEG)))
         held = n
-    return Holds(labels=labels, count=count, rows_held=held, rows_moving=n - held, noise=noise)
+    h = Holds(labels=labels, count=count, rows_held=held, rows_moving=n - held, noise=noise)
+    return h if declared_static(ds) else _lone_stop_aside(ds, h)
+
+
+def _lone_stop_aside(ds, h: Holds) -> Holds:
+    """h, or h with one short hold moved to the rows read while moving: a
+    hold of at most LONE_HOLD_MAX_ROWS rows whose leverage alone keeps the
+    holds from determining the model, when the others determine it without
+    it.  Such a stop is in a direction no other hold has, so one term of the
+    ellipsoid would rest on it; a hand or a motor that pauses for a tenth of
+    a second while still settling reads one (the MPU-6050 session's rows
+    8932-8941: ten rows at 0.1 s, 2.9 deg from the hold that follows 11 rows
+    later, leverage 0.87; its 54 other holds alone 0.50).  With it, every
+    row of such a log was a pose, and which mode a log was read in hung on
+    whether those ten rows passed the stillness test: a scale nonlinearity
+    of 0.05 /g on z made them nine, and the holds then determined the
+    model.  Not for a run declared static (its every station is one)."""
+    triads = [t for t in ("acc", "mag") if getattr(ds, f"has_{t}", False)]
+    if h.count <= MIN_HOLDS or not h.step_and_hold or not triads:
+        return h
+    ms = {t: means(getattr(ds, t), h.labels, h.count) for t in triads}
+    lev = np.max([hold_leverages(m) for m in ms.values()], axis=0)
+    j = int(np.argmax(lev))
+    rows = np.flatnonzero(h.labels == j)
+    if lev[j] <= HOLDS_MAX_LEVERAGE or len(rows) > LONE_HOLD_MAX_ROWS:
+        return h
+    if max(ellipsoid_leverage(np.delete(m, j, 0)) for m in ms.values()) > HOLDS_MAX_LEVERAGE:
+        return h
+    labels = h.labels.copy()
+    labels[rows] = -1
+    labels[labels > j] -= 1
+    aside = [{"rows": [int(rows[0]), int(rows[-1])], "leverage": float(lev[j])}]
+    return Holds(labels=labels, count=h.count - 1, rows_held=h.rows_held - len(rows),
+                 rows_moving=h.rows_moving + len(rows), noise=h.noise, set_aside=aside)
 
 
 def declared_static(ds) -> bool:
@@ -204,16 +246,22 @@ def ellipsoid_leverage(means) -> float:
     its size: u_i u_j (6 columns) and u (3)).  Near 1: that reading alone
     fixes a parameter (a face with no neighbour), so leaving it out is an
     extrapolation; 1.0 when there are fewer readings than parameters."""
+    return float(np.max(hold_leverages(means)))
+
+
+def hold_leverages(means) -> np.ndarray:
+    """(k,) each mean reading's leverage in the model of
+    ellipsoid_leverage; all 1.0 when the readings do not determine it."""
     v = np.asarray(means, float)
     if len(v) <= 9:
-        return 1.0
+        return np.ones(len(v))
     u = v / np.maximum(np.linalg.norm(v, axis=1, keepdims=True), 1e-300)
     X = np.column_stack([u[:, 0] ** 2, u[:, 1] ** 2, u[:, 2] ** 2, 2 * u[:, 0] * u[:, 1], 2 * u[:, 0] * u[:, 2],
                          2 * u[:, 1] * u[:, 2], u])
     Q, R = np.linalg.qr(X)
     if np.min(np.abs(np.diag(R))) < 1e-9 * np.max(np.abs(np.diag(R))):
-        return 1.0
-    return float(np.max(np.sum(Q * Q, axis=1)))
+        return np.ones(len(v))
+    return np.sum(Q * Q, axis=1)
 
 
 def means(v, labels, count) -> np.ndarray:
@@ -298,4 +346,4 @@ def _found(ds) -> Holds | None:
     if labelled(ds):
         return None
     h = find(ds)
-    return h if h.step_and_hold and h.count >= 12 else None
+    return h if h.step_and_hold and h.count >= MIN_HOLDS else None
