@@ -229,10 +229,10 @@ def test_bench_real_logs_keep_their_draws(monkeypatch):
             for kind in ("temperature-bias", "scale-nonlinearity")]
     got, inject = [], diagnose_real.inject
 
-    def recorded(ds, kind, rng, key=None):
-        out = inject(ds, kind, rng, key)
+    def recorded(ds, kind, rng, key=None, detail=False):
+        out = inject(ds, kind, rng, key, detail)
         if out is not None:
-            got.append(out[1:])
+            got.append(out[1:3])
         return out
     monkeypatch.setattr(diagnose_real, "inject", recorded)
     one = diagnose_real.bench_real(seeds=1, resamplings=0, logs=["mpu6050"])

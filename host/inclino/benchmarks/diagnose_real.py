@@ -20,12 +20,19 @@ do not depend on may be named.
   own noise and serial correlation -- for a driven effect on a serially
   correlated log, the inflation its circular-shift test measures on the
   untouched data (diagnose.posefree.signature_z; the benchmark's sweep
-  sizes, where its detection target holds).  On a step-and-hold log with
-  an accelerometer whose holds alone leave the model undetermined (the
-  MPU-6050's 55 holds in about 16 directions), an effect found on every
-  row is named only where the holds alone confirm it, so its size is z on
-  the holds (posefree.holds_view: 1.4-12 times the size on every row there;
-  the record lists such datasets as sized_on_holds).  Found = the right name,
+  sizes, where its detection target holds).  On a step-and-hold log, on
+  the holds the injected log reads as (an effect can change them: a
+  drifting reading cuts a long hold where it turns past 0.5 deg), the
+  readings without it; and on a log with an accelerometer whose holds
+  alone leave the model undetermined, where an effect found on every row
+  is named only where the holds alone confirm it, on the holds
+  (posefree.holds_view; the record lists such datasets as
+  sized_on_holds).  Not counted, and listed as not_testable: an injection
+  whose signature one pose carries more than TOP_SHARE_MAX of (the other
+  poses hold less than z / 2 of it: what that pose's being an outlier
+  would show, and the diagnosis sets such a pose aside), and one so large
+  at z = 12 that the pose-free calibration refuses the injected log (its
+  readings on no ellipsoid its orientations determine).  Found = the right name,
   sensor and axis among the effects named; an effect tied to a driver the
   readings do not depend on, named beside it, is listed (also_driven).
 * **Untouched, resampled**: a random 70 % of each dataset's poses (in their
@@ -93,8 +100,8 @@ def corpus() -> list:
         for c in ("inc_deg", "azi_deg", "tf_deg", "t_s"):
             ds.columns.pop(c, None)
         out.append((f"broad/{trial}", ds))
-    # an MPU-6050's accelerometer held by hand at one orientation after another (55 holds in about 16
-    # directions: the holds alone leave the model undetermined) and a QMC5883L magnetometer turned by hand;
+    # an MPU-6050's accelerometer held by hand at one orientation after another (54 holds in 15 directions,
+    # and one 10-row stop set aside: inclino.holds) and a QMC5883L magnetometer turned by hand;
     # last, so that the logs above keep their seeds
     for name, log in (("mpu6050_tedaldi", "example_data_calibration.csv"), ("qmc5883l", "filtered_raw_data.csv")):
         ds, _ = importlog.import_log(str(root / name / log), sensor.load(str(root / name / "sensor.toml")))
@@ -156,11 +163,13 @@ def _with_nulls(ds, rng, time_order=None):
     return d
 
 
-def inject(ds, kind, rng, key=None) -> tuple:
+def inject(ds, kind, rng, key=None, detail=False) -> tuple:
     """(dataset with the effect, the key it should be named as, the value);
     key: the candidate (its sensor and axis) instead of one drawn at
-    random, for a temperature bias or a scale nonlinearity."""
-    from inclino.diagnose.posefree import signature_z
+    random, for a temperature bias or a scale nonlinearity; detail: also
+    the largest share of its signature one pose carries
+    (posefree.signature_poses)."""
+    from inclino.diagnose.posefree import signature_poses
 
     tris = [t for t in ("acc", "mag") if (ds.has_acc if t == "acc" else ds.has_mag)]
     if kind in ("rig-field", "field-drift") and not ds.has_mag:
@@ -189,8 +198,52 @@ def inject(ds, kind, rng, key=None) -> tuple:
         c /= np.linalg.norm(c)
         nch = 2 if d.has_acc else 1
         w = np.concatenate([c, np.zeros(4 * (nch - 1))])
-    zu = signature_z(d, key, w)
-    value = Z_INJECT / zu * (1.0 if kind == "rig-field" or rng.random() < 0.5 else -1.0)
+    sign = 1.0 if kind == "rig-field" or rng.random() < 0.5 else -1.0
+    sized = signature_poses(d, key, w)
+    value = sign * Z_INJECT / sized["z"]
+    out = _apply(d, kind, key, value, w)
+    used = d
+    for _ in range(SIZING_ROUNDS):
+        # an effect can change which rows read as held (a drifting reading cuts a long hold where it turns past
+        # 0.5 deg; a short stop settles into fewer rows): sized again on the holds the injected log has, the
+        # readings without it
+        if _same_holds(out, used):
+            break
+        used = out
+        sized = signature_poses(d, key, w, holds_of=out)
+        value = sign * Z_INJECT / sized["z"]
+        out = _apply(d, kind, key, value, w)
+    if detail:
+        return out, key, float(value), sized["top_share"]
+    return out, key, float(value)
+
+
+SIZING_ROUNDS = 3
+TOP_SHARE_MAX = 0.75  # one pose holding more of a signature's square: the others hold less than z / 2 of it
+
+
+def calibration_refused(ds) -> str:
+    """Why the pose-free calibration refuses ds (a triad's readings on no
+    ellipsoid their orientations determine), or ""."""
+    from inclino.diagnose.posefree import calibration_refused as why
+
+    return why(ds) or ""
+
+
+def _same_holds(a, b) -> bool:
+    """Whether two versions of one log's rows read as the same static holds."""
+    from inclino import holds
+
+    ha, hb = holds.find(a), holds.find(b)
+    if not (ha.step_and_hold or hb.step_and_hold):
+        return True
+    return ha.step_and_hold == hb.step_and_hold and np.array_equal(ha.labels, hb.labels)
+
+
+def _apply(ds, kind, key, value, w):
+    """A copy of ds with the effect `key` of size value (rig field: the
+    harmonics' weights w) in its readings."""
+    d = copy.deepcopy(ds)
     name, tri, ax = key.split(":")
     if kind == "temperature-bias":
         col = COLS[tri]["xyz".index(ax)]
@@ -212,7 +265,7 @@ def inject(ds, kind, rng, key=None) -> tuple:
             a = value * (d.columns["t_s"] - d.columns["t_s"].mean())
         for j, c in enumerate(COLS["mag"]):
             d.columns[c] = d.columns[c] + a * u[:, j]
-    return d, key, float(value)
+    return d
 
 
 @dataclass
@@ -238,7 +291,7 @@ class RealDiagnoseBench:
             return [f"real data: {self.note}"]
         out = [f"real data ({', '.join(self.datasets)}), pose-free, effects injected at z = {self.z_inject:g}:"]
         for k, v in self.injected.items():
-            if not v["cases"]:
+            if not v["cases"] and not v.get("not_testable"):
                 out.append(f"  {k:20s} no case: the logs have no magnetometer")
                 continue
             out.append(f"  {k:20s} found {v['found']}/{v['cases']} ({v['rate']:.0%})"
@@ -246,6 +299,8 @@ class RealDiagnoseBench:
                        + (f"; with a null driver's effect named too: {v['also_driven']}" if v.get("also_driven")
                           else "")
                        + (f"; sized on the holds: {', '.join(v['sized_on_holds'])}" if v.get("sized_on_holds")
+                          else "")
+                       + (f"; not testable at this size (not counted): {v['not_testable']}" if v.get("not_testable")
                           else ""))
         n = self.nulls
         if n:
@@ -308,14 +363,24 @@ def bench_real(seeds: int = 2, resamplings: int = 12, seed0: int = 2024, quick: 
         if pr:
             out.prediction[name] = pr
     for kind in ("temperature-bias", "scale-nonlinearity", "rig-field", "field-drift"):
-        rec = {"cases": 0, "found": 0, "missed": [], "errors": [], "also_driven": [], "sized_on_holds": []}
+        rec = {"cases": 0, "found": 0, "missed": [], "errors": [], "also_driven": [], "sized_on_holds": [],
+               "not_testable": []}
         for i, name, ds in data:
             for s in range(seeds):
                 rng = np.random.default_rng([seed0, i, s, len(kind)])
-                got = inject(ds, kind, rng)
+                got = inject(ds, kind, rng, detail=True)
                 if got is None:
                     continue
-                d, key, value = got
+                d, key, value, top = got
+                # what the log cannot show at this size is no test of the diagnosis: a signature one pose carries
+                # most of (it is what that pose's being an outlier shows: the other poses hold less than z / 2),
+                # or an effect so large at z = 12 that the readings no longer lie on an ellipsoid their
+                # orientations determine
+                why = (f"one pose carries {top:.0%} of its signature" if top > TOP_SHARE_MAX else
+                       calibration_refused(d))
+                if why:
+                    rec["not_testable"].append(f"{name} {key} ({value:.3g}): {why}")
+                    continue
                 rec["cases"] += 1
                 if name in on_holds and name not in rec["sized_on_holds"]:
                     rec["sized_on_holds"].append(name)

@@ -78,7 +78,10 @@ NEEDS_POSES = [
 class _PF:
     """The data reduced to clusters, and the invariant model."""
 
-    def __init__(self, ds: RawDataset):
+    def __init__(self, ds: RawDataset, holds_of: RawDataset | None = None):
+        """holds_of: the log whose static holds are used (default ds; the
+        same rows read with an effect injected, for sizing it on the holds
+        the diagnosis of the injected log reads: signature_z)."""
         from inclino import holds as _holds
         from inclino.calib.covariance import cluster_labels
 
@@ -99,7 +102,7 @@ class _PF:
         self.hold_labels = None  # (n,) each row's hold, -1 moving, of a step-and-hold log (inclino.holds.find)
         sel = np.ones(n0, bool)
         if not _holds.labelled(ds):
-            H = _holds.find(ds)
+            H = _holds.find(ds if holds_of is None else holds_of)
             if H.step_and_hold:
                 hl = H.labels
                 lev = _holds.leverage(ds, H)
@@ -393,23 +396,43 @@ def _step(model, key):
     return 1.0
 
 
-def signature_z(ds: RawDataset, key: str, w=None, folds: int = DEFAULT_FOLDS) -> float:
+def signature_z(ds: RawDataset, key: str, w=None, folds: int = DEFAULT_FOLDS,
+                holds_of: RawDataset | None = None) -> float:
     """How many noise standard deviations one unit of candidate `key` (for
     a group, the combination w of its columns) is in this dataset's
     invariants, once the baseline has absorbed what it can: the pose-free
     counterpart of plans.signature_z, under the data's own noise and serial
     correlation (what the F-test sees).  On a log whose effects are named
-    only where its holds confirm them (holds_view), in that view.  For
-    injecting effects into real readings at the benchmark's sizes."""
-    return diagnose_posefree(ds, folds=folds, _signature=(key, w))
+    only where its holds confirm them (holds_view), in that view.  holds_of: the same rows with the
+    effect in them, whose static holds (inclino.holds.find) are the ones
+    used: an effect can change which rows read as held (a temperature bias
+    that drifts a long hold's reading past the 0.5 deg turn cuts it in
+    several).  For injecting effects into real readings at the benchmark's
+    sizes."""
+    return diagnose_posefree(ds, folds=folds, _signature=(key, w), _holds_of=holds_of)
+
+
+def signature_poses(ds: RawDataset, key: str, w=None, folds: int = DEFAULT_FOLDS,
+                    holds_of: RawDataset | None = None) -> dict:
+    """{"z": signature_z, "top_share": the largest share of its squared
+    size one pose holds (what the signature's sum of squares beyond the
+    baseline loses when that pose is left out)}.  A signature one pose
+    carries most of is what that pose's being an outlier would show, and
+    the diagnosis sets such a pose aside (the rows beyond the chi-square
+    point of the baseline's residual): an injected temperature bias on
+    SAP6 IB's magnetometer z, 80 % of it on one of the 24 shots, put that
+    shot 12.5 sigma out, and beside the other 23 it was at p 0.001; the
+    MPU-6050 session's z nonlinearity rests on its one long hold read with
+    z down."""
+    return diagnose_posefree(ds, folds=folds, _signature=(key, w, "detail"), _holds_of=holds_of)
 
 
 def diagnose_posefree(ds: RawDataset, alpha: float = DEFAULT_ALPHA, folds: int = DEFAULT_FOLDS,
-                      _signature=None) -> Diagnosis:
+                      _signature=None, _holds_of=None) -> Diagnosis:
     t_start = _time.perf_counter()
     if not (0.0 < alpha < 1.0):
         raise DataError("alpha must be between 0 and 1")
-    pf = _PF(ds)
+    pf = _PF(ds, _holds_of)
     confirm = isinstance(_signature, tuple) and _signature[0] == "confirm"
     if isinstance(_signature, tuple) and not confirm and (view := _holds_view(ds, pf)) is not None:
         # an effect on such a log is named only where its held rows confirm it: its size is the one there
@@ -608,7 +631,7 @@ def diagnose_posefree(ds: RawDataset, alpha: float = DEFAULT_ALPHA, folds: int =
     if confirm:
         return _confirm(_signature[1])
     if _signature is not None and _signature != "debug":
-        key, w = _signature
+        key, w = _signature[:2]
         if key not in idx:
             raise DataError(f"{key} is not a candidate on these data")
         cols = idx[key]
@@ -617,8 +640,7 @@ def diagnose_posefree(ds: RawDataset, alpha: float = DEFAULT_ALPHA, folds: int =
         # invariants
         d1 = own_noise(base + list(cols))
         ws = (np.ones(len(cols)) if w is None else np.asarray(w, float)) * d1.colscale[cols]
-        Gbb = d1.G[np.ix_(base, base)]
-        Rcc = d1.G[np.ix_(cols, cols)] - d1.G[np.ix_(base, cols)].T @ np.linalg.solve(Gbb, d1.G[np.ix_(base, cols)])
+        z2, loss = _signature_per_pose(d1, base, cols, ws)
         sf = bartlett.factor(d1, base, cols, ws)
         infl = max(d1.inflation, sf["f"])
         if key.split(":")[0] in DRIVEN and shift_tested(sf):
@@ -631,7 +653,11 @@ def diagnose_posefree(ds: RawDataset, alpha: float = DEFAULT_ALPHA, folds: int =
                 infl = max(infl, _slow_rival(mdl, state, des, base, key, len(cols), order_t)["inflation"])
             else:
                 infl = max(infl, _shift_p(mdl, state, des, base, key, len(cols), None))
-        return float(np.sqrt(max(ws @ Rcc @ ws, 0.0) / infl))
+        z = float(np.sqrt(max(z2, 0.0) / infl))
+        if len(_signature) > 2 and _signature[2] == "detail":
+            # the largest share of it one pose holds
+            return {"z": z, "top_share": float(np.max(loss, initial=0.0) / max(z2, 1e-300))}
+        return z
     own = {kk: _own_chan(kk, chans) for kk in testable}
     kept, steps, pvals = [], [], {}
     slow_confounds = {}
@@ -901,6 +927,32 @@ def holds_view(ds) -> RawDataset | None:
     return _holds_view(ds, _PF(ds))
 
 
+def _signature_per_pose(des, base, cols, ws) -> tuple:
+    """(z2, loss): the squared whitened norm of the candidate's signature
+    (its columns `cols` combined by ws, in the design's scaled units)
+    beyond the baseline `base`, and per pose (a design row: a hold, a shot,
+    a row of a moving log) what of it that pose holds: the sum of squares
+    the signature's regression on the baseline loses when it is left out
+    (e_i' (I - H_ii)^-1 e_i, H the baseline's hat matrix)."""
+    rows = des.rows
+    X = des.whitened(list(base) + list(cols), rows)
+    n, ch, _ = X.shape
+    nb = len(base)
+    A = X[:, :, :nb].reshape(-1, nb)
+    c = (X[:, :, nb:] @ np.asarray(ws, float)).ravel()
+    coef = np.linalg.lstsq(A, c, rcond=None)[0]
+    e = (c - A @ coef).reshape(n, ch)
+    Ginv = np.linalg.pinv(A.T @ A)
+    Xb = X[:, :, :nb]
+    H = np.einsum("nip,pq,njq->nij", Xb, Ginv, Xb)
+    eye = np.eye(ch)
+    try:
+        loss = np.einsum("ni,ni->n", e, np.linalg.solve(eye[None] - H, e[:, :, None])[:, :, 0])
+    except np.linalg.LinAlgError:  # a pose that alone fixes a baseline term: leaving it out loses all of it
+        loss = np.array([float(e[i] @ np.linalg.pinv(eye - H[i]) @ e[i]) for i in range(n)])
+    return float(e.ravel() @ e.ravel()), np.maximum(loss, 0.0)
+
+
 def _holds_view(ds, pf):
     """The second view of a step-and-hold log with an accelerometer whose
     holds alone leave the model undetermined (every row is then a pose, the
@@ -923,6 +975,12 @@ def _holds_view(ds, pf):
     cols = {c: np.asarray(v)[sel] for c, v in ds.columns.items() if c not in ID_COLUMNS}
     cols["pose_id"] = lab[sel].astype(float)
     return RawDataset(cols, dict(ds.meta))
+
+
+def calibration_refused(ds) -> str | None:
+    """Why the pose-free calibration refuses these data (_undetermined), or
+    None."""
+    return _undetermined(ds, _PF(ds))
 
 
 def _undetermined(ds, pf) -> str | None:
@@ -971,7 +1029,7 @@ def _hold_notes(pf) -> list:
 
 
 # the second view of a log whose holds leave the model undetermined (_holds_view) needs no hold to carry more
-# than this of a baseline term (the MPU-6050's 55 holds: 0.87; a six-face session's: 1.00)
+# than this of a baseline term (the MPU-6050's 55 holds with its short stop kept: 0.87; six faces: 1.00)
 HOLDS_VIEW_MAX_LEVERAGE = 0.95
 
 MOVING_RHO = 0.5  # a lag-1 correlation of the residuals from which a log is read as taken while moving
