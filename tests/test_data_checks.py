@@ -1,6 +1,7 @@
 """Checks before any fit (inclino.checks) on the real-data corpus and on
 corrupted copies of it: each corruption gives its named error or warning,
 the clean logs give none, and the commands exit 2 before any fit."""
+import json
 from pathlib import Path
 
 import numpy as np
@@ -190,3 +191,52 @@ def test_static_or_moving_from_the_readings_not_the_time_column():
     assert rep.static is False and _found(rep, "motion", "note")
     rep = checks.run(tumbled, declared_static=True)
     assert rep.declared_static and rep.static is None
+
+
+def _ck_mirrored_weakly(monkeypatch, tmp_path, dip_deg):
+    """The CK log with the magnetometer's y column negated, as a log whose
+    mirror the checks before the fit see only weakly (a warning: the error's
+    AXES_RATIO raised out of reach), with or without a header dip."""
+    monkeypatch.setattr(checks, "AXES_RATIO", 1e9)
+    ds = _load("ck_acc_mag/acc_mag_log.csv", "ck_acc_mag/sensor.toml")
+    bad = _with(ds, my_nT=-ds.columns["my_nT"])
+    if dip_deg is not None:
+        bad.meta["dip_deg"] = dip_deg
+    assert _found(checks.run(bad), "handedness", "warning")
+    run = tmp_path / "run.csv"
+    dataset.write_raw(str(run), bad)
+    return run
+
+
+def test_a_fit_that_turned_the_field_is_refused_against_the_header_dip(monkeypatch, tmp_path, capsys):
+    """A mirrored axis fitted as a rotation (-P for the reflection P) fits
+    the invariants as well as the right map, with the dip's sign turned and
+    every azimuth 180 deg off: the fitted dip against the header's refuses
+    it (exit 2, one line, nothing written)."""
+    run = _ck_mirrored_weakly(monkeypatch, tmp_path, -17.8)  # the CK log's own dip (sensor.toml)
+    cal = tmp_path / "cal.json"
+    capsys.readouterr()
+    assert main(["calibrate", str(run), "-o", str(cal)]) == 2
+    err = capsys.readouterr().err
+    assert err.count("\n") == 1 and "+17.8 deg against the header's -17.8" in err
+    assert "through 180 deg" in err and "mirrored" in err and "reads" in err
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["run.csv"]  # nothing written, not even a part
+
+
+def test_the_clean_log_with_its_header_dip_is_not_refused_after_the_fit(tmp_path):
+    ds = _load("ck_acc_mag/acc_mag_log.csv", "ck_acc_mag/sensor.toml")
+    ds.meta["dip_deg"] = -17.8
+    run = tmp_path / "run.csv"
+    dataset.write_raw(str(run), ds)
+    assert main(["calibrate", str(run), "-o", str(tmp_path / "cal.json")]) in (0, 1)
+
+
+def test_a_fit_that_may_have_turned_the_field_asks_for_the_dip(monkeypatch, tmp_path, capsys):
+    run = _ck_mirrored_weakly(monkeypatch, tmp_path, None)
+    capsys.readouterr()
+    assert main(["calibrate", str(run), "-o", str(tmp_path / "cal.json"), "--json"]) in (0, 1)
+    notes = [n for n in json.loads(capsys.readouterr().out)["report"]["notes"] if "180 deg" in n]
+    after = [n for n in notes if n.startswith("check: warning: the fitted dip is +17.8 deg")]
+    assert len(after) == 1 and "may have turned the field" in after[0] and "dip_deg" in after[0], notes
+    before = [n for n in notes if "may be mirrored against" in n]  # the checks before the fit say it too
+    assert len(before) == 1 and "dip_deg" in before[0], notes

@@ -49,6 +49,7 @@ GEOMAGNETIC_SLACK = 1.5   # a sensor's scale error and a steel building: a warni
 FIELD_TOL = (0.8, 1.25)   # |b| / header field_nT: a warning outside
 FIELD_UNITS = (0.4, 2.5)  # |b| / header field_nT: an error outside (a unit)
 DIP_MISMATCH_DEG = 10.0   # |dip - header dip| beyond it: a warning
+DIP_SIGN_MIN_DEG = 5.0    # a dip's sign is compared with the header's only when both are beyond this
 MAX_LAG = 3               # row shifts tried between the triads
 LAG_RATIO = 3.0           # spread as paired / spread at the best shift: an error beyond (and > 2 deg)
 LAG_MIN_GAIN = 0.1        # a warning when the best shift cuts the spread by more than this fraction ...
@@ -348,8 +349,9 @@ def _axes_and_lag(ds, rows_all, rep, ug_src=None):
     # closest to the declared map (fewest axes changed), then a rotation
     hdr = ds.meta.get("dip_deg")
     tied = [k for k in spreads if spreads[k] <= 1.05 * s_min + 0.05]
-    best = min(tied, key=lambda k: (0 if hdr is None or abs(float(hdr)) < 5.0 or np.sign(dips[k]) == np.sign(float(hdr))
-                                    else 1, int(np.sum(np.any(np.array(k).reshape(3, 3) != np.eye(3), axis=1))),
+    best = min(tied, key=lambda k: (0 if hdr is None or abs(float(hdr)) < DIP_SIGN_MIN_DEG
+                                    or np.sign(dips[k]) == np.sign(float(hdr)) else 1,
+                                    int(np.sum(np.any(np.array(k).reshape(3, 3) != np.eye(3), axis=1))),
                                     np.linalg.det(np.array(k).reshape(3, 3)) < 0))
     s_best = spreads[best]
     P = np.array(best).reshape(3, 3)
@@ -516,7 +518,7 @@ def _dip_sign(ds, d, ug_src, rep):
     dip = float(np.median(d))
     rep.noise["dip_deg"] = dip
     hdr = ds.meta.get("dip_deg")
-    if hdr is None and ug_src is None and abs(dip) > 5.0:
+    if hdr is None and ug_src is None and abs(dip) > DIP_SIGN_MIN_DEG:
         rep.findings.append(Finding("dip-sign", "note", (
             f"the accelerometer's gravity sign was not checked: the dip angle is {dip:+.1f} deg, and a turned sign "
             f"(reads = \"up\" or \"down\") only turns it to {-dip:+.1f} deg, a site in the other magnetic hemisphere; "
@@ -524,7 +526,8 @@ def _dip_sign(ds, d, ug_src, rep):
             "acc", {"dip_deg": dip}))
     if hdr is not None and ug_src is None:
         hdr = float(hdr)
-        if abs(hdr) > 5.0 and np.sign(dip) != np.sign(hdr) and abs(dip + hdr) < max(DIP_MISMATCH_DEG, 0.3 * abs(hdr)):
+        if abs(hdr) > DIP_SIGN_MIN_DEG and np.sign(dip) != np.sign(hdr) \
+                and abs(dip + hdr) < max(DIP_MISMATCH_DEG, 0.3 * abs(hdr)):
             rep.findings.append(Finding("dip-sign", "error", (
                 f"the dip angle is {dip:+.1f} deg against the header's {hdr:+.1f}: the accelerometer's gravity sign "
                 f"is turned (an axis pointing down must read +1 g: reads = \"up\" or \"down\"), or every "
@@ -564,7 +567,10 @@ def _weak_handedness(ug, ub, spreads, best, ident, other, ds, rep):
                 f"with the axes as given, {spreads[best]:.3g} deg with magnetometer {_perm_text(P)} (a reflection; "
                 f"each half of the log: {', '.join(f'{a:.3g} against {b:.3g}' for a, b in halves)}); the sensor "
                 f"turned through too few orientations to be sure (the error needs {AXES_RATIO:g}x): check the axis "
-                f"map of each triad against its data sheet, or log the sensor tilted through more orientations"),
+                f"map of each triad against its data sheet, or log the sensor tilted through more orientations"
+                + ("" if ds.meta.get("dip_deg") is not None else
+                   "; without a header dip a fit can take the mirror as a rotation and turn the field through 180 "
+                   "deg unseen: give the site's dip ([header] dip_deg, or # dip_deg= in the log)")),
                 "mag", {"dip_spread_declared_deg": s_id, "dip_spread_best_deg": spreads[best],
                         "best_map": _perm_text(P), "halves_deg": halves}))
             return
