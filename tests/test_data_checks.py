@@ -2,6 +2,7 @@
 corrupted copies of it: each corruption gives its named error or warning,
 the clean logs give none, and the commands exit 2 before any fit."""
 import json
+import re
 from pathlib import Path
 
 import numpy as np
@@ -240,3 +241,73 @@ def test_a_fit_that_may_have_turned_the_field_asks_for_the_dip(monkeypatch, tmp_
     assert len(after) == 1 and "may have turned the field" in after[0] and "dip_deg" in after[0], notes
     before = [n for n in notes if "may be mirrored against" in n]  # the checks before the fit say it too
     assert len(before) == 1 and "dip_deg" in before[0], notes
+
+
+SAP6_TOML = (REAL / "sap6" / "sensor.toml").read_text() + "\n[header]\ndip_deg = 67.8\n"  # the instruments' own dip
+
+
+def _sap6_with(tmp_path, log, text):
+    """SAP6's BB log imported through the description `text`: the checks' report."""
+    return checks.run(importlog.import_log(str(log), sensor.from_toml(text))[0])
+
+
+def _with_mag_map(text, M):
+    """The SAP6 description with its magnetometer's map replaced by M (and
+    reflection = true exactly when M is a reflection)."""
+    axes = ", ".join(f"{b} = {'-' if M[i, j] < 0 else ''}m{'xyz'[j]}" for i, b in enumerate("xyz")
+                     for j in [int(np.argmax(np.abs(M[i])))])
+    mag = text.index("[magnetometer]")
+    head, tail = text[:mag], text[mag:]
+    tail = tail.replace('axes = "x = -mz, y = mx, z = my"', f'axes = "{axes}"')
+    tail = tail.replace("reflection = true", "reflection = true" if np.linalg.det(M) < 0 else "reflection = false")
+    return head + tail
+
+
+@pytest.mark.parametrize("Q", [[[0, 1, 0], [1, 0, 0], [0, 0, 1]], [[1, 0, 0], [0, -1, 0], [0, 0, 1]],
+                               [[0, -1, 0], [1, 0, 0], [0, 0, 1]], [[-1, 0, 0], [0, -1, 0], [0, 0, 1]]],
+                         ids=["swap-xy", "mirror-y", "turn-z-90", "turn-z-180"])
+def test_the_axis_map_suggested_is_the_map_to_write(tmp_path, Q):
+    """SAP6 declares a map that is neither the identity nor a rotation
+    (x = -mz, y = mx, z = my, reflection = true). A wrong map Q composed
+    with it is named, and the map the checks suggest is the map to write in
+    [magnetometer] axes (not the permutation in the body frame as imported,
+    which is that map only for an identity declared map): following it
+    imports the log clean."""
+    log = REAL / "sap6" / "BB.csv"
+    D = sensor.from_toml(SAP6_TOML).mag.matrix
+    clean = _sap6_with(tmp_path, log, SAP6_TOML)
+    assert not clean.errors and not clean.warnings, clean.lines()
+    wrong = np.array(Q, float) @ D
+    rep = _sap6_with(tmp_path, log, _with_mag_map(SAP6_TOML, wrong))
+    (f,) = [f for f in rep.findings if f.check in ("handedness", "axes") and f.level in ("error", "warning")]
+    # the map the message names, as a user reads it
+    write = re.search(r'deg with magnetometer (?:axes = ")?(x = -?m[xyz], y = -?m[xyz], z = -?m[xyz])', f.message)[1]
+    W = sensor.from_toml(f'[magnetometer]\ncolumns = ["a", "b", "c"]\naxes = "{write}"\nreflection = true\n').mag.matrix
+    assert np.array_equal(W, D), (write, f.message)
+    assert f.figures["map_to_write"] == write and f'axes = "{write}"' in f.message
+    # a reflection to write where the wrong map was a rotation: the message says to declare it
+    assert ("with reflection = true" in f.message) == (np.linalg.det(W) < 0 < np.linalg.det(wrong))
+    fixed = _sap6_with(tmp_path, log, _with_mag_map(SAP6_TOML, W))
+    assert not fixed.errors and not fixed.warnings, fixed.lines()
+
+
+@pytest.mark.parametrize("declared,shift", [(1, 0), (-1, 0), (2, 0), (1, -1), (-2, -1)])
+def test_the_lag_suggested_adds_the_shift_found_to_the_declared_lag(tmp_path, declared, shift):
+    """A declared [magnetometer] lag that does not pair the rows: the lag to
+    write is the declared lag plus the shift found in the rows as imported
+    (declared 1, found -1: lag = 0, the lag removed), and following it
+    imports the log in step."""
+    rows = (REAL / "sap6" / "BB.csv").read_text().splitlines()
+    head, body = rows[0], [r.split(",") for r in rows[1:]]
+    if shift:  # the magnetometer one row ahead (lag = -1 pairs it)
+        body = [a[:5] + b[5:] for a, b in zip(body[:-1], body[1:])]
+    log = tmp_path / "log.csv"
+    log.write_text("\n".join([head] + [",".join(r) for r in body]) + "\n")
+    text = SAP6_TOML.replace("reflection = true", f"reflection = true\nlag = {declared}")
+    rep = _sap6_with(tmp_path, log, text)
+    (f,) = [f for f in rep.findings if f.check == "row-alignment" and f.level in ("error", "warning")]
+    assert rep.lag_rows == shift - declared
+    assert re.search(r"re-import with \[magnetometer\] lag = (-?\d+)", f.message)[1] == str(shift), f.message
+    assert f.figures["lag_to_write"] == shift and (shift != 0 or "remove" in f.message), f.message
+    fixed = _sap6_with(tmp_path, log, SAP6_TOML.replace("reflection = true", f"reflection = true\nlag = {shift}"))
+    assert fixed.lag_rows == 0 and not fixed.errors and not fixed.warnings, fixed.lines()

@@ -186,6 +186,48 @@ def _perm_text(m, letter="m") -> str:
     return ", ".join(parts)
 
 
+def _declared_map(ds, triad="mag"):
+    """The axis map the sensor description declared for the triad (body =
+    map @ sensor, from the header's `mag_axes`), or the identity (a dataset
+    not imported, or no map recorded)."""
+    text = ds.meta.get(f"{triad}_axes")
+    if not _imported(ds) or not text:
+        return np.eye(3)
+    from inclino.formats import sensor
+
+    try:
+        return sensor.Triad(kind=triad, columns=[], unit="", scale=1.0,
+                            axes=sensor._axis_map({"axes": str(text)}, triad, f"{triad}_axes")).matrix
+    except DataError:
+        return np.eye(3)
+
+
+def _declared_reflection(ds, triad="mag") -> bool:
+    """Whether the sensor description declared the triad's map a reflection
+    (reflection = true: the header's `axes_reflection`)."""
+    return triad in str(ds.meta.get("axes_reflection", "")).replace(" ", "").split(",")
+
+
+def _map_to_write(ds, P):
+    """The magnetometer's map to write in the description's [magnetometer]
+    axes, for the signed permutation P found in the body frame as imported
+    (P @ body): P composed with the declared map, so that following it
+    imports the data as P turns them (the declared map is the identity only
+    without a description or preset).  (text, determinant)."""
+    M = np.asarray(P, float) @ _declared_map(ds, "mag")
+    return _perm_text(M), int(round(np.linalg.det(M)))
+
+
+def _lag_to_write(ds, k: int) -> int:
+    """The magnetometer's [magnetometer] lag that pairs the rows, for a shift
+    k found in the data as imported: the declared lag plus k."""
+    try:
+        declared = int(ds.meta.get("mag_lag_rows") or 0) if _imported(ds) else 0
+    except (TypeError, ValueError):
+        declared = 0
+    return declared + int(k)
+
+
 def _dip(ug, ub):
     return np.degrees(np.arcsin(np.clip((ug * ub).sum(1), -1.0, 1.0)))
 
@@ -355,22 +397,35 @@ def _axes_and_lag(ds, rows_all, rep, ug_src=None):
                                     np.linalg.det(np.array(k).reshape(3, 3)) < 0))
     s_best = spreads[best]
     P = np.array(best).reshape(3, 3)
-    fig = {"dip_spread_declared_deg": s_id, "dip_spread_best_deg": s_best, "best_map": _perm_text(P)}
+    # best_map: in the body frame as imported; map_to_write: composed with the declared map, what to write
+    # in the description's [magnetometer] axes
+    write, det_w = _map_to_write(ds, P)
+    shown = f"axes = \"{write}\"" if _imported(ds) else write
+    fig = {"dip_spread_declared_deg": s_id, "dip_spread_best_deg": s_best, "best_map": _perm_text(P),
+           "map_to_write": write}
     if best != ident and s_id > max(AXES_RATIO * s_best, MIN_SPREAD_DEG + s_best):
         det = int(round(np.linalg.det(P)))
         if det < 0:
             if not intended_reflection(ds, "mag") and not intended_reflection(ds, "acc"):
+                if not _imported(ds):
+                    fix = _fix(ds, "magnetometer", "the axis map (or reflection = true if the sensor's axes are "
+                                                   "left-handed)")
+                elif det_w < 0:
+                    fix = (f"write that map in the sensor description's [magnetometer] with reflection = true (its "
+                           f"axes as logged are left-handed against the {other}), or fix one sign of the "
+                           f"accelerometer's map, and import again")
+                else:
+                    fix = (f"write that map in the sensor description's [magnetometer] (a rotation), or fix the "
+                           f"accelerometer's map, and import again")
                 rep.findings.append(Finding("handedness", "error", (
                     f"the magnetometer's axes are mirrored against the {other}: the dip angle spreads "
-                    f"{s_id:.3g} deg with the axes as given, {s_best:.3g} deg with magnetometer {_perm_text(P)} "
-                    f"(a reflection, determinant -1): one triad's map has a sign or a swap wrong (without poses the "
-                    f"data cannot tell which triad's): "
-                    + _fix(ds, "magnetometer", "the axis map (or reflection = true if the sensor's axes are "
-                                               "left-handed)")), "mag", fig))
+                    f"{s_id:.3g} deg with the axes as given, {s_best:.3g} deg with magnetometer {shown} "
+                    f"(a reflection of the axes as given, determinant -1): one triad's map has a sign or a swap "
+                    f"wrong (without poses the data cannot tell which triad's): " + fix), "mag", fig))
         else:
             rep.findings.append(Finding("axes", "warning", (
                 f"the magnetometer's axes are not the {other}: the dip angle spreads {s_id:.3g} deg with the "
-                f"axes as given, {s_best:.3g} deg with magnetometer {_perm_text(P)} (a rotation; the fit "
+                f"axes as given, {s_best:.3g} deg with magnetometer {shown} (a rotation; the fit "
                 f"absorbs it, started from that map); "
                 + _fix(ds, "magnetometer", "that axis map")), "mag", fig))
         rep.mag_to_acc = P.tolist()
@@ -470,12 +525,21 @@ def _axes_and_lag(ds, rows_all, rep, ug_src=None):
         level = "error" if s0 > LAG_RATIO * sb and s0 > 2.0 else "warning"
         which = "behind" if kb > 0 else "ahead of"
         rep.lag_rows = kb
+        lag = _lag_to_write(ds, kb)  # the declared lag plus the shift found in the data as imported
+        if not _imported(ds):
+            fix = f"shift the magnetometer columns by {kb} row(s) (inclino import with [magnetometer] lag = {kb})"
+        elif lag == kb:
+            fix = f"re-import with [magnetometer] lag = {kb}"
+        elif lag == 0:
+            fix = (f"re-import with [magnetometer] lag = 0 (remove the declared lag of {lag - kb}: it shifts the "
+                   f"rows {-kb:+d})")
+        else:
+            fix = (f"re-import with [magnetometer] lag = {lag} (the declared lag of {lag - kb} and the {kb:+d} "
+                   f"found in the rows as imported)")
         rep.findings.append(Finding("row-alignment", level, (
             f"the triads are paired out of step: {how} (its row i + {kb} belongs to the accelerometer's row i: "
-            f"one {which} the other, as when two files are joined and a line is lost); "
-            + (f"re-import with [magnetometer] lag = {kb}" if _imported(ds) else
-               f"shift the magnetometer columns by {kb} row(s) (inclino import with [magnetometer] lag = {kb})")),
-            None, {**fig, "lag_rows": kb, "route": route}))
+            f"one {which} the other, as when two files are joined and a line is lost); " + fix),
+            None, {**fig, "lag_rows": kb, "lag_to_write": lag, "route": route}))
     # the dip's sign against the header
     if rep.lag_rows:
         k = rep.lag_rows
@@ -556,6 +620,8 @@ def _weak_handedness(ug, ub, spreads, best, ident, other, ds, rep):
     s_id = spreads[ident]
     P = np.array(best).reshape(3, 3)
     m = len(ug)
+    write = _map_to_write(ds, P)[0]
+    shown = f"axes = \"{write}\"" if _imported(ds) else write
     if best != ident and np.linalg.det(P) < 0 and s_id > HAND_WEAK_RATIO * spreads[best] \
             and s_id - spreads[best] > HAND_WEAK_DEG and m >= 40:
         h = m // 2
@@ -564,7 +630,7 @@ def _weak_handedness(ug, ub, spreads, best, ident, other, ds, rep):
         if all(a > HAND_WEAK_HALF * b for a, b in halves):
             rep.findings.append(Finding("handedness", "warning", (
                 f"the magnetometer's axes may be mirrored against the {other}: the dip angle spreads {s_id:.3g} deg "
-                f"with the axes as given, {spreads[best]:.3g} deg with magnetometer {_perm_text(P)} (a reflection; "
+                f"with the axes as given, {spreads[best]:.3g} deg with magnetometer {shown} (a reflection; "
                 f"each half of the log: {', '.join(f'{a:.3g} against {b:.3g}' for a, b in halves)}); the sensor "
                 f"turned through too few orientations to be sure (the error needs {AXES_RATIO:g}x): check the axis "
                 f"map of each triad against its data sheet, or log the sensor tilted through more orientations"
@@ -572,7 +638,7 @@ def _weak_handedness(ug, ub, spreads, best, ident, other, ds, rep):
                    "; without a header dip a fit can take the mirror as a rotation and turn the field through 180 "
                    "deg unseen: give the site's dip ([header] dip_deg, or # dip_deg= in the log)")),
                 "mag", {"dip_spread_declared_deg": s_id, "dip_spread_best_deg": spreads[best],
-                        "best_map": _perm_text(P), "halves_deg": halves}))
+                        "best_map": _perm_text(P), "map_to_write": write, "halves_deg": halves}))
             return
     mirrors = {a: spreads[tuple(np.diag([-1.0 if j == a else 1.0 for j in range(3)]).ravel())] for a in range(3)}
     a = min(mirrors, key=mirrors.get)
