@@ -311,3 +311,22 @@ def test_the_lag_suggested_adds_the_shift_found_to_the_declared_lag(tmp_path, de
     assert f.figures["lag_to_write"] == shift and (shift != 0 or "remove" in f.message), f.message
     fixed = _sap6_with(tmp_path, log, SAP6_TOML.replace("reflection = true", f"reflection = true\nlag = {shift}"))
     assert fixed.lag_rows == 0 and not fixed.errors and not fixed.warnings, fixed.lines()
+
+
+def test_a_declared_reflection_that_does_not_fit_is_not_suggested_again(tmp_path, capsys):
+    """A description that already says reflection = true, with a map that
+    mirrors the data: the error says the declared reflection does not fit
+    the data as mapped and names the rotation to write, instead of ending
+    "(or reflection = true ...)" again."""
+    text = (REAL / "ck_acc_mag" / "sensor.toml").read_text().replace(
+        'axes = "x = mx, y = my, z = mz"', 'axes = "x = mx, y = -my, z = mz"\nreflection = true')
+    desc = tmp_path / "declared.toml"
+    desc.write_text(text)
+    out = tmp_path / "run.csv"
+    assert main(["import", str(REAL / "ck_acc_mag" / "acc_mag_log.csv"), "--sensor", str(desc), "-o", str(out)]) == 2
+    err = capsys.readouterr().err
+    assert err.count("\n") == 1 and not out.exists()
+    assert "(or reflection = true" not in err and "declared reflection" in err and "does not fit the data as mapped" in err
+    assert 'axes = "x = mx, y = my, z = mz"' in err and "without reflection = true" in err
+    desc.write_text(text.replace('axes = "x = mx, y = -my, z = mz"\nreflection = true', 'axes = "x = mx, y = my, z = mz"'))
+    assert main(["import", str(REAL / "ck_acc_mag" / "acc_mag_log.csv"), "--sensor", str(desc), "-o", str(out)]) == 0

@@ -202,7 +202,7 @@ def _declared_map(ds, triad="mag"):
         return np.eye(3)
 
 
-def _declared_reflection(ds, triad="mag") -> bool:
+def declared_reflection(ds, triad="mag") -> bool:
     """Whether the sensor description declared the triad's map a reflection
     (reflection = true: the header's `axes_reflection`)."""
     return triad in str(ds.meta.get("axes_reflection", "")).replace(" ", "").split(",")
@@ -411,12 +411,16 @@ def _axes_and_lag(ds, rows_all, rep, ug_src=None):
                     fix = _fix(ds, "magnetometer", "the axis map (or reflection = true if the sensor's axes are "
                                                    "left-handed)")
                 elif det_w < 0:
+                    acc = ("the accelerometer's declared reflection ([accelerometer] reflection = true) does not fit "
+                           "the data as mapped: fix that map" if declared_reflection(ds, "acc")
+                           else "fix one sign of the accelerometer's map")
                     fix = (f"write that map in the sensor description's [magnetometer] with reflection = true (its "
-                           f"axes as logged are left-handed against the {other}), or fix one sign of the "
-                           f"accelerometer's map, and import again")
+                           f"axes as logged are left-handed against the {other}), or {acc}, and import again")
                 else:
-                    fix = (f"write that map in the sensor description's [magnetometer] (a rotation), or fix the "
-                           f"accelerometer's map, and import again")
+                    # a reflection declared in [magnetometer] composed with the mirror found: a rotation
+                    fix = (f"the declared reflection ([magnetometer] reflection = true) does not fit the data as "
+                           f"mapped: write that map, a rotation, without reflection = true in the sensor "
+                           f"description's [magnetometer], or fix the accelerometer's map, and import again")
                 rep.findings.append(Finding("handedness", "error", (
                     f"the magnetometer's axes are mirrored against the {other}: the dip angle spreads "
                     f"{s_id:.3g} deg with the axes as given, {s_best:.3g} deg with magnetometer {shown} "
@@ -899,7 +903,10 @@ def _acc_poses(ds, rows, rep):
             rep.findings.append(Finding("handedness", "error", (
                 f"the accelerometer's axes are mirrored against the poses (direction RMS {e_ref:.3g} with a "
                 f"reflection, {e_rot:.3g} with the best rotation): a left-handed axis map; "
-                + _fix(ds, "accelerometer", "the axis map (or reflection = true if intended)")), "acc", fig))
+                + ("the declared reflection ([accelerometer] reflection = true) does not fit the data as mapped: "
+                   + _fix(ds, "accelerometer", "the axis map (one sign, without reflection = true)")
+                   if declared_reflection(ds, "acc") else
+                   _fix(ds, "accelerometer", "the axis map (or reflection = true if intended)"))), "acc", fig))
     # the accelerometer rows against the poses' rows, shifted
     m = len(block)
     errs = {}

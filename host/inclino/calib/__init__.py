@@ -139,7 +139,7 @@ def _refuse_reflection(ds, cal, use_poses: bool) -> None:
     unless the header declares the reflection intended."""
     import numpy as np
 
-    from inclino.checks import intended_reflection
+    from inclino.checks import declared_reflection, intended_reflection
     from inclino.errors import DataError
 
     ref = "the poses" if use_poses and ds.has_pose else None
@@ -149,10 +149,14 @@ def _refuse_reflection(ds, cal, use_poses: bool) -> None:
         det = float(np.linalg.det(np.asarray(M, float)))
         if det < 0:
             against = ref or ("the accelerometer" if triad == "mag" else "the magnetometer")
+            fix = (f"the declared reflection ([{name}] reflection = true) does not fit the data as mapped: fix that "
+                   f"triad's axis map in the sensor description (one sign, without reflection = true)"
+                   if declared_reflection(ds, triad) else
+                   "fix that triad's axis map in the sensor description (one sign), or declare the reflection "
+                   "intended (reflection = true)")
             raise DataError(
                 f"the fitted {name} matrix is a reflection (determinant {det:+.3g}): the {name}'s axes in the data "
-                f"are mirrored against {against}; fix that triad's axis map in the sensor description (one sign), "
-                f"or declare the reflection intended (reflection = true); no calibration written")
+                f"are mirrored against {against}; {fix}; no calibration written")
 
 
 def _refuse_turned_field(ds, cal, found) -> str | None:
