@@ -330,3 +330,57 @@ def test_a_declared_reflection_that_does_not_fit_is_not_suggested_again(tmp_path
     assert 'axes = "x = mx, y = my, z = mz"' in err and "without reflection = true" in err
     desc.write_text(text.replace('axes = "x = mx, y = -my, z = mz"\nreflection = true', 'axes = "x = mx, y = my, z = mz"'))
     assert main(["import", str(REAL / "ck_acc_mag" / "acc_mag_log.csv"), "--sensor", str(desc), "-o", str(out)]) == 0
+
+
+def _ck_counts(tmp_path):
+    """The CK log as a sensor's counts: the accelerometer at 16384 per g,
+    the magnetometer at 0.14 mG a count (its quanta, sensor.toml)."""
+    lines = (REAL / "ck_acc_mag" / "acc_mag_log.csv").read_text().splitlines()
+    rows = [[float(x) for x in r.split(",")] for r in lines[1:]]
+    log = tmp_path / "counts.csv"
+    log.write_text("\n".join([lines[0]] + [",".join(str(round(v * 16384)) for v in r[:3]) + ","
+                                           + ",".join(str(round(v / 0.00014)) for v in r[3:]) for r in rows]) + "\n")
+    return log
+
+
+CK_COUNTS = '''[accelerometer]
+columns = ["ax", "ay", "az"]
+unit = "counts"
+lsb = "ACC_LSB"
+reads = "up"
+
+[magnetometer]
+columns = ["mx", "my", "mz"]
+unit = "counts"
+lsb = "MAG_LSB"
+
+[header]
+field_nT = 31000
+'''
+
+
+@pytest.mark.parametrize("triad,lsb,level,right", [
+    ("acc", "1/8192 g", "error", "1/16384 g"), ("acc", "1/4096 g", "error", "1/16384 g"),
+    ("acc", "1/65536 g", "error", "1/16384 g"), ("mag", "0.28 mG", "warning", "0.014 uT"),
+    ("mag", "0.07 mG", "warning", "0.014 uT"), ("mag", "0.56 mG", "error", "0.014 uT")])
+def test_an_lsb_a_range_step_off_is_named_with_the_lsb_to_write(tmp_path, triad, lsb, level, right):
+    """A range setting doubles the lsb: readings 2, 4 or 8 times (or 1/2,
+    1/4) what they should be are named as the lsb or range setting that many
+    times off, with the lsb to write (level and thresholds as before: 0.5-2x
+    g, 0.4-2.5x the header's field are warnings), and writing it imports
+    the log clean."""
+    log = _ck_counts(tmp_path)
+    good = {"ACC_LSB": "1/16384 g", "MAG_LSB": "0.014 uT"}
+    text = CK_COUNTS.replace("ACC_LSB" if triad == "acc" else "MAG_LSB", lsb)
+    for k, v in good.items():
+        text = text.replace(k, v)
+    rep = checks.run(importlog.import_log(str(log), sensor.from_toml(text))[0])
+    (f,) = _found(rep, "units", level)
+    step = round(2 ** abs(np.log2(f.figures["ratio"] if "ratio" in f.figures else f.figures["median_g"])))
+    assert f"lsb or range setting looks {step}x off" in f.message and f'lsb = "{right}"' in f.message, f.message
+    assert f.triad == triad and "\n" not in f.message
+    fixed = CK_COUNTS
+    for k, v in good.items():
+        fixed = fixed.replace(k, v)
+    clean = checks.run(importlog.import_log(str(log), sensor.from_toml(fixed))[0])
+    assert not _found(clean, "units", "error") and not _found(clean, "units", "warning"), clean.lines()

@@ -48,6 +48,8 @@ GEOMAGNETIC_NT = (22_000.0, 67_000.0)
 GEOMAGNETIC_SLACK = 1.5   # a sensor's scale error and a steel building: a warning within 1.5x, an error beyond
 FIELD_TOL = (0.8, 1.25)   # |b| / header field_nT: a warning outside
 FIELD_UNITS = (0.4, 2.5)  # |b| / header field_nT: an error outside (a unit)
+RANGE_STEP_TOL = 0.1      # |g| or |b| within 10 % of 2, 4 or 8 times (or 1/2, 1/4, 1/8) the expected: the lsb
+                          # or range setting named (a range setting doubles the lsb: the commonest scale mistake)
 DIP_MISMATCH_DEG = 10.0   # |dip - header dip| beyond it: a warning
 DIP_SIGN_MIN_DEG = 5.0    # a dip's sign is compared with the header's only when both are beyond this
 MAX_LAG = 3               # row shifts tried between the triads
@@ -270,6 +272,40 @@ def _unit_guesses(ratio: float, guess: dict, canon: str, declared, tol: float) -
     return []
 
 
+def _range_step(ratio: float) -> int:
+    """k (+-1 ... +-3) when ratio is within RANGE_STEP_TOL of 2**k, else 0."""
+    if not (np.isfinite(ratio) and ratio > 0):
+        return 0
+    k = int(round(math.log2(ratio)))
+    return k if 1 <= abs(k) <= 3 and abs(ratio / 2.0 ** k - 1.0) <= RANGE_STEP_TOL else 0
+
+
+def _lsb_text(x: float, triad: str) -> str:
+    if triad == "acc":
+        inv = 1.0 / x
+        return f"1/{round(inv)} g" if abs(inv - round(inv)) < 1e-6 * inv else f"{x:.4g} g"
+    return f"{x / 1000.0:.4g} uT"
+
+
+def _range_hint(ds, triad: str, ratio: float) -> str | None:
+    """A reading 2, 4 or 8 times (or 1/2 ...) what it should be: the lsb or
+    the range setting off by that factor, with the lsb to write for counts."""
+    k = _range_step(ratio)
+    if not k:
+        return None
+    f = 2 ** abs(k)
+    out = f"the lsb or range setting looks {f}x off"
+    lsb = ds.meta.get(f"{triad}_lsb_{'g' if triad == 'acc' else 'nT'}")
+    if _counts(ds, triad) and lsb:
+        return out + f" (lsb = \"{_lsb_text(float(lsb) / 2.0 ** k, triad)}\" for these counts, not " \
+                     f"{_lsb_text(float(lsb), triad)})"
+    return out
+
+
+def _counts(ds, triad: str) -> bool:
+    return _imported(ds) and str(ds.meta.get(f"{triad}_unit", "")).startswith("counts")
+
+
 def _units_acc(ds, rows, rep):
     G = float(ds.meta.get("gravity_g") or 1.0)
     a = ds.acc[rows]
@@ -284,14 +320,22 @@ def _units_acc(ds, rows, rep):
             f"accelerometer: |g| is {med:.4g} (median of {len(a)} rows): no gravity in the readings (a dead sensor, "
             f"or the wrong columns)"), "acc", fig))
         return
+    hint = _range_hint(ds, "acc", ratio)
     if GRAVITY_UNITS[0] <= ratio <= GRAVITY_UNITS[1]:
         rep.findings.append(Finding("units", "warning", (
             f"accelerometer: |g| is {med:.4g} g (median of {len(a)} rows), {100 * (ratio - 1):+.0f} % from "
-            f"{G:g} g: more than a sensor's scale error; check the unit and lsb (the range setting?)"), "acc", fig))
+            f"{G:g} g: more than a sensor's scale error; "
+            + (hint if hint else "check the unit and lsb (the range setting?)")), "acc", fig))
+        return
+    if hint and _counts(ds, "acc"):  # counts: the lsb declared is the scale
+        rep.findings.append(Finding("units", "error", (
+            f"accelerometer: |g| is {med:.4g} (median of {len(a)} rows), {ratio:.4g}x {G:g} g: {hint}; "
+            + _fix(ds, "accelerometer", "the lsb (the range setting the counts were read at)")), "acc",
+            {**fig, "looks_like": []}))
         return
     guesses = _unit_guesses(ratio, ACC_UNIT_GUESS, "g", _declared_factor(ds, "acc"), 0.2)
     like = (f"the readings look like {' or '.join(guesses)}" if guesses else
-            f"the readings are {ratio:.4g}x what g would be")
+            f"the readings are {ratio:.4g}x what g would be" + (f": {hint}" if hint else ""))
     unit = ds.meta.get("acc_unit", "g")
     rep.findings.append(Finding("units", "error", (
         f"accelerometer: |g| is {med:.4g} (median of {len(a)} rows), not {G:g} g: {like}, not {unit}; "
@@ -318,10 +362,13 @@ def _units_mag(ds, rows, rep):
         fig.update(header_field_nT=F, ratio=ratio)
         if FIELD_TOL[0] <= ratio <= FIELD_TOL[1]:
             return
+        hint = _range_hint(ds, "mag", ratio)
         if FIELD_UNITS[0] <= ratio <= FIELD_UNITS[1]:
             rep.findings.append(Finding("units", "warning", (
                 f"magnetometer: |b| is {R:.4g} nT ({how}), {100 * (ratio - 1):+.0f} % from the header's field_nT "
-                f"{F:g}: a magnetic disturbance near the bench, a wrong field_nT, or a scale error"), "mag", fig))
+                f"{F:g}: " + (f"{hint}, or a wrong field_nT" if hint else
+                              "a magnetic disturbance near the bench, a wrong field_nT, or a scale error")),
+                "mag", fig))
             return
         target = float(F)
     else:
@@ -335,11 +382,18 @@ def _units_mag(ds, rows, rep):
                 f"field"), "mag", fig))
             return
         target = 45_000.0
-    guesses = _unit_guesses(R / target, MAG_UNIT_GUESS, "nT", _declared_factor(ds, "mag"), 0.6)
-    like = (f"the readings look like {' or '.join(guesses)}" if guesses else
-            f"{R / target:.3g}x a geomagnetic field")
+    hint = _range_hint(ds, "mag", R / target) if F else None  # without a header field no factor is exact
     rng = f"the header's field_nT {F:g}" if F else f"the geomagnetic range {GEOMAGNETIC_NT[0]:.0f}-" \
                                                    f"{GEOMAGNETIC_NT[1]:.0f} nT"
+    if hint and _counts(ds, "mag"):  # counts: the lsb declared is the scale
+        rep.findings.append(Finding("units", "error", (
+            f"magnetometer: |b| is {R:.4g} nT ({how}), {R / target:.3g}x {rng}: {hint}; "
+            + _fix(ds, "magnetometer", "the lsb (the range setting the counts were read at)")), "mag",
+            {**fig, "looks_like": []}))
+        return
+    guesses = _unit_guesses(R / target, MAG_UNIT_GUESS, "nT", _declared_factor(ds, "mag"), 0.6)
+    like = (f"the readings look like {' or '.join(guesses)}" if guesses else
+            f"{R / target:.3g}x a geomagnetic field" + (f": {hint}" if hint else ""))
     rep.findings.append(Finding("units", "error", (
         f"magnetometer: |b| is {R:.4g} nT ({how}), not {rng}: {like}, not {unit}; "
         + _fix(ds, "magnetometer", "the unit (unit = \"uT\", \"G\", \"mG\", or \"counts\" with lsb)")), "mag",
