@@ -108,6 +108,7 @@ def test_triads_shifted_by_rows_are_named_with_the_shift(log, desc, k):
     rep = checks.run(_shifted(_load(log, desc), k))
     (f,) = _found(rep, "row-alignment", "error")
     assert rep.lag_rows == k and f"{k:+d}" in f.message
+    assert f"its row i {'+' if k > 0 else '-'} {abs(k)} belongs" in f.message and "+ -" not in f.message
 
 
 @pytest.mark.parametrize("log,desc", BOTH[:3])

@@ -595,7 +595,8 @@ def _axes_and_lag(ds, rows_all, rep, ug_src=None):
             fix = (f"re-import with [magnetometer] lag = {lag} (the declared lag of {lag - kb} and the {kb:+d} "
                    f"found in the rows as imported)")
         rep.findings.append(Finding("row-alignment", level, (
-            f"the triads are paired out of step: {how} (its row i + {kb} belongs to the accelerometer's row i: "
+            f"the triads are paired out of step: {how} (its row i {'+' if kb > 0 else '-'} {abs(kb)} belongs to the "
+            f"accelerometer's row i: "
             f"one {which} the other, as when two files are joined and a line is lost); " + fix),
             None, {**fig, "lag_rows": kb, "lag_to_write": lag, "route": route}))
     # the dip's sign against the header
