@@ -1,6 +1,8 @@
 """Checks before any fit (inclino.checks) on the real-data corpus and on
 corrupted copies of it: each corruption gives its named error or warning,
 the clean logs give none, and the commands exit 2 before any fit."""
+import json
+import re
 from pathlib import Path
 
 import numpy as np
@@ -106,6 +108,7 @@ def test_triads_shifted_by_rows_are_named_with_the_shift(log, desc, k):
     rep = checks.run(_shifted(_load(log, desc), k))
     (f,) = _found(rep, "row-alignment", "error")
     assert rep.lag_rows == k and f"{k:+d}" in f.message
+    assert f"its row i {'+' if k > 0 else '-'} {abs(k)} belongs" in f.message and "+ -" not in f.message
 
 
 @pytest.mark.parametrize("log,desc", BOTH[:3])
@@ -190,3 +193,195 @@ def test_static_or_moving_from_the_readings_not_the_time_column():
     assert rep.static is False and _found(rep, "motion", "note")
     rep = checks.run(tumbled, declared_static=True)
     assert rep.declared_static and rep.static is None
+
+
+def _ck_mirrored_weakly(monkeypatch, tmp_path, dip_deg):
+    """The CK log with the magnetometer's y column negated, as a log whose
+    mirror the checks before the fit see only weakly (a warning: the error's
+    AXES_RATIO raised out of reach), with or without a header dip."""
+    monkeypatch.setattr(checks, "AXES_RATIO", 1e9)
+    ds = _load("ck_acc_mag/acc_mag_log.csv", "ck_acc_mag/sensor.toml")
+    bad = _with(ds, my_nT=-ds.columns["my_nT"])
+    if dip_deg is not None:
+        bad.meta["dip_deg"] = dip_deg
+    assert _found(checks.run(bad), "handedness", "warning")
+    run = tmp_path / "run.csv"
+    dataset.write_raw(str(run), bad)
+    return run
+
+
+def test_a_fit_that_turned_the_field_is_refused_against_the_header_dip(monkeypatch, tmp_path, capsys):
+    """A mirrored axis fitted as a rotation (-P for the reflection P) fits
+    the invariants as well as the right map, with the dip's sign turned and
+    every azimuth 180 deg off: the fitted dip against the header's refuses
+    it (exit 2, one line, nothing written)."""
+    run = _ck_mirrored_weakly(monkeypatch, tmp_path, -17.8)  # the CK log's own dip (sensor.toml)
+    cal = tmp_path / "cal.json"
+    capsys.readouterr()
+    assert main(["calibrate", str(run), "-o", str(cal)]) == 2
+    err = capsys.readouterr().err
+    assert err.count("\n") == 1 and "+17.8 deg against the header's -17.8" in err
+    assert "through 180 deg" in err and "mirrored" in err and "reads" in err
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["run.csv"]  # nothing written, not even a part
+
+
+def test_the_clean_log_with_its_header_dip_is_not_refused_after_the_fit(tmp_path):
+    ds = _load("ck_acc_mag/acc_mag_log.csv", "ck_acc_mag/sensor.toml")
+    ds.meta["dip_deg"] = -17.8
+    run = tmp_path / "run.csv"
+    dataset.write_raw(str(run), ds)
+    assert main(["calibrate", str(run), "-o", str(tmp_path / "cal.json")]) in (0, 1)
+
+
+def test_a_fit_that_may_have_turned_the_field_asks_for_the_dip(monkeypatch, tmp_path, capsys):
+    run = _ck_mirrored_weakly(monkeypatch, tmp_path, None)
+    capsys.readouterr()
+    assert main(["calibrate", str(run), "-o", str(tmp_path / "cal.json"), "--json"]) in (0, 1)
+    notes = [n for n in json.loads(capsys.readouterr().out)["report"]["notes"] if "180 deg" in n]
+    after = [n for n in notes if n.startswith("check: warning: the fitted dip is +17.8 deg")]
+    assert len(after) == 1 and "may have turned the field" in after[0] and "dip_deg" in after[0], notes
+    before = [n for n in notes if "may be mirrored against" in n]  # the checks before the fit say it too
+    assert len(before) == 1 and "dip_deg" in before[0], notes
+
+
+SAP6_TOML = (REAL / "sap6" / "sensor.toml").read_text() + "\n[header]\ndip_deg = 67.8\n"  # the instruments' own dip
+
+
+def _sap6_with(tmp_path, log, text):
+    """SAP6's BB log imported through the description `text`: the checks' report."""
+    return checks.run(importlog.import_log(str(log), sensor.from_toml(text))[0])
+
+
+def _with_mag_map(text, M):
+    """The SAP6 description with its magnetometer's map replaced by M (and
+    reflection = true exactly when M is a reflection)."""
+    axes = ", ".join(f"{b} = {'-' if M[i, j] < 0 else ''}m{'xyz'[j]}" for i, b in enumerate("xyz")
+                     for j in [int(np.argmax(np.abs(M[i])))])
+    mag = text.index("[magnetometer]")
+    head, tail = text[:mag], text[mag:]
+    tail = tail.replace('axes = "x = -mz, y = mx, z = my"', f'axes = "{axes}"')
+    tail = tail.replace("reflection = true", "reflection = true" if np.linalg.det(M) < 0 else "reflection = false")
+    return head + tail
+
+
+@pytest.mark.parametrize("Q", [[[0, 1, 0], [1, 0, 0], [0, 0, 1]], [[1, 0, 0], [0, -1, 0], [0, 0, 1]],
+                               [[0, -1, 0], [1, 0, 0], [0, 0, 1]], [[-1, 0, 0], [0, -1, 0], [0, 0, 1]]],
+                         ids=["swap-xy", "mirror-y", "turn-z-90", "turn-z-180"])
+def test_the_axis_map_suggested_is_the_map_to_write(tmp_path, Q):
+    """SAP6 declares a map that is neither the identity nor a rotation
+    (x = -mz, y = mx, z = my, reflection = true). A wrong map Q composed
+    with it is named, and the map the checks suggest is the map to write in
+    [magnetometer] axes (not the permutation in the body frame as imported,
+    which is that map only for an identity declared map): following it
+    imports the log clean."""
+    log = REAL / "sap6" / "BB.csv"
+    D = sensor.from_toml(SAP6_TOML).mag.matrix
+    clean = _sap6_with(tmp_path, log, SAP6_TOML)
+    assert not clean.errors and not clean.warnings, clean.lines()
+    wrong = np.array(Q, float) @ D
+    rep = _sap6_with(tmp_path, log, _with_mag_map(SAP6_TOML, wrong))
+    (f,) = [f for f in rep.findings if f.check in ("handedness", "axes") and f.level in ("error", "warning")]
+    # the map the message names, as a user reads it
+    write = re.search(r'deg with magnetometer (?:axes = ")?(x = -?m[xyz], y = -?m[xyz], z = -?m[xyz])', f.message)[1]
+    W = sensor.from_toml(f'[magnetometer]\ncolumns = ["a", "b", "c"]\naxes = "{write}"\nreflection = true\n').mag.matrix
+    assert np.array_equal(W, D), (write, f.message)
+    assert f.figures["map_to_write"] == write and f'axes = "{write}"' in f.message
+    # a reflection to write where the wrong map was a rotation: the message says to declare it
+    assert ("with reflection = true" in f.message) == (np.linalg.det(W) < 0 < np.linalg.det(wrong))
+    fixed = _sap6_with(tmp_path, log, _with_mag_map(SAP6_TOML, W))
+    assert not fixed.errors and not fixed.warnings, fixed.lines()
+
+
+@pytest.mark.parametrize("declared,shift", [(1, 0), (-1, 0), (2, 0), (1, -1), (-2, -1)])
+def test_the_lag_suggested_adds_the_shift_found_to_the_declared_lag(tmp_path, declared, shift):
+    """A declared [magnetometer] lag that does not pair the rows: the lag to
+    write is the declared lag plus the shift found in the rows as imported
+    (declared 1, found -1: lag = 0, the lag removed), and following it
+    imports the log in step."""
+    rows = (REAL / "sap6" / "BB.csv").read_text().splitlines()
+    head, body = rows[0], [r.split(",") for r in rows[1:]]
+    if shift:  # the magnetometer one row ahead (lag = -1 pairs it)
+        body = [a[:5] + b[5:] for a, b in zip(body[:-1], body[1:])]
+    log = tmp_path / "log.csv"
+    log.write_text("\n".join([head] + [",".join(r) for r in body]) + "\n")
+    text = SAP6_TOML.replace("reflection = true", f"reflection = true\nlag = {declared}")
+    rep = _sap6_with(tmp_path, log, text)
+    (f,) = [f for f in rep.findings if f.check == "row-alignment" and f.level in ("error", "warning")]
+    assert rep.lag_rows == shift - declared
+    assert re.search(r"re-import with \[magnetometer\] lag = (-?\d+)", f.message)[1] == str(shift), f.message
+    assert f.figures["lag_to_write"] == shift and (shift != 0 or "remove" in f.message), f.message
+    fixed = _sap6_with(tmp_path, log, SAP6_TOML.replace("reflection = true", f"reflection = true\nlag = {shift}"))
+    assert fixed.lag_rows == 0 and not fixed.errors and not fixed.warnings, fixed.lines()
+
+
+def test_a_declared_reflection_that_does_not_fit_is_not_suggested_again(tmp_path, capsys):
+    """A description that already says reflection = true, with a map that
+    mirrors the data: the error says the declared reflection does not fit
+    the data as mapped and names the rotation to write, instead of ending
+    "(or reflection = true ...)" again."""
+    text = (REAL / "ck_acc_mag" / "sensor.toml").read_text().replace(
+        'axes = "x = mx, y = my, z = mz"', 'axes = "x = mx, y = -my, z = mz"\nreflection = true')
+    desc = tmp_path / "declared.toml"
+    desc.write_text(text)
+    out = tmp_path / "run.csv"
+    assert main(["import", str(REAL / "ck_acc_mag" / "acc_mag_log.csv"), "--sensor", str(desc), "-o", str(out)]) == 2
+    err = capsys.readouterr().err
+    assert err.count("\n") == 1 and not out.exists()
+    assert "(or reflection = true" not in err and "declared reflection" in err and "does not fit the data as mapped" in err
+    assert 'axes = "x = mx, y = my, z = mz"' in err and "without reflection = true" in err
+    desc.write_text(text.replace('axes = "x = mx, y = -my, z = mz"\nreflection = true', 'axes = "x = mx, y = my, z = mz"'))
+    assert main(["import", str(REAL / "ck_acc_mag" / "acc_mag_log.csv"), "--sensor", str(desc), "-o", str(out)]) == 0
+
+
+def _ck_counts(tmp_path):
+    """The CK log as a sensor's counts: the accelerometer at 16384 per g,
+    the magnetometer at 0.14 mG a count (its quanta, sensor.toml)."""
+    lines = (REAL / "ck_acc_mag" / "acc_mag_log.csv").read_text().splitlines()
+    rows = [[float(x) for x in r.split(",")] for r in lines[1:]]
+    log = tmp_path / "counts.csv"
+    log.write_text("\n".join([lines[0]] + [",".join(str(round(v * 16384)) for v in r[:3]) + ","
+                                           + ",".join(str(round(v / 0.00014)) for v in r[3:]) for r in rows]) + "\n")
+    return log
+
+
+CK_COUNTS = '''[accelerometer]
+columns = ["ax", "ay", "az"]
+unit = "counts"
+lsb = "ACC_LSB"
+reads = "up"
+
+[magnetometer]
+columns = ["mx", "my", "mz"]
+unit = "counts"
+lsb = "MAG_LSB"
+
+[header]
+field_nT = 31000
+'''
+
+
+@pytest.mark.parametrize("triad,lsb,level,right", [
+    ("acc", "1/8192 g", "error", "1/16384 g"), ("acc", "1/4096 g", "error", "1/16384 g"),
+    ("acc", "1/65536 g", "error", "1/16384 g"), ("mag", "0.28 mG", "warning", "0.014 uT"),
+    ("mag", "0.07 mG", "warning", "0.014 uT"), ("mag", "0.56 mG", "error", "0.014 uT")])
+def test_an_lsb_a_range_step_off_is_named_with_the_lsb_to_write(tmp_path, triad, lsb, level, right):
+    """A range setting doubles the lsb: readings 2, 4 or 8 times (or 1/2,
+    1/4) what they should be are named as the lsb or range setting that many
+    times off, with the lsb to write (level and thresholds as before: 0.5-2x
+    g, 0.4-2.5x the header's field are warnings), and writing it imports
+    the log clean."""
+    log = _ck_counts(tmp_path)
+    good = {"ACC_LSB": "1/16384 g", "MAG_LSB": "0.014 uT"}
+    text = CK_COUNTS.replace("ACC_LSB" if triad == "acc" else "MAG_LSB", lsb)
+    for k, v in good.items():
+        text = text.replace(k, v)
+    rep = checks.run(importlog.import_log(str(log), sensor.from_toml(text))[0])
+    (f,) = _found(rep, "units", level)
+    step = round(2 ** abs(np.log2(f.figures["ratio"] if "ratio" in f.figures else f.figures["median_g"])))
+    assert f"lsb or range setting looks {step}x off" in f.message and f'lsb = "{right}"' in f.message, f.message
+    assert f.triad == triad and "\n" not in f.message
+    fixed = CK_COUNTS
+    for k, v in good.items():
+        fixed = fixed.replace(k, v)
+    clean = checks.run(importlog.import_log(str(log), sensor.from_toml(fixed))[0])
+    assert not _found(clean, "units", "error") and not _found(clean, "units", "warning"), clean.lines()

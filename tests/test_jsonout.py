@@ -54,3 +54,26 @@ def test_fit_report_and_diagnosis_use_the_one_form():
     d = g.to_dict()
     assert d["cv_rms_before"] is None and d["azi_rms_after_deg"] is None and d["azi_rms_before_deg"] is None
     assert type(d["rms_before"]) is float and d["rms_after"] == 0.5
+
+
+def test_the_diagnosis_json_is_the_object_docs_diagnose_md_names():
+    """docs/diagnose.md says what `diagnose --json` prints "exactly": its
+    top-level keys and an effect's are those of Diagnosis.to_dict()."""
+    import re
+    from pathlib import Path
+
+    from inclino.diagnose.result import Diagnosis, Effect, Gain
+
+    text = (Path(__file__).parents[1] / "docs" / "diagnose.md").read_text(encoding="utf-8")
+    shown = re.search(r"`--json` prints exactly\s*`\{(.*?)\}`\s", text, re.S)[1]
+    effect = re.search(r'"effects": \[\{(.*?)\}\]', shown)[1]
+
+    def keys(obj):  # the keys at the top level of an object's text: nested objects and lists emptied first
+        while re.search(r"\{[^{}\[\]]*\}|\[[^{}\[\]]*\]", obj):
+            obj = re.sub(r"\{[^{}\[\]]*\}|\[[^{}\[\]]*\]", "_", obj)
+        return [k.strip().strip('"').split('"')[0] for k in obj.split(",")]
+    top, effect_keys = keys(shown), keys(effect)
+    g = Gain(1.0, 1.0, 1.0, 1.0, None, None, 0.0, 0.0)
+    d = Diagnosis(baseline={}, effects=[Effect("e", "mag", "x", 0.0, 0.0, "nT", g)]).to_dict()
+    assert set(top) == set(d), (top, list(d))
+    assert set(effect_keys) == set(d["effects"][0]), (effect_keys, list(d["effects"][0]))

@@ -207,3 +207,22 @@ def test_diagnose_names_the_skew_the_poses_show_and_its_names_hold(tmp_path, cap
         assert checks["own_cv"] == "passed", e["name"]
         assert not any(v["worse"] for v in checks["invariants"].values()), e["name"]
         assert e["gain"]["cv_rms_after"] < e["gain"]["cv_rms_before"], e["name"]
+
+
+def test_a_declared_reflection_the_fit_does_not_bear_out_is_named(tmp_path, capsys):
+    """The description declares the magnetometer's map a reflection
+    (x = -mx, reflection = true) where BROAD's axes are right-handed: the
+    fit against the poses comes out with a negative determinant, and the
+    refusal says the declared reflection does not fit the data as mapped
+    instead of asking to declare it."""
+    text = (BROAD / "sensor.toml").read_text().replace('axes = "x = mx, y = my, z = mz"',
+                                                       'axes = "x = -mx, y = my, z = mz"\nreflection = true')
+    (tmp_path / "declared.toml").write_text(text)
+    run = tmp_path / "run.csv"
+    assert main(["import", str(BROAD / "05.csv"), "--sensor", str(tmp_path / "declared.toml"), "-o", str(run)]) == 0
+    capsys.readouterr()
+    assert main(["calibrate", str(run), "-o", str(tmp_path / "cal.json")]) == 2
+    err = capsys.readouterr().err
+    assert "magnetometer matrix is a reflection" in err and "declared reflection" in err
+    assert "does not fit the data as mapped" in err and "declare the reflection intended" not in err
+    assert len(err.strip().splitlines()) == 1 and not (tmp_path / "cal.json").exists()

@@ -48,7 +48,10 @@ GEOMAGNETIC_NT = (22_000.0, 67_000.0)
 GEOMAGNETIC_SLACK = 1.5   # a sensor's scale error and a steel building: a warning within 1.5x, an error beyond
 FIELD_TOL = (0.8, 1.25)   # |b| / header field_nT: a warning outside
 FIELD_UNITS = (0.4, 2.5)  # |b| / header field_nT: an error outside (a unit)
+RANGE_STEP_TOL = 0.1      # |g| or |b| within 10 % of 2, 4 or 8 times (or 1/2, 1/4, 1/8) the expected: the lsb
+                          # or range setting named (a range setting doubles the lsb: the commonest scale mistake)
 DIP_MISMATCH_DEG = 10.0   # |dip - header dip| beyond it: a warning
+DIP_SIGN_MIN_DEG = 5.0    # a dip's sign is compared with the header's only when both are beyond this
 MAX_LAG = 3               # row shifts tried between the triads
 LAG_RATIO = 3.0           # spread as paired / spread at the best shift: an error beyond (and > 2 deg)
 LAG_MIN_GAIN = 0.1        # a warning when the best shift cuts the spread by more than this fraction ...
@@ -185,6 +188,48 @@ def _perm_text(m, letter="m") -> str:
     return ", ".join(parts)
 
 
+def _declared_map(ds, triad="mag"):
+    """The axis map the sensor description declared for the triad (body =
+    map @ sensor, from the header's `mag_axes`), or the identity (a dataset
+    not imported, or no map recorded)."""
+    text = ds.meta.get(f"{triad}_axes")
+    if not _imported(ds) or not text:
+        return np.eye(3)
+    from inclino.formats import sensor
+
+    try:
+        return sensor.Triad(kind=triad, columns=[], unit="", scale=1.0,
+                            axes=sensor._axis_map({"axes": str(text)}, triad, f"{triad}_axes")).matrix
+    except DataError:
+        return np.eye(3)
+
+
+def declared_reflection(ds, triad="mag") -> bool:
+    """Whether the sensor description declared the triad's map a reflection
+    (reflection = true: the header's `axes_reflection`)."""
+    return triad in str(ds.meta.get("axes_reflection", "")).replace(" ", "").split(",")
+
+
+def _map_to_write(ds, P):
+    """The magnetometer's map to write in the description's [magnetometer]
+    axes, for the signed permutation P found in the body frame as imported
+    (P @ body): P composed with the declared map, so that following it
+    imports the data as P turns them (the declared map is the identity only
+    without a description or preset).  (text, determinant)."""
+    M = np.asarray(P, float) @ _declared_map(ds, "mag")
+    return _perm_text(M), int(round(np.linalg.det(M)))
+
+
+def _lag_to_write(ds, k: int) -> int:
+    """The magnetometer's [magnetometer] lag that pairs the rows, for a shift
+    k found in the data as imported: the declared lag plus k."""
+    try:
+        declared = int(ds.meta.get("mag_lag_rows") or 0) if _imported(ds) else 0
+    except (TypeError, ValueError):
+        declared = 0
+    return declared + int(k)
+
+
 def _dip(ug, ub):
     return np.degrees(np.arcsin(np.clip((ug * ub).sum(1), -1.0, 1.0)))
 
@@ -227,6 +272,40 @@ def _unit_guesses(ratio: float, guess: dict, canon: str, declared, tol: float) -
     return []
 
 
+def _range_step(ratio: float) -> int:
+    """k (+-1 ... +-3) when ratio is within RANGE_STEP_TOL of 2**k, else 0."""
+    if not (np.isfinite(ratio) and ratio > 0):
+        return 0
+    k = int(round(math.log2(ratio)))
+    return k if 1 <= abs(k) <= 3 and abs(ratio / 2.0 ** k - 1.0) <= RANGE_STEP_TOL else 0
+
+
+def _lsb_text(x: float, triad: str) -> str:
+    if triad == "acc":
+        inv = 1.0 / x
+        return f"1/{round(inv)} g" if abs(inv - round(inv)) < 1e-6 * inv else f"{x:.4g} g"
+    return f"{x / 1000.0:.4g} uT"
+
+
+def _range_hint(ds, triad: str, ratio: float) -> str | None:
+    """A reading 2, 4 or 8 times (or 1/2 ...) what it should be: the lsb or
+    the range setting off by that factor, with the lsb to write for counts."""
+    k = _range_step(ratio)
+    if not k:
+        return None
+    f = 2 ** abs(k)
+    out = f"the lsb or range setting looks {f}x off"
+    lsb = ds.meta.get(f"{triad}_lsb_{'g' if triad == 'acc' else 'nT'}")
+    if _counts(ds, triad) and lsb:
+        return out + f" (lsb = \"{_lsb_text(float(lsb) / 2.0 ** k, triad)}\" for these counts, not " \
+                     f"{_lsb_text(float(lsb), triad)})"
+    return out
+
+
+def _counts(ds, triad: str) -> bool:
+    return _imported(ds) and str(ds.meta.get(f"{triad}_unit", "")).startswith("counts")
+
+
 def _units_acc(ds, rows, rep):
     G = float(ds.meta.get("gravity_g") or 1.0)
     a = ds.acc[rows]
@@ -241,14 +320,22 @@ def _units_acc(ds, rows, rep):
             f"accelerometer: |g| is {med:.4g} (median of {len(a)} rows): no gravity in the readings (a dead sensor, "
             f"or the wrong columns)"), "acc", fig))
         return
+    hint = _range_hint(ds, "acc", ratio)
     if GRAVITY_UNITS[0] <= ratio <= GRAVITY_UNITS[1]:
         rep.findings.append(Finding("units", "warning", (
             f"accelerometer: |g| is {med:.4g} g (median of {len(a)} rows), {100 * (ratio - 1):+.0f} % from "
-            f"{G:g} g: more than a sensor's scale error; check the unit and lsb (the range setting?)"), "acc", fig))
+            f"{G:g} g: more than a sensor's scale error; "
+            + (hint if hint else "check the unit and lsb (the range setting?)")), "acc", fig))
+        return
+    if hint and _counts(ds, "acc"):  # counts: the lsb declared is the scale
+        rep.findings.append(Finding("units", "error", (
+            f"accelerometer: |g| is {med:.4g} (median of {len(a)} rows), {ratio:.4g}x {G:g} g: {hint}; "
+            + _fix(ds, "accelerometer", "the lsb (the range setting the counts were read at)")), "acc",
+            {**fig, "looks_like": []}))
         return
     guesses = _unit_guesses(ratio, ACC_UNIT_GUESS, "g", _declared_factor(ds, "acc"), 0.2)
     like = (f"the readings look like {' or '.join(guesses)}" if guesses else
-            f"the readings are {ratio:.4g}x what g would be")
+            f"the readings are {ratio:.4g}x what g would be" + (f": {hint}" if hint else ""))
     unit = ds.meta.get("acc_unit", "g")
     rep.findings.append(Finding("units", "error", (
         f"accelerometer: |g| is {med:.4g} (median of {len(a)} rows), not {G:g} g: {like}, not {unit}; "
@@ -275,10 +362,13 @@ def _units_mag(ds, rows, rep):
         fig.update(header_field_nT=F, ratio=ratio)
         if FIELD_TOL[0] <= ratio <= FIELD_TOL[1]:
             return
+        hint = _range_hint(ds, "mag", ratio)
         if FIELD_UNITS[0] <= ratio <= FIELD_UNITS[1]:
             rep.findings.append(Finding("units", "warning", (
                 f"magnetometer: |b| is {R:.4g} nT ({how}), {100 * (ratio - 1):+.0f} % from the header's field_nT "
-                f"{F:g}: a magnetic disturbance near the bench, a wrong field_nT, or a scale error"), "mag", fig))
+                f"{F:g}: " + (f"{hint}, or a wrong field_nT" if hint else
+                              "a magnetic disturbance near the bench, a wrong field_nT, or a scale error")),
+                "mag", fig))
             return
         target = float(F)
     else:
@@ -292,11 +382,18 @@ def _units_mag(ds, rows, rep):
                 f"field"), "mag", fig))
             return
         target = 45_000.0
-    guesses = _unit_guesses(R / target, MAG_UNIT_GUESS, "nT", _declared_factor(ds, "mag"), 0.6)
-    like = (f"the readings look like {' or '.join(guesses)}" if guesses else
-            f"{R / target:.3g}x a geomagnetic field")
+    hint = _range_hint(ds, "mag", R / target) if F else None  # without a header field no factor is exact
     rng = f"the header's field_nT {F:g}" if F else f"the geomagnetic range {GEOMAGNETIC_NT[0]:.0f}-" \
                                                    f"{GEOMAGNETIC_NT[1]:.0f} nT"
+    if hint and _counts(ds, "mag"):  # counts: the lsb declared is the scale
+        rep.findings.append(Finding("units", "error", (
+            f"magnetometer: |b| is {R:.4g} nT ({how}), {R / target:.3g}x {rng}: {hint}; "
+            + _fix(ds, "magnetometer", "the lsb (the range setting the counts were read at)")), "mag",
+            {**fig, "looks_like": []}))
+        return
+    guesses = _unit_guesses(R / target, MAG_UNIT_GUESS, "nT", _declared_factor(ds, "mag"), 0.6)
+    like = (f"the readings look like {' or '.join(guesses)}" if guesses else
+            f"{R / target:.3g}x a geomagnetic field" + (f": {hint}" if hint else ""))
     rep.findings.append(Finding("units", "error", (
         f"magnetometer: |b| is {R:.4g} nT ({how}), not {rng}: {like}, not {unit}; "
         + _fix(ds, "magnetometer", "the unit (unit = \"uT\", \"G\", \"mG\", or \"counts\" with lsb)")), "mag",
@@ -348,27 +445,45 @@ def _axes_and_lag(ds, rows_all, rep, ug_src=None):
     # closest to the declared map (fewest axes changed), then a rotation
     hdr = ds.meta.get("dip_deg")
     tied = [k for k in spreads if spreads[k] <= 1.05 * s_min + 0.05]
-    best = min(tied, key=lambda k: (0 if hdr is None or abs(float(hdr)) < 5.0 or np.sign(dips[k]) == np.sign(float(hdr))
-                                    else 1, int(np.sum(np.any(np.array(k).reshape(3, 3) != np.eye(3), axis=1))),
+    best = min(tied, key=lambda k: (0 if hdr is None or abs(float(hdr)) < DIP_SIGN_MIN_DEG
+                                    or np.sign(dips[k]) == np.sign(float(hdr)) else 1,
+                                    int(np.sum(np.any(np.array(k).reshape(3, 3) != np.eye(3), axis=1))),
                                     np.linalg.det(np.array(k).reshape(3, 3)) < 0))
     s_best = spreads[best]
     P = np.array(best).reshape(3, 3)
-    fig = {"dip_spread_declared_deg": s_id, "dip_spread_best_deg": s_best, "best_map": _perm_text(P)}
+    # best_map: in the body frame as imported; map_to_write: composed with the declared map, what to write
+    # in the description's [magnetometer] axes
+    write, det_w = _map_to_write(ds, P)
+    shown = f"axes = \"{write}\"" if _imported(ds) else write
+    fig = {"dip_spread_declared_deg": s_id, "dip_spread_best_deg": s_best, "best_map": _perm_text(P),
+           "map_to_write": write}
     if best != ident and s_id > max(AXES_RATIO * s_best, MIN_SPREAD_DEG + s_best):
         det = int(round(np.linalg.det(P)))
         if det < 0:
             if not intended_reflection(ds, "mag") and not intended_reflection(ds, "acc"):
+                if not _imported(ds):
+                    fix = _fix(ds, "magnetometer", "the axis map (or reflection = true if the sensor's axes are "
+                                                   "left-handed)")
+                elif det_w < 0:
+                    acc = ("the accelerometer's declared reflection ([accelerometer] reflection = true) does not fit "
+                           "the data as mapped: fix that map" if declared_reflection(ds, "acc")
+                           else "fix one sign of the accelerometer's map")
+                    fix = (f"write that map in the sensor description's [magnetometer] with reflection = true (its "
+                           f"axes as logged are left-handed against the {other}), or {acc}, and import again")
+                else:
+                    # a reflection declared in [magnetometer] composed with the mirror found: a rotation
+                    fix = (f"the declared reflection ([magnetometer] reflection = true) does not fit the data as "
+                           f"mapped: write that map, a rotation, without reflection = true in the sensor "
+                           f"description's [magnetometer], or fix the accelerometer's map, and import again")
                 rep.findings.append(Finding("handedness", "error", (
                     f"the magnetometer's axes are mirrored against the {other}: the dip angle spreads "
-                    f"{s_id:.3g} deg with the axes as given, {s_best:.3g} deg with magnetometer {_perm_text(P)} "
-                    f"(a reflection, determinant -1): one triad's map has a sign or a swap wrong (without poses the "
-                    f"data cannot tell which triad's): "
-                    + _fix(ds, "magnetometer", "the axis map (or reflection = true if the sensor's axes are "
-                                               "left-handed)")), "mag", fig))
+                    f"{s_id:.3g} deg with the axes as given, {s_best:.3g} deg with magnetometer {shown} "
+                    f"(a reflection of the axes as given, determinant -1): one triad's map has a sign or a swap "
+                    f"wrong (without poses the data cannot tell which triad's): " + fix), "mag", fig))
         else:
             rep.findings.append(Finding("axes", "warning", (
                 f"the magnetometer's axes are not the {other}: the dip angle spreads {s_id:.3g} deg with the "
-                f"axes as given, {s_best:.3g} deg with magnetometer {_perm_text(P)} (a rotation; the fit "
+                f"axes as given, {s_best:.3g} deg with magnetometer {shown} (a rotation; the fit "
                 f"absorbs it, started from that map); "
                 + _fix(ds, "magnetometer", "that axis map")), "mag", fig))
         rep.mag_to_acc = P.tolist()
@@ -468,12 +583,22 @@ def _axes_and_lag(ds, rows_all, rep, ug_src=None):
         level = "error" if s0 > LAG_RATIO * sb and s0 > 2.0 else "warning"
         which = "behind" if kb > 0 else "ahead of"
         rep.lag_rows = kb
+        lag = _lag_to_write(ds, kb)  # the declared lag plus the shift found in the data as imported
+        if not _imported(ds):
+            fix = f"shift the magnetometer columns by {kb} row(s) (inclino import with [magnetometer] lag = {kb})"
+        elif lag == kb:
+            fix = f"re-import with [magnetometer] lag = {kb}"
+        elif lag == 0:
+            fix = (f"re-import with [magnetometer] lag = 0 (remove the declared lag of {lag - kb}: it shifts the "
+                   f"rows {-kb:+d})")
+        else:
+            fix = (f"re-import with [magnetometer] lag = {lag} (the declared lag of {lag - kb} and the {kb:+d} "
+                   f"found in the rows as imported)")
         rep.findings.append(Finding("row-alignment", level, (
-            f"the triads are paired out of step: {how} (its row i + {kb} belongs to the accelerometer's row i: "
-            f"one {which} the other, as when two files are joined and a line is lost); "
-            + (f"re-import with [magnetometer] lag = {kb}" if _imported(ds) else
-               f"shift the magnetometer columns by {kb} row(s) (inclino import with [magnetometer] lag = {kb})")),
-            None, {**fig, "lag_rows": kb, "route": route}))
+            f"the triads are paired out of step: {how} (its row i {'+' if kb > 0 else '-'} {abs(kb)} belongs to the "
+            f"accelerometer's row i: "
+            f"one {which} the other, as when two files are joined and a line is lost); " + fix),
+            None, {**fig, "lag_rows": kb, "lag_to_write": lag, "route": route}))
     # the dip's sign against the header
     if rep.lag_rows:
         k = rep.lag_rows
@@ -516,7 +641,7 @@ def _dip_sign(ds, d, ug_src, rep):
     dip = float(np.median(d))
     rep.noise["dip_deg"] = dip
     hdr = ds.meta.get("dip_deg")
-    if hdr is None and ug_src is None and abs(dip) > 5.0:
+    if hdr is None and ug_src is None and abs(dip) > DIP_SIGN_MIN_DEG:
         rep.findings.append(Finding("dip-sign", "note", (
             f"the accelerometer's gravity sign was not checked: the dip angle is {dip:+.1f} deg, and a turned sign "
             f"(reads = \"up\" or \"down\") only turns it to {-dip:+.1f} deg, a site in the other magnetic hemisphere; "
@@ -524,7 +649,8 @@ def _dip_sign(ds, d, ug_src, rep):
             "acc", {"dip_deg": dip}))
     if hdr is not None and ug_src is None:
         hdr = float(hdr)
-        if abs(hdr) > 5.0 and np.sign(dip) != np.sign(hdr) and abs(dip + hdr) < max(DIP_MISMATCH_DEG, 0.3 * abs(hdr)):
+        if abs(hdr) > DIP_SIGN_MIN_DEG and np.sign(dip) != np.sign(hdr) \
+                and abs(dip + hdr) < max(DIP_MISMATCH_DEG, 0.3 * abs(hdr)):
             rep.findings.append(Finding("dip-sign", "error", (
                 f"the dip angle is {dip:+.1f} deg against the header's {hdr:+.1f}: the accelerometer's gravity sign "
                 f"is turned (an axis pointing down must read +1 g: reads = \"up\" or \"down\"), or every "
@@ -553,6 +679,8 @@ def _weak_handedness(ug, ub, spreads, best, ident, other, ds, rep):
     s_id = spreads[ident]
     P = np.array(best).reshape(3, 3)
     m = len(ug)
+    write = _map_to_write(ds, P)[0]
+    shown = f"axes = \"{write}\"" if _imported(ds) else write
     if best != ident and np.linalg.det(P) < 0 and s_id > HAND_WEAK_RATIO * spreads[best] \
             and s_id - spreads[best] > HAND_WEAK_DEG and m >= 40:
         h = m // 2
@@ -561,12 +689,15 @@ def _weak_handedness(ug, ub, spreads, best, ident, other, ds, rep):
         if all(a > HAND_WEAK_HALF * b for a, b in halves):
             rep.findings.append(Finding("handedness", "warning", (
                 f"the magnetometer's axes may be mirrored against the {other}: the dip angle spreads {s_id:.3g} deg "
-                f"with the axes as given, {spreads[best]:.3g} deg with magnetometer {_perm_text(P)} (a reflection; "
+                f"with the axes as given, {spreads[best]:.3g} deg with magnetometer {shown} (a reflection; "
                 f"each half of the log: {', '.join(f'{a:.3g} against {b:.3g}' for a, b in halves)}); the sensor "
                 f"turned through too few orientations to be sure (the error needs {AXES_RATIO:g}x): check the axis "
-                f"map of each triad against its data sheet, or log the sensor tilted through more orientations"),
+                f"map of each triad against its data sheet, or log the sensor tilted through more orientations"
+                + ("" if ds.meta.get("dip_deg") is not None else
+                   "; without a header dip a fit can take the mirror as a rotation and turn the field through 180 "
+                   "deg unseen: give the site's dip ([header] dip_deg, or # dip_deg= in the log)")),
                 "mag", {"dip_spread_declared_deg": s_id, "dip_spread_best_deg": spreads[best],
-                        "best_map": _perm_text(P), "halves_deg": halves}))
+                        "best_map": _perm_text(P), "map_to_write": write, "halves_deg": halves}))
             return
     mirrors = {a: spreads[tuple(np.diag([-1.0 if j == a else 1.0 for j in range(3)]).ravel())] for a in range(3)}
     a = min(mirrors, key=mirrors.get)
@@ -827,7 +958,10 @@ def _acc_poses(ds, rows, rep):
             rep.findings.append(Finding("handedness", "error", (
                 f"the accelerometer's axes are mirrored against the poses (direction RMS {e_ref:.3g} with a "
                 f"reflection, {e_rot:.3g} with the best rotation): a left-handed axis map; "
-                + _fix(ds, "accelerometer", "the axis map (or reflection = true if intended)")), "acc", fig))
+                + ("the declared reflection ([accelerometer] reflection = true) does not fit the data as mapped: "
+                   + _fix(ds, "accelerometer", "the axis map (one sign, without reflection = true)")
+                   if declared_reflection(ds, "acc") else
+                   _fix(ds, "accelerometer", "the axis map (or reflection = true if intended)"))), "acc", fig))
     # the accelerometer rows against the poses' rows, shifted
     m = len(block)
     errs = {}

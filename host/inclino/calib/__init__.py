@@ -108,6 +108,7 @@ def fit(ds, method: str = DEFAULT_METHOD, data_hash: dict | None = None, report:
     elapsed = time.perf_counter() - t0
     cal.data = data_hash
     _refuse_reflection(ds, cal, bool(opts.get("use_poses", True)))
+    turned = _refuse_turned_field(ds, cal, found)
     rep_ds = info.pop("report_dataset", ds)  # joint --temperature-terms: the readings brought to t_ref
     rep = None
     if report:
@@ -122,6 +123,8 @@ def fit(ds, method: str = DEFAULT_METHOD, data_hash: dict | None = None, report:
             rep.notes += [f"check: {line}" for line in found.lines(("warning",))]
             if found.saturated:
                 rep.notes.append(f"{len(found.saturated)} saturated row(s) left out of the fit")
+        if turned:
+            rep.notes.append(f"check: warning: {turned}")
         cal.report = rep.to_dict()
     return cal, rep
 
@@ -136,7 +139,7 @@ def _refuse_reflection(ds, cal, use_poses: bool) -> None:
     unless the header declares the reflection intended."""
     import numpy as np
 
-    from inclino.checks import intended_reflection
+    from inclino.checks import declared_reflection, intended_reflection
     from inclino.errors import DataError
 
     ref = "the poses" if use_poses and ds.has_pose else None
@@ -146,7 +149,58 @@ def _refuse_reflection(ds, cal, use_poses: bool) -> None:
         det = float(np.linalg.det(np.asarray(M, float)))
         if det < 0:
             against = ref or ("the accelerometer" if triad == "mag" else "the magnetometer")
+            fix = (f"the declared reflection ([{name}] reflection = true) does not fit the data as mapped: fix that "
+                   f"triad's axis map in the sensor description (one sign, without reflection = true)"
+                   if declared_reflection(ds, triad) else
+                   "fix that triad's axis map in the sensor description (one sign), or declare the reflection "
+                   "intended (reflection = true)")
             raise DataError(
                 f"the fitted {name} matrix is a reflection (determinant {det:+.3g}): the {name}'s axes in the data "
-                f"are mirrored against {against}; fix that triad's axis map in the sensor description (one sign), "
-                f"or declare the reflection intended (reflection = true); no calibration written")
+                f"are mirrored against {against}; {fix}; no calibration written")
+
+
+def _refuse_turned_field(ds, cal, found) -> str | None:
+    """The fitted dip's sign against the header's.  A magnetometer axis
+    mirrored in the data is a reflection P of the field; the invariants
+    (|g|, |b|, the dip's spread) fit -P, a proper rotation, exactly as well,
+    with the dip's sign turned: the MPU9150 log of micropython-fusion with
+    its y column negated, which the checks before the fit see only weakly
+    (the dip spreads 10.4 deg as given, 3.72 mirrored: a warning, not the 3x
+    of an error), fitted det(mag_m) +0.98, a dip of -70.8 deg against the
+    header's +66.5, and azimuths 180 deg off.  No determinant and no check
+    before the fit sees that; the header's dip does.  Opposite signs (both
+    beyond checks.DIP_SIGN_MIN_DEG) are refused (DataError, exit 2; nothing
+    written).  Without a header dip, when the checks before the fit warned
+    of a mirror, the warning line to report (else None)."""
+    import numpy as np
+
+    from inclino.checks import DIP_SIGN_MIN_DEG
+    from inclino.engines import reference as ref
+    from inclino.errors import DataError
+
+    if ds.triads != "both":
+        return None
+    with np.errstate(all="ignore"):
+        a = ref.attitude(ref.correct(ds.acc, cal.acc_m, cal.acc_b), ref.correct(ds.mag, cal.mag_m, cal.mag_b))
+    dip = float(np.nanmedian(a["dip"]))
+    mirror = [f for f in (found.findings if found is not None else [])
+              if f.check == "handedness" and f.level == "warning"]
+    hint = f" (the checks before the fit: magnetometer {mirror[0].figures['map_to_write']})" \
+        if mirror and mirror[0].figures.get("map_to_write") else ""
+    hdr = ds.meta.get("dip_deg")
+    if hdr is not None:
+        hdr = float(hdr)
+        if min(abs(hdr), abs(dip)) > DIP_SIGN_MIN_DEG and np.sign(dip) != np.sign(hdr):
+            det = float(np.linalg.det(np.asarray(cal.mag_m, float)))
+            raise DataError(
+                f"the fitted dip is {dip:+.1f} deg against the header's {hdr:+.1f}: the fit turned the field through "
+                f"180 deg (azimuths 180 deg off; magnetometer matrix determinant {det:+.3g}): a magnetometer axis "
+                f"mirrored in the data{hint}, or the accelerometer's gravity sign turned (reads); fix that axis map or "
+                f"reads in the sensor description and import again; no calibration written")
+        return None
+    if mirror:
+        return (f"the fitted dip is {dip:+.1f} deg and the magnetometer's axes may be mirrored{hint}: the fit may "
+                f"have turned the field through 180 deg (a mirrored axis fitted as a rotation: the dip's sign and "
+                f"every azimuth turned), which no header dip checks; give the site's dip ([header] dip_deg, or "
+                f"# dip_deg= in the log; inclino reffield) and calibrate again")
+    return None

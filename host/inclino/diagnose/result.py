@@ -4,7 +4,9 @@
      "effects": [{"name", "sensor", "axis", "estimate", "stderr", "units",
                   "gain": {"rms_before", "rms_after", "cv_rms_before", "cv_rms_after",
                            "azi_rms_before_deg", "azi_rms_after_deg",
-                           "inc_rms_before_deg", "inc_rms_after_deg"}}],
+                           "inc_rms_before_deg", "inc_rms_after_deg"},
+                  "detail": {...}}],
+     "contradicted": [...], "confounded": [...],
      "unexplained": true|false}
 
 (docs/diagnose.md describes the baseline object's keys)."""
