@@ -284,7 +284,7 @@ def acting_effects(scenario: str, run, acc_li, cal) -> list[tuple[str, float]]:
     this run.  A temperature coefficient acts through the difference between
     each acceptance reading's temperature and the calibration run's mean
     (at one constant temperature it is a bias and a scale the calibration
-    took in); the fluxgate's sampling skew only while the probe turns (the
+    took in, and is not listed); the fluxgate's sampling skew only while the probe turns (the
     demo's readings are static); turntable encoder or axis errors and a
     field drift of the scenario's world act wherever they are set."""
     import numpy as np
@@ -309,12 +309,15 @@ def acting_effects(scenario: str, run, acc_li, cal) -> list[tuple[str, float]]:
     out = []
     tempco = {(tri, attr) for tri in ("acc", "mag") for attr in ("bias_tempco", "scale_tempco")
               if getattr(getattr(s, tri), attr, None) is not None}
+    # a temperature difference below this is the arithmetic of one constant temperature (the run's mean of
+    # equal values against each of them: 3.6e-15 degC in the demo), not a difference a coefficient acts through
+    same_temp_c = 1e-6
     if tempco:
         names = ", ".join(f"{'accelerometer' if t == 'acc' else 'fluxgate'} {a.replace('_', ' ')} coefficient"
                           for t, a in sorted(tempco))
         if t_run is None or not np.all(np.isfinite(t_pts)):
             out.append((f"temperature coefficients ({names}): the temperatures are not recorded", float("nan")))
-        else:
+        elif float(np.max(np.abs(t_pts - t_run))) > same_temp_c:
             ya = np.array([s.acc.deterministic(g[i], t_pts[i]) - s.acc.deterministic(g[i], t_run)
                            for i in range(len(pts))])
             ym = np.array([s.mag.deterministic(f[i], t_pts[i]) - s.mag.deterministic(f[i], t_run)
