@@ -21,6 +21,7 @@ CORPUS = [
     ("broad/05.csv", "broad/sensor.toml", "mag", 2861),
     ("broad/02.csv", "broad/sensor.toml", "mag", 2577),
     ("broad/05.csv", "broad/with_acc.toml", "both", 2861),
+    ("micropython_fusion/mpudata.csv", "micropython_fusion/sensor.toml", "both", 2041),
 ] + [(f"sap6/{d}.csv", "sap6/sensor.toml", "both", 24) for d in SAP6]
 
 

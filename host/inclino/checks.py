@@ -542,7 +542,10 @@ def _axes_and_lag(ds, rows_all, rep, ug_src=None):
                 None, {**fig, "lag_rows": kb}))
             route = None
         k = int(round(inv["lag"]))
-        halves_agree = k != 0 and k in lags and all(h is not None and round(h) == k for h in inv["halves"])
+        # each half on its own out of step by more than half a row the same way (the whole curve gives the row:
+        # a log with a skew of its own within a row, shifted by one, puts its halves either side of a row)
+        halves_agree = k != 0 and k in lags and all(h is not None and np.sign(h) == np.sign(k) and abs(h) > 0.5
+                                                    for h in inv["halves"])
         if route is None and halves_agree and abs(inv["lag"]) - 0.5 > LAG_CURVE_SE * inv["se"]:
             route, kb, sb = "curve", k, lags[k]
             how = (f"with the triads' calibration errors and a turning lever arm's acceleration fitted out, the dip "
