@@ -302,6 +302,14 @@ def _range_hint(ds, triad: str, ratio: float) -> str | None:
     return out
 
 
+def _lsb_error(ds, triad: str, what: str, hint: str, fig: dict) -> Finding:
+    """The error of counts read at another range than the declared lsb's."""
+    name = "accelerometer" if triad == "acc" else "magnetometer"
+    return Finding("units", "error", f"{name}: {what}: {hint}; "
+                   + _fix(ds, name, "the lsb (the range setting the counts were read at)"), triad,
+                   {**fig, "looks_like": []})
+
+
 def _counts(ds, triad: str) -> bool:
     return _imported(ds) and str(ds.meta.get(f"{triad}_unit", "")).startswith("counts")
 
@@ -328,10 +336,8 @@ def _units_acc(ds, rows, rep):
             + (hint if hint else "check the unit and lsb (the range setting?)")), "acc", fig))
         return
     if hint and _counts(ds, "acc"):  # counts: the lsb declared is the scale
-        rep.findings.append(Finding("units", "error", (
-            f"accelerometer: |g| is {med:.4g} (median of {len(a)} rows), {ratio:.4g}x {G:g} g: {hint}; "
-            + _fix(ds, "accelerometer", "the lsb (the range setting the counts were read at)")), "acc",
-            {**fig, "looks_like": []}))
+        rep.findings.append(_lsb_error(ds, "acc", f"|g| is {med:.4g} (median of {len(a)} rows), {ratio:.4g}x "
+                                                  f"{G:g} g", hint, fig))
         return
     guesses = _unit_guesses(ratio, ACC_UNIT_GUESS, "g", _declared_factor(ds, "acc"), 0.2)
     like = (f"the readings look like {' or '.join(guesses)}" if guesses else
@@ -386,10 +392,7 @@ def _units_mag(ds, rows, rep):
     rng = f"the header's field_nT {F:g}" if F else f"the geomagnetic range {GEOMAGNETIC_NT[0]:.0f}-" \
                                                    f"{GEOMAGNETIC_NT[1]:.0f} nT"
     if hint and _counts(ds, "mag"):  # counts: the lsb declared is the scale
-        rep.findings.append(Finding("units", "error", (
-            f"magnetometer: |b| is {R:.4g} nT ({how}), {R / target:.3g}x {rng}: {hint}; "
-            + _fix(ds, "magnetometer", "the lsb (the range setting the counts were read at)")), "mag",
-            {**fig, "looks_like": []}))
+        rep.findings.append(_lsb_error(ds, "mag", f"|b| is {R:.4g} nT ({how}), {R / target:.3g}x {rng}", hint, fig))
         return
     guesses = _unit_guesses(R / target, MAG_UNIT_GUESS, "nT", _declared_factor(ds, "mag"), 0.6)
     like = (f"the readings look like {' or '.join(guesses)}" if guesses else
