@@ -189,6 +189,8 @@ def _cmd_attitude(args) -> int:
               f"--at-temperature changes nothing", file=sys.stderr)
     cols = list(engines.COLS_BY_TRIADS[triads])
     notes: list = []
+    kept = {c: [] for c in ("gt_g", "bt_nT", "dip_deg") if c in cols}  # a sample for the check after correcting
+    step = max(1, len(ds) // 200_000)
     with safeio.output_file(args.output, [args.input, args.cal]) as f, \
             progress.bar(len(ds), f"attitude {args.input}", unit=" rows") as bar:
         w = csv.writer(f)
@@ -203,9 +205,18 @@ def _cmd_attitude(args) -> int:
             text = {c: (out[c].astype(np.int64).astype(str) if c == "flags"
                         else np.char.mod("%.6f", np.asarray(out[c], dtype=float))) for c in cols}
             w.writerows(zip(*(text[c] for c in cols)))
+            for c in kept:
+                kept[c].append(np.asarray(out[c], dtype=float)[(-lo) % step::step])
             bar.update(hi - lo)
     for n in notes:
         print(f"inclino: note: {n}", file=sys.stderr)
+    if args.cal:  # the identity's figures are the raw readings': the checks above looked at them
+        from inclino import checks
+
+        found = checks.corrected(ds.meta, *(np.concatenate(kept[c]) if c in kept else None
+                                            for c in ("gt_g", "bt_nT", "dip_deg")), cal=args.cal)
+        if found:
+            print(f"inclino: warning: {found.message}", file=sys.stderr)
     return 0
 
 
@@ -245,7 +256,10 @@ def add_attitude(sub):
     a = command(sub, "attitude", "attitude of every row of a raw dataset",
                 "Compute the attitude (inclination, azimuth, toolface, G total, B total, dip, flags, magnetic "
                 "toolface) of every row of a raw dataset through the firmware's C, the golden model or the "
-                "float64 reference, with a calibration or the identity, and write it as CSV.",
+                "float64 reference, with a calibration or the identity, and write it as CSV. With --cal, the corrected "
+                "readings' median |g|, |b| and dip far from the header's gravity_g (1 g), field_nT and dip_deg (|b| "
+                "from the geomagnetic range without one) are one warning on stderr: a calibration of another sensor "
+                "or a stale one; the rows are still written (exit 0).",
                 ["inclino attitude run.csv --cal cal.json -o attitude.csv",
                  "inclino attitude run.csv --engine reference -o -"])
     a.add_argument("input", action=Input, help="raw dataset CSV")
