@@ -302,7 +302,7 @@ def diagnose_main(args) -> int:
     ds = dataset.read_raw(args.input, progress=True)
     if getattr(args, "static", False):
         ds.meta["static"] = "true"
-    _checked(ds, bool(getattr(args, "static", False)))
+    found = _checked(ds, bool(getattr(args, "static", False)))
     thinned = None
     if getattr(args, "cal", None):
         # the correction is row by row: only the rows the diagnosis keeps are corrected (the same rows
@@ -313,16 +313,16 @@ def diagnose_main(args) -> int:
         ds = _temperature_corrected(ds, args.cal)
     pose_free = not ds.has_pose or ds.triads != "both"
     if pose_free and not _posefree_diagnosis_available():
-        return _diagnose_invariants(ds, args)
+        return _diagnose_invariants(ds, args, found)
     try:
         with np.errstate(all="ignore"), progress.phase(f"diagnose {args.input}"):
             r = diagnose(ds, effects=args.effects, alpha=args.alpha, folds=args.folds,
-                         keep_plot_data=bool(args.plot), thinned=thinned)
+                         keep_plot_data=bool(args.plot), thinned=thinned, checks=found)
     except DataError as e:
         if pose_free and str(e).startswith("too few distinct orientations"):
             # too few orientations to test anything on the invariants (a six-face session): what each triad's
             # own fit leaves, nothing named
-            return _diagnose_invariants(ds, args)
+            return _diagnose_invariants(ds, args, found)
         raise
     except (ArithmeticError, ValueError, np.linalg.LinAlgError) as e:  # one line, never a traceback
         raise DataError(f"diagnose failed on {args.input}: {type(e).__name__}: {e}")
@@ -347,7 +347,7 @@ def _posefree_diagnosis_available() -> bool:
     return importlib.util.find_spec("inclino.diagnose.posefree") is not None
 
 
-def _diagnose_invariants(ds, args) -> int:
+def _diagnose_invariants(ds, args, found=None) -> int:
     """Data without the turntable's poses, or with one triad: the pose-based
     effect tests need both; what the invariants show is reported instead
     (each triad fitted on its own, |g|, |b| and the dip left over, each
@@ -386,6 +386,9 @@ def _diagnose_invariants(ds, args) -> int:
     # what the settings of the pose cannot tell apart: a drift over the session against errors that depend on
     # the pose (a six-face session read face after face)
     confounded = drift_pose_confounds(ds) if poses else []
+    conclusion = ("PASS: the invariants fit within their limits; no effect named" if rep.passed else
+                  "FAIL: the invariants do not fit (" + "; ".join(rep.reasons) + "); no effect named without the "
+                  "turntable's poses and both triads")
     if args.json:
         print(_json.dumps({"mode": "invariants", "note": note, "effects": [], "confounded": confounded,
                            "report": rep.to_dict()}))
@@ -396,9 +399,7 @@ def _diagnose_invariants(ds, args) -> int:
             print(f"  cannot be told apart on these {c['settings']} settings of the pose: {c['effect']} and "
                   f"{c['with']} (correlation {c['correlation']:.2f}); to separate them: {c['separate_by']}")
         print(rep.summary(verdict=False))
-        print("conclusion: " + ("PASS: the invariants fit within their limits; no effect named" if rep.passed else
-                                "FAIL: the invariants do not fit (" + "; ".join(rep.reasons) + "); no effect "
-                                "named without the turntable's poses and both triads"))
+        print("conclusion: " + conclusion)
     return 0
 
 

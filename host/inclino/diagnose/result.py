@@ -7,7 +7,7 @@
                            "inc_rms_before_deg", "inc_rms_after_deg"},
                   "detail": {...}}],
      "contradicted": [...], "confounded": [...],
-     "unexplained": true|false}
+     "unexplained": true|false, "calibrate": {"level", "message"}|null}
 
 (docs/diagnose.md describes the baseline object's keys)."""
 from __future__ import annotations
@@ -67,11 +67,16 @@ class Diagnosis:
     contradicted: list = field(default_factory=list)
     # named (or contradicted) effects and the candidates the run cannot tell them from
     confounded: list = field(default_factory=list)
+    # the checks before any fit (checks.CheckReport.to_dict()) when the caller ran them (inclino diagnose)
+    checks: dict | None = None
+    # what `calibrate` says of the data's handedness after its fit where the checks warned of a mirrored
+    # magnetometer (posefree.calibrate_handedness): {"level": "error" (it refuses) | "warning", "message"}
+    calibrate: dict | None = None
 
     def to_dict(self) -> dict:
         return {"baseline": json_safe(self.baseline), "effects": [e.to_dict() for e in self.effects],
                 "contradicted": json_safe(self.contradicted), "confounded": json_safe(self.confounded),
-                "unexplained": bool(self.unexplained)}
+                "unexplained": bool(self.unexplained), "calibrate": json_safe(self.calibrate)}
 
     def to_json(self, indent=2) -> str:
         return dumps(self.to_dict(), indent=indent)
@@ -218,6 +223,10 @@ class Diagnosis:
         else:
             lines.append(f"unexplained: no (smallest of {s['tests']} structure-test p-values {s['min_p']:.2g}, "
                          f"threshold {s['threshold']:.2g})")
+        c = self.calibrate
+        if c:
+            lines.append(("calibrate refuses these data: " if c["level"] == "error" else "calibrate: warning: ")
+                         + c["message"])
         lines.append(self.conclusion())
         return "\n".join(lines)
 
@@ -237,7 +246,8 @@ class Diagnosis:
                 f"inclination {b['inc_rms_deg']:.4f} deg"
             model = "the 12-parameter model"
         alpha = b["selection"]["alpha"]
-        if not self.effects and not self.unexplained:
+        refused = bool(self.calibrate) and self.calibrate["level"] == "error"
+        if not self.effects and not self.unexplained and not refused:
             return (f"conclusion: PASS: {model} leaves nothing to name: no effect at alpha = {alpha:g}, "
                     f"no unexplained structure (residual RMS {base})")
         parts = []
@@ -253,7 +263,10 @@ class Diagnosis:
         if self.unexplained:
             parts.append("structure no library effect explains (p = "
                          f"{self.structure['min_p']:.2g} < {self.structure['threshold']:.2g})")
-        return f"conclusion: FAIL: {model} misses " + "; ".join(parts)
+        head = ("calibrate refuses these data (a magnetometer axis mirrored in the data, or the accelerometer's "
+                "gravity sign turned)" if refused else "")
+        return "conclusion: FAIL: " + "; ".join(x for x in (head, f"{model} misses " + "; ".join(parts) if parts
+                                                           else "") if x)
 
 
 def _the(variable: str) -> str:
