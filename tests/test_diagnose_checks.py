@@ -67,3 +67,40 @@ def test_the_clean_log_has_no_calibrate_line(ck, tmp_path, capsys):
     dataset.write_raw(str(run), c)
     assert main(["diagnose", str(run), "--json"]) == 0
     assert json.loads(capsys.readouterr().out)["calibrate"] is None
+
+
+def test_the_json_keeps_the_checks_findings_and_the_conclusion(ck, monkeypatch, tmp_path, capsys):
+    """What the text report and stderr say is in `diagnose --json` too: the
+    checks' findings (as calibrate's report.checks) and the conclusion line."""
+    run = _mirrored_weakly(ck, monkeypatch, tmp_path, None)
+    assert main(["diagnose", run]) == 0
+    out, err = capsys.readouterr()
+    warned = [ln.split("warning: ", 1)[1] for ln in err.splitlines() if "may be mirrored" in ln]
+    assert main(["diagnose", run, "--json"]) == 0
+    d = json.loads(capsys.readouterr().out)
+    found = [f for f in d["checks"]["findings"] if f["check"] == "handedness" and f["level"] == "warning"]
+    assert [f["message"] for f in found] == warned and d["checks"]["rows"] == len(ck)
+    assert "conclusion: " + d["conclusion"] == out.strip().splitlines()[-1]
+
+
+def test_the_library_diagnosis_without_checks_says_null(ck):
+    from inclino.diagnose import diagnose
+
+    small = dataset.RawDataset({k: v[:3000].copy() for k, v in ck.columns.items()}, dict(ck.meta))
+    d = json.loads(diagnose(small).to_json())
+    assert d["checks"] is None and d["calibrate"] is None and d["conclusion"].startswith(("PASS: ", "FAIL: "))
+
+
+def test_the_invariants_report_json_keeps_them_too(ck, monkeypatch, tmp_path, capsys):
+    from inclino.cli import analysis
+
+    monkeypatch.setattr(analysis, "_posefree_diagnosis_available", lambda: False)
+    run = tmp_path / "run.csv"
+    dataset.write_raw(str(run), dataset.RawDataset({k: v[::4].copy() for k, v in ck.columns.items()},
+                                                   dict(ck.meta)))
+    assert main(["diagnose", str(run)]) == 0
+    last = capsys.readouterr().out.strip().splitlines()[-1]
+    assert main(["diagnose", str(run), "--json"]) == 0
+    d = json.loads(capsys.readouterr().out)
+    assert d["mode"] == "invariants" and "conclusion: " + d["conclusion"] == last
+    assert isinstance(d["checks"]["findings"], list) and d["checks"]["rows"] == 3000  # every 4th row of 12 000

@@ -390,8 +390,11 @@ def _diagnose_invariants(ds, args, found=None) -> int:
                   "FAIL: the invariants do not fit (" + "; ".join(rep.reasons) + "); no effect named without the "
                   "turntable's poses and both triads")
     if args.json:
+        from inclino.formats.jsonout import json_safe
+
         print(_json.dumps({"mode": "invariants", "note": note, "effects": [], "confounded": confounded,
-                           "report": rep.to_dict()}))
+                           "report": rep.to_dict(), "checks": json_safe(found.to_dict()) if found else None,
+                           "conclusion": conclusion}))
     else:
         print(f"{args.input}:")
         print(f"  {note}")

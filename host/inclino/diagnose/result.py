@@ -7,7 +7,8 @@
                            "inc_rms_before_deg", "inc_rms_after_deg"},
                   "detail": {...}}],
      "contradicted": [...], "confounded": [...],
-     "unexplained": true|false, "calibrate": {"level", "message"}|null}
+     "unexplained": true|false, "checks": {...}|null, "calibrate": {"level", "message"}|null,
+     "conclusion": "PASS: ..."|"FAIL: ..."}
 
 (docs/diagnose.md describes the baseline object's keys)."""
 from __future__ import annotations
@@ -76,7 +77,9 @@ class Diagnosis:
     def to_dict(self) -> dict:
         return {"baseline": json_safe(self.baseline), "effects": [e.to_dict() for e in self.effects],
                 "contradicted": json_safe(self.contradicted), "confounded": json_safe(self.confounded),
-                "unexplained": bool(self.unexplained), "calibrate": json_safe(self.calibrate)}
+                "unexplained": bool(self.unexplained), "checks": json_safe(self.checks),
+                "calibrate": json_safe(self.calibrate),
+                "conclusion": self.conclusion().removeprefix("conclusion: ") if self.baseline else None}
 
     def to_json(self, indent=2) -> str:
         return dumps(self.to_dict(), indent=indent)
