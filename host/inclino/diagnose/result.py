@@ -220,8 +220,7 @@ class Diagnosis:
             lines.append(f"  note: {note}")
         s = self.structure
         if self.unexplained:
-            sig = ", ".join(f"{x['channel']} vs {x['test']} (p = {x['p']:.2g}"
-                            + (f"; {x['follows']}" if x.get("follows") else "") + ")" for x in s["significant"][:4])
+            sig = ", ".join(_structure_text(x) for x in s["significant"][:4])
             lines.append(f"unexplained: YES -- structure no library effect explains: {sig}")
         else:
             lines.append(f"unexplained: no (smallest of {s['tests']} structure-test p-values {s['min_p']:.2g}, "
@@ -270,6 +269,17 @@ class Diagnosis:
                 "gravity sign turned)" if refused else "")
         return "conclusion: FAIL: " + "; ".join(x for x in (head, f"{model} misses " + "; ".join(parts) if parts
                                                            else "") if x)
+
+
+def _structure_text(x: dict) -> str:
+    """One significant structure test in words a reader new to the tests
+    follows (the JSON keeps its `channel` and `test`): a failed whiteness
+    (Ljung-Box) test is a residual that is not white noise."""
+    p = f"p = {x['p']:.2g}" + (f"; {x['follows']}" if x.get("follows") else "")
+    if x["test"] == "whiteness":
+        return (f"{x['channel']} residual not white noise (serially correlated: neighbouring rows' residuals alike; "
+                f"Ljung-Box {p})")
+    return f"{x['channel']} residual vs {x['test']} ({p})"
 
 
 def _the(variable: str) -> str:
