@@ -138,7 +138,8 @@ def test_gain_and_json_shape():
     p = plans.hide(plans.PROBE, "scale-nonlinearity", "acc", "z", 5e-4)
     r = diagnose(plans.generate(p, plans.oven_plan(seed=4), 4))
     d = json.loads(r.to_json())
-    assert list(d) == ["baseline", "effects", "contradicted", "confounded", "unexplained"]
+    assert list(d) == ["baseline", "effects", "contradicted", "confounded", "unexplained", "checks", "calibrate",
+                       "conclusion"]
     assert isinstance(d["unexplained"], bool)
     (e,) = d["effects"]
     assert list(e) == ["name", "sensor", "axis", "estimate", "stderr", "units", "gain", "detail"]

@@ -1079,6 +1079,55 @@ def _saturation(ds, rep):
     rep.saturated = np.flatnonzero(bad).tolist()
 
 
+def corrected(meta: dict, gt=None, bt=None, dip=None, cal: str = "the calibration") -> Finding | None:
+    """After a calibration is applied (`attitude --cal`): the corrected
+    readings' median |g| against the header's gravity_g (1 g), their median
+    |b| and dip against the header's field_nT and dip_deg when given (|b|
+    against the geomagnetic range when not), with the pre-fit checks'
+    tolerances (GRAVITY_TOL, FIELD_TOL, DIP_MISMATCH_DEG).  A calibration
+    of this sensor brings them within a few % and a few degrees; one of
+    another sensor, or a stale one, does not.  One warning (or None) naming
+    every figure out of its tolerance."""
+    bad, fig = [], {}
+
+    def med(x):
+        x = np.asarray(x, float)
+        x = x[np.isfinite(x)]
+        return float(np.median(x)) if x.size else None
+
+    G = float(meta.get("gravity_g") or 1.0)
+    g = med(gt) if gt is not None else None
+    if g is not None:
+        fig.update(median_g=g, expected_g=G)
+        if not GRAVITY_TOL[0] <= g / G <= GRAVITY_TOL[1]:
+            bad.append(f"|g| {g:.4g} g against {G:g} g ({100 * (g / G - 1):+.0f} %)")
+    b = med(bt) if bt is not None else None
+    F = meta.get("field_nT")
+    if b is not None:
+        fig["median_b_nT"] = b
+        if F:
+            fig["header_field_nT"] = float(F)
+            if not FIELD_TOL[0] <= b / float(F) <= FIELD_TOL[1]:
+                bad.append(f"|b| {b:.0f} nT against the header's field_nT {float(F):g} ({100 * (b / float(F) - 1):+.0f} %)")
+        elif not GEOMAGNETIC_NT[0] <= b <= GEOMAGNETIC_NT[1]:
+            bad.append(f"|b| {b:.0f} nT, outside the geomagnetic range {GEOMAGNETIC_NT[0]:.0f}-{GEOMAGNETIC_NT[1]:.0f} nT")
+    d = med(dip) if dip is not None else None
+    D = meta.get("dip_deg")
+    if d is not None and D is not None:
+        fig.update(dip_deg=d, header_dip_deg=float(D))
+        if abs(d - float(D)) > DIP_MISMATCH_DEG:
+            bad.append(f"dip {d:+.1f} deg against the header's {float(D):+.1f}")
+    if not bad:
+        return None
+    magnetic = any(x.startswith(("|b|", "dip")) for x in bad)
+    hdr = [k for k, x in (("gravity_g", "|g|"), ("field_nT", "|b|"), ("dip_deg", "dip"))
+           if meta.get(k) is not None and any(y.startswith(x) for y in bad)]
+    return Finding("calibration", "warning", (
+        f"after {cal}, the corrected readings' median " + ", ".join(bad) + ": a calibration of another sensor or a "
+        f"stale one (the sensor changed since)" + (f", wrong header values ({', '.join(hdr)})" if hdr else "")
+        + (", or a magnetic disturbance at the site" if magnetic else "") + "; the rows are computed"), None, fig)
+
+
 def run(ds, declared_static: bool = False) -> CheckReport:
     """Every check that the dataset's columns allow (docs/dataset.md)."""
     rep = CheckReport(rows=len(ds), triads=ds.triads, declared_static=bool(declared_static))

@@ -347,8 +347,14 @@ def build(ds: RawDataset, cal: Calibration, method: str, info: dict, refit=None,
     elif cov is not None and info.get("mode") == "invariants" and info.get("s2_by_triad"):
         # without poses each triad is fitted on its own (calib.pose_free): one pooled s^2 is not what scales it
         s2t = info["s2_by_triad"]
-        src = ("each triad's own fit covariance, scaled by its own residual variance (s^2: "
-               + ", ".join(f"{t} {v:.3g}" for t, v in s2t.items() if v is not None) + ")")
+        # s^2 is each fit's residual variance over the noise it assumed: the accelerometer's the nominal sa
+        # (an ADIS16210-class reading: a hand-held MEMS log is 1e4-1e5 times that), the magnetometer's its own
+        # sphere fit's residual and the dip's robust spread, so near 1 by construction
+        against = {"acc": f"against {1e3 * sa:.3g} mg, the nominal reading noise", "mag": "against its own |b| and "
+                   "dip scatter, so near 1"}
+        src = ("each triad's own fit covariance, scaled by its own residual variance (s^2, the residuals' variance "
+               "over the noise assumed: " + "; ".join(f"{t} {v:.3g} {against.get(t, '')}".rstrip()
+                                                     for t, v in s2t.items() if v is not None) + ")")
         hsc = info.get("hold_scale")
         if hsc:
             src += ("; widened for the error each static hold's rows share: "
@@ -542,6 +548,11 @@ def _summary_single(rep, verdict: bool = True) -> str:
                      + (f"; against the poses: vector RMS {r['acc_vec_rms_mg']:.3f} mg, inclination RMS "
                         f"{r['inc_rms_deg']:.4f} deg (max {r['inc_max_deg']:.4f})" if "inc_rms_deg" in r else ""))
     else:
+        if r.get("field_nT") is not None:
+            lines.append(f"  |b| normalised to {r['field_nT']:.0f} nT ({r.get('field_from') or 'the field'})"
+                         + ("; give the site's field ([header] field_nT, or # field_nT=; inclino reffield) to scale "
+                            "|b| to it"
+                            if "no field_nT" in (r.get("field_from") or "") else ""))
         lines.append(f"  |b| RMS {r.get('mag_norm_rms_nT', float('nan')):.1f} nT"
                      + (f"; against the poses: vector RMS {r['mag_vec_rms_nT']:.1f} nT" if "mag_vec_rms_nT" in r
                         else ""))
@@ -588,7 +599,10 @@ def build_single(ds: RawDataset, cal: Calibration, info: dict) -> FitReport:
     if kind == "acc":
         rep.residuals = {"acc_norm_rms_mg": 1e3 * _rms(nv - w["gravity_g"])}
     else:
-        rep.residuals = {"mag_norm_rms_nT": _rms(nv - w["field_nT"])}
+        # the field |b| was normalised to: the header's, else the raw readings' own (the calibration's scale then
+        # rests on the sensor's, not on the site's field)
+        rep.residuals = {"mag_norm_rms_nT": _rms(nv - w["field_nT"]), "field_nT": float(w["field_nT"]),
+                         "field_from": w.get("field_from", "")}
     if info["mode"] == "poses":
         from . import single
 

@@ -189,6 +189,8 @@ def _cmd_attitude(args) -> int:
               f"--at-temperature changes nothing", file=sys.stderr)
     cols = list(engines.COLS_BY_TRIADS[triads])
     notes: list = []
+    kept = {c: [] for c in ("gt_g", "bt_nT", "dip_deg") if c in cols}  # a sample for the check after correcting
+    step = max(1, len(ds) // 200_000)
     with safeio.output_file(args.output, [args.input, args.cal]) as f, \
             progress.bar(len(ds), f"attitude {args.input}", unit=" rows") as bar:
         w = csv.writer(f)
@@ -203,9 +205,18 @@ def _cmd_attitude(args) -> int:
             text = {c: (out[c].astype(np.int64).astype(str) if c == "flags"
                         else np.char.mod("%.6f", np.asarray(out[c], dtype=float))) for c in cols}
             w.writerows(zip(*(text[c] for c in cols)))
+            for c in kept:
+                kept[c].append(np.asarray(out[c], dtype=float)[(-lo) % step::step])
             bar.update(hi - lo)
     for n in notes:
         print(f"inclino: note: {n}", file=sys.stderr)
+    if args.cal:  # the identity's figures are the raw readings': the checks above looked at them
+        from inclino import checks
+
+        found = checks.corrected(ds.meta, *(np.concatenate(kept[c]) if c in kept else None
+                                            for c in ("gt_g", "bt_nT", "dip_deg")), cal=args.cal)
+        if found:
+            print(f"inclino: warning: {found.message}", file=sys.stderr)
     return 0
 
 
@@ -245,7 +256,10 @@ def add_attitude(sub):
     a = command(sub, "attitude", "attitude of every row of a raw dataset",
                 "Compute the attitude (inclination, azimuth, toolface, G total, B total, dip, flags, magnetic "
                 "toolface) of every row of a raw dataset through the firmware's C, the golden model or the "
-                "float64 reference, with a calibration or the identity, and write it as CSV.",
+                "float64 reference, with a calibration or the identity, and write it as CSV. With --cal, the corrected "
+                "readings' median |g|, |b| and dip far from the header's gravity_g (1 g), field_nT and dip_deg (|b| "
+                "from the geomagnetic range without one) are one warning on stderr: a calibration of another sensor "
+                "or a stale one; the rows are still written (exit 0).",
                 ["inclino attitude run.csv --cal cal.json -o attitude.csv",
                  "inclino attitude run.csv --engine reference -o -"])
     a.add_argument("input", action=Input, help="raw dataset CSV")
@@ -288,7 +302,7 @@ def diagnose_main(args) -> int:
     ds = dataset.read_raw(args.input, progress=True)
     if getattr(args, "static", False):
         ds.meta["static"] = "true"
-    _checked(ds, bool(getattr(args, "static", False)))
+    found = _checked(ds, bool(getattr(args, "static", False)))
     thinned = None
     if getattr(args, "cal", None):
         # the correction is row by row: only the rows the diagnosis keeps are corrected (the same rows
@@ -299,16 +313,16 @@ def diagnose_main(args) -> int:
         ds = _temperature_corrected(ds, args.cal)
     pose_free = not ds.has_pose or ds.triads != "both"
     if pose_free and not _posefree_diagnosis_available():
-        return _diagnose_invariants(ds, args)
+        return _diagnose_invariants(ds, args, found)
     try:
         with np.errstate(all="ignore"), progress.phase(f"diagnose {args.input}"):
             r = diagnose(ds, effects=args.effects, alpha=args.alpha, folds=args.folds,
-                         keep_plot_data=bool(args.plot), thinned=thinned)
+                         keep_plot_data=bool(args.plot), thinned=thinned, checks=found)
     except DataError as e:
         if pose_free and str(e).startswith("too few distinct orientations"):
             # too few orientations to test anything on the invariants (a six-face session): what each triad's
             # own fit leaves, nothing named
-            return _diagnose_invariants(ds, args)
+            return _diagnose_invariants(ds, args, found)
         raise
     except (ArithmeticError, ValueError, np.linalg.LinAlgError) as e:  # one line, never a traceback
         raise DataError(f"diagnose failed on {args.input}: {type(e).__name__}: {e}")
@@ -333,7 +347,7 @@ def _posefree_diagnosis_available() -> bool:
     return importlib.util.find_spec("inclino.diagnose.posefree") is not None
 
 
-def _diagnose_invariants(ds, args) -> int:
+def _diagnose_invariants(ds, args, found=None) -> int:
     """Data without the turntable's poses, or with one triad: the pose-based
     effect tests need both; what the invariants show is reported instead
     (each triad fitted on its own, |g|, |b| and the dip left over, each
@@ -372,9 +386,15 @@ def _diagnose_invariants(ds, args) -> int:
     # what the settings of the pose cannot tell apart: a drift over the session against errors that depend on
     # the pose (a six-face session read face after face)
     confounded = drift_pose_confounds(ds) if poses else []
+    conclusion = ("PASS: the invariants fit within their limits; no effect named" if rep.passed else
+                  "FAIL: the invariants do not fit (" + "; ".join(rep.reasons) + "); no effect named without the "
+                  "turntable's poses and both triads")
     if args.json:
+        from inclino.formats.jsonout import json_safe
+
         print(_json.dumps({"mode": "invariants", "note": note, "effects": [], "confounded": confounded,
-                           "report": rep.to_dict()}))
+                           "report": rep.to_dict(), "checks": json_safe(found.to_dict()) if found else None,
+                           "conclusion": conclusion}))
     else:
         print(f"{args.input}:")
         print(f"  {note}")
@@ -382,9 +402,7 @@ def _diagnose_invariants(ds, args) -> int:
             print(f"  cannot be told apart on these {c['settings']} settings of the pose: {c['effect']} and "
                   f"{c['with']} (correlation {c['correlation']:.2f}); to separate them: {c['separate_by']}")
         print(rep.summary(verdict=False))
-        print("conclusion: " + ("PASS: the invariants fit within their limits; no effect named" if rep.passed else
-                                "FAIL: the invariants do not fit (" + "; ".join(rep.reasons) + "); no effect "
-                                "named without the turntable's poses and both triads"))
+        print("conclusion: " + conclusion)
     return 0
 
 

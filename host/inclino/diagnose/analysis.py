@@ -64,9 +64,13 @@ MAX_ROWS = 40_000
 
 
 def diagnose(ds: RawDataset, effects=None, alpha: float = core.DEFAULT_ALPHA, folds: int = core.DEFAULT_FOLDS,
-             keep_plot_data: bool = False, thinned: str | None = None) -> Diagnosis:
+             keep_plot_data: bool = False, thinned: str | None = None, checks=None) -> Diagnosis:
     """Diagnose a raw dataset with turntable poses; raises DataError on bad
-    input.  effects: names (list or comma-separated) to test, default all."""
+    input.  effects: names (list or comma-separated) to test, default all.
+    checks: the checks before any fit (a checks.CheckReport) when the caller
+    ran them: kept in the result (`checks`), and without poses, where they
+    warned of a mirrored magnetometer, what `calibrate` says of the fit
+    (`calibrate`: posefree.calibrate_handedness)."""
     from inclino.formats.dataset import thin
 
     ds, note = thin(ds, MAX_ROWS)
@@ -88,11 +92,19 @@ def diagnose(ds: RawDataset, effects=None, alpha: float = core.DEFAULT_ALPHA, fo
                                                    f"dip against time, temperature, reading order and rig angles")
         if thinned:
             r.baseline["selection"]["notes"].append(thinned)
+        if checks is not None:
+            from .posefree import calibrate_handedness
+
+            r.checks = checks.to_dict()
+            with one_blas_thread():
+                r.calibrate = calibrate_handedness(ds, checks)
         return r
     with one_blas_thread():
         r = _diagnose(ds, effects, alpha, folds, keep_plot_data)
     if thinned:
         r.baseline.setdefault("selection", {}).setdefault("notes", []).append(thinned)
+    if checks is not None:
+        r.checks = checks.to_dict()
     return r
 
 

@@ -977,6 +977,42 @@ def _holds_view(ds, pf):
     return RawDataset(cols, dict(ds.meta))
 
 
+def calibrate_handedness(ds, found) -> dict | None:
+    """What `calibrate` says of these data's handedness after its fit, where
+    the checks before the fit (`found`, a checks.CheckReport) warned that the
+    magnetometer may be mirrored: {"level", "message"}, or None.  The pose-free
+    baseline (the fluxgate's full 3x3 started from a symmetric, positive
+    definite ellipsoid) need not fit what `calibrate` fits: on
+    micropython-fusion's MPU9150 log with its y column negated it fitted a dip
+    of +71.4 deg (the header's +66.5), the dip's residual 5.05 deg against
+    3.54 on the log as given, and the report said nothing of a mirror, while
+    `calibrate` fitted -P (the field turned through 180 deg, a dip of -70.7)
+    and refused.  So where the checks warned,
+    the calibration is fitted here as `calibrate` fits it (calib.fit, joint):
+    its refusal (a turned field against the header's dip, a reflection) is
+    level "error", its warning without a header dip (the fit may have turned
+    the field) level "warning"."""
+    from inclino.calib import _refuse_turned_field, fit
+    from inclino.errors import CalibrationError
+
+    if found is None or not (ds.has_acc and ds.has_mag):
+        return None
+    if not any(f.check == "handedness" and f.level == "warning" for f in found.findings):
+        return None
+    try:
+        with np.errstate(all="ignore"):
+            cal, _ = fit(ds, "joint", report=False, static=bool(found.declared_static))
+            turned = _refuse_turned_field(ds, cal, found)
+    except DataError as e:
+        msg = str(e)
+        for tail in ("; no calibration written",):
+            msg = msg[:-len(tail)] if msg.endswith(tail) else msg
+        return {"level": "error", "message": msg}
+    except (CalibrationError, ArithmeticError, ValueError, np.linalg.LinAlgError):
+        return None  # a fit that fails says nothing of the handedness
+    return {"level": "warning", "message": turned} if turned else None
+
+
 def calibration_refused(ds) -> str | None:
     """Why the pose-free calibration refuses these data (_undetermined), or
     None."""

@@ -7,7 +7,8 @@
                            "inc_rms_before_deg", "inc_rms_after_deg"},
                   "detail": {...}}],
      "contradicted": [...], "confounded": [...],
-     "unexplained": true|false}
+     "unexplained": true|false, "checks": {...}|null, "calibrate": {"level", "message"}|null,
+     "conclusion": "PASS: ..."|"FAIL: ..."}
 
 (docs/diagnose.md describes the baseline object's keys)."""
 from __future__ import annotations
@@ -67,11 +68,18 @@ class Diagnosis:
     contradicted: list = field(default_factory=list)
     # named (or contradicted) effects and the candidates the run cannot tell them from
     confounded: list = field(default_factory=list)
+    # the checks before any fit (checks.CheckReport.to_dict()) when the caller ran them (inclino diagnose)
+    checks: dict | None = None
+    # what `calibrate` says of the data's handedness after its fit where the checks warned of a mirrored
+    # magnetometer (posefree.calibrate_handedness): {"level": "error" (it refuses) | "warning", "message"}
+    calibrate: dict | None = None
 
     def to_dict(self) -> dict:
         return {"baseline": json_safe(self.baseline), "effects": [e.to_dict() for e in self.effects],
                 "contradicted": json_safe(self.contradicted), "confounded": json_safe(self.confounded),
-                "unexplained": bool(self.unexplained)}
+                "unexplained": bool(self.unexplained), "checks": json_safe(self.checks),
+                "calibrate": json_safe(self.calibrate),
+                "conclusion": self.conclusion().removeprefix("conclusion: ") if self.baseline else None}
 
     def to_json(self, indent=2) -> str:
         return dumps(self.to_dict(), indent=indent)
@@ -212,12 +220,15 @@ class Diagnosis:
             lines.append(f"  note: {note}")
         s = self.structure
         if self.unexplained:
-            sig = ", ".join(f"{x['channel']} vs {x['test']} (p = {x['p']:.2g}"
-                            + (f"; {x['follows']}" if x.get("follows") else "") + ")" for x in s["significant"][:4])
+            sig = ", ".join(_structure_text(x) for x in s["significant"][:4])
             lines.append(f"unexplained: YES -- structure no library effect explains: {sig}")
         else:
             lines.append(f"unexplained: no (smallest of {s['tests']} structure-test p-values {s['min_p']:.2g}, "
                          f"threshold {s['threshold']:.2g})")
+        c = self.calibrate
+        if c:
+            lines.append(("calibrate refuses these data: " if c["level"] == "error" else "calibrate: warning: ")
+                         + c["message"])
         lines.append(self.conclusion())
         return "\n".join(lines)
 
@@ -237,7 +248,8 @@ class Diagnosis:
                 f"inclination {b['inc_rms_deg']:.4f} deg"
             model = "the 12-parameter model"
         alpha = b["selection"]["alpha"]
-        if not self.effects and not self.unexplained:
+        refused = bool(self.calibrate) and self.calibrate["level"] == "error"
+        if not self.effects and not self.unexplained and not refused:
             return (f"conclusion: PASS: {model} leaves nothing to name: no effect at alpha = {alpha:g}, "
                     f"no unexplained structure (residual RMS {base})")
         parts = []
@@ -253,7 +265,21 @@ class Diagnosis:
         if self.unexplained:
             parts.append("structure no library effect explains (p = "
                          f"{self.structure['min_p']:.2g} < {self.structure['threshold']:.2g})")
-        return f"conclusion: FAIL: {model} misses " + "; ".join(parts)
+        head = ("calibrate refuses these data (a magnetometer axis mirrored in the data, or the accelerometer's "
+                "gravity sign turned)" if refused else "")
+        return "conclusion: FAIL: " + "; ".join(x for x in (head, f"{model} misses " + "; ".join(parts) if parts
+                                                           else "") if x)
+
+
+def _structure_text(x: dict) -> str:
+    """One significant structure test in words a reader new to the tests
+    follows (the JSON keeps its `channel` and `test`): a failed whiteness
+    (Ljung-Box) test is a residual that is not white noise."""
+    p = f"p = {x['p']:.2g}" + (f"; {x['follows']}" if x.get("follows") else "")
+    if x["test"] == "whiteness":
+        return (f"{x['channel']} residual not white noise (serially correlated: neighbouring rows' residuals alike; "
+                f"Ljung-Box {p})")
+    return f"{x['channel']} residual vs {x['test']} ({p})"
 
 
 def _the(variable: str) -> str:
