@@ -385,3 +385,25 @@ def test_an_lsb_a_range_step_off_is_named_with_the_lsb_to_write(tmp_path, triad,
         fixed = fixed.replace(k, v)
     clean = checks.run(importlog.import_log(str(log), sensor.from_toml(fixed))[0])
     assert not _found(clean, "units", "error") and not _found(clean, "units", "warning"), clean.lines()
+
+
+def test_a_hard_iron_offset_larger_than_the_field_changes_no_verdict_on_the_axes():
+    """A phone's magnetometer reads its hard-iron offset, ~13 times the
+    field, in every row: its raw directions barely turn, and the quadric
+    fitted as logged is ill-conditioned.  The CK log with 5.4 fields added to
+    its magnetometer gives the verdicts of the log as logged (no axis map
+    advised, the same dip within a degree); fitted as logged, an iPhone's
+    log had a rotation of the axes advised (spread 45 deg as given) that its
+    readings less a constant did not."""
+    ds = importlog.import_log(str(REAL / "ck_acc_mag/acc_mag_log.csv"),
+                              sensor.load(str(REAL / "ck_acc_mag/sensor.toml")))[0]
+    base = checks.run(ds)
+    meta = {k: v for k, v in ds.meta.items() if k != "mag_range_nT"}  # a phone's range takes its offset
+    d = dataset.RawDataset({k: v.copy() for k, v in ds.columns.items()}, meta)
+    F = float(np.median(np.linalg.norm(ds.mag, axis=1)))
+    for c, o in zip(dataset.MAG_COLS, (4.0, -3.0, 2.0)):
+        d.columns[c] = d.columns[c] + o * F
+    rep = checks.run(d)
+    axes = [f for f in rep.findings if f.check in ("axes", "handedness") and f.level in ("warning", "error")]
+    assert not axes, axes[0].message
+    assert abs(rep.noise["dip_deg"] - base.noise["dip_deg"]) < 1.0, (rep.noise, base.noise)
