@@ -407,3 +407,20 @@ def test_a_hard_iron_offset_larger_than_the_field_changes_no_verdict_on_the_axes
     axes = [f for f in rep.findings if f.check in ("axes", "handedness") and f.level in ("warning", "error")]
     assert not axes, axes[0].message
     assert abs(rep.noise["dip_deg"] - base.noise["dip_deg"]) < 1.0, (rep.noise, base.noise)
+
+
+def test_a_magnetometer_that_hardly_turned_is_not_called_a_wrong_range(rng):
+    """A drone standing in an office: its magnetometer's readings within a
+    few uT of one another, 31 uT from the origin.  A sphere fitted through
+    such a blob has the blob's size (6 uT, "0.12x the field: the range
+    looks 8x off", exit 2 before), while every reading's own |b| is the
+    field's: the units are checked on the median |b| (a warning, -38 %),
+    and the report says the sphere is not determined."""
+    n = 3000
+    c = np.array([21_000.0, 9_000.0, 21_000.0])
+    mag = c + rng.normal(scale=3_000.0, size=(n, 3))
+    cols = {"mx_nT": mag[:, 0], "my_nT": mag[:, 1], "mz_nT": mag[:, 2]}
+    ds = dataset.RawDataset(cols, {"field_nT": 50_231.5})
+    units = [f for f in checks.run(ds).findings if f.check == "units"]
+    assert units and all(f.level == "warning" for f in units), [f.message for f in units]
+    assert "not determined by their orientations" in units[0].message and "8x" not in units[0].message

@@ -359,6 +359,14 @@ def _units_acc(ds, rows, rep):
         {**fig, "looks_like": guesses}))
 
 
+def _plausible_field(b, F) -> bool:
+    """|b| within the units check's own limits: against the header's field
+    (FIELD_UNITS) or, without one, the geomagnetic range (GEOMAGNETIC_SLACK)."""
+    if F:
+        return FIELD_UNITS[0] <= b / float(F) <= FIELD_UNITS[1]
+    return GEOMAGNETIC_NT[0] / GEOMAGNETIC_SLACK <= b <= GEOMAGNETIC_NT[1] * GEOMAGNETIC_SLACK
+
+
 def _units_mag(ds, rows, rep):
     m = ds.mag[rows]
     sph = sphere(m)
@@ -366,6 +374,13 @@ def _units_mag(ds, rows, rep):
     R = sph[1] if sph is not None else med
     how = "the radius of the sphere the readings lie on" if sph is not None else "the median |b|"
     F = ds.meta.get("field_nT")
+    if sph is not None and _plausible_field(med, F) and not _plausible_field(R, F):
+        # a unit scales every reading, the median |b| with them; a sphere far from the field whose readings' own
+        # |b| is the field's is one their orientations do not determine (a drone standing in an office: readings
+        # within 5 uT of one another, a "sphere" of 6 uT through them, their |b| 31 uT; called 8x off)
+        how = (f"the median |b|; the sphere through the readings, radius {R:.4g} nT, is not determined by their "
+               f"orientations (a sensor that hardly turned)")
+        R = med
     fig = {"field_nT": R, "how": how, "median_abs_nT": med}
     if not (np.isfinite(R) and R > 0):
         rep.findings.append(Finding("units", "error", (
