@@ -208,8 +208,7 @@ def _declared_map(ds, triad="mag"):
     from inclino.formats import sensor
 
     try:
-        return sensor.Triad(kind=triad, columns=[], unit="", scale=1.0,
-                            axes=sensor._axis_map({"axes": str(text)}, triad, f"{triad}_axes")).matrix
+        return sensor.axis_matrix(text, triad, f"{triad}_axes")
     except DataError:
         return np.eye(3)
 
@@ -217,7 +216,7 @@ def _declared_map(ds, triad="mag"):
 def declared_reflection(ds, triad="mag") -> bool:
     """Whether the sensor description declared the triad's map a reflection
     (reflection = true: the header's `axes_reflection`)."""
-    return triad in str(ds.meta.get("axes_reflection", "")).replace(" ", "").split(",")
+    return _listed(ds, "axes_reflection", triad)
 
 
 def _map_to_write(ds, P):
@@ -394,7 +393,7 @@ def _units_mag(ds, rows, rep):
         if FIELD_TOL[0] <= ratio <= FIELD_TOL[1]:
             return
         hint = _range_hint(ds, "mag", ratio)
-        if FIELD_UNITS[0] <= ratio <= FIELD_UNITS[1]:
+        if _plausible_field(R, F):
             rep.findings.append(Finding("units", "warning", (
                 f"magnetometer: |b| is {R:.4g} nT ({how}), {100 * (ratio - 1):+.0f} % from the header's field_nT "
                 f"{F:g}: " + (f"{hint}, or a wrong field_nT" if hint else
@@ -406,7 +405,7 @@ def _units_mag(ds, rows, rep):
         lo, hi = GEOMAGNETIC_NT
         if lo <= R <= hi:
             return
-        if lo / GEOMAGNETIC_SLACK <= R <= hi * GEOMAGNETIC_SLACK:
+        if _plausible_field(R, None):
             rep.findings.append(Finding("units", "warning", (
                 f"magnetometer: |b| is {R:.4g} nT ({how}), outside the geomagnetic range {lo:.0f}-{hi:.0f} nT: "
                 f"steel or a magnet near the sensor, or a scale error; give # field_nT= if it is the site's "
@@ -431,7 +430,12 @@ def _units_mag(ds, rows, rep):
 def intended_reflection(ds, triad) -> bool:
     """Whether the dataset's header declares the triad's reflection
     intended (`# reflection=acc|mag`)."""
-    return triad in str(ds.meta.get("reflection", "")).replace(" ", "").split(",")
+    return _listed(ds, "reflection", triad)
+
+
+def _listed(ds, key: str, triad: str) -> bool:
+    """Whether the header's comma-separated `key` names the triad."""
+    return triad in str(ds.meta.get(key, "")).replace(" ", "").split(",")
 
 
 def _axes_and_lag(ds, rows_all, rep, ug_src=None):

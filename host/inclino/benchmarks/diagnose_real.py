@@ -222,14 +222,6 @@ SIZING_ROUNDS = 3
 TOP_SHARE_MAX = 0.75  # one pose holding more of a signature's square: the others hold less than z / 2 of it
 
 
-def calibration_refused(ds) -> str:
-    """Why the pose-free calibration refuses ds (a triad's readings on no
-    ellipsoid their orientations determine), or ""."""
-    from inclino.diagnose.posefree import calibration_refused as why
-
-    return why(ds) or ""
-
-
 def _same_holds(a, b) -> bool:
     """Whether two versions of one log's rows read as the same static holds."""
     from inclino import holds
@@ -336,7 +328,7 @@ def bench_real(seeds: int = 2, resamplings: int = 12, seed0: int = 2024, quick: 
     the ones it has in the whole section); quick: SAP6's six logs only (small: for the
     tests, not the targets' figures)."""
     from inclino.diagnose.analysis import diagnose
-    from inclino.diagnose.posefree import holds_view
+    from inclino.diagnose.posefree import calibration_refused, holds_view
     from inclino.errors import DataError
 
     t0 = time.perf_counter()

@@ -409,7 +409,7 @@ def signature_z(ds: RawDataset, key: str, w=None, folds: int = DEFAULT_FOLDS,
     that drifts a long hold's reading past the 0.5 deg turn cuts it in
     several).  For injecting effects into real readings at the benchmark's
     sizes."""
-    return diagnose_posefree(ds, folds=folds, _signature=(key, w), _holds_of=holds_of)
+    return signature_poses(ds, key, w, folds, holds_of)["z"]
 
 
 def signature_poses(ds: RawDataset, key: str, w=None, folds: int = DEFAULT_FOLDS,
@@ -424,7 +424,7 @@ def signature_poses(ds: RawDataset, key: str, w=None, folds: int = DEFAULT_FOLDS
     shot 12.5 sigma out, and beside the other 23 it was at p 0.001; the
     MPU-6050 session's z nonlinearity rests on its one long hold read with
     z down."""
-    return diagnose_posefree(ds, folds=folds, _signature=(key, w, "detail"), _holds_of=holds_of)
+    return diagnose_posefree(ds, folds=folds, _signature=(key, w), _holds_of=holds_of)
 
 
 def diagnose_posefree(ds: RawDataset, alpha: float = DEFAULT_ALPHA, folds: int = DEFAULT_FOLDS,
@@ -631,7 +631,7 @@ def diagnose_posefree(ds: RawDataset, alpha: float = DEFAULT_ALPHA, folds: int =
     if confirm:
         return _confirm(_signature[1])
     if _signature is not None and _signature != "debug":
-        key, w = _signature[:2]
+        key, w = _signature
         if key not in idx:
             raise DataError(f"{key} is not a candidate on these data")
         cols = idx[key]
@@ -653,11 +653,8 @@ def diagnose_posefree(ds: RawDataset, alpha: float = DEFAULT_ALPHA, folds: int =
                 infl = max(infl, _slow_rival(mdl, state, des, base, key, len(cols), order_t)["inflation"])
             else:
                 infl = max(infl, _shift_p(mdl, state, des, base, key, len(cols), None))
-        z = float(np.sqrt(max(z2, 0.0) / infl))
-        if len(_signature) > 2 and _signature[2] == "detail":
-            # the largest share of it one pose holds
-            return {"z": z, "top_share": float(np.max(loss, initial=0.0) / max(z2, 1e-300))}
-        return z
+        return {"z": float(np.sqrt(max(z2, 0.0) / infl)),
+                "top_share": float(np.max(loss, initial=0.0) / max(z2, 1e-300))}
     own = {kk: _own_chan(kk, chans) for kk in testable}
     kept, steps, pvals = [], [], {}
     slow_confounds = {}
@@ -940,9 +937,8 @@ def _signature_per_pose(des, base, cols, ws) -> tuple:
     nb = len(base)
     A = X[:, :, :nb].reshape(-1, nb)
     c = (X[:, :, nb:] @ np.asarray(ws, float)).ravel()
-    coef = np.linalg.lstsq(A, c, rcond=None)[0]
-    e = (c - A @ coef).reshape(n, ch)
     Ginv = np.linalg.pinv(A.T @ A)
+    e = (c - A @ (Ginv @ (A.T @ c))).reshape(n, ch)
     Xb = X[:, :, :nb]
     H = np.einsum("nip,pq,njq->nij", Xb, Ginv, Xb)
     eye = np.eye(ch)
@@ -1004,10 +1000,7 @@ def calibrate_handedness(ds, found) -> dict | None:
             cal, _ = fit(ds, "joint", report=False, static=bool(found.declared_static))
             turned = _refuse_turned_field(ds, cal, found)
     except DataError as e:
-        msg = str(e)
-        for tail in ("; no calibration written",):
-            msg = msg[:-len(tail)] if msg.endswith(tail) else msg
-        return {"level": "error", "message": msg}
+        return {"level": "error", "message": str(e).removesuffix("; no calibration written")}
     except (CalibrationError, ArithmeticError, ValueError, np.linalg.LinAlgError):
         return None  # a fit that fails says nothing of the handedness
     return {"level": "warning", "message": turned} if turned else None

@@ -163,10 +163,7 @@ class Triad:
     @property
     def matrix(self) -> np.ndarray:
         """body = matrix @ sensor (the signed permutation of the axis map)."""
-        m = np.zeros((3, 3))
-        for i, (s, j) in enumerate(self.axes):
-            m[i, j] = s
-        return m
+        return _axes_matrix(self.axes)
 
     @property
     def det(self) -> int:
@@ -312,6 +309,20 @@ _AXIS = re.compile(r"\s*([+-]?)\s*([am]?)([xyz])\s*", re.I)
 
 
 _COMPACT = re.compile(r"\s*([+-]?)\s*([xyz])\s*,?\s*([+-]?)\s*([xyz])\s*,?\s*([+-]?)\s*([xyz])\s*", re.I)
+
+
+def _axes_matrix(axes: list) -> np.ndarray:
+    m = np.zeros((3, 3))
+    for i, (s, j) in enumerate(axes):
+        m[i, j] = s
+    return m
+
+
+def axis_matrix(text: str, kind: str, what: str = "axes") -> np.ndarray:
+    """body = matrix @ sensor for an `axes` string of a description (as a
+    dataset's header records it: "x = mx, y = -my, z = -mz"); DataError when
+    it is not one."""
+    return _axes_matrix(_axis_map({"axes": str(text)}, kind, what))
 
 
 def _axis_map(spec: dict, kind: str, what: str, columns=()) -> list:
