@@ -64,6 +64,8 @@ LAG_CURVE_ROWS = 2000     # continuously moving logs: the dip invariant's lag cu
 LAG_CURVE_BLOCKS = 20     # ... cut in this many blocks for its jackknife standard error;
 LAG_CURVE_SE = 3.0        # a whole-row shift is named when the fractional lag is this many standard errors
                           # beyond half a row (and each half of the log, fitted on its own, rounds to it)
+LAG_CURVE_NEAREST_SE = 0.5  # ... or, as a warning, the nearest whole row when the curve's standard error is
+                            # below this and each half of the log lies on that side of zero
 LAG_CURVE_PARTS = 2        # ... and fitted in this many parts of the log, each with its own nuisance terms
 LAG_CURVE_MAX_RESULTANT = 0.95  # ... and both triads' directions to turn: their mean resultant length below this
 HELD_FRAC = 0.5          # a triad whose reading repeats the row before on this share of rows, ...
@@ -574,29 +576,49 @@ def _axes_and_lag(ds, rows_all, rep, ug_src=None):
                 None, {**fig, "lag_rows": kb}))
             route = None
         k = int(round(inv["lag"]))
-        # each half on its own out of step by more than half a row the same way (the whole curve gives the row:
-        # a log with a skew of its own within a row, shifted by one, puts its halves either side of a row)
-        halves_agree = k != 0 and k in lags and all(h is not None and np.sign(h) == np.sign(k) and abs(h) > 0.5
-                                                    for h in inv["halves"])
-        if route is None and halves_agree and abs(inv["lag"]) - 0.5 > LAG_CURVE_SE * inv["se"]:
-            route, kb, sb = "curve", k, lags[k]
-            how = (f"with the triads' calibration errors and a turning lever arm's acceleration fitted out, the dip "
-                   f"angle is most consistent with the "
-                   f"magnetometer's rows shifted by {inv['lag']:+.2f} +- {_se_text(inv['se'])} (each half of the log "
-                   f"on its own: {', '.join(f'{h:+.2f}' for h in inv['halves'])})")
-        elif route is None and halves_agree:
-            rep.findings.append(Finding("row-alignment", "note", (
-                f"the dip invariant's lag curve puts the magnetometer's rows {inv['lag']:+.2f} +- {_se_text(inv['se'])} "
-                f"out of step (each half of the log: {', '.join(f'{h:+.2f}' for h in inv['halves'])}), within "
-                f"{LAG_CURVE_SE:g} standard errors of half a row: a shift of {k:+d} is possible, not named (the "
-                f"log's own scatter allows a skew within a row; a session held still at each position tells)"),
-                None, {"curve_lag_rows": inv["lag"], "curve_lag_se_rows": inv["se"], "lag_rows_possible": k}))
+        # each half on its own on the side of the whole curve's nearest row (the whole curve gives the row: a
+        # log with a skew of its own within a row, shifted by one, puts its halves either side of a row) ...
+        same_side = k != 0 and k in lags and all(h is not None and np.sign(h) == np.sign(k) for h in inv["halves"])
+        # ... and beyond half a row, the whole curve many standard errors beyond it: nothing but a shift puts it
+        # there
+        beyond = same_side and all(abs(h) > 0.5 for h in inv["halves"]) and \
+            abs(inv["lag"]) - 0.5 > LAG_CURVE_SE * inv["se"]
+        halves_txt = ", ".join("too short to tell" if h is None else f"{h:+.2f}" for h in inv["halves"])
+        if beyond:
+            curve = ("curve", k, (
+                f"with the triads' calibration errors and a turning lever arm's acceleration fitted out, the dip "
+                f"angle is most consistent with the magnetometer's rows shifted by {inv['lag']:+.2f} +- "
+                f"{_se_text(inv['se'])} (each half of the log on its own: {halves_txt})"))
+        elif same_side and inv["se"] < LAG_CURVE_NEAREST_SE:
+            # the nearest whole row pairs the rows better than the rows as logged, but a log with a skew of its
+            # own of nearly half a row reads like this too: named, as a warning that says so
+            curve = ("nearest", k, (
+                f"with the triads' calibration errors and a turning lever arm's acceleration fitted out, the dip "
+                f"angle is most consistent with the magnetometer's rows shifted by {inv['lag']:+.2f} +- "
+                f"{_se_text(inv['se'])} (each half of the log on its own: {halves_txt}), nearest whole row {k:+d}; "
+                f"within {LAG_CURVE_SE:g} standard errors of half a row, so a skew of the log's own between the "
+                f"sensors' sampling is not ruled out (a lag of {k:+d} then leaves {inv['lag'] - k:+.2f} rows against "
+                f"{inv['lag']:+.2f} as logged: it pairs the rows better either way; a session held still at each "
+                f"position tells the two apart)"))
+        else:
+            curve = None
+        if route is None and curve is not None:
+            route, kb, how = curve
+            sb = lags[kb]
         elif route is None and k == 0 and abs(inv["lag"]) > max(0.25, LAG_CURVE_SE * inv["se"]):
             rep.findings.append(Finding("row-alignment", "note", (
                 f"the triads look sampled {inv['lag']:+.2f} +- {_se_text(inv['se'])} rows apart (the magnetometer's "
                 f"rows shifted by that fraction make the dip most consistent): a skew between the two "
                 f"sensors' sampling within a row, not a lost line; no whole-row lag fixes it"), None,
                 {"curve_lag_rows": inv["lag"], "curve_lag_se_rows": inv["se"]}))
+        elif route is None and same_side:
+            rep.findings.append(Finding("row-alignment", "note", (
+                f"the dip invariant's lag curve puts the magnetometer's rows {inv['lag']:+.2f} +- "
+                f"{_se_text(inv['se'])} out of step (each half of the log: {halves_txt}): a shift of {k:+d} is "
+                f"possible, not named (the curve's scatter is more than {LAG_CURVE_NEAREST_SE:g} row)"),
+                None, {"curve_lag_rows": inv["lag"], "curve_lag_se_rows": inv["se"], "lag_rows_possible": k}))
+    else:
+        curve = None
     if route in ("spread", "transitions"):
         # a second view: each half of the log on its own must find the same shift (a half too short to
         # tell is no objection)
@@ -604,18 +626,23 @@ def _axes_and_lag(ds, rows_all, rep, ug_src=None):
         halves = [_route_lag(route, ug[sl], ubp[sl]) for sl in (slice(0, h), slice(h, m))]
         fig["halves_lag_rows"] = halves
         if any(x is not None and x != kb for x in halves):
-            rep.findings.append(Finding("row-alignment", "note", (
-                f"the triads may be paired out of step ({how}), but the two halves of the log find "
-                f"{' and '.join('no shift' if x == 0 else f'{x:+d}' for x in halves if x is not None)}: not named"),
-                None, {**fig, "lag_rows": kb}))
-            route = None
+            if curve is not None and curve[1] == kb:
+                # the raw spread's halves disagree (each half's spread is skewed by the calibration errors it
+                # leaves in), but the lag curve, whose halves agree on the side, puts the pairing at that row
+                route, kb, how = curve
+            else:
+                rep.findings.append(Finding("row-alignment", "note", (
+                    f"the triads may be paired out of step ({how}), but the two halves of the log find "
+                    f"{' and '.join('no shift' if x == 0 else f'{x:+d}' for x in halves if x is not None)}: not "
+                    f"named"), None, {**fig, "lag_rows": kb}))
+                route = None
     if route is not None:
-        if inv is not None and route != "curve":
+        if inv is not None and route not in ("curve", "nearest"):
             how += f"; the lag curve puts it at {inv['lag']:+.2f} +- {_se_text(inv['se'])} rows"
-        if inv is not None and abs(inv["lag"] - kb) > 0.25 and abs(inv["lag"] - kb) > LAG_CURVE_SE * inv["se"]:
+        if inv is not None and route != "nearest" and abs(inv["lag"] - kb) > 0.25 and abs(inv["lag"] - kb) > LAG_CURVE_SE * inv["se"]:
             how += (f" (a whole-row lag leaves {inv['lag'] - kb:+.2f} rows: a skew between the sensors' sampling "
                     f"that no lag removes)")
-        level = "error" if s0 > LAG_RATIO * sb and s0 > 2.0 else "warning"
+        level = "error" if route != "nearest" and s0 > LAG_RATIO * sb and s0 > 2.0 else "warning"
         which = "behind" if kb > 0 else "ahead of"
         rep.lag_rows = kb
         lag = _lag_to_write(ds, kb)  # the declared lag plus the shift found in the data as imported
@@ -630,7 +657,7 @@ def _axes_and_lag(ds, rows_all, rep, ug_src=None):
             fix = (f"re-import with [magnetometer] lag = {lag} (the declared lag of {lag - kb} and the {kb:+d} "
                    f"found in the rows as imported)")
         rep.findings.append(Finding("row-alignment", level, (
-            f"the triads are paired out of step: {how} (its row i {'+' if kb > 0 else '-'} {abs(kb)} belongs to the "
+            f"the triads {'look' if route == 'nearest' else 'are'} paired out of step: {how} (its row i {'+' if kb > 0 else '-'} {abs(kb)} belongs to the "
             f"accelerometer's row i: "
             f"one {which} the other, as when two files are joined and a line is lost); " + fix),
             None, {**fig, "lag_rows": kb, "lag_to_write": lag, "route": route}))
