@@ -164,25 +164,21 @@ def _fix(ds, section: str, what: str) -> str:
 def _unit_dirs(v, R):
     """Readings as unit directions, after an algebraic ellipsoid fit when
     the orientations determine one (raw directions otherwise)."""
-    from inclino.calib.ellipsoid import ellipsoid_start
+    from inclino.calib.ellipsoid import ellipsoid_start, far_mean
 
     v = np.asarray(v, float)
     u = v / np.maximum(np.linalg.norm(v, axis=1, keepdims=True), 1e-300)
-    # readings whose mean lies farther from the origin than the vector they read (a hard-iron offset larger
-    # than the field: a phone's magnetometer reads ~13 times the field off) are fitted less their mean: their
-    # raw directions barely turn, and the quadric's columns far from the origin are nearly collinear.  Fitted
-    # as logged, a phone's log looked like a few orientations, its raw directions advised a wrong axis map, and
-    # the same readings less a constant advised none
-    m = v.mean(0)
-    far = len(v) > 1 and np.linalg.norm(m) > R
-    vc = v - m if far else v
+    # readings whose mean lies farther from the origin than the vector they read (a phone's hard-iron offset)
+    # are fitted less their mean (ellipsoid.far_mean): fitted as logged, a phone's log looked like a few
+    # orientations, its raw directions advised a wrong axis map, and the same readings less a constant
+    # advised none
+    vc = v - far_mean(v, R)
     uc = vc / np.maximum(np.linalg.norm(vc, axis=1, keepdims=True), 1e-300)
     distinct = len(np.unique(np.round(uc, 1), axis=0))
-    if distinct >= 20 and determined(vc):
+    if distinct >= 20 and determined(v, R):
         try:
             with np.errstate(all="ignore"):
-                M, b = ellipsoid_start(vc, R)
-            b = b + (m if far else 0.0)
+                M, b = ellipsoid_start(v, R)
             w = (v - b) @ M.T
             n = np.linalg.norm(w, axis=1)
             if np.all(np.isfinite(w)) and np.median(np.abs(n / R - 1.0)) < 0.2:

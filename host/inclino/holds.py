@@ -143,7 +143,7 @@ def find(ds) -> Holds:
             quiet &= np.all(ws <= HOLD_K * s, axis=1)
             jump[1:] |= np.any(np.abs(np.diff(v, axis=0)) > HOLD_JUMP_K * math.sqrt(2.0) * s, axis=1)
             if ref is None:
-                ref = v
+                ref = _centred(ds, t)
         # a row is still when a quiet window covers it
         cover = np.zeros(n + 1, int)
         starts = np.flatnonzero(quiet)
@@ -200,7 +200,7 @@ def _lone_stop_aside(ds, h: Holds) -> Holds:
     triads = [t for t in ("acc", "mag") if getattr(ds, f"has_{t}", False)]
     if h.count <= MIN_HOLDS or not h.step_and_hold or not triads:
         return h
-    ms = {t: means(getattr(ds, t), h.labels, h.count) for t in triads}
+    ms = {t: means(_centred(ds, t), h.labels, h.count) for t in triads}
     lev = np.max([hold_leverages(m) for m in ms.values()], axis=0)
     j = int(np.argmax(lev))
     rows = np.flatnonzero(h.labels == j)
@@ -214,6 +214,19 @@ def _lone_stop_aside(ds, h: Holds) -> Holds:
     aside = [{"rows": [int(rows[0]), int(rows[-1])], "leverage": float(lev[j])}]
     return Holds(labels=labels, count=h.count - 1, rows_held=h.rows_held - len(rows),
                  rows_moving=h.rows_moving + len(rows), noise=h.noise, set_aside=aside)
+
+
+def _centred(ds, t) -> np.ndarray:
+    """A triad's readings as the holds turn them: less their mean when it
+    lies farther from the origin than the vector they read (a phone's
+    magnetometer, ~13 fields off: its raw directions barely turn, and a
+    constant added to a hand-turned log's readings had cut its 1 142 holds
+    to 864: calib.ellipsoid.far_mean); as read otherwise."""
+    from inclino.calib.ellipsoid import far_mean
+
+    v = np.asarray(getattr(ds, t), float)
+    R = float(ds.meta.get("gravity_g") or 1.0) if t == "acc" else float(ds.meta.get("field_nT") or 50_000.0)
+    return v - far_mean(v, R)
 
 
 def declared_static(ds) -> bool:
@@ -314,7 +327,7 @@ def leverage(ds, h: Holds, triads=("acc", "mag")) -> float:
     """The largest leverage of a hold's mean reading over the present triads
     (ellipsoid_leverage): the holds determine every triad's ellipsoid when
     it is at most HOLDS_MAX_LEVERAGE."""
-    return max((ellipsoid_leverage(means(getattr(ds, t), h.labels, h.count))
+    return max((ellipsoid_leverage(means(_centred(ds, t), h.labels, h.count))
                 for t in triads if getattr(ds, f"has_{t}", False)), default=1.0)
 
 

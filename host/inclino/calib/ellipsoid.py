@@ -30,18 +30,43 @@ def _design(raw):
     return D, s
 
 
-def determined(raw) -> bool:
-    """Whether the readings' orientations determine an ellipsoid (DETERMINED_SV)."""
+def determined(raw, R=None) -> bool:
+    """Whether the readings' orientations determine an ellipsoid (DETERMINED_SV);
+    with R, readings farther from the origin than R less their mean (far_mean)."""
     if len(raw) < 10:
         return False
+    if R is not None:
+        raw = np.asarray(raw, float) - far_mean(raw, R)
     D, s = _design(raw)
     sv = np.linalg.svd(D / s, compute_uv=False)
     return bool(sv[0] > 0 and sv[-2] / sv[0] >= DETERMINED_SV)
 
 
+def far_mean(raw, R):
+    """The readings' mean when it lies farther from the origin than the
+    vector they read (R), else 0: a hard-iron offset larger than the field
+    (a phone's magnetometer reads ~13 times the field off).  Far from the
+    origin the quadric's columns are nearly collinear and its raw
+    directions barely turn, so such readings are fitted less this mean
+    (the same ellipsoid, in coordinates where its columns are not): fitted
+    as logged, a hand-turned log with 13 fields of offset read as "too few
+    orientations".  Readings within R of the origin are fitted as logged
+    (an accelerometer's offsets never come near 1 g)."""
+    raw = np.asarray(raw, float)
+    m = raw.mean(0) if len(raw) else np.zeros(3)
+    return m if len(raw) > 1 and np.linalg.norm(m) > R else np.zeros(3)
+
+
 def ellipsoid_start(raw, R, what: str = "the triad"):
     """Algebraic general ellipsoid fit: (M symmetric, b) with |M (raw - b)| ~ R.
-    DataError naming `what` when the readings determine no ellipsoid."""
+    DataError naming `what` when the readings determine no ellipsoid.
+    Readings whose mean is farther from the origin than R are fitted less
+    that mean (far_mean), b given back in the readings' coordinates."""
+    raw = np.asarray(raw, float)
+    m = far_mean(raw, R)
+    if np.any(m):
+        M, b = ellipsoid_start(raw - m, R, what)
+        return M, b + m
     D, s = _design(raw)
     _, sv, Vt = np.linalg.svd(D / s, full_matrices=False)
     if len(raw) < 10 or not sv[-2] / sv[0] >= DETERMINED_SV:
