@@ -60,6 +60,11 @@ MIN_SPREAD_DEG = 1.0      # a dip spread below this is consistent whatever the s
 LAG_T = 3.0               # step-and-hold logs: the paired mean-deviation gain of a shift must be this many
                           # standard errors (of blocks of rows) to be named ...
 LAG_T_GAIN = 1.5          # ... and cut the mean deviation by this factor
+LAG_JUMP_K = 6.0          # a log read at a few positions: a row is brought back (or put out) by a shift when its
+LAG_JUMP_DEG = 1.0        # dip deviation changes by this many times the row-to-row noise and degrees ...
+LAG_JUMP_WINDOW = 31      # ... from the running median of this many rows' dips (a hold's, through a turn) ...
+LAG_JUMP_MIN_ROWS = 3     # ... a shift named when it brings back this many rows ...
+LAG_JUMP_RATIO = 10       # ... and puts out at most a tenth as many
 LAG_CURVE_ROWS = 2000     # continuously moving logs: the dip invariant's lag curve needs this many rows ...
 LAG_CURVE_BLOCKS = 20     # ... cut in this many blocks for its jackknife standard error;
 LAG_CURVE_SE = 3.0        # a whole-row shift is named when the fractional lag is this many standard errors
@@ -551,6 +556,17 @@ def _axes_and_lag(ds, rows_all, rep, ug_src=None):
             route, kb, sb = "transitions", kt, lags[kt]
             how = (f"the dip angle's mean deviation is {gain:.3g} times larger as paired than with the "
                    f"magnetometer's rows shifted by {kt:+d} (the rows where the position changes are mispaired)")
+        else:
+            # a few positions (a six-face session with both triads): too few changes for the blocks' t, but
+            # each change a shift mispairs reads a dip far off, and the right shift pairs every one of them
+            # again without mispairing any other row
+            kj, fixed, made = _lag_jumps(ug, ubp)
+            fig.update({"jump_lag_rows": kj, "jump_rows_fixed": fixed, "jump_rows_made": made})
+            if kj != 0 and fixed >= LAG_JUMP_MIN_ROWS and made * LAG_JUMP_RATIO <= fixed:
+                route, kb, sb = "jumps", kj, lags[kj]
+                how = (f"{fixed} rows where the position changes read a dip far off as paired and in line with "
+                       f"the magnetometer's rows shifted by {kj:+d}" + (f" ({made} the other way)" if made else
+                                                                         " (none the other way)"))
     # a continuously moving log: neighbouring rows are close orientations, so a shift of a row or two
     # changes the dip's spread by a few % only; the lag curve of the invariant, with the triads'
     # calibration errors and a turning lever arm's acceleration fitted out, locates the pairing to a fraction
@@ -560,7 +576,7 @@ def _axes_and_lag(ds, rows_all, rep, ug_src=None):
         rep.lag_curve = {"lag_rows": inv["lag"], "se_rows": inv["se"], "halves_rows": inv["halves"]}
         fig.update({"curve_lag_rows": inv["lag"], "curve_lag_se_rows": inv["se"],
                     "curve_lag_halves_rows": inv["halves"]})
-        if route in ("spread", "transitions") and round(inv["lag"]) != kb:
+        if route in ("spread", "transitions", "jumps") and round(inv["lag"]) != kb:
             # a continuously moving log: the dip's raw spread (the triads' calibration errors left in) is itself
             # skewed along the shift (on the clean CK log its least value sits 1 to 2 rows off in stretches of
             # 4 000 rows), so a shift it finds is named only where the calibrated curve puts the pairing too
@@ -615,7 +631,7 @@ def _axes_and_lag(ds, rows_all, rep, ug_src=None):
                 None, {"curve_lag_rows": inv["lag"], "curve_lag_se_rows": inv["se"], "lag_rows_possible": k}))
     else:
         curve = None
-    if route in ("spread", "transitions"):
+    if route in ("spread", "transitions", "jumps"):
         # a second view: each half of the log on its own must find the same shift (a half too short to
         # tell is no objection)
         h = m // 2
@@ -785,6 +801,9 @@ def _route_lag(route, ug, ub):
     if route == "spread":
         lags = _spread_by_lag(ug, ub)
         return min(lags, key=lambda k: lags[k]) if 0 in lags and len(lags) == 2 * MAX_LAG + 1 else None
+    if route == "jumps":
+        k, fixed, made = _lag_jumps(ug, ub)
+        return k if fixed >= LAG_JUMP_MIN_ROWS and made * LAG_JUMP_RATIO <= fixed else None
     if len(ug) < max(80, 4 * MAX_LAG + 40):  # _lag_transitions: 8 blocks of 10 rows
         return None
     return _lag_transitions(ug, ub)[0]
@@ -817,6 +836,42 @@ def _lag_transitions(ug, ub):
     se = float(np.std(bm, ddof=1) / math.sqrt(nb))
     t = float(np.mean(bm) / se) if se > 0 else float("inf")
     return kb, mean[0] / mean[kb], t
+
+
+def _lag_jumps(ug, ub):
+    """(best shift, rows it pairs again, rows it mispairs) for a log read at
+    a few positions: for each shift, the rows whose dip deviation (from the
+    running median of LAG_JUMP_WINDOW rows, as paired at that shift: the
+    dip of the position they are read at, whatever error the triads'
+    uncalibrated directions leave in it) is smaller by more than LAG_JUMP_K
+    times the row-to-row noise (and LAG_JUMP_DEG) than as logged, and the
+    rows where it is larger by that much.  A shift of the rows at which the
+    position changes leaves each of those rows far off; the right shift
+    brings each one back and puts no other row out (a wrong shift puts
+    twice as many out).  The best shift has most rows brought back less
+    rows put out; (0, 0, 0) when no shift brings any back."""
+    m = len(ug)
+    K = MAX_LAG
+    w = LAG_JUMP_WINDOW
+    if m < 2 * K + 2 * w:
+        return 0, 0, 0
+    i = np.arange(K, m - K)
+    dev, noise = {}, []
+    for k in range(-K, K + 1):
+        d = _dip(ug[i], ub[i + k])
+        med = np.median(np.lib.stride_tricks.sliding_window_view(np.pad(d, w // 2, mode="edge"), w), axis=1)
+        dev[k] = np.abs(d - med)
+        noise.append(_robust_std(np.diff(d)) / math.sqrt(2.0))
+    big = max(LAG_JUMP_K * min(noise), LAG_JUMP_DEG)
+    best = (0, 0, 0)
+    for k in range(-K, K + 1):
+        if k == 0:
+            continue
+        fixed = int(np.sum(dev[0] - dev[k] > big))
+        made = int(np.sum(dev[k] - dev[0] > big))
+        if fixed - made > best[1] - best[2]:
+            best = (k, fixed, made)
+    return best
 
 
 def _savgol_rows(v, n, order=3):
