@@ -184,7 +184,7 @@ def find(ds) -> Holds:
     return h if declared_static(ds) else _lone_stop_aside(ds, h)
 
 
-def _lone_stop_aside(ds, h: Holds) -> Holds:
+def _lone_stop_aside(ds, h: Holds, moving: bool = False) -> Holds:
     """h, or h with one short hold moved to the rows read while moving: a
     hold of at most LONE_HOLD_MAX_ROWS rows whose leverage alone keeps the
     holds from determining the model, when the others determine it without
@@ -196,9 +196,11 @@ def _lone_stop_aside(ds, h: Holds) -> Holds:
     row of such a log was a pose, and which mode a log was read in hung on
     whether those ten rows passed the stillness test: a scale nonlinearity
     of 0.05 /g on z made them nine, and the holds then determined the
-    model.  Not for a run declared static (its every station is one)."""
+    model.  Not for a run declared static (its every station is one).
+    moving: for a log read mostly while moving too (moving_holds), whose
+    holds are fewer than half its rows."""
     triads = [t for t in ("acc", "mag") if getattr(ds, f"has_{t}", False)]
-    if h.count <= MIN_HOLDS or not h.step_and_hold or not triads:
+    if h.count <= MIN_HOLDS or not (h.step_and_hold or moving) or not triads:
         return h
     ms = {t: means(_centred(ds, t), h.labels, h.count) for t in triads}
     lev = np.max([hold_leverages(m) for m in ms.values()], axis=0)
@@ -351,6 +353,26 @@ def correlated(ds, triads=("acc", "mag")):
     its orientation's error: the fit's covariance counts each hold once."""
     h = _found(ds)
     return None if h is None else (h.labels, h.count)
+
+
+def moving_holds(ds, triads=("acc", "mag")):
+    """The holds of a log without poses read mostly while moving (not
+    step-and-hold: its holds hold fewer than STEP_AND_HOLD_FRACTION of the
+    rows), when they alone determine each present triad's ellipsoid (at
+    least MIN_HOLDS, leverage at most HOLDS_MAX_LEVERAGE once a lone stop is
+    set aside): (hold of each row, -1 moving; hold count); else None.
+    Whether the moving rows are to be left out is the caller's to judge (a
+    slow turn's rows fit as well as a hold's; a hand's acceleration does
+    not: calib.motion)."""
+    if labelled(ds) or declared_static(ds):
+        return None
+    h = find(ds)
+    if h.step_and_hold:
+        return None
+    h = _lone_stop_aside(ds, h, moving=True)
+    if h.count < MIN_HOLDS or leverage(ds, h, triads) > HOLDS_MAX_LEVERAGE:
+        return None
+    return h.labels, h.count
 
 
 def _found(ds) -> Holds | None:

@@ -578,13 +578,29 @@ def _fit_invariants(ds, w, sa, sm, fix_dip, prior=None, mount_tolerance_deg=None
     # a step-and-hold log whose holds determine both ellipsoids: the holds are fitted, the rows read while
     # turning between them left out (their acceleration is the motion's), each hold counted once in the
     # covariance (calib.single does the same for one triad)
+    from . import motion
+
     hs = holds.determining(ds)
+    moved = None
+    if hs is None:
+        # a log read mostly while moving whose holds determine both ellipsoids and whose moving rows carry the
+        # hand's acceleration (calib.motion): the holds alone, as for a step-and-hold log
+        mh = motion.holds_fit(ds, ("acc", "mag"), w["gravity_g"], sa)
+        if mh is not None:
+            hs, moved = mh[:2], mh[2]
     fitted = np.arange(len(ds)) if hs is None else np.flatnonzero(hs[0] >= 0)
     dsf = ds if hs is None else common.subset(ds, fitted)
     # holds that do not determine the ellipsoids: every row fitted, but each hold's rows share its error
     hl = hs[0] if hs is not None else (holds.correlated(ds) or (None,))[0]
-    (Ma, ba, Mm, bm, dip), cov, st = pose_free.fit(dsf, w, sa, sm, fix_dip, mag_start=mag_start,
-                                                   labels=None if hl is None else hl[fitted])
+    try:
+        (Ma, ba, Mm, bm, dip), cov, st = pose_free.fit(dsf, w, sa, sm, fix_dip, mag_start=mag_start,
+                                                       labels=None if hl is None else hl[fitted])
+    except (DataError, CalibrationError) as e:
+        # the accelerometer's ellipsoid of a log read mostly while moving, though its orientations span the sphere
+        cause = motion.named(ds) if hs is None and "accelerometer" in str(e) else None
+        if cause is None:
+            raise
+        raise type(e)(cause) from e
     if fix_dip:
         cov = cov[:24, :24]
     keep = st["keep_acc"] & st["keep_mag"]
@@ -603,6 +619,10 @@ def _fit_invariants(ds, w, sa, sm, fix_dip, prior=None, mount_tolerance_deg=None
     if hs is not None:
         info["moving"] = np.flatnonzero(hs[0] < 0).tolist()
         info["holds"] = hs[1]
+    if moved is not None:
+        info["moving_log"] = moved
+    else:
+        info["motion"] = motion.figures(ds)  # a log read mostly while moving, fitted on every row (or None)
     if hl is not None:
         # each triad's block scaled by how much more the holds' means scatter than the rows' independence
         # claims: the hold-level ellipsoid fit's covariance against the row-level one, on the same rows
@@ -741,8 +761,11 @@ def fit(ds: RawDataset, use_poses: bool | None = None, sigma_acc: float = SIGMA_
     if info.get("moving") is not None:
         mv = len(info["moving"])
         hs_ = info["hold_scale"]
-        info["notes"].append(f"holds: a step-and-hold log: {info['holds']} static holds found in the readings were "
-                             f"fitted" + (f", the {mv} rows read while moving between them left out" if mv else "")
+        from .motion import note
+
+        info["notes"].append((note(info["moving_log"], mv) if info.get("moving_log") else
+                              f"holds: a step-and-hold log: {info['holds']} static holds found in the readings were "
+                              f"fitted" + (f", the {mv} rows read while moving between them left out" if mv else ""))
                              + f"; the covariance counts each hold once (x{hs_['acc']:.3g} accelerometer"
                              + (f", x{hs_['mag']:.3g} magnetometer on the rows' own)" if hs_["mag"] is not None else
                                 f" on the rows' own; the magnetometer's and the dip's from the holds' shared errors "

@@ -481,6 +481,10 @@ def _verdict(rep: FitReport, info: dict) -> None:
     over(r.get("inc_rms_deg"), "inc_rms_deg", "inclination residual RMS (deg)")
     over(r.get("azi_rms_deg"), "azi_rms_deg", "azimuth residual RMS (deg)")
     over(r.get("acc_norm_rms_mg"), "acc_norm_rms_mg", "|g| residual RMS (mg)")
+    if reasons and reasons[-1].startswith("|g| residual RMS"):
+        from .motion import verdict_cause
+
+        reasons[-1] += verdict_cause(info.get("motion"))
     over(r.get("mag_norm_rms_nT"), "mag_norm_rms_nT", "|b| residual RMS (nT)")
     over(r.get("dip_std_deg"), "dip_std_deg", "dip spread (deg)")
     u = rep.uncertainty
@@ -591,7 +595,11 @@ def build_single(ds: RawDataset, cal: Calibration, info: dict) -> FitReport:
     rep = FitReport(method="joint", mode=info["mode"], rows=len(ds), rows_used=int(len(rows)),
                     outliers=list(info.get("outliers", [])), segments=list(info.get("segments", [])),
                     notes=[], triads=kind)
-    if info.get("holds"):
+    if info.get("moving_log"):
+        from .motion import note
+
+        rep.notes.append(note(info["moving_log"], info.get("moving_rows", 0)))
+    elif info.get("holds"):
         mv = info.get("moving_rows", 0)
         rep.notes.append(f"holds: a step-and-hold log: {info['holds']} static holds found in the readings were "
                          f"fitted" + (f", the {mv} rows read while moving between them left out" if mv else ""))
@@ -671,7 +679,10 @@ def build_single(ds: RawDataset, cal: Calibration, info: dict) -> FitReport:
     reasons = []
     r = rep.residuals
     if kind == "acc" and r["acc_norm_rms_mg"] > t["acc_norm_rms_mg"]:
-        reasons.append(f"|g| residual RMS (mg) {r['acc_norm_rms_mg']:.4g} exceeds {t['acc_norm_rms_mg']:g}")
+        from .motion import verdict_cause
+
+        reasons.append(f"|g| residual RMS (mg) {r['acc_norm_rms_mg']:.4g} exceeds {t['acc_norm_rms_mg']:g}"
+                       + verdict_cause(info.get("motion")))
     if kind == "mag" and r["mag_norm_rms_nT"] > t["mag_norm_rms_nT"]:
         reasons.append(f"|b| residual RMS (nT) {r['mag_norm_rms_nT']:.4g} exceeds {t['mag_norm_rms_nT']:g}")
     if r.get("inc_rms_deg") is not None and r["inc_rms_deg"] > t["inc_rms_deg"]:

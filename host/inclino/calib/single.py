@@ -23,7 +23,7 @@ import numpy as np
 
 from inclino.engines import reference as ref
 from inclino.formats.calfile import Calibration
-from inclino.errors import DataError
+from inclino.errors import CalibrationError, DataError
 
 from . import triad
 from .joint import SIGMA_ACC, SIGMA_MAG
@@ -111,13 +111,28 @@ def fit(ds, use_poses=None, sigma_acc=None, sigma_mag=None, **_):
         R = w["gravity_g"] if kind == "acc" else w["field_nT"]
         from inclino import holds
 
+        from . import motion
+
+        what = "the accelerometer" if kind == "acc" else "the magnetometer"
         hs = holds.determining(ds, (kind,))
+        moved = None
+        if hs is None and kind == "acc":
+            # a log read mostly while moving whose holds determine the ellipsoid and whose moving rows carry the
+            # hand's acceleration (calib.motion): the holds alone, as for a step-and-hold log
+            mh = motion.holds_fit(ds, (kind,), R, sigma)
+            if mh is not None:
+                hs, moved = mh[:2], mh[2]
         if hs is not None:
             moving = hs[0] < 0
         # a step-and-hold log: the holds are fitted, the rows read while turning between them left out (their
         # acceleration is the motion's, not the sensor's)
-        M, b, cov, info = triad.fit_sphere(raw[~moving], R, sigma, min_rows=MIN_ROWS_SPHERE,
-                                        what="the accelerometer" if kind == "acc" else "the magnetometer")
+        try:
+            M, b, cov, info = triad.fit_sphere(raw[~moving], R, sigma, min_rows=MIN_ROWS_SPHERE, what=what)
+        except (DataError, CalibrationError) as e:
+            cause = motion.named(ds, what) if kind == "acc" and hs is None else None
+            if cause is None:
+                raise
+            raise type(e)(cause) from e
         keep = np.zeros(len(raw), bool)
         keep[~moving] = info["keep"]
         info["keep"] = keep
@@ -125,6 +140,10 @@ def fit(ds, use_poses=None, sigma_acc=None, sigma_mag=None, **_):
         if hs is not None:
             info["moving_rows"] = int(moving.sum())
             info["holds"] = hs[1]
+        if moved is not None:
+            info["moving_log"] = moved
+        elif kind == "acc":
+            info["motion"] = motion.figures(ds)  # a log read mostly while moving, fitted on every row (or None)
         # the rows of one hold share its orientation's error, whether or not the holds alone are fitted
         hl = hs if hs is not None else holds.correlated(ds, (kind,))
         hold_cov = triad.hold_covariance(raw, hl[0], keep, R, sigma) if hl is not None else None
