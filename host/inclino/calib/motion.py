@@ -30,7 +30,8 @@ cover too little of the sphere") of a sensor turned through all of them
   its figures and the fix; None otherwise (the orientations' own reason
   stands).
 * `verdict_cause(figures)`: the same cause, for a |g| residual that fails
-  the verdict of a calibration written.
+  the verdict of a calibration written; `cause(figures)`, for the |g|
+  residual's structure that `inclino diagnose` finds.
 """
 from __future__ import annotations
 
@@ -151,3 +152,10 @@ def verdict_cause(f: dict | None) -> str:
     """The cause to name beside a failing |g| residual of a log read mostly
     while moving ('' for none)."""
     return "" if f is None else f" (the motion: {_text(f)}; {FIX})"
+
+
+def cause(f: dict) -> str:
+    """The motion as the cause of structure in the |g| residual (inclino
+    diagnose without poses)."""
+    return (f"the sensor moved while it was read: {_text(f)}: the hand's acceleration, which no sensor effect "
+            f"models; {FIX}")

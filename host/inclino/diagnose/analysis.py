@@ -92,6 +92,9 @@ def diagnose(ds: RawDataset, effects=None, alpha: float = core.DEFAULT_ALPHA, fo
                                                    f"dip against time, temperature, reading order and rig angles")
         if thinned:
             r.baseline["selection"]["notes"].append(thinned)
+        from inclino.calib.motion import figures
+
+        r.motion = figures(ds)
         if checks is not None:
             from .posefree import calibrate_handedness
 

@@ -7,7 +7,7 @@
                            "inc_rms_before_deg", "inc_rms_after_deg"},
                   "detail": {...}}],
      "contradicted": [...], "confounded": [...],
-     "unexplained": true|false, "checks": {...}|null, "calibrate": {"level", "message"}|null,
+     "unexplained": true|false, "checks": {...}|null, "calibrate": {"level", "message"}|null, "motion": {...}|null,
      "conclusion": "PASS: ..."|"FAIL: ..."}
 
 (docs/diagnose.md describes the baseline object's keys)."""
@@ -73,12 +73,14 @@ class Diagnosis:
     # what `calibrate` says of the data's handedness after its fit where the checks warned of a mirrored
     # magnetometer (posefree.calibrate_handedness): {"level": "error" (it refuses) | "warning", "message"}
     calibrate: dict | None = None
+    # without poses, a log read mostly while moving (calib.motion.figures): the hand's acceleration is in |g|
+    motion: dict | None = None
 
     def to_dict(self) -> dict:
         return {"baseline": json_safe(self.baseline), "effects": [e.to_dict() for e in self.effects],
                 "contradicted": json_safe(self.contradicted), "confounded": json_safe(self.confounded),
                 "unexplained": bool(self.unexplained), "checks": json_safe(self.checks),
-                "calibrate": json_safe(self.calibrate),
+                "calibrate": json_safe(self.calibrate), "motion": json_safe(self.motion),
                 "conclusion": self.conclusion().removeprefix("conclusion: ") if self.baseline else None}
 
     def to_json(self, indent=2) -> str:
@@ -222,6 +224,10 @@ class Diagnosis:
         if self.unexplained:
             sig = ", ".join(_structure_text(x) for x in s["significant"][:4])
             lines.append(f"unexplained: YES -- structure no library effect explains: {sig}")
+            if self._moved():
+                from inclino.calib.motion import cause
+
+                lines.append(f"  in |g| likely: {cause(self.motion)}")
         else:
             lines.append(f"unexplained: no (smallest of {s['tests']} structure-test p-values {s['min_p']:.2g}, "
                          f"threshold {s['threshold']:.2g})")
@@ -231,6 +237,11 @@ class Diagnosis:
                          + c["message"])
         lines.append(self.conclusion())
         return "\n".join(lines)
+
+    def _moved(self) -> bool:
+        """A log read mostly while moving whose |g| residual is among the
+        structure no effect explains (the hand's acceleration is in it)."""
+        return bool(self.motion) and any(x.get("channel") == "|g|" for x in self.structure.get("significant", []))
 
     def conclusion(self) -> str:
         """The report's last line: PASS when the baseline model leaves nothing
@@ -264,7 +275,9 @@ class Diagnosis:
             parts.append(f"{e.name} ({e.sensor} {e.axis}, p = {e.p_value:.2g}; {fig})")
         if self.unexplained:
             parts.append("structure no library effect explains (p = "
-                         f"{self.structure['min_p']:.2g} < {self.structure['threshold']:.2g})")
+                         f"{self.structure['min_p']:.2g} < {self.structure['threshold']:.2g})"
+                         + ("; in |g| likely the hand's acceleration: the sensor moved while it was read"
+                            if self._moved() else ""))
         head = ("calibrate refuses these data (a magnetometer axis mirrored in the data, or the accelerometer's "
                 "gravity sign turned)" if refused else "")
         return "conclusion: FAIL: " + "; ".join(x for x in (head, f"{model} misses " + "; ".join(parts) if parts
