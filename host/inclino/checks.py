@@ -1365,9 +1365,11 @@ def one_orientation(ds) -> dict | None:
 
 def undetermined(fig: dict, rows: int) -> str:
     """The one line that says one orientation determines no model, and what
-    to record instead (calibrate and diagnose refuse with it, exit 2)."""
+    to record instead (diagnose refuses with it, exit 2; calibrate as a singular
+    fit, exit 3)."""
     spread = ", ".join(f"{'accelerometer' if k == 'acc' else 'magnetometer'} {v:.2g} deg" for k, v in fig.items())
-    return (f"every row reads one orientation ({rows} rows within {spread} of their median direction): the data do "
+    return (f"every row reads one orientation ({rows} rows within {spread} of their median direction: the sensor "
+            f"held still, or turned only about the vector it reads): the data do "
             f"not determine the model (a triad's scale, offsets and axes show only as the sensor turns); record the "
             f"sensor held still at 12 or more orientations spread over the sphere (six faces and the diagonals "
             f"between), or turned slowly through all of it; a log at one orientation gives the noise and drift there")
