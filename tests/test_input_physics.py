@@ -150,8 +150,6 @@ def _counter(tmp_path):
 @pytest.mark.parametrize("what, make, needle", [
     ("an accelerometer column", lambda p: _with_temp(p, lambda i, r: r[2]),
      "the sensor column ax_g up to a scale and an offset"),
-    ("the time column", lambda p: _with_temp(p, lambda i, r: r[1], 250), "the time t_s up to a scale and an offset"),
-    ("a row counter", _counter, "steps by exactly 1 every row"),
 ])
 def test_a_temperature_that_is_no_temperature_is_refused(tmp_path, capsys, what, make, needle):
     log, desc = make(tmp_path)
@@ -245,3 +243,22 @@ def test_the_corpus_as_published_raises_none_of_these(log, desc):
     assert rep.one_orientation is None
     if "t_s" in ds.columns and rep.time["turn"]:  # the rates the hands turned the logs at
         assert 1.0 <= rep.time["turn_deg_s"] <= 5000.0
+
+
+@pytest.mark.parametrize("what, make, needle", [
+    ("the time column", lambda p: _with_temp(p, lambda i, r: r[1], 250), "the time t_s up to a scale and an offset"),
+    ("a row counter", _counter, "steps by exactly 1 every row"),
+])
+def test_a_temperature_exactly_linear_in_time_or_rows_is_a_note_and_used(tmp_path, capsys, what, make, needle):
+    """A chamber ramp simulated as temp_c = a + b t (or sampled at a constant
+    rate, so that it steps by the same amount every row) reads exactly like
+    a clock mapped as the temperature: the data cannot tell them apart, so
+    the import says so and keeps the column (refusing it would refuse every
+    simulated oven run)."""
+    log, desc = make(tmp_path)
+    run = tmp_path / "run.csv"
+    assert main(["import", str(log), "--sensor", str(desc), "-o", str(run)]) == 0, what
+    out = capsys.readouterr().out
+    assert "temp_c rises exactly linearly" in out and needle in out and "it is used as the temperature" in out
+    ds, _ = importlog.import_log(str(log), sensor.load(str(desc)))
+    assert checks.not_a_temperature(ds) is None and checks.temperature_ramp(ds) is not None

@@ -19,7 +19,7 @@ that cannot be right are errors (the commands exit 2 before any fit):
   sign turned;
 * time unit -- the sensor turning faster than 10^5 deg/s by the declared
   time unit (a warning within what a rig or a spin could do);
-* temperature -- an imported log's temp_c equal to another column, or a counter.
+* temperature -- an imported log's temp_c equal to a pose or sensor column (refused); exactly linear in time (a note).
 
 Suspicious data are warnings (the fit runs; the warning is in its report):
 a scale or field off by more than a sensor plausibly is, the magnetometer's
@@ -1274,12 +1274,19 @@ def _time_unit(ds, rep):
 
 
 def not_a_temperature(ds) -> tuple | None:
-    """Why a temp_c column cannot be a temperature, or None: it equals
-    another column (the time, a pose angle, a sensor axis) up to a scale and
-    an offset within TEMP_EXACT of its range on every row, or it steps by
-    exactly the same amount every row (a row counter, a clock).  A sensor's
-    thermometer does neither: it drifts slowly, with its own quantisation and
-    noise.  (reason, figures)."""
+    """Why a temp_c column cannot be a temperature, or None: it equals a
+    pose angle or a sensor axis up to a scale and an offset within
+    TEMP_EXACT of its range on every row (the description maps [log]
+    temperature to the wrong column).  A temperature exactly linear in the
+    time, or stepping by exactly the same amount every row, is not refused
+    (temperature_ramp: a simulated chamber ramp reads so).  (reason,
+    figures)."""
+    names = {"inc_deg": "the pose's inc_deg", "azi_deg": "the pose's azi_deg", "tf_deg": "the pose's tf_deg",
+             **{c: f"the sensor column {c}" for c in ("ax_g", "ay_g", "az_g", "mx_nT", "my_nT", "mz_nT")}}
+    return _temp_equals(ds, names)
+
+
+def _temp_equals(ds, names: dict):
     T = ds.columns.get("temp_c")
     if T is None or len(T) < 3:
         return None
@@ -1287,9 +1294,6 @@ def not_a_temperature(ds) -> tuple | None:
     span = float(np.ptp(T))
     if not span > 0.0:
         return None
-    names = {"t_s": "the time t_s", "inc_deg": "the pose's inc_deg", "azi_deg": "the pose's azi_deg",
-             "tf_deg": "the pose's tf_deg", **{c: f"the sensor column {c}" for c in
-                                                ("ax_g", "ay_g", "az_g", "mx_nT", "my_nT", "mz_nT")}}
     for c, text in names.items():
         x = ds.columns.get(c)
         if x is None:
@@ -1302,11 +1306,27 @@ def not_a_temperature(ds) -> tuple | None:
         if float(np.max(np.abs(T - A @ coef))) <= TEMP_EXACT * span:
             return (f"it is {text} up to a scale and an offset on every row (temp_c = {coef[0]:.6g} x {c} "
                     f"{coef[1]:+.6g})"), {"equals": c}
-    if len(T) >= 10:
-        d = np.diff(T)
-        if np.ptp(d) <= TEMP_EXACT * span and d[0] != 0.0:
-            return (f"it steps by exactly {d[0]:g} every row, {T[0]:g} to {T[-1]:g} (a row counter or a "
-                    f"clock)"), {"step": float(d[0])}
+    return None
+
+
+def temperature_ramp(ds) -> tuple | None:
+    """A temp_c exactly linear in the time t_s, or stepping by exactly the
+    same amount every row: a simulated ramp, or a clock or a row counter
+    mapped as the temperature (the data cannot tell which: a note, the
+    column is used).  (reason, figures) or None."""
+    T = ds.columns.get("temp_c")
+    if T is None or len(T) < 10:
+        return None
+    T = np.asarray(T, float)
+    span = float(np.ptp(T))
+    if not span > 0.0:
+        return None
+    same = _temp_equals(ds, {"t_s": "the time t_s"})
+    if same is not None:
+        return same
+    d = np.diff(T)
+    if np.ptp(d) <= TEMP_EXACT * span and d[0] != 0.0:
+        return (f"it steps by exactly {d[0]:g} every row, {T[0]:g} to {T[-1]:g}"), {"step": float(d[0])}
     return None
 
 
@@ -1332,6 +1352,12 @@ def _temperature(ds, rep):
         return
     bad = not_a_temperature(ds)
     if bad is None:
+        ramp = temperature_ramp(ds)
+        if ramp is not None:
+            rep.findings.append(Finding("temperature", "note", (
+                f"temp_c rises exactly linearly: {ramp[0]}: a simulated ramp, or a clock or a row counter mapped "
+                f"as the temperature ({'the [log] temperature column' if _imported(ds) else 'temp_c'}); it is "
+                f"used as the temperature"), None, ramp[1]))
         return
     why, fig = bad
     if _imported(ds):

@@ -374,7 +374,7 @@ def _fit(ds, cal, info, mode, sigma_acc, sigma_mag, sigma_pose_deg, fix_dip, see
         raise DataError("temp_c holds non-finite values")
     from inclino.checks import not_a_temperature
 
-    bad = not_a_temperature(ds)  # a counter, the time, a sensor axis: no temperature terms from it
+    bad = not_a_temperature(ds)  # a pose angle or a sensor axis: no temperature terms from it
     if bad is not None:
         why = f"temp_c does not look like a temperature: {bad[0]}"
         if mode == "on":

@@ -80,7 +80,7 @@ def diagnose(ds: RawDataset, effects=None, alpha: float = core.DEFAULT_ALPHA, fo
     ds, note = thin(ds, MAX_ROWS)
     thinned = note or thinned  # `thinned`: the note of a run the caller thinned already (thin(ds, MAX_ROWS))
     bad = pre.not_a_temperature(ds)
-    if bad is not None:  # a counter, the time, a sensor axis: no temperature effect is tested against it
+    if bad is not None:  # a pose angle or a sensor axis: no temperature effect is tested against it
         import dataclasses
 
         ds = dataclasses.replace(ds, columns={k: v for k, v in ds.columns.items() if k != "temp_c"})
