@@ -16,14 +16,20 @@ that cannot be right are errors (the commands exit 2 before any fit):
 * row alignment -- the triads paired out of step: the dip angle (or a
   triad's fit to the poses) is far more consistent with the rows shifted;
 * dip sign -- the dip opposite to the header's: the accelerometer's gravity
-  sign turned.
+  sign turned;
+* time unit -- the sensor turning faster than 10^5 deg/s by the declared
+  time unit (a warning within what a rig or a spin could do);
+* temperature -- an imported log's temp_c equal to a pose or sensor column (refused); exactly linear in time (a note).
 
 Suspicious data are warnings (the fit runs; the warning is in its report):
 a scale or field off by more than a sensor plausibly is, the magnetometer's
 axes rotated against the accelerometer's, a smaller shift, readings at the
 declared range (saturated: left out of the fit), a run declared static
-whose readings move.  Notes: whether the run is static or moving (from the
-readings' own spread, not from a time column), the noise of each triad.
+whose readings move, a time column whose unit puts the rows or the turning
+outside what loggers and hands do (the unit they look like named).  Notes: whether the run is static or moving (from the
+readings' own spread, not from a time column), the noise of each triad,
+every row one orientation (calibrate and diagnose refuse it: undetermined),
+a constant temperature, a canonical dataset's temp_c that is no temperature.
 
 The thresholds are physical (docs/dataset.md, "Checks before any fit"):
 GRAVITY_TOL, GEOMAGNETIC_NT, FIELD_TOL, DIP_* below.
@@ -90,6 +96,24 @@ CHECK_ROWS = 200_000      # rows looked at (stratified random rows beyond: _thin
 LAG_ROWS = 50_000
 HOLDS_MOVING_NOTE = 0.01   # a still log's rows read while moving between holds: a note from this share on
 
+# the time column (the unit it was declared in): what a logger and a turning sensor do
+ROW_RATE_HZ = (1.0 / 600.0, 1e5)     # rows/s outside it: a warning (a row every 10 min on a moving log; a logger
+                                     # writing a row per sample faster than 100 kHz)
+TURN_RATE_DEG_S = (1.0, 5000.0)      # the median rate a hand or a rig turns the sensor at, between its moving rows;
+                                     # outside it (rows turning by TURN_MIN_DEG_ROW or more): a warning
+TURN_RATE_MAX_DEG_S = 1e5            # beyond it (about 280 turns a second) it cannot be right: an error
+TURN_MIN_DEG_ROW = 1.0               # the too-slow side needs the moving rows to turn by this much a row
+TURN_NOISE_K = 8.0                   # a pair of rows moves when its readings differ by this many times the noise ...
+TURN_MAX_CHORD_DEG = 30.0            # ... and turn by less than this (a rate, not the angle between two holds)
+TURN_MIN_PAIRS = 20                  # ... in at least this many pairs (and 2 % of them) at the shortest lag
+TYPICAL_ROW_RATE_HZ = (0.5, 20000.0) # a unit named for the rows makes their rate this ...
+TYPICAL_TURN_DEG_S = (2.0, 2000.0)   # ... and the turning this
+TIME_FACTORS = (1e-3, 1e3, 1e-6, 1e6, 1e-9, 1e9, 60.0, 1.0 / 60.0, 3600.0, 1.0 / 3600.0)  # units tried (x the
+                                     # declared one), in this order: a prefix (ms for s) is the usual slip
+# the temperature column
+TEMP_EXACT = 1e-6                    # a column equal to another up to scale and offset within this share of its range
+ONE_ORIENTATION_DEG = 5.0            # every triad's rows within this of their median direction (95 %): one orientation
+
 ACC_UNIT_GUESS = {"m/s^2": 9.80665, "mg": 1000.0, "cm/s^2 (Gal)": 980.665, "ft/s^2": 32.174, "ug": 1e6,
                   **{f"counts at {2 ** k} per g": float(2 ** k) for k in range(8, 16)}}
 MAG_UNIT_GUESS = {"uT": 1e-3, "gauss": 1e-5, "mG": 1e-2, "tesla": 1e-9, "counts of 0.15 uT": 1 / 150.0,
@@ -121,6 +145,8 @@ class CheckReport:
     noise: dict = field(default_factory=dict)   # per triad, RMS of one reading (g, nT), from the data
     saturated: list = field(default_factory=list)  # row indices at the declared range
     lag_curve: dict | None = None        # the dip invariant's fractional lag (rows), its standard error, halves
+    time: dict | None = None             # rows/s and turning rate by the declared time unit, the unit they look like
+    one_orientation: dict | None = None  # every row one orientation held: each triad's spread (deg) (one_orientation())
 
     @property
     def errors(self):
@@ -143,6 +169,7 @@ class CheckReport:
         return {"rows": self.rows, "triads": self.triads, "static": self.static,
                 "declared_static": self.declared_static, "lag_rows": self.lag_rows,
                 "mag_to_acc": self.mag_to_acc, "lag_curve": self.lag_curve, "noise": self.noise, "saturated_rows": len(self.saturated),
+                "time": self.time, "one_orientation": self.one_orientation,
                 "findings": [f.to_dict() for f in self.findings]}
 
 
@@ -1186,6 +1213,281 @@ def _saturation(ds, rep):
     rep.saturated = np.flatnonzero(bad).tolist()
 
 
+def _turning(ds, t, rep):
+    """How fast the sensor turns between its moving rows, by the time column
+    t (s): at the shortest lag L (1, 2, 4 ... 256 rows) where at least
+    TURN_MIN_PAIRS pairs of rows (and 2 %) differ by TURN_NOISE_K times the
+    triad's noise (the declared noise, else NOISE_BOUND) and by less than
+    TURN_MAX_CHORD_DEG, the median of their angle over their time apart.
+    The angle is the readings' difference over the vector's size (1 g, the
+    field): offsets cancel in a difference.  The accelerometer when there is
+    one (a magnetometer alone otherwise).  None on a log that does not turn."""
+    tri = "acc" if ds.has_acc else "mag"
+    unit = "g" if tri == "acc" else "nT"
+    v = getattr(ds, tri)
+    R = _vector_size(ds, tri)
+    bound = rep.noise.get(f"{tri}_bound_{unit}") or NOISE_BOUND[tri]
+    n = len(v)
+    L = 1
+    while L <= 256 and n > L + TURN_MIN_PAIRS:
+        d = np.linalg.norm(v[L:] - v[:-L], axis=1) / R  # radians (chord of the unit sphere)
+        dt = t[L:] - t[:-L]
+        mov = (d > TURN_NOISE_K * bound / R) & (d < np.radians(TURN_MAX_CHORD_DEG)) & (dt > 0)
+        if mov.sum() >= TURN_MIN_PAIRS and mov.mean() >= 0.02:
+            ang = np.degrees(d[mov])
+            return {"triad": tri, "lag_rows": L, "pairs": int(mov.sum()),
+                    "deg_per_row": float(np.median(ang)) / L, "deg_per_s": float(np.median(ang / dt[mov]))}
+        L *= 2
+    return None
+
+
+def _vector_size(ds, tri) -> float:
+    """The size of the vector a triad reads: gravity (1 g, the header's
+    gravity_g), the header's field_nT, else the readings' median |b| capped
+    at the largest geomagnetic field (a hard-iron offset larger than the
+    field, a phone's, would make every turn look small)."""
+    if tri == "acc":
+        return float(ds.meta.get("gravity_g") or 1.0)
+    F = ds.meta.get("field_nT")
+    if F:
+        return float(F)
+    b = float(np.median(np.linalg.norm(ds.mag, axis=1)))
+    return min(b, GEOMAGNETIC_NT[1]) if np.isfinite(b) and b > 0 else 50_000.0
+
+
+def _time_unit_text(ds, f: float):
+    """What to write for a time column read f times the declared unit: the
+    description's [log] time_unit or rate_hz, or None (no unit recorded)."""
+    from inclino.formats import sensor
+
+    meta = ds.meta
+    if meta.get("rate_hz") and _imported(ds):
+        return f"[log] rate_hz = {float(meta['rate_hz']) / f:.6g}", f"{float(meta['rate_hz']) / f:.6g} Hz"
+    declared = meta.get("time_unit") if _imported(ds) else "s"
+    if not declared or declared == "date-time":
+        return None
+    try:
+        scale = sensor.time_scale(declared) * f
+    except DataError:
+        return None
+    names = [k for k, x in sensor.TIME_UNITS.items() if k != "µs" and abs(x / scale - 1.0) < 1e-9]
+    name = names[0] if names else f"1/{1.0 / scale:.6g} s"
+    return f'[log] time_unit = "{name}" (declared "{declared}")', name
+
+
+def _time_unit(ds, rep):
+    """The time column's unit against the physics of the rows it dates: the
+    row rate it implies (ROW_RATE_HZ: no logger writes a row per sample
+    faster than 100 kHz; a row every 10 min is no log of a moving sensor)
+    and the rate the sensor turns at between its moving rows
+    (TURN_RATE_DEG_S: a hand or a rig turns a sensor at 1-5000 deg/s, not
+    10^5 or 0.01 deg/s while the rows turn by degrees).  A time column in
+    ms declared as s (or s as ms) is off 1000x in both.  The finding names
+    the unit (TIME_FACTORS x the declared one) that brings both within
+    what loggers and hands do (TYPICAL_*), and what to write.  A warning; an
+    error beyond TURN_RATE_MAX_DEG_S.  The slow side only on an imported log
+    not declared static: the rows of a turntable run (each a position read at
+    rest, minutes apart) turn by degrees a row at any rate; the project's own
+    runs write t_s in seconds from their clock."""
+    t = ds.columns.get("t_s")
+    if t is None or len(ds) < 10:
+        return
+    t = np.asarray(t, float)
+    dt = np.diff(t)
+    pos = dt[dt > 0]
+    if len(pos) < 5:
+        return
+    rows_hz = 1.0 / float(np.median(pos))
+    static = rep.declared_static or declared_static(ds)
+    turn = None if static else _turning(ds, t, rep)
+    w = turn["deg_per_s"] if turn else None
+    fig = {"rows_per_s": rows_hz, "turn_deg_s": w, "turn": turn}
+    rep.time = fig
+    problem = None
+    if w is not None and w > TURN_RATE_DEG_S[1]:
+        problem, sign = (f"the readings turn at a median {w:.3g} deg/s between their moving rows "
+                         f"({turn['deg_per_row']:.2g} deg a row, {rows_hz:.3g} rows/s): faster than a hand or a rig "
+                         f"turns a sensor ({TURN_RATE_DEG_S[0]:g}-{TURN_RATE_DEG_S[1]:g} deg/s)"), 1
+    elif w is not None and w < TURN_RATE_DEG_S[0] and turn["deg_per_row"] >= TURN_MIN_DEG_ROW and _imported(ds):
+        problem, sign = (f"the readings turn by {turn['deg_per_row']:.2g} deg a row but at a median {w:.3g} deg/s "
+                         f"({rows_hz:.3g} rows/s, a row every {1.0 / rows_hz:.3g} s): slower than a hand or a rig "
+                         f"turns a sensor ({TURN_RATE_DEG_S[0]:g}-{TURN_RATE_DEG_S[1]:g} deg/s) while its rows change "
+                         f"by degrees (a log of one row a position, each read at rest: declare it static)"), -1
+    elif rows_hz > ROW_RATE_HZ[1]:
+        problem, sign = (f"{rows_hz:.3g} rows/s (a row every {1e6 / rows_hz:.3g} us): faster than a logger writes "
+                         f"a row per sample (up to {ROW_RATE_HZ[1]:.0f} rows/s)"), 1
+    elif rows_hz < ROW_RATE_HZ[0] and turn is not None and _imported(ds):
+        problem, sign = (f"a row every {1.0 / rows_hz:.3g} s on a log whose readings turn between rows: slower than "
+                         f"a logger of a moving sensor writes"), -1
+    if problem is None:
+        return
+    guess = None
+    for f in TIME_FACTORS:
+        if (f > 1) != (sign > 0):
+            continue
+        ok = TYPICAL_ROW_RATE_HZ[0] <= rows_hz / f <= TYPICAL_ROW_RATE_HZ[1]
+        if w is not None:
+            ok = ok and TYPICAL_TURN_DEG_S[0] <= w / f <= TYPICAL_TURN_DEG_S[1]
+        if ok:
+            guess = f
+            break
+    level = "error" if w is not None and w > TURN_RATE_MAX_DEG_S else "warning"
+    what = "declared rate_hz" if ds.meta.get("rate_hz") and _imported(ds) else "time column's unit"
+    msg = f"the {what} does not fit the rows: {problem}"
+    if guess is not None:
+        fig["factor"] = guess
+        fix = _time_unit_text(ds, guess)
+        read = (f"read {guess:g}x slower: " if guess > 1 else f"read {1 / guess:g}x faster: ") if fix is None else \
+            f"read as {fix[1]}: "
+        msg += (f"; {read}{rows_hz / guess:.3g} rows/s" + (f", {w / guess:.3g} deg/s" if w is not None else ""))
+        msg += ("; " + (f"fix {fix[0]} in the sensor description and import again" if fix and _imported(ds) else
+                        f"t_s must be in seconds: {_fix(ds, 'log', 'the time unit')}")
+                + " (the drift over the session, the rates and any lag in seconds use it)")
+        if fix is not None:
+            fig["looks_like"] = fix[1]
+    else:
+        msg += ("; check the time unit ([log] time_unit, or rate_hz): the drift over the session, the rates and any "
+                "lag in seconds use it")
+    rep.findings.append(Finding("time", level, msg, None, fig))
+
+
+def not_a_temperature(ds) -> tuple | None:
+    """Why a temp_c column cannot be a temperature, or None: it equals a
+    pose angle or a sensor axis up to a scale and an offset within
+    TEMP_EXACT of its range on every row (the description maps [log]
+    temperature to the wrong column).  A temperature exactly linear in the
+    time, or stepping by exactly the same amount every row, is not refused
+    (temperature_ramp: a simulated chamber ramp reads so).  (reason,
+    figures)."""
+    names = {"inc_deg": "the pose's inc_deg", "azi_deg": "the pose's azi_deg", "tf_deg": "the pose's tf_deg",
+             **{c: f"the sensor column {c}" for c in ("ax_g", "ay_g", "az_g", "mx_nT", "my_nT", "mz_nT")}}
+    return _temp_equals(ds, names)
+
+
+def _temp_equals(ds, names: dict):
+    T = ds.columns.get("temp_c")
+    if T is None or len(T) < 3:
+        return None
+    T = np.asarray(T, float)
+    span = float(np.ptp(T))
+    if not span > 0.0:
+        return None
+    for c, text in names.items():
+        x = ds.columns.get(c)
+        if x is None:
+            continue
+        x = np.asarray(x, float)
+        if not np.ptp(x) > 0.0:
+            continue
+        A = np.column_stack([x, np.ones_like(x)])
+        coef = np.linalg.lstsq(A, T, rcond=None)[0]
+        if float(np.max(np.abs(T - A @ coef))) <= TEMP_EXACT * span:
+            return (f"it is {text} up to a scale and an offset on every row (temp_c = {coef[0]:.6g} x {c} "
+                    f"{coef[1]:+.6g})"), {"equals": c}
+    return None
+
+
+def temperature_ramp(ds) -> tuple | None:
+    """A temp_c exactly linear in the time t_s, or stepping by exactly the
+    same amount every row: a simulated ramp, or a clock or a row counter
+    mapped as the temperature (the data cannot tell which: a note, the
+    column is used).  (reason, figures) or None."""
+    T = ds.columns.get("temp_c")
+    if T is None or len(T) < 10:
+        return None
+    T = np.asarray(T, float)
+    span = float(np.ptp(T))
+    if not span > 0.0:
+        return None
+    same = _temp_equals(ds, {"t_s": "the time t_s"})
+    if same is not None:
+        return same
+    d = np.diff(T)
+    if np.ptp(d) <= TEMP_EXACT * span and d[0] != 0.0:
+        return (f"it steps by exactly {d[0]:g} every row, {T[0]:g} to {T[-1]:g}"), {"step": float(d[0])}
+    return None
+
+
+def _temperature(ds, rep):
+    """A temp_c column that determines nothing or cannot be a temperature:
+    one value on every row (a note: no temperature terms can be fitted from
+    it; calibrate's own note says it fitted none), or not_a_temperature: an
+    error for an imported log (the description maps [log] temperature to the
+    wrong column: nothing is written), a note for a canonical dataset, whose
+    temp_c `calibrate` and `diagnose` then leave out (calib.thermal,
+    diagnose.analysis)."""
+    T = ds.columns.get("temp_c")
+    if T is None or len(T) < 3:
+        return
+    T = np.asarray(T, float)
+    col = "the [log] temperature column" if _imported(ds) else "temp_c"
+    if float(np.ptp(T)) == 0.0:
+        rep.findings.append(Finding("temperature", "note", (
+            f"temp_c is {T[0]:g} degC on every row: a temperature that never changes determines no temperature "
+            f"terms (calibrate fits none: they need the run to span at least 10 degC, a chamber run) and diagnose "
+            f"tests no temperature effect; if the log's temperature changes, {col} is not it"),
+            None, {"temp_c": float(T[0])}))
+        return
+    bad = not_a_temperature(ds)
+    if bad is None:
+        ramp = temperature_ramp(ds)
+        if ramp is not None:
+            rep.findings.append(Finding("temperature", "note", (
+                f"temp_c rises exactly linearly: {ramp[0]}: a simulated ramp, or a clock or a row counter mapped "
+                f"as the temperature ({'the [log] temperature column' if _imported(ds) else 'temp_c'}); it is "
+                f"used as the temperature"), None, ramp[1]))
+        return
+    why, fig = bad
+    if _imported(ds):
+        rep.findings.append(Finding("temperature", "error", (
+            f"temp_c does not look like a temperature: {why}; "
+            f"{_fix(ds, 'log', 'the temperature column (or leave it out)')}"), None, fig))
+    else:
+        rep.findings.append(Finding("temperature", "note", (
+            f"temp_c does not look like a temperature: {why}; calibrate and diagnose leave it out"), None, fig))
+
+
+def one_orientation(ds) -> dict | None:
+    """Whether every row reads one orientation (the sensor held still): the
+    readings of each triad within ONE_ORIENTATION_DEG of their median (95 %
+    of the rows; the difference of two readings over the vector's size is
+    the angle turned, whatever the offsets).  {triad: spread (deg)} or None."""
+    if len(ds) < 2:
+        return None
+    out = {}
+    for tri in ("acc", "mag"):
+        if not getattr(ds, f"has_{tri}"):
+            continue
+        v = np.asarray(getattr(ds, tri), float)
+        d = np.linalg.norm(v - np.median(v, axis=0), axis=1) / _vector_size(ds, tri)
+        spread = float(np.degrees(np.percentile(d, 95)))
+        if not np.isfinite(spread) or spread >= ONE_ORIENTATION_DEG:
+            return None
+        out[tri] = spread
+    return out or None
+
+
+def undetermined(fig: dict, rows: int) -> str:
+    """The one line that says one orientation determines no model, and what
+    to record instead (diagnose refuses with it, exit 2; calibrate as a singular
+    fit, exit 3)."""
+    spread = ", ".join(f"{'accelerometer' if k == 'acc' else 'magnetometer'} {v:.2g} deg" for k, v in fig.items())
+    return (f"every row reads one orientation ({rows} rows within {spread} of their median direction: the sensor "
+            f"held still, or turned only about the vector it reads): the data do "
+            f"not determine the model (a triad's scale, offsets and axes show only as the sensor turns); record the "
+            f"sensor held still at 12 or more orientations spread over the sphere (six faces and the diagonals "
+            f"between), or turned slowly through all of it; a log at one orientation gives the noise and drift there")
+
+
+def _orientations(ds, rep):
+    """Every row one orientation: a note here (a log of the noise at rest is
+    a log worth importing); calibrate and diagnose refuse it (undetermined)."""
+    fig = one_orientation(ds)
+    rep.one_orientation = fig
+    if fig:
+        rep.findings.append(Finding("orientations", "note", undetermined(fig, len(ds)), None, dict(fig)))
+
+
 def corrected(meta: dict, gt=None, bt=None, dip=None, cal: str = "the calibration") -> Finding | None:
     """After a calibration is applied (`attitude --cal`): the corrected
     readings' median |g| against the header's gravity_g (1 g), their median
@@ -1259,4 +1561,7 @@ def run(ds, declared_static: bool = False) -> CheckReport:
                 _axes_and_lag(ds, rows, rep, ug_src=C[:, :, 2])
         _motion(ds, rep)
         _saturation(ds, rep)
+        _time_unit(ds, rep)
+        _temperature(ds, rep)
+        _orientations(ds, rep)
     return rep

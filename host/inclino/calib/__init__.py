@@ -64,6 +64,8 @@ def fit(ds, method: str = DEFAULT_METHOD, data_hash: dict | None = None, report:
 
         found = checks.run(ds, declared_static=static)
         found.raise_errors()
+        if found.one_orientation:  # one orientation held: no triad's scale, offsets or axes show (exit 3)
+            raise CalibrationError("singular fit refused: " + checks.undetermined(found.one_orientation, len(ds)))
         if found.saturated:  # readings at the declared range are not readings of the field
             keep = np.setdiff1d(np.arange(len(ds)), found.saturated)
             ds = common.subset(ds, keep)

@@ -44,6 +44,7 @@ from inclino.formats import caltemp
 from . import chunked_lm, common
 
 MODES = ("auto", "on", "off")
+NOT_FITTED = "temperature terms not fitted"  # how a note that they were not fitted begins (calibrate prints it)
 MIN_SPAN_C = 10.0
 MIN_CLUSTER_SEP_C = 5.0
 MIN_CLUSTER_ROWS = 6
@@ -371,6 +372,15 @@ def _fit(ds, cal, info, mode, sigma_acc, sigma_mag, sigma_pose_deg, fix_dip, see
     T_all = np.asarray(ds.columns["temp_c"], float)
     if not np.all(np.isfinite(T_all)):
         raise DataError("temp_c holds non-finite values")
+    from inclino.checks import not_a_temperature
+
+    bad = not_a_temperature(ds)  # a pose angle or a sensor axis: no temperature terms from it
+    if bad is not None:
+        why = f"temp_c does not look like a temperature: {bad[0]}"
+        if mode == "on":
+            raise CalibrationError(f"joint --temperature-terms on: {why}")
+        info["notes"].append(f"{NOT_FITTED} ({why})")
+        return cal, info
     # every row: joint's outlier rejection saw the temperature effects as outliers
     rows = np.arange(len(ds))
     max_order, why = determined(T_all[rows])

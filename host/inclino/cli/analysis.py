@@ -6,14 +6,16 @@ renamed into place, so a failure leaves no partial file) and prints the fit
 report (text, or one JSON object with --json).  Exit status:
 0 the fit passed its checks; 1 written, but the report's verdict is FAIL
 (the reasons are printed); 2 bad input (DataError); 3 calibration refused
-(CalibrationError: singular, out of the firmware's range).
+(CalibrationError: singular, out of the firmware's range; every row one
+orientation: the data do not determine the model).
 
 `inclino diagnose DATA.csv [--json] [--plot DIR] [--cal CAL.json]` and
 `--paper li2021|ren2014`.  Exit status: 0 the diagnosis ran (whatever it found); 2 bad input
 (DataError: unreadable file, no pose columns, too few poses, poses that
 cannot separate the effects asked about, a temperature that never changes
 when a temperature effect is asked about, a --cal without temperature
-terms).  Errors are one line, never a
+terms, every row one orientation: the data do not determine the model).
+Errors are one line, never a
 traceback.
 """
 from __future__ import annotations
@@ -35,6 +37,7 @@ def calibrate_main(args) -> int:
     from inclino import progress
 
     from inclino.calib import common, fit
+    from inclino.calib.thermal import NOT_FITTED as thermal_note
 
     safeio.check_output(args.output, [args.input, getattr(args, "prior", None)])  # before any work
     if getattr(args, "bootstrap", None) is not None and not 2 <= args.bootstrap <= MAX_BOOTSTRAP:
@@ -90,7 +93,7 @@ def calibrate_main(args) -> int:
 
             print(summary(cal.temperature))
         for note in rep.notes:
-            if note.startswith(dataset.THIN_NOTE):
+            if note.startswith((dataset.THIN_NOTE, thermal_note)):
                 print(f"  note: {note}")
         print(rep.conclusion())
     return 0 if rep.passed else 1

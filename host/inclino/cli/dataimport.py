@@ -4,7 +4,9 @@ checked before anything is fitted (inclino.checks).
 
 Exit status: 0 written (warnings, if any, printed); 2 bad input: an
 unreadable log or description, a column that is not there, data that cannot
-be right (wrong units, an unintended reflection): nothing is written then.
+be right (wrong units, an unintended reflection, a time unit by which the
+sensor turns faster than 10^5 deg/s, a temperature column that is another
+column or a counter): nothing is written then.
 """
 from __future__ import annotations
 

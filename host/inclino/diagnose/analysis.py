@@ -71,10 +71,21 @@ def diagnose(ds: RawDataset, effects=None, alpha: float = core.DEFAULT_ALPHA, fo
     ran them: kept in the result (`checks`), and without poses, where they
     warned of a mirrored magnetometer, what `calibrate` says of the fit
     (`calibrate`: posefree.calibrate_handedness)."""
+    from inclino import checks as pre
     from inclino.formats.dataset import thin
 
+    held = checks.one_orientation if checks is not None else pre.one_orientation(ds)
+    if held:  # one orientation held: the data determine no model, whatever the structure of its residuals
+        raise DataError(pre.undetermined(held, len(ds)))
     ds, note = thin(ds, MAX_ROWS)
     thinned = note or thinned  # `thinned`: the note of a run the caller thinned already (thin(ds, MAX_ROWS))
+    bad = pre.not_a_temperature(ds)
+    if bad is not None:  # a pose angle or a sensor axis: no temperature effect is tested against it
+        import dataclasses
+
+        ds = dataclasses.replace(ds, columns={k: v for k, v in ds.columns.items() if k != "temp_c"})
+        left_out = f"temp_c left out: it does not look like a temperature: {bad[0]}"
+        thinned = f"{thinned}; {left_out}" if thinned else left_out  # a note, as the thinning's
     if not ds.has_pose or not (ds.has_acc and ds.has_mag):
         # without the turntable's poses (or with one triad): what the invariants show (posefree.py)
         if effects is not None:

@@ -379,6 +379,8 @@ def _import(lines, path: str, desc: SensorDescription, static, drop_bad=False) -
             v = float(v)
         meta[k] = v
     meta.update(desc.header_meta())
+    if clock[0]:
+        meta["time_unit"] = "date-time"  # seconds from the first row's date-time: no unit to declare
     if static is not None:
         meta["static"] = "true" if static else "false"
     meta["source"] = path

@@ -249,7 +249,19 @@ class SensorDescription:
             m["samples_averaged"] = self.samples_averaged
         if self.rate_hz is not None:
             m["rate_hz"] = self.rate_hz
+        if self.time is not None:
+            m["time_unit"] = self.time_unit  # the checks name the unit the rows look like against it
         return m
+
+
+def time_scale(text: str, what: str = "[log].time_unit") -> float:
+    """Seconds per unit of a time column: a unit of TIME_UNITS ("ms") or a
+    sample period ("1/102.4 s": the column counts samples of 1/102.4 s)."""
+    tu = str(text).strip()
+    tk = _unit_key(tu, TIME_UNITS)
+    if tk is not None:
+        return TIME_UNITS[tk]
+    return _quantity(tu, TIME_UNITS, "s", what, None)
 
 
 def _quantity(value, units: dict, canon: str, what: str, logged_scale: float | None, lsb: float | None = None):
@@ -543,11 +555,7 @@ def from_dict(d: dict, what: str = "sensor description") -> SensorDescription:
     s.skip_rows = sk
     s.time = log.get("time")
     tu = str(log.get("time_unit", "s")).strip()
-    tk = _unit_key(tu, TIME_UNITS)
-    if tk is not None:
-        s.time_scale = TIME_UNITS[tk]
-    else:  # "1/102.4 s": the time column counts samples of 1/102.4 s
-        s.time_scale = _quantity(tu, TIME_UNITS, "s", f"{what}[log].time_unit", None)
+    s.time_scale = time_scale(tu, f"{what}[log].time_unit")
     s.time_unit = tu
     rate = log.get("rate_hz")
     if rate is not None:

@@ -1,0 +1,264 @@
+"""The checks before any fit read what a log's own physics says of its time
+column, its temperature column and its orientations (inclino.checks:
+_time_unit, _temperature, _orientations; docs/dataset.md, "Checks before any
+fit").  The logs are the real corpus (tests/data/real) with one thing
+changed: the time column rewritten in another unit, a temperature column
+that is constant, a counter or another column, the rows of one hold."""
+import csv
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from inclino import checks
+from inclino.cli import main
+from inclino.formats import dataset, importlog, sensor
+
+REAL = Path(__file__).parent / "data" / "real"
+BROAD = REAL / "broad" / "05.csv"
+FUSION = REAL / "micropython_fusion"
+MPU = REAL / "mpu6050_tedaldi"
+
+
+def _one_error(err: str, needle: str) -> None:
+    assert err.count("\n") == 1 and err.startswith("inclino: error: "), err
+    assert "Traceback" not in err and needle in err, err
+
+
+def _rewrite(src: Path, dst: Path, column: str, fn, extra=None, rows=None, skip=0) -> None:
+    """The log at src with `column` rewritten by fn (and a column `extra` =
+    (name, fn(row index, row)) added), its first `rows` data rows only; the
+    column names on the first line after `skip` lines not a comment."""
+    lines = list(csv.reader(src.open(newline="")))
+    h = next(i for i, r in enumerate(lines) if i >= skip and r and not r[0].startswith("#"))
+    j = lines[h].index(column) if column else None
+    with dst.open("w", newline="") as f:
+        w = csv.writer(f)
+        for i, r in enumerate(lines[:h + 1 + (rows if rows else len(lines))]):
+            if i == h and extra:
+                r = r + [extra[0]]
+            elif i > h:
+                if j is not None:
+                    r = r[:j] + [fn(r[j])] + r[j + 1:]
+                if extra:
+                    r = r + [extra[1](i - h - 1, r)]
+            w.writerow(r)
+
+
+def _desc(tmp_path, src: Path, old: str, new: str, name="d.toml") -> Path:
+    text = src.read_text()
+    assert old in text
+    p = tmp_path / name
+    p.write_text(text.replace(old, new, 1))
+    return p
+
+
+def _found(log, desc):
+    ds, _ = importlog.import_log(str(log), sensor.load(str(desc)))
+    return ds, checks.run(ds)
+
+
+def _time(rep):
+    return [f for f in rep.findings if f.check == "time"]
+
+
+# ------------------------------------------------------------------ (a) the time unit
+def test_time_in_ms_declared_as_s_is_named_with_the_fix(tmp_path, capsys):
+    # BROAD's trial 05 turned by hand at 14.3 rows/s: its t_s written in ms, the description still says s
+    log = tmp_path / "05_ms.csv"
+    _rewrite(BROAD, log, "t_s", lambda v: repr(round(float(v) * 1000.0, 3)))
+    desc = REAL / "broad" / "with_acc.toml"
+    ds, rep = _found(log, desc)
+    (f,) = _time(rep)
+    assert f.level == "warning" and f.figures["looks_like"] == "ms"
+    assert 0.05 < f.figures["turn_deg_s"] < 0.2 and 10 < f.figures["rows_per_s"] * 1000 < 20
+    assert 'time_unit = "ms" (declared "s")' in f.message
+    assert main(["import", str(log), "--sensor", str(desc), "-o", str(tmp_path / "run.csv")]) == 0
+    out = capsys.readouterr().out
+    assert 'warning: the time column\'s unit does not fit the rows' in out and 'time_unit = "ms"' in out
+    # the fix named imports it clean
+    fixed = _desc(tmp_path, desc, 'time_unit = "s"', 'time_unit = "ms"', "fixed.toml")
+    assert not _time(_found(log, fixed)[1])
+
+
+def test_time_in_s_declared_as_ms_is_named(tmp_path):
+    desc = _desc(tmp_path, REAL / "broad" / "with_acc.toml", 'time_unit = "s"', 'time_unit = "ms"')
+    (f,) = _time(_found(BROAD, desc)[1])
+    assert f.level == "warning" and f.figures["looks_like"] == "s"
+    assert f.figures["turn_deg_s"] > 5000 and 'time_unit = "s" (declared "ms")' in f.message
+
+
+def test_time_in_us_declared_as_ms_is_named(tmp_path):
+    desc = _desc(tmp_path, FUSION / "sensor.toml", 'time_unit = "us"', 'time_unit = "ms"')
+    (f,) = _time(_found(FUSION / "mpudata.csv", desc)[1])
+    assert f.level == "warning" and f.figures["looks_like"] == "us"
+
+
+def test_a_turn_no_hand_makes_is_refused_with_the_rate_to_write(tmp_path, capsys):
+    # the MPU-6050's step-and-hold session (100 Hz) declared at 100 kHz: its hand turns it at 4.7e5 deg/s
+    desc = _desc(tmp_path, MPU / "sensor.toml", "rate_hz = 100", "rate_hz = 100000")
+    assert main(["import", str(MPU / "example_data_calibration.csv"), "--sensor", str(desc),
+                 "-o", str(tmp_path / "run.csv")]) == 2
+    _one_error(capsys.readouterr().err, "rate_hz = 100 in the sensor description")
+    assert not (tmp_path / "run.csv").exists()
+    desc = _desc(tmp_path, MPU / "sensor.toml", "rate_hz = 100", "rate_hz = 0.1", "slow.toml")
+    (f,) = _time(_found(MPU / "example_data_calibration.csv", desc)[1])
+    assert f.level == "warning" and f.figures["looks_like"] == "100 Hz"
+
+
+def test_a_declared_static_log_is_not_read_as_turning(tmp_path):
+    # one row a position, each read at rest: a turn of degrees a row says nothing of the time between rows
+    log = tmp_path / "05_ms.csv"
+    _rewrite(BROAD, log, "t_s", lambda v: repr(round(float(v) * 1000.0, 3)))
+    desc = _desc(tmp_path, REAL / "broad" / "with_acc.toml", "[log]\n", "[log]\nstatic = true\n")
+    assert not _time(_found(log, desc)[1])
+
+
+# ------------------------------------------------------------------ (b) the temperature column
+def _with_temp(tmp_path, fn, rows=None):
+    log = tmp_path / "05_temp.csv"
+    _rewrite(BROAD, log, None, None, extra=("temp", fn), rows=rows)
+    desc = _desc(tmp_path, REAL / "broad" / "with_acc.toml", 'time_unit = "s"\n',
+                 'time_unit = "s"\ntemperature = "temp"\n', "temp.toml")
+    return log, desc
+
+
+def test_a_constant_temperature_is_said_and_fits_no_terms(tmp_path, capsys):
+    log, desc = _with_temp(tmp_path, lambda i, r: "23.5", rows=1200)
+    run = tmp_path / "run.csv"
+    assert main(["import", str(log), "--sensor", str(desc), "-o", str(run)]) == 0
+    out = capsys.readouterr().out
+    assert "note: temp_c is 23.5 degC on every row" in out and "determines no temperature terms" in out
+    cal = tmp_path / "cal.json"
+    assert main(["calibrate", str(run), "-o", str(cal)]) in (0, 1)
+    out = capsys.readouterr().out
+    assert "note: temperature terms not fitted (the run spans 0.0 degC" in out
+    import json
+
+    assert not json.loads(cal.read_text()).get("temperature")
+
+
+def _counter(tmp_path):
+    # a SAP6 instrument's 24 shots (no time column) with a row counter mapped as its temperature
+    log = tmp_path / "sap_temp.csv"
+    _rewrite(REAL / "sap6" / "BB.csv", log, None, None, extra=("n", lambda i, r: str(i)))
+    desc = _desc(tmp_path, REAL / "sap6" / "sensor.toml", "static = true", 'static = true\ntemperature = "n"',
+                 "temp.toml")
+    return log, desc
+
+
+@pytest.mark.parametrize("what, make, needle", [
+    ("an accelerometer column", lambda p: _with_temp(p, lambda i, r: r[2]),
+     "the sensor column ax_g up to a scale and an offset"),
+])
+def test_a_temperature_that_is_no_temperature_is_refused(tmp_path, capsys, what, make, needle):
+    log, desc = make(tmp_path)
+    run = tmp_path / "run.csv"
+    assert main(["import", str(log), "--sensor", str(desc), "-o", str(run)]) == 2, what
+    _one_error(capsys.readouterr().err, needle)
+    assert not run.exists()
+    # the same column in a run imported before: calibrate and diagnose refuse it before any fit
+    ds, _ = importlog.import_log(str(log), sensor.load(str(desc)))
+    dataset.write_raw(str(run), ds)
+    for cmd in (["calibrate", str(run), "-o", str(tmp_path / "c.json")], ["diagnose", str(run)]):
+        assert main(cmd) == 2, cmd
+        _one_error(capsys.readouterr().err, "temp_c does not look like a temperature")
+    # in a canonical dataset (no description to fix) a note; calibrate and diagnose leave it out
+    canon = dataset.RawDataset(dict(ds.columns), {k: v for k, v in ds.meta.items() if k in ("field_nT", "dip_deg")})
+    (f,) = [f for f in checks.run(canon).findings if f.check == "temperature"]
+    assert f.level == "note" and "leave it out" in f.message
+
+
+def test_a_canonical_temperature_that_is_no_temperature_fits_no_terms(tmp_path):
+    # a SAP6 instrument's shots with temp_c a copy of its ax_g column, in the canonical format:
+    # the temperature fit is never tried on it, the diagnosis tests no temperature effect against it
+    from inclino.calib import thermal
+    from inclino.diagnose.analysis import diagnose
+    from inclino.errors import CalibrationError
+
+    ds, _ = importlog.import_log(str(REAL / "sap6" / "BB.csv"), sensor.load(str(REAL / "sap6" / "sensor.toml")))
+    canon = dataset.RawDataset({**ds.columns, "temp_c": 20.0 + 10.0 * ds.columns["ax_g"]}, {})
+    info = {"notes": [], "mode": "poses"}
+    cal, info2 = thermal._fit(canon, None, info, "auto", 1, 1, 1, False, 0)
+    assert cal is None and "temperature terms not fitted (temp_c does not look like a temperature: it is the " \
+                          "sensor column ax_g" in info2["notes"][-1]
+    with pytest.raises(CalibrationError, match="temp_c does not look like a temperature"):
+        thermal._fit(canon, None, {"notes": [], "mode": "poses"}, "on", 1, 1, 1, False, 0)
+    r = diagnose(canon)
+    assert any("temp_c left out: it does not look like a temperature" in n for n in r.baseline["selection"]["notes"])
+
+
+# ------------------------------------------------------------------ (c) one orientation held
+def _static(tmp_path):
+    """The first 30 s of the MPU-6050 session: the board lying still (3000 rows of one orientation)."""
+    lines = (MPU / "example_data_calibration.csv").read_text().splitlines()
+    log = tmp_path / "still.csv"
+    log.write_text("\n".join(lines[:5 + 3000]) + "\n")
+    run = tmp_path / "still_run.csv"
+    assert main(["import", str(log), "--sensor", str(MPU / "sensor.toml"), "-o", str(run)]) == 0
+    return run
+
+
+def test_one_orientation_is_noted_and_calibrate_and_diagnose_say_the_data_do_not_determine_it(tmp_path, capsys):
+    run = _static(tmp_path)
+    out = capsys.readouterr().out
+    assert "note: every row reads one orientation (3000 rows" in out
+    for cmd, code in ((["diagnose", str(run)], 2), (["diagnose", str(run), "--json"], 2),
+                      (["calibrate", str(run), "-o", str(tmp_path / "c.json")], 3)):
+        assert main(cmd) == code, cmd
+        cap = capsys.readouterr()
+        _one_error(cap.err, "the data do not determine the model")
+        assert "12 or more orientations" in cap.err and "FAIL" not in cap.out + cap.err
+    assert not (tmp_path / "c.json").exists()
+    # attitude fits nothing: each row is computed as the probe would
+    assert main(["attitude", str(run), "-o", str(tmp_path / "att.csv")]) == 0
+
+
+def test_one_orientation_refused_by_the_library_too(tmp_path):
+    from inclino.calib import fit
+    from inclino.diagnose.analysis import diagnose
+    from inclino.errors import CalibrationError, DataError
+
+    ds = dataset.read_raw(str(_static(tmp_path)))
+    with pytest.raises(CalibrationError, match="singular fit refused: every row reads one orientation"):
+        fit(ds, "joint")
+    with pytest.raises(DataError, match="the data do not determine the model"):
+        diagnose(ds)
+
+
+# ------------------------------------------------------------------ the corpus as published
+CORPUS = [("imucal_ferraris/annotated_session.csv", "imucal_ferraris/sensor.toml"),
+          ("ck_acc_mag/acc_mag_log.csv", "ck_acc_mag/sensor.toml"),
+          ("ck_acc_mag/acc_log.csv", "ck_acc_mag/acc_only.toml"),
+          ("broad/05.csv", "broad/sensor.toml"), ("broad/02.csv", "broad/with_acc.toml"),
+          ("micropython_fusion/mpudata.csv", "micropython_fusion/sensor.toml"),
+          ("mpu6050_tedaldi/example_data_calibration.csv", "mpu6050_tedaldi/sensor.toml"),
+          ("qmc5883l/filtered_raw_data.csv", "qmc5883l/sensor.toml"), ("sap6/BB.csv", "sap6/sensor.toml")]
+
+
+@pytest.mark.parametrize("log, desc", CORPUS)
+def test_the_corpus_as_published_raises_none_of_these(log, desc):
+    ds, rep = _found(REAL / log, REAL / desc)
+    assert not [f for f in rep.findings if f.check in ("time", "temperature", "orientations")], rep.lines()
+    assert rep.one_orientation is None
+    if "t_s" in ds.columns and rep.time["turn"]:  # the rates the hands turned the logs at
+        assert 1.0 <= rep.time["turn_deg_s"] <= 5000.0
+
+
+@pytest.mark.parametrize("what, make, needle", [
+    ("the time column", lambda p: _with_temp(p, lambda i, r: r[1], 250), "the time t_s up to a scale and an offset"),
+    ("a row counter", _counter, "steps by exactly 1 every row"),
+])
+def test_a_temperature_exactly_linear_in_time_or_rows_is_a_note_and_used(tmp_path, capsys, what, make, needle):
+    """A chamber ramp simulated as temp_c = a + b t (or sampled at a constant
+    rate, so that it steps by the same amount every row) reads exactly like
+    a clock mapped as the temperature: the data cannot tell them apart, so
+    the import says so and keeps the column (refusing it would refuse every
+    simulated oven run)."""
+    log, desc = make(tmp_path)
+    run = tmp_path / "run.csv"
+    assert main(["import", str(log), "--sensor", str(desc), "-o", str(run)]) == 0, what
+    out = capsys.readouterr().out
+    assert "temp_c rises exactly linearly" in out and needle in out and "it is used as the temperature" in out
+    ds, _ = importlog.import_log(str(log), sensor.load(str(desc)))
+    assert checks.not_a_temperature(ds) is None and checks.temperature_ramp(ds) is not None
