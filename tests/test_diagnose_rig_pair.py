@@ -51,9 +51,11 @@ def test_two_rig_fields_are_each_sized_within_their_stated_error(k):
         # 4 stated errors: drawn afresh every run; over 15 seeds the largest miss was 2.2
         assert abs(e.estimate - value) <= 4.0 * e.stderr, (seed, axis, e.estimate, e.stderr, value)
         assert e.stderr < 0.1 * value, (seed, axis, e.stderr, value)  # the size is known, not left free
-    # the two fields' bases no longer share a direction, so the report does not call them one another's
+    # the two fields' bases no longer share a direction (their signatures were one, correlation 1), so the
+    # report does not call them one another's; a draw of the rig's patterns may still make their signatures
+    # alike (0.90 and 0.91 on the draws of INCLINO_TEST_SEED 149798 and 781827), which the report then says, rightly
     assert not any({c["effect"], c["with"]} == {"rig-field:rig:azi", "rig-field:rig:inc"}
-                   for c in r.confounded), (seed, r.confounded)
+                   and c["correlation"] > 0.99 for c in r.confounded), (seed, r.confounded)
 
 
 def test_two_rig_fields_on_a_continuous_rotation_regression():
