@@ -86,6 +86,12 @@ def fit(ds, method: str = DEFAULT_METHOD, data_hash: dict | None = None, report:
         rep = None
         if report:
             rep = report_mod.build_single(ds, cal, info)
+            if opts.get("temperature", "auto") != "off":
+                from .thermal import not_fitted_without_poses
+
+                note = not_fitted_without_poses(ds)
+                if note:
+                    rep.notes.append(note)
             rep.fit_time_s = time.perf_counter() - t0
             if thinned:
                 rep.notes.append(thinned)

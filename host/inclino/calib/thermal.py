@@ -354,6 +354,23 @@ def fit(ds: RawDataset, cal, info: dict, mode: str, sigma_acc: float, sigma_mag:
         return cal, info
 
 
+def not_fitted_without_poses(ds) -> str | None:
+    """The note of a run without the turntable's poses (or with one triad)
+    whose temp_c changes: its temperature terms are not fitted (they need
+    the poses and both triads), and the pose-free fit leaves what the
+    temperature does in its residual; None without a temp_c that changes."""
+    T = ds.columns.get("temp_c")
+    if T is None or len(T) == 0:
+        return None
+    T = np.asarray(T, float)
+    T = T[np.isfinite(T)]
+    if len(T) == 0 or not np.ptp(T) > 0.0:
+        return None
+    return (f"temperature terms not fitted: temp_c spans {np.ptp(T):.3g} degC ({T.min():.3g} to {T.max():.3g}), "
+            f"but the temperature fit needs the turntable's poses and both triads; the fit leaves what the "
+            f"temperature does in its residual (inclino diagnose tests it against temp_c)")
+
+
 def _fit(ds, cal, info, mode, sigma_acc, sigma_mag, sigma_pose_deg, fix_dip, seed):
     from . import joint
 
@@ -368,6 +385,9 @@ def _fit(ds, cal, info, mode, sigma_acc, sigma_mag, sigma_pose_deg, fix_dip, see
     if info.get("mode") != "poses":
         if mode == "on":
             raise DataError("joint --temperature-terms on needs the turntable poses (inc_deg, azi_deg, tf_deg)")
+        note = not_fitted_without_poses(ds)
+        if note:
+            info["notes"].append(note)
         return cal, info
     T_all = np.asarray(ds.columns["temp_c"], float)
     if not np.all(np.isfinite(T_all)):
