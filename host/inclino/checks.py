@@ -1364,14 +1364,23 @@ def not_a_temperature(ds) -> tuple | None:
     return _temp_equals(ds, names)
 
 
-def _temp_equals(ds, names: dict):
+def _temp_changing(ds, min_rows: int):
+    """(temp_c, its span) when the column has at least min_rows rows and
+    changes; else None."""
     T = ds.columns.get("temp_c")
-    if T is None or len(T) < 3:
+    if T is None or len(T) < min_rows:
         return None
     T = np.asarray(T, float)
     span = float(np.ptp(T))
-    if not span > 0.0:
+    return (T, span) if span > 0.0 else None
+
+
+def _temp_equals(ds, names: dict):
+    """not_a_temperature's test against the named columns."""
+    got = _temp_changing(ds, 3)
+    if got is None:
         return None
+    T, span = got
     for c, text in names.items():
         x = ds.columns.get(c)
         if x is None:
@@ -1392,13 +1401,10 @@ def temperature_ramp(ds) -> tuple | None:
     same amount every row: a simulated ramp, or a clock or a row counter
     mapped as the temperature (the data cannot tell which: a note, the
     column is used).  (reason, figures) or None."""
-    T = ds.columns.get("temp_c")
-    if T is None or len(T) < 10:
+    got = _temp_changing(ds, 10)
+    if got is None:
         return None
-    T = np.asarray(T, float)
-    span = float(np.ptp(T))
-    if not span > 0.0:
-        return None
+    T, span = got
     same = _temp_equals(ds, {"t_s": "the time t_s"})
     if same is not None:
         return same
