@@ -86,9 +86,14 @@ def test_the_json_keeps_the_checks_findings_and_the_conclusion(ck, monkeypatch, 
 def test_the_library_diagnosis_without_checks_says_null(ck):
     from inclino.diagnose import diagnose
 
-    small = dataset.RawDataset({k: v[:3000].copy() for k, v in ck.columns.items()}, dict(ck.meta))
+    # the last 3 000 rows (the first turn about the vertical only: calibrate refuses them, and says so below)
+    small = dataset.RawDataset({k: v[-3000:].copy() for k, v in ck.columns.items()}, dict(ck.meta))
     d = json.loads(diagnose(small).to_json())
     assert d["checks"] is None and d["calibrate"] is None and d["conclusion"].startswith(("PASS: ", "FAIL: "))
+    first = dataset.RawDataset({k: v[:3000].copy() for k, v in ck.columns.items()}, dict(ck.meta))
+    d = json.loads(diagnose(first).to_json())
+    assert d["checks"] is None and d["calibrate"]["level"] == "error"
+    assert d["conclusion"].startswith("FAIL: calibrate refuses these data")
 
 
 def test_the_invariants_report_json_keeps_them_too(ck, monkeypatch, tmp_path, capsys):

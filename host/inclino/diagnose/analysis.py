@@ -112,6 +112,11 @@ def diagnose(ds: RawDataset, effects=None, alpha: float = core.DEFAULT_ALPHA, fo
             r.checks = checks.to_dict()
             with one_blas_thread():
                 r.calibrate = calibrate_handedness(ds, checks)
+        if r.calibrate is None:
+            from .posefree import calibrate_refusal
+
+            with one_blas_thread():
+                r.calibrate = calibrate_refusal(ds, static=bool(checks is not None and checks.declared_static))
         return r
     with one_blas_thread():
         r = _diagnose(ds, effects, alpha, folds, keep_plot_data)

@@ -1000,10 +1000,37 @@ def calibrate_handedness(ds, found) -> dict | None:
             cal, _ = fit(ds, "joint", report=False, static=bool(found.declared_static))
             turned = _refuse_turned_field(ds, cal, found)
     except DataError as e:
-        return {"level": "error", "message": str(e).removesuffix("; no calibration written")}
+        return {"level": "error", "message": str(e).removesuffix("; no calibration written"),
+                "why": HANDEDNESS_WHY}
     except (CalibrationError, ArithmeticError, ValueError, np.linalg.LinAlgError):
         return None  # a fit that fails says nothing of the handedness
     return {"level": "warning", "message": turned} if turned else None
+
+
+HANDEDNESS_WHY = "a magnetometer axis mirrored in the data, or the accelerometer's gravity sign turned"
+
+
+def calibrate_refusal(ds, static: bool = False) -> dict | None:
+    """Whether `calibrate` refuses these data after the checks (calib.fit,
+    joint, the checks not run again): {"level": "error", "message", "why"},
+    or None when it fits them.  A pose-free baseline is fitted whatever the
+    orientations (its own start need not be an ellipsoid `calibrate`
+    accepts): on the x-IMU3 log of xioTechnologies/Fusion, which never tilts
+    far, `calibrate` refused the accelerometer's readings as on no
+    ellipsoid while the baseline left a |g| residual of 0.6 g and called its
+    structure unexplained."""
+    from inclino.calib import fit
+    from inclino.errors import CalibrationError
+
+    try:
+        with np.errstate(all="ignore"):
+            fit(ds, "joint", report=False, check=False, static=static)
+    except (DataError, CalibrationError) as e:
+        return {"level": "error", "message": str(e).removesuffix("; no calibration written"),
+                "why": "the data do not determine what it fits"}
+    except (ArithmeticError, ValueError, np.linalg.LinAlgError):
+        return None
+    return None
 
 
 def calibration_refused(ds) -> str | None:

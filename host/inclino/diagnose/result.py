@@ -278,8 +278,7 @@ class Diagnosis:
                          f"{self.structure['min_p']:.2g} < {self.structure['threshold']:.2g})"
                          + ("; in |g| likely the hand's acceleration: the sensor moved while it was read"
                             if self._moved() else ""))
-        head = ("calibrate refuses these data (a magnetometer axis mirrored in the data, or the accelerometer's "
-                "gravity sign turned)" if refused else "")
+        head = (f"calibrate refuses these data ({self.calibrate.get('why') or 'see above'})" if refused else "")
         return "conclusion: FAIL: " + "; ".join(x for x in (head, f"{model} misses " + "; ".join(parts) if parts
                                                            else "") if x)
 
