@@ -68,6 +68,25 @@ def test_an_import_cut_short_by_ctrl_c_is_the_interruption(monkeypatch, capsys):
         entry.main(["identify"])
 
 
+def test_a_ctrl_c_after_the_command_finished_is_held(monkeypatch):
+    """A command that returns quickly (a refusal 0.4 s after the start) and a
+    SIGINT that comes while the interpreter shuts down: the handler raised
+    KeyboardInterrupt inside a module lock's callback, which Python printed
+    as "Exception ignored ... Traceback ... KeyboardInterrupt".  Once main has
+    returned the signal is held."""
+    from inclino import entry
+
+    monkeypatch.setattr(cli, "main", lambda argv: 2)
+    monkeypatch.setitem(entry._state, "pending", False)
+    assert entry.main(["calibrate"]) == 2
+    try:
+        entry._hold(signal.SIGINT, None)  # the signal, after the command's end: no exception
+    except KeyboardInterrupt:
+        pytest.fail("a SIGINT after the command's end raised KeyboardInterrupt")
+    assert entry._state["pending"]
+    monkeypatch.setitem(entry._state, "pending", False)
+
+
 @pytest.mark.parametrize("delay", [0.0, 0.02, 0.05, 0.1, 0.2, 0.4, 0.8])
 def test_ctrl_c_early_in_a_real_process(tmp_path, delay):
     """SIGINT at moments across the start-up of a command (imports, parser,

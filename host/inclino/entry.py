@@ -43,6 +43,11 @@ def main(argv=None) -> int:
         if _state["signalled"]:  # an import cut short by the Ctrl-C, reported as something else
             return _interrupted()
         raise
+    finally:
+        # the command has finished: a Ctrl-C from here on (the interpreter shutting down) is held, not raised
+        # where nothing catches it (a module lock's callback printed "Exception ignored ... KeyboardInterrupt"
+        # with its traceback when a fast refusal returned 0.4 s after the start and the signal came then)
+        _state["armed"] = False
 
 
 def _interrupted() -> int:
