@@ -700,6 +700,10 @@ def _axes_and_lag(ds, rows_all, rep, ug_src=None):
             f"accelerometer's row i: "
             f"one {which} the other, as when two files are joined and a line is lost); " + fix),
             None, {**fig, "lag_rows": kb, "lag_to_write": lag, "route": route}))
+    elif ug_src is None and not any(f.check == "row-alignment" for f in rep.findings):
+        unseen = _shifts_unseen(ds, ug, ubp, inv, lags)
+        if unseen:
+            rep.findings.append(Finding("row-alignment", "note", unseen[0], None, unseen[1]))
     # the dip's sign against the header
     if rep.lag_rows:
         k = rep.lag_rows
@@ -863,6 +867,68 @@ def _lag_transitions(ug, ub):
     se = float(np.std(bm, ddof=1) / math.sqrt(nb))
     t = float(np.mean(bm) / se) if se > 0 else float("inf")
     return kb, mean[0] / mean[kb], t
+
+
+def _named_on(a, b, inv_shifted) -> bool:
+    """Whether the checks would name a shift of the rows a, b paired as given
+    (the spread, the transitions, the jumps, or the lag curve inv_shifted:
+    (lag, se, halves) of these rows), leaving out the routes' second views."""
+    m = len(a)
+    lags = _spread_by_lag(a, b)
+    if lags:
+        kb = min(lags, key=lambda k: lags[k])
+        if kb != 0 and lags[0] > lags[kb] * (1.0 + max(LAG_MIN_GAIN, 5.0 / math.sqrt(m))) \
+                and lags[0] - lags[kb] > LAG_MIN_DEG:
+            return True
+    kt, gain, t = _lag_transitions(a, b)
+    if kt != 0 and t > LAG_T and gain > LAG_T_GAIN:
+        return True
+    kj, fixed, made = _lag_jumps(a, b)
+    if kj != 0 and fixed >= LAG_JUMP_MIN_ROWS and made * LAG_JUMP_RATIO <= fixed:
+        return True
+    if inv_shifted is not None:
+        lag, se, halves = inv_shifted
+        k = int(round(lag))
+        side = k != 0 and all(h is not None and np.sign(h) == np.sign(k) for h in halves)
+        return bool(side and (se < LAG_CURVE_NEAREST_SE or (all(abs(h) > 0.5 for h in halves)
+                                                               and abs(lag) - 0.5 > LAG_CURVE_SE * se)))
+    return False
+
+
+def _shifts_unseen(ds, ug, ub, inv, lags):
+    """A note, (message, figures), when a shift of one row either way would
+    not be named on this log as it is (its rows shifted and checked as the
+    checks check them, the lag curve moved by the row), or None: a log
+    whose rows do not show their pairing (a hand-held log turned mostly
+    about one axis, a short one, a fast one: a row is a few ms) is said to
+    be unchecked rather than passed in silence.  Not for one orientation
+    (a shift changes nothing there)."""
+    if len(ug) < 4 * MAX_LAG + 40 or one_orientation(ds) or not lags or not lags.get(0):
+        return None
+    ways = []
+    for k in (1, -1):
+        a, b = (ug[:-1], ub[1:]) if k == 1 else (ug[1:], ub[:-1])
+        # the curve of these rows moves by the row the other way (the accelerometer's row i with the
+        # magnetometer's row i + k is a lag of -k)
+        shifted = None if inv is None else (inv["lag"] - k, inv["se"],
+                                            [None if h is None else h - k for h in inv["halves"]])
+        if not _named_on(a, b, shifted):
+            ways.append(k)
+    if not ways:
+        return None
+    gain = max(abs(lags.get(k, lags[0]) / lags[0] - 1.0) for k in (1, -1))
+    curve = ("the dip invariant's lag curve, which finds a shift on a log turned smoothly, is not determined "
+             "here (fewer than 2 000 consecutive rows, or both triads turned about one axis only)" if inv is None
+             else f"the dip invariant's lag curve scatters by {_se_text(inv['se'])} row here")
+    # k = 1 pairs the accelerometer's row i with the magnetometer's row i + 1: the magnetometer a row ahead
+    # (named as lag -1), k = -1 a row behind (lag +1)
+    which = "either way" if len(ways) == 2 else ("with the magnetometer a row ahead" if ways[0] == 1 else
+                                                 "with the magnetometer a row behind")
+    head = ("the triads' pairing is not checked to a row on these rows" if len(ways) == 2 else
+            "the triads' pairing is checked to a row on these rows one way only")
+    return (f"{head}: a shift of one row {which} would not be named (a row changes the dip's spread by {100 * gain:.2g} %; {curve}); a session held "
+            f"still at each position, or a longer log turned through all orientations, checks it"), \
+        {"unseen_lags_rows": [-k for k in ways], "spread_change_per_row": gain}
 
 
 def _lag_jumps(ug, ub):

@@ -1,0 +1,62 @@
+"""A log whose rows do not show a one-row shift (a stretch of CK's
+hand-held log turned mostly about the vertical: the dip invariant sees
+only turns about the east-west axis) says that its pairing was checked only
+in part, rather than passing in silence; a log that shows a shift either
+way says nothing of it."""
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from inclino import checks
+from inclino.formats import dataset, importlog, sensor
+
+REAL = Path(__file__).parent / "data" / "real"
+
+
+@pytest.fixture(scope="module")
+def ck():
+    return importlog.import_log(str(REAL / "ck_acc_mag/acc_mag_log.csv"), sensor.load(str(REAL / "ck_acc_mag/sensor.toml")))[0]
+
+
+def _stretch(ds, a, b):
+    return dataset.RawDataset({k: v[a:b] for k, v in ds.columns.items()}, dict(ds.meta))
+
+
+def _shifted(ds, k):
+    """The magnetometer's rows k behind (its row i + k is the accelerometer's row i's)."""
+    c = {key: v.copy() for key, v in ds.columns.items()}
+    for m in dataset.MAG_COLS:
+        c[m] = np.roll(c[m], k)
+    n = len(ds)
+    return dataset.RawDataset({key: v[k:] if k > 0 else v[:n + k] for key, v in c.items()}, dict(ds.meta))
+
+
+def _row_alignment(rep):
+    return [f for f in rep.findings if f.check == "row-alignment"]
+
+
+def test_a_stretch_that_cannot_show_a_shift_says_so(ck):
+    s = _stretch(ck, 0, 6000)
+    (f,) = _row_alignment(checks.run(s))
+    assert f.level == "note" and "would not be named" in f.message and f.figures["unseen_lags_rows"] == [-1, 1]
+    # and indeed: shifted a row either way, nothing is named
+    for k in (1, -1):
+        assert checks.run(_shifted(s, k)).lag_rows == 0
+
+
+def test_the_way_a_stretch_cannot_show_is_the_way_it_is_not_named(ck):
+    """CK rows 6000-12000: a row behind is named (+1 warns), a row ahead
+    (curve +0.64, its halves either side of zero) is not; the note names
+    that way only."""
+    s = _stretch(ck, 6000, 12000)
+    (f,) = _row_alignment(checks.run(s))
+    unseen = f.figures["unseen_lags_rows"]
+    assert len(unseen) == 1
+    for k in (1, -1):
+        named = checks.run(_shifted(s, k)).lag_rows != 0
+        assert named == (k not in unseen), (k, unseen)
+
+
+def test_a_log_that_shows_a_shift_either_way_says_nothing_of_it(ck):
+    assert not _row_alignment(checks.run(ck))
