@@ -5,11 +5,12 @@ in part, rather than passing in silence; a log that shows a shift either
 way says nothing of it."""
 from pathlib import Path
 
-import numpy as np
 import pytest
 
+from test_lag_curve import _shifted, _stretch
+
 from inclino import checks
-from inclino.formats import dataset, importlog, sensor
+from inclino.formats import importlog, sensor
 
 REAL = Path(__file__).parent / "data" / "real"
 
@@ -17,19 +18,6 @@ REAL = Path(__file__).parent / "data" / "real"
 @pytest.fixture(scope="module")
 def ck():
     return importlog.import_log(str(REAL / "ck_acc_mag/acc_mag_log.csv"), sensor.load(str(REAL / "ck_acc_mag/sensor.toml")))[0]
-
-
-def _stretch(ds, a, b):
-    return dataset.RawDataset({k: v[a:b] for k, v in ds.columns.items()}, dict(ds.meta))
-
-
-def _shifted(ds, k):
-    """The magnetometer's rows k behind (its row i + k is the accelerometer's row i's)."""
-    c = {key: v.copy() for key, v in ds.columns.items()}
-    for m in dataset.MAG_COLS:
-        c[m] = np.roll(c[m], k)
-    n = len(ds)
-    return dataset.RawDataset({key: v[k:] if k > 0 else v[:n + k] for key, v in c.items()}, dict(ds.meta))
 
 
 def _row_alignment(rep):
