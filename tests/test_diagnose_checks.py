@@ -50,6 +50,9 @@ def test_a_mirror_calibrate_refuses_is_said_by_the_diagnosis(ck, monkeypatch, tm
     assert main(["diagnose", run, "--json"]) == 0
     d = json.loads(capsys.readouterr().out)
     assert d["calibrate"]["level"] == "error" and d["calibrate"]["message"] == said[0].split(": ", 1)[1]
+    from inclino.diagnose.posefree import HANDEDNESS_WHY
+
+    assert d["calibrate"]["why"] == HANDEDNESS_WHY  # the refusal's class (errors.MirroredAxesError) names the cause
 
 
 def test_without_a_header_dip_the_diagnosis_says_the_field_may_be_turned(ck, monkeypatch, tmp_path, capsys):

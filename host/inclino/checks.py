@@ -570,7 +570,7 @@ def _axes_and_lag(ds, rows_all, rep, ug_src=None):
     # the spread's own relative precision is about 1/sqrt(2n): a shift must
     # beat it many times over (and LAG_MIN_GAIN) to be named
     route = None
-    if kb != 0 and s0 > sb * (1.0 + max(LAG_MIN_GAIN, 5.0 / math.sqrt(m))) and s0 - sb > LAG_MIN_DEG:
+    if _spread_lag(lags, m):
         route = "spread"
         how = (f"the dip angle spreads {s0:.3g} deg as paired, {sb:.3g} deg with the magnetometer's rows shifted "
                f"by {kb:+d}")
@@ -579,7 +579,7 @@ def _axes_and_lag(ds, rows_all, rep, ug_src=None):
         # position changes, which the robust spread ignores; the mean deviation sees them
         kt, gain, t = _lag_transitions(ug, ubp)
         fig.update({"transition_lag_rows": kt, "transition_gain": gain, "transition_t": t})
-        if kt != 0 and t > LAG_T and gain > LAG_T_GAIN:
+        if _transitions_named(kt, gain, t):
             route, kb, sb = "transitions", kt, lags[kt]
             how = (f"the dip angle's mean deviation is {gain:.3g} times larger as paired than with the "
                    f"magnetometer's rows shifted by {kt:+d} (the rows where the position changes are mispaired)")
@@ -589,7 +589,7 @@ def _axes_and_lag(ds, rows_all, rep, ug_src=None):
             # again without mispairing any other row
             kj, fixed, made = _lag_jumps(ug, ubp)
             fig.update({"jump_lag_rows": kj, "jump_rows_fixed": fixed, "jump_rows_made": made})
-            if kj != 0 and fixed >= LAG_JUMP_MIN_ROWS and made * LAG_JUMP_RATIO <= fixed:
+            if _jumps_named(kj, fixed, made):
                 route, kb, sb = "jumps", kj, lags[kj]
                 how = (f"{fixed} rows where the position changes read a dip far off as paired and in line with "
                        f"the magnetometer's rows shifted by {kj:+d}" + (f" ({made} the other way)" if made else
@@ -614,21 +614,16 @@ def _axes_and_lag(ds, rows_all, rep, ug_src=None):
                 f"{inv['se']:.2f} out of step (nearest row {int(round(inv['lag'])):+d}): not named"),
                 None, {**fig, "lag_rows": kb}))
             route = None
-        k = int(round(inv["lag"]))
-        # each half on its own on the side of the whole curve's nearest row (the whole curve gives the row: a
-        # log with a skew of its own within a row, shifted by one, puts its halves either side of a row) ...
-        same_side = k != 0 and k in lags and all(h is not None and np.sign(h) == np.sign(k) for h in inv["halves"])
-        # ... and beyond half a row, the whole curve many standard errors beyond it: nothing but a shift puts it
-        # there
-        beyond = same_side and all(abs(h) > 0.5 for h in inv["halves"]) and \
-            abs(inv["lag"]) - 0.5 > LAG_CURVE_SE * inv["se"]
+        rule, k = _curve_rule(inv["lag"], inv["se"], inv["halves"])
+        if k not in lags:
+            rule = None
         halves_txt = ", ".join("too short to tell" if h is None else f"{h:+.2f}" for h in inv["halves"])
-        if beyond:
+        if rule == "curve":
             curve = ("curve", k, (
                 f"with the triads' calibration errors and a turning lever arm's acceleration fitted out, the dip "
                 f"angle is most consistent with the magnetometer's rows shifted by {inv['lag']:+.2f} +- "
                 f"{_se_text(inv['se'])} (each half of the log on its own: {halves_txt})"))
-        elif same_side and inv["se"] < LAG_CURVE_NEAREST_SE:
+        elif rule == "nearest":
             # the nearest whole row pairs the rows better than the rows as logged, but a log with a skew of its
             # own of nearly half a row reads like this too: named, as a warning that says so
             curve = ("nearest", k, (
@@ -650,7 +645,7 @@ def _axes_and_lag(ds, rows_all, rep, ug_src=None):
                 f"rows shifted by that fraction make the dip most consistent): a skew between the two "
                 f"sensors' sampling within a row, not a lost line; no whole-row lag fixes it"), None,
                 {"curve_lag_rows": inv["lag"], "curve_lag_se_rows": inv["se"]}))
-        elif route is None and same_side:
+        elif route is None and rule is not None:
             rep.findings.append(Finding("row-alignment", "note", (
                 f"the dip invariant's lag curve puts the magnetometer's rows {inv['lag']:+.2f} +- "
                 f"{_se_text(inv['se'])} out of step (each half of the log: {halves_txt}): a shift of {k:+d} is "
@@ -701,7 +696,7 @@ def _axes_and_lag(ds, rows_all, rep, ug_src=None):
             f"one {which} the other, as when two files are joined and a line is lost); " + fix),
             None, {**fig, "lag_rows": kb, "lag_to_write": lag, "route": route}))
     elif ug_src is None and not any(f.check == "row-alignment" for f in rep.findings):
-        unseen = _shifts_unseen(ds, ug, ubp, inv, lags)
+        unseen = None if rep.one_orientation else _shifts_unseen(ug, ubp, inv, lags)
         if unseen:
             rep.findings.append(Finding("row-alignment", "note", unseen[0], None, unseen[1]))
     # the dip's sign against the header
@@ -834,7 +829,7 @@ def _route_lag(route, ug, ub):
         return min(lags, key=lambda k: lags[k]) if 0 in lags and len(lags) == 2 * MAX_LAG + 1 else None
     if route == "jumps":
         k, fixed, made = _lag_jumps(ug, ub)
-        return k if fixed >= LAG_JUMP_MIN_ROWS and made * LAG_JUMP_RATIO <= fixed else None
+        return k if _jumps_named(k, fixed, made) else None
     if len(ug) < max(80, 4 * MAX_LAG + 40):  # _lag_transitions: 8 blocks of 10 rows
         return None
     return _lag_transitions(ug, ub)[0]
@@ -869,41 +864,64 @@ def _lag_transitions(ug, ub):
     return kb, mean[0] / mean[kb], t
 
 
+def _spread_lag(lags: dict, m: int) -> int:
+    """The shift the dip's spread names (0: none): the best shift cuts the
+    spread by more than its own relative precision, about 1/sqrt(2n), many
+    times over (and LAG_MIN_GAIN, and LAG_MIN_DEG)."""
+    if not lags or 0 not in lags:
+        return 0
+    kb = min(lags, key=lambda k: lags[k])
+    s0, sb = lags[0], lags[kb]
+    return kb if kb != 0 and s0 > sb * (1.0 + max(LAG_MIN_GAIN, 5.0 / math.sqrt(m))) and s0 - sb > LAG_MIN_DEG \
+        else 0
+
+
+def _transitions_named(kt: int, gain: float, t: float) -> bool:
+    return kt != 0 and t > LAG_T and gain > LAG_T_GAIN
+
+
+def _jumps_named(kj: int, fixed: int, made: int) -> bool:
+    return kj != 0 and fixed >= LAG_JUMP_MIN_ROWS and made * LAG_JUMP_RATIO <= fixed
+
+
+def _curve_rule(lag: float, se: float, halves: list) -> tuple:
+    """(rule, k): the lag curve's nearest whole row k and how it is named:
+    "curve" when each half of the log lies beyond half a row on its side
+    and the whole curve LAG_CURVE_SE standard errors beyond it (nothing but a
+    shift puts it there); "nearest" (a warning) when each half lies on its
+    side and the curve's standard error is below LAG_CURVE_NEAREST_SE (a
+    skew of the log's own of nearly half a row reads so too); "possible"
+    when the halves lie on its side but the curve scatters more; None
+    otherwise."""
+    k = int(round(lag))
+    # each half on its own on the side of the whole curve's nearest row (the whole curve gives the row: a
+    # log with a skew of its own within a row, shifted by one, puts its halves either side of a row)
+    if k == 0 or not all(h is not None and np.sign(h) == np.sign(k) for h in halves):
+        return None, k
+    if all(abs(h) > 0.5 for h in halves) and abs(lag) - 0.5 > LAG_CURVE_SE * se:
+        return "curve", k
+    return ("nearest" if se < LAG_CURVE_NEAREST_SE else "possible"), k
+
+
 def _named_on(a, b, inv_shifted) -> bool:
     """Whether the checks would name a shift of the rows a, b paired as given
     (the spread, the transitions, the jumps, or the lag curve inv_shifted:
     (lag, se, halves) of these rows), leaving out the routes' second views."""
-    m = len(a)
-    lags = _spread_by_lag(a, b)
-    if lags:
-        kb = min(lags, key=lambda k: lags[k])
-        if kb != 0 and lags[0] > lags[kb] * (1.0 + max(LAG_MIN_GAIN, 5.0 / math.sqrt(m))) \
-                and lags[0] - lags[kb] > LAG_MIN_DEG:
-            return True
-    kt, gain, t = _lag_transitions(a, b)
-    if kt != 0 and t > LAG_T and gain > LAG_T_GAIN:
+    if _spread_lag(_spread_by_lag(a, b), len(a)) or _transitions_named(*_lag_transitions(a, b)) \
+            or _jumps_named(*_lag_jumps(a, b)):
         return True
-    kj, fixed, made = _lag_jumps(a, b)
-    if kj != 0 and fixed >= LAG_JUMP_MIN_ROWS and made * LAG_JUMP_RATIO <= fixed:
-        return True
-    if inv_shifted is not None:
-        lag, se, halves = inv_shifted
-        k = int(round(lag))
-        side = k != 0 and all(h is not None and np.sign(h) == np.sign(k) for h in halves)
-        return bool(side and (se < LAG_CURVE_NEAREST_SE or (all(abs(h) > 0.5 for h in halves)
-                                                               and abs(lag) - 0.5 > LAG_CURVE_SE * se)))
-    return False
+    return inv_shifted is not None and _curve_rule(*inv_shifted)[0] in ("curve", "nearest")
 
 
-def _shifts_unseen(ds, ug, ub, inv, lags):
+def _shifts_unseen(ug, ub, inv, lags):
     """A note, (message, figures), when a shift of one row either way would
     not be named on this log as it is (its rows shifted and checked as the
     checks check them, the lag curve moved by the row), or None: a log
     whose rows do not show their pairing (a hand-held log turned mostly
     about one axis, a short one, a fast one: a row is a few ms) is said to
-    be unchecked rather than passed in silence.  Not for one orientation
-    (a shift changes nothing there)."""
-    if len(ug) < 4 * MAX_LAG + 40 or one_orientation(ds) or not lags or not lags.get(0):
+    be unchecked rather than passed in silence.  (The caller leaves out
+    one orientation: a shift changes nothing there.)"""
+    if len(ug) < 4 * MAX_LAG + 40 or not lags or not lags.get(0):
         return None
     ways = []
     for k in (1, -1):
@@ -1506,8 +1524,7 @@ def _temperature(ds, rep):
         if ramp is not None:
             rep.findings.append(Finding("temperature", "note", (
                 f"temp_c rises exactly linearly: {ramp[0]}: a simulated ramp, or a clock or a row counter mapped "
-                f"as the temperature ({'the [log] temperature column' if _imported(ds) else 'temp_c'}); it is "
-                f"used as the temperature"), None, ramp[1]))
+                f"as the temperature ({col}); it is used as the temperature"), None, ramp[1]))
         return
     why, fig = bad
     if _imported(ds):
@@ -1619,6 +1636,7 @@ def run(ds, declared_static: bool = False) -> CheckReport:
         if ds.has_mag:
             _units_mag(ds, rows, rep)
         units_bad = any(f.check == "units" and f.level == "error" for f in rep.findings)
+        _orientations(ds, rep)  # before the pairing: a shift changes nothing on one orientation
         gp = None
         if ds.has_acc and "inc_deg" in ds.columns and "tf_deg" in ds.columns and not units_bad and len(ds) >= 6:
             gp = _acc_poses(ds, rows, rep)
@@ -1635,5 +1653,4 @@ def run(ds, declared_static: bool = False) -> CheckReport:
         _saturation(ds, rep)
         _time_unit(ds, rep)
         _temperature(ds, rep)
-        _orientations(ds, rep)
     return rep

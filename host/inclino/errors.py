@@ -17,6 +17,12 @@ class DataError(InclinoError):
     exit_code = 2
 
 
+class MirroredAxesError(DataError):
+    """A triad's axes mirrored in the data: the fit needs a reflection, or
+    turned the field through 180 deg against the header's dip (calib.fit
+    refuses both; `inclino diagnose` names the cause from the class)."""
+
+
 class CalibrationError(InclinoError):
     """A calibration that cannot be used: singular, out of range, corrupt."""
 

@@ -35,7 +35,9 @@ def __getattr__(name):
 
 
 def fit(ds, method: str = DEFAULT_METHOD, data_hash: dict | None = None, report: bool = True,
-        max_rows: int | None = MAX_FIT_ROWS, check: bool = True, static: bool = False, **opts):
+        max_rows: int | None = MAX_FIT_ROWS, check: bool = True, static: bool = False, found=None, **opts):
+    """found: the checks before the fit (checks.CheckReport) already run on
+    these very rows (`inclino diagnose` ran them): used, not run again."""
     import numpy as np
 
     from inclino.formats.dataset import thin
@@ -62,7 +64,8 @@ def fit(ds, method: str = DEFAULT_METHOD, data_hash: dict | None = None, report:
     if check:  # inclino.checks: data that cannot be right stop here (DataError, exit 2), before any fit
         from inclino import checks
 
-        found = checks.run(ds, declared_static=static)
+        if found is None or found.rows != len(ds):
+            found = checks.run(ds, declared_static=static)
         found.raise_errors()
         if found.one_orientation:  # one orientation held: no triad's scale, offsets or axes show (exit 3)
             raise CalibrationError("singular fit refused: " + checks.undetermined(found.one_orientation, len(ds)))
@@ -148,7 +151,7 @@ def _refuse_reflection(ds, cal, use_poses: bool) -> None:
     import numpy as np
 
     from inclino.checks import declared_reflection, intended_reflection
-    from inclino.errors import DataError
+    from inclino.errors import MirroredAxesError
 
     ref = "the poses" if use_poses and ds.has_pose else None
     for triad, name, M in (("acc", "accelerometer", cal.acc_m), ("mag", "magnetometer", cal.mag_m)):
@@ -162,7 +165,7 @@ def _refuse_reflection(ds, cal, use_poses: bool) -> None:
                    if declared_reflection(ds, triad) else
                    "fix that triad's axis map in the sensor description (one sign), or declare the reflection "
                    "intended (reflection = true)")
-            raise DataError(
+            raise MirroredAxesError(
                 f"the fitted {name} matrix is a reflection (determinant {det:+.3g}): the {name}'s axes in the data "
                 f"are mirrored against {against}; {fix}; no calibration written")
 
@@ -184,7 +187,7 @@ def _refuse_turned_field(ds, cal, found) -> str | None:
 
     from inclino.checks import DIP_SIGN_MIN_DEG
     from inclino.engines import reference as ref
-    from inclino.errors import DataError
+    from inclino.errors import MirroredAxesError
 
     if ds.triads != "both":
         return None
@@ -200,7 +203,7 @@ def _refuse_turned_field(ds, cal, found) -> str | None:
         hdr = float(hdr)
         if min(abs(hdr), abs(dip)) > DIP_SIGN_MIN_DEG and np.sign(dip) != np.sign(hdr):
             det = float(np.linalg.det(np.asarray(cal.mag_m, float)))
-            raise DataError(
+            raise MirroredAxesError(
                 f"the fitted dip is {dip:+.1f} deg against the header's {hdr:+.1f}: the fit turned the field through "
                 f"180 deg (azimuths 180 deg off; magnetometer matrix determinant {det:+.3g}): a magnetometer axis "
                 f"mirrored in the data{hint}, or the accelerometer's gravity sign turned (reads); fix that axis map or "

@@ -68,9 +68,9 @@ def diagnose(ds: RawDataset, effects=None, alpha: float = core.DEFAULT_ALPHA, fo
     """Diagnose a raw dataset with turntable poses; raises DataError on bad
     input.  effects: names (list or comma-separated) to test, default all.
     checks: the checks before any fit (a checks.CheckReport) when the caller
-    ran them: kept in the result (`checks`), and without poses, where they
-    warned of a mirrored magnetometer, what `calibrate` says of the fit
-    (`calibrate`: posefree.calibrate_handedness)."""
+    ran them: kept in the result (`checks`), and without poses given to
+    `calibrate`'s own fit, whose refusal or warning is kept too
+    (`calibrate`: posefree.calibrate_says)."""
     from inclino import checks as pre
     from inclino.formats.dataset import thin
 
@@ -106,17 +106,12 @@ def diagnose(ds: RawDataset, effects=None, alpha: float = core.DEFAULT_ALPHA, fo
         from inclino.calib.motion import figures
 
         r.motion = figures(ds)
+        from .posefree import calibrate_says
+
         if checks is not None:
-            from .posefree import calibrate_handedness
-
             r.checks = checks.to_dict()
-            with one_blas_thread():
-                r.calibrate = calibrate_handedness(ds, checks)
-        if r.calibrate is None:
-            from .posefree import calibrate_refusal
-
-            with one_blas_thread():
-                r.calibrate = calibrate_refusal(ds, static=bool(checks is not None and checks.declared_static))
+        with one_blas_thread():
+            r.calibrate = calibrate_says(ds, checks, static=bool(checks is not None and checks.declared_static))
         return r
     with one_blas_thread():
         r = _diagnose(ds, effects, alpha, folds, keep_plot_data)

@@ -973,64 +973,40 @@ def _holds_view(ds, pf):
     return RawDataset(cols, dict(ds.meta))
 
 
-def calibrate_handedness(ds, found) -> dict | None:
-    """What `calibrate` says of these data's handedness after its fit, where
-    the checks before the fit (`found`, a checks.CheckReport) warned that the
-    magnetometer may be mirrored: {"level", "message"}, or None.  The pose-free
-    baseline (the fluxgate's full 3x3 started from a symmetric, positive
-    definite ellipsoid) need not fit what `calibrate` fits: on
-    micropython-fusion's MPU9150 log with its y column negated it fitted a dip
-    of +71.4 deg (the header's +66.5), the dip's residual 5.05 deg against
-    3.54 on the log as given, and the report said nothing of a mirror, while
-    `calibrate` fitted -P (the field turned through 180 deg, a dip of -70.7)
-    and refused.  So where the checks warned,
-    the calibration is fitted here as `calibrate` fits it (calib.fit, joint):
-    its refusal (a turned field against the header's dip, a reflection) is
-    level "error", its warning without a header dip (the fit may have turned
-    the field) level "warning"."""
-    from inclino.calib import _refuse_turned_field, fit
-    from inclino.errors import CalibrationError
-
-    if found is None or not (ds.has_acc and ds.has_mag):
-        return None
-    if not any(f.check == "handedness" and f.level == "warning" for f in found.findings):
-        return None
-    try:
-        with np.errstate(all="ignore"):
-            cal, _ = fit(ds, "joint", report=False, static=bool(found.declared_static))
-            turned = _refuse_turned_field(ds, cal, found)
-    except DataError as e:
-        return {"level": "error", "message": str(e).removesuffix("; no calibration written"),
-                "why": HANDEDNESS_WHY}
-    except (CalibrationError, ArithmeticError, ValueError, np.linalg.LinAlgError):
-        return None  # a fit that fails says nothing of the handedness
-    return {"level": "warning", "message": turned} if turned else None
-
-
 HANDEDNESS_WHY = "a magnetometer axis mirrored in the data, or the accelerometer's gravity sign turned"
 
 
-def calibrate_refusal(ds, static: bool = False) -> dict | None:
-    """Whether `calibrate` refuses these data after the checks (calib.fit,
-    joint, the checks not run again): {"level": "error", "message", "why"},
-    or None when it fits them.  A pose-free baseline is fitted whatever the
-    orientations (its own start need not be an ellipsoid `calibrate`
-    accepts): on the x-IMU3 log of xioTechnologies/Fusion, which never tilts
-    far, `calibrate` refused the accelerometer's readings as on no
-    ellipsoid while the baseline left a |g| residual of 0.6 g and called its
-    structure unexplained."""
-    from inclino.calib import fit
-    from inclino.errors import CalibrationError
+def calibrate_says(ds, found=None, static: bool = False) -> dict | None:
+    """What `calibrate` says of these data, the calibration fitted as it
+    fits it (calib.fit, joint, on the checks `found` when they are these
+    rows': not run again): {"level": "error", "message", "why"} when it
+    refuses them; {"level": "warning", "message"} when, without a header
+    dip, the checks warned of a mirrored magnetometer and the fit may have
+    turned the field; else None.  The pose-free baseline need not fit what
+    `calibrate` fits:
+    - its fluxgate's full 3x3 started from a symmetric, positive definite
+      ellipsoid: on micropython-fusion's MPU9150 log with its y column
+      negated it fitted a dip of +71.4 deg (the header's +66.5) and the
+      report said nothing of a mirror, while `calibrate` fitted -P (the
+      field turned through 180 deg, a dip of -70.7) and refused (why:
+      HANDEDNESS_WHY, from errors.MirroredAxesError);
+    - it is fitted whatever the orientations: on the x-IMU3 log of
+      xioTechnologies/Fusion, which never tilts far, `calibrate` refused the
+      accelerometer's readings as on no ellipsoid while the baseline left a
+      |g| residual of 0.6 g and called its structure unexplained."""
+    from inclino.calib import _refuse_turned_field, fit
+    from inclino.errors import CalibrationError, MirroredAxesError
 
     try:
         with np.errstate(all="ignore"):
-            fit(ds, "joint", report=False, check=False, static=static)
+            cal, _ = fit(ds, "joint", report=False, static=static, found=found)
+            turned = _refuse_turned_field(ds, cal, found)  # fit raised its refusal; this is the warning
     except (DataError, CalibrationError) as e:
-        return {"level": "error", "message": str(e).removesuffix("; no calibration written"),
-                "why": "the data do not determine what it fits"}
+        why = HANDEDNESS_WHY if isinstance(e, MirroredAxesError) else "the data do not determine what it fits"
+        return {"level": "error", "message": str(e).removesuffix("; no calibration written"), "why": why}
     except (ArithmeticError, ValueError, np.linalg.LinAlgError):
-        return None
-    return None
+        return None  # a fit that fails on the arithmetic says nothing of the data
+    return {"level": "warning", "message": turned} if turned else None
 
 
 def calibration_refused(ds) -> str | None:

@@ -70,8 +70,8 @@ class Diagnosis:
     confounded: list = field(default_factory=list)
     # the checks before any fit (checks.CheckReport.to_dict()) when the caller ran them (inclino diagnose)
     checks: dict | None = None
-    # what `calibrate` says of the data's handedness after its fit where the checks warned of a mirrored
-    # magnetometer (posefree.calibrate_handedness): {"level": "error" (it refuses) | "warning", "message"}
+    # what `calibrate` says of the data without poses (posefree.calibrate_says): {"level": "error" (it refuses),
+    # "message", "why"} | {"level": "warning", "message"}
     calibrate: dict | None = None
     # without poses, a log read mostly while moving (calib.motion.figures): the hand's acceleration is in |g|
     motion: dict | None = None
