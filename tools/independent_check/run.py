@@ -41,7 +41,7 @@ def evaluate(case, seed):
     est = dict(acc_m=np.array(d['acc_m']), acc_b=np.array(d['acc_b']), mag_m=np.array(d['mag_m']), mag_b=np.array(d['mag_b']))
     rng = np.random.default_rng(10_000 + seed)
     Q = np.eye(3)
-    if not tr['poses'] and case not in ('acc', 'cluster_acc', 'mag'):
+    if not tr['poses'] and case not in ('acc', 'cluster_acc', 'mag', 'moving_acc', 'moving_mag'):
         # the unobservable common rotation: the data are those of orientations Q^T C (as random), the truth Q M
         Q = rot_small(rng.normal(0, np.radians(0.3), 3))
     tr0 = dict(tr)
@@ -62,8 +62,8 @@ def evaluate(case, seed):
     # predictions vs achieved on held-out data with the same truth
     I, A, T = grid()
     C = C_pose(I, A, T)
-    has_acc = case not in ('mag',)
-    has_mag = case not in ('acc', 'cluster_acc')
+    has_acc = case not in ('mag', 'moving_mag')
+    has_mag = case not in ('acc', 'cluster_acc', 'moving_acc')
     Ma, ba, Mm, bm = (est[k] for k in ('acc_m', 'acc_b', 'mag_m', 'mag_b'))
     def corr(acc, mag):
         return (acc - ba) @ Ma.T, (mag - bm) @ Mm.T

@@ -619,6 +619,10 @@ def _fit_invariants(ds, w, sa, sm, fix_dip, prior=None, mount_tolerance_deg=None
     if hs is not None:
         info["moving"] = np.flatnonzero(hs[0] < 0).tolist()
         info["holds"] = hs[1]
+    if st["blocks"] is not None:
+        # no hold, and rows whose errors neighbouring rows share (a log read while moving): counted in blocks
+        mc = st.get("mag_covariance")
+        info["blocks"] = {**st["blocks"], "dip_var_ratio": mc["dip_var_ratio"] if isinstance(mc, dict) else None}
     if moved is not None:
         info["moving_log"] = moved
     else:

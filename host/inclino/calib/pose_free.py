@@ -119,14 +119,21 @@ def fit(ds, w, sa, sm, fix_dip=False, mag_start=None, labels=None):
     (3x3) that the checks found to align the magnetometer's axes with the
     accelerometer's, a start for Q.  labels: each row's static hold (-1:
     none) when the log is step-and-hold: the magnetometer's covariance then
-    counts each hold's shared error once (cluster_covariance)."""
+    counts each hold's shared error once (cluster_covariance).  Without
+    labels, rows whose accelerometer residuals are correlated from row to
+    row (a log read while moving: the hand's acceleration, which the dip
+    residuals carry too) are counted in blocks of consecutive rows by both
+    triads' covariances (triad.time_blocks; info["blocks"])."""
     G, F = w["gravity_g"], w["field_nT"]
     n = len(ds)
     if n < MIN_ROWS:
         raise DataError(f"joint without poses needs >= {MIN_ROWS} readings in varied orientations; the data have {n}")
     acc, mag = ds.acc, ds.mag
     # 1. the accelerometer alone
-    Ma, ba, cov_a, ia = triad.fit_sphere(acc, G, sa, min_rows=MIN_ROWS, what="the accelerometer")
+    Ma, ba, cov_a, ia = triad.fit_sphere(acc, G, sa, min_rows=MIN_ROWS, what="the accelerometer",
+                                         blocks=labels is None)
+    if ia["blocks"] is not None:
+        labels = triad.time_blocks(ia["residual"])  # the magnetometer's dip residuals share those blocks
     # 2. the magnetometer alone
     Sm, bm, _, im = triad.fit_sphere(mag, F, sm, min_rows=MIN_ROWS, what="the magnetometer")
     g = (acc - ba) @ Ma.T
@@ -195,8 +202,9 @@ def fit(ds, w, sa, sm, fix_dip=False, mag_start=None, labels=None):
     cov_m = s2m * np.linalg.inv(JtJ)
     cov_source = "rows"
     if labels is not None:
-        # the rows of one hold share its error: the |b| and the dip residuals alike (an accelerometer's hold
-        # error is in the dip alone, so no factor from the magnetometer's ellipsoid can stand for it)
+        # the rows of one hold (or block) share its error: the |b| and the dip residuals alike (an
+        # accelerometer's hold error is in the dip alone, so no factor from the magnetometer's ellipsoid can
+        # stand for it)
         cc = cluster_covariance(J, out.fun, labels, keep)
         if cc is not None and np.all(np.isfinite(cc)):
             cov_source = {"dip_var_ratio": float(cc[-1, -1] / cov_m[-1, -1])}
@@ -241,5 +249,5 @@ def fit(ds, w, sa, sm, fix_dip=False, mag_start=None, labels=None):
             "acc_misfit": acc_bad, "mag_misfit": mag_bad,
             "normal_matrix_cond": float(np.linalg.cond(JtJ)), "dip_fitted": not fix_dip,
             "dip_sigma_deg": None if fix_dip else float(np.sqrt(cov[24, 24])), "mag_covariance": cov_source,
-            "acc_to_mag": K, "cov_mag_own": cov_m}
+            "acc_to_mag": K, "cov_mag_own": cov_m, "blocks": ia["blocks"]}
     return (Ma, ba, Mm, bm, dip), cov, info

@@ -355,6 +355,12 @@ def build(ds: RawDataset, cal: Calibration, method: str, info: dict, refit=None,
         src = ("each triad's own fit covariance, scaled by its own residual variance (s^2, the residuals' variance "
                "over the noise assumed: " + "; ".join(f"{t} {v:.3g} {against.get(t, '')}".rstrip()
                                                      for t, v in s2t.items() if v is not None) + ")")
+        bl = info.get("blocks")
+        if bl:
+            src += (f"; counted in {bl['count']} blocks of {bl['rows']} consecutive rows, the residuals being "
+                    f"correlated from row to row (a log read while moving: the hand's acceleration): accelerometer "
+                    f"x{bl['var_ratio']:.3g} the rows' variance"
+                    + (f", the dip x{bl['dip_var_ratio']:.3g}" if bl.get("dip_var_ratio") else ""))
         hsc = info.get("hold_scale")
         if hsc:
             src += ("; widened for the error each static hold's rows share: "

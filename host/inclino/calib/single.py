@@ -124,10 +124,14 @@ def fit(ds, use_poses=None, sigma_acc=None, sigma_mag=None, **_):
                 hs, moved = mh[:2], mh[2]
         if hs is not None:
             moving = hs[0] < 0
+        # the rows of one hold share its orientation's error, whether or not the holds alone are fitted; with no
+        # hold, neighbouring rows of a log read while moving share the hand's acceleration (the blocks' covariance)
+        hl = hs if hs is not None else holds.correlated(ds, (kind,))
         # a step-and-hold log: the holds are fitted, the rows read while turning between them left out (their
         # acceleration is the motion's, not the sensor's)
         try:
-            M, b, cov, info = triad.fit_sphere(raw[~moving], R, sigma, min_rows=MIN_ROWS_SPHERE, what=what)
+            M, b, cov, info = triad.fit_sphere(raw[~moving], R, sigma, min_rows=MIN_ROWS_SPHERE, what=what,
+                                               blocks=hl is None)
         except (DataError, CalibrationError) as e:
             cause = motion.named(ds, what) if kind == "acc" and hs is None else None
             if cause is None:
@@ -144,8 +148,12 @@ def fit(ds, use_poses=None, sigma_acc=None, sigma_mag=None, **_):
             info["moving_log"] = moved
         elif kind == "acc":
             info["motion"] = motion.figures(ds)  # a log read mostly while moving, fitted on every row (or None)
-        # the rows of one hold share its orientation's error, whether or not the holds alone are fitted
-        hl = hs if hs is not None else holds.correlated(ds, (kind,))
+        if info["blocks"] is not None:
+            bl = info["blocks"]
+            info["covariance_source"] = (f"blocks of {bl['rows']} consecutive rows ({bl['count']}): the residuals "
+                                         f"are correlated from row to row (a log read while moving: the hand's "
+                                         f"acceleration), so the rows are not independent; the blocks' covariance "
+                                         f"is {bl['var_ratio']:.3g} times the rows'")
         hold_cov = triad.hold_covariance(raw, hl[0], keep, R, sigma) if hl is not None else None
         if hold_cov is not None and np.trace(hold_cov[0]) > np.trace(cov):
             cov = hold_cov[0]

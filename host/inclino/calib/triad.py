@@ -193,11 +193,17 @@ def _sphere_jac(x, raw, R):
     return J
 
 
-def fit_sphere(raw, R: float, sigma: float, min_rows: int = 10, start=None, what: str = "the triad"):
+def fit_sphere(raw, R: float, sigma: float, min_rows: int = 10, start=None, what: str = "the triad",
+               blocks: bool = False):
     """Ellipsoid fit of one triad: (M symmetric, b) with |M (raw - b)| = R,
     robust (soft-L1 pass, rows beyond the robust threshold dropped, a final
     least-squares pass).  Returns (M, b, cov (12: M row-major, b; the
     symmetric M's 6 free numbers mapped onto its 9 entries), info).
+    blocks (the raw rows consecutive, in time order, no hold structure
+    known): when the residuals are correlated from row to row (a hand's
+    acceleration on a log read while moving), the covariance counts blocks
+    of consecutive rows (time_blocks, block_covariance), not rows, if that
+    is the larger; info["blocks"] says so.
     CalibrationError when the orientations do not determine the ellipsoid:
     a singular normal matrix, or a fit that runs away (its corrected
     readings point within a plane: SPHERE_RUNAWAY_EIG)."""
@@ -248,6 +254,15 @@ def fit_sphere(raw, R: float, sigma: float, min_rows: int = 10, start=None, what
             f"sensor was turned about one axis, or {swamp} swamps the turn out of that plane; "
             f"log it turned about more than one axis (or give poses)")
     cov9 = s2 * np.linalg.inv(JtJ)
+    blk = None
+    if blocks:
+        lab = time_blocks(_sphere_residual(x, raw, R))
+        if lab is not None:
+            cb = block_covariance(J, res.fun, lab[keep])
+            if cb is not None and np.trace(cb) > np.trace(cov9):
+                blk = {"rows": int(np.bincount(lab).max()), "count": int(lab.max()) + 1,
+                       "var_ratio": float(np.trace(cb) / np.trace(cov9))}
+                cov9 = cb
     T = np.zeros((12, 9))
     for k, (i, j) in enumerate(zip(*np.triu_indices(3))):
         T[3 * i + j, k] = 1.0
@@ -257,7 +272,66 @@ def fit_sphere(raw, R: float, sigma: float, min_rows: int = 10, start=None, what
     M, b = _sym(x[:6]), x[6:9]
     resid = _sphere_residual(x, raw, R)
     return M, b, cov, {"s2": s2, "dof": dof, "keep": keep, "residual": resid,
-                       "noise": float(np.sqrt(s2) * sigma), "mode": "invariants", "cov9": cov9}
+                       "noise": float(np.sqrt(s2) * sigma), "mode": "invariants", "cov9": cov9, "blocks": blk}
+
+
+# A fit of every row of a log read while moving: the hand's acceleration errs alike on neighbouring rows (its
+# spectrum is a few Hz, the rows tens to hundreds a second), so the rows are not independent measurements and a
+# covariance that counts them as such understates the error several times (z RMS 4-5 on emulated hand tumbles,
+# tools/independent_check case moving_acc).  The blocks' covariance counts blocks of consecutive rows instead.
+BLOCK_TAU_K = 5.0   # a block spans this many integrated autocorrelation times of the residual ...
+BLOCK_MIN = 30      # ... and the rows make at least this many blocks (shorter blocks when they would not)
+BLOCK_ACF_END = 0.05  # the autocorrelation is summed up to the first lag where it falls below this
+BLOCK_MIN_TAU = 1.5   # residuals this close to white (integrated time in rows) keep the rows' own covariance
+
+
+def time_blocks(resid) -> np.ndarray | None:
+    """Block labels (0, 1, ...) of consecutive rows for the blocks'
+    covariance, from the residual's own autocorrelation: its integrated
+    time tau = 1 + 2 sum rho_k (k = 1 ... the first lag where rho_k <
+    BLOCK_ACF_END), a block BLOCK_TAU_K tau rows long, shortened to leave at
+    least BLOCK_MIN blocks.  None when the residual is close to white (tau <
+    BLOCK_MIN_TAU) or too few rows make BLOCK_MIN blocks of 2 rows.  The
+    residual is clipped at 3 robust sigma first (an outlier row is no
+    correlation)."""
+    r = np.asarray(resid, float)
+    n = len(r)
+    if n < 2 * BLOCK_MIN:
+        return None
+    r = r - np.median(r)
+    s = 1.4826 * float(np.median(np.abs(r)))
+    if s <= 0:
+        return None
+    r = np.clip(r, -3 * s, 3 * s)
+    r -= r.mean()
+    c0 = float(r @ r)
+    tau = 1.0
+    for k in range(1, n // BLOCK_MIN):
+        rho = float(r[:-k] @ r[k:]) / c0
+        if rho < BLOCK_ACF_END:
+            break
+        tau += 2.0 * rho
+    if tau < BLOCK_MIN_TAU:
+        return None
+    L = max(2, min(int(np.ceil(BLOCK_TAU_K * tau)), n // BLOCK_MIN))
+    return np.arange(n) // L
+
+
+def block_covariance(J, r, labels):
+    """The sandwich covariance of a least-squares fit whose rows come in
+    blocks that share their errors: A^-1 (sum_c s_c s_c^T) A^-1 B / (B - 1),
+    A = J^T J, s_c = J_c^T r_c the block's score (J, r whitened, the rows
+    fitted; labels each row's block).  None with fewer than BLOCK_MIN
+    blocks."""
+    lab = np.asarray(labels)
+    _, c = np.unique(lab, return_inverse=True)
+    B = int(c.max()) + 1
+    if B < BLOCK_MIN:
+        return None
+    S = np.zeros((B, J.shape[1]))
+    np.add.at(S, c, J * r[:, None])
+    Ai = np.linalg.inv(J.T @ J)
+    return B / (B - 1.0) * Ai @ (S.T @ S) @ Ai
 
 
 # neighbouring holds whose mean directions differ by less than this are one orientation held by a hand that
