@@ -27,3 +27,13 @@ class CalibrationError(InclinoError):
     """A calibration that cannot be used: singular, out of range, corrupt."""
 
     exit_code = 3
+
+
+class UndeterminedError(DataError, CalibrationError):
+    """The readings determine no calibration: their orientations leave the
+    ellipsoid free, or they lie on no ellipsoid.  A singular fit (exit 3,
+    as every other fit the orientations do not determine); a DataError too,
+    so the checks that try an ellipsoid on the data as a first look go on
+    without one."""
+
+    exit_code = 3

@@ -7,7 +7,7 @@ import itertools
 
 import numpy as np
 
-from inclino.errors import DataError
+from inclino.errors import UndeterminedError
 
 
 # the second-smallest singular value of the (column-scaled) quadric design matrix over its largest: below it
@@ -59,7 +59,7 @@ def far_mean(raw, R):
 
 def ellipsoid_start(raw, R, what: str = "the triad"):
     """Algebraic general ellipsoid fit: (M symmetric, b) with |M (raw - b)| ~ R.
-    DataError naming `what` when the readings determine no ellipsoid.
+    UndeterminedError (exit 3) naming `what` when the readings determine no ellipsoid.
     Readings whose mean is farther from the origin than R are fitted less
     that mean (far_mean), b given back in the readings' coordinates."""
     raw = np.asarray(raw, float)
@@ -70,14 +70,14 @@ def ellipsoid_start(raw, R, what: str = "the triad"):
     D, s = _design(raw)
     _, sv, Vt = np.linalg.svd(D / s, full_matrices=False)
     if len(raw) < 10 or not sv[-2] / sv[0] >= DETERMINED_SV:
-        raise DataError(f"too few orientations to determine {what}'s ellipsoid (readings on a few circles or in "
+        raise UndeterminedError(f"too few orientations to determine {what}'s ellipsoid (readings on a few circles or in "
                         f"a plane: turn the sensor through more of the sphere)")
     v = Vt[-1] / s
     Q = np.array([[v[0], v[3], v[4]], [v[3], v[1], v[5]], [v[4], v[5], v[2]]])
     if np.linalg.eigvalsh(Q).min() * np.linalg.eigvalsh(Q).max() <= 0:
         why = ("the readings of a moving sensor, whose acceleration is no sensor effect" if "acceler" in what else
                "a field that changed while they were read (steel or a current near the sensor)")
-        raise DataError(f"{what}'s readings do not lie on an ellipsoid (too few orientations: a cap of the sphere, "
+        raise UndeterminedError(f"{what}'s readings do not lie on an ellipsoid (too few orientations: a cap of the sphere, "
                         f"as a sensor that hardly tilts reads; or {why}): log it at rest, or turned slowly, through "
                         f"more of the sphere")
     if np.trace(Q) < 0:
@@ -85,7 +85,7 @@ def ellipsoid_start(raw, R, what: str = "the triad"):
     c = -np.linalg.solve(Q, v[6:9])
     k = c @ Q @ c - v[9]
     if k <= 0:
-        raise DataError(f"{what}: degenerate ellipsoid fit (too few orientations, or a moving sensor)")
+        raise UndeterminedError(f"{what}: degenerate ellipsoid fit (too few orientations, or a moving sensor)")
     w, U = np.linalg.eigh(Q / k)
     M = U @ np.diag(np.sqrt(w)) @ U.T * R
     return M, c
