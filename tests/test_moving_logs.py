@@ -166,7 +166,10 @@ def test_a_step_and_hold_log_a_stepped_turn_and_a_wand_keep_their_own_reasons(te
     ds, _ = tedaldi
     assert motion.figures(ds) is None
     cal, rep = fit(ds, "joint")
-    assert rep.passed and not any("the motion" in r for r in rep.reasons)
+    # its residual passes; its ~12 distinct orientations leave the coefficients' own uncertainty large (the
+    # hold-level covariance), which is the verdict's only reason
+    assert rep.residuals["acc_norm_rms_mg"] < 5.0
+    assert all(r.startswith("coefficients poorly determined: predicted inclination") for r in rep.reasons)
 
     def raw(v):
         return dataset.RawDataset(columns={c: v[:, i] for i, c in enumerate(dataset.ACC_COLS)}, meta={})

@@ -55,6 +55,8 @@ HOLD_TURN_DEG = 0.5            # a run whose direction turns by more than this f
 HOLD_JUMP_K = 6.0              # neighbouring rows differing by this many times their noise on an axis: a new hold
 STEP_AND_HOLD_FRACTION = 0.5   # holds must hold this share of the rows for a log to be read as step-and-hold
 HOLDS_MAX_LEVERAGE = 0.8       # the holds alone determine a triad's ellipsoid when no hold's leverage exceeds this
+HOLDS_FREE_SV = 0.02           # ... and no term is nearly free: the holds' directions' least singular value over the
+                               # largest (undetermined_text; a phone's holds all in the x-z and y-z planes: 0.004)
 LONE_HOLD_MAX_ROWS = 3 * HOLD_ROWS  # a hold this short that alone keeps the others from determining is set aside
 MIN_HOLDS = 12                 # a step-and-hold log's holds are used as its poses from this many on
 
@@ -288,6 +290,54 @@ def hold_leverages(means) -> np.ndarray:
     if np.min(np.abs(np.diag(R))) < 1e-9 * np.max(np.abs(np.diag(R))):
         return np.ones(len(v))
     return np.sum(Q * Q, axis=1)
+
+
+_TERMS = ("x scale", "y scale", "z scale", "x-y cross-axis", "x-z cross-axis", "y-z cross-axis", "x offset",
+          "y offset", "z offset")
+_TERM_HINT = {"x-y cross-axis": "x and y both tilted from the vertical (between the x and y axes)",
+              "x-z cross-axis": "x and z both tilted (between the x and z axes)",
+              "y-z cross-axis": "y and z both tilted (between the y and z axes)",
+              "x scale": "the x axis near the vertical", "y scale": "the y axis near the vertical",
+              "z scale": "the z axis near the vertical", "x offset": "the x axis up and down",
+              "y offset": "the y axis up and down", "z offset": "the z axis up and down"}
+
+
+def undetermined_text(ds, labels, count, t: str, what: str) -> str | None:
+    """Why the holds of a triad do not determine its ellipsoid alone, in
+    one clause (None when they do): the model's terms that the holds' mean
+    directions leave nearly free (the least singular vector of
+    hold_leverages' design, its components beyond 0.4), the hold whose
+    leverage is largest, and the orientation that would pin the terms down.
+    Holds all in the x-z and y-z planes leave the x-y cross-axis term free:
+    a phone's six-position accelerometer log was refused as "readings on no
+    ellipsoid" (its moving rows, fitted with the holds, were)."""
+    from inclino.calib.ellipsoid import sphere
+
+    v = means(_centred(ds, t), labels, count)
+    if len(v) <= 9:
+        return (f"the {count} holds found in the readings are too few to determine {what}'s ellipsoid alone "
+                f"(9 terms)")
+    lev = hold_leverages(v)
+    sph = sphere(v)
+    c = v - (sph[0] if sph is not None else 0.0)
+    u = c / np.maximum(np.linalg.norm(c, axis=1, keepdims=True), 1e-300)
+    X = np.column_stack([u[:, 0] ** 2, u[:, 1] ** 2, u[:, 2] ** 2, 2 * u[:, 0] * u[:, 1], 2 * u[:, 0] * u[:, 2],
+                         2 * u[:, 1] * u[:, 2], u])
+    _, sv, Vt = np.linalg.svd(X, full_matrices=False)
+    if float(np.max(lev)) <= HOLDS_MAX_LEVERAGE and sv[-1] >= HOLDS_FREE_SV * sv[0]:
+        return None
+    w = Vt[-1]
+    terms = [_TERMS[i] for i in np.argsort(-np.abs(w)) if abs(w[i]) > 0.4]
+    j = int(np.argmax(lev))
+    d = u[j]
+    big = int(np.argmax(np.abs(d)))
+    hint = _TERM_HINT.get(terms[0]) if terms else None
+    lone = (f"; hold {j + 1}, near {'-' if d[big] < 0 else '+'}{'xyz'[big]}, has leverage {lev[j]:.2f}: it alone "
+            f"fixes {'it' if len(terms) <= 1 else 'them'}" if lev[j] > HOLDS_MAX_LEVERAGE else "")
+    return (f"the {count} holds found in the readings leave {what}'s "
+            + (" and ".join(terms) + " term" + ("s" if len(terms) > 1 else "") if terms else "ellipsoid")
+            + f" nearly free (the least singular value of their directions {sv[-1] / sv[0]:.2g} of the largest"
+            + lone + ")" + (f": add holds with {hint}" if hint else ""))
 
 
 def means(v, labels, count) -> np.ndarray:

@@ -596,8 +596,9 @@ def _fit_invariants(ds, w, sa, sm, fix_dip, prior=None, mount_tolerance_deg=None
         (Ma, ba, Mm, bm, dip), cov, st = pose_free.fit(dsf, w, sa, sm, fix_dip, mag_start=mag_start,
                                                        labels=None if hl is None else hl[fitted])
     except (DataError, CalibrationError) as e:
-        # the accelerometer's ellipsoid of a log read mostly while moving, though its orientations span the sphere
-        cause = motion.named(ds) if hs is None and "accelerometer" in str(e) else None
+        # the accelerometer's ellipsoid of a log read mostly while moving, though its orientations span the sphere,
+        # or holds that leave a triad's ellipsoid free
+        cause = motion.refusal(ds, e, hs, None if hl is None else (hl, int(hl.max()) + 1))
         if cause is None:
             raise
         raise type(e)(cause) from e

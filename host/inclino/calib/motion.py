@@ -159,3 +159,34 @@ def cause(f: dict) -> str:
     diagnose without poses)."""
     return (f"the sensor moved while it was read: {_text(f)}: the hand's acceleration, which no sensor effect "
             f"models; {FIX}")
+
+
+def refusal(ds, e, hs, hl) -> str | None:
+    """The text of a refusal for a pose-free fit of every row that failed
+    (e: the fit's error; hs: the holds fitted alone, None when every row
+    was; hl: the holds found, determining or not): the motion (named) where
+    a log read mostly while moving failed on its accelerometer; else the
+    holds, where holds were found but leave the failing triad's ellipsoid
+    free (holds.undetermined_text), with what the fit of every row then
+    met; None: the fit's own error stands."""
+    import re
+
+    from inclino import holds
+
+    msg = str(e)
+    t = "acc" if "accelerometer" in msg else "mag" if "magnetometer" in msg else None
+    if hs is not None or t is None:
+        return None
+    what = "the accelerometer" if t == "acc" else "the magnetometer"
+    if t == "acc":
+        cause = named(ds, what)
+        if cause is not None:
+            return cause
+    if hl is None or not getattr(ds, f"has_{t}", False):
+        return None
+    text = holds.undetermined_text(ds, hl[0], hl[1], t, what)
+    if text is None:
+        return None
+    met = re.split(r" \(|: ", msg, maxsplit=1)[0]
+    return (f"{text}; fitted on every row instead, the {int(np.sum(hl[0] < 0))} rows read while moving between them "
+            f"too: {met}; no calibration written")

@@ -51,6 +51,10 @@ THRESHOLDS = {
     "mag_norm_rms_nT": 250.0,
     "dip_std_deg": 0.5,
     "predicted_azi_rms_deg": 0.25,  # 1-sigma, Li grid, from the coefficients' uncertainty
+    # an accelerometer-only fit (what it determines is inclination): 1-sigma over the Li grid from the
+    # coefficients' uncertainty, the residual's tolerance (holds that leave a term nearly free, all in the x-z and
+    # y-z planes: 1.08 deg predicted, and passed on |g| alone)
+    "predicted_inc_rms_deg": 0.1,
     "coef_quantisation_azi_max_deg": 0.002,  # Q29 M, Q29/Q10 b alone
     "fw_quantisation_azi_max_deg": 0.02,  # firmware arithmetic on identical inputs (docs/fixed-point.md budget)
     "fw_quantisation_inc_max_deg": 0.01,
@@ -695,6 +699,11 @@ def build_single(ds: RawDataset, cal: Calibration, info: dict) -> FitReport:
         reasons.append(f"inclination residual RMS (deg) {r['inc_rms_deg']:.4g} exceeds {t['inc_rms_deg']:g}")
     if rep.conditioning[f"{kind}_m_cond"] > t["m_cond"]:
         reasons.append(f"cond(M) {rep.conditioning[f'{kind}_m_cond']:.4g} exceeds {t['m_cond']:g}")
+    p_inc = rep.uncertainty.get("predicted_inc_rms_deg")
+    if p_inc is not None and p_inc > t["predicted_inc_rms_deg"]:
+        reasons.append(f"coefficients poorly determined: predicted inclination 1-sigma (deg) {p_inc:.4g} exceeds "
+                       f"{t['predicted_inc_rms_deg']:g}"
+                       + (f" ({info['holds_coverage']})" if info.get("holds_coverage") else ""))
     if info["mode"] != "poses" and eig < t["coverage_min_eig"]:
         reasons.append(f"orientations cover too little of the sphere (min eigenvalue {eig:.3g} < "
                        f"{t['coverage_min_eig']:g})")
@@ -705,7 +714,8 @@ def build_single(ds: RawDataset, cal: Calibration, info: dict) -> FitReport:
     checked = [(r.get("acc_norm_rms_mg") if kind == "acc" else None, "acc_norm_rms_mg", "|g| residual RMS (mg)"),
                (r.get("mag_norm_rms_nT") if kind == "mag" else None, "mag_norm_rms_nT", "|b| residual RMS (nT)"),
                (r.get("inc_rms_deg"), "inc_rms_deg", "inclination residual RMS (deg)"),
-               (rep.conditioning[f"{kind}_m_cond"], "m_cond", "cond(M)")]
+               (rep.conditioning[f"{kind}_m_cond"], "m_cond", "cond(M)"),
+               (p_inc, "predicted_inc_rms_deg", "predicted inclination 1-sigma (deg)")]
     near = [(v / t[k], what, v, t[k]) for v, k, what in checked if v is not None and np.isfinite(v) and t[k] > 0]
     if near:
         _, what, v, lim = max(near)

@@ -133,7 +133,7 @@ def fit(ds, use_poses=None, sigma_acc=None, sigma_mag=None, **_):
             M, b, cov, info = triad.fit_sphere(raw[~moving], R, sigma, min_rows=MIN_ROWS_SPHERE, what=what,
                                                blocks=hl is None)
         except (DataError, CalibrationError) as e:
-            cause = motion.named(ds, what) if kind == "acc" and hs is None else None
+            cause = motion.refusal(ds, e, hs, hl)
             if cause is None:
                 raise
             raise type(e)(cause) from e
@@ -154,6 +154,9 @@ def fit(ds, use_poses=None, sigma_acc=None, sigma_mag=None, **_):
                                          f"are correlated from row to row (a log read while moving: the hand's "
                                          f"acceleration), so the rows are not independent; the blocks' covariance "
                                          f"is {bl['var_ratio']:.3g} times the rows'")
+        if hl is not None:
+            # holds that leave a term nearly free: the verdict says which, beside the inclination it predicts
+            info["holds_coverage"] = holds.undetermined_text(ds, hl[0], hl[1], kind, what)
         hold_cov = triad.hold_covariance(raw, hl[0], keep, R, sigma) if hl is not None else None
         if hold_cov is not None and np.trace(hold_cov[0]) > np.trace(cov):
             cov = hold_cov[0]
