@@ -294,14 +294,27 @@ def time_blocks(resid) -> np.ndarray | None:
     BLOCK_MIN_TAU) or too few rows make BLOCK_MIN blocks of 2 rows.  The
     residual is clipped at 3 robust sigma first (an outlier row is no
     correlation)."""
-    r = np.asarray(resid, float)
-    n = len(r)
+    n = len(resid)
     if n < 2 * BLOCK_MIN:
         return None
+    tau = integrated_time(resid)
+    if tau < BLOCK_MIN_TAU:
+        return None
+    L = max(2, min(int(np.ceil(BLOCK_TAU_K * tau)), n // BLOCK_MIN))
+    return np.arange(n) // L
+
+
+def integrated_time(resid) -> float:
+    """A residual's integrated autocorrelation time in rows, 1 + 2 sum
+    rho_k over k = 1 ... the first lag where rho_k < BLOCK_ACF_END (at most
+    n / BLOCK_MIN): 1 for white rows; the residual clipped at 3 robust sigma
+    first (an outlier row is no correlation)."""
+    r = np.asarray(resid, float)
+    n = len(r)
     r = r - np.median(r)
     s = 1.4826 * float(np.median(np.abs(r)))
-    if s <= 0:
-        return None
+    if s <= 0 or n < 2 * BLOCK_MIN:
+        return 1.0
     r = np.clip(r, -3 * s, 3 * s)
     r -= r.mean()
     c0 = float(r @ r)
@@ -311,10 +324,7 @@ def time_blocks(resid) -> np.ndarray | None:
         if rho < BLOCK_ACF_END:
             break
         tau += 2.0 * rho
-    if tau < BLOCK_MIN_TAU:
-        return None
-    L = max(2, min(int(np.ceil(BLOCK_TAU_K * tau)), n // BLOCK_MIN))
-    return np.arange(n) // L
+    return tau
 
 
 def block_covariance(J, r, labels):
