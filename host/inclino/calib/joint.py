@@ -620,6 +620,8 @@ def _fit_invariants(ds, w, sa, sm, fix_dip, prior=None, mount_tolerance_deg=None
     if hs is not None:
         info["moving"] = np.flatnonzero(hs[0] < 0).tolist()
         info["holds"] = hs[1]
+    if st["refits"]:
+        info["refits"] = st["refits"]  # ellipsoid fits that curve in the noise: their covariance from refits
     if st["blocks"] is not None:
         # no hold, and rows whose errors neighbouring rows share (a log read while moving): counted in blocks
         mc = st.get("mag_covariance")

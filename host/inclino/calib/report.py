@@ -365,6 +365,11 @@ def build(ds: RawDataset, cal: Calibration, method: str, info: dict, refit=None,
                     f"correlated from row to row (a log read while moving: the hand's acceleration): accelerometer "
                     f"x{bl['var_ratio']:.3g} the rows' variance"
                     + (f", the dip x{bl['dip_var_ratio']:.3g}" if bl.get("dip_var_ratio") else ""))
+        rf = info.get("refits")
+        if rf:
+            src += ("; the ellipsoid fits curve in the noise (orientations bunched to one side): "
+                    + ", ".join(f"{'accelerometer' if t == 'acc' else 'magnetometer'} from {v['refits']} refits of "
+                                f"readings simulated from the fit, x{v['var_ratio']:.3g}" for t, v in rf.items()))
         hsc = info.get("hold_scale")
         if hsc:
             src += ("; widened for the error each static hold's rows share: "

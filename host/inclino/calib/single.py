@@ -131,12 +131,14 @@ def fit(ds, use_poses=None, sigma_acc=None, sigma_mag=None, **_):
         # acceleration is the motion's, not the sensor's)
         try:
             M, b, cov, info = triad.fit_sphere(raw[~moving], R, sigma, min_rows=MIN_ROWS_SPHERE, what=what,
-                                               blocks=hl is None)
+                                               blocks=hl is None, refits=triad.REFITS)
         except (DataError, CalibrationError) as e:
             cause = motion.refusal(ds, e, hs, hl)
             if cause is None:
                 raise
             raise type(e)(cause) from e
+        if info["refits"] is not None:
+            info["refits"].pop("cov9_before")
         keep = np.zeros(len(raw), bool)
         keep[~moving] = info["keep"]
         info["keep"] = keep
@@ -154,6 +156,12 @@ def fit(ds, use_poses=None, sigma_acc=None, sigma_mag=None, **_):
                                          f"are correlated from row to row (a log read while moving: the hand's "
                                          f"acceleration), so the rows are not independent; the blocks' covariance "
                                          f"is {bl['var_ratio']:.3g} times the rows'")
+        if info["refits"] is not None:
+            info["covariance_source"] = (f"{info['refits']['refits']} refits of readings simulated from the fit, "
+                                         f"their scatter and mean shift: {info['refits']['var_ratio']:.3g} times the "
+                                         f"variance before them (the fit curves in the noise: orientations bunched "
+                                         f"to one side)" + ("; the rows counted in blocks before" if info["blocks"]
+                                                            else ""))
         if hl is not None:
             # holds that leave a term nearly free: the verdict says which, beside the inclination it predicts
             info["holds_coverage"] = holds.undetermined_text(ds, hl[0], hl[1], kind, what)

@@ -20,7 +20,7 @@ from __future__ import annotations
 import numpy as np
 from scipy import optimize, stats
 
-from inclino.errors import CalibrationError, DataError
+from inclino.errors import CalibrationError, DataError, UndeterminedError
 
 MIN_ROWS_REJECT = 27       # outliers are looked for with at least 3 rows a parameter (ellipsoid: 9)
 SEGMENT_MIN_ROWS = 5       # a run of misfitting rows this long (and SEGMENT_MIN_FRACTION of the run) is a segment
@@ -194,7 +194,7 @@ def _sphere_jac(x, raw, R):
 
 
 def fit_sphere(raw, R: float, sigma: float, min_rows: int = 10, start=None, what: str = "the triad",
-               blocks: bool = False):
+               blocks: bool = False, refits: int = 0):
     """Ellipsoid fit of one triad: (M symmetric, b) with |M (raw - b)| = R,
     robust (soft-L1 pass, rows beyond the robust threshold dropped, a final
     least-squares pass).  Returns (M, b, cov (12: M row-major, b; the
@@ -204,6 +204,12 @@ def fit_sphere(raw, R: float, sigma: float, min_rows: int = 10, start=None, what
     acceleration on a log read while moving), the covariance counts blocks
     of consecutive rows (time_blocks, block_covariance), not rows, if that
     is the larger; info["blocks"] says so.
+    refits: that many refits of readings simulated from the fit
+    (sphere_refits), whose scatter about the fit and mean shift from it
+    are the covariance when they are the larger: the linearised covariance
+    holds only where the fit is nearly linear in the noise, and orientations
+    bunched in one hemisphere (a hand tumble) make it curve; info["refits"]
+    says so.
     CalibrationError when the orientations do not determine the ellipsoid:
     a singular normal matrix, or a fit that runs away (its corrected
     readings point within a plane: SPHERE_RUNAWAY_EIG)."""
@@ -263,6 +269,20 @@ def fit_sphere(raw, R: float, sigma: float, min_rows: int = 10, start=None, what
                 blk = {"rows": int(np.bincount(lab).max()), "count": int(lab.max()) + 1,
                        "var_ratio": float(np.trace(cb) / np.trace(cov9))}
                 cov9 = cb
+    boot = None
+    if refits:
+        cr, failed = sphere_refits(x, raw[keep], R, sigma, s2, refits)
+        if failed:
+            c = (raw[keep] - x[6:9]) @ _sym(x[:6]).T
+            lean = float(np.linalg.norm((c / np.maximum(np.linalg.norm(c, axis=1, keepdims=True), 1e-300)).mean(0)))
+            raise UndeterminedError(
+                f"the orientations do not determine {what}'s ellipsoid: refitted to readings simulated from its own "
+                f"fit (the same orientations, its own noise), it does not come back ({failed} of {refits} refits "
+                f"run away): the readings lean to one side of the sphere (their directions' mean resultant "
+                f"{lean:.2f}; 0 for every direction, 1 for one); turn the sensor through more of the sphere")
+        if cr is not None and np.trace(cr) > REFIT_RATIO * np.trace(cov9):
+            boot = {"refits": refits, "var_ratio": float(np.trace(cr) / np.trace(cov9)), "cov9_before": cov9}
+            cov9 = cr
     T = np.zeros((12, 9))
     for k, (i, j) in enumerate(zip(*np.triu_indices(3))):
         T[3 * i + j, k] = 1.0
@@ -272,7 +292,51 @@ def fit_sphere(raw, R: float, sigma: float, min_rows: int = 10, start=None, what
     M, b = _sym(x[:6]), x[6:9]
     resid = _sphere_residual(x, raw, R)
     return M, b, cov, {"s2": s2, "dof": dof, "keep": keep, "residual": resid,
-                       "noise": float(np.sqrt(s2) * sigma), "mode": "invariants", "cov9": cov9, "blocks": blk}
+                       "noise": float(np.sqrt(s2) * sigma), "mode": "invariants", "cov9": cov9, "blocks": blk,
+                       "refits": boot}
+
+
+REFIT_SEED = 20160210
+REFITS = 30         # refits of a pose-free ellipsoid fit (30 x ~10 ms on 6 000 rows)
+REFIT_RATIO = 1.5   # ... whose covariance replaces the linearised one when its trace is this much larger (below,
+                    # 30 refits' own scatter: the linearised one holds)
+
+
+def sphere_refits(x, raw, R, sigma, s2, n):
+    """The ellipsoid fit's covariance from n refits (a parametric
+    bootstrap): each fitted row projected onto the fitted ellipsoid, white
+    noise of the fit's own residual size added (isotropic, in the readings'
+    units), refitted by least squares from the fit; the refits' covariance
+    about their mean plus the square of their mean's shift from the fit (the
+    fit's own bias from the noise), and how many refits ran away (did not
+    converge, or left the corrected readings within one plane): a fit they
+    do not come back to is not determined by its orientations.  Seeded: the
+    same readings give the same figures."""
+    M, b = _sym(x[:6]), x[6:9]
+    c = (raw - b) @ M.T
+    u = c / np.maximum(np.linalg.norm(c, axis=1, keepdims=True), 1e-300)
+    clean = b + (R * u) @ np.linalg.inv(M).T
+    sd = float(np.sqrt(s2) * sigma / np.mean(np.linalg.svd(M, compute_uv=False)))
+    rng = np.random.default_rng(REFIT_SEED)
+    xs, failed = [], 0
+    for _ in range(n):
+        sim = clean + rng.normal(0.0, sd, clean.shape)
+        try:
+            res = optimize.least_squares(lambda p: _sphere_residual(p, sim, R) / sigma, x,
+                                         jac=lambda p: _sphere_jac(p, sim, R) / sigma, method="lm", x_scale="jac")
+            ok = res.success and np.all(np.isfinite(res.x)) and \
+                direction_spread((sim - res.x[6:9]) @ _sym(res.x[:6]).T) >= SPHERE_RUNAWAY_EIG
+        except (ValueError, np.linalg.LinAlgError):
+            ok = False
+        if ok:
+            xs.append(res.x)
+        else:
+            failed += 1
+    if failed or len(xs) < 2:
+        return None, failed
+    xs = np.array(xs)
+    d = xs.mean(0) - x
+    return np.cov(xs.T) + np.outer(d, d), 0
 
 
 # A fit of every row of a log read while moving: the hand's acceleration errs alike on neighbouring rows (its
