@@ -135,7 +135,8 @@ def fit(ds, w, sa, sm, fix_dip=False, mag_start=None, labels=None):
     if ia["blocks"] is not None:
         labels = triad.time_blocks(ia["residual"])  # the magnetometer's dip residuals share those blocks
     # 2. the magnetometer alone
-    Sm, bm, _, im = triad.fit_sphere(mag, F, sm, min_rows=MIN_ROWS, what="the magnetometer", refits=triad.REFITS)
+    Sm, bm, cov_s, im = triad.fit_sphere(mag, F, sm, min_rows=MIN_ROWS, what="the magnetometer",
+                                         refits=triad.REFITS)
     g = (acc - ba) @ Ma.T
     ug = g / np.maximum(np.linalg.norm(g, axis=1, keepdims=True), 1e-300)
     bs = (mag - bm) @ Sm.T
@@ -218,15 +219,11 @@ def fit(ds, w, sa, sm, fix_dip=False, mag_start=None, labels=None):
     if im["refits"] is not None:
         # the magnetometer's ellipsoid curves in the noise (its orientations bunched to one side): what its refits
         # scatter beyond its linearised covariance, carried into M_m = Q S_m and b_m
-        T = np.zeros((12, 9))
-        for j, (r_, c_) in enumerate(zip(*np.triu_indices(3))):
-            T[3 * r_ + c_, j] = T[3 * c_ + r_, j] = 1.0
-        T[:9] = np.kron(Q, np.eye(3)) @ T[:9]
-        T[9:12, 6:9] = np.eye(3)
-        w_, V_ = np.linalg.eigh(im["cov9"] - im["refits"]["cov9_before"])
-        extra = T @ ((V_ * np.clip(w_, 0.0, None)) @ V_.T) @ T.T
+        L = np.eye(12)
+        L[:9, :9] = np.kron(Q, np.eye(3))  # row-major M_m = Q S_m
+        w_, V_ = np.linalg.eigh(cov_s - im["cov_before_refits"])
         cov_m = cov_m.copy()
-        cov_m[:12, :12] += extra
+        cov_m[:12, :12] += L @ ((V_ * np.clip(w_, 0.0, None)) @ V_.T) @ L.T
     # the accelerometer's calibration is held fixed in the magnetometer's fit, but its error moves the corrected
     # gravity the dip residuals see: the magnetometer's parameters follow it (an error that tilts gravity is
     # partly taken up by Q), d x_m / d x_a = -(J^T J)^-1 J^T d r / d x_a, over the 12 numbers of (M_a, b_a)
@@ -268,6 +265,5 @@ def fit(ds, w, sa, sm, fix_dip=False, mag_start=None, labels=None):
             "normal_matrix_cond": float(np.linalg.cond(JtJ)), "dip_fitted": not fix_dip,
             "dip_sigma_deg": None if fix_dip else float(np.sqrt(cov[24, 24])), "mag_covariance": cov_source,
             "acc_to_mag": K, "cov_mag_own": cov_m, "blocks": ia["blocks"],
-            "refits": {t: {k: v for k, v in i["refits"].items() if k != "cov9_before"}
-                       for t, i in (("acc", ia), ("mag", im)) if i["refits"] is not None}}
+            "refits": {t: i["refits"] for t, i in (("acc", ia), ("mag", im)) if i["refits"] is not None}}
     return (Ma, ba, Mm, bm, dip), cov, info

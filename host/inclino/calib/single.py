@@ -137,8 +137,6 @@ def fit(ds, use_poses=None, sigma_acc=None, sigma_mag=None, **_):
             if cause is None:
                 raise
             raise type(e)(cause) from e
-        if info["refits"] is not None:
-            info["refits"].pop("cov9_before")
         keep = np.zeros(len(raw), bool)
         keep[~moving] = info["keep"]
         info["keep"] = keep

@@ -269,7 +269,7 @@ def fit_sphere(raw, R: float, sigma: float, min_rows: int = 10, start=None, what
                 blk = {"rows": int(np.bincount(lab).max()), "count": int(lab.max()) + 1,
                        "var_ratio": float(np.trace(cb) / np.trace(cov9))}
                 cov9 = cb
-    boot = None
+    boot, cov9_lin = None, None
     if refits:
         cr, failed = sphere_refits(x, raw[keep], R, sigma, s2, refits)
         if failed:
@@ -281,19 +281,20 @@ def fit_sphere(raw, R: float, sigma: float, min_rows: int = 10, start=None, what
                 f"run away): the readings lean to one side of the sphere (their directions' mean resultant "
                 f"{lean:.2f}; 0 for every direction, 1 for one); turn the sensor through more of the sphere")
         if cr is not None and np.trace(cr) > REFIT_RATIO * np.trace(cov9):
-            boot = {"refits": refits, "var_ratio": float(np.trace(cr) / np.trace(cov9)), "cov9_before": cov9}
-            cov9 = cr
+            boot = {"refits": refits, "var_ratio": float(np.trace(cr) / np.trace(cov9))}
+            cov9_lin, cov9 = cov9, cr
     T = np.zeros((12, 9))
     for k, (i, j) in enumerate(zip(*np.triu_indices(3))):
         T[3 * i + j, k] = 1.0
         T[3 * j + i, k] = 1.0
     T[9:12, 6:9] = np.eye(3)
     cov = T @ cov9 @ T.T
+    cov_lin = None if cov9_lin is None else T @ cov9_lin @ T.T
     M, b = _sym(x[:6]), x[6:9]
     resid = _sphere_residual(x, raw, R)
     return M, b, cov, {"s2": s2, "dof": dof, "keep": keep, "residual": resid,
                        "noise": float(np.sqrt(s2) * sigma), "mode": "invariants", "cov9": cov9, "blocks": blk,
-                       "refits": boot}
+                       "refits": boot, "cov_before_refits": cov_lin}
 
 
 REFIT_SEED = 20160210
