@@ -277,8 +277,8 @@ def fit_sphere(raw, R: float, sigma: float, min_rows: int = 10, start=None, what
             lean = float(np.linalg.norm((c / np.maximum(np.linalg.norm(c, axis=1, keepdims=True), 1e-300)).mean(0)))
             raise UndeterminedError(
                 f"the orientations do not determine {what}'s ellipsoid: refitted to readings simulated from its own "
-                f"fit (the same orientations, its own noise), it does not come back ({failed} of {refits} refits "
-                f"run away): the readings lean to one side of the sphere (their directions' mean resultant "
+                f"fit (the same orientations, its own noise), it does not come back (a refit runs away): the "
+                f"readings lean to one side of the sphere (their directions' mean resultant "
                 f"{lean:.2f}; 0 for every direction, 1 for one); turn the sensor through more of the sphere")
         if cr is not None and np.trace(cr) > REFIT_RATIO * np.trace(cov9):
             boot = {"refits": refits, "var_ratio": float(np.trace(cr) / np.trace(cov9))}
@@ -299,6 +299,7 @@ def fit_sphere(raw, R: float, sigma: float, min_rows: int = 10, start=None, what
 
 REFIT_SEED = 20160210
 REFITS = 30         # refits of a pose-free ellipsoid fit (30 x ~10 ms on 6 000 rows)
+REFIT_MAX_NFEV = 100  # a refit starts at the fit: it converges in a few evaluations, or runs away
 REFIT_RATIO = 1.5   # ... whose covariance replaces the linearised one when its trace is this much larger (below,
                     # 30 refits' own scatter: the linearised one holds)
 
@@ -309,9 +310,10 @@ def sphere_refits(x, raw, R, sigma, s2, n):
     noise of the fit's own residual size added (isotropic, in the readings'
     units), refitted by least squares from the fit; the refits' covariance
     about their mean plus the square of their mean's shift from the fit (the
-    fit's own bias from the noise), and how many refits ran away (did not
-    converge, or left the corrected readings within one plane): a fit they
-    do not come back to is not determined by its orientations.  Seeded: the
+    fit's own bias from the noise), and 0; (None, 1) as soon as a refit runs
+    away (does not converge in REFIT_MAX_NFEV evaluations, or leaves the
+    corrected readings within one plane): a fit its refits do not come back
+    to is not determined by its orientations.  Seeded: the
     same readings give the same figures."""
     M, b = _sym(x[:6]), x[6:9]
     c = (raw - b) @ M.T
@@ -319,22 +321,20 @@ def sphere_refits(x, raw, R, sigma, s2, n):
     clean = b + (R * u) @ np.linalg.inv(M).T
     sd = float(np.sqrt(s2) * sigma / np.mean(np.linalg.svd(M, compute_uv=False)))
     rng = np.random.default_rng(REFIT_SEED)
-    xs, failed = [], 0
+    xs = []
     for _ in range(n):
         sim = clean + rng.normal(0.0, sd, clean.shape)
         try:
             res = optimize.least_squares(lambda p: _sphere_residual(p, sim, R) / sigma, x,
-                                         jac=lambda p: _sphere_jac(p, sim, R) / sigma, method="lm", x_scale="jac")
+                                         jac=lambda p: _sphere_jac(p, sim, R) / sigma, method="lm", x_scale="jac",
+                                         max_nfev=REFIT_MAX_NFEV)
             ok = res.success and np.all(np.isfinite(res.x)) and \
                 direction_spread((sim - res.x[6:9]) @ _sym(res.x[:6]).T) >= SPHERE_RUNAWAY_EIG
         except (ValueError, np.linalg.LinAlgError):
             ok = False
-        if ok:
-            xs.append(res.x)
-        else:
-            failed += 1
-    if failed or len(xs) < 2:
-        return None, failed
+        if not ok:
+            return None, 1  # one is enough: the fit is not determined (and a runaway costs its every evaluation)
+        xs.append(res.x)
     xs = np.array(xs)
     d = xs.mean(0) - x
     return np.cov(xs.T) + np.outer(d, d), 0
