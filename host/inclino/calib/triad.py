@@ -211,8 +211,9 @@ def fit_sphere(raw, R: float, sigma: float, min_rows: int = 10, start=None, what
     bunched in one hemisphere (a hand tumble) make it curve; info["refits"]
     says so.
     CalibrationError when the orientations do not determine the ellipsoid:
-    a singular normal matrix, or a fit that runs away (its corrected
-    readings point within a plane: SPHERE_RUNAWAY_EIG)."""
+    a singular normal matrix, a fit that runs away (its corrected readings
+    point within a plane: SPHERE_RUNAWAY_EIG), or (refits) a fit its refits
+    do not come back to."""
     raw = np.asarray(raw, float)
     n = len(raw)
     if n < min_rows:
@@ -271,8 +272,8 @@ def fit_sphere(raw, R: float, sigma: float, min_rows: int = 10, start=None, what
                 cov9 = cb
     boot, cov9_lin = None, None
     if refits:
-        cr, failed = sphere_refits(x, raw[keep], R, sigma, s2, refits)
-        if failed:
+        cr = sphere_refits(x, raw[keep], R, sigma, s2, refits)
+        if cr is None:
             c = (raw[keep] - x[6:9]) @ _sym(x[:6]).T
             lean = float(np.linalg.norm((c / np.maximum(np.linalg.norm(c, axis=1, keepdims=True), 1e-300)).mean(0)))
             raise UndeterminedError(
@@ -280,7 +281,7 @@ def fit_sphere(raw, R: float, sigma: float, min_rows: int = 10, start=None, what
                 f"fit (the same orientations, its own noise), it does not come back (a refit runs away): the "
                 f"readings lean to one side of the sphere (their directions' mean resultant "
                 f"{lean:.2f}; 0 for every direction, 1 for one); turn the sensor through more of the sphere")
-        if cr is not None and np.trace(cr) > REFIT_RATIO * np.trace(cov9):
+        if np.trace(cr) > REFIT_RATIO * np.trace(cov9):
             boot = {"refits": refits, "var_ratio": float(np.trace(cr) / np.trace(cov9))}
             cov9_lin, cov9 = cov9, cr
     T = np.zeros((12, 9))
@@ -310,11 +311,11 @@ def sphere_refits(x, raw, R, sigma, s2, n):
     noise of the fit's own residual size added (isotropic, in the readings'
     units), refitted by least squares from the fit; the refits' covariance
     about their mean plus the square of their mean's shift from the fit (the
-    fit's own bias from the noise), and 0; (None, 1) as soon as a refit runs
-    away (does not converge in REFIT_MAX_NFEV evaluations, or leaves the
-    corrected readings within one plane): a fit its refits do not come back
-    to is not determined by its orientations.  Seeded: the
-    same readings give the same figures."""
+    fit's own bias from the noise); None as soon as a refit runs away (does
+    not converge in REFIT_MAX_NFEV evaluations, or leaves the corrected
+    readings within one plane): a fit its refits do not come back to is not
+    determined by its orientations.  Seeded: the same readings give the
+    same figures."""
     M, b = _sym(x[:6]), x[6:9]
     c = (raw - b) @ M.T
     u = c / np.maximum(np.linalg.norm(c, axis=1, keepdims=True), 1e-300)
@@ -333,11 +334,11 @@ def sphere_refits(x, raw, R, sigma, s2, n):
         except (ValueError, np.linalg.LinAlgError):
             ok = False
         if not ok:
-            return None, 1  # one is enough: the fit is not determined (and a runaway costs its every evaluation)
+            return None  # one is enough: the fit is not determined (and a runaway costs its every evaluation)
         xs.append(res.x)
     xs = np.array(xs)
     d = xs.mean(0) - x
-    return np.cov(xs.T) + np.outer(d, d), 0
+    return np.cov(xs.T) + np.outer(d, d)
 
 
 # A fit of every row of a log read while moving: the hand's acceleration errs alike on neighbouring rows (its
