@@ -275,21 +275,30 @@ def hold_leverages(means) -> np.ndarray:
     directions (an MPU-9250 accelerometer 0.65 g off, stepped through 68
     holds over the whole sphere, read a leverage of 0.84 from the origin,
     0.30 from the centre, and its holds were not fitted alone)."""
-    from inclino.calib.ellipsoid import sphere
-
     v = np.asarray(means, float)
     if len(v) <= 9:
         return np.ones(len(v))
+    X, _ = _hold_design(v)
+    Q, R = np.linalg.qr(X)
+    if np.min(np.abs(np.diag(R))) < 1e-9 * np.max(np.abs(np.diag(R))):
+        return np.ones(len(v))
+    return np.sum(Q * Q, axis=1)
+
+
+def _hold_design(means):
+    """(design, directions) of the linearised pose-free model over mean
+    readings (hold_leverages): the directions from the centre of the best
+    sphere through them where one is determined, else from the origin."""
+    from inclino.calib.ellipsoid import sphere
+
+    v = np.asarray(means, float)
     sph = sphere(v)
     if sph is not None:
         v = v - sph[0]
     u = v / np.maximum(np.linalg.norm(v, axis=1, keepdims=True), 1e-300)
     X = np.column_stack([u[:, 0] ** 2, u[:, 1] ** 2, u[:, 2] ** 2, 2 * u[:, 0] * u[:, 1], 2 * u[:, 0] * u[:, 2],
                          2 * u[:, 1] * u[:, 2], u])
-    Q, R = np.linalg.qr(X)
-    if np.min(np.abs(np.diag(R))) < 1e-9 * np.max(np.abs(np.diag(R))):
-        return np.ones(len(v))
-    return np.sum(Q * Q, axis=1)
+    return X, u
 
 
 _TERMS = ("x scale", "y scale", "z scale", "x-y cross-axis", "x-z cross-axis", "y-z cross-axis", "x offset",
@@ -311,18 +320,12 @@ def undetermined_text(ds, labels, count, t: str, what: str) -> str | None:
     Holds all in the x-z and y-z planes leave the x-y cross-axis term free:
     a phone's six-position accelerometer log was refused as "readings on no
     ellipsoid" (its moving rows, fitted with the holds, were)."""
-    from inclino.calib.ellipsoid import sphere
-
     v = means(_centred(ds, t), labels, count)
     if len(v) <= 9:
         return (f"the {count} holds found in the readings are too few to determine {what}'s ellipsoid alone "
                 f"(9 terms)")
     lev = hold_leverages(v)
-    sph = sphere(v)
-    c = v - (sph[0] if sph is not None else 0.0)
-    u = c / np.maximum(np.linalg.norm(c, axis=1, keepdims=True), 1e-300)
-    X = np.column_stack([u[:, 0] ** 2, u[:, 1] ** 2, u[:, 2] ** 2, 2 * u[:, 0] * u[:, 1], 2 * u[:, 0] * u[:, 2],
-                         2 * u[:, 1] * u[:, 2], u])
+    X, u = _hold_design(v)
     _, sv, Vt = np.linalg.svd(X, full_matrices=False)
     if float(np.max(lev)) <= HOLDS_MAX_LEVERAGE and sv[-1] >= HOLDS_FREE_SV * sv[0]:
         return None
