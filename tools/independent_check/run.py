@@ -80,7 +80,9 @@ def evaluate(case, seed):
         if has_mag and has_acc:
             ach[f'cal_{name}_azi'] = float(np.sqrt(np.mean(wrap(azi - A)**2)))
     # acceptance grid: one reading per position with the run's noise (+ pose error when poses)
-    tot_a = np.hypot(tr['sa'], tr['ha']); tot_m = np.hypot(tr['sm'], tr['hm'])
+    # readings as the run's: its white noise, its per-hold offsets and (a hand tumble) the hand's acceleration,
+    # here drawn white at its RMS
+    tot_a = np.sqrt(tr['sa'] ** 2 + tr['ha'] ** 2 + tr.get('hand', 0.0) ** 2); tot_m = np.hypot(tr['sm'], tr['hm'])
     reps = 20
     e_i, e_a, ng, nb = [], [], [], []
     for r in range(reps):
