@@ -1217,7 +1217,7 @@ def _motion(ds, rep):
     block = np.arange(min(n, LAG_ROWS))
     if len(block) < 8:
         return
-    verdicts = []
+    verdicts, held = [], []
     for t in ("acc", "mag"):
         if not getattr(ds, f"has_{t}"):
             continue
@@ -1231,6 +1231,11 @@ def _motion(ds, rep):
         bound = float(declared) if declared else NOISE_BOUND[t]
         bound = max(bound, float(lsb) if lsb else 0.0)
         rep.noise[f"{t}_step_{unit}"] = step
+        same = float(np.mean(np.all(np.diff(v, axis=0) == 0, axis=1)))
+        if same > HELD_FRAC:
+            # a triad sampled slower than the rows and repeated between its updates: its median step is 0
+            held.append(f"the {'accelerometer' if t == 'acc' else 'magnetometer'} repeats the row before on "
+                        f"{100 * same:.0f} % of rows: read slower than the rows, held between its updates")
         if step <= 3.0 * bound:
             verdicts.append(True)
             rep.noise[f"{t}_{unit}"] = step
@@ -1246,15 +1251,16 @@ def _motion(ds, rep):
     rep.static = False if not declared else None
     steps = ", ".join(f"{'accelerometer' if k.startswith('acc') else 'magnetometer'} "
                       f"{v * (1e3 if k.startswith('acc') else 1):.3g} {'mg' if k.startswith('acc') else 'nT'}"
-                      for k, v in rep.noise.items() if "_step_" in k)
+                      for k, v in rep.noise.items() if "_step_" in k and v > 0)
+    held = f" ({'; '.join(held)})" if held else ""
     if declared:
         rep.findings.append(Finding("motion", "note", (
             f"declared static; consecutive readings differ by a median of {steps} per axis (more than a static "
-            f"sensor's noise): each row is a position of its own, or the sensor moved"), None,
+            f"sensor's noise){held}: each row is a position of its own, or the sensor moved"), None,
             {k: v for k, v in rep.noise.items() if "_step_" in k}))
     else:
         rep.findings.append(Finding("motion", "note", (
-            f"consecutive readings differ by a median of {steps} per axis, more than a static sensor's noise: "
+            f"consecutive readings differ by a median of {steps} per axis, more than a static sensor's noise{held}: "
             f"the sensor moved between rows (hand-held, continuous rotation), or each row is a position of its "
             f"own (declare a step-and-hold run static: --static, or [log] static = true)"), None,
             {k: v for k, v in rep.noise.items() if "_step_" in k}))
@@ -1641,6 +1647,13 @@ def run(ds, declared_static: bool = False) -> CheckReport:
         if ds.has_acc and "inc_deg" in ds.columns and "tf_deg" in ds.columns and not units_bad and len(ds) >= 6:
             gp = _acc_poses(ds, rows, rep)
         if not units_bad and len(ds) >= 6:
+            if ds.has_acc and not ds.has_mag and gp is None:
+                rep.findings.append(Finding("dip-sign", "note", (
+                    "the accelerometer's gravity sign was not checked: without poses or a magnetometer (and the "
+                    "site's dip) nothing in the readings tells up from down, and a sign turned on every axis "
+                    "(reads = \"up\" or \"down\") calibrates as well, every inclination then read as 180 deg less "
+                    "it; check one row against a known orientation (an axis pointing down must read +1 g)"),
+                    "acc", {}))
             if ds.has_acc and ds.has_mag:
                 _axes_and_lag(ds, rows, rep)
             elif ds.has_mag and "inc_deg" in ds.columns and "tf_deg" in ds.columns:
