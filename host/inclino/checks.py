@@ -648,8 +648,11 @@ def _axes_and_lag(ds, rows_all, rep, ug_src=None):
         elif route is None and rule is not None:
             rep.findings.append(Finding("row-alignment", "note", (
                 f"the dip invariant's lag curve puts the magnetometer's rows {inv['lag']:+.2f} +- "
-                f"{_se_text(inv['se'])} out of step (each half of the log: {halves_txt}): a shift of {k:+d} is "
-                f"possible, not named (the curve's scatter is more than {LAG_CURVE_NEAREST_SE:g} row)"),
+                f"{_se_text(inv['se'])} out of step (each half of the log: {halves_txt}): a shift "
+                + (f"of {k:+d}" if int(round(inv["lag"] - inv["se"])) == int(round(inv["lag"] + inv["se"])) else
+                   f"anywhere from {int(round(inv['lag'] - inv['se'])):+d} to {int(round(inv['lag'] + inv['se'])):+d} "
+                   f"rows (one standard error either way)")
+                + f" is possible, not named (the curve's scatter is more than {LAG_CURVE_NEAREST_SE:g} row)"),
                 None, {"curve_lag_rows": inv["lag"], "curve_lag_se_rows": inv["se"], "lag_rows_possible": k}))
     else:
         curve = None
@@ -942,9 +945,11 @@ def _shifts_unseen(ug, ub, inv, lags):
     # (named as lag -1), k = -1 a row behind (lag +1)
     which = "either way" if len(ways) == 2 else ("with the magnetometer a row ahead" if ways[0] == 1 else
                                                  "with the magnetometer a row behind")
-    head = ("the triads' pairing is not checked to a row on these rows" if len(ways) == 2 else
-            "the triads' pairing is checked to a row on these rows one way only")
-    return (f"{head}: a shift of one row {which} would not be named (a row changes the dip's spread by {100 * gain:.2g} %; {curve}); a session held "
+    head = ("the triads' pairing is not checked to a row on these rows: a shift of one row either way would not be "
+            "named" if len(ways) == 2 else
+            f"the triads' pairing is not checked to a row {which} on these rows: such a shift would not be named, "
+            f"one the other way would")
+    return (f"{head} (a row changes the dip's spread by {100 * gain:.2g} %; {curve}); a session held "
             f"still at each position, or a longer log turned through all orientations, checks it"), \
         {"unseen_lags_rows": [-k for k in ways], "spread_change_per_row": gain}
 
