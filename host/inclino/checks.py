@@ -353,6 +353,53 @@ def _counts(ds, triad: str) -> bool:
     return _imported(ds) and str(ds.meta.get(f"{triad}_unit", "")).startswith("counts")
 
 
+MID_SCALES = tuple(2 ** k for k in range(7, 24))  # unsigned counts read 2^(bits-1) at zero input
+
+
+def _mid_scale(ds, triad: str, v) -> tuple | None:
+    """(mid-scale, each axis' median in counts) of unsigned counts
+    (2^(bits-1)) when every axis of an imported triad in counts reads about
+    it: each axis' median within 5 % of one MID_SCALES value and farther
+    from zero than 3 times its own spread (a signed triad's axes read about
+    zero); else None."""
+    if not _counts(ds, triad):
+        return None
+    lsb = ds.meta.get(f"{triad}_lsb_{'g' if triad == 'acc' else 'nT'}")
+    c = np.asarray(v, float) / float(lsb or 1.0)  # back to counts
+    med = np.median(c, axis=0)
+    spread = 1.4826 * np.median(np.abs(c - med), axis=0)
+    for z in MID_SCALES:
+        if np.all(np.abs(np.abs(med) / z - 1.0) < 0.05) and np.all(np.abs(med) > 3.0 * spread):  # |med|: reads
+            return z, np.abs(med)
+    return None
+
+
+def _counts_hint(ds, triad: str, v, ratio: float) -> str:
+    """The lsb that makes counts whose size is `ratio` off read the
+    expected size ('' without a declared lsb)."""
+    unit = "g" if triad == "acc" else "nT"
+    lsb = ds.meta.get(f"{triad}_lsb_{unit}")
+    if not lsb or not (np.isfinite(ratio) and ratio > 0):
+        return ""
+    return f"lsb = \"{_lsb_text(float(lsb) / ratio, triad)}\" would make it so"
+
+
+def _mid_scale_error(ds, triad: str, v, fig) -> Finding | None:
+    """The error of unsigned counts (every axis about one mid-scale value),
+    or None: no unit or lsb fixes an offset (an Xsens ADC log read 3.48x
+    g, and the lsb that made it 1 g imported every row as one
+    orientation)."""
+    mid = _mid_scale(ds, triad, v)
+    if mid is None:
+        return None
+    z, med = mid
+    name = "accelerometer" if triad == "acc" else "magnetometer"
+    return Finding("units", "error", (
+        f"{name}: every axis reads about {z} counts (medians {', '.join(f'{m:.0f}' for m in med)}): "
+        f"unsigned counts with zero at mid-scale, which no unit or lsb fixes; subtract {z} from each of the "
+        f"{name}'s columns before importing, then check the lsb"), triad, {**fig, "mid_scale_counts": z})
+
+
 def _units_acc(ds, rows, rep):
     G = float(ds.meta.get("gravity_g") or 1.0)
     a = ds.acc[rows]
@@ -378,9 +425,15 @@ def _units_acc(ds, rows, rep):
         rep.findings.append(_lsb_error(ds, "acc", f"|g| is {med:.4g} (median of {len(a)} rows), {ratio:.4g}x "
                                                   f"{G:g} g", hint, fig))
         return
+    mid = _mid_scale_error(ds, "acc", a, fig)
+    if mid is not None:
+        rep.findings.append(mid)
+        return
     guesses = _unit_guesses(ratio, ACC_UNIT_GUESS, "g", _declared_factor(ds, "acc"), 0.2)
+    counts = _counts_hint(ds, "acc", a, ratio) if _counts(ds, "acc") and not guesses else ""
     like = (f"the readings look like {' or '.join(guesses)}" if guesses else
-            f"the readings are {ratio:.4g}x what g would be" + (f": {hint}" if hint else ""))
+            f"the readings are {ratio:.4g}x what g would be" + (f": {hint}" if hint else "")
+            + (f" ({counts})" if counts else ""))
     unit = ds.meta.get("acc_unit", "g")
     rep.findings.append(Finding("units", "error", (
         f"accelerometer: |g| is {med:.4g} (median of {len(a)} rows), not {G:g} g: {like}, not {unit}; "
@@ -448,9 +501,15 @@ def _units_mag(ds, rows, rep):
     if hint and _counts(ds, "mag"):  # counts: the lsb declared is the scale
         rep.findings.append(_lsb_error(ds, "mag", f"|b| is {R:.4g} nT ({how}), {R / target:.3g}x {rng}", hint, fig))
         return
+    mid = _mid_scale_error(ds, "mag", m, fig)
+    if mid is not None:
+        rep.findings.append(mid)
+        return
     guesses = _unit_guesses(R / target, MAG_UNIT_GUESS, "nT", _declared_factor(ds, "mag"), 0.6)
+    counts = _counts_hint(ds, "mag", m, R / target) if _counts(ds, "mag") and not guesses else ""
     like = (f"the readings look like {' or '.join(guesses)}" if guesses else
-            f"{R / target:.3g}x a geomagnetic field" + (f": {hint}" if hint else ""))
+            f"{R / target:.3g}x a geomagnetic field" + (f": {hint}" if hint else "")
+            + (f" ({counts})" if counts else ""))
     rep.findings.append(Finding("units", "error", (
         f"magnetometer: |b| is {R:.4g} nT ({how}), not {rng}: {like}, not {unit}; "
         + _fix(ds, "magnetometer", "the unit (unit = \"uT\", \"G\", \"mG\", or \"counts\" with lsb)")), "mag",
