@@ -36,7 +36,7 @@ def test_unsigned_counts_centred_on_mid_scale_are_named(tmp_path, capsys):
                  str(tmp_path / "run.csv")])
     err = capsys.readouterr().err
     assert code == 2
-    assert "every axis reads about 32768 counts" in err and "subtract 32768" in err
+    assert "every axis reads about 32768 counts" in err and "zero = 32768" in err
     assert not (tmp_path / "run.csv").exists()
 
 
@@ -53,3 +53,17 @@ def test_counts_off_by_an_odd_factor_get_the_lsb_to_write(tmp_path, capsys):
     assert main(["import", str(tmp_path / "c.csv"), "--sensor", str(tmp_path / "s2.toml"), "-o",
                  str(tmp_path / "run.csv")]) == 0
     assert "units" not in capsys.readouterr().err
+
+
+def test_a_declared_zero_imports_unsigned_counts(tmp_path, capsys):
+    _log(tmp_path / "adc.csv", 32768 + 4060 * _g())
+    (tmp_path / "s.toml").write_text(TOML.format(lsb="1/4060 g") + "zero = 32768\n")
+    assert main(["import", str(tmp_path / "adc.csv"), "--sensor", str(tmp_path / "s.toml"), "-o",
+                 str(tmp_path / "run.csv")]) == 0
+    assert "units" not in capsys.readouterr().err
+    head = (tmp_path / "run.csv").read_text().splitlines()
+    assert any(line.startswith("# acc_unit=counts") and "less a zero of 32768" in line for line in head)
+    (tmp_path / "bad.toml").write_text(TOML.format(lsb="1/4060 g") + 'zero = "mid"\n')
+    assert main(["import", str(tmp_path / "adc.csv"), "--sensor", str(tmp_path / "bad.toml"), "-o",
+                 str(tmp_path / "run2.csv")]) == 2
+    assert "zero: a number" in capsys.readouterr().err

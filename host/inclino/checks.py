@@ -396,8 +396,9 @@ def _mid_scale_error(ds, triad: str, v, fig) -> Finding | None:
     name = "accelerometer" if triad == "acc" else "magnetometer"
     return Finding("units", "error", (
         f"{name}: every axis reads about {z} counts (medians {', '.join(f'{m:.0f}' for m in med)}): "
-        f"unsigned counts with zero at mid-scale, which no unit or lsb fixes; subtract {z} from each of the "
-        f"{name}'s columns before importing, then check the lsb"), triad, {**fig, "mid_scale_counts": z})
+        f"unsigned counts with zero at mid-scale, which no unit or lsb fixes; "
+        + _fix(ds, name, f"the zero: zero = {z} (the reading at zero input), then check the lsb")), triad,
+        {**fig, "mid_scale_counts": z})
 
 
 def _units_acc(ds, rows, rep):

@@ -55,6 +55,7 @@ HOLD_TURN_DEG = 0.5            # a run whose direction turns by more than this f
 HOLD_JUMP_K = 6.0              # neighbouring rows differing by this many times their noise on an axis: a new hold
 STEP_AND_HOLD_FRACTION = 0.5   # holds must hold this share of the rows for a log to be read as step-and-hold
 HOLDS_MAX_LEVERAGE = 0.8       # the holds alone determine a triad's ellipsoid when no hold's leverage exceeds this
+HOLDS_CENTRE_FRAC = 0.25       # holds' directions taken from the sphere's centre when it is this far off (its radius)
 HOLDS_FREE_SV = 0.02           # ... and no term is nearly free: the holds' directions' least singular value over the
                                # largest (undetermined_text; a phone's holds all in the x-z and y-z planes: 0.004)
 LONE_HOLD_MAX_ROWS = 3 * HOLD_ROWS  # a hold this short that alone keeps the others from determining is set aside
@@ -270,9 +271,8 @@ def hold_leverages(means) -> np.ndarray:
     """(k,) each mean reading's leverage in the model of
     ellipsoid_leverage; all 1.0 when the readings do not determine it.  The
     directions are taken from the centre of the best sphere through the
-    means where one is determined (calib.ellipsoid.sphere), else from the
-    origin: an offset of a large share of the vector bunches the raw
-    directions (an MPU-9250 accelerometer 0.65 g off, stepped through 68
+    means where it is far off (_hold_design), else from the origin: an
+    offset of a large share of the vector bunches the raw directions (an MPU-9250 accelerometer 0.65 g off, stepped through 68
     holds over the whole sphere, read a leverage of 0.84 from the origin,
     0.30 from the centre, and its holds were not fitted alone)."""
     v = np.asarray(means, float)
@@ -288,12 +288,15 @@ def hold_leverages(means) -> np.ndarray:
 def _hold_design(means):
     """(design, directions) of the linearised pose-free model over mean
     readings (hold_leverages): the directions from the centre of the best
-    sphere through them where one is determined, else from the origin."""
+    sphere through them where one is determined and lies more than
+    HOLDS_CENTRE_FRAC of its radius from the origin, else from the origin
+    (the leverage limit was set on raw directions: an Xsens log 0.1 g off
+    reads 0.78 from the origin, 0.82 from the centre)."""
     from inclino.calib.ellipsoid import sphere
 
     v = np.asarray(means, float)
     sph = sphere(v)
-    if sph is not None:
+    if sph is not None and np.linalg.norm(sph[0]) > HOLDS_CENTRE_FRAC * sph[1]:
         v = v - sph[0]
     u = v / np.maximum(np.linalg.norm(v, axis=1, keepdims=True), 1e-300)
     X = np.column_stack([u[:, 0] ** 2, u[:, 1] ** 2, u[:, 2] ** 2, 2 * u[:, 0] * u[:, 1], 2 * u[:, 0] * u[:, 2],

@@ -67,7 +67,7 @@ LOG_KEYS = {"delimiter", "comment", "header", "skip_rows", "time", "time_unit", 
             "samples_averaged", "static", "keep", "decimal", "bad_rows"}
 FIELD_UNIT = "field"  # magnetometer readings normalised to the site's total field: 1.0 = field_nT
 RATE_UNITS = {"Hz": 1.0, "hz": 1.0, "kHz": 1e3, "khz": 1e3}
-TRIAD_KEYS = {"columns", "unit", "lsb", "reads", "x", "y", "z", "axes", "reflection", "range", "noise", "lag"}
+TRIAD_KEYS = {"columns", "unit", "lsb", "reads", "x", "y", "z", "axes", "reflection", "range", "noise", "lag", "zero"}
 POSE_KEYS = {"inc", "azi", "tf", "label", "labels", "unit"}
 
 
@@ -159,6 +159,8 @@ class Triad:
     noise: float | None = None      # RMS noise of one sample, canonical units
     range: float | None = None      # full scale (+-), canonical units
     lag: int = 0                    # this triad's row i + lag belongs to the log's row i (two files joined out of step)
+    zero: float = 0.0               # the reading at zero input, in the logged unit (unsigned counts: 2^(bits-1)),
+                                    # subtracted before the scale
 
     @property
     def matrix(self) -> np.ndarray:
@@ -174,6 +176,8 @@ class Triad:
         with the gravity sign of docs/conventions.md (+1 g on the axis
         pointing down)."""
         raw = np.asarray(raw, float)
+        if self.zero:
+            raw = raw - self.zero
         out = (raw if self.scale == 1.0 else decimal_clean(raw * self.scale)) @ self.matrix.T
         return -out if self.reads == "up" else out
 
@@ -230,7 +234,8 @@ class SensorDescription:
             u = "g" if t.kind == "acc" else "nT"
             m[f"{t.kind}_axes"] = t.axes_text()
             m[f"{t.kind}_unit"] = t.unit + (f" x {t.scale:.10g} {u}" if t.unit in ("counts", FIELD_UNIT)
-                                            and t.scale is not None else "")
+                                            and t.scale is not None else "") + \
+                (f", less a zero of {t.zero:.10g}" if t.zero else "")
             if t.kind == "acc":
                 m["acc_reads"] = t.reads + (" (an axis pointing up read +1 g: the sign was turned)"
                                             if t.reads == "up" else "")
@@ -447,6 +452,11 @@ def _triad(spec: dict, section: str, log_what: str, field_nT: float | None = Non
     if isinstance(lag, bool) or not isinstance(lag, int) or abs(lag) > 1000:
         raise DataError(f"{what}.lag: a whole number of rows (-1000 ... 1000)")
     t.lag = lag
+    zero = spec.get("zero", 0)
+    if isinstance(zero, bool) or not isinstance(zero, (int, float)) or not np.isfinite(zero):
+        raise DataError(f"{what}.zero: a number, the reading at zero input in the logged unit (e.g. 32768 for "
+                        f"unsigned 16-bit counts)")
+    t.zero = float(zero)
     for k in ("noise", "range"):
         if k in spec:
             setattr(t, k, _field_quantity(spec[k], units, canon, f"{what}.{k}", scale, lsb) if unit == FIELD_UNIT
