@@ -369,12 +369,13 @@ def _mid_scale(ds, triad: str, v) -> tuple | None:
     med = np.median(c, axis=0)
     spread = 1.4826 * np.median(np.abs(c - med), axis=0)
     for z in MID_SCALES:
-        if np.all(np.abs(np.abs(med) / z - 1.0) < 0.05) and np.all(np.abs(med) > 3.0 * spread):  # |med|: reads
+        # |median|: an accelerometer declared reads = "up" has had its sign turned
+        if np.all(np.abs(np.abs(med) / z - 1.0) < 0.05) and np.all(np.abs(med) > 3.0 * spread):
             return z, np.abs(med)
     return None
 
 
-def _counts_hint(ds, triad: str, v, ratio: float) -> str:
+def _counts_hint(ds, triad: str, ratio: float) -> str:
     """The lsb that makes counts whose size is `ratio` off read the
     expected size ('' without a declared lsb)."""
     unit = "g" if triad == "acc" else "nT"
@@ -431,7 +432,7 @@ def _units_acc(ds, rows, rep):
         rep.findings.append(mid)
         return
     guesses = _unit_guesses(ratio, ACC_UNIT_GUESS, "g", _declared_factor(ds, "acc"), 0.2)
-    counts = _counts_hint(ds, "acc", a, ratio) if _counts(ds, "acc") and not guesses else ""
+    counts = _counts_hint(ds, "acc", ratio) if _counts(ds, "acc") and not guesses else ""
     like = (f"the readings look like {' or '.join(guesses)}" if guesses else
             f"the readings are {ratio:.4g}x what g would be" + (f": {hint}" if hint else "")
             + (f" ({counts})" if counts else ""))
@@ -507,7 +508,7 @@ def _units_mag(ds, rows, rep):
         rep.findings.append(mid)
         return
     guesses = _unit_guesses(R / target, MAG_UNIT_GUESS, "nT", _declared_factor(ds, "mag"), 0.6)
-    counts = _counts_hint(ds, "mag", m, R / target) if _counts(ds, "mag") and not guesses else ""
+    counts = _counts_hint(ds, "mag", R / target) if _counts(ds, "mag") and not guesses else ""
     like = (f"the readings look like {' or '.join(guesses)}" if guesses else
             f"{R / target:.3g}x a geomagnetic field" + (f": {hint}" if hint else "")
             + (f" ({counts})" if counts else ""))
@@ -706,13 +707,13 @@ def _axes_and_lag(ds, rows_all, rep, ug_src=None):
                 f"sensors' sampling within a row, not a lost line; no whole-row lag fixes it"), None,
                 {"curve_lag_rows": inv["lag"], "curve_lag_se_rows": inv["se"]}))
         elif route is None and rule is not None:
+            lo, hi = (int(round(inv["lag"] + d * inv["se"])) for d in (-1, 1))  # the rows one standard error allows
+            shift = (f"of {k:+d}" if lo == hi else
+                     f"anywhere from {lo:+d} to {hi:+d} rows (one standard error either way)")
             rep.findings.append(Finding("row-alignment", "note", (
                 f"the dip invariant's lag curve puts the magnetometer's rows {inv['lag']:+.2f} +- "
-                f"{_se_text(inv['se'])} out of step (each half of the log: {halves_txt}): a shift "
-                + (f"of {k:+d}" if int(round(inv["lag"] - inv["se"])) == int(round(inv["lag"] + inv["se"])) else
-                   f"anywhere from {int(round(inv['lag'] - inv['se'])):+d} to {int(round(inv['lag'] + inv['se'])):+d} "
-                   f"rows (one standard error either way)")
-                + f" is possible, not named (the curve's scatter is more than {LAG_CURVE_NEAREST_SE:g} row)"),
+                f"{_se_text(inv['se'])} out of step (each half of the log: {halves_txt}): a shift {shift} is "
+                f"possible, not named (the curve's scatter is more than {LAG_CURVE_NEAREST_SE:g} row)"),
                 None, {"curve_lag_rows": inv["lag"], "curve_lag_se_rows": inv["se"], "lag_rows_possible": k}))
     else:
         curve = None
