@@ -272,16 +272,21 @@ def hold_leverages(means) -> np.ndarray:
     ellipsoid_leverage; all 1.0 when the readings do not determine it.  The
     directions are taken from the centre of the best sphere through the
     means where it is far off (_hold_design), else from the origin: an
-    offset of a large share of the vector bunches the raw directions (an MPU-9250 accelerometer 0.65 g off, stepped through 68
-    holds over the whole sphere, read a leverage of 0.84 from the origin,
-    0.30 from the centre, and its holds were not fitted alone)."""
+    offset of a large share of the vector bunches the raw directions (an
+    MPU-9250 accelerometer 0.65 g off, stepped through 68 holds over the
+    whole sphere, read a leverage of 0.84 from the origin, 0.30 from the
+    centre, and its holds were not fitted alone)."""
     v = np.asarray(means, float)
     if len(v) <= 9:
         return np.ones(len(v))
-    X, _ = _hold_design(v)
+    return _leverages(_hold_design(v)[0])
+
+
+def _leverages(X) -> np.ndarray:
+    """The hat matrix's diagonal of the design X; all 1.0 when X is singular."""
     Q, R = np.linalg.qr(X)
     if np.min(np.abs(np.diag(R))) < 1e-9 * np.max(np.abs(np.diag(R))):
-        return np.ones(len(v))
+        return np.ones(len(X))
     return np.sum(Q * Q, axis=1)
 
 
@@ -327,8 +332,8 @@ def undetermined_text(ds, labels, count, t: str, what: str) -> str | None:
     if len(v) <= 9:
         return (f"the {count} holds found in the readings are too few to determine {what}'s ellipsoid alone "
                 f"(9 terms)")
-    lev = hold_leverages(v)
     X, u = _hold_design(v)
+    lev = _leverages(X)
     _, sv, Vt = np.linalg.svd(X, full_matrices=False)
     if float(np.max(lev)) <= HOLDS_MAX_LEVERAGE and sv[-1] >= HOLDS_FREE_SV * sv[0]:
         return None
