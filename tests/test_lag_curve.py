@@ -267,10 +267,13 @@ def test_a_shift_whose_raw_spread_halves_disagree_is_named_from_the_curve(ck):
     not on each half on its own (each half's spread is skewed by the
     calibration errors it leaves in), which had left the shift unnamed.
     The lag curve, its calibration fitted out, is at +2.64 with both
-    halves beyond half a row that way: named +3 from the curve."""
+    halves beyond half a row that way: named +3 from the curve (the raw
+    spread searched wider puts its least at +4, a row out: the curve of
+    the rows paired there moves it back by the row)."""
     rep = checks.run(_shifted(_stretch(ck[0], 6000, 12000), 3))
     (f,) = _lag_findings(rep)
-    assert rep.lag_rows == 3 and f.figures["route"] == "curve" and "lag = 3" in f.message, rep.lines()
+    assert rep.lag_rows == 3 and "lag = 3" in f.message, rep.lines()
+    assert f.figures["route"] == "curve" or (f.figures.get("wide_lag_rows") != 3 and "a further" in f.message)
 
 
 def test_a_curve_whose_halves_straddle_zero_names_no_nearest_row(ck):

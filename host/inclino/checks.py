@@ -58,7 +58,10 @@ RANGE_STEP_TOL = 0.1      # |g| or |b| within 10 % of 2, 4 or 8 times (or 1/2, 1
                           # or range setting named (a range setting doubles the lsb: the commonest scale mistake)
 DIP_MISMATCH_DEG = 10.0   # |dip - header dip| beyond it: a warning
 DIP_SIGN_MIN_DEG = 5.0    # a dip's sign is compared with the header's only when both are beyond this
-MAX_LAG = 3               # row shifts tried between the triads
+MAX_LAG = 3               # row shifts tried between the triads ...
+LAG_WIDE = 50             # ... and, where a route's best shift lies at MAX_LAG or beyond, this many either way ...
+LAG_WIDE_PAIRED = 12      # ... leaving at least this many rows paired ...
+LAG_WIDE_JUMP_ROWS = 6_000  # ... (the jumps route: its running medians on logs of this many rows at most)
 LAG_RATIO = 3.0           # spread as paired / spread at the best shift: an error beyond (and > 2 deg)
 LAG_MIN_GAIN = 0.1        # a warning when the best shift cuts the spread by more than this fraction ...
 LAG_MIN_DEG = 0.1         # ... and by more than this
@@ -658,6 +661,26 @@ def _axes_and_lag(ds, rows_all, rep, ug_src=None):
     if not lags:
         _dip_sign(ds, _dip(ug, ubp), ug_src, rep)
         return
+    wide = _wide_lag(ug, ubp)
+    if wide is not None and (wide[3]["wide_row_fixed"] or abs(wide[1]) > MAX_LAG + 1):
+        # a shift beyond MAX_LAG rows (two files started apart, more than a lost line): named from the wider
+        # search, where the narrower routes would name the edge of their range, a wrong lag; a shift one row
+        # beyond it whose row the search does not fix is left to them (their edge is as near)
+        route, kb, how, fig = wide
+        sb = fig.pop("dip_spread_at_lag_deg")
+        if "curve_lag_rows" in fig:  # the lag curve of the rows paired at the shift found, in rows as logged
+            rep.lag_curve = {"lag_rows": fig["curve_lag_rows"], "se_rows": fig["curve_lag_se_rows"],
+                             "halves_rows": fig["curve_lag_halves_rows"]}
+        if fig["wide_row_fixed"]:
+            _name_shift(ds, rep, route, kb, how, lags[0], sb, fig)
+        else:
+            rep.findings.append(Finding("row-alignment", "warning", (
+                f"the triads are paired out of step by about {kb:+d} rows (the row not fixed: on a moving log "
+                f"the dip's spread is least a row or two off the pairing): {how}; "
+                f"re-import with [magnetometer] lag = {_lag_to_write(ds, kb)} (the row or two left is then "
+                f"checked)"), None, {**fig, "lag_rows_about": kb, "lag_to_write": _lag_to_write(ds, kb)}))
+        _dip_sign(ds, _dip(*_paired(ug, ubp, kb)), ug_src, rep)
+        return
     kb = min(lags, key=lambda k: lags[k])
     fig = {"dip_spread_by_lag_deg": {str(k): v for k, v in lags.items()}}
     s0, sb = lags[0], lags[kb]
@@ -709,6 +732,8 @@ def _axes_and_lag(ds, rows_all, rep, ug_src=None):
                 None, {**fig, "lag_rows": kb}))
             route = None
         rule, k = _curve_rule(inv["lag"], inv["se"], inv["halves"])
+        # the curve's row beyond the shifts the spread tried, by more than its standard error
+        beyond = rule is not None and k not in lags and abs(inv["lag"]) - MAX_LAG > inv["se"]
         if k not in lags:
             rule = None
         halves_txt = ", ".join("too short to tell" if h is None else f"{h:+.2f}" for h in inv["halves"])
@@ -739,6 +764,13 @@ def _axes_and_lag(ds, rows_all, rep, ug_src=None):
                 f"rows shifted by that fraction make the dip most consistent): a skew between the two "
                 f"sensors' sampling within a row, not a lost line; no whole-row lag fixes it"), None,
                 {"curve_lag_rows": inv["lag"], "curve_lag_se_rows": inv["se"]}))
+        elif route is None and beyond:
+            rep.findings.append(Finding("row-alignment", "note", (
+                f"the dip invariant's lag curve puts the magnetometer's rows {inv['lag']:+.2f} +- "
+                f"{_se_text(inv['se'])} out of step (each half of the log: {halves_txt}), beyond the {MAX_LAG} rows "
+                f"either way the other checks try, and the dip's spread does not find it further out: a shift of "
+                f"about {k:+d} is possible, not named"),
+                None, {"curve_lag_rows": inv["lag"], "curve_lag_se_rows": inv["se"], "lag_rows_possible": k}))
         elif route is None and rule is not None:
             lo, hi = (int(round(inv["lag"] + d * inv["se"])) for d in (-1, 1))  # the rows one standard error allows
             shift = (f"of {k:+d}" if lo == hi else
@@ -773,36 +805,44 @@ def _axes_and_lag(ds, rows_all, rep, ug_src=None):
         if inv is not None and route != "nearest" and abs(inv["lag"] - kb) > 0.25 and abs(inv["lag"] - kb) > LAG_CURVE_SE * inv["se"]:
             how += (f" (a whole-row lag leaves {inv['lag'] - kb:+.2f} rows: a skew between the sensors' sampling "
                     f"that no lag removes)")
-        level = "error" if route != "nearest" and s0 > LAG_RATIO * sb and s0 > 2.0 else "warning"
-        which = "behind" if kb > 0 else "ahead of"
-        rep.lag_rows = kb
-        lag = _lag_to_write(ds, kb)  # the declared lag plus the shift found in the data as imported
-        if not _imported(ds):
-            fix = f"shift the magnetometer columns by {kb} row(s) (inclino import with [magnetometer] lag = {kb})"
-        elif lag == kb:
-            fix = f"re-import with [magnetometer] lag = {kb}"
-        elif lag == 0:
-            fix = (f"re-import with [magnetometer] lag = 0 (remove the declared lag of {lag - kb}: it shifts the "
-                   f"rows {-kb:+d})")
-        else:
-            fix = (f"re-import with [magnetometer] lag = {lag} (the declared lag of {lag - kb} and the {kb:+d} "
-                   f"found in the rows as imported)")
-        rep.findings.append(Finding("row-alignment", level, (
-            f"the triads {'look' if route == 'nearest' else 'are'} paired out of step: {how} (its row i {'+' if kb > 0 else '-'} {abs(kb)} belongs to the "
-            f"accelerometer's row i: "
-            f"one {which} the other, as when two files are joined and a line is lost); " + fix),
-            None, {**fig, "lag_rows": kb, "lag_to_write": lag, "route": route}))
+        _name_shift(ds, rep, route, kb, how, s0, sb, fig)
     elif ug_src is None and not any(f.check == "row-alignment" for f in rep.findings):
         unseen = None if rep.one_orientation else _shifts_unseen(ug, ubp, inv, lags)
         if unseen:
             rep.findings.append(Finding("row-alignment", "note", unseen[0], None, unseen[1]))
-    # the dip's sign against the header
-    if rep.lag_rows:
-        k = rep.lag_rows
-        d = _dip(ug[:m - k], ubp[k:]) if k > 0 else _dip(ug[-k:], ubp[:m + k])
+    _dip_sign_paired(ds, ug, ubp, ug_src, rep)
+
+
+def _name_shift(ds, rep, route: str, kb: int, how: str, s0: float, sb: float, fig: dict) -> None:
+    """The row-alignment finding for a shift kb a route named (how: the
+    evidence; s0, sb: the dip's spread as paired and at kb), with the lag
+    to write in the sensor description; sets rep.lag_rows."""
+    level = "error" if route != "nearest" and s0 > LAG_RATIO * sb and s0 > 2.0 else "warning"
+    which = "behind" if kb > 0 else "ahead of"
+    rep.lag_rows = kb
+    lag = _lag_to_write(ds, kb)  # the declared lag plus the shift found in the data as imported
+    if not _imported(ds):
+        fix = f"shift the magnetometer columns by {kb} row(s) (inclino import with [magnetometer] lag = {kb})"
+    elif lag == kb:
+        fix = f"re-import with [magnetometer] lag = {kb}"
+    elif lag == 0:
+        fix = (f"re-import with [magnetometer] lag = 0 (remove the declared lag of {lag - kb}: it shifts the "
+               f"rows {-kb:+d})")
     else:
-        d = _dip(ug, ubp)
-    _dip_sign(ds, d, ug_src, rep)
+        fix = (f"re-import with [magnetometer] lag = {lag} (the declared lag of {lag - kb} and the {kb:+d} "
+               f"found in the rows as imported)")
+    lost = "a line is lost" if abs(kb) == 1 else f"{abs(kb)} lines are lost, or one file starts later"
+    rep.findings.append(Finding("row-alignment", level, (
+        f"the triads {'look' if route == 'nearest' else 'are'} paired out of step: {how} (its row i "
+        f"{'+' if kb > 0 else '-'} {abs(kb)} belongs to the accelerometer's row i: one {which} the other, as when "
+        f"two files are joined and {lost}); " + fix),
+        None, {**fig, "lag_rows": kb, "lag_to_write": lag, "route": route}))
+
+
+def _dip_sign_paired(ds, ug, ubp, ug_src, rep) -> None:
+    """The dip's sign against the header, on the rows paired at the shift
+    named (rep.lag_rows)."""
+    _dip_sign(ds, _dip(*_paired(ug, ubp, rep.lag_rows or 0)), ug_src, rep)
 
 
 def _held(ds, block, ug, ub):
@@ -907,12 +947,12 @@ def _weak_handedness(ug, ub, spreads, best, ident, other, ds, rep):
                                                         "dip_spread_mirrored_deg": {'xyz'[k]: v for k, v in mirrors.items()}}))
 
 
-def _spread_by_lag(ug, ub) -> dict:
+def _spread_by_lag(ug, ub, K: int = MAX_LAG) -> dict:
     """{k: robust spread of the dip (deg)} with the magnetometer's row i + k
-    paired with the accelerometer's row i, k = -MAX_LAG..MAX_LAG."""
+    paired with the accelerometer's row i, k = -K..K (MAX_LAG)."""
     m = len(ug)
     out = {}
-    for k in range(-MAX_LAG, MAX_LAG + 1):
+    for k in range(-K, K + 1):
         if m - abs(k) < 6:
             continue
         out[k] = _robust_std(_dip(ug[:m - k], ub[k:])) if k >= 0 else _robust_std(_dip(ug[-k:], ub[:m + k]))
@@ -932,13 +972,13 @@ def _route_lag(route, ug, ub):
     return _lag_transitions(ug, ub)[0]
 
 
-def _lag_transitions(ug, ub):
+def _lag_transitions(ug, ub, K: int = MAX_LAG):
     """(best shift, gain, t) from the mean absolute deviation of the dip,
     paired row by row against the rows as logged: the same accelerometer
-    rows at every shift, the rows' differences averaged in blocks (neighbours
-    are not independent), t = the blocks' mean over its standard error."""
+    rows at every shift -K..K (MAX_LAG), the rows' differences averaged in
+    blocks (neighbours are not independent), t = the blocks' mean over its
+    standard error."""
     m = len(ug)
-    K = MAX_LAG
     if m < 4 * K + 40:
         return 0, 1.0, 0.0
     i = np.arange(K, m - K)
@@ -1048,7 +1088,7 @@ def _shifts_unseen(ug, ub, inv, lags):
         {"unseen_lags_rows": [-k for k in ways], "spread_change_per_row": gain}
 
 
-def _lag_jumps(ug, ub):
+def _lag_jumps(ug, ub, K: int = MAX_LAG):
     """(best shift, rows it pairs again, rows it mispairs) for a log read at
     a few positions: for each shift, the rows whose dip deviation (from the
     running median of LAG_JUMP_WINDOW rows, as paired at that shift: the
@@ -1059,9 +1099,9 @@ def _lag_jumps(ug, ub):
     position changes leaves each of those rows far off; the right shift
     brings each one back and puts no other row out (a wrong shift puts
     twice as many out).  The best shift has most rows brought back less
-    rows put out; (0, 0, 0) when no shift brings any back."""
+    rows put out; (0, 0, 0) when no shift brings any back.  Shifts -K..K
+    (MAX_LAG)."""
     m = len(ug)
-    K = MAX_LAG
     w = LAG_JUMP_WINDOW
     if m < 2 * K + 2 * w:
         return 0, 0, 0
@@ -1082,6 +1122,117 @@ def _lag_jumps(ug, ub):
         if fixed - made > best[1] - best[2]:
             best = (k, fixed, made)
     return best
+
+
+def _wide_lag(ug, ub):
+    """A shift of MAX_LAG rows or more (two files started apart, not a lost
+    line): (route, k, how, figures) or None.  The routes that find a shift
+    within MAX_LAG (the dip's spread, a step-and-hold log's transitions, a
+    few positions' jumps) each search up to LAG_WIDE rows either way
+    (leaving LAG_WIDE_PAIRED rows paired); the first whose best shift lies
+    at MAX_LAG or beyond and is named by its own rule, and by each half of
+    the log on its own within MAX_LAG - 1 rows of it (a half too short to
+    tell is no objection), gives it.  Within MAX_LAG - 1 rows the narrower
+    routes and the lag curve decide: there the dip's spread on a moving
+    log is skewed a row or two by the calibration errors it leaves in.
+    A shift found here is refined by the lag curve of the rows paired at
+    it, where that names a further whole row (its own rule, _curve_rule)."""
+    m = len(ug)
+
+    def width(n):
+        return min(LAG_WIDE, n - LAG_WIDE_PAIRED)
+
+    def spread(a, b):
+        w = width(len(a))
+        if w <= MAX_LAG:
+            return None
+        sp = _spread_by_lag(a, b, w)
+        k = min(sp, key=sp.get)
+        return k if _spread_lag(sp, len(a) - abs(k)) else 0
+
+    def transitions(a, b):
+        w = width(len(a))
+        if w <= MAX_LAG or len(a) < 4 * w + 40:
+            return None
+        return _lag_transitions(a, b, w)
+
+    def jumps(a, b):
+        w = width(len(a))
+        if w <= MAX_LAG or len(a) > LAG_WIDE_JUMP_ROWS or len(a) < 2 * w + 2 * LAG_JUMP_WINDOW:
+            return None
+        return _lag_jumps(a, b, w)
+
+    routes = (("spread", spread, lambda r: r),
+              ("transitions", transitions, lambda r: r[0] if _transitions_named(*r) else 0),
+              ("jumps", jumps, lambda r: r[0] if _jumps_named(*r) else 0))
+    h = m // 2
+    sp = _spread_by_lag(ug, ub, width(m)) if width(m) > MAX_LAG else {}
+    for name, find, named in routes:
+        r = find(ug, ub)
+        k = 0 if r is None else named(r)
+        if abs(k) <= MAX_LAG:
+            continue
+        if name != "spread" and sp and sp[k] > min(sp.values()) * (1.0 + max(LAG_MIN_GAIN, 5.0 / math.sqrt(m))):
+            # a moving log's dip spreads least near its pairing and much more a few dozen rows off, where a
+            # periodic turn can still make the other routes' deviations least: the spread has the last word
+            continue
+        halves = []
+        for sl in (slice(0, h), slice(h, m)):
+            rh = find(ug[sl], ub[sl])
+            halves.append(None if rh is None else named(rh))
+        if any(x is not None and abs(x - k) >= MAX_LAG for x in halves):
+            continue
+        s0, sk = (_robust_std(_dip(a, b)) for a, b in ((ug, ub), _paired(ug, ub, k)))
+        fig = {"wide_lag_rows": k, "wide_route": name, "wide_halves_lag_rows": halves,
+               "dip_spread_at_lag_deg": sk}
+        if name == "spread":
+            how = (f"the dip angle spreads {s0:.3g} deg as paired, {sk:.3g} deg with the magnetometer's rows "
+                   f"shifted by {k:+d}, the least of the shifts up to {width(m)} rows either way")
+        elif name == "transitions":
+            how = (f"the dip angle's mean deviation is {r[1]:.3g} times larger as paired than with the "
+                   f"magnetometer's rows shifted by {k:+d}, the least of the shifts up to {width(m)} rows either way "
+                   f"(the rows where the position changes are mispaired)")
+        else:
+            how = (f"{r[1]} rows where the position changes read a dip far off as paired and in line with the "
+                   f"magnetometer's rows shifted by {k:+d} ({r[2]} the other way), of the shifts up to {width(m)} "
+                   f"rows either way")
+        halves_txt = ", ".join("too short to tell" if x is None else f"{x:+d}" for x in halves)
+        how += f" (each half of the log on its own: {halves_txt})"
+        inv = _lag_curve(*_paired(ug, ub, k))
+        gain = 1.0 + max(LAG_MIN_GAIN, 5.0 / math.sqrt(m))
+        if inv is not None:
+            rule, r = _curve_rule(inv["lag"], inv["se"], inv["halves"])
+            fig.update({"curve_lag_rows": k + inv["lag"], "curve_lag_se_rows": inv["se"],
+                        "curve_lag_halves_rows": [None if x is None else k + x for x in inv["halves"]]})
+            if rule in ("curve", "nearest") and abs(r) < MAX_LAG:
+                how += (f"; with the rows paired so, the dip invariant's lag curve puts them a further "
+                        f"{inv['lag']:+.2f} +- {_se_text(inv['se'])} rows out of step: {k + r:+d} in all")
+                k += r
+                fig["dip_spread_at_lag_deg"] = _robust_std(_dip(*_paired(ug, ub, k)))
+                pinned = True
+            else:
+                pinned = abs(inv["lag"]) + inv["se"] < 0.5
+                how += (f"; with the rows paired so, the dip invariant's lag curve puts them "
+                        f"{inv['lag']:+.2f} +- {_se_text(inv['se'])} rows from there"
+                        + ("" if pinned else " (the row is not fixed)"))
+        else:
+            # no lag curve (a short log, or rows of positions of their own): a step-and-hold route's shift is
+            # the row its mispaired changes fix, where each half of the log finds that very row (a moving log's
+            # deviations are least a row or two off, as its spread); the spread's, where its neighbours spread
+            # more by its precision
+            if name == "spread":
+                pinned = abs(k) < width(m) and min(sp[k - 1], sp[k + 1]) > sp[k] * gain
+            else:
+                pinned = any(x is not None for x in halves) and all(x is None or x == k for x in halves)
+        fig["wide_row_fixed"] = pinned
+        return name, k, how, fig
+    return None
+
+
+def _paired(ug, ub, k: int):
+    """The accelerometer's row i with the magnetometer's row i + k."""
+    m = len(ug)
+    return (ug[:m - k], ub[k:]) if k >= 0 else (ug[-k:], ub[:m + k])
 
 
 def _savgol_rows(v, n, order=3):
