@@ -675,8 +675,9 @@ def _axes_and_lag(ds, rows_all, rep, ug_src=None):
             _name_shift(ds, rep, route, kb, how, lags[0], sb, fig)
         else:
             rep.findings.append(Finding("row-alignment", "warning", (
-                f"the triads are paired out of step by about {kb:+d} rows (the row not fixed: on a moving log "
-                f"the dip's spread is least a row or two off the pairing): {how}; "
+                f"the triads are paired out of step by about {kb:+d} rows (the row not fixed: the dip changes "
+                f"too little from one shift to the next here, or its spread is skewed by the triads' calibration "
+                f"errors): {how}; "
                 f"re-import with [magnetometer] lag = {_lag_to_write(ds, kb)} (the row or two left is then "
                 f"checked)"), None, {**fig, "lag_rows_about": kb, "lag_to_write": _lag_to_write(ds, kb)}))
         _dip_sign(ds, _dip(*_paired(ug, ubp, kb)), ug_src, rep)
@@ -732,6 +733,10 @@ def _axes_and_lag(ds, rows_all, rep, ug_src=None):
                 None, {**fig, "lag_rows": kb}))
             route = None
         rule, k = _curve_rule(inv["lag"], inv["se"], inv["halves"])
+        if rule == "curve" and k not in lags and _curve_in_step(*_paired(ug, ubp, k)):
+            # the curve's row beyond the shifts the spread tried (its vertex taken from the trials at the
+            # edge), and the curve of the rows paired at that row puts them in step: named as any other
+            lags[k] = _robust_std(_dip(*_paired(ug, ubp, k)))
         # the curve's row beyond the shifts the spread tried, by more than its standard error
         beyond = rule is not None and k not in lags and abs(inv["lag"]) - MAX_LAG > inv["se"]
         if k not in lags:
@@ -1125,19 +1130,27 @@ def _lag_jumps(ug, ub, K: int = MAX_LAG):
 
 
 def _wide_lag(ug, ub):
-    """A shift of MAX_LAG rows or more (two files started apart, not a lost
-    line): (route, k, how, figures) or None.  The routes that find a shift
-    within MAX_LAG (the dip's spread, a step-and-hold log's transitions, a
-    few positions' jumps) each search up to LAG_WIDE rows either way
-    (leaving LAG_WIDE_PAIRED rows paired); the first whose best shift lies
-    at MAX_LAG or beyond and is named by its own rule, and by each half of
-    the log on its own within MAX_LAG - 1 rows of it (a half too short to
-    tell is no objection), gives it.  Within MAX_LAG - 1 rows the narrower
-    routes and the lag curve decide: there the dip's spread on a moving
-    log is skewed a row or two by the calibration errors it leaves in.
-    A shift found here is refined by the lag curve of the rows paired at
-    it, where that names a further whole row (its own rule, _curve_rule)."""
+    """A shift of more than MAX_LAG rows (two files started apart, not a
+    lost line): (route, k, how, figures) or None.  The routes that find a
+    shift within MAX_LAG (the dip's spread, a step-and-hold log's
+    transitions, a few positions' jumps) each search up to LAG_WIDE rows
+    either way (leaving LAG_WIDE_PAIRED rows paired).  A route's shift
+    beyond MAX_LAG counts when its own rule names it, each half of the log
+    puts the route's best shift within MAX_LAG - 1 rows of it (a half too
+    short to tell is no objection), and, for the transitions and jumps, the
+    dip spreads there within its precision of its least (a moving log's
+    spread is least near its pairing; a periodic turn can make the others'
+    deviations least a period away).  Within MAX_LAG rows the narrower
+    routes and the lag curve decide.
+
+    The row: the lag curve of the rows paired at the shift found moves it
+    by the whole row its own rule names (_curve_rule); without a curve, a
+    transitions or jumps shift each half finds to the row is the row, and
+    the spread's where its neighbours spread more by its precision.  A
+    route whose row is not fixed gives way to a later one that fixes a row
+    within MAX_LAG - 1 of it; figures["wide_row_fixed"] says which."""
     m = len(ug)
+    gain = 1.0 + max(LAG_MIN_GAIN, 5.0 / math.sqrt(m))
 
     def width(n):
         return min(LAG_WIDE, n - LAG_WIDE_PAIRED)
@@ -1148,85 +1161,113 @@ def _wide_lag(ug, ub):
             return None
         sp = _spread_by_lag(a, b, w)
         k = min(sp, key=sp.get)
-        return k if _spread_lag(sp, len(a) - abs(k)) else 0
+        return k, (k if _spread_lag(sp, len(a) - abs(k)) else 0)
 
     def transitions(a, b):
         w = width(len(a))
         if w <= MAX_LAG or len(a) < 4 * w + 40:
             return None
-        return _lag_transitions(a, b, w)
+        r = _lag_transitions(a, b, w)
+        return r[0], (r[0] if _transitions_named(*r) else 0), r
 
     def jumps(a, b):
         w = width(len(a))
         if w <= MAX_LAG or len(a) > LAG_WIDE_JUMP_ROWS or len(a) < 2 * w + 2 * LAG_JUMP_WINDOW:
             return None
-        return _lag_jumps(a, b, w)
+        r = _lag_jumps(a, b, w)
+        k = r[0] if _jumps_named(*r) else 0
+        return (k or None), k, r  # a half's best shift: only one its rule names
 
-    routes = (("spread", spread, lambda r: r),
-              ("transitions", transitions, lambda r: r[0] if _transitions_named(*r) else 0),
-              ("jumps", jumps, lambda r: r[0] if _jumps_named(*r) else 0))
     h = m // 2
     sp = _spread_by_lag(ug, ub, width(m)) if width(m) > MAX_LAG else {}
-    for name, find, named in routes:
+    found = None
+    for name, find in (("spread", spread), ("transitions", transitions), ("jumps", jumps)):
         r = find(ug, ub)
-        k = 0 if r is None else named(r)
+        k = 0 if r is None else r[1]
         if abs(k) <= MAX_LAG:
             continue
-        if name != "spread" and sp and sp[k] > min(sp.values()) * (1.0 + max(LAG_MIN_GAIN, 5.0 / math.sqrt(m))):
-            # a moving log's dip spreads least near its pairing and much more a few dozen rows off, where a
-            # periodic turn can still make the other routes' deviations least: the spread has the last word
+        if name != "spread" and sp[k] > min(sp.values()) * gain:
             continue
         halves = []
         for sl in (slice(0, h), slice(h, m)):
             rh = find(ug[sl], ub[sl])
-            halves.append(None if rh is None else named(rh))
+            halves.append(None if rh is None else rh[0])
         if any(x is not None and abs(x - k) >= MAX_LAG for x in halves):
             continue
-        s0, sk = (_robust_std(_dip(a, b)) for a, b in ((ug, ub), _paired(ug, ub, k)))
-        fig = {"wide_lag_rows": k, "wide_route": name, "wide_halves_lag_rows": halves,
-               "dip_spread_at_lag_deg": sk}
+        fig = {"wide_lag_rows": k, "wide_route": name, "wide_halves_lag_rows": halves}
+        wd = width(m)
         if name == "spread":
-            how = (f"the dip angle spreads {s0:.3g} deg as paired, {sk:.3g} deg with the magnetometer's rows "
-                   f"shifted by {k:+d}, the least of the shifts up to {width(m)} rows either way")
+            how = (f"the dip angle spreads {_robust_std(_dip(ug, ub)):.3g} deg as paired, {sp[k]:.3g} deg with the "
+                   f"magnetometer's rows shifted by {k:+d}, the least of the shifts up to {wd} rows either way")
         elif name == "transitions":
-            how = (f"the dip angle's mean deviation is {r[1]:.3g} times larger as paired than with the "
-                   f"magnetometer's rows shifted by {k:+d}, the least of the shifts up to {width(m)} rows either way "
+            how = (f"the dip angle's mean deviation is {r[2][1]:.3g} times larger as paired than with the "
+                   f"magnetometer's rows shifted by {k:+d}, the least of the shifts up to {wd} rows either way "
                    f"(the rows where the position changes are mispaired)")
         else:
-            how = (f"{r[1]} rows where the position changes read a dip far off as paired and in line with the "
-                   f"magnetometer's rows shifted by {k:+d} ({r[2]} the other way), of the shifts up to {width(m)} "
-                   f"rows either way")
-        halves_txt = ", ".join("too short to tell" if x is None else f"{x:+d}" for x in halves)
-        how += f" (each half of the log on its own: {halves_txt})"
+            how = (f"{r[2][1]} rows where the position changes read a dip far off as paired and in line with the "
+                   f"magnetometer's rows shifted by {k:+d} ({r[2][2]} the other way), of the shifts up to {wd} rows "
+                   f"either way")
+        how += " (each half of the log on its own: " + ", ".join(
+            "too short to tell" if x is None else f"{x:+d}" for x in halves) + ")"
         inv = _lag_curve(*_paired(ug, ub, k))
-        gain = 1.0 + max(LAG_MIN_GAIN, 5.0 / math.sqrt(m))
         if inv is not None:
-            rule, r = _curve_rule(inv["lag"], inv["se"], inv["halves"])
+            rule, rk = _curve_rule(inv["lag"], inv["se"], inv["halves"])
             fig.update({"curve_lag_rows": k + inv["lag"], "curve_lag_se_rows": inv["se"],
                         "curve_lag_halves_rows": [None if x is None else k + x for x in inv["halves"]]})
-            if rule in ("curve", "nearest") and abs(r) < MAX_LAG:
+            if rule in ("curve", "nearest") and abs(rk) < MAX_LAG:
                 how += (f"; with the rows paired so, the dip invariant's lag curve puts them a further "
-                        f"{inv['lag']:+.2f} +- {_se_text(inv['se'])} rows out of step: {k + r:+d} in all")
-                k += r
-                fig["dip_spread_at_lag_deg"] = _robust_std(_dip(*_paired(ug, ub, k)))
+                        f"{inv['lag']:+.2f} +- {_se_text(inv['se'])} rows out of step: {k + rk:+d} in all")
+                k += rk
                 pinned = True
             else:
                 pinned = abs(inv["lag"]) + inv["se"] < 0.5
                 how += (f"; with the rows paired so, the dip invariant's lag curve puts them "
-                        f"{inv['lag']:+.2f} +- {_se_text(inv['se'])} rows from there"
-                        + ("" if pinned else " (the row is not fixed)"))
+                        f"{inv['lag']:+.2f} +- {_se_text(inv['se'])} rows from there")
+        elif name == "spread":
+            pinned = abs(k) < width(m) and min(sp[k - 1], sp[k + 1]) > sp[k] * gain
         else:
-            # no lag curve (a short log, or rows of positions of their own): a step-and-hold route's shift is
-            # the row its mispaired changes fix, where each half of the log finds that very row (a moving log's
-            # deviations are least a row or two off, as its spread); the spread's, where its neighbours spread
-            # more by its precision
-            if name == "spread":
-                pinned = abs(k) < width(m) and min(sp[k - 1], sp[k + 1]) > sp[k] * gain
-            else:
-                pinned = any(x is not None for x in halves) and all(x is None or x == k for x in halves)
-        fig["wide_row_fixed"] = pinned
-        return name, k, how, fig
-    return None
+            pinned = _row_sharp(*_paired(ug, ub, k))
+        fig.update({"wide_row_fixed": pinned, "dip_spread_at_lag_deg": _robust_std(_dip(*_paired(ug, ub, k)))})
+        if pinned and (found is None or abs(k - found[1]) < MAX_LAG):
+            return name, k, how, fig
+        if found is None:
+            found = (name, k, how, fig)
+    return found
+
+
+def _curve_in_step(ug, ub) -> bool:
+    """Whether the dip invariant's lag curve puts these rows in step: its
+    fraction and each half's within half a row of 0, its standard error
+    below LAG_CURVE_NEAREST_SE (the CK log four rows ahead, its curve at
+    -4.39 +- 0.16 from the trials at the edge of the rows tried: paired at
+    -4, -0.07 +- 0.11, halves +0.03 and -0.13)."""
+    inv = _lag_curve(ug, ub)
+    return inv is not None and abs(inv["lag"]) < 0.5 and inv["se"] < LAG_CURVE_NEAREST_SE \
+        and all(h is not None and abs(h) < 0.5 for h in inv["halves"])
+
+
+def _row_sharp(ug, ub) -> bool:
+    """Whether the rows as paired are paired to the row by the rows where
+    the position changes: a row either way raises the dip's mean absolute
+    deviation LAG_T_GAIN times, at LAG_T standard errors of the blocks
+    (_lag_transitions' statistics).  On a step-and-hold log a row's error
+    mispairs each change of position (SAP6's shots held 30 rows: 1.6-5x,
+    t 4.2-4.9); on a moving log a row changes the deviation by 1-3 % (CK),
+    and the row there is as skewed as the spread's."""
+    m = len(ug)
+    if m < 44:
+        return False
+    i = np.arange(1, m - 1)
+    dev = {k: np.abs(d - np.median(d)) for k, d in ((k, _dip(ug[i], ub[i + k])) for k in (-1, 0, 1))}
+    for k in (-1, 1):
+        diff = dev[k] - dev[0]
+        L = max(10, len(diff) // 200)
+        nb = len(diff) // L
+        bm = diff[:nb * L].reshape(nb, L).mean(1)
+        se = float(np.std(bm, ddof=1) / math.sqrt(nb))
+        if not (np.mean(dev[k]) > LAG_T_GAIN * np.mean(dev[0]) and np.mean(bm) > LAG_T * se):
+            return False
+    return True
 
 
 def _paired(ug, ub, k: int):
