@@ -1181,7 +1181,12 @@ def _wide_lag(ug, ub):
     h = m // 2
     sp = _spread_by_lag(ug, ub, width(m)) if width(m) > MAX_LAG else {}
     found = None
+    # the transitions and the jumps count only where the dip spreads within its precision of its least: where
+    # no shift beyond MAX_LAG does (a moving log's spread rises either side of its pairing), they are not run
+    others = sp and any(abs(k) > MAX_LAG and v <= min(sp.values()) * gain for k, v in sp.items())
     for name, find in (("spread", spread), ("transitions", transitions), ("jumps", jumps)):
+        if name != "spread" and not others:
+            break
         r = find(ug, ub)
         k = 0 if r is None else r[1]
         if abs(k) <= MAX_LAG:
