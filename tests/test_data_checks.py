@@ -11,6 +11,7 @@ import pytest
 from inclino import checks
 from inclino.cli import main
 from inclino.formats import dataset, importlog, sensor
+from rows import shifted as _shifted
 
 REAL = Path(__file__).parent / "data" / "real"
 BOTH = [("sap6/BB.csv", "sap6/sensor.toml"), ("sap6/CF.csv", "sap6/sensor.toml"), ("sap6/JG.csv", "sap6/sensor.toml"),
@@ -27,15 +28,6 @@ def _with(ds, **cols):
     c = {k: v.copy() for k, v in ds.columns.items()}
     c.update(cols)
     return dataset.RawDataset(c, dict(ds.meta))
-
-
-def _shifted(ds, k):
-    """The magnetometer's rows k behind (its row i + k is the accelerometer's row i's)."""
-    c = {key: v.copy() for key, v in ds.columns.items()}
-    for m in dataset.MAG_COLS:
-        c[m] = np.roll(c[m], k)  # the magnetometer's row j is now the true row j - k
-    n = len(ds)
-    return dataset.RawDataset({key: v[k:] if k > 0 else v[:n + k] for key, v in c.items()}, dict(ds.meta))
 
 
 def _found(rep, check, level):

@@ -16,18 +16,10 @@ from inclino.formats import dataset, importlog, sensor
 from inclino.model import effects as fx
 from inclino.model.scenario import generate_raw, load_scenario
 from inclino.model.world import Trajectory
+from rows import shifted as _shifted
 
 REAL = Path(__file__).parent / "data" / "real"
 CK = ("ck_acc_mag/acc_mag_log.csv", "ck_acc_mag/sensor.toml")
-
-
-def _shifted(ds, k):
-    """The magnetometer's rows k behind (its row i + k is the accelerometer's row i's)."""
-    c = {key: v.copy() for key, v in ds.columns.items()}
-    for m in dataset.MAG_COLS:
-        c[m] = np.roll(c[m], k)
-    n = len(ds)
-    return dataset.RawDataset({key: v[k:] if k > 0 else v[:n + k] for key, v in c.items()}, dict(ds.meta))
 
 
 def _lag_findings(rep, levels=("error", "warning")):

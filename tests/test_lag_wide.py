@@ -15,21 +15,14 @@ import pytest
 
 from inclino import checks
 from inclino.formats import dataset, importlog, sensor
+from rows import band_noise as _band
+from rows import shifted as _shifted
 
 REAL = Path(__file__).parent / "data" / "real"
 
 
 def _load(log, toml):
     return importlog.import_log(str(REAL / log), sensor.load(str(REAL / toml)))[0]
-
-
-def _shifted(ds, k):
-    """The magnetometer's rows k behind (its row i + k is the accelerometer's row i's)."""
-    c = {key: v.copy() for key, v in ds.columns.items()}
-    for m in dataset.MAG_COLS:
-        c[m] = np.roll(c[m], k)
-    n = len(ds)
-    return dataset.RawDataset({key: v[k:] if k > 0 else v[:n + k] for key, v in c.items()}, dict(ds.meta))
 
 
 def _rows(ds, a, b):
@@ -129,15 +122,6 @@ def test_a_lag_curve_a_row_beyond_the_rows_tried_is_named_when_the_rows_paired_t
     named -4 (it was a note)."""
     rep = checks.run(_shifted(ck, -4))
     assert rep.lag_rows == -4 and any("lag = -4" in f.message for f in _named(rep)), rep.lines()
-
-
-def _band(rng, n, lo, hi, rate, rms):
-    """White noise filtered to lo..hi Hz, scaled to rms per axis."""
-    f = np.fft.rfftfreq(n, 1.0 / rate)
-    X = np.fft.rfft(rng.normal(size=(n, 3)), axis=0)
-    X[(f < lo) | (f > hi)] = 0.0
-    x = np.fft.irfft(X, n=n, axis=0)
-    return x * (rms / x.std(0))
 
 
 def _tumble(seed, n=6000, rate=100.0):

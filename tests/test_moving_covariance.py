@@ -16,14 +16,7 @@ from inclino.calib import triad
 from inclino.calib.single import fit as fit_one
 from inclino.errors import UndeterminedError
 from inclino.formats.dataset import RawDataset
-
-
-def _band(rng, n, lo, hi, rate, rms):
-    f = np.fft.rfftfreq(n, 1.0 / rate)
-    X = np.fft.rfft(rng.normal(size=(n, 3)), axis=0)
-    X[(f < lo) | (f > hi)] = 0.0
-    x = np.fft.irfft(X, n=n, axis=0)
-    return x * (rms / x.std(0))
+from rows import band_noise as _band
 
 
 def _moving_log(seed, hand_g=0.012, n=6000, rate=100.0, turns=False, turn_dps=70.0):
