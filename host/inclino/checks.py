@@ -59,7 +59,7 @@ RANGE_STEP_TOL = 0.1      # |g| or |b| within 10 % of 2, 4 or 8 times (or 1/2, 1
 DIP_MISMATCH_DEG = 10.0   # |dip - header dip| beyond it: a warning
 DIP_SIGN_MIN_DEG = 5.0    # a dip's sign is compared with the header's only when both are beyond this
 MAX_LAG = 3               # row shifts tried between the triads ...
-LAG_WIDE = 50             # ... and, where a route's best shift lies at MAX_LAG or beyond, this many either way ...
+LAG_WIDE = 50             # ... and, for a shift beyond them, this many either way (_wide_lag) ...
 LAG_WIDE_PAIRED = 12      # ... leaving at least this many rows paired ...
 LAG_WIDE_JUMP_ROWS = 6_000  # ... (the jumps route: its running medians on logs of this many rows at most)
 LAG_RATIO = 3.0           # spread as paired / spread at the best shift: an error beyond (and > 2 deg)
@@ -818,7 +818,7 @@ def _axes_and_lag(ds, rows_all, rep, ug_src=None):
         unseen = None if rep.one_orientation else _shifts_unseen(ug, ubp, inv, lags)
         if unseen:
             rep.findings.append(Finding("row-alignment", "note", unseen[0], None, unseen[1]))
-    _dip_sign_paired(ds, ug, ubp, ug_src, rep)
+    _dip_sign(ds, _dip(*_paired(ug, ubp, rep.lag_rows or 0)), ug_src, rep)  # the dip's sign, as named paired
 
 
 def _name_shift(ds, rep, route: str, kb: int, how: str, s0: float, sb: float, fig: dict) -> None:
@@ -845,12 +845,6 @@ def _name_shift(ds, rep, route: str, kb: int, how: str, s0: float, sb: float, fi
         f"{'+' if kb > 0 else '-'} {abs(kb)} belongs to the accelerometer's row i: one {which} the other, as when "
         f"two files are joined and {lost}); " + fix),
         None, {**fig, "lag_rows": kb, "lag_to_write": lag, "route": route}))
-
-
-def _dip_sign_paired(ds, ug, ubp, ug_src, rep) -> None:
-    """The dip's sign against the header, on the rows paired at the shift
-    named (rep.lag_rows)."""
-    _dip_sign(ds, _dip(*_paired(ug, ubp, rep.lag_rows or 0)), ug_src, rep)
 
 
 def _held(ds, block, ug, ub):
