@@ -160,3 +160,31 @@ def test_a_tumble_in_step_whose_lag_curve_says_so_gets_no_note_of_a_possible_shi
 def test_a_simulated_tumble_shifted_is_named_with_its_lag(k):
     rep = checks.run(_shifted(_tumble(1), k))
     assert rep.lag_rows == k and any(f"lag = {k}" in f.message for f in _named(rep)), rep.lines()
+
+
+def test_a_dozen_shots_all_mispaired_name_no_lag_by_chance():
+    """SAP6's BB with 12 of its 24 shots lost at the start of one file:
+    every row left is mispaired, and the least of the seven spreads of 6-12
+    rows each (at -3) was named; no half can tell, and it is not 3x below
+    the other shifts': a note, no lag."""
+    rep = checks.run(_shifted(_load("sap6/BB.csv", "sap6/sensor.toml"), 12))
+    assert rep.lag_rows == 0 and not _named(rep), rep.lines()
+    assert any(f.check == "row-alignment" and "too few rows" in f.message for f in rep.findings)
+
+
+def test_a_dip_that_scatters_off_the_header_says_the_rows_may_be_out_of_step():
+    """A tumble simulated here with its magnetometer 150 rows behind, beyond
+    the 50 rows searched: the dip reads 20 deg off the header's and
+    scatters by ~30 deg from row to row; the warning names a pairing out
+    of step beside a wrong dip_deg or a disturbed field."""
+    rep = checks.run(_shifted(_tumble(1), 150))
+    (f,) = [f for f in rep.findings if f.check == "dip-sign" and f.level == "warning"]
+    assert "paired out of step" in f.message and f.figures["dip_spread_deg"] > checks.DIP_MISMATCH_DEG
+
+
+def test_a_shift_beyond_the_rows_searched_is_said_to_be_at_least_the_edge():
+    """The same tumble 80 rows behind: the dip spreads least at +50, the
+    edge of the search; the warning says 50 rows or more, not about 50."""
+    rep = checks.run(_shifted(_tumble(1), 80))
+    (f,) = _named(rep)
+    assert rep.lag_rows == 0 and "+50 rows or more" in f.message, rep.lines()

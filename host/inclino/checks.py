@@ -674,8 +674,11 @@ def _axes_and_lag(ds, rows_all, rep, ug_src=None):
         if fig["wide_row_fixed"]:
             _name_shift(ds, rep, route, kb, how, lags[0], sb, fig)
         else:
+            edge = fig["wide_lag_rows"] == kb and abs(kb) == fig["wide_rows_searched"]  # the least at the edge
             rep.findings.append(Finding("row-alignment", "warning", (
-                f"the triads are paired out of step by about {kb:+d} rows (the row not fixed: the dip changes "
+                f"the triads are paired out of step by "
+                + (f"{kb:+d} rows or more (the edge of the shifts searched" if edge else f"about {kb:+d} rows (")
+                + f"; the row not fixed: the dip changes "
                 f"too little from one shift to the next here, or its spread is skewed by the triads' calibration "
                 f"errors): {how}; "
                 f"re-import with [magnetometer] lag = {_lag_to_write(ds, kb)} (the row or two left is then "
@@ -807,6 +810,16 @@ def _axes_and_lag(ds, rows_all, rep, ug_src=None):
                     f"{' and '.join('no shift' if x == 0 else f'{x:+d}' for x in halves if x is not None)}: not "
                     f"named"), None, {**fig, "lag_rows": kb}))
                 route = None
+        elif route == "spread" and all(x is None for x in halves) \
+                and not LAG_RATIO * lags[kb] < min(v for j, v in lags.items() if abs(j - kb) > 1):
+            # no half can tell (a log of a dozen rows): the least of seven spreads of a few rows each is low
+            # by chance (SAP6's BB, 24 shots, with 12 of them lost at the start of one file, read -3); such a
+            # shift must cut the spread LAG_RATIO times against every shift but its neighbours
+            rep.findings.append(Finding("row-alignment", "note", (
+                f"the triads may be paired out of step ({how}), but on too few rows for each half of the log to "
+                f"tell, and the dip spreads less than {LAG_RATIO:g} times as much at other shifts: not named"),
+                None, {**fig, "lag_rows": kb}))
+            route = None
     if route is not None:
         if inv is not None and route not in ("curve", "nearest"):
             how += f"; the lag curve puts it at {inv['lag']:+.2f} +- {_se_text(inv['se'])} rows"
@@ -896,10 +909,15 @@ def _dip_sign(ds, d, ug_src, rep):
                 f"magnetometer axis is reversed; "
                 + _fix(ds, "accelerometer", "reads")), "acc", {"dip_deg": dip, "header_dip_deg": hdr}))
         elif abs(dip - hdr) > DIP_MISMATCH_DEG:
+            spread = _robust_std(d)
+            # a dip that scatters by tens of degrees from row to row: the rows may be paired out of step by more
+            # than the shifts searched (a log of 30 positions shifted by 20 rows, searched to 18)
+            paired = (f", or the triads paired out of step by more rows than were searched (the dip spreads "
+                      f"{spread:.3g} deg from row to row)" if spread > DIP_MISMATCH_DEG and not rep.lag_rows else "")
             rep.findings.append(Finding("dip-sign", "warning", (
                 f"the dip angle is {dip:+.1f} deg (median, before calibration) against the header's {hdr:+.1f}: a "
-                f"wrong dip_deg, a disturbed field, or a large misalignment"), None,
-                {"dip_deg": dip, "header_dip_deg": hdr}))
+                f"wrong dip_deg, a disturbed field, or a large misalignment{paired}"), None,
+                {"dip_deg": dip, "header_dip_deg": hdr, "dip_spread_deg": spread}))
 
 
 def _weak_handedness(ug, ub, spreads, best, ident, other, ds, rep):
@@ -1204,8 +1222,8 @@ def _wide_lag(ug, ub):
             # against 42.7 as paired; 30 shifted by 20: 13.9 at -13 against 47.7): the dip must spread
             # LAG_RATIO times less there than at every shift but its neighbours
             continue
-        fig = {"wide_lag_rows": k, "wide_route": name, "wide_halves_lag_rows": halves}
         wd = width(m)
+        fig = {"wide_lag_rows": k, "wide_route": name, "wide_halves_lag_rows": halves, "wide_rows_searched": wd}
         if name == "spread":
             how = (f"the dip angle spreads {_robust_std(_dip(ug, ub)):.3g} deg as paired, {sp[k]:.3g} deg with the "
                    f"magnetometer's rows shifted by {k:+d}, the least of the shifts up to {wd} rows either way")

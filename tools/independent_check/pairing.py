@@ -57,7 +57,8 @@ def shifted(src, k, dst):
 
 
 def judge(k, rep):
-    found = [f for f in rep['checks']['findings'] if f['check'] == 'row-alignment' or 'pairing' in f['message']]
+    found = [f for f in rep['checks']['findings']
+             if f['check'] == 'row-alignment' or 'pairing' in f['message'] or 'paired out of step' in f['message']]
     named = [f['figures'].get('lag_rows') for f in found if f['level'] in ('error', 'warning')
              and 'lag_rows' in f['figures']]
     if named:
