@@ -82,6 +82,7 @@ def test_a_shift_whose_row_the_search_does_not_fix_is_a_warning_of_about_that_ma
     rep = checks.run(_shifted(_rows(ck, 0, 6000), 10))
     (f,) = _named(rep)
     assert rep.lag_rows == 0 and f.level == "warning" and "by about" in f.message, rep.lines()
+    assert f"about {f.figures['lag_rows_about']:+d} rows (the row not fixed:" in f.message
     assert abs(f.figures["lag_rows_about"] - 10) <= 2
 
 

@@ -677,8 +677,8 @@ def _axes_and_lag(ds, rows_all, rep, ug_src=None):
             edge = fig["wide_lag_rows"] == kb and abs(kb) == fig["wide_rows_searched"]  # the least at the edge
             rep.findings.append(Finding("row-alignment", "warning", (
                 f"the triads are paired out of step by "
-                + (f"{kb:+d} rows or more (the edge of the shifts searched" if edge else f"about {kb:+d} rows (")
-                + f"; the row not fixed: the dip changes "
+                + (f"{kb:+d} rows or more (the edge of the shifts searched; " if edge else f"about {kb:+d} rows (")
+                + f"the row not fixed: the dip changes "
                 f"too little from one shift to the next here, or its spread is skewed by the triads' calibration "
                 f"errors): {how}; "
                 f"re-import with [magnetometer] lag = {_lag_to_write(ds, kb)} (the row or two left is then "
