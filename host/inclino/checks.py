@@ -1152,18 +1152,22 @@ def _wide_lag(ug, ub):
     either way (leaving LAG_WIDE_PAIRED rows paired).  A route's shift
     beyond MAX_LAG counts when its own rule names it, each half of the log
     puts the route's best shift within MAX_LAG - 1 rows of it (a half too
-    short to tell is no objection), and, for the transitions and jumps, the
-    dip spreads there within its precision of its least (a moving log's
-    spread is least near its pairing; a periodic turn can make the others'
-    deviations least a period away).  Within MAX_LAG rows the narrower
-    routes and the lag curve decide.
+    short to tell is no objection; where neither half can, the dip spreads
+    LAG_RATIO times less there than at every shift but its neighbours),
+    and, for the transitions and jumps, the dip spreads there within its
+    precision of its least (a moving log's spread is least near its
+    pairing; a periodic turn can make the others' deviations least a
+    period away).  Within MAX_LAG rows the narrower routes and the lag
+    curve decide.
 
     The row: the lag curve of the rows paired at the shift found moves it
-    by the whole row its own rule names (_curve_rule); without a curve, a
-    transitions or jumps shift each half finds to the row is the row, and
-    the spread's where its neighbours spread more by its precision.  A
-    route whose row is not fixed gives way to a later one that fixes a row
-    within MAX_LAG - 1 of it; figures["wide_row_fixed"] says which."""
+    by the whole row its own rule names (_curve_rule), or puts them in
+    step to within half a row; without a curve, a transitions or jumps
+    shift is the row where a row either way mispairs the changes of
+    position (_row_sharp), and the spread's where its neighbours spread
+    more by its precision.  A route whose row is not fixed gives way to a
+    later one that fixes a row within MAX_LAG - 1 of it;
+    figures["wide_row_fixed"] says which."""
     m = len(ug)
     gain = 1.0 + max(LAG_MIN_GAIN, 5.0 / math.sqrt(m))
 
