@@ -810,11 +810,9 @@ def _axes_and_lag(ds, rows_all, rep, ug_src=None):
                     f"{' and '.join('no shift' if x == 0 else f'{x:+d}' for x in halves if x is not None)}: not "
                     f"named"), None, {**fig, "lag_rows": kb}))
                 route = None
-        elif route == "spread" and all(x is None for x in halves) \
-                and not LAG_RATIO * lags[kb] < min(v for j, v in lags.items() if abs(j - kb) > 1):
-            # no half can tell (a log of a dozen rows): the least of seven spreads of a few rows each is low
-            # by chance (SAP6's BB, 24 shots, with 12 of them lost at the start of one file, read -3); such a
-            # shift must cut the spread LAG_RATIO times against every shift but its neighbours
+        elif route == "spread" and all(x is None for x in halves) and not _stands_out(lags, kb):
+            # no half can tell (a log of a dozen rows: SAP6's BB, 24 shots, with 12 of them lost at the start
+            # of one file, read -3)
             rep.findings.append(Finding("row-alignment", "note", (
                 f"the triads may be paired out of step ({how}), but on too few rows for each half of the log to "
                 f"tell, and the dip spreads less than {LAG_RATIO:g} times as much at other shifts: not named"),
@@ -975,7 +973,7 @@ def _spread_by_lag(ug, ub, K: int = MAX_LAG) -> dict:
     for k in range(-K, K + 1):
         if m - abs(k) < 6:
             continue
-        out[k] = _robust_std(_dip(ug[:m - k], ub[k:])) if k >= 0 else _robust_std(_dip(ug[-k:], ub[:m + k]))
+        out[k] = _robust_std(_dip(*_paired(ug, ub, k)))
     return out
 
 
@@ -998,27 +996,49 @@ def _lag_transitions(ug, ub, K: int = MAX_LAG):
     rows at every shift -K..K (MAX_LAG), the rows' differences averaged in
     blocks (neighbours are not independent), t = the blocks' mean over its
     standard error."""
-    m = len(ug)
-    if m < 4 * K + 40:
+    if len(ug) < 4 * K + 40:
         return 0, 1.0, 0.0
-    i = np.arange(K, m - K)
-    dev = {}
-    for k in range(-K, K + 1):
-        d = _dip(ug[i], ub[i + k])
-        dev[k] = np.abs(d - np.median(d))
+    dev = _deviations(ug, ub, K)
     mean = {k: float(np.mean(v)) for k, v in dev.items()}
     kb = min(mean, key=mean.get)
     if kb == 0 or not mean[kb] > 0:
         return 0, 1.0, 0.0
-    diff = dev[0] - dev[kb]
-    L = max(10, len(diff) // 200)
-    nb = len(diff) // L
+    nb, t = _block_t(dev[0] - dev[kb])
     if nb < 8:
         return 0, 1.0, 0.0
-    bm = diff[:nb * L].reshape(nb, L).mean(1)
-    se = float(np.std(bm, ddof=1) / math.sqrt(nb))
-    t = float(np.mean(bm) / se) if se > 0 else float("inf")
     return kb, mean[0] / mean[kb], t
+
+
+def _deviations(ug, ub, K: int) -> dict:
+    """{k: |dip - its median|} row by row, the magnetometer's row i + k with
+    the accelerometer's row i, the same accelerometer rows K .. m - K - 1 at
+    every shift k = -K..K."""
+    i = np.arange(K, len(ug) - K)
+    out = {}
+    for k in range(-K, K + 1):
+        d = _dip(ug[i], ub[i + k])
+        out[k] = np.abs(d - np.median(d))
+    return out
+
+
+def _block_t(diff) -> tuple:
+    """(blocks, t): per-row differences averaged in blocks of at least 10
+    consecutive rows (neighbours are not independent), t = the blocks' mean
+    over its standard error."""
+    L = max(10, len(diff) // 200)
+    nb = len(diff) // L
+    bm = diff[:nb * L].reshape(nb, L).mean(1)
+    se = float(np.std(bm, ddof=1) / math.sqrt(nb)) if nb > 1 else 0.0
+    return nb, (float(np.mean(bm) / se) if se > 0 else float("inf"))
+
+
+def _stands_out(spreads: dict, k: int) -> bool:
+    """Whether the dip spreads LAG_RATIO times less at shift k than at every
+    shift but its neighbours ({shift: spread}): the second view of a shift
+    where no half of the log can tell, for the least of many spreads of a
+    few rows each is low by chance."""
+    rest = [v for j, v in spreads.items() if abs(j - k) > 1]
+    return bool(rest) and LAG_RATIO * spreads[k] < min(rest)
 
 
 def _spread_lag(lags: dict, m: int) -> int:
@@ -1162,7 +1182,7 @@ def _wide_lag(ug, ub):
 
     The row: the lag curve of the rows paired at the shift found moves it
     by the whole row its own rule names (_curve_rule), or puts them in
-    step to within half a row; without a curve, a transitions or jumps
+    step (_in_step); without a curve, a transitions or jumps
     shift is the row where a row either way mispairs the changes of
     position (_row_sharp), and the spread's where its neighbours spread
     more by its precision.  A route whose row is not fixed gives way to a
@@ -1219,17 +1239,14 @@ def _wide_lag(ug, ub):
             halves.append(None if rh is None else rh[0])
         if any(x is not None and abs(x - k) >= MAX_LAG for x in halves):
             continue
-        if all(x is None for x in halves) and not LAG_RATIO * sp[k] < min(
-                v for j, v in sp.items() if abs(j - k) > 1):
-            # no half can tell (a short log, or a shift beyond a half's search): the least spread of many
-            # shifts of a few rows is low by chance (28 positions shifted by 20, searched to 16: 17.3 deg at -15
-            # against 42.7 as paired; 30 shifted by 20: 13.9 at -13 against 47.7): the dip must spread
-            # LAG_RATIO times less there than at every shift but its neighbours
+        if all(x is None for x in halves) and not _stands_out(sp, k):
+            # no half can tell (a short log, or a shift beyond a half's search): 28 positions shifted by 20,
+            # searched to 16, read 17.3 deg at -15 against 42.7 as paired; 30 shifted by 20: 13.9 at -13
             continue
         wd = width(m)
         fig = {"wide_lag_rows": k, "wide_route": name, "wide_halves_lag_rows": halves, "wide_rows_searched": wd}
         if name == "spread":
-            how = (f"the dip angle spreads {_robust_std(_dip(ug, ub)):.3g} deg as paired, {sp[k]:.3g} deg with the "
+            how = (f"the dip angle spreads {sp[0]:.3g} deg as paired, {sp[k]:.3g} deg with the "
                    f"magnetometer's rows shifted by {k:+d}, the least of the shifts up to {wd} rows either way")
         elif name == "transitions":
             how = (f"the dip angle's mean deviation is {r[2][1]:.3g} times larger as paired than with the "
@@ -1252,7 +1269,7 @@ def _wide_lag(ug, ub):
                 k += rk
                 pinned = True
             else:
-                pinned = abs(inv["lag"]) + inv["se"] < 0.5
+                pinned = _in_step(inv)
                 how += (f"; with the rows paired so, the dip invariant's lag curve puts them "
                         f"{inv['lag']:+.2f} +- {_se_text(inv['se'])} rows from there")
         elif name == "spread":
@@ -1291,20 +1308,11 @@ def _row_sharp(ug, ub) -> bool:
     mispairs each change of position (SAP6's shots held 30 rows: 1.6-5x,
     t 4.2-4.9); on a moving log a row changes the deviation by 1-3 % (CK),
     and the row there is as skewed as the spread's."""
-    m = len(ug)
-    if m < 44:
+    if len(ug) < 44:
         return False
-    i = np.arange(1, m - 1)
-    dev = {k: np.abs(d - np.median(d)) for k, d in ((k, _dip(ug[i], ub[i + k])) for k in (-1, 0, 1))}
-    for k in (-1, 1):
-        diff = dev[k] - dev[0]
-        L = max(10, len(diff) // 200)
-        nb = len(diff) // L
-        bm = diff[:nb * L].reshape(nb, L).mean(1)
-        se = float(np.std(bm, ddof=1) / math.sqrt(nb))
-        if not (np.mean(dev[k]) > LAG_T_GAIN * np.mean(dev[0]) and np.mean(bm) > LAG_T * se):
-            return False
-    return True
+    dev = _deviations(ug, ub, 1)
+    return all(np.mean(dev[k]) > LAG_T_GAIN * np.mean(dev[0]) and _block_t(dev[k] - dev[0])[1] > LAG_T
+               for k in (-1, 1))
 
 
 def _paired(ug, ub, k: int):

@@ -165,8 +165,8 @@ class RealDataBench:
                 by = ", ".join(f"{k:+d}: {sum(r['named'] == k for r in shifted if r['shift'] == k)}/"
                                f"{sum(r['shift'] == k for r in shifted)}" for k in STRETCH_SHIFTS if k)
                 out.append(f"  {group:50s} {by}; wrong {sum(r['named'] not in (0, r['shift']) for r in rows)}; "
-                           f"silent {sum(not r['said'] for r in shifted)}; in step with a warning {sum(r['shift'] == 0 and r['warned'] for r in rows)} of "
-                           f"{sum(r['shift'] == 0 for r in rows)}")
+                           f"silent {sum(not r['said'] for r in shifted)}; in step with a warning "
+                           f"{sum(r['shift'] == 0 and r['warned'] for r in rows)} of {sum(r['shift'] == 0 for r in rows)}")
         out.append("  verdict: " + ("pass" if self.passed else "FAIL"))
         return out
 
@@ -312,17 +312,8 @@ def corrupted_checks(root) -> list:
                         ("handedness", "")),
         "mirrored ay": (lambda ds: with_cols(ds, lambda c: c.__setitem__("ay_g", -c["ay_g"])),
                         ("handedness", "")),
-        "rows +1": (lambda ds: _shifted(ds, 1), ("row-alignment", "+1")),
-        "rows -1": (lambda ds: _shifted(ds, -1), ("row-alignment", "-1")),
-        "rows +2": (lambda ds: _shifted(ds, 2), ("row-alignment", "+2")),
-        "rows -2": (lambda ds: _shifted(ds, -2), ("row-alignment", "-2")),
-        "rows +3": (lambda ds: _shifted(ds, 3), ("row-alignment", "+3")),
-        "rows -3": (lambda ds: _shifted(ds, -3), ("row-alignment", "-3")),
-        "rows +4": (lambda ds: _shifted(ds, 4), ("row-alignment", "+4")),
-        "rows -4": (lambda ds: _shifted(ds, -4), ("row-alignment", "-4")),
-        "rows +8": (lambda ds: _shifted(ds, 8), ("row-alignment", "+8")),
-        "rows -8": (lambda ds: _shifted(ds, -8), ("row-alignment", "-8")),
-        "rows +20": (lambda ds: _shifted(ds, 20), ("row-alignment", "+20")),
+        **{f"rows {k:+d}": (lambda ds, k=k: _shifted(ds, k), ("row-alignment", f"{k:+d}"))
+           for k in (1, -1, 2, -2, 3, -3, 4, -4, 8, -8, 20)},
     }
     # shifts beyond the 3 rows the narrower routes try (two files started apart): the CK log and the SAP6
     # shots held 30 rows each (the 24 shots as logged: a row already mispairs every shot, and 4 rows fewer
