@@ -685,59 +685,46 @@ def _axes_and_lag(ds, rows_all, rep, ug_src=None):
                 f"checked)"), None, {**fig, "lag_rows_about": kb, "lag_to_write": _lag_to_write(ds, kb)}))
         _dip_sign(ds, _dip(*_paired(ug, ubp, kb)), ug_src, rep)
         return
-    kb = min(lags, key=lambda k: lags[k])
     fig = {"dip_spread_by_lag_deg": {str(k): v for k, v in lags.items()}}
-    s0, sb = lags[0], lags[kb]
-    # the spread's own relative precision is about 1/sqrt(2n): a shift must
-    # beat it many times over (and LAG_MIN_GAIN) to be named
-    route = None
-    if _spread_lag(lags, m):
-        route = "spread"
-        how = (f"the dip angle spreads {s0:.3g} deg as paired, {sb:.3g} deg with the magnetometer's rows shifted "
-               f"by {kb:+d}")
-    else:
+    s0 = lags[0]
+
+    def routes():
+        """The shifts the routes name, in turn, each computed only when the one before it names none or its
+        second view fails: (route, shift, spread there, evidence)."""
+        if _spread_lag(lags, m):
+            k = min(lags, key=lambda j: lags[j])
+            yield "spread", k, lags[k], (f"the dip angle spreads {s0:.3g} deg as paired, {lags[k]:.3g} deg with "
+                                         f"the magnetometer's rows shifted by {k:+d}")
         # a step-and-hold log of many rows per position: a shift mispairs only the rows where the
         # position changes, which the robust spread ignores; the mean deviation sees them
         kt, gain, t = _lag_transitions(ug, ubp)
         fig.update({"transition_lag_rows": kt, "transition_gain": gain, "transition_t": t})
         if _transitions_named(kt, gain, t):
-            route, kb, sb = "transitions", kt, lags[kt]
-            how = (f"the dip angle's mean deviation is {gain:.3g} times larger as paired than with the "
-                   f"magnetometer's rows shifted by {kt:+d} (the rows where the position changes are mispaired)")
-        else:
-            # a few positions (a six-face session with both triads): too few changes for the blocks' t, but
-            # each change a shift mispairs reads a dip far off, and the right shift pairs every one of them
-            # again without mispairing any other row
-            kj, fixed, made = _lag_jumps(ug, ubp)
-            fig.update({"jump_lag_rows": kj, "jump_rows_fixed": fixed, "jump_rows_made": made})
-            if _jumps_named(kj, fixed, made):
-                route, kb, sb = "jumps", kj, lags[kj]
-                how = (f"{fixed} rows where the position changes read a dip far off as paired and in line with "
-                       f"the magnetometer's rows shifted by {kj:+d}" + (f" ({made} the other way)" if made else
-                                                                         " (none the other way)"))
+            yield "transitions", kt, lags[kt], (
+                f"the dip angle's mean deviation is {gain:.3g} times larger as paired than with the "
+                f"magnetometer's rows shifted by {kt:+d} (the rows where the position changes are mispaired)")
+        # a few positions (a six-face session with both triads): too few changes for the blocks' t, but
+        # each change a shift mispairs reads a dip far off, and the right shift pairs every one of them
+        # again without mispairing any other row
+        kj, fixed, made = _lag_jumps(ug, ubp)
+        fig.update({"jump_lag_rows": kj, "jump_rows_fixed": fixed, "jump_rows_made": made})
+        if _jumps_named(kj, fixed, made):
+            yield "jumps", kj, lags[kj], (
+                f"{fixed} rows where the position changes read a dip far off as paired and in line with "
+                f"the magnetometer's rows shifted by {kj:+d}" + (f" ({made} the other way)" if made else
+                                                                 " (none the other way)"))
+
     # a continuously moving log: neighbouring rows are close orientations, so a shift of a row or two
     # changes the dip's spread by a few % only; the lag curve of the invariant, with the triads'
     # calibration errors and a turning lever arm's acceleration fitted out, locates the pairing to a fraction
     # of a row
     inv = _lag_curve(ug, ubp)
+    curve = rule = k = None
+    beyond = False
     if inv is not None:
         rep.lag_curve = {"lag_rows": inv["lag"], "se_rows": inv["se"], "halves_rows": inv["halves"]}
         fig.update({"curve_lag_rows": inv["lag"], "curve_lag_se_rows": inv["se"],
                     "curve_lag_halves_rows": inv["halves"]})
-        if route in ("spread", "transitions", "jumps") and round(inv["lag"]) != kb:
-            # a continuously moving log: the dip's raw spread (the triads' calibration errors left in) is itself
-            # skewed along the shift (on the clean CK log its least value sits 1 to 2 rows off in stretches of
-            # 4 000 rows), so a shift it finds is named only where the calibrated curve puts the pairing too (and
-            # where the curve puts the rows in step, nothing is said of it: on a simulated hand tumble in step at
-            # 100 rows/s the jumps' count found 31 rows "in line with +3", the curve -0.04 +- 0.05)
-            if not _in_step(inv):
-                rep.findings.append(Finding("row-alignment", "note", (
-                    f"the triads may be paired out of step ({how}), but the dip invariant's lag curve, with the "
-                    f"triads' calibration errors and a turning lever arm's acceleration fitted out, puts the "
-                    f"magnetometer's rows {inv['lag']:+.2f} +- "
-                    f"{inv['se']:.2f} out of step (nearest row {int(round(inv['lag'])):+d}): not named"),
-                    None, {**fig, "lag_rows": kb}))
-            route = None
         rule, k = _curve_rule(inv["lag"], inv["se"], inv["halves"])
         if rule == "curve" and k not in lags and _curve_in_step(*_paired(ug, ubp, k)):
             # the curve's row beyond the shifts the spread tried (its vertex taken from the trials at the
@@ -764,8 +751,63 @@ def _axes_and_lag(ds, rows_all, rep, ug_src=None):
                 f"sensors' sampling is not ruled out (a lag of {k:+d} then leaves {inv['lag'] - k:+.2f} rows against "
                 f"{inv['lag']:+.2f} as logged: it pairs the rows better either way; a session held still at each "
                 f"position tells the two apart)"))
+
+    # each route's shift must stand a second view before it is named; one that does not is a note (the first
+    # such, when no later route names a shift that stands it: on six stops turned between over ten rows, the
+    # spread, skewed by the stops' calibration errors, found -2 with halves -3 and -1, the count -1 with every
+    # change paired again and none mispaired)
+    route, doubt = None, None
+    for route_k in routes():
+        route, kb, sb, how = route_k
+        rfig = dict(fig)
+        if inv is not None and round(inv["lag"]) != kb:
+            # a continuously moving log: the dip's raw spread (the triads' calibration errors left in) is itself
+            # skewed along the shift (on the clean CK log its least value sits 1 to 2 rows off in stretches of
+            # 4 000 rows), so a shift it finds is named only where the calibrated curve puts the pairing too (and
+            # where the curve puts the rows in step, nothing is said of it: on a simulated hand tumble in step at
+            # 100 rows/s the jumps' count found 31 rows "in line with +3", the curve -0.04 +- 0.05)
+            if not _in_step(inv) and doubt is None:
+                doubt = Finding("row-alignment", "note", (
+                    f"the triads may be paired out of step ({how}), but the dip invariant's lag curve, with the "
+                    f"triads' calibration errors and a turning lever arm's acceleration fitted out, puts the "
+                    f"magnetometer's rows {inv['lag']:+.2f} +- "
+                    f"{inv['se']:.2f} out of step (nearest row {int(round(inv['lag'])):+d}): not named"),
+                    None, {**rfig, "lag_rows": kb})
+            route = None
+            continue
+        # a second view: each half of the log on its own must find the same shift (a half too short to
+        # tell is no objection)
+        h = m // 2
+        halves = [_route_lag(route, ug[sl], ubp[sl]) for sl in (slice(0, h), slice(h, m))]
+        rfig["halves_lag_rows"] = halves
+        if any(x is not None and x != kb for x in halves):
+            if curve is not None and curve[1] == kb:
+                # the raw spread's halves disagree (each half's spread is skewed by the calibration errors it
+                # leaves in), but the lag curve, whose halves agree on the side, puts the pairing at that row
+                route, kb, how = curve
+                fig = rfig
+                break
+            if doubt is None:
+                doubt = Finding("row-alignment", "note", (
+                    f"the triads may be paired out of step ({how}), but the two halves of the log find "
+                    f"{' and '.join('no shift' if x == 0 else f'{x:+d}' for x in halves if x is not None)}: not "
+                    f"named"), None, {**rfig, "lag_rows": kb})
+            route = None
+        elif route == "spread" and all(x is None for x in halves) and not _stands_out(lags, kb):
+            # no half can tell (a log of a dozen rows: SAP6's BB, 24 shots, with 12 of them lost at the start
+            # of one file, read -3)
+            if doubt is None:
+                doubt = Finding("row-alignment", "note", (
+                    f"the triads may be paired out of step ({how}), but on too few rows for each half of the log "
+                    f"to tell, and the dip spreads less than {LAG_RATIO:g} times as much at other shifts: not "
+                    f"named"), None, {**rfig, "lag_rows": kb})
+            route = None
         else:
-            curve = None
+            fig = rfig
+            break
+    if route is None and doubt is not None:
+        rep.findings.append(doubt)
+    if inv is not None:
         if route is None and curve is not None:
             route, kb, how = curve
             sb = lags[kb]
@@ -791,33 +833,6 @@ def _axes_and_lag(ds, rows_all, rep, ug_src=None):
                 f"{_se_text(inv['se'])} out of step (each half of the log: {halves_txt}): a shift {shift} is "
                 f"possible, not named (the curve's scatter is more than {LAG_CURVE_NEAREST_SE:g} row)"),
                 None, {"curve_lag_rows": inv["lag"], "curve_lag_se_rows": inv["se"], "lag_rows_possible": k}))
-    else:
-        curve = None
-    if route in ("spread", "transitions", "jumps"):
-        # a second view: each half of the log on its own must find the same shift (a half too short to
-        # tell is no objection)
-        h = m // 2
-        halves = [_route_lag(route, ug[sl], ubp[sl]) for sl in (slice(0, h), slice(h, m))]
-        fig["halves_lag_rows"] = halves
-        if any(x is not None and x != kb for x in halves):
-            if curve is not None and curve[1] == kb:
-                # the raw spread's halves disagree (each half's spread is skewed by the calibration errors it
-                # leaves in), but the lag curve, whose halves agree on the side, puts the pairing at that row
-                route, kb, how = curve
-            else:
-                rep.findings.append(Finding("row-alignment", "note", (
-                    f"the triads may be paired out of step ({how}), but the two halves of the log find "
-                    f"{' and '.join('no shift' if x == 0 else f'{x:+d}' for x in halves if x is not None)}: not "
-                    f"named"), None, {**fig, "lag_rows": kb}))
-                route = None
-        elif route == "spread" and all(x is None for x in halves) and not _stands_out(lags, kb):
-            # no half can tell (a log of a dozen rows: SAP6's BB, 24 shots, with 12 of them lost at the start
-            # of one file, read -3)
-            rep.findings.append(Finding("row-alignment", "note", (
-                f"the triads may be paired out of step ({how}), but on too few rows for each half of the log to "
-                f"tell, and the dip spreads less than {LAG_RATIO:g} times as much at other shifts: not named"),
-                None, {**fig, "lag_rows": kb}))
-            route = None
     if route is not None:
         if inv is not None and route not in ("curve", "nearest"):
             how += f"; the lag curve puts it at {inv['lag']:+.2f} +- {_se_text(inv['se'])} rows"
@@ -1139,8 +1154,10 @@ def _lag_jumps(ug, ub, K: int = MAX_LAG):
     position changes leaves each of those rows far off; the right shift
     brings each one back and puts no other row out (a wrong shift puts
     twice as many out).  The best shift has most rows brought back less
-    rows put out; (0, 0, 0) when no shift brings any back.  Shifts -K..K
-    (MAX_LAG)."""
+    rows put out (a tie goes to the shift nearest the rows as logged: turns
+    between the positions over several rows are paired again as well by a
+    row more, and a half of six stops turned over ten rows read -2 for -1);
+    (0, 0, 0) when no shift brings any back.  Shifts -K..K (MAX_LAG)."""
     m = len(ug)
     w = LAG_JUMP_WINDOW
     if m < 2 * K + 2 * w:
@@ -1154,9 +1171,7 @@ def _lag_jumps(ug, ub, K: int = MAX_LAG):
         noise.append(_robust_std(np.diff(d)) / math.sqrt(2.0))
     big = max(LAG_JUMP_K * min(noise), LAG_JUMP_DEG)
     best = (0, 0, 0)
-    for k in range(-K, K + 1):
-        if k == 0:
-            continue
+    for k in sorted(range(-K, K + 1), key=abs)[1:]:
         fixed = int(np.sum(dev[0] - dev[k] > big))
         made = int(np.sum(dev[k] - dev[0] > big))
         if fixed - made > best[1] - best[2]:
