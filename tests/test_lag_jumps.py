@@ -109,11 +109,14 @@ def test_a_tie_in_the_count_goes_to_the_shift_nearest_as_logged(rng):
     """Turns over several rows are paired again by a row more as well as by
     the right row: where the counts tie, the nearer shift is the count's
     (each half of six stops turned over ten rows, shifted by a row, had read
-    -2 on some draws: seeds 9 and 92 of 100 tie on their second half)."""
+    -2 on some draws: seeds 9 and 92 of 100 tie on their second half).  A
+    half whose three turns pass between close orientations may find no
+    shift at all (4 halves in 800 draws): never a farther one."""
     for g in [np.random.default_rng(9), np.random.default_rng(92)] + [rng] * 3:
         ds = _shifted(_stops(g, 6, 100, 10), 1)
         ug, ub = _dirs(ds)
         h = len(ug) // 2
         for sl in (slice(0, h), slice(h, None)):
             k, fixed, made = checks._lag_jumps(ug[sl], ub[sl])
-            assert k == -1 and made * checks.LAG_JUMP_RATIO <= fixed, (k, fixed, made)
+            assert k in (0, -1) and made * checks.LAG_JUMP_RATIO <= fixed, (k, fixed, made)
+            assert k == -1 or g is rng, (k, fixed, made)
