@@ -143,7 +143,16 @@ def import_log(path: str, desc: SensorDescription, static: bool | None = None,
     (None: the description's [log].bad_rows) drops malformed rows -- cells
     missing, a cell that is not a number: a line garbled on a serial link --
     and counts them, up to MAX_BAD_ROWS_FRACTION of the rows read; otherwise
-    the first one is refused with its line number."""
+    the first one is refused with its line number.  A triad logged to a file
+    of its own ([magnetometer] file = ...) is read from that file and its
+    samples paired with the log's by time (_pair_by_time)."""
+    apart = next((t for t in desc.triads if t.file is not None), None)
+    if apart is not None:
+        return _import_apart(path, desc, apart, static, drop_bad_rows)
+    return _read(path, desc, static, drop_bad_rows)
+
+
+def _read(path: str, desc: SensorDescription, static, drop_bad_rows, absolute_time: bool = False):
     try:
         size = os.path.getsize(path)
         f = open(path, newline="", encoding="utf-8-sig")
@@ -154,10 +163,11 @@ def import_log(path: str, desc: SensorDescription, static: bool | None = None,
     with f:
         lines = dataset._Lines(f, path)
         drop = desc.bad_rows == "drop" if drop_bad_rows is None else bool(drop_bad_rows)
-        return _import(lines, path, desc, static, drop)
+        return _import(lines, path, desc, static, drop, absolute_time)
 
 
-def _import(lines, path: str, desc: SensorDescription, static, drop_bad=False) -> tuple[RawDataset, ImportReport]:
+def _import(lines, path: str, desc: SensorDescription, static, drop_bad=False,
+            absolute_time: bool = False) -> tuple[RawDataset, ImportReport]:
     for _ in range(desc.skip_rows):
         if next(lines, None) is None:
             break
@@ -354,7 +364,11 @@ def _import(lines, path: str, desc: SensorDescription, static, drop_bad=False) -
         out["t_s"] = np.asarray(row_no[lo:hi], float) / desc.rate_hz
     if "t_s" in col:
         # date-times are seconds since the first row; numbers in the declared time unit
-        out["t_s"] = col["t_s"] - col["t_s"][0] if clock[0] else col["t_s"] * desc.time_scale
+        # (absolute_time: date-times kept as their own seconds, for pairing two files by time)
+        if clock[0]:
+            out["t_s"] = col["t_s"] if absolute_time else col["t_s"] - col["t_s"][0]
+        else:
+            out["t_s"] = col["t_s"] * desc.time_scale
     if "temp_c" in col:
         out["temp_c"] = col["temp_c"]
     if label_idx is not None:
@@ -393,6 +407,131 @@ def _import(lines, path: str, desc: SensorDescription, static, drop_bad=False) -
     rep = ImportReport(log=path, sensor=desc.name, rows_read=read, rows=len(ds), dropped=dropped, triads=ds.triads,
                        notes=notes)
     return ds, rep
+
+
+PAIR_TOLERANCE = 0.75  # a sample paired with the other file's nearest only within this many of its median periods
+
+
+def _import_apart(path: str, desc: SensorDescription, apart, static, drop_bad_rows):
+    """The log with one triad (and its time, temperature, poses), the other
+    triad from the file its table names: each read through the description
+    on its own (the same [log] rules; its own time column), then paired by
+    time (_pair_by_time), then each triad's lag applied to the rows as
+    paired.  The header records both files."""
+    other = apart.file if os.path.isabs(apart.file) else os.path.join(os.path.dirname(path), apart.file)
+    section = "magnetometer" if apart.kind == "mag" else "accelerometer"
+    held = [t for t in desc.triads if t is not apart]
+    if not held:
+        raise DataError(f"{desc.path or 'sensor description'}: [{section}].file names the file the {section} was "
+                        f"logged to, and the log given holds no other triad: import that file itself (leave out "
+                        f"file)")
+    own = held[0]
+    in_log = dataclasses.replace(desc, **{apart.kind: None, own.kind: dataclasses.replace(own, lag=0)})
+    in_file = dataclasses.replace(desc, **{own.kind: None, apart.kind: dataclasses.replace(apart, lag=0, file=None)},
+                                  time=apart.time, time_unit=apart.time_unit, time_scale=apart.time_scale,
+                                  temperature=None, poses=None, keep=None, header={}, static=None)
+    if not os.path.isfile(other):
+        raise DataError(f"{desc.path or 'sensor description'}: [{section}].file: no file {other} (a relative path is "
+                        f"read beside the log)")
+    ds_a, rep_a = _read(path, in_log, static, drop_bad_rows, absolute_time=True)
+    ds_b, rep_b = _read(other, in_file, None, drop_bad_rows, absolute_time=True)
+    names = {own.kind: ("accelerometer" if own.kind == "acc" else "magnetometer"), apart.kind: section}
+    ia, ib, how, unpaired = _pair_by_time(ds_a, path, names[own.kind], ds_b, other, section)
+    cols = {own.kind: ACC_COLS if own.kind == "acc" else MAG_COLS, apart.kind: ACC_COLS if apart.kind == "acc"
+            else MAG_COLS}
+    out = {c: v[ia] for c, v in ds_a.columns.items()}
+    for c in cols[apart.kind]:
+        out[c] = ds_b.columns[c][ib]
+    dropped = dict(rep_a.dropped)
+    dropped.update({f"{section} file: {r}": n for r, n in rep_b.dropped.items()})
+    if unpaired:
+        dropped[unpaired[0]] = unpaired[1]
+    # each triad's lag, in rows as paired: its row i + lag belongs to row i
+    lags = {own.kind: own.lag, apart.kind: apart.lag}
+    n = len(ia)
+    lo, hi = -min(0, min(lags.values())), n - max(0, max(lags.values()))
+    if hi - lo < 1:
+        raise DataError(f"{path}: no rows left after the lag of {max(lags.values(), key=abs)} rows")
+    if lo or hi < n:
+        dropped["a triad's lag (rows without a partner)"] = n - (hi - lo)
+    out = {c: v[lo + (lags["acc"] if c in ACC_COLS else lags["mag"] if c in MAG_COLS else 0):
+                 hi + (lags["acc"] if c in ACC_COLS else lags["mag"] if c in MAG_COLS else 0)]
+           for c, v in out.items()}
+    meta = dict(ds_a.meta)
+    meta.update(desc.header_meta())
+    if meta.get("time_unit") == "date-time":
+        out["t_s"] = out["t_s"] - out["t_s"][0]
+    meta["source"] = f"{path} + {other}"
+    meta["paired_log_sha256"] = _sha256(other)
+    meta["pairing"] = how
+    meta.pop("rows_dropped", None)
+    if dropped:
+        meta["rows_dropped"] = "; ".join(f"{k} ({r})" for r, k in dropped.items())
+    ds = RawDataset(out, meta)
+    _check(ds, path)
+    return ds, ImportReport(log=path, sensor=desc.name, rows_read=rep_a.rows_read, rows=len(ds), dropped=dropped,
+                            triads=ds.triads, notes=rep_a.notes + rep_b.notes + [how])
+
+
+def _pair_by_time(a: RawDataset, path_a: str, what_a: str, b: RawDataset, path_b: str, what_b: str):
+    """Two files' samples paired by their time columns (seconds on one
+    clock): each sample of the slower (the longer median period; the log's
+    on a tie) with the other's nearest in time, kept where they lie within
+    PAIR_TOLERANCE of the faster's median period (else a gap, or outside
+    the other's span: counted), each sample used once (the nearer pair
+    kept).  Every reading stays as measured: no interpolation, no sample
+    repeated.  (rows of a, rows of b, the header's pairing line,
+    (reason, count) of the slower's samples left unpaired or None)."""
+    ta, tb = a.columns["t_s"], b.columns["t_s"]
+    clock_a, clock_b = (d.meta.get("time_unit") == "date-time" for d in (a, b))
+    if clock_a != clock_b:
+        raise DataError(f"{path_b}: its time column is {'date-times' if clock_b else 'numbers'}, the log's "
+                        f"{'date-times' if clock_a else 'numbers'}: the two files must be timed on one clock to be "
+                        f"paired")
+    for t, p in ((ta, path_a), (tb, path_b)):
+        if len(t) < 2:
+            raise DataError(f"{p}: {len(t)} row: too few to pair by time")
+        back = np.flatnonzero(np.diff(t) < 0)
+        if back.size:
+            raise DataError(f"{p}: the time column goes back at data row {back[0] + 2} ({t[back[0]]:.6g} s, then "
+                            f"{t[back[0] + 1]:.6g} s): two files are paired by time only when each one's times rise")
+    lo, hi = max(ta[0], tb[0]), min(ta[-1], tb[-1])
+    if hi < lo:
+        raise DataError(f"{path_b}: its times ({tb[0]:.6g} ... {tb[-1]:.6g} s) do not overlap the log's "
+                        f"({ta[0]:.6g} ... {ta[-1]:.6g} s): not the same clock, or not the same run? (each file's "
+                        f"time column and time_unit)")
+    pa, pb = float(np.median(np.diff(ta))), float(np.median(np.diff(tb)))
+    if not (pa > 0 and pb > 0):
+        raise DataError(f"{path_a if pa <= 0 else path_b}: most rows share their time stamp with the row before: "
+                        f"nothing to pair by")
+    slow_is_a = pa >= pb
+    ts, tf, pf = (ta, tb, pb) if slow_is_a else (tb, ta, pa)
+    j = np.clip(np.searchsorted(tf, ts), 1, len(tf) - 1)
+    j -= (ts - tf[j - 1]) <= (tf[j] - ts)           # the nearer of the two around each slow sample
+    d = np.abs(tf[j] - ts)
+    ok = d <= PAIR_TOLERANCE * pf
+    # a faster sample nearest to two slow ones (a gap in the faster): the nearer pair kept
+    order = np.lexsort((d, j))
+    first = np.ones(len(order), bool)
+    first[1:] = j[order][1:] != j[order][:-1]
+    once = np.zeros(len(ts), bool)
+    once[order[first]] = True
+    keep = np.flatnonzero(ok & once)
+    if keep.size == 0:
+        raise DataError(f"{path_b}: no sample of the {what_b} within {PAIR_TOLERANCE * pf * 1e3:.3g} ms of a sample "
+                        f"of the {what_a}: not the same clock? (each file's time column and time_unit)")
+    i_slow, i_fast = keep, j[keep]
+    ia, ib = (i_slow, i_fast) if slow_is_a else (i_fast, i_slow)
+    slow, fast = (what_a, what_b) if slow_is_a else (what_b, what_a)
+    ns, nf = len(ts), len(tf)
+    dd = d[keep]
+    how = (f"{slow} ({path_a if slow_is_a else path_b}, {ns} rows, {1 / max(pa, pb):.4g} Hz) each paired with the "
+           f"{fast}'s nearest in time ({path_b if slow_is_a else path_a}, {nf} rows, {1 / min(pa, pb):.4g} Hz): "
+           f"{keep.size} pairs, |dt| median {np.median(dd) * 1e3:.3g} ms, largest {dd.max() * 1e3:.3g} ms")
+    lost = ns - keep.size
+    unpaired = ((f"{slow} samples with no {fast} sample within {PAIR_TOLERANCE * pf * 1e3:.3g} ms (outside its "
+                 f"file's times, or a gap)", lost) if lost else None)
+    return ia, ib, how, unpaired
 
 
 def _check(ds: RawDataset, path: str) -> None:

@@ -67,7 +67,8 @@ LOG_KEYS = {"delimiter", "comment", "header", "skip_rows", "time", "time_unit", 
             "samples_averaged", "static", "keep", "decimal", "bad_rows"}
 FIELD_UNIT = "field"  # magnetometer readings normalised to the site's total field: 1.0 = field_nT
 RATE_UNITS = {"Hz": 1.0, "hz": 1.0, "kHz": 1e3, "khz": 1e3}
-TRIAD_KEYS = {"columns", "unit", "lsb", "reads", "x", "y", "z", "axes", "reflection", "range", "noise", "lag", "zero"}
+TRIAD_KEYS = {"columns", "unit", "lsb", "reads", "x", "y", "z", "axes", "reflection", "range", "noise", "lag", "zero",
+              "file", "time", "time_unit"}
 POSE_KEYS = {"inc", "azi", "tf", "label", "labels", "unit"}
 
 
@@ -161,6 +162,11 @@ class Triad:
     lag: int = 0                    # this triad's row i + lag belongs to the log's row i (two files joined out of step)
     zero: float = 0.0               # the reading at zero input, in the logged unit (unsigned counts: 2^(bits-1)),
                                     # subtracted before the scale
+    file: str | None = None         # the triad logged to a file of its own (a path; relative: beside the log),
+                                    # its samples paired with the log's by time (inclino.formats.importlog)
+    time: str | int | None = None   # that file's time column (None: the name [log].time gives)
+    time_unit: str | None = None    # ... and its unit (None: [log].time_unit)
+    time_scale: float | None = None
 
     @property
     def matrix(self) -> np.ndarray:
@@ -457,6 +463,21 @@ def _triad(spec: dict, section: str, log_what: str, field_nT: float | None = Non
         raise DataError(f"{what}.zero: a number, the reading at zero input in the logged unit (e.g. 32768 for "
                         f"unsigned 16-bit counts)")
     t.zero = float(zero)
+    if "file" in spec:
+        if not (isinstance(spec["file"], str) and spec["file"].strip()):
+            raise DataError(f"{what}.file: the path of the file this triad was logged to (relative: beside the log)")
+        t.file = spec["file"].strip()
+    for k in ("time", "time_unit"):
+        if k in spec and "file" not in spec:
+            raise DataError(f"{what}.{k}: only for a triad logged to a file of its own (file = ...); the log's time "
+                            f"column is [log].{k}")
+    if "time" in spec:
+        if not isinstance(spec["time"], (str, int)) or isinstance(spec["time"], bool):
+            raise DataError(f"{what}.time: the name (or 1-based number) of that file's time column")
+        t.time = spec["time"]
+    if "time_unit" in spec:
+        t.time_unit = str(spec["time_unit"]).strip()
+        t.time_scale = time_scale(t.time_unit, f"{what}.time_unit")
     for k in ("noise", "range"):
         if k in spec:
             setattr(t, k, _field_quantity(spec[k], units, canon, f"{what}.{k}", scale, lsb) if unit == FIELD_UNIT
@@ -580,6 +601,19 @@ def from_dict(d: dict, what: str = "sensor description") -> SensorDescription:
                             f"(time = {s.time!r}) or the rate, not both")
         s.rate_hz = float(rate)
     s.temperature = log.get("temperature")
+    apart = [t for t in s.triads if t.file is not None]
+    if len(apart) == 2:
+        raise DataError(f"{what}: both triads name a file of their own; the log given to inclino import holds one "
+                        f"of them (leave out that triad's file)")
+    if apart:
+        section = "magnetometer" if apart[0].kind == "mag" else "accelerometer"
+        if s.time is None:
+            raise DataError(f"{what}: [{section}].file pairs that file's samples with the log's by time: the log "
+                            f"needs its time column ([log].time = ...)" + (", not a rate" if s.rate_hz else ""))
+        if apart[0].time is None:
+            apart[0].time = s.time
+        if apart[0].time_scale is None:
+            apart[0].time_unit, apart[0].time_scale = s.time_unit, s.time_scale
     sa = log.get("samples_averaged")
     if sa is not None:
         if isinstance(sa, bool) or not isinstance(sa, (int, float)) or not 1 <= sa <= 1_000_000:

@@ -1,0 +1,214 @@
+"""A triad logged to a file of its own (a phone's accelerometer and
+magnetometer files, two sensors on two loggers): `[magnetometer] file =
+...` reads it through the same description and pairs its samples with the
+log's by time (docs/dataset.md, "Two files, one run")."""
+import csv
+import json
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from inclino.cli import main
+from inclino.errors import DataError
+from inclino.formats import dataset, importlog, sensor
+
+REAL = Path(__file__).parent / "data" / "real"
+BROAD = REAL / "broad"
+
+
+def _broad():
+    with open(BROAD / "02.csv") as f:
+        rows = list(csv.DictReader(f))
+    return rows
+
+
+def _write(path, names, rows):
+    with open(path, "w", newline="") as f:
+        w = csv.writer(f)
+        w.writerow(names)
+        w.writerows(rows)
+
+
+ACC_COLS = ["acc_x", "acc_y", "acc_z"]
+MAG_COLS = ["mag_x", "mag_y", "mag_z"]
+POSE_COLS = ["inc_deg", "azi_deg", "tf_deg"]
+
+
+def _split(tmp_path, every=2, offset=0.001, mag_first=False, drop=None, mag_time="t_mag"):
+    """BROAD's gimbal log 02 as two files: the accelerometer (and the poses)
+    at every row, the magnetometer at every `every`-th row, its time stamp
+    `offset` s late under its own column name; rows `drop` (a slice) lost from
+    the accelerometer's file."""
+    rows = _broad()
+    acc = [[r["t_s"]] + [r[c] for c in ACC_COLS + POSE_COLS] for r in rows]
+    if drop is not None:
+        del acc[drop]
+    mag = [[f"{float(r['t_s']) + offset:.6f}"] + [r[c] for c in MAG_COLS] for r in rows[::every]]
+    _write(tmp_path / "acc.csv", ["t_s"] + ACC_COLS + POSE_COLS, acc)
+    _write(tmp_path / "mag.csv", [mag_time] + MAG_COLS, mag)
+    return rows
+
+
+def _toml(tmp_path, acc_extra="", mag_extra="", log_extra="", mag_file=True):
+    text = (BROAD / "with_acc.toml").read_text()
+    text = text.replace('[log]\n', '[log]\n' + log_extra)
+    text = text.replace('[magnetometer]\n', '[magnetometer]\n' + ('file = "mag.csv"\ntime = "t_mag"\n' if mag_file
+                                                                  else "") + mag_extra)
+    text = text.replace('[accelerometer]\n', '[accelerometer]\n' + acc_extra)
+    p = tmp_path / "s.toml"
+    p.write_text(text)
+    return sensor.load(str(p))
+
+
+def _whole(rows):
+    """The single-file import of the same log: the reference."""
+    return importlog.import_log(str(BROAD / "02.csv"), sensor.load(str(BROAD / "with_acc.toml")))[0]
+
+
+def test_a_magnetometer_in_its_own_file_is_paired_with_the_accelerometer_nearest_in_time(tmp_path):
+    """Every second row's magnetometer, stamped 1 ms late: each is paired
+    with the accelerometer row it was logged beside, the readings exactly
+    those of the single-file import of the same rows."""
+    rows = _split(tmp_path)
+    ds, rep = importlog.import_log(str(tmp_path / "acc.csv"), _toml(tmp_path))
+    ref = _whole(rows)
+    idx = np.arange(0, len(rows), 2)
+    assert len(ds) == len(idx) and rep.rows == len(idx)
+    for c in dataset.ACC_COLS + dataset.MAG_COLS + ("t_s", "inc_deg", "azi_deg", "tf_deg"):
+        np.testing.assert_array_equal(ds.columns[c], ref.columns[c][idx], err_msg=c)
+    assert ds.meta["source"] == f"{tmp_path / 'acc.csv'} + {tmp_path / 'mag.csv'}"
+    assert ds.meta["paired_log_sha256"] == importlog._sha256(str(tmp_path / "mag.csv"))
+    assert "magnetometer" in ds.meta["pairing"] and "|dt| median 1 ms" in ds.meta["pairing"]
+    assert any(n == ds.meta["pairing"] for n in rep.notes)
+    assert ds.meta["mag_unit"] == "uT" and ds.meta["acc_unit"] == "m/s2"  # both triads' record
+
+
+def test_the_log_may_hold_the_slower_triad(tmp_path):
+    """The magnetometer's file the log, the accelerometer at twice its rate
+    in the file of its own: each magnetometer row with its accelerometer."""
+    rows = _split(tmp_path)
+    text = (BROAD / "with_acc.toml").read_text()
+    text = text.replace('[accelerometer]\n', '[accelerometer]\nfile = "acc.csv"\ntime = "t_s"\n')
+    text = text.replace('time = "t_s"\ntime_unit = "s"\n\n[accelerometer]', 'time = "t_mag"\ntime_unit = "s"\n\n'
+                        '[accelerometer]')
+    text = text.replace('[poses]\ninc = "inc_deg"\nazi = "azi_deg"\ntf = "tf_deg"\n', '')
+    p = tmp_path / "s.toml"
+    p.write_text(text)
+    ds, _ = importlog.import_log(str(tmp_path / "mag.csv"), sensor.load(str(p)))
+    ref = _whole(rows)
+    idx = np.arange(0, len(rows), 2)
+    for c in dataset.ACC_COLS + dataset.MAG_COLS:
+        np.testing.assert_array_equal(ds.columns[c], ref.columns[c][idx], err_msg=c)
+    np.testing.assert_allclose(ds.columns["t_s"], ref.columns["t_s"][idx] + 0.001, atol=1e-9)  # the log's times
+    assert ds.meta["pairing"].startswith("magnetometer (")
+
+
+def test_a_gap_in_the_faster_file_drops_the_samples_in_it_and_counts_them(tmp_path):
+    """Forty accelerometer rows lost: the twenty magnetometer samples logged
+    in the gap have no partner within 3/4 of the accelerometer's period and
+    are dropped, counted; every other pairs as before."""
+    rows = _split(tmp_path, drop=slice(100, 140))
+    ds, rep = importlog.import_log(str(tmp_path / "acc.csv"), _toml(tmp_path))
+    ref = _whole(rows)
+    idx = np.array([i for i in range(0, len(rows), 2) if not 100 <= i < 140])
+    np.testing.assert_array_equal(ds.columns["mx_nT"], ref.columns["mx_nT"][idx])
+    np.testing.assert_array_equal(ds.columns["ax_g"], ref.columns["ax_g"][idx])
+    (why,) = [k for k in rep.dropped if "no accelerometer sample within" in k]
+    assert rep.dropped[why] == 20 and why in ds.meta["rows_dropped"]
+
+
+def test_the_lag_applies_to_the_rows_as_paired(tmp_path):
+    """[magnetometer] lag = 1: the magnetometer's paired row i + 1 with the
+    accelerometer's row i (the checks name lags in rows as imported)."""
+    rows = _split(tmp_path)
+    ds, _ = importlog.import_log(str(tmp_path / "acc.csv"), _toml(tmp_path, mag_extra="lag = 1\n"))
+    ref = _whole(rows)
+    idx = np.arange(0, len(rows), 2)
+    np.testing.assert_array_equal(ds.columns["ax_g"], ref.columns["ax_g"][idx[:-1]])
+    np.testing.assert_array_equal(ds.columns["mx_nT"], ref.columns["mx_nT"][idx[1:]])
+    assert ds.meta["mag_lag_rows"] == "1"
+
+
+def test_the_magnetometers_own_time_unit(tmp_path):
+    """The magnetometer's file timed in ms: its own time_unit."""
+    rows = _broad()
+    _split(tmp_path)
+    mag = [[f"{(float(r['t_s']) + 0.001) * 1e3:.3f}"] + [r[c] for c in MAG_COLS] for r in rows[::2]]
+    _write(tmp_path / "mag.csv", ["t_mag"] + MAG_COLS, mag)
+    ds, _ = importlog.import_log(str(tmp_path / "acc.csv"), _toml(tmp_path, mag_extra='time_unit = "ms"\n'))
+    np.testing.assert_array_equal(ds.columns["mx_nT"], _whole(rows).columns["mx_nT"][::2])
+
+
+def test_a_shift_between_the_files_clocks_is_named_by_the_checks(tmp_path, capsys):
+    """The magnetometer's clock a sample late (two files whose clocks
+    differ by one of its periods): the rows as paired are out of step by a
+    row, which the checks name before any fit; in step, nothing is said
+    of the pairing."""
+    rows = _broad()
+    _split(tmp_path)
+    _toml(tmp_path)
+    args = ["import", str(tmp_path / "acc.csv"), "--sensor", str(tmp_path / "s.toml"), "-o",
+            str(tmp_path / "run.csv"), "--json"]
+    assert main(args) == 0
+    out = json.loads(capsys.readouterr().out)
+    assert not [f for f in out["checks"]["findings"] if f["check"] == "row-alignment" and f["level"] != "note"]
+    t = [float(r["t_s"]) for r in rows]
+    mag = [[f"{t[i - 2] + 0.001:.6f}"] + [rows[i][c] for c in MAG_COLS] for i in range(2, len(rows), 2)]
+    _write(tmp_path / "mag.csv", ["t_mag"] + MAG_COLS, mag)
+    rc = main(args)
+    out = json.loads(capsys.readouterr().out)
+    named = [f for f in out["checks"]["findings"] if f["check"] == "row-alignment" and f["level"] != "note"]
+    assert rc == 0 and [f["figures"]["lag_to_write"] for f in named] == [-1], named
+
+
+@pytest.mark.parametrize("case,err", [
+    ("no_overlap", "do not overlap the log's"),
+    ("backwards", "the time column goes back at data row"),
+    ("missing", "no file"),
+    ("clock", "must be timed on one clock"),
+])
+def test_files_that_cannot_be_paired_are_refused_with_one_line(tmp_path, capsys, case, err):
+    rows = _split(tmp_path)
+    if case == "no_overlap":
+        mag = [[f"{float(r['t_s']) + 1e4:.6f}"] + [r[c] for c in MAG_COLS] for r in rows[::2]]
+        _write(tmp_path / "mag.csv", ["t_mag"] + MAG_COLS, mag)
+    elif case == "backwards":
+        mag = [[f"{float(r['t_s']):.6f}"] + [r[c] for c in MAG_COLS] for r in rows[::2]]
+        mag[5][0], mag[6][0] = mag[6][0], mag[5][0]
+        _write(tmp_path / "mag.csv", ["t_mag"] + MAG_COLS, mag)
+    elif case == "missing":
+        (tmp_path / "mag.csv").unlink()
+    elif case == "clock":
+        mag = [[f"2024-05-01T12:00:{float(r['t_s']):06.3f}"] + [r[c] for c in MAG_COLS] for r in rows[::2][:20]]
+        _write(tmp_path / "mag.csv", ["t_mag"] + MAG_COLS, mag)
+    _toml(tmp_path)
+    out = tmp_path / "run.csv"
+    rc = main(["import", str(tmp_path / "acc.csv"), "--sensor", str(tmp_path / "s.toml"), "-o", str(out)])
+    e = capsys.readouterr().err
+    assert rc == 2 and err in e and len(e.strip().splitlines()) == 1 and "Traceback" not in e, e
+    assert not out.exists()
+
+
+@pytest.mark.parametrize("text,err", [
+    ('[accelerometer]\ncolumns = [1, 2, 3]\nfile = "a.csv"\n[magnetometer]\ncolumns = [4, 5, 6]\nfile = "b.csv"\n'
+     '[log]\ntime = 7\n', "both triads name a file of their own"),
+    ('[accelerometer]\ncolumns = [1, 2, 3]\n[magnetometer]\ncolumns = [4, 5, 6]\nfile = "b.csv"\n',
+     "needs its time column"),
+    ('[accelerometer]\ncolumns = [1, 2, 3]\n[magnetometer]\ncolumns = [4, 5, 6]\nfile = "b.csv"\n'
+     '[log]\nrate_hz = 100\n', "not a rate"),
+    ('[accelerometer]\ncolumns = [1, 2, 3]\ntime = 4\n', "only for a triad logged to a file of its own"),
+    ('[accelerometer]\ncolumns = [1, 2, 3]\nfile = ""\n[log]\ntime = 4\n', "the path of the file"),
+])
+def test_descriptions_that_cannot_pair_two_files_are_refused(text, err):
+    with pytest.raises(DataError, match=err):
+        sensor.from_toml(text)
+
+
+def test_a_description_whose_only_triad_is_in_another_file_is_refused(tmp_path):
+    _split(tmp_path)
+    p = tmp_path / "m.toml"
+    p.write_text('[log]\ntime = "t_s"\n[magnetometer]\ncolumns = ["mag_x", "mag_y", "mag_z"]\nunit = "uT"\n'
+                 'file = "mag.csv"\ntime = "t_mag"\n')
+    with pytest.raises(DataError, match="holds no other triad"):
+        importlog.import_log(str(tmp_path / "acc.csv"), sensor.load(str(p)))
