@@ -140,6 +140,29 @@ def test_the_magnetometers_own_time_unit(tmp_path):
     np.testing.assert_array_equal(ds.columns["mx_nT"], _whole(rows).columns["mx_nT"][::2])
 
 
+def test_both_files_timed_by_date_times(tmp_path):
+    """Both files stamped with ISO 8601 date-times: paired on them, the
+    rows' t_s in seconds from the first row kept, as for one file."""
+    rows = _broad()
+    stamp = lambda s: f"2024-05-01T12:{int(s // 60):02d}:{s % 60:06.3f}"  # noqa: E731
+    acc = [[stamp(float(r["t_s"]))] + [r[c] for c in ACC_COLS + POSE_COLS] for r in rows]
+    mag = [[stamp(float(r["t_s"]) + 0.001)] + [r[c] for c in MAG_COLS] for r in rows[::2]]
+    _write(tmp_path / "acc.csv", ["t_s"] + ACC_COLS + POSE_COLS, acc)
+    _write(tmp_path / "mag.csv", ["t_mag"] + MAG_COLS, mag)
+    ds, _ = importlog.import_log(str(tmp_path / "acc.csv"), _toml(tmp_path))
+    ref = _whole(rows)
+    np.testing.assert_array_equal(ds.columns["mx_nT"], ref.columns["mx_nT"][::2])
+    t = ref.columns["t_s"][::2]
+    np.testing.assert_allclose(ds.columns["t_s"], t - t[0], atol=6e-4)  # stamped to the ms
+    assert ds.meta["time_unit"] == "date-time"
+
+
+def test_the_command_lines_static_declaration_wins_as_for_one_file(tmp_path):
+    _split(tmp_path)
+    ds, _ = importlog.import_log(str(tmp_path / "acc.csv"), _toml(tmp_path, log_extra="static = false\n"), static=True)
+    assert ds.meta["static"] == "true"
+
+
 def test_a_shift_between_the_files_clocks_is_named_by_the_checks(tmp_path, capsys):
     """The magnetometer's clock a sample late (two files whose clocks
     differ by one of its periods): the rows as paired are out of step by a

@@ -458,8 +458,11 @@ def _import_apart(path: str, desc: SensorDescription, apart, static, drop_bad_ro
                  hi + (lags["acc"] if c in ACC_COLS else lags["mag"] if c in MAG_COLS else 0)]
            for c, v in out.items()}
     meta = dict(ds_a.meta)
-    meta.update(desc.header_meta())
-    if meta.get("time_unit") == "date-time":
+    meta.update(desc.header_meta())  # both triads' record
+    if static is not None:  # the command line's declaration over the description's, as for one file
+        meta["static"] = "true" if static else "false"
+    if ds_a.meta.get("time_unit") == "date-time":  # seconds from the first row's date-time, as for one file
+        meta["time_unit"] = "date-time"
         out["t_s"] = out["t_s"] - out["t_s"][0]
     meta["source"] = f"{path} + {other}"
     meta["paired_log_sha256"] = _sha256(other)
