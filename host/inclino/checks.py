@@ -757,54 +757,46 @@ def _axes_and_lag(ds, rows_all, rep, ug_src=None):
     # spread, skewed by the stops' calibration errors, found -2 with halves -3 and -1, the count -1 with every
     # change paired again and none mispaired)
     route, doubt = None, None
-    for route_k in routes():
-        route, kb, sb, how = route_k
+    for route, kb, sb, how in routes():
         rfig = dict(fig)
+        why = None  # why the route's shift is not named ("": nothing to say of it)
         if inv is not None and round(inv["lag"]) != kb:
             # a continuously moving log: the dip's raw spread (the triads' calibration errors left in) is itself
             # skewed along the shift (on the clean CK log its least value sits 1 to 2 rows off in stretches of
             # 4 000 rows), so a shift it finds is named only where the calibrated curve puts the pairing too (and
             # where the curve puts the rows in step, nothing is said of it: on a simulated hand tumble in step at
             # 100 rows/s the jumps' count found 31 rows "in line with +3", the curve -0.04 +- 0.05)
-            if not _in_step(inv) and doubt is None:
-                doubt = Finding("row-alignment", "note", (
-                    f"the triads may be paired out of step ({how}), but the dip invariant's lag curve, with the "
-                    f"triads' calibration errors and a turning lever arm's acceleration fitted out, puts the "
-                    f"magnetometer's rows {inv['lag']:+.2f} +- "
-                    f"{inv['se']:.2f} out of step (nearest row {int(round(inv['lag'])):+d}): not named"),
-                    None, {**rfig, "lag_rows": kb})
-            route = None
-            continue
-        # a second view: each half of the log on its own must find the same shift (a half too short to
-        # tell is no objection)
-        h = m // 2
-        halves = [_route_lag(route, ug[sl], ubp[sl]) for sl in (slice(0, h), slice(h, m))]
-        rfig["halves_lag_rows"] = halves
-        if any(x is not None and x != kb for x in halves):
-            if curve is not None and curve[1] == kb:
-                # the raw spread's halves disagree (each half's spread is skewed by the calibration errors it
-                # leaves in), but the lag curve, whose halves agree on the side, puts the pairing at that row
-                route, kb, how = curve
-                fig = rfig
-                break
-            if doubt is None:
-                doubt = Finding("row-alignment", "note", (
-                    f"the triads may be paired out of step ({how}), but the two halves of the log find "
-                    f"{' and '.join('no shift' if x == 0 else f'{x:+d}' for x in halves if x is not None)}: not "
-                    f"named"), None, {**rfig, "lag_rows": kb})
-            route = None
-        elif route == "spread" and all(x is None for x in halves) and not _stands_out(lags, kb):
-            # no half can tell (a log of a dozen rows: SAP6's BB, 24 shots, with 12 of them lost at the start
-            # of one file, read -3)
-            if doubt is None:
-                doubt = Finding("row-alignment", "note", (
-                    f"the triads may be paired out of step ({how}), but on too few rows for each half of the log "
-                    f"to tell, and the dip spreads less than {LAG_RATIO:g} times as much at other shifts: not "
-                    f"named"), None, {**rfig, "lag_rows": kb})
-            route = None
+            why = "" if _in_step(inv) else (
+                f"the dip invariant's lag curve, with the triads' calibration errors and a turning lever arm's "
+                f"acceleration fitted out, puts the magnetometer's rows {inv['lag']:+.2f} +- {inv['se']:.2f} out of "
+                f"step (nearest row {int(round(inv['lag'])):+d})")
         else:
+            # a second view: each half of the log on its own must find the same shift (a half too short to
+            # tell is no objection)
+            h = m // 2
+            halves = [_route_lag(route, ug[sl], ubp[sl]) for sl in (slice(0, h), slice(h, m))]
+            rfig["halves_lag_rows"] = halves
+            if any(x is not None and x != kb for x in halves):
+                if curve is not None and curve[1] == kb:
+                    # the raw spread's halves disagree (each half's spread is skewed by the calibration errors it
+                    # leaves in), but the lag curve, whose halves agree on the side, puts the pairing at that row
+                    route, kb, how = curve
+                    fig = rfig
+                    break
+                why = (f"the two halves of the log find "
+                       f"{' and '.join('no shift' if x == 0 else f'{x:+d}' for x in halves if x is not None)}")
+            elif route == "spread" and all(x is None for x in halves) and not _stands_out(lags, kb):
+                # no half can tell (a log of a dozen rows: SAP6's BB, 24 shots, with 12 of them lost at the start
+                # of one file, read -3)
+                why = (f"on too few rows for each half of the log to tell, and the dip spreads less than "
+                       f"{LAG_RATIO:g} times as much at other shifts")
+        if why is None:
             fig = rfig
             break
+        if why and doubt is None:
+            doubt = Finding("row-alignment", "note", f"the triads may be paired out of step ({how}), but {why}: not "
+                            f"named", None, {**rfig, "lag_rows": kb})
+        route = None
     if route is None and doubt is not None:
         rep.findings.append(doubt)
     if inv is not None:
