@@ -8,7 +8,7 @@ import pytest
 from inclino import checks
 from inclino.calib import triad
 from inclino.cli import main
-from inclino.formats import dataset
+from inclino.formats import dataset, importlog, sensor
 
 
 def _write(path, cols, rows, meta=()):
@@ -143,6 +143,29 @@ def test_the_default_description_imports_a_one_triad_canonical_file(tmp_path, ca
     both = _DESC + '[magnetometer]\ncolumns = ["mx", "my", "mz"]\nunit = "uT"\n'
     rc, err, out = _import(tmp_path, ["ax,ay,az,gx,gy,gz"] + _ROWS, capsys, desc=both)
     assert rc == 2 and "leave the [magnetometer] table out" in err and err.count("\n") == 1
+
+
+@pytest.mark.parametrize("header", [True, False])
+def test_a_presets_triad_the_description_file_does_not_give_is_left_out_when_the_log_lacks_it(tmp_path, capsys,
+                                                                                              header):
+    """A description file `preset = "icm20948"` with only an [accelerometer]
+    table, on an accelerometer log (jremington's ICM-20948 acc.csv: no header
+    line, columns numbered): the preset's [magnetometer] table, columns named
+    mx, my, mz, was refused ("the log has no header line: number the
+    columns", or with a header "leave the [magnetometer] table out", which the
+    file had done).  Left out with a note, as a preset given by name; the
+    file's own table is still held to the log."""
+    acc = '[log]\nheader = %s\n[accelerometer]\ncolumns = %s\n' % (
+        "true" if header else "false", '["ax", "ay", "az"]' if header else "[1, 2, 3]")
+    lines = (["ax,ay,az,gx,gy,gz"] if header else []) + _ROWS
+    rc, err, out = _import(tmp_path, lines, capsys, desc='preset = "icm20948"\n' + acc)
+    assert rc == 0, err
+    assert dataset.read_raw(str(out)).triads == "acc"
+    _, rep = importlog.import_log(str(tmp_path / "log.csv"), sensor.load(str(tmp_path / "s.toml")))
+    assert any("the [magnetometer] table is the preset's" in n for n in rep.notes), rep.notes
+    own = acc + '[magnetometer]\ncolumns = %s\n' % ('["mx", "my", "mz"]' if header else '["mx", "my", "mz"]')
+    rc, err, out = _import(tmp_path, lines, capsys, desc='preset = "icm20948"\n' + own)
+    assert rc == 2 and ("leave the [magnetometer] table out" if header else "number the columns") in err, err
 
 
 def test_import_keeps_a_canonical_header_and_checks_against_it(tmp_path, capsys):

@@ -203,20 +203,30 @@ def _import(lines, path: str, desc: SensorDescription, static, drop_bad=False,
     while names is not None and width_min > 1 and not names[width_min - 1].strip():
         width_min -= 1
     notes = []
-    if names is not None and len(desc.triads) == 2:
-        stripped = {n.strip().lower() for n in names}
-        absent = [t for t in desc.triads if not any(
-            (c.lower() in stripped) if isinstance(c, str) else 1 <= c <= len(names) for c in t.columns)]
-        if len(absent) == 1:
+    if len(desc.triads) == 2:
+        if names is not None:
+            stripped = {n.strip().lower() for n in names}
+            absent = [t for t in desc.triads if not any(
+                (c.lower() in stripped) if isinstance(c, str) else 1 <= c <= len(names) for c in t.columns)]
+        else:  # no header line: a triad whose columns are names (or numbers past the row) is not in the log
+            absent = [t for t in desc.triads if not any(isinstance(c, int) and 1 <= c <= width for c in t.columns)]
+        preset = len(absent) == 1 and bool(desc.preset or absent[0].kind in desc.from_preset)
+        if len(absent) == 1 and (names is not None or preset):
             section = "magnetometer" if absent[0].kind == "mag" else "accelerometer"
             other = "accelerometer" if section == "magnetometer" else "magnetometer"
             cols = ", ".join(str(c) for c in absent[0].columns)
-            if not desc.preset:  # the user's own description names the triad: the log does not have it
+            if not preset:  # the user's own description names the triad: the log does not have it
                 raise DataError(f"{path}:{header_line}: none of the [{section}] columns ({cols}) is in the log "
                                 f"(its columns: {', '.join(n.strip() for n in names[:20])}): a log of the {other} "
                                 f"alone? leave the [{section}] table out of the sensor description")
             desc = dataclasses.replace(desc, **{absent[0].kind: None})
-            notes.append(f"no {section} columns ({cols}) in the log: the {other} alone is imported")
+            # (a file with preset = ... and no [section] table of its own: the preset's table, its columns not in
+            # this log, is left out as a preset given by name leaves it out)
+            notes.append(f"no {section} columns ({cols}) in the log"
+                         + (" (it has no header line to name them)" if names is None else "")
+                         + f": the {other} alone is imported"
+                         + (f" (the [{section}] table is the preset's; give one of your own to import it)"
+                            if absent[0].kind in desc.from_preset else ""))
     wanted = {}  # canonical name -> (index, what)
     for t in desc.triads:
         cols = ACC_COLS if t.kind == "acc" else MAG_COLS

@@ -220,6 +220,8 @@ class SensorDescription:
     path: str = ""
     preset: str = ""                  # loaded as a preset by name (--sensor NAME, or the default): a triad
                                       # whose columns are all absent from a log is left out (a one-triad log)
+    from_preset: tuple = ()           # the triads ("acc", "mag") whose table only the preset gave (a file with
+                                      # preset = ... and no table of its own for them): left out likewise
 
     @property
     def triads(self) -> tuple:
@@ -537,13 +539,17 @@ def load(spec: str) -> SensorDescription:
 
 def from_toml(text: str, what: str = "sensor description") -> SensorDescription:
     d = _load_toml(text, what)
+    only = ()
     if "preset" in d:
         name = d["preset"]
         if not isinstance(name, str) or name not in presets():
             raise DataError(f"{what}: preset {name!r} is not one of {', '.join(presets())}")
         base = _load_toml((PRESET_DIR / f"{name}.toml").read_text(encoding="utf-8"), f"preset {name}")
+        only = tuple(TRIADS[s][0] for s in ("accelerometer", "magnetometer") if s in base and s not in d)
         d = _merge(base, {k: v for k, v in d.items() if k != "preset"})
-    return from_dict(d, what)
+    s = from_dict(d, what)
+    s.from_preset = only
+    return s
 
 
 def from_dict(d: dict, what: str = "sensor description") -> SensorDescription:
