@@ -213,13 +213,67 @@ def test_files_that_cannot_be_paired_are_refused_with_one_line(tmp_path, capsys,
     assert not out.exists()
 
 
+def _rows_apart(tmp_path, lost=0, nan_row=None):
+    """BROAD's log 02 as two files without a common time: the
+    magnetometer's every row, no time column, its first `lost` lines lost,
+    row `nan_row` of it a missing value."""
+    rows = _split(tmp_path)
+    mag = [[r[c] for c in MAG_COLS] for r in rows][lost:]
+    if nan_row is not None:
+        mag[nan_row][1] = "NaN"
+    _write(tmp_path / "mag.csv", MAG_COLS, mag)
+    return rows
+
+
+def test_files_without_a_common_time_are_paired_row_by_row(tmp_path):
+    """`time = false` (or no time column in the log): row i with row i, as
+    two files pasted side by side; a missing value in one file drops its
+    partner, and every later row stays paired."""
+    rows = _rows_apart(tmp_path, nan_row=10)
+    ds, rep = importlog.import_log(str(tmp_path / "acc.csv"), _rows_toml(tmp_path))
+    ref = _whole(rows)
+    idx = np.array([i for i in range(len(rows)) if i != 10])
+    for c in dataset.ACC_COLS + dataset.MAG_COLS + ("t_s",):
+        np.testing.assert_array_equal(ds.columns[c], ref.columns[c][idx], err_msg=c)
+    assert "row by row, in order" in ds.meta["pairing"]
+    assert rep.dropped["magnetometer file: a missing value"] == 1
+    assert rep.dropped["rows without a partner in the other file (past its end, or dropped there)"] == 1
+
+
+def _rows_toml(tmp_path, extra=""):
+    t = (BROAD / "with_acc.toml").read_text()
+    t = t.replace('[magnetometer]\n', '[magnetometer]\nfile = "mag.csv"\ntime = false\n' + extra)
+    (tmp_path / "s.toml").write_text(t)
+    return sensor.load(str(tmp_path / "s.toml"))
+
+
+def test_a_line_lost_from_one_file_is_named_and_the_lag_it_names_pairs_the_rows(tmp_path, capsys):
+    """The magnetometer's file a line short at its start: every row after
+    it a row out of step, named by the checks with the lag to write; with
+    that lag the rows are those of the single-file import."""
+    rows = _rows_apart(tmp_path, lost=1)
+    _rows_toml(tmp_path)
+    assert main(["import", str(tmp_path / "acc.csv"), "--sensor", str(tmp_path / "s.toml"), "-o",
+                 str(tmp_path / "run.csv"), "--json"]) == 0
+    out = json.loads(capsys.readouterr().out)
+    (f,) = [f for f in out["checks"]["findings"] if f["check"] == "row-alignment" and f["level"] != "note"]
+    k = f["figures"]["lag_to_write"]
+    assert k == -1, f
+    ds, _ = importlog.import_log(str(tmp_path / "acc.csv"), _rows_toml(tmp_path, f"lag = {k}\n"))
+    ref = _whole(rows)
+    np.testing.assert_array_equal(ds.columns["mx_nT"], ref.columns["mx_nT"][1:-1])
+    np.testing.assert_array_equal(ds.columns["ax_g"], ref.columns["ax_g"][1:-1])
+
+
 @pytest.mark.parametrize("text,err", [
     ('[accelerometer]\ncolumns = [1, 2, 3]\nfile = "a.csv"\n[magnetometer]\ncolumns = [4, 5, 6]\nfile = "b.csv"\n'
      '[log]\ntime = 7\n', "both triads name a file of their own"),
-    ('[accelerometer]\ncolumns = [1, 2, 3]\n[magnetometer]\ncolumns = [4, 5, 6]\nfile = "b.csv"\n',
+    ('[accelerometer]\ncolumns = [1, 2, 3]\n[magnetometer]\ncolumns = [4, 5, 6]\nfile = "b.csv"\ntime = 1\n',
      "needs its time column"),
     ('[accelerometer]\ncolumns = [1, 2, 3]\n[magnetometer]\ncolumns = [4, 5, 6]\nfile = "b.csv"\n'
-     '[log]\nrate_hz = 100\n', "not a rate"),
+     'time_unit = "ms"\n', "without a time column"),
+    ('[accelerometer]\ncolumns = [1, 2, 3]\n[magnetometer]\ncolumns = [4, 5, 6]\nfile = "b.csv"\ntime = true\n'
+     '[log]\ntime = 7\n', "or false"),
     ('[accelerometer]\ncolumns = [1, 2, 3]\ntime = 4\n', "only for a triad logged to a file of its own"),
     ('[accelerometer]\ncolumns = [1, 2, 3]\nfile = ""\n[log]\ntime = 4\n', "the path of the file"),
 ])

@@ -47,6 +47,7 @@ class ImportReport:
     dropped: dict = field(default_factory=dict)   # reason -> count
     triads: str = "both"
     notes: list = field(default_factory=list)
+    row_index: list | None = field(default=None, repr=False)  # each row's index among the rows read (pairing)
 
     def to_dict(self) -> dict:
         return {"log": self.log, "sensor": self.sensor, "rows_read": self.rows_read, "rows": self.rows,
@@ -415,7 +416,7 @@ def _import(lines, path: str, desc: SensorDescription, static, drop_bad=False,
     # the values the canonical format's rules refuse (poses, temperature) are refused here too
     _check(ds, path)
     rep = ImportReport(log=path, sensor=desc.name, rows_read=read, rows=len(ds), dropped=dropped, triads=ds.triads,
-                       notes=notes)
+                       notes=notes, row_index=row_no[lo:hi])
     return ds, rep
 
 
@@ -445,8 +446,11 @@ def _import_apart(path: str, desc: SensorDescription, apart, static, drop_bad_ro
                         f"read beside the log)")
     ds_a, rep_a = _read(path, in_log, static, drop_bad_rows, absolute_time=True)
     ds_b, rep_b = _read(other, in_file, None, drop_bad_rows, absolute_time=True)
-    names = {own.kind: ("accelerometer" if own.kind == "acc" else "magnetometer"), apart.kind: section}
-    ia, ib, how, unpaired = _pair_by_time(ds_a, path, names[own.kind], ds_b, other, section)
+    if apart.time is not None:
+        ia, ib, how, unpaired = _pair_by_time(ds_a, path, "accelerometer" if own.kind == "acc" else "magnetometer",
+                                              ds_b, other, section)
+    else:
+        ia, ib, how, unpaired = _pair_by_row(rep_a, path, rep_b, other, section)
     cols = {own.kind: ACC_COLS if own.kind == "acc" else MAG_COLS, apart.kind: ACC_COLS if apart.kind == "acc"
             else MAG_COLS}
     out = {c: v[ia] for c, v in ds_a.columns.items()}
@@ -484,6 +488,28 @@ def _import_apart(path: str, desc: SensorDescription, apart, static, drop_bad_ro
     _check(ds, path)
     return ds, ImportReport(log=path, sensor=desc.name, rows_read=rep_a.rows_read, rows=len(ds), dropped=dropped,
                             triads=ds.triads, notes=rep_a.notes + rep_b.notes + [how])
+
+
+def _pair_by_row(rep_a: ImportReport, path_a: str, rep_b: ImportReport, path_b: str, what_b: str):
+    """Two files without time, paired row by row in the order read (row i of
+    one with row i of the other; a row dropped from either, for a missing
+    value, drops its partner; rows past the shorter file's end are dropped,
+    counted): (rows of a, rows of b, the header's pairing line, (reason,
+    count) or None)."""
+    ra, rb = np.asarray(rep_a.row_index), np.asarray(rep_b.row_index)
+    both, ia, ib = np.intersect1d(ra, rb, assume_unique=True, return_indices=True)
+    if both.size == 0:
+        raise DataError(f"{path_b}: no row pairs with a row of the log")
+    how = (f"{what_b} ({path_b}, {rep_b.rows_read} rows read) paired with the log ({path_a}, {rep_a.rows_read} rows "
+           f"read) row by row, in order: {both.size} pairs")
+    n = max(rep_a.rows_read, rep_b.rows_read) - min(rep_a.rows_read, rep_b.rows_read)
+    lost = len(ra) + len(rb) - 2 * both.size
+    if rep_a.rows_read != rep_b.rows_read:
+        how += (f"; the {'log' if rep_a.rows_read > rep_b.rows_read else what_b + ' file'} has {n} row{'s' if n > 1 else ''} more (its "
+                f"last, without a partner: a line lost in one file shifts every row after it, which the checks "
+                f"below name)")
+    return ia, ib, how, (("rows without a partner in the other file (past its end, or dropped there)", lost)
+                         if lost else None)
 
 
 def _pair_by_time(a: RawDataset, path_a: str, what_a: str, b: RawDataset, path_b: str, what_b: str):

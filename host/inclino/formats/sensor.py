@@ -164,7 +164,8 @@ class Triad:
                                     # subtracted before the scale
     file: str | None = None         # the triad logged to a file of its own (a path; relative: beside the log),
                                     # its samples paired with the log's by time (inclino.formats.importlog)
-    time: str | int | None = None   # that file's time column (None: the name [log].time gives)
+    time: str | int | None = None   # that file's time column (None: the name [log].time gives; without one, or
+                                    # time = false, its rows are paired with the log's in order)
     time_unit: str | None = None    # ... and its unit (None: [log].time_unit)
     time_scale: float | None = None
 
@@ -474,8 +475,9 @@ def _triad(spec: dict, section: str, log_what: str, field_nT: float | None = Non
             raise DataError(f"{what}.{k}: only for a triad logged to a file of its own (file = ...); the log's time "
                             f"column is [log].{k}")
     if "time" in spec:
-        if not isinstance(spec["time"], (str, int)) or isinstance(spec["time"], bool):
-            raise DataError(f"{what}.time: the name (or 1-based number) of that file's time column")
+        if spec["time"] is not False and (not isinstance(spec["time"], (str, int)) or isinstance(spec["time"], bool)):
+            raise DataError(f"{what}.time: the name (or 1-based number) of that file's time column, or false (its "
+                            f"rows paired with the log's in order)")
         t.time = spec["time"]
     if "time_unit" in spec:
         t.time_unit = str(spec["time_unit"]).strip()
@@ -612,14 +614,21 @@ def from_dict(d: dict, what: str = "sensor description") -> SensorDescription:
         raise DataError(f"{what}: both triads name a file of their own; the log given to inclino import holds one "
                         f"of them (leave out that triad's file)")
     if apart:
-        section = "magnetometer" if apart[0].kind == "mag" else "accelerometer"
-        if s.time is None:
-            raise DataError(f"{what}: [{section}].file pairs that file's samples with the log's by time: the log "
-                            f"needs its time column ([log].time = ...)" + (", not a rate" if s.rate_hz else ""))
-        if apart[0].time is None:
-            apart[0].time = s.time
-        if apart[0].time_scale is None:
-            apart[0].time_unit, apart[0].time_scale = s.time_unit, s.time_scale
+        # paired by time when the log has a time column (the file's own: [section].time, else the same name),
+        # else (or with time = false) row by row, in order
+        a = apart[0]
+        section = "magnetometer" if a.kind == "mag" else "accelerometer"
+        if a.time is None:
+            a.time = s.time
+        if a.time is False:
+            a.time = None
+        if a.time is not None and s.time is None:
+            raise DataError(f"{what}: [{section}].time pairs that file's samples with the log's by time: the log "
+                            f"needs its time column ([log].time = ...), or leave time out to pair the rows in order")
+        if a.time is None and a.time_scale is not None:
+            raise DataError(f"{what}: [{section}].time_unit without a time column: the rows are paired in order")
+        if a.time is not None and a.time_scale is None:
+            a.time_unit, a.time_scale = s.time_unit, s.time_scale
     sa = log.get("samples_averaged")
     if sa is not None:
         if isinstance(sa, bool) or not isinstance(sa, (int, float)) or not 1 <= sa <= 1_000_000:
