@@ -355,12 +355,7 @@ def _import(lines, path: str, desc: SensorDescription, static, drop_bad=False,
     out = {}
     # a triad logged out of step ([section].lag = k: its row i + k belongs to row i):
     # the rows without a partner at either end are dropped
-    lags = [t.lag for t in desc.triads]
-    lo, hi = -min(0, min(lags)), len(data) - max(0, max(lags))
-    if hi - lo < 1:
-        raise DataError(f"{path}: no rows left after the lag of {max(lags, key=abs)} rows")
-    if lo or hi < len(data):
-        dropped["a triad's lag (rows without a partner)"] = len(data) - (hi - lo)
+    lo, hi = _lag_bounds([t.lag for t in desc.triads], len(data), path, dropped)
     for t in desc.triads:
         cols = ACC_COLS if t.kind == "acc" else MAG_COLS
         raw = np.stack([col[f"_{c}"] for c in cols], -1)[lo + t.lag:hi + t.lag]
@@ -420,6 +415,18 @@ def _import(lines, path: str, desc: SensorDescription, static, drop_bad=False,
     return ds, rep
 
 
+def _lag_bounds(lags: list, n: int, path: str, dropped: dict) -> tuple:
+    """The rows [lo, hi) that keep a partner in every triad when each triad's
+    row i + lag belongs to row i (a triad logged out of step): the rows
+    without one, at either end, counted in `dropped`."""
+    lo, hi = -min(0, min(lags)), n - max(0, max(lags))
+    if hi - lo < 1:
+        raise DataError(f"{path}: no rows left after the lag of {max(lags, key=abs)} rows")
+    if lo or hi < n:
+        dropped["a triad's lag (rows without a partner)"] = n - (hi - lo)
+    return lo, hi
+
+
 PAIR_TOLERANCE = 0.75  # a sample paired with the other file's nearest only within this many of its median periods
 
 
@@ -427,8 +434,9 @@ def _import_apart(path: str, desc: SensorDescription, apart, static, drop_bad_ro
     """The log with one triad (and its time, temperature, poses), the other
     triad from the file its table names: each read through the description
     on its own (the same [log] rules; its own time column), then paired by
-    time (_pair_by_time), then each triad's lag applied to the rows as
-    paired.  The header records both files."""
+    time (_pair_by_time) or, without one, row by row (_pair_by_row), then
+    each triad's lag applied to the rows as paired.  The header records
+    both files."""
     other = apart.file if os.path.isabs(apart.file) else os.path.join(os.path.dirname(path), apart.file)
     section = "magnetometer" if apart.kind == "mag" else "accelerometer"
     held = [t for t in desc.triads if t is not apart]
@@ -451,10 +459,8 @@ def _import_apart(path: str, desc: SensorDescription, apart, static, drop_bad_ro
                                               ds_b, other, section)
     else:
         ia, ib, how, unpaired = _pair_by_row(rep_a, path, rep_b, other, section)
-    cols = {own.kind: ACC_COLS if own.kind == "acc" else MAG_COLS, apart.kind: ACC_COLS if apart.kind == "acc"
-            else MAG_COLS}
     out = {c: v[ia] for c, v in ds_a.columns.items()}
-    for c in cols[apart.kind]:
+    for c in ACC_COLS if apart.kind == "acc" else MAG_COLS:
         out[c] = ds_b.columns[c][ib]
     dropped = dict(rep_a.dropped)
     dropped.update({f"{section} file: {r}": n for r, n in rep_b.dropped.items()})
@@ -462,15 +468,9 @@ def _import_apart(path: str, desc: SensorDescription, apart, static, drop_bad_ro
         dropped[unpaired[0]] = unpaired[1]
     # each triad's lag, in rows as paired: its row i + lag belongs to row i
     lags = {own.kind: own.lag, apart.kind: apart.lag}
-    n = len(ia)
-    lo, hi = -min(0, min(lags.values())), n - max(0, max(lags.values()))
-    if hi - lo < 1:
-        raise DataError(f"{path}: no rows left after the lag of {max(lags.values(), key=abs)} rows")
-    if lo or hi < n:
-        dropped["a triad's lag (rows without a partner)"] = n - (hi - lo)
-    out = {c: v[lo + (lags["acc"] if c in ACC_COLS else lags["mag"] if c in MAG_COLS else 0):
-                 hi + (lags["acc"] if c in ACC_COLS else lags["mag"] if c in MAG_COLS else 0)]
-           for c, v in out.items()}
+    lo, hi = _lag_bounds(list(lags.values()), len(ia), path, dropped)
+    shift = {c: lags["acc"] for c in ACC_COLS} | {c: lags["mag"] for c in MAG_COLS}
+    out = {c: v[lo + shift.get(c, 0):hi + shift.get(c, 0)] for c, v in out.items()}
     meta = dict(ds_a.meta)
     meta.update(desc.header_meta())  # both triads' record
     if static is not None:  # the command line's declaration over the description's, as for one file
