@@ -163,6 +163,28 @@ def test_the_command_lines_static_declaration_wins_as_for_one_file(tmp_path):
     assert ds.meta["static"] == "true"
 
 
+def test_a_file_on_a_clock_of_its_own_is_paired_through_its_time_offset(tmp_path):
+    """A second logger started 12.5 s after the first, each timing its rows
+    from its own start: time_offset = "12.5 s" moves its times onto the
+    log's, and the pairs are those of the single-file import; the header
+    says so."""
+    rows = _split(tmp_path)
+    mag = [[f"{float(r['t_s']) + 0.001 - 12.5:.6f}"] + [r[c] for c in MAG_COLS] for r in rows[::2]]
+    _write(tmp_path / "mag.csv", ["t_mag"] + MAG_COLS, mag)
+    ds, _ = importlog.import_log(str(tmp_path / "acc.csv"), _toml(tmp_path, mag_extra='time_offset = "12.5 s"\n'))
+    ref = _whole(rows)
+    idx = [i for i in range(0, len(rows), 2)]
+    np.testing.assert_array_equal(ds.columns["mx_nT"], ref.columns["mx_nT"][idx])
+    np.testing.assert_array_equal(ds.columns["ax_g"], ref.columns["ax_g"][idx])
+    assert "times moved by +12.5 s (time_offset)" in ds.meta["pairing"]
+    # the file timed in ms: a plain number is in its own time unit
+    mag = [[f"{(float(r['t_s']) + 0.001 - 12.5) * 1e3:.3f}"] + [r[c] for c in MAG_COLS] for r in rows[::2]]
+    _write(tmp_path / "mag.csv", ["t_mag"] + MAG_COLS, mag)
+    ms, _ = importlog.import_log(str(tmp_path / "acc.csv"), _toml(tmp_path, mag_extra='time_unit = "ms"\n'
+                                                                                       'time_offset = 12500\n'))
+    np.testing.assert_array_equal(ms.columns["mx_nT"], ref.columns["mx_nT"][idx])
+
+
 def test_a_shift_between_the_files_clocks_is_named_by_the_checks(tmp_path, capsys):
     """The magnetometer's clock a sample late (two files whose clocks
     differ by one of its periods): the rows as paired are out of step by a
@@ -275,6 +297,10 @@ def test_a_line_lost_from_one_file_is_named_and_the_lag_it_names_pairs_the_rows(
     ('[accelerometer]\ncolumns = [1, 2, 3]\n[magnetometer]\ncolumns = [4, 5, 6]\nfile = "b.csv"\ntime = true\n'
      '[log]\ntime = 7\n', "or false"),
     ('[accelerometer]\ncolumns = [1, 2, 3]\ntime = 4\n', "only for a triad logged to a file of its own"),
+    ('[accelerometer]\ncolumns = [1, 2, 3]\n[magnetometer]\ncolumns = [4, 5, 6]\nfile = "b.csv"\n'
+     'time_offset = "1 s"\n', "time_offset without a time column"),
+    ('[accelerometer]\ncolumns = [1, 2, 3]\n[magnetometer]\ncolumns = [4, 5, 6]\nfile = "b.csv"\n'
+     'time_offset = "1 kg"\n[log]\ntime = 7\n', "unknown unit"),
     ('[accelerometer]\ncolumns = [1, 2, 3]\nfile = ""\n[log]\ntime = 4\n', "the path of the file"),
 ])
 def test_descriptions_that_cannot_pair_two_files_are_refused(text, err):

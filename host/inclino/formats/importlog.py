@@ -456,7 +456,9 @@ def _import_apart(path: str, desc: SensorDescription, apart, static, drop_bad_ro
     ds_b, rep_b = _read(other, in_file, None, drop_bad_rows, absolute_time=True)
     if apart.time is not None:
         ia, ib, how, unpaired = _pair_by_time(ds_a, path, "accelerometer" if own.kind == "acc" else "magnetometer",
-                                              ds_b, other, section)
+                                              ds_b, other, section, apart.time_offset)
+        if apart.time_offset:
+            how += f"; the {section}'s times moved by {apart.time_offset:+.6g} s (time_offset)"
     else:
         ia, ib, how, unpaired = _pair_by_row(rep_a, path, rep_b, other, section)
     out = {c: v[ia] for c, v in ds_a.columns.items()}
@@ -512,16 +514,18 @@ def _pair_by_row(rep_a: ImportReport, path_a: str, rep_b: ImportReport, path_b: 
                          if lost else None)
 
 
-def _pair_by_time(a: RawDataset, path_a: str, what_a: str, b: RawDataset, path_b: str, what_b: str):
+def _pair_by_time(a: RawDataset, path_a: str, what_a: str, b: RawDataset, path_b: str, what_b: str,
+                  offset: float = 0.0):
     """Two files' samples paired by their time columns (seconds on one
     clock): each sample of the slower (the longer median period; the log's
     on a tie) with the other's nearest in time, kept where they lie within
     PAIR_TOLERANCE of the faster's median period (else a gap, or outside
     the other's span: counted), each sample used once (the nearer pair
     kept).  Every reading stays as measured: no interpolation, no sample
-    repeated.  (rows of a, rows of b, the header's pairing line,
+    repeated; `offset` (s) added to b's times first (its clock against a's).
+    (rows of a, rows of b, the header's pairing line,
     (reason, count) of the slower's samples left unpaired or None)."""
-    ta, tb = a.columns["t_s"], b.columns["t_s"]
+    ta, tb = a.columns["t_s"], b.columns["t_s"] + offset
     clock_a, clock_b = (d.meta.get("time_unit") == "date-time" for d in (a, b))
     if clock_a != clock_b:
         raise DataError(f"{path_b}: its time column is {'date-times' if clock_b else 'numbers'}, the log's "
@@ -538,7 +542,8 @@ def _pair_by_time(a: RawDataset, path_a: str, what_a: str, b: RawDataset, path_b
     if hi < lo:
         raise DataError(f"{path_b}: its times ({tb[0]:.6g} ... {tb[-1]:.6g} s) do not overlap the log's "
                         f"({ta[0]:.6g} ... {ta[-1]:.6g} s): not the same clock, or not the same run? (each file's "
-                        f"time column and time_unit)")
+                        f"time column and time_unit; a clock of its own: [{what_b}] time_offset = the seconds to add "
+                        f"to its times)")
     pa, pb = float(np.median(np.diff(ta))), float(np.median(np.diff(tb)))
     if not (pa > 0 and pb > 0):
         raise DataError(f"{path_a if pa <= 0 else path_b}: most rows share their time stamp with the row before: "

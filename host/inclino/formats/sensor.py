@@ -68,7 +68,7 @@ LOG_KEYS = {"delimiter", "comment", "header", "skip_rows", "time", "time_unit", 
 FIELD_UNIT = "field"  # magnetometer readings normalised to the site's total field: 1.0 = field_nT
 RATE_UNITS = {"Hz": 1.0, "hz": 1.0, "kHz": 1e3, "khz": 1e3}
 TRIAD_KEYS = {"columns", "unit", "lsb", "reads", "x", "y", "z", "axes", "reflection", "range", "noise", "lag", "zero",
-              "file", "time", "time_unit"}
+              "file", "time", "time_unit", "time_offset"}
 POSE_KEYS = {"inc", "azi", "tf", "label", "labels", "unit"}
 
 
@@ -168,6 +168,7 @@ class Triad:
                                     # time = false, its rows are paired with the log's in order)
     time_unit: str | None = None    # ... and its unit (None: [log].time_unit)
     time_scale: float | None = None
+    time_offset: float = 0.0        # seconds added to that file's times before pairing (its clock against the log's)
 
     @property
     def matrix(self) -> np.ndarray:
@@ -321,6 +322,23 @@ def _quantity(value, units: dict, canon: str, what: str, logged_scale: float | N
     return v
 
 
+def _signed_time(value, logged_scale: float, what: str) -> float:
+    """A time offset in seconds, either sign: "-30 ms", "12.5 s", or a plain
+    number in the time column's unit."""
+    if isinstance(value, (int, float)) and not isinstance(value, bool):
+        if not math.isfinite(value):
+            raise DataError(f"{what}: {value!r} is not a finite time")
+        return float(value) * logged_scale
+    if not isinstance(value, str):
+        raise DataError(f"{what}: {value!r} is not a time (e.g. '-30 ms', '12.5 s')")
+    t = value.strip()
+    sign = -1.0 if t.startswith("-") else 1.0
+    t = t.lstrip("+-").strip()
+    if re.fullmatch(r"0*\.?0*\s*[^\s0-9.]*", t) and re.match(r"[0.]", t):  # zero, in any unit
+        return 0.0
+    return sign * _quantity(t, TIME_UNITS, "s", what, logged_scale)
+
+
 def _field_quantity(value, units, canon, what, scale, lsb=None):
     """A quantity of a triad logged in field units: a plain number is in
     field units, so it needs the field (the description's [header] field_nT)."""
@@ -470,7 +488,7 @@ def _triad(spec: dict, section: str, log_what: str, field_nT: float | None = Non
         if not (isinstance(spec["file"], str) and spec["file"].strip()):
             raise DataError(f"{what}.file: the path of the file this triad was logged to (relative: beside the log)")
         t.file = spec["file"].strip()
-    for k in ("time", "time_unit"):
+    for k in ("time", "time_unit", "time_offset"):
         if k in spec and "file" not in spec:
             raise DataError(f"{what}.{k}: only for a triad logged to a file of its own (file = ...); the log's time "
                             f"column is [log].{k}")
@@ -629,6 +647,12 @@ def from_dict(d: dict, what: str = "sensor description") -> SensorDescription:
             raise DataError(f"{what}: [{section}].time_unit without a time column: the rows are paired in order")
         if a.time is not None and a.time_scale is None:
             a.time_unit, a.time_scale = s.time_unit, s.time_scale
+        off = d[section].get("time_offset")
+        if off is not None:
+            if a.time is None:
+                raise DataError(f"{what}: [{section}].time_offset without a time column: the rows are paired in "
+                                f"order (a line lost or added is a lag in rows: [{section}].lag)")
+            a.time_offset = _signed_time(off, a.time_scale, f"{what}[{section}].time_offset")
     sa = log.get("samples_averaged")
     if sa is not None:
         if isinstance(sa, bool) or not isinstance(sa, (int, float)) or not 1 <= sa <= 1_000_000:
