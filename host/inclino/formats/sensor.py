@@ -163,7 +163,8 @@ class Triad:
     zero: float = 0.0               # the reading at zero input, in the logged unit (unsigned counts: 2^(bits-1)),
                                     # subtracted before the scale
     file: str | None = None         # the triad logged to a file of its own (a path; relative: beside the log),
-                                    # its samples paired with the log's by time (inclino.formats.importlog)
+                                    # its samples paired with the log's by time, or without one row by row
+                                    # (inclino.formats.importlog)
     time: str | int | None = None   # that file's time column (None: the name [log].time gives; without one, or
                                     # time = false, its rows are paired with the log's in order)
     time_unit: str | None = None    # ... and its unit (None: [log].time_unit)
