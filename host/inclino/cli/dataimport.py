@@ -54,7 +54,9 @@ def add_import(sub):
                 ["inclino import log.csv --sensor mpu9250 -o run.csv",
                  "inclino import tests/data/real/ck_acc_mag/acc_mag_log.csv "
                  "--sensor tests/data/real/ck_acc_mag/sensor.toml -o run.csv"])
-    p.add_argument("log", action=Input, help="the log: delimited text (comma, semicolon, tab or whitespace)")
+    p.add_argument("log", action=Input, help="the log: delimited text (comma, semicolon, tab or whitespace); a triad "
+                   "logged to a file of its own is named in the description ([magnetometer] file = ...) and "
+                   "paired with the log by time, or row by row")
     p.add_argument("--sensor", metavar="S.toml", action=Input,
                    help="sensor description (a TOML file, or a preset name: adis16210, mpu9250, icm20948, bno055; "
                         "default: adis16210, the canonical columns as they are)")
