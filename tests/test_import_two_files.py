@@ -35,33 +35,31 @@ MAG_COLS = ["mag_x", "mag_y", "mag_z"]
 POSE_COLS = ["inc_deg", "azi_deg", "tf_deg"]
 
 
-def _split(tmp_path, every=2, offset=0.001, mag_first=False, drop=None, mag_time="t_mag"):
+def _split(tmp_path, drop=None):
     """BROAD's gimbal log 02 as two files: the accelerometer (and the poses)
-    at every row, the magnetometer at every `every`-th row, its time stamp
-    `offset` s late under its own column name; rows `drop` (a slice) lost from
+    at every row, the magnetometer at every second row, its time stamp 1 ms
+    late under its own column name (t_mag); rows `drop` (a slice) lost from
     the accelerometer's file."""
     rows = _broad()
     acc = [[r["t_s"]] + [r[c] for c in ACC_COLS + POSE_COLS] for r in rows]
     if drop is not None:
         del acc[drop]
-    mag = [[f"{float(r['t_s']) + offset:.6f}"] + [r[c] for c in MAG_COLS] for r in rows[::every]]
+    mag = [[f"{float(r['t_s']) + 0.001:.6f}"] + [r[c] for c in MAG_COLS] for r in rows[::2]]
     _write(tmp_path / "acc.csv", ["t_s"] + ACC_COLS + POSE_COLS, acc)
-    _write(tmp_path / "mag.csv", [mag_time] + MAG_COLS, mag)
+    _write(tmp_path / "mag.csv", ["t_mag"] + MAG_COLS, mag)
     return rows
 
 
-def _toml(tmp_path, acc_extra="", mag_extra="", log_extra="", mag_file=True):
+def _toml(tmp_path, mag_extra="", log_extra=""):
     text = (BROAD / "with_acc.toml").read_text()
     text = text.replace('[log]\n', '[log]\n' + log_extra)
-    text = text.replace('[magnetometer]\n', '[magnetometer]\n' + ('file = "mag.csv"\ntime = "t_mag"\n' if mag_file
-                                                                  else "") + mag_extra)
-    text = text.replace('[accelerometer]\n', '[accelerometer]\n' + acc_extra)
+    text = text.replace('[magnetometer]\n', '[magnetometer]\nfile = "mag.csv"\ntime = "t_mag"\n' + mag_extra)
     p = tmp_path / "s.toml"
     p.write_text(text)
     return sensor.load(str(p))
 
 
-def _whole(rows):
+def _whole():
     """The single-file import of the same log: the reference."""
     return importlog.import_log(str(BROAD / "02.csv"), sensor.load(str(BROAD / "with_acc.toml")))[0]
 
@@ -72,7 +70,7 @@ def test_a_magnetometer_in_its_own_file_is_paired_with_the_accelerometer_nearest
     those of the single-file import of the same rows."""
     rows = _split(tmp_path)
     ds, rep = importlog.import_log(str(tmp_path / "acc.csv"), _toml(tmp_path))
-    ref = _whole(rows)
+    ref = _whole()
     idx = np.arange(0, len(rows), 2)
     assert len(ds) == len(idx) and rep.rows == len(idx)
     for c in dataset.ACC_COLS + dataset.MAG_COLS + ("t_s", "inc_deg", "azi_deg", "tf_deg"):
@@ -96,7 +94,7 @@ def test_the_log_may_hold_the_slower_triad(tmp_path):
     p = tmp_path / "s.toml"
     p.write_text(text)
     ds, _ = importlog.import_log(str(tmp_path / "mag.csv"), sensor.load(str(p)))
-    ref = _whole(rows)
+    ref = _whole()
     idx = np.arange(0, len(rows), 2)
     for c in dataset.ACC_COLS + dataset.MAG_COLS:
         np.testing.assert_array_equal(ds.columns[c], ref.columns[c][idx], err_msg=c)
@@ -110,7 +108,7 @@ def test_a_gap_in_the_faster_file_drops_the_samples_in_it_and_counts_them(tmp_pa
     are dropped, counted; every other pairs as before."""
     rows = _split(tmp_path, drop=slice(100, 140))
     ds, rep = importlog.import_log(str(tmp_path / "acc.csv"), _toml(tmp_path))
-    ref = _whole(rows)
+    ref = _whole()
     idx = np.array([i for i in range(0, len(rows), 2) if not 100 <= i < 140])
     np.testing.assert_array_equal(ds.columns["mx_nT"], ref.columns["mx_nT"][idx])
     np.testing.assert_array_equal(ds.columns["ax_g"], ref.columns["ax_g"][idx])
@@ -123,7 +121,7 @@ def test_the_lag_applies_to_the_rows_as_paired(tmp_path):
     accelerometer's row i (the checks name lags in rows as imported)."""
     rows = _split(tmp_path)
     ds, _ = importlog.import_log(str(tmp_path / "acc.csv"), _toml(tmp_path, mag_extra="lag = 1\n"))
-    ref = _whole(rows)
+    ref = _whole()
     idx = np.arange(0, len(rows), 2)
     np.testing.assert_array_equal(ds.columns["ax_g"], ref.columns["ax_g"][idx[:-1]])
     np.testing.assert_array_equal(ds.columns["mx_nT"], ref.columns["mx_nT"][idx[1:]])
@@ -137,7 +135,7 @@ def test_the_magnetometers_own_time_unit(tmp_path):
     mag = [[f"{(float(r['t_s']) + 0.001) * 1e3:.3f}"] + [r[c] for c in MAG_COLS] for r in rows[::2]]
     _write(tmp_path / "mag.csv", ["t_mag"] + MAG_COLS, mag)
     ds, _ = importlog.import_log(str(tmp_path / "acc.csv"), _toml(tmp_path, mag_extra='time_unit = "ms"\n'))
-    np.testing.assert_array_equal(ds.columns["mx_nT"], _whole(rows).columns["mx_nT"][::2])
+    np.testing.assert_array_equal(ds.columns["mx_nT"], _whole().columns["mx_nT"][::2])
 
 
 def test_both_files_timed_by_date_times(tmp_path):
@@ -150,7 +148,7 @@ def test_both_files_timed_by_date_times(tmp_path):
     _write(tmp_path / "acc.csv", ["t_s"] + ACC_COLS + POSE_COLS, acc)
     _write(tmp_path / "mag.csv", ["t_mag"] + MAG_COLS, mag)
     ds, _ = importlog.import_log(str(tmp_path / "acc.csv"), _toml(tmp_path))
-    ref = _whole(rows)
+    ref = _whole()
     np.testing.assert_array_equal(ds.columns["mx_nT"], ref.columns["mx_nT"][::2])
     t = ref.columns["t_s"][::2]
     np.testing.assert_allclose(ds.columns["t_s"], t - t[0], atol=6e-4)  # stamped to the ms
@@ -172,7 +170,7 @@ def test_a_file_on_a_clock_of_its_own_is_paired_through_its_time_offset(tmp_path
     mag = [[f"{float(r['t_s']) + 0.001 - 12.5:.6f}"] + [r[c] for c in MAG_COLS] for r in rows[::2]]
     _write(tmp_path / "mag.csv", ["t_mag"] + MAG_COLS, mag)
     ds, _ = importlog.import_log(str(tmp_path / "acc.csv"), _toml(tmp_path, mag_extra='time_offset = "12.5 s"\n'))
-    ref = _whole(rows)
+    ref = _whole()
     idx = [i for i in range(0, len(rows), 2)]
     np.testing.assert_array_equal(ds.columns["mx_nT"], ref.columns["mx_nT"][idx])
     np.testing.assert_array_equal(ds.columns["ax_g"], ref.columns["ax_g"][idx])
@@ -253,7 +251,7 @@ def test_files_without_a_common_time_are_paired_row_by_row(tmp_path):
     partner, and every later row stays paired."""
     rows = _rows_apart(tmp_path, nan_row=10)
     ds, rep = importlog.import_log(str(tmp_path / "acc.csv"), _rows_toml(tmp_path))
-    ref = _whole(rows)
+    ref = _whole()
     idx = np.array([i for i in range(len(rows)) if i != 10])
     for c in dataset.ACC_COLS + dataset.MAG_COLS + ("t_s",):
         np.testing.assert_array_equal(ds.columns[c], ref.columns[c][idx], err_msg=c)
@@ -273,7 +271,7 @@ def test_a_line_lost_from_one_file_is_named_and_the_lag_it_names_pairs_the_rows(
     """The magnetometer's file a line short at its start: every row after
     it a row out of step, named by the checks with the lag to write; with
     that lag the rows are those of the single-file import."""
-    rows = _rows_apart(tmp_path, lost=1)
+    _rows_apart(tmp_path, lost=1)
     _rows_toml(tmp_path)
     assert main(["import", str(tmp_path / "acc.csv"), "--sensor", str(tmp_path / "s.toml"), "-o",
                  str(tmp_path / "run.csv"), "--json"]) == 0
@@ -282,7 +280,7 @@ def test_a_line_lost_from_one_file_is_named_and_the_lag_it_names_pairs_the_rows(
     k = f["figures"]["lag_to_write"]
     assert k == -1, f
     ds, _ = importlog.import_log(str(tmp_path / "acc.csv"), _rows_toml(tmp_path, f"lag = {k}\n"))
-    ref = _whole(rows)
+    ref = _whole()
     np.testing.assert_array_equal(ds.columns["mx_nT"], ref.columns["mx_nT"][1:-1])
     np.testing.assert_array_equal(ds.columns["ax_g"], ref.columns["ax_g"][1:-1])
 

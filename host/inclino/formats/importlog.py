@@ -556,10 +556,8 @@ def _pair_by_time(a: RawDataset, path_a: str, what_a: str, b: RawDataset, path_b
     ok = d <= PAIR_TOLERANCE * pf
     # a faster sample nearest to two slow ones (a gap in the faster): the nearer pair kept
     order = np.lexsort((d, j))
-    first = np.ones(len(order), bool)
-    first[1:] = j[order][1:] != j[order][:-1]
     once = np.zeros(len(ts), bool)
-    once[order[first]] = True
+    once[order[np.r_[True, np.diff(j[order]) != 0]]] = True
     keep = np.flatnonzero(ok & once)
     if keep.size == 0:
         raise DataError(f"{path_b}: no sample of the {what_b} within {PAIR_TOLERANCE * pf * 1e3:.3g} ms of a sample "

@@ -280,9 +280,11 @@ def time_scale(text: str, what: str = "[log].time_unit") -> float:
     return _quantity(tu, TIME_UNITS, "s", what, None)
 
 
-def _quantity(value, units: dict, canon: str, what: str, logged_scale: float | None, lsb: float | None = None):
+def _quantity(value, units: dict, canon: str, what: str, logged_scale: float | None, lsb: float | None = None,
+              zero: bool = False):
     """A quantity in canonical units: "0.15 uT", "1/2048 g", "2 counts" (needs
-    lsb), or a plain number in the triad's logged unit (logged_scale)."""
+    lsb), or a plain number in the triad's logged unit (logged_scale); > 0
+    (>= 0 with zero)."""
     if isinstance(value, bool):
         raise DataError(f"{what}: {value!r} is not a quantity")
     if isinstance(value, (int, float)):
@@ -318,7 +320,7 @@ def _quantity(value, units: dict, canon: str, what: str, logged_scale: float | N
             v *= units[k]
     else:
         raise DataError(f"{what}: {value!r} is not a quantity")
-    if not (math.isfinite(v) and v > 0):
+    if not (math.isfinite(v) and (v >= 0 if zero else v > 0)):
         raise DataError(f"{what}: {value!r} must be a positive finite quantity")
     return v
 
@@ -334,10 +336,7 @@ def _signed_time(value, logged_scale: float, what: str) -> float:
         raise DataError(f"{what}: {value!r} is not a time (e.g. '-30 ms', '12.5 s')")
     t = value.strip()
     sign = -1.0 if t.startswith("-") else 1.0
-    t = t.lstrip("+-").strip()
-    if re.fullmatch(r"0*\.?0*\s*[^\s0-9.]*", t) and re.match(r"[0.]", t):  # zero, in any unit
-        return 0.0
-    return sign * _quantity(t, TIME_UNITS, "s", what, logged_scale)
+    return sign * _quantity(t.lstrip("+-"), TIME_UNITS, "s", what, logged_scale, zero=True)
 
 
 def _field_quantity(value, units, canon, what, scale, lsb=None):
