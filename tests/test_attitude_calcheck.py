@@ -83,3 +83,26 @@ def test_corrected_thresholds():
     assert "dip +45.0" in f.message and "wrong header values (dip_deg)" in f.message
     assert "geomagnetic range" in checks.corrected({}, one, 80000 * one, 10 * one).message
     assert checks.corrected({}, one, 50000 * one, 10 * one) is None                    # no header dip
+
+
+def test_rows_beyond_the_probes_range_are_counted_on_stderr(tmp_path, capsys):
+    """A VMU931's readings 4.4 fields off the origin (177 800 nT) carry
+    ATT_F_MAG_OVERRANGE on every row, with every engine: the flags column
+    said so and stderr nothing.  The rows are counted and the engine's part
+    said; within the range nothing is said."""
+    run, cals = _sensor(tmp_path, {"field_nT": FIELD, "dip_deg": DIP})
+    ds = dataset.read_raw(str(run))
+    far = dataset.RawDataset({**ds.columns, "mx_nT": ds.columns["mx_nT"] + 120_000.0}, dict(ds.meta))
+    dataset.write_raw(str(tmp_path / "far.csv"), far)
+    shifted = Calibration.from_json(cals["own"].read_text())
+    shifted.mag_b = (np.asarray(shifted.mag_b) + [120_000.0, 0.0, 0.0]).tolist()
+    (tmp_path / "far.json").write_text(shifted.to_json())
+    for engine, tail in (("reference", "computed in float all the same"), ("firmware", "--engine reference")):
+        assert cli.main(["attitude", str(tmp_path / "far.csv"), "--cal", str(tmp_path / "far.json"),
+                         "--engine", engine, "-o", str(tmp_path / "att.csv")]) == 0
+        err = capsys.readouterr().err
+        rows = np.genfromtxt(tmp_path / "att.csv", delimiter=",", names=True)
+        n = int(np.count_nonzero(rows["flags"].astype(int) & 0x0004))
+        assert n > 0 and f"{n} of {len(ds)} rows with a field reading beyond" in err and tail in err, err
+    assert cli.main(["attitude", str(run), "--cal", str(cals["own"]), "-o", str(tmp_path / "att.csv")]) == 0
+    assert "beyond the probe" not in capsys.readouterr().err

@@ -416,3 +416,52 @@ def test_a_magnetometer_that_hardly_turned_is_not_called_a_wrong_range(rng):
     units = [f for f in checks.run(ds).findings if f.check == "units"]
     assert units and all(f.level == "warning" for f in units), [f.message for f in units]
     assert "not determined by their orientations" in units[0].message and "8x" not in units[0].message
+
+
+def _on_sphere(rng, n, centre, radius, noise):
+    u = rng.normal(size=(n, 3))
+    u /= np.linalg.norm(u, axis=1, keepdims=True)
+    return np.asarray(centre, float) + radius * u + rng.normal(scale=noise, size=(n, 3))
+
+
+def test_a_unit_ten_times_off_is_named_through_a_hard_iron_offset_of_several_fields(rng):
+    """A VMU931's magnetometer read in uT and declared mG: its readings lie
+    on a sphere of 3 655 nT, 4.8 radii off the origin, so their median |b|
+    (17 800 nT) is within the geomagnetic range's slack.  The sphere is a
+    shell (RMS 5 % of its radius), so its radius is the field: a unit 10x
+    off, not a sensor that hardly turned (the drone's blob above)."""
+    mag = _on_sphere(rng, 3000, [3_000.0, -16_000.0, -9_000.0], 3_655.0, 60.0)
+    cols = {"mx_nT": mag[:, 0], "my_nT": mag[:, 1], "mz_nT": mag[:, 2]}
+    ds = dataset.RawDataset(cols, {"sensor": "a VMU931", "mag_unit": "mG"})
+    (f,) = [f for f in checks.run(ds).findings if f.check == "units"]
+    assert f.level == "error" and "the radius of the sphere" in f.message, f.message
+    assert "look like uT" in f.message
+
+
+def test_acceleration_with_gravity_removed_is_not_blamed_on_the_unit(rng):
+    """A phone app's export of acceleration less gravity (an iPhone's Sensor
+    Logger: |a| 0.022 g wandering 55 % about it) was told to fix its unit;
+    no unit fixes it.  An accelerometer 0.65 g off in a wrong unit wanders
+    as much, but its readings lie on a shell: that is still the unit."""
+    lin = rng.normal(scale=0.02, size=(2000, 3))
+    ds = dataset.RawDataset({"ax_g": lin[:, 0], "ay_g": lin[:, 1], "az_g": lin[:, 2]}, {"sensor": "a phone", "acc_unit": "m/s2"})
+    (f,) = [f for f in checks.run(ds).findings if f.check == "units"]
+    assert f.level == "error" and "gravity removed" in f.message and "fix the unit" not in f.message, f.message
+    off = _on_sphere(rng, 2000, [0.065, 0.0, 0.0], 0.102, 0.001)  # g declared as m/s2, 0.65 g off
+    ds = dataset.RawDataset({"ax_g": off[:, 0], "ay_g": off[:, 1], "az_g": off[:, 2]}, {"sensor": "a phone", "acc_unit": "m/s2"})
+    (f,) = [f for f in checks.run(ds).findings if f.check == "units"]
+    assert f.level == "error" and "gravity removed" not in f.message and "unit" in f.message, f.message
+
+
+@pytest.mark.parametrize("log,desc,triad", [("ck_acc_mag/acc_log.csv", "ck_acc_mag/acc_only.toml", "acc"),
+                                            ("qmc5883l/filtered_raw_data.csv", "qmc5883l/sensor.toml", "mag")])
+def test_one_triad_without_poses_says_its_handedness_is_unchecked(log, desc, triad):
+    """One triad without poses reads a mirrored axis as a mirrored world:
+    the import says the map was not checked, instead of nothing."""
+    notes = _found(checks.run(_load(log, desc)), "handedness", "note")
+    assert len(notes) == 1 and notes[0].triad == triad and "not checked for a mirror" in notes[0].message
+
+
+def test_one_triad_with_poses_has_its_handedness_checked():
+    notes = [f for f in checks.run(_load(*ACC_POSES)).findings if "not checked for a mirror" in f.message]
+    assert not notes

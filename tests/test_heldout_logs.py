@@ -2,6 +2,8 @@
 build, pinned with minimal synthetic reproducers where the log's licence does
 not let us keep it (RepoIMU's T-stick: no licence) and with the logs
 themselves where it does (tests/data/real/mpu6050_tedaldi, qmc5883l)."""
+from pathlib import Path
+
 import numpy as np
 import pytest
 
@@ -9,6 +11,8 @@ from inclino import checks
 from inclino.calib import triad
 from inclino.cli import main
 from inclino.formats import dataset, importlog, sensor
+
+REAL = Path(__file__).parent / "data" / "real"
 
 
 def _write(path, cols, rows, meta=()):
@@ -324,3 +328,20 @@ def test_a_drifting_hand_held_orientation_counts_once_in_the_covariance():
     sig = rep.uncertainty["sigma"]
     for i, name in enumerate(("acc_b0", "acc_b1", "acc_b2")):
         assert sig[name] >= 0.7 * np.sqrt(cov_true[9 + i, 9 + i]), (name, sig[name], np.sqrt(cov_true[9 + i, 9 + i]))
+
+
+def test_qmc5883l_log_without_the_sites_field_is_refused(tmp_path, capsys):
+    """Without the header's field the QMC5883L's sphere of 10 440 nT is
+    outside the geomagnetic range (tests/data/real/qmc5883l/SOURCE.md).  Its
+    readings lie 5 fields off the origin, so their median |b| (62 900 nT)
+    looked plausible and the sphere was set aside: the log imported without
+    a word."""
+    root = tmp_path / "q"
+    root.mkdir()
+    text = (REAL / "qmc5883l" / "sensor.toml").read_text()
+    (root / "sensor.toml").write_text(text.split("[header]")[0])
+    rc = main(["import", str(REAL / "qmc5883l" / "filtered_raw_data.csv"), "--sensor", str(root / "sensor.toml"),
+               "-o", str(root / "run.csv")])
+    err = capsys.readouterr().err
+    assert rc == 2 and not (root / "run.csv").exists(), err
+    assert "1.044e+04 nT (the radius of the sphere the readings lie on)" in err

@@ -147,8 +147,11 @@ def predict(cal: Calibration, cov, w: dict, dip: float, sigma_acc, sigma_mag,
                                   np.broadcast_to(np.asarray(sigma_mag, float), (3,))]) / np.sqrt(n)
         nr = float(resolution_n) if resolution_n else n
         s_res = np.array([ref.ACC_LSB_G] * 3 + [ref.MAG_LSB_NT] * 3) * np.sqrt(1.0 / (12 * nr) + 1.0 / (12 * 64.0**2))
-        if lsb[0] or lsb[1]:  # the sensor's own resolution (its description), then the firmware's Q6 rounding
-            own = np.array([float(lsb[0] or ref.ACC_LSB_G)] * 3 + [float(lsb[1] or ref.MAG_LSB_NT)] * 3)
+        if lsb[0] is not None or lsb[1] is not None:
+            # the sensor's own resolution (report.input_lsb; 0.0: none in the logged values), then the firmware's
+            # Q6 rounding
+            own = np.array([ref.ACC_LSB_G if lsb[0] is None else float(lsb[0])] * 3
+                           + [ref.MAG_LSB_NT if lsb[1] is None else float(lsb[1])] * 3)
             probe = np.array([ref.ACC_LSB_G] * 3 + [ref.MAG_LSB_NT] * 3)
             s_res = np.sqrt(own ** 2 / (12 * nr) + probe ** 2 / (12 * 64.0**2))
         for name, s in (("reading_noise", s_noise), ("input_resolution", s_res)):

@@ -153,8 +153,7 @@ class FitReport:
         if res:
             n = res.get("samples_averaged")
             lsb = res.get("lsb") or {}
-            src = (f" ({lsb['acc_g']:.3g} g, {lsb['mag_nT']:.3g} nT per count: {lsb['from']})"
-                   if lsb.get("from") == "the sensor description" else "")
+            src = f" ({lsb['from']})" if lsb.get("from") else ""
             lines.append(f"  input resolution{src} at {'n = %g samples averaged' % n if n else 'n unknown (taken as 1)'}: "
                          f"azimuth sigma RMS {res['azi_rms_deg']:.4f} deg (max {res['azi_max_deg']:.4f}) over the "
                          f"Li grid, inclination {res['inc_rms_deg']:.5f} deg (the sensor's, reported, not judged)")
@@ -227,8 +226,61 @@ def probe_inputs(acc, mag):
     return ref.readings_acc(acc) / 64.0 * ref.ACC_LSB_G, ref.readings_mag(mag) / 64.0 * ref.MAG_LSB_NT
 
 
+def logged_step(v) -> tuple:
+    """(step, on_lattice): the step a triad's logged values lie on, per
+    axis the finest spacing between its distinct values that most of them
+    are whole multiples of (counts times an lsb, or the digits a logger
+    printed), the largest of the axes'; on_lattice False when no axis' values
+    lie on one (floats finer than their noise, as a phone or an averaging
+    logger writes them: no step to find, the rounding inside the noise the
+    fit measures).  (None, False) without 3 distinct values on every axis."""
+    steps, on = [], True
+    for x in np.asarray(v, float).T:
+        x = x[np.isfinite(x)]
+        u = np.unique(x)
+        d = np.diff(u)
+        d = d[d > 1e-9 * np.abs(u).max()]  # not two spellings of one value
+        if len(d) < 2:
+            return None, False
+
+        def lattice(q):
+            k = x / q
+            return float(np.mean(np.abs(k - np.round(k)) < 0.02)) >= 0.95
+        # the finest spacing (a sparse log's neighbours are seldom one count apart), else one that 10 % have
+        q = next((q for q in (float(d.min()), float(np.percentile(d, 10))) if lattice(q)), None)
+        on = on and q is not None
+        steps.append(float(np.percentile(d, 10)) if q is None else q)
+    return max(steps), on
+
+
+def input_lsb(ds: RawDataset) -> tuple:
+    """(acc g, mag nT, whence) per count of the input: the sensor
+    description's lsb (acc_lsb_g, mag_lsb_nT); for a log imported without
+    one, the step its logged values lie on (logged_step; 0.0 when they lie
+    on none, None when too few distinct values show it); None for the
+    probe's own runs, whose ADIS16210 and fluxgate ADC counts are assumed
+    (ref.ACC_LSB_G, ref.MAG_LSB_NT).  whence says which, per triad."""
+    out, say = [], []
+    for triad, key, unit, probe, cols in (("acc", "acc_lsb_g", "g", "the ADIS16210's", ("ax_g", "ay_g", "az_g")),
+                                          ("mag", "mag_lsb_nT", "nT", "the fluxgate ADC's",
+                                           ("mx_nT", "my_nT", "mz_nT"))):
+        if ds.meta.get(key):
+            v, why = float(ds.meta[key]), "the sensor description"
+        elif ds.meta.get("sensor") and all(c in ds.columns for c in cols):
+            step, on = logged_step(np.column_stack([ds.columns[c] for c in cols]))
+            v, why = ((None, f"not in the sensor description: {probe} assumed") if step is None else
+                      (step, "the step the logged values lie on") if on else
+                      (0.0, "the logged values lie on no step: floats finer than their noise"))
+        else:
+            v, why = None, probe
+        out.append(v)
+        shown = ref.ACC_LSB_G if (v is None and triad == "acc") else ref.MAG_LSB_NT if v is None else v
+        say.append(f"{triad} " + (f"{shown:.4g} {unit} per count" if shown else "no step") + f" ({why})")
+    return out[0], out[1], "; ".join(say)
+
+
 def input_resolution(cal: Calibration, acc, mag, n_avg: float | None, inc_min: float = 1.0,
-                     lsb=(None, None)) -> dict:
+                     lsb=(None, None, "")) -> dict:
     """Azimuth/inclination sigma (RMS over the readings' poses) from the
     input's resolution: each axis' mean of n whole-count samples carries a
     rounding error of 1/sqrt(12 n) count once the noise dithers the counts
@@ -240,9 +292,10 @@ def input_resolution(cal: Calibration, acc, mag, n_avg: float | None, inc_min: f
     sig = np.array([ref.ACC_LSB_G] * 3 + [ref.MAG_LSB_NT] * 3) * s_cnt
     # the sensor's own resolution when its description gives it (docs/dataset.md: acc_lsb_g, mag_lsb_nT),
     # plus the firmware's Q6 rounding of the probe's counts
-    la, lm = lsb
-    if la or lm:
-        own = np.array([float(la or ref.ACC_LSB_G)] * 3 + [float(lm or ref.MAG_LSB_NT)] * 3)
+    la, lm, whence = lsb
+    if la is not None or lm is not None:  # 0.0: no step in the logged values
+        own = np.array([ref.ACC_LSB_G if la is None else float(la)] * 3
+                       + [ref.MAG_LSB_NT if lm is None else float(lm)] * 3)
         probe = np.array([ref.ACC_LSB_G] * 3 + [ref.MAG_LSB_NT] * 3)
         sig = np.sqrt(own ** 2 / (12.0 * n) + probe ** 2 / (12.0 * 64.0**2))
     X = np.concatenate([acc, mag], axis=1)
@@ -261,8 +314,9 @@ def input_resolution(cal: Calibration, acc, mag, n_avg: float | None, inc_min: f
         vi += ((d[0]["inc"] - d[1]["inc"]) / 2.0) ** 2
     ok = (base["inc"] >= inc_min) & (base["inc"] <= 180.0 - inc_min)
     return {"samples_averaged": n_avg, "assumed_n": n, "count_sigma": float(s_cnt),
-            "lsb": {"acc_g": float(la or ref.ACC_LSB_G), "mag_nT": float(lm or ref.MAG_LSB_NT),
-                    "from": "the sensor description" if (la or lm) else "the ADIS16210's and the fluxgate's"},
+            "lsb": {"acc_g": ref.ACC_LSB_G if la is None else float(la),
+                    "mag_nT": ref.MAG_LSB_NT if lm is None else float(lm),
+                    "from": whence or "the ADIS16210's and the fluxgate's"},
             "azi_rms_deg": float(np.sqrt(va[ok].mean())), "azi_max_deg": float(np.sqrt(va[ok].max())),
             "inc_rms_deg": float(np.sqrt(vi.mean()))}
 
@@ -279,7 +333,8 @@ def _noise_from_residuals(ds, cal, w, dip) -> dict:
             "mag_nT": _rms(np.linalg.norm(b, axis=1) - w["field_nT"])}
 
 
-def quantisation_loss(ds: RawDataset, cal: Calibration, w: dict, dip: float, n_avg=None, lsb=(None, None)) -> dict:
+def quantisation_loss(ds: RawDataset, cal: Calibration, w: dict, dip: float, n_avg=None,
+                      lsb=(None, None, "")) -> dict:
     """On the calibration rows plus the Li grid:
     coef -- float64 attitude with the coefficients as quantised (dequantised
     back) against the float coefficients: what the Q formats of M and b cost;
@@ -401,7 +456,7 @@ def build(ds: RawDataset, cal: Calibration, method: str, info: dict, refit=None,
         # when the fit estimated them (calib/covariance.py); without poses each triad's own residual scale
         # (never one s^2 for both); else the fit's noise model scaled by its s^2
         n_run = ds.meta.get("samples_averaged")
-        lsb = (ds.meta.get("acc_lsb_g"), ds.meta.get("mag_lsb_nT"))
+        lsb = input_lsb(ds)
         comps = info.get("noise_components")
         if comps is not None:
             cell = comps.per_cell()
@@ -422,7 +477,7 @@ def build(ds: RawDataset, cal: Calibration, method: str, info: dict, refit=None,
                         f"model x sqrt(s^2) = {k:.3g}); input resolution at "
                         f"{'n = %g' % n_run if n_run else 'n unknown, taken as 1'}")
         p_acc = predict(cal, cov, w, dip, s_acc, s_mag, n_avg=1, nonlinear=nl, resolution_n=n_run, bias=bias,
-                        bias_name=bias_name, sigma_pose_deg=s_pose, lsb=lsb)
+                        bias_name=bias_name, sigma_pose_deg=s_pose, lsb=lsb[:2])
         rep.uncertainty = {"source": src, "sigma": dict(zip(common.PARAM_NAMES, sig.tolist())),
                            "predicted_azi_rms_deg": p_cal.azi_rms_deg, "predicted_inc_rms_deg": p_cal.inc_rms_deg,
                            # the full 24x24 (PARAM_NAMES order): inclino toolmodel projects it onto ISCWSA terms
@@ -449,8 +504,7 @@ def build(ds: RawDataset, cal: Calibration, method: str, info: dict, refit=None,
     else:
         rep.uncertainty = {"source": "not available (the method could not be refitted on perturbed data)"}
     rep.uncertainty["reading_noise"] = reading_noise(ds, rep.residuals)
-    rep.quantisation = quantisation_loss(used, cal, w, dip, ds.meta.get("samples_averaged"),
-                                         (ds.meta.get("acc_lsb_g"), ds.meta.get("mag_lsb_nT")))
+    rep.quantisation = quantisation_loss(used, cal, w, dip, ds.meta.get("samples_averaged"), input_lsb(ds))
     for k in ("s2", "chi2", "dof"):
         if k in info:
             rep.residuals[k] = info[k]
@@ -670,10 +724,11 @@ def build_single(ds: RawDataset, cal: Calibration, info: dict) -> FitReport:
             J[:, k] = (inc_of(p0 + e) - inc_of(p0 - e)) / (2 * h)
         var = np.einsum("ij,jk,ik->i", J, cov, J)
         rep.uncertainty["predicted_inc_rms_deg"] = float(np.sqrt(np.mean(var)))
-        # input resolution: the sensor's LSB from the description (else the ADIS16210's)
-        lsb = ds.meta.get("acc_lsb_g")
+        # input resolution: the sensor's LSB (input_lsb: the description's, the logged values' step, else the
+        # ADIS16210's)
+        lsb, _, whence = input_lsb(ds)
         n = float(ds.meta.get("samples_averaged") or 1.0)
-        step = float(lsb) if lsb else ref.ACC_LSB_G
+        step = ref.ACC_LSB_G if lsb is None else float(lsb)
         s_cnt = step * np.sqrt(1.0 / (12.0 * n))
         vi = np.zeros(len(I))
         for k in range(3):
@@ -684,9 +739,7 @@ def build_single(ds: RawDataset, cal: Calibration, info: dict) -> FitReport:
             vi += ((np.degrees(np.arctan2(np.hypot(up[:, 0], up[:, 1]), up[:, 2]))
                     - np.degrees(np.arctan2(np.hypot(dn[:, 0], dn[:, 1]), dn[:, 2]))) / 2.0) ** 2
         rep.quantisation = {"input_resolution": {
-            "lsb": f"{step:.4g} g per count" + (" (the sensor description)" if lsb else
-                                                 " (not in the sensor description: the ADIS16210's assumed)"
-                                                 if ds.meta.get("sensor") else " (the ADIS16210's)"),
+            "lsb": whence.split("; ")[0],
             "samples_averaged": ds.meta.get("samples_averaged"), "assumed_n": n,
             "inc_rms_deg": float(np.sqrt(np.mean(vi)))}}
     # verdict

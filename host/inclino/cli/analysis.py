@@ -194,6 +194,7 @@ def _cmd_attitude(args) -> int:
     notes: list = []
     kept = {c: [] for c in ("gt_g", "bt_nT", "dip_deg") if c in cols}  # a sample for the check after correcting
     step = max(1, len(ds) // 200_000)
+    flagged: dict = {}  # flag bit -> rows that carry it
     with safeio.output_file(args.output, [args.input, args.cal]) as f, \
             progress.bar(len(ds), f"attitude {args.input}", unit=" rows") as bar:
         w = csv.writer(f)
@@ -210,9 +211,17 @@ def _cmd_attitude(args) -> int:
             w.writerows(zip(*(text[c] for c in cols)))
             for c in kept:
                 kept[c].append(np.asarray(out[c], dtype=float)[(-lo) % step::step])
+            for bit in RANGE_FLAGS:
+                flagged[bit] = flagged.get(bit, 0) + int(np.count_nonzero(np.asarray(out["flags"]) & bit))
             bar.update(hi - lo)
     for n in notes:
         print(f"inclino: note: {n}", file=sys.stderr)
+    said = [f"{k} of {len(ds)} rows {RANGE_FLAGS[b]}" for b, k in flagged.items() if k]
+    if said:
+        print(f"inclino: note: {'; '.join(said)} (the flags column; docs/conventions.md): "
+              + ("readings a probe would flag, computed in float all the same" if args.engine == "reference" else
+                 f"the {args.engine} engine reads them as the probe would; --engine reference computes them in "
+                 f"float"), file=sys.stderr)
     if args.cal:  # the identity's figures are the raw readings': the checks above looked at them
         from inclino import checks
 
@@ -221,6 +230,14 @@ def _cmd_attitude(args) -> int:
         if found:
             print(f"inclino: warning: {found.message}", file=sys.stderr)
     return 0
+
+
+# the flags that say a reading lies beyond the probe's own input (docs/conventions.md), as attitude names them
+RANGE_FLAGS = {0x0002: "with an accelerometer count beyond the probe's +-1.7 g (ATT_F_ACC_OVERRANGE)",
+               0x0004: "with a field reading beyond the probe's +-100 000 nT (ATT_F_MAG_OVERRANGE)",
+               0x0008: "with an accelerometer mean at the int16 rail (ATT_F_ACC_SATURATED)",
+               0x0010: "with a fluxgate count clamped to +-2^20 (ATT_F_MAG_SATURATED)",
+               0x0020: "where a saturating operation clipped (ATT_F_ARITH_SATURATED)"}
 
 
 def _checked(ds, static: bool = False, fatal: bool = True):
