@@ -279,7 +279,8 @@ def add_attitude(sub):
                 "float64 reference, with a calibration or the identity, and write it as CSV. With --cal, the corrected "
                 "readings' median |g|, |b| and dip far from the header's gravity_g (1 g), field_nT and dip_deg (|b| "
                 "from the geomagnetic range without one) are one warning on stderr: a calibration of another sensor "
-                "or a stale one; the rows are still written (exit 0).",
+                "or a stale one; the rows are still written (exit 0). Rows flagged beyond the probe's input range "
+                "(ATT_F_*_OVERRANGE, *_SATURATED: another sensor's raw readings) are counted in one note on stderr.",
                 ["inclino attitude run.csv --cal cal.json -o attitude.csv",
                  "inclino attitude run.csv --engine reference -o -"])
     a.add_argument("input", action=Input, help="raw dataset CSV")
