@@ -5,6 +5,7 @@ import argparse
 import re
 
 from inclino.cli import build_parser, docgen
+from inclino.errors import DataError
 
 
 def test_cli_md_is_what_the_generator_writes(root):
@@ -62,3 +63,44 @@ def test_the_documents_command_lines_use_todays_spellings(root):
                 if err.getvalue():
                     bad.append(f"{f.name}: {cmd}: {err.getvalue().strip()}")
     assert seen >= 20 and not bad, "\n".join(bad)
+
+
+def test_the_documents_inline_commands_use_todays_spellings(root):
+    """A command quoted in running text (`accept --cal c.json -o c.json`,
+    `trajectory -o t.csv --las t.csv`) names no deprecated option either."""
+    import contextlib
+    import io
+    import shlex
+
+    sub = next(a for a in build_parser()._actions if isinstance(a, argparse._SubParsersAction))
+    files = sorted((root / "docs").glob("*.md")) + [root / "README.md"]
+    bad, seen = [], 0
+    for f in files:
+        text = re.sub(r"```.*?```", "", f.read_text(encoding="utf-8"), flags=re.S)
+        for span in re.findall(r"`([^`\n]+)`", text):
+            words = span.removeprefix("inclino ").split()
+            if len(words) < 2 or words[0] not in sub.choices or not any(w.startswith("-") for w in words) or \
+                    any(c in span for c in "[]|…") or "..." in span:  # a synopsis, not a command
+                continue
+            try:
+                argv = shlex.split(span.removeprefix("inclino "))
+            except ValueError:
+                continue
+            err = io.StringIO()
+            try:
+                with contextlib.redirect_stderr(err):
+                    build_parser().parse_args(argv)
+            except (SystemExit, DataError):  # a fragment: placeholders, options left out
+                pass
+            seen += 1
+            if "is deprecated" in err.getvalue():
+                bad.append(f"{f.name}: `{span}`: {err.getvalue().strip().splitlines()[0]}")
+    assert seen >= 50 and not bad, "\n".join(bad)
+
+
+def test_the_demo_takes_as_long_in_the_readme_as_in_its_help(root):
+    """The README and `inclino demo --help` give one duration."""
+    sub = next(a for a in build_parser()._actions if isinstance(a, argparse._SubParsersAction))
+    helps = re.findall(r"in about (\d+) s\b", sub.choices["demo"].description)
+    readme = re.findall(r"in about (\d+) s\b", (root / "README.md").read_text(encoding="utf-8"))
+    assert len(helps) == 1 and readme == helps, (readme, helps)

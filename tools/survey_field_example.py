@@ -75,7 +75,7 @@ def main(argv=None) -> int:
         run("acquire", "--port", port, "--bench", bench, "--procedure", "multi-position", "--points", 12,
             "-o", p("calrun.csv"), "--quiet")
         run("calibrate", p("calrun.csv"), "--method", "joint", "-o", p("cal.json"), ok=(0, 1))
-        run("download", "--port", port, p("cal.json"), "--quiet")
+        run("download", "--port", port, "--cal", p("cal.json"), "--quiet")
         for name, order in (("inrun", range(len(md))), ("outrun", reversed(range(len(md))))):
             for n, i in enumerate(order):
                 ctl.call("move", inc=float(inc[i]), azi=60.0, tf=float(rng.uniform(0, 360)))
@@ -86,7 +86,7 @@ def main(argv=None) -> int:
                     p(f"{name}.las"), *(["--append"] if n else []))
         ctl.close()
     run("compare", p("inrun.csv"), p("outrun.csv"), "--cal", p("cal.json"), ok=(0, 1))
-    run("toolmodel", p("cal.json"), "--ref", p("ref.json"), "-o", p("probe-tool.json"), ok=(0, 1))
+    run("toolmodel", "--cal", p("cal.json"), "--ref", p("ref.json"), "-o", p("probe-tool.json"), ok=(0, 1))
     for name, args in (("probe", ["--tool-model", p("probe-tool.json"), "--ref-terms", "none"]),
                        ("mwd", ["--tool-model", "iscwsa-mwd-rev5"]),
                        ("complete", ["--tool-model", "iscwsa-mwd-rev5", "--cal", p("cal.json")])):

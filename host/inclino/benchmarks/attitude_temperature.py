@@ -6,7 +6,7 @@ For PROBES emulated probes (the typical scenario, tempcos drawn per seed):
 1. the chamber run of `inclino acquire --procedure temperature` on the
    emulated probe (benchmarks.calibration_temperature.chamber_run: set points
    -5, 25, 55 degC, 64 samples per reading);
-2. `calibrate --method joint --temperature on` on it;
+2. `calibrate --method joint --temperature-terms on` on it;
 3. a held-out oven run: the Li 2021 grid (toolfaces 0, 120, 240 deg) at each
    of -5, 25 and 55 degC, the probe soaked, each reading the mean of 16
    samples as `inclino accept` reads them, REPEATS takings, written as a

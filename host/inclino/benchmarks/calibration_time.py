@@ -16,10 +16,10 @@ the time of world.MOTORISED (10 deg/s per axis, 3 s to settle):
   defaults: the auto targets, 16 samples), `calibrate --method joint`;
 * temperature, today: `acquire --procedure temperature` (set points -5,
   25, 55 degC, ramps at 1 degC/min and soaks, twelve positions at each, 64
-  samples), `calibrate --method joint --temperature on`;
+  samples), `calibrate --method joint --temperature-terms on`;
 * temperature, adaptive: `acquire --procedure adaptive --temperatures
   -5,55` (a continuous ramp at 5 degC/min, procedures.ramp), `calibrate
-  --method joint --temperature on`.
+  --method joint --temperature-terms on`.
 
 Bench time: the emulator's active clock over the acquisition (turntable
 moves, chamber ramps and waits, the probe's readings and the bytes on the

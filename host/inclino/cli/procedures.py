@@ -438,7 +438,7 @@ def add_demo(sub) -> None:
 
     d = command(sub, "demo", "the whole calibration bench on the emulated probe (--core: the C core "
                              "on a table of poses)",
-                "The calibration bench from end to end on the emulated probe, in about 20 s: start a typical "
+                "The calibration bench from end to end on the emulated probe, in about 10 s: start a typical "
                 "uncalibrated probe, acquire an adaptive run on the emulated motorised turntable (poses chosen "
                 "until the predicted acceptance reaches its target), fit it, download "
                 "and verify the calibration, and run the Li 2021 and Ren 2014 acceptance grids before and after; "

@@ -22,29 +22,69 @@ def _add_reference(p, grid=True):
     g = p.add_argument_group("reference field (docs/survey.md)")
     g.add_argument("--lat", type=float, help="wellhead latitude, deg (WGS 84)")
     g.add_argument("--lon", type=float, help="wellhead longitude, deg (WGS 84)")
-    g.add_argument("--alt", type=float, default=0.0, help="height above the ellipsoid, m (default %(default)g)")
+    g.add_argument("--alt", type=float, help="height above the ellipsoid, m (default 0)")
     g.add_argument("--date", help="survey date YYYY-MM-DD (main-field model)")
-    g.add_argument("--model", choices=("igrf", "wmm"), default="igrf",
-                   help="main-field model: igrf (ppigrf) or wmm (needs pygeomag) (default %(default)s)")
+    g.add_argument("--model", choices=("igrf", "wmm"),
+                   help="main-field model: igrf (ppigrf) or wmm (needs pygeomag) (default igrf)")
     g.add_argument("--declination", type=float, help="declination, deg east (in-field referencing; overrides the model)")
     g.add_argument("--dip", type=float, help="dip, deg down (overrides the model)")
     g.add_argument("--field", type=float, help="total field, nT (overrides the model)")
     deprecated(g, "--total", "--field", type=float)
     g.add_argument("--gravity", type=float, help="local gravity, g (default: WGS 84 normal gravity)")
     if grid:
-        g.add_argument("--grid", type=int, metavar="EPSG", help="projected CRS: grid azimuth, easting/northing")
+        g.add_argument("--grid", type=int, metavar="EPSG", help="projected CRS: grid azimuth, easting/northing "
+                                                                "(also with --ref: at the file's position)")
     g.add_argument("--ref", metavar="REF.json", action=Input,
-                   help="a reference-field file written by inclino reffield -o (instead of the options)")
+                   help="a reference-field file written by inclino reffield -o, in place of the position, date "
+                        "and field options (given with it: exit 2)" + ("; --grid adds a grid to it" if grid else ""))
+
+
+# the options a reference file replaces: given with --ref, a value would be given twice
+_REF_OPTIONS = (("--lat", "lat"), ("--lon", "lon"), ("--alt", "alt"), ("--date", "date"), ("--model", "model"),
+                ("--declination", "declination"), ("--dip", "dip"), ("--field", "field"), ("--gravity", "gravity"))
 
 
 def _reference(args):
     from inclino.survey import geomag
 
+    epsg = getattr(args, "grid", None)
     if getattr(args, "ref", None):
-        return geomag.ReferenceField.load(args.ref)  # bounded JSON, every field by its rule
-    return geomag.reference(lat=args.lat, lon=args.lon, date=args.date, alt_m=args.alt, model=args.model,
-                            declination=args.declination, dip=args.dip, field=args.field, gravity=args.gravity,
-                            grid_epsg=getattr(args, "grid", None))
+        rf = geomag.ReferenceField.load(args.ref)  # bounded JSON, every field by its rule
+        _refuse_twice(args, rf)
+        if epsg is not None and rf.grid_epsg != epsg:
+            if rf.grid_epsg is not None:
+                raise DataError(f"--grid {epsg} with --ref {args.ref}, whose grid is EPSG {rf.grid_epsg}: give one "
+                                f"grid (leave out --grid, or write the reference again with inclino reffield "
+                                f"--grid {epsg})")
+            geomag.add_grid(rf, epsg, where=args.ref)
+        return rf
+    return geomag.reference(lat=args.lat, lon=args.lon, date=args.date, alt_m=0.0 if args.alt is None else args.alt,
+                            model=args.model or "igrf", declination=args.declination, dip=args.dip,
+                            field=args.field, gravity=args.gravity, grid_epsg=epsg)
+
+
+def _refuse_twice(args, rf) -> None:
+    """A reference file holds the position, date and field: an option that
+    gives one of them again is refused (exit 2), never silently outvoted by
+    the file nor silently overriding what the file records. The line says
+    how to write a reference with the value wanted."""
+    given = [(o, getattr(args, d)) for o, d in _REF_OPTIONS if getattr(args, d, None) is not None]
+    if not given:
+        return
+    names = ", ".join(o for o, _ in given)
+    field_only = all(o in ("--declination", "--dip", "--field", "--gravity") for o, _ in given)
+    if field_only and rf.lat_deg is not None and rf.date:
+        src = "--model wmm " if rf.ref_source.startswith("WMM") else ""
+        alt = f"--alt {rf.alt_m:.10g} " if rf.alt_m else ""
+        grid = f"--grid {rf.grid_epsg} " if rf.grid_epsg is not None else ""
+        redo = (f"inclino reffield --lat {rf.lat_deg:.10g} --lon {rf.lon_deg:.10g} {alt}--date {rf.date} {src}"
+                + grid + " ".join(f"{o} {v:.10g}" for o, v in given) + " -o NEW.json")
+    else:
+        redo = "inclino reffield with your values -o NEW.json"
+    raise DataError(f"{names} with --ref {args.ref}: the file gives the position, date and field already "
+                    f"(declination {rf.declination_deg:.4f} deg, {rf.ref_source}), and a value given twice is "
+                    f"refused; leave out {names} or --ref, or write a reference with "
+                    f"{'it' if len(given) == 1 else 'them'}: {redo}")
 
 
 def _field_options(args) -> None:

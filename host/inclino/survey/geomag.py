@@ -119,6 +119,9 @@ class ReferenceField:
                 raise DataError(f"{where}: date must be YYYY-MM-DD, not {date[:12]!r}") from None
         kw["date"] = date
         kw["grid_epsg"] = f.integer("grid_epsg", 1024, 32767, required=False, null=True)
+        if kw["grid_epsg"] is not None and (kw["easting_m"] is None or kw["northing_m"] is None):
+            raise DataError(f"{where}: grid_epsg {kw['grid_epsg']} needs the wellhead's easting_m and northing_m "
+                            "(inclino reffield --grid writes them)")
         tol = f.obj("tol")
         tol.known(*DEFAULT_TOL)
         kw["tol"] = {k: tol.number(k, 0.0, TOL_MAX[k], lo_open=True) for k in DEFAULT_TOL}
@@ -186,7 +189,7 @@ def main_field(lat_deg: float, lon_deg: float, date, alt_m: float = 0.0, model: 
         if not first <= when <= last:
             raise DataError(f"--date {d.isoformat()}: outside the IGRF model's validity, {first:%Y-%m-%d} to "
                             f"{last:%Y-%m-%d} (ppigrf {_version('ppigrf')}); give the field with --declination, "
-                            "--dip, --total")
+                            "--dip, --field")
         with _library_output():
             be, bn, bu = ppigrf.igrf(lon_deg, lat_deg, alt_m / 1000.0, when)
         dec, dip, f = _decompose(float(np.ravel(bn)[0]), float(np.ravel(be)[0]), -float(np.ravel(bu)[0]))
@@ -200,7 +203,7 @@ def main_field(lat_deg: float, lon_deg: float, date, alt_m: float = 0.0, model: 
         if d.year >= 2030 or d.year < 2015:
             raise DataError(f"--date {d.isoformat()}: outside the WMM models' validity (pygeomag "
                             f"{_version('pygeomag')}: WMM2015, WMM2020, WMM2025), 2015-01-01 to 2029-12-31; give the "
-                            "field with --declination, --dip, --total")
+                            "field with --declination, --dip, --field")
         with _library_output():
             gm = GeoMag(coefficients_file=f"wmm/WMM_{year0}.COF", high_resolution=False)
             r = gm.calculate(glat=lat_deg, glon=lon_deg, alt=alt_m / 1000.0, time=_decimal_year(d))
@@ -342,6 +345,18 @@ def reference(lat=None, lon=None, date=None, alt_m=0.0, model="igrf", declinatio
     if grid_epsg is not None:
         if not have_pos:
             raise DataError("--grid needs the wellhead position (--lat --lon)")
-        rf.grid_epsg = int(grid_epsg)
-        rf.convergence_deg, rf.scale_factor, rf.easting_m, rf.northing_m = grid(lat, lon, grid_epsg)
+        add_grid(rf, grid_epsg)
+    return rf
+
+
+def add_grid(rf: ReferenceField, epsg: int, where: str = "") -> ReferenceField:
+    """The grid of a projected CRS (convergence, scale factor, the
+    wellhead's easting and northing) at the reference's position: a
+    property of the site and the projection, so it is added as well to a
+    reference read from a file (`--ref REF.json --grid EPSG`)."""
+    if rf.lat_deg is None or rf.lon_deg is None:
+        raise DataError(f"--grid {epsg} needs the wellhead position, and {where or 'the reference'} has none "
+                        "(lat_deg, lon_deg unknown): write it with inclino reffield --lat --lon ... --grid EPSG")
+    rf.grid_epsg = int(epsg)
+    rf.convergence_deg, rf.scale_factor, rf.easting_m, rf.northing_m = grid(rf.lat_deg, rf.lon_deg, epsg)
     return rf
