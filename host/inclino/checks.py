@@ -950,7 +950,8 @@ def _dip_sign(ds, d, ug_src, rep):
             paired = (f", or the triads paired out of step by more rows than were searched (the dip spreads "
                       f"{spread:.3g} deg from row to row)" if spread > DIP_MISMATCH_DEG and not rep.lag_rows else "")
             rep.findings.append(Finding("dip-sign", "warning", (
-                f"the dip angle is {dip:+.1f} deg (median, before calibration) against the header's {hdr:+.1f}: a "
+                f"the dip angle is {dip:+.1f} deg (median, before calibration: each triad corrected by an "
+                f"ellipsoid fitted to its own readings, not the raw readings) against the header's {hdr:+.1f}: a "
                 f"wrong dip_deg, a disturbed field, or a large misalignment{paired}"), None,
                 {"dip_deg": dip, "header_dip_deg": hdr, "dip_spread_deg": spread}))
 
