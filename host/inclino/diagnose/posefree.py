@@ -83,6 +83,7 @@ class _PF:
         same rows read with an effect injected, for sizing it on the holds
         the diagnosis of the injected log reads: signature_z)."""
         from inclino import holds as _holds
+        from inclino.calib.common import world_of
         from inclino.calib.covariance import cluster_labels
 
         self.has_acc, self.has_mag = ds.has_acc, ds.has_mag
@@ -140,8 +141,10 @@ class _PF:
         m = ds.meta
         self.G = float(m.get("gravity_g", 1.0))
         F = m.get("field_nT")
-        self.F = float(F) if F is not None else (float(np.median(np.linalg.norm(self.mag, axis=1)))
-                                                 if self.has_mag else 50000.0)
+        # without the header's field: the radius of the sphere the raw readings lie on, as calibrate takes it
+        # (calib.common.world_of); the median |b| holds the hard-iron offset too (a VMU931 log: median 176 871 nT
+        # about a sphere of 36 549 nT, every |b| residual 4.8 times too large)
+        self.F = float(F) if F is not None else (world_of(ds)["field_nT"] if self.has_mag else 50000.0)
         self.F_given = F is not None
         self.dip0 = m.get("dip_deg")
         self.chans = [x for x, ok in (("|g|", self.has_acc), ("|b|", self.has_mag),
