@@ -573,6 +573,9 @@ def diagnose_posefree(ds: RawDataset, alpha: float = DEFAULT_ALPHA, folds: int =
         des, idx, r_base, rows = design(testable)
         des.inflation = serial["inflation"]
     base_rms = {c: float(np.sqrt(np.mean(r_base[rows, j] ** 2))) for j, c in enumerate(chans)}
+    # the baseline's held-out prediction, of the same fit as base_rms (before any effect is added: with the
+    # effects kept it is theirs, the final model's, reported as prediction_with_effects)
+    prediction = _prediction(des, base, rows, chans)
     def own_noise(S1):
         """The design weighed by each invariant's noise taken from the model
         S1 (the candidate in it): an effect not yet in the model inflates
@@ -752,21 +755,8 @@ def diagnose_posefree(ds: RawDataset, alpha: float = DEFAULT_ALPHA, folds: int =
     cov = des.coef_cov(S)
     serial_f = dict(zip(kept, bartlett.scale_cov(des, S, cov, [idx[kk] for kk in kept])))
     R_final, R_cv = des.raw_residuals(S), des.cv_residuals(S)
-    # the held-out prediction: each invariant's residual RMS on poses the fit has not seen, from the fit alone:
-    # its noise s_j^2 = sum r^2 / sum (1 - h), h each value's leverage (what the fit leans on it; serially
-    # correlated rows weigh (1 + rho) / (1 - rho) times more), and a value held out with its fold erring by
-    # s_j^2 (1 + x^T G_-f^-1 x) (Design.heldout_factor: the fold's values leaning on one another included);
-    # checked against the residuals of the same held-out folds of poses
-    h = np.clip(des.leverage(S) * des.inflation, 0.0, 0.95)
-    hf = 1.0 + (des.heldout_factor(S) - 1.0) * des.inflation
-    prediction = {}
-    for j, c in enumerate(chans):
-        hj = h[rows, j]
-        s2j = float(np.sum(R_final[rows, j] ** 2) / max(np.sum(1.0 - hj), 1e-12))
-        pin = float(np.sqrt(s2j * np.mean(hf[rows, j])))
-        ach = float(np.sqrt(np.mean(R_cv[rows, j] ** 2)))
-        prediction[c] = {"predicted_heldout_rms": pin, "achieved_heldout_rms": ach,
-                         "ratio": ach / pin if pin > 0 else float("nan")}
+    # the final model's held-out prediction (_prediction), checked against the same held-out folds of poses
+    prediction_final = _prediction(des, S, rows, chans) if kept else None
     effects = []
     pos = nb
     for kk in kept:
@@ -908,13 +898,39 @@ def diagnose_posefree(ds: RawDataset, alpha: float = DEFAULT_ALPHA, folds: int =
                       "notes": _hold_notes(pf), "best_subset": None},
         "holds": pf.holds,
         "structure": structure, "run_variables": run_conf,
-        "prediction": {"what": f"each invariant's residual RMS predicted on poses not fitted (the fit's noise "
-                               f"and each value's leverage, {len(S)} parameters) and achieved on "
-                               + ("each pose held out alone" if K == k else f"{K} held-out blocks of poses"), "by_invariant": prediction},
+        "prediction": {"what": f"the baseline's residual RMS per invariant predicted on poses not fitted (the fit's "
+                               f"noise and each value's leverage, {nb} parameters) and achieved on "
+                               + ("each pose held out alone" if K == k else f"{K} held-out blocks of poses"),
+                       "by_invariant": prediction},
+        "prediction_with_effects": None if prediction_final is None else {
+            "what": f"the same of the model with the effects named ({len(S)} parameters)",
+            "by_invariant": prediction_final},
     }
     out = Diagnosis(baseline=baseline, effects=effects, unexplained=structure["unexplained"], structure=structure,
                     confounded=confounded)
     out.elapsed_s = _time.perf_counter() - t_start
+    return out
+
+
+def _prediction(des, S, rows, chans) -> dict:
+    """Each invariant's residual RMS on poses the fit of the columns S has not
+    seen, predicted from that fit alone and achieved on the held-out folds:
+    its noise s_j^2 = sum r^2 / sum (1 - h), h each value's leverage (what the
+    fit leans on it; serially correlated rows weigh (1 + rho) / (1 - rho)
+    times more), and a value held out with its fold erring by
+    s_j^2 (1 + x^T G_-f^-1 x) (Design.heldout_factor: the fold's values
+    leaning on one another included)."""
+    R, R_cv = des.raw_residuals(S), des.cv_residuals(S)
+    h = np.clip(des.leverage(S) * des.inflation, 0.0, 0.95)
+    hf = 1.0 + (des.heldout_factor(S) - 1.0) * des.inflation
+    out = {}
+    for j, c in enumerate(chans):
+        hj = h[rows, j]
+        s2j = float(np.sum(R[rows, j] ** 2) / max(np.sum(1.0 - hj), 1e-12))
+        pin = float(np.sqrt(s2j * np.mean(hf[rows, j])))
+        ach = float(np.sqrt(np.mean(R_cv[rows, j] ** 2)))
+        out[c] = {"predicted_heldout_rms": pin, "achieved_heldout_rms": ach,
+                  "ratio": ach / pin if pin > 0 else float("nan")}
     return out
 
 
