@@ -435,3 +435,37 @@ def test_the_baselines_held_out_line_is_the_baselines(corpus):
     final = r.baseline["prediction_with_effects"]["by_invariant"]["|g|"]["achieved_heldout_rms"]
     assert final < 0.9 * want
 
+
+def _png(path):
+    data = path.read_bytes()
+    return data[:8] == b"\x89PNG\r\n\x1a\n" and len(data) > 5000
+
+
+def test_plots_of_a_pose_free_diagnosis(corpus, tmp_path, capsys):
+    """`diagnose --plot` on pose-free runs draws what that diagnosis has: a
+    SAP6 run imported by the command (no effect: the baseline's invariants
+    against the reading order) and CK's accelerometer holds (two
+    nonlinearities named: each effect's own figure too); exit 0, no
+    traceback (it raised ValueError: no plot data)."""
+    from inclino.cli import main
+    from inclino.formats import dataset
+
+    real = dr.corpus_dir()
+    bb = tmp_path / "bb.csv"
+    assert main(["import", str(real / "sap6" / "BB.csv"), "--sensor", str(real / "sap6" / "sensor.toml"),
+                 "-o", str(bb)]) == 0
+    ck = tmp_path / "ck.csv"
+    dataset.write_raw(str(ck), corpus["ck/acc_log.csv"])
+    capsys.readouterr()
+    assert main(["diagnose", str(bb), "--plot", str(tmp_path / "f1")]) == 0
+    out, err = capsys.readouterr()
+    assert "Traceback" not in err and "wrote " in out
+    assert sorted(p.name for p in (tmp_path / "f1").iterdir()) == ["baseline.png"]
+    assert _png(tmp_path / "f1" / "baseline.png")
+    assert main(["diagnose", str(ck), "--plot", str(tmp_path / "f2")]) == 0
+    out, err = capsys.readouterr()
+    named = [ln.split()[1] + "_" + ln.split()[2][1:] + "_" + ln.split()[3][:-1] + ".png"
+             for ln in out.splitlines() if ln.startswith("effect: ")]
+    assert named and sorted(p.name for p in (tmp_path / "f2").iterdir()) == sorted(named + ["baseline.png"])
+    assert all(_png(p) for p in (tmp_path / "f2").iterdir())
+

@@ -431,7 +431,10 @@ def signature_poses(ds: RawDataset, key: str, w=None, folds: int = DEFAULT_FOLDS
 
 
 def diagnose_posefree(ds: RawDataset, alpha: float = DEFAULT_ALPHA, folds: int = DEFAULT_FOLDS,
-                      _signature=None, _holds_of=None) -> Diagnosis:
+                      _signature=None, _holds_of=None, keep_plot_data: bool = False) -> Diagnosis:
+    """keep_plot_data: keep what `diagnose --plot` draws (Diagnosis.plot_data:
+    each invariant's residual against time or the reading order, and each
+    named effect's own invariant against its driver, before and after)."""
     t_start = _time.perf_counter()
     if not (0.0 < alpha < 1.0):
         raise DataError("alpha must be between 0 and 1")
@@ -908,8 +911,42 @@ def diagnose_posefree(ds: RawDataset, alpha: float = DEFAULT_ALPHA, folds: int =
     }
     out = Diagnosis(baseline=baseline, effects=effects, unexplained=structure["unexplained"], structure=structure,
                     confounded=confounded)
+    if keep_plot_data:
+        out.plot_data = _plot_data(mdl, state, des, base, S, idx, own, rows, r_base, R_final, effects)
     out.elapsed_s = _time.perf_counter() - t_start
     return out
+
+
+def _plot_data(mdl, state, des, base, S, idx, own, rows, r_base, R_final, effects) -> dict:
+    """What `diagnose --plot` draws of a pose-free diagnosis (plots.write):
+    per invariant the baseline's residual and the final model's against
+    time (or the reading order); per named effect the residual of its own
+    invariant without it and with it against its driver (the axis's
+    corrected reading, the temperature, time, the rig angle)."""
+    pf = mdl.pf
+    tl = "time (s)" if pf.time_name == "time" else "reading order (row)"
+    t = pf.t[rows]
+    base_ent = [{"channel": c, "x": t, "y": r_base[rows, j], "after": R_final[rows, j] if effects else None,
+                 "xlabel": tl, "ylabel": f"{c} residual ({UNITS[c]})"} for j, c in enumerate(pf.chans)]
+    g, b = mdl.corrected(mdl.unpack(state["v"]), state["theta"])
+    ents = []
+    for e in effects:
+        kk = f"{e.name}:{e.sensor}:{e.axis}"
+        j = own[kk][0]
+        Rb = des.raw_residuals([i for i in S if i not in idx[kk]])
+        if e.name == "scale-nonlinearity":
+            x = (g if e.sensor == "acc" else b)[:, "xyz".index(e.axis)]
+            xl = f"{e.sensor} {e.axis} corrected reading ({'g' if e.sensor == 'acc' else 'nT'})"
+        elif e.name.startswith("temperature"):
+            x, xl = pf.temp, "temperature (degC)"
+        elif e.name == "rig-field":
+            x, xl = pf.angles[e.axis], f"rig {e.axis} angle (deg)"
+        else:
+            x, xl = pf.t, tl
+        ents.append({"x": x[rows], "before": Rb[rows, j], "after": R_final[rows, j], "xlabel": xl,
+                     "ylabel": f"{pf.chans[j]} residual ({UNITS[pf.chans[j]]})",
+                     "title": f"{e.name} ({e.sensor} {e.axis})", "file": f"{e.name}_{e.sensor}_{e.axis}.png"})
+    return {"mode": "invariants", "baseline": base_ent, "effects": ents}
 
 
 def _prediction(des, S, rows, chans) -> dict:
