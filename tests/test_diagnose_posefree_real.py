@@ -469,3 +469,21 @@ def test_plots_of_a_pose_free_diagnosis(corpus, tmp_path, capsys):
     assert named and sorted(p.name for p in (tmp_path / "f2").iterdir()) == sorted(named + ["baseline.png"])
     assert all(_png(p) for p in (tmp_path / "f2").iterdir())
 
+
+def test_one_triad_with_poses_says_what_it_lacks_and_that_it_draws_nothing(tmp_path, capsys):
+    """imucal's six faces have poses and the accelerometer alone: the
+    conclusion names the missing magnetometer (and the six orientations
+    too few for the invariants' tests), not missing poses; --plot says in
+    one line that no figure is written (it said nothing)."""
+    from inclino.cli import main
+
+    p = _imucal(tmp_path)
+    capsys.readouterr()
+    assert main(["diagnose", str(p), "--plot", str(tmp_path / "figs")]) == 0
+    out, err = capsys.readouterr()
+    last = out.strip().splitlines()[-1]
+    assert "the run has no magnetometer" in last and "6 distinct orientations" in last
+    assert "without the turntable's poses" not in last
+    (line,) = err.strip().splitlines()
+    assert line.startswith("inclino: note: --plot: no figures written to ") and "no magnetometer" in line
+    assert not (tmp_path / "figs").exists()
