@@ -487,3 +487,24 @@ def test_one_triad_with_poses_says_what_it_lacks_and_that_it_draws_nothing(tmp_p
     (line,) = err.strip().splitlines()
     assert line.startswith("inclino: note: --plot: no figures written to ") and "no magnetometer" in line
     assert not (tmp_path / "figs").exists()
+
+
+def test_the_documents_say_what_diagnose_does_without_poses(corpus, tmp_path, capsys):
+    """A run without pose columns is no bad input: diagnose exits 0 and
+    names the effects the invariants show (CK's accelerometer holds: its
+    nonlinearities).  docs/diagnose.md listed "no pose columns" among the
+    exit-2 inputs, and docs/cli.md's row said no effect is named."""
+    from inclino.cli import main
+    from inclino.formats import dataset
+
+    ck = tmp_path / "ck.csv"
+    dataset.write_raw(str(ck), corpus["ck/acc_log.csv"])
+    capsys.readouterr()
+    assert main(["diagnose", str(ck)]) == 0
+    assert any(ln.startswith("effect: ") for ln in capsys.readouterr().out.splitlines())
+    docs = dr.corpus_dir().parents[2] / "docs"
+    text = (docs / "diagnose.md").read_text()
+    exit2 = text[text.index("Exit status: 0"):text.index("Without `--effects`")]
+    assert "no pose columns" not in exit2.split("2 bad input")[1]
+    row = next(ln for ln in (docs / "cli.md").read_text().splitlines() if ln.startswith("| `diagnose DATA.csv"))
+    assert "no effect named (exit 0)" not in row and "named as with poses" in row

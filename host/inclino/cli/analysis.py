@@ -10,8 +10,9 @@ report (text, or one JSON object with --json).  Exit status:
 orientation: the data do not determine the model).
 
 `inclino diagnose DATA.csv [--json] [--plot DIR] [--cal CAL.json]` and
-`--paper li2021|ren2014`.  Exit status: 0 the diagnosis ran (whatever it found); 2 bad input
-(DataError: unreadable file, no pose columns, too few poses, poses that
+`--paper li2021|ren2014`.  Exit status: 0 the diagnosis ran (whatever it found; a run without
+poses or with one triad gets the pose-free diagnosis); 2 bad input
+(DataError: unreadable file, too few poses, poses that
 cannot separate the effects asked about, a temperature that never changes
 when a temperature effect is asked about, a --cal without temperature
 terms, every row one orientation: the data do not determine the model).
@@ -456,8 +457,11 @@ def add_diagnose(subparsers):
                 "hold against the candidate effects (temperature, nonlinearity, turntable errors, field drift, "
                 "skew), name those that cross-validate at the --alpha false-alarm level, and say how much each "
                 "would gain; outlier rows are listed. Without poses (or with one triad) it fits what the "
-                "invariants determine and reports that. The checks before any fit (units, handedness, row "
-                "alignment) run first. --paper compares the papers' own tables instead.",
+                "invariants (|g|, |b|, the dip) determine and tests them against the effects they can show "
+                "(nonlinearity, temperature, field drift, a rig field), named the same way; with too few "
+                "distinct orientations for that, each triad's own fit is reported and nothing is named. The "
+                "checks before any fit (units, handedness, row alignment) run first. --paper compares the "
+                "papers' own tables instead.",
                 ["inclino diagnose run.csv", "inclino diagnose run.csv --plot figures --json",
                  "inclino diagnose --paper li2021"])
     p.add_argument("input", nargs="?", action=Input,
