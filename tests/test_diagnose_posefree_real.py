@@ -508,3 +508,28 @@ def test_the_documents_say_what_diagnose_does_without_poses(corpus, tmp_path, ca
     assert "no pose columns" not in exit2.split("2 bad input")[1]
     row = next(ln for ln in (docs / "cli.md").read_text().splitlines() if ln.startswith("| `diagnose DATA.csv"))
     assert "no effect named (exit 0)" not in row and "named as with poses" in row
+
+
+def _cap(ds, axis, cos_min):
+    """The rows whose accelerometer points within acos(cos_min) of +axis: a
+    cap of the sphere, which leaves the ellipsoid undetermined."""
+    import dataclasses
+
+    u = ds.acc / np.linalg.norm(ds.acc, axis=1, keepdims=True)
+    keep = u[:, axis] > cos_min
+    return dataclasses.replace(ds, columns={k: np.asarray(v)[keep] for k, v in ds.columns.items()})
+
+
+@pytest.mark.parametrize("log", ["mpu6050_tedaldi", "ck/acc_mag_log.csv"])
+def test_a_fit_the_readings_do_not_determine_is_said_to_have_failed(corpus, log):
+    """A cap of each log (accelerometer x within 26 deg of up) leaves the
+    ellipsoid free: the refit stops where its in-sample residual is many
+    times what its own next step leaves (MPU-6050: |g| 0.064 g against
+    0.003 g), or above the raw readings' own spread (CK: 0.38 g against
+    0.05 g).  The report says the fit failed, and the conclusion does not
+    pass; the whole logs (the sphere) are not flagged."""
+    r = diagnose(_cap(corpus[log], 0, 0.9))
+    assert r.baseline["fit_failed"] and "|g|" in r.baseline["fit_failed"]
+    assert "  the fit failed: |g| " in r.summary()
+    assert r.conclusion().startswith("conclusion: FAIL: the pose-free baseline fit failed")
+    assert diagnose(corpus[log]).baseline["fit_failed"] is None

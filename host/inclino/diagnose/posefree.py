@@ -576,6 +576,7 @@ def diagnose_posefree(ds: RawDataset, alpha: float = DEFAULT_ALPHA, folds: int =
         des, idx, r_base, rows = design(testable)
         des.inflation = serial["inflation"]
     base_rms = {c: float(np.sqrt(np.mean(r_base[rows, j] ** 2))) for j, c in enumerate(chans)}
+    fit_failed = _fit_failed(pf, des, base, rows, r_base, base_rms)
     # the baseline's held-out prediction, of the same fit as base_rms (before any effect is added: with the
     # effects kept it is theirs, the final model's, reported as prediction_with_effects)
     prediction = _prediction(des, base, rows, chans)
@@ -881,7 +882,7 @@ def diagnose_posefree(ds: RawDataset, alpha: float = DEFAULT_ALPHA, folds: int =
         "mode": "invariants", "rows": pf.n_rows, "clusters": k, "rows_per_cluster_max": int(pf.count.max()),
         "invariants": chans, "field_nT": pf.F, "field_from_header": pf.F_given, "gravity_g": pf.G,
         "dip_deg": mdl.unpack(state["v"]).get("dip"),
-        "rms": base_rms, "time_axis": pf.time_name,
+        "rms": base_rms, "fit_failed": fit_failed, "time_axis": pf.time_name,
         "serial_correlation": {"lag1": serial["rho"], "f_test_inflation": serial["inflation"],
                                "ljung_box_p": bartlett.summary(des, S)["ljung_box_p"],
                                "inflation_by_effect": serial_f,
@@ -947,6 +948,39 @@ def _plot_data(mdl, state, des, base, S, idx, own, rows, r_base, R_final, effect
                      "ylabel": f"{pf.chans[j]} residual ({UNITS[pf.chans[j]]})",
                      "title": f"{e.name} ({e.sensor} {e.axis})", "file": f"{e.name}_{e.sensor}_{e.axis}.png"})
     return {"mode": "invariants", "baseline": base_ent, "effects": ents}
+
+
+FIT_FAILED_LINEAR = 2.0  # in-sample RMS this many times the fit's own linearised step's: not converged
+FIT_FAILED_RAW = 1.5  # in-sample RMS this many times the raw readings' scaled to G (F): worse than no calibration
+
+
+def _fit_failed(pf, des, base, rows, r_base, base_rms) -> str | None:
+    """Why the baseline's residuals are no fitted model's, or None.  A fit
+    at its least squares leaves no more than its own linearised step at that
+    point (des.raw_residuals: what one more Gauss-Newton step would leave),
+    and no more than the raw readings scaled to G (F), which the model holds
+    (M = s I, b = 0).  On readings that do not determine the ellipsoid (a
+    phone at one orientation in a car; a magnetometer turned through a cap)
+    the refit stops far from either: |g| 0.65 g where the raw |g| spreads
+    0.04 g, |b| 8 464 nT where its step leaves 250 nT."""
+    lin = des.raw_residuals(base)
+    out = []
+    for j, c in enumerate(pf.chans):
+        u = UNITS[c]
+        b0 = base_rms[c]
+        lj = float(np.sqrt(np.mean(lin[rows, j] ** 2)))
+        if b0 > FIT_FAILED_LINEAR * lj:
+            out.append(f"{c} {b0:.4g} {u} where one more step of the fit leaves {lj:.4g} {u} (it did not converge)")
+            continue
+        raw = pf.acc if c == "|g|" else pf.mag if c == "|b|" else None
+        if raw is None:
+            continue
+        n = np.linalg.norm(raw[rows], axis=1)
+        ident = (pf.G if c == "|g|" else pf.F) * float(np.sqrt(np.mean((n / np.median(n) - 1.0) ** 2)))
+        if b0 > FIT_FAILED_RAW * ident:
+            out.append(f"{c} {b0:.4g} {u} where the raw readings scaled to {'G' if c == '|g|' else 'F'} leave "
+                       f"{ident:.4g} {u} (worse than no calibration)")
+    return "; ".join(out) or None
 
 
 def _prediction(des, S, rows, chans) -> dict:
