@@ -399,3 +399,137 @@ def test_holds_that_cannot_be_fitted_confirm_nothing(corpus, monkeypatch):
     moved = [c for c in r.confounded if "share" in c]
     assert moved and all(not c["named"] and c["p_on_holds"] is None for c in moved)
     assert "cannot confirm" in r.summary()
+
+
+def test_the_baselines_held_out_line_is_the_baselines(corpus):
+    """CK's accelerometer holds name two scale nonlinearities.  The
+    baseline's held-out RMS of |g| is the baseline's own: the 9-parameter
+    ellipsoid refitted from scratch (scipy) with each hold left out in turn,
+    the one outlier hold (beyond the chi-square point of its robust spread,
+    as the diagnosis sets rows aside) out of the fit and of the RMS -- not
+    the model's with the nonlinearities in it, which is 20 % lower."""
+    from scipy import stats
+    from scipy.optimize import least_squares
+
+    from inclino.diagnose.posefree import _PF
+
+    ds = corpus["ck/acc_log.csv"]
+    r = diagnose(ds)
+    assert r.effects and r.baseline["selection"]["folds"] == r.baseline["clusters"]  # each hold out alone
+    a = _PF(ds).acc
+    k = len(a)
+
+    def res(p, a):
+        M = np.array([[p[0], p[3], p[4]], [p[3], p[1], p[5]], [p[4], p[5], p[2]]])
+        return np.linalg.norm((a - p[6:]) @ M.T, axis=1) - 1.0
+
+    full = least_squares(res, np.r_[1.0, 1.0, 1.0, np.zeros(6)], args=(a,), xtol=1e-14, ftol=1e-14)
+    s = 1.4826 * np.median(np.abs(full.fun - np.median(full.fun)))
+    ok = np.abs(full.fun) <= s * np.sqrt(stats.chi2.isf(1e-3 / k, 1))
+    assert 0 < k - ok.sum() <= 3
+    loo = [res(least_squares(res, full.x, args=(a[ok & (np.arange(k) != i)],), xtol=1e-14, ftol=1e-14).x,
+               a[i:i + 1])[0] for i in np.flatnonzero(ok)]
+    want = float(np.sqrt(np.mean(np.square(loo))))
+    got = r.baseline["prediction"]["by_invariant"]["|g|"]["achieved_heldout_rms"]
+    assert got == pytest.approx(want, rel=0.02)
+    final = r.baseline["prediction_with_effects"]["by_invariant"]["|g|"]["achieved_heldout_rms"]
+    assert final < 0.9 * want
+
+
+def _png(path):
+    data = path.read_bytes()
+    return data[:8] == b"\x89PNG\r\n\x1a\n" and len(data) > 5000
+
+
+def test_plots_of_a_pose_free_diagnosis(corpus, tmp_path, capsys):
+    """`diagnose --plot` on pose-free runs draws what that diagnosis has: a
+    SAP6 run imported by the command (no effect: the baseline's invariants
+    against the reading order) and CK's accelerometer holds (two
+    nonlinearities named: each effect's own figure too); exit 0, no
+    traceback (it raised ValueError: no plot data)."""
+    from inclino.cli import main
+    from inclino.formats import dataset
+
+    real = dr.corpus_dir()
+    bb = tmp_path / "bb.csv"
+    assert main(["import", str(real / "sap6" / "BB.csv"), "--sensor", str(real / "sap6" / "sensor.toml"),
+                 "-o", str(bb)]) == 0
+    ck = tmp_path / "ck.csv"
+    dataset.write_raw(str(ck), corpus["ck/acc_log.csv"])
+    capsys.readouterr()
+    assert main(["diagnose", str(bb), "--plot", str(tmp_path / "f1")]) == 0
+    out, err = capsys.readouterr()
+    assert "Traceback" not in err and "wrote " in out
+    assert sorted(p.name for p in (tmp_path / "f1").iterdir()) == ["baseline.png"]
+    assert _png(tmp_path / "f1" / "baseline.png")
+    assert main(["diagnose", str(ck), "--plot", str(tmp_path / "f2")]) == 0
+    out, err = capsys.readouterr()
+    named = [ln.split()[1] + "_" + ln.split()[2][1:] + "_" + ln.split()[3][:-1] + ".png"
+             for ln in out.splitlines() if ln.startswith("effect: ")]
+    assert named and sorted(p.name for p in (tmp_path / "f2").iterdir()) == sorted(named + ["baseline.png"])
+    assert all(_png(p) for p in (tmp_path / "f2").iterdir())
+
+
+def test_one_triad_with_poses_says_what_it_lacks_and_that_it_draws_nothing(tmp_path, capsys):
+    """imucal's six faces have poses and the accelerometer alone: the
+    conclusion names the missing magnetometer (and the six orientations
+    too few for the invariants' tests), not missing poses; --plot says in
+    one line that no figure is written (it said nothing)."""
+    from inclino.cli import main
+
+    p = _imucal(tmp_path)
+    capsys.readouterr()
+    assert main(["diagnose", str(p), "--plot", str(tmp_path / "figs")]) == 0
+    out, err = capsys.readouterr()
+    last = out.strip().splitlines()[-1]
+    assert "the run has no magnetometer" in last and "6 distinct orientations" in last
+    assert "without the turntable's poses" not in last
+    (line,) = err.strip().splitlines()
+    assert line.startswith("inclino: note: --plot: no figures written to ") and "no magnetometer" in line
+    assert not (tmp_path / "figs").exists()
+
+
+def test_the_documents_say_what_diagnose_does_without_poses(corpus, tmp_path, capsys):
+    """A run without pose columns is no bad input: diagnose exits 0 and
+    names the effects the invariants show (CK's accelerometer holds: its
+    nonlinearities).  docs/diagnose.md listed "no pose columns" among the
+    exit-2 inputs, and docs/cli.md's row said no effect is named."""
+    from inclino.cli import main
+    from inclino.formats import dataset
+
+    ck = tmp_path / "ck.csv"
+    dataset.write_raw(str(ck), corpus["ck/acc_log.csv"])
+    capsys.readouterr()
+    assert main(["diagnose", str(ck)]) == 0
+    assert any(ln.startswith("effect: ") for ln in capsys.readouterr().out.splitlines())
+    docs = dr.corpus_dir().parents[2] / "docs"
+    text = (docs / "diagnose.md").read_text()
+    exit2 = text[text.index("Exit status: 0"):text.index("Without `--effects`")]
+    assert "no pose columns" not in exit2.split("2 bad input")[1]
+    row = next(ln for ln in (docs / "cli.md").read_text().splitlines() if ln.startswith("| `diagnose DATA.csv"))
+    assert "no effect named (exit 0)" not in row and "named as with poses" in row
+
+
+def _cap(ds, axis, cos_min):
+    """The rows whose accelerometer points within acos(cos_min) of +axis: a
+    cap of the sphere, which leaves the ellipsoid undetermined."""
+    import dataclasses
+
+    u = ds.acc / np.linalg.norm(ds.acc, axis=1, keepdims=True)
+    keep = u[:, axis] > cos_min
+    return dataclasses.replace(ds, columns={k: np.asarray(v)[keep] for k, v in ds.columns.items()})
+
+
+@pytest.mark.parametrize("log", ["mpu6050_tedaldi", "ck/acc_mag_log.csv"])
+def test_a_fit_the_readings_do_not_determine_is_said_to_have_failed(corpus, log):
+    """A cap of each log (accelerometer x within 26 deg of up) leaves the
+    ellipsoid free: the refit stops where its in-sample residual is many
+    times what its own next step leaves (MPU-6050: |g| 0.064 g against
+    0.003 g), or above the raw readings' own spread (CK: 0.38 g against
+    0.05 g).  The report says the fit failed, and the conclusion does not
+    pass; the whole logs (the sphere) are not flagged."""
+    r = diagnose(_cap(corpus[log], 0, 0.9))
+    assert r.baseline["fit_failed"] and "|g|" in r.baseline["fit_failed"]
+    assert "  the fit failed: |g| " in r.summary()
+    assert r.conclusion().startswith("conclusion: FAIL: the pose-free baseline fit failed")
+    assert diagnose(corpus[log]).baseline["fit_failed"] is None

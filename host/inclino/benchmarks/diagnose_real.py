@@ -351,7 +351,8 @@ def bench_real(seeds: int = 2, resamplings: int = 12, seed0: int = 2024, quick: 
         out.untouched[name] = {"named": _named(r), "unexplained": bool(r.unexplained),
                                "confounded": [f"{c['effect']} ~ {c['with']} ({c['correlation']:.2f})"
                                               for c in r.confounded]}
-        pr = r.baseline.get("prediction", {}).get("by_invariant")
+        # the held-out prediction of the model the diagnosis ends with (the named effects in it, where any)
+        pr = (r.baseline.get("prediction_with_effects") or r.baseline.get("prediction") or {}).get("by_invariant")
         if pr:
             out.prediction[name] = pr
     for kind in ("temperature-bias", "scale-nonlinearity", "rig-field", "field-drift"):

@@ -10,8 +10,9 @@ report (text, or one JSON object with --json).  Exit status:
 orientation: the data do not determine the model).
 
 `inclino diagnose DATA.csv [--json] [--plot DIR] [--cal CAL.json]` and
-`--paper li2021|ren2014`.  Exit status: 0 the diagnosis ran (whatever it found); 2 bad input
-(DataError: unreadable file, no pose columns, too few poses, poses that
+`--paper li2021|ren2014`.  Exit status: 0 the diagnosis ran (whatever it found; a run without
+poses or with one triad gets the pose-free diagnosis); 2 bad input
+(DataError: unreadable file, too few poses, poses that
 cannot separate the effects asked about, a temperature that never changes
 when a temperature effect is asked about, a --cal without temperature
 terms, every row one orientation: the data do not determine the model).
@@ -343,7 +344,7 @@ def diagnose_main(args) -> int:
         if pose_free and str(e).startswith("too few distinct orientations"):
             # too few orientations to test anything on the invariants (a six-face session): what each triad's
             # own fit leaves, nothing named
-            return _diagnose_invariants(ds, args, found)
+            return _diagnose_invariants(ds, args, found, refused=str(e))
         raise
     except (ArithmeticError, ValueError, np.linalg.LinAlgError) as e:  # one line, never a traceback
         raise DataError(f"diagnose failed on {args.input}: {type(e).__name__}: {e}")
@@ -351,7 +352,10 @@ def diagnose_main(args) -> int:
     if args.plot:
         from inclino.diagnose import plots
 
-        written = plots.write(r, args.plot)
+        if r.plot_data:
+            written = plots.write(r, args.plot)
+        else:
+            _no_figures(args.plot, "the diagnosis kept nothing to plot")
     if args.json:
         print(r.to_json())
     else:
@@ -368,12 +372,22 @@ def _posefree_diagnosis_available() -> bool:
     return importlib.util.find_spec("inclino.diagnose.posefree") is not None
 
 
-def _diagnose_invariants(ds, args, found=None) -> int:
+def _no_figures(outdir, why: str) -> None:
+    """--plot given where no figure is made: said in one line on stderr."""
+    import sys
+
+    print(f"inclino: note: --plot: no figures written to {outdir}: {why}", file=sys.stderr)
+
+
+def _diagnose_invariants(ds, args, found=None, refused: str | None = None) -> int:
     """Data without the turntable's poses, or with one triad: the pose-based
     effect tests need both; what the invariants show is reported instead
     (each triad fitted on its own, |g|, |b| and the dip left over, each
-    triad's noise, contiguous blocks of misfit as segments)."""
+    triad's noise, contiguous blocks of misfit as segments).  refused: why
+    the pose-free diagnosis (the effect tests on the invariants) did not run
+    (too few distinct orientations)."""
     import json as _json
+    import re
 
     import numpy as np
 
@@ -407,9 +421,19 @@ def _diagnose_invariants(ds, args, found=None) -> int:
     # what the settings of the pose cannot tell apart: a drift over the session against errors that depend on
     # the pose (a six-face session read face after face)
     confounded = drift_pose_confounds(ds) if poses else []
+    # what the effect tests lack on these data: with poses, the other triad (the tests against the poses fit
+    # both); without, the poses; and the tests on the invariants alone, enough distinct orientations
+    other = "magnetometer" if ds.has_acc else "accelerometer"
+    lack = (f"the run has no {other}, and the effect tests against the poses need both triads" if poses
+            else "the run has no turntable poses")
+    m = re.search(r": (\d+) \(needs (\d+)", refused or "")
+    if m:
+        lack += (f"; its {m.group(1)} distinct orientations are too few for the tests on the invariants alone "
+                 f"(they need {m.group(2)})")
     conclusion = ("PASS: the invariants fit within their limits; no effect named" if rep.passed else
-                  "FAIL: the invariants do not fit (" + "; ".join(rep.reasons) + "); no effect named without the "
-                  "turntable's poses and both triads")
+                  "FAIL: the invariants do not fit (" + "; ".join(rep.reasons) + f"); no effect named: {lack}")
+    if args.plot:
+        _no_figures(args.plot, f"no effect is tested on these data: {lack}")
     if args.json:
         from inclino.formats.jsonout import json_safe
 
@@ -451,8 +475,11 @@ def add_diagnose(subparsers):
                 "hold against the candidate effects (temperature, nonlinearity, turntable errors, field drift, "
                 "skew), name those that cross-validate at the --alpha false-alarm level, and say how much each "
                 "would gain; outlier rows are listed. Without poses (or with one triad) it fits what the "
-                "invariants determine and reports that. The checks before any fit (units, handedness, row "
-                "alignment) run first. --paper compares the papers' own tables instead.",
+                "invariants (|g|, |b|, the dip) determine and tests them against the effects they can show "
+                "(nonlinearity, temperature, field drift, a rig field), named the same way; with too few "
+                "distinct orientations for that, each triad's own fit is reported and nothing is named. The "
+                "checks before any fit (units, handedness, row alignment) run first. --paper compares the "
+                "papers' own tables instead.",
                 ["inclino diagnose run.csv", "inclino diagnose run.csv --plot figures --json",
                  "inclino diagnose --paper li2021"])
     p.add_argument("input", nargs="?", action=Input,

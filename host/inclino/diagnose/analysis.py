@@ -94,7 +94,7 @@ def diagnose(ds: RawDataset, effects=None, alpha: float = core.DEFAULT_ALPHA, fo
         from .posefree import diagnose_posefree
 
         with one_blas_thread():
-            r = diagnose_posefree(ds, alpha=alpha, folds=folds)
+            r = diagnose_posefree(ds, alpha=alpha, folds=folds, keep_plot_data=keep_plot_data)
         missing = [c for c in ("inc_deg", "azi_deg", "tf_deg") if c not in ds.columns]
         why = ("one triad only (the pose-based model needs both)" if ds.has_pose else
                "no turntable poses" if len(missing) == 3 else

@@ -172,7 +172,11 @@ def prepare(ds: RawDataset) -> Data:
     m = ds.meta
     F = m.get("field_nT")
     if F is None:
-        F = float(np.median(np.linalg.norm(ds.mag, axis=1))) or 50000.0
+        # the radius of the sphere the raw readings lie on, as calibrate takes it: not the median |b|, which
+        # holds the hard-iron offset too
+        from inclino.calib.common import world_of
+
+        F = world_of(ds)["field_nT"]
     t = col.get("t_s")
     temp = col.get("temp_c")
     rates = np.zeros((n, 3))

@@ -5,7 +5,10 @@
   (temperature, the axis's signal, or the effect's own signature), before
   (the model without this effect) and after (with it);
 * `baseline.png`: each axis's baseline residual against the regressor
-  family that explains most of it (the residual study)."""
+  family that explains most of it (the residual study); of a pose-free
+  diagnosis (no poses, or one triad: posefree.py), each invariant's
+  residual (|g|, |b|, the dip) against time or the reading order, the
+  baseline's and, with effects named, the final model's."""
 from __future__ import annotations
 
 import os
@@ -41,6 +44,9 @@ def write(result, outdir: str) -> list:
         fig.tight_layout()
         save(fig, ent["file"])
 
+    if result.plot_data.get("mode") == "invariants":
+        save(_invariants_figure(plt, result.plot_data["baseline"]), "baseline.png")
+        return written
     fig, axs = plt.subplots(2, 3, figsize=(13, 7))
     for ax, ent in zip(axs.ravel(), result.plot_data["baseline"]):
         ax.plot(np.asarray(ent["x"], float), np.asarray(ent["y"], float), ".", ms=3, alpha=0.6)
@@ -56,6 +62,28 @@ def write(result, outdir: str) -> list:
     fig.tight_layout()
     save(fig, "baseline.png")
     return written
+
+
+def _invariants_figure(plt, ents):
+    """The pose-free baseline: one panel per invariant, its residual against
+    time or the reading order (and the final model's, effects named)."""
+    fig, axs = plt.subplots(1, len(ents), figsize=(4.5 * len(ents), 4), squeeze=False)
+    for ax, ent in zip(axs[0], ents):
+        x, y = np.asarray(ent["x"], float), np.asarray(ent["y"], float)
+        ax.plot(x, y, ".", ms=3, alpha=0.6, label=f"baseline: RMS {np.sqrt(np.mean(y ** 2)):.3g}")
+        if ent.get("after") is not None:
+            a = np.asarray(ent["after"], float)
+            ax.plot(x, a, ".", ms=3, alpha=0.6, label=f"with the effects named: RMS {np.sqrt(np.mean(a ** 2)):.3g}")
+        ax.axhline(0.0, color="k", lw=0.7)
+        ax.set_title(ent["channel"], fontsize=9)
+        ax.set_xlabel(ent["xlabel"], fontsize=8)
+        ax.set_ylabel(ent["ylabel"], fontsize=8)
+        ax.legend(fontsize=7)
+        ax.grid(alpha=0.3)
+    fig.suptitle("pose-free baseline residuals (a symmetric 3x3 and an offset per triad fitted to the invariants)",
+                 fontsize=10)
+    fig.tight_layout()
+    return fig
 
 
 def write_paper(rep, outdir: str) -> list:

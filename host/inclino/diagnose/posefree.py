@@ -83,6 +83,7 @@ class _PF:
         same rows read with an effect injected, for sizing it on the holds
         the diagnosis of the injected log reads: signature_z)."""
         from inclino import holds as _holds
+        from inclino.calib.common import world_of
         from inclino.calib.covariance import cluster_labels
 
         self.has_acc, self.has_mag = ds.has_acc, ds.has_mag
@@ -140,8 +141,10 @@ class _PF:
         m = ds.meta
         self.G = float(m.get("gravity_g", 1.0))
         F = m.get("field_nT")
-        self.F = float(F) if F is not None else (float(np.median(np.linalg.norm(self.mag, axis=1)))
-                                                 if self.has_mag else 50000.0)
+        # without the header's field: the radius of the sphere the raw readings lie on, as calibrate takes it
+        # (calib.common.world_of); the median |b| holds the hard-iron offset too (a VMU931 log: median 176 871 nT
+        # about a sphere of 36 549 nT, every |b| residual 4.8 times too large)
+        self.F = float(F) if F is not None else (world_of(ds)["field_nT"] if self.has_mag else 50000.0)
         self.F_given = F is not None
         self.dip0 = m.get("dip_deg")
         self.chans = [x for x, ok in (("|g|", self.has_acc), ("|b|", self.has_mag),
@@ -428,7 +431,10 @@ def signature_poses(ds: RawDataset, key: str, w=None, folds: int = DEFAULT_FOLDS
 
 
 def diagnose_posefree(ds: RawDataset, alpha: float = DEFAULT_ALPHA, folds: int = DEFAULT_FOLDS,
-                      _signature=None, _holds_of=None) -> Diagnosis:
+                      _signature=None, _holds_of=None, keep_plot_data: bool = False) -> Diagnosis:
+    """keep_plot_data: keep what `diagnose --plot` draws (Diagnosis.plot_data:
+    each invariant's residual against time or the reading order, and each
+    named effect's own invariant against its driver, before and after)."""
     t_start = _time.perf_counter()
     if not (0.0 < alpha < 1.0):
         raise DataError("alpha must be between 0 and 1")
@@ -570,6 +576,10 @@ def diagnose_posefree(ds: RawDataset, alpha: float = DEFAULT_ALPHA, folds: int =
         des, idx, r_base, rows = design(testable)
         des.inflation = serial["inflation"]
     base_rms = {c: float(np.sqrt(np.mean(r_base[rows, j] ** 2))) for j, c in enumerate(chans)}
+    fit_failed = _fit_failed(pf, des, base, rows, r_base, base_rms)
+    # the baseline's held-out prediction, of the same fit as base_rms (before any effect is added: with the
+    # effects kept it is theirs, the final model's, reported as prediction_with_effects)
+    prediction = _prediction(des, base, rows, chans)
     def own_noise(S1):
         """The design weighed by each invariant's noise taken from the model
         S1 (the candidate in it): an effect not yet in the model inflates
@@ -749,21 +759,8 @@ def diagnose_posefree(ds: RawDataset, alpha: float = DEFAULT_ALPHA, folds: int =
     cov = des.coef_cov(S)
     serial_f = dict(zip(kept, bartlett.scale_cov(des, S, cov, [idx[kk] for kk in kept])))
     R_final, R_cv = des.raw_residuals(S), des.cv_residuals(S)
-    # the held-out prediction: each invariant's residual RMS on poses the fit has not seen, from the fit alone:
-    # its noise s_j^2 = sum r^2 / sum (1 - h), h each value's leverage (what the fit leans on it; serially
-    # correlated rows weigh (1 + rho) / (1 - rho) times more), and a value held out with its fold erring by
-    # s_j^2 (1 + x^T G_-f^-1 x) (Design.heldout_factor: the fold's values leaning on one another included);
-    # checked against the residuals of the same held-out folds of poses
-    h = np.clip(des.leverage(S) * des.inflation, 0.0, 0.95)
-    hf = 1.0 + (des.heldout_factor(S) - 1.0) * des.inflation
-    prediction = {}
-    for j, c in enumerate(chans):
-        hj = h[rows, j]
-        s2j = float(np.sum(R_final[rows, j] ** 2) / max(np.sum(1.0 - hj), 1e-12))
-        pin = float(np.sqrt(s2j * np.mean(hf[rows, j])))
-        ach = float(np.sqrt(np.mean(R_cv[rows, j] ** 2)))
-        prediction[c] = {"predicted_heldout_rms": pin, "achieved_heldout_rms": ach,
-                         "ratio": ach / pin if pin > 0 else float("nan")}
+    # the final model's held-out prediction (_prediction), checked against the same held-out folds of poses
+    prediction_final = _prediction(des, S, rows, chans) if kept else None
     effects = []
     pos = nb
     for kk in kept:
@@ -885,7 +882,7 @@ def diagnose_posefree(ds: RawDataset, alpha: float = DEFAULT_ALPHA, folds: int =
         "mode": "invariants", "rows": pf.n_rows, "clusters": k, "rows_per_cluster_max": int(pf.count.max()),
         "invariants": chans, "field_nT": pf.F, "field_from_header": pf.F_given, "gravity_g": pf.G,
         "dip_deg": mdl.unpack(state["v"]).get("dip"),
-        "rms": base_rms, "time_axis": pf.time_name,
+        "rms": base_rms, "fit_failed": fit_failed, "time_axis": pf.time_name,
         "serial_correlation": {"lag1": serial["rho"], "f_test_inflation": serial["inflation"],
                                "ljung_box_p": bartlett.summary(des, S)["ljung_box_p"],
                                "inflation_by_effect": serial_f,
@@ -905,13 +902,106 @@ def diagnose_posefree(ds: RawDataset, alpha: float = DEFAULT_ALPHA, folds: int =
                       "notes": _hold_notes(pf), "best_subset": None},
         "holds": pf.holds,
         "structure": structure, "run_variables": run_conf,
-        "prediction": {"what": f"each invariant's residual RMS predicted on poses not fitted (the fit's noise "
-                               f"and each value's leverage, {len(S)} parameters) and achieved on "
-                               + ("each pose held out alone" if K == k else f"{K} held-out blocks of poses"), "by_invariant": prediction},
+        "prediction": {"what": f"the baseline's residual RMS per invariant predicted on poses not fitted (the fit's "
+                               f"noise and each value's leverage, {nb} parameters) and achieved on "
+                               + ("each pose held out alone" if K == k else f"{K} held-out blocks of poses"),
+                       "by_invariant": prediction},
+        "prediction_with_effects": None if prediction_final is None else {
+            "what": f"the same of the model with the effects named ({len(S)} parameters)",
+            "by_invariant": prediction_final},
     }
     out = Diagnosis(baseline=baseline, effects=effects, unexplained=structure["unexplained"], structure=structure,
                     confounded=confounded)
+    if keep_plot_data:
+        out.plot_data = _plot_data(mdl, state, des, base, S, idx, own, rows, r_base, R_final, effects)
     out.elapsed_s = _time.perf_counter() - t_start
+    return out
+
+
+def _plot_data(mdl, state, des, base, S, idx, own, rows, r_base, R_final, effects) -> dict:
+    """What `diagnose --plot` draws of a pose-free diagnosis (plots.write):
+    per invariant the baseline's residual and the final model's against
+    time (or the reading order); per named effect the residual of its own
+    invariant without it and with it against its driver (the axis's
+    corrected reading, the temperature, time, the rig angle)."""
+    pf = mdl.pf
+    tl = "time (s)" if pf.time_name == "time" else "reading order (row)"
+    t = pf.t[rows]
+    base_ent = [{"channel": c, "x": t, "y": r_base[rows, j], "after": R_final[rows, j] if effects else None,
+                 "xlabel": tl, "ylabel": f"{c} residual ({UNITS[c]})"} for j, c in enumerate(pf.chans)]
+    g, b = mdl.corrected(mdl.unpack(state["v"]), state["theta"])
+    ents = []
+    for e in effects:
+        kk = f"{e.name}:{e.sensor}:{e.axis}"
+        j = own[kk][0]
+        Rb = des.raw_residuals([i for i in S if i not in idx[kk]])
+        if e.name == "scale-nonlinearity":
+            x = (g if e.sensor == "acc" else b)[:, "xyz".index(e.axis)]
+            xl = f"{e.sensor} {e.axis} corrected reading ({'g' if e.sensor == 'acc' else 'nT'})"
+        elif e.name.startswith("temperature"):
+            x, xl = pf.temp, "temperature (degC)"
+        elif e.name == "rig-field":
+            x, xl = pf.angles[e.axis], f"rig {e.axis} angle (deg)"
+        else:
+            x, xl = pf.t, tl
+        ents.append({"x": x[rows], "before": Rb[rows, j], "after": R_final[rows, j], "xlabel": xl,
+                     "ylabel": f"{pf.chans[j]} residual ({UNITS[pf.chans[j]]})",
+                     "title": f"{e.name} ({e.sensor} {e.axis})", "file": f"{e.name}_{e.sensor}_{e.axis}.png"})
+    return {"mode": "invariants", "baseline": base_ent, "effects": ents}
+
+
+FIT_FAILED_LINEAR = 2.0  # in-sample RMS this many times the fit's own linearised step's: not converged
+FIT_FAILED_RAW = 1.5  # in-sample RMS this many times the raw readings' scaled to G (F): worse than no calibration
+
+
+def _fit_failed(pf, des, base, rows, r_base, base_rms) -> str | None:
+    """Why the baseline's residuals are no fitted model's, or None.  A fit
+    at its least squares leaves no more than its own linearised step at that
+    point (des.raw_residuals: what one more Gauss-Newton step would leave),
+    and no more than the raw readings scaled to G (F), which the model holds
+    (M = s I, b = 0).  On readings that do not determine the ellipsoid (a
+    phone at one orientation in a car; a magnetometer turned through a cap)
+    the refit stops far from either: |g| 0.65 g where the raw |g| spreads
+    0.04 g, |b| 8 464 nT where its step leaves 250 nT."""
+    lin = des.raw_residuals(base)
+    out = []
+    for j, c in enumerate(pf.chans):
+        u = UNITS[c]
+        b0 = base_rms[c]
+        lj = float(np.sqrt(np.mean(lin[rows, j] ** 2)))
+        if b0 > FIT_FAILED_LINEAR * lj:
+            out.append(f"{c} {b0:.4g} {u} where one more step of the fit leaves {lj:.4g} {u} (it did not converge)")
+            continue
+        raw = pf.acc if c == "|g|" else pf.mag if c == "|b|" else None
+        if raw is None:
+            continue
+        n = np.linalg.norm(raw[rows], axis=1)
+        ident = (pf.G if c == "|g|" else pf.F) * float(np.sqrt(np.mean((n / np.median(n) - 1.0) ** 2)))
+        if b0 > FIT_FAILED_RAW * ident:
+            out.append(f"{c} {b0:.4g} {u} where the raw readings scaled to {'G' if c == '|g|' else 'F'} leave "
+                       f"{ident:.4g} {u} (worse than no calibration)")
+    return "; ".join(out) or None
+
+
+def _prediction(des, S, rows, chans) -> dict:
+    """Each invariant's residual RMS on poses the fit of the columns S has not
+    seen, predicted from that fit alone and achieved on the held-out folds:
+    its noise s_j^2 = sum r^2 / sum (1 - h), h each value's leverage (what the
+    fit leans on it; serially correlated rows weigh (1 + rho) / (1 - rho)
+    times more), and a value held out with its fold erring by
+    s_j^2 (1 + x^T G_-f^-1 x) (Design.heldout_factor: the fold's values
+    leaning on one another included)."""
+    R, R_cv = des.raw_residuals(S), des.cv_residuals(S)
+    h = np.clip(des.leverage(S) * des.inflation, 0.0, 0.95)
+    hf = 1.0 + (des.heldout_factor(S) - 1.0) * des.inflation
+    out = {}
+    for j, c in enumerate(chans):
+        hj = h[rows, j]
+        s2j = float(np.sum(R[rows, j] ** 2) / max(np.sum(1.0 - hj), 1e-12))
+        pin = float(np.sqrt(s2j * np.mean(hf[rows, j])))
+        ach = float(np.sqrt(np.mean(R_cv[rows, j] ** 2)))
+        out[c] = {"predicted_heldout_rms": pin, "achieved_heldout_rms": ach,
+                  "ratio": ach / pin if pin > 0 else float("nan")}
     return out
 
 

@@ -97,6 +97,9 @@ class Diagnosis:
                      f"pose count once), invariants " + ", ".join(b["invariants"])
                      + (f", dip {b['dip_deg']:.3f} deg" if b.get("dip_deg") is not None else ""),
                      "  residual RMS: " + ", ".join(f"{k} {v:.4g} {u[k]}" for k, v in b["rms"].items())]
+            if b.get("fit_failed"):
+                lines.append(f"  the fit failed: {b['fit_failed']}: these readings do not determine the model, "
+                             f"and its figures here are those of no fitted model")
             pr = b.get("prediction", {}).get("by_invariant")
             if pr:
                 lines.append("  held-out poses, predicted -> achieved RMS: " + ", ".join(
@@ -260,7 +263,7 @@ class Diagnosis:
             model = "the 12-parameter model"
         alpha = b["selection"]["alpha"]
         refused = bool(self.calibrate) and self.calibrate["level"] == "error"
-        if not self.effects and not self.unexplained and not refused:
+        if not self.effects and not self.unexplained and not refused and not (pose_free and b.get("fit_failed")):
             return (f"conclusion: PASS: {model} leaves nothing to name: no effect at alpha = {alpha:g}, "
                     f"no unexplained structure (residual RMS {base})")
         parts = []
@@ -279,8 +282,10 @@ class Diagnosis:
                          + ("; in |g| likely the hand's acceleration: the sensor moved while it was read"
                             if self._moved() else ""))
         head = (f"calibrate refuses these data ({self.calibrate.get('why') or 'see above'})" if refused else "")
-        return "conclusion: FAIL: " + "; ".join(x for x in (head, f"{model} misses " + "; ".join(parts) if parts
-                                                           else "") if x)
+        failed = "the pose-free baseline fit failed (its residuals are no fitted model's)" if pose_free and \
+            b.get("fit_failed") else ""
+        return "conclusion: FAIL: " + "; ".join(x for x in (failed, head, f"{model} misses " + "; ".join(parts)
+                                                           if parts else "") if x)
 
 
 def _structure_text(x: dict) -> str:
