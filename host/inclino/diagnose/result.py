@@ -284,7 +284,8 @@ class Diagnosis:
         head = (f"calibrate refuses these data ({self.calibrate.get('why') or 'see above'})" if refused else "")
         failed = "the pose-free baseline fit failed (its residuals are no fitted model's)" if pose_free and \
             b.get("fit_failed") else ""
-        return "conclusion: FAIL: " + "; ".join(x for x in (failed, head, f"{model} misses " + "; ".join(parts)
+        # calibrate's refusal first: the cause the fit's failure follows from
+        return "conclusion: FAIL: " + "; ".join(x for x in (head, failed, f"{model} misses " + "; ".join(parts)
                                                            if parts else "") if x)
 
 
