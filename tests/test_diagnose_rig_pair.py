@@ -48,8 +48,13 @@ def test_two_rig_fields_are_each_sized_within_their_stated_error(k):
     assert set(found) >= {"azi", "inc"}, (seed, [(e.name, e.axis) for e in r.effects])
     for axis, value in truth.items():
         e = found[axis]
-        # 4 stated errors: drawn afresh every run; over 15 seeds the largest miss was 2.2
-        assert abs(e.estimate - value) <= 4.0 * e.stderr, (seed, axis, e.estimate, e.stderr, value)
+        # 4 stated errors, and the second order the truth leaves out: rig_unabsorbed_rms is the pattern's
+        # first-order change of the readings, and |B + r| - |B| - r.B/|B| ~ |r_perp|^2 / (2 F) is up to
+        # size^2 / F for a field peaking at twice its RMS (3.2 nT at 400 nT in 50 000 nT).  Drawn afresh every
+        # run; over 64 seeds the largest miss was 2.9 stated errors, but seed 103594's inclination field, whose
+        # stated error is 0.46 nT, came out 1.4 to 2.9 nT high on each of four noise draws: the second order
+        size2 = 400.0 ** 2 / float(ds.meta["field_nT"])
+        assert abs(e.estimate - value) <= 4.0 * e.stderr + size2, (seed, axis, e.estimate, e.stderr, value)
         assert e.stderr < 0.1 * value, (seed, axis, e.stderr, value)  # the size is known, not left free
     # the two fields' bases no longer share a direction (their signatures were one, correlation 1), so the
     # report does not call them one another's; a draw of the rig's patterns may still make their signatures
