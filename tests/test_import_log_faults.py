@@ -361,3 +361,16 @@ def test_the_import_help_says_a_counter_temperature_is_a_note():
     row = next(line for line in (ROOT / "docs" / "cli.md").read_text().splitlines() if line.startswith("| `import "))
     exit2 = row.split("exit 2 for", 1)[1].split("(the time unit otherwise", 1)[0]
     assert "counter" not in exit2, exit2
+
+
+def test_a_lone_glitch_at_the_top_of_the_word_is_not_taken_for_signed_counts(tmp_path):
+    """Two rows of 65535 (a read error) among 200 small unsigned counts: too
+    few in the upper half of the word to name a signed register."""
+    rng = np.random.default_rng(2)
+    counts = np.round(rng.normal(2000, 20, size=(200, 3))).astype(int)
+    counts[[50, 120], 0] = 65535
+    (tmp_path / "log.csv").write_text("ax,ay,az\n" + "".join(f"{a},{b},{c}\n" for a, b, c in counts))
+    (tmp_path / "s.toml").write_text('[accelerometer]\ncolumns = ["ax", "ay", "az"]\nunit = "counts"\n'
+                                     'lsb = "1/2048 g"\n')
+    ds, _ = importlog.import_log(str(tmp_path / "log.csv"), sensor.load(str(tmp_path / "s.toml")))
+    assert len(ds) == 200
