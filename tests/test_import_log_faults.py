@@ -374,3 +374,15 @@ def test_a_lone_glitch_at_the_top_of_the_word_is_not_taken_for_signed_counts(tmp
                                      'lsb = "1/2048 g"\n')
     ds, _ = importlog.import_log(str(tmp_path / "log.csv"), sensor.load(str(tmp_path / "s.toml")))
     assert len(ds) == 200
+
+
+def test_a_column_that_does_not_rise_is_not_read_as_the_files_rate(tmp_path):
+    """The magnetometer's file has a column of the time's name that is no
+    time (a sample counter that wraps every 100 rows): paired in order, as
+    asked, with no rate read from it."""
+    _two_files(tmp_path, 50.0, 50.0)
+    lines = (tmp_path / "mag.csv").read_text().splitlines()
+    lines[1:] = [f"{i % 100}," + r.split(",", 1)[1] for i, r in enumerate(lines[1:])]
+    (tmp_path / "mag.csv").write_text("\n".join(lines) + "\n")
+    ds, _ = importlog.import_log(str(tmp_path / "acc.csv"), sensor.load(str(tmp_path / "s.toml")))
+    assert len(ds) == 600 and "row by row, in order" in ds.meta["pairing"]
