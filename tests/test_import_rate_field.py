@@ -41,7 +41,8 @@ def test_rate_hz_times_each_row_by_its_index_and_a_dropped_row_leaves_a_gap(tmp_
     log, toml = _files(tmp_path, ["ax,ay,az", "g,g,g"] + rows, "[log]\nrate_hz = 50\n" + ACC)
     ds, rep = importlog.import_log(str(log), sensor.load(str(toml)))
     np.testing.assert_array_equal(ds.columns["t_s"], np.array([0, 1, 3, 4, 5]) / 50.0)
-    assert rep.dropped == {"a second header line (units or descriptions)": 1, "a missing value": 1}
+    assert rep.dropped == {"a second header line (units or descriptions)": 1,
+                           "a missing value in accelerometer y ('ay') (line 5)": 1}
     assert ds.meta["rate_hz"] == 50.0
     out = tmp_path / "run.csv"
     dataset.write_raw(str(out), ds)

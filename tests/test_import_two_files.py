@@ -256,7 +256,8 @@ def test_files_without_a_common_time_are_paired_row_by_row(tmp_path):
     for c in dataset.ACC_COLS + dataset.MAG_COLS + ("t_s",):
         np.testing.assert_array_equal(ds.columns[c], ref.columns[c][idx], err_msg=c)
     assert "row by row, in order" in ds.meta["pairing"]
-    assert rep.dropped["magnetometer file: a missing value"] == 1
+    # the column that had no value is named, and its line (the names' line, then row 10 of the data: line 12)
+    assert rep.dropped["magnetometer file: a missing value in magnetometer y ('mag_y') (line 12)"] == 1
     assert rep.dropped["rows without a partner in the other file (past its end, or dropped there)"] == 1
 
 

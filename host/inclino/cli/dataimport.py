@@ -5,8 +5,10 @@ checked before anything is fitted (inclino.checks).
 Exit status: 0 written (warnings, if any, printed); 2 bad input: an
 unreadable log or description, a column that is not there, data that cannot
 be right (wrong units, an unintended reflection, a time unit by which the
-sensor turns faster than 10^5 deg/s, a temperature column that is another
-column or a counter): nothing is written then.
+sensor turns faster than 10^5 deg/s, a temperature column that is a copy of
+a pose or sensor column, signed counts read as unsigned, filler rows, two
+files paired in order at different rates): nothing is written then.  A
+temperature column that is a counter or a ramp is a note (exit 0).
 """
 from __future__ import annotations
 
@@ -49,8 +51,11 @@ def add_import(sub):
                 "Turn a log of any accelerometer and magnetometer (any columns, units and axis map; both triads "
                 "or one) into the canonical raw dataset the other commands read, through a sensor description "
                 "(a TOML file, or a preset citing its data sheet), and check it before anything is fitted: "
-                "wrong units or an undeclared reflection of the axes is refused (exit 2, nothing written). The "
-                "header records the log (path, SHA-256) and the description.",
+                "wrong units or an undeclared reflection of the axes is refused (exit 2, nothing written), and so "
+                "are a temperature column that is a copy of a pose or sensor column, signed counts read as "
+                "unsigned, filler rows (a run of identical rows, a time stamp that stops) and two files paired "
+                "in order at different rates; a temperature column that is a counter or a ramp is a note (exit "
+                "0). The header records the log (path, SHA-256) and the description.",
                 ["inclino import log.csv --sensor mpu9250 -o run.csv",
                  "inclino import tests/data/real/ck_acc_mag/acc_mag_log.csv "
                  "--sensor tests/data/real/ck_acc_mag/sensor.toml -o run.csv"])
@@ -66,7 +71,8 @@ def add_import(sub):
     p.add_argument("--drop-bad-rows", action="store_true",
                    help="drop malformed rows (cells missing or not a number: a line garbled on a serial link), "
                         "counted with their line numbers, instead of refusing the first one; more than 5 %% of "
-                        "the rows malformed is still refused (as [log] bad_rows = \"drop\")")
+                        "the rows malformed is still refused; and filler rows (a run of rows identical, time stamp "
+                        "and all; a time stamp that stops), whatever their share (as [log] bad_rows = \"drop\")")
     add_json(p, "print what the import did as one JSON object")
     p.set_defaults(func=import_main)
     return p

@@ -10,8 +10,14 @@ the columns named by its first line ([log].header = true) or numbered from 1
 (header = false).  Every row's readings go through the description
 (inclino.formats.sensor: unit, scale, gravity sign, axis map) into g and nT in
 the body frame.  A row with a missing value in a used column ("", NaN, NA,
-null) is dropped and counted; any other text in a used column is an error
-naming the row and the column.  The header of the canonical file records
+null) is dropped and counted under the columns that had none; any other
+text in a used column is an error naming the row and the column.  Counts of
+an axis that read as signed words logged unsigned (near 0 and near 2^16,
+nothing between) are refused unless the description declares their word
+(counts = "int16"), and filler rows (a run of rows identical, time stamp and
+all, or a time stamp that stops) unless the bad rows are dropped: both
+before the checks (inclino.checks) see any reading.  The header of the
+canonical file records
 the log (path, SHA-256), the description (name, SHA-256, axis maps, units,
 resolution, noise, range) and what was dropped.
 """
@@ -137,6 +143,158 @@ def _index(col, names, what, path, lineno):
                     f"{', '.join(stripped[:20])}{' ...' if len(stripped) > 20 else ''})")
 
 
+def _missed(missing_rows: dict, columns: list, lineno: int) -> None:
+    """Count a row dropped for a missing value under the columns it had none in."""
+    m = missing_rows.setdefault(tuple(columns), [0, lineno, lineno])
+    m[0] += 1
+    m[2] = lineno
+
+
+def _column_text(key: str, j: int, names) -> str:
+    """A used column as the messages name it: the canonical name and the log's ("temp_c (column 13)")."""
+    what = {"t_s": "time", "temp_c": "temperature", "inc_deg": "pose inc", "azi_deg": "pose azi",
+            "tf_deg": "pose tf"}.get(key)
+    if what is None:  # a sensor axis as logged, before the axis map
+        c = key.lstrip("_")
+        what = f"{'accelerometer' if c in ACC_COLS else 'magnetometer'} {c[1]}"
+    return f"{what} ({repr(names[j].strip()) if names is not None else f'column {j + 1}'})"
+
+
+SIGNED_WIDTHS = (8, 16, 24, 32)  # the words a logger writes two's-complement counts in
+SIGNED_SPREAD = 0.5  # read signed, an axis' counts spread less than this fraction of their spread read unsigned
+
+
+def _check_counts(t, data, keys, line_no, names, wanted, path) -> None:
+    """A triad in counts: declared two's complement (counts = "intN"), every
+    count within the word; not declared, an axis whose counts cluster near 0
+    and near 2^N with nothing between (signed counts logged as unsigned:
+    65404 is -132) is refused with the declaration that reads them, before
+    any unit check computes an lsb from them."""
+    if t.unit != "counts":
+        return
+    section = "accelerometer" if t.kind == "acc" else "magnetometer"
+    cols = ACC_COLS if t.kind == "acc" else MAG_COLS
+    for i, c in enumerate(cols):
+        k = f"_{c}"
+        v = data[:, keys.index(k)]
+        where = _column_text(k, wanted[k], names)
+        bits = t.signed_bits
+        if bits:
+            bad = (v < -2.0 ** (bits - 1)) | (v >= 2.0 ** bits)
+            if bad.any():
+                r = int(np.argmax(bad))
+                raise DataError(f"{path}:{line_no[r]}: {where}: {v[r]:.10g} is no {t.counts} count "
+                                f"({-2 ** (bits - 1)} ... {2 ** bits - 1}, the upper half read as negative): check "
+                                f"[{section}] counts and columns")
+            continue
+        if t.counts is not None or t.zero or len(v) < 3 or v.min() < 0 or np.any(v != np.round(v)):
+            continue
+        n = next((b for b in SIGNED_WIDTHS if v.max() < 2.0 ** b), None)
+        if n is None:
+            continue
+        half = 2.0 ** (n - 1)
+        upper = v >= half
+        if min(upper.sum(), (~upper).sum()) < max(3, 0.01 * len(v)):  # both halves of the word read, not a glitch
+            continue
+        w = np.where(upper, v - 2.0 ** n, v)
+        if np.std(w) < SIGNED_SPREAD * np.std(v):
+            r = int(np.argmax(upper))
+            raise DataError(
+                f"{path}: {where}: {upper.mean():.0%} of its counts read {half:.0f} or more and the rest "
+                f"near 0, few between: {n}-bit two's-complement counts read as unsigned (line {line_no[r]}: "
+                f"{v[r]:.0f} is {w[r]:.0f}); declare them: counts = \"int{n}\" in [{section}] (or counts = "
+                f"\"uint{n}\" if they are unsigned)")
+
+
+FILLER_MIN_ROWS = 10  # identical rows, time stamp and all, that are no samples
+FILLER_MIN_ROWS_UNTIMED = 1000  # ... without a time column (a sensor at rest in coarse counts repeats a few rows)
+STUCK_MIN_ROWS = 100  # a time stamp repeated on this many rows (and 20x its usual run) has stopped
+COUNTER_MAX = {16: "a 16-bit counter's maximum", 31: "a 31-bit counter's maximum",
+               32: "a 32-bit counter's maximum", 64: "a 64-bit counter's maximum"}
+
+
+def _counter_max(t: float) -> str:
+    """'(2^32 - 1 thousandths: a 32-bit counter's maximum)' when a time as
+    logged is 2^k - 1 in a decimal subunit, else ''."""
+    for k, what in COUNTER_MAX.items():
+        for j in range(10):
+            if math.isclose(t * 10.0 ** j, 2.0 ** k - 1, rel_tol=1e-12, abs_tol=1e-6):
+                sub = ("", " tenths", " hundredths", " thousandths", " ten-thousandths")[j] if j < 5 else f" 1e-{j}"
+                return f" (2^{k} - 1{sub}: {what}, the value of a counter that is not counting)"
+    return ""
+
+
+def _runs(same: np.ndarray) -> list:
+    """[(start, stop)) of the runs of rows each equal to the one before (same[i]: row i + 1 equals row i)."""
+    edges = np.flatnonzero(np.diff(np.r_[0, same.astype(np.int8), 0]))
+    return [(int(a), int(b) + 1) for a, b in zip(edges[::2], edges[1::2])]
+
+
+def _filler(data, keys, line_no, read, desc, path, drop_bad, dropped):
+    """Rows a logger wrote that are no samples: a run of rows identical in
+    every used column with the time stamp and all (a buffer's filler, a
+    counter's 0xFFFF..), or a time stamp that stops (the same on many more
+    rows than its usual run).  Refused naming the lines and the fix; with
+    drop_bad dropped and counted.  None when there are none, else the
+    indices of the rows to keep."""
+    n = len(data)
+    if n < 2:
+        return None
+    timed = "t_s" in keys
+    found = []  # (start, stop, what)
+    same = np.all(data[1:] == data[:-1], axis=1)
+    least = FILLER_MIN_ROWS if timed else FILLER_MIN_ROWS_UNTIMED
+    for a, b in _runs(same):
+        if b - a >= least:
+            t = f" with the time stuck at {data[a, keys.index('t_s')]:.10g}" if timed else ""
+            found.append((a, b, f"repeat one row{t}{_counter_max(data[a, keys.index('t_s')]) if timed else ''}"))
+    if timed:
+        tcol = data[:, keys.index("t_s")]
+        runs = _runs(tcol[1:] == tcol[:-1])
+        usual = float(np.median(np.diff(np.r_[0, np.flatnonzero(tcol[1:] != tcol[:-1]) + 1, n])))  # rows a stamp
+        for a, b in runs:
+            if b - a >= max(STUCK_MIN_ROWS, 20 * usual) and not any(a < fb and fa < b for fa, fb, _ in found):
+                found.append((a, b, f"share one time stamp, {tcol[a]:.10g}{_counter_max(tcol[a])}: the time stops"))
+    if not found:
+        return None
+    found.sort(key=lambda r: r[0] - r[1])  # the longest first
+    a, b, what = found[0]
+    rows = sum(fb - fa for fa, fb, _ in found)
+    more = (f" (and {len(found) - 1} more such run{'s' if len(found) > 2 else ''}, {rows} rows in all)"
+            if len(found) > 1 else "")
+    if not drop_bad:
+        raise DataError(f"{path}:{line_no[a]}-{line_no[b - 1]}: {b - a} rows ({(b - a) / max(read, 1):.0%} of the rows "
+                        f"read) {what}{more}: no samples (a logger's filler, or its clock stopped), and read as "
+                        f"readings they would pass for the sensor's; drop them: --drop-bad-rows ([log] bad_rows = "
+                        f"\"drop\"), or cut them from the log")
+    keep = np.ones(n, bool)
+    for fa, fb, fwhat in found:
+        keep[fa:fb] = False
+        dropped[f"filler: rows that {fwhat} (lines {line_no[fa]}-{line_no[fb - 1]})"] = fb - fa
+    if not keep.any():
+        raise DataError(f"{path}: no usable data rows: every row is filler ({what})")
+    return np.flatnonzero(keep)
+
+
+def _check_poses(desc: SensorDescription, path: str) -> None:
+    """Poses with a magnetometer need the azimuth (docs/dataset.md): without
+    it no pose tells the magnetometer's reference direction, and the pose
+    fits (calibrate, diagnose) would run without poses unasked."""
+    p = desc.poses
+    if not p or desc.mag is None:
+        return
+    if "label" in p:
+        lacking = sorted(k for k, v in p["labels"].items() if "azi" not in v)
+        if lacking:
+            raise DataError(f"{desc.path or 'sensor description'}: [poses.labels]: poses incomplete: no azi for "
+                            f"{', '.join(lacking[:5])}{' ...' if len(lacking) > 5 else ''}; with a magnetometer every "
+                            f"pose needs its azimuth (azi = deg), or leave [poses] out to calibrate without poses")
+    elif "azi" not in p:
+        raise DataError(f"{desc.path or 'sensor description'}: [poses]: poses incomplete: no azi column; with a "
+                        f"magnetometer the poses need the azimuth (azi = COLUMN), or leave [poses] out to calibrate "
+                        f"without poses")
+
+
 def import_log(path: str, desc: SensorDescription, static: bool | None = None,
                drop_bad_rows: bool | None = None) -> tuple[RawDataset, ImportReport]:
     """Read the log at `path` through the description `desc`: the canonical
@@ -149,6 +307,7 @@ def import_log(path: str, desc: SensorDescription, static: bool | None = None,
     samples paired with the log's by time (_pair_by_time)."""
     apart = next((t for t in desc.triads if t.file is not None), None)
     if apart is not None:
+        _check_poses(desc, path)
         return _import_apart(path, desc, apart, static, drop_bad_rows)
     return _read(path, desc, static, drop_bad_rows)
 
@@ -228,6 +387,7 @@ def _import(lines, path: str, desc: SensorDescription, static, drop_bad=False,
                          + f": the {other} alone is imported"
                          + (f" (the [{section}] table is the preset's; give one of your own to import it)"
                             if absent[0].kind in desc.from_preset else ""))
+    _check_poses(desc, path)
     wanted = {}  # canonical name -> (index, what)
     for t in desc.triads:
         cols = ACC_COLS if t.kind == "acc" else MAG_COLS
@@ -254,6 +414,8 @@ def _import(lines, path: str, desc: SensorDescription, static, drop_bad=False,
     idx = [wanted[k] for k in keys]
     rows, labels = [], []
     row_no = []  # each kept row's index among the log's rows read (rate_hz: its time)
+    line_no = []  # each kept row's line in the log
+    missing_rows = {}  # the used columns a dropped row had no value in -> [rows, first line, last line]
     units_lines = [0]  # a second header line read: not a sample
     clock = [False]  # the time column holds date-times (ISO 8601) or times of day, not numbers
     dropped: dict = {}
@@ -301,11 +463,12 @@ def _import(lines, path: str, desc: SensorDescription, static, drop_bad=False,
                 dropped[key] = 1
                 units_lines[0] += 1
                 return
+        missing = [k for k, j in zip(keys, idx) if cells[j].strip().lower() in MISSING]
+        if missing:  # dropped and counted by the columns that had no value
+            _missed(missing_rows, missing, lineno)
+            return
         for k, j in zip(keys, idx):
             text_ = cells[j].strip()
-            if text_.lower() in MISSING:
-                dropped["a missing value"] = dropped.get("a missing value", 0) + 1
-                return
             if desc.decimal == ",":
                 text_ = text_.replace(",", ".")
             try:
@@ -326,12 +489,13 @@ def _import(lines, path: str, desc: SensorDescription, static, drop_bad=False,
                 raise DataError(f"{path}:{lineno}: column {k.lstrip('_')} ({names[j].strip() if names else j + 1}): "
                                 f"{text_[:40]!r} is not a number{hint or drop_hint}") from None
             if not math.isfinite(v):
-                dropped["a missing value"] = dropped.get("a missing value", 0) + 1
+                _missed(missing_rows, [k], lineno)
                 return
             vals.append(v)
         rows.append(vals)
         labels.append(lab)
         row_no.append(read - 1 - units_lines[0])
+        line_no.append(lineno)
 
     for text in pending:
         take(text, header_line)
@@ -347,10 +511,22 @@ def _import(lines, path: str, desc: SensorDescription, static, drop_bad=False,
         shown = ", ".join(str(n) for n in bad_lines[:5]) + (", ..." if len(bad_lines) > 5 else "")
         dropped[f"malformed: cells missing or not a number (line{'s' if len(bad_lines) > 1 else ''} {shown})"] = \
             len(bad_lines)
+    for miss, (n, first_line, last_line) in missing_rows.items():
+        where = ", ".join(_column_text(k, wanted[k], names) for k in miss)
+        lines_ = f"line {first_line}" if n == 1 else f"lines {first_line} ... {last_line}"
+        dropped[f"a missing value in {where} ({lines_})"] = n
     if not rows:
         raise DataError(f"{path}: no usable data rows ({read} read; dropped: "
                         + (", ".join(f"{n} for {r}" for r, n in dropped.items()) or "none") + ")")
     data = np.array(rows, float)
+    for t in desc.triads:
+        _check_counts(t, data, keys, line_no, names, wanted, path)
+    keep_rows = _filler(data, keys, line_no, read, desc, path, drop_bad, dropped)
+    if keep_rows is not None:
+        data = data[keep_rows]
+        labels = [labels[i] for i in keep_rows]
+        row_no = [row_no[i] for i in keep_rows]
+        line_no = [line_no[i] for i in keep_rows]
     col = {k: data[:, i] for i, k in enumerate(keys)}
     out = {}
     # a triad logged out of step ([section].lag = k: its row i + k belongs to row i):
@@ -379,14 +555,14 @@ def _import(lines, path: str, desc: SensorDescription, static, drop_bad=False,
         out["temp_c"] = col["temp_c"]
     if label_idx is not None:
         lab = desc.poses["labels"]
-        out["inc_deg"] = np.array([float(lab[x]["inc"]) for x in labels])
-        out["tf_deg"] = np.array([float(lab[x].get("tf", 0.0)) for x in labels])
+        out["inc_deg"] = np.array([float(lab[x]["inc"]) for x in labels]) * desc.pose_scale
+        out["tf_deg"] = np.array([float(lab[x].get("tf", 0.0)) for x in labels]) * desc.pose_scale
         if all("azi" in lab[x] for x in labels):
-            out["azi_deg"] = np.array([float(lab[x]["azi"]) for x in labels])
+            out["azi_deg"] = np.array([float(lab[x]["azi"]) for x in labels]) * desc.pose_scale
     else:
         for k in ("inc_deg", "azi_deg", "tf_deg"):
             if k in col:
-                out[k] = col[k]
+                out[k] = col[k] * desc.pose_scale if desc.pose_scale != 1.0 else col[k]
     meta = dict(log_meta)  # the description's [header] below overrides the log's own
     for k, v in desc.header.items():
         if k not in dataset.META_KEYS or k in dataset.SENSOR_META:
@@ -453,7 +629,15 @@ def _import_apart(path: str, desc: SensorDescription, apart, static, drop_bad_ro
         raise DataError(f"{desc.path or 'sensor description'}: [{section}].file: no file {other} (a relative path is "
                         f"read beside the log)")
     ds_a, rep_a = _read(path, in_log, static, drop_bad_rows, absolute_time=True)
-    ds_b, rep_b = _read(other, in_file, None, drop_bad_rows, absolute_time=True)
+    timed_b = None  # paired in order while the log has a time column: the file's own times, if it has that column
+    if apart.time is None and desc.time is not None:
+        try:
+            timed_b = _read(other, dataclasses.replace(in_file, time=desc.time, time_unit=desc.time_unit,
+                                                       time_scale=desc.time_scale), None, drop_bad_rows,
+                            absolute_time=True)
+        except DataError:
+            timed_b = None
+    ds_b, rep_b = timed_b if timed_b is not None else _read(other, in_file, None, drop_bad_rows, absolute_time=True)
     if apart.time is not None:
         ia, ib, how, unpaired = _pair_by_time(ds_a, path, "accelerometer" if own.kind == "acc" else "magnetometer",
                                               ds_b, other, section, apart.time_offset)
@@ -461,6 +645,8 @@ def _import_apart(path: str, desc: SensorDescription, apart, static, drop_bad_ro
             how += f"; the {section}'s times moved by {apart.time_offset:+.6g} s (time_offset)"
     else:
         ia, ib, how, unpaired = _pair_by_row(rep_a, path, rep_b, other, section)
+        if timed_b is not None:
+            _rates_in_order(ds_a.columns["t_s"][ia], path, ds_b.columns["t_s"][ib], other, section)
     out = {c: v[ia] for c, v in ds_a.columns.items()}
     for c in ACC_COLS if apart.kind == "acc" else MAG_COLS:
         out[c] = ds_b.columns[c][ib]
@@ -512,6 +698,27 @@ def _pair_by_row(rep_a: ImportReport, path_a: str, rep_b: ImportReport, path_b: 
                 f"below name)")
     return ia, ib, how, (("rows without a partner in the other file (past its end, or dropped there)", lost)
                          if lost else None)
+
+
+def _rates_in_order(ta, path_a: str, tb, path_b: str, section: str) -> None:
+    """Two files paired row by row whose own time columns say they were
+    logged at different rates: row i of one drifts away from row i of the
+    other along the log (a phone's accelerometer at 51.08 Hz against its
+    magnetometer at 50 Hz: 52 rows apart by the end of 2 400).  Refused from
+    a drift of one row, with the fix: pair them by time."""
+    if len(ta) < 3 or not (np.all(np.diff(ta) > 0) and np.all(np.diff(tb) > 0)):
+        return  # a column that does not rise through the file is not its time: nothing to compare
+    span_a, span_b = ta[-1] - ta[0], tb[-1] - tb[0]
+    if not (span_a > 0 and span_b > 0):
+        return
+    ra, rb = (len(ta) - 1) / span_a, (len(tb) - 1) / span_b
+    drift = abs(span_a - span_b) * max(ra, rb)  # rows the pairs' time apart changes by, first pair to last
+    if drift >= 1.0:
+        raise DataError(f"{path_b}: paired with the log row by row, in order ([{section}] time = false), but the two "
+                        f"files' own time columns put the log at {ra:.4g} rows/s and this file at {rb:.4g} rows/s: "
+                        f"row i of one lies {drift:.0f} rows from row i of the other by the end of the log, so most "
+                        f"rows pair two instants apart; pair them by time: leave out [{section}] time = false (a "
+                        f"file timed by a clock of its own: [{section}] time_offset)")
 
 
 def _pair_by_time(a: RawDataset, path_a: str, what_a: str, b: RawDataset, path_b: str, what_b: str,

@@ -68,7 +68,9 @@ LOG_KEYS = {"delimiter", "comment", "header", "skip_rows", "time", "time_unit", 
 FIELD_UNIT = "field"  # magnetometer readings normalised to the site's total field: 1.0 = field_nT
 RATE_UNITS = {"Hz": 1.0, "hz": 1.0, "kHz": 1e3, "khz": 1e3}
 TRIAD_KEYS = {"columns", "unit", "lsb", "reads", "x", "y", "z", "axes", "reflection", "range", "noise", "lag", "zero",
-              "file", "time", "time_unit", "time_offset"}
+              "file", "time", "time_unit", "time_offset", "counts"}
+POSE_UNITS = {"deg": 1.0, "degree": 1.0, "degrees": 1.0, "rad": 180.0 / math.pi, "radian": 180.0 / math.pi,
+              "radians": 180.0 / math.pi}
 POSE_KEYS = {"inc", "azi", "tf", "label", "labels", "unit"}
 
 
@@ -162,6 +164,8 @@ class Triad:
     lag: int = 0                    # this triad's row i + lag belongs to the log's row i (two files joined out of step)
     zero: float = 0.0               # the reading at zero input, in the logged unit (unsigned counts: 2^(bits-1)),
                                     # subtracted before the scale
+    counts: str | None = None       # the counts' word as logged ("int16": two's complement, a logged 65404 is
+                                    # -132; "uint16": unsigned, as read); None: not declared (read as logged)
     file: str | None = None         # the triad logged to a file of its own (a path; relative: beside the log),
                                     # its samples paired with the log's by time, or without one row by row
                                     # (inclino.formats.importlog)
@@ -185,10 +189,18 @@ class Triad:
         with the gravity sign of docs/conventions.md (+1 g on the axis
         pointing down)."""
         raw = np.asarray(raw, float)
+        bits = self.signed_bits
+        if bits:  # two's-complement counts logged as unsigned words: 2^(bits-1) ... 2^bits - 1 are negative
+            raw = np.where(raw >= 2.0 ** (bits - 1), raw - 2.0 ** bits, raw)
         if self.zero:
             raw = raw - self.zero
         out = (raw if self.scale == 1.0 else decimal_clean(raw * self.scale)) @ self.matrix.T
         return -out if self.reads == "up" else out
+
+    @property
+    def signed_bits(self) -> int | None:
+        """The width of two's-complement counts (counts = "int16": 16), else None."""
+        return int(self.counts[3:]) if self.counts and self.counts.startswith("int") else None
 
     def axes_text(self) -> str:
         p = "a" if self.kind == "acc" else "m"
@@ -217,6 +229,7 @@ class SensorDescription:
     bad_rows: str = "refuse"          # a malformed row (cells missing, not a number): "refuse" or "drop"
     header: dict = field(default_factory=dict)  # canonical header values (dip_deg, field_nT, ...)
     poses: dict | None = None         # {"inc": col, "azi": col, "tf": col} or {"label": col, "labels": {...}}
+    pose_scale: float = 1.0           # degrees per unit of the poses ([poses] unit: "deg", or "rad")
     notes: str = ""
     source: str = ""
     text_sha256: str = ""
@@ -244,8 +257,8 @@ class SensorDescription:
         for t in self.triads:
             u = "g" if t.kind == "acc" else "nT"
             m[f"{t.kind}_axes"] = t.axes_text()
-            m[f"{t.kind}_unit"] = t.unit + (f" x {t.scale:.10g} {u}" if t.unit in ("counts", FIELD_UNIT)
-                                            and t.scale is not None else "") + \
+            m[f"{t.kind}_unit"] = t.unit + (f" ({t.counts})" if t.counts else "") + \
+                (f" x {t.scale:.10g} {u}" if t.unit in ("counts", FIELD_UNIT) and t.scale is not None else "") + \
                 (f", less a zero of {t.zero:.10g}" if t.zero else "")
             if t.kind == "acc":
                 m["acc_reads"] = t.reads + (" (an axis pointing up read +1 g: the sign was turned)"
@@ -484,6 +497,15 @@ def _triad(spec: dict, section: str, log_what: str, field_nT: float | None = Non
         raise DataError(f"{what}.zero: a number, the reading at zero input in the logged unit (e.g. 32768 for "
                         f"unsigned 16-bit counts)")
     t.zero = float(zero)
+    if "counts" in spec:
+        w = spec["counts"]
+        m = re.fullmatch(r"(u?int)(\d+)", w.strip().lower()) if isinstance(w, str) else None
+        if not m or not 2 <= int(m.group(2)) <= 64:
+            raise DataError(f"{what}.counts: the counts' word as logged: \"int16\" (two's complement: a logged 65404 "
+                            f"is -132), \"uint16\" (unsigned, as read), or another width (int8, int24, int32, ...)")
+        if unit != "counts":
+            raise DataError(f"{what}.counts: only with unit = \"counts\" (the readings are {unit})")
+        t.counts = m.group(1) + m.group(2)
     if "file" in spec:
         if not (isinstance(spec["file"], str) and spec["file"].strip()):
             raise DataError(f"{what}.file: the path of the file this triad was logged to (relative: beside the log)")
@@ -694,6 +716,12 @@ def from_dict(d: dict, what: str = "sensor description") -> SensorDescription:
                     raise DataError(f"{what}[poses.labels].{k}: {{inc = deg, azi = deg, tf = deg}} (inc required)")
         elif not all(k in poses for k in ("inc", "tf")):
             raise DataError(f"{what}[poses]: the pose columns (inc, tf and, with a magnetometer, azi) or label")
+        if "unit" in poses:
+            u = poses["unit"]
+            if not isinstance(u, str) or u.strip().lower() not in POSE_UNITS:
+                raise DataError(f"{what}[poses].unit: the unit of the pose angles, columns and labels alike: \"deg\" "
+                                f"(the default) or \"rad\", not {u!r}")
+            s.pose_scale = POSE_UNITS[u.strip().lower()]
         s.poses = dict(poses)
     return s
 
