@@ -193,3 +193,22 @@ def test_too_few_orientations_without_poses_is_a_data_error():
         del ds.columns[c]
     with pytest.raises(DataError, match="too few orientations"):
         fit(ds, "joint")
+
+
+def test_a_reflection_of_a_triad_alone_is_said_against_the_poses():
+    """An accelerometer-only run with poses, fitted a reflection: the line
+    names the poses, not a magnetometer the run does not have."""
+    import numpy as np
+    import pytest
+
+    from inclino.calib import _refuse_reflection
+    from inclino.errors import MirroredAxesError
+    from inclino.formats.calfile import Calibration
+    from inclino.formats.dataset import RawDataset
+
+    n = 12
+    cols = {"ax_g": np.ones(n), "ay_g": np.zeros(n), "az_g": np.zeros(n), "inc_deg": np.full(n, 90.0),
+            "tf_deg": np.zeros(n)}
+    cal = Calibration(acc_m=np.diag([1.0, 1.0, -1.0]).tolist())
+    with pytest.raises(MirroredAxesError, match="mirrored against the poses"):
+        _refuse_reflection(RawDataset(cols, {}), cal, use_poses=True)

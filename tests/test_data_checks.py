@@ -465,3 +465,53 @@ def test_one_triad_without_poses_says_its_handedness_is_unchecked(log, desc, tri
 def test_one_triad_with_poses_has_its_handedness_checked():
     notes = [f for f in checks.run(_load(*ACC_POSES)).findings if "not checked for a mirror" in f.message]
     assert not notes
+
+
+def _imucal_mapped(tmp_path, axes, labels=None):
+    """imucal's six faces imported through its description with another axis
+    map (and, given, the pose labels column as `labels` rewrites it)."""
+    text = (REAL / ACC_POSES[1]).read_text().replace('axes = "x = ax, y = ay, z = az"', f'axes = "{axes}"')
+    desc = tmp_path / "s.toml"
+    desc.write_text(text)
+    log = REAL / ACC_POSES[0]
+    if labels is not None:
+        lines = log.read_text().splitlines()
+        parts = [ln.split(",", 1) for ln in lines[1:]]
+        lab = labels([p[0] for p in parts])
+        log = tmp_path / "log.csv"
+        log.write_text("\n".join([lines[0]] + [f"{a},{p[1]}" for a, p in zip(lab, parts)]) + "\n")
+    return importlog.import_log(str(log), sensor.load(str(desc)))[0]
+
+
+def test_an_accelerometer_map_turned_against_the_poses_is_named_with_the_map(tmp_path):
+    """An MPU-6050's six faces mapped "y, -x, z" imported without a word (a
+    rotation: calibrate fitted acc_m a 90 deg turn).  The warning names the
+    map, and the map it names imports without one."""
+    rep = checks.run(_imucal_mapped(tmp_path, "x = ay, y = -ax, z = az"))
+    (f,) = [f for f in rep.findings if f.check == "axes"]
+    assert f.level == "warning" and "turned 90 deg against the poses" in f.message, f.message
+    named = re.search(r'axes = "([^"]+)"', f.message).group(1)
+    assert named == "x = ax, y = ay, z = az"
+    assert not [f for f in checks.run(_imucal_mapped(tmp_path, named)).findings if f.check == "axes"]
+
+
+def test_pose_labels_out_of_step_with_the_readings_are_refused(tmp_path):
+    """Each face's label moved to the next face's rows: no turn of the poses
+    fits the readings.  Refused before any fit; calibrate had fitted acc_m a
+    reflection and blamed a mirror "against the magnetometer" of a log with
+    none."""
+    order = ["x_a", "x_p", "y_a", "y_p", "z_a", "z_p"]
+    moved = dict(zip(order, order[1:] + order[:1]))
+    rep = checks.run(_imucal_mapped(tmp_path, "x = ax, y = ay, z = az", lambda ls: [moved.get(x, x) for x in ls]))
+    (f,) = [f for f in rep.findings if f.check == "poses"]
+    assert f.level == "error" and "the poses do not match the rows" in f.message, f.message
+
+
+def test_counts_off_by_a_factor_are_given_the_lsb_not_a_unit(tmp_path):
+    """Counts declared with an lsb 1000x too coarse: the fix is the lsb that
+    makes |g| 1 g, not "looks like mg" (that advice, followed, was 1024x off
+    again)."""
+    ds = _load(*ACC_POSES)
+    big = _with(ds, **{c: ds.columns[c] * 1000.0 for c in ("ax_g", "ay_g", "az_g")})
+    (f,) = [f for f in checks.run(big).findings if f.check == "units"]
+    assert f.level == "error" and "look like" not in f.message and 'lsb = "1/2' in f.message, f.message

@@ -64,6 +64,9 @@ RANGE_STEP_TOL = 0.1      # |g| or |b| within 10 % of 2, 4 or 8 times (or 1/2, 1
                           # or range setting named (a range setting doubles the lsb: the commonest scale mistake)
 DIP_MISMATCH_DEG = 10.0   # |dip - header dip| beyond it: a warning
 DIP_SIGN_MIN_DEG = 5.0    # a dip's sign is compared with the header's only when both are beyond this
+POSE_MISFIT_DEG = 20.0    # gravity's directions miss the poses' by more (median) with the best rotation: an error
+AXES_TURN_DEG = 20.0      # the accelerometer turned more against the poses (and fitting AXES_RATIO x better): a
+                          # warning naming the map
 MAX_LAG = 3               # row shifts tried between the triads ...
 LAG_WIDE = 50             # ... and, for a shift beyond them, this many either way (_wide_lag) ...
 LAG_WIDE_PAIRED = 12      # ... leaving at least this many rows paired ...
@@ -407,6 +410,19 @@ def _mid_scale(ds, triad: str, v) -> tuple | None:
     return None
 
 
+def _whole_counts(ds, triad: str, v) -> bool:
+    """Whether a triad declared in counts reads whole counts of its declared
+    lsb (less any zero, a whole count too): 99 % of its values within 0.001
+    count of one."""
+    unit = "g" if triad == "acc" else "nT"
+    lsb = ds.meta.get(f"{triad}_lsb_{unit}")
+    if not (_counts(ds, triad) and lsb):
+        return False
+    k = np.asarray(v, float).ravel() / float(lsb)
+    k = k[np.isfinite(k)]
+    return bool(k.size) and float(np.mean(np.abs(k - np.round(k)) < 1e-3)) >= 0.99
+
+
 def _counts_hint(ds, triad: str, ratio: float) -> str:
     """The lsb that makes counts whose size is `ratio` off read the
     expected size ('' without a declared lsb)."""
@@ -473,7 +489,11 @@ def _units_acc(ds, rows, rep):
             f"removed (a phone app's linear or user acceleration), which no unit fixes; log the raw accelerometer, "
             f"with gravity"), "acc", {**fig, "wander": wander}))
         return
-    guesses = _unit_guesses(ratio, ACC_UNIT_GUESS, "g", _declared_factor(ds, "acc"), 0.2)
+    # whole counts declared: their lsb is the scale, and the lsb that makes |g| 1 g the fix (a MinIMU's counts
+    # with lsb 1/1024 g, 1000x off, were said to "look like mg", and that lsb written 1024x off again); decimals
+    # declared counts are another unit (m/s2 read as counts)
+    guesses = [] if _whole_counts(ds, "acc", a) else _unit_guesses(ratio, ACC_UNIT_GUESS, "g",
+                                                                   _declared_factor(ds, "acc"), 0.2)
     counts = _counts_hint(ds, "acc", ratio) if _counts(ds, "acc") and not guesses else ""
     like = (f"the readings look like {' or '.join(guesses)}" if guesses else
             f"the readings are {ratio:.4g}x what g would be" + (f": {hint}" if hint else "")
@@ -1560,6 +1580,8 @@ def _acc_poses(ds, rows, rep):
                    + _fix(ds, "accelerometer", "the axis map (one sign, without reflection = true)")
                    if declared_reflection(ds, "acc") else
                    _fix(ds, "accelerometer", "the axis map (or reflection = true if intended)"))), "acc", fig))
+    else:
+        _acc_rotation(ds, ua, gp, R, e_rot, rep, fig)
     # the accelerometer rows against the poses' rows, shifted
     m = len(block)
     errs = {}
@@ -1580,6 +1602,44 @@ def _acc_poses(ds, rows, rep):
             f"the pose columns and the readings were joined one row off"), "acc",
             {"misfit_by_lag_deg": {str(k): v for k, v in errs.items()}}))
     return gp
+
+
+def _acc_rotation(ds, ua, gp, R, e_rot, rep, fig) -> None:
+    """The accelerometer's directions against the poses' gravity turned by
+    the best rotation R (not mirrored): R far from the identity and fitting
+    where the identity does not is an axis map turned (a warning: the fit
+    absorbs a rotation, started from that map; an MPU-6050's six faces
+    mapped "y, -x, z" imported without a word, and calibrate fitted acc_m a
+    90 deg rotation); no rotation fitting either is poses that do not match
+    the rows (an error: a six-position log's pose labels one row out of
+    step fitted acc_m with determinant -0.24, refused as a mirror "against
+    the magnetometer" of a log without one)."""
+    ang = lambda M: np.degrees(np.arccos(np.clip(np.sum(ua * (gp @ M.T), 1), -1.0, 1.0)))  # noqa: E731
+    miss_rot, miss_id = float(np.median(ang(R))), float(np.median(ang(np.eye(3))))
+    fig = {**fig, "median_miss_rotation_deg": miss_rot, "median_miss_as_given_deg": miss_id}
+    if miss_rot > POSE_MISFIT_DEG:
+        rep.findings.append(Finding("poses", "error", (
+            f"the accelerometer's gravity directions fit no turn of the poses': they miss them by {miss_rot:.3g} deg "
+            f"(median) with the best rotation, {miss_id:.3g} deg as given: the poses do not match the rows (pose "
+            f"labels or columns out of step with the readings, the wrong pose columns, or a sensor that moved on "
+            f"its mount); check the [poses] columns and labels against the log"), "acc", fig))
+        return
+    turn = float(np.degrees(np.arccos(np.clip((np.trace(R) - 1.0) / 2.0, -1.0, 1.0))))
+    if turn > AXES_TURN_DEG and miss_id > AXES_RATIO * max(miss_rot, 0.1):
+        P = np.zeros((3, 3))
+        for i in range(3):  # the signed permutation nearest R^T: imported body -> the poses' body
+            j = int(np.argmax(np.abs(R.T[i])))
+            P[i, j] = np.sign(R.T[i, j])
+        shown = _perm_text(P @ _declared_map(ds, "acc"), "a")
+        exact = abs(abs(np.linalg.det(P)) - 1.0) < 1e-9 and np.linalg.det(P) > 0 and \
+            float(np.median(ang(P.T))) < 2.0 * max(miss_rot, 0.5)
+        rep.findings.append(Finding("axes", "warning", (
+            f"the accelerometer's axes are turned {turn:.0f} deg against the poses: gravity misses them by "
+            f"{miss_id:.3g} deg (median) with the axes as given, {miss_rot:.3g} deg turned (a rotation; the fit "
+            f"absorbs it, started from that map)"
+            + (f"; " + _fix(ds, "accelerometer", f"the axis map: axes = \"{shown}\"") if exact else
+               "; check the accelerometer's axis map and the poses' zero (inc, tf)")), "acc",
+            {**fig, "turn_deg": turn}))
 
 
 def _motion(ds, rep):

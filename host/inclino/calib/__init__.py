@@ -159,7 +159,10 @@ def _refuse_reflection(ds, cal, use_poses: bool) -> None:
             continue
         det = float(np.linalg.det(np.asarray(M, float)))
         if det < 0:
-            against = ref or ("the accelerometer" if triad == "mag" else "the magnetometer")
+            other = "mag" if triad == "acc" else "acc"
+            against = ref or ({"acc": "the accelerometer", "mag": "the magnetometer"}[other]
+                              if getattr(ds, f"has_{other}") else
+                              "the poses" if "inc_deg" in ds.columns else "the frame of the fit")
             fix = (f"the declared reflection ([{name}] reflection = true) does not fit the data as mapped: fix that "
                    f"triad's axis map in the sensor description (one sign, without reflection = true)"
                    if declared_reflection(ds, triad) else
