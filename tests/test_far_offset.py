@@ -89,3 +89,26 @@ def test_an_accelerometer_offset_of_half_a_g_leaves_its_holds_determining():
         h = holds.find(d)
         assert abs(holds.leverage(d, h, ("acc",)) - lev0) < 0.12
         assert holds.determining(d, ("acc",)) is not None
+
+
+def test_readings_that_do_not_turn_are_not_taken_less_their_mean(rng):
+    """A sensor held still (an LSM303 on a robot: its magnetometer 1.45
+    fields from the origin, within a degree) has its mean where its readings
+    are; less it they were noise read as directions, and a still log was
+    said to move between 43 holds.  The far mean is taken only where the
+    readings turn."""
+    still = np.array([60_000.0, 20_000.0, -35_000.0]) + rng.normal(scale=300.0, size=(500, 3))
+    assert not far_mean(still, 50_000.0).any()
+    u = rng.normal(size=(500, 3))
+    turned = 13 * 50_000.0 * np.array([0.6, 0.0, 0.8]) + 50_000.0 * u / np.linalg.norm(u, axis=1, keepdims=True)
+    assert np.allclose(far_mean(turned, 50_000.0), turned.mean(0))
+
+
+def test_the_accelerometers_holds_are_read_as_logged(rng):
+    """An accelerometer's offsets never come near 1 g: readings held near
+    z up with a 1.08 scale lie just beyond 1 g, and taken less their mean
+    the holds' directions were noise (calibrate asked for holds "near +y" on
+    a log whose z never left the vertical)."""
+    acc = np.array([0.02, -0.01, 1.08]) + rng.normal(scale=0.01, size=(400, 3))
+    ds = RawDataset({"ax_g": acc[:, 0], "ay_g": acc[:, 1], "az_g": acc[:, 2]}, {})
+    assert np.array_equal(holds._centred(ds, "acc"), ds.acc)

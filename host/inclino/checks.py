@@ -41,7 +41,7 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from inclino.calib.ellipsoid import determined, signed_permutations, sphere
+from inclino.calib.ellipsoid import determined, on_shell, signed_permutations, sphere
 from inclino.errors import DataError
 from inclino.holds import NOISE_BOUND, declared_static  # NOISE_BOUND: the most noise a static sensor has (g, nT)
 
@@ -55,9 +55,6 @@ GRAVITY_REMOVED_SPREAD = 0.2  # |a|'s median deviation over its median, |a| belo
 # the main field at the Earth's surface (IGRF): 22 000 nT (South Atlantic) to 67 000 nT (magnetic poles)
 GEOMAGNETIC_NT = (22_000.0, 67_000.0)
 GEOMAGNETIC_SLACK = 1.5   # a sensor's scale error and a steel building: a warning within 1.5x, an error beyond
-SPHERE_SHELL = 0.2        # readings' RMS distance from their sphere over its radius: within, the radius is the
-                          # field (a VMU931's readings in uT declared mG, 4.8 radii of hard iron off: its median
-                          # |b| 17 800 nT looked plausible, its sphere of 3 655 nT was set aside, and the 10x passed)
 FIELD_TOL = (0.8, 1.25)   # |b| / header field_nT: a warning outside
 FIELD_UNITS = (0.4, 2.5)  # |b| / header field_nT: an error outside (a unit)
 RANGE_STEP_TOL = 0.1      # |g| or |b| within 10 % of 2, 4 or 8 times (or 1/2, 1/4, 1/8) the expected: the lsb
@@ -481,7 +478,7 @@ def _units_acc(ds, rows, rep):
         return
     wander = float(np.median(np.abs(n - med))) / med
     sph = sphere(a) if wander > GRAVITY_REMOVED_SPREAD else None
-    if ratio < GRAVITY_UNITS[0] and wander > GRAVITY_REMOVED_SPREAD and (sph is None or not _shell(a, sph)):
+    if ratio < GRAVITY_UNITS[0] and wander > GRAVITY_REMOVED_SPREAD and (sph is None or not on_shell(a, sph)):
         # |a| wanders with an offset too (an MPU-9250 0.65 g off: 33 %), but its readings lie on a shell
         rep.findings.append(Finding("units", "error", (
             f"accelerometer: |g| is {med:.4g} (median of {len(a)} rows), not {G:g} g, and it wanders "
@@ -513,20 +510,6 @@ def _plausible_field(b, F) -> bool:
     return GEOMAGNETIC_NT[0] / GEOMAGNETIC_SLACK <= b <= GEOMAGNETIC_NT[1] * GEOMAGNETIC_SLACK
 
 
-def _shell(v, sph) -> bool:
-    """Whether the readings lie on the sphere sph = (centre, radius) as on a
-    shell (their RMS distance from it within SPHERE_SHELL of its radius),
-    not in a blob that a sphere merely passes through.  A shell's radius is
-    the field whatever the hard-iron offset; a blob's is its own size.
-    Measured: 17 real magnetometer logs turned by hand or on a rig 0.007 to
-    0.16 of the radius; readings of a sensor that hardly turned (a noise
-    blob, a phone in a car's cup holder, a foot on steel stairs) 0.27 to
-    0.40."""
-    c, R = sph[0], sph[1]
-    r = np.linalg.norm(np.asarray(v, float) - c, axis=1)
-    return bool(np.sqrt(np.mean((r - R) ** 2)) <= SPHERE_SHELL * R)
-
-
 def _units_mag(ds, rows, rep):
     m = ds.mag[rows]
     sph = sphere(m)
@@ -534,7 +517,7 @@ def _units_mag(ds, rows, rep):
     R = sph[1] if sph is not None else med
     how = "the radius of the sphere the readings lie on" if sph is not None else "the median |b|"
     F = ds.meta.get("field_nT")
-    if sph is not None and _plausible_field(med, F) and not _plausible_field(R, F) and not _shell(m, sph):
+    if sph is not None and _plausible_field(med, F) and not _plausible_field(R, F) and not on_shell(m, sph):
         # a unit scales every reading, the median |b| with them; a sphere far from the field whose readings' own
         # |b| is the field's is one their orientations do not determine (a drone standing in an office: readings
         # within 5 uT of one another, a "sphere" of 6 uT through them, their |b| 31 uT; called 8x off)

@@ -226,12 +226,18 @@ def _centred(ds, t) -> np.ndarray:
     lies farther from the origin than the vector they read (a phone's
     magnetometer, ~13 fields off: its raw directions barely turn, and a
     constant added to a hand-turned log's readings had cut its 1 142 holds
-    to 864: calib.ellipsoid.far_mean); as read otherwise."""
+    to 864: calib.ellipsoid.far_mean); as read otherwise, and always for the
+    accelerometer, whose offsets never come near 1 g: readings held near one
+    orientation have their mean there, just beyond 1 g with a scale error
+    (an LSM303 on a robot, z up: 1.08 g), and less it they were noise read
+    as directions (holds "near +y" on a log whose z never left the
+    vertical, and a still log "moving between holds")."""
     from inclino.calib.ellipsoid import far_mean
 
     v = np.asarray(getattr(ds, t), float)
-    R = float(ds.meta.get("gravity_g") or 1.0) if t == "acc" else float(ds.meta.get("field_nT") or 50_000.0)
-    return v - far_mean(v, R)
+    if t == "acc":
+        return v
+    return v - far_mean(v, float(ds.meta.get("field_nT") or 50_000.0))
 
 
 def declared_static(ds) -> bool:
@@ -296,12 +302,13 @@ def _hold_design(means):
     sphere through them where one is determined and lies more than
     HOLDS_CENTRE_FRAC of its radius from the origin, else from the origin
     (the leverage limit was set on raw directions: an Xsens log 0.1 g off
-    reads 0.78 from the origin, 0.82 from the centre)."""
-    from inclino.calib.ellipsoid import sphere
+    reads 0.78 from the origin, 0.82 from the centre); a sphere through
+    means in a blob (ellipsoid.on_shell) has no centre to take them from."""
+    from inclino.calib.ellipsoid import on_shell, sphere
 
     v = np.asarray(means, float)
     sph = sphere(v)
-    if sph is not None and np.linalg.norm(sph[0]) > HOLDS_CENTRE_FRAC * sph[1]:
+    if sph is not None and np.linalg.norm(sph[0]) > HOLDS_CENTRE_FRAC * sph[1] and on_shell(v, sph):
         v = v - sph[0]
     u = v / np.maximum(np.linalg.norm(v, axis=1, keepdims=True), 1e-300)
     X = np.column_stack([u[:, 0] ** 2, u[:, 1] ** 2, u[:, 2] ** 2, 2 * u[:, 0] * u[:, 1], 2 * u[:, 0] * u[:, 2],

@@ -19,6 +19,12 @@ DETERMINED_SV = 2e-3
 # log, noise and drift only), whose "sphere" is a ball of noise a few hundred nT across, not the field
 SPHERE_MIN_SPREAD = 0.05
 SPHERE_MIN_PLANE = 0.003  # the readings' least variance over their largest below this: on a circle, no sphere determined
+FAR_MEAN_MIN_SPREAD = 0.1   # far_mean: the readings' RMS distance from their mean over the vector's size, beyond
+                            # which they turn (hand-turned phones 13 fields off 0.4 to 1; a QMC5883L 0.19; held
+                            # still, or a cap of a few degrees: 0.02 to 0.05)
+SPHERE_SHELL = 0.2        # readings' RMS distance from their sphere over its radius: within, the radius is the
+                          # field (a VMU931's readings in uT declared mG, 4.8 radii of hard iron off: its median
+                          # |b| 17 800 nT looked plausible, its sphere of 3 655 nT was set aside, and the 10x passed)
 
 
 def _design(raw):
@@ -54,7 +60,12 @@ def far_mean(raw, R):
     (an accelerometer's offsets never come near 1 g)."""
     raw = np.asarray(raw, float)
     m = raw.mean(0) if len(raw) else np.zeros(3)
-    return m if len(raw) > 1 and np.linalg.norm(m) > R else np.zeros(3)
+    if not (len(raw) > 1 and np.linalg.norm(m) > R):
+        return np.zeros(3)
+    # readings that do not turn (one orientation, a cap of a few degrees) have their mean where they are, and
+    # less it they are noise read as directions: an LSM303 held still at 1.45 fields "moved between 43 holds"
+    spread = float(np.sqrt(((raw - m) ** 2).sum(1).mean()))
+    return m if spread > FAR_MEAN_MIN_SPREAD * R else np.zeros(3)
 
 
 def ellipsoid_start(raw, R, what: str = "the triad"):
@@ -139,3 +150,17 @@ def signed_permutations(proper: bool = False) -> list:
             if not proper or np.linalg.det(m) > 0:
                 out.append(m)
     return out
+
+
+def on_shell(v, sph) -> bool:
+    """Whether the readings lie on the sphere sph = (centre, radius) as on a
+    shell (their RMS distance from it within SPHERE_SHELL of its radius),
+    not in a blob that a sphere merely passes through.  A shell's radius is
+    the field whatever the hard-iron offset; a blob's is its own size.
+    Measured: 17 real magnetometer logs turned by hand or on a rig 0.007 to
+    0.16 of the radius; readings of a sensor that hardly turned (a noise
+    blob, a phone in a car's cup holder, a foot on steel stairs) 0.27 to
+    0.40."""
+    c, R = sph[0], sph[1]
+    r = np.linalg.norm(np.asarray(v, float) - c, axis=1)
+    return bool(np.sqrt(np.mean((r - R) ** 2)) <= SPHERE_SHELL * R)
