@@ -106,3 +106,24 @@ def test_rows_beyond_the_probes_range_are_counted_on_stderr(tmp_path, capsys):
         assert n > 0 and f"{n} of {len(ds)} rows with a field reading beyond" in err and tail in err, err
     assert cli.main(["attitude", str(run), "--cal", str(cals["own"]), "-o", str(tmp_path / "att.csv")]) == 0
     assert "beyond the probe" not in capsys.readouterr().err
+
+
+def test_with_a_calibration_the_raw_readings_size_is_not_warned_of(tmp_path, capsys):
+    """An LSM303's raw |b| 28 % below the header's field: attitude --cal
+    repeated the raw check's warning although the calibration corrects it
+    (corrected |b| at the field).  With --cal what the calibration leaves is
+    checked; without one the raw warning stands."""
+    run, cals = _sensor(tmp_path, {"field_nT": FIELD, "dip_deg": DIP})
+    ds = dataset.read_raw(str(run))
+    small = dataset.RawDataset({**ds.columns, **{c: 0.72 * ds.columns[c] for c in ("mx_nT", "my_nT", "mz_nT")}},
+                               dict(ds.meta))
+    dataset.write_raw(str(tmp_path / "small.csv"), small)
+    cal = Calibration.from_json(cals["own"].read_text())
+    cal.mag_m = (np.asarray(cal.mag_m) / 0.72).tolist()
+    cal.mag_b = (0.72 * np.asarray(cal.mag_b)).tolist()
+    (tmp_path / "small.json").write_text(cal.to_json())
+    assert cli.main(["attitude", str(tmp_path / "small.csv"), "-o", str(tmp_path / "a.csv")]) == 0
+    assert "% from the header's field_nT" in capsys.readouterr().err
+    assert cli.main(["attitude", str(tmp_path / "small.csv"), "--cal", str(tmp_path / "small.json"),
+                     "-o", str(tmp_path / "a.csv")]) == 0
+    assert "warning" not in capsys.readouterr().err

@@ -515,3 +515,14 @@ def test_counts_off_by_a_factor_are_given_the_lsb_not_a_unit(tmp_path):
     big = _with(ds, **{c: ds.columns[c] * 1000.0 for c in ("ax_g", "ay_g", "az_g")})
     (f,) = [f for f in checks.run(big).findings if f.check == "units"]
     assert f.level == "error" and "look like" not in f.message and 'lsb = "1/2' in f.message, f.message
+
+
+def test_a_time_column_that_goes_back_is_noted():
+    """Six files of a six-face session joined one after another, each timed
+    from its own start: the rows are used, and a note says the time goes
+    back (a plot against time overlaid the faces without a word)."""
+    t = np.concatenate([np.arange(100) * 0.01 + 0.41 for _ in range(3)])
+    u = np.repeat(np.eye(3), 100, axis=0)
+    ds = dataset.RawDataset({"t_s": t, "ax_g": u[:, 0], "ay_g": u[:, 1], "az_g": u[:, 2]}, {})
+    (f,) = [f for f in checks.run(ds).findings if f.check == "time" and "goes back" in f.message]
+    assert f.level == "note" and "goes back 2 times (first after row 100" in f.message, f.message

@@ -386,3 +386,16 @@ def test_a_column_that_does_not_rise_is_not_read_as_the_files_rate(tmp_path):
     (tmp_path / "mag.csv").write_text("\n".join(lines) + "\n")
     ds, _ = importlog.import_log(str(tmp_path / "acc.csv"), sensor.load(str(tmp_path / "s.toml")))
     assert len(ds) == 600 and "row by row, in order" in ds.meta["pairing"]
+
+
+def test_a_date_time_not_in_iso_8601_is_named_as_one(tmp_path, capsys):
+    """A European export's time stamps (05.03.2024 14:00:00.016) were "not a
+    number"; the line now says they are a date-time in another format."""
+    log = tmp_path / "eu.csv"
+    log.write_text("Date Time;ax;ay;az\n" + "".join(f"05.03.2024 14:00:{i:02d}.016;0,01;0,02;1,0\n" for i in range(30)))
+    desc = tmp_path / "s.toml"
+    desc.write_text('[log]\ndecimal = ","\ntime = "Date Time"\n[accelerometer]\ncolumns = ["ax", "ay", "az"]\n'
+                    'unit = "g"\nreads = "up"\naxes = "x, y, z"\n')
+    rc = main(["import", str(log), "--sensor", str(desc), "-o", str(tmp_path / "run.csv")])
+    err = capsys.readouterr().err
+    assert rc == 2 and "a date-time, but not as ISO 8601 writes one" in err, err

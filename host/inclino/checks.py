@@ -1801,6 +1801,16 @@ def _time_unit(ds, rep):
         return
     t = np.asarray(t, float)
     dt = np.diff(t)
+    back = np.flatnonzero(dt < 0)
+    if len(back):
+        # files joined one after another, each timed from its own start: the rows are read as they stand, but a
+        # plot or a drift against time overlays the runs (a six-face session joined from six files)
+        rep.findings.append(Finding("time", "note", (
+            f"the time column goes back {len(back)} time{'s' if len(back) > 1 else ''} (first after row "
+            f"{int(back[0]) + 1}, from {t[back[0]]:.6g} to {t[back[0] + 1]:.6g} s): runs joined one after another, "
+            f"each timed from its own start? Their rows are used as they stand; what is plotted or tested against "
+            f"time overlays them (give each run a time of its own, or leave the time column out)"), None,
+            {"time_back_rows": [int(i) + 1 for i in back[:20]]}))
     pos = dt[dt > 0]
     if len(pos) < 5:
         return

@@ -482,7 +482,11 @@ def _import(lines, path: str, desc: SensorDescription, static, drop_bad=False,
                     vals.append(v)
                     continue
                 hint = (" (a decimal comma? set [log] decimal = \",\" and a delimiter other than the comma)"
-                        if re.fullmatch(r"-?\d+,\d+", text_) else "")
+                        if re.fullmatch(r"-?\d+,\d+", text_) else
+                        " (a date-time, but not as ISO 8601 writes one: YYYY-MM-DD hh:mm:ss, or hh:mm:ss.sss "
+                        "alone; rewrite the column, or time it by [log] rate_hz)"
+                        if k == "t_s" and re.fullmatch(r"[\d./ -]+[ T]?\d{1,2}:\d{2}(:\d{2}([.,]\d+)?)?", text_)
+                        else "")
                 if drop_bad and not hint:
                     bad_lines.append(lineno)
                     return
