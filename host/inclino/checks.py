@@ -131,7 +131,8 @@ MAG_UNIT_GUESS = {"uT": 1e-3, "gauss": 1e-5, "mG": 1e-2, "tesla": 1e-9, "counts 
 
 @dataclass
 class Finding:
-    check: str          # units, handedness, row-alignment, dip-sign, axes, saturation, motion, noise
+    check: str          # units, handedness, poses, row-alignment, dip-sign, axes, saturation, motion, noise, time,
+                        # time-order, ...
     level: str          # error, warning, note
     message: str        # one line: what, the likely cause, the fix
     triad: str | None = None
@@ -1805,11 +1806,11 @@ def _time_unit(ds, rep):
     if len(back):
         # files joined one after another, each timed from its own start: the rows are read as they stand, but a
         # plot or a drift against time overlays the runs (a six-face session joined from six files)
-        rep.findings.append(Finding("time", "note", (
+        rep.findings.append(Finding("time-order", "note", (
             f"the time column goes back {len(back)} time{'s' if len(back) > 1 else ''} (first after row "
-            f"{int(back[0]) + 1}, from {t[back[0]]:.6g} to {t[back[0] + 1]:.6g} s): runs joined one after another, "
-            f"each timed from its own start? Their rows are used as they stand; what is plotted or tested against "
-            f"time overlays them (give each run a time of its own, or leave the time column out)"), None,
+            f"{int(back[0]) + 1}, from {t[back[0]]:.6g} to {t[back[0] + 1]:.6g} s): the rows are out of time order "
+            f"(runs joined one after another, each timed from its own start, or parts of one run rearranged); they "
+            f"are used as they stand, and what is plotted or tested against time overlays them"), None,
             {"time_back_rows": [int(i) + 1 for i in back[:20]]}))
     pos = dt[dt > 0]
     if len(pos) < 5:
