@@ -160,14 +160,17 @@ def _calibrate_and_score(path, seed, rng):
 
 
 def test_calibrate_fits_the_holds_and_predicts_the_error_it_makes(tmp_path, monkeypatch):
-    """Over 8 logs: the achieved inclination error against the predicted one,
+    """Over 16 logs: the achieved inclination error against the predicted one,
     pooled; the rows read while moving left out, each hold counted once.
     With the holds not used (the rows as independent readings, the moving
-    ones in the fit) the prediction is several times too small."""
+    ones in the fit) the prediction is about 2.4 times too small.  Over 8
+    logs the pooled ratios spread too wide for their limits (with the holds
+    0.81-1.61, without 1.84-3.25 over 41 draws: INCLINO_TEST_SEED=1519423453
+    failed); over 16, 0.82-1.16 and 2.13-2.62 over 26."""
     def pooled():
         rng = np.random.default_rng(RNG_SEED)
         a, p, src = [], [], set()
-        for k in range(8):
+        for k in range(16):
             ach, u = _calibrate_and_score(tmp_path / f"s{k}.csv", RNG_SEED + k, rng)
             a.append(ach)
             p.append(u["predicted_inc_rms_deg"])
@@ -179,7 +182,7 @@ def test_calibrate_fits_the_holds_and_predicts_the_error_it_makes(tmp_path, monk
     assert 0.6 <= ratio <= 1.6
     monkeypatch.setattr(holds, "STEP_AND_HOLD_FRACTION", 2.0)
     ratio_rows, _ = pooled()
-    assert ratio_rows > 2.0
+    assert ratio_rows > 1.8
 
 
 def _two_triads(path, seed, n_holds=40, rows=30, trans=10, bump=0.1, hold_nT=100.0):
