@@ -1565,7 +1565,7 @@ def _acc_poses(ds, rows, rep):
                    if declared_reflection(ds, "acc") else
                    _fix(ds, "accelerometer", "the axis map (or reflection = true if intended)"))), "acc", fig))
     else:
-        _acc_rotation(ds, ua, gp, R, e_rot, rep, fig)
+        _acc_rotation(ds, ua, gp, R, rep, fig)
     # the accelerometer rows against the poses' rows, shifted
     m = len(block)
     errs = {}
@@ -1588,7 +1588,7 @@ def _acc_poses(ds, rows, rep):
     return gp
 
 
-def _acc_rotation(ds, ua, gp, R, e_rot, rep, fig) -> None:
+def _acc_rotation(ds, ua, gp, R, rep, fig) -> None:
     """The accelerometer's directions against the poses' gravity turned by
     the best rotation R (not mirrored): R far from the identity and fitting
     where the identity does not is an axis map turned (a warning: the fit
