@@ -509,8 +509,8 @@ def test_pose_labels_out_of_step_with_the_readings_are_refused(tmp_path):
 
 def test_counts_off_by_a_factor_are_given_the_lsb_not_a_unit(tmp_path):
     """Counts declared with an lsb 1000x too coarse: the fix is the lsb that
-    makes |g| 1 g, not "looks like mg" (that advice, followed, was 1024x off
-    again)."""
+    makes |g| 1 g, not "look like counts at 1024 per g or mg" (that advice,
+    followed, left them 1000x off)."""
     ds = _load(*ACC_POSES)
     big = _with(ds, **{c: ds.columns[c] * 1000.0 for c in ("ax_g", "ay_g", "az_g")})
     (f,) = [f for f in checks.run(big).findings if f.check == "units"]

@@ -488,8 +488,8 @@ def _units_acc(ds, rows, rep):
             f"with gravity"), "acc", {**fig, "wander": wander}))
         return
     # whole counts declared: their lsb is the scale, and the lsb that makes |g| 1 g the fix (a MinIMU's counts
-    # with lsb 1/1024 g, 1000x off, were said to "look like mg", and that lsb written 1024x off again); decimals
-    # declared counts are another unit (m/s2 read as counts)
+    # 1000x off were said to "look like counts at 1024 per g or mg"; that lsb written, still 1000x off, "like mg");
+    # decimals declared counts are another unit (m/s2 read as counts)
     guesses = [] if _whole_counts(ds, "acc", a) else _unit_guesses(ratio, ACC_UNIT_GUESS, "g",
                                                                    _declared_factor(ds, "acc"), 0.2)
     counts = _counts_hint(ds, "acc", ratio) if _counts(ds, "acc") and not guesses else ""
