@@ -526,3 +526,17 @@ def test_a_time_column_that_goes_back_is_noted():
     ds = dataset.RawDataset({"t_s": t, "ax_g": u[:, 0], "ay_g": u[:, 1], "az_g": u[:, 2]}, {})
     (f,) = [f for f in checks.run(ds).findings if f.check == "time-order"]
     assert f.level == "note" and "goes back 2 times (first after row 100" in f.message, f.message
+
+
+@pytest.mark.parametrize("whole", [True, False])
+def test_counts_are_guessed_only_for_whole_numbers(rng, whole):
+    """Readings 150x too small for nT: whole numbers look like counts of
+    0.15 uT; decimals (an LSM303's uT declared nT, which read 0.6 uT counts
+    "or uT") cannot be counts."""
+    u = rng.normal(size=(2000, 3))
+    mag = 45_000.0 / 150.0 * u / np.linalg.norm(u, axis=1, keepdims=True) + rng.normal(scale=2.0, size=(2000, 3))
+    mag = np.round(mag) if whole else mag
+    cols = {"mx_nT": mag[:, 0], "my_nT": mag[:, 1], "mz_nT": mag[:, 2]}
+    (f,) = [f for f in checks.run(dataset.RawDataset(cols, {"sensor": "a part", "mag_unit": "nT"})).findings
+            if f.check == "units"]
+    assert f.level == "error" and ("counts of" in f.message) == whole, f.message

@@ -330,6 +330,20 @@ def _declared_factor(ds, triad: str):
     return sensor.unit_size(unit, triad)
 
 
+def _guessable(ds, triad: str, v, guess: dict) -> dict:
+    """The unit guesses the logged values allow: counts only where they were
+    whole numbers as logged (the canonical values over the declared unit's
+    size).  An LSM303's decimals in uT declared nT were said to "look like
+    counts of 0.6 uT or uT"."""
+    size = _declared_factor(ds, triad)
+    if not size:
+        return guess
+    k = np.asarray(v, float).ravel() / size
+    k = k[np.isfinite(k)]
+    whole = bool(k.size) and float(np.mean(np.abs(k - np.round(k)) < 1e-6 * np.maximum(1.0, np.abs(k)))) >= 0.99
+    return guess if whole else {u: f for u, f in guess.items() if not u.startswith("counts")}
+
+
 def _unit_guesses(ratio: float, guess: dict, canon: str, declared, tol: float) -> list:
     """The units the readings look like: `guess` holds values per canonical
     unit; a reading in unit U declared as D is ratio = size(D) x values-per-
@@ -490,8 +504,8 @@ def _units_acc(ds, rows, rep):
     # whole counts declared: their lsb is the scale, and the lsb that makes |g| 1 g the fix (a MinIMU's counts
     # 1000x off were said to "look like counts at 1024 per g or mg"; that lsb written, still 1000x off, "like mg");
     # decimals declared counts are another unit (m/s2 read as counts)
-    guesses = [] if _whole_counts(ds, "acc", a) else _unit_guesses(ratio, ACC_UNIT_GUESS, "g",
-                                                                   _declared_factor(ds, "acc"), 0.2)
+    guesses = [] if _whole_counts(ds, "acc", a) else _unit_guesses(ratio, _guessable(ds, "acc", a, ACC_UNIT_GUESS),
+                                                                   "g", _declared_factor(ds, "acc"), 0.2)
     counts = _counts_hint(ds, "acc", ratio) if _counts(ds, "acc") and not guesses else ""
     like = (f"the readings look like {' or '.join(guesses)}" if guesses else
             f"the readings are {ratio:.4g}x what g would be" + (f": {hint}" if hint else "")
@@ -567,7 +581,8 @@ def _units_mag(ds, rows, rep):
     if mid is not None:
         rep.findings.append(mid)
         return
-    guesses = _unit_guesses(R / target, MAG_UNIT_GUESS, "nT", _declared_factor(ds, "mag"), 0.6)
+    guesses = _unit_guesses(R / target, _guessable(ds, "mag", m, MAG_UNIT_GUESS), "nT", _declared_factor(ds, "mag"),
+                            0.6)
     counts = _counts_hint(ds, "mag", R / target) if _counts(ds, "mag") and not guesses else ""
     like = (f"the readings look like {' or '.join(guesses)}" if guesses else
             f"{R / target:.3g}x a geomagnetic field" + (f": {hint}" if hint else "")
