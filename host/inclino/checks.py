@@ -336,12 +336,9 @@ def _guessable(ds, triad: str, v, guess: dict) -> dict:
     size).  An LSM303's decimals in uT declared nT were said to "look like
     counts of 0.6 uT or uT"."""
     size = _declared_factor(ds, triad)
-    if not size:
+    if not size or _whole(np.asarray(v, float) / size):
         return guess
-    k = np.asarray(v, float).ravel() / size
-    k = k[np.isfinite(k)]
-    whole = bool(k.size) and float(np.mean(np.abs(k - np.round(k)) < 1e-6 * np.maximum(1.0, np.abs(k)))) >= 0.99
-    return guess if whole else {u: f for u, f in guess.items() if not u.startswith("counts")}
+    return {u: f for u, f in guess.items() if not u.startswith("counts")}
 
 
 def _unit_guesses(ratio: float, guess: dict, canon: str, declared, tol: float) -> list:
@@ -430,7 +427,12 @@ def _whole_counts(ds, triad: str, v) -> bool:
     lsb = ds.meta.get(f"{triad}_lsb_{unit}")
     if not (_counts(ds, triad) and lsb):
         return False
-    k = np.asarray(v, float).ravel() / float(lsb)
+    return _whole(np.asarray(v, float) / float(lsb))
+
+
+def _whole(k) -> bool:
+    """Whether 99 % of the finite values k lie within 0.001 of a whole number."""
+    k = np.asarray(k, float).ravel()
     k = k[np.isfinite(k)]
     return bool(k.size) and float(np.mean(np.abs(k - np.round(k)) < 1e-3)) >= 0.99
 
@@ -492,8 +494,7 @@ def _units_acc(ds, rows, rep):
         rep.findings.append(mid)
         return
     wander = float(np.median(np.abs(n - med))) / med
-    sph = sphere(a) if wander > GRAVITY_REMOVED_SPREAD else None
-    if ratio < GRAVITY_UNITS[0] and wander > GRAVITY_REMOVED_SPREAD and (sph is None or not on_shell(a, sph)):
+    if ratio < GRAVITY_UNITS[0] and wander > GRAVITY_REMOVED_SPREAD and not _shell_of(a):
         # |a| wanders with an offset too (an MPU-9250 0.65 g off: 33 %), but its readings lie on a shell
         rep.findings.append(Finding("units", "error", (
             f"accelerometer: |g| is {med:.4g} (median of {len(a)} rows), not {G:g} g, and it wanders "
@@ -515,6 +516,12 @@ def _units_acc(ds, rows, rep):
         f"accelerometer: |g| is {med:.4g} (median of {len(a)} rows), not {G:g} g: {like}, not {unit}; "
         + _fix(ds, "accelerometer", "the unit (unit = \"m/s2\", \"mg\", or \"counts\" with lsb)")), "acc",
         {**fig, "looks_like": guesses}))
+
+
+def _shell_of(v) -> bool:
+    """Whether the readings determine a sphere and lie on it as on a shell (ellipsoid.on_shell)."""
+    sph = sphere(v)
+    return sph is not None and on_shell(v, sph)
 
 
 def _plausible_field(b, F) -> bool:
@@ -1625,13 +1632,11 @@ def _acc_rotation(ds, ua, gp, R, rep, fig) -> None:
         return
     turn = float(np.degrees(np.arccos(np.clip((np.trace(R) - 1.0) / 2.0, -1.0, 1.0))))
     if turn > AXES_TURN_DEG and miss_id > AXES_RATIO * max(miss_rot, 0.1):
-        P = np.zeros((3, 3))
-        for i in range(3):  # the signed permutation nearest R^T: imported body -> the poses' body
-            j = int(np.argmax(np.abs(R.T[i])))
-            P[i, j] = np.sign(R.T[i, j])
+        # the axis map (imported body -> the poses' body) that fits best: the proper signed permutation P whose
+        # turn P^T of the poses misses the readings least; named when it fits about as well as the best rotation
+        P = min(signed_permutations(proper=True), key=lambda Q: float(np.median(ang(Q.T))))
         shown = _perm_text(P @ _declared_map(ds, "acc"), "a")
-        exact = abs(abs(np.linalg.det(P)) - 1.0) < 1e-9 and np.linalg.det(P) > 0 and \
-            float(np.median(ang(P.T))) < 2.0 * max(miss_rot, 0.5)
+        exact = float(np.median(ang(P.T))) < 2.0 * max(miss_rot, 0.5)
         rep.findings.append(Finding("axes", "warning", (
             f"the accelerometer's axes are turned {turn:.0f} deg against the poses: gravity misses them by "
             f"{miss_id:.3g} deg (median) with the axes as given, {miss_rot:.3g} deg turned (a rotation; the fit "

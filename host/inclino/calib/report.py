@@ -261,9 +261,9 @@ def input_lsb(ds: RawDataset) -> tuple:
     probe's own runs, whose ADIS16210 and fluxgate ADC counts are assumed
     (ref.ACC_LSB_G, ref.MAG_LSB_NT).  whence says which, per triad."""
     out, say = [], []
-    for triad, key, unit, probe, cols in (("acc", "acc_lsb_g", "g", "the ADIS16210's", ("ax_g", "ay_g", "az_g")),
-                                          ("mag", "mag_lsb_nT", "nT", "the fluxgate ADC's",
-                                           ("mx_nT", "my_nT", "mz_nT"))):
+    for triad, key, unit, probe, own, cols in (
+            ("acc", "acc_lsb_g", "g", "the ADIS16210's", ref.ACC_LSB_G, ("ax_g", "ay_g", "az_g")),
+            ("mag", "mag_lsb_nT", "nT", "the fluxgate ADC's", ref.MAG_LSB_NT, ("mx_nT", "my_nT", "mz_nT"))):
         if ds.meta.get(key):
             v, why = float(ds.meta[key]), "the sensor description"
         elif ds.meta.get("sensor") and all(c in ds.columns for c in cols):
@@ -274,7 +274,7 @@ def input_lsb(ds: RawDataset) -> tuple:
         else:
             v, why = None, probe
         out.append(v)
-        shown = ref.ACC_LSB_G if (v is None and triad == "acc") else ref.MAG_LSB_NT if v is None else v
+        shown = own if v is None else v
         say.append(f"{triad} " + (f"{shown:.4g} {unit} per count" if shown else "no step") + f" ({why})")
     return out[0], out[1], "; ".join(say)
 
