@@ -399,3 +399,69 @@ def test_a_date_time_not_in_iso_8601_is_named_as_one(tmp_path, capsys):
     rc = main(["import", str(log), "--sensor", str(desc), "-o", str(tmp_path / "run.csv")])
     err = capsys.readouterr().err
     assert rc == 2 and "a date-time, but not as ISO 8601 writes one" in err, err
+
+
+# ---- layouts: a tuple printed as text, a header repeated where logs were joined -----------------------------------
+
+
+def _ck_rows(n=300):
+    with open(REAL / "ck_acc_mag" / "acc_mag_log.csv", newline="") as f:
+        rows = list(csv.reader(f))
+    return rows[0], rows[1:n + 1]
+
+
+def _tuple_toml(strip):
+    return ("name = \"a 9-axis IMU printed as Python tuples\"\n[log]\nheader = false\n"
+            + (f"strip = \"{strip}\"\n" if strip else "")
+            + "[accelerometer]\ncolumns = [1, 2, 3]\nunit = \"g\"\nreads = \"up\"\naxes = \"x, y, z\"\n"
+              "[magnetometer]\ncolumns = [4, 5, 6]\nunit = \"G\"\naxes = \"x, y, z\"\n")
+
+
+def test_a_tuple_printed_as_text_is_named_and_read_with_strip(tmp_path, capsys):
+    """A logger that prints Python tuples, "((ax, ay, az), (mx, my, mz))"
+    per line (an LSM303 on a robot): the first cell was "'((-0.509946' is
+    not a number", and dropping bad rows dropped them all.  The error names
+    the brackets and the key that takes them out; with it, the log reads
+    the numbers the tuples hold."""
+    _, rows = _ck_rows()
+    log = tmp_path / "tuples.txt"
+    log.write_text("".join(f"(({r[0]}, {r[1]}, {r[2]}), ({r[3]}, {r[4]}, {r[5]}))\n" for r in rows))
+    desc = tmp_path / "t.toml"
+    desc.write_text(_tuple_toml(None))
+    out = tmp_path / "run.csv"
+    rc, _, err = _cli([log, "--sensor", desc, "-o", out], capsys)
+    _one_line_error(rc, err, out)
+    assert 'strip = "()"' in err and "tuple" in err, err
+    desc.write_text(_tuple_toml("()"))
+    rc, _, err = _cli([log, "--sensor", desc, "-o", out], capsys)
+    assert rc == 0, err
+    ds = dataset.read_raw(str(out))
+    plain = tmp_path / "plain.csv"
+    plain.write_text("".join(",".join(r) + "\n" for r in rows))
+    desc.write_text(_tuple_toml(None))
+    want = importlog.import_log(str(plain), sensor.load(str(desc)))[0]
+    np.testing.assert_array_equal(ds.acc, want.acc)
+    np.testing.assert_array_equal(ds.mag, want.mag)
+
+
+@pytest.mark.parametrize("strip", ["0", "-", ".", "a", " "])
+def test_strip_never_takes_out_what_a_number_is_written_with(strip, tmp_path):
+    p = tmp_path / "t.toml"
+    p.write_text(_tuple_toml(strip))
+    with pytest.raises(DataError, match=r"\[log\]\.strip"):
+        sensor.load(str(p))
+
+
+def test_a_header_repeated_where_logs_were_joined_is_dropped_and_counted(tmp_path, capsys):
+    """Two logs joined into one file, the second's header line in the
+    middle: "not a number" at that line before; now the line is dropped,
+    counted, and every reading is imported."""
+    names, rows = _ck_rows()
+    log = tmp_path / "joined.csv"
+    with open(log, "w", newline="") as f:
+        csv.writer(f).writerows([names, *rows[:150], names, *rows[150:]])
+    out = tmp_path / "run.csv"
+    rc, stdout, err = _cli([log, "--sensor", REAL / "ck_acc_mag" / "sensor.toml", "-o", out], capsys)
+    assert rc == 0, err
+    assert "the header line repeated" in stdout, stdout
+    assert len(dataset.read_raw(str(out))) == len(rows)

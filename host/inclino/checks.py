@@ -703,9 +703,10 @@ def _axes_and_lag(ds, rows_all, rep, ug_src=None):
                 + _fix(ds, "magnetometer", "that axis map")), "mag", fig))
         rep.mag_to_acc = P.tolist()
     else:
-        if ug_src is None:
+        if ug_src is None and not rep.one_orientation:
             # with poses the fit is against the poses' field vectors, in which a mirrored axis leaves a
-            # residual many times the noise (or a determinant -1): the dip alone is not all that checks it
+            # residual many times the noise (or a determinant -1): the dip alone is not all that checks it;
+            # at one orientation nothing shows a mirror, which the orientations' note says
             _weak_handedness(ug, ub, spreads, best, ident, other, ds, rep)
         P = np.eye(3)
     ubp = ub @ P.T
@@ -713,7 +714,9 @@ def _axes_and_lag(ds, rows_all, rep, ug_src=None):
     held = _held(ds, block, ug, ub) if ug_src is None else None
     if held is not None:
         rep.findings.append(Finding("row-alignment", "note", held[0], None, held[1]))
-    lags = _spread_by_lag(ug, ubp) if held is None else {}
+    # one orientation: no position changes, a shift changes nothing (jitter at rest read as "rows where the
+    # position changes" named a shift on a still log)
+    lags = _spread_by_lag(ug, ubp) if held is None and not rep.one_orientation else {}
     if not lags:
         _dip_sign(ds, _dip(ug, ubp), ug_src, rep)
         return
@@ -1710,7 +1713,9 @@ def _holds_note(ds, rep):
     (inclino.holds); pose-free diagnose fits the holds, not the motion."""
     from inclino import holds
 
-    if holds.labelled(ds):
+    if holds.labelled(ds) or rep.one_orientation:
+        # (one orientation: its "holds" are one pose, and the rows between them jitter, not a turn; an LSM303
+        # standing still on a robot was said to move between 7 holds)
         return
 
     h = holds.find(ds)

@@ -43,9 +43,28 @@ def determined(raw, R=None) -> bool:
         return False
     if R is not None:
         raw = np.asarray(raw, float) - far_mean(raw, R)
+    if planar(raw):
+        return False
     D, s = _design(raw)
     sv = np.linalg.svd(D / s, compute_uv=False)
     return bool(sv[0] > 0 and sv[-2] / sv[0] >= DETERMINED_SV)
+
+
+def planar(raw) -> bool:
+    """Whether the readings lie on a plane (their least variance over their
+    largest below SPHERE_MIN_PLANE): a sensor turned about one axis reads a
+    circle, which lies on every sphere and ellipsoid whose axis passes
+    through it.  An LSM303 turned once about the vertical on a robot that
+    rocked a little (its accelerometer within 0.7 deg of one direction)
+    read a circle whose least variance was 0.0019 of its largest; its
+    quadric passed the singular-value test (3e-2), and the checks named an
+    axis map of the magnetometer from an ellipsoid the noise had picked.
+    Turned logs over the sphere: 0.2 to 0.43."""
+    raw = np.asarray(raw, float)
+    if len(raw) < 4:
+        return True
+    ev = np.linalg.eigvalsh(np.cov((raw - raw.mean(0)).T))
+    return not ev[0] > SPHERE_MIN_PLANE * ev[-1]
 
 
 def far_mean(raw, R):
@@ -80,7 +99,7 @@ def ellipsoid_start(raw, R, what: str = "the triad"):
         return M, b + m
     D, s = _design(raw)
     _, sv, Vt = np.linalg.svd(D / s, full_matrices=False)
-    if len(raw) < 10 or not sv[-2] / sv[0] >= DETERMINED_SV:
+    if len(raw) < 10 or planar(raw) or not sv[-2] / sv[0] >= DETERMINED_SV:
         raise UndeterminedError(f"too few orientations to determine {what}'s ellipsoid (readings on a few circles or in "
                         f"a plane: turn the sensor through more of the sphere)")
     v = Vt[-1] / s
@@ -114,8 +133,7 @@ def sphere(v):
     spread = float(np.sqrt(((v - mean) ** 2).sum(1).mean()))
     if not spread > SPHERE_MIN_SPREAD * float(np.linalg.norm(mean)):
         return None
-    ev = np.linalg.eigvalsh(np.cov((v - mean).T))
-    if not ev[0] > SPHERE_MIN_PLANE * ev[-1]:
+    if planar(v):
         # the readings on a circle (a sensor turned about one axis: a compass turned on a table): a circle lies
         # on every sphere whose centre is on its axis, and the fit's radius is whichever the noise picks (a
         # horizontal circle of 20 uT read as a sphere of 20 uT where |b| is 71 uT)

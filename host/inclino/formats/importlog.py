@@ -26,6 +26,7 @@ from __future__ import annotations
 import csv
 import dataclasses
 import hashlib
+import json
 import math
 import os
 import re
@@ -94,6 +95,18 @@ def _numeric(text: str) -> bool:
         return True
     except ValueError:
         return t.lower() in MISSING
+
+
+def _bracket_hint(cell: str, line: str) -> str:
+    """The hint for a cell that is a number inside brackets or quotes (a
+    tuple or a list printed as text: "((-0.51, -0.07, 10.55), (-38.8, ...))"
+    was "'((-0.51' is not a number"), naming every such mark on its line,
+    else ''."""
+    marks = "".join(c for c in "()[]{}<>'\"" if c in line)
+    if not marks or not _numeric(cell.translate(str.maketrans("", "", marks))):
+        return ""
+    return (f" (a number inside brackets or quotes: a tuple or a list printed as text; [log] strip = "
+            f"{json.dumps(marks)} takes them out of every line)")
 
 
 def _clock(text: str):
@@ -346,6 +359,8 @@ def _import(lines, path: str, desc: SensorDescription, static, drop_bad=False,
         break
     if first is None:
         raise DataError(f"{path}: no data")
+    unbracket = str.maketrans("", "", desc.strip)
+    first = first.translate(unbracket)
     for t in desc.triads:  # unit = "field" with no [header] field_nT: the log's own field_nT line gives it
         if t.unit == FIELD_UNIT and t.scale is None:
             if "field_nT" not in log_meta:
@@ -428,8 +443,13 @@ def _import(lines, path: str, desc: SensorDescription, static, drop_bad=False,
 
     def take(text, lineno):
         nonlocal read
-        cells = _split(text, delim)
+        cells = _split(text.translate(unbracket), delim)
         if not cells or all(not c.strip() for c in cells):
+            return
+        if names is not None and [c.strip() for c in cells] == [c.strip() for c in names]:
+            # the header line again (logs joined into one file): no sample, dropped and counted
+            key = "the header line repeated (logs joined into one file?)"
+            dropped[key] = dropped.get(key, 0) + 1
             return
         read += 1
         # a row of another length than the header is a cut or garbled line (a value cut short, a decimal
@@ -486,7 +506,7 @@ def _import(lines, path: str, desc: SensorDescription, static, drop_bad=False,
                         " (a date-time, but not as ISO 8601 writes one: YYYY-MM-DD hh:mm:ss, or hh:mm:ss.sss "
                         "alone; rewrite the column, or time it by [log] rate_hz)"
                         if k == "t_s" and re.fullmatch(r"[\d./ -]+[ T]?\d{1,2}:\d{2}(:\d{2}([.,]\d+)?)?", text_)
-                        else "")
+                        else _bracket_hint(text_, text))
                 if drop_bad and not hint:
                     bad_lines.append(lineno)
                     return

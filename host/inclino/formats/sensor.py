@@ -64,7 +64,7 @@ READS = ("up", "down")
 BAD_ROWS = ("refuse", "drop")
 TOP_KEYS = {"name", "preset", "notes", "source", "log", "accelerometer", "magnetometer", "header", "poses"}
 LOG_KEYS = {"delimiter", "comment", "header", "skip_rows", "time", "time_unit", "rate_hz", "temperature",
-            "samples_averaged", "static", "keep", "decimal", "bad_rows"}
+            "samples_averaged", "static", "keep", "decimal", "bad_rows", "strip"}
 FIELD_UNIT = "field"  # magnetometer readings normalised to the site's total field: 1.0 = field_nT
 RATE_UNITS = {"Hz": 1.0, "hz": 1.0, "kHz": 1e3, "khz": 1e3}
 TRIAD_KEYS = {"columns", "unit", "lsb", "reads", "x", "y", "z", "axes", "reflection", "range", "noise", "lag", "zero",
@@ -227,6 +227,8 @@ class SensorDescription:
     static: bool | None = None
     keep: dict | None = None          # {column: [values]}: rows to keep (others dropped, counted)
     bad_rows: str = "refuse"          # a malformed row (cells missing, not a number): "refuse" or "drop"
+    strip: str = ""                   # characters taken out of every line before it is split (brackets of a
+                                      # tuple printed as text: "((ax, ay, az), (mx, my, mz))" with strip = "()")
     header: dict = field(default_factory=dict)  # canonical header values (dip_deg, field_nT, ...)
     poses: dict | None = None         # {"inc": col, "azi": col, "tf": col} or {"label": col, "labels": {...}}
     pose_scale: float = 1.0           # degrees per unit of the poses ([poses] unit: "deg", or "rad")
@@ -689,6 +691,11 @@ def from_dict(d: dict, what: str = "sensor description") -> SensorDescription:
         raise DataError(f"{what}[log].bad_rows: \"refuse\" (the first malformed row stops the import) or \"drop\" "
                         "(malformed rows are dropped and counted)")
     s.bad_rows = br
+    st = log.get("strip", "")
+    if not isinstance(st, str) or any(c.isalnum() or c in ".+-" or c.isspace() for c in st):
+        raise DataError(f"{what}[log].strip: the characters to take out of every line before it is split (brackets: "
+                        f"\"()\" or \"[]\"), never a digit, a letter, a sign, a point or a space")
+    s.strip = st
     keep = log.get("keep")
     if keep is not None:
         if not (isinstance(keep, dict) and all(isinstance(v, list) for v in keep.values())):
