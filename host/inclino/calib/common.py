@@ -30,18 +30,26 @@ def world_of(ds: RawDataset) -> dict:
     dataset header; the field total defaults to the median raw norm when the
     header lacks it (it only sets the unit of the corrected field)."""
     m = ds.meta
-    F = m.get("field_nT")
-    if F is None and ds.has_mag:
-        # the radius of the sphere the readings lie on (offsets do not move it), else the median |b|
-        from .ellipsoid import sphere
-
-        sph = sphere(ds.mag) if len(ds) >= 10 else None
-        F = (sph[1] if sph is not None else float(np.median(np.linalg.norm(ds.mag, axis=1)))) or DEFAULT_FIELD_NT
-    if F is None:
-        F = DEFAULT_FIELD_NT
-    return {"field_nT": float(F), "dip_deg": m.get("dip_deg"),
+    return {"field_nT": field_of(ds)[0], "dip_deg": m.get("dip_deg"),
             "declination_deg": float(m.get("declination_deg", 0.0)),
             "gravity_g": float(m.get("gravity_g", 1.0))}
+
+
+def field_of(ds: RawDataset) -> tuple:
+    """(field total in nT, where it came from): the header's field_nT, else
+    the radius of the sphere the raw readings lie on (offsets do not move
+    it), else their median |b|; 50 000 nT without a magnetometer."""
+    F = ds.meta.get("field_nT")
+    if F is not None:
+        return float(F), "the header's field_nT"
+    if not ds.has_mag:
+        return DEFAULT_FIELD_NT, "50000 nT (no magnetometer)"
+    from .ellipsoid import sphere
+
+    sph = sphere(ds.mag) if len(ds) >= 10 else None
+    F = sph[1] if sph is not None else float(np.median(np.linalg.norm(ds.mag, axis=1)))
+    return float(F or DEFAULT_FIELD_NT), (("the radius of the sphere the raw readings lie on" if sph is not None else
+                                           "the raw readings' median |b|") + ": no field_nT in the header")
 
 
 def need_poses(ds: RawDataset, method: str) -> None:

@@ -26,6 +26,7 @@ from inclino.formats.calfile import Calibration
 from inclino.errors import CalibrationError, DataError
 
 from . import triad
+from .common import field_of, world_of
 from .joint import SIGMA_ACC, SIGMA_MAG
 
 MIN_ROWS_POSES = 6
@@ -58,18 +59,8 @@ def truth(ds, kind, w):
 
 
 def world(ds) -> dict:
-    m = ds.meta
-    F = m.get("field_nT")
-    src = "the header's field_nT" if F is not None else "50000 nT (no magnetometer)"
-    if F is None and ds.has_mag:
-        from .ellipsoid import sphere
-
-        s = sphere(ds.mag)
-        F = s[1] if s is not None else float(np.median(np.linalg.norm(ds.mag, axis=1)))
-        src = ("the radius of the sphere the raw readings lie on" if s is not None else
-               "the raw readings' median |b|") + ": no field_nT in the header"
-    return {"field_nT": float(F or 50000.0), "field_from": src, "dip_deg": m.get("dip_deg"),
-            "declination_deg": float(m.get("declination_deg", 0.0)), "gravity_g": float(m.get("gravity_g", 1.0))}
+    """world_of, with where its field total came from (the report says it)."""
+    return {**world_of(ds), "field_from": field_of(ds)[1]}
 
 
 def fit(ds, use_poses=None, sigma_acc=None, sigma_mag=None, **_):
