@@ -229,11 +229,14 @@ def test_a_fit_that_may_have_turned_the_field_asks_for_the_dip(monkeypatch, tmp_
     run = _ck_mirrored_weakly(monkeypatch, tmp_path, None)
     capsys.readouterr()
     assert main(["calibrate", str(run), "-o", str(tmp_path / "cal.json"), "--json"]) in (0, 1)
-    notes = [n for n in json.loads(capsys.readouterr().out)["report"]["notes"] if "180 deg" in n]
+    every = json.loads(capsys.readouterr().out)["report"]["notes"]
+    notes = [n for n in every if "180 deg" in n]
     after = [n for n in notes if n.startswith("check: warning: the fitted dip is +17.8 deg")]
     assert len(after) == 1 and "may have turned the field" in after[0] and "dip_deg" in after[0], notes
-    before = [n for n in notes if "may be mirrored against" in n]  # the checks before the fit say it too
-    assert len(before) == 1 and "dip_deg" in before[0], notes
+    assert "with the dip's sign turned" in after[0], after[0]  # the mirror's twin named beside it
+    # the checks before the fit say it too, naming the mirror and its twin, the rotation that fits alike
+    before = [n for n in every if "may not fit the accelerometer's" in n]
+    assert len(before) == 1 and "dip_deg" in before[0] and "right-handed" in before[0] and "left-handed" in before[0]
 
 
 SAP6_TOML = (REAL / "sap6" / "sensor.toml").read_text() + "\n[header]\ndip_deg = 67.8\n"  # the instruments' own dip
@@ -310,9 +313,12 @@ def test_a_declared_reflection_that_does_not_fit_is_not_suggested_again(tmp_path
     """A description that already says reflection = true, with a map that
     mirrors the data: the error says the declared reflection does not fit
     the data as mapped and names the rotation to write, instead of ending
-    "(or reflection = true ...)" again."""
+    "(or reflection = true ...)" again.  (With the site's dip, -17.8 deg as
+    the CK log's documented frames give it: without it the rotation and its
+    left-handed twin fit alike, test_a_map_and_its_negative_...)"""
     text = (REAL / "ck_acc_mag" / "sensor.toml").read_text().replace(
-        'axes = "x = mx, y = my, z = mz"', 'axes = "x = mx, y = -my, z = mz"\nreflection = true')
+        'axes = "x = mx, y = my, z = mz"', 'axes = "x = mx, y = -my, z = mz"\nreflection = true') \
+        + "\n[header]\ndip_deg = -17.8\n"
     desc = tmp_path / "declared.toml"
     desc.write_text(text)
     out = tmp_path / "run.csv"
@@ -603,3 +609,29 @@ def test_a_still_log_says_one_orientation_and_nothing_it_cannot_see(seed):
     assert rep.one_orientation
     said = [(f.check, f.message) for f in rep.findings if f.check in ("motion", "handedness", "row-alignment", "axes")]
     assert not said, said
+
+
+def test_a_map_and_its_negative_are_both_named_without_the_site_dip(tmp_path, capsys):
+    """A map P and its negative -P spread the dip alike, the dip's sign
+    turned: one is a rotation of the axes as given, the other a reflection.
+    An ICM-20948's magnetometer map written turned 180 deg about z (x and y
+    negated) was called mirrored (z), and the reflection advised imported
+    with every azimuth 180 deg off.  Without the site's dip both are named
+    (exit 2: which one is right the data do not say); with it, the one whose
+    dip has the header's sign."""
+    text = (REAL / "ck_acc_mag" / "sensor.toml").read_text().replace(
+        'axes = "x = mx, y = my, z = mz"', 'axes = "x = -mx, y = -my, z = mz"')
+    desc = tmp_path / "turned.toml"
+    desc.write_text(text)
+    out = tmp_path / "run.csv"
+    log = str(REAL / "ck_acc_mag" / "acc_mag_log.csv")
+    assert main(["import", log, "--sensor", str(desc), "-o", str(out)]) == 2
+    err = capsys.readouterr().err
+    assert err.count("\n") == 1 and not out.exists()
+    assert 'axes = "x = mx, y = my, z = mz" (right-handed: dip -17.8 deg)' in err, err
+    assert 'axes = "x = -mx, y = -my, z = -mz" (left-handed, with reflection = true: dip +17.8 deg)' in err, err
+    desc.write_text(text + "\n[header]\ndip_deg = -17.8\n")  # the CK log's own dip (sensor.toml)
+    assert main(["import", log, "--sensor", str(desc), "-o", str(out)]) == 0
+    err = capsys.readouterr().out
+    (line,) = [x for x in err.splitlines() if "magnetometer's axes" in x]
+    assert "warning" in line and 'axes = "x = mx, y = my, z = mz" (a rotation' in line, line

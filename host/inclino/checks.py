@@ -672,7 +672,19 @@ def _axes_and_lag(ds, rows_all, rep, ug_src=None):
     shown = f"axes = \"{write}\"" if _imported(ds) else write
     fig = {"dip_spread_declared_deg": s_id, "dip_spread_best_deg": s_best, "best_map": _perm_text(P),
            "map_to_write": write}
-    if best != ident and s_id > max(AXES_RATIO * s_best, MIN_SPREAD_DEG + s_best):
+    # a map P and its negative -P spread the dip alike (the dip's sign turned), one a rotation of the axes as
+    # given, the other a reflection: only the site's dip sign tells them apart
+    sign_known = hdr is not None and abs(float(hdr)) >= DIP_SIGN_MIN_DEG
+    reflected = intended_reflection(ds, "mag") or intended_reflection(ds, "acc")
+    if best != ident and s_id > max(AXES_RATIO * s_best, MIN_SPREAD_DEG + s_best) and not sign_known \
+            and not reflected:
+        rep.findings.append(Finding("handedness", "error", _twins_text(
+            ds, P, dips, other, f"the magnetometer's axes as given do not fit the {other}: the dip angle spreads "
+                                f"{s_id:.3g} deg with the axes as given, {s_best:.3g} deg with")
+            + "; " + _fix(ds, "magnetometer", "the axis map") + " (or give the site's dip to have it told)",
+            "mag", {**fig, "twin_map_to_write": _map_to_write(ds, -P)[0]}))
+        P = np.eye(3)
+    elif best != ident and s_id > max(AXES_RATIO * s_best, MIN_SPREAD_DEG + s_best):
         det = int(round(np.linalg.det(P)))
         if det < 0:
             if not intended_reflection(ds, "mag") and not intended_reflection(ds, "acc"):
@@ -707,7 +719,7 @@ def _axes_and_lag(ds, rows_all, rep, ug_src=None):
             # with poses the fit is against the poses' field vectors, in which a mirrored axis leaves a
             # residual many times the noise (or a determinant -1): the dip alone is not all that checks it;
             # at one orientation nothing shows a mirror, which the orientations' note says
-            _weak_handedness(ug, ub, spreads, best, ident, other, ds, rep)
+            _weak_handedness(ug, ub, spreads, dips, best, ident, other, ds, rep)
         P = np.eye(3)
     ubp = ub @ P.T
     m = len(block)
@@ -985,7 +997,28 @@ def _dip_sign(ds, d, ug_src, rep):
                 {"dip_deg": dip, "header_dip_deg": hdr, "dip_spread_deg": spread}))
 
 
-def _weak_handedness(ug, ub, spreads, best, ident, other, ds, rep):
+def _twins_text(ds, P, dips, other, head) -> str:
+    """`head` followed by the two maps that spread the dip alike, P and -P
+    (found in the body frame as imported; written composed with the
+    declared map, one right-handed, one left-handed, their dips of opposite
+    signs), and why the data do not choose: an ICM-20948's magnetometer map
+    written turned 180 deg about z was called mirrored, and its advised
+    reflection imported with every azimuth 180 deg off."""
+    def one(M):
+        write, det = _map_to_write(ds, M)
+        shown = f"axes = \"{write}\"" if _imported(ds) else write
+        hand = ("right-handed" if det > 0 else
+                "left-handed, with reflection = true" if _imported(ds) else "a reflection, determinant -1")
+        return f"magnetometer {shown} ({hand}: dip {dips[tuple(M.ravel())]:+.1f} deg)", det
+    (a, da), (b, _) = one(P), one(-P)
+    if da < 0:
+        a, b = b, a
+    return (f"{head} either {a} or {b}: the two fit the {other} alike, the dip's sign turned, and only the "
+            f"site's dip tells them apart (without a header dip_deg the checks cannot; [header] dip_deg, or "
+            f"# dip_deg= in the log; inclino reffield gives it)")
+
+
+def _weak_handedness(ug, ub, spreads, dips, best, ident, other, ds, rep):
     """Where no map cuts the dip's spread AXES_RATIO times: how well the data
     tell a mirrored magnetometer axis at all.  A one-axis mirror moves the dip
     only where that axis and gravity (or the field) share a plane the sensor
@@ -1008,18 +1041,30 @@ def _weak_handedness(ug, ub, spreads, best, ident, other, ds, rep):
         h = m // 2
         halves = [(_robust_std(_dip(ug[sl], ub[sl])), _robust_std(_dip(ug[sl], ub[sl] @ P.T)))
                   for sl in (slice(0, h), slice(h, m))]
-        if all(a > HAND_WEAK_HALF * b for a, b in halves):
+        if not all(a > HAND_WEAK_HALF * b for a, b in halves):
+            pass
+        elif ds.meta.get("dip_deg") is None or abs(float(ds.meta["dip_deg"])) < DIP_SIGN_MIN_DEG:
+            # the mirror found and its negative, a rotation of the axes as given, spread the dip alike: both named
+            rep.findings.append(Finding("handedness", "warning", _twins_text(
+                ds, P, dips, other, f"the magnetometer's axes as given may not fit the {other}: the dip angle spreads "
+                                    f"{s_id:.3g} deg with the axes as given ({', '.join(f'{a:.3g}' for a, _ in halves)} "
+                                    f"in each half of the log), {spreads[best]:.3g} deg "
+                                    f"({', '.join(f'{b:.3g}' for _, b in halves)}) with")
+                + f"; the sensor turned through too few orientations to be sure (the error needs {AXES_RATIO:g}x): "
+                  f"check the axis map of each triad against its data sheet, or log the sensor tilted through more "
+                  f"orientations", "mag", {"dip_spread_declared_deg": s_id, "dip_spread_best_deg": spreads[best],
+                                           "best_map": _perm_text(P), "map_to_write": write,
+                                           "twin_map_to_write": _map_to_write(ds, -P)[0], "halves_deg": halves}))
+            return
+        else:
             rep.findings.append(Finding("handedness", "warning", (
                 f"the magnetometer's axes may be mirrored against the {other}: the dip angle spreads {s_id:.3g} deg "
-                f"with the axes as given, {spreads[best]:.3g} deg with magnetometer {shown} (a reflection; "
-                f"each half of the log: {', '.join(f'{a:.3g} against {b:.3g}' for a, b in halves)}); the sensor "
-                f"turned through too few orientations to be sure (the error needs {AXES_RATIO:g}x): check the axis "
-                f"map of each triad against its data sheet, or log the sensor tilted through more orientations"
-                + ("" if ds.meta.get("dip_deg") is not None else
-                   "; without a header dip a fit can take the mirror as a rotation and turn the field through 180 "
-                   "deg unseen: give the site's dip ([header] dip_deg, or # dip_deg= in the log)")),
-                "mag", {"dip_spread_declared_deg": s_id, "dip_spread_best_deg": spreads[best],
-                        "best_map": _perm_text(P), "map_to_write": write, "halves_deg": halves}))
+                f"with the axes as given, {spreads[best]:.3g} deg with magnetometer {shown} (a reflection, the dip's "
+                f"sign the header's; each half of the log: {', '.join(f'{a:.3g} against {b:.3g}' for a, b in halves)})"
+                f"; the sensor turned through too few orientations to be sure (the error needs {AXES_RATIO:g}x): check "
+                f"the axis map of each triad against its data sheet, or log the sensor tilted through more "
+                f"orientations"), "mag", {"dip_spread_declared_deg": s_id, "dip_spread_best_deg": spreads[best],
+                                          "best_map": _perm_text(P), "map_to_write": write, "halves_deg": halves}))
             return
     mirrors = {a: spreads[tuple(np.diag([-1.0 if j == a else 1.0 for j in range(3)]).ravel())] for a in range(3)}
     a = min(mirrors, key=mirrors.get)

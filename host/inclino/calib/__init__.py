@@ -199,8 +199,11 @@ def _refuse_turned_field(ds, cal, found) -> str | None:
     dip = float(np.nanmedian(a["dip"]))
     mirror = [f for f in (found.findings if found is not None else [])
               if f.check == "handedness" and f.level == "warning"]
-    hint = f" (the checks before the fit: magnetometer {mirror[0].figures['map_to_write']})" \
-        if mirror and mirror[0].figures.get("map_to_write") else ""
+    fig = mirror[0].figures if mirror else {}
+    hint = ("" if not fig.get("map_to_write") else
+            f" (the checks before the fit: magnetometer {fig['map_to_write']}"
+            + (f", or {fig['twin_map_to_write']} with the dip's sign turned" if fig.get("twin_map_to_write") else "")
+            + ")")
     hdr = ds.meta.get("dip_deg")
     if hdr is not None:
         hdr = float(hdr)
