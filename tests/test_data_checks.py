@@ -635,3 +635,35 @@ def test_a_map_and_its_negative_are_both_named_without_the_site_dip(tmp_path, ca
     err = capsys.readouterr().out
     (line,) = [x for x in err.splitlines() if "magnetometer's axes" in x]
     assert "warning" in line and 'axes = "x = mx, y = my, z = mz" (a rotation' in line, line
+
+
+@pytest.mark.parametrize("triad,lsb,right", [("mag", "0.14 uT", "0.014 uT"), ("mag", "0.0014 uT", "0.014 uT"),
+                                              ("acc", "0.61 mg", "6.1e-05 g")])
+@pytest.mark.parametrize("field", [None, 31_000])
+def test_an_lsb_a_power_of_ten_off_is_named_with_the_lsb_it_is(tmp_path, triad, lsb, right, field):
+    """A unit prefix slipped in the lsb (an LSM9DS1's 0.14 mG written
+    0.14 uT): the error named "lsb = 0.01267 uT", the lsb that puts the field
+    mid-range, and told the user to fix the unit.  The lsb a power of ten
+    off is named, as the lsb to fix."""
+    log = _ck_counts(tmp_path)
+    good = {"ACC_LSB": "1/16384 g", "MAG_LSB": "0.014 uT"}
+    text = CK_COUNTS.replace("ACC_LSB" if triad == "acc" else "MAG_LSB", lsb)
+    for k, v in good.items():
+        text = text.replace(k, v)
+    if field is None:
+        text = text.replace("[header]\nfield_nT = 31000\n", "")
+    (f,) = _found(checks.run(importlog.import_log(str(log), sensor.from_toml(text))[0]), "units", "error")
+    assert f'lsb = "{right}"' in f.message and "fix the lsb" in f.message and "fix the unit" not in f.message, f.message
+
+
+@pytest.mark.parametrize("declared,data,want", [("m/s2", 1.0, "g"), ("mg", 1.0, "g"), ("g", 9.80665, "m/s2")])
+def test_the_unit_to_write_is_the_one_the_readings_look_like(declared, data, want):
+    """A log in g declared m/s2 was told to "fix the unit (unit = "m/s2",
+    "mg", or "counts" with lsb)": the unit it had declared, and not g.  The
+    fix names the unit the readings look like."""
+    ds = _load("ck_acc_mag/acc_log.csv", "ck_acc_mag/acc_only.toml")
+    size = sensor.unit_size(declared, "acc")
+    meta = {**ds.meta, "acc_unit": declared}
+    bad = dataset.RawDataset({**{c: ds.columns[c] * data * size for c in dataset.ACC_COLS}}, meta)
+    (f,) = _found(checks.run(bad), "units", "error")
+    assert f'fix the unit (unit = "{want}")' in f.message, f.message

@@ -437,14 +437,54 @@ def _whole(k) -> bool:
     return bool(k.size) and float(np.mean(np.abs(k - np.round(k)) < 1e-3)) >= 0.99
 
 
-def _counts_hint(ds, triad: str, ratio: float) -> str:
+def _counts_hint(ds, triad: str, ratio: float, tol: float) -> str:
     """The lsb that makes counts whose size is `ratio` off read the
-    expected size ('' without a declared lsb)."""
+    expected size ('' without a declared lsb): the declared lsb a power of
+    ten off when ratio is within `tol` (in log) of one (a unit prefix
+    slipped: an LSM9DS1's 0.14 mG written 0.14 uT was told to write
+    "0.01267 uT", the lsb that puts the field mid-range, not the
+    0.014 uT it is), else the lsb that makes it so."""
     unit = "g" if triad == "acc" else "nT"
     lsb = ds.meta.get(f"{triad}_lsb_{unit}")
     if not lsb or not (np.isfinite(ratio) and ratio > 0):
         return ""
+    k = int(round(math.log10(ratio)))
+    if k and abs(math.log(ratio / 10.0 ** k)) < tol:
+        return (f"lsb = \"{_lsb_text(float(lsb) / 10.0 ** k, triad)}\", the declared lsb "
+                f"{_lsb_text(float(lsb), triad)} {10 ** abs(k)}x too {'large' if k > 0 else 'small'} (a unit prefix off?)")
     return f"lsb = \"{_lsb_text(float(lsb) / ratio, triad)}\" would make it so"
+
+
+UNIT_SPELLING = {"acc": {"g": "g", "m/s^2": "m/s2", "mg": "mg", "cm/s^2 (Gal)": "cm/s2", "ug": "ug"},
+                 "mag": {"nT": "nT", "uT": "uT", "gauss": "G", "mG": "mG", "tesla": "T"}}
+
+
+def _unit_fix(ds, triad: str, guesses: list, counts: str) -> str:
+    """What to fix, in the sensor description's words: the lsb of counts
+    (counts: the lsb hint), else the unit the readings look like, else the
+    units of the kind other than the one declared (a log in g declared
+    m/s2 was told to write unit = "m/s2", "mg" ..., and not "g")."""
+    name = "accelerometer" if triad == "acc" else "magnetometer"
+    if counts:
+        return _fix(ds, name, "the lsb")
+    declared = str(ds.meta.get(f"{triad}_unit", "g" if triad == "acc" else "nT"))
+    known = UNIT_SPELLING[triad]
+    said = []
+    for g in guesses:
+        if g in known:
+            said.append(f"unit = \"{known[g]}\"")
+        elif g.startswith("counts at "):
+            said.append(f"unit = \"counts\" with lsb = \"1/{g.split()[2]} g\"")
+        elif g.startswith("counts of "):
+            said.append(f"unit = \"counts\" with lsb = \"{g[len('counts of '):]}\"")
+    if not said:
+        from inclino.formats import sensor
+
+        same = sensor.unit_size(declared, triad)
+        said = [f"unit = \"{u}\"" for u in (("g", "m/s2", "mg") if triad == "acc" else ("uT", "G", "mG", "nT"))
+                if same is None or abs(sensor.unit_size(u, triad) / same - 1.0) > 1e-9]
+        said.append("\"counts\" with lsb")
+    return _fix(ds, name, "the unit (" + ", ".join(said[:-1]) + (" or " if len(said) > 1 else "") + said[-1] + ")")
 
 
 def _mid_scale_error(ds, triad: str, v, fig) -> Finding | None:
@@ -507,14 +547,14 @@ def _units_acc(ds, rows, rep):
     # decimals declared counts are another unit (m/s2 read as counts)
     guesses = [] if _whole_counts(ds, "acc", a) else _unit_guesses(ratio, _guessable(ds, "acc", a, ACC_UNIT_GUESS),
                                                                    "g", _declared_factor(ds, "acc"), 0.2)
-    counts = _counts_hint(ds, "acc", ratio) if _counts(ds, "acc") and not guesses else ""
+    counts = _counts_hint(ds, "acc", ratio, 0.2) if _counts(ds, "acc") and not guesses else ""
     like = (f"the readings look like {' or '.join(guesses)}" if guesses else
             f"the readings are {ratio:.4g}x what g would be" + (f": {hint}" if hint else "")
             + (f" ({counts})" if counts else ""))
     unit = ds.meta.get("acc_unit", "g")
     rep.findings.append(Finding("units", "error", (
         f"accelerometer: |g| is {med:.4g} (median of {len(a)} rows), not {G:g} g: {like}, not {unit}; "
-        + _fix(ds, "accelerometer", "the unit (unit = \"m/s2\", \"mg\", or \"counts\" with lsb)")), "acc",
+        + _unit_fix(ds, "acc", guesses, counts)), "acc",
         {**fig, "looks_like": guesses}))
 
 
@@ -590,13 +630,13 @@ def _units_mag(ds, rows, rep):
         return
     guesses = _unit_guesses(R / target, _guessable(ds, "mag", m, MAG_UNIT_GUESS), "nT", _declared_factor(ds, "mag"),
                             0.6)
-    counts = _counts_hint(ds, "mag", R / target) if _counts(ds, "mag") and not guesses else ""
+    counts = _counts_hint(ds, "mag", R / target, 0.2 if F else 0.6) if _counts(ds, "mag") and not guesses else ""
     like = (f"the readings look like {' or '.join(guesses)}" if guesses else
             f"{R / target:.3g}x a geomagnetic field" + (f": {hint}" if hint else "")
             + (f" ({counts})" if counts else ""))
     rep.findings.append(Finding("units", "error", (
         f"magnetometer: |b| is {R:.4g} nT ({how}), not {rng}: {like}, not {unit}; "
-        + _fix(ds, "magnetometer", "the unit (unit = \"uT\", \"G\", \"mG\", or \"counts\" with lsb)")), "mag",
+        + _unit_fix(ds, "mag", guesses, counts)), "mag",
         {**fig, "looks_like": guesses}))
 
 
