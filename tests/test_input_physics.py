@@ -5,6 +5,7 @@ fit").  The logs are the real corpus (tests/data/real) with one thing
 changed: the time column rewritten in another unit, a temperature column
 that is constant, a counter or another column, the rows of one hold."""
 import csv
+import re
 from pathlib import Path
 
 import numpy as np
@@ -99,7 +100,10 @@ def test_a_turn_no_hand_makes_is_refused_with_the_rate_to_write(tmp_path, capsys
     desc = _desc(tmp_path, MPU / "sensor.toml", "rate_hz = 100", "rate_hz = 100000")
     assert main(["import", str(MPU / "example_data_calibration.csv"), "--sensor", str(desc),
                  "-o", str(tmp_path / "run.csv")]) == 2
-    _one_error(capsys.readouterr().err, "rate_hz = 100 in the sensor description")
+    err = capsys.readouterr().err
+    _one_error(err, "rate_hz = 100, 1000x less, is among them")
+    lo, hi = (float(x) for x in re.search(r"at ([\d.e+]+) to ([\d.e+]+) Hz the sensor would turn", err).groups())
+    assert lo <= 100 <= hi, err
     assert not (tmp_path / "run.csv").exists()
     desc = _desc(tmp_path, MPU / "sensor.toml", "rate_hz = 100", "rate_hz = 0.1", "slow.toml")
     (f,) = _time(_found(MPU / "example_data_calibration.csv", desc)[1])
@@ -262,3 +266,26 @@ def test_a_temperature_exactly_linear_in_time_or_rows_is_a_note_and_used(tmp_pat
     assert "temp_c rises exactly linearly" in out and needle in out and "it is used as the temperature" in out
     ds, _ = importlog.import_log(str(log), sensor.load(str(desc)))
     assert checks.not_a_temperature(ds) is None and checks.temperature_ramp(ds) is not None
+
+
+def test_a_rate_not_a_unit_off_is_given_the_rates_that_fit_not_one(tmp_path):
+    """A declared rate is no unit: the MPU-6050's 100 Hz session declared
+    10 000 Hz (100x off) was told a rate 1000x off (10 Hz), as an FXOS8700
+    at 10 Hz declared 1000 was told 1 Hz.  The rates that make the turning a
+    hand's are said; the log's own rate lies among them."""
+    desc = _desc(tmp_path, MPU / "sensor.toml", "rate_hz = 100", "rate_hz = 10000")
+    (f,) = _time(_found(MPU / "example_data_calibration.csv", desc)[1])
+    lo, hi = f.figures["rate_hz_range"]
+    assert lo <= 100 <= hi and "looks_like" not in f.figures and "rate_hz = 10 " not in f.message, f.message
+
+
+def test_a_column_that_is_not_a_time_is_said_not_to_be_one():
+    """A barometer's pressure mapped as the time (standing still on 82 % of
+    its steps, going back on 6 %) was given a unit, "1/0.001 s"."""
+    ds = importlog.import_log(str(REAL / "ck_acc_mag" / "acc_mag_log.csv"),
+                              sensor.load(str(REAL / "ck_acc_mag" / "sensor.toml")))[0]
+    rng = np.random.default_rng(3)
+    # a reading in hundredths of a mbar, updated every 5th row
+    ds.columns["t_s"] = np.repeat(1013.0 + 0.01 * rng.integers(-2, 3, size=len(ds) // 5 + 1), 5)[:len(ds)]
+    (f,) = _time(checks.run(ds))
+    assert "does not look like a time" in f.message and "time_unit" not in f.message, f.message

@@ -117,6 +117,8 @@ TURN_MAX_CHORD_DEG = 30.0            # ... and turn by less than this (a rate, n
 TURN_MIN_PAIRS = 20                  # ... in at least this many pairs (and 2 % of them) at the shortest lag
 TYPICAL_ROW_RATE_HZ = (0.5, 20000.0) # a unit named for the rows makes their rate this ...
 TYPICAL_TURN_DEG_S = (2.0, 2000.0)   # ... and the turning this
+NOT_TIME_STILL = 0.5                 # a time column standing still on more than this share of its steps ...
+NOT_TIME_BACK = 0.02                 # ... and going back on more than this share: not a time
 TIME_FACTORS = (1e-3, 1e3, 1e-6, 1e6, 1e-9, 1e9, 60.0, 1.0 / 60.0, 3600.0, 1.0 / 3600.0)  # units tried (x the
                                      # declared one), in this order: a prefix (ms for s) is the usual slip
 # the temperature column
@@ -1889,7 +1891,7 @@ def _time_unit_text(ds, f: float):
     except DataError:
         return None
     names = [k for k, x in sensor.TIME_UNITS.items() if k != "µs" and abs(x / scale - 1.0) < 1e-9]
-    name = names[0] if names else f"1/{1.0 / scale:.6g} s"
+    name = names[0] if names else (f"1/{1.0 / scale:.6g} s" if scale < 1.0 else f"{scale:.6g} s")
     return f'[log] time_unit = "{name}" (declared "{declared}")', name
 
 
@@ -1913,6 +1915,16 @@ def _time_unit(ds, rep):
     t = np.asarray(t, float)
     dt = np.diff(t)
     back = np.flatnonzero(dt < 0)
+    still, went_back = float(np.mean(dt == 0)), len(back) / len(dt)
+    if still > NOT_TIME_STILL and went_back > NOT_TIME_BACK:
+        # a clock steps forward (a slow one repeats, a joined log goes back a few times): a column that mostly
+        # stands and often goes back is a reading (a barometer's pressure mapped as the time was given a unit)
+        rep.findings.append(Finding("time", "warning", (
+            f"the time column does not look like a time: {100 * still:.0f} % of its steps are zero and "
+            f"{100 * went_back:.0f} % go back (a clock steps forward): another column mapped as the time? "
+            + _fix(ds, "log", "the time column ([log] time, or rate_hz)")), None,
+            {"steps_zero": still, "steps_back": went_back}))
+        return
     if len(back):
         # files joined one after another, each timed from its own start: the rows are read as they stand, but a
         # plot or a drift against time overlays the runs (a six-face session joined from six files)
@@ -1960,9 +1972,28 @@ def _time_unit(ds, rep):
             guess = f
             break
     level = "error" if w is not None and w > TURN_RATE_MAX_DEG_S else "warning"
-    what = "declared rate_hz" if ds.meta.get("rate_hz") and _imported(ds) else "time column's unit"
+    rate = ds.meta.get("rate_hz") and _imported(ds)
+    what = "declared rate_hz" if rate else "time column's unit"
     msg = f"the {what} does not fit the rows: {problem}"
-    if guess is not None:
+    if rate and w is not None:
+        # a rate is no unit: nothing says it is 1000x off rather than 100x (an FXOS8700 at 10 Hz declared
+        # 1000 was told "rate_hz = 1"); the rates that make the turning a hand's or a rig's are said instead
+        r = float(ds.meta["rate_hz"])
+        lo = max(r * TYPICAL_TURN_DEG_S[0] / w, TYPICAL_ROW_RATE_HZ[0])
+        hi = min(r * TYPICAL_TURN_DEG_S[1] / w, TYPICAL_ROW_RATE_HZ[1])
+        fig["rate_hz_range"] = [lo, hi]
+        slip = ""
+        if guess is not None and guess in (1e3, 1e-3) and lo <= r / guess <= hi \
+                and not TYPICAL_ROW_RATE_HZ[0] <= r <= TYPICAL_ROW_RATE_HZ[1]:
+            # (a declared rate no logger runs at: a prefix slip the likelier; within them, nothing tells)
+            fig["looks_like"] = f"{r / guess:.6g} Hz"
+            slip = (f" (rate_hz = {r / guess:.6g}, {'1000x less' if guess > 1 else '1000x more'}, is among them: "
+                    f"{'kHz read as Hz' if guess > 1 else 'Hz read as kHz'}?)")
+        msg += (f"; at {lo:.3g} to {hi:.3g} Hz the sensor would turn at {TYPICAL_TURN_DEG_S[0]:g}-"
+                f"{TYPICAL_TURN_DEG_S[1]:g} deg/s{slip}: check [log] rate_hz against the logger's setting (the "
+                f"drift over the session, the rates and any lag in seconds use it)") if lo < hi else \
+            "; check [log] rate_hz against the logger's setting"
+    elif guess is not None:
         fig["factor"] = guess
         fix = _time_unit_text(ds, guess)
         read = (f"read {guess:g}x slower: " if guess > 1 else f"read {1 / guess:g}x faster: ") if fix is None else \
