@@ -189,3 +189,18 @@ def test_a_shift_beyond_the_rows_searched_is_said_to_be_at_least_the_edge():
     rep = checks.run(_shifted(_tumble(1), 80))
     (f,) = _named(rep)
     assert rep.lag_rows == 0 and "+50 rows or more" in f.message, rep.lines()
+
+
+@pytest.mark.parametrize("spreads,near", [({"1": 3.75, "2": 3.48, "3": 3.57}, [3]),
+                                          ({"1": 4.9, "2": 3.48, "3": 4.6}, [])])
+def test_a_shift_whose_neighbour_spreads_as_little_is_said_not_fixed(spreads, near):
+    """A log of 1 252 rows with its magnetometer 3 rows behind spread the
+    dip 3.48 deg at +2 and 3.57 at +3: "lag = 2" was named as the lag, and
+    after it nothing was named.  A neighbour within LAG_NEIGHBOUR of the
+    least is said to fit nearly as well; a sharp least is not."""
+    ds = dataset.RawDataset({c: np.zeros(10) for c in dataset.ACC_COLS + dataset.MAG_COLS}, {})
+    rep = checks.CheckReport(rows=10, triads="both")
+    checks._name_shift(ds, rep, "spread", 2, "the dip spreads", 4.13, 3.48, {"dip_spread_by_lag_deg": spreads})
+    (f,) = rep.findings
+    assert f.figures["lags_as_near"] == near
+    assert ("lag = 3 fits nearly as well" in f.message) == bool(near), f.message

@@ -70,6 +70,7 @@ LAG_WIDE_PAIRED = 12      # ... leaving at least this many rows paired ...
 LAG_WIDE_JUMP_ROWS = 6_000  # ... (the jumps route: its running medians on logs of this many rows at most)
 LAG_RATIO = 3.0           # spread as paired / spread at the best shift: an error beyond (and > 2 deg)
 LAG_MIN_GAIN = 0.1        # a warning when the best shift cuts the spread by more than this fraction ...
+LAG_NEIGHBOUR = 0.05      # the spread at a shift beside the one named within this share of its own: the row not fixed
 LAG_MIN_DEG = 0.1         # ... and by more than this
 MIN_SPREAD_DEG = 1.0      # a dip spread below this is consistent whatever the shift
 LAG_T = 3.0               # step-and-hold logs: the paired mean-deviation gain of a shift must be this many
@@ -971,11 +972,20 @@ def _name_shift(ds, rep, route: str, kb: int, how: str, s0: float, sb: float, fi
         fix = (f"re-import with [magnetometer] lag = {lag} (the declared lag of {lag - kb} and the {kb:+d} "
                f"found in the rows as imported)")
     lost = "a line is lost" if abs(kb) == 1 else f"{abs(kb)} lines are lost, or one file starts later"
+    # the spread at the shifts beside it within LAG_NEIGHBOUR of its own: the row is not fixed (a log of 1 252
+    # rows shifted by 3 had its spread 3.48 deg at +2, 3.57 at +3, and "lag = 2" was named as the lag)
+    spreads = fig.get("dip_spread_by_lag_deg") or {}
+    near = [k for k in (kb - 1, kb + 1) if route == "spread" and str(k) in spreads
+            and spreads[str(k)] <= (1.0 + LAG_NEIGHBOUR) * sb]
+    unfixed = ("" if not near else
+               f"; the row is not fixed: the spread at {' and '.join(f'{k:+d}' for k in near)} is within "
+               f"{100 * LAG_NEIGHBOUR:.0f} % of it (lag = {' or '.join(str(lag + k - kb) for k in near)} fits nearly as "
+               f"well)")
     rep.findings.append(Finding("row-alignment", level, (
         f"the triads {'look' if route == 'nearest' else 'are'} paired out of step: {how} (its row i "
         f"{'+' if kb > 0 else '-'} {abs(kb)} belongs to the accelerometer's row i: one {which} the other, as when "
-        f"two files are joined and {lost}); " + fix),
-        None, {**fig, "lag_rows": kb, "lag_to_write": lag, "route": route}))
+        f"two files are joined and {lost}); " + fix + unfixed),
+        None, {**fig, "lag_rows": kb, "lag_to_write": lag, "route": route, "lags_as_near": near}))
 
 
 def _held(ds, block, ug, ub):
