@@ -78,7 +78,7 @@ def test_the_json_keeps_the_checks_findings_and_the_conclusion(ck, monkeypatch, 
     run = _mirrored_weakly(ck, monkeypatch, tmp_path, None)
     assert main(["diagnose", run]) == 0
     out, err = capsys.readouterr()
-    warned = [ln.split("warning: ", 1)[1] for ln in err.splitlines() if "may be mirrored" in ln]
+    warned = [ln.split("warning: ", 1)[1] for ln in err.splitlines() if "may not fit" in ln or "may be mirrored" in ln]
     assert main(["diagnose", run, "--json"]) == 0
     d = json.loads(capsys.readouterr().out)
     found = [f for f in d["checks"]["findings"] if f["check"] == "handedness" and f["level"] == "warning"]
