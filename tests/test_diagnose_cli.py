@@ -45,7 +45,7 @@ def test_json_output_has_exactly_the_issue_keys(tmp_path, capsys, tb_dataset):
     assert rc == 0, err
     d = json.loads(out)
     assert list(d) == ["baseline", "effects", "contradicted", "confounded", "unexplained", "checks", "calibrate",
-                       "motion", "conclusion"]
+                       "motion", "pairing", "conclusion"]
     (e,) = d["effects"]
     assert (e["name"], e["sensor"], e["axis"], e["units"]) == ("temperature-bias", "mag", "y", "nT/degC")
     assert abs(e["estimate"] - 0.3) <= 3 * e["stderr"]

@@ -139,7 +139,7 @@ def test_gain_and_json_shape():
     r = diagnose(plans.generate(p, plans.oven_plan(seed=4), 4))
     d = json.loads(r.to_json())
     assert list(d) == ["baseline", "effects", "contradicted", "confounded", "unexplained", "checks", "calibrate",
-                       "motion", "conclusion"]
+                       "motion", "pairing", "conclusion"]
     assert isinstance(d["unexplained"], bool)
     (e,) = d["effects"]
     assert list(e) == ["name", "sensor", "axis", "estimate", "stderr", "units", "gain", "detail"]

@@ -13,14 +13,15 @@ from inclino.formats import dataset, importlog, sensor
 REAL = Path(__file__).parent / "data" / "real"
 
 
-def _imported(log, desc, tmp_path, drop=(), mag_scale=1.0):
+def _imported(log, desc, tmp_path, drop=(), mag_scale=1.0, meta=None, name="run.csv"):
     ds = importlog.import_log(str(REAL / log), sensor.load(str(REAL / desc)))[0]
     for k in drop:
         ds.meta.pop(k, None)
+    ds.meta.update(meta or {})
     for c in dataset.MAG_COLS:
         if c in ds.columns:
             ds.columns[c] = ds.columns[c] * mag_scale
-    p = tmp_path / "run.csv"
+    p = tmp_path / name
     dataset.write_raw(str(p), ds)
     return str(p)
 
@@ -51,7 +52,31 @@ def test_the_pose_free_s2_says_what_it_is_against(tmp_path, capsys):
     assert main(["calibrate", run, "-o", str(tmp_path / "cal.json")]) in (0, 1)
     out = capsys.readouterr().out
     assert "s^2, the residuals' variance over the noise assumed: acc " in out
-    assert " against 0.15 mg, the nominal reading noise; mag " in out and "against its own |b| and dip scatter" in out
+    assert " against 0.15 mg, the nominal noise (an ADIS16210-class reading; the data declare none); mag " in out
+    assert "against its own scatter: the |b| residual of its ellipsoid fit and the dip's robust spread" in out
+    assert "near 1" not in out
+
+
+def test_the_pose_free_s2_is_against_the_declared_noise(tmp_path, capsys):
+    """An ICM-20948 log whose description declares 2.3 mg: the line said
+    'acc 8e+04 against 0.15 mg, the nominal reading noise; mag 0.41 against
+    its own |b| and dip scatter, so near 1'.  The fit assumes the declared
+    noise, which changes what s^2 is against and not the figures (each
+    triad's covariance is scaled by its own s^2)."""
+    plain = _imported("sap6/BB.csv", "sap6/sensor.toml", tmp_path)
+    said = _imported("sap6/BB.csv", "sap6/sensor.toml", tmp_path, meta={"acc_noise_g": 2.3e-3}, name="said.csv")
+    reps = []
+    for run, cal in ((plain, "plain.json"), (said, "said.json")):
+        assert main(["calibrate", run, "-o", str(tmp_path / cal)]) in (0, 1)
+        reps.append(json.loads((tmp_path / cal).read_text())["report"])
+    out = capsys.readouterr().out
+    line = [ln for ln in out.splitlines() if "the residuals' variance over the noise assumed" in ln][-1]
+    assert " against 2.3 mg, the noise the sensor description declares; mag " in line and "near 1" not in line
+    (p, d) = (r["uncertainty"] for r in reps)
+    assert d["predicted_azi_rms_deg"] == pytest.approx(p["predicted_azi_rms_deg"], rel=1e-6)
+    assert d["predicted_inc_rms_deg"] == pytest.approx(p["predicted_inc_rms_deg"], rel=1e-6)
+    for k, v in p["sigma"].items():
+        assert d["sigma"][k] == pytest.approx(v, rel=1e-5, abs=1e-12)
 
 
 def test_a_residual_that_is_not_white_noise_is_said_in_words():

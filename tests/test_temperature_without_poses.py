@@ -35,3 +35,23 @@ def test_a_changing_temperature_without_poses_is_said_not_fitted(ck, keep):
 def test_no_temperature_column_no_note(ck):
     _, rep = calib.fit(ck)
     assert not [x for x in rep.notes if x.startswith("temperature terms")]
+
+
+@pytest.mark.parametrize("span", [0.998, 1.2])
+def test_calibrate_says_diagnose_tests_the_temperature_only_when_diagnose_does(ck, span):
+    """A barometer's temperature on a hand-held log spanned 0.998 degC:
+    calibrate said diagnose tests the residual against temp_c, and diagnose
+    said temp_c does not change enough to test (each had its own 1 degC)."""
+    from inclino.diagnose.analysis import diagnose
+
+    n = len(ck)
+    cols = dict(ck.columns)
+    cols["temp_c"] = 24.8 + span * np.arange(n) / (n - 1)
+    ds = RawDataset(cols, dict(ck.meta))
+    _, rep = calib.fit(ds)
+    (note,) = [x for x in rep.notes if x.startswith("temperature terms not fitted")]
+    says_tested = "inclino diagnose tests it against temp_c" in note
+    untested = [x for x in diagnose(ds).baseline["selection"]["not_testable"] if x["effect"].startswith("temperature")]
+    assert says_tested == (not untested) == (span >= 1.0)
+    if untested:
+        assert "1 degC or more" in note and "1 degC or more" in untested[0]["reason"]

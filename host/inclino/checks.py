@@ -789,14 +789,14 @@ def _axes_and_lag(ds, rows_all, rep, ug_src=None):
             _name_shift(ds, rep, route, kb, how, lags[0], sb, fig)
         else:
             edge = fig["wide_lag_rows"] == kb and abs(kb) == fig["wide_rows_searched"]  # the least at the edge
+            fix = f"re-import with [magnetometer] lag = {_lag_to_write(ds, kb)} (the row or two left is then checked)"
             rep.findings.append(Finding("row-alignment", "warning", (
                 f"the triads are paired out of step by "
                 + (f"{kb:+d} rows or more (the edge of the shifts searched; " if edge else f"about {kb:+d} rows (")
                 + f"the row not fixed: the dip changes "
                 f"too little from one shift to the next here, or its spread is skewed by the triads' calibration "
-                f"errors): {how}; "
-                f"re-import with [magnetometer] lag = {_lag_to_write(ds, kb)} (the row or two left is then "
-                f"checked)"), None, {**fig, "lag_rows_about": kb, "lag_to_write": _lag_to_write(ds, kb)}))
+                f"errors): {how}; {fix}"), None,
+                {**fig, "lag_rows_about": kb, "lag_to_write": _lag_to_write(ds, kb), "fix": fix}))
         _dip_sign(ds, _dip(*_paired(ug, ubp, kb)), ug_src, rep)
         return
     fig = {"dip_spread_by_lag_deg": {str(k): v for k, v in lags.items()}}
@@ -985,7 +985,7 @@ def _name_shift(ds, rep, route: str, kb: int, how: str, s0: float, sb: float, fi
         f"the triads {'look' if route == 'nearest' else 'are'} paired out of step: {how} (its row i "
         f"{'+' if kb > 0 else '-'} {abs(kb)} belongs to the accelerometer's row i: one {which} the other, as when "
         f"two files are joined and {lost}); " + fix + unfixed),
-        None, {**fig, "lag_rows": kb, "lag_to_write": lag, "route": route, "lags_as_near": near}))
+        None, {**fig, "lag_rows": kb, "lag_to_write": lag, "route": route, "lags_as_near": near, "fix": fix}))
 
 
 def _held(ds, block, ug, ub):
@@ -1706,7 +1706,8 @@ def _acc_poses(ds, rows, rep):
             f"the accelerometer's rows and the poses are out of step: the gravity direction misses the poses by "
             f"{errs[0]:.3g} deg (median) as paired, {errs[kb]:.3g} deg with the readings shifted by {kb:+d} rows; "
             f"the pose columns and the readings were joined one row off"), "acc",
-            {"misfit_by_lag_deg": {str(k): v for k, v in errs.items()}}))
+            {"misfit_by_lag_deg": {str(k): v for k, v in errs.items()},
+             "fix": f"join the pose columns to the readings shifted by {kb:+d} rows"}))
     return gp
 
 

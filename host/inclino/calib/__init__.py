@@ -109,10 +109,10 @@ def fit(ds, method: str = DEFAULT_METHOD, data_hash: dict | None = None, report:
             cal, info = mod.fit(ds, **opts)
             if method == "joint" and opts.get("temperature", "auto") != "off":  # calib/thermal.py
                 from . import thermal
-                from .joint import SIGMA_ACC, SIGMA_MAG, SIGMA_POSE_DEG
+                from .joint import SIGMA_POSE_DEG
 
-                cal, info = thermal.fit(ds, cal, info, opts.get("temperature", "auto"),
-                                        opts.get("sigma_acc", SIGMA_ACC), opts.get("sigma_mag", SIGMA_MAG),
+                an = info["assumed_noise"]  # the noise joint.fit assumed
+                cal, info = thermal.fit(ds, cal, info, opts.get("temperature", "auto"), an["acc_g"], an["mag_nT"],
                                         opts.get("sigma_pose_deg", SIGMA_POSE_DEG), bool(opts.get("fix_dip")))
     except np.linalg.LinAlgError as e:
         raise CalibrationError(f"{method}: singular fit ({e})")

@@ -23,6 +23,32 @@ from inclino.errors import CalibrationError, DataError
 PARAM_NAMES = ([f"acc_m{i}{j}" for i in range(3) for j in range(3)] + [f"acc_b{i}" for i in range(3)]
                + [f"mag_m{i}{j}" for i in range(3) for j in range(3)] + [f"mag_b{i}" for i in range(3)])
 DEFAULT_FIELD_NT = 50000.0
+SIGMA_ACC = 1.5e-4  # g, ADIS16210-class noise of one reading: the project's probe's, assumed when the data declare none
+SIGMA_MAG = 5.0  # nT, the probe's fluxgate's
+
+
+def assumed_noise(ds: RawDataset, sigma_acc: float | None = None, sigma_mag: float | None = None,
+                  declared: bool = True) -> dict:
+    """The noise of one reading a fit assumes, per triad: the one given
+    (an option), else (declared) the one the dataset header declares
+    (acc_noise_g, mag_noise_nT: `inclino import` writes the sensor
+    description's noise), else the project's probe's (SIGMA_ACC,
+    SIGMA_MAG).  {"acc_g", "mag_nT", "acc_from", "mag_from"}, the sources
+    "given", "declared" or "nominal".  A fit of one triad at a time scales
+    its covariance by s^2 against it, so the declared noise changes only
+    what s^2 is against; the joint fit with poses weighs both triads
+    against each other by it, and takes the nominal (declared=False)."""
+    out = {}
+    for t, unit, given, nominal in (("acc", "g", sigma_acc, SIGMA_ACC), ("mag", "nT", sigma_mag, SIGMA_MAG)):
+        said = ds.meta.get(f"{t}_noise_{unit}") if declared else None
+        if given:
+            v, src = float(given), "given"
+        elif said:
+            v, src = float(said), "declared"
+        else:
+            v, src = nominal, "nominal"
+        out[f"{t}_{unit}"], out[f"{t}_from"] = v, src
+    return out
 
 
 def world_of(ds: RawDataset) -> dict:

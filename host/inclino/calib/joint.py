@@ -42,11 +42,10 @@ from inclino.formats.dataset import RawDataset
 from inclino.errors import CalibrationError, DataError
 
 from . import common
+from .common import SIGMA_ACC, SIGMA_MAG  # noqa: F401 (the nominal noise; callers import it from here)
 from .triad import robust_threshold  # noqa: F401 (the outlier threshold of every fit; callers import it from here)
 from .ellipsoid import ellipsoid_start  # noqa: F401 (callers import it from here too)
 
-SIGMA_ACC = 1.5e-4  # g, ADIS16210-class noise of one reading
-SIGMA_MAG = 5.0  # nT
 SIGMA_POSE_DEG = 0.05  # turntable readout
 MIN_ROWS_POSES = 8
 MIN_ROWS_INVARIANTS = 30
@@ -681,8 +680,8 @@ def _fit_invariants(ds, w, sa, sm, fix_dip, prior=None, mount_tolerance_deg=None
     return (Ma, ba, Mm, bm, dip), cov, info
 
 
-def fit(ds: RawDataset, use_poses: bool | None = None, sigma_acc: float = SIGMA_ACC,
-        sigma_mag: float = SIGMA_MAG, sigma_pose_deg: float = SIGMA_POSE_DEG, fix_dip: bool = False,
+def fit(ds: RawDataset, use_poses: bool | None = None, sigma_acc: float | None = None,
+        sigma_mag: float | None = None, sigma_pose_deg: float = SIGMA_POSE_DEG, fix_dip: bool = False,
         prior=None, nonlinear: bool | None = None, mount_tolerance_deg: float | None = None,
         accept_mount_tolerance: bool = False, mag_start=None, noise: str = "fit", **_):
     """prior: a Calibration whose body frame (accelerometer rotation) a
@@ -701,11 +700,20 @@ def fit(ds: RawDataset, use_poses: bool | None = None, sigma_acc: float = SIGMA_
     share a pose (calib/covariance.py) -- after the fit with the nominal
     sigmas, refits whitened by it and takes the covariance from that fit
     (info["noise"]); "nominal": the sigmas given, scaled by s^2.
+    sigma_acc, sigma_mag: the noise of one reading assumed; default:
+    without poses the one the dataset header declares (each triad is fitted
+    alone, its covariance scaled by its s^2 against it: the declared noise
+    changes what s^2 is against, not the figures), else the nominal
+    SIGMA_ACC, SIGMA_MAG; with poses the nominal (they weigh the triads
+    against each other in the first pass, whose outliers the run's own
+    noise is then fitted without; common.assumed_noise); info["assumed_noise"].
     The temperature terms (--temperature-terms) are added by calib.fit
     (inclino.calib.thermal)."""
     w = common.world_of(ds)
     if use_poses is None:
         use_poses = ds.has_pose
+    an = common.assumed_noise(ds, sigma_acc, sigma_mag, declared=not use_poses)
+    sigma_acc, sigma_mag = an["acc_g"], an["mag_nT"]
     if use_poses:
         common.need_poses(ds, "joint with poses")
         if len(ds) < MIN_ROWS_POSES:
@@ -757,6 +765,7 @@ def fit(ds: RawDataset, use_poses: bool | None = None, sigma_acc: float = SIGMA_
         prior_notes.append(f"the prior is of probe {prior.probe_serial}, the data of probe {ds.meta.get('probe_serial')}")
     cal = common.make_cal(Ma, ba, Mm, bm, "joint", ds)
     info["world"] = w
+    info["assumed_noise"] = an
     info.update({"rows_used": np.setdiff1d(np.arange(len(ds)), info["outliers"] + info.get("moving", [])),
                  "covariance": cov[:24, :24],
                  "dip_deg": dip, "notes": [f"mode {info['mode']}; s^2 = {info['s2']:.3g} (chi^2/dof; 1 when the "

@@ -26,8 +26,7 @@ from inclino.formats.calfile import Calibration
 from inclino.errors import CalibrationError, DataError
 
 from . import triad
-from .common import field_of, world_of
-from .joint import SIGMA_ACC, SIGMA_MAG
+from .common import assumed_noise, field_of, world_of
 
 MIN_ROWS_POSES = 6
 MIN_ROWS_SPHERE = 12
@@ -67,10 +66,7 @@ def fit(ds, use_poses=None, sigma_acc=None, sigma_mag=None, **_):
     kind = "acc" if ds.has_acc else "mag"
     raw = ds.acc if kind == "acc" else ds.mag
     w = world(ds)
-    unit = "g" if kind == "acc" else "nT"
-    declared = ds.meta.get(f"{kind}_noise_{unit}")
-    sigma = (sigma_acc if kind == "acc" else sigma_mag) or (float(declared) if declared else
-                                                           (SIGMA_ACC if kind == "acc" else SIGMA_MAG))
+    sigma = assumed_noise(ds, sigma_acc, sigma_mag)["acc_g" if kind == "acc" else "mag_nT"]
     poses = _poses(ds, kind) if use_poses is None else bool(use_poses)
     if poses and not _poses(ds, kind):
         raise DataError("the dataset lacks the pose columns (inc_deg, tf_deg" + (", azi_deg" if kind == "mag" else "")

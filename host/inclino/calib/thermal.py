@@ -46,6 +46,9 @@ from . import chunked_lm, common
 MODES = ("auto", "on", "off")
 NOT_FITTED = "temperature terms not fitted"  # how a note that they were not fitted begins (calibrate prints it)
 MIN_SPAN_C = 10.0
+# diagnose tests the temperature effects against a temp_c that changes by this much or more (diagnose_tests):
+# one figure for diagnose (with poses and pose-free) and for calibrate's note that points to it
+DIAGNOSE_MIN_SPAN_C = 1.0
 MIN_CLUSTER_SEP_C = 5.0
 MIN_CLUSTER_ROWS = 6
 MAX_ORDER = 2
@@ -354,21 +357,40 @@ def fit(ds: RawDataset, cal, info: dict, mode: str, sigma_acc: float, sigma_mag:
         return cal, info
 
 
+def diagnose_tests(T) -> bool:
+    """Whether inclino diagnose tests the temperature effects against the
+    temperature column T: every value finite and a span of
+    DIAGNOSE_MIN_SPAN_C or more.  The one test of diagnose (with the poses
+    and pose-free) and of calibrate's note, so that calibrate never says
+    diagnose tests a temp_c that diagnose calls not testable."""
+    if T is None:
+        return False
+    T = np.asarray(T, float)
+    return T.size > 0 and bool(np.all(np.isfinite(T))) and float(np.ptp(T)) >= DIAGNOSE_MIN_SPAN_C
+
+
 def not_fitted_without_poses(ds) -> str | None:
     """The note of a run without the turntable's poses (or with one triad)
     whose temp_c changes: its temperature terms are not fitted (they need
     the poses and both triads), and the pose-free fit leaves what the
-    temperature does in its residual; None without a temp_c that changes."""
-    T = ds.columns.get("temp_c")
-    if T is None or len(T) == 0:
+    temperature does in its residual; None without a temp_c that changes.
+    It says diagnose tests the residual against temp_c only when diagnose
+    does (diagnose_tests)."""
+    T0 = ds.columns.get("temp_c")
+    if T0 is None or len(T0) == 0:
         return None
-    T = np.asarray(T, float)
+    T = np.asarray(T0, float)
     T = T[np.isfinite(T)]
     if len(T) == 0 or not np.ptp(T) > 0.0:
         return None
+    if diagnose_tests(T0):
+        then = "inclino diagnose tests it against temp_c"
+    else:
+        then = (f"too small a change for inclino diagnose to test it against temp_c: that needs "
+                f"{DIAGNOSE_MIN_SPAN_C:g} degC or more")
     return (f"temperature terms not fitted: temp_c spans {np.ptp(T):.3g} degC ({T.min():.3g} to {T.max():.3g}), "
             f"but the temperature fit needs the turntable's poses and both triads; the fit leaves what the "
-            f"temperature does in its residual (inclino diagnose tests it against temp_c)")
+            f"temperature does in its residual ({then})")
 
 
 def _fit(ds, cal, info, mode, sigma_acc, sigma_mag, sigma_pose_deg, fix_dip, seed):

@@ -13,7 +13,7 @@ from inclino.errors import DataError
 from . import core, forward, invariants, robust, selection, serial, study, tails
 from ._blas import one_blas_thread
 from .core import CHANNELS, EFFECT_NAMES, SEPARABLE_MIN, TRIAD_UNITS, TRIADS, Design
-from .result import Diagnosis, Effect, Gain
+from .result import Diagnosis, Effect, Gain, pairing_of
 from .names import RIG_AXES
 from .runvars import AXIS_VARIABLES, run_variable_confounds
 
@@ -110,6 +110,7 @@ def diagnose(ds: RawDataset, effects=None, alpha: float = core.DEFAULT_ALPHA, fo
 
         if checks is not None:
             r.checks = checks.to_dict()
+            r.pairing = pairing_of(checks)
         with one_blas_thread():
             r.calibrate = calibrate_says(ds, checks, static=bool(checks is not None and checks.declared_static))
         return r
@@ -119,6 +120,7 @@ def diagnose(ds: RawDataset, effects=None, alpha: float = core.DEFAULT_ALPHA, fo
         r.baseline.setdefault("selection", {}).setdefault("notes", []).append(thinned)
     if checks is not None:
         r.checks = checks.to_dict()
+        r.pairing = pairing_of(checks)
     return r
 
 

@@ -48,6 +48,7 @@ from inclino.formats.dataset import POSE_COLS, RawDataset
 from inclino.holds import declared_static
 from inclino.errors import CalibrationError, DataError
 from inclino.model import effects as fx
+from inclino.calib.thermal import DIAGNOSE_MIN_SPAN_C, diagnose_tests
 from inclino.model.world import EncoderErrors, TurntableGeometry
 
 from . import serial, tails
@@ -58,7 +59,6 @@ MIN_ROWS = 16
 MIN_ORIENTATIONS = 6
 DEFAULT_ALPHA = 0.01
 DEFAULT_FOLDS = 5
-TEMP_MIN_RANGE_C = 1.0
 MOVING_MIN_RATE_DEG_S = 1.0  # slower than this is a static pose for the skew
 MOVING_MAX_STEP_DEG = 30.0  # consecutive rows further apart are separate poses
 MOVE_DEADBAND_DEG = 0.5  # smaller pose changes are the turntable's readout jitter, not moves
@@ -382,10 +382,9 @@ def untestable_reason(d: Data, cand: Candidate) -> str | None:
     if cand.name.startswith("temperature-"):
         if d.temp is None:
             return "the data have no temperature column (temp_c)"
-        rng = float(d.temp.max() - d.temp.min())
-        if rng < TEMP_MIN_RANGE_C:
-            return (f"the temperature never changes ({d.temp.min():.1f} to {d.temp.max():.1f} degC; "
-                    f"needs a range of at least {TEMP_MIN_RANGE_C:g} degC)")
+        if not diagnose_tests(d.temp):
+            return (f"the temperature never changes ({np.nanmin(d.temp):.1f} to {np.nanmax(d.temp):.1f} degC; "
+                    f"needs a range of at least {DIAGNOSE_MIN_SPAN_C:g} degC)")
     if cand.name in ("field-drift", "sample-skew"):
         if d.t is None:
             return "the data have no time column (t_s)"

@@ -47,6 +47,7 @@ from scipy import stats
 from inclino.errors import DataError
 from inclino.formats.dataset import ID_COLUMNS, RawDataset
 from inclino.holds import declared_static
+from inclino.calib.thermal import DIAGNOSE_MIN_SPAN_C, diagnose_tests
 
 from . import serial as bartlett
 from .core import DEFAULT_ALPHA, DEFAULT_FOLDS, Design, make_folds
@@ -55,7 +56,6 @@ from .result import Diagnosis, Effect, Gain
 INV = ("|g|", "|b|", "dip")
 UNITS = {"|g|": "g", "|b|": "nT", "dip": "deg"}
 MIN_CLUSTERS = 12
-TEMP_MIN_RANGE_C = 1.0
 RIG_MIN_SPAN_DEG = 30.0
 GN_ITERATIONS = 4
 OUTLIER_P = 1e-3
@@ -131,7 +131,7 @@ class _PF:
         self.time_name = "time" if t is not None and np.ptp(t) > 0 else "reading order"
         self.t = mean(t) if t is not None and np.ptp(t) > 0 else mean(np.arange(n0, dtype=float))
         temp = ds.columns.get("temp_c")
-        self.temp = mean(temp) if temp is not None and np.ptp(temp) >= TEMP_MIN_RANGE_C else None
+        self.temp = mean(temp) if diagnose_tests(temp) else None
         self.angles = {}
         for c, name in (("inc_deg", "inc"), ("azi_deg", "azi"), ("tf_deg", "tf")):
             if c in ds.columns:
@@ -866,7 +866,7 @@ def diagnose_posefree(ds: RawDataset, alpha: float = DEFAULT_ALPHA, folds: int =
     not_testable = [{"effect": n, "reason": why} for n, why in NEEDS_POSES]
     if pf.temp is None:
         not_testable.append({"effect": "temperature-bias, temperature-scale",
-                             "reason": "no temp_c column that changes by 1 degC or more"})
+                             "reason": f"no temp_c column that changes by {DIAGNOSE_MIN_SPAN_C:g} degC or more"})
     if not pf.angles and pf.has_mag:
         not_testable.append({"effect": "rig-field", "reason": "no rig angle column (inc_deg, azi_deg, tf_deg) that "
                                                               f"turns by {RIG_MIN_SPAN_DEG:g} deg or more"})

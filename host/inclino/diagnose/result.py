@@ -8,6 +8,7 @@
                   "detail": {...}}],
      "contradicted": [...], "confounded": [...],
      "unexplained": true|false, "checks": {...}|null, "calibrate": {"level", "message"}|null, "motion": {...}|null,
+     "pairing": {"level", "triad", "message", "fix", "explains"}|null,
      "conclusion": "PASS: ..."|"FAIL: ..."}
 
 (docs/diagnose.md describes the baseline object's keys)."""
@@ -75,12 +76,16 @@ class Diagnosis:
     calibrate: dict | None = None
     # without poses, a log read mostly while moving (calib.motion.figures): the hand's acceleration is in |g|
     motion: dict | None = None
+    # the checks before the fit warned (or erred) that the rows are paired out of step (pairing_of): the
+    # likely cause of structure the library's effects leave in the channels it touches
+    pairing: dict | None = None
 
     def to_dict(self) -> dict:
         return {"baseline": json_safe(self.baseline), "effects": [e.to_dict() for e in self.effects],
                 "contradicted": json_safe(self.contradicted), "confounded": json_safe(self.confounded),
                 "unexplained": bool(self.unexplained), "checks": json_safe(self.checks),
                 "calibrate": json_safe(self.calibrate), "motion": json_safe(self.motion),
+                "pairing": json_safe({**self.pairing, "explains": self._mispaired()}) if self.pairing else None,
                 "conclusion": self.conclusion().removeprefix("conclusion: ") if self.baseline else None}
 
     def to_json(self, indent=2) -> str:
@@ -231,6 +236,8 @@ class Diagnosis:
                 from inclino.calib.motion import cause
 
                 lines.append(f"  in |g| likely: {cause(self.motion)}")
+            if self._mispaired():
+                lines.append(f"  in {self._mispaired_words()} likely: {self._pairing_text()}")
         else:
             lines.append(f"unexplained: no (smallest of {s['tests']} structure-test p-values {s['min_p']:.2g}, "
                          f"threshold {s['threshold']:.2g})")
@@ -245,6 +252,36 @@ class Diagnosis:
         """A log read mostly while moving whose |g| residual is among the
         structure no effect explains (the hand's acceleration is in it)."""
         return bool(self.motion) and any(x.get("channel") == "|g|" for x in self.structure.get("significant", []))
+
+    def _mispaired(self) -> list:
+        """The channels whose unexplained structure the rows' pairing out of
+        step (the checks' warning) explains: without poses the triads'
+        pairing moves the dip alone (|g| and |b| are each one triad's); with
+        poses, or the accelerometer's rows against the poses, every channel.
+        [] when the checks warned of none, or nothing unexplained is in
+        those channels."""
+        if not self.pairing or not self.unexplained:
+            return []
+        chans = list(dict.fromkeys(x.get("channel") for x in self.structure.get("significant", [])))
+        if self.baseline.get("mode") == "invariants" and self.pairing.get("triad") != "acc":
+            return ["dip"] if "dip" in chans else []
+        return chans
+
+    def _mispaired_words(self) -> str:
+        ch = self._mispaired()
+        return "the dip" if ch == ["dip"] else "the residuals"
+
+    def _pairing_text(self, short: bool = False) -> str:
+        """The likely cause in words: the pairing the checks named, and
+        their fix (short: the conclusion's, without the why)."""
+        p = self.pairing
+        who = ("the accelerometer's rows and the poses paired out of step" if p.get("triad") == "acc" else
+               "the triads paired out of step")
+        fix = f": {p['fix']}" if p.get("fix") else ""
+        if short:
+            return f"{who} (the checks' row-alignment {p['level']}){fix}"
+        return (f"{who}, as the checks before the fit {'found' if p['level'] == 'error' else 'warned'} (the "
+                f"row-alignment {p['level']} above), which no library effect models{fix}, and diagnose again")
 
     def conclusion(self) -> str:
         """The report's last line: PASS when the baseline model leaves nothing
@@ -280,7 +317,9 @@ class Diagnosis:
             parts.append("structure no library effect explains (p = "
                          f"{self.structure['min_p']:.2g} < {self.structure['threshold']:.2g})"
                          + ("; in |g| likely the hand's acceleration: the sensor moved while it was read"
-                            if self._moved() else ""))
+                            if self._moved() else "")
+                         + (f"; in {self._mispaired_words()} likely {self._pairing_text(short=True)}"
+                            if self._mispaired() else ""))
         head = (f"calibrate refuses these data ({self.calibrate.get('why') or 'see above'})" if refused else "")
         failed = "the pose-free baseline fit failed (its residuals are no fitted model's)" if pose_free and \
             b.get("fit_failed") else ""
@@ -304,3 +343,14 @@ def _the(variable: str) -> str:
     """A run variable as a sentence names it: time, temperature, the
     inclination axis angle."""
     return "the " + variable if variable.endswith("angle") else variable
+
+
+def pairing_of(found) -> dict | None:
+    """The checks' (a checks.CheckReport) first row-alignment warning or
+    error: the rows paired out of step, the triads against each other or
+    the accelerometer's rows against the poses, with the fix the check
+    gives; None without one (its notes: a pairing not named)."""
+    for f in getattr(found, "findings", None) or ():
+        if f.check == "row-alignment" and f.level in ("error", "warning"):
+            return {"level": f.level, "triad": f.triad, "message": f.message, "fix": (f.figures or {}).get("fix")}
+    return None
