@@ -703,8 +703,7 @@ def _axes_and_lag(ds, rows_all, rep, ug_src=None):
     # closest to the declared map (fewest axes changed), then a rotation
     hdr = ds.meta.get("dip_deg")
     tied = [k for k in spreads if spreads[k] <= 1.05 * s_min + 0.05]
-    best = min(tied, key=lambda k: (0 if hdr is None or abs(float(hdr)) < DIP_SIGN_MIN_DEG
-                                    or np.sign(dips[k]) == np.sign(float(hdr)) else 1,
+    best = min(tied, key=lambda k: (0 if not _dip_sign_known(ds) or np.sign(dips[k]) == np.sign(float(hdr)) else 1,
                                     int(np.sum(np.any(np.array(k).reshape(3, 3) != np.eye(3), axis=1))),
                                     np.linalg.det(np.array(k).reshape(3, 3)) < 0))
     s_best = spreads[best]
@@ -717,9 +716,8 @@ def _axes_and_lag(ds, rows_all, rep, ug_src=None):
            "map_to_write": write}
     # a map P and its negative -P spread the dip alike (the dip's sign turned), one a rotation of the axes as
     # given, the other a reflection: only the site's dip sign tells them apart
-    sign_known = hdr is not None and abs(float(hdr)) >= DIP_SIGN_MIN_DEG
     reflected = intended_reflection(ds, "mag") or intended_reflection(ds, "acc")
-    if best != ident and s_id > max(AXES_RATIO * s_best, MIN_SPREAD_DEG + s_best) and not sign_known \
+    if best != ident and s_id > max(AXES_RATIO * s_best, MIN_SPREAD_DEG + s_best) and not _dip_sign_known(ds) \
             and not reflected:
         rep.findings.append(Finding("handedness", "error", _twins_text(
             ds, P, dips, other, f"the magnetometer's axes as given do not fit the {other}: the dip angle spreads "
@@ -1049,6 +1047,13 @@ def _dip_sign(ds, d, ug_src, rep):
                 {"dip_deg": dip, "header_dip_deg": hdr, "dip_spread_deg": spread}))
 
 
+def _dip_sign_known(ds) -> bool:
+    """Whether the header gives the site's dip far enough from 0 (beyond
+    DIP_SIGN_MIN_DEG) for its sign to tell a map from its negative."""
+    hdr = ds.meta.get("dip_deg")
+    return hdr is not None and abs(float(hdr)) >= DIP_SIGN_MIN_DEG
+
+
 def _twins_text(ds, P, dips, other, head) -> str:
     """`head` followed by the two maps that spread the dip alike, P and -P
     (found in the body frame as imported; written composed with the
@@ -1093,30 +1098,25 @@ def _weak_handedness(ug, ub, spreads, dips, best, ident, other, ds, rep):
         h = m // 2
         halves = [(_robust_std(_dip(ug[sl], ub[sl])), _robust_std(_dip(ug[sl], ub[sl] @ P.T)))
                   for sl in (slice(0, h), slice(h, m))]
-        if not all(a > HAND_WEAK_HALF * b for a, b in halves):
-            pass
-        elif ds.meta.get("dip_deg") is None or abs(float(ds.meta["dip_deg"])) < DIP_SIGN_MIN_DEG:
-            # the mirror found and its negative, a rotation of the axes as given, spread the dip alike: both named
-            rep.findings.append(Finding("handedness", "warning", _twins_text(
-                ds, P, dips, other, f"the magnetometer's axes as given may not fit the {other}: the dip angle spreads "
-                                    f"{s_id:.3g} deg with the axes as given ({', '.join(f'{a:.3g}' for a, _ in halves)} "
-                                    f"in each half of the log), {spreads[best]:.3g} deg "
-                                    f"({', '.join(f'{b:.3g}' for _, b in halves)}) with")
-                + f"; the sensor turned through too few orientations to be sure (the error needs {AXES_RATIO:g}x): "
-                  f"check the axis map of each triad against its data sheet, or log the sensor tilted through more "
-                  f"orientations", "mag", {"dip_spread_declared_deg": s_id, "dip_spread_best_deg": spreads[best],
-                                           "best_map": _perm_text(P), "map_to_write": write,
-                                           "twin_map_to_write": _map_to_write(ds, -P)[0], "halves_deg": halves}))
-            return
-        else:
-            rep.findings.append(Finding("handedness", "warning", (
-                f"the magnetometer's axes may be mirrored against the {other}: the dip angle spreads {s_id:.3g} deg "
-                f"with the axes as given, {spreads[best]:.3g} deg with magnetometer {shown} (a reflection, the dip's "
-                f"sign the header's; each half of the log: {', '.join(f'{a:.3g} against {b:.3g}' for a, b in halves)})"
-                f"; the sensor turned through too few orientations to be sure (the error needs {AXES_RATIO:g}x): check "
-                f"the axis map of each triad against its data sheet, or log the sensor tilted through more "
-                f"orientations"), "mag", {"dip_spread_declared_deg": s_id, "dip_spread_best_deg": spreads[best],
-                                          "best_map": _perm_text(P), "map_to_write": write, "halves_deg": halves}))
+        if all(a > HAND_WEAK_HALF * b for a, b in halves):
+            fig = {"dip_spread_declared_deg": s_id, "dip_spread_best_deg": spreads[best], "best_map": _perm_text(P),
+                   "map_to_write": write, "halves_deg": halves}
+            weak = (f"; the sensor turned through too few orientations to be sure (the error needs {AXES_RATIO:g}x): "
+                    f"check the axis map of each triad against its data sheet, or log the sensor tilted through more "
+                    f"orientations")
+            if not _dip_sign_known(ds):
+                # the mirror found and its negative, a rotation of the axes as given, spread the dip alike: both
+                text = _twins_text(ds, P, dips, other, (
+                    f"the magnetometer's axes as given may not fit the {other}: the dip angle spreads {s_id:.3g} deg "
+                    f"with the axes as given ({', '.join(f'{a:.3g}' for a, _ in halves)} in each half of the log), "
+                    f"{spreads[best]:.3g} deg ({', '.join(f'{b:.3g}' for _, b in halves)}) with"))
+                fig["twin_map_to_write"] = _map_to_write(ds, -P)[0]
+            else:
+                text = (f"the magnetometer's axes may be mirrored against the {other}: the dip angle spreads "
+                        f"{s_id:.3g} deg with the axes as given, {spreads[best]:.3g} deg with magnetometer {shown} (a "
+                        f"reflection, the dip's sign the header's; each half of the log: "
+                        f"{', '.join(f'{a:.3g} against {b:.3g}' for a, b in halves)})")
+            rep.findings.append(Finding("handedness", "warning", text + weak, "mag", fig))
             return
     mirrors = {a: spreads[tuple(np.diag([-1.0 if j == a else 1.0 for j in range(3)]).ravel())] for a in range(3)}
     a = min(mirrors, key=mirrors.get)
