@@ -51,12 +51,13 @@ def assumed_noise(ds: RawDataset, sigma_acc: float | None = None, sigma_mag: flo
     return out
 
 
-def world_of(ds: RawDataset) -> dict:
+def world_of(ds: RawDataset, field_nT: float | None = None) -> dict:
     """Field total (nT), dip and declination (deg), gravity (g) from the
-    dataset header; the field total defaults to the median raw norm when the
-    header lacks it (it only sets the unit of the corrected field)."""
+    dataset header; the field total (field_of, unless given) defaults to the
+    sphere's radius or the median raw norm when the header lacks it (it only
+    sets the unit of the corrected field)."""
     m = ds.meta
-    return {"field_nT": field_of(ds)[0], "dip_deg": m.get("dip_deg"),
+    return {"field_nT": field_of(ds)[0] if field_nT is None else float(field_nT), "dip_deg": m.get("dip_deg"),
             "declination_deg": float(m.get("declination_deg", 0.0)),
             "gravity_g": float(m.get("gravity_g", 1.0))}
 

@@ -59,7 +59,8 @@ def truth(ds, kind, w):
 
 def world(ds) -> dict:
     """world_of, with where its field total came from (the report says it)."""
-    return {**world_of(ds), "field_from": field_of(ds)[1]}
+    F, src = field_of(ds)
+    return {**world_of(ds, F), "field_from": src}
 
 
 def fit(ds, use_poses=None, sigma_acc=None, sigma_mag=None, **_):

@@ -81,10 +81,8 @@ def _invariants_figure(plt, ents):
         ax.legend(fontsize=7)
         ax.grid(alpha=0.3)
     # one invariant's figure is 4.5 in wide: the title wraps there instead of running off both edges
-    fig.suptitle("pose-free baseline residuals (a symmetric 3x3 and an offset per triad fitted to the invariants)"
-                 .replace(" (", "\n(") if len(ents) == 1 else
-                 "pose-free baseline residuals (a symmetric 3x3 and an offset per triad fitted to the invariants)",
-                 fontsize=10)
+    title = "pose-free baseline residuals (a symmetric 3x3 and an offset per triad fitted to the invariants)"
+    fig.suptitle(title.replace(" (", "\n(") if len(ents) == 1 else title, fontsize=10)
     fig.tight_layout()
     return fig
 

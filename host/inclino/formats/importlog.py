@@ -243,7 +243,7 @@ def _runs(same: np.ndarray) -> list:
     return [(int(a), int(b) + 1) for a, b in zip(edges[::2], edges[1::2])]
 
 
-def _filler(data, keys, line_no, read, desc, path, drop_bad, dropped):
+def _filler(data, keys, line_no, read, path, drop_bad, dropped):
     """Rows a logger wrote that are no samples: a run of rows identical in
     every used column with the time stamp and all (a buffer's filler, a
     counter's 0xFFFF..), or a time stamp that stops (the same on many more
@@ -545,7 +545,7 @@ def _import(lines, path: str, desc: SensorDescription, static, drop_bad=False,
     data = np.array(rows, float)
     for t in desc.triads:
         _check_counts(t, data, keys, line_no, names, wanted, path)
-    keep_rows = _filler(data, keys, line_no, read, desc, path, drop_bad, dropped)
+    keep_rows = _filler(data, keys, line_no, read, path, drop_bad, dropped)
     if keep_rows is not None:
         data = data[keep_rows]
         labels = [labels[i] for i in keep_rows]
@@ -586,7 +586,7 @@ def _import(lines, path: str, desc: SensorDescription, static, drop_bad=False,
     else:
         for k in ("inc_deg", "azi_deg", "tf_deg"):
             if k in col:
-                out[k] = col[k] * desc.pose_scale if desc.pose_scale != 1.0 else col[k]
+                out[k] = col[k] * desc.pose_scale
     meta = dict(log_meta)  # the description's [header] below overrides the log's own
     for k, v in desc.header.items():
         if k not in dataset.META_KEYS or k in dataset.SENSOR_META:
