@@ -338,3 +338,47 @@ def test_a_log_with_a_skew_of_its_own_shifted_a_row_is_named_either_way():
         if not beyond:
             assert found[0].level == "warning" and found[0].figures["route"] == "nearest"
             assert "not ruled out" in found[0].message and "look paired out of step" in found[0].message
+
+
+BROAD = ("broad/02.csv", "broad/with_acc.toml")
+
+
+@pytest.fixture(scope="module")
+def broad_first_1250():
+    """BROAD's trial 02 (a real IMU turned by hand and by a rig, 2 577 rows at
+    ~286 rows/s): its first 1 250 rows, fewer than the LAG_CURVE_ROWS the
+    lag curve's full rules need."""
+    ds = importlog.import_log(str(REAL / BROAD[0]), sensor.load(str(REAL / BROAD[1])))[0]
+    return _stretch(ds, 0, 1250)
+
+
+def test_a_short_stretch_in_step_names_nothing(broad_first_1250):
+    rep = checks.run(broad_first_1250)
+    assert rep.lag_rows == 0 and not _lag_findings(rep), rep.lines()
+
+
+@pytest.mark.parametrize("k", [1, -1])
+def test_a_one_row_shift_of_a_short_real_log_is_named_from_its_curve(broad_first_1250, k):
+    """On 1 250 rows the dip's spread changes too little from a row to the
+    next to name a shift (it was not named either way), and the lag curve
+    had needed 2 000 rows.  From 1 000 rows a curve names its row when its
+    strict rule holds, each half of the log rounds to that row, its standard
+    error is below half a row and its fraction within 0.4 of the row."""
+    rep = checks.run(_shifted(broad_first_1250, k))
+    (f,) = _lag_findings(rep)
+    assert rep.lag_rows == k and f"lag = {k}" in f.message and f.figures["route"] == "curve", rep.lines()
+    c = rep.lag_curve
+    assert all(round(h) == k for h in c["halves_rows"]) and abs(c["lag_rows"] - k) < checks.LAG_CURVE_SHORT_LEFT, c
+
+
+def test_a_short_curve_that_is_not_sure_of_its_row_names_nothing(ck):
+    """CK rows 6000-7600, in step: the curve reads +3.37 +- 0.8 with each
+    half rounding to +3 (the strict rule alone would name +3); its standard
+    error over half a row and its fraction 0.37 from the row keep it from
+    naming on fewer than LAG_CURVE_ROWS rows."""
+    sub = _stretch(ck[0], 6000, 7600)
+    inv = checks._lag_curve(*_check_dirs(sub), min_rows=checks.LAG_CURVE_SHORT_ROWS)
+    assert inv is not None and checks._curve_rule(inv["lag"], inv["se"], inv["halves"])[0] == "curve", inv
+    assert not checks._short_curve_names(inv)
+    rep = checks.run(sub)
+    assert rep.lag_rows == 0 and not _lag_findings(rep), rep.lines()

@@ -82,6 +82,12 @@ LAG_JUMP_WINDOW = 31      # ... from the running median of this many rows' dips 
 LAG_JUMP_MIN_ROWS = 3     # ... a shift named when it brings back this many rows ...
 LAG_JUMP_RATIO = 10       # ... and puts out at most a tenth as many
 LAG_CURVE_ROWS = 2000     # continuously moving logs: the dip invariant's lag curve needs this many rows ...
+LAG_CURVE_SHORT_ROWS = 1000  # ... (from this many, a curve that names a row by its strict rule with each half of
+                             # the log rounding to that row, its standard error below LAG_CURVE_NEAREST_SE and
+                             # its fraction within LAG_CURVE_SHORT_LEFT of the row: on fewer rows its standard
+                             # error is too small to carry the nearest-row warning, the notes or the other
+                             # routes' second view)
+LAG_CURVE_SHORT_LEFT = 0.4
 LAG_CURVE_BLOCKS = 20     # ... cut in this many blocks for its jackknife standard error;
 LAG_CURVE_SE = 3.0        # a whole-row shift is named when the fractional lag is this many standard errors
                           # beyond half a row (and each half of the log, fitted on its own, rounds to it)
@@ -831,6 +837,9 @@ def _axes_and_lag(ds, rows_all, rep, ug_src=None):
     # calibration errors and a turning lever arm's acceleration fitted out, locates the pairing to a fraction
     # of a row
     inv = _lag_curve(ug, ubp)
+    short = None if inv is not None else _lag_curve(ug, ubp, min_rows=LAG_CURVE_SHORT_ROWS)
+    if _short_curve_names(short):
+        inv = short  # a curve on fewer than LAG_CURVE_ROWS rows that names its row beyond doubt
     curve = rule = k = None
     beyond = False
     if inv is not None:
@@ -945,7 +954,7 @@ def _axes_and_lag(ds, rows_all, rep, ug_src=None):
                     f"that no lag removes)")
         _name_shift(ds, rep, route, kb, how, s0, sb, fig)
     elif ug_src is None and not any(f.check == "row-alignment" for f in rep.findings):
-        unseen = None if rep.one_orientation else _shifts_unseen(ug, ubp, inv, lags)
+        unseen = None if rep.one_orientation else _shifts_unseen(ug, ubp, inv or short, lags, strict=inv is None)
         if unseen:
             rep.findings.append(Finding("row-alignment", "note", unseen[0], None, unseen[1]))
     _dip_sign(ds, _dip(*_paired(ug, ubp, rep.lag_rows or 0)), ug_src, rep)  # the dip's sign, as named paired
@@ -1244,17 +1253,42 @@ def _curve_rule(lag: float, se: float, halves: list) -> tuple:
     return ("nearest" if se < LAG_CURVE_NEAREST_SE else "possible"), k
 
 
-def _named_on(a, b, inv_shifted) -> bool:
+def _short_curve_names(inv) -> bool:
+    """Whether a lag curve of fewer than LAG_CURVE_ROWS rows (_lag_curve's
+    dict with min_rows=LAG_CURVE_SHORT_ROWS, or None) names its row k: by the
+    strict rule (_curve_rule's "curve"), each half of the log rounding to k,
+    the standard error below LAG_CURVE_NEAREST_SE and the fraction within
+    LAG_CURVE_SHORT_LEFT of k.  On such logs the jackknife's standard error
+    is too small: stretches of 1 000-1 600 rows of emulated hand tumbles in
+    step (50-100 rows/s) read +0.39 +- 0.09 and -2.38 +- 0.69, and the
+    nearest-row warning named a row on 4 of 104 stretches in step; the
+    strict rule with the halves' rows alone still named +3 on a stretch of
+    the CK log in step (+3.37 +- 0.8) and -2 on a tumble a row out of step
+    (-1.53 +- 0.15)."""
+    if inv is None:
+        return False
+    rule, k = _curve_rule(inv["lag"], inv["se"], inv["halves"])
+    return rule == "curve" and inv["se"] < LAG_CURVE_NEAREST_SE and abs(inv["lag"] - k) < LAG_CURVE_SHORT_LEFT \
+        and all(int(round(h)) == k for h in inv["halves"])
+
+
+def _named_on(a, b, inv_shifted, strict=False) -> bool:
     """Whether the checks would name a shift of the rows a, b paired as given
     (the spread, the transitions, the jumps, or the lag curve inv_shifted:
-    (lag, se, halves) of these rows), leaving out the routes' second views."""
+    (lag, se, halves) of these rows; strict: a curve of fewer than
+    LAG_CURVE_ROWS rows, _short_curve_names), leaving out the routes'
+    second views."""
     if _spread_lag(_spread_by_lag(a, b), len(a)) or _transitions_named(*_lag_transitions(a, b)) \
             or _jumps_named(*_lag_jumps(a, b)):
         return True
-    return inv_shifted is not None and _curve_rule(*inv_shifted)[0] in ("curve", "nearest")
+    if inv_shifted is None:
+        return False
+    if strict:
+        return _short_curve_names(dict(zip(("lag", "se", "halves"), inv_shifted)))
+    return _curve_rule(*inv_shifted)[0] in ("curve", "nearest")
 
 
-def _shifts_unseen(ug, ub, inv, lags):
+def _shifts_unseen(ug, ub, inv, lags, strict=False):
     """A note, (message, figures), when a shift of one row either way would
     not be named on this log as it is (its rows shifted and checked as the
     checks check them, the lag curve moved by the row), or None: a log
@@ -1271,14 +1305,17 @@ def _shifts_unseen(ug, ub, inv, lags):
         # magnetometer's row i + k is a lag of -k)
         shifted = None if inv is None else (inv["lag"] - k, inv["se"],
                                             [None if h is None else h - k for h in inv["halves"]])
-        if not _named_on(a, b, shifted):
+        if not _named_on(a, b, shifted, strict):
             ways.append(k)
     if not ways:
         return None
     gain = max(abs(lags.get(k, lags[0]) / lags[0] - 1.0) for k in (1, -1))
     curve = ("the dip invariant's lag curve, which finds a shift on a log turned smoothly, is not determined "
-             "here (fewer than 2 000 consecutive rows, or both triads turned about one axis only)" if inv is None
-             else f"the dip invariant's lag curve scatters by {_se_text(inv['se'])} row here")
+             f"here (fewer than {LAG_CURVE_SHORT_ROWS:,} consecutive rows, or both triads turned about one axis only)"
+             .replace(",", " ") if inv is None else
+             f"the dip invariant's lag curve scatters by {_se_text(inv['se'])} row here" + (
+                 f" (on fewer than {LAG_CURVE_ROWS:,} rows a shift it finds is named only where each half of the "
+                 f"log finds the same row)".replace(",", " ") if strict else ""))
     # k = 1 pairs the accelerometer's row i with the magnetometer's row i + 1: the magnetometer a row ahead
     # (named as lag -1), k = -1 a row behind (lag +1)
     which = "either way" if len(ways) == 2 else ("with the magnetometer a row ahead" if ways[0] == 1 else
@@ -1590,7 +1627,7 @@ def _curve_vertex(V, K):
     return kb + 0.5 * (a - c) / den if den > 0 else None
 
 
-def _lag_curve(ug, ub, halves=True, lever_arm=True):
+def _lag_curve(ug, ub, halves=True, lever_arm=True, min_rows=LAG_CURVE_ROWS):
     """The fractional row shift of the magnetometer against the
     accelerometer that makes the dip invariant most consistent, for a
     continuously moving log: for each trial shift -K-1..K+1 the mean squared
@@ -1608,7 +1645,7 @@ def _lag_curve(ug, ub, halves=True, lever_arm=True):
     too short or the dip too close to 0 to scale the invariant."""
     m = len(ug)
     K = MAX_LAG
-    if m < (LAG_CURVE_ROWS if halves else LAG_CURVE_ROWS // 2):
+    if m < (min_rows if halves else min_rows // 2):
         return None
     if abs(float(np.median((ug * ub).sum(1)))) < LAG_CURVE_MIN_SIN:
         return None
@@ -1638,7 +1675,7 @@ def _lag_curve(ug, ub, halves=True, lever_arm=True):
     if halves:
         h = m // 2
         for sl in (slice(0, h), slice(h, m)):
-            r = _lag_curve(ug[sl], ub[sl], halves=False, lever_arm=lever_arm)
+            r = _lag_curve(ug[sl], ub[sl], halves=False, lever_arm=lever_arm, min_rows=min_rows)
             out["halves"].append(None if r is None else r["lag"])
     return out
 
