@@ -100,7 +100,9 @@ class Diagnosis:
             u = {"|g|": "g", "|b|": "nT", "dip": "deg"}
             lines = [f"baseline: {b['model']}; {b['rows']} readings in {b['clusters']} poses (clusters of rows at one "
                      f"pose count once), invariants " + ", ".join(b["invariants"])
-                     + (f", dip {b['dip_deg']:.3f} deg" if b.get("dip_deg") is not None else ""),
+                     # a failed fit's dip is no fitted model's (x-io Fusion's log: 52.176 deg, the data +69.2)
+                     + ("" if b.get("dip_deg") is None else ", dip not fitted" if b.get("fit_failed")
+                        else f", dip {b['dip_deg']:.3f} deg"),
                      "  residual RMS: " + ", ".join(f"{k} {v:.4g} {u[k]}" for k, v in b["rms"].items())]
             if b.get("fit_failed"):
                 lines.append(f"  the fit failed: {b['fit_failed']}: these readings do not determine the model, "
