@@ -48,3 +48,18 @@ def test_the_way_a_stretch_cannot_show_is_the_way_it_is_not_named(ck):
 
 def test_a_log_that_shows_a_shift_either_way_says_nothing_of_it(ck):
     assert not _row_alignment(checks.run(ck))
+
+
+def test_a_short_stretch_says_what_the_lag_curve_needs(ck):
+    """Below LAG_CURVE_SHORT_ROWS the curve is not fitted; from there to
+    LAG_CURVE_ROWS it names a shift only where it is sure of its row.  The
+    note says which, in words a reader can act on, and what it says holds:
+    the 1 250-row stretch shifted a row either way is not named."""
+    (f,) = _row_alignment(checks.run(_stretch(ck, 1800, 2400)))
+    assert f.level == "note" and "(fewer than 1 000 consecutive rows, or both triads turned" in f.message, f.message
+    s = _stretch(ck, 6000, 7250)
+    (f,) = _row_alignment(checks.run(s))
+    assert f.level == "note" and f.figures["unseen_lags_rows"] == [-1, 1], f.message
+    assert "lag curve scatters by" in f.message and "on fewer than 2 000 rows the curve names a shift only" in f.message
+    for k in (1, -1):
+        assert checks.run(_shifted(s, k)).lag_rows == 0

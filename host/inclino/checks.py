@@ -1261,7 +1261,7 @@ def _short_curve_names(inv) -> bool:
     LAG_CURVE_SHORT_LEFT of k.  On such logs the jackknife's standard error
     is too small: stretches of 1 000-1 600 rows of emulated hand tumbles in
     step (50-100 rows/s) read +0.39 +- 0.09 and -2.38 +- 0.69, and the
-    nearest-row warning named a row on 4 of 104 stretches in step; the
+    nearest-row warning named a row on 4 of 106 stretches in step; the
     strict rule with the halves' rows alone still named +3 on a stretch of
     the CK log in step (+3.37 +- 0.8) and -2 on a tumble a row out of step
     (-1.53 +- 0.15)."""
@@ -1310,12 +1310,15 @@ def _shifts_unseen(ug, ub, inv, lags, strict=False):
     if not ways:
         return None
     gain = max(abs(lags.get(k, lags[0]) / lags[0] - 1.0) for k in (1, -1))
+    rows = lambda n: f"{n:,}".replace(",", " ")  # noqa: E731  (1 000, as the other figures are written)
     curve = ("the dip invariant's lag curve, which finds a shift on a log turned smoothly, is not determined "
-             f"here (fewer than {LAG_CURVE_SHORT_ROWS:,} consecutive rows, or both triads turned about one axis only)"
-             .replace(",", " ") if inv is None else
+             f"here (fewer than {rows(LAG_CURVE_SHORT_ROWS)} consecutive rows, or both triads turned about one axis "
+             f"only)" if inv is None else
              f"the dip invariant's lag curve scatters by {_se_text(inv['se'])} row here" + (
-                 f" (on fewer than {LAG_CURVE_ROWS:,} rows a shift it finds is named only where each half of the "
-                 f"log finds the same row)".replace(",", " ") if strict else ""))
+                 f" (on fewer than {rows(LAG_CURVE_ROWS)} rows the curve names a shift only where each half of the "
+                 f"log rounds to the same row, its scatter is under {LAG_CURVE_NEAREST_SE:g} row and it lies within "
+                 f"{LAG_CURVE_SHORT_LEFT:g} of the row)"
+                 if strict else ""))
     # k = 1 pairs the accelerometer's row i with the magnetometer's row i + 1: the magnetometer a row ahead
     # (named as lag -1), k = -1 a row behind (lag +1)
     which = "either way" if len(ways) == 2 else ("with the magnetometer a row ahead" if ways[0] == 1 else
