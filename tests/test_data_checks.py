@@ -331,6 +331,44 @@ def test_a_declared_reflection_that_does_not_fit_is_not_suggested_again(tmp_path
     assert main(["import", str(REAL / "ck_acc_mag" / "acc_mag_log.csv"), "--sensor", str(desc), "-o", str(out)]) == 0
 
 
+@pytest.mark.parametrize("dip", [-17.8, None])
+def test_both_triads_declared_reflected_sends_the_reader_to_the_accelerometer_first(tmp_path, capsys, dip):
+    """The CK log with its magnetometer declared left-handed as logged-and-
+    mirrored (y negated, reflection = true: the data bear that out against a
+    right-handed accelerometer) and its accelerometer's z negated with
+    reflection = true too: the triads are mirrored against each other.  The
+    advice used to be to drop the magnetometer's reflection first, which
+    leaves both triads mirrored alike (the dip unchanged, every azimuth
+    mirrored); with both declared it says to check the accelerometer's map
+    first, with the site's dip or without it.  Following that advice
+    imports the log."""
+    base = (REAL / "ck_acc_mag" / "sensor.toml").read_text()
+    text = base.replace('axes = "x = mx, y = my, z = mz"', 'axes = "x = mx, y = -my, z = mz"\nreflection = true') \
+        .replace('axes = "x = ax, y = ay, z = az"', 'axes = "x = ax, y = ay, z = -az"\nreflection = true')
+    header = "" if dip is None else f"\n[header]\ndip_deg = {dip}\n"
+    # the magnetometer as logged, read through a left-handed map: its y column negated in the log
+    rows = (REAL / "ck_acc_mag" / "acc_mag_log.csv").read_text().splitlines()
+    names = rows[0].split(",")
+    j = names.index("my")
+    body = []
+    for r in rows[1:]:
+        c = r.split(",")
+        if len(c) == len(names):
+            c[j] = repr(-float(c[j]))
+        body.append(",".join(c))
+    log = tmp_path / "log.csv"
+    log.write_text("\n".join([rows[0]] + body) + "\n")
+    desc = tmp_path / "both.toml"
+    desc.write_text(text + header)
+    out = tmp_path / "run.csv"
+    assert main(["import", str(log), "--sensor", str(desc), "-o", str(out)]) == 2
+    err = capsys.readouterr().err
+    assert err.count("\n") == 1 and not out.exists()
+    assert "both triads declare a reflection" in err and "check the accelerometer's map first" in err, err
+    desc.write_text(text.replace('axes = "x = ax, y = ay, z = -az"\nreflection = true', 'axes = "x = ax, y = ay, z = az"') + header)
+    assert main(["import", str(log), "--sensor", str(desc), "-o", str(out)]) == 0, capsys.readouterr().err
+
+
 def _ck_counts(tmp_path):
     """The CK log as a sensor's counts: the accelerometer at 16384 per g,
     the magnetometer at 0.14 mG a count (its quanta, sensor.toml)."""

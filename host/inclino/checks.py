@@ -728,7 +728,8 @@ def _axes_and_lag(ds, rows_all, rep, ug_src=None):
         rep.findings.append(Finding("handedness", "error", _twins_text(
             ds, P, dips, other, f"the magnetometer's axes as given do not fit the {other}: the dip angle spreads "
                                 f"{s_id:.3g} deg with the axes as given, {s_best:.3g} deg with")
-            + "; " + _fix(ds, "magnetometer", "the axis map") + " (or give the site's dip to have it told)",
+            + "; " + (_both_reflected(ds) + "; else " if _both_reflected(ds) else "")
+            + _fix(ds, "magnetometer", "the axis map") + " (or give the site's dip to have it told)",
             "mag", {**fig, "twin_map_to_write": _map_to_write(ds, -P)[0]}))
         P = np.eye(3)
     elif best != ident and s_id > max(AXES_RATIO * s_best, MIN_SPREAD_DEG + s_best):
@@ -749,6 +750,10 @@ def _axes_and_lag(ds, rows_all, rep, ug_src=None):
                     fix = (f"the declared reflection ([magnetometer] reflection = true) does not fit the data as "
                            f"mapped: write that map, a rotation, without reflection = true in the sensor "
                            f"description's [magnetometer], or fix the accelerometer's map, and import again")
+                    if _both_reflected(ds):
+                        fix = (_both_reflected(ds) + f"; writing magnetometer {shown} without its reflection "
+                               f"instead would leave both triads mirrored alike, which the dip does not show and "
+                               f"every azimuth would carry: fix the map that is wrong and import again")
                 rep.findings.append(Finding("handedness", "error", (
                     f"the magnetometer's axes are mirrored against the {other}: the dip angle spreads "
                     f"{s_id:.3g} deg with the axes as given, {s_best:.3g} deg with magnetometer {shown} "
@@ -1054,6 +1059,22 @@ def _dip_sign(ds, d, ug_src, rep):
                 f"ellipsoid fitted to its own readings, not the raw readings) against the header's {hdr:+.1f}: a "
                 f"wrong dip_deg, a disturbed field, or a large misalignment{paired}"), None,
                 {"dip_deg": dip, "header_dip_deg": hdr, "dip_spread_deg": spread}))
+
+
+def _both_reflected(ds) -> str:
+    """Where both triads' maps are declared reflections and the data find
+    them mirrored against each other, the advice to check the
+    accelerometer's first (an LSM9DS1, its magnetometer left-handed as
+    declared, its accelerometer's z mirrored and declared a reflection too,
+    was told to drop the magnetometer's reflection first, which leaves both
+    triads mirrored alike: the dip does not show it, every azimuth carries
+    it); "" otherwise."""
+    if not (declared_reflection(ds, "acc") and declared_reflection(ds, "mag")):
+        return ""
+    return ("both triads declare a reflection ([accelerometer] and [magnetometer] reflection = true) and the data "
+            "say one of them is wrong: check the accelerometer's map first (MEMS accelerometers' axes are "
+            "right-handed on their data sheets; a left-handed triad is usually a combination part's magnetometer, "
+            "as the LSM9DS1's)")
 
 
 def _dip_sign_known(ds) -> bool:
