@@ -379,6 +379,6 @@ def test_a_short_curve_that_is_not_sure_of_its_row_names_nothing(ck):
     sub = _stretch(ck[0], 6000, 7600)
     inv = checks._lag_curve(*_check_dirs(sub), min_rows=checks.LAG_CURVE_SHORT_ROWS)
     assert inv is not None and checks._curve_rule(inv["lag"], inv["se"], inv["halves"])[0] == "curve", inv
-    assert not checks._short_curve_names(inv)
+    assert not checks._short_curve_names(inv["lag"], inv["se"], inv["halves"])
     rep = checks.run(sub)
     assert rep.lag_rows == 0 and not _lag_findings(rep), rep.lines()

@@ -728,7 +728,7 @@ def _axes_and_lag(ds, rows_all, rep, ug_src=None):
         rep.findings.append(Finding("handedness", "error", _twins_text(
             ds, P, dips, other, f"the magnetometer's axes as given do not fit the {other}: the dip angle spreads "
                                 f"{s_id:.3g} deg with the axes as given, {s_best:.3g} deg with")
-            + "; " + (_both_reflected(ds) + "; else " if _both_reflected(ds) else "")
+            + "; " + (both + "; else " if (both := _both_reflected(ds)) else "")
             + _fix(ds, "magnetometer", "the axis map") + " (or give the site's dip to have it told)",
             "mag", {**fig, "twin_map_to_write": _map_to_write(ds, -P)[0]}))
         P = np.eye(3)
@@ -750,8 +750,8 @@ def _axes_and_lag(ds, rows_all, rep, ug_src=None):
                     fix = (f"the declared reflection ([magnetometer] reflection = true) does not fit the data as "
                            f"mapped: write that map, a rotation, without reflection = true in the sensor "
                            f"description's [magnetometer], or fix the accelerometer's map, and import again")
-                    if _both_reflected(ds):
-                        fix = (_both_reflected(ds) + f"; writing magnetometer {shown} without its reflection "
+                    if both := _both_reflected(ds):
+                        fix = (both + f"; writing magnetometer {shown} without its reflection "
                                f"instead would leave both triads mirrored alike, which the dip does not show and "
                                f"every azimuth would carry: fix the map that is wrong and import again")
                 rep.findings.append(Finding("handedness", "error", (
@@ -843,7 +843,7 @@ def _axes_and_lag(ds, rows_all, rep, ug_src=None):
     # of a row
     inv = _lag_curve(ug, ubp)
     short = None if inv is not None else _lag_curve(ug, ubp, min_rows=LAG_CURVE_SHORT_ROWS)
-    if _short_curve_names(short):
+    if short is not None and _short_curve_names(short["lag"], short["se"], short["halves"]):
         inv = short  # a curve on fewer than LAG_CURVE_ROWS rows that names its row beyond doubt
     curve = rule = k = None
     beyond = False
@@ -1274,9 +1274,10 @@ def _curve_rule(lag: float, se: float, halves: list) -> tuple:
     return ("nearest" if se < LAG_CURVE_NEAREST_SE else "possible"), k
 
 
-def _short_curve_names(inv) -> bool:
-    """Whether a lag curve of fewer than LAG_CURVE_ROWS rows (_lag_curve's
-    dict with min_rows=LAG_CURVE_SHORT_ROWS, or None) names its row k: by the
+def _short_curve_names(lag: float, se: float, halves: list) -> bool:
+    """Whether a lag curve of fewer than LAG_CURVE_ROWS rows (_lag_curve
+    with min_rows=LAG_CURVE_SHORT_ROWS: its fraction, standard error and
+    halves, as _curve_rule takes them) names its row k: by the
     strict rule (_curve_rule's "curve"), each half of the log rounding to k,
     the standard error below LAG_CURVE_NEAREST_SE and the fraction within
     LAG_CURVE_SHORT_LEFT of k.  On such logs the jackknife's standard error
@@ -1286,11 +1287,9 @@ def _short_curve_names(inv) -> bool:
     strict rule with the halves' rows alone still named +3 on a stretch of
     the CK log in step (+3.37 +- 0.8) and -2 on a tumble a row out of step
     (-1.53 +- 0.15)."""
-    if inv is None:
-        return False
-    rule, k = _curve_rule(inv["lag"], inv["se"], inv["halves"])
-    return rule == "curve" and inv["se"] < LAG_CURVE_NEAREST_SE and abs(inv["lag"] - k) < LAG_CURVE_SHORT_LEFT \
-        and all(int(round(h)) == k for h in inv["halves"])
+    rule, k = _curve_rule(lag, se, halves)
+    return rule == "curve" and se < LAG_CURVE_NEAREST_SE and abs(lag - k) < LAG_CURVE_SHORT_LEFT \
+        and all(int(round(h)) == k for h in halves)
 
 
 def _named_on(a, b, inv_shifted, strict=False) -> bool:
@@ -1304,9 +1303,7 @@ def _named_on(a, b, inv_shifted, strict=False) -> bool:
         return True
     if inv_shifted is None:
         return False
-    if strict:
-        return _short_curve_names(dict(zip(("lag", "se", "halves"), inv_shifted)))
-    return _curve_rule(*inv_shifted)[0] in ("curve", "nearest")
+    return _short_curve_names(*inv_shifted) if strict else _curve_rule(*inv_shifted)[0] in ("curve", "nearest")
 
 
 def _shifts_unseen(ug, ub, inv, lags, strict=False):

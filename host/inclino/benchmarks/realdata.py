@@ -396,6 +396,13 @@ def hand_tumble(rows_per_s: float, n: int = 12_000, seed: int = 5, hand_mg: floa
     return ds
 
 
+def _stretch(ds, a, b):
+    """Rows a to b of a dataset, checked as a log of their own."""
+    from inclino.formats.dataset import RawDataset
+
+    return RawDataset({k: v[a:b] for k, v in ds.columns.items()}, dict(ds.meta))
+
+
 def stretch_checks(root) -> list:
     """The row-pairing check on held-out stretches of the CK log and on
     emulated hand tumbles, each shifted by STRETCH_SHIFTS: the lag named
@@ -403,20 +410,17 @@ def stretch_checks(root) -> list:
     lag curve's figures."""
     from inclino import checks
     from inclino.formats import importlog, sensor
-    from inclino.formats.dataset import RawDataset
 
     ck, _ = importlog.import_log(str(root / "ck_acc_mag/acc_mag_log.csv"), sensor.load(str(root / "ck_acc_mag/sensor.toml")))
     n = len(ck)
     spans = sorted({(0, n // 2), (n // 2, n), *((j * n // 3, (j + 1) * n // 3) for j in range(3)),
                     *((a, a + n // 2) for a in range(0, n // 2 + 1, n // 8))})
-    logs = [(f"CK log rows {a}-{b}", RawDataset({k: v[a:b] for k, v in ck.columns.items()}, dict(ck.meta)))
-            for a, b in spans]
+    logs = [(f"CK log rows {a}-{b}", _stretch(ck, a, b)) for a, b in spans]
     # BROAD's two trials in stretches of SHORT_STRETCH rows: fewer than the lag curve's LAG_CURVE_ROWS, where only
     # a curve sure of its row names it (checks._short_curve_names)
     for trial in ("02", "05"):
         b, _ = importlog.import_log(str(root / f"broad/{trial}.csv"), sensor.load(str(root / "broad/with_acc.toml")))
-        logs += [(f"BROAD {trial} rows {a}-{a + SHORT_STRETCH}",
-                  RawDataset({k: v[a:a + SHORT_STRETCH] for k, v in b.columns.items()}, dict(b.meta)))
+        logs += [(f"BROAD {trial} rows {a}-{a + SHORT_STRETCH}", _stretch(b, a, a + SHORT_STRETCH))
                  for a in range(0, len(b) - SHORT_STRETCH + 1, SHORT_STRETCH)]
     logs += [(f"emulated tumble, {HAND_MG:g} mg hand, {hz:g} rows/s, seed {seed}", hand_tumble(hz, seed=seed))
              for hz in (250.0, 500.0) for seed in (5, 6, 7)]
