@@ -82,11 +82,13 @@ LAG_JUMP_WINDOW = 31      # ... from the running median of this many rows' dips 
 LAG_JUMP_MIN_ROWS = 3     # ... a shift named when it brings back this many rows ...
 LAG_JUMP_RATIO = 10       # ... and puts out at most a tenth as many
 LAG_CURVE_ROWS = 2000     # continuously moving logs: the dip invariant's lag curve needs this many rows ...
-LAG_CURVE_SHORT_ROWS = 1000  # ... (from this many, a curve that names a row by its strict rule with each half of
-                             # the log rounding to that row, its standard error below LAG_CURVE_NEAREST_SE and
-                             # its fraction within LAG_CURVE_SHORT_LEFT of the row: on fewer rows its standard
-                             # error is too small to carry the nearest-row warning, the notes or the other
-                             # routes' second view)
+LAG_CURVE_SHORT_ROWS = 200  # ... (from this many, a curve whose standard error is the larger of two jackknifes,
+                            # the second refitting the triads' calibration and the lever arms without each block,
+                            # that names a row by its strict rule with each half of the log rounding to that row,
+                            # its standard error below LAG_CURVE_NEAREST_SE and its fraction within
+                            # LAG_CURVE_SHORT_LEFT of the row, or that puts the rows in step: on fewer rows the
+                            # first jackknife's standard error is too small to carry the nearest-row warning, the
+                            # notes or the other routes' second view)
 LAG_CURVE_SHORT_LEFT = 0.4
 LAG_CURVE_BLOCKS = 20     # ... cut in this many blocks for its jackknife standard error;
 LAG_CURVE_SE = 3.0        # a whole-row shift is named when the fractional lag is this many standard errors
@@ -842,9 +844,12 @@ def _axes_and_lag(ds, rows_all, rep, ug_src=None):
     # calibration errors and a turning lever arm's acceleration fitted out, locates the pairing to a fraction
     # of a row
     inv = _lag_curve(ug, ubp)
-    short = None if inv is not None else _lag_curve(ug, ubp, min_rows=LAG_CURVE_SHORT_ROWS)
-    if short is not None and _short_curve_names(short["lag"], short["se"], short["halves"]):
-        inv = short  # a curve on fewer than LAG_CURVE_ROWS rows that names its row beyond doubt
+    short = None if inv is not None else _lag_curve(ug, ubp, min_rows=LAG_CURVE_SHORT_ROWS, refit=True)
+    if short is not None and (_short_curve_names(short["lag"], short["se"], short["halves"]) or _in_step(short)):
+        # a curve on fewer than LAG_CURVE_ROWS rows that names its row beyond doubt, or puts the rows in step
+        # (the other routes' shifts then stand its second view: on independently simulated smooth tumbles of
+        # 300 rows in step the spread named -1, the curve -0.02 +- 0.13)
+        inv = short
     curve = rule = k = None
     beyond = False
     if inv is not None:
@@ -896,6 +901,14 @@ def _axes_and_lag(ds, rows_all, rep, ug_src=None):
                 f"the dip invariant's lag curve, with the triads' calibration errors and a turning lever arm's "
                 f"acceleration fitted out, puts the magnetometer's rows {inv['lag']:+.2f} +- {inv['se']:.2f} out of "
                 f"step (nearest row {int(round(inv['lag'])):+d})")
+        elif inv is None and short is not None and abs(short["lag"] - kb) - 0.5 > LAG_CURVE_SE * short["se"]:
+            # a curve of fewer than LAG_CURVE_ROWS rows that names no row still rules out a shift it lies
+            # LAG_CURVE_SE standard errors beyond half a row from (a smooth tumble of 600 rows a row behind, its
+            # curve at +0.87 +- 0.16, had the spread name +2)
+            why = (f"the dip invariant's lag curve, with the triads' calibration errors and a turning lever arm's "
+                   f"acceleration fitted out, puts the magnetometer's rows {short['lag']:+.2f} +- "
+                   f"{_se_text(short['se'])} out of step, more than {LAG_CURVE_SE:g} standard errors beyond half a "
+                   f"row from {kb:+d}")
         else:
             # a second view: each half of the log on its own must find the same shift (a half too short to
             # tell is no objection)
@@ -959,7 +972,7 @@ def _axes_and_lag(ds, rows_all, rep, ug_src=None):
                     f"that no lag removes)")
         _name_shift(ds, rep, route, kb, how, s0, sb, fig)
     elif ug_src is None and not any(f.check == "row-alignment" for f in rep.findings):
-        unseen = None if rep.one_orientation else _shifts_unseen(ug, ubp, inv or short, lags, strict=inv is None)
+        unseen = None if rep.one_orientation else _shifts_unseen(ug, ubp, inv or short, lags, strict=inv is None or inv is short)
         if unseen:
             rep.findings.append(Finding("row-alignment", "note", unseen[0], None, unseen[1]))
     _dip_sign(ds, _dip(*_paired(ug, ubp, rep.lag_rows or 0)), ug_src, rep)  # the dip's sign, as named paired
@@ -1276,17 +1289,18 @@ def _curve_rule(lag: float, se: float, halves: list) -> tuple:
 
 def _short_curve_names(lag: float, se: float, halves: list) -> bool:
     """Whether a lag curve of fewer than LAG_CURVE_ROWS rows (_lag_curve
-    with min_rows=LAG_CURVE_SHORT_ROWS: its fraction, standard error and
-    halves, as _curve_rule takes them) names its row k: by the
+    with min_rows=LAG_CURVE_SHORT_ROWS and refit: its fraction, standard
+    error and halves, as _curve_rule takes them) names its row k: by the
     strict rule (_curve_rule's "curve"), each half of the log rounding to k,
     the standard error below LAG_CURVE_NEAREST_SE and the fraction within
-    LAG_CURVE_SHORT_LEFT of k.  On such logs the jackknife's standard error
-    is too small: stretches of 1 000-1 600 rows of emulated hand tumbles in
-    step (50-100 rows/s) read +0.39 +- 0.09 and -2.38 +- 0.69, and the
-    nearest-row warning named a row on 4 of 106 stretches in step; the
-    strict rule with the halves' rows alone still named +3 on a stretch of
-    the CK log in step (+3.37 +- 0.8) and -2 on a tumble a row out of step
-    (-1.53 +- 0.15)."""
+    LAG_CURVE_SHORT_LEFT of k.  On such logs the first jackknife's standard
+    error is too small: stretches of 1 000-1 600 rows of emulated hand
+    tumbles in step (50-100 rows/s) read +0.39 +- 0.09 and -2.38 +- 0.69,
+    and the nearest-row warning named a row on 4 of 106 stretches in step;
+    the strict rule with the halves' rows alone still named +3 on a stretch
+    of the CK log in step (+3.37 +- 0.8) and -2 on a tumble a row out of
+    step (-1.53 +- 0.15); this rule with the first jackknife alone named +3
+    on CK rows 6000-7500 in step (+3.33 +- 0.41; refitted, +- rows)."""
     rule, k = _curve_rule(lag, se, halves)
     return rule == "curve" and se < LAG_CURVE_NEAREST_SE and abs(lag - k) < LAG_CURVE_SHORT_LEFT \
         and all(int(round(h)) == k for h in halves)
@@ -1329,9 +1343,12 @@ def _shifts_unseen(ug, ub, inv, lags, strict=False):
         return None
     gain = max(abs(lags.get(k, lags[0]) / lags[0] - 1.0) for k in (1, -1))
     rows = lambda n: f"{n:,}".replace(",", " ")  # noqa: E731  (1 000, as the other figures are written)
-    curve = ("the dip invariant's lag curve, which finds a shift on a log turned smoothly, is not determined "
-             f"here (fewer than {rows(LAG_CURVE_SHORT_ROWS)} consecutive rows, or both triads turned about one axis "
-             f"only)" if inv is None else
+    why = (f"fewer than {rows(LAG_CURVE_SHORT_ROWS)} consecutive rows" if len(ug) < LAG_CURVE_SHORT_ROWS else
+           "the dip within 6 deg of the magnetic equator, too small to scale the invariant"
+           if abs(float(np.median((ug * ub).sum(1)))) < LAG_CURVE_MIN_SIN else
+           "both triads turned too little, or about one axis only")
+    curve = (f"the dip invariant's lag curve, which finds a shift on a log turned smoothly, is not determined "
+             f"here ({why})" if inv is None else
              f"the dip invariant's lag curve scatters by {_se_text(inv['se'])} row here" + (
                  f" (on fewer than {rows(LAG_CURVE_ROWS)} rows the curve names a shift only where each half of the "
                  f"log rounds to the same row, its scatter is under {LAG_CURVE_NEAREST_SE:g} row and it lies within "
@@ -1639,6 +1656,34 @@ def _invariant_misfit(ug, ub, extra=None):
     return y - X @ c
 
 
+def _invariant_misfit_blocks(ug, ub, extra, block, nb, refit=False):
+    """The dip invariant's squared misfit (_invariant_misfit) summed over
+    each block 0..nb-1 of rows (block: each row's; nb: a row left out), and
+    (refit) for each block the sum over the other blocks' rows with the
+    coefficients fitted without the block's rows (zeros without refit)."""
+    cols = [(ug[:, :, None] * ub[:, None, :]).reshape(len(ug), 9), ug, ub]
+    X = np.column_stack(cols if extra is None else cols + [extra])
+    scale = np.sqrt((X * X).mean(0))
+    X /= np.where(scale > 0, scale, 1.0)
+    y = np.ones(len(ug))
+    A, r = X.T @ X, X.T @ y
+    res2 = (y - X @ np.linalg.lstsq(A, r, rcond=None)[0]) ** 2
+    sums = np.bincount(block, weights=res2, minlength=nb + 1)[:nb]
+    loo = np.zeros(nb)
+    if refit:
+        used = block < nb
+        for j in range(nb):
+            sel = block == j
+            if not sel.any():
+                loo[j] = sums.sum()
+                continue
+            Xb = X[sel]
+            cj = np.linalg.lstsq(A - Xb.T @ Xb, r - Xb.T @ y[sel], rcond=None)[0]
+            keep = used & ~sel
+            loo[j] = np.sum((y[keep] - X[keep] @ cj) ** 2)
+    return sums, loo
+
+
 def _curve_vertex(V, K):
     """Fractional minimum of V[-K-1 .. K+1] (a parabola through the best
     trial within -K..K and its neighbours); None if not convex there."""
@@ -1648,7 +1693,7 @@ def _curve_vertex(V, K):
     return kb + 0.5 * (a - c) / den if den > 0 else None
 
 
-def _lag_curve(ug, ub, halves=True, lever_arm=True, min_rows=LAG_CURVE_ROWS):
+def _lag_curve(ug, ub, halves=True, lever_arm=True, min_rows=LAG_CURVE_ROWS, refit=False):
     """The fractional row shift of the magnetometer against the
     accelerometer that makes the dip invariant most consistent, for a
     continuously moving log: for each trial shift -K-1..K+1 the mean squared
@@ -1662,8 +1707,12 @@ def _lag_curve(ug, ub, halves=True, lever_arm=True, min_rows=LAG_CURVE_ROWS):
     LAG_CURVE_PARTS parts on its own and sums their misfits: a hand changes
     its grip, a part warms, and one fit for the whole log leaves what
     changed in the misfit (on CK's log, which then leans +0.18 row where
-    each half fitted alone is at +0.02 and -0.13).  None when the log is
-    too short or the dip too close to 0 to scale the invariant."""
+    each half fitted alone is at +0.02 and -0.13).  With refit, the standard
+    error is the larger of that jackknife and one that fits the calibration
+    and the lever arms again without each block (the first leaves each
+    block's weight in the fitted terms: on a short log a few blocks can
+    carry them, and its standard error is then too small).  None when the
+    log is too short or the dip too close to 0 to scale the invariant."""
     m = len(ug)
     K = MAX_LAG
     if m < (min_rows if halves else min_rows // 2):
@@ -1678,20 +1727,28 @@ def _lag_curve(ug, ub, halves=True, lever_arm=True, min_rows=LAG_CURVE_ROWS):
     shifts = range(-K - 1, K + 2)
     extra = _lever_arm_columns(ug, ub, i, shifts) if lever_arm else [None] * len(shifts)
     parts = np.array_split(np.arange(len(i)), LAG_CURVE_PARTS if halves else 1)
-    R = np.array([np.concatenate([_invariant_misfit(ug[i[p]], ub[i[p] + k], None if x is None else x[p]) ** 2
-                                  for p in parts]) for k, x in zip(shifts, extra)])
     nb = LAG_CURVE_BLOCKS
-    L = R.shape[1] // nb
-    S = R[:, :nb * L].reshape(len(R), nb, L).sum(2)
+    L = len(i) // nb
+    block = np.minimum(np.arange(len(i)) // L, nb)  # nb: the rows past the last whole block, left out
+    S = np.zeros((len(shifts), nb))     # each block's squared misfit, the coefficients fitted to every row
+    loo = np.zeros((len(shifts), nb))   # the other blocks', the coefficients fitted without the block
+    for si, (k, x) in enumerate(zip(shifts, extra)):
+        for p in parts:
+            s_b, loo_b = _invariant_misfit_blocks(ug[i[p]], ub[i[p] + k], None if x is None else x[p], block[p], nb,
+                                                  refit)
+            S[si] += s_b
+            loo[si] += loo_b
     tot = S.sum(1)
     lag = _curve_vertex(tot, K)
     if lag is None:
         return None
     tj = [_curve_vertex(tot - S[:, j], K) for j in range(nb)]
+    if refit:
+        tj += [_curve_vertex(loo[:, j], K) for j in range(nb)]
     if any(t is None for t in tj):
         return None
-    tj = np.array(tj)
-    se = float(np.sqrt((nb - 1) / nb * np.sum((tj - tj.mean()) ** 2)))
+    tj = np.array(tj).reshape(-1, nb)
+    se = float(max(np.sqrt((nb - 1) / nb * np.sum((t - t.mean()) ** 2)) for t in tj))
     out = {"lag": float(lag), "se": se, "halves": []}
     if halves:
         h = m // 2
