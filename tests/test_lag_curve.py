@@ -437,7 +437,7 @@ def test_a_short_stretch_of_a_real_log_whose_curve_refits_loose_names_nothing(ck
     0.41 with each half rounding to +3, and +3 was named.  Refitting the
     triads' calibration and the lever arms without each block (the log
     turned about the vertical for much of it: a few blocks carry the fit)
-    puts its standard error at rows, and nothing is named."""
+    puts its standard error at 1.38 rows, and nothing is named."""
     rep = checks.run(_stretch(ck[0], 6000, 7500))
     assert rep.lag_rows == 0 and not _lag_findings(rep), rep.lines()
 

@@ -1300,7 +1300,7 @@ def _short_curve_names(lag: float, se: float, halves: list) -> bool:
     the strict rule with the halves' rows alone still named +3 on a stretch
     of the CK log in step (+3.37 +- 0.8) and -2 on a tumble a row out of
     step (-1.53 +- 0.15); this rule with the first jackknife alone named +3
-    on CK rows 6000-7500 in step (+3.33 +- 0.41; refitted, +- rows)."""
+    on CK rows 6000-7500 in step (+3.33 +- 0.41; refitted, +- 1.38)."""
     rule, k = _curve_rule(lag, se, halves)
     return rule == "curve" and se < LAG_CURVE_NEAREST_SE and abs(lag - k) < LAG_CURVE_SHORT_LEFT \
         and all(int(round(h)) == k for h in halves)
