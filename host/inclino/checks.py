@@ -90,7 +90,11 @@ LAG_CURVE_SHORT_ROWS = 200  # ... (from this many, a curve whose standard error 
                             # first jackknife's standard error is too small to carry the nearest-row warning, the
                             # notes or the other routes' second view)
 LAG_CURVE_SHORT_LEFT = 0.4
+LAG_CURVE_POSSIBLE_SE = 1.0  # ... and one that names no row is said as a note below this standard error (rows)
 LAG_CURVE_BLOCKS = 20     # ... cut in this many blocks for its jackknife standard error;
+LAG_CURVE_MIN_TURN_BLOCKS = 8  # ... the triads' turning spread over at least this many blocks' worth (_turn_blocks:
+                               # real logs turned by hand 9-19, stretches of 300-1 500 rows too but two of BROAD's
+                               # 600 rows at 5.7 and 6.6; six positions held, 4.5-6.5);
 LAG_CURVE_SE = 3.0        # a whole-row shift is named when the fractional lag is this many standard errors
                           # beyond half a row (and each half of the log, fitted on its own, rounds to it)
 LAG_CURVE_NEAREST_SE = 0.5  # ... or, as a warning, the nearest whole row when the curve's standard error is
@@ -964,6 +968,24 @@ def _axes_and_lag(ds, rows_all, rep, ug_src=None):
                 f"{_se_text(inv['se'])} out of step (each half of the log: {halves_txt}): a shift {shift} is "
                 f"possible, not named (the curve's scatter is more than {LAG_CURVE_NEAREST_SE:g} row)"),
                 None, {"curve_lag_rows": inv["lag"], "curve_lag_se_rows": inv["se"], "lag_rows_possible": k}))
+    if route is None and inv is None and short is not None and doubt is None:
+        # a curve of fewer than LAG_CURVE_ROWS rows, not sure of its row: what it reads, said as a note (timspi's
+        # log of 1 252 rows a row ahead reads -1.40 +- 0.64, halves -1.34 and -1.69)
+        rule_s, ks = _curve_rule(short["lag"], short["se"], short["halves"])
+        if rule_s is not None and short["se"] < LAG_CURVE_POSSIBLE_SE:
+            lo, hi = (int(round(short["lag"] + d * short["se"])) for d in (-1, 1))
+            full = f"{LAG_CURVE_ROWS:,}".replace(",", " ")
+            shift = (f"of {ks:+d}" if lo == hi else
+                     f"anywhere from {lo:+d} to {hi:+d} rows (one standard error either way)")
+            rep.findings.append(Finding("row-alignment", "note", (
+                f"the dip invariant's lag curve puts the magnetometer's rows {short['lag']:+.2f} +- "
+                f"{_se_text(short['se'])} out of step (each half of the log: "
+                + ", ".join(f"{h:+.2f}" for h in short["halves"]) + f"): a shift {shift} is possible, not named "
+                f"(on fewer than {full} rows a curve names a row only where each half of the log rounds to the "
+                f"same row, its scatter is under {LAG_CURVE_NEAREST_SE:g} row and it lies within "
+                f"{LAG_CURVE_SHORT_LEFT:g} of the row)"),
+                None, {"curve_lag_rows": short["lag"], "curve_lag_se_rows": short["se"],
+                       "curve_lag_halves_rows": short["halves"], "lag_rows_possible": ks}))
     if route is not None:
         if inv is not None and route not in ("curve", "nearest"):
             how += f"; the lag curve puts it at {inv['lag']:+.2f} +- {_se_text(inv['se'])} rows"
@@ -1684,6 +1706,17 @@ def _invariant_misfit_blocks(ug, ub, extra, block, nb, refit=False):
     return sums, loo
 
 
+def _turn_blocks(ug, ub, nb) -> float:
+    """How many of nb blocks of consecutive rows the triads' turning is
+    spread over: (sum T)^2 / sum T^2, T each block's sum of both unit
+    directions' central differences (nb where every block turns alike;
+    a log held still at each of six positions, about 5)."""
+    turn = np.linalg.norm(ug[2:] - ug[:-2], axis=1) + np.linalg.norm(ub[2:] - ub[:-2], axis=1)
+    L = max(len(turn) // nb, 1)
+    T = np.bincount(np.minimum(np.arange(len(turn)) // L, nb - 1), weights=turn, minlength=nb)
+    return float(T.sum() ** 2 / max(float((T ** 2).sum()), 1e-300))
+
+
 def _curve_vertex(V, K):
     """Fractional minimum of V[-K-1 .. K+1] (a parabola through the best
     trial within -K..K and its neighbours); None if not convex there."""
@@ -1723,11 +1756,16 @@ def _lag_curve(ug, ub, halves=True, lever_arm=True, min_rows=LAG_CURVE_ROWS, ref
         # a log that hardly turns (one orientation held, or turned about gravity alone) pairs its rows alike
         # at every shift: the curve would be its noise (fitted to it by the lever-arm terms)
         return None
+    nb = LAG_CURVE_BLOCKS
+    if halves and _turn_blocks(ug, ub, nb) < LAG_CURVE_MIN_TURN_BLOCKS:
+        # the turns in a few blocks (a step-and-hold log of a few positions): the curve rests on a few dozen
+        # rows and the jackknife, its blocks not alike, cannot tell how well (six positions held 100 rows,
+        # turned between over 3 rows, a row behind: -2.47 +- 0.12)
+        return None
     i = np.arange(K + 1, m - K - 1)
     shifts = range(-K - 1, K + 2)
     extra = _lever_arm_columns(ug, ub, i, shifts) if lever_arm else [None] * len(shifts)
     parts = np.array_split(np.arange(len(i)), LAG_CURVE_PARTS if halves else 1)
-    nb = LAG_CURVE_BLOCKS
     L = len(i) // nb
     block = np.minimum(np.arange(len(i)) // L, nb)  # nb: the rows past the last whole block, left out
     S = np.zeros((len(shifts), nb))     # each block's squared misfit, the coefficients fitted to every row
