@@ -16,6 +16,7 @@ from inclino.formats import dataset, importlog, sensor
 from inclino.model import effects as fx
 from inclino.model.scenario import generate_raw, load_scenario
 from inclino.model.world import Trajectory
+from inclino.benchmarks.realdata import held_positions, smooth_tumble
 from rows import shifted as _shifted
 
 REAL = Path(__file__).parent / "data" / "real"
@@ -384,34 +385,6 @@ def test_a_short_curve_that_is_not_sure_of_its_row_names_nothing(ck):
     assert rep.lag_rows == 0 and not _lag_findings(rep), rep.lines()
 
 
-def _smooth_tumble(n, deg_per_row, seed):
-    """A sensor turned smoothly through all orientations, simulated outside
-    the project's own world model: its rotation rate a random process
-    correlated over ~50 rows, RMS deg_per_row a row; gravity and a field of
-    50 000 nT dipping 60 deg; each triad with its own scale, cross-axis and
-    offset errors (1 %, 0.02 g; 2 %, 500 nT) and white noise (1 mg, 50 nT);
-    both triads sampled at the same instant (in step)."""
-    from scipy.spatial.transform import Rotation
-
-    rng = np.random.default_rng(seed)
-    w, x = np.zeros((n, 3)), rng.normal(size=3)
-    for i in range(n):
-        x = 0.98 * x + 0.2 * rng.normal(size=3)
-        w[i] = x
-    w *= np.radians(deg_per_row) / np.sqrt((w ** 2).sum(1).mean())
-    rot = [Rotation.from_quat(rng.normal(size=4))]
-    for i in range(1, n):
-        rot.append(Rotation.from_rotvec(w[i]) * rot[-1])
-    body = Rotation.concatenate(rot).inv()
-    dip = np.radians(60.0)
-    acc = body.apply([0.0, 0.0, 1.0])
-    mag = body.apply(50_000.0 * np.array([np.cos(dip), 0.0, np.sin(dip)]))
-    acc = acc @ (np.eye(3) + rng.normal(0, 0.01, (3, 3))).T + rng.normal(0, 0.02, 3) + rng.normal(0, 1e-3, (n, 3))
-    mag = mag @ (np.eye(3) + rng.normal(0, 0.02, (3, 3))).T + rng.normal(0, 500, 3) + rng.normal(0, 50, (n, 3))
-    cols = dict(zip(dataset.ACC_COLS, acc.T)) | dict(zip(dataset.MAG_COLS, mag.T))
-    return dataset.RawDataset(cols, {"field_nT": 50_000.0})
-
-
 @pytest.mark.parametrize("seed", range(4))
 def test_a_one_row_shift_of_a_short_smooth_tumble_is_named_from_its_curve(seed):
     """600 rows turned 2 deg a row: a row changes the dip's spread by a few %
@@ -421,7 +394,7 @@ def test_a_one_row_shift_of_a_short_smooth_tumble_is_named_from_its_curve(seed):
     from LAG_CURVE_SHORT_ROWS rows, its standard error the larger of a
     jackknife that refits the calibration without each block and one that
     does not, puts each one-row shift at its row."""
-    ds = _smooth_tumble(600, 2.0, seed)
+    ds = smooth_tumble(600, 2.0, seed)
     rep = checks.run(ds)
     assert rep.lag_rows == 0 and not _lag_findings(rep), rep.lines()
     assert abs(rep.lag_curve["lag_rows"]) < 0.25, rep.lag_curve
@@ -449,32 +422,8 @@ def test_a_short_curve_keeps_the_other_routes_from_naming_a_wrong_row(seed):
     one +1 in step: the curve puts the rows in step, or rules out the row by
     more than LAG_CURVE_SE standard errors beyond half a row (+0.87 +- 0.16
     against +2), and the row named is the shift made."""
-    ds = _smooth_tumble(600, 2.0, seed)
+    ds = smooth_tumble(600, 2.0, seed)
     assert [checks.run(_shifted(ds, k) if k else ds).lag_rows for k in (0, 1, -1)] == [0, 1, -1]
-
-
-def _held_positions(n_positions, rows_held, turn_rows, seed):
-    """A sensor held still at random positions, turned from one to the next
-    over turn_rows rows (slerp), the triads' errors and noise as in
-    _smooth_tumble; in step."""
-    from scipy.spatial.transform import Rotation, Slerp
-
-    rng = np.random.default_rng(seed)
-    poses = Rotation.from_quat(rng.normal(size=(n_positions, 4)))
-    path = []
-    for p in range(n_positions):
-        path += [poses[p]] * rows_held
-        if p < n_positions - 1:
-            path += list(Slerp([0.0, 1.0], poses[[p, p + 1]])(np.linspace(0.0, 1.0, turn_rows + 2)[1:-1]))
-    body = Rotation.concatenate(path).inv()
-    n = len(body)
-    dip = np.radians(60.0)
-    acc = body.apply([0.0, 0.0, 1.0])
-    mag = body.apply(50_000.0 * np.array([np.cos(dip), 0.0, np.sin(dip)]))
-    acc = acc @ (np.eye(3) + rng.normal(0, 0.01, (3, 3))).T + rng.normal(0, 0.02, 3) + rng.normal(0, 1e-3, (n, 3))
-    mag = mag @ (np.eye(3) + rng.normal(0, 0.02, (3, 3))).T + rng.normal(0, 500, 3) + rng.normal(0, 50, (n, 3))
-    return dataset.RawDataset(dict(zip(dataset.ACC_COLS, acc.T)) | dict(zip(dataset.MAG_COLS, mag.T)),
-                              {"field_nT": 50_000.0})
 
 
 @pytest.mark.parametrize("seed", [19, 21])
@@ -485,7 +434,7 @@ def test_a_few_held_positions_get_no_lag_curve(seed):
     log) and +2.50 +- 0.002 a row ahead (the second), and overruled the
     count of rows where the position changes.  No curve is fitted there;
     the count names each shift."""
-    ds = _held_positions(6, 100, 3, seed)
+    ds = held_positions(6, 100, 3, seed)
     ug, ub = _check_dirs(ds)
     assert checks._turn_blocks(ug, ub, checks.LAG_CURVE_BLOCKS) < checks.LAG_CURVE_MIN_TURN_BLOCKS
     assert checks._lag_curve(ug, ub, min_rows=checks.LAG_CURVE_SHORT_ROWS, refit=True) is None

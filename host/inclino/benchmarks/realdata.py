@@ -36,7 +36,9 @@ thirds and 6 000-row windows, each checked on its own, shifted by 0, +-1,
 rows (fewer than the lag curve's full rules need) and on emulated tumbles with a hand's acceleration in the
 accelerometer (HAND_MG per axis, periods of 4-40 rows, at 250 and 500 rows
 a second, three seeds each: 0.3 and 0.2 deg between rows, the CK log's 0.4 deg in 2-3 deg of
-dip scatter): how many shifts are named, how many are left unnamed, and
+dip scatter), on smooth tumbles of 300, 600 and 1 000 rows and on six
+positions held 100 rows each (turned between over 3 rows) simulated apart
+from inclino.model (four seeds each): how many shifts are named, how many are left unnamed, and
 that no stretch ever gets a wrong lag, no shifted stretch passes without a
 word of its pairing (a note at least), nor an in-step stretch a warning.
 
@@ -58,6 +60,7 @@ DISTURB_NT = 4000.0    # a rig's field on the magnetometer (nT)
 GIMBAL_OUTER, GIMBAL_INNER = 37, 35
 HAND_MG = 30.0         # a hand's acceleration in the emulated tumbles (RMS per axis)
 SHORT_STRETCH = 1250   # BROAD's trials cut into stretches of this many rows (fewer than checks.LAG_CURVE_ROWS)
+SIM_SEEDS = (100, 101, 102, 103)  # the simulated tumbles and held positions (smooth_tumble, held_positions)
 STRETCH_SHIFTS = (0, 1, -1, 2, -2, 3, -3)  # 1295 positions, as the gimbal log of a 9-axis IMU that motivated this
 
 
@@ -166,7 +169,7 @@ class RealDataBench:
                 shifted = [r for r in rows if r["shift"] != 0]
                 by = ", ".join(f"{k:+d}: {sum(r['named'] == k for r in shifted if r['shift'] == k)}/"
                                f"{sum(r['shift'] == k for r in shifted)}" for k in STRETCH_SHIFTS if k)
-                out.append(f"  {group:50s} {by}; wrong {sum(r['named'] not in (0, r['shift']) for r in rows)}; "
+                out.append(f"  {group:54s} {by}; wrong {sum(r['named'] not in (0, r['shift']) for r in rows)}; "
                            f"silent {sum(not r['said'] for r in shifted)}; in step with a warning "
                            f"{sum(r['shift'] == 0 and r['warned'] for r in rows)} of {sum(r['shift'] == 0 for r in rows)}")
         out.append("  verdict: " + ("pass" if self.passed else "FAIL"))
@@ -396,6 +399,56 @@ def hand_tumble(rows_per_s: float, n: int = 12_000, seed: int = 5, hand_mg: floa
     return ds
 
 
+def smooth_tumble(n, deg_per_row, seed):
+    """n rows of a sensor turned smoothly through all orientations,
+    simulated apart from inclino.model: its rotation rate a random process
+    correlated over ~50 rows, RMS deg_per_row a row, from a random start;
+    both triads (_two_triads) sampled at the same instant (in step)."""
+    from scipy.spatial.transform import Rotation
+
+    rng = np.random.default_rng(seed)
+    w, x = np.zeros((n, 3)), rng.normal(size=3)
+    for i in range(n):
+        x = 0.98 * x + 0.2 * rng.normal(size=3)
+        w[i] = x
+    w *= np.radians(deg_per_row) / np.sqrt((w ** 2).sum(1).mean())
+    rot = [Rotation.from_quat(rng.normal(size=4))]
+    for i in range(1, n):
+        rot.append(Rotation.from_rotvec(w[i]) * rot[-1])
+    return _two_triads(Rotation.concatenate(rot).inv(), rng)
+
+
+def held_positions(n_positions, rows_held, turn_rows, seed):
+    """A sensor held still for rows_held rows at each of n_positions random
+    positions, turned from one to the next over turn_rows rows (slerp);
+    both triads as in smooth_tumble, in step."""
+    from scipy.spatial.transform import Rotation, Slerp
+
+    rng = np.random.default_rng(seed)
+    poses = Rotation.from_quat(rng.normal(size=(n_positions, 4)))
+    path = []
+    for p in range(n_positions):
+        path += [poses[p]] * rows_held
+        if p < n_positions - 1:
+            path += list(Slerp([0.0, 1.0], poses[[p, p + 1]])(np.linspace(0.0, 1.0, turn_rows + 2)[1:-1]))
+    return _two_triads(Rotation.concatenate(path).inv(), rng)
+
+
+def _two_triads(body, rng):
+    """Both triads' rows for the world-to-body rotations body (scipy
+    Rotation): gravity (1 g down) and a field of 50 000 nT dipping 60 deg,
+    each triad with its own scale and cross-axis errors, offset and white
+    noise (1 %, 0.02 g, 1 mg; 2 %, 500 nT, 50 nT), drawn from rng."""
+    from inclino.formats.dataset import ACC_COLS, MAG_COLS, RawDataset
+
+    n, dip = len(body), np.radians(60.0)
+    acc = body.apply([0.0, 0.0, 1.0])
+    mag = body.apply(50_000.0 * np.array([np.cos(dip), 0.0, np.sin(dip)]))
+    acc = acc @ (np.eye(3) + rng.normal(0, 0.01, (3, 3))).T + rng.normal(0, 0.02, 3) + rng.normal(0, 1e-3, (n, 3))
+    mag = mag @ (np.eye(3) + rng.normal(0, 0.02, (3, 3))).T + rng.normal(0, 500, 3) + rng.normal(0, 50, (n, 3))
+    return RawDataset(dict(zip(ACC_COLS, acc.T)) | dict(zip(MAG_COLS, mag.T)), {"field_nT": 50_000.0})
+
+
 def _stretch(ds, a, b):
     """Rows a to b of a dataset, checked as a log of their own."""
     from inclino.formats.dataset import RawDataset
@@ -424,11 +477,17 @@ def stretch_checks(root) -> list:
                  for a in range(0, len(b) - SHORT_STRETCH + 1, SHORT_STRETCH)]
     logs += [(f"emulated tumble, {HAND_MG:g} mg hand, {hz:g} rows/s, seed {seed}", hand_tumble(hz, seed=seed))
              for hz in (250.0, 500.0) for seed in (5, 6, 7)]
+    # simulated apart from inclino.model, seeds apart from the tests': short smooth tumbles, where the lag curve
+    # from LAG_CURVE_SHORT_ROWS rows finds the pairing, and positions held, where it must leave it to the count
+    logs += [(f"smooth tumble, {n} rows, 2 deg a row, seed {seed}", smooth_tumble(n, 2.0, seed))
+             for n in (300, 600, 1000) for seed in SIM_SEEDS]
+    logs += [(f"six positions held 100 rows, turned over 3, seed {seed}", held_positions(6, 100, 3, seed))
+             for seed in SIM_SEEDS]
     out = []
     for name, ds in logs:
         group = ("CK log, held-out stretches" if name.startswith("CK") else
                  f"BROAD 02 and 05, stretches of {SHORT_STRETCH} rows" if name.startswith("BROAD") else
-                 name.rsplit(",", 1)[0] + " (3 seeds)")
+                 name.rsplit(",", 1)[0] + f" ({len(SIM_SEEDS) if name.startswith(('smooth', 'six')) else 3} seeds)")
         for k in STRETCH_SHIFTS:
             rep = checks.run(_shifted(ds, k) if k else ds)
             warned = any(f.check == "row-alignment" and f.level in ("error", "warning") for f in rep.findings)
