@@ -1659,34 +1659,36 @@ def _lever_arm_columns(ug, ub, i, shifts):
     return out
 
 
-def _invariant_misfit(ug, ub, extra=None):
-    """The dip invariant's misfit with the triads' linear calibration errors
-    fitted out: g^T C b + u.g + v.b = 1 (15 coefficients: a constant dip
-    through any small misalignment, scale, cross-axis and offset error of
-    either triad), plus the coefficients of any extra columns (the hand's
-    lever-arm terms, _lever_arm_columns), by least squares; the residual
-    per row.  Solved through the normal equations of the columns scaled to
-    unit RMS (the lever-arm columns are ~1e-3 of the others; scaled, the
-    design is well conditioned): the same residual as a least-squares solver
-    on the rows, at a fraction of its cost (the curve fits it 27 times)."""
+def _invariant_design(ug, ub, extra=None):
+    """The columns of the dip invariant's fit, g^T C b + u.g + v.b = 1 (15
+    coefficients: a constant dip through any small misalignment, scale,
+    cross-axis and offset error of either triad), plus any extra columns
+    (the hand's lever-arm terms, _lever_arm_columns), each scaled to unit
+    RMS (the lever-arm columns are ~1e-3 of the others; scaled, the normal
+    equations are well conditioned)."""
     cols = [(ug[:, :, None] * ub[:, None, :]).reshape(len(ug), 9), ug, ub]
     X = np.column_stack(cols if extra is None else cols + [extra])
     scale = np.sqrt((X * X).mean(0))
-    X /= np.where(scale > 0, scale, 1.0)
+    return X / np.where(scale > 0, scale, 1.0)
+
+
+def _invariant_misfit(ug, ub, extra=None):
+    """The dip invariant's misfit per row (_invariant_design) with its
+    coefficients fitted by least squares, through the normal equations:
+    the same residual as a least-squares solver on the rows, at a fraction
+    of its cost (the curve fits it 27 times)."""
+    X = _invariant_design(ug, ub, extra)
     y = np.ones(len(ug))
-    c = np.linalg.lstsq(X.T @ X, X.T @ y, rcond=None)[0]
-    return y - X @ c
+    return y - X @ np.linalg.lstsq(X.T @ X, X.T @ y, rcond=None)[0]
 
 
 def _invariant_misfit_blocks(ug, ub, extra, block, nb, refit=False):
     """The dip invariant's squared misfit (_invariant_misfit) summed over
     each block 0..nb-1 of rows (block: each row's; nb: a row left out), and
     (refit) for each block the sum over the other blocks' rows with the
-    coefficients fitted without the block's rows (zeros without refit)."""
-    cols = [(ug[:, :, None] * ub[:, None, :]).reshape(len(ug), 9), ug, ub]
-    X = np.column_stack(cols if extra is None else cols + [extra])
-    scale = np.sqrt((X * X).mean(0))
-    X /= np.where(scale > 0, scale, 1.0)
+    coefficients fitted without the block's rows (the normal equations less
+    the block's part; zeros without refit)."""
+    X = _invariant_design(ug, ub, extra)
     y = np.ones(len(ug))
     A, r = X.T @ X, X.T @ y
     res2 = (y - X @ np.linalg.lstsq(A, r, rcond=None)[0]) ** 2
