@@ -408,9 +408,9 @@ def test_a_one_row_shift_of_a_short_smooth_tumble_is_named_from_its_curve(seed):
 def test_a_short_stretch_of_a_real_log_whose_curve_refits_loose_names_nothing(ck):
     """CK rows 6000-7500 in step: the curve's first jackknife read +3.33 +-
     0.41 with each half rounding to +3, and +3 was named.  Refitting the
-    triads' calibration and the lever arms without each block (the log
-    turned about the vertical for much of it: a few blocks carry the fit)
-    puts its standard error at 1.38 rows, and nothing is named."""
+    triads' calibration and the lever arms without each block puts its
+    standard error at 1.38 rows (a few blocks carry the fitted terms), and
+    nothing is named."""
     rep = checks.run(_stretch(ck[0], 6000, 7500))
     assert rep.lag_rows == 0 and not _lag_findings(rep), rep.lines()
 

@@ -994,7 +994,8 @@ def _axes_and_lag(ds, rows_all, rep, ug_src=None):
                     f"that no lag removes)")
         _name_shift(ds, rep, route, kb, how, s0, sb, fig)
     elif ug_src is None and not any(f.check == "row-alignment" for f in rep.findings):
-        unseen = None if rep.one_orientation else _shifts_unseen(ug, ubp, inv or short, lags, strict=inv is None or inv is short)
+        unseen = None if rep.one_orientation else _shifts_unseen(ug, ubp, inv or short, lags,
+                                                                 strict=inv is None or inv is short)
         if unseen:
             rep.findings.append(Finding("row-alignment", "note", unseen[0], None, unseen[1]))
     _dip_sign(ds, _dip(*_paired(ug, ubp, rep.lag_rows or 0)), ug_src, rep)  # the dip's sign, as named paired
@@ -1762,7 +1763,7 @@ def _lag_curve(ug, ub, halves=True, lever_arm=True, min_rows=LAG_CURVE_ROWS, ref
     if halves and _turn_blocks(ug, ub, nb) < LAG_CURVE_MIN_TURN_BLOCKS:
         # the turns in a few blocks (a step-and-hold log of a few positions): the curve rests on a few dozen
         # rows and the jackknife, its blocks not alike, cannot tell how well (six positions held 100 rows,
-        # turned between over 3 rows, a row behind: -2.47 +- 0.12)
+        # turned between over 3 rows, a row ahead: +2.50 +- 0.002)
         return None
     i = np.arange(K + 1, m - K - 1)
     shifts = range(-K - 1, K + 2)
