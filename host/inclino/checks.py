@@ -960,32 +960,14 @@ def _axes_and_lag(ds, rows_all, rep, ug_src=None):
                 f"about {k:+d} is possible, not named"),
                 None, {"curve_lag_rows": inv["lag"], "curve_lag_se_rows": inv["se"], "lag_rows_possible": k}))
         elif route is None and rule is not None:
-            lo, hi = (int(round(inv["lag"] + d * inv["se"])) for d in (-1, 1))  # the rows one standard error allows
-            shift = (f"of {k:+d}" if lo == hi else
-                     f"anywhere from {lo:+d} to {hi:+d} rows (one standard error either way)")
-            rep.findings.append(Finding("row-alignment", "note", (
-                f"the dip invariant's lag curve puts the magnetometer's rows {inv['lag']:+.2f} +- "
-                f"{_se_text(inv['se'])} out of step (each half of the log: {halves_txt}): a shift {shift} is "
-                f"possible, not named (the curve's scatter is more than {LAG_CURVE_NEAREST_SE:g} row)"),
-                None, {"curve_lag_rows": inv["lag"], "curve_lag_se_rows": inv["se"], "lag_rows_possible": k}))
+            rep.findings.append(_possible_shift(
+                inv, k, f"the curve's scatter is more than {LAG_CURVE_NEAREST_SE:g} row"))
     if route is None and inv is None and short is not None and doubt is None:
         # a curve of fewer than LAG_CURVE_ROWS rows, not sure of its row: what it reads, said as a note (timspi's
         # log of 1 252 rows a row ahead reads -1.40 +- 0.64, halves -1.34 and -1.69)
         rule_s, ks = _curve_rule(short["lag"], short["se"], short["halves"])
         if rule_s is not None and short["se"] < LAG_CURVE_POSSIBLE_SE:
-            lo, hi = (int(round(short["lag"] + d * short["se"])) for d in (-1, 1))
-            full = f"{LAG_CURVE_ROWS:,}".replace(",", " ")
-            shift = (f"of {ks:+d}" if lo == hi else
-                     f"anywhere from {lo:+d} to {hi:+d} rows (one standard error either way)")
-            rep.findings.append(Finding("row-alignment", "note", (
-                f"the dip invariant's lag curve puts the magnetometer's rows {short['lag']:+.2f} +- "
-                f"{_se_text(short['se'])} out of step (each half of the log: "
-                + ", ".join(f"{h:+.2f}" for h in short["halves"]) + f"): a shift {shift} is possible, not named "
-                f"(on fewer than {full} rows a curve names a row only where each half of the log rounds to the "
-                f"same row, its scatter is under {LAG_CURVE_NEAREST_SE:g} row and it lies within "
-                f"{LAG_CURVE_SHORT_LEFT:g} of the row)"),
-                None, {"curve_lag_rows": short["lag"], "curve_lag_se_rows": short["se"],
-                       "curve_lag_halves_rows": short["halves"], "lag_rows_possible": ks}))
+            rep.findings.append(_possible_shift(short, ks, _short_rule_text()))
     if route is not None:
         if inv is not None and route not in ("curve", "nearest"):
             how += f"; the lag curve puts it at {inv['lag']:+.2f} +- {_se_text(inv['se'])} rows"
@@ -1329,6 +1311,32 @@ def _short_curve_names(lag: float, se: float, halves: list) -> bool:
         and all(int(round(h)) == k for h in halves)
 
 
+def _short_rule_text() -> str:
+    """_short_curve_names in words."""
+    return (f"on fewer than {_rows_text(LAG_CURVE_ROWS)} rows the curve names a shift only where each half of the "
+            f"log rounds to the same row, its scatter is under {LAG_CURVE_NEAREST_SE:g} row and it lies within "
+            f"{LAG_CURVE_SHORT_LEFT:g} of the row")
+
+
+def _rows_text(n: int) -> str:
+    """A count of rows as the other figures are written (1 000)."""
+    return f"{n:,}".replace(",", " ")
+
+
+def _possible_shift(inv, k: int, why: str) -> Finding:
+    """The note for a lag curve (_lag_curve's dict) that puts a shift k on
+    the side of both halves of the log but does not name it (why: the
+    rule it misses), with the rows one standard error either way allows."""
+    lo, hi = (int(round(inv["lag"] + d * inv["se"])) for d in (-1, 1))
+    shift = f"of {k:+d}" if lo == hi else f"anywhere from {lo:+d} to {hi:+d} rows (one standard error either way)"
+    halves = ", ".join("too short to tell" if h is None else f"{h:+.2f}" for h in inv["halves"])
+    return Finding("row-alignment", "note", (
+        f"the dip invariant's lag curve puts the magnetometer's rows {inv['lag']:+.2f} +- {_se_text(inv['se'])} out "
+        f"of step (each half of the log: {halves}): a shift {shift} is possible, not named ({why})"),
+        None, {"curve_lag_rows": inv["lag"], "curve_lag_se_rows": inv["se"], "curve_lag_halves_rows": inv["halves"],
+               "lag_rows_possible": k})
+
+
 def _named_on(a, b, inv_shifted, strict=False) -> bool:
     """Whether the checks would name a shift of the rows a, b paired as given
     (the spread, the transitions, the jumps, or the lag curve inv_shifted:
@@ -1365,18 +1373,14 @@ def _shifts_unseen(ug, ub, inv, lags, strict=False):
     if not ways:
         return None
     gain = max(abs(lags.get(k, lags[0]) / lags[0] - 1.0) for k in (1, -1))
-    rows = lambda n: f"{n:,}".replace(",", " ")  # noqa: E731  (1 000, as the other figures are written)
-    why = (f"fewer than {rows(LAG_CURVE_SHORT_ROWS)} consecutive rows" if len(ug) < LAG_CURVE_SHORT_ROWS else
+    why = (f"fewer than {_rows_text(LAG_CURVE_SHORT_ROWS)} consecutive rows" if len(ug) < LAG_CURVE_SHORT_ROWS else
            "the dip within 6 deg of the magnetic equator, too small to scale the invariant"
            if abs(float(np.median((ug * ub).sum(1)))) < LAG_CURVE_MIN_SIN else
            "both triads turned too little, or about one axis only")
     curve = (f"the dip invariant's lag curve, which finds a shift on a log turned smoothly, is not determined "
              f"here ({why})" if inv is None else
              f"the dip invariant's lag curve scatters by {_se_text(inv['se'])} row here" + (
-                 f" (on fewer than {rows(LAG_CURVE_ROWS)} rows the curve names a shift only where each half of the "
-                 f"log rounds to the same row, its scatter is under {LAG_CURVE_NEAREST_SE:g} row and it lies within "
-                 f"{LAG_CURVE_SHORT_LEFT:g} of the row)"
-                 if strict else ""))
+                 f" ({_short_rule_text()})" if strict else ""))
     # k = 1 pairs the accelerometer's row i with the magnetometer's row i + 1: the magnetometer a row ahead
     # (named as lag -1), k = -1 a row behind (lag +1)
     which = "either way" if len(ways) == 2 else ("with the magnetometer a row ahead" if ways[0] == 1 else

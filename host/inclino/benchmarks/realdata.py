@@ -468,26 +468,25 @@ def stretch_checks(root) -> list:
     n = len(ck)
     spans = sorted({(0, n // 2), (n // 2, n), *((j * n // 3, (j + 1) * n // 3) for j in range(3)),
                     *((a, a + n // 2) for a in range(0, n // 2 + 1, n // 8))})
-    logs = [(f"CK log rows {a}-{b}", _stretch(ck, a, b)) for a, b in spans]
+    logs = [("CK log, held-out stretches", f"CK log rows {a}-{b}", _stretch(ck, a, b)) for a, b in spans]
     # BROAD's two trials in stretches of SHORT_STRETCH rows: fewer than the lag curve's LAG_CURVE_ROWS, where only
     # a curve sure of its row names it (checks._short_curve_names)
     for trial in ("02", "05"):
         b, _ = importlog.import_log(str(root / f"broad/{trial}.csv"), sensor.load(str(root / "broad/with_acc.toml")))
-        logs += [(f"BROAD {trial} rows {a}-{a + SHORT_STRETCH}", _stretch(b, a, a + SHORT_STRETCH))
+        logs += [(f"BROAD 02 and 05, stretches of {SHORT_STRETCH} rows", f"BROAD {trial} rows {a}-{a + SHORT_STRETCH}",
+                  _stretch(b, a, a + SHORT_STRETCH))
                  for a in range(0, len(b) - SHORT_STRETCH + 1, SHORT_STRETCH)]
-    logs += [(f"emulated tumble, {HAND_MG:g} mg hand, {hz:g} rows/s, seed {seed}", hand_tumble(hz, seed=seed))
+    logs += [(f"emulated tumble, {HAND_MG:g} mg hand, {hz:g} rows/s (3 seeds)",
+              f"emulated tumble, {HAND_MG:g} mg hand, {hz:g} rows/s, seed {seed}", hand_tumble(hz, seed=seed))
              for hz in (250.0, 500.0) for seed in (5, 6, 7)]
     # simulated apart from inclino.model, seeds apart from the tests': short smooth tumbles, where the lag curve
     # from LAG_CURVE_SHORT_ROWS rows finds the pairing, and positions held, where it must leave it to the count
-    logs += [(f"smooth tumble, {n} rows, 2 deg a row, seed {seed}", smooth_tumble(n, 2.0, seed))
-             for n in (300, 600, 1000) for seed in SIM_SEEDS]
-    logs += [(f"six positions held 100 rows, turned over 3, seed {seed}", held_positions(6, 100, 3, seed))
-             for seed in SIM_SEEDS]
+    logs += [(f"smooth tumble, {n} rows, 2 deg a row ({len(SIM_SEEDS)} seeds)", f"smooth tumble, {n} rows, seed {seed}",
+              smooth_tumble(n, 2.0, seed)) for n in (300, 600, 1000) for seed in SIM_SEEDS]
+    logs += [(f"six positions held 100 rows, turned over 3 ({len(SIM_SEEDS)} seeds)", f"six held positions, seed {seed}",
+              held_positions(6, 100, 3, seed)) for seed in SIM_SEEDS]
     out = []
-    for name, ds in logs:
-        group = ("CK log, held-out stretches" if name.startswith("CK") else
-                 f"BROAD 02 and 05, stretches of {SHORT_STRETCH} rows" if name.startswith("BROAD") else
-                 name.rsplit(",", 1)[0] + f" ({len(SIM_SEEDS) if name.startswith(('smooth', 'six')) else 3} seeds)")
+    for group, name, ds in logs:
         for k in STRETCH_SHIFTS:
             rep = checks.run(_shifted(ds, k) if k else ds)
             warned = any(f.check == "row-alignment" and f.level in ("error", "warning") for f in rep.findings)
