@@ -237,9 +237,24 @@ def test_inclination_axis_skew_near_the_limit_is_named(seed):
     assert abs(f["estimate"] - h["value"]) <= 4.0 * f["stderr"], (f, h)
 
 
-def test_turntable_gain_is_on_both_triads_in_noise_sd():
-    """The gain a turntable effect is named on: both triads, each channel
-    divided by its noise standard deviation (about 1 when the model fits)."""
+def test_azimuth_offset_near_the_limit_is_named():
+    """A draw the diagnosis missed while a turntable effect's gain divided
+    each channel by its own noise SD: an azimuth offset of -0.036 deg on the
+    static plan at z = 9.6 (case seed 935660852), p = 1e-16, azimuth RMS
+    0.059 -> 0.055 deg, its RMS so taken rising 0.9943 -> 0.9945: the
+    readout error's correlated part counted as independent.  Whitened by each
+    row's covariance, the metric of the fit, it falls."""
+    c = bench.run_case("turntable-azimuth-offset", "static", 935660852)
+    h = c["hidden"]
+    assert h["axis"] == "azi" and bench.Z_RANGE[0] <= h["z"] <= bench.Z_RANGE[1]
+    assert c["detected"], c
+    f = next(f for f in c["found"] if f["name"] == "turntable-azimuth-offset")
+    assert abs(f["estimate"] - h["value"]) <= 4.0 * f["stderr"], (f, h)
+
+
+def test_turntable_gain_is_on_both_triads_whitened():
+    """The gain a turntable effect is named on: both triads, whitened by
+    each row's noise covariance (about 1 when the model fits)."""
     from inclino.diagnose import analysis
     from inclino.diagnose.analysis import diagnose as diag
 

@@ -506,32 +506,40 @@ def _part(m: _Model, R, cand):
     return m.noise.sensor_part(R, m.bl.Jpose, axes=[k for k in range(3) if k not in acted])
 
 
-TURNTABLE_GAIN_UNITS = "noise SD, both triads"
+TURNTABLE_GAIN_UNITS = "whitened noise SD, both triads"
 
 
-def _gain_space(m: _Model, cand):
-    """(per-row, per-channel divisor, channels, units) of the RMS a
-    candidate's gain is given in: its triad's channels in the triad's units;
-    for a turntable effect both triads' channels, each in its own noise
-    standard deviation at that row (sensor noise and turntable readout
-    error, Noise.row_cov).  A pose error moves both triads, and on one of
-    them alone its whole residual is mostly the readout error: an
+def _gain_rms(m: _Model, R, cand, ok) -> float:
+    """The RMS a candidate's gain is given in (its units: _gain_units),
+    rows `ok`, of the residual R: its triad's channels in the triad's
+    units; for a turntable effect both triads' six channels whitened by
+    each row's noise covariance (sensor noise and turntable readout error
+    through the pose Jacobian, Noise.row_cov), the metric the fit and its
+    selection use.  A pose error moves both triads, and on one of them
+    alone its whole residual is mostly the readout error: an
     inclination-axis skew at z = 10.8 (p = 1e-26, estimated within 0.6 % of
     the truth, whitened held-out residual 1.017 -> 0.983) raised the
-    fluxgate's 34.32 nT by 0.06 nT while it lowered the accelerometer's by
-    0.4 %, and was dropped as contradicting its own held-out data (1 of 120
-    draws near z = 10 on the continuous plan)."""
+    fluxgate's 34.32 nT by 0.06 nT and was dropped as contradicting its own
+    held-out data.  Each channel divided by its own standard deviation (the
+    covariance's diagonal) still weighs the readout error's correlated
+    part as if it were independent: an azimuth offset of -0.036 deg at
+    z = 9.6 on the static plan (p = 1e-16, azimuth RMS 0.059 -> 0.055 deg,
+    the whitened held-out residual falling) raised that RMS from 0.9943 to
+    0.9945 and was dropped (case seed 935660852)."""
     if cand.sensor == "turntable":
-        sd = np.sqrt(np.einsum("nii->ni", m.noise.row_cov(m.bl.Jpose)))
-        return sd, list(range(6)), TURNTABLE_GAIN_UNITS
-    return 1.0, cand.channels, TRIAD_UNITS[cand.triad]
+        W = m.noise.whitener(m.bl.Jpose[ok])
+        return float(np.sqrt(np.mean(np.einsum("nij,nj->ni", W, R[ok]) ** 2)))
+    return _rms_ok(R, cand.channels, ok)
+
+
+def _gain_units(cand) -> str:
+    return TURNTABLE_GAIN_UNITS if cand.sensor == "turntable" else TRIAD_UNITS[cand.triad]
 
 
 def _own_cv(m: _Model, S, cand) -> float:
     """The held-out RMS of the candidate's own channels (outlier rows left
     out) under the model columns S: what its printed gain is."""
-    sd, chans, _ = _gain_space(m, cand)
-    return _rms_ok(_part(m, m.des.cv_residuals(S), cand) / sd, chans, ~m.out_rows)
+    return _gain_rms(m, _part(m, m.des.cv_residuals(S), cand), cand, ~m.out_rows)
 
 
 def _select(m: _Model, alpha):
@@ -694,11 +702,10 @@ def _effect_checks(m: _Model, kept, att):
         Sb = [i for i in S if i not in m.idx[k]]
         Rb, Rbcv = _part(m, des.raw_residuals(Sb), c), _part(m, des.cv_residuals(Sb), c)
         Ra, Racv = _part(m, R_final, c), _part(m, R_cv_final, c)
-        sd, ch, units = _gain_space(m, c)
+        units = _gain_units(c)
         azb, inb = att.rms(Rb)
         aza, ina = att.rms(Ra)
-        gain = Gain(_rms_ok(Rb / sd, ch, ok), _rms_ok(Ra / sd, ch, ok), _rms_ok(Rbcv / sd, ch, ok),
-                    _rms_ok(Racv / sd, ch, ok), azb, aza, inb, ina)
+        gain = Gain(*(_gain_rms(m, R, c, ok) for R in (Rb, Ra, Rbcv, Racv)), azb, aza, inb, ina)
         inv = invariants.compare(inv_with, _invariants(m, [x for x in kept if x != k], Sb), invariants.which(c), ok)
         reasons = []
         if not gain.cv_rms_after < gain.cv_rms_before:
