@@ -22,6 +22,8 @@ CORPUS = [
     ("broad/02.csv", "broad/sensor.toml", "mag", 2577),
     ("broad/05.csv", "broad/with_acc.toml", "both", 2861),
     ("micropython_fusion/mpudata.csv", "micropython_fusion/sensor.toml", "both", 2041),
+    ("airbrakes_cx5/six_faces.csv", "airbrakes_cx5/sensor.toml", "acc", 4141),
+    ("ngimu/sensors.csv", "ngimu/sensor.toml", "both", 499),
 ] + [(f"sap6/{d}.csv", "sap6/sensor.toml", "both", 24) for d in SAP6]
 
 

@@ -1,0 +1,84 @@
+"""Checks before any fit on two corpus logs whose moving rows are no turn
+(tests/data/real/airbrakes_cx5, tests/data/real/ngimu): a six-face session
+whose faces are lifted and set down, and a log held at one orientation with
+a hand's motion between its rests.  A mirrored axis, a turned gravity sign
+are named on the rows read at rest, and the clean logs pass."""
+from pathlib import Path
+
+import pytest
+
+from inclino import checks
+from inclino.formats import importlog, sensor
+from inclino.formats.dataset import ACC_COLS
+
+REAL = Path(__file__).parent / "data" / "real"
+FACES = REAL / "airbrakes_cx5"
+NGIMU = REAL / "ngimu"
+
+
+def _import(log, toml_text):
+    return importlog.import_log(str(log), sensor.from_toml(toml_text))[0]
+
+
+def _errors(rep, check=None):
+    return [f for f in rep.findings if f.level == "error" and (check is None or f.check == check)]
+
+
+def test_the_six_faces_pass_and_their_poses_are_said_to_be_there():
+    rep = checks.run(_import(FACES / "six_faces.csv", (FACES / "sensor.toml").read_text()))
+    assert not [f for f in rep.findings if f.level in ("error", "warning")], rep.findings
+    (note,) = [f for f in rep.findings if f.check == "motion" and "holds" in f.message]
+    assert "inc_deg and tf_deg give their poses" in note.message and "label the holds" not in note.message
+
+
+@pytest.mark.parametrize("turned, check, words", [
+    ((1,), "handedness", "mirrored against the poses"),
+    ((0, 1, 2), "dip-sign", "wrong sign against the poses"),
+])
+def test_a_mirrored_axis_or_a_turned_sign_is_named_against_the_face_labels(turned, check, words):
+    """5.5 % of the rows, read while a face is lifted, miss their face by up
+    to 30 deg: over every row the mirrored map read 0.397 against 1.082 for
+    the best rotation (an error needs 0.3 of it) and passed, and the turned
+    sign was told to be an axis map turned by 179 deg."""
+    ds = _import(FACES / "six_faces.csv", (FACES / "sensor.toml").read_text())
+    for k in turned:
+        ds.columns[ACC_COLS[k]] = -ds.columns[ACC_COLS[k]]
+    rep = checks.run(ds)
+    (f,) = _errors(rep)
+    assert f.check == check and words in f.message, f.message
+
+
+def _ngimu(dip_deg=None, reads="up"):
+    text = (NGIMU / "sensor.toml").read_text().replace('reads = "up"', f'reads = "{reads}"')
+    if dip_deg is not None:
+        text += f"[header]\ndip_deg = {dip_deg}\n"
+    return checks.run(_import(NGIMU / "sensors.csv", text))
+
+
+def test_a_turned_gravity_sign_is_named_at_one_orientation_held():
+    """Four rests at one orientation, |a| varying by 36 % over the rows moved
+    between them: the raw directions are compared over the rows at rest
+    (where |g| and |b| are the vectors' sizes), and with the site's dip given
+    the turned sign is an error.  The source gives no site: the dip given is
+    the log's own, +62 deg."""
+    assert not _errors(_ngimu(62.0))
+    (f,) = _errors(_ngimu(62.0, reads="down"))
+    assert f.check == "dip-sign" and "-61.9 deg against the header's +62.0" in f.message, f.message
+    # without the dip the sign is said to be unchecked, not guessed
+    rep = _ngimu(reads="down")
+    assert not _errors(rep)
+    assert any(f.check == "dip-sign" and "not checked" in f.message for f in rep.findings)
+
+
+def test_raw_directions_at_rest_still_need_the_vectors_size():
+    """At one orientation |v| is the same whatever the offset: the rows at
+    rest must also read the vector's size (within 10 %) before their raw
+    directions are compared.  An accelerometer 0.3 g off along the axis it
+    holds vertical reads 0.7 g there: not compared, and said so."""
+    ds = _import(NGIMU / "sensors.csv", (NGIMU / "sensor.toml").read_text() + "[header]\ndip_deg = 62\n")
+    ds.columns[ACC_COLS[2]] = ds.columns[ACC_COLS[2]] + 0.3
+    rep = checks.run(ds)
+    assert not _errors(rep)
+    assert any(f.check == "axes" and "nor the gravity sign against the header's dip" in f.message
+               for f in rep.findings), rep.findings
+    assert "dip_deg" not in rep.noise
