@@ -82,3 +82,28 @@ def test_raw_directions_at_rest_still_need_the_vectors_size():
     assert any(f.check == "axes" and "nor the gravity sign against the header's dip" in f.message
                for f in rep.findings), rep.findings
     assert "dip_deg" not in rep.noise
+
+
+def test_a_unit_no_guess_fits_is_fixed_nearest_first(tmp_path, capsys):
+    """A field far from the nominal (20 000 nT, an x-IMU's indoors) written
+    in nT and declared uT is 448x a geomagnetic field: no unit fits within
+    its tolerance, and the units to try are listed nearest first (it was
+    told "G", "mG", then "nT")."""
+    from inclino.cli import main
+
+    lines = (NGIMU / "sensors.csv").read_text().splitlines()
+    head = lines[0].split(",")
+    cols = [i for i, c in enumerate(head) if c.startswith("Magnetometer")]
+    out = [lines[0]]
+    for line in lines[1:]:
+        v = line.split(",")
+        for i in cols:
+            v[i] = f"{float(v[i]) * 410.0:.6g}"  # uT -> nT, and the field 0.41x
+        out.append(",".join(v))
+    log = tmp_path / "weak_field_in_nT.csv"
+    log.write_text("\n".join(out) + "\n")
+    desc = tmp_path / "s.toml"
+    desc.write_text((NGIMU / "sensor.toml").read_text())
+    assert main(["import", str(log), "--sensor", str(desc), "-o", str(tmp_path / "r.csv")]) == 2
+    err = capsys.readouterr().err
+    assert 'fix the unit (unit = "nT", ' in err, err

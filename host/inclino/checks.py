@@ -476,11 +476,15 @@ UNIT_SPELLING = {"acc": {"g": "g", "m/s^2": "m/s2", "mg": "mg", "cm/s^2 (Gal)": 
                  "mag": {"nT": "nT", "uT": "uT", "gauss": "G", "mG": "mG", "tesla": "T"}}
 
 
-def _unit_fix(ds, triad: str, guesses: list, counts: str) -> str:
+def _unit_fix(ds, triad: str, guesses: list, counts: str, ratio: float = 1.0) -> str:
     """What to fix, in the sensor description's words: the lsb of counts
     (counts: the lsb hint), else the unit the readings look like, else the
     units of the kind other than the one declared (a log in g declared
-    m/s2 was told to write unit = "m/s2", "mg" ..., and not "g")."""
+    m/s2 was told to write unit = "m/s2", "mg" ..., and not "g"), the
+    nearest first: the one that puts the size (ratio x the nominal as
+    declared) nearest the nominal (an x-IMU's field of 20 150 nT written
+    in nT and declared uT, 448x a geomagnetic field, was told "G", "mG",
+    then "nT")."""
     name = "accelerometer" if triad == "acc" else "magnetometer"
     if counts:
         return _fix(ds, name, "the lsb")
@@ -498,8 +502,11 @@ def _unit_fix(ds, triad: str, guesses: list, counts: str) -> str:
         from inclino.formats import sensor
 
         same = sensor.unit_size(declared, triad)
-        said = [f"unit = \"{u}\"" for u in (("g", "m/s2", "mg") if triad == "acc" else ("uT", "G", "mG", "nT"))
-                if same is None or abs(sensor.unit_size(u, triad) / same - 1.0) > 1e-9]
+        units = [u for u in (("g", "m/s2", "mg") if triad == "acc" else ("uT", "G", "mG", "nT"))
+                 if same is None or abs(sensor.unit_size(u, triad) / same - 1.0) > 1e-9]
+        if same is not None and np.isfinite(ratio) and ratio > 0:
+            units.sort(key=lambda u: abs(math.log(ratio * sensor.unit_size(u, triad) / same)))
+        said = [f"unit = \"{u}\"" for u in units]
         said.append("\"counts\" with lsb")
     return _fix(ds, name, "the unit (" + ", ".join(said[:-1]) + (" or " if len(said) > 1 else "") + said[-1] + ")")
 
@@ -571,7 +578,7 @@ def _units_acc(ds, rows, rep):
     unit = ds.meta.get("acc_unit", "g")
     rep.findings.append(Finding("units", "error", (
         f"accelerometer: |g| is {med:.4g} (median of {len(a)} rows), not {G:g} g: {like}, not {unit}; "
-        + _unit_fix(ds, "acc", guesses, counts)), "acc",
+        + _unit_fix(ds, "acc", guesses, counts, ratio)), "acc",
         {**fig, "looks_like": guesses}))
 
 
@@ -653,7 +660,7 @@ def _units_mag(ds, rows, rep):
             + (f" ({counts})" if counts else ""))
     rep.findings.append(Finding("units", "error", (
         f"magnetometer: |b| is {R:.4g} nT ({how}), not {rng}: {like}, not {unit}; "
-        + _unit_fix(ds, "mag", guesses, counts)), "mag",
+        + _unit_fix(ds, "mag", guesses, counts, R / target)), "mag",
         {**fig, "looks_like": guesses}))
 
 
