@@ -107,3 +107,14 @@ def test_a_unit_no_guess_fits_is_fixed_nearest_first(tmp_path, capsys):
     assert main(["import", str(log), "--sensor", str(desc), "-o", str(tmp_path / "r.csv")]) == 2
     err = capsys.readouterr().err
     assert 'fix the unit (unit = "nT", ' in err, err
+
+
+def test_the_six_faces_diagnosis_says_one_triad_not_a_missing_azimuth():
+    """An accelerometer needs no azimuth: the pose-free diagnosis of the six
+    faces (inc and tf from the face labels) says it is pose-free for having
+    one triad, not for the poses' missing azimuth."""
+    from inclino.diagnose.analysis import diagnose
+
+    r = diagnose(_import(FACES / "six_faces.csv", (FACES / "sensor.toml").read_text()))
+    (note,) = [n for n in r.baseline["selection"]["notes"] if n.startswith("pose-free diagnosis")]
+    assert "one triad only" in note and "inc_deg and tf_deg read as rig angles" in note and "azi" not in note, note

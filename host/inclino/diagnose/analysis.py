@@ -96,7 +96,12 @@ def diagnose(ds: RawDataset, effects=None, alpha: float = core.DEFAULT_ALPHA, fo
         with one_blas_thread():
             r = diagnose_posefree(ds, alpha=alpha, folds=folds, keep_plot_data=keep_plot_data)
         missing = [c for c in ("inc_deg", "azi_deg", "tf_deg") if c not in ds.columns]
-        why = ("one triad only (the pose-based model needs both)" if ds.has_pose else
+        present = [c for c in ("inc_deg", "azi_deg", "tf_deg") if c in ds.columns]
+        # one triad first: an accelerometer-only six-face log with inc and tf from its face labels was told
+        # its poses lacked an azimuth, which no accelerometer needs
+        why = ("one triad only (the pose-based model needs both)"
+               + (f"; its {' and '.join(present)} read as rig angles" if present and not ds.has_pose else "")
+               if not (ds.has_acc and ds.has_mag) else
                "no turntable poses" if len(missing) == 3 else
                f"poses incomplete: no {', '.join(missing)} column; the angles there are read as rig angles")
         r.baseline["selection"]["notes"].insert(0, f"pose-free diagnosis ({why}): the invariants |g|, |b| and the "
