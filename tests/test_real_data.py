@@ -24,6 +24,7 @@ CORPUS = [
     ("micropython_fusion/mpudata.csv", "micropython_fusion/sensor.toml", "both", 2041),
     ("airbrakes_cx5/six_faces.csv", "airbrakes_cx5/sensor.toml", "acc", 4141),
     ("ngimu/sensors.csv", "ngimu/sensor.toml", "both", 499),
+    ("pololu_minimu9/data_polulu.txt", "pololu_minimu9/sensor.toml", "both", 3653),
 ] + [(f"sap6/{d}.csv", "sap6/sensor.toml", "both", 24) for d in SAP6]
 
 

@@ -838,6 +838,10 @@ def diagnose_posefree(ds: RawDataset, alpha: float = DEFAULT_ALPHA, folds: int =
                                "named": False, "estimate": e.estimate, "units": e.units, "p_on_holds": p_held,
                                "separate_by": "static holds in more directions (enough to determine the model: the "
                                               "rows read while moving are then left out), or poses for the holds"})
+        # an effect the holds do not confirm is not named: its records as a named effect confounded with
+        # something go (a MinIMU-9 log's mag x nonlinearity was "confounded ... (named)" and "not named")
+        kept_keys = {f"{e.name}:{e.sensor}:{e.axis}" for e in named}
+        confounded = [c for c in confounded if not c.get("named") or c["effect"] in kept_keys]
         effects = named
     undetermined = _undetermined(ds, pf) if effects else None
     if undetermined:
