@@ -727,8 +727,10 @@ def _axes_and_lag(ds, rows_all, rep, ug_src=None):
                     "the axes and the pairing of the triads were not checked"
                     + (", nor the gravity sign against the header's dip" if _dip_sign_known(ds) and ug_src is None
                        else "")
-                    + ": too few orientations for an ellipsoid fit, and offsets too large to compare raw "
-                      "directions"), None, {}))
+                    # (not "too few orientations" alone: an x-IMU shaken through every direction was said
+                    # to have too few)
+                    + ": no ellipsoid fits the readings (too few orientations, or a moving sensor's "
+                      "acceleration), and offsets too large to compare raw directions"), None, {}))
                 return
     spreads, dips = {}, {}
     for P in signed_permutations():
