@@ -100,7 +100,8 @@ def diagnose(ds: RawDataset, effects=None, alpha: float = core.DEFAULT_ALPHA, fo
         # one triad first: an accelerometer-only six-face log with inc and tf from its face labels was told
         # its poses lacked an azimuth, which no accelerometer needs
         why = ("one triad only (the pose-based model needs both)"
-               + (f"; its {' and '.join(present)} read as rig angles" if present and not ds.has_pose else "")
+               + ("" if ds.has_pose else f"; its {' and '.join(present)} read as rig angles" if present else
+                  ", and no turntable poses")
                if not (ds.has_acc and ds.has_mag) else
                "no turntable poses" if len(missing) == 3 else
                f"poses incomplete: no {', '.join(missing)} column; the angles there are read as rig angles")
