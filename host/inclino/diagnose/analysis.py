@@ -7,7 +7,7 @@ import time
 import numpy as np
 
 from inclino.engines import reference as ref
-from inclino.formats.dataset import RawDataset
+from inclino.formats.dataset import POSE_COLS, RawDataset
 from inclino.errors import DataError
 
 from . import core, forward, invariants, robust, selection, serial, study, tails
@@ -95,8 +95,8 @@ def diagnose(ds: RawDataset, effects=None, alpha: float = core.DEFAULT_ALPHA, fo
 
         with one_blas_thread():
             r = diagnose_posefree(ds, alpha=alpha, folds=folds, keep_plot_data=keep_plot_data)
-        missing = [c for c in ("inc_deg", "azi_deg", "tf_deg") if c not in ds.columns]
-        present = [c for c in ("inc_deg", "azi_deg", "tf_deg") if c in ds.columns]
+        missing = [c for c in POSE_COLS if c not in ds.columns]
+        present = [c for c in POSE_COLS if c in ds.columns]
         # one triad first: an accelerometer-only six-face log with inc and tf from its face labels was told
         # its poses lacked an azimuth, which no accelerometer needs
         why = ("one triad only (the pose-based model needs both)"
