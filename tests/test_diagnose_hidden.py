@@ -220,35 +220,28 @@ def test_declination_drift_near_the_limit_is_named():
     assert abs(f["estimate"] - h["value"]) <= 4.0 * f["stderr"], (f, h)
 
 
-@pytest.mark.parametrize("seed", [525331931, 1059])
-def test_inclination_axis_skew_near_the_limit_is_named(seed):
+@pytest.mark.parametrize("effect,kind,seed", [
+    ("turntable-inclination-axis-skew", "continuous", 525331931),
+    ("turntable-inclination-axis-skew", "continuous", 1059),
+    ("turntable-azimuth-offset", "static", 935660852),
+])
+def test_turntable_effect_near_the_limit_is_named(effect, kind, seed):
     """Draws the diagnosis missed while it took a turntable effect's own
-    held-out residual on one triad in its units: an inclination-axis skew on
-    the continuous plan at z = 10.8 and 9.6, p = 1e-26 and 5e-15, the
-    whitened held-out residual falling, but the fluxgate's whole residual
-    (34 nT of it the turntable's readout error) rising by 0.02-0.06 nT.  A
-    pose error moves both triads; its gain is now on both, each channel in
-    its noise standard deviation."""
-    c = bench.run_case("turntable-inclination-axis-skew", "continuous", seed)
+    held-out residual in a metric other than the fit's.  On one triad in
+    its units: an inclination-axis skew on the continuous plan at z = 10.8
+    and 9.6, p = 1e-26 and 5e-15, the whitened held-out residual falling,
+    but the fluxgate's whole residual (34 nT of it the turntable's readout
+    error) rising by 0.02-0.06 nT.  On both triads, each channel divided by
+    its own noise SD: an azimuth offset of -0.036 deg on the static plan at
+    z = 9.6, p = 1e-16, azimuth RMS 0.059 -> 0.055 deg, that RMS rising
+    0.9943 -> 0.9945 (the readout error's correlated part counted as
+    independent).  The gain is now both triads whitened by each row's
+    covariance, the metric of the fit."""
+    c = bench.run_case(effect, kind, seed)
     h = c["hidden"]
-    assert h["name"] == "turntable-inclination-axis-skew" and bench.Z_RANGE[0] <= h["z"] <= bench.Z_RANGE[1]
+    assert h["name"] == effect and bench.Z_RANGE[0] <= h["z"] <= bench.Z_RANGE[1]
     assert c["detected"], c
-    f = next(f for f in c["found"] if f["name"] == "turntable-inclination-axis-skew")
-    assert abs(f["estimate"] - h["value"]) <= 4.0 * f["stderr"], (f, h)
-
-
-def test_azimuth_offset_near_the_limit_is_named():
-    """A draw the diagnosis missed while a turntable effect's gain divided
-    each channel by its own noise SD: an azimuth offset of -0.036 deg on the
-    static plan at z = 9.6 (case seed 935660852), p = 1e-16, azimuth RMS
-    0.059 -> 0.055 deg, its RMS so taken rising 0.9943 -> 0.9945: the
-    readout error's correlated part counted as independent.  Whitened by each
-    row's covariance, the metric of the fit, it falls."""
-    c = bench.run_case("turntable-azimuth-offset", "static", 935660852)
-    h = c["hidden"]
-    assert h["axis"] == "azi" and bench.Z_RANGE[0] <= h["z"] <= bench.Z_RANGE[1]
-    assert c["detected"], c
-    f = next(f for f in c["found"] if f["name"] == "turntable-azimuth-offset")
+    f = next(f for f in c["found"] if f["name"] == effect)
     assert abs(f["estimate"] - h["value"]) <= 4.0 * f["stderr"], (f, h)
 
 
