@@ -476,7 +476,7 @@ UNIT_SPELLING = {"acc": {"g": "g", "m/s^2": "m/s2", "mg": "mg", "cm/s^2 (Gal)": 
                  "mag": {"nT": "nT", "uT": "uT", "gauss": "G", "mG": "mG", "tesla": "T"}}
 
 
-def _unit_fix(ds, triad: str, guesses: list, counts: str, ratio: float = 1.0) -> str:
+def _unit_fix(ds, triad: str, guesses: list, counts: str, ratio: float) -> str:
     """What to fix, in the sensor description's words: the lsb of counts
     (counts: the lsb hint), else the unit the readings look like, else the
     units of the kind other than the one declared (a log in g declared
@@ -697,8 +697,9 @@ def _axes_and_lag(ds, rows_all, rep, ug_src=None):
 
         h = holds_found()
         return h.labels[block] >= 0 if h.count >= holds.MIN_HOLDS else None
+    G = float(ds.meta.get("gravity_g") or 1.0)
     if ug_src is None:
-        ug, ok_g = _unit_dirs(ds.acc[block], float(ds.meta.get("gravity_g") or 1.0), held)
+        ug, ok_g = _unit_dirs(ds.acc[block], G, held)
         other = "accelerometer's"
     else:
         ug, ok_g = ug_src[block], True
@@ -712,8 +713,7 @@ def _axes_and_lag(ds, rows_all, rep, ug_src=None):
     # acceleration, over the rows read at rest, and there also the size of the vector (at one orientation
     # |v| is constant whatever the offset): an NGIMU log of four holds at one orientation, 155 rows moved
     # between them, |a| varying by 36 %, had its turned gravity sign left unchecked against the header's dip
-    for ok, v, size in ((ok_g, None if ug_src is not None else ds.acc[block], float(ds.meta.get("gravity_g") or 1.0)),
-                        (ok_b, ds.mag[block], F)):
+    for ok, v, size in ((ok_g, None if ug_src is not None else ds.acc[block], G), (ok_b, ds.mag[block], F)):
         if not ok and v is not None:
             n = np.linalg.norm(v, axis=1)
             small = np.std(n) <= RAW_DIRS_MAX_CV * np.mean(n)
@@ -1875,7 +1875,8 @@ def _acc_poses(ds, rows, rep):
         if np.allclose(Rr, -np.eye(3), atol=0.2):
             msg = (f"the accelerometer reads gravity with the wrong sign against the poses (its directions are the "
                    f"poses' reversed: RMS {e_ref:.3g} reversed, {e_rot:.3g} as a rotation, over the best "
-                   f"{POSE_FIT_KEEP:.0%} of the rows): an axis pointing down must read +1 g; " + _fix(ds, "accelerometer", "reads (\"up\" for most MEMS parts)"))
+                   f"{POSE_FIT_KEEP:.0%} of the rows): an axis pointing down must read +1 g; "
+                   + _fix(ds, "accelerometer", "reads (\"up\" for most MEMS parts)"))
             rep.findings.append(Finding("dip-sign", "error", msg, "acc", fig))
         else:
             rep.findings.append(Finding("handedness", "error", (

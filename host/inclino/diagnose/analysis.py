@@ -95,15 +95,15 @@ def diagnose(ds: RawDataset, effects=None, alpha: float = core.DEFAULT_ALPHA, fo
 
         with one_blas_thread():
             r = diagnose_posefree(ds, alpha=alpha, folds=folds, keep_plot_data=keep_plot_data)
-        missing = [c for c in POSE_COLS if c not in ds.columns]
         present = [c for c in POSE_COLS if c in ds.columns]
+        missing = [c for c in POSE_COLS if c not in present]
         # one triad first: an accelerometer-only six-face log with inc and tf from its face labels was told
         # its poses lacked an azimuth, which no accelerometer needs
         why = ("one triad only (the pose-based model needs both)"
                + ("" if ds.has_pose else f"; its {' and '.join(present)} read as rig angles" if present else
                   ", and no turntable poses")
                if not (ds.has_acc and ds.has_mag) else
-               "no turntable poses" if len(missing) == 3 else
+               "no turntable poses" if not present else
                f"poses incomplete: no {', '.join(missing)} column; the angles there are read as rig angles")
         r.baseline["selection"]["notes"].insert(0, f"pose-free diagnosis ({why}): the invariants |g|, |b| and the "
                                                    f"dip against time, temperature, reading order and rig angles")
@@ -532,9 +532,8 @@ def _gain_rms(m: _Model, R, cand, ok) -> float:
     z = 9.6 on the static plan (p = 1e-16, azimuth RMS 0.059 -> 0.055 deg,
     the whitened held-out residual falling) raised that RMS from 0.9943 to
     0.9945 and was dropped (case seed 935660852)."""
-    if cand.sensor == "turntable":
-        W = m.noise.whitener(m.bl.Jpose[ok])
-        return float(np.sqrt(np.mean(np.einsum("nij,nj->ni", W, R[ok]) ** 2)))
+    if cand.sensor == "turntable":  # the design's whiteners (Noise.whitener of the pose Jacobian)
+        return float(np.sqrt(np.mean(np.einsum("nij,nj->ni", m.des.Linv[ok], R[ok]) ** 2)))
     return _rms_ok(R, cand.channels, ok)
 
 

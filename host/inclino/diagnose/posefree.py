@@ -838,18 +838,12 @@ def diagnose_posefree(ds: RawDataset, alpha: float = DEFAULT_ALPHA, folds: int =
                                "named": False, "estimate": e.estimate, "units": e.units, "p_on_holds": p_held,
                                "separate_by": "static holds in more directions (enough to determine the model: the "
                                               "rows read while moving are then left out), or poses for the holds"})
-        # an effect the holds do not confirm is not named: its records as a named effect confounded with
-        # something go (a MinIMU-9 log's mag x nonlinearity was "confounded ... (named)" and "not named")
-        kept_keys = {f"{e.name}:{e.sensor}:{e.axis}" for e in named}
-        confounded = [c for c in confounded if not c.get("named") or c["effect"] in kept_keys]
         effects = named
     undetermined = _undetermined(ds, pf) if effects else None
     if undetermined:
         # the calibration refuses these data (the orientations leave a triad's ellipsoid free): an effect
         # found on them rests on that freedom (a compass turned in one plane takes a scale nonlinearity of the
         # axis it barely turns), so it is not named
-        demoted = {f"{e.name}:{e.sensor}:{e.axis}" for e in effects}
-        confounded = [c for c in confounded if c["effect"] not in demoted]
         for e in effects:
             confounded.append({"effect": f"{e.name}:{e.sensor}:{e.axis}", "with": undetermined,
                                "undetermined": True, "correlation": float("nan"), "named": False,
@@ -857,6 +851,11 @@ def diagnose_posefree(ds: RawDataset, alpha: float = DEFAULT_ALPHA, folds: int =
                                "separate_by": "orientations that determine the ellipsoid (turned about more than one "
                                               "axis, through more of the sphere), or poses"})
         effects = []
+    # an effect not named (the holds do not confirm it, or the calibration refuses the data) loses its records
+    # as a named effect confounded with something (a MinIMU-9 log's mag x nonlinearity was "confounded ...
+    # (named)" and "not named")
+    named_keys = {f"{e.name}:{e.sensor}:{e.axis}" for e in effects}
+    confounded = [c for c in confounded if not c["named"] or c["effect"] in named_keys]
     structure = _structure(pf, R_final, rows, chans, alpha)
     if any(kk not in kept for kk in slow_confounds):
         # the temperature's own terms were refused as the run's slow course: the same structure against the
