@@ -73,3 +73,13 @@ def test_an_azimuth_offset_in_a_run_read_several_rows_a_pose_is_named():
     e = named["turntable-azimuth-offset"]
     # the poses read 0.15 deg off the true azimuth: the estimate within 4 of its own standard errors
     assert abs(abs(e.estimate) - 0.15) < 4 * e.stderr, (e.estimate, e.stderr)
+
+
+def test_a_pose_held_while_the_temperature_ramps_keeps_its_temperatures_apart():
+    ds = _clustered_run(3, rows=(20, 20))
+    n = len(ds)
+    ds.columns["temp_c"] = np.linspace(-5.0, 55.0, n)  # 0.1 degC a row, 1.9 degC over a pose's 20 rows
+    m, note = pose_means(ds)
+    # each pose split where its rows leave MEANS_TEMP_C (0.5 degC) of the first: 4 groups a pose
+    assert len(m) == 4 * 30
+    assert np.all(np.abs(np.diff(m.columns["temp_c"])) < 1.0)

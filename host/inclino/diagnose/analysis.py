@@ -58,6 +58,9 @@ class _Attitude:
         return float(np.sqrt(np.mean(da ** 2))), inc
 
 
+MEANS_TEMP_C = 0.5  # a pose's rows averaged together span at most this much of temp_c (pose_means)
+
+
 def pose_means(ds: RawDataset) -> tuple:
     """(dataset, note): a run read several rows at each turntable pose as
     one row per pose, each column the mean of the pose's rows (the pose
@@ -70,11 +73,25 @@ def pose_means(ds: RawDataset) -> tuple:
     such runs, "structure no library effect explains") and named a
     turntable azimuth offset of 0.028 +- 0.005 deg that was not there.
     The poses are calib.covariance.cluster_labels' (a pose_id column, else
-    runs of rows at the same indicated pose), as calibrate's clusters."""
+    runs of rows at the same indicated pose), as calibrate's clusters,
+    each split where temp_c moves more than MEANS_TEMP_C from its first row
+    (a pose held while an oven ramps keeps its temperatures apart)."""
     from inclino.calib.covariance import cluster_labels
 
     lab = cluster_labels(ds)
     n = len(ds)
+    temp = ds.columns.get("temp_c")
+    if temp is not None and n:
+        # a pose held while the oven ramps: its rows are not one reading (a temperature effect is in them),
+        # so a pose's rows are averaged only within MEANS_TEMP_C of the first of them
+        new = np.ones(n, bool)
+        t0 = temp[0]
+        for i in range(1, n):
+            if lab[i] == lab[i - 1] and abs(temp[i] - t0) <= MEANS_TEMP_C:
+                new[i] = False
+            else:
+                t0 = temp[i]
+        lab = np.cumsum(new) - 1
     k = int(lab.max()) + 1 if n else 0
     if k == n:
         return ds, None
