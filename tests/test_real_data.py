@@ -25,6 +25,7 @@ CORPUS = [
     ("airbrakes_cx5/six_faces.csv", "airbrakes_cx5/sensor.toml", "acc", 4141),
     ("ngimu/sensors.csv", "ngimu/sensor.toml", "both", 499),
     ("pololu_minimu9/data_polulu.txt", "pololu_minimu9/sensor.toml", "both", 3653),
+    ("xio_fusion/sensor_data.csv", "xio_fusion/sensor.toml", "both", 13514),
 ] + [(f"sap6/{d}.csv", "sap6/sensor.toml", "both", 24) for d in SAP6]
 
 

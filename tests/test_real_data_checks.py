@@ -16,6 +16,7 @@ from inclino.formats.dataset import ACC_COLS
 REAL = Path(__file__).parent / "data" / "real"
 FACES = REAL / "airbrakes_cx5"
 NGIMU = REAL / "ngimu"
+FUSION = REAL / "xio_fusion"
 
 
 def _import(log, toml_text):
@@ -135,3 +136,31 @@ def test_an_effect_the_rests_do_not_confirm_is_not_also_named_confounded():
     demoted = {c["effect"] for c in r.confounded if "share" in c}
     assert demoted, r.confounded
     assert not [c for c in r.confounded if c["named"] and c["effect"] in demoted], r.confounded
+
+
+def _fusion(header_dip=None, mirror=None, reads="up"):
+    text = (FUSION / "sensor.toml").read_text().replace('reads = "up"', f'reads = "{reads}"')
+    if header_dip is not None:
+        text += f"[header]\ndip_deg = {header_dip}\n"
+    ds = _import(FUSION / "sensor_data.csv", text)
+    if mirror is not None:
+        ds.columns[mirror] = -ds.columns[mirror]
+    return checks.run(ds)
+
+
+def test_a_mirrored_axis_of_a_sensor_held_nearly_flat_is_not_called_a_turned_gravity_sign():
+    """x-io's Fusion log hardly tilts, so reversing the magnetometer's z axis
+    turns the dip's sign as a turned gravity sign does; it also spreads the
+    dip (2.90 deg against 1.21), which a turned sign does not.  It was named a
+    turned gravity sign, whose fix (reads) imported every inclination as
+    180 - inc.  The dip given is the log's own (+69.2 deg, no site in the
+    source)."""
+    clean = _fusion()
+    dip = clean.noise["dip_deg"]
+    assert not _errors(clean) and dip == pytest.approx(69.2, abs=0.1)
+    assert not _errors(_fusion(round(dip, 1)))
+    (f,) = _errors(_fusion(round(dip, 1), mirror="mz_nT"))
+    assert f.check == "handedness" and 'z = -mz' in f.message and "not the gravity sign" in f.message, f.message
+    # the gravity sign turned is still named as such: the dip turns and keeps its spread
+    (g,) = _errors(_fusion(round(dip, 1), reads="down"))
+    assert g.check == "dip-sign" and "gravity sign" in g.message, g.message

@@ -1091,6 +1091,8 @@ def _dip_sign(ds, d, ug_src, rep):
         hdr = float(hdr)
         if abs(hdr) > DIP_SIGN_MIN_DEG and np.sign(dip) != np.sign(hdr) \
                 and abs(dip + hdr) < max(DIP_MISMATCH_DEG, 0.3 * abs(hdr)):
+            if _mirror_turns_dip(ds, dip, hdr, rep):
+                return
             rep.findings.append(Finding("dip-sign", "error", (
                 f"the dip angle is {dip:+.1f} deg against the header's {hdr:+.1f}: the accelerometer's gravity sign "
                 f"is turned (an axis pointing down must read +1 g: reads = \"up\" or \"down\"), or every "
@@ -1107,6 +1109,34 @@ def _dip_sign(ds, d, ug_src, rep):
                 f"ellipsoid fitted to its own readings, not the raw readings) against the header's {hdr:+.1f}: a "
                 f"wrong dip_deg, a disturbed field, or a large misalignment{paired}"), None,
                 {"dip_deg": dip, "header_dip_deg": hdr, "dip_spread_deg": spread}))
+
+
+def _mirror_turns_dip(ds, dip: float, hdr: float, rep) -> bool:
+    """Where the dip's sign is the header's turned and the weak handedness
+    check (_weak_handedness) found a reflection that gives the header's sign
+    and cuts the dip's spread: the mirror named as the error, in place of its
+    warning and of a turned gravity sign, which turns the dip alone and
+    leaves its spread (x-io's Fusion example, held nearly flat, its
+    magnetometer's z reversed: the dip -69.1 deg against +66.3, spreading
+    2.90 deg; with z reversed back +69.2, 1.21 deg; the gravity sign was
+    named, and its fix imported every inclination as 180 - inc).  True when
+    it named the mirror."""
+    w = next((f for f in rep.findings if f.check == "handedness" and f.level == "warning" and f.triad == "mag"
+              and "best_map_dip_deg" in f.figures), None)
+    if w is None or np.sign(w.figures["best_map_dip_deg"]) != np.sign(hdr):
+        return False
+    fg = w.figures
+    rep.findings.remove(w)
+    shown = f"axes = \"{fg['map_to_write']}\"" if _imported(ds) else fg["map_to_write"]
+    rep.findings.append(Finding("handedness", "error", (
+        f"the dip angle is {dip:+.1f} deg against the header's {hdr:+.1f}, and {fg['best_map_dip_deg']:+.1f} deg "
+        f"with magnetometer {shown}, which cuts its spread from {fg['dip_spread_declared_deg']:.3g} to "
+        f"{fg['dip_spread_best_deg']:.3g} deg (a turned gravity sign would turn the dip and leave its spread): one "
+        f"triad's axis mirrored against the other's, not the gravity sign; fix the map of the triad that is wrong "
+        f"(the magnetometer's so, or the same axis of the accelerometer's: without poses the data cannot tell "
+        f"which) and import again"), "mag",
+        {**fg, "dip_deg": dip, "header_dip_deg": hdr}))
+    return True
 
 
 def _both_reflected(ds) -> str:
@@ -1178,7 +1208,7 @@ def _weak_handedness(ug, ub, spreads, dips, best, ident, other, ds, rep):
                   for sl in (slice(0, h), slice(h, m))]
         if all(a > HAND_WEAK_HALF * b for a, b in halves):
             fig = {"dip_spread_declared_deg": s_id, "dip_spread_best_deg": spreads[best], "best_map": _perm_text(P),
-                   "map_to_write": write, "halves_deg": halves}
+                   "map_to_write": write, "halves_deg": halves, "best_map_dip_deg": dips[best]}
             weak = (f"; the sensor turned through too few orientations to be sure (the error needs {AXES_RATIO:g}x): "
                     f"check the axis map of each triad against its data sheet, or log the sensor tilted through more "
                     f"orientations")
