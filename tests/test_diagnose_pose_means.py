@@ -1,7 +1,8 @@
 """A turntable run read several rows at each pose: the rows of one pose share
 its turntable readout error, so the diagnosis works on each pose's mean
 (analysis.pose_means) and names nothing on a run the 12-parameter model
-fits exactly, while an effect hidden in such a run is still named.
+fits exactly, while an effect hidden in such a run is still named; calibrate,
+which fits such a run's own noise, says so of residuals above the nominal.
 
 The runs are made here from the documented conventions alone
 (docs/conventions.md: C = pose_matrix(inc, azi, tf) turns the world's NED
@@ -83,3 +84,21 @@ def test_a_pose_held_while_the_temperature_ramps_keeps_its_temperatures_apart():
     # each pose split where its rows leave MEANS_TEMP_C (0.5 degC) of the first: 4 groups a pose
     assert len(m) == 4 * 30
     assert np.all(np.abs(np.diff(m.columns["temp_c"])) < 1.0)
+
+
+def test_calibrate_on_such_a_run_does_not_say_its_covariance_is_scaled_by_s2(tmp_path, capsys):
+    """calibrate fits the run's own noise (REML over the poses' clusters) and
+    uses it for the covariance: its note on residuals above the nominal
+    noise (this sensor's 0.3 mg, 25 nT against 0.15 mg, 5 nT) says so, not
+    that s^2 scales the covariance."""
+    import json
+
+    from inclino.cli import main
+    from inclino.formats.dataset import write_raw
+
+    p = tmp_path / "run.csv"
+    write_raw(str(p), _clustered_run(2))
+    assert main(["calibrate", str(p), "-o", str(tmp_path / "cal.json"), "--json"]) == 0
+    notes = json.loads(capsys.readouterr().out)["report"]["notes"]
+    assert not any("scaled by s^2" in n for n in notes), notes
+    assert any("what the nominal noise expects" in n and "the run's own noise" in n for n in notes), notes

@@ -768,12 +768,28 @@ def fit(ds: RawDataset, use_poses: bool | None = None, sigma_acc: float | None =
     info["assumed_noise"] = an
     info.update({"rows_used": np.setdiff1d(np.arange(len(ds)), info["outliers"] + info.get("moving", [])),
                  "covariance": cov[:24, :24],
-                 "dip_deg": dip, "notes": [f"mode {info['mode']}; s^2 = {info['s2']:.3g} (chi^2/dof; 1 when the "
-                                           f"noise model is right)"]})
+                 "dip_deg": dip})
+    # with the run's own noise fitted (REML: info["noise"]) s^2 is the first pass's, under the nominal noise, and
+    # the covariance is not scaled by it: a sensor noisier than the nominal (0.3 mg, 25 nT against 0.15 mg, 5 nT,
+    # the model exact) was told "an effect the 12-parameter model lacks ... the covariance is scaled by s^2"
+    own = info.get("noise") is not None and info.get("sigmas")
+    info["notes"] = [f"mode {info['mode']}; s^2 = {info['s2']:.3g} (chi^2/dof"
+                     + (" under the nominal noise, before the run's own was fitted)" if own else
+                        "; 1 when the noise model is right)")]
     if info["s2"] > 2.0 and info["s2"] > 1.0 + 5.0 * np.sqrt(2.0 / max(info["dof"], 1)):
-        info["notes"].append(f"the residuals are {np.sqrt(info['s2']):.2g}x what the noise model expects: an effect "
-                             "the 12-parameter model lacks (a turntable offset, drift, temperature) or noisier "
-                             "sensors; the covariance is scaled by s^2; `inclino diagnose` names the effect")
+        if own:
+            sg = info["sigmas"]
+            info["notes"].append(
+                f"the residuals are {np.sqrt(info['s2']):.2g}x what the nominal noise expects ({1e3 * sg['acc_g']:.3g} "
+                f"mg, {sg['mag_nT']:.3g} nT, pose {sg['pose_deg']:.3g} deg): the covariance and the predictions use "
+                f"the run's own noise instead ({info['noise']['method']}, the uncertainty line's figures); noisier "
+                f"sensors than the nominal, or an effect the 12-parameter model lacks (a turntable offset, drift, "
+                f"temperature), which `inclino diagnose` names")
+        else:
+            info["notes"].append(f"the residuals are {np.sqrt(info['s2']):.2g}x what the noise model expects: an "
+                                 "effect the 12-parameter model lacks (a turntable offset, drift, temperature) or "
+                                 "noisier sensors; the covariance is scaled by s^2; `inclino diagnose` names the "
+                                 "effect")
     if info.get("moving") is not None:
         mv = len(info["moving"])
         hs_ = info["hold_scale"]
