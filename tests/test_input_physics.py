@@ -289,3 +289,41 @@ def test_a_column_that_is_not_a_time_is_said_not_to_be_one():
     ds.columns["t_s"] = np.repeat(1013.0 + 0.01 * rng.integers(-2, 3, size=len(ds) // 5 + 1), 5)[:len(ds)]
     (f,) = _time(checks.run(ds))
     assert "does not look like a time" in f.message and "time_unit" not in f.message, f.message
+
+
+def _turntable_log(tmp_path, seed, name="tt.csv"):
+    """A turntable session: 30 random positions read 5-10 rows each, a row a
+    second (time in ms), the turns between them not logged (20 s each):
+    written with its time column in ms and a description that declares s."""
+    from scipy.spatial.transform import Rotation
+
+    rng = np.random.default_rng(seed)
+    rows, t = [], 0.0
+    for body in Rotation.random(30, random_state=seed):
+        g = body.inv().apply([0.0, 0.0, 1.0])
+        b = body.inv().apply([24.0, 0.0, 41.6])  # uT, 60 deg dip
+        for _ in range(rng.integers(5, 11)):
+            rows.append([t * 1000.0, *(g + rng.normal(0, 3e-4, 3)), *(b + rng.normal(0, 0.025, 3))])
+            t += 1.0
+        t += 20.0
+    log = tmp_path / name
+    with log.open("w", newline="") as f:
+        w = csv.writer(f)
+        w.writerow(["time_ms", "ax", "ay", "az", "mx", "my", "mz"])
+        w.writerows([[f"{x:.6g}" for x in r] for r in rows])
+    desc = tmp_path / "tt.toml"
+    desc.write_text('[log]\ntime = "time_ms"\ntime_unit = "s"\n'
+                    '[accelerometer]\ncolumns = ["ax", "ay", "az"]\nunit = "g"\naxes = "x = ax, y = ay, z = az"\n'
+                    '[magnetometer]\ncolumns = ["mx", "my", "mz"]\nunit = "uT"\naxes = "x = mx, y = my, z = mz"\n')
+    return log, desc
+
+
+@pytest.mark.parametrize("seed", range(6))
+def test_a_turntable_session_whose_turns_are_not_logged_gets_no_unit_from_them(tmp_path, seed):
+    """Consecutive rows either read one position or jump between two: no
+    turn is logged, so no turning rate can name a unit (pairs of rows further
+    apart compare positions that happen to lie within 30 deg: "us" was named
+    on such a session, ms declared s, and its fix followed would read a row
+    every millisecond)."""
+    ds, rep = _found(*_turntable_log(tmp_path, seed))
+    assert not [f for f in _time(rep) if f.figures.get("looks_like")], _time(rep)

@@ -2088,7 +2088,9 @@ def _turning(ds, t, rep):
     TURN_MAX_CHORD_DEG, the median of their angle over their time apart.
     The angle is the readings' difference over the vector's size (1 g, the
     field): offsets cancel in a difference.  The accelerometer when there is
-    one (a magnetometer alone otherwise).  None on a log that does not turn."""
+    one (a magnetometer alone otherwise).  None on a log that does not turn,
+    or whose consecutive rows jump by more than TURN_MAX_CHORD_DEG more
+    often than they turn by less (its turns are not logged)."""
     tri = "acc" if ds.has_acc else "mag"
     unit = "g" if tri == "acc" else "nT"
     v = getattr(ds, tri)
@@ -2100,6 +2102,12 @@ def _turning(ds, t, rep):
         d = np.linalg.norm(v[L:] - v[:-L], axis=1) / R  # radians (chord of the unit sphere)
         dt = t[L:] - t[:-L]
         mov = (d > TURN_NOISE_K * bound / R) & (d < np.radians(TURN_MAX_CHORD_DEG)) & (dt > 0)
+        if L == 1 and np.sum(d >= np.radians(TURN_MAX_CHORD_DEG)) > mov.sum():
+            # more rows jump by more than TURN_MAX_CHORD_DEG than turn by less: the turns happen between the rows
+            # (a turntable session, its moves not logged); pairs further apart would compare positions, not a
+            # turn (ms declared s on 30 poses read 5-10 rows each, a row a second: "us" was named, from pairs
+            # rows apart at positions that happened to lie within 30 deg of each other)
+            return None
         if mov.sum() >= TURN_MIN_PAIRS and mov.mean() >= 0.02:
             ang = np.degrees(d[mov])
             return {"triad": tri, "lag_rows": L, "pairs": int(mov.sum()),
