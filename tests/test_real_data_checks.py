@@ -164,3 +164,14 @@ def test_a_mirrored_axis_of_a_sensor_held_nearly_flat_is_not_called_a_turned_gra
     # the gravity sign turned is still named as such: the dip turns and keeps its spread
     (g,) = _errors(_fusion(round(dip, 1), reads="down"))
     assert g.check == "dip-sign" and "gravity sign" in g.message, g.message
+
+
+def test_a_declared_accelerometer_reflection_is_pointed_at_when_the_dip_finds_a_mirror():
+    """The Fusion log's accelerometer written x = -ax with reflection = true:
+    the dip finds the magnetometer mirrored against it, and the warning was
+    to mirror the magnetometer too, leaving both triads left-handed."""
+    text = (FUSION / "sensor.toml").read_text().replace(
+        'axes = "x = ax, y = ay, z = az"', 'axes = "x = -ax, y = ay, z = az"\nreflection = true')
+    rep = checks.run(_import(FUSION / "sensor_data.csv", text + "[header]\ndip_deg = 69.2\n"))
+    (w,) = [f for f in rep.findings if f.check == "handedness" and f.level in ("error", "warning")]
+    assert "[accelerometer] reflection = true" in w.message, w.message

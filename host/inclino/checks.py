@@ -1226,6 +1226,11 @@ def _weak_handedness(ug, ub, spreads, dips, best, ident, other, ds, rep):
                         f"{s_id:.3g} deg with the axes as given, {spreads[best]:.3g} deg with magnetometer {shown} (a "
                         f"reflection, the dip's sign the header's; each half of the log: "
                         f"{', '.join(f'{a:.3g} against {b:.3g}' for a, b in halves)})")
+            if declared_reflection(ds, "acc") and not declared_reflection(ds, "mag"):
+                # the mirror the dip finds may be the accelerometer's declared one (x-io's Fusion log, its
+                # accelerometer written x = -ax with reflection = true, was told to mirror the magnetometer too)
+                weak += ("; the accelerometer's declared reflection ([accelerometer] reflection = true) would do "
+                         "this: MEMS accelerometers' axes are right-handed on their data sheets, check that map first")
             rep.findings.append(Finding("handedness", "warning", text + weak, "mag", fig))
             return
     mirrors = {a: spreads[tuple(np.diag([-1.0 if j == a else 1.0 for j in range(3)]).ravel())] for a in range(3)}
