@@ -138,6 +138,8 @@ TIME_FACTORS = (1e-3, 1e3, 1e-6, 1e6, 1e-9, 1e9, 60.0, 1.0 / 60.0, 3600.0, 1.0 /
                                      # declared one), in this order: a prefix (ms for s) is the usual slip
 # the temperature column
 TEMP_EXACT = 1e-6                    # a column equal to another up to scale and offset within this share of its range
+ACC_OFFSET_G = 0.25  # the accelerometer's sphere centred farther from zero on an axis: a warning (MEMS parts'
+                    # zero-g offsets are within ~0.15 g; the corpus' largest 0.10 g, a tag's 0.64 g on z)
 ONE_ORIENTATION_DEG = 5.0            # every triad's rows within this of their median direction (95 %): one orientation
 
 ACC_UNIT_GUESS = {"m/s^2": 9.80665, "mg": 1000.0, "cm/s^2 (Gal)": 980.665, "ft/s^2": 32.174, "ug": 1e6,
@@ -380,11 +382,35 @@ def _range_step(ratio: float) -> int:
     return k if 1 <= abs(k) <= 3 and abs(ratio / 2.0 ** k - 1.0) <= RANGE_STEP_TOL else 0
 
 
-def _lsb_text(x: float, triad: str) -> str:
-    if triad == "acc":
-        inv = 1.0 / x
-        return f"1/{round(inv)} g" if abs(inv - round(inv)) < 1e-6 * inv else f"{x:.4g} g"
-    return f"{x / 1000.0:.4g} uT"
+LSB_UNITS = {"acc": (("g", 1.0), ("mg", 1e-3)), "mag": (("G", 1e5), ("uT", 1e3), ("mG", 100.0), ("nT", 1.0))}
+
+
+def _lsb_parts(x: float, triad: str, exact: bool = False) -> tuple:
+    """(number, unit) of an lsb (g, nT) as a sensor description spells it:
+    1/N of a unit where N is whole (1/16384 g, 1/3000 G); else in g or uT,
+    to 4 digits (a measured lsb), or to 6 with exact (a declared lsb a power
+    of ten off: 1/3000 uT written for 1/3000 G was told "0.03333 uT")."""
+    for unit, size in LSB_UNITS[triad][:None if exact else 1]:
+        inv = size / x
+        if inv >= 1.0 and abs(inv - round(inv)) < 1e-9 * inv + 1e-6:
+            return f"1/{round(inv)}", unit
+    unit, size = LSB_UNITS[triad][0 if triad == "acc" else 1]
+    return f"{x / size:.{6 if exact else 4}g}", unit
+
+
+def _lsb_text(x: float, triad: str, exact: bool = False) -> str:
+    return " ".join(_lsb_parts(x, triad, exact))
+
+
+def _declared_lsb_text(lsb: float, fixed: tuple, k: int, triad: str) -> str:
+    """The declared lsb, 10**k times the fixed one (number, unit), in the
+    fixed one's number and the unit 10**k smaller where there is one (the
+    lsb = "1/3000 G" advised, the declared "1/3000 uT", not "1/300000 G")."""
+    sizes = dict(LSB_UNITS[triad])
+    for unit, size in LSB_UNITS[triad]:
+        if abs(sizes[fixed[1]] * 10.0 ** k / size - 1.0) < 1e-9:
+            return f"{fixed[0]} {unit}"
+    return _lsb_text(lsb, triad, True)
 
 
 def _range_hint(ds, triad: str, ratio: float) -> str | None:
@@ -467,8 +493,11 @@ def _counts_hint(ds, triad: str, ratio: float, tol: float) -> str:
         return ""
     k = int(round(math.log10(ratio)))
     if k and abs(math.log(ratio / 10.0 ** k)) < tol:
-        return (f"lsb = \"{_lsb_text(float(lsb) / 10.0 ** k, triad)}\", the declared lsb "
-                f"{_lsb_text(float(lsb), triad)} {10 ** abs(k)}x too {'large' if k > 0 else 'small'} (a unit prefix off?)")
+        # the same number in the unit 10**k away (1/3000 uT -> 1/3000 G), the declared lsb as written
+        fixed = _lsb_parts(float(lsb) / 10.0 ** k, triad, True)
+        return (f"lsb = \"{' '.join(fixed)}\", the declared lsb {_declared_lsb_text(float(lsb), fixed, k, triad)} "
+                f"{10 ** abs(k)}x too {'large' if k > 0 else 'small'} "
+                f"({'a unit prefix' if k % 3 == 0 else 'a unit or its prefix'} off?)")
     return f"lsb = \"{_lsb_text(float(lsb) / ratio, triad)}\" would make it so"
 
 
@@ -511,6 +540,22 @@ def _unit_fix(ds, triad: str, guesses: list, counts: str, ratio: float) -> str:
     return _fix(ds, name, "the unit (" + ", ".join(said[:-1]) + (" or " if len(said) > 1 else "") + said[-1] + ")")
 
 
+def _unit_or_lsb(ds, triad: str, v, ratio: float, guess: dict, canon: str, tol: float, lsb_tol: float) -> tuple:
+    """(units the readings look like, the lsb hint) of a triad `ratio` off
+    its nominal size.  Whole counts declared: their lsb is the scale, and
+    the lsb that makes the size nominal the fix, a power of ten off named as
+    a unit prefix slipped (a MinIMU's counts 1000x off were said to "look
+    like counts at 1024 per g or mg"; a magnetometer's 0.15 uT written
+    0.15 nT was told unit = "uT" or counts of 0.6 uT, both refused when
+    written); decimals declared counts are another unit (m/s2 read as
+    counts)."""
+    whole = _whole_counts(ds, triad, v)
+    guesses = [] if whole else _unit_guesses(ratio, _guessable(ds, triad, v, guess), canon,
+                                               _declared_factor(ds, triad), tol)
+    counts = _counts_hint(ds, triad, ratio, lsb_tol) if _counts(ds, triad) and not guesses else ""
+    return guesses, counts
+
+
 def _mid_scale_error(ds, triad: str, v, fig) -> Finding | None:
     """The error of unsigned counts (every axis about one mid-scale value),
     or None: no unit or lsb fixes an offset (an Xsens ADC log read 3.48x
@@ -532,54 +577,77 @@ def _units_acc(ds, rows, rep):
     G = float(ds.meta.get("gravity_g") or 1.0)
     a = ds.acc[rows]
     n = np.linalg.norm(a, axis=1)
-    med = float(np.median(n))
-    ratio = med / G
-    fig = {"median_g": med, "expected_g": G, "ratio": ratio}
+    S, how, med, sph = _size(a, lambda g: GRAVITY_UNITS[0] <= g / G <= GRAVITY_UNITS[1], "g", "g", shell_only=True)
+    ratio = S / G
+    fig = {"size_g": S, "how": how, "median_g": med, "expected_g": G, "ratio": ratio}
+    said = f"{how}, {len(a)} rows"
+    # unsigned counts first: their sphere's radius can be 1 g (or an lsb 4x off) about a centre at mid-scale,
+    # which no lsb fixes (the median |g| had put them 3.5x off, past every other branch)
+    mid = _mid_scale_error(ds, "acc", a, fig)
+    if mid is not None:
+        rep.findings.append(mid)
+        return
     if GRAVITY_TOL[0] <= ratio <= GRAVITY_TOL[1]:
+        _acc_offset(a, sph, med, G, rep)
         return
     if not (np.isfinite(ratio) and ratio > 0):
         rep.findings.append(Finding("units", "error", (
-            f"accelerometer: |g| is {med:.4g} (median of {len(a)} rows): no gravity in the readings (a dead sensor, "
+            f"accelerometer: |g| is {S:.4g} ({said}): no gravity in the readings (a dead sensor, "
             f"or the wrong columns)"), "acc", fig))
         return
     hint = _range_hint(ds, "acc", ratio)
     if GRAVITY_UNITS[0] <= ratio <= GRAVITY_UNITS[1]:
         rep.findings.append(Finding("units", "warning", (
-            f"accelerometer: |g| is {med:.4g} g (median of {len(a)} rows), {100 * (ratio - 1):+.0f} % from "
+            f"accelerometer: |g| is {S:.4g} g ({said}), {100 * (ratio - 1):+.0f} % from "
             f"{G:g} g: more than a sensor's scale error; "
             + (hint if hint else "check the unit and lsb (the range setting?)")), "acc", fig))
+        _acc_offset(a, sph, med, G, rep)
         return
     if hint and _counts(ds, "acc"):  # counts: the lsb declared is the scale
-        rep.findings.append(_lsb_error(ds, "acc", f"|g| is {med:.4g} (median of {len(a)} rows), {ratio:.4g}x "
+        rep.findings.append(_lsb_error(ds, "acc", f"|g| is {S:.4g} ({said}), {ratio:.4g}x "
                                                   f"{G:g} g", hint, fig))
-        return
-    mid = _mid_scale_error(ds, "acc", a, fig)
-    if mid is not None:
-        rep.findings.append(mid)
         return
     wander = float(np.median(np.abs(n - med))) / med
     if ratio < GRAVITY_UNITS[0] and wander > GRAVITY_REMOVED_SPREAD and not _shell_of(a):
         # |a| wanders with an offset too (an MPU-9250 0.65 g off: 33 %), but its readings lie on a shell
         rep.findings.append(Finding("units", "error", (
-            f"accelerometer: |g| is {med:.4g} (median of {len(a)} rows), not {G:g} g, and it wanders "
+            f"accelerometer: |g| is {S:.4g} ({said}), not {G:g} g, and it wanders "
             f"{100 * wander:.0f} % about that median (a unit scales every row alike): acceleration with gravity "
             f"removed (a phone app's linear or user acceleration), which no unit fixes; log the raw accelerometer, "
             f"with gravity"), "acc", {**fig, "wander": wander}))
         return
-    # whole counts declared: their lsb is the scale, and the lsb that makes |g| 1 g the fix (a MinIMU's counts
-    # 1000x off were said to "look like counts at 1024 per g or mg"; that lsb written, still 1000x off, "like mg");
-    # decimals declared counts are another unit (m/s2 read as counts)
-    guesses = [] if _whole_counts(ds, "acc", a) else _unit_guesses(ratio, _guessable(ds, "acc", a, ACC_UNIT_GUESS),
-                                                                   "g", _declared_factor(ds, "acc"), 0.2)
-    counts = _counts_hint(ds, "acc", ratio, 0.2) if _counts(ds, "acc") and not guesses else ""
+    guesses, counts = _unit_or_lsb(ds, "acc", a, ratio, ACC_UNIT_GUESS, "g", 0.2, 0.2)
     like = (f"the readings look like {' or '.join(guesses)}" if guesses else
             f"the readings are {ratio:.4g}x what g would be" + (f": {hint}" if hint else "")
             + (f" ({counts})" if counts else ""))
     unit = ds.meta.get("acc_unit", "g")
     rep.findings.append(Finding("units", "error", (
-        f"accelerometer: |g| is {med:.4g} (median of {len(a)} rows), not {G:g} g: {like}, not {unit}; "
+        f"accelerometer: |g| is {S:.4g} ({said}), not {G:g} g: {like}, not {unit}; "
         + _unit_fix(ds, "acc", guesses, counts, ratio)), "acc",
         {**fig, "looks_like": guesses}))
+
+
+def _acc_offset(a, sph, med, G, rep) -> None:
+    """A warning where the sphere the accelerometer's readings lie on is
+    centred farther from zero than a MEMS part's offset (ACC_OFFSET_G on an
+    axis), naming it per axis, and saying when it is more than the probe's
+    calibration format holds (calfile.ACC_B_LIMIT: calibrate refuses it)."""
+    if sph is None:
+        return
+    from inclino.formats.calfile import ACC_B_LIMIT
+
+    c = np.asarray(sph[0], float) / G
+    if not np.abs(c).max() > ACC_OFFSET_G:
+        return
+    xyz = ", ".join(f"{v:+.3g}" for v in c)
+    beyond = np.abs(c).max() >= ACC_B_LIMIT
+    rep.findings.append(Finding("units", "warning", (
+        f"accelerometer: the readings lie on a sphere of {sph[1] / G:.4g} g centred ({xyz}) g from zero (x, y, z; "
+        f"their median |g| {med / G:.3g} g): an offset beyond a MEMS part's ~0.1 g"
+        + (f", and beyond the +-{ACC_B_LIMIT:g} g the probe's calibration holds (calibrate refuses it)"
+           if beyond else ", which the calibration's offset takes out")
+        + "; check the zero (a declared zero, or unsigned counts read signed), or the part"), "acc",
+        {"offset_g": c.tolist(), "size_g": float(sph[1] / G), "median_g": med / G}))
 
 
 def _shell_of(v) -> bool:
@@ -596,20 +664,36 @@ def _plausible_field(b, F) -> bool:
     return GEOMAGNETIC_NT[0] / GEOMAGNETIC_SLACK <= b <= GEOMAGNETIC_NT[1] * GEOMAGNETIC_SLACK
 
 
+def _size(v, plausible, sym: str, unit: str, shell_only: bool = False) -> tuple:
+    """(size, how, median |v|, sphere or None) of one triad's readings, the
+    figure its units check judges: the radius of the sphere the readings lie
+    on, which an offset does not move (a tag's accelerometer 0.64 g off on z
+    read a median |g| of 0.41 g and was told an lsb 2.4x off), else (the
+    orientations span no sphere) the median |v|.  A sphere whose radius is
+    implausible where the readings' own median is plausible, and on which
+    they lie as a blob rather than a shell, is one their orientations do not
+    determine: the median then (a drone standing in an office: readings
+    within 5 uT of one another, a "sphere" of 6 uT through them, their |b|
+    31 uT; called 8x off).  shell_only (the accelerometer, whose readings
+    move off gravity's sphere with the hand's acceleration): a sphere only
+    where the readings lie on it as a shell (a six-face session lifted
+    between its faces: a sphere of 1.17 g through readings of 1.00 g).
+    `how` says which, in the message's words."""
+    sph = sphere(v)
+    med = float(np.median(np.linalg.norm(v, axis=1)))
+    if sph is None:
+        return med, f"the median |{sym}|", med, None
+    R = sph[1]
+    if not on_shell(v, sph) and (shell_only or (plausible(med) and not plausible(R))):
+        return med, (f"the median |{sym}|; the sphere through the readings, radius {R:.4g} {unit}, is not "
+                     f"determined by their orientations (a sensor that hardly turned)"), med, None
+    return R, "the radius of the sphere the readings lie on", med, sph
+
+
 def _units_mag(ds, rows, rep):
     m = ds.mag[rows]
-    sph = sphere(m)
-    med = float(np.median(np.linalg.norm(m, axis=1)))
-    R = sph[1] if sph is not None else med
-    how = "the radius of the sphere the readings lie on" if sph is not None else "the median |b|"
     F = ds.meta.get("field_nT")
-    if sph is not None and _plausible_field(med, F) and not _plausible_field(R, F) and not on_shell(m, sph):
-        # a unit scales every reading, the median |b| with them; a sphere far from the field whose readings' own
-        # |b| is the field's is one their orientations do not determine (a drone standing in an office: readings
-        # within 5 uT of one another, a "sphere" of 6 uT through them, their |b| 31 uT; called 8x off)
-        how = (f"the median |b|; the sphere through the readings, radius {R:.4g} nT, is not determined by their "
-               f"orientations (a sensor that hardly turned)")
-        R = med
+    R, how, med, _ = _size(m, lambda b: _plausible_field(b, F), "b", "nT")
     fig = {"field_nT": R, "how": how, "median_abs_nT": med}
     if not (np.isfinite(R) and R > 0):
         rep.findings.append(Finding("units", "error", (
@@ -652,11 +736,9 @@ def _units_mag(ds, rows, rep):
     if mid is not None:
         rep.findings.append(mid)
         return
-    guesses = _unit_guesses(R / target, _guessable(ds, "mag", m, MAG_UNIT_GUESS), "nT", _declared_factor(ds, "mag"),
-                            0.6)
-    counts = _counts_hint(ds, "mag", R / target, 0.2 if F else 0.6) if _counts(ds, "mag") and not guesses else ""
+    guesses, counts = _unit_or_lsb(ds, "mag", m, R / target, MAG_UNIT_GUESS, "nT", 0.6, 0.2 if F else 0.6)
     like = (f"the readings look like {' or '.join(guesses)}" if guesses else
-            f"{R / target:.3g}x a geomagnetic field" + (f": {hint}" if hint else "")
+            f"{R / target:.3g}x {'the header field' if F else 'a geomagnetic field'}" + (f": {hint}" if hint else "")
             + (f" ({counts})" if counts else ""))
     rep.findings.append(Finding("units", "error", (
         f"magnetometer: |b| is {R:.4g} nT ({how}), not {rng}: {like}, not {unit}; "

@@ -16,7 +16,7 @@ import json
 import numpy as np
 
 from inclino.engines import reference as ref
-from inclino.formats.calfile import Calibration
+from inclino.formats.calfile import ACC_B_LIMIT, M_LIMIT, MAG_B_LIMIT, Calibration
 from inclino.formats.dataset import POSE_COLS, RawDataset
 from inclino.errors import CalibrationError, DataError
 
@@ -114,6 +114,43 @@ def correction_to_forward(M, b):
     return np.linalg.inv(np.asarray(M, float)), np.asarray(b, float).copy()
 
 
+def refuse_out_of_range(ds, cal) -> None:
+    """A fitted triad the probe's calibration format cannot hold (an offset
+    beyond calfile.ACC_B_LIMIT g or MAG_B_LIMIT nT, a matrix element beyond
+    M_LIMIT), refused in the user's terms (CalibrationError, exit 3, as
+    docs/cli.md has every calibration out of the firmware's range; nothing
+    written).  Calibration.check said "acc_b beyond +-2" of a tag's log
+    imported with its lsb declared 4.9x too large: a name of the file's,
+    no cause, no fix.  The readings' size the fit implies (the nominal over
+    the matrix's mean singular value) tells a scale or unit declared wrong
+    from a triad whose zero is far off."""
+    for triad, name, unit, blim in (("acc", "accelerometer", "g", ACC_B_LIMIT),
+                                    ("mag", "magnetometer", "nT", MAG_B_LIMIT)):
+        if not getattr(ds, f"has_{triad}"):
+            continue
+        M = np.asarray(getattr(cal, f"{triad}_m"), float)
+        b = np.asarray(getattr(cal, f"{triad}_b"), float)
+        if not (M.shape == (3, 3) and b.shape == (3,) and np.all(np.isfinite(M)) and np.all(np.isfinite(b))):
+            continue  # Calibration.check names it
+        over_b, over_m = bool(np.abs(b).max() >= blim), bool(np.abs(M).max() >= M_LIMIT)
+        if not (over_b or over_m):
+            continue
+        size = 1.0 / float(np.mean(np.linalg.svd(M, compute_uv=False)))  # the readings over the nominal
+        xyz = ", ".join(f"{v:+.4g}" for v in b)
+        what = (f"the {name}'s offset the fit needs, ({xyz}) {unit} (x, y, z), is beyond the +-{blim:g} {unit} "
+                f"the probe's calibration format holds" if over_b else
+                f"the {name}'s scale correction the fit needs, {np.abs(M).max():.3g}x, is beyond the {M_LIMIT:g}x "
+                f"the probe's calibration format holds")
+        key = f"[{name}] unit, lsb and zero in the sensor description"
+        if not 0.8 <= size <= 1.25:
+            cause = (f"the readings are {size:.3g}x the {'gravity' if triad == 'acc' else 'field'} they should read: "
+                     f"a scale or unit declared wrong; check the {key} and import again")
+        else:
+            cause = (f"the readings' scale is right ({size:.3g}x) and their zero far off: a zero declared wrong, or a "
+                     f"triad far off its range; check the {key}, or the part")
+        raise CalibrationError(f"{what}: {cause}; nothing written")
+
+
 def make_cal(acc_m, acc_b, mag_m, mag_b, method, ds: RawDataset) -> Calibration:
     for name, v in (("acc_m", acc_m), ("acc_b", acc_b), ("mag_m", mag_m), ("mag_b", mag_b)):
         if not np.all(np.isfinite(np.asarray(v, float))):
@@ -121,6 +158,7 @@ def make_cal(acc_m, acc_b, mag_m, mag_b, method, ds: RawDataset) -> Calibration:
     cal = Calibration(acc_m=np.asarray(acc_m, float).tolist(), acc_b=np.asarray(acc_b, float).tolist(),
                       mag_m=np.asarray(mag_m, float).tolist(), mag_b=np.asarray(mag_b, float).tolist(),
                       method=method, probe_serial=str(ds.meta.get("probe_serial", "")))
+    refuse_out_of_range(ds, cal)
     cal.check()
     return cal
 

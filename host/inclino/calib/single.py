@@ -26,7 +26,7 @@ from inclino.formats.calfile import Calibration
 from inclino.errors import CalibrationError, DataError
 
 from . import triad
-from .common import assumed_noise, field_of, world_of
+from .common import assumed_noise, field_of, refuse_out_of_range, world_of
 
 MIN_ROWS_POSES = 6
 MIN_ROWS_SPHERE = 12
@@ -169,6 +169,7 @@ def fit(ds, use_poses=None, sigma_acc=None, sigma_mag=None, **_):
     else:
         cal = Calibration(acc_m=eye, acc_b=zero, mag_m=M.tolist(), mag_b=b.tolist(), method="joint",
                           probe_serial=str(ds.meta.get("probe_serial", "")), triads="mag")
+    refuse_out_of_range(ds, cal)
     cal.check()
     # rows read while moving between holds: left out, neither outliers nor a break in a segment of misfit
     fitted = np.flatnonzero(~moving)
