@@ -418,7 +418,7 @@ def build(ds: RawDataset, cal: Calibration, method: str, info: dict, refit=None,
         from . import paper_bootstrap
 
         boot = paper_bootstrap.bootstrap(ds, cal, refit, rows_used, w, dip, sa, sm, opts.get("sigma_pose_deg"),
-                                         n=int(opts.get("bootstrap", 40)))
+                                         n=int(opts.get("bootstrap", paper_bootstrap.DEFAULT_REFITS)))
         if boot is not None:
             cov = boot.cov
             src = paper_bootstrap.source_text(boot, an)
