@@ -193,3 +193,21 @@ def test_the_rows_of_a_hold_do_not_pull_the_scale_down(monkeypatch):
     monkeypatch.setattr(covariance, "component_whitener",
                         lambda *a, **k: whitener(*a, **{**k, "means_only": False}))
     assert mean_scale_z(11) < -2.5
+
+
+def test_components_hold_their_floors():
+    """Floors on the sensor noise and the pose error (what a caller
+    assumes): the fit returns each at least at its floor, also when the
+    floor lies far above the residuals themselves (noise-free readings: the
+    bounds of the search once crossed and the fit failed), and the floor
+    of one component is not paid for by the other."""
+    rng = np.random.default_rng(5)
+    k, m = 200, 4
+    Jc = rng.normal(size=(k, m, 3))
+    R = np.einsum("cik,ck->ci", Jc, rng.normal(size=(k, 3)) * 0.5) + rng.normal(size=(k, m))
+    free = covariance.fit_components(R, np.arange(k), Jpose=Jc)
+    c = covariance.fit_components(R, np.arange(k), Jpose=Jc, pose_floor_deg=1.0)
+    assert np.all(c.sigma_pose_deg >= 1.0 - 1e-9) and np.all(free.sigma_pose_deg < 0.8)
+    assert np.all(c.sigma <= free.sigma * 1.01)  # the larger pose error leaves the noise no larger
+    tiny = covariance.fit_components(R * 1e-4, np.arange(k), Jpose=Jc, floor=np.full(m, 1.0))
+    assert np.all(tiny.sigma >= 1.0 - 1e-9)

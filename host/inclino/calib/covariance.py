@@ -156,7 +156,7 @@ def _reml_term(Linv, Xc, inv_scale, chunk=REML_CHUNK):
 
 
 def fit_components(R, labels, Jpose=None, X=None, start_sigma=None, floor=None,
-                   channels=None, X_means=None) -> NoiseComponents:
+                   channels=None, X_means=None, pose_floor_deg=None) -> NoiseComponents:
     """REML variance components of residuals R (n, m) in raw units.
 
     labels: (n,) cluster of each row; Jpose: (n, m, 3) the residual's change
@@ -164,7 +164,10 @@ def fit_components(R, labels, Jpose=None, X=None, start_sigma=None, floor=None,
     X: (n, m, p) the residual's Jacobian in the fitted parameters, raw units
     (for the restricted likelihood; None: plain maximum likelihood);
     start_sigma: (m,) a starting sensor sigma; floor: (m,) the smallest
-    sensor sigma allowed (default 1e-3 of each channel's RMS); X_means:
+    sensor sigma allowed (default 1e-3 of each channel's RMS); pose_floor_deg:
+    the smallest pose error allowed per turntable axis (default none: a
+    caller that assumes a pose error gets the noise the residuals show on
+    top of it, not a split that trades it for a cluster drift); X_means:
     instead of X, its cluster means (k, m, p) in the order of the sorted
     labels (a caller that builds them a chunk of rows at a time, without
     the n x m x p array).
@@ -256,8 +259,11 @@ def fit_components(R, labels, Jpose=None, X=None, start_sigma=None, floor=None,
     else:
         v0 = np.full(m, 0.5)
     v0 = np.maximum(v0, (floor / scale) ** 2)
-    lo = np.concatenate([np.log((floor / scale) ** 2), np.full(n_q, np.log(1e-14)), np.full(n_p, np.log(1e-10))])
+    q_lo = np.full(n_q, 1e-14) if pose_floor_deg is None else np.maximum(
+        np.broadcast_to(np.asarray(pose_floor_deg, float) ** 2, (n_q,)), 1e-14)
+    lo = np.concatenate([np.log((floor / scale) ** 2), np.log(q_lo), np.full(n_p, np.log(1e-10))])
     hi = np.concatenate([np.full(m, np.log(100.0)), np.full(n_q, np.log(100.0)), np.full(n_p, np.log(100.0))])
+    hi = np.maximum(hi, lo + np.log(100.0))  # floors above the residuals' own scale (residuals far below the noise)
     bounds = list(zip(lo, hi))
 
     def descend(th0, restricted):

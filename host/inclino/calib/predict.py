@@ -24,6 +24,10 @@ plus the square of a bias:
 * linear model: the fitted scale nonlinearity (joint's nuisance q) that the
   firmware's linear calibration cannot hold: the written calibration applied
   to the readings the fitted nonlinear model predicts at p.
+* (passed in as `bias`) a paper method's model misfit
+  (calib/paper_bootstrap.py: its calibration applied to the readings of
+  the affine least-squares fit of the same rows), or a prior's nonlinearity
+  through a field fit (calib/fieldbias.py).
 
 The RMS over the grid is sqrt(mean_p(variance_p + bias_p^2)).  With
 reading_noise=False (a noise-free, unquantised grid, as bench calibration's

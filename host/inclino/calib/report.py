@@ -13,8 +13,11 @@
   common.PARAM_NAMES) and what it means for the attitude: the predicted
   azimuth/inclination RMS over the Li 2021 grid.  `joint` gives its GLS
   covariance; the paper methods (closed forms without a covariance) a
-  parametric bootstrap: the fit repeated on the same rows with the nominal
-  noise (sensor sigma, turntable readout sigma) added, seeded.
+  seeded parametric bootstrap (calib/paper_bootstrap.py): the fit repeated
+  on readings simulated from it at the same poses, turned by a pose error
+  shared by each pose's rows, with the larger of the assumed noise and the
+  residuals'; a misfit of the method's model far beyond the noise is added
+  as a bias (covariance and predictions).
 * quantisation -- the attitude lost to the firmware's fixed point, on the
   calibration rows and the Li grid, kept apart from the input's resolution:
   (a) the firmware's arithmetic -- the firmware engine (C, fixed point) against
@@ -129,7 +132,8 @@ class FitReport:
         if "predicted_azi_rms_deg" in u:
             lines.append(f"  uncertainty ({u.get('source', '')}): predicted azimuth RMS {u['predicted_azi_rms_deg']:.4f} deg, "
                          f"inclination {u['predicted_inc_rms_deg']:.4f} deg over the Li grid (the calibration's error: "
-                         f"coefficients and linear-model bias)")
+                         + ("coefficients and the method's model misfit)" if u.get("model_misfit") else
+                            "coefficients and linear-model bias)"))
         pa = u.get("prediction_acceptance_grid")
         if pa:
             lines.append(f"  predicted on an acceptance of the Li grid with readings {pa['readings']}: azimuth RMS "
@@ -193,31 +197,6 @@ def residuals(ds: RawDataset, cal: Calibration, dip_deg=None, w: dict | None = N
                     "inc_rms_deg": _rms(di), "inc_max_deg": float(np.abs(di).max()),
                     "azi_rms_deg": _rms(da), "azi_max_deg": float(np.abs(da).max()) if da.size else float("nan")})
     return out
-
-
-def bootstrap_cov(ds: RawDataset, refit, rows, sigma_acc, sigma_mag, sigma_pose_deg, n=40, seed=12345):
-    """Covariance of the 24 coefficients by refitting with the nominal noise
-    added to the readings (and to the pose columns)."""
-    rng = np.random.default_rng(seed)
-    vs = []
-    base = common.subset(ds, rows)
-    for _ in range(n):
-        cols = {k: v.copy() for k, v in base.columns.items()}
-        for c in ("ax_g", "ay_g", "az_g"):
-            cols[c] += rng.normal(0, sigma_acc, len(base))
-        for c in ("mx_nT", "my_nT", "mz_nT"):
-            cols[c] += rng.normal(0, sigma_mag, len(base))
-        if base.has_pose and sigma_pose_deg > 0:
-            for c in ("inc_deg", "azi_deg", "tf_deg"):
-                cols[c] = cols[c] + rng.normal(0, sigma_pose_deg, len(base))
-            cols["inc_deg"] = np.clip(cols["inc_deg"], 0.0, 180.0)
-        try:
-            vs.append(common.cal_vector(refit(RawDataset(cols, dict(base.meta)))))
-        except Exception:  # a perturbed run the method cannot fit: counted below
-            continue
-    if len(vs) < max(2, n // 2):  # a covariance needs two refits at least
-        return None, len(vs)
-    return np.cov(np.array(vs).T), len(vs)
 
 
 def probe_inputs(acc, mag):
@@ -366,8 +345,6 @@ def quantisation_loss(ds: RawDataset, cal: Calibration, w: dict, dip: float, n_a
 
 
 def build(ds: RawDataset, cal: Calibration, method: str, info: dict, refit=None, opts=None) -> FitReport:
-    from .joint import SIGMA_POSE_DEG
-
     opts = opts or {}
     w = info.get("world") or common.world_of(ds)  # the world the fit used (a data-derived F is of every row)
     dip = info.get("dip_deg")
@@ -401,8 +378,8 @@ def build(ds: RawDataset, cal: Calibration, method: str, info: dict, refit=None,
     sa, sm = an["acc_g"], an["mag_nT"]
     said = {"given": "the noise given", "declared": "the noise the sensor description declares",
             "nominal": "the nominal noise (an ADIS16210-class reading; the data declare none)"}
-    sp = opts.get("sigma_pose_deg", SIGMA_POSE_DEG)
     cov = info.get("covariance")
+    boot = None
     if cov is not None and info.get("noise") is not None:
         nz = info["noise"]
         src = (f"GLS covariance under the run's own noise ({nz['method']}: per channel, pose error per turntable "
@@ -437,15 +414,21 @@ def build(ds: RawDataset, cal: Calibration, method: str, info: dict, refit=None,
                                 for t, v in hsc.items()))
     elif cov is not None:
         src = f"GLS covariance, scaled by s^2 = {info.get('s2', 1.0):.3g}"
-    elif refit is not None:
-        cov, nok = bootstrap_cov(ds, refit, rows_used, sa, sm, sp if ds.has_pose else 0.0,
-                                 n=int(opts.get("bootstrap", 40)))
-        src = (f"bootstrap of {nok} refits, noise acc {sa:g} g ({an['acc_from']}), mag {sm:g} nT ({an['mag_from']}), "
-               f"pose {sp:g} deg")
+    elif refit is not None:  # the papers' methods (calib/paper_bootstrap.py)
+        from . import paper_bootstrap
+
+        boot = paper_bootstrap.bootstrap(ds, cal, refit, rows_used, w, dip, sa, sm, opts.get("sigma_pose_deg"),
+                                         n=int(opts.get("bootstrap", paper_bootstrap.DEFAULT_REFITS)))
+        if boot is not None:
+            cov = boot.cov
+            src = paper_bootstrap.source_text(boot, an)
     if cov is not None:
         from .predict import predict
 
-        sig = np.sqrt(np.clip(np.diag(cov), 0, None))
+        # the papers' methods: a misfit of the method's model is a bias -- its outer product joins the covariance
+        # reported (a mean square error), its grid effect the predictions as a bias of its own
+        cov_out = cov if boot is None else boot.mse
+        sig = np.sqrt(np.clip(np.diag(cov_out), 0, None))
         from . import field, fieldbias
         from .predict import GRID
 
@@ -457,6 +440,9 @@ def build(ds: RawDataset, cal: Calibration, method: str, info: dict, refit=None,
             bias = fieldbias.nonlinear_bias(field.nonlinear_model_of(prior), prior, cal, used.acc, used.mag, w, dip,
                                             GRID, sa, sm)
             bias_name = "prior_nonlinearity_bias"
+        if boot is not None and boot.misfit:
+            bias = (boot.misfit["grid_azi_bias_deg"], boot.misfit["grid_inc_bias_deg"])
+            bias_name = "model_misfit"
         p_cal = predict(cal, cov, w, dip, sa, sm, reading_noise=False, nonlinear=nl, bias=bias, bias_name=bias_name)
         # acceptance: readings taken as the run's -- the run's own noise per channel and its pose error
         # when the fit estimated them (calib/covariance.py); without poses each triad's own residual scale
@@ -464,7 +450,15 @@ def build(ds: RawDataset, cal: Calibration, method: str, info: dict, refit=None,
         n_run = ds.meta.get("samples_averaged")
         lsb = input_lsb(ds)
         comps = info.get("noise_components")
-        if comps is not None:
+        if boot is not None:
+            cell = boot.per_cell()
+            s_acc, s_mag, s_pose = cell[:3], cell[3:], boot.sigma_pose_deg
+            readings = (f"as the run's: the noise the bootstrap drew per reading "
+                        f"({', '.join(f'{v:.3g}' for v in s_acc)} g, {', '.join(f'{v:.3g}' for v in s_mag)} nT), "
+                        f"pose error "
+                        + ", ".join(f"{v:.3g}" for v in s_pose) + " deg (inc, azi, tf); "
+                        + f"input resolution at {'n = %g' % n_run if n_run else 'n unknown, taken as 1'}")
+        elif comps is not None:
             cell = comps.per_cell()
             s_acc, s_mag, s_pose = cell[:3], cell[3:], comps.sigma_pose_deg
             readings = (f"as the run's: its own noise per reading, fitted per channel ({comps.method}: "
@@ -487,11 +481,19 @@ def build(ds: RawDataset, cal: Calibration, method: str, info: dict, refit=None,
         rep.uncertainty = {"source": src, "sigma": dict(zip(common.PARAM_NAMES, sig.tolist())),
                            "predicted_azi_rms_deg": p_cal.azi_rms_deg, "predicted_inc_rms_deg": p_cal.inc_rms_deg,
                            # the full 24x24 (PARAM_NAMES order): inclino toolmodel projects it onto ISCWSA terms
-                           "covariance": np.asarray(cov, float)[:24, :24].tolist(),
+                           "covariance": np.asarray(cov_out, float)[:24, :24].tolist(),
                            "prediction_calibration_grid": p_cal.to_dict(),
                            "prediction_acceptance_grid": {**p_acc.to_dict(), "readings": readings}}
         if info.get("noise") is not None:
             rep.uncertainty["noise"] = info["noise"]
+        if boot is not None:
+            rep.uncertainty["noise"] = {**boot.comps.to_dict(), "of": "the affine least-squares fit's residuals",
+                                        "drawn": {"sigma": boot.sigma.tolist(),
+                                                  "sigma_cluster": boot.sigma_cluster.tolist(),
+                                                  "sigma_pose_deg": boot.sigma_pose_deg.tolist()}}
+            if boot.misfit:
+                rep.uncertainty["model_misfit"] = {k: v for k, v in boot.misfit.items()
+                                                   if not k.startswith("grid_")}
         if info.get("dip_sigma_deg") is not None:
             rep.uncertainty["dip_deg"] = dip
             rep.uncertainty["dip_sigma_deg"] = info["dip_sigma_deg"]
@@ -508,7 +510,8 @@ def build(ds: RawDataset, cal: Calibration, method: str, info: dict, refit=None,
                 "mount_tolerance_accepted": bool(info.get("accept_mount_tolerance")),
                 "predicted_azi_rms_fit_only_deg": fa, "predicted_inc_rms_fit_only_deg": fi})
     else:
-        rep.uncertainty = {"source": "not available (the method could not be refitted on perturbed data)"}
+        rep.uncertainty = {"source": "not available (the method could not be refitted on readings simulated from it, "
+                                     "or its residuals' noise could not be fitted)"}
     rep.uncertainty["reading_noise"] = reading_noise(ds, rep.residuals)
     rep.quantisation = quantisation_loss(used, cal, w, dip, ds.meta.get("samples_averaged"), input_lsb(ds))
     for k in ("s2", "chi2", "dof"):
@@ -573,6 +576,12 @@ def _verdict(rep: FitReport, info: dict) -> None:
         else:
             over(u.get("predicted_azi_rms_fit_only_deg"), "predicted_azi_rms_deg",
                  "coefficients poorly determined: predicted azimuth 1-sigma, mounting tolerance accepted (deg)")
+    elif u.get("model_misfit"):  # a paper method whose model misses what the data hold (calib/paper_bootstrap.py)
+        m = u["model_misfit"]
+        over(u.get("predicted_azi_rms_deg"), "predicted_azi_rms_deg",
+             f"the method's model misfits the "
+             f"{' and '.join({'acc': 'accelerometer', 'mag': 'magnetometer'}[t] for t in m['triads'])} readings, a "
+             f"bias of {m['azi_rms_deg']:.3g} deg azimuth RMS over the Li grid: predicted azimuth RMS (deg)")
     else:
         over(u.get("predicted_azi_rms_deg"), "predicted_azi_rms_deg",
              "coefficients poorly determined: predicted azimuth 1-sigma (deg)")

@@ -131,7 +131,7 @@ def add_calibrate(subparsers):
     c.add_argument("--accept-mount-tolerance", action="store_true",
                    help="joint without poses or prior: accept that tolerance (the verdict then judges the fit itself)")
     c.add_argument("--bootstrap", type=int, help=f"paper methods: refits for the uncertainty, 2-{MAX_BOOTSTRAP} "
-                                                 "(default 40)")
+                                                 "(default 200)")
     c.add_argument("--static", action="store_true",
                    help="declare the run static (step-and-hold: every row at rest), whatever its time column")
     c.set_defaults(func=calibrate_main)
