@@ -131,7 +131,8 @@ def diagnose(ds: RawDataset, effects=None, alpha: float = core.DEFAULT_ALPHA, fo
         ds, means = pose_means(ds)
         thinned = "; ".join(x for x in (means, thinned) if x) or None
     ds, note = thin(ds, MAX_ROWS)
-    thinned = "; ".join(x for x in (thinned, note) if x) or None  # `thinned`: the note of a run the caller thinned already (thin(ds, MAX_ROWS))
+    # `thinned` came in as the note of a run the caller thinned already (thin(ds, MAX_ROWS))
+    thinned = "; ".join(x for x in (thinned, note) if x) or None
     bad = pre.not_a_temperature(ds)
     if bad is not None:  # a pose angle or a sensor axis: no temperature effect is tested against it
         import dataclasses
