@@ -32,7 +32,7 @@ SENSOR_META = ("sensor", "sensor_sha256", "log_sha256", "acc_axes", "acc_unit", 
                "acc_lag_rows", "mag_lag_rows",
                "acc_lsb_g", "acc_noise_g", "acc_range_g", "mag_lsb_nT", "mag_noise_nT", "mag_range_nT",
                "axes_reflection", "reflection", "static", "rows_dropped", "rate_hz", "time_unit",
-               "pairing", "paired_log_sha256")
+               "pairing", "paired_log_sha256", "temp_unit")
 META_KEYS = ("field_nT", "dip_deg", "declination_deg", "gravity_g", "lat_deg", "lon_deg",
              "date", "probe_serial", "source", "samples_averaged", "start_utc", "firmware", "calibration_crc",
              "calibration_sequence", "reading_noise_acc_g", "reading_noise_mag_nT", "readings_per_row") + SENSOR_META

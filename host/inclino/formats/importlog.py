@@ -576,7 +576,9 @@ def _import(lines, path: str, desc: SensorDescription, static, drop_bad=False,
         else:
             out["t_s"] = col["t_s"] * desc.time_scale
     if "temp_c" in col:
-        out["temp_c"] = col["temp_c"]
+        # degrees C from the declared unit (C, K, F, or counts: T = offset + counts x lsb)
+        out["temp_c"] = col["temp_c"] * desc.temperature_scale + desc.temperature_offset \
+            if (desc.temperature_scale, desc.temperature_offset) != (1.0, 0.0) else col["temp_c"]
     if label_idx is not None:
         lab = desc.poses["labels"]
         out["inc_deg"] = np.array([float(lab[x]["inc"]) for x in labels]) * desc.pose_scale
@@ -815,5 +817,8 @@ def _check(ds: RawDataset, path: str) -> None:
             bad |= (v < lo) | (v > hi)
         if bad.any():
             r = int(np.argmax(bad))
+            hint = ("; a temperature logged in K, F or counts: declare it ([log] temperature_unit = \"K\", "
+                    "\"F\", or \"counts\" with temperature_lsb and temperature_offset)"
+                    if c == "temp_c" and np.isfinite(v[r]) else "")
             raise DataError(f"{path}: row {r + 1} of the data: {c} = {float(v[r]):g} out of range "
-                            f"({dataset._rule_text(c) if c in dataset.RULES else 'not finite'})")
+                            f"({dataset._rule_text(c) if c in dataset.RULES else 'not finite'}){hint}")

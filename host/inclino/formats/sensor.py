@@ -64,8 +64,14 @@ READS = ("up", "down")
 BAD_ROWS = ("refuse", "drop")
 TOP_KEYS = {"name", "preset", "notes", "source", "log", "accelerometer", "magnetometer", "header", "poses"}
 LOG_KEYS = {"delimiter", "comment", "header", "skip_rows", "time", "time_unit", "rate_hz", "temperature",
-            "samples_averaged", "static", "keep", "decimal", "bad_rows", "strip"}
+            "temperature_unit", "temperature_lsb", "temperature_offset", "samples_averaged", "static", "keep", "decimal", "bad_rows", "strip"}
 FIELD_UNIT = "field"  # magnetometer readings normalised to the site's total field: 1.0 = field_nT
+# a temperature column's unit: degrees C = reading x scale + offset ("counts": scale and offset from
+# temperature_lsb and temperature_offset, a datasheet's T = offset + counts x lsb)
+TEMP_UNITS = {"C": (1.0, 0.0), "degC": (1.0, 0.0), "°C": (1.0, 0.0), "celsius": (1.0, 0.0),
+              "K": (1.0, -273.15), "kelvin": (1.0, -273.15),
+              "F": (5.0 / 9.0, -32.0 * 5.0 / 9.0), "degF": (5.0 / 9.0, -32.0 * 5.0 / 9.0),
+              "°F": (5.0 / 9.0, -32.0 * 5.0 / 9.0), "fahrenheit": (5.0 / 9.0, -32.0 * 5.0 / 9.0)}
 RATE_UNITS = {"Hz": 1.0, "hz": 1.0, "kHz": 1e3, "khz": 1e3}
 TRIAD_KEYS = {"columns", "unit", "lsb", "reads", "x", "y", "z", "axes", "reflection", "range", "noise", "lag", "zero",
               "file", "time", "time_unit", "time_offset", "counts"}
@@ -223,6 +229,9 @@ class SensorDescription:
     time_scale: float = 1.0           # seconds per unit of the time column
     rate_hz: float | None = None      # no time column, a known sample rate: t_s = row index / rate_hz
     temperature: str | int | None = None
+    temperature_unit: str = "C"
+    temperature_scale: float = 1.0    # degrees C = the temperature column x temperature_scale + temperature_offset
+    temperature_offset: float = 0.0
     samples_averaged: float | None = None
     static: bool | None = None
     keep: dict | None = None          # {column: [values]}: rows to keep (others dropped, counted)
@@ -280,9 +289,65 @@ class SensorDescription:
             m["samples_averaged"] = self.samples_averaged
         if self.rate_hz is not None:
             m["rate_hz"] = self.rate_hz
+        if self.temperature is not None and self.temperature_unit != "C":
+            m["temp_unit"] = self.temperature_unit + (
+                f" x {self.temperature_scale:.10g} C {self.temperature_offset:+.10g} C"
+                if self.temperature_unit == "counts" else "")
         if self.time is not None:
             m["time_unit"] = self.time_unit  # the checks name the unit the rows look like against it
         return m
+
+
+def _temperature_unit(s, log: dict, what: str) -> None:
+    """[log].temperature_unit (C, K, F, or counts with temperature_lsb and
+    temperature_offset) into s.temperature_scale and s.temperature_offset:
+    degrees C = column x scale + offset."""
+    given = [k for k in ("temperature_unit", "temperature_lsb", "temperature_offset") if k in log]
+    if given and s.temperature is None:
+        raise DataError(f"{what}[log].{given[0]} without a temperature column ([log].temperature = ...)")
+    unit = str(log.get("temperature_unit", "C")).strip()
+    counts = unit.lower() in ("count", "counts", "lsb")
+    if not counts:
+        key = next((k for k in TEMP_UNITS if k.lower() == unit.lower()), None)
+        if key is None:
+            raise DataError(f"{what}[log].temperature_unit: C, K, F, or counts (with temperature_lsb and "
+                            f"temperature_offset), not {unit!r}")
+        for k in ("temperature_lsb", "temperature_offset"):
+            if k in log:
+                raise DataError(f"{what}[log].{k} goes with temperature_unit = \"counts\" (the column is in "
+                                f"{key})")
+        s.temperature_unit = key
+        s.temperature_scale, s.temperature_offset = TEMP_UNITS[key]
+        return
+    if "temperature_lsb" not in log or "temperature_offset" not in log:
+        raise DataError(f"{what}[log]: a temperature in counts needs temperature_lsb (a count in degrees C, e.g. "
+                        f"\"1/340 C\") and temperature_offset (the temperature a count of 0 reads, e.g. "
+                        f"\"36.53 C\"): the datasheet's T = offset + counts x lsb")
+    s.temperature_unit = "counts"
+    s.temperature_scale = _degrees(log["temperature_lsb"], f"{what}[log].temperature_lsb", positive=True)
+    s.temperature_offset = _degrees(log["temperature_offset"], f"{what}[log].temperature_offset", positive=False)
+
+
+def _degrees(value, what: str, positive: bool) -> float:
+    """A temperature (difference) in degrees C: "1/340 C", "36.53 C", "-40 C"
+    or a plain number of degrees C; > 0 when positive."""
+    if isinstance(value, (int, float)) and not isinstance(value, bool):
+        v = float(value)
+    elif isinstance(value, str):
+        m = re.fullmatch(r"\s*([-+]?[0-9.eE+-]+(?:\s*/\s*[0-9.eE+]+)?)\s*(?:°?\s*C|degC)?\s*", value)
+        try:
+            if not m:
+                raise ValueError
+            num = m.group(1).replace(" ", "")
+            a, _, b = num.partition("/")
+            v = float(a) / float(b) if b else float(a)
+        except (ValueError, ZeroDivisionError):
+            raise DataError(f"{what}: {value!r} is not a number of degrees C (e.g. \"1/340 C\", \"36.53 C\")") from None
+    else:
+        raise DataError(f"{what}: {value!r} is not a number of degrees C")
+    if not math.isfinite(v) or (positive and v <= 0):
+        raise DataError(f"{what}: {value!r} must be a finite number of degrees C" + (" > 0" if positive else ""))
+    return v
 
 
 def time_scale(text: str, what: str = "[log].time_unit") -> float:
@@ -651,6 +716,7 @@ def from_dict(d: dict, what: str = "sensor description") -> SensorDescription:
                             f"(time = {s.time!r}) or the rate, not both")
         s.rate_hz = float(rate)
     s.temperature = log.get("temperature")
+    _temperature_unit(s, log, what)
     apart = [t for t in s.triads if t.file is not None]
     if len(apart) == 2:
         raise DataError(f"{what}: both triads name a file of their own; the log given to inclino import holds one "
