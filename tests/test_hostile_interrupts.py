@@ -87,6 +87,24 @@ def test_a_ctrl_c_after_the_command_finished_is_held(monkeypatch):
     monkeypatch.setitem(entry._state, "pending", False)
 
 
+def test_a_ctrl_c_inside_a_module_locks_callback_is_sent_again(monkeypatch):
+    """The signal inside importlib's weakref callback (`cb`): raised there,
+    Python printed "Exception ignored ... KeyboardInterrupt" and the command
+    went on.  It is sent again, for after the callback; elsewhere it raises."""
+    from inclino import entry
+
+    sent = []
+    monkeypatch.setattr(entry.os, "kill", lambda pid, sig: sent.append((pid, sig)))
+    monkeypatch.setitem(entry._state, "armed", True)
+    ns = {}
+    exec(compile("def cb(ref):\n    return sys._getframe()\n", "<frozen importlib._bootstrap>", "exec"),
+         {"sys": sys}, ns)
+    entry._hold(signal.SIGINT, ns["cb"](None))
+    assert sent == [(os.getpid(), signal.SIGINT)]
+    with pytest.raises(KeyboardInterrupt):
+        entry._hold(signal.SIGINT, sys._getframe())
+
+
 @pytest.mark.parametrize("delay", [0.0, 0.02, 0.05, 0.1, 0.2, 0.4, 0.8])
 def test_ctrl_c_early_in_a_real_process(tmp_path, delay):
     """SIGINT at moments across the start-up of a command (imports, parser,

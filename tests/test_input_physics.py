@@ -95,6 +95,18 @@ def test_time_in_us_declared_as_ms_is_named(tmp_path):
     assert f.level == "warning" and f.figures["looks_like"] == "us"
 
 
+@pytest.mark.parametrize("declared", ["min", "h"])
+def test_time_in_us_declared_in_minutes_or_hours_names_us(tmp_path, declared):
+    """A named unit before a sample period: us declared as min read 6e7x slow,
+    and 1e-6 min (1/16 666.7 s, first among the prefixes) made the rows and
+    the turning a hand's as well as us did; followed, the rows were 60x off."""
+    desc = _desc(tmp_path, FUSION / "sensor.toml", 'time_unit = "us"', f'time_unit = "{declared}"')
+    (f,) = _time(_found(FUSION / "mpudata.csv", desc)[1])
+    assert f.figures["looks_like"] == "us" and f'time_unit = "us" (declared "{declared}")' in f.message
+    fixed = _desc(tmp_path, FUSION / "sensor.toml", 'time_unit = "us"', 'time_unit = "us"', "fixed.toml")
+    assert not _time(_found(FUSION / "mpudata.csv", fixed)[1])
+
+
 def test_a_turn_no_hand_makes_is_refused_with_the_rate_to_write(tmp_path, capsys):
     # the MPU-6050's step-and-hold session (100 Hz) declared at 100 kHz: its hand turns it at 4.7e5 deg/s
     desc = _desc(tmp_path, MPU / "sensor.toml", "rate_hz = 100", "rate_hz = 100000")

@@ -2237,6 +2237,30 @@ def _time_unit_text(ds, f: float):
     return f'[log] time_unit = "{name}" (declared "{declared}")', name
 
 
+def _time_factors(ds) -> list:
+    """The factors (x the declared unit) _time_unit tries, in order: those
+    to a unit sensor.TIME_UNITS names, first in TIME_FACTORS' order and then
+    the other named units nearest first, then the rest of TIME_FACTORS.  A
+    named unit is the likelier slip: ms declared as min read 60 000x slow,
+    and 0.06 s (1e-3 x min, first in TIME_FACTORS) made the rows and the
+    turning as plausible as ms did, so "1/16.6667 s" was named (a hand-turned
+    BNO055, imported 12x fast when followed)."""
+    from inclino.formats import sensor
+
+    declared = ds.meta.get("time_unit") if _imported(ds) else "s"
+    try:
+        scale = sensor.time_scale(declared) if declared and declared != "date-time" else None
+    except DataError:
+        scale = None
+    units = [x for k, x in sensor.TIME_UNITS.items() if k != "µs"]
+    if scale is None or not any(abs(x / scale - 1.0) < 1e-9 for x in units):
+        return list(TIME_FACTORS)  # a sample period ("1/102.4 s") or no unit: the prefixes and minutes only
+    named = [f for f in TIME_FACTORS if any(abs(x / (scale * f) - 1.0) < 1e-9 for x in units)]
+    more = sorted((x / scale for x in units if abs(x / scale - 1.0) > 1e-9
+                   and not any(abs(x / (scale * f) - 1.0) < 1e-9 for f in named)), key=lambda f: abs(np.log(f)))
+    return named + more + [f for f in TIME_FACTORS if f not in named]
+
+
 def _time_unit(ds, rep):
     """The time column's unit against the physics of the rows it dates: the
     row rate it implies (ROW_RATE_HZ: no logger writes a row per sample
@@ -2245,7 +2269,7 @@ def _time_unit(ds, rep):
     (TURN_RATE_DEG_S: a hand or a rig turns a sensor at 1-5000 deg/s, not
     10^5 or 0.01 deg/s while the rows turn by degrees).  A time column in
     ms declared as s (or s as ms) is off 1000x in both.  The finding names
-    the unit (TIME_FACTORS x the declared one) that brings both within
+    the unit (_time_factors x the declared one) that brings both within
     what loggers and hands do (TYPICAL_*), and what to write.  A warning; an
     error beyond TURN_RATE_MAX_DEG_S.  The slow side only on an imported log
     not declared static: the rows of a turntable run (each a position read at
@@ -2304,7 +2328,7 @@ def _time_unit(ds, rep):
     if problem is None:
         return
     guess = None
-    for f in TIME_FACTORS:
+    for f in _time_factors(ds):
         if (f > 1) != (sign > 0):
             continue
         ok = TYPICAL_ROW_RATE_HZ[0] <= rows_hz / f <= TYPICAL_ROW_RATE_HZ[1]

@@ -10,8 +10,10 @@ in place, a Ctrl-C is held and raised inside it.  An import that a Ctrl-C
 cuts short inside a C extension can surface as another exception (numpy's
 C core, interrupted while importing datetime, raises ImportError: the
 KeyboardInterrupt is lost); after a Ctrl-C such an exception is the
-interruption too.  This module imports nothing but the standard library's
-sys and signal."""
+interruption too.  A Ctrl-C that comes while a finaliser runs is sent again
+for after it (an exception raised in one is printed and dropped).  This
+module imports nothing but the standard library's os, sys and signal."""
+import os
 import signal
 import sys
 
@@ -21,8 +23,23 @@ _state = {"armed": False, "pending": False, "signalled": False}
 def _hold(signum, frame):
     _state["signalled"] = True
     if _state["armed"]:
+        if _in_finaliser(frame):
+            # raised here, Python prints "Exception ignored ... Traceback ... KeyboardInterrupt" and goes on:
+            # the signal is sent again, to be handled once the callback has returned
+            os.kill(os.getpid(), signum)
+            return
         raise KeyboardInterrupt
     _state["pending"] = True
+
+
+def _in_finaliser(frame) -> bool:
+    """Whether a signal came while a finaliser ran: an exception raised there
+    is printed and dropped (a module lock's weakref callback, importlib's
+    `cb`, caught a Ctrl-C 0.4 s into a refused calibrate: the command went on
+    and printed the traceback before its own error line)."""
+    code = getattr(frame, "f_code", None)
+    return code is not None and (code.co_name == "__del__" or (
+        code.co_name == "cb" and code.co_filename.startswith("<frozen importlib")))
 
 
 if signal.getsignal(signal.SIGINT) is signal.default_int_handler:  # never where SIGINT is ignored

@@ -156,9 +156,12 @@ def fit(ds, use_poses=None, sigma_acc=None, sigma_mag=None, **_):
             cov = hold_cov[0]
             found = "found in the readings" + ("" if hs is not None else ", too few or too few directions to fit "
                                                                           "alone: every row is fitted")
-            info["covariance_source"] = (f"hold level: the fit to the {hold_cov[1]} static holds' mean readings "
-                                         f"({found}), scaled by their scatter (the rows of one hold share its "
-                                         f"orientation's error)")
+            counted = (f"the {hold_cov[1]} static holds' mean readings ({found})" if hold_cov[1] == hold_cov[2] else
+                       f"the mean readings of {hold_cov[1]} orientations held: the {hold_cov[2]} static holds {found}, "
+                       f"neighbours within {triad.HOLD_MERGE_DEG:g} deg of each other counted as one (a hand that "
+                       f"drifts holds one orientation)")
+            info["covariance_source"] = (f"hold level: the fit to {counted}, scaled by their scatter (the rows of "
+                                         f"one hold share its orientation's error)")
         info["unobservable"] = ("the triad's rotation: without poses |g| (|b|) alone leaves it free; the body frame "
                                 "is the sensor's own axes (M symmetric)")
     eye = np.eye(3).tolist()

@@ -420,7 +420,8 @@ def hold_covariance(raw, labels, keep, R, sigma):
     fit): its covariance, scaled by the means' own scatter, counts each
     hold once -- and neighbouring holds within HOLD_MERGE_DEG of each other
     once together, when that leaves at least 12 (the larger covariance of
-    the two).  None when too few holds keep a row."""
+    the two).  (covariance, the holds or clusters it counts, the holds
+    found); None when too few holds keep a row."""
     from inclino import holds
 
     lab = np.where(keep, labels, -1)
@@ -443,5 +444,5 @@ def hold_covariance(raw, labels, keep, R, sigma):
         except (DataError, CalibrationError):
             continue
         if best is None or np.trace(covh) > np.trace(best[0]):
-            best = (covh, k)
+            best = (covh, k, len(used))
     return best
