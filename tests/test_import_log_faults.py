@@ -465,3 +465,35 @@ def test_a_header_repeated_where_logs_were_joined_is_dropped_and_counted(tmp_pat
     assert rc == 0, err
     assert "the header line repeated" in stdout, stdout
     assert len(dataset.read_raw(str(out))) == len(rows)
+
+
+# ---- a log without its header line, named columns ----------------------------------------------------------------
+
+
+def test_a_log_without_a_header_line_is_told_so(tmp_path, capsys):
+    """A BNO055 capture of bare numbers read with a description that names
+    its columns: the first row's numbers were listed as "the log's columns"
+    and nothing more."""
+    log = tmp_path / "bare.csv"
+    log.write_text("".join(f"{-54 + i},-10,996,120,-300,-610\n" for i in range(20)))
+    desc = tmp_path / "s.toml"
+    desc.write_text('[accelerometer]\ncolumns = ["ax", "ay", "az"]\nunit = "mg"\n')
+    rc, out, err = _cli([log, "--sensor", desc, "-o", tmp_path / "run.csv"], capsys)
+    _one_line_error(rc, err, tmp_path / "run.csv")
+    assert "no column 'ax' (the log's columns: -54, -10, 996" in err and "header = false" in err
+    # a header line that names other columns is not told so
+    log.write_text("a,b,c,d,e,f\n" + "1,0,0,0,0,0\n" * 20)
+    rc, out, err = _cli([log, "--sensor", desc, "-o", tmp_path / "run.csv"], capsys)
+    assert rc == 2 and "no column 'ax'" in err and "header = false" not in err
+
+
+def test_a_field_outside_the_geomagnetic_range_is_said_outside_it(tmp_path, capsys):
+    """No header field: |b| is compared with a range, and is outside it (it
+    read "not the geomagnetic range")."""
+    src = REAL / "micropython_fusion"
+    desc = tmp_path / "s.toml"
+    text = (src / "sensor.toml").read_text()
+    assert 'unit = "uT"' in text
+    desc.write_text(text.replace('unit = "uT"', 'unit = "nT"'))
+    rc, out, err = _cli([src / "mpudata.csv", "--sensor", desc, "-o", tmp_path / "run.csv"], capsys)
+    assert rc == 2 and "outside the geomagnetic range" in err and "not the geomagnetic range" not in err, err

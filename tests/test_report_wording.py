@@ -3,6 +3,7 @@ new to the tools follows: the field a magnetometer-only calibration scaled
 |b| to (and where it came from), what the pose-free fit's s^2 is against,
 and a residual that is not white noise."""
 import json
+import re
 from pathlib import Path
 
 import pytest
@@ -52,7 +53,10 @@ def test_the_pose_free_s2_says_what_it_is_against(tmp_path, capsys):
     assert main(["calibrate", run, "-o", str(tmp_path / "cal.json")]) in (0, 1)
     out = capsys.readouterr().out
     assert "s^2, the residuals' variance over the noise assumed: acc " in out
-    assert " against 0.15 mg, the nominal noise (an ADIS16210-class reading; the data declare none); mag " in out
+    assert " against 0.15 mg, the nominal noise (an ADIS16210-class reading; the data declare none)); mag " in out
+    # s^2 said beside the residual scale it comes from: sqrt(s^2) x 0.15 mg
+    s2, scale = re.search(r"acc ([\d.e+]+) \(a residual scale of ([\d.]+) mg against 0.15 mg", out).groups()
+    assert float(scale) == pytest.approx(0.15 * float(s2) ** 0.5, rel=2e-3)
     assert "against its own scatter: the |b| residual of its ellipsoid fit and the dip's robust spread" in out
     assert "near 1" not in out
 
@@ -71,7 +75,7 @@ def test_the_pose_free_s2_is_against_the_declared_noise(tmp_path, capsys):
         reps.append(json.loads((tmp_path / cal).read_text())["report"])
     out = capsys.readouterr().out
     line = [ln for ln in out.splitlines() if "the residuals' variance over the noise assumed" in ln][-1]
-    assert " against 2.3 mg, the noise the sensor description declares; mag " in line and "near 1" not in line
+    assert " against 2.3 mg, the noise the sensor description declares); mag " in line and "near 1" not in line
     (p, d) = (r["uncertainty"] for r in reps)
     assert d["predicted_azi_rms_deg"] == pytest.approx(p["predicted_azi_rms_deg"], rel=1e-6)
     assert d["predicted_inc_rms_deg"] == pytest.approx(p["predicted_inc_rms_deg"], rel=1e-6)

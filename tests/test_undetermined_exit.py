@@ -33,3 +33,21 @@ def test_readings_on_no_ellipsoid_are_a_singular_fit(tmp_path, capsys):
 def test_the_undetermined_error_is_caught_as_either_kind():
     e = UndeterminedError("x")
     assert isinstance(e, DataError) and isinstance(e, CalibrationError) and e.exit_code == 3
+
+
+def test_readings_at_one_orientation_are_said_to_be_at_one():
+    """An accelerometer on a floor robot, turned only about the vertical:
+    every reading within a few degrees of one direction was told "readings
+    on a few circles or in a plane"; readings on a circle still are."""
+    import pytest
+
+    from inclino.calib.ellipsoid import ellipsoid_start
+
+    rng = np.random.default_rng(3)
+    one = np.array([0.03, -0.02, 1.0]) + rng.normal(0, 0.01, (300, 3))
+    with pytest.raises(UndeterminedError, match=r"every reading within [\d.]+ deg of one direction"):
+        ellipsoid_start(one, 1.0, "the accelerometer")
+    th = rng.uniform(0, 2 * np.pi, 300)
+    circle = np.column_stack([np.cos(th), np.sin(th), np.zeros(300)]) + rng.normal(0, 1e-3, (300, 3))
+    with pytest.raises(UndeterminedError, match="readings on a few circles or in a plane"):
+        ellipsoid_start(circle, 1.0, "the accelerometer")

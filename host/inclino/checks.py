@@ -741,7 +741,7 @@ def _units_mag(ds, rows, rep):
             f"{R / target:.3g}x {'the header field' if F else 'a geomagnetic field'}" + (f": {hint}" if hint else "")
             + (f" ({counts})" if counts else ""))
     rep.findings.append(Finding("units", "error", (
-        f"magnetometer: |b| is {R:.4g} nT ({how}), not {rng}: {like}, not {unit}; "
+        f"magnetometer: |b| is {R:.4g} nT ({how}), {'not' if F else 'outside'} {rng}: {like}, not {unit}; "
         + _unit_fix(ds, "mag", guesses, counts, R / target)), "mag",
         {**fig, "looks_like": guesses}))
 

@@ -366,6 +366,26 @@ def means(v, labels, count) -> np.ndarray:
     return out / np.maximum(np.bincount(labels[keep], minlength=count), 1)[:, None]
 
 
+# neighbouring holds whose mean directions differ by less than this are one orientation held by a hand that
+# drifts (find cuts a run where it turns by HOLD_TURN_DEG): their errors are shared, one orientation
+HOLD_MERGE_DEG = 1.0
+
+
+def merge_neighbours(triads, labels, count) -> tuple:
+    """(labels, count) with consecutive holds whose mean readings point
+    within HOLD_MERGE_DEG of each other in every triad given (a list of
+    (n, 3) arrays) made one: the orientations held, not the stops.  A hand
+    that drifts cuts one orientation into several holds (an FXOS8700 session
+    turned through 18 orientations read as 71 holds)."""
+    same = np.ones(max(count - 1, 0), bool)
+    for v in triads:
+        m = means(v, labels, count)
+        u = m / np.maximum(np.linalg.norm(m, axis=1, keepdims=True), 1e-300)
+        same &= np.sum(u[1:] * u[:-1], axis=1) > math.cos(math.radians(HOLD_MERGE_DEG))
+    merged = np.concatenate([[0], np.cumsum(~same)])  # hold -> orientation
+    return np.where(labels >= 0, merged[np.maximum(labels, 0)], -1), int(merged[-1]) + 1 if count else 0
+
+
 SETTING_CHANGES_MAX = 0.5      # a partial pose column changing on more rows than this is read, not a setting
 
 

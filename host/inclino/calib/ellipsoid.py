@@ -87,6 +87,9 @@ def far_mean(raw, R):
     return m if spread > FAR_MEAN_MIN_SPREAD * R else np.zeros(3)
 
 
+ONE_ORIENTATION_DEG = 10.0  # readings all within this of their mean direction are said to be at one orientation
+
+
 def ellipsoid_start(raw, R, what: str = "the triad"):
     """Algebraic general ellipsoid fit: (M symmetric, b) with |M (raw - b)| ~ R.
     UndeterminedError (exit 3) naming `what` when the readings determine no ellipsoid.
@@ -100,8 +103,14 @@ def ellipsoid_start(raw, R, what: str = "the triad"):
     D, s = _design(raw)
     _, sv, Vt = np.linalg.svd(D / s, full_matrices=False)
     if len(raw) < 10 or planar(raw) or not sv[-2] / sv[0] >= DETERMINED_SV:
-        raise UndeterminedError(f"too few orientations to determine {what}'s ellipsoid (readings on a few circles or in "
-                        f"a plane: turn the sensor through more of the sphere)")
+        mean = raw.mean(0) if len(raw) else np.zeros(3)
+        cap = float(np.degrees(np.arcsin(min(1.0, np.sqrt(((raw - mean) ** 2).sum(1).max()) / np.linalg.norm(mean)))))\
+            if len(raw) and np.linalg.norm(mean) > 0 else None
+        where = (f"every reading within {cap:.2g} deg of one direction: the sensor at one orientation, or turned only "
+                 f"about the vector it reads" if cap is not None and cap < ONE_ORIENTATION_DEG else
+                 "readings on a few circles or in a plane")
+        raise UndeterminedError(f"too few orientations to determine {what}'s ellipsoid ({where}: turn the sensor "
+                                f"through more of the sphere)")
     v = Vt[-1] / s
     Q = np.array([[v[0], v[3], v[4]], [v[3], v[1], v[5]], [v[4], v[5], v[2]]])
     if np.linalg.eigvalsh(Q).min() * np.linalg.eigvalsh(Q).max() <= 0:

@@ -391,7 +391,9 @@ def build(ds: RawDataset, cal: Calibration, method: str, info: dict, refit=None,
         # noise, else the nominal ADIS16210-class reading: a hand-held MEMS log is 1e4-1e5 times that), the
         # magnetometer's its own sphere fit's residual scale and the dip's robust spread (s^2 is not 1 when the
         # rows kept, the robust spread and the refined fit differ from those: 0.41-1.08 on MEMS logs without poses)
-        against = {"acc": f"against {1e3 * sa:.3g} mg, {said[an['acc_from']]}",
+        acc_rms = 1e3 * sa * float(np.sqrt(s2t["acc"])) if s2t.get("acc") is not None else None
+        against = {"acc": (f"(a residual scale of {acc_rms:.3g} mg " if acc_rms is not None else "(")
+                          + f"against {1e3 * sa:.3g} mg, {said[an['acc_from']]})",
                    "mag": "against its own scatter: the |b| residual of its ellipsoid fit and the dip's robust spread"}
         src = ("each triad's own fit covariance, scaled by its own residual variance (s^2, the residuals' variance "
                "over the noise assumed: " + "; ".join(f"{t} {v:.3g} {against.get(t, '')}".rstrip()

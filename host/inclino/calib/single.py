@@ -158,7 +158,7 @@ def fit(ds, use_poses=None, sigma_acc=None, sigma_mag=None, **_):
                                                                           "alone: every row is fitted")
             counted = (f"the {hold_cov[1]} static holds' mean readings ({found})" if hold_cov[1] == hold_cov[2] else
                        f"the mean readings of {hold_cov[1]} orientations held: the {hold_cov[2]} static holds {found}, "
-                       f"neighbours within {triad.HOLD_MERGE_DEG:g} deg of each other counted as one (a hand that "
+                       f"neighbours within {holds.HOLD_MERGE_DEG:g} deg of each other counted as one (a hand that "
                        f"drifts holds one orientation)")
             info["covariance_source"] = (f"hold level: the fit to {counted}, scaled by their scatter (the rows of "
                                          f"one hold share its orientation's error)")

@@ -410,15 +410,10 @@ def block_covariance(J, r, labels):
     return B / (B - 1.0) * Ai @ (S.T @ S) @ Ai
 
 
-# neighbouring holds whose mean directions differ by less than this are one orientation held by a hand that
-# drifts (the hold finder cuts a run where it turns by 0.5 deg): their errors are shared, one cluster
-HOLD_MERGE_DEG = 1.0
-
-
 def hold_covariance(raw, labels, keep, R, sigma):
     """The ellipsoid fit to the holds' mean readings (rows kept by the row
     fit): its covariance, scaled by the means' own scatter, counts each
-    hold once -- and neighbouring holds within HOLD_MERGE_DEG of each other
+    hold once -- and neighbouring holds within holds.HOLD_MERGE_DEG of each other
     once together, when that leaves at least 12 (the larger covariance of
     the two).  (covariance, the holds or clusters it counts, the holds
     found); None when too few holds keep a row."""
@@ -431,12 +426,8 @@ def hold_covariance(raw, labels, keep, R, sigma):
     idx = np.full(int(labels.max()) + 1, -1)
     idx[used] = np.arange(len(used))
     lab = np.where(lab >= 0, idx[np.maximum(lab, 0)], -1)
-    means = holds.means(raw, lab, len(used))
-    u = means / np.maximum(np.linalg.norm(means, axis=1, keepdims=True), 1e-300)
-    same = np.sum(u[1:] * u[:-1], axis=1) > np.cos(np.radians(HOLD_MERGE_DEG))
-    merged = np.concatenate([[0], np.cumsum(~same)])  # hold -> cluster of neighbouring holds
     best = None
-    for lab_k, k in ((lab, len(used)), (np.where(lab >= 0, merged[np.maximum(lab, 0)], -1), int(merged[-1]) + 1)):
+    for lab_k, k in ((lab, len(used)), holds.merge_neighbours([raw], lab, len(used))):
         if k < 12 or (best is not None and k == best[1]):
             continue
         try:

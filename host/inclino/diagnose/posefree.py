@@ -46,7 +46,7 @@ from scipy import stats
 
 from inclino.errors import DataError
 from inclino.formats.dataset import ID_COLUMNS, RawDataset
-from inclino.holds import declared_static
+from inclino.holds import HOLD_MERGE_DEG, declared_static
 from inclino.calib.thermal import DIAGNOSE_MIN_SPAN_C, diagnose_tests
 
 from . import serial as bartlett
@@ -73,6 +73,8 @@ NEEDS_POSES = [
                                   "poses its full vector is fitted"),
     ("misalignment", "the rotation of the sensor block against the probe's axes: no invariant sees it"),
 ]
+
+NEEDS_MAG = {"turntable-azimuth-offset", "field-drift (declination)", "sample-skew", "rig-field (its direction)"}
 
 
 class _PF:
@@ -108,13 +110,22 @@ class _PF:
                 hl = H.labels
                 lev = _holds.leverage(ds, H)
                 only = H.count >= MIN_CLUSTERS and lev <= _holds.HOLDS_MAX_LEVERAGE
+                merged = None
                 if only:
                     sel = hl >= 0
                     lab = hl[sel]
+                    # a hand that drifts cuts one orientation into several holds: the orientations are the poses
+                    # (their misfit is one), when at least MIN_CLUSTERS remain
+                    lab_m, k_m = _holds.merge_neighbours(
+                        [getattr(ds, t) for t, ok in (("acc", ds.has_acc), ("mag", ds.has_mag)) if ok],
+                        hl, H.count)
+                    if MIN_CLUSTERS <= k_m < H.count:
+                        lab, merged = lab_m[sel], k_m
                 elif H.rows_moving:
                     # a setting's rows are not one orientation when the sensor turns during them: every row a pose
                     lab = np.arange(n0)
-                self.holds = dict(H.to_dict(), moving_rows_left_out=bool(only), leverage_max=lev)
+                self.holds = dict(H.to_dict(), moving_rows_left_out=bool(only), leverage_max=lev,
+                                  orientations=merged)
                 self.hold_labels = hl
         k = int(lab.max()) + 1
         self.n_rows, self.k = n0, k
@@ -866,7 +877,8 @@ def diagnose_posefree(ds: RawDataset, alpha: float = DEFAULT_ALPHA, folds: int =
     from .runvars import run_variable_confounds
 
     run_conf = run_variable_confounds(_RunVars(pf))
-    not_testable = [{"effect": n, "reason": why} for n, why in NEEDS_POSES]
+    # a magnetometer's effects are no question on a log without one: said once, below, as not testable
+    not_testable = [{"effect": n, "reason": why} for n, why in NEEDS_POSES if pf.has_mag or n not in NEEDS_MAG]
     if pf.temp is None:
         not_testable.append({"effect": "temperature-bias, temperature-scale",
                              "reason": f"no temp_c column that changes by {DIAGNOSE_MIN_SPAN_C:g} degC or more"})
@@ -1135,13 +1147,16 @@ def _hold_notes(pf) -> list:
     h = pf.holds
     if not h:
         return []
+    each = ("each hold one pose" if not h.get("orientations") else
+            f"{h['orientations']} orientations held, each one pose: neighbouring holds within "
+            f"{HOLD_MERGE_DEG:g} deg of each other are one orientation a hand drifted at")
     if h["moving_rows_left_out"] and not h["rows_moving"]:
-        return [f"no poses: {h['holds']} static holds found in the readings ({h['rows_held']} rows), each hold one pose"]
+        return [f"no poses: {h['holds']} static holds found in the readings ({h['rows_held']} rows), {each}"]
     if h["moving_rows_left_out"]:
         why = ("their motion's acceleration is no sensor effect" if pf.has_acc else
                "the holds alone determine the model, each hold once")
-        return [f"no poses: {h['holds']} static holds found in the readings ({h['rows_held']} rows, each hold one "
-                f"pose); the {h['rows_moving']} rows read while moving between them are left out ({why})"]
+        return [f"no poses: {h['holds']} static holds found in the readings ({h['rows_held']} rows, {each}); "
+                f"the {h['rows_moving']} rows read while moving between them are left out ({why})"]
     if not pf.has_acc:
         return [f"no poses: {h['holds']} static holds found in the readings ({h['rows_held']} rows), but alone they "
                 f"leave the model undetermined (a hold's leverage {h['leverage_max']:.2f}: too few, or too few "

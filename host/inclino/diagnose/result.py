@@ -108,7 +108,9 @@ class Diagnosis:
                 lines.append(f"  the fit failed: {b['fit_failed']}: these readings do not determine the model, "
                              f"and its figures here are those of no fitted model")
             pr = b.get("prediction", {}).get("by_invariant")
-            if pr:
+            if pr and b.get("fit_failed"):
+                lines.append("  held-out poses: not predicted (no fitted model to predict them from)")
+            elif pr:
                 lines.append("  held-out poses, predicted -> achieved RMS: " + ", ".join(
                     f"{k} {v['predicted_heldout_rms']:.4g} -> {v['achieved_heldout_rms']:.4g} {u[k]} "
                     f"(ratio {v['ratio']:.2f})" for k, v in pr.items()))
@@ -231,7 +233,10 @@ class Diagnosis:
         for note in sel.get("notes", []):
             lines.append(f"  note: {note}")
         s = self.structure
-        if self.unexplained:
+        if self._unjudged():
+            lines.append("unexplained: not judged (the residuals are a failed fit's: structure in them is the "
+                         "model's, undetermined by these readings)")
+        elif self.unexplained:
             sig = ", ".join(_structure_text(x) for x in s["significant"][:4])
             lines.append(f"unexplained: YES -- structure no library effect explains: {sig}")
             if self._moved():
@@ -249,6 +254,13 @@ class Diagnosis:
                          + c["message"])
         lines.append(self.conclusion())
         return "\n".join(lines)
+
+    def _unjudged(self) -> bool:
+        """A pose-free baseline whose fit failed: its residuals are no fitted
+        model's, so their structure is not judged (a log turned only about
+        the vertical was told "structure no library effect explains, p =
+        1e-211" beside "the fit failed")."""
+        return self.baseline.get("mode") == "invariants" and bool(self.baseline.get("fit_failed"))
 
     def _moved(self) -> bool:
         """A log read mostly while moving whose |g| residual is among the
@@ -315,7 +327,7 @@ class Diagnosis:
             else:
                 fig = f"inclination RMS {g.inc_rms_before_deg:.4f} -> {g.inc_rms_after_deg:.4f} deg"
             parts.append(f"{e.name} ({e.sensor} {e.axis}, p = {e.p_value:.2g}; {fig})")
-        if self.unexplained:
+        if self.unexplained and not self._unjudged():
             parts.append("structure no library effect explains (p = "
                          f"{self.structure['min_p']:.2g} < {self.structure['threshold']:.2g})"
                          + ("; in |g| likely the hand's acceleration: the sensor moved while it was read"

@@ -152,8 +152,19 @@ def _index(col, names, what, path, lineno):
                             f"header line that names it apart ([log] skip_rows)")
         if hits:
             return hits[0]
+    numbers = bool(stripped) and all(_is_number(n) for n in stripped)
     raise DataError(f"{path}:{lineno}: {what}: no column {col!r} (the log's columns: "
-                    f"{', '.join(stripped[:20])}{' ...' if len(stripped) > 20 else ''})")
+                    f"{', '.join(stripped[:20])}{' ...' if len(stripped) > 20 else ''})"
+                    + ("; every name is a number: the log has no header line ([log] header = false, and the "
+                       "columns by number)" if numbers else ""))
+
+
+def _is_number(text: str) -> bool:
+    try:
+        float(text)
+    except ValueError:
+        return False
+    return True
 
 
 def _missed(missing_rows: dict, columns: list, lineno: int) -> None:
