@@ -86,6 +86,22 @@ def test_a_pose_held_while_the_temperature_ramps_keeps_its_temperatures_apart():
     assert np.all(np.abs(np.diff(m.columns["temp_c"])) < 1.0)
 
 
+@pytest.mark.parametrize("seed", [11, 12])
+def test_a_room_temperature_that_jitters_does_not_split_a_pose(seed):
+    """temp_c = 25 + N(0, 0.3 degC) on every row (a room read by a noisy
+    sensor): split at 0.5 degC from a pose's first row, 120 poses of 3 rows
+    read as 174 and the shared readout error as structure no effect
+    explains (3 of 4 generated runs).  A ramp's steps are no noise: it
+    still splits (above)."""
+    ds = _clustered_run(seed, n_poses=120, rows=(3, 3))
+    rng = np.random.default_rng(seed + 100)
+    ds.columns["temp_c"] = 25.0 + rng.normal(0.0, 0.3, len(ds))
+    m, note = pose_means(ds)
+    assert len(m) == 120 and "at 120 turntable poses (3 rows each)" in note
+    r = diagnose(ds)
+    assert not r.effects and not r.unexplained, r.conclusion()
+
+
 def test_calibrate_on_such_a_run_does_not_say_its_covariance_is_scaled_by_s2(tmp_path, capsys):
     """calibrate fits the run's own noise (REML over the poses' clusters) and
     uses it for the covariance: its note on residuals above the nominal

@@ -58,7 +58,8 @@ class _Attitude:
         return float(np.sqrt(np.mean(da ** 2))), inc
 
 
-MEANS_TEMP_C = 0.5  # a pose's rows averaged together span at most this much of temp_c (pose_means)
+MEANS_TEMP_C = 0.5  # a pose's rows averaged together span at most this much of temp_c (pose_means) ...
+MEANS_TEMP_NOISE_K = 5.0  # ... plus this many times the temperature reading's noise (its steps within a pose)
 
 
 def pose_means(ds: RawDataset) -> tuple:
@@ -74,8 +75,10 @@ def pose_means(ds: RawDataset) -> tuple:
     turntable azimuth offset of 0.028 +- 0.005 deg that was not there.
     The poses are calib.covariance.cluster_labels' (a pose_id column, else
     runs of rows at the same indicated pose), as calibrate's clusters,
-    each split where temp_c moves more than MEANS_TEMP_C from its first row
-    (a pose held while an oven ramps keeps its temperatures apart)."""
+    each split where temp_c moves more than MEANS_TEMP_C (plus
+    MEANS_TEMP_NOISE_K times the temperature reading's noise, from its steps
+    within a pose) from its first row (a pose held while an oven ramps keeps
+    its temperatures apart; a room's jitter does not split a pose)."""
     from inclino.calib.covariance import cluster_labels
 
     lab = cluster_labels(ds)
@@ -83,11 +86,17 @@ def pose_means(ds: RawDataset) -> tuple:
     temp = ds.columns.get("temp_c")
     if temp is not None and n:
         # a pose held while the oven ramps: its rows are not one reading (a temperature effect is in them),
-        # so a pose's rows are averaged only within MEANS_TEMP_C of the first of them
+        # so a pose's rows are averaged only within MEANS_TEMP_C of the first of them -- beyond the
+        # temperature reading's own noise (a room's 0.1-0.3 degC jitter split 120 poses into 174, and the
+        # shared readout error was read as structure on 3 of 4 clean runs)
+        temp = np.asarray(temp, float)
+        d = np.diff(temp)[lab[1:] == lab[:-1]]
+        noise = 1.4826 * float(np.median(np.abs(d - np.median(d)))) / np.sqrt(2.0) if len(d) >= 5 else 0.0
+        tol = MEANS_TEMP_C + MEANS_TEMP_NOISE_K * noise
         new = np.ones(n, bool)
         t0 = temp[0]
         for i in range(1, n):
-            if lab[i] == lab[i - 1] and abs(temp[i] - t0) <= MEANS_TEMP_C:
+            if lab[i] == lab[i - 1] and abs(temp[i] - t0) <= tol:
                 new[i] = False
             else:
                 t0 = temp[i]
