@@ -83,7 +83,8 @@ def fit(ds, method: str = DEFAULT_METHOD, data_hash: dict | None = None, report:
 
         t0 = time.perf_counter()
         with np.errstate(all="ignore"):
-            cal, info = single.fit(ds, **{k: v for k, v in opts.items() if k in ("use_poses",)})
+            cal, info = single.fit(ds, **{k: v for k, v in opts.items()
+                                          if k in ("use_poses", "mount_tolerance_deg", "accept_mount_tolerance")})
         cal.data = data_hash
         _refuse_reflection(ds, cal, bool(opts.get("use_poses", True)))
         rep = None

@@ -63,7 +63,15 @@ def world(ds) -> dict:
     return {**world_of(ds, F), "field_from": src}
 
 
-def fit(ds, use_poses=None, sigma_acc=None, sigma_mag=None, **_):
+def fit(ds, use_poses=None, sigma_acc=None, sigma_mag=None, mount_tolerance_deg=None, accept_mount_tolerance=False,
+        **_):
+    """One triad's calibration (the accelerometer's or the magnetometer's).
+    Without poses the triad's rotation against the probe's axes is free: an
+    accelerometer's tilt about x and y is the inclination's, so its report
+    adds the mounting tolerance (mount_tolerance_deg, 1 sigma per axis,
+    default field.DEFAULT_MOUNT_TOLERANCE_DEG) to the inclination it
+    predicts, as the joint fit does to the azimuth; accept_mount_tolerance
+    records that the user accepts it (the verdict then judges the fit)."""
     kind = "acc" if ds.has_acc else "mag"
     raw = ds.acc if kind == "acc" else ds.mag
     w = world(ds)
@@ -164,6 +172,12 @@ def fit(ds, use_poses=None, sigma_acc=None, sigma_mag=None, **_):
                                          f"one hold share its orientation's error)")
         info["unobservable"] = ("the triad's rotation: without poses |g| (|b|) alone leaves it free; the body frame "
                                 "is the sensor's own axes (M symmetric)")
+        if kind == "acc":
+            from .field import DEFAULT_MOUNT_TOLERANCE_DEG
+
+            info["mount_tolerance_deg"] = DEFAULT_MOUNT_TOLERANCE_DEG if mount_tolerance_deg is None \
+                else float(mount_tolerance_deg)
+            info["accept_mount_tolerance"] = bool(accept_mount_tolerance)
     eye = np.eye(3).tolist()
     zero = [0.0, 0.0, 0.0]
     if kind == "acc":
