@@ -2150,20 +2150,49 @@ def _holds_note(ds, rep):
             {"holds": h.count, "rows_held": h.rows_held, "rows_moving": h.rows_moving}))
 
 
+def probe_range(ds, t: str) -> float | None:
+    """The range of a dataset's triad t ("acc" in g, "mag" in nT): the
+    declared one (acc_range_g, mag_range_nT), else the probe's own for a
+    dataset of the probe (no imported sensor: the ADIS16210's +-1.7 g, the
+    fluxgate's +-100 000 nT, docs/conventions.md), else None."""
+    unit = "g" if t == "acc" else "nT"
+    rng = ds.meta.get(f"{t}_range_{unit}")
+    if rng:
+        return float(rng)
+    if ds.meta.get("sensor"):  # an imported log of another sensor: its description says, or nothing
+        return None
+    from inclino.engines import golden, reference as ref
+
+    return golden.ACC_RANGE_COUNTS * ref.ACC_LSB_G if t == "acc" else golden.MAG_RANGE_COUNTS * ref.MAG_LSB_NT
+
+
 def _saturation(ds, rep):
+    """Rows at a triad's declared range (saturated), or beyond the probe's
+    own range on a dataset of the probe that declares none (a reading the
+    sensor cannot give: a garbled row, ax_g = 25 among 359 rows of 1 g, had
+    the temperature terms dropped as "not what the model lacks"): left out
+    of the fit, counted in a warning."""
     bad = np.zeros(len(ds), bool)
     for t, unit in (("acc", "g"), ("mag", "nT")):
-        rng = ds.meta.get(f"{t}_range_{unit}")
-        if not rng or not getattr(ds, f"has_{t}"):
+        if not getattr(ds, f"has_{t}"):
             continue
+        rng = probe_range(ds, t)
+        if rng is None:
+            continue
+        declared = bool(ds.meta.get(f"{t}_range_{unit}"))
         v = np.abs(getattr(ds, t))
-        hit = (v >= 0.999 * float(rng)).any(1)
-        if hit.any():
+        hit = (v >= 0.999 * rng).any(1) if declared else (v > rng).any(1)
+        if hit.any() and (declared or hit.mean() < 0.5):  # most rows beyond: a unit, which the units check names
             bad |= hit
+            name = "accelerometer" if t == "acc" else "magnetometer"
+            first = ", ".join(str(int(i) + 1) for i in np.flatnonzero(hit)[:5]) + (" ..." if hit.sum() > 5 else "")
             rep.findings.append(Finding("saturation", "warning", (
-                f"{int(hit.sum())} row(s) at the {'accelerometer' if t == 'acc' else 'magnetometer'}'s declared "
-                f"range +-{float(rng):g} {unit} (saturated): left out of the fit"), t,
-                {"rows": int(hit.sum()), "range": float(rng)}))
+                f"{int(hit.sum())} row(s) at the {name}'s declared range +-{rng:g} {unit} (saturated): left out of "
+                f"the fit" if declared else
+                f"{int(hit.sum())} row(s) beyond the {name}'s range +-{f'{rng:.4f}'.rstrip('0').rstrip('.')} {unit} "
+                f"(the probe's; the dataset "
+                f"declares none), a reading the sensor cannot give (a garbled row?): left out of the fit (rows "
+                f"{first})"), t, {"rows": int(hit.sum()), "range": rng, "declared": declared}))
     rep.saturated = np.flatnonzero(bad).tolist()
 
 
