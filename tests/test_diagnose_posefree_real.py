@@ -5,8 +5,6 @@ benchmark's size is named -- a rig field on 24 independent shots, a
 temperature bias on CK's tumbled log -- and a temperature column the
 readings do not depend on is not.  Injections are drawn at test time (the `rng` fixture: the seed is in a
 failing test's report, INCLINO_TEST_SEED replays it)."""
-from pathlib import Path
-
 import numpy as np
 import pytest
 
@@ -247,7 +245,7 @@ def _holds_subsample(data, name, seed0, s):
     return dr._with_nulls(sub, rng, time_order=np.arange(len(sub)))
 
 
-def test_a_null_temperature_on_static_holds_is_set_against_the_reading_order(corpus, monkeypatch):
+def test_a_null_temperature_on_static_holds_is_set_against_the_reading_order(corpus):
     """CK's accelerometer held still at 163 orientations: on 70 % of its
     holds (seeds 777, draw 4) a temperature column the readings do not
     depend on took p 0.001 and was named, though the holds' residuals look
@@ -255,12 +253,7 @@ def test_a_null_temperature_on_static_holds_is_set_against_the_reading_order(cor
     order the hand took them, so a slow driver is set against generic slow
     profiles in that order on hold means too: refused as the run's slow
     structure.  A temperature bias injected into the same holds at the
-    benchmark's size is still named.  Each hold one pose, as then (merged
-    into the orientations held, the null temperature's p stays above the
-    threshold on these holds, and the slow-structure test is not reached)."""
-    from inclino import holds
-
-    monkeypatch.setattr(holds, "HOLD_MERGE_DEG", 0.0)
+    benchmark's size is still named."""
     d = _holds_subsample(corpus, "ck/acc_log.csv", 777, 4)
     r = diagnose(d)
     assert r.baseline["holds"]["moving_rows_left_out"]
@@ -550,28 +543,6 @@ def test_a_fit_the_readings_do_not_determine_is_said_to_have_failed(corpus, log)
         assert f"dip {whole.baseline['dip_deg']:.3f} deg" in whole.summary().splitlines()[0]
 
 
-def test_holds_a_hand_drifted_between_are_one_pose():
-    """CK's accelerometer: 291 holds found at 163-164 orientations (a hand
-    that drifts by more than the hold finder's turn and less than 1 deg cuts
-    one orientation into several).  Each hold a pose counted one
-    orientation's misfit several times and held a hold out beside its twin
-    (an FXOS8700 session of 18 orientations read as 71 holds named a scale
-    nonlinearity on y in one session and on z in the next, held-out ratio
-    1.20); the poses are the orientations held."""
-    from inclino.diagnose import diagnose
-
-    from inclino.formats import importlog, sensor
-
-    ck = Path(__file__).parent / "data" / "real" / "ck_acc_mag"
-    ds, _ = importlog.import_log(str(ck / "acc_log.csv"), sensor.load(str(ck / "acc_only.toml")))
-    r = diagnose(ds)
-    h = r.baseline["holds"]
-    assert h["holds"] == 291 and 150 <= h["orientations"] <= 170
-    assert r.baseline["clusters"] == h["orientations"]
-    note = [n for n in r.baseline["selection"]["notes"] if "static holds found" in n]
-    assert f"{h['orientations']} orientations held, each one pose" in note[0]
-
-
 def test_a_failed_pose_free_fit_predicts_nothing_and_judges_no_structure():
     """A sensor turned only about the vertical (a floor robot's LSM303): the
     baseline's fit fails, and the report still gave held-out predictions
@@ -594,3 +565,15 @@ def test_a_failed_pose_free_fit_predicts_nothing_and_judges_no_structure():
     assert "held-out poses: not predicted" in text and "predicted -> achieved" not in text
     assert "unexplained: not judged" in text and "structure no library effect explains" not in text
     assert text.splitlines()[-1].startswith("conclusion: FAIL: calibrate refuses these data")
+
+
+def test_an_accelerometer_log_lists_no_magnetometer_effect_as_needing_poses(corpus):
+    """An FXOS8700's accelerometer alone was told sample-skew (the fluxgate's),
+    field drift and a rig field "need the poses" beside "not testable: no
+    magnetometer columns"."""
+    r = diagnose(corpus["ck/acc_log.csv"])
+    text = r.summary()
+    needs = [ln for ln in text.splitlines() if "needs the poses" in ln]
+    assert needs and not [ln for ln in needs if any(k in ln for k in ("sample-skew", "field-drift", "rig-field",
+                                                                       "azimuth-offset"))], needs
+    assert "not testable: field-drift, rig-field, magnetometer effects: no magnetometer columns" in text

@@ -46,7 +46,7 @@ from scipy import stats
 
 from inclino.errors import DataError
 from inclino.formats.dataset import ID_COLUMNS, RawDataset
-from inclino.holds import HOLD_MERGE_DEG, declared_static
+from inclino.holds import declared_static
 from inclino.calib.thermal import DIAGNOSE_MIN_SPAN_C, diagnose_tests
 
 from . import serial as bartlett
@@ -110,22 +110,13 @@ class _PF:
                 hl = H.labels
                 lev = _holds.leverage(ds, H)
                 only = H.count >= MIN_CLUSTERS and lev <= _holds.HOLDS_MAX_LEVERAGE
-                merged = None
                 if only:
                     sel = hl >= 0
                     lab = hl[sel]
-                    # a hand that drifts cuts one orientation into several holds: the orientations are the poses
-                    # (their misfit is one), when at least MIN_CLUSTERS remain
-                    lab_m, k_m = _holds.merge_neighbours(
-                        [getattr(ds, t) for t, ok in (("acc", ds.has_acc), ("mag", ds.has_mag)) if ok],
-                        hl, H.count)
-                    if MIN_CLUSTERS <= k_m < H.count:
-                        lab, merged = lab_m[sel], k_m
                 elif H.rows_moving:
                     # a setting's rows are not one orientation when the sensor turns during them: every row a pose
                     lab = np.arange(n0)
-                self.holds = dict(H.to_dict(), moving_rows_left_out=bool(only), leverage_max=lev,
-                                  orientations=merged)
+                self.holds = dict(H.to_dict(), moving_rows_left_out=bool(only), leverage_max=lev)
                 self.hold_labels = hl
         k = int(lab.max()) + 1
         self.n_rows, self.k = n0, k
@@ -1147,9 +1138,7 @@ def _hold_notes(pf) -> list:
     h = pf.holds
     if not h:
         return []
-    each = ("each hold one pose" if not h.get("orientations") else
-            f"{h['orientations']} orientations held, each one pose: neighbouring holds within "
-            f"{HOLD_MERGE_DEG:g} deg of each other are one orientation a hand drifted at")
+    each = "each hold one pose"
     if h["moving_rows_left_out"] and not h["rows_moving"]:
         return [f"no poses: {h['holds']} static holds found in the readings ({h['rows_held']} rows), {each}"]
     if h["moving_rows_left_out"]:
