@@ -173,7 +173,9 @@ def test_calibrate_fits_the_holds_and_predicts_the_error_it_makes(tmp_path, monk
         for k in range(16):
             ach, u = _calibrate_and_score(tmp_path / f"s{k}.csv", RNG_SEED + k, rng)
             a.append(ach)
-            p.append(u["predicted_inc_rms_deg"])
+            # the generator turns no sensor block against the probe's axes: the fit's own prediction, without the
+            # mounting tolerance the report adds for that unobservable tilt (tests/test_calib_single_mount.py)
+            p.append(u["predicted_inc_rms_fit_only_deg"])
             src.add(u["source"].split(":")[0])
         return float(np.sqrt(np.mean(np.square(a)) / np.mean(np.square(p)))), src
 

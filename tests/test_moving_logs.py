@@ -108,7 +108,7 @@ def test_the_holds_fit_of_a_moving_log_keeps_its_stated_uncertainty_on_held_out_
     a, b = fit(odd, "joint"), fit(even, "joint")
     assert any(n.startswith("holds: a log read mostly while moving") for n in a[1].notes), a[1].notes
     assert _chi2(a, b) < stats.chi2.ppf(0.99, 9), _chi2(a, b)
-    assert _inc_rms(a[0], b[0]) < 2.0 * a[1].uncertainty["predicted_inc_rms_deg"]
+    assert _inc_rms(a[0], b[0]) < 2.0 * a[1].uncertainty["predicted_inc_rms_fit_only_deg"]  # no block turned
 
 
 @pytest.fixture(scope="module")
@@ -169,7 +169,10 @@ def test_a_step_and_hold_log_a_stepped_turn_and_a_wand_keep_their_own_reasons(te
     # its residual passes; its ~12 distinct orientations leave the coefficients' own uncertainty large (the
     # hold-level covariance), which is the verdict's only reason
     assert rep.residuals["acc_norm_rms_mg"] < 5.0
-    assert all(r.startswith("coefficients poorly determined: predicted inclination") for r in rep.reasons)
+    # (beside the mounting tolerance no pose-free accelerometer fit removes)
+    assert rep.reasons[0].startswith("coefficients poorly determined: predicted inclination")
+    assert all(r.startswith(("coefficients poorly determined: predicted inclination", "not fit for inclination"))
+               for r in rep.reasons)
 
     def raw(v):
         return dataset.RawDataset(columns={c: v[:, i] for i, c in enumerate(dataset.ACC_COLS)}, meta={})
