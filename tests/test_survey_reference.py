@@ -156,3 +156,23 @@ def test_no_message_names_a_deprecated_option(root):
             if pat.search(line):
                 bad.append(f"{f.relative_to(root)}:{n}: {line.strip()}")
     assert not bad, "\n".join(bad)
+
+
+@pytest.mark.parametrize("lon, zone", [(100.0, "47N (EPSG:32647)"), (10.0, "32N (EPSG:32632)")])
+def test_a_grid_far_outside_its_area_of_use_is_refused_with_the_zone_there(lon, zone, capsys):
+    """UTM zone 31N (0-6 deg E) at 52 N 100 E gave a convergence of 98.8 deg,
+    and one zone off 5.5 deg, both exit 0; a position 0.5 deg past the zone's
+    edge (UTM zones are stretched so in practice) is still read."""
+    rc = cli.main(["reffield", "--lat", "52", "--lon", str(lon), "--date", "2025-01-01", "--grid", "32631"])
+    err = capsys.readouterr().err
+    assert rc == 2 and err.count("\n") == 1 and "is for 0 to 6 deg E" in err and zone in err, err
+    gamma, k, x, y = geomag.grid(52.0, 6.5, 32631)
+    assert 2.0 < gamma < 3.0 and 0.9995 < k < 1.001  # (6.5 - 3) sin 52 = 2.76 deg
+
+
+def test_a_dataset_separated_by_semicolons_is_told_so(tmp_path, capsys):
+    p = tmp_path / "semi.csv"
+    p.write_text("ax_g;ay_g;az_g\n0;0;1\n")
+    rc = cli.main(["calibrate", str(p), "-o", str(tmp_path / "c.json")])
+    err = capsys.readouterr().err
+    assert rc == 2 and "the header is one column separated by semicolons" in err and err.count("\n") == 1, err

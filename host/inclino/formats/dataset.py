@@ -238,6 +238,12 @@ def _read(lines: _Lines, path: str, bar) -> RawDataset:
             raise DataError(f"{path}:{header_line}: missing column(s) {', '.join(c for c in cols if c not in have)} "
                             f"(a triad is three columns)")
     if not any(c in header for c in SENSOR_COLS):
+        sep = next((name for ch, name in ((";", "semicolons"), ("\t", "tabs")) if len(header) == 1 and ch in line),
+                   None)
+        if sep is not None:  # the canonical format is comma-separated: one "column" holding every name
+            raise DataError(f"{path}:{header_line}: the header is one column separated by {sep}: a dataset's "
+                            f"columns are separated by commas (docs/dataset.md); a log separated otherwise: "
+                            f"inclino import LOG --sensor S.toml (its [log] delimiter)")
         raise DataError(f"{path}:{header_line}: missing column(s) {', '.join(SENSOR_COLS)}: no sensor triad (the "
                         f"accelerometer's ax_g, ay_g, az_g and/or the magnetometer's mx_nT, my_nT, mz_nT; a log in "
                         f"other columns or units: inclino import LOG --sensor S.toml)")

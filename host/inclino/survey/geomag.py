@@ -268,6 +268,7 @@ def grid(lat_deg: float, lon_deg: float, epsg: int):
         raise DataError(f"--grid {epsg}: not an EPSG code pyproj knows ({e})")
     if not crs.is_projected:
         raise DataError(f"--grid {epsg}: {crs.name} is not a projected CRS")
+    _within_area_of_use(crs, epsg, lat_deg, lon_deg)
     proj = pyproj.Proj(crs)
     tr = pyproj.Transformer.from_crs("EPSG:4326", crs, always_xy=True)
     x, y = tr.transform(lon_deg, lat_deg)
@@ -288,6 +289,34 @@ def grid(lat_deg: float, lon_deg: float, epsg: int):
     if abs(-tn - gamma) > abs(-tn + gamma):  # PROJ's sign convention for this CRS's axes: the value stays PROJ's
         gamma = -gamma
     return gamma, k, float(x), float(y)
+
+
+GRID_AREA_MARGIN_DEG = 1.0  # a position this far outside a projected CRS's area of use is refused
+
+
+def _within_area_of_use(crs, epsg, lat, lon) -> None:
+    """Refuse a position more than GRID_AREA_MARGIN_DEG outside the CRS's
+    area of use (EPSG's, through pyproj): a UTM zone far away gives a
+    convergence of any size (98.8 deg at 52 N 100 E in zone 31N; one zone off,
+    5.5 deg where 0.6 is right), taken as the site's without a word.  A CRS
+    without an area of use is not judged."""
+    a = crs.area_of_use
+    if a is None:
+        return
+    west, south, east, north = a.west, a.south, a.east, a.north
+    lon_in = (lon - west) % 360.0  # east of the area's west edge (an area across 180 deg wraps)
+    span = (east - west) % 360.0 or 360.0
+    m = GRID_AREA_MARGIN_DEG
+    off_lon = 0.0 if lon_in <= span else min(lon_in - span, 360.0 - lon_in)
+    off_lat = max(south - lat, lat - north, 0.0)
+    if off_lon > m or off_lat > m:
+        zone = ""
+        if "UTM zone" in crs.name and -80.0 <= lat <= 84.0:
+            z = int((lon + 180.0) // 6.0) % 60 + 1
+            zone = f"; the UTM zone there is {z}{'N' if lat >= 0 else 'S'} (EPSG:{(32600 if lat >= 0 else 32700) + z})"
+        raise DataError(f"--grid {epsg}: {crs.name} is for {west:g} to {east:g} deg E, {south:g} to "
+                        f"{north:g} deg N; the position {lat:g} N, {lon:g} E is outside it, where its convergence "
+                        f"and scale factor are no grid's the survey uses{zone}")
 
 
 def _grid_azimuth_of_true_north(tr, lat, lon, dlat=1e-5):
