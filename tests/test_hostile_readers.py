@@ -463,3 +463,27 @@ def test_survey_listing_errors_carry_no_python_internals(tmp_path, capsys):
                        tmp_path / "tm.json")
     assert rc in (2, 3)
     one_line(err)
+
+
+@pytest.mark.parametrize("cell", ["\uff11.5", "\u0661.5", "0.\u0665"])
+def test_digits_other_than_ascii_are_no_number(tmp_path, capsys, cell):
+    """Python's float() reads fullwidth and Arabic-Indic digits ("１.5" as
+    1.5); a dataset's numbers are plain ASCII decimals (docs/dataset.md)."""
+    p = tmp_path / "d.csv"
+    p.write_text(f"ax_g,ay_g,az_g\n0,0,1\n0,{cell},1\n", encoding="utf-8")
+    rc = cli.main(["attitude", str(p), "-o", str(tmp_path / "a.csv")])
+    err = capsys.readouterr().err
+    assert rc == 2 and f"{p}:3: column ay_g: {cell!r} is not a number" in err and err.count("\n") == 1, err
+    p.write_text(f"# field_nT={cell}\nax_g,ay_g,az_g\n0,0,1\n", encoding="utf-8")
+    assert cli.main(["attitude", str(p), "-o", str(tmp_path / "a.csv")]) == 2
+    assert "is not a plain number" in capsys.readouterr().err
+
+
+def test_a_header_key_given_twice_is_refused(tmp_path, capsys):
+    """`# field_nT=48000` then `# field_nT=30000`: the second was used without
+    a word (a column named twice is refused: which copy was meant is unknown)."""
+    p = tmp_path / "d.csv"
+    p.write_text("# field_nT=48000\n# field_nT=30000\nax_g,ay_g,az_g\n0,0,1\n")
+    rc = cli.main(["attitude", str(p), "-o", str(tmp_path / "a.csv")])
+    err = capsys.readouterr().err
+    assert rc == 2 and f"{p}:2: header key field_nT given twice (48000.0 and 30000)" in err, err

@@ -151,7 +151,7 @@ def _meta_value(key, text, path, lineno):
             raise DataError(f"{path}:{lineno}: header {key}={text!r} is not a number") from None
         if not math.isfinite(v):
             raise DataError(f"{path}:{lineno}: header {key} is not finite")
-        if "_" in text:
+        if "_" in text or not text.isascii():
             raise DataError(f"{path}:{lineno}: header {key}={text!r} is not a plain number")
         if not _in_rule(key, v):
             raise DataError(f"{path}:{lineno}: header {key}={text} out of range: {key} {_rule_text(key)}")
@@ -224,6 +224,9 @@ def _read(lines: _Lines, path: str, bar) -> RawDataset:
             if "=" in body:
                 k, v = (t.strip() for t in body.split("=", 1))
                 if k in META_KEYS:
+                    if k in meta:  # never one copy read and the other dropped: which one the file meant is unknown
+                        raise DataError(f"{path}:{lines.lineno}: header key {k} given twice ({meta[k]!s} and {v}): "
+                                        f"keep the one that is right")
                     meta[k] = _meta_value(k, v, path, lines.lineno)
             line = None
             continue
@@ -277,7 +280,8 @@ def _read(lines: _Lines, path: str, bar) -> RawDataset:
             for c, j in zip(wanted, idx):
                 _cell_value(row[j], c, path, rownum)
             raise  # pragma: no cover (one of the cells above raised)
-        if "_" in "".join(row[j] for j in idx):  # float() takes "1_5" as 15
+        joined = "".join(row[j] for j in idx)
+        if "_" in joined or not joined.isascii():  # float() takes "1_5" as 15, and fullwidth or Arabic-Indic digits
             for c, j in zip(wanted, idx):
                 _cell_value(row[j], c, path, rownum)
         nos[k] = rownum
@@ -299,7 +303,7 @@ def _read(lines: _Lines, path: str, bar) -> RawDataset:
 def _cell_value(cell: str, col: str, path, rownum) -> float:
     text = cell.strip()
     try:
-        if "_" in text:
+        if "_" in text or not text.isascii():  # a plain decimal number (docs/dataset.md), ASCII digits only
             raise ValueError
         return float(text)
     except ValueError:
