@@ -2,6 +2,8 @@
 in every engine: the temperature terms from each row's temp_c (or
 --at-temperature), none skipped silently, a calibration with terms on data
 without temp_c refused (exit 2)."""
+import json
+
 import numpy as np
 import pytest
 
@@ -98,3 +100,26 @@ def test_at_temperature_out_of_range_is_bad_input(oven, capsys):
     d, _ = oven
     assert main(["attitude", str(d / "oven.csv"), "--cal", str(d / "cal.json"), "--at-temperature", "1e9",
                  "-o", str(d / "x.csv")]) == 2
+
+
+def test_temperatures_beyond_the_calibration_run_are_said_to_be_extrapolated(oven, capsys):
+    """85 and 120 degC on a calibration fitted from -5 to 55 degC were applied
+    without a word; within 5 degC of the run, nothing is said."""
+    d, ds = oven
+    span = json.loads((d / "cal.json").read_text())["temperature"]["span_c"]
+    out = d / "x.csv"
+    assert main(["attitude", str(d / "oven.csv"), "--cal", str(d / "cal.json"), "--at-temperature",
+                 f"{span[1] + 4.0:g}", "-o", str(out)]) == 0
+    assert "extrapolated" not in capsys.readouterr().err
+    assert main(["attitude", str(d / "oven.csv"), "--cal", str(d / "cal.json"), "--at-temperature", "85",
+                 "-o", str(out)]) == 0
+    err = capsys.readouterr().err
+    assert f"warning: --at-temperature 85 degC is outside the calibration run's {span[0]:.1f} to {span[1]:.1f} degC" \
+        in err and "extrapolated" in err, err
+    cols = {k: v.copy() for k, v in ds.columns.items()}
+    cols["temp_c"][:10] = 120.0
+    hot = d / "hot_rows.csv"
+    dataset.write_raw(str(hot), dataset.RawDataset(cols, dict(ds.meta)))
+    assert main(["attitude", str(hot), "--cal", str(d / "cal.json"), "-o", str(out)]) == 0
+    err = capsys.readouterr().err
+    assert f"warning: 10 of {len(ds)} row(s) at temperatures outside the calibration run's" in err, err

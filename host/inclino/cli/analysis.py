@@ -151,6 +151,33 @@ def _cmd_bitexact(args) -> int:
 ATTITUDE_CHUNK = 1 << 16  # rows computed and written at a time (bounded memory on a long run)
 
 
+TEMP_SPAN_MARGIN_C = 5.0  # rows this far beyond the calibration run's temperatures are said to be extrapolated
+
+
+def _outside_span(cal, temp, where) -> None:
+    """A warning when temperatures the terms are applied at lie more than
+    TEMP_SPAN_MARGIN_C beyond the span of the run they were fitted on
+    (span_c): the polynomial is extrapolated there (85 and 120 degC on a run
+    of -5.8 to 55.8 were applied without a word)."""
+    import sys
+
+    import numpy as np
+
+    span = cal.temperature.get("span_c") if isinstance(cal.temperature, dict) else None
+    if not span:
+        return
+    t = np.atleast_1d(np.asarray(temp, float))
+    out = (t < span[0] - TEMP_SPAN_MARGIN_C) | (t > span[1] + TEMP_SPAN_MARGIN_C)
+    if out.any() and np.ndim(temp) == 0:
+        print(f"inclino: warning: --at-temperature {float(temp):g} degC is outside the calibration run's {span[0]:.1f} "
+              f"to {span[1]:.1f} degC (by more than {TEMP_SPAN_MARGIN_C:g} degC): the temperature terms of {where} "
+              f"are extrapolated there", file=sys.stderr)
+    elif out.any():
+        print(f"inclino: warning: {int(out.sum())} of {len(t)} row(s) at temperatures outside the calibration run's "
+              f"{span[0]:.1f} to {span[1]:.1f} degC (by more than {TEMP_SPAN_MARGIN_C:g} degC; {t[out].min():.1f} to "
+              f"{t[out].max():.1f} degC): the temperature terms of {where} are extrapolated there", file=sys.stderr)
+
+
 def _cmd_attitude(args) -> int:
     import sys
 
@@ -193,6 +220,8 @@ def _cmd_attitude(args) -> int:
     elif at_t is not None:
         print(f"inclino: note: {args.cal or 'the identity calibration'} has no temperature terms: "
               f"--at-temperature changes nothing", file=sys.stderr)
+    if temp is not None:
+        _outside_span(cal, temp, args.cal)
     cols = list(engines.COLS_BY_TRIADS[triads])
     notes: list = []
     kept = {c: [] for c in ("gt_g", "bt_nT", "dip_deg") if c in cols}  # a sample for the check after correcting
