@@ -1138,14 +1138,13 @@ def _hold_notes(pf) -> list:
     h = pf.holds
     if not h:
         return []
-    each = "each hold one pose"
     if h["moving_rows_left_out"] and not h["rows_moving"]:
-        return [f"no poses: {h['holds']} static holds found in the readings ({h['rows_held']} rows), {each}"]
+        return [f"no poses: {h['holds']} static holds found in the readings ({h['rows_held']} rows), each hold one pose"]
     if h["moving_rows_left_out"]:
         why = ("their motion's acceleration is no sensor effect" if pf.has_acc else
                "the holds alone determine the model, each hold once")
-        return [f"no poses: {h['holds']} static holds found in the readings ({h['rows_held']} rows, {each}); "
-                f"the {h['rows_moving']} rows read while moving between them are left out ({why})"]
+        return [f"no poses: {h['holds']} static holds found in the readings ({h['rows_held']} rows, each hold one "
+                f"pose); the {h['rows_moving']} rows read while moving between them are left out ({why})"]
     if not pf.has_acc:
         return [f"no poses: {h['holds']} static holds found in the readings ({h['rows_held']} rows), but alone they "
                 f"leave the model undetermined (a hold's leverage {h['leverage_max']:.2f}: too few, or too few "
