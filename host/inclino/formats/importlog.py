@@ -588,8 +588,7 @@ def _import(lines, path: str, desc: SensorDescription, static, drop_bad=False,
             out["t_s"] = col["t_s"] * desc.time_scale
     if "temp_c" in col:
         # degrees C from the declared unit (C, K, F, or counts: T = offset + counts x lsb)
-        out["temp_c"] = col["temp_c"] * desc.temperature_scale + desc.temperature_offset \
-            if (desc.temperature_scale, desc.temperature_offset) != (1.0, 0.0) else col["temp_c"]
+        out["temp_c"] = col["temp_c"] * desc.temperature_scale + desc.temperature_offset
     if label_idx is not None:
         lab = desc.poses["labels"]
         out["inc_deg"] = np.array([float(lab[x]["inc"]) for x in labels]) * desc.pose_scale

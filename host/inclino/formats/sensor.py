@@ -72,6 +72,7 @@ TEMP_UNITS = {"C": (1.0, 0.0), "degC": (1.0, 0.0), "°C": (1.0, 0.0), "celsius":
               "K": (1.0, -273.15), "kelvin": (1.0, -273.15),
               "F": (5.0 / 9.0, -32.0 * 5.0 / 9.0), "degF": (5.0 / 9.0, -32.0 * 5.0 / 9.0),
               "°F": (5.0 / 9.0, -32.0 * 5.0 / 9.0), "fahrenheit": (5.0 / 9.0, -32.0 * 5.0 / 9.0)}
+DEGREES_C = {"C": 1.0, "degC": 1.0, "°C": 1.0}  # a temperature's lsb and offset (temperature_lsb, _offset)
 RATE_UNITS = {"Hz": 1.0, "hz": 1.0, "kHz": 1e3, "khz": 1e3}
 TRIAD_KEYS = {"columns", "unit", "lsb", "reads", "x", "y", "z", "axes", "reflection", "range", "noise", "lag", "zero",
               "file", "time", "time_unit", "time_offset", "counts"}
@@ -330,18 +331,16 @@ def _temperature_unit(s, log: dict, what: str) -> None:
 
 def _degrees(value, what: str, positive: bool) -> float:
     """A temperature (difference) in degrees C: "1/340 C", "36.53 C", "-40 C"
-    or a plain number of degrees C; > 0 when positive."""
+    or a plain number of degrees C; > 0 when positive.  A string is read as
+    _signed_time reads a time: its sign, then _quantity."""
     if isinstance(value, (int, float)) and not isinstance(value, bool):
         v = float(value)
     elif isinstance(value, str):
-        m = re.fullmatch(r"\s*([-+]?[0-9.eE+-]+(?:\s*/\s*[0-9.eE+]+)?)\s*(?:°?\s*C|degC)?\s*", value)
+        t = value.strip()
         try:
-            if not m:
-                raise ValueError
-            num = m.group(1).replace(" ", "")
-            a, _, b = num.partition("/")
-            v = float(a) / float(b) if b else float(a)
-        except (ValueError, ZeroDivisionError):
+            v = (-1.0 if t.startswith("-") else 1.0) * _quantity(t.lstrip("+-"), DEGREES_C, "C", what, 1.0,
+                                                                 zero=True)
+        except DataError:
             raise DataError(f"{what}: {value!r} is not a number of degrees C (e.g. \"1/340 C\", \"36.53 C\")") from None
     else:
         raise DataError(f"{what}: {value!r} is not a number of degrees C")
