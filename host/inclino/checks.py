@@ -2282,11 +2282,14 @@ def _time_factors(ds) -> list:
     except DataError:
         scale = None
     units = [x for k, x in sensor.TIME_UNITS.items() if k != "µs"]
-    if scale is None or not any(abs(x / scale - 1.0) < 1e-9 for x in units):
+
+    def same(a, b):
+        return abs(a / b - 1.0) < 1e-9
+    if scale is None or not any(same(x, scale) for x in units):
         return list(TIME_FACTORS)  # a sample period ("1/102.4 s") or no unit: the prefixes and minutes only
-    named = [f for f in TIME_FACTORS if any(abs(x / (scale * f) - 1.0) < 1e-9 for x in units)]
-    more = sorted((x / scale for x in units if abs(x / scale - 1.0) > 1e-9
-                   and not any(abs(x / (scale * f) - 1.0) < 1e-9 for f in named)), key=lambda f: abs(np.log(f)))
+    named = [f for f in TIME_FACTORS if any(same(x, scale * f) for x in units)]
+    more = sorted((x / scale for x in units if not same(x, scale) and not any(same(x, scale * f) for f in named)),
+                  key=lambda f: abs(np.log(f)))
     return named + more + [f for f in TIME_FACTORS if f not in named]
 
 

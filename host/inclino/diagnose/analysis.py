@@ -91,7 +91,7 @@ def pose_means(ds: RawDataset) -> tuple:
         # shared readout error was read as structure on 3 of 4 clean runs)
         temp = np.asarray(temp, float)
         d = np.diff(temp)[lab[1:] == lab[:-1]]
-        noise = 1.4826 * float(np.median(np.abs(d - np.median(d)))) / np.sqrt(2.0) if len(d) >= 5 else 0.0
+        noise = float(robust.mad_sigma(d[:, None])[0]) / np.sqrt(2.0) if len(d) >= 5 else 0.0  # a step is two readings
         tol = MEANS_TEMP_C + MEANS_TEMP_NOISE_K * noise
         new = np.ones(n, bool)
         t0 = temp[0]
