@@ -201,9 +201,10 @@ class Diagnosis:
                                 if cf.get("p_on_holds") is not None else "cannot confirm")
                              + f"; to tell, {cf['separate_by']}")
                 continue
-            lines.append(f"confounded: {e1} {'(named)' if cf['named'] else '(not a cause)'} and {e2}, correlation "
-                         f"{cf['correlation']:.3f} in this run: the data cannot tell them apart; to separate them, "
-                         f"{cf['separate_by']}")
+            how = (f"correlation {cf['correlation']:.3f}" if cf.get("gain_share", 0.0) < cf["correlation"] ** 2
+                   else f"{e2} in its place keeps {100 * cf['gain_share']:.0f} % of its gain")
+            lines.append(f"confounded: {e1} {'(named)' if cf['named'] else '(not a cause)'} and {e2}, {how} in this "
+                         f"run: the data cannot tell them apart; to separate them, {cf['separate_by']}")
         for rv in b.get("run_variables", []):
             lines.append(f"run: {rv['a']} and {rv['b']} go together (correlation {rv['correlation']:.2f}): an effect "
                          f"of one is also a function of the other here")
