@@ -238,3 +238,18 @@ def test_a_fit_out_of_range_from_a_scale_declared_wrong_names_the_scale(tmp_path
     assert "the accelerometer's offset the fit needs" in msg and "beyond the +-2 g" in msg, msg
     assert re.search(r"the readings are [45]\.\d+x the gravity they should read: a scale or unit declared wrong",
                      msg), msg
+
+
+def test_readings_far_beyond_any_unit_are_told_their_size_not_no_gravity(tmp_path, capsys):
+    """1e200 in every sensor cell: |v| is taken without overflow (1.7e200,
+    not inf), so the file is refused as a wrong scale, not as "no gravity
+    in the readings"."""
+    rows = ["# field_nT=48000", "# dip_deg=60", "t_s,ax_g,ay_g,az_g,mx_nT,my_nT,mz_nT"]
+    rows += [f"{i},1e200,1e200,1e200,1e200,1e200,1e200" for i in range(40)]
+    p = tmp_path / "huge.csv"
+    p.write_text("\n".join(rows) + "\n")
+    capsys.readouterr()
+    assert main(["calibrate", str(p), "-o", str(tmp_path / "c.json")]) == 2
+    err = capsys.readouterr().err
+    assert "1.732e+200" in err and "no gravity" not in err and "inf" not in err
+    assert not (tmp_path / "c.json").exists()

@@ -576,7 +576,7 @@ def _mid_scale_error(ds, triad: str, v, fig) -> Finding | None:
 def _units_acc(ds, rows, rep):
     G = float(ds.meta.get("gravity_g") or 1.0)
     a = ds.acc[rows]
-    n = np.linalg.norm(a, axis=1)
+    n = np.hypot.reduce(a, axis=1)  # no overflow at 1e200
     S, how, med, sph = _size(a, lambda g: GRAVITY_UNITS[0] <= g / G <= GRAVITY_UNITS[1], "g", "g", shell_only=True)
     ratio = S / G
     fig = {"size_g": S, "how": how, "median_g": med, "expected_g": G, "ratio": ratio}
@@ -680,7 +680,7 @@ def _size(v, plausible, sym: str, unit: str, shell_only: bool = False) -> tuple:
     between its faces: a sphere of 1.17 g through readings of 1.00 g).
     `how` says which, in the message's words."""
     sph = sphere(v)
-    med = float(np.median(np.linalg.norm(v, axis=1)))
+    med = float(np.median(np.hypot.reduce(v, axis=1)))
     if sph is None:
         return med, f"the median |{sym}|", med, None
     R = sph[1]
