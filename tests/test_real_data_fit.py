@@ -95,8 +95,9 @@ def test_six_face_session_agrees_with_imucals_calibration_within_the_reported_un
     assert np.all(np.abs(d) < 3.0 * sig), (d / sig).round(2)
     chi2 = float(d @ np.linalg.solve(cov, d))
     assert chi2 < 26.2  # chi-square, 12 degrees of freedom, 99 %
-    # and the difference is not hidden in a huge uncertainty: a scale error of 0.5 % would show
-    assert np.all(sig[[0, 4, 8]] < 0.005)
+    # and the difference is not hidden in a huge uncertainty: a scale error of 0.1 % would show (the scale
+    # terms are set by the readings along gravity, which the faces' placement hardly moves)
+    assert np.all(sig[[0, 4, 8]] < 0.001)
 
 
 # ------------------------------------------------------------ held-out positions, pose-free

@@ -165,6 +165,65 @@ def fit_poses(raw, truth, sigma: float, min_rows: int = 4):
                        "noise": float(np.sqrt(s2) * sigma), "mode": "poses"}
 
 
+def pose_mean_covariance(gm, tm, M, b, radial_var):
+    """The covariance (12: M row-major, b) of fit_poses on poses' mean
+    readings gm (n, 3) against their truth tm, under the error a pose's
+    placement makes: a small rotation of the truth, which moves a mean
+    reading across its direction and not along it (to first order), beside
+    the readings' own noise.  Each mean's error covariance is
+    s_t^2 (I - u u^T) + s_r^2 u u^T, u the truth's direction: s_r^2 per
+    pose (radial_var, (n,), the variance of the mean along u, e.g. the rows'
+    scatter over their count), raised to the radial residuals' own level
+    where they have the degrees of freedom to show it; s_t^2 the level
+    the residuals across the directions show, over their expected share
+    (the residual projector's trace).  The covariance is the least squares
+    estimator's under that error (a sandwich: fit_poses is unweighted).
+    Returns (cov, {"placement_deg", "radial", "tangential_dof",
+    "radial_dof"})."""
+    gm, tm = np.asarray(gm, float), np.asarray(tm, float)
+    n = len(gm)
+    u = tm / np.linalg.norm(tm, axis=1, keepdims=True)
+    X = np.column_stack([gm, -np.ones(n)])
+    # the 3n x 12 design of all axes (rows: pose k, axis i; columns: M row-major, c)
+    J = np.zeros((n, 3, 12))
+    for i in range(3):
+        J[:, i, 3 * i:3 * i + 3] = gm
+        J[:, i, 9 + i] = -1.0
+    J = J.reshape(3 * n, 12)
+    sol = np.concatenate([(M @ np.eye(3)).ravel(), M @ b])
+    r = (J @ sol - tm.ravel())
+    U = np.zeros((3 * n, 3 * n))
+    for k in range(n):
+        U[3 * k:3 * k + 3, 3 * k:3 * k + 3] = np.outer(u[k], u[k])
+    P = np.eye(3 * n) - U
+    JtJi = np.linalg.inv(J.T @ J)
+    Q = np.eye(3 * n) - J @ JtJi @ J.T  # the residual maker
+    QPQ, QUQ = Q @ P @ Q, Q @ U @ Q
+    dof_t, dof_r = float(np.trace(P @ QPQ)), float(np.trace(U @ QUQ))
+    Dr = np.zeros((3 * n, 3 * n))
+    for k in range(n):
+        Dr[3 * k:3 * k + 3, 3 * k:3 * k + 3] = radial_var[k] * np.outer(u[k], u[k])
+    rr, rt = float(r @ U @ r), float(r @ P @ r)
+    radial = 1.0
+    if dof_r >= 3.0:  # the radial residuals against the readings' own noise, where they can show it
+        radial = max(1.0, rr / max(float(np.trace(U @ Q @ Dr @ Q)), 1e-300))
+    Dr = Dr * radial
+    st2 = max(rt - float(np.trace(P @ Q @ Dr @ Q)), 0.0) / max(dof_t, 1e-300)
+    Sigma = st2 * P + Dr
+    cov_mc = JtJi @ J.T @ Sigma @ J @ JtJi
+    Minv = np.linalg.inv(M)
+    T = np.eye(12)
+    for i in range(3):
+        for j in range(3):
+            E = np.zeros((3, 3))
+            E[i, j] = 1.0
+            T[9:12, 3 * i + j] = -Minv @ (E @ b)
+    T[9:12, 9:12] = Minv
+    g = float(np.median(np.linalg.norm(tm, axis=1)))
+    return T @ cov_mc @ T.T, {"placement_deg": float(np.degrees(np.sqrt(st2) / g)), "radial": radial,
+                              "tangential_dof": dof_t, "radial_dof": dof_r}
+
+
 def ellipsoid_algebraic(raw, R, what: str = "the triad"):
     """Algebraic quadric fit: (M symmetric, b) with |M (raw - b)| ~ R."""
     from .ellipsoid import ellipsoid_start
