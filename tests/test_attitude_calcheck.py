@@ -76,7 +76,8 @@ def test_corrected_thresholds():
     meta = {"field_nT": 50000.0, "dip_deg": 60.0}
     one = np.ones(10)
     assert checks.corrected(meta, one, 50000 * one, 60 * one) is None
-    assert checks.corrected(meta, 1.2 * one, 1.2 * 50000 * one, 69 * one) is None   # within the tolerances
+    assert checks.corrected(meta, 1.12 * one, 1.2 * 50000 * one, 69 * one) is None   # within the tolerances
+    assert "|g| 1.2 g" in checks.corrected(meta, 1.2 * one, 50000 * one, 60 * one).message  # beyond a MEMS scale error
     f = checks.corrected(meta, one, 1.3 * 50000 * one, 60 * one)
     assert f.level == "warning" and "field_nT" in f.message and "dip" not in f.message
     f = checks.corrected(meta, one, 50000 * one, 45 * one)

@@ -253,3 +253,15 @@ def test_readings_far_beyond_any_unit_are_told_their_size_not_no_gravity(tmp_pat
     err = capsys.readouterr().err
     assert "1.732e+200" in err and "no gravity" not in err and "inf" not in err
     assert not (tmp_path / "c.json").exists()
+
+
+def test_an_accelerometer_lsb_a_fifth_off_is_a_warning(tmp_path, capsys):
+    """Counts of 1 mg declared 1.21 mg: |g| 1.24 g (the log reads 1.02 g) is beyond any MEMS part's
+    scale error (a few %, the ADXL345's +-10 %) and was silent (the
+    tolerance was 0.8-1.25); now a warning naming the lsb, and the log is
+    still imported (a suspicious scale fits).  Declared 1.05 mg: silent."""
+    log = _mpu_counts(tmp_path)
+    code, err = _import(tmp_path, log, _mpu_toml(acc_lsb="1.21 mg"), capsys)
+    assert code == 0 and re.search(r"accelerometer: \|g\| is 1\.2\d* g .*\+2\d % from 1 g", err), err
+    code, err = _import(tmp_path, log, _mpu_toml(acc_lsb="1.05 mg"), capsys, out="ok.csv")
+    assert code == 0 and "accelerometer: |g|" not in err, err

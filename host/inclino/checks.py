@@ -47,8 +47,8 @@ from inclino.formats.dataset import POSE_COLS
 from inclino.holds import NOISE_BOUND, declared_static  # NOISE_BOUND: the most noise a static sensor has (g, nT)
 
 # |g| / G: uncalibrated MEMS accelerometers are within a few % in scale and
-# ~0.1 g in offset; beyond +-20 % is a warning, beyond 0.5x-2x cannot be g
-GRAVITY_TOL = (0.8, 1.25)
+# ~0.1 g in offset; beyond +-15 % is a warning, beyond 0.5x-2x cannot be g
+GRAVITY_TOL = (0.85, 1.15)  # |g| / gravity_g: a warning outside (a MEMS part: a few % in scale; the ADXL345 +-10 %)
 GRAVITY_UNITS = (0.5, 2.0)
 GRAVITY_REMOVED_SPREAD = 0.2  # |a|'s median deviation over its median, |a| below 0.5 g and not on a shell: gravity
                               # removed (an iPhone's Sensor Logger export: 0.022 g, wandering 55 %; isotropic noise
