@@ -265,3 +265,22 @@ def test_an_accelerometer_lsb_a_fifth_off_is_a_warning(tmp_path, capsys):
     assert code == 0 and re.search(r"accelerometer: \|g\| is 1\.2\d* g .*\+2\d % from 1 g", err), err
     code, err = _import(tmp_path, log, _mpu_toml(acc_lsb="1.05 mg"), capsys, out="ok.csv")
     assert code == 0 and "accelerometer: |g|" not in err, err
+
+
+def test_an_lsb_written_in_m_s2_for_g_is_told_the_number_in_g(tmp_path, capsys):
+    """Counts of 1 mg declared "0.001 m/s2": 9.81x is within a scale error of
+    10x, and the power of ten alone was told ("0.00101972 g", ten times the
+    number as written).  The number as written in g is proposed too, and
+    each fix imports; an lsb no one would write in m/s2 (0.1 mg) is not
+    read as one."""
+    log = _mpu_counts(tmp_path)
+    toml = _mpu_toml(acc_lsb="0.001 m/s2")
+    code, err = _import(tmp_path, log, toml, capsys)
+    assert code == 2 and 'lsb = "0.001 g", the declared lsb 0.001 m/s2 in g (g and m/s2 swapped?)' in err, err
+    fixes = _proposals(err)
+    assert (None, "0.001 g") in fixes and len(fixes) == 2, fixes
+    for i, (unit, lsb) in enumerate(fixes):
+        code, err2 = _import(tmp_path, log, _apply(toml, "accelerometer", unit, lsb), capsys, out=f"f{i}.csv")
+        assert code == 0, (lsb, err2)
+    code, err = _import(tmp_path, log, _mpu_toml(acc_lsb="0.1 mg"), capsys)
+    assert code == 2 and "m/s2" not in err.split("not counts")[0], err

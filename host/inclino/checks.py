@@ -44,6 +44,7 @@ import numpy as np
 from inclino.calib.ellipsoid import determined, on_shell, signed_permutations, sphere
 from inclino.errors import DataError
 from inclino.formats.dataset import POSE_COLS
+from inclino.formats.sensor import STANDARD_GRAVITY
 from inclino.holds import NOISE_BOUND, declared_static  # NOISE_BOUND: the most noise a static sensor has (g, nT)
 
 # |g| / G: uncalibrated MEMS accelerometers are within a few % in scale and
@@ -480,6 +481,15 @@ def _whole(k) -> bool:
     return bool(k.size) and float(np.mean(np.abs(k - np.round(k)) < 1e-3)) >= 0.99
 
 
+def _as_written(x: float) -> bool:
+    """Whether x reads as a number a description would hold: four
+    significant digits or fewer, or 1/N (an lsb in m/s2 read as g is
+    0.000101972 g: no one wrote that)."""
+    if not (np.isfinite(x) and x > 0):
+        return False
+    return abs(float(f"{x:.4g}") / x - 1.0) < 1e-9 or abs(1.0 / x - round(1.0 / x)) < 1e-6 * (1.0 / x)
+
+
 def _counts_hint(ds, triad: str, ratio: float, tol: float) -> str:
     """The lsb that makes counts whose size is `ratio` off read the
     expected size ('' without a declared lsb): the declared lsb a power of
@@ -492,12 +502,24 @@ def _counts_hint(ds, triad: str, ratio: float, tol: float) -> str:
     if not lsb or not (np.isfinite(ratio) and ratio > 0):
         return ""
     k = int(round(math.log10(ratio)))
+    fixes = []  # (distance in log, the fix) of each slip within tol, the nearest said first
     if k and abs(math.log(ratio / 10.0 ** k)) < tol:
         # the same number in the unit 10**k away (1/3000 uT -> 1/3000 G), the declared lsb as written
         fixed = _lsb_parts(float(lsb) / 10.0 ** k, triad, True)
-        return (f"lsb = \"{' '.join(fixed)}\", the declared lsb {_declared_lsb_text(float(lsb), fixed, k, triad)} "
-                f"{10 ** abs(k)}x too {'large' if k > 0 else 'small'} "
-                f"({'a unit prefix' if k % 3 == 0 else 'a unit or its prefix'} off?)")
+        fixes.append((abs(math.log(ratio / 10.0 ** k)),
+                      f"lsb = \"{' '.join(fixed)}\", the declared lsb {_declared_lsb_text(float(lsb), fixed, k, triad)} "
+                      f"{10 ** abs(k)}x too {'large' if k > 0 else 'small'} "
+                      f"({'a unit prefix' if k % 3 == 0 else 'a unit or its prefix'} off?)"))
+    swap = abs(abs(math.log(ratio)) - math.log(STANDARD_GRAVITY))
+    said, meant = ("m/s2", "g") if ratio < 1 else ("g", "m/s2")
+    number = float(lsb) * (STANDARD_GRAVITY if ratio < 1 else 1.0)  # as written, were it written in `said`
+    if triad == "acc" and swap < tol and _as_written(number):
+        # g and m/s2 swapped, 9.81x either way: within a sensor's scale error of ten, so both are said (an lsb of
+        # 1 mg written "0.001 m/s2" was told only "0.00101972 g", ten times the number as written)
+        fixes.append((swap, f"lsb = \"{number:.6g} {meant}\", the declared lsb {number:.6g} {said} in {meant} "
+                            f"(g and m/s2 swapped?)"))
+    if fixes:
+        return " or ".join(text for _, text in sorted(fixes))
     return f"lsb = \"{_lsb_text(float(lsb) / ratio, triad)}\" would make it so"
 
 
