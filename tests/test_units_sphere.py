@@ -284,3 +284,12 @@ def test_an_lsb_written_in_m_s2_for_g_is_told_the_number_in_g(tmp_path, capsys):
         assert code == 0, (lsb, err2)
     code, err = _import(tmp_path, log, _mpu_toml(acc_lsb="0.1 mg"), capsys)
     assert code == 2 and "m/s2" not in err.split("not counts")[0], err
+
+
+def test_a_denormal_reading_is_no_field_not_a_traceback(tmp_path, capsys):
+    """|b| of 5e-324 nT (taken without overflow, so no longer 0): its ratio
+    to any unit underflows to 0, where the unit guesses took its log."""
+    p = tmp_path / "tiny.csv"
+    p.write_text("ax_g,ay_g,az_g,mx_nT,my_nT,mz_nT\n0.0,0.0,0.0,0.0,0.0,5e-324\n")
+    assert main(["attitude", str(p), "-o", str(tmp_path / "a.csv")]) == 0
+    assert "no field in the readings" in capsys.readouterr().err

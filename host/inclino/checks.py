@@ -51,6 +51,7 @@ from inclino.holds import NOISE_BOUND, declared_static  # NOISE_BOUND: the most 
 # ~0.1 g in offset; beyond +-15 % is a warning, beyond 0.5x-2x cannot be g
 GRAVITY_TOL = (0.85, 1.15)  # |g| / gravity_g: a warning outside (a MEMS part: a few % in scale; the ADXL345 +-10 %)
 GRAVITY_UNITS = (0.5, 2.0)
+NO_SIZE = 1e-200            # |g| (g) or |b| (nT) below it: no reading at all (a denormal's ratios underflow)
 GRAVITY_REMOVED_SPREAD = 0.2  # |a|'s median deviation over its median, |a| below 0.5 g and not on a shell: gravity
                               # removed (an iPhone's Sensor Logger export: 0.022 g, wandering 55 %; isotropic noise
                               # 30 %; 30 hand-held and rig logs of real sensors 0.4 to 16 %)
@@ -612,7 +613,7 @@ def _units_acc(ds, rows, rep):
     if GRAVITY_TOL[0] <= ratio <= GRAVITY_TOL[1]:
         _acc_offset(a, sph, med, G, rep)
         return
-    if not (np.isfinite(ratio) and ratio > 0):
+    if not (np.isfinite(ratio) and ratio > NO_SIZE):
         rep.findings.append(Finding("units", "error", (
             f"accelerometer: |g| is {S:.4g} ({said}): no gravity in the readings (a dead sensor, "
             f"or the wrong columns)"), "acc", fig))
@@ -717,7 +718,7 @@ def _units_mag(ds, rows, rep):
     F = ds.meta.get("field_nT")
     R, how, med, _ = _size(m, lambda b: _plausible_field(b, F), "b", "nT")
     fig = {"field_nT": R, "how": how, "median_abs_nT": med}
-    if not (np.isfinite(R) and R > 0):
+    if not (np.isfinite(R) and R > NO_SIZE):
         rep.findings.append(Finding("units", "error", (
             f"magnetometer: |b| is {R:.4g} nT ({how}): no field in the readings (a dead sensor, or the wrong "
             f"columns)"), "mag", fig))
