@@ -134,3 +134,39 @@ def test_streamed_json_is_the_text_of_to_json(tmp_path, capsys):
     f = io.StringIO()
     cmp.CompareResult(**r).write_json(f)
     assert f.getvalue() + "\n" == out
+
+
+def test_a_reference_adds_no_reference_terms_to_cal_alone(tmp_path, capsys):
+    """`compare --cal` alone sets the differences against the probe's terms
+    (docs/survey.md); a reference given for its dip and field (a file, a
+    position, user values) does not add reference-field terms unless
+    `--ref-terms` asks for them.  Before, any reference added OWSG's random
+    declination (DECR, DBHR: 0.1 deg and 3000 deg.nT): the expected azimuth
+    difference went from ~0.026 to ~0.26 deg, ten times what the same
+    probe's repeat surveys scatter, and the note pointed at a --ref-terms
+    compare did not have."""
+    from inclino.benchmarks import input as bench_input
+    from inclino.survey import geomag
+
+    scen = sb.scenario_file(str(tmp_path / "s.toml"), geomag.normal_gravity_g(sb.LAT))
+    cal = str(tmp_path / "cal.json")
+    sb.calibrate(scen, cal, int(RNG.integers(1, 1 << 20)))
+    a, b = tmp_path / "a.csv", tmp_path / "b.csv"
+    bench_input.write_listing(str(a), 30, seed=1, step_m=30.0)
+    bench_input.write_listing(str(b), 30, seed=2, step_m=30.0)
+    field = ("--dip", 67.1446, "--field", 49423.5)
+
+    def sigmas(*opts):
+        rc, out, err = run(capsys, "compare", a, b, "--cal", cal, *opts, "--json")
+        assert rc in (0, 1), err
+        r = json.loads(out)
+        return r, np.array([s["sigma_d_azi_deg"] or np.nan for s in r["stations"]])
+
+    _, alone = sigmas(*field)
+    for ref in (("--declination", 2.4324, *field), ("--lat", 52, "--lon", 4, "--date", "2026-06-01")):
+        r, given = sigmas(*ref)
+        assert np.allclose(given, alone, rtol=1e-3, equal_nan=True), (ref, given / alone)
+        assert "reference field" not in r["summary"]["error_model"].split("terms:")[1].split(";")[0]
+    r, ifr1 = sigmas("--declination", 2.4324, *field, "--ref-terms", "ifr1")
+    assert "reference-field terms ifr1" in r["summary"]["error_model"]
+    assert np.nanmedian(ifr1 / alone) > 2  # the random declination, where the sensor terms are small
