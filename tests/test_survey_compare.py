@@ -170,3 +170,27 @@ def test_a_reference_adds_no_reference_terms_to_cal_alone(tmp_path, capsys):
     r, ifr1 = sigmas("--declination", 2.4324, *field, "--ref-terms", "ifr1")
     assert "reference-field terms ifr1" in r["summary"]["error_model"]
     assert np.nanmedian(ifr1 / alone) > 2  # the random declination, where the sensor terms are small
+
+
+def test_three_stations_have_the_spread_they_have_within_a_longer_survey(tmp_path, capsys):
+    """welleng called on exactly three stations gives the first a zero and
+    the last a negative variance: `compare` of two three-station listings
+    held the first pair to |d inc| <= 0 and gave the last a NaN sigma (FAIL
+    with `nan`).  A station's spread is its own: the same as within a longer
+    survey."""
+    from inclino.survey import compare, geomag, models
+
+    rf = geomag.ReferenceField(2.0, 60.0, 50000.0, 1.0)
+    model = models.ErrorModel(models.load("iscwsa-mwd-rev5"), None, None)
+    md = np.arange(6) * 30.0
+    inc = np.sort(RNG.uniform(3, 170, 6))
+    azi = RNG.uniform(0, 360) + np.arange(6) * 0.5
+    whole = compare.expected(model, md, inc, azi, rf)
+    for n in (2, 3):
+        part = compare.expected(model, md[:n], inc[:n], azi[:n], rf)
+        assert np.allclose(part[0], whole[0][:n], rtol=1e-9) and np.allclose(part[1], whole[1][:n], rtol=1e-9), n
+    a = tmp_path / "a.csv"
+    a.write_text("md_m,inc_deg,azi_deg\n" + "".join(f"{m},{i},{z}\n" for m, i, z in zip(md[:3], inc, azi)))
+    rc, out, err = run(capsys, "compare", a, a, "--tool-model", "iscwsa-mwd-rev5", "--json")
+    r = json.loads(out)
+    assert rc == 0 and all(s["sigma_d_inc_deg"] > 0 for s in r["stations"]), out + err

@@ -74,13 +74,19 @@ def counts(code: str, propagation: str, two_probes: bool) -> bool:
 # here), so a long survey goes through in stretches of bounded memory
 # (welleng holds some 13 kB per station and term set: 10^5 pairs at once took 1.3 GB)
 CHUNK = 5000
-MIN_STATIONS = 4  # per call of the error model
+MIN_STATIONS = 4  # per call of the error model: welleng on 3 stations gives the first a zero and the last a
+# negative variance; a shorter survey is called with stations added below its last
 
 
 def expected(model, md, inc, azi, rf, two_probes=False, fallback=(60.0, 50000.0), chunk: int = CHUNK):
     """1-sigma (deg) of the inclination and azimuth difference between two
     surveys at each station (md increasing), from the model's terms."""
     n = len(md)
+    if 1 < n < MIN_STATIONS:  # fewer than the error model needs: stations below the last, their results unused
+        k = MIN_STATIONS - n
+        si, sa = expected(model, np.r_[md, md[-1] + 10.0 * np.arange(1, k + 1)], np.r_[inc, np.full(k, inc[-1])],
+                          np.r_[azi, np.full(k, azi[-1])], rf, two_probes, fallback, chunk)
+        return si[:n], sa[:n]
     vi = np.zeros(n)
     va = np.zeros(n)
     for lo in range(0, n, chunk):
