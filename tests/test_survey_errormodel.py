@@ -346,3 +346,27 @@ def test_monte_carlo_ratio_standard_error_matches_its_spread_over_seeds(calibrat
     lo, hi = np.sqrt(chi2.ppf(p, dof) / dof), np.sqrt(chi2.isf(p, dof) / dof)
     assert np.all((spread / se > lo) & (spread / se < hi)), (spread / se, lo, hi)
     assert 0.8 < np.sqrt(np.mean((spread / se) ** 2)) < 1.25, spread / se
+
+
+def test_a_station_straight_up_carries_an_ellipse(tmp_path, capsys):
+    """Inclination 180 is a survey station (docs/conventions.md: I in
+    [0, 180]); welleng asks max inc < the model's limit of 180, and
+    `trajectory --uncertainty` and `compare` refused such a listing (exit 2)
+    with welleng's text about CLC connector arcs.  The station is propagated
+    as 180 - 1e-6 deg: the ellipse is that of a station a hair from it."""
+    import csv
+
+    rows = {}
+    for first in (180.0, 179.999):
+        f = tmp_path / f"up{first}.csv"
+        f.write_text(f"md_m,inc_deg,azi_deg\n0,{first},0\n30,179,10\n60,178,10\n90,177,10\n")
+        out = tmp_path / f"t{first}.csv"
+        rc, o, err = run(capsys, "trajectory", f, "--declination", 2, "--dip", 67, "--field", 49000,
+                         "--uncertainty", "--tool-model", "iscwsa-mwd-rev5", "-o", out)
+        assert rc == 0, err
+        rows[first] = list(csv.DictReader(line for line in open(out) if not line.startswith("#")))
+    for a, b in zip(rows[180.0], rows[179.999]):
+        assert abs(float(a["ell_major_m"]) - float(b["ell_major_m"])) < 1e-3, (a["md_m"], a, b)
+    rc, o, err = run(capsys, "compare", tmp_path / "up180.0.csv", tmp_path / "up180.0.csv", "--tool-model",
+                     "iscwsa-mwd-rev5")
+    assert rc == 0, err

@@ -322,7 +322,7 @@ class ErrorModel:
             with warnings.catch_warnings():
                 warnings.simplefilter("ignore")
                 try:
-                    ws = welleng_survey(md, inc, azi_mag, rf, model, fallback)
+                    ws = welleng_survey(md, error_model_inc(inc), azi_mag, rf, model, fallback)
                 except (ValueError, AssertionError, ArithmeticError, KeyError, IndexError, TypeError,
                         np.linalg.LinAlgError) as e:
                     raise DataError(f"the survey cannot be computed with {part} model: {e}")
@@ -383,6 +383,17 @@ class ErrorModel:
         params = dict(self.base.model.get("parameters", {})) if isinstance(self.base.model, dict) else \
             dict((_json_of_name(self.base.model) or {}).get("parameters", {"inc_min": 0, "inc_max": 180}))
         return {"metadata": meta, "parameters": params, "terms": keep}
+
+
+# welleng refuses a model at its own inclination limit (it asks max inc < the model's 180): a station straight up,
+# inclination 180 (docs/conventions.md: I in [0, 180]), is propagated as this close to it (1.7e-8 rad: the error
+# terms' weights are continuous there; the positions are welleng's of the station itself)
+INC_MAX_PROPAGATED = 180.0 - 1e-6
+
+
+def error_model_inc(inc):
+    """The inclinations (deg) the error model is evaluated at: the station's, 180 as INC_MAX_PROPAGATED."""
+    return np.minimum(np.asarray(inc, float), INC_MAX_PROPAGATED)
 
 
 @dataclass
