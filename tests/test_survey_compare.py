@@ -194,3 +194,17 @@ def test_three_stations_have_the_spread_they_have_within_a_longer_survey(tmp_pat
     rc, out, err = run(capsys, "compare", a, a, "--tool-model", "iscwsa-mwd-rev5", "--json")
     r = json.loads(out)
     assert rc == 0 and all(s["sigma_d_inc_deg"] > 0 for s in r["stations"]), out + err
+
+
+def test_azimuth_is_not_checked_near_vertical_going_up(tmp_path, capsys):
+    """Near-vertical is I < 0.5 or I > 179.5 deg (docs/conventions.md, the
+    ATT_F_NEAR_VERTICAL flag): compare checked the azimuth of a pair at
+    179.9 deg, where it is undefined, and failed two surveys of an upward
+    hole whose azimuths differ as undefined azimuths do."""
+    a, b = tmp_path / "a.csv", tmp_path / "b.csv"
+    a.write_text("md_m,inc_deg,azi_deg\n0,170,10\n30,179.9,10\n60,179.9,20\n90,179.8,30\n")
+    b.write_text("md_m,inc_deg,azi_deg\n0,170,10\n30,179.9,190\n60,179.9,200\n90,179.8,210\n")
+    rc, out, err = run(capsys, "compare", a, b, "--tool-model", "iscwsa-mwd-rev5", "--json")
+    r = json.loads(out)
+    assert [s["d_azi_deg"] is None for s in r["stations"]] == [False, True, True, True], out
+    assert rc == 0, out + err

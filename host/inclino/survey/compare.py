@@ -74,6 +74,7 @@ def counts(code: str, propagation: str, two_probes: bool) -> bool:
 # here), so a long survey goes through in stretches of bounded memory
 # (welleng holds some 13 kB per station and term set: 10^5 pairs at once took 1.3 GB)
 CHUNK = 5000
+NEAR_VERTICAL_DEG = 0.5  # azimuth undefined within this of vertical, down or up (ATT_F_NEAR_VERTICAL)
 MIN_STATIONS = 4  # per call of the error model: welleng on 3 stations gives the first a zero and the last a
 # negative variance; a shorter survey is called with stations added below its last
 
@@ -137,7 +138,8 @@ def compare(a, b, model, rf, k: float = 3.0, md_tol: float = 0.5, two_probes: bo
     si, sa = (si[1:], sa[1:]) if pad else (si, sa)
     for n, (i, j) in enumerate(pairs):
         d_inc = float(b.inc_deg[j] - a.inc_deg[i])
-        azi_defined = math.isfinite(sa[n]) and min(a.inc_deg[i], b.inc_deg[j]) >= 0.5
+        azi_defined = (math.isfinite(sa[n]) and min(a.inc_deg[i], b.inc_deg[j]) >= NEAR_VERTICAL_DEG
+                       and max(a.inc_deg[i], b.inc_deg[j]) <= 180.0 - NEAR_VERTICAL_DEG)
         ok_i = abs(d_inc) <= k * si[n]
         ok_a = (abs(d_azi[n]) <= k * sa[n]) if azi_defined else True
         res.stations.append({"md_m": float(md[n]), "md_out_m": float(b.md_m[j]), "inc_deg": float(a.inc_deg[i]),
