@@ -208,3 +208,30 @@ def test_azimuth_is_not_checked_near_vertical_going_up(tmp_path, capsys):
     r = json.loads(out)
     assert [s["d_azi_deg"] is None for s in r["stations"]] == [False, True, True, True], out
     assert rc == 0, out + err
+
+
+def test_inclination_spread_at_the_vertical_is_that_of_a_tilt_length(tmp_path, capsys):
+    """At the vertical the inclination is the length of the tilt vector
+    (Rayleigh-distributed, docs/survey.md), so the difference of two
+    surveys' inclinations spreads by sqrt((4 - pi) / 2) = 0.66 of the
+    linearised sigma: compare held vertical pairs to an effective k of 4.6
+    instead of 3.  Pairs drawn with the model's own per-survey tilt spread:
+    |d inc| / sigma has an RMS of 1 at the vertical and off it."""
+    from inclino.survey import compare, geomag, models
+
+    n = 300
+    md = np.arange(n) * 10.0
+    rf = geomag.ReferenceField(0.0, 60.0, 50000.0, 1.0)
+    model = models.ErrorModel(models.load("iscwsa-mwd-rev5"), None, None)
+    for true_inc in (0.0, 3.0):
+        s = compare.expected(model, md, np.full(n, max(true_inc, 1e-3)), np.full(n, 40.0), rf)[0] / np.sqrt(2.0)
+        mean = np.array([np.radians(true_inc), 0.0])
+        tilt = [np.degrees(np.hypot(*(mean[:, None] + np.radians(s) * RNG.standard_normal((2, n))))) for _ in "ab"]
+        files = []
+        for name, inc in zip("ab", tilt):
+            f = tmp_path / f"{name}{true_inc}.csv"
+            f.write_text("md_m,inc_deg,azi_deg\n" + "".join(f"{m},{i},{RNG.uniform(0, 360)}\n" for m, i in zip(md, inc)))
+            files.append(f)
+        rc, out, err = run(capsys, "compare", *files, "--tool-model", "iscwsa-mwd-rev5", "--json")
+        z = np.array([st["d_inc_deg"] / st["sigma_d_inc_deg"] for st in json.loads(out)["stations"]])
+        assert 0.85 < np.sqrt(np.mean(z ** 2)) < 1.15, (true_inc, np.sqrt(np.mean(z ** 2)))

@@ -136,6 +136,7 @@ def compare(a, b, model, rf, k: float = 3.0, md_tol: float = 0.5, two_probes: bo
     si, sa = expected(model, np.r_[md[0] - 10.0, md] if pad else md, np.r_[inc[0], inc] if pad else inc,
                       np.r_[azi[0], azi] if pad else azi, rf, two_probes, fallback)
     si, sa = (si[1:], sa[1:]) if pad else (si, sa)
+    si = tilt_length_sigma(si, a.inc_deg[ia], b.inc_deg[ib])
     for n, (i, j) in enumerate(pairs):
         d_inc = float(b.inc_deg[j] - a.inc_deg[i])
         azi_defined = (math.isfinite(sa[n]) and min(a.inc_deg[i], b.inc_deg[j]) >= NEAR_VERTICAL_DEG
@@ -156,6 +157,29 @@ def compare(a, b, model, rf, k: float = 3.0, md_tol: float = 0.5, two_probes: bo
                    "d_azi_rms_deg": _rms([s["d_azi_deg"] for s in res.stations]),
                    "error_model": model.describe()}
     return res
+
+
+def tilt_length_sigma(sigma_d, inc_a, inc_b):
+    """1-sigma of the inclination difference with the inclination taken as
+    what it is, the length of the tilt vector from the vertical (down or
+    up): Rice-distributed, its spread sqrt((4 - pi) / 2) = 0.66 of the
+    linearised one at the vertical, the linearised one a few sigma off it.
+    sigma_d: the linearised 1-sigma of the difference (sqrt 2 x each
+    survey's spread per tilt axis); the true tilt's square estimated from
+    the two surveys' (their mean square less the noise's 2 s^2)."""
+    from scipy.special import i0e, i1e
+
+    sigma_d = np.asarray(sigma_d, float)
+    s = sigma_d / math.sqrt(2.0)
+    off_a = np.minimum(inc_a, 180.0 - np.asarray(inc_a, float))  # from the vertical, down or up
+    off_b = np.minimum(inc_b, 180.0 - np.asarray(inc_b, float))
+    tilt2 = np.maximum(0.5 * (off_a ** 2 + off_b ** 2) - 2.0 * s * s, 0.0)
+    with np.errstate(divide="ignore", invalid="ignore", over="ignore"):
+        y = tilt2 / (4.0 * s * s)  # the Rice mean: s sqrt(pi/2) L_1/2(-2y), L_1/2(-2y) = (1 + 2y) i0e(y) + 2y i1e(y)
+        mean = s * math.sqrt(math.pi / 2.0) * ((1.0 + 2.0 * y) * i0e(y) + 2.0 * y * i1e(y))
+        out = np.sqrt(2.0 * np.maximum(2.0 * s * s + tilt2 - mean * mean, 0.0))
+    # beyond ~100 sigma off the vertical the linearised spread is exact to 1e-3 (and the formula cancels digits)
+    return np.where(np.isfinite(out) & (s > 0) & (y < 1e4), np.minimum(out, sigma_d), sigma_d)
 
 
 def pair_stations(md_a, md_b, md_tol):
