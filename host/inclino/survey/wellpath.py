@@ -365,6 +365,17 @@ LAS_META = {"PSERIAL": "probe_serial", "PRODUCT": "product", "FWVER": "firmware"
             "CALSEQ": "calibration_sequence", "CALCRC": "calibration_crc", "TSTART": "start_utc"}
 
 
+def _las_survey_curves(curves: dict, path: str) -> None:
+    """A LAS listing names inclination INC and magnetic azimuth AZI or AZIM;
+    another tool's file (DEVI, HAZI, ...) is refused naming the curves it
+    has, not a CSV's columns."""
+    lack = [w for w, names in (("inclination INC", ("INC",)), ("magnetic azimuth AZI or AZIM", ("AZI", "AZIM")))
+            if not any(n in curves for n in names)]
+    if lack:
+        raise DataError(f"{path}: no {' and no '.join(lack)} curve (its curves: {', '.join(curves)}); a file of "
+                        "another tool needs its curves renamed, its azimuth referred to magnetic north")
+
+
 def _read_las(text: str, path: str) -> Survey:
     from inclino.formats import las as lasfmt
 
@@ -378,6 +389,7 @@ def _read_las(text: str, path: str) -> Survey:
             break
     if md is None:
         raise DataError(f"{path}: no measured-depth curve (DEPT, DEPTH or MD)")
+    _las_survey_curves(curves, path)
     n = len(md)
     rows = [{"md_m": md[i]} for i in range(n)]
     for m, key in {**LAS_CURVES, "TIME": "utc_s"}.items():
