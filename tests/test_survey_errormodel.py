@@ -370,3 +370,19 @@ def test_a_station_straight_up_carries_an_ellipse(tmp_path, capsys):
     rc, o, err = run(capsys, "compare", tmp_path / "up180.0.csv", tmp_path / "up180.0.csv", "--tool-model",
                      "iscwsa-mwd-rev5")
     assert rc == 0, err
+
+
+def test_what_the_model_lacks_is_said_with_the_fix_that_applies(tmp_path, capsys):
+    """With the standard model and `--ref-terms none` the summary said `no
+    reference field terms (add --tool-model iscwsa-mwd-rev5 for a complete
+    ellipse)`: the model given, the advice void.  It names --ref-terms."""
+    f = tmp_path / "s.csv"
+    f.write_text("md_m,inc_deg,azi_deg\n0,0,0\n30,5,10\n60,10,10\n90,15,10\n")
+    rc, out, err = run(capsys, "trajectory", f, "--declination", 2, "--dip", 67, "--field", 49000, "--uncertainty",
+                       "--tool-model", "iscwsa-mwd-rev5", "--ref-terms", "none", "-o", tmp_path / "o.csv")
+    assert rc == 0, err
+    line = next(x for x in out.splitlines() if x.startswith("error model:"))
+    assert "no reference field terms" in line and "add --tool-model" not in line and "--ref-terms" in line, line
+    rc, out, err = run(capsys, "trajectory", f, "--declination", 2, "--dip", 67, "--field", 49000, "--uncertainty",
+                       "--tool-model", "iscwsa-mwd-rev5", "-o", tmp_path / "o.csv")
+    assert "no " not in next(x for x in out.splitlines() if x.startswith("error model:")).split("terms:")[1], out

@@ -305,8 +305,17 @@ class ErrorModel:
                    if not fam.get(f)]
         s = f"error model: {what}; terms: {', '.join(have)}"
         if missing:
-            s += f"; no {', '.join(missing)} terms (add --tool-model iscwsa-mwd-rev5 for a complete ellipse)"
+            s += f"; no {', '.join(missing)} terms ({self._missing_hint(missing)})"
         return s
+
+    def _missing_hint(self, missing) -> str:
+        """What puts the missing terms in: a standard model for the probe's
+        terms alone; --ref-terms for reference terms it took out."""
+        if self.base is None:
+            return "add --tool-model iscwsa-mwd-rev5 for a complete ellipse"
+        if missing == ["reference field"] and self.reference == "none":
+            return "--ref-terms none took them out; srgm or ifr1 puts them in"
+        return f"{self.base.label} has none"
 
     # ------------------------------------------------------------ propagation
     def propagate(self, md, inc, azi_mag, rf, fallback=(60.0, 50000.0)) -> "Propagation":
