@@ -386,3 +386,16 @@ def test_what_the_model_lacks_is_said_with_the_fix_that_applies(tmp_path, capsys
     rc, out, err = run(capsys, "trajectory", f, "--declination", 2, "--dip", 67, "--field", 49000, "--uncertainty",
                        "--tool-model", "iscwsa-mwd-rev5", "-o", tmp_path / "o.csv")
     assert "no " not in next(x for x in out.splitlines() if x.startswith("error model:")).split("terms:")[1], out
+
+
+def test_a_listing_below_the_surface_says_its_tie_in_is_taken_as_exact(tmp_path, capsys):
+    """A listing tied in at MD 3000 m gave the same ellipse as one from the
+    surface (the first station is the origin, without error) and said
+    nothing: a planner read it as the hole's."""
+    f = tmp_path / "s.csv"
+    for md0, said in ((0, False), (3000, True)):
+        f.write_text("md_m,inc_deg,azi_deg\n" + "".join(f"{md0 + 30 * k},{5 * k},10\n" for k in range(4)))
+        rc, out, err = run(capsys, "trajectory", f, "--declination", 2, "--dip", 67, "--field", 49000,
+                           "--uncertainty", "--tool-model", "iscwsa-mwd-rev5", "-o", tmp_path / "o.csv")
+        assert rc == 0, err
+        assert ("MD 3000 m, is the tie-in" in out) == said, out

@@ -343,6 +343,8 @@ def _cmd_trajectory(args) -> int:
     from inclino.survey import models
 
     model = _error_model(args, rf, default_base=models.DEFAULT_BASE) if args.uncertainty else None
+    if model is not None and len(sv) and sv.md_m[0] > 0:
+        model.notes.append(tie_in_note(float(sv.md_m[0])))
     with progress.phase(f"trajectory of {len(sv)} stations"):
         tr = wp.trajectory(sv, rf, model)
     with progress.phase(f"writing {len(tr)} stations"):
@@ -383,6 +385,13 @@ def _cmd_trajectory(args) -> int:
         for n in model.notes:
             print(f"  {n}", file=stream)
     return 1 if (args.fail_on_qc and s["qc_fail"]) else 0
+
+
+def tie_in_note(md0: float) -> str:
+    """A listing that starts below the surface: its first station is the
+    tie-in, taken as exact (the hole above it is not in the listing)."""
+    return (f"the first station, MD {md0:g} m, is the tie-in: its position is taken as exact, so the ellipses hold "
+            "the error from it down, not the hole's above it (add the tie-in's own covariance)")
 
 
 def _cmd_compare(args) -> int:
