@@ -138,3 +138,13 @@ def test_a_las_file_of_another_tool_names_the_curves_it_lacks_and_has(tmp_path, 
     rc, out, err = run(capsys, "trajectory", p, "--declination", 0, "-o", tmp_path / "o.csv")
     assert rc == 2 and err.count("\n") == 1, err
     assert "INC" in err and "AZIM" in err and "DEVI" in err and "HAZI" in err and "md_m" not in err, err
+
+
+def test_a_listing_with_depth_in_feet_is_refused_with_the_fix(tmp_path, capsys):
+    """A CSV listing whose depth column is in feet (md_ft) was refused as
+    missing md_m, without a word about the column it has or what to do."""
+    p = tmp_path / "ft.csv"
+    p.write_text("md_ft,inc_deg,azi_deg\n0,0,0\n100,10,10\n200,20,10\n")
+    rc, out, err = run(capsys, "trajectory", p, "--declination", 0, "-o", tmp_path / "o.csv")
+    assert rc == 2 and err.count("\n") == 1, err
+    assert "md_ft" in err and "0.3048" in err and "DEPT.FT" in err, err

@@ -149,16 +149,30 @@ def _rows_to_survey(rows: list[dict], path: str, meta: dict) -> Survey:
     return _cols_to_survey(cols, len(rows), path, meta, utc_text=utc_text)
 
 
-def _cols_to_survey(cols: dict, n: int, path: str, meta: dict, lines=None, utc_text=None) -> Survey:
+def _depth_hint(cols, missing: list) -> str:
+    """For a listing without md_m: the depth column it has instead, and how
+    to give it (a CSV's depth is in metres; LAS files carry their unit)."""
+    if "md_m" not in missing:
+        return ""
+    other = [k for k in cols if str(k).lower().startswith(("md", "depth", "dept"))]
+    if not other:
+        return ""
+    return (f"; it has {', '.join(other)}: give the depth in metres as md_m (feet x 0.3048, US survey feet x "
+            "1200/3937), or as a LAS file whose depth curve states its unit (DEPT.FT)")
+
+
+def _cols_to_survey(cols: dict, n: int, path: str, meta: dict, lines=None, utc_text=None, columns=None) -> Survey:
     """A survey from its columns (lists of cells or float arrays, n
-    stations; `lines`: each station's line in the file, for the errors),
+    stations; `lines`: each station's line in the file, for the errors;
+    `columns`: every column the file has, for the error naming them),
     every value by its rule (RULES), in linear time."""
     if not n:
         raise DataError(f"{path}: no survey stations")
     azk = "azi_deg" if "azi_deg" in cols else "azi_mag_deg" if "azi_mag_deg" in cols else None
     missing = [k for k, v in (("md_m", "md_m" in cols), ("inc_deg", "inc_deg" in cols), ("azi_deg", azk)) if not v]
     if missing:
-        raise DataError(f"{path}: missing column {', '.join(missing)} (a survey listing needs md_m, inc_deg, azi_deg)")
+        raise DataError(f"{path}: missing column {', '.join(missing)} (a survey listing needs md_m, inc_deg, azi_deg)"
+                        + _depth_hint(columns if columns is not None else cols, missing))
     md = _numbers(cols["md_m"], "md_m", path, lines)
     inc = _numbers(cols["inc_deg"], "inc_deg", path, lines, md)
     azi = _numbers(cols[azk], azk, path, lines, md)
@@ -231,7 +245,8 @@ def concat(surveys: list) -> Survey:
 
 def _read_csv(text: str, path: str) -> Survey:
     cols, n, lines, meta = _csv_columns(text, path, ("md_m", "inc_deg", "azi_deg", "azi_mag_deg") + EXTRA)
-    return _cols_to_survey(cols, n, path, meta, lines=lines)
+    header = next((ln for ln in text.splitlines() if ln.strip() and not ln.lstrip().startswith("#")), "")
+    return _cols_to_survey(cols, n, path, meta, lines=lines, columns=[h.strip() for h in header.split(",")])
 
 
 def _csv_lines(text: str, meta: dict, numbers: list):
