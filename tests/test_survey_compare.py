@@ -134,3 +134,104 @@ def test_streamed_json_is_the_text_of_to_json(tmp_path, capsys):
     f = io.StringIO()
     cmp.CompareResult(**r).write_json(f)
     assert f.getvalue() + "\n" == out
+
+
+def test_a_reference_adds_no_reference_terms_to_cal_alone(tmp_path, capsys):
+    """`compare --cal` alone sets the differences against the probe's terms
+    (docs/survey.md); a reference given for its dip and field (a file, a
+    position, user values) does not add reference-field terms unless
+    `--ref-terms` asks for them.  Before, any reference added OWSG's random
+    declination (DECR, DBHR: 0.1 deg and 3000 deg.nT): the expected azimuth
+    difference went from ~0.026 to ~0.26 deg, ten times what the same
+    probe's repeat surveys scatter, and the note pointed at a --ref-terms
+    compare did not have."""
+    from inclino.benchmarks import input as bench_input
+    from inclino.survey import geomag
+
+    scen = sb.scenario_file(str(tmp_path / "s.toml"), geomag.normal_gravity_g(sb.LAT))
+    cal = str(tmp_path / "cal.json")
+    sb.calibrate(scen, cal, int(RNG.integers(1, 1 << 20)))
+    a, b = tmp_path / "a.csv", tmp_path / "b.csv"
+    bench_input.write_listing(str(a), 30, seed=1, step_m=30.0)
+    bench_input.write_listing(str(b), 30, seed=2, step_m=30.0)
+    field = ("--dip", 67.1446, "--field", 49423.5)
+
+    def sigmas(*opts):
+        rc, out, err = run(capsys, "compare", a, b, "--cal", cal, *opts, "--json")
+        assert rc in (0, 1), err
+        r = json.loads(out)
+        return r, np.array([s["sigma_d_azi_deg"] or np.nan for s in r["stations"]])
+
+    _, alone = sigmas(*field)
+    for ref in (("--declination", 2.4324, *field), ("--lat", 52, "--lon", 4, "--date", "2026-06-01")):
+        r, given = sigmas(*ref)
+        assert np.allclose(given, alone, rtol=1e-3, equal_nan=True), (ref, given / alone)
+        assert "reference field" not in r["summary"]["error_model"].split("terms:")[1].split(";")[0]
+    r, ifr1 = sigmas("--declination", 2.4324, *field, "--ref-terms", "ifr1")
+    assert "reference-field terms ifr1" in r["summary"]["error_model"]
+    assert np.nanmedian(ifr1 / alone) > 2  # the random declination, where the sensor terms are small
+
+
+def test_three_stations_have_the_spread_they_have_within_a_longer_survey(tmp_path, capsys):
+    """welleng called on exactly three stations gives the first a zero and
+    the last a negative variance: `compare` of two three-station listings
+    held the first pair to |d inc| <= 0 and gave the last a NaN sigma (FAIL
+    with `nan`).  A station's spread is its own: the same as within a longer
+    survey."""
+    from inclino.survey import compare, geomag, models
+
+    rf = geomag.ReferenceField(2.0, 60.0, 50000.0, 1.0)
+    model = models.ErrorModel(models.load("iscwsa-mwd-rev5"), None, None)
+    md = np.arange(6) * 30.0
+    inc = np.sort(RNG.uniform(3, 170, 6))
+    azi = RNG.uniform(0, 360) + np.arange(6) * 0.5
+    whole = compare.expected(model, md, inc, azi, rf)
+    for n in (2, 3):
+        part = compare.expected(model, md[:n], inc[:n], azi[:n], rf)
+        assert np.allclose(part[0], whole[0][:n], rtol=1e-9) and np.allclose(part[1], whole[1][:n], rtol=1e-9), n
+    a = tmp_path / "a.csv"
+    a.write_text("md_m,inc_deg,azi_deg\n" + "".join(f"{m},{i},{z}\n" for m, i, z in zip(md[:3], inc, azi)))
+    rc, out, err = run(capsys, "compare", a, a, "--tool-model", "iscwsa-mwd-rev5", "--json")
+    r = json.loads(out)
+    assert rc == 0 and all(s["sigma_d_inc_deg"] > 0 for s in r["stations"]), out + err
+
+
+def test_azimuth_is_not_checked_near_vertical_going_up(tmp_path, capsys):
+    """Near-vertical is I < 0.5 or I > 179.5 deg (docs/conventions.md, the
+    ATT_F_NEAR_VERTICAL flag): compare checked the azimuth of a pair at
+    179.9 deg, where it is undefined, and failed two surveys of an upward
+    hole whose azimuths differ as undefined azimuths do."""
+    a, b = tmp_path / "a.csv", tmp_path / "b.csv"
+    a.write_text("md_m,inc_deg,azi_deg\n0,170,10\n30,179.9,10\n60,179.9,20\n90,179.8,30\n")
+    b.write_text("md_m,inc_deg,azi_deg\n0,170,10\n30,179.9,190\n60,179.9,200\n90,179.8,210\n")
+    rc, out, err = run(capsys, "compare", a, b, "--tool-model", "iscwsa-mwd-rev5", "--json")
+    r = json.loads(out)
+    assert [s["d_azi_deg"] is None for s in r["stations"]] == [False, True, True, True], out
+    assert rc == 0, out + err
+
+
+def test_inclination_spread_at_the_vertical_is_that_of_a_tilt_length(tmp_path, capsys):
+    """At the vertical the inclination is the length of the tilt vector
+    (Rayleigh-distributed, docs/survey.md), so the difference of two
+    surveys' inclinations spreads by sqrt((4 - pi) / 2) = 0.66 of the
+    linearised sigma: compare held vertical pairs to an effective k of 4.6
+    instead of 3.  Pairs drawn with the model's own per-survey tilt spread:
+    |d inc| / sigma has an RMS of 1 at the vertical and off it."""
+    from inclino.survey import compare, geomag, models
+
+    n = 300
+    md = np.arange(n) * 10.0
+    rf = geomag.ReferenceField(0.0, 60.0, 50000.0, 1.0)
+    model = models.ErrorModel(models.load("iscwsa-mwd-rev5"), None, None)
+    for true_inc in (0.0, 3.0):
+        s = compare.expected(model, md, np.full(n, max(true_inc, 1e-3)), np.full(n, 40.0), rf)[0] / np.sqrt(2.0)
+        mean = np.array([np.radians(true_inc), 0.0])
+        tilt = [np.degrees(np.hypot(*(mean[:, None] + np.radians(s) * RNG.standard_normal((2, n))))) for _ in "ab"]
+        files = []
+        for name, inc in zip("ab", tilt):
+            f = tmp_path / f"{name}{true_inc}.csv"
+            f.write_text("md_m,inc_deg,azi_deg\n" + "".join(f"{m},{i},{RNG.uniform(0, 360)}\n" for m, i in zip(md, inc)))
+            files.append(f)
+        rc, out, err = run(capsys, "compare", *files, "--tool-model", "iscwsa-mwd-rev5", "--json")
+        z = np.array([st["d_inc_deg"] / st["sigma_d_inc_deg"] for st in json.loads(out)["stations"]])
+        assert 0.85 < np.sqrt(np.mean(z ** 2)) < 1.15, (true_inc, np.sqrt(np.mean(z ** 2)))

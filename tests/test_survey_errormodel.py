@@ -346,3 +346,72 @@ def test_monte_carlo_ratio_standard_error_matches_its_spread_over_seeds(calibrat
     lo, hi = np.sqrt(chi2.ppf(p, dof) / dof), np.sqrt(chi2.isf(p, dof) / dof)
     assert np.all((spread / se > lo) & (spread / se < hi)), (spread / se, lo, hi)
     assert 0.8 < np.sqrt(np.mean((spread / se) ** 2)) < 1.25, spread / se
+
+
+def test_a_station_straight_up_carries_an_ellipse(tmp_path, capsys):
+    """Inclination 180 is a survey station (docs/conventions.md: I in
+    [0, 180]); welleng asks max inc < the model's limit of 180, and
+    `trajectory --uncertainty` and `compare` refused such a listing (exit 2)
+    with welleng's text about CLC connector arcs.  The station is propagated
+    as 180 - 1e-6 deg: the ellipse is that of a station a hair from it."""
+    import csv
+
+    rows = {}
+    for first in (180.0, 179.999):
+        f = tmp_path / f"up{first}.csv"
+        f.write_text(f"md_m,inc_deg,azi_deg\n0,{first},0\n30,179,10\n60,178,10\n90,177,10\n")
+        out = tmp_path / f"t{first}.csv"
+        rc, o, err = run(capsys, "trajectory", f, "--declination", 2, "--dip", 67, "--field", 49000,
+                         "--uncertainty", "--tool-model", "iscwsa-mwd-rev5", "-o", out)
+        assert rc == 0, err
+        rows[first] = list(csv.DictReader(line for line in open(out) if not line.startswith("#")))
+    for a, b in zip(rows[180.0], rows[179.999]):
+        assert abs(float(a["ell_major_m"]) - float(b["ell_major_m"])) < 1e-3, (a["md_m"], a, b)
+    rc, o, err = run(capsys, "compare", tmp_path / "up180.0.csv", tmp_path / "up180.0.csv", "--tool-model",
+                     "iscwsa-mwd-rev5")
+    assert rc == 0, err
+
+
+def test_what_the_model_lacks_is_said_with_the_fix_that_applies(tmp_path, capsys):
+    """With the standard model and `--ref-terms none` the summary said `no
+    reference field terms (add --tool-model iscwsa-mwd-rev5 for a complete
+    ellipse)`: the model given, the advice void.  It names --ref-terms."""
+    f = tmp_path / "s.csv"
+    f.write_text("md_m,inc_deg,azi_deg\n0,0,0\n30,5,10\n60,10,10\n90,15,10\n")
+    rc, out, err = run(capsys, "trajectory", f, "--declination", 2, "--dip", 67, "--field", 49000, "--uncertainty",
+                       "--tool-model", "iscwsa-mwd-rev5", "--ref-terms", "none", "-o", tmp_path / "o.csv")
+    assert rc == 0, err
+    line = next(x for x in out.splitlines() if x.startswith("error model:"))
+    assert "no reference field terms" in line and "add --tool-model" not in line and "--ref-terms" in line, line
+    rc, out, err = run(capsys, "trajectory", f, "--declination", 2, "--dip", 67, "--field", 49000, "--uncertainty",
+                       "--tool-model", "iscwsa-mwd-rev5", "-o", tmp_path / "o.csv")
+    assert "no " not in next(x for x in out.splitlines() if x.startswith("error model:")).split("terms:")[1], out
+
+
+def test_a_listing_below_the_surface_says_its_tie_in_is_taken_as_exact(tmp_path, capsys):
+    """A listing tied in at MD 3000 m gave the same ellipse as one from the
+    surface (the first station is the origin, without error) and said
+    nothing: a planner read it as the hole's."""
+    f = tmp_path / "s.csv"
+    for md0, said in ((0, False), (3000, True)):
+        f.write_text("md_m,inc_deg,azi_deg\n" + "".join(f"{md0 + 30 * k},{5 * k},10\n" for k in range(4)))
+        rc, out, err = run(capsys, "trajectory", f, "--declination", 2, "--dip", 67, "--field", 49000,
+                           "--uncertainty", "--tool-model", "iscwsa-mwd-rev5", "-o", tmp_path / "o.csv")
+        assert rc == 0, err
+        assert ("MD 3000 m, is the tie-in" in out) == said, out
+
+
+def test_toolmodel_warns_that_upward_holes_are_under_stated(calibration, tmp_path, capsys):
+    """The ISCWSA terms are symmetric about inclination 90; a joint
+    calibration's covariance is not (its bias-scale correlations): the
+    projection's 1-sigma falls to ~0.6 of the covariance's at inclinations
+    120-175, where surveys generated from the covariance scatter 1.35-1.6
+    times the model's 1-sigma, while the Monte Carlo check (5-90 deg) passes.
+    toolmodel said only the overall range of the ratio; its report now
+    names the upward holes and the direction (too small)."""
+    rc, out, err = run(capsys, "toolmodel", "--cal", calibration[1], "--dip", 60, "--field", 50000,
+                       "-o", tmp_path / "tool.json")
+    mags = json.loads((tmp_path / "tool.json").read_text())["inclino"]["fit"]
+    assert mags["sigma_ratio_min_upward"] < 0.8, mags  # the typical probe's joint calibration
+    line = next((x for x in out.splitlines() if x.startswith("warning: upward holes")), "")
+    assert rc == 0 and "too small" in line, out

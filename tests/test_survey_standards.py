@@ -120,3 +120,31 @@ def test_the_field_example_files_read_back(root):
             assert sv.meta["probe_serial"] and sv.meta["calibration_crc"]
         assert conformance((d / f"{name}.las").read_text()) == []
     assert conformance((d / "trajectory-complete.las").read_text()) == []
+
+
+def test_a_las_file_of_another_tool_names_the_curves_it_lacks_and_has(tmp_path, capsys):
+    """Another tool's LAS file (DEVI, HAZI) was refused as a CSV is:
+    `missing column inc_deg, azi_deg (a survey listing needs md_m, ...)`,
+    names no LAS file has.  The line names the curves read (INC; AZI or
+    AZIM, magnetic) and the file's own."""
+    import lasio
+
+    las = lasio.LASFile()
+    las.append_curve("DEPT", np.array([0.0, 100, 200]), unit="F")
+    las.append_curve("DEVI", np.array([0.0, 5, 10]), unit="deg")
+    las.append_curve("HAZI", np.array([45.0, 45, 45]), unit="deg")
+    p = tmp_path / "other.las"
+    las.write(str(p), version=2.0)
+    rc, out, err = run(capsys, "trajectory", p, "--declination", 0, "-o", tmp_path / "o.csv")
+    assert rc == 2 and err.count("\n") == 1, err
+    assert "INC" in err and "AZIM" in err and "DEVI" in err and "HAZI" in err and "md_m" not in err, err
+
+
+def test_a_listing_with_depth_in_feet_is_refused_with_the_fix(tmp_path, capsys):
+    """A CSV listing whose depth column is in feet (md_ft) was refused as
+    missing md_m, without a word about the column it has or what to do."""
+    p = tmp_path / "ft.csv"
+    p.write_text("md_ft,inc_deg,azi_deg\n0,0,0\n100,10,10\n200,20,10\n")
+    rc, out, err = run(capsys, "trajectory", p, "--declination", 0, "-o", tmp_path / "o.csv")
+    assert rc == 2 and err.count("\n") == 1, err
+    assert "md_ft" in err and "0.3048" in err and "DEPT.FT" in err, err

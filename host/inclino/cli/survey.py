@@ -127,11 +127,14 @@ def _field_for(rf, cal=None):
     return dip, tot
 
 
-def _error_model(args, rf=None, default_base=None):
+def _error_model(args, rf=None, default_base=None, add_reference=True):
     """--tool-model / --cal as an inclino.survey.models.ErrorModel: the base
     model (a name or an ISCWSA file; `default_base` when only --cal is
     given), the probe's terms from the calibration (its noise: the fit
-    report's unless given), the reference-field terms."""
+    report's unless given), the reference-field terms (--ref-terms; without
+    it and `add_reference`, the reference's own kind for a model that has
+    none: a position uncertainty needs them, a repeat survey's difference of
+    magnetic azimuths does not)."""
     from inclino.survey import errormodel as em, models
 
     if not (getattr(args, "tool_model", None) or getattr(args, "cal", None)):
@@ -153,7 +156,7 @@ def _error_model(args, rf=None, default_base=None):
         rev = int(base.revision) if base is not None and base.revision < 5 else 5
         probe = em.from_calibration(cal, dip, tot, acc_noise_g=an, mag_noise_nT=mn, noise_source=src, revision=rev)
     m = models.ErrorModel(base, probe, getattr(args, "ref_terms", None))
-    if m.reference is None and not m.has_reference_terms() and rf is not None:
+    if add_reference and m.reference is None and not m.has_reference_terms() and rf is not None:
         m.reference = "srgm" if rf.ref_source.startswith(("IGRF", "WMM")) else "ifr1"
         m.notes.append(f"reference-field terms {m.reference} added (the model has none; --ref-terms sets them)")
     if base is not None:
@@ -279,6 +282,11 @@ def _cmd_toolmodel(args) -> int:
     print(f"projection of the calibration covariance: "
           f"sigma ratio {f['sigma_ratio_min']:.2f}-{f['sigma_ratio_max']:.2f} (RMS {f['sigma_ratio_rms']:.1%} off) "
           f"over {f['attitudes']} attitudes at dip {f['dip_deg']:.2f} deg, {f['field_nT']:.0f} nT")
+    up = f.get("sigma_ratio_min_upward", 1.0)
+    if up < 1.0 - em.MC_LIMIT:
+        print(f"warning: upward holes (inclination above 90 deg): the model's 1-sigma is down to {up:.2f} of the "
+              "calibration covariance's there (its terms are symmetric about 90 deg, the covariance is not): "
+              "ellipses of upward holes are too small")  # a finding of the report; stderr is the verdict's
     mc = f["monte_carlo"]
     print(f"Monte Carlo over the covariance ({mc['draws']} draws, {len(mc['inc_deg'])} attitudes, inclination "
           f"{min(mc['inc_deg']):g}-{max(mc['inc_deg']):g} deg): model/MC 1-sigma inclination "
@@ -340,6 +348,8 @@ def _cmd_trajectory(args) -> int:
     from inclino.survey import models
 
     model = _error_model(args, rf, default_base=models.DEFAULT_BASE) if args.uncertainty else None
+    if model is not None and len(sv) and sv.md_m[0] > 0:
+        model.notes.append(tie_in_note(float(sv.md_m[0])))
     with progress.phase(f"trajectory of {len(sv)} stations"):
         tr = wp.trajectory(sv, rf, model)
     with progress.phase(f"writing {len(tr)} stations"):
@@ -382,6 +392,13 @@ def _cmd_trajectory(args) -> int:
     return 1 if (args.fail_on_qc and s["qc_fail"]) else 0
 
 
+def tie_in_note(md0: float) -> str:
+    """A listing that starts below the surface: its first station is the
+    tie-in, taken as exact (the hole above it is not in the listing)."""
+    return (f"the first station, MD {md0:g} m, is the tie-in: its position is taken as exact, so the ellipses hold "
+            "the error from it down, not the hole's above it (add the tie-in's own covariance)")
+
+
 def _cmd_compare(args) -> int:
     _field_options(args)
     from inclino.survey import compare as cmp
@@ -393,7 +410,7 @@ def _cmd_compare(args) -> int:
     with progress.phase("reading the two survey listings"):  # long work shows its progress on stderr
         a, b = wp.read_survey(args.first), wp.read_survey(args.second)
     rf = _reference(args) if (args.lat is not None or args.ref or args.declination is not None) else None
-    model = _error_model(args, rf)
+    model = _error_model(args, rf, add_reference=False)  # the reference sets dip and field; --ref-terms adds its terms
     fit = model.probe or (model.base.inclino if model.base is not None else None)
     dip = rf.dip_deg if rf is not None and math.isfinite(rf.dip_deg) else \
         args.dip if args.dip is not None else (fit.fit.get("dip_deg", 60.0) if fit else 60.0)
@@ -525,6 +542,10 @@ def add_parser(sub) -> None:
     p.add_argument("--mag-noise", type=float, help="with --cal: fluxgate noise per survey and axis, nT "
                                                    "(default: the calibration's fit report)")
     _add_reference(p, grid=False)
+    p.add_argument("--ref-terms", choices=("none", "srgm", "ifr1"),
+                   help="reference-field terms in place of the model's: their random terms (DECR, DBHR) enter the "
+                        "expected spread (default: the model's own; none for --cal alone, whatever reference is "
+                        "given)")
     p.add_argument("--two-probes", action="store_true", help="two probes: every sensor term differs")
     p.add_argument("--k", type=float, default=3.0, help="pass within k x the expected sigma (default %(default)g)")
     p.add_argument("--md-tol", type=float, default=0.5,

@@ -74,13 +74,20 @@ def counts(code: str, propagation: str, two_probes: bool) -> bool:
 # here), so a long survey goes through in stretches of bounded memory
 # (welleng holds some 13 kB per station and term set: 10^5 pairs at once took 1.3 GB)
 CHUNK = 5000
-MIN_STATIONS = 4  # per call of the error model
+NEAR_VERTICAL_DEG = 0.5  # azimuth undefined within this of vertical, down or up (ATT_F_NEAR_VERTICAL)
+MIN_STATIONS = 4  # per call of the error model: welleng on 3 stations gives the first a zero and the last a
+# negative variance; a shorter survey is called with stations added below its last
 
 
 def expected(model, md, inc, azi, rf, two_probes=False, fallback=(60.0, 50000.0), chunk: int = CHUNK):
     """1-sigma (deg) of the inclination and azimuth difference between two
     surveys at each station (md increasing), from the model's terms."""
     n = len(md)
+    if 1 < n < MIN_STATIONS:  # fewer than the error model needs: stations below the last, their results unused
+        k = MIN_STATIONS - n
+        si, sa = expected(model, np.r_[md, md[-1] + 10.0 * np.arange(1, k + 1)], np.r_[inc, np.full(k, inc[-1])],
+                          np.r_[azi, np.full(k, azi[-1])], rf, two_probes, fallback, chunk)
+        return si[:n], sa[:n]
     vi = np.zeros(n)
     va = np.zeros(n)
     for lo in range(0, n, chunk):
@@ -129,9 +136,11 @@ def compare(a, b, model, rf, k: float = 3.0, md_tol: float = 0.5, two_probes: bo
     si, sa = expected(model, np.r_[md[0] - 10.0, md] if pad else md, np.r_[inc[0], inc] if pad else inc,
                       np.r_[azi[0], azi] if pad else azi, rf, two_probes, fallback)
     si, sa = (si[1:], sa[1:]) if pad else (si, sa)
+    si = tilt_length_sigma(si, a.inc_deg[ia], b.inc_deg[ib])
     for n, (i, j) in enumerate(pairs):
         d_inc = float(b.inc_deg[j] - a.inc_deg[i])
-        azi_defined = math.isfinite(sa[n]) and min(a.inc_deg[i], b.inc_deg[j]) >= 0.5
+        azi_defined = (math.isfinite(sa[n]) and min(a.inc_deg[i], b.inc_deg[j]) >= NEAR_VERTICAL_DEG
+                       and max(a.inc_deg[i], b.inc_deg[j]) <= 180.0 - NEAR_VERTICAL_DEG)
         ok_i = abs(d_inc) <= k * si[n]
         ok_a = (abs(d_azi[n]) <= k * sa[n]) if azi_defined else True
         res.stations.append({"md_m": float(md[n]), "md_out_m": float(b.md_m[j]), "inc_deg": float(a.inc_deg[i]),
@@ -148,6 +157,29 @@ def compare(a, b, model, rf, k: float = 3.0, md_tol: float = 0.5, two_probes: bo
                    "d_azi_rms_deg": _rms([s["d_azi_deg"] for s in res.stations]),
                    "error_model": model.describe()}
     return res
+
+
+def tilt_length_sigma(sigma_d, inc_a, inc_b):
+    """1-sigma of the inclination difference with the inclination taken as
+    what it is, the length of the tilt vector from the vertical (down or
+    up): Rice-distributed, its spread sqrt((4 - pi) / 2) = 0.66 of the
+    linearised one at the vertical, the linearised one a few sigma off it.
+    sigma_d: the linearised 1-sigma of the difference (sqrt 2 x each
+    survey's spread per tilt axis); the true tilt's square estimated from
+    the two surveys' (their mean square less the noise's 2 s^2)."""
+    from scipy.special import i0e, i1e
+
+    sigma_d = np.asarray(sigma_d, float)
+    s = sigma_d / math.sqrt(2.0)
+    off_a = np.minimum(inc_a, 180.0 - np.asarray(inc_a, float))  # from the vertical, down or up
+    off_b = np.minimum(inc_b, 180.0 - np.asarray(inc_b, float))
+    tilt2 = np.maximum(0.5 * (off_a ** 2 + off_b ** 2) - 2.0 * s * s, 0.0)
+    with np.errstate(divide="ignore", invalid="ignore", over="ignore"):
+        y = tilt2 / (4.0 * s * s)  # the Rice mean: s sqrt(pi/2) L_1/2(-2y), L_1/2(-2y) = (1 + 2y) i0e(y) + 2y i1e(y)
+        mean = s * math.sqrt(math.pi / 2.0) * ((1.0 + 2.0 * y) * i0e(y) + 2.0 * y * i1e(y))
+        out = np.sqrt(2.0 * np.maximum(2.0 * s * s + tilt2 - mean * mean, 0.0))
+    # beyond ~100 sigma off the vertical the linearised spread is exact to 1e-3 (and the formula cancels digits)
+    return np.where(np.isfinite(out) & (s > 0) & (y < 1e4), np.minimum(out, sigma_d), sigma_d)
 
 
 def pair_stations(md_a, md_b, md_tol):

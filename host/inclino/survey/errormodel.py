@@ -381,6 +381,9 @@ def project(cal, cov, dip, field_nT, gravity=1.0):
     fit = {"attitudes": int(len(inc)), "toolfaces": int(len(tfs)), "dip_deg": float(dip),
            "field_nT": float(field_nT), "sigma_ratio_rms": float(np.sqrt(np.mean(rel ** 2))),
            "sigma_ratio_min": float(1 + rel.min()), "sigma_ratio_max": float(1 + rel.max())}
+    up = np.concatenate([inc > 90.0, inc > 90.0])[keep]
+    # the terms are symmetric about 90 deg, a covariance with bias-scale correlations is not: the side it misses
+    fit["sigma_ratio_min_upward"] = float(1 + rel[up].min()) if up.any() else 1.0
     return mags, fit
 
 

@@ -305,8 +305,17 @@ class ErrorModel:
                    if not fam.get(f)]
         s = f"error model: {what}; terms: {', '.join(have)}"
         if missing:
-            s += f"; no {', '.join(missing)} terms (add --tool-model iscwsa-mwd-rev5 for a complete ellipse)"
+            s += f"; no {', '.join(missing)} terms ({self._missing_hint(missing)})"
         return s
+
+    def _missing_hint(self, missing) -> str:
+        """What puts the missing terms in: a standard model for the probe's
+        terms alone; --ref-terms for reference terms it took out."""
+        if self.base is None:
+            return "add --tool-model iscwsa-mwd-rev5 for a complete ellipse"
+        if missing == ["reference field"] and self.reference == "none":
+            return "--ref-terms none took them out; srgm or ifr1 puts them in"
+        return f"{self.base.label} has none"
 
     # ------------------------------------------------------------ propagation
     def propagate(self, md, inc, azi_mag, rf, fallback=(60.0, 50000.0)) -> "Propagation":
@@ -322,7 +331,7 @@ class ErrorModel:
             with warnings.catch_warnings():
                 warnings.simplefilter("ignore")
                 try:
-                    ws = welleng_survey(md, inc, azi_mag, rf, model, fallback)
+                    ws = welleng_survey(md, error_model_inc(inc), azi_mag, rf, model, fallback)
                 except (ValueError, AssertionError, ArithmeticError, KeyError, IndexError, TypeError,
                         np.linalg.LinAlgError) as e:
                     raise DataError(f"the survey cannot be computed with {part} model: {e}")
@@ -383,6 +392,17 @@ class ErrorModel:
         params = dict(self.base.model.get("parameters", {})) if isinstance(self.base.model, dict) else \
             dict((_json_of_name(self.base.model) or {}).get("parameters", {"inc_min": 0, "inc_max": 180}))
         return {"metadata": meta, "parameters": params, "terms": keep}
+
+
+# welleng refuses a model at its own inclination limit (it asks max inc < the model's 180): a station straight up,
+# inclination 180 (docs/conventions.md: I in [0, 180]), is propagated as this close to it (1.7e-8 rad: the error
+# terms' weights are continuous there; the positions are welleng's of the station itself)
+INC_MAX_PROPAGATED = 180.0 - 1e-6
+
+
+def error_model_inc(inc):
+    """The inclinations (deg) the error model is evaluated at: the station's, 180 as INC_MAX_PROPAGATED."""
+    return np.minimum(np.asarray(inc, float), INC_MAX_PROPAGATED)
 
 
 @dataclass

@@ -149,16 +149,30 @@ def _rows_to_survey(rows: list[dict], path: str, meta: dict) -> Survey:
     return _cols_to_survey(cols, len(rows), path, meta, utc_text=utc_text)
 
 
-def _cols_to_survey(cols: dict, n: int, path: str, meta: dict, lines=None, utc_text=None) -> Survey:
+def _depth_hint(cols, missing: list) -> str:
+    """For a listing without md_m: the depth column it has instead, and how
+    to give it (a CSV's depth is in metres; LAS files carry their unit)."""
+    if "md_m" not in missing:
+        return ""
+    other = [k for k in cols if str(k).lower().startswith(("md", "depth", "dept"))]
+    if not other:
+        return ""
+    return (f"; it has {', '.join(other)}: give the depth in metres as md_m (feet x 0.3048, US survey feet x "
+            "1200/3937), or as a LAS file whose depth curve states its unit (DEPT.FT)")
+
+
+def _cols_to_survey(cols: dict, n: int, path: str, meta: dict, lines=None, utc_text=None, columns=None) -> Survey:
     """A survey from its columns (lists of cells or float arrays, n
-    stations; `lines`: each station's line in the file, for the errors),
+    stations; `lines`: each station's line in the file, for the errors;
+    `columns`: every column the file has, for the error naming them),
     every value by its rule (RULES), in linear time."""
     if not n:
         raise DataError(f"{path}: no survey stations")
     azk = "azi_deg" if "azi_deg" in cols else "azi_mag_deg" if "azi_mag_deg" in cols else None
     missing = [k for k, v in (("md_m", "md_m" in cols), ("inc_deg", "inc_deg" in cols), ("azi_deg", azk)) if not v]
     if missing:
-        raise DataError(f"{path}: missing column {', '.join(missing)} (a survey listing needs md_m, inc_deg, azi_deg)")
+        raise DataError(f"{path}: missing column {', '.join(missing)} (a survey listing needs md_m, inc_deg, azi_deg)"
+                        + _depth_hint(columns if columns is not None else cols, missing))
     md = _numbers(cols["md_m"], "md_m", path, lines)
     inc = _numbers(cols["inc_deg"], "inc_deg", path, lines, md)
     azi = _numbers(cols[azk], azk, path, lines, md)
@@ -231,7 +245,8 @@ def concat(surveys: list) -> Survey:
 
 def _read_csv(text: str, path: str) -> Survey:
     cols, n, lines, meta = _csv_columns(text, path, ("md_m", "inc_deg", "azi_deg", "azi_mag_deg") + EXTRA)
-    return _cols_to_survey(cols, n, path, meta, lines=lines)
+    header = next((ln for ln in text.splitlines() if ln.strip() and not ln.lstrip().startswith("#")), "")
+    return _cols_to_survey(cols, n, path, meta, lines=lines, columns=[h.strip() for h in header.split(",")])
 
 
 def _csv_lines(text: str, meta: dict, numbers: list):
@@ -365,6 +380,17 @@ LAS_META = {"PSERIAL": "probe_serial", "PRODUCT": "product", "FWVER": "firmware"
             "CALSEQ": "calibration_sequence", "CALCRC": "calibration_crc", "TSTART": "start_utc"}
 
 
+def _las_survey_curves(curves: dict, path: str) -> None:
+    """A LAS listing names inclination INC and magnetic azimuth AZI or AZIM;
+    another tool's file (DEVI, HAZI, ...) is refused naming the curves it
+    has, not a CSV's columns."""
+    lack = [w for w, names in (("inclination INC", ("INC",)), ("magnetic azimuth AZI or AZIM", ("AZI", "AZIM")))
+            if not any(n in curves for n in names)]
+    if lack:
+        raise DataError(f"{path}: no {' and no '.join(lack)} curve (its curves: {', '.join(curves)}); a file of "
+                        "another tool needs its curves renamed, its azimuth referred to magnetic north")
+
+
 def _read_las(text: str, path: str) -> Survey:
     from inclino.formats import las as lasfmt
 
@@ -378,6 +404,7 @@ def _read_las(text: str, path: str) -> Survey:
             break
     if md is None:
         raise DataError(f"{path}: no measured-depth curve (DEPT, DEPTH or MD)")
+    _las_survey_curves(curves, path)
     n = len(md)
     rows = [{"md_m": md[i]} for i in range(n)]
     for m, key in {**LAS_CURVES, "TIME": "utc_s"}.items():
