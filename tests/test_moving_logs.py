@@ -185,3 +185,26 @@ def test_a_step_and_hold_log_a_stepped_turn_and_a_wand_keep_their_own_reasons(te
     wand = np.column_stack([np.sin(t), np.full(len(t), 0.1), np.cos(t)]) + rng.normal(0, 0.03, (len(t), 3))
     f = motion.figures(raw(wand))
     assert f is not None and f["direction_spread"] < motion.PLENTY_EIG and motion.named(raw(wand)) is None
+
+
+def test_a_phone_turned_through_the_sphere_by_hand_is_refused_naming_the_motion(tmp_path, capsys):
+    """An iPhone's raw accelerometer and magnetometer turned by hand
+    (iphone_sensor_logger: two files paired by time).  Its directions reach
+    every octant and alone determine an ellipsoid as well as directions
+    spread evenly (condition number 15.5 at the unit sphere), but their
+    least second moment is 0.07, below PLENTY_EIG: the refusal blamed the
+    orientations ("they cover too little of the sphere"), which its 1 250
+    rows near 1 g refute (they fit an ellipsoid to 2-4 mg in offset).  It
+    names the hand's motion and the fix."""
+    ds = _import("iphone_sensor_logger", "AccelerometerUncalibrated.csv")
+    f = motion.figures(ds)
+    assert f is not None and f["direction_spread"] < motion.PLENTY_EIG and f["direction_cond"] < 20
+    run, cal = tmp_path / "run.csv", tmp_path / "cal.json"
+    dataset.write_raw(str(run), ds)
+    assert main(["calibrate", str(run), "-o", str(cal)]) == 3
+    err = capsys.readouterr().err
+    errors = [line for line in err.splitlines() if line.startswith("inclino: error:")]
+    assert len(errors) == 1 and "Traceback" not in err, err
+    line = errors[0]
+    assert "the accelerometer moved while it was read" in line and "cover too little" not in line, line
+    assert "hold the device still at each orientation" in line and not cal.exists()
