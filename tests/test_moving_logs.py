@@ -208,3 +208,22 @@ def test_a_phone_turned_through_the_sphere_by_hand_is_refused_naming_the_motion(
     line = errors[0]
     assert "the accelerometer moved while it was read" in line and "cover too little" not in line, line
     assert "hold the device still at each orientation" in line and not cal.exists()
+
+
+def test_diagnose_of_the_hand_moved_phone_names_the_motion_where_it_leaves_effects_unnamed(tmp_path, capsys):
+    """diagnose of the same phone log leaves two accelerometer nonlinearities
+    unnamed because the calibration refuses the data; it gave the refusal's
+    old reason ("they cover too little of the sphere") and its fix (turn
+    the sensor through more of the sphere), which the rows refute, while
+    its own last lines named the motion.  Its "not named" lines now give the
+    motion and the motion's fix."""
+    ds = _import("iphone_sensor_logger", "AccelerometerUncalibrated.csv")
+    run = tmp_path / "run.csv"
+    dataset.write_raw(str(run), ds)
+    assert main(["diagnose", str(run)]) == 0
+    out = capsys.readouterr().out
+    lines = [line for line in out.splitlines() if line.startswith("not named:")]
+    assert lines and "Traceback" not in out, out
+    for line in lines:
+        assert "the accelerometer moved while it was read" in line and "cover too little" not in line, line
+        assert line.endswith("to tell, " + motion.FIX), line
