@@ -146,7 +146,7 @@ def named(ds, what: str = "the accelerometer") -> str | None:
            if f["holds"] else "no hold found")
     return (f"{what} moved while it was read: {_text(f)}: the hand's own acceleration, not the orientations "
             f"(their directions span the sphere: spread {f['direction_spread']:.2f}, 1/3 for every direction; they "
-            f"alone determine an ellipsoid to a condition number of {f['direction_cond']:.3g}, 15 for every "
+            f"alone determine an ellipsoid to a condition number of {f['direction_cond']:.3g}, 2.5 for every "
             f"direction), keeps "
             f"{what}'s ellipsoid from being determined ({few}); {FIX}; no calibration written")
 

@@ -49,7 +49,7 @@ def direction_cond(v) -> float:
     """The scale-free condition number of a sphere fit's normal matrix at
     the unit sphere, on the readings' directions: how well their
     orientations alone, without noise or motion, determine an ellipsoid
-    (about 15 evenly over the sphere, 3e2 over a hemisphere, 2e4 over a
+    (2.5 evenly over the sphere, 15 with a cap of 60 degrees missing, 3e2 over a hemisphere, 2e4 over a
     cap of 60 degrees, unbounded within one plane)."""
     v = np.asarray(v, float)
     u = v / np.maximum(np.linalg.norm(v, axis=1, keepdims=True), 1e-300)
