@@ -795,7 +795,8 @@ def _axes_and_lag(ds, rows_all, rep, ug_src=None):
     # acceleration, over the rows read at rest, and there also the size of the vector (at one orientation
     # |v| is constant whatever the offset): an NGIMU log of four holds at one orientation, 155 rows moved
     # between them, |a| varying by 36 %, had its turned gravity sign left unchecked against the header's dip
-    for ok, v, size in ((ok_g, None if ug_src is not None else ds.acc[block], G), (ok_b, ds.mag[block], F)):
+    for kind, ok, v, size in (("acc", ok_g, None if ug_src is not None else ds.acc[block], G),
+                              ("mag", ok_b, ds.mag[block], F)):
         if not ok and v is not None:
             n = np.linalg.norm(v, axis=1)
             small = np.std(n) <= RAW_DIRS_MAX_CV * np.mean(n)
@@ -805,6 +806,19 @@ def _axes_and_lag(ds, rows_all, rep, ug_src=None):
                 small = np.std(n) <= RAW_DIRS_MAX_CV * np.mean(n) \
                     and abs(np.median(n) / size - 1.0) <= RAW_DIRS_MAX_CV
             if not small:
+                moved = None
+                if kind == "acc":
+                    from inclino import holds
+                    from inclino.calib import motion
+
+                    moved = motion.figures(ds)
+                # a sensor swung by hand reads |a| far from 1 g on most rows: the hand's acceleration, not an
+                # offset, keeps its raw directions from being gravity's (a VN-100 tumbled at 40 Hz, |a| 0.42-1.96 g,
+                # its magnetometer's offsets 6 % of the field, was said to have "offsets too large")
+                why = ("and the accelerometer's |g| as logged spreads {:.2g} g (robust 1 sigma, changing by {:.3g} mg "
+                       "within {} rows): the hand's acceleration, so its raw directions are not gravity's".format(
+                           moved["acc_norm_spread_g"], 1e3 * moved["acc_norm_jitter_g"], holds.HOLD_ROWS)
+                       if moved is not None else "and offsets too large to compare raw directions")
                 rep.findings.append(Finding("axes", "note", (
                     "the axes and the pairing of the triads were not checked"
                     + (", nor the gravity sign against the header's dip" if _dip_sign_known(ds) and ug_src is None
@@ -812,7 +826,7 @@ def _axes_and_lag(ds, rows_all, rep, ug_src=None):
                     # (not "too few orientations" alone: an x-IMU shaken through every direction was said
                     # to have too few)
                     + ": no ellipsoid fits the readings (too few orientations, or a moving sensor's "
-                      "acceleration), and offsets too large to compare raw directions"), None, {}))
+                      "acceleration), " + why), None, {}))
                 return
     spreads, dips = {}, {}
     for P in signed_permutations():
