@@ -1332,11 +1332,20 @@ def _weak_handedness(ug, ub, spreads, dips, best, ident, other, ds, rep):
     mirrors = {a: spreads[tuple(np.diag([-1.0 if j == a else 1.0 for j in range(3)]).ravel())] for a in range(3)}
     a = min(mirrors, key=mirrors.get)
     if s_id > 0 and mirrors[a] < HAND_NOTE_RATIO * s_id:
+        from inclino.calib import motion
+
+        moved = motion.figures(ds) if getattr(ds, "has_acc", False) else None
+        # a sensor turned through the sphere by hand tilts enough; the hand's acceleration, in every row, scatters
+        # the dip more than a mirror changes it (an iPhone turned through every octant, |g| spread 0.05 g, was said
+        # to hardly tilt)
+        why = (f"the sensor moved while it was read ({100 * moved['moving_share']:.0f} % of the rows; |g| as logged "
+               f"spreads {moved['acc_norm_spread_g']:.2g} g): the hand's acceleration scatters the dip as much as a "
+               f"mirrored axis would change it" if moved is not None and moved["direction_cond"] <= motion.PLENTY_COND else
+               "the sensor hardly tilts through the orientations that would show a mirrored axis")
         rep.findings.append(Finding("handedness", "note", (
             f"the handedness of the triads was checked on too little: the dip angle spreads {s_id:.3g} deg with the "
             f"axes as given, {mirrors[a]:.3g} deg with the magnetometer's {'xyz'[a]} axis mirrored (an error needs "
-            f"{AXES_RATIO:g}x): the sensor hardly tilts through the orientations that would show a mirrored axis; a "
-            f"mirrored axis may pass unnamed"), None, {"dip_spread_declared_deg": s_id,
+            f"{AXES_RATIO:g}x): {why}; a mirrored axis may pass unnamed"), None, {"dip_spread_declared_deg": s_id,
                                                         "dip_spread_mirrored_deg": {'xyz'[k]: v for k, v in mirrors.items()}}))
 
 
