@@ -230,12 +230,11 @@ def test_diagnose_of_the_hand_moved_phone_names_the_motion_where_it_leaves_effec
         assert line.endswith("to tell, " + motion.FIX), line
 
 
-def test_a_log_swung_hard_by_hand_is_not_said_to_have_large_offsets(tmp_path, capsys):
-    """A sensor tumbled by hand with 0.45 g of the hand's acceleration (as a
-    VN-100 log at 40 Hz, |a| 0.42-1.96 g): no ellipsoid fits the
-    accelerometer and its raw directions are not compared.  The note said
-    "offsets too large to compare raw directions", which the data refute
-    (the offsets are 0; |a| varies with the motion); it names the motion."""
+def _swung(tmp_path, acc_scale=1.0):
+    """A sensor tumbled by hand at 40 rows/s with 0.45 g of the hand's
+    acceleration (as a VN-100 log, |a| 0.42-1.96 g), both triads, no
+    offsets; the accelerometer logged times acc_scale (9.80665: m/s2).
+    Returns (log, description declaring g and nT, the site's dip)."""
     from scipy.ndimage import gaussian_filter1d
     from scipy.spatial.transform import Rotation
 
@@ -253,19 +252,40 @@ def test_a_log_swung_hard_by_hand_is_not_said_to_have_large_offsets(tmp_path, ca
     acc = R.inv().apply(np.array([0, 0, -1.0]) + hand) + rng.normal(0, 0.002, (n, 3))  # reads up (NED)
     mag = R.inv().apply(51182 * np.array([np.cos(dip), 0, np.sin(dip)])) + rng.normal(0, 50, (n, 3))
     log = tmp_path / "moving.csv"
-    np.savetxt(log, np.column_stack([np.arange(n) / 40, acc, mag]), delimiter=",", comments="",
+    np.savetxt(log, np.column_stack([np.arange(n) / 40, acc * acc_scale, mag]), delimiter=",", comments="",
                header="t,ax,ay,az,mx,my,mz", fmt="%.6f")
     desc = tmp_path / "s.toml"
     desc.write_text('[log]\ntime = "t"\ntime_unit = "s"\n[accelerometer]\ncolumns = ["ax", "ay", "az"]\n'
                     'unit = "g"\nreads = "up"\naxes = "x = ax, y = ay, z = az"\n[magnetometer]\n'
                     'columns = ["mx", "my", "mz"]\nunit = "nT"\naxes = "x = mx, y = my, z = mz"\n'
                     '[header]\nfield_nT = 51182\ndip_deg = 66.2\n')
+    return log, desc
+
+
+def test_a_log_swung_hard_by_hand_is_not_said_to_have_large_offsets(tmp_path, capsys):
+    """A sensor tumbled by hand (_swung): no ellipsoid fits the
+    accelerometer and its raw directions are not compared.  The note said
+    "offsets too large to compare raw directions", which the data refute
+    (the offsets are 0; |a| varies with the motion); it names the motion."""
+    log, desc = _swung(tmp_path)
     assert main(["import", str(log), "--sensor", str(desc), "-o", str(tmp_path / "run.csv")]) == 0
     cap = capsys.readouterr()
     err = cap.out + cap.err
     line = next((x for x in err.splitlines() if "the axes and the pairing of the triads were not checked" in x), err)
     assert "offsets too large" not in line and "the hand's acceleration" in line, line
     assert "the accelerometer's |g| as logged spreads 0." in line, line
+
+
+def test_a_log_swung_by_hand_in_m_s2_declared_g_is_not_said_to_have_hardly_turned(tmp_path, capsys):
+    """The same log in m/s2 declared g: the unit is named (exit 2), but the
+    sphere through the readings was said undetermined by "a sensor that
+    hardly turned", of a sensor tumbled through every direction; the hand's
+    acceleration is named beside it."""
+    log, desc = _swung(tmp_path, 9.80665)
+    assert main(["import", str(log), "--sensor", str(desc), "-o", str(tmp_path / "run.csv")]) == 2
+    err = capsys.readouterr().err
+    line = next(x for x in err.splitlines() if x.startswith("inclino: error:"))
+    assert 'unit = "m/s2"' in line and "or one moved by hand" in line, line
 
 
 def test_the_phone_turned_through_every_octant_is_not_said_to_hardly_tilt(capsys):

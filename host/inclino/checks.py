@@ -685,8 +685,13 @@ def _size(v, plausible, sym: str, unit: str, shell_only: bool = False) -> tuple:
         return med, f"the median |{sym}|", med, None
     R = sph[1]
     if not on_shell(v, sph) and (shell_only or (plausible(med) and not plausible(R))):
+        # (the accelerometer's readings also leave gravity's shell with a hand's acceleration: a VN-100 tumbled
+        # through every direction, |a| 0.42-1.96 g, was said to have hardly turned)
+        cause = ("the readings (a sensor that hardly turned, or one moved by hand: its acceleration moves the "
+                 "readings off gravity's sphere)" if shell_only else
+                 "their orientations (a sensor that hardly turned)")
         return med, (f"the median |{sym}|; the sphere through the readings, radius {R:.4g} {unit}, is not "
-                     f"determined by their orientations (a sensor that hardly turned)"), med, None
+                     f"determined by {cause}"), med, None
     return R, "the radius of the sphere the readings lie on", med, sph
 
 
