@@ -1343,9 +1343,10 @@ def _weak_handedness(ug, ub, spreads, dips, best, ident, other, ds, rep):
         # a sensor turned through the sphere by hand tilts enough; the hand's acceleration, in every row, scatters
         # the dip more than a mirror changes it (an iPhone turned through every octant, |g| spread 0.05 g, was said
         # to hardly tilt)
+        tilts = moved is not None and moved["direction_cond"] <= motion.PLENTY_COND
         why = (f"the sensor moved while it was read ({100 * moved['moving_share']:.0f} % of the rows; |g| as logged "
                f"spreads {moved['acc_norm_spread_g']:.2g} g): the hand's acceleration scatters the dip as much as a "
-               f"mirrored axis would change it" if moved is not None and moved["direction_cond"] <= motion.PLENTY_COND else
+               f"mirrored axis would change it" if tilts else
                "the sensor hardly tilts through the orientations that would show a mirrored axis")
         rep.findings.append(Finding("handedness", "note", (
             f"the handedness of the triads was checked on too little: the dip angle spreads {s_id:.3g} deg with the "
