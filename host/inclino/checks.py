@@ -708,8 +708,13 @@ def _size(v, plausible, sym: str, unit: str, shell_only: bool = False) -> tuple:
         return med, f"the median |{sym}|", med, None
     R = sph[1]
     if not on_shell(v, sph) and (shell_only or (plausible(med) and not plausible(R))):
+        # (the accelerometer's readings also leave gravity's shell with a hand's acceleration: a VN-100 tumbled
+        # through every direction, |a| 0.42-1.96 g, was said to have hardly turned)
+        cause = ("the readings (a sensor that hardly turned, or one moved by hand: its acceleration moves the "
+                 "readings off gravity's sphere)" if shell_only else
+                 "their orientations (a sensor that hardly turned)")
         return med, (f"the median |{sym}|; the sphere through the readings, radius {R:.4g} {unit}, is not "
-                     f"determined by their orientations (a sensor that hardly turned)"), med, None
+                     f"determined by {cause}"), med, None
     return R, "the radius of the sphere the readings lie on", med, sph
 
 
@@ -818,7 +823,8 @@ def _axes_and_lag(ds, rows_all, rep, ug_src=None):
     # acceleration, over the rows read at rest, and there also the size of the vector (at one orientation
     # |v| is constant whatever the offset): an NGIMU log of four holds at one orientation, 155 rows moved
     # between them, |a| varying by 36 %, had its turned gravity sign left unchecked against the header's dip
-    for ok, v, size in ((ok_g, None if ug_src is not None else ds.acc[block], G), (ok_b, ds.mag[block], F)):
+    for kind, ok, v, size in (("acc", ok_g, None if ug_src is not None else ds.acc[block], G),
+                              ("mag", ok_b, ds.mag[block], F)):
         if not ok and v is not None:
             n = np.linalg.norm(v, axis=1)
             small = np.std(n) <= RAW_DIRS_MAX_CV * np.mean(n)
@@ -828,6 +834,19 @@ def _axes_and_lag(ds, rows_all, rep, ug_src=None):
                 small = np.std(n) <= RAW_DIRS_MAX_CV * np.mean(n) \
                     and abs(np.median(n) / size - 1.0) <= RAW_DIRS_MAX_CV
             if not small:
+                moved = None
+                if kind == "acc":
+                    from inclino import holds
+                    from inclino.calib import motion
+
+                    moved = motion.figures(ds)
+                # a sensor swung by hand reads |a| far from 1 g on most rows: the hand's acceleration, not an
+                # offset, keeps its raw directions from being gravity's (a VN-100 tumbled at 40 Hz, |a| 0.42-1.96 g,
+                # its magnetometer's offsets 6 % of the field, was said to have "offsets too large")
+                why = ("and the accelerometer's |g| as logged spreads {:.2g} g (robust 1 sigma, changing by {:.3g} mg "
+                       "within {} rows): the hand's acceleration, so its raw directions are not gravity's".format(
+                           moved["acc_norm_spread_g"], 1e3 * moved["acc_norm_jitter_g"], holds.HOLD_ROWS)
+                       if moved is not None else "and offsets too large to compare raw directions")
                 rep.findings.append(Finding("axes", "note", (
                     "the axes and the pairing of the triads were not checked"
                     + (", nor the gravity sign against the header's dip" if _dip_sign_known(ds) and ug_src is None
@@ -835,7 +854,7 @@ def _axes_and_lag(ds, rows_all, rep, ug_src=None):
                     # (not "too few orientations" alone: an x-IMU shaken through every direction was said
                     # to have too few)
                     + ": no ellipsoid fits the readings (too few orientations, or a moving sensor's "
-                      "acceleration), and offsets too large to compare raw directions"), None, {}))
+                      "acceleration), " + why), None, {}))
                 return
     spreads, dips = {}, {}
     for P in signed_permutations():
@@ -1341,11 +1360,21 @@ def _weak_handedness(ug, ub, spreads, dips, best, ident, other, ds, rep):
     mirrors = {a: spreads[tuple(np.diag([-1.0 if j == a else 1.0 for j in range(3)]).ravel())] for a in range(3)}
     a = min(mirrors, key=mirrors.get)
     if s_id > 0 and mirrors[a] < HAND_NOTE_RATIO * s_id:
+        from inclino.calib import motion
+
+        moved = motion.figures(ds) if getattr(ds, "has_acc", False) else None
+        # a sensor turned through the sphere by hand tilts enough; the hand's acceleration, in every row, scatters
+        # the dip more than a mirror changes it (an iPhone turned through every octant, |g| spread 0.05 g, was said
+        # to hardly tilt)
+        tilts = moved is not None and moved["direction_cond"] <= motion.PLENTY_COND
+        why = (f"the sensor moved while it was read ({100 * moved['moving_share']:.0f} % of the rows; |g| as logged "
+               f"spreads {moved['acc_norm_spread_g']:.2g} g): the hand's acceleration scatters the dip as much as a "
+               f"mirrored axis would change it" if tilts else
+               "the sensor hardly tilts through the orientations that would show a mirrored axis")
         rep.findings.append(Finding("handedness", "note", (
             f"the handedness of the triads was checked on too little: the dip angle spreads {s_id:.3g} deg with the "
             f"axes as given, {mirrors[a]:.3g} deg with the magnetometer's {'xyz'[a]} axis mirrored (an error needs "
-            f"{AXES_RATIO:g}x): the sensor hardly tilts through the orientations that would show a mirrored axis; a "
-            f"mirrored axis may pass unnamed"), None, {"dip_spread_declared_deg": s_id,
+            f"{AXES_RATIO:g}x): {why}; a mirrored axis may pass unnamed"), None, {"dip_spread_declared_deg": s_id,
                                                         "dip_spread_mirrored_deg": {'xyz'[k]: v for k, v in mirrors.items()}}))
 
 

@@ -42,6 +42,7 @@ from inclino import holds
 MOVING_SHARE = 1.0 - holds.STEP_AND_HOLD_FRACTION  # more than this share of the rows read while moving
 MOTION_K = 3.0     # the moving rows' |g| residual spread over the holds' own, under the holds' fit: a hand's motion
 PLENTY_EIG = 0.1   # readings whose directions' least second moment is at least this span the sphere (1/3: evenly)
+PLENTY_COND = 1e3  # ... or whose directions alone determine an ellipsoid to this condition number (a hemisphere: 3e2)
 
 
 def _robust_sd(x) -> float:
@@ -59,7 +60,7 @@ def figures(ds) -> dict | None:
     pose id, declared static, without an accelerometer, whose holds hold at
     least half its rows, or whose |g| changes within HOLD_ROWS rows by no
     more than HOLD_K times the noise."""
-    from .triad import direction_spread
+    from .triad import direction_cond, direction_spread
 
     if not getattr(ds, "has_acc", False) or len(ds) < holds.HOLD_ROWS or holds.labelled(ds) \
             or holds.declared_static(ds):
@@ -79,7 +80,7 @@ def figures(ds) -> dict | None:
         return None
     return {"rows": n, "moving_share": float(share), "holds": int(h.count),
             "acc_norm_spread_g": _robust_sd(norm), "acc_norm_jitter_g": jitter, "acc_noise_g": noise,
-            "direction_spread": direction_spread(acc)}
+            "direction_spread": direction_spread(acc), "direction_cond": direction_cond(acc)}
 
 
 def _text(f: dict) -> str:
@@ -139,12 +140,14 @@ def named(ds, what: str = "the accelerometer") -> str | None:
     moving failed although its readings' directions span the sphere (at
     least PLENTY_EIG): the motion, not the orientations; None otherwise."""
     f = figures(ds)
-    if f is None or f["direction_spread"] < PLENTY_EIG:
+    if f is None or (f["direction_spread"] < PLENTY_EIG and f["direction_cond"] > PLENTY_COND):
         return None
     few = (f"{f['holds']} holds found, too few, or in too few directions, to determine it alone"
            if f["holds"] else "no hold found")
     return (f"{what} moved while it was read: {_text(f)}: the hand's own acceleration, not the orientations "
-            f"(their directions span the sphere: spread {f['direction_spread']:.2f}, 1/3 for every direction), keeps "
+            f"(their directions span the sphere: spread {f['direction_spread']:.2f}, 1/3 for every direction; they "
+            f"alone determine an ellipsoid to a condition number of {f['direction_cond']:.3g}, 2.5 for every "
+            f"direction), keeps "
             f"{what}'s ellipsoid from being determined ({few}); {FIX}; no calibration written")
 
 

@@ -852,12 +852,14 @@ def diagnose_posefree(ds: RawDataset, alpha: float = DEFAULT_ALPHA, folds: int =
         # the calibration refuses these data (the orientations leave a triad's ellipsoid free): an effect
         # found on them rests on that freedom (a compass turned in one plane takes a scale nonlinearity of the
         # axis it barely turns), so it is not named
+        from inclino.calib import motion
+        separate_by = (motion.FIX if "moved while it was read" in undetermined else
+                       "orientations that determine the ellipsoid (turned about more than one axis, through more of "
+                       "the sphere), or poses")
         for e in effects:
             confounded.append({"effect": f"{e.name}:{e.sensor}:{e.axis}", "with": undetermined,
                                "undetermined": True, "correlation": float("nan"), "named": False,
-                               "estimate": e.estimate, "units": e.units,
-                               "separate_by": "orientations that determine the ellipsoid (turned about more than one "
-                                              "axis, through more of the sphere), or poses"})
+                               "estimate": e.estimate, "units": e.units, "separate_by": separate_by})
         effects = []
     # an effect not named (the holds do not confirm it, or the calibration refuses the data) loses its records
     # as a named effect confounded with something (a MinIMU-9 log's mag x nonlinearity was "confounded ...
@@ -1136,6 +1138,13 @@ def _undetermined(ds, pf) -> str | None:
             with np.errstate(all="ignore"):
                 triad.fit_sphere(raw, R, 1e-3 * R, min_rows=10, what=f"the {name}")
         except (CalibrationError, DataError) as e:
+            if kind == "acc" and hs is None:
+                # a log read mostly while moving whose directions span the sphere: the hand's acceleration keeps
+                # the ellipsoid free, not the orientations (calib.motion.named, as calibrate says it)
+                from inclino.calib import motion
+                moved = motion.named(ds)
+                if moved is not None:
+                    return moved.removesuffix("; no calibration written").replace(f"; {motion.FIX}", "")
             return str(e)
     return None
 
