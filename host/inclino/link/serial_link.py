@@ -100,6 +100,17 @@ class LinkStats:
     log: list = field(default_factory=list)
 
 
+# lines the probe's own text console sends (docs/protocol.md, "Text console"): a
+# request whose frame start (0xA5) the line lost reaches it as text and is
+# answered with one of these -- the probe is there, the link loses bytes
+PROBE_CONSOLE_LINES = ("? HELP lists the commands", "? bootloader:", "INCLINO-", "BUSY: streaming",
+                       "ID identify  SV survey")
+
+
+def _is_probe_console(line: str) -> bool:
+    return line.startswith(PROBE_CONSOLE_LINES)
+
+
 FLASH_EXTRA_S = 0.5  # flash commands may take this much longer than other answers
 
 
@@ -246,9 +257,15 @@ class ProbeLink:
                 self.stats.stale_answers += 1
         name = cmd if isinstance(cmd, str) else hex(code)
         got, bad = self.stats.bytes_in - in0, self.stats.bad_frames - bad0
-        if self._lines and not (bad or hit0 or self._answered):  # text, never a frame: not a probe
+        console = any(_is_probe_console(line) for line in self._lines)
+        if self._lines and not (bad or hit0 or self._answered or console):  # text, never a frame: not a probe
             raise ProbeError(f"the device on {self.port_name} answered {name} with text, not frames "
                              f"({self._lines[-1][:32]!r}): not an inclino probe, or the wrong baud rate")
+        if self._answered and not got:   # it answered before in this command: now silent
+            raise ProbeError(f"no answer from the probe on {self.port_name} to {name} after {self.retries + 1} "
+                             f"tries, though it answered earlier in this command: it stopped answering (the "
+                             f"link broke or the probe lost power); check the cable and the probe's supply, "
+                             f"then run the command again{_holders_text(self.port_name)}")
         if got or hit0:   # something came back: the probe is there, the line corrupts or loses bytes
             raise ProbeError(f"no valid answer from the probe on {self.port_name} to {name} after "
                              f"{self.retries + 1} tries: the link is noisy ({got} bytes received, {bad} "
