@@ -44,3 +44,25 @@ def test_the_probes_console_answering_a_frame_without_its_start_is_a_noisy_link(
             link.request("IDENTIFY", b"CAL\r")    # the rest reaches the console as a text line
     msg = str(ei.value)
     assert "the link is noisy" in msg and "not an inclino probe" not in msg, msg
+
+
+# ---- a damaged S-record file: the line, what is wrong with it in the file's terms, and the fix -----
+def _image(tmp_path):
+    from bootimg import random_chunks, write_srec
+    return open(write_srec(tmp_path / "app.s19", random_chunks(2, [(0x7C0000, 600)]))).read()
+
+
+@pytest.mark.parametrize("damage, cause", [
+    (lambda t: t[:len(t) // 2], "hex digits follow its count byte"),                 # cut mid-record
+    (lambda t: t[:200] + "G" + t[201:], "character 'G' at column"),                   # a bit flipped a digit
+    (lambda t: "".join(t.splitlines(keepends=True)[:-1]), "a file cut short has lost it"),   # cut at a line end
+])
+def test_a_damaged_image_file_says_what_and_what_to_do(tmp_path, damage, cause):
+    from inclino.boot.image import check_entry, load_image
+    from inclino.errors import DataError
+    (tmp_path / "bad.s19").write_text(damage(_image(tmp_path)))
+    with pytest.raises(DataError) as ei:
+        check_entry(load_image(str(tmp_path / "bad.s19")))
+    msg = str(ei.value)
+    assert cause in msg and "get the image again" in msg and "nothing was erased" in msg, msg
+    assert "fromhex" not in msg and "\n" not in msg
