@@ -66,3 +66,30 @@ def test_a_damaged_image_file_says_what_and_what_to_do(tmp_path, damage, cause):
     msg = str(ei.value)
     assert cause in msg and "get the image again" in msg and "nothing was erased" in msg, msg
     assert "fromhex" not in msg and "\n" not in msg
+
+
+# ---- acquire: an option of another procedure is refused, not ignored ------------------------
+@pytest.mark.parametrize("procedure, extra, opt", [
+    ("twelve-position", ["--temperatures", "-5,25"], "--temperatures"),   # still one run at 25 degC
+    ("twelve-position", ["--d1", "50"], "--d1"),
+    ("continuous", ["--points", "10"], "--points"),
+    ("multi-position", ["--target-azi-deg", "0.05"], "--target-azi-deg"),
+    ("adaptive", ["--ramp-rate", "2"], "--ramp-rate"),
+    ("temperature", ["--step", "5"], "--step"),
+])
+def test_acquire_refuses_an_option_its_procedure_ignores(tmp_path, capsys, procedure, extra, opt):
+    from inclino import cli
+    rc = cli.main(["acquire", "--port", str(tmp_path / "no-port"), "--procedure", procedure,
+                   "-o", str(tmp_path / "run.csv"), *extra])
+    err = capsys.readouterr().err
+    assert rc == 2 and f"{opt} is an option of --procedure" in err and err.count("\n") == 1, err
+
+
+def test_acquire_takes_its_own_options_and_defaults_given_again(tmp_path, capsys):
+    from inclino import cli
+    for procedure, extra in (("multi-position", ["--points", "10"]), ("continuous", ["--d1", "40", "--step", "15"]),
+                             ("twelve-position", ["--points", "36", "--temperatures", "-5,25,55"])):
+        rc = cli.main(["acquire", "--port", str(tmp_path / "no-port"), "--procedure", procedure,
+                       "-o", str(tmp_path / "run.csv"), *extra])
+        err = capsys.readouterr().err
+        assert rc == 4 and "cannot open port" in err, (procedure, err)   # past the option checks

@@ -72,6 +72,36 @@ def _cmd_acquire_poses(args) -> int:
     return 0
 
 
+# options only some procedures read; the rest come from the parser's groups
+ONLY_FOR = {"points": ("multi-position",), "d1": ("continuous",), "azimuth": ("continuous",),
+            "step": ("continuous",)}
+GROUP_FOR = {"temperature procedure": ("temperature",), "adaptive procedure": ("adaptive",)}
+
+
+def _procedure_options(p) -> dict:
+    """dest -> (option, the procedures that read it, its default as parsed)
+    for every acquire option that only some procedures read."""
+    out = {}
+    for g in p._action_groups:
+        procs = next((v for k, v in GROUP_FOR.items() if (g.title or "").startswith(k)), None)
+        for a in g._group_actions:
+            only = ONLY_FOR.get(a.dest, procs)
+            if only and a.option_strings and a.dest not in out:
+                default = a.type(a.default) if isinstance(a.default, str) and callable(a.type) else a.default
+                out[a.dest] = (a.option_strings[0], only, default)
+    return out
+
+
+def _check_procedure_options(args) -> None:
+    """An option of another procedure would be ignored without a word (a
+    twelve-position run with --temperatures is still one run at 25 degC):
+    refused before the port is opened."""
+    for dest, (opt, procs, default) in args.procedure_options.items():
+        if args.procedure not in procs and getattr(args, dest, default) != default:
+            raise DataError(f"{opt} is an option of --procedure {' or '.join(procs)}, not {args.procedure}: "
+                            f"drop it, or choose that procedure")
+
+
 def _add_soak(t, interval_help: str) -> None:
     """The chamber's timing options, acquire and accept --temperatures alike."""
     t.add_argument("--ramp-rate", type=float, default=1.0, help="chamber ramp, degC/min (default %(default)g)")
@@ -135,7 +165,7 @@ def add_acquire(sub):
 
     add_adaptive_options(p)
     negative_lists(p)
-    p.set_defaults(func=_cmd_acquire)
+    p.set_defaults(func=_cmd_acquire, procedure_options=_procedure_options(p))
     return p
 
 
@@ -147,6 +177,7 @@ def _cmd_acquire(args) -> int:
     from inclino.formats.dataset import check_meta
     from inclino.link.serial_link import ProbeLink
 
+    _check_procedure_options(args)
     if args.resume is not None:
         if not args.resume.endswith(".part"):
             raise DataError(f"--resume {args.resume}: the .part file an interrupted run left (RUN.csv.part)")
