@@ -93,3 +93,13 @@ def test_acquire_takes_its_own_options_and_defaults_given_again(tmp_path, capsys
                        "-o", str(tmp_path / "run.csv"), *extra])
         err = capsys.readouterr().err
         assert rc == 4 and "cannot open port" in err, (procedure, err)   # past the option checks
+
+
+@pytest.mark.parametrize("fmt, said", [([], "a table; --csv"), (["--csv"], "as CSV with --csv"),
+                                        (["--json"], "as JSON lines with --json")])
+def test_survey_to_stdout_twice_names_the_format_given(tmp_path, capsys, fmt, said):
+    from inclino import cli
+    rc = cli.main(["survey", "--port", str(tmp_path / "no-port"), "-o", "-", *fmt])
+    err = capsys.readouterr().err
+    assert rc == 2 and said in err and err.count("\n") == 1, err
+    assert fmt != ["--json"] or "--csv" not in err
