@@ -103,3 +103,33 @@ def test_survey_to_stdout_twice_names_the_format_given(tmp_path, capsys, fmt, sa
     err = capsys.readouterr().err
     assert rc == 2 and said in err and err.count("\n") == 1, err
     assert fmt != ["--json"] or "--csv" not in err
+
+
+# ---- accept --cal cut short after its download says the file's calibration is now active ---------
+@pytest.mark.parametrize("stop, exc", [(KeyboardInterrupt, KeyboardInterrupt), ("unreachable", Exception)])
+def test_accept_cut_short_after_its_download_says_the_calibration_changed(emu, tmp_path, stop, exc):
+    from inclino.errors import InclinoError
+    from inclino.procedures import accept as acc
+    from inclino.procedures.turntable_emulated import EmulatedTurntable
+    from test_probe_cli import inverse_cal
+
+    class Stops(EmulatedTurntable):
+        def move(self, step, index, total):
+            if index == 3:
+                if stop is KeyboardInterrupt:
+                    raise KeyboardInterrupt
+                raise InclinoError("the bench's control channel is unreachable")
+            super().move(step, index, total)
+
+    table = Stops(f"127.0.0.1:{emu.control_port}")
+    try:
+        with ProbeLink(emu.path, timeout=2.0) as link:
+            seq0 = link.identify().cal_sequence
+            with pytest.raises(exc) as ei:
+                acc.accept(link, table, cal=inverse_cal(emu.probe.scenario), quiet=True)
+            seq = link.identify().cal_sequence
+    finally:
+        table.close()
+    assert seq == seq0 + 1                                        # the download took place
+    assert f"the file's calibration stays active on the probe" in str(ei.value)
+    assert f"sequence {seq}" in str(ei.value)
