@@ -133,3 +133,41 @@ def test_accept_cut_short_after_its_download_says_the_calibration_changed(emu, t
     assert seq == seq0 + 1                                        # the download took place
     assert f"the file's calibration stays active on the probe" in str(ei.value)
     assert f"sequence {seq}" in str(ei.value)
+
+
+# ---- a port that echoes (a loopback plug, a terminal echo) is named as such, not a noisy probe ----
+@pytest.fixture
+def echo_port():
+    import os
+    import threading
+    import tty
+    master, slave = os.openpty()
+    tty.setraw(slave)
+    stop = threading.Event()
+
+    def echo():
+        import select
+        while not stop.is_set():
+            if select.select([master], [], [], 0.01)[0]:
+                try:
+                    os.write(master, os.read(master, 4096))
+                except OSError:
+                    pass
+    t = threading.Thread(target=echo, daemon=True)
+    t.start()
+    yield os.ttyname(slave)
+    stop.set()
+    t.join()
+    os.close(master)
+    os.close(slave)
+
+
+def test_a_port_that_echoes_the_requests_is_a_loopback_not_a_noisy_probe(echo_port):
+    from inclino.link.serial_link import B_IDENTIFY
+    with ProbeLink(echo_port, timeout=0.1, retries=1) as link:
+        for ask in (link.identify, lambda: link.request(B_IDENTIFY)):
+            with pytest.raises(ProbeError) as ei:
+                ask()
+            msg = str(ei.value)
+            assert "sends back every request" in msg and "loopback" in msg and "noisy" not in msg, msg
+        assert "B_IDENTIFY" in msg and "0x40" not in msg       # the bootloader's command by its name

@@ -192,7 +192,7 @@ class ProbeLink:
                 last_rx = now
                 self.stats.bytes_in += len(data)
                 for ev in self._parser.feed(data):
-                    if ev.kind == "frame":
+                    if ev.kind == "frame" and ev.frame.cmd >= STREAM_FRAME:  # a probe's frame, not a request's echo
                         self._answered = True
                     elif ev.kind == "line":
                         self._lines = (self._lines + [ev.line])[-3:]
@@ -219,7 +219,7 @@ class ProbeLink:
         frame = protocol.encode_frame(seq, code, payload)
         self.stats.requests += 1
         wait = self.timeout if timeout is None else timeout
-        in0, bad0, hit0 = self.stats.bytes_in, self.stats.bad_frames, 0
+        in0, bad0, hit0, echoed = self.stats.bytes_in, self.stats.bad_frames, 0, 0
         for attempt in range(self.retries + 1):
             if attempt:
                 self.stats.retries += 1
@@ -237,6 +237,9 @@ class ProbeLink:
                         self.stats.log.append(f"corrupt answer on seq {seq}")
                     continue
                 f = ev.frame
+                if f.cmd == code and f.seq == seq and f.payload == payload:   # our own request came back
+                    echoed += 1
+                    continue
                 if f.cmd == STREAM_FRAME or f.seq != seq:
                     self.stats.stale_answers += 1
                     continue
@@ -255,12 +258,16 @@ class ProbeLink:
                     _check_size(cmd if isinstance(cmd, str) else f"0x{code:02X}", f.payload, expect, self.port_name)
                     return f.payload
                 self.stats.stale_answers += 1
-        name = cmd if isinstance(cmd, str) else hex(code)
+        name = cmd if isinstance(cmd, str) else protocol.CMD_NAMES.get(code, hex(code))
         got, bad = self.stats.bytes_in - in0, self.stats.bad_frames - bad0
         console = any(_is_probe_console(line) for line in self._lines)
         if self._lines and not (bad or hit0 or self._answered or console):  # text, never a frame: not a probe
             raise ProbeError(f"the device on {self.port_name} answered {name} with text, not frames "
                              f"({self._lines[-1][:32]!r}): not an inclino probe, or the wrong baud rate")
+        if echoed and not (bad or hit0 or self._answered):  # every request came back as sent
+            raise ProbeError(f"the port {self.port_name} sends back every request as it was sent ({name}, "
+                             f"{echoed} time(s)) and nothing else answers: a loopback or an echoing device, "
+                             f"not a probe; check which port the probe is on (inclino ports)")
         if self._answered and not got:   # it answered before in this command: now silent
             raise ProbeError(f"no answer from the probe on {self.port_name} to {name} after {self.retries + 1} "
                              f"tries, though it answered earlier in this command: it stopped answering (the "
