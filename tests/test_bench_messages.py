@@ -171,3 +171,20 @@ def test_a_port_that_echoes_the_requests_is_a_loopback_not_a_noisy_probe(echo_po
             msg = str(ei.value)
             assert "sends back every request" in msg and "loopback" in msg and "noisy" not in msg, msg
         assert "B_IDENTIFY" in msg and "0x40" not in msg       # the bootloader's command by its name
+
+
+# ---- a CAL.json edited by hand with a mirrored axis: the element is named, nothing written ----
+def test_download_names_a_mirrored_diagonal_before_writing(emu):
+    from inclino.errors import CalibrationError
+    from inclino.link import operations as calops
+    from test_probe_cli import inverse_cal
+
+    cal = inverse_cal(emu.probe.scenario)
+    cal.mag_m = [[-v for v in cal.mag_m[0]], list(cal.mag_m[1]), list(cal.mag_m[2])]   # x axis reversed
+    with ProbeLink(emu.path, timeout=1.0) as link:
+        seq0 = link.identify().cal_sequence
+        with pytest.raises(CalibrationError) as ei:
+            calops.download(link, cal)
+        assert link.identify().cal_sequence == seq0
+    msg = str(ei.value)
+    assert "mag_m[0][0] is -" in msg and "mirrored axis" in msg and "nothing written" in msg, msg

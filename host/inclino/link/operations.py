@@ -69,7 +69,26 @@ def build_image(cal: Calibration, probe_serial: int, when: int | None = None) ->
     version 1 (120 bytes)."""
     method = cal.method if cal.method in ("identity", "ren2014", "li2021", "guo2009", "joint") else "joint"
     t = int(time.time()) if when is None else int(when)
-    return CalImage(cal.to_fixed(), probe_serial, t, method).pack()
+    fixed = cal.to_fixed()
+    _check_diagonals(fixed)
+    return CalImage(fixed, probe_serial, t, method).pack()
+
+
+def _check_diagonals(fixed) -> None:
+    """The probe refuses an image whose matrix has a diagonal element below
+    1/4 (calimg.c, DIAG_MIN: E_IMAGE, 'a coefficient outside the range'):
+    say here which element and what it means, before anything is written."""
+    from inclino.formats.calfile import M_FRAC
+    from inclino.formats.calimage import DIAG_MIN
+
+    for name in ("acc_m", "mag_m"):
+        m = getattr(fixed, name)
+        for i in range(3):
+            if m[4 * i] < DIAG_MIN:
+                raise CalibrationError(
+                    f"{name}[{i}][{i}] is {m[4 * i] / 2**M_FRAC:.4g}: the probe takes a diagonal element of at "
+                    f"least {DIAG_MIN / 2**M_FRAC:g} (a negative one is a mirrored axis, one near 0 a swapped "
+                    f"one: the file is for another axis convention or was edited); nothing written")
 
 
 @dataclass
