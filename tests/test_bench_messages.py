@@ -188,3 +188,20 @@ def test_download_names_a_mirrored_diagonal_before_writing(emu):
         assert link.identify().cal_sequence == seq0
     msg = str(ei.value)
     assert "mag_m[0][0] is -" in msg and "mirrored axis" in msg and "nothing written" in msg, msg
+
+
+def test_a_device_that_goes_away_mid_command_is_said_in_the_benchs_words():
+    import os
+    master, slave = os.openpty()
+    name = os.ttyname(slave)
+    link = ProbeLink(name, timeout=0.2, retries=0)
+    os.close(master)                       # the emulator stopped / the adapter was unplugged
+    os.close(slave)
+    try:
+        with pytest.raises(ProbeError) as ei:
+            link.identify()
+    finally:
+        link.close()
+    msg = str(ei.value)
+    assert "the device went away" in msg and "run the command again" in msg, msg
+    assert "multiple access" not in msg and "Errno" not in msg

@@ -107,6 +107,16 @@ PROBE_CONSOLE_LINES = ("? HELP lists the commands", "? bootloader:", "INCLINO-",
                        "ID identify  SV survey")
 
 
+def _gone(e: Exception) -> str:
+    """pyserial's words for a device that went away mid-command, in the
+    bench's: which device and what to do."""
+    text = str(e)
+    if "returned no data" in text or getattr(e, "errno", None) == 5 or "Errno 5]" in text:
+        return ("the device went away (a USB adapter unplugged, the probe's converter unpowered, or the "
+                "emulator stopped); plug it back or restart it, then run the command again")
+    return text
+
+
 def _is_probe_console(line: str) -> bool:
     return line.startswith(PROBE_CONSOLE_LINES)
 
@@ -170,7 +180,7 @@ class ProbeLink:
             self._ser.write(data)
             self._ser.flush()
         except (serial.SerialException, OSError) as e:
-            raise ProbeError(f"port {self.port_name} failed while writing: {e}") from None
+            raise ProbeError(f"port {self.port_name} failed while writing: {_gone(e)}") from None
         self.stats.bytes_out += len(data)
 
     def _events(self, deadline: float) -> Event | None:
@@ -187,7 +197,7 @@ class ProbeLink:
             try:
                 data = self._ser.read(max(1, min(4096, self._ser.in_waiting or 1)))
             except (serial.SerialException, OSError) as e:
-                raise ProbeError(f"port {self.port_name} failed while reading: {e}") from None
+                raise ProbeError(f"port {self.port_name} failed while reading: {_gone(e)}") from None
             if data:
                 last_rx = now
                 self.stats.bytes_in += len(data)
