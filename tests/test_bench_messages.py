@@ -205,3 +205,27 @@ def test_a_device_that_goes_away_mid_command_is_said_in_the_benchs_words():
     msg = str(ei.value)
     assert "the device went away" in msg and "run the command again" in msg, msg
     assert "multiple access" not in msg and "Errno" not in msg
+
+
+# ---- emulate: a negative seed and a control port in use name the option and the fix --------------
+@pytest.mark.parametrize("argv, said", [(["--seed", "-1"], "--seed -1: a seed is an integer >= 0"),
+                                        (["--tempco-draw", "-3"], "--tempco-draw -3: a seed is an integer >= 0")])
+def test_emulate_names_a_negative_seed(capsys, argv, said):
+    from inclino import cli
+    rc = cli.main(["emulate", "--unthrottled", *argv])
+    err = capsys.readouterr().err
+    assert rc == 2 and said in err and err.count("\n") == 1, err
+
+
+def test_emulate_on_a_control_port_in_use_says_what_to_do(capsys):
+    import socket
+    from inclino import cli
+    s = socket.socket()
+    s.bind(("127.0.0.1", 0))
+    s.listen()
+    try:
+        rc = cli.main(["emulate", "--unthrottled", "--control", str(s.getsockname()[1])])
+    finally:
+        s.close()
+    err = capsys.readouterr().err
+    assert rc == 2 and "Address already in use" in err and "0 for any free one" in err and err.count("\n") == 1, err
