@@ -229,3 +229,15 @@ def test_emulate_on_a_control_port_in_use_says_what_to_do(capsys):
         s.close()
     err = capsys.readouterr().err
     assert rc == 2 and "Address already in use" in err and "0 for any free one" in err and err.count("\n") == 1, err
+
+
+# ---- download through a power cut at the commit: the retry says the probe restarted ---------------
+def test_download_through_a_power_cut_says_the_probe_restarted(emu, ctl):
+    from inclino.link import operations as calops
+    from test_probe_cli import inverse_cal
+
+    ctl.call("power_cut", n=18, mode="none")      # the 18th flash command is the commit (docs/flash.md)
+    with ProbeLink(emu.path, timeout=1.0) as link:
+        r = calops.download(link, inverse_cal(emu.probe.scenario, scale=0.998))
+    assert r.ok and r.attempts == 2
+    assert any("the probe restarted before its activation was done" in e for e in r.events), r.events

@@ -162,7 +162,7 @@ def download(link: ProbeLink, cal: Calibration, force: bool = False, when: int |
         except (CalibrationError, ProbeInBootloader):
             raise
         except ProbeNak as e:
-            res.events.append(f"attempt {attempt}: {e}")
+            res.events.append(f"attempt {attempt}: {_nak_event(e)}")
             last_err = e
             if e.code != 11:  # E_STATE (e.g. the probe restarted between write and activate): retry
                 break
@@ -172,6 +172,16 @@ def download(link: ProbeLink, cal: Calibration, force: bool = False, when: int |
     res.retries = link.stats.retries - r0
     raise ProbeError(f"calibration download failed after {res.attempts} attempt(s): {last_err}; "
                      "the probe keeps the calibration it reports with `inclino identify`") from None
+
+
+def _nak_event(e: ProbeNak) -> str:
+    """A refusal during a download, worded for the log: E_STATE at the
+    activation is a probe that restarted after the write (the pending slot
+    lives in RAM, docs/flash.md) -- the next attempt writes it again."""
+    if e.code == 11 and e.cmd == protocol.CMD["CAL_ACTIVATE"]:
+        return (f"{e}: the probe restarted before its activation was done (power lost or reset) "
+                "and forgot the written slot; its calibration was unchanged")
+    return str(e)
 
 
 @dataclass
