@@ -241,3 +241,18 @@ def test_download_through_a_power_cut_says_the_probe_restarted(emu, ctl):
         r = calops.download(link, inverse_cal(emu.probe.scenario, scale=0.998))
     assert r.ok and r.attempts == 2
     assert any("the probe restarted before its activation was done" in e for e in r.events), r.events
+
+
+# ---- survey -o --append after a run stopped mid-row: the cut row is dropped, not glued onto ----------
+def test_survey_append_after_a_row_cut_short(emu, tmp_path, capsys):
+    import csv
+    from inclino import cli
+    log = tmp_path / "run.csv"
+    assert cli.main(["survey", "--port", emu.path, "--count", "2", "-o", str(log)]) == 0
+    log.write_text(log.read_text()[:-30])                   # killed while writing the second row
+    capsys.readouterr()
+    assert cli.main(["survey", "--port", emu.path, "--count", "1", "-o", str(log), "--append"]) == 0
+    err = capsys.readouterr().err
+    assert "last row was cut short" in err and "dropped" in err, err
+    rows = list(csv.reader(ln for ln in log.read_text().splitlines() if not ln.startswith("#")))
+    assert len(rows) == 3 and {len(r) for r in rows} == {len(rows[0])}     # header, the whole row, the new one

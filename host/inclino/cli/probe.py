@@ -122,6 +122,8 @@ def _cmd_survey(args) -> int:
         ident = link.identify()
         log = sl.SurveyLog(ident, args.port, md=args.md, csv_path=args.output, las_path=args.las,
                            append=args.append)
+        for note in log.notes:
+            print(f"inclino: note: {note}", file=sys.stderr)
         first = True
         try:
             with _terminate_as_interrupt():
