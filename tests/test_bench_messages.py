@@ -256,3 +256,19 @@ def test_survey_append_after_a_row_cut_short(emu, tmp_path, capsys):
     assert "last row was cut short" in err and "dropped" in err, err
     rows = list(csv.reader(ln for ln in log.read_text().splitlines() if not ln.startswith("#")))
     assert len(rows) == 3 and {len(r) for r in rows} == {len(rows[0])}     # header, the whole row, the new one
+
+
+# ---- a run file cut short inside its last row says so, a short row in the middle does not ------------
+def test_a_run_file_cut_inside_its_last_row_says_so(tmp_path):
+    from inclino.errors import DataError
+    from inclino.formats import dataset
+    head = "# field_nT=50000\n# dip_deg=60\ninc_deg,azi_deg,tf_deg,ax_g,ay_g,az_g,mx_nT,my_nT,mz_nT\n"
+    row = "10,20,30,0.1,0.2,0.97,20000,1000,43000\n"
+    (tmp_path / "cut.csv").write_text(head + row * 3 + row[:15])
+    with pytest.raises(DataError) as ei:
+        dataset.read_raw(str(tmp_path / "cut.csv"))
+    assert "cut.csv:7: 5 cells" in str(ei.value) and "the file ends inside this row" in str(ei.value)
+    (tmp_path / "mid.csv").write_text(head + row + row[:15] + "\n" + row)
+    with pytest.raises(DataError) as ei:
+        dataset.read_raw(str(tmp_path / "mid.csv"))
+    assert "mid.csv:5: 5 cells" in str(ei.value) and "ends inside" not in str(ei.value)
