@@ -272,3 +272,12 @@ def test_a_run_file_cut_inside_its_last_row_says_so(tmp_path):
     with pytest.raises(DataError) as ei:
         dataset.read_raw(str(tmp_path / "mid.csv"))
     assert "mid.csv:5: 5 cells" in str(ei.value) and "ends inside" not in str(ei.value)
+
+
+@pytest.mark.parametrize("argv", [["--max-azi-rms", "-1"], ["--max-inc-rms", "0"], ["--max-azi-rms", "nan"],
+                                  ["--max-inc-rms", "inf"]])
+def test_accept_refuses_a_limit_no_grid_can_meet(tmp_path, capsys, argv):
+    from inclino import cli
+    rc = cli.main(["accept", "--port", str(tmp_path / "no-port"), *argv])
+    err = capsys.readouterr().err
+    assert rc == 2 and f"{argv[0]} " in err and "the verdict's limit" in err and err.count("\n") == 1, err

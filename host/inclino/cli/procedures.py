@@ -256,6 +256,9 @@ def _cmd_accept(args) -> int:
         cal = Calibration.load(args.cal)
         cal.check()
     limits = {"max_azi_rms_deg": args.max_azi_rms, "max_inc_rms_deg": args.max_inc_rms}
+    for opt, v in (("--max-azi-rms", args.max_azi_rms), ("--max-inc-rms", args.max_inc_rms)):
+        if not 0 < v < 180:   # nan fails too: a limit no grid can meet (or any meets) is no verdict
+            raise DataError(f"{opt} {v:g}: the verdict's limit, degrees within (0, 180)")
     table = open_table(args)
     try:
         with ProbeLink(args.port, baud=args.baud, timeout=args.timeout) as link:
