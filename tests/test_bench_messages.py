@@ -281,3 +281,13 @@ def test_accept_refuses_a_limit_no_grid_can_meet(tmp_path, capsys, argv):
     rc = cli.main(["accept", "--port", str(tmp_path / "no-port"), *argv])
     err = capsys.readouterr().err
     assert rc == 2 and f"{argv[0]} " in err and "the verdict's limit" in err and err.count("\n") == 1, err
+
+
+@pytest.mark.parametrize("value", ["nan", "1e308", "-inf"])
+def test_accept_refuses_a_declination_that_is_no_angle(tmp_path, capsys, value):
+    """--declination nan ran the whole grid and ended in a TypeError traceback
+    (the azimuth RMS was nan, rendered None)."""
+    from inclino import cli
+    rc = cli.main(["accept", "--port", str(tmp_path / "no-port"), "--declination", value])
+    err = capsys.readouterr().err
+    assert rc == 2 and "--declination" in err and "Traceback" not in err and err.count("\n") == 1, err

@@ -231,10 +231,12 @@ def _floats(text: str | None, what: str):
 
 
 def _cmd_accept(args) -> int:
+    from inclino.formats.dataset import check_meta
     from inclino.link.serial_link import ProbeLink
     from inclino.procedures.accept import accept, grid_points, render
     from inclino.procedures.readings import Tolerance
 
+    check_meta("declination_deg", args.declination, "--declination")  # nan: every azimuth error nan
     if args.temperatures is not None:  # at chamber set points (inclino.procedures.accept_temp)
         return _cmd_accept_temperatures(args)
     if args.force:
