@@ -291,3 +291,27 @@ def test_accept_refuses_a_declination_that_is_no_angle(tmp_path, capsys, value):
     rc = cli.main(["accept", "--port", str(tmp_path / "no-port"), "--declination", value])
     err = capsys.readouterr().err
     assert rc == 2 and "--declination" in err and "Traceback" not in err and err.count("\n") == 1, err
+
+
+# ---- the stability check: --max-reads below --reads is refused; a probe left at a low --average is named --
+def test_max_reads_below_reads_is_refused_before_the_port(tmp_path, capsys):
+    from inclino import cli
+    for cmd in (["acquire", "--procedure", "twelve-position", "-o", str(tmp_path / "r.csv")], ["accept"]):
+        rc = cli.main([cmd[0], "--port", str(tmp_path / "no-port"), *cmd[1:], "--max-reads", "2"])
+        err = capsys.readouterr().err
+        assert rc == 2 and "--max-reads 2: at least --reads (3)" in err and err.count("\n") == 1, err
+
+
+def test_unsettled_readings_name_a_probe_left_at_a_low_average(emu):
+    from inclino.procedures.readings import Tolerance, Unsettled, read_stable, set_average
+    with ProbeLink(emu.path, timeout=1.0) as link:
+        set_average(link, 1)
+        try:
+            with pytest.raises(Unsettled) as ei:
+                read_stable(link, Tolerance(acc_mg=1e-6, mag_nT=1e-6), max_reads=4)
+        finally:
+            set_average(link, 16)
+        with pytest.raises(Unsettled) as ok:
+            read_stable(link, Tolerance(acc_mg=1e-6, mag_nT=1e-6), max_reads=4)
+    assert "the probe averages 1 sample per reading" in str(ei.value) and "--average 16" in str(ei.value)
+    assert "averages" not in str(ok.value)                      # at its default: no such note

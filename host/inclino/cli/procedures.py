@@ -49,7 +49,7 @@ def _cmd_acquire_poses(args) -> int:
     from inclino.procedures.readings import Tolerance
 
     tol = Tolerance(args.tol_acc_mg, args.tol_mag_nt, args.reads)
-    tol.check()
+    tol.check(args.max_reads)
     if args.average is not None and not 1 <= args.average <= 64:
         raise DataError("--average must be within 1-64 samples")
     procedure_steps(args.procedure, points=args.points, d1=args.d1, azimuth=args.azimuth, step_deg=args.step)
@@ -197,7 +197,7 @@ def _cmd_acquire(args) -> int:
     if args.resume is not None:
         raise DataError("--resume: a temperature run follows the chamber through time; start it again")
     tol = Tolerance(args.tol_acc_mg, args.tol_mag_nt, args.reads)
-    tol.check()
+    tol.check(args.max_reads)
     if args.average is not None and not 1 <= args.average <= 64:
         raise DataError("--average must be within 1-64 samples")
     plan = ThermalPlan(parse_temperatures(args.temperatures), args.poses, args.ramp_rate, args.interval_min,
@@ -244,7 +244,7 @@ def _cmd_accept(args) -> int:
     if args.toolfaces is None:
         args.toolfaces = "0"
     tol = Tolerance(args.tol_acc_mg, args.tol_mag_nt, args.reads)
-    tol.check()
+    tol.check(args.max_reads)
     if args.average is not None and not 1 <= args.average <= 64:
         raise DataError("--average must be within 1-64 samples")
     incs = _floats(args.inclinations, "--inclinations")
@@ -297,7 +297,7 @@ def _cmd_accept_temperatures(args) -> int:
         args.toolfaces = ",".join(f"{t:g}" for t in DEFAULT_TOOLFACES)
     sps = parse_setpoints(args.temperatures, args.reference_temp)
     tol = Tolerance(args.tol_acc_mg, args.tol_mag_nt, args.reads)
-    tol.check()
+    tol.check(args.max_reads)
     if args.average is not None and not 1 <= args.average <= 64:
         raise DataError("--average must be within 1-64 samples")
     if not (math.isfinite(args.target_ratio) and args.target_ratio >= 1.0):
