@@ -315,3 +315,20 @@ def test_unsettled_readings_name_a_probe_left_at_a_low_average(emu):
             read_stable(link, Tolerance(acc_mg=1e-6, mag_nT=1e-6), max_reads=4)
     assert "the probe averages 1 sample per reading" in str(ei.value) and "--average 16" in str(ei.value)
     assert "averages" not in str(ok.value)                      # at its default: no such note
+
+
+# ---- calibrate: the options of a fit without poses, given for a run with poses, are said to change nothing --
+def test_calibrate_says_pose_free_options_are_not_used_on_a_posed_run(tmp_path, capsys):
+    from inclino import cli
+    from inclino.benchmarks import calibration as bench
+    from inclino.formats.dataset import write_raw
+    s = bench.bench_probe(linear=True)
+    write_raw(str(tmp_path / "run.csv"), bench.emulated_run(s, bench.calibration_poses(), seed=21))
+    assert cli.main(["calibrate", str(tmp_path / "run.csv"), "-o", str(tmp_path / "prior.json")]) == 0
+    capsys.readouterr()
+    rc = cli.main(["calibrate", str(tmp_path / "run.csv"), "-o", str(tmp_path / "c.json"),
+                   "--prior", str(tmp_path / "prior.json"), "--mount-tolerance-deg", "1"])
+    err = capsys.readouterr().err
+    assert rc == 0 and "--prior, --mount-tolerance-deg not used: the poses of" in err, err
+    rc = cli.main(["calibrate", str(tmp_path / "run.csv"), "-o", str(tmp_path / "c.json")])
+    assert rc == 0 and "not used" not in capsys.readouterr().err
