@@ -332,3 +332,23 @@ def test_calibrate_says_pose_free_options_are_not_used_on_a_posed_run(tmp_path, 
     assert rc == 0 and "--prior, --mount-tolerance-deg not used: the poses of" in err, err
     rc = cli.main(["calibrate", str(tmp_path / "run.csv"), "-o", str(tmp_path / "c.json")])
     assert rc == 0 and "not used" not in capsys.readouterr().err
+
+
+# ---- download interrupted: the line says what the probe holds -----------------------------------
+@pytest.mark.parametrize("at, said, changed", [("write", "nothing activated: the probe keeps its previous", False),
+                                               ("read back", "nothing activated", False),
+                                               ("confirm", "the activation was sent", True)])
+def test_an_interrupted_download_says_what_the_probe_holds(emu, at, said, changed):
+    from inclino.link import operations as calops
+    from test_probe_cli import inverse_cal
+
+    def cb(stage):
+        if stage == at:
+            raise KeyboardInterrupt
+
+    with ProbeLink(emu.path, timeout=1.0) as link:
+        seq0 = link.identify().cal_sequence
+        with pytest.raises(KeyboardInterrupt) as ei:
+            calops.download(link, inverse_cal(emu.probe.scenario, scale=0.997), progress=cb)
+        seq = link.identify().cal_sequence
+    assert said in str(ei.value) and (seq != seq0) == changed

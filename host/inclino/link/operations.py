@@ -122,7 +122,29 @@ def download(link: ProbeLink, cal: Calibration, force: bool = False, when: int |
     res = DownloadResult(ok=False)
     if refusal:
         res.events.append(f"downloaded with --force although {refusal}")
-    step = progress or (lambda name: None)
+    stage = {"name": ""}
+
+    def step(name):
+        stage["name"] = name
+        if progress:
+            progress(name)
+
+    try:
+        return _download_attempts(link, cal, force, when, attempts, res, file_serial, step)
+    except KeyboardInterrupt as e:
+        raise KeyboardInterrupt("; ".join(x for x in (str(e), _interrupted_at(stage["name"])) if x)) from None
+
+
+def _interrupted_at(stage: str) -> str:
+    """What a Ctrl-C during a download left: the probe switches only at the
+    activation (docs/flash.md), so before it the old calibration stands."""
+    if stage in ("activate", "confirm"):
+        return ("the activation was sent: the probe holds the new calibration or, if it did not get it, its "
+                "previous one (inclino identify tells which)")
+    return "nothing activated: the probe keeps its previous calibration"
+
+
+def _download_attempts(link, cal, force, when, attempts, res, file_serial, step) -> DownloadResult:
     last_err: Exception | None = None
     r0, o0, i0 = link.stats.retries, link.stats.bytes_out, link.stats.bytes_in
     for attempt in range(1, attempts + 1):
