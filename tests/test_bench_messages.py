@@ -10,8 +10,8 @@ from inclino_emu.control import ControlClient
 from inclino_emu.runner import Emulator
 
 
-@pytest.fixture(scope="module")
-def emu():
+@pytest.fixture
+def emu():   # one per test: the firmware has one owner per process, and other modules hold theirs by module
     e = Emulator("typical", control_port=0, realtime=False).start()
     yield e
     e.stop()
