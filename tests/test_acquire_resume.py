@@ -90,3 +90,44 @@ def test_quit_with_no_row_taken_leaves_nothing(tmp_path, capsys):
                 acq.acquire(link, "twelve-position", str(out), table, quiet=True)
             table.close()
     assert "nothing kept" in str(ex.value) and not (tmp_path / "run.csv.part").exists()
+
+
+def test_resume_after_a_row_cut_short_takes_that_pose_again(tmp_path, capsys):
+    """A run killed (or the power lost) while writing a row leaves the
+    .part's last row cut short; --resume drops it, says so and takes that
+    pose again, instead of gluing the next row onto it (a 20-cell row
+    that calibrate then refuses)."""
+    out, part = tmp_path / "run.csv", tmp_path / "run.csv.part"
+    with Emulator("typical", control_port=0, realtime=False) as emu:
+        bench = f"127.0.0.1:{emu.control_port}"
+        with ProbeLink(emu.path, timeout=2.0) as link:
+            table = StopsAt(bench, 6)
+            with pytest.raises(KeyboardInterrupt):
+                acq.acquire(link, "twelve-position", str(out), table, quiet=True)
+            table.close()
+        part.write_text(part.read_text()[:-40])            # row 5 cut mid-number
+        rc, o, err = run(capsys, "acquire", "--port", emu.path, "--bench", bench, "--procedure", "twelve-position",
+                         "--resume", part, "--quiet")
+        assert rc == 0, err
+        assert "last row was cut short" in err and "pose 5 is taken again" in err and "12 rows" in o
+    ds = dataset.read_raw(str(out))
+    steps = acq.procedure_steps("twelve-position")
+    assert len(ds) == 12 and np.allclose(ds.columns["tf_deg"], [s.tf for s in steps])
+
+
+def test_resume_refuses_a_part_damaged_in_the_middle(tmp_path, capsys):
+    out, part = tmp_path / "run.csv", tmp_path / "run.csv.part"
+    with Emulator("typical", control_port=0, realtime=False) as emu:
+        bench = f"127.0.0.1:{emu.control_port}"
+        with ProbeLink(emu.path, timeout=2.0) as link:
+            table = StopsAt(bench, 6)
+            with pytest.raises(KeyboardInterrupt):
+                acq.acquire(link, "twelve-position", str(out), table, quiet=True)
+            table.close()
+        lines = part.read_text().splitlines(keepends=True)
+        lines[-3] = lines[-3][:30] + "\n"                     # a row in the middle cut short
+        part.write_text("".join(lines))
+        rc, _, err = run(capsys, "acquire", "--port", emu.path, "--bench", bench, "--procedure", "twelve-position",
+                         "--resume", part, "--quiet")
+    assert rc == 2 and "cut short in the middle of the run" in err and err.count("\n") == 1, err
+    assert part.read_text() == "".join(lines) and not out.exists()

@@ -4,6 +4,7 @@ read into the ranges the bootloader takes, with every refusal one DataError
 line naming the file and record."""
 from __future__ import annotations
 
+import string
 import zlib
 from dataclasses import dataclass
 from typing import Optional
@@ -104,6 +105,22 @@ def _merge(spans: list, fmap: FlashMap) -> list:
     return out
 
 
+def _srec_fault(line: str, e: Exception) -> str:
+    """What is wrong with one S-record line, in the file's own terms (a
+    character and its column, a count that disagrees with the length)
+    rather than the parser's (bincopy's fromhex error names no character)."""
+    body = line[2:]
+    bad = next((i for i, c in enumerate(body) if c not in string.hexdigits), None)
+    if line[:1] != "S" or len(line) < 2:
+        return str(e)
+    if bad is not None:
+        return f"character {body[bad]!r} at column {bad + 3} is not a hexadecimal digit"
+    if len(body) >= 2 and len(body) != 2 + 2 * int(body[:2], 16):
+        return (f"{len(body) - 2} hex digits follow its count byte, which says {int(body[:2], 16)} "
+                f"bytes ({2 * int(body[:2], 16)} digits)")
+    return str(e)
+
+
 def load_image(path: str, fmap: FlashMap = DEFAULT_MAP) -> Image:
     """Parse and check an S-record file (bincopy).  Raises DataError with one
     clear line; nothing here touches a probe."""
@@ -129,7 +146,10 @@ def load_image(path: str, fmap: FlashMap = DEFAULT_MAP) -> Image:
         except bincopy.AddDataError:
             raise DataError(f"{path} line {no}: the record overlaps data given by an earlier record") from None
         except (bincopy.Error, ValueError, IndexError) as e:
-            raise DataError(f"{path} line {no}: bad S-record: {e}") from None
+            fix = ("the file is damaged or cut short: get the image again" if line[:1] == "S"
+                   else "not an S-record file (IMAGE.s19)?")
+            raise DataError(f"{path} line {no}: bad S-record: {_srec_fault(line, e)}; {fix} "
+                            f"(nothing was erased)") from None
         records += 1
     segs = list(bf.segments)
     if not segs:
@@ -163,7 +183,8 @@ def check_entry(image: Image, fmap: FlashMap = DEFAULT_MAP) -> None:
     e = image.entry
     if e == NO_ENTRY:
         raise DataError(f"{image.path}: no entry point (an S7/S8/S9 start address naming the application's "
-                        "start-up code); nothing was erased")
+                        "start-up code, the file's last record: a file cut short has lost it; get the image "
+                        "again, or link it with one); nothing was erased")
     why = fmap.check(e, e + 1)
     if why:
         raise DataError(f"{image.path}: the entry point 0x{e:06X} is {why}; nothing was erased")

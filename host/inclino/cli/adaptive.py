@@ -106,7 +106,7 @@ def cmd_acquire_adaptive(args, open_table) -> int:
     from inclino.procedures.readings import Tolerance
 
     tol = Tolerance(args.tol_acc_mg, args.tol_mag_nt, args.reads)
-    tol.check()
+    tol.check(args.max_reads)
     plan = plan_of(args)
     world = {"field_nT": args.field, "dip_deg": args.dip, "declination_deg": args.declination}
     for key, opt in (("field_nT", "--field"), ("dip_deg", "--dip"), ("declination_deg", "--declination")):

@@ -23,12 +23,30 @@ from __future__ import annotations
 
 import csv
 import json
+import sys
 
 from inclino.cli.paths import Input
 from inclino.cli.options import add_cal, add_json, add_output, add_plot, command, deprecated
 from inclino.errors import CalibrationError, DataError
 
 MAX_BOOTSTRAP = 1000  # refits at most (each is a whole fit: a bound on the time a typo can cost)
+
+
+def _note_pose_free_options(args, ds) -> None:
+    """--prior, --mount-tolerance-deg and --accept-mount-tolerance act only on
+    a fit without poses: given for one with poses they change nothing, and
+    the technician is told so on stderr (the report's own note about the
+    prior is not printed)."""
+    if not getattr(ds, "has_pose", False) or getattr(args, "no_poses", False):
+        return
+    given = [opt for opt, on in (("--prior", getattr(args, "prior", None)),
+                                 ("--mount-tolerance-deg", getattr(args, "mount_tolerance_deg", None) is not None),
+                                 ("--accept-mount-tolerance", getattr(args, "accept_mount_tolerance", False)))
+             if on]
+    if given:
+        print(f"inclino: note: {', '.join(given)} not used: the poses of {args.input} determine every coefficient "
+              f"({'they act' if len(given) > 1 else 'it acts'} on a fit without poses: --no-poses, or a run "
+              f"without pose columns)", file=sys.stderr)
 
 
 def calibrate_main(args) -> int:
@@ -66,6 +84,7 @@ def calibrate_main(args) -> int:
         opts["mount_tolerance_deg"] = args.mount_tolerance_deg
     if getattr(args, "accept_mount_tolerance", False):
         opts["accept_mount_tolerance"] = True
+    _note_pose_free_options(args, ds)
     if getattr(args, "bootstrap", None) is not None:
         opts["bootstrap"] = args.bootstrap
     if getattr(args, "static", False):

@@ -7,6 +7,14 @@ from inclino.cli.paths import Input, Output
 from inclino.errors import DataError, InclinoError
 
 
+def _fix_for(e: Exception, args) -> str:
+    """What to do about a start that failed for a reason the options chose."""
+    if "Address already in use" in str(e):
+        return (f" (another emulator or program listens on --control {args.control}: choose another port, "
+                f"or 0 for any free one)")
+    return ""
+
+
 def _cmd_emulate(args) -> int:
     import signal
     import time
@@ -17,6 +25,9 @@ def _cmd_emulate(args) -> int:
         raise DataError(f"--baud {args.baud}: a baud rate within {BAUD_RANGE[0]}-{BAUD_RANGE[1]}")
     if not 0 <= args.control <= 65535:
         raise DataError(f"--control {args.control}: a TCP port within 0-65535 (0: any free port)")
+    for opt, v in (("--seed", args.seed), ("--tempco-draw", args.tempco_draw)):
+        if v is not None and v < 0:
+            raise DataError(f"{opt} {v}: a seed is an integer >= 0")
 
     try:
         from inclino_emu.runner import Emulator
@@ -29,7 +40,7 @@ def _cmd_emulate(args) -> int:
     except FileNotFoundError as e:
         raise DataError(f"scenario not found: {e.filename or e}")
     except (OSError, ValueError, KeyError) as e:
-        raise DataError(f"cannot start the emulator: {e}")
+        raise DataError(f"cannot start the emulator: {e}" + _fix_for(e, args))
     print(f"inclino emulator: probe on {emu.path}" + (f" (link {args.link})" if args.link else ""), flush=True)
     if emu.control_port is not None:
         print(f"control channel: 127.0.0.1:{emu.control_port} (JSON lines, docs/emulator.md)", flush=True)

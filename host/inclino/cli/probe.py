@@ -92,6 +92,9 @@ def _records(link, args):
             time.sleep(args.period_ms / 1000.0)
 
 
+_STDOUT_AS = {"table": "a table; --csv for CSV", "csv": "as CSV with --csv", "json": "as JSON lines with --json"}
+
+
 def _survey_format(args) -> str:
     if args.json and args.csv:
         raise DataError("--json and --csv: give one")
@@ -109,7 +112,8 @@ def _cmd_survey(args) -> int:
     if args.append and not (args.output or args.las):
         raise DataError("--append continues a file: give -o RUN.csv or --las RUN.las")
     if args.output == "-":
-        raise DataError("-o -: the run goes to standard output anyway (--csv)")
+        raise DataError(f"-o -: the run goes to standard output anyway ({_STDOUT_AS[args.format]}); "
+                        "-o names a CSV file to log it to")
     if args.output and args.output.lower().endswith((".json", ".jsonl", ".las")):
         raise DataError(f"-o {args.output}: -o writes the run as CSV (--las for LAS 2.0, --json for JSON "
                         "lines on standard output)")
@@ -118,6 +122,8 @@ def _cmd_survey(args) -> int:
         ident = link.identify()
         log = sl.SurveyLog(ident, args.port, md=args.md, csv_path=args.output, las_path=args.las,
                            append=args.append)
+        for note in log.notes:
+            print(f"inclino: note: {note}", file=sys.stderr)
         first = True
         try:
             with _terminate_as_interrupt():

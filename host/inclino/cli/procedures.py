@@ -49,7 +49,7 @@ def _cmd_acquire_poses(args) -> int:
     from inclino.procedures.readings import Tolerance
 
     tol = Tolerance(args.tol_acc_mg, args.tol_mag_nt, args.reads)
-    tol.check()
+    tol.check(args.max_reads)
     if args.average is not None and not 1 <= args.average <= 64:
         raise DataError("--average must be within 1-64 samples")
     procedure_steps(args.procedure, points=args.points, d1=args.d1, azimuth=args.azimuth, step_deg=args.step)
@@ -70,6 +70,36 @@ def _cmd_acquire_poses(args) -> int:
           + (f", field {r.meta['field_nT']:g} nT dip {r.meta['dip_deg']:g} deg" if "dip_deg" in r.meta else "")
           + f" ({r.reads} readings, {r.elapsed_s:.1f} s)")
     return 0
+
+
+# options only some procedures read; the rest come from the parser's groups
+ONLY_FOR = {"points": ("multi-position",), "d1": ("continuous",), "azimuth": ("continuous",),
+            "step": ("continuous",)}
+GROUP_FOR = {"temperature procedure": ("temperature",), "adaptive procedure": ("adaptive",)}
+
+
+def _procedure_options(p) -> dict:
+    """dest -> (option, the procedures that read it, its default as parsed)
+    for every acquire option that only some procedures read."""
+    out = {}
+    for g in p._action_groups:
+        procs = next((v for k, v in GROUP_FOR.items() if (g.title or "").startswith(k)), None)
+        for a in g._group_actions:
+            only = ONLY_FOR.get(a.dest, procs)
+            if only and a.option_strings and a.dest not in out:
+                default = a.type(a.default) if isinstance(a.default, str) and callable(a.type) else a.default
+                out[a.dest] = (a.option_strings[0], only, default)
+    return out
+
+
+def _check_procedure_options(args) -> None:
+    """An option of another procedure would be ignored without a word (a
+    twelve-position run with --temperatures is still one run at 25 degC):
+    refused before the port is opened."""
+    for dest, (opt, procs, default) in args.procedure_options.items():
+        if args.procedure not in procs and getattr(args, dest, default) != default:
+            raise DataError(f"{opt} is an option of --procedure {' or '.join(procs)}, not {args.procedure}: "
+                            f"drop it, or choose that procedure")
 
 
 def _add_soak(t, interval_help: str) -> None:
@@ -135,7 +165,7 @@ def add_acquire(sub):
 
     add_adaptive_options(p)
     negative_lists(p)
-    p.set_defaults(func=_cmd_acquire)
+    p.set_defaults(func=_cmd_acquire, procedure_options=_procedure_options(p))
     return p
 
 
@@ -147,6 +177,7 @@ def _cmd_acquire(args) -> int:
     from inclino.formats.dataset import check_meta
     from inclino.link.serial_link import ProbeLink
 
+    _check_procedure_options(args)
     if args.resume is not None:
         if not args.resume.endswith(".part"):
             raise DataError(f"--resume {args.resume}: the .part file an interrupted run left (RUN.csv.part)")
@@ -166,7 +197,7 @@ def _cmd_acquire(args) -> int:
     if args.resume is not None:
         raise DataError("--resume: a temperature run follows the chamber through time; start it again")
     tol = Tolerance(args.tol_acc_mg, args.tol_mag_nt, args.reads)
-    tol.check()
+    tol.check(args.max_reads)
     if args.average is not None and not 1 <= args.average <= 64:
         raise DataError("--average must be within 1-64 samples")
     plan = ThermalPlan(parse_temperatures(args.temperatures), args.poses, args.ramp_rate, args.interval_min,
@@ -200,10 +231,12 @@ def _floats(text: str | None, what: str):
 
 
 def _cmd_accept(args) -> int:
+    from inclino.formats.dataset import check_meta
     from inclino.link.serial_link import ProbeLink
     from inclino.procedures.accept import accept, grid_points, render
     from inclino.procedures.readings import Tolerance
 
+    check_meta("declination_deg", args.declination, "--declination")  # nan: every azimuth error nan
     if args.temperatures is not None:  # at chamber set points (inclino.procedures.accept_temp)
         return _cmd_accept_temperatures(args)
     if args.force:
@@ -211,7 +244,7 @@ def _cmd_accept(args) -> int:
     if args.toolfaces is None:
         args.toolfaces = "0"
     tol = Tolerance(args.tol_acc_mg, args.tol_mag_nt, args.reads)
-    tol.check()
+    tol.check(args.max_reads)
     if args.average is not None and not 1 <= args.average <= 64:
         raise DataError("--average must be within 1-64 samples")
     incs = _floats(args.inclinations, "--inclinations")
@@ -225,6 +258,9 @@ def _cmd_accept(args) -> int:
         cal = Calibration.load(args.cal)
         cal.check()
     limits = {"max_azi_rms_deg": args.max_azi_rms, "max_inc_rms_deg": args.max_inc_rms}
+    for opt, v in (("--max-azi-rms", args.max_azi_rms), ("--max-inc-rms", args.max_inc_rms)):
+        if not 0 < v < 180:   # nan fails too: a limit no grid can meet (or any meets) is no verdict
+            raise DataError(f"{opt} {v:g}: the verdict's limit, degrees within (0, 180)")
     table = open_table(args)
     try:
         with ProbeLink(args.port, baud=args.baud, timeout=args.timeout) as link:
@@ -261,7 +297,7 @@ def _cmd_accept_temperatures(args) -> int:
         args.toolfaces = ",".join(f"{t:g}" for t in DEFAULT_TOOLFACES)
     sps = parse_setpoints(args.temperatures, args.reference_temp)
     tol = Tolerance(args.tol_acc_mg, args.tol_mag_nt, args.reads)
-    tol.check()
+    tol.check(args.max_reads)
     if args.average is not None and not 1 <= args.average <= 64:
         raise DataError("--average must be within 1-64 samples")
     if not (math.isfinite(args.target_ratio) and args.target_ratio >= 1.0):

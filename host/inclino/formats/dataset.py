@@ -164,6 +164,7 @@ class _Lines:
 
     def __init__(self, f, path):
         self.f, self.path, self.lineno, self.chars = f, path, 0, 0
+        self.cut = False   # the last line read has no line end: the file stops inside it
 
     def __iter__(self):
         return self
@@ -187,6 +188,7 @@ class _Lines:
             raise StopIteration
         self.lineno += 1
         self.chars += len(line)
+        self.cut = not line.endswith(("\n", "\r"))
         if len(line) > MAX_LINE_CHARS:
             raise DataError(f"{self.path}:{self.lineno}: line longer than {MAX_LINE_CHARS} characters")
         return line
@@ -272,7 +274,9 @@ def _read(lines: _Lines, path: str, bar) -> RawDataset:
             continue
         rownum = lines.lineno
         if len(row) != ncells:
-            hint = " (a decimal comma? use a point: 1.5)" if len(row) > ncells else ""
+            hint = (" (a decimal comma? use a point: 1.5)" if len(row) > ncells else
+                    " (the file ends inside this row: cut short while it was written or copied; delete the "
+                    "row, or copy the file again)" if lines.cut else "")
             raise DataError(f"{path}:{rownum}: {len(row)} cells, the header has {ncells}{hint}")
         try:
             buf[k] = [float(row[j]) for j in idx]

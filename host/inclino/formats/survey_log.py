@@ -128,6 +128,7 @@ class CsvLog:
             raise DataError(f"{path} exists: --append continues it (one header), or choose a new file")
         self.new = not exists or os.path.getsize(path) == 0
         self.header = header
+        self.notes: list[str] = []
         if not self.new:
             meta, cols = _csv_header(path)
             _mismatch(path, meta, header)
@@ -135,10 +136,24 @@ class CsvLog:
                 raise DataError(f"{path}: its columns ({','.join(cols)}) are not this run's "
                                 f"({','.join(columns)}): not appended; start a new file")
             self.start = parse_utc(meta.get("start_utc", ""), path)
+            self._drop_cut_row()
         from inclino.formats import safeio
 
         self.f = safeio.open_log(path, "a")  # the output rules: never an input, never another output
         self.w = csv.writer(self.f, lineterminator="\n")
+
+    def _drop_cut_row(self) -> None:
+        """A run stopped while writing a row (killed, the power lost) leaves
+        it without its newline: the next row would be glued onto it.  Cut
+        the file back to its last whole row and say so."""
+        with open(self.path, "rb") as f:
+            data = f.read()
+        if data.endswith(b"\n"):
+            return
+        keep = data.rfind(b"\n") + 1
+        os.truncate(self.path, keep)
+        self.notes.append(f"{self.path}: its last row was cut short (the run stopped while writing it): "
+                          f"dropped ({len(data) - keep} bytes), the new readings follow the last whole row")
 
     def write(self, row: dict, checked: str) -> None:
         try:
@@ -310,6 +325,7 @@ class SurveyLog:
         if self.csv is not None:
             self.header["start_utc"] = utc_iso(self.csv.start)
         self.las = LasLog(las_path, self.header, md is not None, append) if las_path else None
+        self.notes = self.csv.notes if self.csv is not None else []
         self.rows = 0
         self.closed = False
 

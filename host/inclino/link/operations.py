@@ -69,7 +69,26 @@ def build_image(cal: Calibration, probe_serial: int, when: int | None = None) ->
     version 1 (120 bytes)."""
     method = cal.method if cal.method in ("identity", "ren2014", "li2021", "guo2009", "joint") else "joint"
     t = int(time.time()) if when is None else int(when)
-    return CalImage(cal.to_fixed(), probe_serial, t, method).pack()
+    fixed = cal.to_fixed()
+    _check_diagonals(fixed)
+    return CalImage(fixed, probe_serial, t, method).pack()
+
+
+def _check_diagonals(fixed) -> None:
+    """The probe refuses an image whose matrix has a diagonal element below
+    1/4 (calimg.c, DIAG_MIN: E_IMAGE, 'a coefficient outside the range'):
+    say here which element and what it means, before anything is written."""
+    from inclino.formats.calfile import M_FRAC
+    from inclino.formats.calimage import DIAG_MIN
+
+    for name in ("acc_m", "mag_m"):
+        m = getattr(fixed, name)
+        for i in range(3):
+            if m[4 * i] < DIAG_MIN:
+                raise CalibrationError(
+                    f"{name}[{i}][{i}] is {m[4 * i] / 2**M_FRAC:.4g}: the probe takes a diagonal element of at "
+                    f"least {DIAG_MIN / 2**M_FRAC:g} (a negative one is a mirrored axis, one near 0 a swapped "
+                    f"one: the file is for another axis convention or was edited); nothing written")
 
 
 @dataclass
@@ -103,7 +122,29 @@ def download(link: ProbeLink, cal: Calibration, force: bool = False, when: int |
     res = DownloadResult(ok=False)
     if refusal:
         res.events.append(f"downloaded with --force although {refusal}")
-    step = progress or (lambda name: None)
+    stage = {"name": ""}
+
+    def step(name):
+        stage["name"] = name
+        if progress:
+            progress(name)
+
+    try:
+        return _download_attempts(link, cal, force, when, attempts, res, file_serial, step)
+    except KeyboardInterrupt as e:
+        raise KeyboardInterrupt("; ".join(x for x in (str(e), _interrupted_at(stage["name"])) if x)) from None
+
+
+def _interrupted_at(stage: str) -> str:
+    """What a Ctrl-C during a download left: the probe switches only at the
+    activation (docs/flash.md), so before it the old calibration stands."""
+    if stage in ("activate", "confirm"):
+        return ("the activation was sent: the probe holds the new calibration or, if it did not get it, its "
+                "previous one (inclino identify tells which)")
+    return "nothing activated: the probe keeps its previous calibration"
+
+
+def _download_attempts(link, cal, force, when, attempts, res, file_serial, step) -> DownloadResult:
     last_err: Exception | None = None
     r0, o0, i0 = link.stats.retries, link.stats.bytes_out, link.stats.bytes_in
     for attempt in range(1, attempts + 1):
@@ -143,7 +184,7 @@ def download(link: ProbeLink, cal: Calibration, force: bool = False, when: int |
         except (CalibrationError, ProbeInBootloader):
             raise
         except ProbeNak as e:
-            res.events.append(f"attempt {attempt}: {e}")
+            res.events.append(f"attempt {attempt}: {_nak_event(e)}")
             last_err = e
             if e.code != 11:  # E_STATE (e.g. the probe restarted between write and activate): retry
                 break
@@ -153,6 +194,16 @@ def download(link: ProbeLink, cal: Calibration, force: bool = False, when: int |
     res.retries = link.stats.retries - r0
     raise ProbeError(f"calibration download failed after {res.attempts} attempt(s): {last_err}; "
                      "the probe keeps the calibration it reports with `inclino identify`") from None
+
+
+def _nak_event(e: ProbeNak) -> str:
+    """A refusal during a download, worded for the log: E_STATE at the
+    activation is a probe that restarted after the write (the pending slot
+    lives in RAM, docs/flash.md) -- the next attempt writes it again."""
+    if e.code == 11 and e.cmd == protocol.CMD["CAL_ACTIVATE"]:
+        return (f"{e}: the probe restarted before its activation was done (power lost or reset) "
+                "and forgot the written slot; its calibration was unchanged")
+    return str(e)
 
 
 @dataclass

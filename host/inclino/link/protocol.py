@@ -20,6 +20,10 @@ CMD = {
     "QCREF_READ": 0x06, "QCREF_WRITE": 0x07, "SURVEY_RAW": 0x08, "SET_AVERAGE": 0x09, "CAL_READ": 0x10, "CAL_WRITE": 0x11,
     "CAL_ACTIVATE": 0x12, "RESET": 0x20, "BOOTLOADER": 0x21,
 }
+# the bootloader's commands (docs/protocol.md, "Bootloader"), named in the link's errors
+BOOT_CMD = {"B_IDENTIFY": 0x40, "B_ERASE": 0x41, "B_PROGRAM": 0x42, "B_READ": 0x43, "B_CRC": 0x44,
+            "B_COMMIT": 0x45, "B_RUN": 0x46}
+CMD_NAMES = {code: name for name, code in {**CMD, **BOOT_CMD}.items()}
 ERRORS = {
     1: "E_CRC", 2: "E_LENGTH", 3: "E_VERSION", 4: "E_COMMAND", 5: "E_ARGUMENT", 6: "E_BUSY",
     7: "E_SENSOR", 8: "E_FLASH", 9: "E_IMAGE", 10: "E_SERIAL", 11: "E_STATE",

@@ -100,6 +100,27 @@ class LinkStats:
     log: list = field(default_factory=list)
 
 
+# lines the probe's own text console sends (docs/protocol.md, "Text console"): a
+# request whose frame start (0xA5) the line lost reaches it as text and is
+# answered with one of these -- the probe is there, the link loses bytes
+PROBE_CONSOLE_LINES = ("? HELP lists the commands", "? bootloader:", "INCLINO-", "BUSY: streaming",
+                       "ID identify  SV survey")
+
+
+def _gone(e: Exception) -> str:
+    """pyserial's words for a device that went away mid-command, in the
+    bench's: which device and what to do."""
+    text = str(e)
+    if "returned no data" in text or getattr(e, "errno", None) == 5 or "Errno 5]" in text:
+        return ("the device went away (a USB adapter unplugged, the probe's converter unpowered, or the "
+                "emulator stopped); plug it back or restart it, then run the command again")
+    return text
+
+
+def _is_probe_console(line: str) -> bool:
+    return line.startswith(PROBE_CONSOLE_LINES)
+
+
 FLASH_EXTRA_S = 0.5  # flash commands may take this much longer than other answers
 
 
@@ -159,7 +180,7 @@ class ProbeLink:
             self._ser.write(data)
             self._ser.flush()
         except (serial.SerialException, OSError) as e:
-            raise ProbeError(f"port {self.port_name} failed while writing: {e}") from None
+            raise ProbeError(f"port {self.port_name} failed while writing: {_gone(e)}") from None
         self.stats.bytes_out += len(data)
 
     def _events(self, deadline: float) -> Event | None:
@@ -176,12 +197,12 @@ class ProbeLink:
             try:
                 data = self._ser.read(max(1, min(4096, self._ser.in_waiting or 1)))
             except (serial.SerialException, OSError) as e:
-                raise ProbeError(f"port {self.port_name} failed while reading: {e}") from None
+                raise ProbeError(f"port {self.port_name} failed while reading: {_gone(e)}") from None
             if data:
                 last_rx = now
                 self.stats.bytes_in += len(data)
                 for ev in self._parser.feed(data):
-                    if ev.kind == "frame":
+                    if ev.kind == "frame" and ev.frame.cmd >= STREAM_FRAME:  # a probe's frame, not a request's echo
                         self._answered = True
                     elif ev.kind == "line":
                         self._lines = (self._lines + [ev.line])[-3:]
@@ -208,7 +229,7 @@ class ProbeLink:
         frame = protocol.encode_frame(seq, code, payload)
         self.stats.requests += 1
         wait = self.timeout if timeout is None else timeout
-        in0, bad0, hit0 = self.stats.bytes_in, self.stats.bad_frames, 0
+        in0, bad0, hit0, echoed = self.stats.bytes_in, self.stats.bad_frames, 0, 0
         for attempt in range(self.retries + 1):
             if attempt:
                 self.stats.retries += 1
@@ -226,6 +247,9 @@ class ProbeLink:
                         self.stats.log.append(f"corrupt answer on seq {seq}")
                     continue
                 f = ev.frame
+                if f.cmd == code and f.seq == seq and f.payload == payload:   # our own request came back
+                    echoed += 1
+                    continue
                 if f.cmd == STREAM_FRAME or f.seq != seq:
                     self.stats.stale_answers += 1
                     continue
@@ -244,11 +268,21 @@ class ProbeLink:
                     _check_size(cmd if isinstance(cmd, str) else f"0x{code:02X}", f.payload, expect, self.port_name)
                     return f.payload
                 self.stats.stale_answers += 1
-        name = cmd if isinstance(cmd, str) else hex(code)
+        name = cmd if isinstance(cmd, str) else protocol.CMD_NAMES.get(code, hex(code))
         got, bad = self.stats.bytes_in - in0, self.stats.bad_frames - bad0
-        if self._lines and not (bad or hit0 or self._answered):  # text, never a frame: not a probe
+        console = any(_is_probe_console(line) for line in self._lines)
+        if self._lines and not (bad or hit0 or self._answered or console):  # text, never a frame: not a probe
             raise ProbeError(f"the device on {self.port_name} answered {name} with text, not frames "
                              f"({self._lines[-1][:32]!r}): not an inclino probe, or the wrong baud rate")
+        if echoed and not (bad or hit0 or self._answered):  # every request came back as sent
+            raise ProbeError(f"the port {self.port_name} sends back every request as it was sent ({name}, "
+                             f"{echoed} time(s)) and nothing else answers: a loopback or an echoing device, "
+                             f"not a probe; check which port the probe is on (inclino ports)")
+        if self._answered and not got:   # it answered before in this command: now silent
+            raise ProbeError(f"no answer from the probe on {self.port_name} to {name} after {self.retries + 1} "
+                             f"tries, though it answered earlier in this command: it stopped answering (the "
+                             f"link broke or the probe lost power); check the cable and the probe's supply, "
+                             f"then run the command again{_holders_text(self.port_name)}")
         if got or hit0:   # something came back: the probe is there, the line corrupts or loses bytes
             raise ProbeError(f"no valid answer from the probe on {self.port_name} to {name} after "
                              f"{self.retries + 1} tries: the link is noisy ({got} bytes received, {bad} "

@@ -49,6 +49,7 @@ error maps (errors_<grid>.png) and, with --circles, circles.png
 """
 from __future__ import annotations
 
+import contextlib
 import math
 import sys
 import time
@@ -59,7 +60,7 @@ import numpy as np
 from inclino.procedures.accept_result import AcceptResult  # noqa: F401 (the result type lives where plots can import it)
 from inclino.procedures.poses import Step, wrap_deg
 from inclino.procedures.readings import Tolerance, mean_row, read_stable
-from inclino.errors import DataError
+from inclino.errors import DataError, InclinoError
 from inclino.engines.golden import F_NEAR_VERTICAL as NEAR_VERTICAL  # the firmware's ATT_F_NEAR_VERTICAL
 
 GRIDS = ("li2021", "ren2014")
@@ -169,6 +170,25 @@ def _measure(rec_units, flags, set_pt: GridPoint, decl: float) -> dict:
     return {"inc_err": float(inc_err), "azi_err": azi_err}
 
 
+
+@contextlib.contextmanager
+def _saying_downloaded(download: dict | None):
+    """A Ctrl-C or an error after accept downloaded --cal: the line says the
+    file's calibration is now the probe's (an accept cut short leaves it
+    active, not the one it found)."""
+    if not download:
+        yield
+        return
+    note = (f"the file's calibration stays active on the probe (downloaded to slot {download['slot']}, "
+            f"sequence {download['sequence']})")
+    try:
+        yield
+    except KeyboardInterrupt as e:
+        raise KeyboardInterrupt("; ".join(x for x in (str(e), note) if x)) from None
+    except InclinoError as e:
+        e.args = (f"{e}; {note}",)
+        raise
+
 def accept(link, table, grid: str = "li2021", cal=None, before: str = "auto", inclinations=None,
            azimuths=None, toolfaces=(0.0,), tol: Tolerance | None = None, max_reads: int = 30,
            circles: bool = False, declination: float | None = None, limits: dict | None = None,
@@ -197,64 +217,65 @@ def accept(link, table, grid: str = "li2021", cal=None, before: str = "auto", in
     if cal is not None:
         d = calops.download(link, cal)
         res.download = {"slot": d.slot, "sequence": d.sequence, "image_crc": f"{d.image_crc:04X}"}
-    after_fc, after_desc = stored_calibration(link)
-    if before == "identity" or (before == "auto" and cal is None):
-        before_fc, res.before = FixedCal.identity(), "identity"
-    else:
-        before_fc, res.before = found, f"as found: {found_desc}"
-    res.after = (f"{cal.method} from the file, downloaded: {after_desc}" if cal is not None
-                 else f"as found: {after_desc}")
-    res.before_cal, res.after_cal = _cal_dict(before_fc), _cal_dict(after_fc)
+    with _saying_downloaded(res.download):
+        after_fc, after_desc = stored_calibration(link)
+        if before == "identity" or (before == "auto" and cal is None):
+            before_fc, res.before = FixedCal.identity(), "identity"
+        else:
+            before_fc, res.before = found, f"as found: {found_desc}"
+        res.after = (f"{cal.method} from the file, downloaded: {after_desc}" if cal is not None
+                     else f"as found: {after_desc}")
+        res.before_cal, res.after_cal = _cal_dict(before_fc), _cal_dict(after_fc)
 
-    steps = [Step(*p.pose, f"{grid} grid: {'tilt' if grid == 'ren2014' else 'inclination'} {p.set_inc:g}, "
-                  f"azimuth {p.set_azi:g}" + (f", toolface {p.tf:g}" if len(toolfaces) > 1 or p.tf else ""))
-             for p in pts]
-    csteps = circle_steps() if circles else []
-    bar = progress_bar(len(steps) + len(csteps), f"accept {grid}", quiet)
-    if getattr(table, "default_say", False):
-        table.say = lambda m: bar.write(m, file=sys.stderr)
-    keys = ("inc", "azi", "gtf", "mtf", "gt", "bt", "dip", "flags")
-    try:
-        for i, (p, st) in enumerate(zip(pts, steps), start=1):
-            table.move(st, i, len(steps) + len(csteps))
-            win = read_stable(link, tol, max_reads if table.unattended else None)
-            eb, ea = [], []
-            for r in win:
-                # the probe's Q6 means (the reading holds them / 64, exactly)
-                raw_a, raw_m = [round(v * 64) for v in r.acc], [round(v * 64) for v in r.mag]
-                b = core.survey_one(raw_a, raw_m, before_fc)
-                want = core.survey_one(raw_a, raw_m, after_fc)
-                got = {k: getattr(r.record, k) for k in keys}
-                res.surveys_checked += 1
-                bad = [k for k in keys if int(want[k]) != int(got[k])]
-                if bad:
-                    res.survey_mismatches.append(f"{st.label}: {', '.join(f'{k} probe {got[k]} predicted {want[k]}' for k in bad)}")
-                eb.append(_measure((b["inc"] / 65536.0, b["azi"] / 65536.0), int(b["flags"]), p, decl))
-                ea.append(_measure((r.survey["inc_deg"], r.survey["azi_deg"]), int(r.survey["flags"]), p, decl))
-            res.points.append({"set_inc": p.set_inc, "set_azi": p.set_azi, "tf": p.tf, "pose": list(p.pose),
-                               "before": _mean_err(eb), "after": _mean_err(ea), "reads": len(win),
-                               "temp_c": mean_row(win).get("temp_c")})
-            bar.update(1)
-        for i, st in enumerate(csteps, start=len(steps) + 1):
-            table.move(st, i, len(steps) + len(csteps))
-            win = read_stable(link, tol, max_reads if table.unattended else None)
-            res.circles.append({**mean_row(win), "inc_deg": st.inc, "azi_deg": st.azi, "tf_deg": st.tf})
-            bar.update(1)
-    finally:
-        bar.close()
-    for which in ("before", "after"):
-        _, _, ei, ea = res.errors(which)
-        res.stats[which] = _stats(ei, ea)
-    a = res.stats["after"]
-    lim = res.limits
-    if a["azi_rms_deg"] is not None and a["azi_rms_deg"] > lim["max_azi_rms_deg"]:
-        res.reasons.append(f"azimuth RMS {a['azi_rms_deg']:.3f} deg exceeds {lim['max_azi_rms_deg']:g}")
-    if a["inc_rms_deg"] > lim["max_inc_rms_deg"]:
-        res.reasons.append(f"inclination RMS {a['inc_rms_deg']:.3f} deg exceeds {lim['max_inc_rms_deg']:g}")
-    if res.survey_mismatches:
-        res.reasons.append(f"{len(res.survey_mismatches)} of {res.surveys_checked} surveys differ from the stored "
-                           "calibration's prediction")
-    res.passed = not res.reasons
+        steps = [Step(*p.pose, f"{grid} grid: {'tilt' if grid == 'ren2014' else 'inclination'} {p.set_inc:g}, "
+                      f"azimuth {p.set_azi:g}" + (f", toolface {p.tf:g}" if len(toolfaces) > 1 or p.tf else ""))
+                 for p in pts]
+        csteps = circle_steps() if circles else []
+        bar = progress_bar(len(steps) + len(csteps), f"accept {grid}", quiet)
+        if getattr(table, "default_say", False):
+            table.say = lambda m: bar.write(m, file=sys.stderr)
+        keys = ("inc", "azi", "gtf", "mtf", "gt", "bt", "dip", "flags")
+        try:
+            for i, (p, st) in enumerate(zip(pts, steps), start=1):
+                table.move(st, i, len(steps) + len(csteps))
+                win = read_stable(link, tol, max_reads if table.unattended else None)
+                eb, ea = [], []
+                for r in win:
+                    # the probe's Q6 means (the reading holds them / 64, exactly)
+                    raw_a, raw_m = [round(v * 64) for v in r.acc], [round(v * 64) for v in r.mag]
+                    b = core.survey_one(raw_a, raw_m, before_fc)
+                    want = core.survey_one(raw_a, raw_m, after_fc)
+                    got = {k: getattr(r.record, k) for k in keys}
+                    res.surveys_checked += 1
+                    bad = [k for k in keys if int(want[k]) != int(got[k])]
+                    if bad:
+                        res.survey_mismatches.append(f"{st.label}: {', '.join(f'{k} probe {got[k]} predicted {want[k]}' for k in bad)}")
+                    eb.append(_measure((b["inc"] / 65536.0, b["azi"] / 65536.0), int(b["flags"]), p, decl))
+                    ea.append(_measure((r.survey["inc_deg"], r.survey["azi_deg"]), int(r.survey["flags"]), p, decl))
+                res.points.append({"set_inc": p.set_inc, "set_azi": p.set_azi, "tf": p.tf, "pose": list(p.pose),
+                                   "before": _mean_err(eb), "after": _mean_err(ea), "reads": len(win),
+                                   "temp_c": mean_row(win).get("temp_c")})
+                bar.update(1)
+            for i, st in enumerate(csteps, start=len(steps) + 1):
+                table.move(st, i, len(steps) + len(csteps))
+                win = read_stable(link, tol, max_reads if table.unattended else None)
+                res.circles.append({**mean_row(win), "inc_deg": st.inc, "azi_deg": st.azi, "tf_deg": st.tf})
+                bar.update(1)
+        finally:
+            bar.close()
+        for which in ("before", "after"):
+            _, _, ei, ea = res.errors(which)
+            res.stats[which] = _stats(ei, ea)
+        a = res.stats["after"]
+        lim = res.limits
+        if a["azi_rms_deg"] is not None and a["azi_rms_deg"] > lim["max_azi_rms_deg"]:
+            res.reasons.append(f"azimuth RMS {a['azi_rms_deg']:.3f} deg exceeds {lim['max_azi_rms_deg']:g}")
+        if a["inc_rms_deg"] > lim["max_inc_rms_deg"]:
+            res.reasons.append(f"inclination RMS {a['inc_rms_deg']:.3f} deg exceeds {lim['max_inc_rms_deg']:g}")
+        if res.survey_mismatches:
+            res.reasons.append(f"{len(res.survey_mismatches)} of {res.surveys_checked} surveys differ from the stored "
+                               "calibration's prediction")
+        res.passed = not res.reasons
     res.elapsed_s = time.monotonic() - t0
     return res
 

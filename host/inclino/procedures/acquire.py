@@ -190,8 +190,9 @@ class _RowWriter:
         self.part = path + ".part"
         self.rows = 0
         self.noise = _Noise()
+        self.notes: list[str] = []   # what resuming did to the .part, said before the first move
         if resume is not None:
-            old_meta, old_rows = _read_part(resume)
+            old_meta, old_rows, cut = _read_part(resume)
             def key(k, m):  # the procedure, not who turned the table, must match
                 v = str(m.get(k, ""))
                 return v.split(" (")[0] if k == "source" else v
@@ -204,10 +205,14 @@ class _RowWriter:
             meta.clear()
             meta.update(old_meta)
             self.start = parse_utc(old_meta["start_utc"], resume)
+            if cut is not None:  # the run stopped while writing its last row: drop it, take that pose again
+                os.truncate(resume, cut)
+                self.notes.append(f"{resume}: its last row was cut short (the run stopped while writing it): "
+                                  f"dropped; pose {old_rows + 1} is taken again")
             mode = "a"
         else:
             if os.path.exists(self.part):
-                _, n = _read_part(self.part, check=False)
+                _, n, _ = _read_part(self.part, check=False)
                 raise DataError(f"{self.part} exists ({n} rows an earlier run kept): continue it with --resume "
                                 f"{self.part}, or remove it to start again")
             self.start = parse_utc(meta["start_utc"], path)
@@ -297,10 +302,12 @@ def _read_part(path: str, check: bool = True):
 
     if check and not path.endswith(".part"):
         raise DataError(f"--resume {path}: the .part file an interrupted run left (RUN.csv.part)")
-    meta, rows, cols = {}, 0, None
+    meta, rows, cols, cut, end = {}, 0, None, None, 0
     try:
-        with open(path, encoding="utf-8") as f:
-            for line in f:
+        with open(path, "rb") as f:
+            for raw in f:
+                line = raw.decode("utf-8")
+                end += len(raw)
                 if line.startswith("#"):
                     if "=" in line:
                         k, v = (t.strip() for t in line[1:].split("=", 1))
@@ -314,14 +321,30 @@ def _read_part(path: str, check: bool = True):
                 elif cols is None:
                     cols = line.strip().split(",")
                 elif line.strip():
-                    rows += 1
+                    if cut is not None:  # a broken row with rows after it: not where a stop leaves one
+                        raise DataError(f"{path}: row {rows + 1} is cut short in the middle of the run "
+                                        f"(the file was edited or damaged): not resumed; start the run again")
+                    cut = None if _whole_row(line, len(cols)) else end - len(raw)
+                    rows += cut is None
     except OSError as e:
         raise DataError(f"cannot read {path}: {e.strerror}") from None
     except UnicodeDecodeError:
         raise DataError(f"{path}: not a text file") from None
     if check and (tuple(cols or ()) != COLUMNS or "start_utc" not in meta):
         raise DataError(f"{path}: not a run inclino acquire left (its columns or header differ): not resumed")
-    return meta, rows
+    return meta, rows, cut
+
+
+def _whole_row(line: str, cells: int) -> bool:
+    """A row as _RowWriter writes it: ended by its newline, every cell a
+    number (a run stopped while writing one leaves it cut short)."""
+    if not line.endswith("\n"):
+        return False
+    parts = line.strip().split(",")
+    try:
+        return len(parts) == cells and len([float(p) for p in parts]) == cells
+    except ValueError:
+        return False
 
 
 def acquire(link, procedure: str, out_path: str, table, *, points: int = 36, d1: float = 30.0,
@@ -351,6 +374,8 @@ def acquire(link, procedure: str, out_path: str, table, *, points: int = 36, d1:
     def say(m):  # instructions and warnings stay visible with --quiet (an operator needs them)
         bar.write(m, file=sys.stderr)
 
+    for m in out.notes:
+        say(f"note: {m}")
     if getattr(table, "default_say", False):  # a person at the turntable, told above the bar
         table.say = say
     with recording(out, bar, res, t0):

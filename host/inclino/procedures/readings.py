@@ -18,6 +18,9 @@ class Unsettled(ProbeError):
     """The readings did not agree within the tolerance (exit status 4)."""
 
 
+DEFAULT_AVERAGE = 16  # the probe's samples per reading after a restart (docs/bench.md, --average)
+
+
 @dataclass
 class Reading:
     t_s: float
@@ -43,9 +46,14 @@ class Tolerance:
     mag_nT: float = 20.0
     reads: int = 3
 
-    def check(self) -> None:
+    def check(self, max_reads: int | None = None) -> None:
+        """max_reads: the bench's --max-reads, which must leave room for
+        --reads agreeing readings (fewer: no position can ever settle)."""
         if self.reads < 1:
             raise DataError("--reads must be >= 1")
+        if max_reads is not None and max_reads < self.reads:
+            raise DataError(f"--max-reads {max_reads}: at least --reads ({self.reads}) readings, or no position "
+                            f"can settle")
         if not (self.acc_mg > 0 and self.mag_nT > 0):
             raise DataError("the stability tolerances must be > 0")
 
@@ -78,7 +86,19 @@ def read_stable(link, tol: Tolerance, max_reads: int | None = 30, waiting=None) 
                 waiting(sa, sm, n)
             if max_reads is not None and n >= max_reads:
                 raise Unsettled(f"the readings did not settle in {n} reads (spread {sa:.2f} mg, {sm:.0f} nT; "
-                                f"tolerance {tol.acc_mg:g} mg, {tol.mag_nT:g} nT)")
+                                f"tolerance {tol.acc_mg:g} mg, {tol.mag_nT:g} nT){_few_samples(win)}")
+
+
+def _few_samples(win: list[Reading]) -> str:
+    """A probe left averaging fewer samples than its default (an earlier
+    --average: it keeps it in RAM) reads noisier than the tolerances assume:
+    say so, with the fix, where that can be why nothing settled."""
+    n = getattr(win[-1].record, "count", None) if win else None
+    if n is None or n >= DEFAULT_AVERAGE:
+        return ""
+    return (f"; the probe averages {n} sample{'s' if n != 1 else ''} per reading, fewer than its default "
+            f"{DEFAULT_AVERAGE} (an --average it keeps until restarted): readings that noisy need --average "
+            f"{DEFAULT_AVERAGE} or more, or wider --tol-acc-mg / --tol-mag-nt")
 
 
 def mean_row(win: list[Reading]) -> dict:
