@@ -276,8 +276,16 @@ def _cmd_toolmodel(args) -> int:
         _write(args.output, json.dumps(d, indent=2) + "\n")
         what = f"{base.label} (revision {base.revision:g}) with the probe's sensor terms in place of its own"
     f = tm.fit
-    print(f"tool model {tm.name} -> {args.output}: {what}; " + ", ".join(
-        f"{g} {_show(g, v)}" for g, v in tm.systematic.items()))
+    corr = [n for n in tm.correlated if n in tm.systematic]
+    shown = [f"{g} {_show(g, v)}" for g, v in tm.systematic.items() if g not in tm.correlated and (v or not corr)]
+    if corr:  # the combination terms' magnitudes are dimensionless (their weights carry the units)
+        xy = [n for n in corr if n.startswith(em.CORRELATED_PREFIX_XY)]
+        z = [n for n in corr if n not in xy]
+        parts = [f"{len(v)} {what} ({v[0]}..{v[-1]})" for v, what in ((z, "toolface-independent"),
+                                                                      (xy, "toolface-dependent")) if v]
+        shown.append(" and ".join(parts) + " correlated combination terms: the calibration's bias, scale and "
+                     "misalignment errors with their correlations")
+    print(f"tool model {tm.name} -> {args.output}: {what}; " + ", ".join(shown))
     print(f"noise per survey: acc {an:.3g} g, mag {mn:.3g} nT, from {src}")
     print(f"projection of the calibration covariance: "
           f"sigma ratio {f['sigma_ratio_min']:.2f}-{f['sigma_ratio_max']:.2f} (RMS {f['sigma_ratio_rms']:.1%} off) "
