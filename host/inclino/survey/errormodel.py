@@ -278,6 +278,8 @@ def station_sigma(tm: ToolModel, inc_deg, azm_deg, dip_deg, field_nT, systematic
     if noise:
         parts += [(NOISE_GROUPS[g], tm.noise.get(g, 0.0)) for g in NOISE_GROUPS]
     for names, mag in parts:
+        if mag == 0.0:  # a standard term written with 0 (its weight is infinite at the vertical: 0 x inf)
+            continue
         wi, wa = weights(names, inc_deg, azm_deg, dip_deg, field_nT)
         vi += mag ** 2 * np.sum(wi ** 2, axis=0)
         va += mag ** 2 * np.sum(wa ** 2, axis=0)
