@@ -92,6 +92,18 @@ def test_quit_with_no_row_taken_leaves_nothing(tmp_path, capsys):
     assert "nothing kept" in str(ex.value) and not (tmp_path / "run.csv.part").exists()
 
 
+def _interrupted(emu, out) -> str:
+    """A twelve-position run into `out` interrupted at its sixth pose (its
+    .part left); the bench's address."""
+    bench = f"127.0.0.1:{emu.control_port}"
+    with ProbeLink(emu.path, timeout=2.0) as link:
+        table = StopsAt(bench, 6)
+        with pytest.raises(KeyboardInterrupt):
+            acq.acquire(link, "twelve-position", str(out), table, quiet=True)
+        table.close()
+    return bench
+
+
 def test_resume_after_a_row_cut_short_takes_that_pose_again(tmp_path, capsys):
     """A run killed (or the power lost) while writing a row leaves the
     .part's last row cut short; --resume drops it, says so and takes that
@@ -99,12 +111,7 @@ def test_resume_after_a_row_cut_short_takes_that_pose_again(tmp_path, capsys):
     that calibrate then refuses)."""
     out, part = tmp_path / "run.csv", tmp_path / "run.csv.part"
     with Emulator("typical", control_port=0, realtime=False) as emu:
-        bench = f"127.0.0.1:{emu.control_port}"
-        with ProbeLink(emu.path, timeout=2.0) as link:
-            table = StopsAt(bench, 6)
-            with pytest.raises(KeyboardInterrupt):
-                acq.acquire(link, "twelve-position", str(out), table, quiet=True)
-            table.close()
+        bench = _interrupted(emu, out)
         part.write_text(part.read_text()[:-40])            # row 5 cut mid-number
         rc, o, err = run(capsys, "acquire", "--port", emu.path, "--bench", bench, "--procedure", "twelve-position",
                          "--resume", part, "--quiet")
@@ -118,12 +125,7 @@ def test_resume_after_a_row_cut_short_takes_that_pose_again(tmp_path, capsys):
 def test_resume_refuses_a_part_damaged_in_the_middle(tmp_path, capsys):
     out, part = tmp_path / "run.csv", tmp_path / "run.csv.part"
     with Emulator("typical", control_port=0, realtime=False) as emu:
-        bench = f"127.0.0.1:{emu.control_port}"
-        with ProbeLink(emu.path, timeout=2.0) as link:
-            table = StopsAt(bench, 6)
-            with pytest.raises(KeyboardInterrupt):
-                acq.acquire(link, "twelve-position", str(out), table, quiet=True)
-            table.close()
+        bench = _interrupted(emu, out)
         lines = part.read_text().splitlines(keepends=True)
         lines[-3] = lines[-3][:30] + "\n"                     # a row in the middle cut short
         part.write_text("".join(lines))

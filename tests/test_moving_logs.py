@@ -118,6 +118,18 @@ def ck_stretch():
     return common.subset(ds, np.arange(9675, 9975))
 
 
+def _refused(ds, tmp_path, capsys):
+    """(the one error line, the calibration's path) of calibrate refusing
+    ds (exit 3, no traceback)."""
+    run, cal = tmp_path / "run.csv", tmp_path / "cal.json"
+    dataset.write_raw(str(run), ds)
+    assert main(["calibrate", str(run), "-o", str(cal)]) == 3
+    err = capsys.readouterr().err
+    errors = [line for line in err.splitlines() if line.startswith("inclino: error:")]
+    assert len(errors) == 1 and "Traceback" not in err, err
+    return errors[0], cal
+
+
 @pytest.mark.parametrize("triads", ["both", "acc"])
 def test_a_moving_log_that_cannot_be_calibrated_is_refused_naming_the_motion(ck_stretch, tmp_path, capsys, triads):
     """300 rows turned through the sphere (directions' spread 0.13) while the
@@ -131,13 +143,7 @@ def test_a_moving_log_that_cannot_be_calibrated_is_refused_naming_the_motion(ck_
     if triads == "acc":
         ds = dataclasses.replace(ds, columns={k: v for k, v in ds.columns.items() if k not in dataset.MAG_COLS})
     assert ds.triads == triads
-    run, cal = tmp_path / "run.csv", tmp_path / "cal.json"
-    dataset.write_raw(str(run), ds)
-    assert main(["calibrate", str(run), "-o", str(cal)]) == 3
-    err = capsys.readouterr().err
-    errors = [line for line in err.splitlines() if line.startswith("inclino: error:")]
-    assert len(errors) == 1 and "Traceback" not in err, err
-    line = errors[0]
+    line, cal = _refused(ds, tmp_path, capsys)
     assert "the accelerometer moved while it was read: 100 % of the 300 rows were read while moving" in line, line
     assert "|g| as logged spreads 0.04" in line and "hold the device still at each orientation" in line, line
     assert "--static" in line and "cover too little" not in line and not cal.exists()
@@ -200,13 +206,7 @@ def test_a_phone_turned_through_the_sphere_by_hand_is_refused_naming_the_motion(
     ds = _import("iphone_sensor_logger", "AccelerometerUncalibrated.csv")
     f = motion.figures(ds)
     assert f is not None and f["direction_spread"] < motion.PLENTY_EIG and f["direction_cond"] < 20
-    run, cal = tmp_path / "run.csv", tmp_path / "cal.json"
-    dataset.write_raw(str(run), ds)
-    assert main(["calibrate", str(run), "-o", str(cal)]) == 3
-    err = capsys.readouterr().err
-    errors = [line for line in err.splitlines() if line.startswith("inclino: error:")]
-    assert len(errors) == 1 and "Traceback" not in err, err
-    line = errors[0]
+    line, cal = _refused(ds, tmp_path, capsys)
     assert "the accelerometer moved while it was read" in line and "cover too little" not in line, line
     assert "hold the device still at each orientation" in line and not cal.exists()
 

@@ -130,6 +130,20 @@ def segment_text(seg) -> str:
 
 
 # --------------------------------------------------------------------------
+def _mc_to_mb(M, b):
+    """The Jacobian (12 x 12) from (M row-major, c = M b) to (M row-major,
+    b = M^-1 c): the covariance of a fit in c carried to b."""
+    Minv = np.linalg.inv(M)
+    T = np.eye(12)
+    for i in range(3):
+        for j in range(3):
+            E = np.zeros((3, 3))
+            E[i, j] = 1.0
+            T[9:12, 3 * i + j] = -Minv @ (E @ b)
+    T[9:12, 9:12] = Minv
+    return T
+
+
 def fit_poses(raw, truth, sigma: float, min_rows: int = 4):
     """corrected = M (raw - b) against the reference `truth` (n, 3).
     Returns (M, b, cov (12: M row-major, b), info)."""
@@ -167,15 +181,8 @@ def fit_poses(raw, truth, sigma: float, min_rows: int = 4):
     for i in range(3):
         ids = [3 * i, 3 * i + 1, 3 * i + 2, 9 + i]
         cov_mc[np.ix_(ids, ids)] = XtXi
-    Minv = np.linalg.inv(M)
-    b = Minv @ c
-    T = np.eye(12)
-    for i in range(3):
-        for j in range(3):
-            E = np.zeros((3, 3))
-            E[i, j] = 1.0
-            T[9:12, 3 * i + j] = -Minv @ (E @ b)
-    T[9:12, 9:12] = Minv
+    b = np.linalg.solve(M, c)
+    T = _mc_to_mb(M, b)
     cov = T @ cov_mc @ T.T
     res = np.linalg.norm(X @ sol - truth, axis=1)
     return M, b, cov, {"s2": s2, "dof": dof, "keep": keep, "residual": res,
@@ -228,14 +235,7 @@ def pose_mean_covariance(gm, tm, M, b, radial_var):
     st2 = max(rt - float(np.trace(P @ Q @ Dr @ Q)), 0.0) / max(dof_t, 1e-300)
     Sigma = st2 * P + Dr
     cov_mc = JtJi @ J.T @ Sigma @ J @ JtJi
-    Minv = np.linalg.inv(M)
-    T = np.eye(12)
-    for i in range(3):
-        for j in range(3):
-            E = np.zeros((3, 3))
-            E[i, j] = 1.0
-            T[9:12, 3 * i + j] = -Minv @ (E @ b)
-    T[9:12, 9:12] = Minv
+    T = _mc_to_mb(M, b)
     g = float(np.median(np.linalg.norm(tm, axis=1)))
     return T @ cov_mc @ T.T, {"placement_deg": float(np.degrees(np.sqrt(st2) / g)), "radial": radial,
                               "tangential_dof": dof_t, "radial_dof": dof_r}
