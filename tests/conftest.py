@@ -109,6 +109,20 @@ def module_rng(request):
     return np.random.default_rng(seed)
 
 
+@pytest.fixture
+def ctl(emu):
+    """The control channel of the module's emulated probe (its `emu`
+    fixture), the link's faults cleared before and after the test."""
+    from inclino_emu.control import ControlClient
+
+    c = ControlClient(port=emu.control_port)
+    clear = dict(bit_error_rate=0.0, drop_rate=0.0, dup_rate=0.0, disconnected=False)
+    c.call("faults", **clear)
+    yield c
+    c.call("faults", **clear)
+    c.close()
+
+
 @pytest.hookimpl(hookwrapper=True)
 def pytest_runtest_makereport(item, call):
     outcome = yield

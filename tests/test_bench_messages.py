@@ -6,7 +6,6 @@ a noisy line, not another device."""
 import pytest
 
 from inclino.link.serial_link import ProbeError, ProbeLink
-from inclino_emu.control import ControlClient
 from inclino_emu.runner import Emulator
 
 
@@ -15,14 +14,6 @@ def emu():   # one per test: the firmware has one owner per process, and other m
     e = Emulator("typical", control_port=0, realtime=False).start()
     yield e
     e.stop()
-
-
-@pytest.fixture
-def ctl(emu):
-    c = ControlClient(port=emu.control_port)
-    yield c
-    c.call("faults", bit_error_rate=0.0, drop_rate=0.0, dup_rate=0.0, disconnected=False)
-    c.close()
 
 
 def test_a_probe_that_stops_answering_is_not_called_the_wrong_port(emu, ctl):

@@ -10,7 +10,6 @@ import pytest
 from inclino import cli
 from inclino.formats.calfile import Calibration
 from inclino.link.serial_link import ProbeLink
-from inclino_emu.control import ControlClient
 from inclino_emu.runner import Emulator
 
 
@@ -19,15 +18,6 @@ def emu():
     e = Emulator("typical", control_port=0, realtime=False).start()
     yield e
     e.stop()
-
-
-@pytest.fixture
-def ctl(emu):
-    c = ControlClient(port=emu.control_port)
-    c.call("faults", bit_error_rate=0.0, drop_rate=0.0, dup_rate=0.0, disconnected=False)
-    yield c
-    c.call("faults", bit_error_rate=0.0, drop_rate=0.0, dup_rate=0.0, disconnected=False)
-    c.close()
 
 
 def inverse_cal(scn, serial=None, scale=1.0) -> Calibration:

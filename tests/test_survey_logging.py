@@ -17,7 +17,6 @@ import pytest
 
 from inclino import cli
 from inclino.formats import survey_log as sl
-from inclino_emu.control import ControlClient
 from inclino_emu.runner import Emulator
 
 from lasconform import conformance
@@ -38,15 +37,6 @@ def emu():
     e = Emulator("ideal", control_port=0, realtime=False).start()
     yield e
     e.stop()
-
-
-@pytest.fixture
-def ctl(emu):
-    c = ControlClient(port=emu.control_port)
-    c.call("faults", bit_error_rate=0.0, drop_rate=0.0, dup_rate=0.0, disconnected=False)
-    yield c
-    c.call("faults", bit_error_rate=0.0, drop_rate=0.0, dup_rate=0.0, disconnected=False)
-    c.close()
 
 
 def _csv_rows(text):
