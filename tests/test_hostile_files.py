@@ -762,3 +762,23 @@ def test_checks_see_every_phase_of_a_repeated_run():
     rep = checks.run(ds)
     assert any(f.check == "units" and f.level == "error" and f.triad == "acc" for f in rep.findings), \
         [f.message for f in rep.findings]
+
+
+@pytest.mark.parametrize("cmd", [["attitude", "{run}", "--cal", "{cal}", "-o", "{out}"],
+                                 ["download", "--port", "/nonexistent", "--cal", "{cal}"],
+                                 ["verify", "--port", "/nonexistent", "--cal", "{cal}"]])
+def test_a_calibration_file_that_is_not_there_is_bad_input(tmp_path, capsys, cmd):
+    """A CAL.json that cannot be opened is a file that cannot be read: exit 2
+    (docs/cli.md), as a missing --prior or dataset is, before any port is
+    opened; a corrupt one stays exit 3 (calibration refused)."""
+    from inclino.cli import main
+
+    run = tmp_path / "run.csv"
+    run.write_text("ax_g,ay_g,az_g,mx_nT,my_nT,mz_nT\n0,0,1,20000,0,40000\n")
+    args = [a.format(run=run, cal=tmp_path / "absent.json", out=tmp_path / "a.csv") for a in cmd]
+    capsys.readouterr()
+    assert main(args) == 2
+    err = capsys.readouterr().err.strip().splitlines()
+    assert len(err) == 1 and "cannot read calibration" in err[0], err
+    (tmp_path / "absent.json").write_text("{not json")
+    assert main(args) == 3

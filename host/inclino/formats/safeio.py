@@ -272,12 +272,15 @@ def open_log(path: str, mode: str = "a", inputs=()):
 # ---------------------------------------------------------------- inputs
 def read_text(path: str, what: str = "file", max_bytes: int = MAX_JSON_BYTES, error=DataError) -> str:
     """The whole text of a small input file (UTF-8, BOM dropped), at most
-    max_bytes; every defect is one `error` line naming the file."""
+    max_bytes; a file that cannot be opened or read is a DataError (exit 2,
+    bad input, whatever the file is: a missing CAL.json was exit 3 where
+    a missing --prior was 2), every defect of its content one `error` line
+    naming the file."""
     try:
         with open(path, "rb") as f:
             raw = f.read(max_bytes + 1)
     except OSError as e:
-        raise error(f"cannot read {what} {path}: {e.strerror}") from None
+        raise DataError(f"cannot read {what} {path}: {e.strerror}") from None
     if len(raw) > max_bytes:
         raise error(f"{what} {path} is larger than {max_bytes // 2**20} MiB")
     if b"\x00" in raw:
