@@ -70,7 +70,7 @@ def calibrate_main(args) -> int:
 
         try:
             opts["prior"] = Calibration.load(args.prior)
-        except CalibrationError as e:  # the prior is an input: a bad one is bad input
+        except (CalibrationError, DataError) as e:  # the prior is an input: a bad one is bad input
             raise DataError(f"--prior: {e}")
         if args.method != "joint":
             raise DataError("--prior is used by --method joint only")
