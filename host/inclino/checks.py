@@ -387,15 +387,22 @@ def _range_step(ratio: float) -> int:
 LSB_UNITS = {"acc": (("g", 1.0), ("mg", 1e-3)), "mag": (("G", 1e5), ("uT", 1e3), ("mG", 100.0), ("nT", 1.0))}
 
 
+def _one_over(x: float) -> int | None:
+    """N where x is 1/N for a whole N >= 1 (as a description writes an lsb:
+    1/16384 g), else None."""
+    inv = 1.0 / x
+    return round(inv) if inv >= 1.0 and abs(inv - round(inv)) < 1e-9 * inv + 1e-6 else None
+
+
 def _lsb_parts(x: float, triad: str, exact: bool = False) -> tuple:
     """(number, unit) of an lsb (g, nT) as a sensor description spells it:
     1/N of a unit where N is whole (1/16384 g, 1/3000 G); else in g or uT,
     to 4 digits (a measured lsb), or to 6 with exact (a declared lsb a power
     of ten off: 1/3000 uT written for 1/3000 G was told "0.03333 uT")."""
     for unit, size in LSB_UNITS[triad][:None if exact else 1]:
-        inv = size / x
-        if inv >= 1.0 and abs(inv - round(inv)) < 1e-9 * inv + 1e-6:
-            return f"1/{round(inv)}", unit
+        n = _one_over(x / size)
+        if n is not None:
+            return f"1/{n}", unit
     unit, size = LSB_UNITS[triad][0 if triad == "acc" else 1]
     return f"{x / size:.{6 if exact else 4}g}", unit
 
@@ -488,7 +495,7 @@ def _as_written(x: float) -> bool:
     0.000101972 g: no one wrote that)."""
     if not (np.isfinite(x) and x > 0):
         return False
-    return abs(float(f"{x:.4g}") / x - 1.0) < 1e-9 or abs(1.0 / x - round(1.0 / x)) < 1e-6 * (1.0 / x)
+    return abs(float(f"{x:.4g}") / x - 1.0) < 1e-9 or _one_over(x) is not None
 
 
 def _counts_hint(ds, triad: str, ratio: float, tol: float) -> str:
