@@ -211,3 +211,75 @@ def test_components_hold_their_floors():
     assert np.all(c.sigma <= free.sigma * 1.01)  # the larger pose error leaves the noise no larger
     tiny = covariance.fit_components(R * 1e-4, np.arange(k), Jpose=Jc, floor=np.full(m, 1.0))
     assert np.all(tiny.sigma >= 1.0 - 1e-9)
+
+
+def _continuous_run(seed, n=1500, hand_mg=20.0, band=(30, 300)):
+    """A run read while moving, each row its own pose (a sensor turned along
+    a smooth random path under a motion-capture reference), written here on
+    its own (docs/conventions.md's pose rotation, a 12-parameter calibration
+    per triad): an acceleration of hand_mg RMS per axis, band-limited to
+    periods of band rows, on the accelerometer beside 1 mg of white noise
+    (60 nT on the magnetometer).  Returns (dataset, the true 24
+    coefficients)."""
+    from inclino.engines import reference as ref
+
+    rng = np.random.default_rng(seed)
+    knots, u = np.linspace(0, 1, 40), np.linspace(0, 1, n)
+    inc = np.interp(u, knots, 5 + 170 * (0.5 + 0.5 * np.sin(np.cumsum(rng.normal(0, 0.6, 40)))))
+    azi = np.interp(u, knots, np.cumsum(rng.normal(0, 60, 40))) % 360
+    tf = np.interp(u, knots, np.cumsum(rng.normal(0, 90, 40))) % 360
+    g, f = ref.body_vectors(inc, azi, tf, 50000.0, 60.0, 0.0, 1.0)
+    Ma, ba = np.eye(3) + rng.normal(0, 0.003, (3, 3)), rng.normal(0, 0.01, 3)
+    Mm, bm = np.eye(3) + rng.normal(0, 0.01, (3, 3)), rng.normal(0, 300, 3)
+    fr = np.fft.rfftfreq(n)
+    hand = np.zeros((n, 3))
+    for j in range(3 if hand_mg else 0):
+        X = np.fft.rfft(rng.normal(size=n))
+        X[(fr < 1.0 / band[1]) | (fr > 1.0 / band[0])] = 0
+        x = np.fft.irfft(X, n=n)
+        hand[:, j] = hand_mg * 1e-3 * x / x.std()
+    acc = g @ np.linalg.inv(Ma).T + ba + hand + rng.normal(0, 1e-3, g.shape)
+    mag = f @ np.linalg.inv(Mm).T + bm + rng.normal(0, 60.0, f.shape)
+    cols = {"t_s": np.arange(n) / 50.0, "inc_deg": inc, "azi_deg": azi, "tf_deg": tf}
+    cols.update({c: acc[:, j] for j, c in enumerate(("ax_g", "ay_g", "az_g"))})
+    cols.update({c: mag[:, j] for j, c in enumerate(("mx_nT", "my_nT", "mz_nT"))})
+    ds = RawDataset(cols, {"field_nT": 50000.0, "dip_deg": 60.0, "declination_deg": 0.0})
+    return ds, np.concatenate([Ma.ravel(), ba, Mm.ravel(), bm])
+
+
+def test_a_run_read_while_moving_counts_its_rows_in_blocks(monkeypatch, rng):
+    """Each row its own pose, the accelerometer's error correlated over
+    tens of rows (a hand's acceleration): the noise model (independent rows)
+    put the accelerometer's coefficients' errors at 2-5 times their sigma
+    (z RMS 3.2 over four runs).  Counted in blocks of consecutive rows as
+    long as the residual's own correlation, z RMS 1.1 (0.6-1.8 per run);
+    the magnetometer's white rows stay near 1.  With white rows no block
+    is counted (test_covariance_holds...: the covariance is the rows')."""
+    rows_cov = []
+    larger = joint._larger_covariance
+
+    def keep_rows(C, B, names):
+        rows_cov.append(C)
+        return larger(C, B, names)
+
+    monkeypatch.setattr(joint, "_larger_covariance", keep_rows)
+    z_blocks, z_rows = [], []
+    seed0 = int(rng.integers(1 << 20))
+    for seed in range(seed0, seed0 + 3):
+        ds, truth = _continuous_run(seed)
+        cal, info = joint.fit(ds, nonlinear=False)
+        e = common.cal_vector(cal)[:24] - truth
+        assert info["blocks"]["count"] >= 30 and info["blocks"]["var_ratio"]["acc"] > 2, info["blocks"]
+        z_blocks.append(e / np.sqrt(np.diag(info["covariance"])[:24]))
+        # the rows' covariance is of (M, c = M b): carried to (M, b) as the fit carries its own
+        v = common.cal_vector(cal)
+        x = np.concatenate([v[:9], v[:9].reshape(3, 3) @ v[9:12], v[12:21], v[12:21].reshape(3, 3) @ v[21:24]])
+        T = np.eye(len(rows_cov[-1]))
+        common.fill_bias_jacobian(x, T)
+        z_rows.append(e / np.sqrt(np.diag(T @ rows_cov[-1] @ T.T)[:24]))
+    zb, zr = np.array(z_blocks), np.array(z_rows)
+    acc_b, acc_r = (float(np.sqrt(np.mean(z[:, :12] ** 2))) for z in (zb, zr))
+    assert 0.6 < acc_b < 1.7 and acc_r > 1.8, (acc_b, acc_r)
+    assert 0.5 < float(np.sqrt(np.mean(zb[:, 12:] ** 2))) < 1.4
+    ds, _ = _continuous_run(seed0, hand_mg=0.0)
+    assert "blocks" not in joint.fit(ds, nonlinear=False)[1]

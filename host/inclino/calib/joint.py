@@ -41,7 +41,7 @@ from inclino.engines import reference as ref
 from inclino.formats.dataset import RawDataset
 from inclino.errors import CalibrationError, DataError
 
-from . import common
+from . import common, triad
 from .common import SIGMA_ACC, SIGMA_MAG  # noqa: F401 (the nominal noise; callers import it from here)
 from .triad import robust_threshold  # noqa: F401 (the outlier threshold of every fit; callers import it from here)
 from .ellipsoid import ellipsoid_start  # noqa: F401 (callers import it from here too)
@@ -328,6 +328,63 @@ def _least_squares(fun, jac, x, acc, mag, poses, FdG, whiten):
     return chunked_lm.solve(lambda xx, c: fun(xx, *args(c)), chunks, x, jac=lambda xx, c: jac(xx, *args(c)))
 
 
+def _larger_covariance(C, B, names):
+    """The rows' covariance C of a fit raised, triad by triad, to what the
+    blocks' covariance B shows: each group of coefficients (names: "acc
+    ...", "mag ...", the rest, e.g. the dip) scaled by the mean of B's
+    variance ratios to C over its directions (tr(C_g^-1 B_g) / p_g: scale
+    free, the units differ, g and nT) where that exceeds 1.  A mean, not
+    direction by direction: with a few dozen blocks for 25-31 coefficients
+    B's own eigenvalues spread widely, and the largest ratio of a run's
+    white rows (142 poses of an emulated turntable run in 36 blocks of 4)
+    read 3.0.  Returns (covariance, {group: ratio})."""
+    groups = {}
+    for i, nm in enumerate(names[:len(C)]):
+        groups.setdefault(nm.split()[0] if nm.split()[0] in ("acc", "mag") else "other", []).append(i)
+    d = np.ones(len(C))
+    ratios = {}
+    for g, idx in groups.items():
+        Cg, Bg = C[np.ix_(idx, idx)], B[np.ix_(idx, idx)]
+        r = float(np.trace(np.linalg.solve(Cg, Bg)) / len(idx))
+        ratios[g] = r
+        d[idx] = np.sqrt(max(r, 1.0))
+    return C * np.outer(d, d), ratios
+
+
+def _time_blocks_covariance(res, W, fun, jac, acc, mag, poses, FdG, ds, keep):
+    """A log read while moving, each row its own pose (a sensor turned by
+    hand under a motion-capture reference): the hand's acceleration and the
+    reference's slow errors err alike on neighbouring rows, which the noise
+    model (independent rows, calib/covariance.py) does not hold.  The
+    blocks' covariance (triad.time_blocks, block_covariance) of the fit as
+    whitened, its rows' scores summed over blocks of consecutive rows as
+    long as the whitened residual's own correlation: (covariance, {"rows",
+    "count"}), or None where a pose holds several rows (the clusters
+    count those), the rows are not in time order, or the residual is close
+    to white.  (BROAD's trial 02, 2 577 rows at 286 Hz: its two halves, in
+    alternate blocks of 100 rows, differed by 1.1-2.0 of the rows'
+    standard errors, RMS per group of coefficients.)"""
+    from . import chunked_lm
+
+    if not getattr(W, "single", False):
+        return None
+    t = ds.columns.get("t_s")
+    if t is not None and np.any(np.diff(np.asarray(t, float)[keep]) < 0):
+        return None
+    n, chunks = len(acc), chunked_lm.row_chunks(len(acc), 6, W.starts())
+    scores, resid = np.zeros((n, len(res.x))), np.zeros((n, 6))
+    for c in chunks:
+        a = (acc[c], mag[c], tuple(p[c] for p in poses), *FdG, W.part(c))
+        r, J = fun(res.x, *a), jac(res.x, *a)
+        resid[c] = r.reshape(-1, 6)
+        scores[c] = (J * r[:, None]).reshape(-1, 6, J.shape[1]).sum(1)
+    lab = triad.time_blocks(resid)
+    if lab is None:
+        return None
+    cov = triad.block_covariance(None, scores, lab, A=res.jtj)
+    return None if cov is None else (cov, {"rows": int(np.bincount(lab).max()), "count": int(lab.max()) + 1})
+
+
 def _refit_with_components(comps, x, fun, jac, acc, mag, poses, FdG, fix_dip, dip0, labels):
     """The final Gauss-Newton pass whitened by fitted noise components
     (calib/covariance.py): (result, whitener)."""
@@ -373,11 +430,18 @@ def _refit_fitted_noise(x, fun, jac, ds, keep, poses, FdG, fix_dip, dip0, names,
         cov = np.linalg.pinv(res.jtj)
         if not np.all(np.isfinite(cov)):
             raise np.linalg.LinAlgError("covariance not finite")
+        blk = _time_blocks_covariance(res, W, fun, jac, acc, mag, pk, FdG, ds, keep)
+        blocks = None
+        if blk is not None:
+            cov, ratios = _larger_covariance(cov, blk[0], names)
+            if max(r for g, r in ratios.items() if g != "other") > 1.0:
+                blocks = {**blk[1], "var_ratio": {g: r for g, r in ratios.items() if g != "other"}}
     except (np.linalg.LinAlgError, ValueError) as e:
         noise_info["noise_note"] = f"the run's own noise could not be fitted ({e}); nominal noise scaled by s^2"
         return x, cov_lin, noise_info
     chi2 = 2.0 * res.cost
-    noise_info = {**noise_info, "noise": comps.to_dict(), "noise_components": comps,
+    noise_info = {**{k: v for k, v in noise_info.items() if k != "blocks"}, "noise": comps.to_dict(),
+                  **({"blocks": blocks} if blocks else {}), "noise_components": comps,
                   "chi2_fitted_noise": chi2}
     return x, cov, noise_info
 
@@ -419,6 +483,8 @@ def _fit_poses(ds, w, sa, sm, sp, fix_dip, nonlinear=False, noise="fit"):
                 best = (cost, d)
         dip0 = best[1]
     g, f = ref.body_vectors(*poses, F, dip0, dec, G)
+    triad.poses_span(g, "the accelerometer's 12 parameters")
+    triad.poses_span(f, "the magnetometer's 12 parameters")
     x0 = np.concatenate([_linear_start(ds.acc, ds.mag, g, f), np.zeros(6 if nonlinear else 0), [dip0]])
     P = len(x0)
     keep = np.ones(len(ds), bool)

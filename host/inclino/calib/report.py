@@ -384,6 +384,13 @@ def build(ds: RawDataset, cal: Calibration, method: str, info: dict, refit=None,
         nz = info["noise"]
         src = (f"GLS covariance under the run's own noise ({nz['method']}: per channel, pose error per turntable "
                f"axis; {nz['clusters']} poses as clusters of their {nz['rows']} rows)")
+        bl = info.get("blocks")
+        if bl:
+            src += (f"; counted in {bl['count']} blocks of {bl['rows']} consecutive rows, the residuals being "
+                    f"correlated from row to row (a log read while moving: the hand's acceleration, the reference's "
+                    f"slow errors): the rows' variance x" + ", x".join(
+                        f"{r:.3g} ({'accelerometer' if g == 'acc' else 'magnetometer'})"
+                        for g, r in bl["var_ratio"].items() if r > 1.0))
     elif cov is not None and info.get("mode") == "invariants" and info.get("s2_by_triad"):
         # without poses each triad is fitted on its own (calib.pose_free): one pooled s^2 is not what scales it
         s2t = info["s2_by_triad"]

@@ -173,6 +173,7 @@ def fit_poses(raw, truth, sigma: float, min_rows: int = 4):
     if np.linalg.matrix_rank(Xk) < 4:
         raise CalibrationError("the poses do not determine the triad's 12 parameters (too few distinct "
                                "orientations)")
+    poses_span(truth[keep])
     # each output axis i: truth_i = X @ [M_i; c_i]; cov of each row's 4 numbers = s2 sigma^2 (X^T X)^-1
     XtXi = np.linalg.inv(Xk.T @ Xk) * s2 * sigma ** 2
     M = sol[:3].T
@@ -187,6 +188,22 @@ def fit_poses(raw, truth, sigma: float, min_rows: int = 4):
     res = np.linalg.norm(X @ sol - truth, axis=1)
     return M, b, cov, {"s2": s2, "dof": dof, "keep": keep, "residual": res,
                        "noise": float(np.sqrt(s2) * sigma), "mode": "poses"}
+
+
+def poses_span(truth, what: str = "the triad's 12 parameters") -> None:
+    """Refuse poses whose reference vectors (n, 3) lie on one plane: the
+    readings' noise makes [raw, 1] of full rank, but the fit takes each
+    axis's offset and scale from how the reference changes, and across
+    such a plane nothing changes (a six-face session split in two, faces
+    -x, +y, +z in one half: its offsets came out 1e15 g and the refusal
+    blamed the unit)."""
+    u = np.unique(np.round(truth / max(float(np.abs(truth).max()), 1e-300), 6), axis=0)
+    sv = np.linalg.svd(np.column_stack([u, np.ones(len(u))]), compute_uv=False) if len(u) >= 4 else None
+    if sv is None or sv[-1] <= 1e-6 * sv[0]:
+        raise CalibrationError(
+            f"the poses do not determine {what}: their {len(u)} distinct reference "
+            f"directions lie on one plane, across which an offset is not told from the scale and axes; add poses "
+            f"off that plane (in a six-face session, each axis pointing both up and down)")
 
 
 def pose_mean_covariance(gm, tm, M, b, radial_var):
@@ -431,15 +448,17 @@ def time_blocks(resid) -> np.ndarray | None:
     """Block labels (0, 1, ...) of consecutive rows for the blocks'
     covariance, from the residual's own autocorrelation: its integrated
     time tau = 1 + 2 sum rho_k (k = 1 ... the first lag where rho_k <
-    BLOCK_ACF_END), a block BLOCK_TAU_K tau rows long, shortened to leave at
-    least BLOCK_MIN blocks.  None when the residual is close to white (tau <
+    BLOCK_ACF_END; resid (n,), or (n, m) channels: the longest of theirs), a
+    block BLOCK_TAU_K tau rows long, shortened to leave at least BLOCK_MIN
+    blocks.  None when the residual is close to white (tau <
     BLOCK_MIN_TAU) or too few rows make BLOCK_MIN blocks of 2 rows.  The
     residual is clipped at 3 robust sigma first (an outlier row is no
     correlation)."""
     n = len(resid)
     if n < 2 * BLOCK_MIN:
         return None
-    tau = integrated_time(resid)
+    r = np.asarray(resid, float)
+    tau = max(integrated_time(c) for c in r.reshape(n, -1).T)
     if tau < BLOCK_MIN_TAU:
         return None
     L = max(2, min(int(np.ceil(BLOCK_TAU_K * tau)), n // BLOCK_MIN))
@@ -469,20 +488,22 @@ def integrated_time(resid) -> float:
     return tau
 
 
-def block_covariance(J, r, labels):
+def block_covariance(J, r, labels, A=None):
     """The sandwich covariance of a least-squares fit whose rows come in
     blocks that share their errors: A^-1 (sum_c s_c s_c^T) A^-1 B / (B - 1),
     A = J^T J, s_c = J_c^T r_c the block's score (J, r whitened, the rows
-    fitted; labels each row's block).  None with fewer than BLOCK_MIN
-    blocks."""
+    fitted; labels each row's block; J None and r the rows' scores J_i^T r_i
+    (n, p) with A given: a fit whose Jacobian is not held whole).  None with
+    fewer than BLOCK_MIN blocks."""
     lab = np.asarray(labels)
     _, c = np.unique(lab, return_inverse=True)
     B = int(c.max()) + 1
     if B < BLOCK_MIN:
         return None
-    S = np.zeros((B, J.shape[1]))
-    np.add.at(S, c, J * r[:, None])
-    Ai = np.linalg.inv(J.T @ J)
+    scores = np.asarray(r, float) if J is None else J * r[:, None]
+    S = np.zeros((B, scores.shape[1]))
+    np.add.at(S, c, scores)
+    Ai = np.linalg.inv(J.T @ J if A is None else A)
     return B / (B - 1.0) * Ai @ (S.T @ S) @ Ai
 
 
