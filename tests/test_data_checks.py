@@ -551,6 +551,32 @@ def test_pose_labels_out_of_step_with_the_readings_are_refused(tmp_path):
     assert f.level == "error" and "the poses do not match the rows" in f.message, f.message
 
 
+def test_one_face_recorded_twice_is_a_label_on_the_wrong_rows_not_a_mirror(tmp_path, capsys):
+    """A six-face session whose "posZ" file held a second recording of the
+    -z face (an ESP32 + MPU-6050 log, one file a face): two poses 180 deg
+    apart read one direction, which no axis map does.  It had been refused
+    as "the accelerometer's axes are mirrored against the poses" (RMS 0.06
+    with a reflection over the best 90 % of the rows, the other z face's
+    rows the 10 % left out), a fix that cannot work.  Here imucal's session
+    with its z_p rows replaced by the z_a face's second half."""
+    lines = (REAL / ACC_POSES[0]).read_text().splitlines()
+    za = [ln for ln in lines[1:] if ln.startswith("z_a,")]
+    rows = [ln for ln in lines[1:] if not ln.startswith("z_p,")]
+    rows = [("z_p," + ln.split(",", 1)[1]) if ln in za[len(za) // 2:] else ln for ln in rows]
+    log = tmp_path / "twice.csv"
+    log.write_text("\n".join([lines[0]] + rows) + "\n")
+    rep = checks.run(importlog.import_log(str(log), sensor.load(str(REAL / ACC_POSES[1])))[0])
+    assert not [f for f in rep.findings if f.check == "handedness"], rep.lines()
+    (f,) = [f for f in rep.findings if f.check == "poses"]
+    assert f.level == "error" and "read one gravity direction" in f.message, f.message
+    assert "inc 180 tf 0" in f.message and "inc 0 tf 0" in f.message and "180 deg apart" in f.message
+    assert main(["import", str(log), "--sensor", str(REAL / ACC_POSES[1]), "-o", str(tmp_path / "r.csv")]) == 2
+    assert "check the [poses] labels" in capsys.readouterr().err
+    assert not (tmp_path / "r.csv").exists()
+    # the session as published: every face its own direction, nothing said
+    assert not [f for f in checks.run(_load(*ACC_POSES)).findings if f.check == "poses"]
+
+
 def test_counts_off_by_a_factor_are_given_the_lsb_not_a_unit(tmp_path):
     """Counts declared with an lsb 1000x too coarse: the fix is the lsb that
     makes |g| 1 g, not "look like counts at 1024 per g or mg" (that advice,
