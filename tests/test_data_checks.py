@@ -731,3 +731,36 @@ def test_the_unit_to_write_is_the_one_the_readings_look_like(declared, data, wan
     bad = dataset.RawDataset({**{c: ds.columns[c] * data * size for c in dataset.ACC_COLS}}, meta)
     (f,) = _found(checks.run(bad), "units", "error")
     assert f'fix the unit (unit = "{want}")' in f.message, f.message
+
+
+def _held_near_the_equator(seed=1):
+    """40 positions held 60 rows each, turned between over 20 rows, the field
+    dipping 2.5 deg, noisy readings (3 000 nT, 10 mg): a step-and-hold log whose
+    pairing the checks cannot see to a row."""
+    from scipy.spatial.transform import Rotation, Slerp
+
+    rng = np.random.default_rng(seed)
+    poses = Rotation.from_quat(rng.normal(size=(40, 4)))
+    path = []
+    for p in range(40):
+        path += [poses[p]] * 60
+        if p < 39:
+            path += list(Slerp([0.0, 1.0], poses[[p, p + 1]])(np.linspace(0.0, 1.0, 22)[1:-1]))
+    body = Rotation.concatenate(path).inv()
+    n, dip = len(body), np.radians(2.5)
+    acc = body.apply([0.0, 0.0, 1.0]) + rng.normal(0, 0.01, (n, 3))
+    mag = body.apply(50_000.0 * np.array([np.cos(dip), 0.0, np.sin(dip)])) + rng.normal(0, 3000.0, (n, 3))
+    return dataset.RawDataset(dict(zip(dataset.ACC_COLS, acc.T)) | dict(zip(dataset.MAG_COLS, mag.T)),
+                              {"field_nT": 50_000.0})
+
+
+def test_an_unchecked_pairing_on_a_held_log_is_not_told_to_hold_still():
+    """A hand-held controller's 197 holds, moved between over 18 rows each
+    (freeIMUCal's office log, the field's dip near zero as its triads'
+    frames read it), were told "a session held still at each position ...
+    checks it": the log was one.  The note now says it is held already and
+    that quick moves between the holds check it."""
+    (f,) = [f for f in checks.run(_held_near_the_equator()).findings if f.check == "row-alignment"]
+    assert f.level == "note" and "not checked to a row" in f.message, f.message
+    assert "held still already" in f.message and "holds found" in f.message and "in a few rows each" in f.message
+    assert "a session held still at each position" not in f.message

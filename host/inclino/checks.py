@@ -1142,8 +1142,12 @@ def _axes_and_lag(ds, rows_all, rep, ug_src=None):
                     f"that no lag removes)")
         _name_shift(ds, rep, route, kb, how, s0, sb, fig)
     elif ug_src is None and not any(f.check == "row-alignment" for f in rep.findings):
-        unseen = None if rep.one_orientation else _shifts_unseen(ug, ubp, inv or short, lags,
-                                                                 strict=inv is None or inv is short)
+        from inclino import holds as _holds
+
+        h = holds_found()
+        unseen = None if rep.one_orientation else _shifts_unseen(
+            ug, ubp, inv or short, lags, strict=inv is None or inv is short,
+            held=(h.count, h.rows_moving) if h.count >= _holds.MIN_HOLDS else None)
         if unseen:
             rep.findings.append(Finding("row-alignment", "note", unseen[0], None, unseen[1]))
     _dip_sign(ds, _dip(*_paired(ug, ubp, rep.lag_rows or 0)), ug_src, rep)  # the dip's sign, as named paired
@@ -1562,7 +1566,7 @@ def _named_on(a, b, inv_shifted, strict=False) -> bool:
     return _short_curve_names(*inv_shifted) if strict else _curve_rule(*inv_shifted)[0] in ("curve", "nearest")
 
 
-def _shifts_unseen(ug, ub, inv, lags, strict=False):
+def _shifts_unseen(ug, ub, inv, lags, strict=False, held=None):
     """A note, (message, figures), when a shift of one row either way would
     not be named on this log as it is (its rows shifted and checked as the
     checks check them, the lag curve moved by the row), or None: a log
@@ -1600,8 +1604,16 @@ def _shifts_unseen(ug, ub, inv, lags, strict=False):
             "named" if len(ways) == 2 else
             f"the triads' pairing is not checked to a row {which} on these rows: such a shift would not be named, "
             f"one the other way would")
-    return (f"{head} (a row changes the dip's spread by {100 * gain:.2g} %; {curve}); a session held "
-            f"still at each position, or a longer log turned through all orientations, checks it"), \
+    if held is None:
+        fix = "a session held still at each position, or a longer log turned through all orientations, checks it"
+    else:
+        # a step-and-hold log already: its changes of position are what show a shift, and moved slowly over many
+        # rows a row's shift mispairs little of each (a phone-like controller's 197 holds, moved over 18 rows
+        # each, had been told to hold still at each position)
+        fix = (f"the log is held still already ({held[0]} holds found, moved between them over "
+               f"{held[1] / max(held[0], 1):.0f} rows each on average): moves between the holds in a few rows each "
+               f"(a quick turn, then still), or a longer log turned through all orientations, check it")
+    return (f"{head} (a row changes the dip's spread by {100 * gain:.2g} %; {curve}); {fix}"), \
         {"unseen_lags_rows": [-k for k in ways], "spread_change_per_row": gain}
 
 
