@@ -225,6 +225,26 @@ def test_the_clean_log_with_its_header_dip_is_not_refused_after_the_fit(tmp_path
     assert main(["calibrate", str(run), "-o", str(tmp_path / "cal.json")]) in (0, 1)
 
 
+def test_a_fitted_dip_far_from_the_header_dip_of_the_same_sign_is_said(tmp_path, capsys):
+    """A fitted dip far from the header's, the same sign, was written without
+    a word (freeIMUCal's office log: +73.5 deg against WMM's +58.6; only
+    `attitude --cal` said it).  The report says it after the fit, as the
+    checks say a raw dip off before it; within 10 deg nothing is said."""
+    ds = _load("ck_acc_mag/acc_mag_log.csv", "ck_acc_mag/sensor.toml")
+    for hdr, said in ((-40.0, True), (-17.8, False)):
+        ds.meta["dip_deg"] = hdr
+        run = tmp_path / "run.csv"
+        dataset.write_raw(str(run), ds)
+        capsys.readouterr()
+        assert main(["calibrate", str(run), "-o", str(tmp_path / "cal.json"), "--json"]) in (0, 1)
+        notes = [n for n in json.loads(capsys.readouterr().out)["report"]["notes"] if "the fitted dip" in n]
+        if said:
+            assert len(notes) == 1 and "-17.8 deg against the header's -40.0" in notes[0], notes
+            assert "22.2 deg apart" in notes[0] and "inclino reffield" in notes[0], notes[0]
+        else:
+            assert not notes, notes
+
+
 def test_a_fit_that_may_have_turned_the_field_asks_for_the_dip(monkeypatch, tmp_path, capsys):
     run = _ck_mirrored_weakly(monkeypatch, tmp_path, None)
     capsys.readouterr()
