@@ -225,6 +225,26 @@ def test_the_clean_log_with_its_header_dip_is_not_refused_after_the_fit(tmp_path
     assert main(["calibrate", str(run), "-o", str(tmp_path / "cal.json")]) in (0, 1)
 
 
+def test_a_fitted_dip_far_from_the_header_dip_of_the_same_sign_is_said(tmp_path, capsys):
+    """A fitted dip far from the header's, the same sign, was written without
+    a word (freeIMUCal's office log: +73.5 deg against WMM's +58.6; only
+    `attitude --cal` said it).  The report says it after the fit, as the
+    checks say a raw dip off before it; within 10 deg nothing is said."""
+    ds = _load("ck_acc_mag/acc_mag_log.csv", "ck_acc_mag/sensor.toml")
+    for hdr, said in ((-40.0, True), (-17.8, False)):
+        ds.meta["dip_deg"] = hdr
+        run = tmp_path / "run.csv"
+        dataset.write_raw(str(run), ds)
+        capsys.readouterr()
+        assert main(["calibrate", str(run), "-o", str(tmp_path / "cal.json"), "--json"]) in (0, 1)
+        notes = [n for n in json.loads(capsys.readouterr().out)["report"]["notes"] if "the fitted dip" in n]
+        if said:
+            assert len(notes) == 1 and "-17.8 deg against the header's -40.0" in notes[0], notes
+            assert "22.2 deg apart" in notes[0] and "inclino reffield" in notes[0], notes[0]
+        else:
+            assert not notes, notes
+
+
 def test_a_fit_that_may_have_turned_the_field_asks_for_the_dip(monkeypatch, tmp_path, capsys):
     run = _ck_mirrored_weakly(monkeypatch, tmp_path, None)
     capsys.readouterr()
@@ -551,6 +571,32 @@ def test_pose_labels_out_of_step_with_the_readings_are_refused(tmp_path):
     assert f.level == "error" and "the poses do not match the rows" in f.message, f.message
 
 
+def test_one_face_recorded_twice_is_a_label_on_the_wrong_rows_not_a_mirror(tmp_path, capsys):
+    """A six-face session whose "posZ" file held a second recording of the
+    -z face (an ESP32 + MPU-6050 log, one file a face): two poses 180 deg
+    apart read one direction, which no axis map does.  It had been refused
+    as "the accelerometer's axes are mirrored against the poses" (RMS 0.06
+    with a reflection over the best 90 % of the rows, the other z face's
+    rows the 10 % left out), a fix that cannot work.  Here imucal's session
+    with its z_p rows replaced by the z_a face's second half."""
+    lines = (REAL / ACC_POSES[0]).read_text().splitlines()
+    za = [ln for ln in lines[1:] if ln.startswith("z_a,")]
+    rows = [ln for ln in lines[1:] if not ln.startswith("z_p,")]
+    rows = [("z_p," + ln.split(",", 1)[1]) if ln in za[len(za) // 2:] else ln for ln in rows]
+    log = tmp_path / "twice.csv"
+    log.write_text("\n".join([lines[0]] + rows) + "\n")
+    rep = checks.run(importlog.import_log(str(log), sensor.load(str(REAL / ACC_POSES[1])))[0])
+    assert not [f for f in rep.findings if f.check == "handedness"], rep.lines()
+    (f,) = [f for f in rep.findings if f.check == "poses"]
+    assert f.level == "error" and "read one gravity direction" in f.message, f.message
+    assert "inc 180 tf 0" in f.message and "inc 0 tf 0" in f.message and "180 deg apart" in f.message
+    assert main(["import", str(log), "--sensor", str(REAL / ACC_POSES[1]), "-o", str(tmp_path / "r.csv")]) == 2
+    assert "check the [poses] labels" in capsys.readouterr().err
+    assert not (tmp_path / "r.csv").exists()
+    # the session as published: every face its own direction, nothing said
+    assert not [f for f in checks.run(_load(*ACC_POSES)).findings if f.check == "poses"]
+
+
 def test_counts_off_by_a_factor_are_given_the_lsb_not_a_unit(tmp_path):
     """Counts declared with an lsb 1000x too coarse: the fix is the lsb that
     makes |g| 1 g, not "look like counts at 1024 per g or mg" (that advice,
@@ -705,3 +751,36 @@ def test_the_unit_to_write_is_the_one_the_readings_look_like(declared, data, wan
     bad = dataset.RawDataset({**{c: ds.columns[c] * data * size for c in dataset.ACC_COLS}}, meta)
     (f,) = _found(checks.run(bad), "units", "error")
     assert f'fix the unit (unit = "{want}")' in f.message, f.message
+
+
+def _held_near_the_equator(seed=1):
+    """40 positions held 60 rows each, turned between over 20 rows, the field
+    dipping 2.5 deg, noisy readings (3 000 nT, 10 mg): a step-and-hold log whose
+    pairing the checks cannot see to a row."""
+    from scipy.spatial.transform import Rotation, Slerp
+
+    rng = np.random.default_rng(seed)
+    poses = Rotation.from_quat(rng.normal(size=(40, 4)))
+    path = []
+    for p in range(40):
+        path += [poses[p]] * 60
+        if p < 39:
+            path += list(Slerp([0.0, 1.0], poses[[p, p + 1]])(np.linspace(0.0, 1.0, 22)[1:-1]))
+    body = Rotation.concatenate(path).inv()
+    n, dip = len(body), np.radians(2.5)
+    acc = body.apply([0.0, 0.0, 1.0]) + rng.normal(0, 0.01, (n, 3))
+    mag = body.apply(50_000.0 * np.array([np.cos(dip), 0.0, np.sin(dip)])) + rng.normal(0, 3000.0, (n, 3))
+    return dataset.RawDataset(dict(zip(dataset.ACC_COLS, acc.T)) | dict(zip(dataset.MAG_COLS, mag.T)),
+                              {"field_nT": 50_000.0})
+
+
+def test_an_unchecked_pairing_on_a_held_log_is_not_told_to_hold_still():
+    """A hand-held controller's 197 holds, moved between over 18 rows each
+    (freeIMUCal's office log, the field's dip near zero as its triads'
+    frames read it), were told "a session held still at each position ...
+    checks it": the log was one.  The note now says it is held already and
+    that quick moves between the holds check it."""
+    (f,) = [f for f in checks.run(_held_near_the_equator()).findings if f.check == "row-alignment"]
+    assert f.level == "note" and "not checked to a row" in f.message, f.message
+    assert "held still already" in f.message and "holds found" in f.message and "in a few rows each" in f.message
+    assert "a session held still at each position" not in f.message

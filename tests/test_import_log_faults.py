@@ -487,6 +487,25 @@ def test_a_log_without_a_header_line_is_told_so(tmp_path, capsys):
     assert rc == 2 and "no column 'ax'" in err and "header = false" not in err
 
 
+def test_a_lost_header_line_above_a_label_column_is_told_so(tmp_path, capsys):
+    """An ESP32 + MPU-6050 six-face log ("timestamp_us,ax,...,temp_raw,face")
+    with its header line cut: the first data row, eight numbers and a face
+    label, was listed as "the log's columns" with no cause and no fix (only
+    a row of numbers alone was told it had no header line)."""
+    log = tmp_path / "six.csv"
+    log.write_text("".join(f"{513222 + 1130 * i},17092,-628,184,-558,107,-79,-608,posX\n" for i in range(20)))
+    desc = tmp_path / "s.toml"
+    desc.write_text('[log]\ntime = "timestamp_us"\ntime_unit = "us"\n[accelerometer]\ncolumns = ["ax", "ay", "az"]\n'
+                    'unit = "counts"\nlsb = "1/16384 g"\nreads = "up"\n')
+    rc, out, err = _cli([log, "--sensor", desc, "-o", tmp_path / "run.csv"], capsys)
+    _one_line_error(rc, err, tmp_path / "run.csv")
+    assert "8 of its 9 names are numbers" in err and "header line lost" in err and "header = false" in err, err
+    # a header whose names hold a number or two is no data row
+    log.write_text("t,1,2,ax_raw,ay_raw,az_raw\n" + "1,0,0,0,0,1\n" * 20)
+    rc, out, err = _cli([log, "--sensor", desc, "-o", tmp_path / "run.csv"], capsys)
+    assert rc == 2 and "no column" in err and "header line lost" not in err, err
+
+
 def test_a_field_outside_the_geomagnetic_range_is_said_outside_it(tmp_path, capsys):
     """No header field: |b| is compared with a range, and is outside it (it
     read "not the geomagnetic range")."""

@@ -26,6 +26,7 @@ CORPUS = [
     ("ngimu/sensors.csv", "ngimu/sensor.toml", "both", 499),
     ("pololu_minimu9/data_polulu.txt", "pololu_minimu9/sensor.toml", "both", 3653),
     ("xio_fusion/sensor_data.csv", "xio_fusion/sensor.toml", "both", 13514),
+    ("yei_3space/data_yei.txt", "yei_3space/sensor.toml", "both", 2714),
 ] + [(f"sap6/{d}.csv", "sap6/sensor.toml", "both", 24) for d in SAP6]
 
 

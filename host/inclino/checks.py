@@ -117,6 +117,9 @@ HAND_WEAK_DEG = 0.2
 HAND_WEAK_HALF = 1.1      # ... and cuts it this much in each half of the log on its own: a warning
 HAND_NOTE_RATIO = 1.5     # the declared map beats every one-axis mirror by less than this: a note (checked on little)
 POSE_FIT_KEEP = 0.9        # the accelerometer's directions against the poses: the best 90 % of rows (_acc_poses)
+POSE_SAME_DEG = 10.0      # two poses whose gravity lies POSE_APART_DEG or more apart, their rows' median directions
+POSE_APART_DEG = 30.0     # within this (and a third of the poses' angle): one direction read under two poses
+POSE_GROUP_ROWS = 3       # ... each pose on at least this many rows
 RAW_DIRS_MAX_CV = 0.1     # raw directions compared only when |v| varies less than this (offsets small)
 CHECK_ROWS = 200_000      # rows looked at (stratified random rows beyond: _thin; the lag on the first LAG_ROWS consecutive rows)
 LAG_ROWS = 50_000
@@ -1139,8 +1142,12 @@ def _axes_and_lag(ds, rows_all, rep, ug_src=None):
                     f"that no lag removes)")
         _name_shift(ds, rep, route, kb, how, s0, sb, fig)
     elif ug_src is None and not any(f.check == "row-alignment" for f in rep.findings):
-        unseen = None if rep.one_orientation else _shifts_unseen(ug, ubp, inv or short, lags,
-                                                                 strict=inv is None or inv is short)
+        from inclino import holds as _holds
+
+        h = holds_found()
+        unseen = None if rep.one_orientation else _shifts_unseen(
+            ug, ubp, inv or short, lags, strict=inv is None or inv is short,
+            held=(h.count, h.rows_moving) if h.count >= _holds.MIN_HOLDS else None)
         if unseen:
             rep.findings.append(Finding("row-alignment", "note", unseen[0], None, unseen[1]))
     _dip_sign(ds, _dip(*_paired(ug, ubp, rep.lag_rows or 0)), ug_src, rep)  # the dip's sign, as named paired
@@ -1559,7 +1566,7 @@ def _named_on(a, b, inv_shifted, strict=False) -> bool:
     return _short_curve_names(*inv_shifted) if strict else _curve_rule(*inv_shifted)[0] in ("curve", "nearest")
 
 
-def _shifts_unseen(ug, ub, inv, lags, strict=False):
+def _shifts_unseen(ug, ub, inv, lags, strict=False, held=None):
     """A note, (message, figures), when a shift of one row either way would
     not be named on this log as it is (its rows shifted and checked as the
     checks check them, the lag curve moved by the row), or None: a log
@@ -1597,8 +1604,16 @@ def _shifts_unseen(ug, ub, inv, lags, strict=False):
             "named" if len(ways) == 2 else
             f"the triads' pairing is not checked to a row {which} on these rows: such a shift would not be named, "
             f"one the other way would")
-    return (f"{head} (a row changes the dip's spread by {100 * gain:.2g} %; {curve}); a session held "
-            f"still at each position, or a longer log turned through all orientations, checks it"), \
+    if held is None:
+        fix = "a session held still at each position, or a longer log turned through all orientations, checks it"
+    else:
+        # a step-and-hold log already: its changes of position are what show a shift, and moved slowly over many
+        # rows a row's shift mispairs little of each (a phone-like controller's 197 holds, moved over 18 rows
+        # each, had been told to hold still at each position)
+        fix = (f"the log is held still already ({held[0]} holds found, moved between them over "
+               f"{held[1] / max(held[0], 1):.0f} rows each on average): moves between the holds in a few rows each "
+               f"(a quick turn, then still), or a longer log turned through all orientations, check it")
+    return (f"{head} (a row changes the dip's spread by {100 * gain:.2g} %; {curve}); {fix}"), \
         {"unseen_lags_rows": [-k for k in ways], "spread_change_per_row": gain}
 
 
@@ -2047,6 +2062,15 @@ def _acc_poses(ds, rows, rep):
 
     if len(np.unique(np.round(gp, 2), axis=0)) < 3:
         return gp
+    rs = np.asarray(rows)
+    a_r = ds.acc[rs]
+    same = _poses_one_direction(a_r / np.maximum(np.linalg.norm(a_r, axis=1, keepdims=True), 1e-300),
+                                ref.pose_matrix(inc[rs], azi[rs], tf[rs])[:, :, 2], inc[rs], tf[rs], rs)
+    if same is not None:
+        # no axis map (rotation or mirror) turns two directions into one: the Procrustes fits below would name a
+        # mirror or a turned map for what is a label on the wrong rows
+        rep.findings.append(Finding("poses", "error", same[0], "acc", same[1]))
+        return gp
     R, e_rot, Rr, e_ref = procrustes(ua, gp)
     fig = {"rms_rotation": e_rot, "rms_reflection": e_ref}
     if e_ref < 0.3 * e_rot and e_rot > 0.1 and not intended_reflection(ds, "acc"):
@@ -2088,6 +2112,54 @@ def _acc_poses(ds, rows, rep):
             {"misfit_by_lag_deg": {str(k): v for k, v in errs.items()},
              "fix": f"join the pose columns to the readings shifted by {kb:+d} rows"}))
     return gp
+
+
+def _poses_one_direction(ua, gp, inc, tf, rows):
+    """(message, figures) when the rows of two poses whose gravity lies
+    POSE_APART_DEG or more apart read one direction (their median
+    directions within POSE_SAME_DEG and a third of the poses' angle), else
+    None.  An axis map turns every direction alike, so no map, mirrored or
+    not, makes two poses read one: a label or a pose column is on the
+    wrong rows.  (A six-face session whose "posZ" file held a second
+    recording of the -z face: the accelerometer was called mirrored against
+    the poses, RMS 0.06 with a reflection over the best 90 % of the rows,
+    the rows of the other z face being the 10 % left out.)"""
+    keys, inv, counts = np.unique(np.round(gp, 2), axis=0, return_inverse=True, return_counts=True)
+    inv = np.asarray(inv).reshape(-1)
+    groups = []
+    for g in range(len(keys)):
+        if counts[g] < POSE_GROUP_ROWS:
+            continue
+        idx = np.flatnonzero(inv == g)
+        d = np.median(ua[idx], axis=0)
+        nd = float(np.linalg.norm(d))
+        if not nd > 0:
+            continue
+        p = np.mean(gp[idx], axis=0)
+        groups.append((idx, d / nd, p / np.linalg.norm(p)))
+    ang = lambda u, v: float(np.degrees(np.arccos(np.clip(np.dot(u, v), -1.0, 1.0))))  # noqa: E731
+    worst = None
+    for i in range(len(groups)):
+        for j in range(i + 1, len(groups)):
+            apart, seen = ang(groups[i][2], groups[j][2]), ang(groups[i][1], groups[j][1])
+            if apart >= POSE_APART_DEG and seen <= min(POSE_SAME_DEG, apart / 3.0):
+                if worst is None or apart - seen > worst[0]:
+                    worst = (apart - seen, i, j, apart, seen)
+    if worst is None:
+        return None
+    _, i, j, apart, seen = worst
+
+    def pose(g):
+        idx = groups[g][0]
+        return (f"inc {float(inc[idx[0]]):.4g} tf {float(tf[idx[0]]):.4g} ({len(idx)} rows looked at, rows "
+                f"{rows[idx[0]] + 1}...{rows[idx[-1]] + 1})")
+
+    msg = (f"the rows of two poses read one gravity direction: {pose(i)} and {pose(j)}, whose gravity lies "
+           f"{apart:.0f} deg apart, read within {seen:.2g} deg of each other; no axis map turns two directions into "
+           f"one, so a pose label (or the pose columns) is on the wrong rows (one face recorded twice, a file "
+           f"named for another face); check the [poses] labels against the log")
+    return msg, {"pose_rows": [int(len(groups[i][0])), int(len(groups[j][0]))], "poses_apart_deg": apart,
+                 "readings_apart_deg": seen}
 
 
 def _acc_rotation(ds, ua, gp, R, rep, fig) -> None:

@@ -185,11 +185,12 @@ def _refuse_turned_field(ds, cal, found) -> str | None:
     header's +66.5, and azimuths 180 deg off.  No determinant and no check
     before the fit sees that; the header's dip does.  Opposite signs (both
     beyond checks.DIP_SIGN_MIN_DEG) are refused (DataError, exit 2; nothing
-    written).  Without a header dip, when the checks before the fit warned
-    of a mirror, the warning line to report (else None)."""
+    written).  The same sign but more than checks.DIP_MISMATCH_DEG apart:
+    the warning line to report.  Without a header dip, when the checks before
+    the fit warned of a mirror, the warning line to report (else None)."""
     import numpy as np
 
-    from inclino.checks import DIP_SIGN_MIN_DEG
+    from inclino.checks import DIP_MISMATCH_DEG, DIP_SIGN_MIN_DEG
     from inclino.engines import reference as ref
     from inclino.errors import MirroredAxesError
 
@@ -215,6 +216,15 @@ def _refuse_turned_field(ds, cal, found) -> str | None:
                 f"180 deg (azimuths 180 deg off; magnetometer matrix determinant {det:+.3g}): a magnetometer axis "
                 f"mirrored in the data{hint}, or the accelerometer's gravity sign turned (reads); fix that axis map or "
                 f"reads in the sensor description and import again; no calibration written")
+        if abs(dip - hdr) > DIP_MISMATCH_DEG:
+            # the same sign but far off: said after the fit as the checks say it before (a hand-held controller
+            # in an office, freeIMUCal's log: fitted dips of +69 and +75 deg on its halves against WMM's +58.6,
+            # written without a word; the check before the fit had said +2.7 from its per-triad ellipsoids)
+            return (f"the fitted dip is {dip:+.1f} deg against the header's {hdr:+.1f} ({abs(dip - hdr):.1f} deg "
+                    f"apart, beyond {DIP_MISMATCH_DEG:g}): a wrong dip_deg, a disturbed field where the run was "
+                    f"logged (steel, the device's own parts), or a relative rotation of the triads the run fixes "
+                    f"poorly; every azimuth computed with this calibration carries it: check dip_deg (inclino "
+                    f"reffield) and log the run away from steel")
         return None
     if mirror:
         return (f"the fitted dip is {dip:+.1f} deg and the magnetometer's axes may be mirrored{hint}: the fit may "

@@ -152,11 +152,18 @@ def _index(col, names, what, path, lineno):
                             f"header line that names it apart ([log] skip_rows)")
         if hits:
             return hits[0]
-    numbers = bool(stripped) and all(_is_number(n) for n in stripped)
+    numeric = sum(_is_number(n) for n in stripped)
+    numbers = bool(stripped) and numeric == len(stripped)
+    # a data row read as the header (its line lost) keeps a label or a date among its numbers: an ESP32 six-face
+    # log with its header line cut, "513222,17092,...,posX", was named its columns and no cause
+    mostly = not numbers and len(stripped) >= 2 and numeric >= max(2, (len(stripped) + 1) // 2)
     raise DataError(f"{path}:{lineno}: {what}: no column {col!r} (the log's columns: "
                     f"{', '.join(stripped[:20])}{' ...' if len(stripped) > 20 else ''})"
                     + ("; every name is a number: the log has no header line ([log] header = false, and the "
-                       "columns by number)" if numbers else ""))
+                       "columns by number)" if numbers else
+                       f"; {numeric} of its {len(stripped)} names are numbers: the line read as the header is a data "
+                       f"row, the header line lost? (put the log's header line back, or [log] header = false and "
+                       f"the columns by number)" if mostly else ""))
 
 
 def _is_number(text: str) -> bool:
