@@ -163,10 +163,11 @@ def test_edited_terms_take_effect_or_are_refused(calibration, tmp_path, capsys):
     d = json.loads(tool.read_text())
     name = str(RNG.choice(["MBZ", "ABZ", "MSZ", "ASZ"]))
     edited = copy.deepcopy(d)
-    for t in edited["terms"]:
-        if t["name"] == name:  # a standard MWD magnitude or more: far above the calibrated probe's
-            t["value"] = t["value"] + float(RNG.uniform(1, 3)) * {"AB": 0.004, "MB": 70.0, "AS": 5e-4,
-                                                                   "MS": 1.6e-3}[name[:2]]
+    # the standard term is not in the file (the combination terms carry the sensor errors): put in by hand, with
+    # a standard MWD magnitude or more, far above the calibrated probe's
+    assert name not in [t["name"] for t in edited["terms"]]
+    edited["terms"].append(dict(em._template_terms(5)[name], value=float(RNG.uniform(1, 3)) * {
+        "AB": 0.004, "MB": 70.0, "AS": 5e-4, "MS": 1.6e-3}[name[:2]]))
     f2 = tmp_path / "edited.json"
     f2.write_text(json.dumps(edited))
     outs = []
@@ -204,6 +205,11 @@ def test_exported_model_states_its_revision_and_propagates_xym_as_it_does(calibr
     assert run(capsys, "toolmodel", "--cal", cal_path, "--dip", 60, "--field", 50000, "-o", t5)[0] in (0, 1)
     d5 = json.loads(t5.read_text())
     assert d5["metadata"]["revision_number"] == 5 and d5["metadata"]["framework"] == "ISCWSA Rev5"
+    # the combination terms carry the calibration's misalignment, so no XYM term is written; one given a
+    # magnitude (the inclino block's XYM1, XYM2, XYM34 groups, as a user may set them) is written so:
+    xym = {"XYM1": math.radians(0.1), "XYM2": math.radians(0.1), "XYM34": math.radians(0.1)}
+    assert not [t for t in d5["terms"] if t["name"].startswith("XYM")]
+    d5 = em.ToolModel(systematic=xym, revision=5).iscwsa()
     x5 = {t["name"]: t for t in d5["terms"] if t["name"].startswith("XYM")}
     # the calibration's misalignment is systematic over a run: not Rev 5's random XYM3E/XYM4E (the tool in the
     # hole), but its own terms beside them, named so
@@ -212,7 +218,8 @@ def test_exported_model_states_its_revision_and_propagates_xym_as_it_does(calibr
                for t in x5.values())
     t4 = tmp_path / "t4.json"
     assert run(capsys, "toolmodel", "--cal", cal_path, "--dip", 60, "--field", 50000, "--revision", 4, "-o", t4)[0] in (0, 1)
-    d4 = json.loads(t4.read_text())
+    assert json.loads(t4.read_text())["metadata"]["revision_number"] == 4
+    d4 = em.ToolModel(systematic=xym, revision=4).iscwsa()
     assert d4["metadata"]["revision_number"] == 4
     x4 = {t["name"]: t for t in d4["terms"] if t["name"].startswith("XYM")}
     assert set(x4) == {"XYM1", "XYM2", "XYM3", "XYM4"} and all(t["propagation_mode"] == "Systematic"
@@ -232,6 +239,7 @@ def test_exported_model_states_its_revision_and_propagates_xym_as_it_does(calibr
     for n in ("XYM3", "XYM4"):
         s = (x4[n]["value"] / 0.1) ** 2  # Rev 4's magnitude is 0.1 deg
         a, b = ours[n].cov_NEV[-1], ref4[n].cov_NEV[-1] * s
+        assert s > 0.5 and np.abs(b).max() > 0  # (a model's XYM of 0 made this 0 against 0)
         assert np.abs(a - b).max() <= 0.02 * np.abs(b).max()
     # the complete model as one file, welleng loads it; Rev 4 (hand-coded in welleng) is refused with a reason
     full = tmp_path / "full.json"
@@ -240,7 +248,8 @@ def test_exported_model_states_its_revision_and_propagates_xym_as_it_does(calibr
     assert rc in (0, 1), err
     df = json.loads(full.read_text())
     names = [t["name"] for t in df["terms"]]
-    assert len(names) == len(set(names)) and {"DRFR", "SAGE", "AMIL", "DEC-U", "XYM3E", "XYM3-CAL"} <= set(names)
+    assert len(names) == len(set(names)) and {"DRFR", "SAGE", "AMIL", "DEC-U", "XYM3E"} <= set(names)
+    assert {"ABMS-CAL01", "ABMSXY-CAL01"} <= set(names) and not set(names) & set(SENSOR)  # the probe's, in place
     assert df["metadata"]["revision_number"] == 5
     xf = {t["name"]: t for t in df["terms"]}
     for n in ("XYM3E", "XYM4E"):  # Rev 5's weighting, damping and propagation, as the standard model has them
@@ -401,25 +410,95 @@ def test_a_listing_below_the_surface_says_its_tie_in_is_taken_as_exact(tmp_path,
         assert ("MD 3000 m, is the tie-in" in out) == said, out
 
 
-def test_toolmodel_warns_that_upward_holes_are_under_stated(calibration, tmp_path, capsys, monkeypatch):
-    """The independent ISCWSA terms are symmetric about inclination 90; a
-    joint calibration's covariance is not (its bias-scale correlations):
-    their projection's 1-sigma falls to ~0.6 of the covariance's at
-    inclinations 120-175.  toolmodel names the upward holes and the
-    direction (too small) when a model is so; and since its Monte Carlo
-    check now reaches 175 deg, such a model FAILs.  (Today's correlated
-    terms do not under-state: the symmetric projection stands in here, as
-    the model was before; test_upward_holes_are_predicted checks the model.)"""
-    monkeypatch.setattr(em, "project", em.project_independent)
+def test_a_model_that_under_states_upward_holes_fails_the_check_there(calibration, tmp_path, capsys, monkeypatch):
+    """What tells a user that a model under-states upward holes is the Monte
+    Carlo check, which reaches 175 deg: a model whose 1-sigma is 0.6 of
+    the truth above 90 deg (station_sigma scaled there, as the independent
+    terms were) exits 1 naming an inclination above 90.  The projection's
+    own figures are 1.00 at every attitude (the combination terms carry
+    the covariance): the separate upward ratio and its warning, which
+    only the independent projection could trip, are no longer written."""
     rc, out, err = run(capsys, "toolmodel", "--cal", calibration[1], "--dip", 60, "--field", 50000,
                        "-o", tmp_path / "tool.json")
-    mags = json.loads((tmp_path / "tool.json").read_text())["inclino"]["fit"]
-    assert mags["sigma_ratio_min_upward"] < 0.8, mags  # the typical probe's joint calibration
-    line = next((x for x in out.splitlines() if x.startswith("warning: upward holes")), "")
-    assert "too small" in line, out
+    fit = json.loads((tmp_path / "tool.json").read_text())["inclino"]["fit"]
+    assert "sigma_ratio_min_upward" not in fit and "warning" not in out, (fit, out)
+    assert 0.99 < fit["sigma_ratio_min"] <= fit["sigma_ratio_max"] < 1.01, fit
+    station_sigma = em.station_sigma
+
+    def upward_short(tm, inc, *a, **k):
+        pi, pa = station_sigma(tm, inc, *a, **k)
+        f = np.where(np.asarray(inc) > 90.0, 0.6, 1.0)
+        return pi * f, pa * f
+
+    monkeypatch.setattr(em, "station_sigma", upward_short)
+    rc, out, err = run(capsys, "toolmodel", "--cal", calibration[1], "--dip", 60, "--field", 50000,
+                       "-o", tmp_path / "tool.json")
     assert rc == 1 and "verdict: FAIL" in err, (rc, err)
     worst_inc = float(err.split(" at inclination ")[1].split()[0])
     assert worst_inc > 90, err
+
+
+def _as_written_before(d):
+    """The file as toolmodel wrote it before 2026-11-29: the standard sensor
+    terms beside the combination terms, with 0, in the terms and in the
+    inclino block."""
+    old = copy.deepcopy(d)
+    tpl = em._template_terms(old["metadata"]["revision_number"])
+    zero = [dict(tpl[n], value=0.0, hash_value="0" * 32) for g, names in em.GROUPS.items() for n in names]
+    old["terms"] = zero + old["terms"]
+    old["inclino"]["systematic"] = {**{g: 0.0 for g in em.GROUPS}, **old["inclino"]["systematic"]}
+    old["inclino"]["fit"]["sigma_ratio_min_upward"] = 1.0
+    return old
+
+
+def test_the_file_holds_no_term_of_zero_and_one_written_before_reads_as_the_same_model(calibration, tmp_path,
+                                                                                       capsys):
+    """A term of 0 is no term: toolmodel wrote the 18 standard sensor terms
+    with 0 beside the combination terms that replace them (and the noise
+    terms with 0 for a noise of 0), and welleng evaluated each as 0 x its
+    azimuth weight, infinite at a vertical station: NaN and a
+    RuntimeWarning.  The file now holds only the terms the probe has; a
+    file written before reads as the same model (no `edited` note, the
+    same covariance, no NaN at the vertical)."""
+    import warnings
+
+    cal, cal_path = calibration
+    tool = tmp_path / "tool.json"
+    rc, out, err = run(capsys, "toolmodel", "--cal", cal_path, "--dip", 60, "--field", 50000, "--acc-noise", 0,
+                       "--mag-noise", 0, "-o", tool)
+    assert rc == 0, err
+    d = json.loads(tool.read_text())
+    names = [t["name"] for t in d["terms"]]
+    assert all(t["value"] > 0 for t in d["terms"]), [t["name"] for t in d["terms"] if t["value"] == 0]
+    assert not set(names) & (set(SENSOR) | {"XYM1", "XYM2", "XYM3-CAL", "XYM4-CAL"}), names
+    assert all(em.is_correlated_name(n) for n in names), names  # noise 0: no noise terms either
+    assert all(v > 0 for v in d["inclino"]["systematic"].values()) and d["inclino"]["noise"] == {}
+    old = tmp_path / "old.json"
+    old.write_text(json.dumps(_as_written_before(d), indent=2))
+    md = np.arange(0.0, 301.0, 30.0)
+    inc = np.array([0.0, 0.0, 0.0, 2, 5, 10, 20, 30, 40, 50, 60])
+    azi = np.full_like(md, 30.0)
+    rf = geomag.ReferenceField(0.0, 60.0, 50000.0, 1.0)
+    covs = []
+    for f in (tool, old):
+        base = models.load(str(f))
+        assert base.notes == [] and [t["name"] for t in base.model["terms"]] == names, (f, base.notes)
+        with warnings.catch_warnings():
+            warnings.simplefilter("error")  # 0 x inf was a RuntimeWarning, NaN in the position
+            covs.append(np.asarray(models.welleng_survey(md, inc, azi, rf, base.model).cov_nev, float))
+            pi, pa = em.station_sigma(models.load_toolmodel(str(f)), inc, azi, 60.0, 50000.0)
+        assert np.all(np.isfinite(covs[-1])) and np.all(np.isfinite(pi)), f
+    assert np.array_equal(covs[0], covs[1])
+    # a file whose every term is 0 describes no error: refused in one line (it propagated zero, NaN at the vertical)
+    nothing = json.loads(old.read_text())
+    for t in nothing["terms"]:
+        t["value"] = 0.0
+    old.write_text(json.dumps(nothing))
+    listing = tmp_path / "s.csv"
+    listing.write_text("md_m,inc_deg,azi_deg\n0,0,0\n30,5,10\n60,10,10\n90,15,10\n")
+    rc, out, err = run(capsys, "trajectory", listing, "--declination", 0, "--dip", 60, "--field", 50000,
+                       "--uncertainty", "--tool-model", old, "-o", tmp_path / "o.csv")
+    assert rc == 2 and "every term is 0" in err and err.count("\n") == 1, err
 
 
 def _generated_spread(cal, inc, azi, dip, tot, n, rng):
@@ -519,3 +598,109 @@ def test_same_probe_comparison_expects_what_a_turn_of_the_probe_changes(calibrat
         da = ((e[1][1] - e[0][1] + 180.0) % 360.0) - 180.0
         ri, ra_ = np.sqrt(np.mean(di ** 2)) / si[k], np.sqrt(np.mean(da ** 2)) / sa[k]
         assert 0.85 < ri < 1.15 and 0.85 < ra_ < 1.15, (inc[k], ri, ra_)
+
+
+def test_the_tool_file_is_small_and_says_what_the_full_precision_model_says(calibration, tmp_path, capsys):
+    """The file was 196 kB for one probe: each combination term wrote all
+    21 sources' coefficients with 17 digits, most of them the eigensolver's
+    rounding (shares of 1e-16..1e-30 of the term), each three times (the
+    inclination, azimuth and the two vertical formulas) with the field
+    factors uncancelled, beside 18 standard terms of 0.  Now: 7 digits, the
+    sources below 1e-7 of a term's largest weight left out, the fields
+    cancelled; the model's station 1-sigma is that of the full-precision
+    eigenvectors within 1e-6 at any attitude, dip -80..85 deg and field."""
+    cal, cal_path = calibration
+    tool = tmp_path / "tool.json"
+    rc, out, err = run(capsys, "toolmodel", "--cal", cal_path, "--dip", 60, "--field", 50000, "-o", tool)
+    assert rc == 0, err
+    # 180-211 kB before for the typical probe's calibrations (every term listed all 21 sources), 66-107 kB now
+    # (how many sources a term needs depends on the calibration)
+    assert tool.stat().st_size < 130_000, tool.stat().st_size
+    tm = models.load_toolmodel(str(tool))
+    assert all(len(f"{c!r}".lstrip("-").split("e")[0].replace(".", "").strip("0")) <= em.COEF_DIGITS
+               for w in tm.correlated.values() for c in w.values())
+    names, S, S0 = em.source_covariance(cal, em.calibration_covariance(cal)[0])
+    mags, combos = {}, {}
+    em._eigen_terms(S0, names, False, mags, combos)
+    em._eigen_terms(S - S0, names, True, mags, combos)
+    full = em.ToolModel(systematic=mags, correlated=combos, noise=tm.noise)
+    assert set(full.correlated) == set(tm.correlated)
+    inc = np.repeat([0.0, 1, 5, 30, 60, 90, 120, 150, 175, 180], 12)
+    azi = np.tile(np.arange(0.0, 360.0, 30.0), 10)
+    for dip in (-80.0, -30.0, 0.0, 45.0, 60.0, 85.0):
+        for field in (25000.0, 50000.0, 65000.0):
+            a = np.array(em.station_sigma(tm, inc, azi, dip, field))
+            b = np.array(em.station_sigma(full, inc, azi, dip, field))
+            ok = np.isfinite(b)  # the azimuth at the vertical: infinite in both
+            assert np.array_equal(np.isfinite(a), ok)
+            assert np.all(np.abs(a[ok] / b[ok] - 1) < 1e-6), (dip, field, np.max(np.abs(a[ok] / b[ok] - 1)))
+
+
+def _surveys_of_one_probe(cal, inc, azi, dip, tot, n, rng):
+    """Two surveys of n stations at (inc, azi) by n probes drawn from the
+    calibration's covariance (each probe's coefficients the same in both
+    surveys), each survey at its own random toolface, no noise: the
+    inclinations and azimuths they read."""
+    from inclino.calib.common import cal_vector
+    from inclino.engines import reference as ref
+
+    cov, _ = em.calibration_covariance(cal)
+    x0 = cal_vector(cal)
+    xt = x0 + rng.multivariate_normal(np.zeros(24), cov, size=n)
+    out = []
+    for _ in range(2):
+        g, b = ref.body_vectors(np.full(n, inc), np.full(n, azi), rng.uniform(0, 360, n), tot, dip)
+        ra = np.linalg.solve(xt[:, 0:9].reshape(-1, 3, 3), g[..., None])[..., 0] + xt[:, 9:12]
+        rm = np.linalg.solve(xt[:, 12:21].reshape(-1, 3, 3), b[..., None])[..., 0] + xt[:, 21:24]
+        att = ref.attitude((ra - x0[9:12]) @ x0[0:9].reshape(3, 3).T, (rm - x0[21:24]) @ x0[12:21].reshape(3, 3).T)
+        out.append((att["inc"], att["azi"]))
+    return out
+
+
+def test_compare_near_the_vertical_with_turned_terms_alone(calibration, tmp_path, capsys):
+    """compare of the same probe, no noise: only the toolface-dependent
+    terms (ABMSXY-CAL: their azimuth weights go as 1 / sin I, their
+    inclination effect turns with the toolface) differ between the
+    surveys.  The sigma compare prints is finite at and near the vertical
+    and, against this test's own Monte Carlo (probes drawn from the
+    covariance, two toolfaces, the attitude computed), right from 4 of the
+    model's tilt sigma off the vertical on (0.85-1.15, inclination; the
+    azimuth at 1 and 3 deg).  Nearer, the achieved spread falls to 0 at
+    the vertical (the same probe reads the same tilt at any toolface
+    there): compare's sigma (the Rice spread of independent tilt errors,
+    0.66 of the linearised at the vertical) stays above it, and no pair
+    fails."""
+    from inclino.survey import compare as cmpm
+
+    cal, cal_path = calibration
+    dip, tot = 60.0, 50000.0
+    tool = tmp_path / "tool.json"
+    assert run(capsys, "toolmodel", "--cal", cal_path, "--dip", dip, "--field", tot, "--acc-noise", 0,
+               "--mag-noise", 0, "-o", tool)[0] == 0
+    rf = geomag.ReferenceField(0.0, dip, tot, 1.0)
+    s = cmpm.expected(models.ErrorModel(models.load(str(tool))), np.arange(4) * 10.0, np.zeros(4), np.full(4, 40.0),
+                      rf)[0][1] / 2.0  # per survey and tilt axis, deg
+    rng = np.random.default_rng(RNG_SEED)
+    n = 1500  # pairs: the RMS ratio's standard error ~2.5 % (heavy tails: one probe's draw per pair)
+    for inc, near in ((0.0, True), (0.5 * s, True), (4 * s, False), (10 * s, False), (0.3, False), (1.0, False),
+                      (3.0, False)):
+        files = []
+        for k, (i, a) in enumerate(_surveys_of_one_probe(cal, inc, 40.0, dip, tot, n, rng)):
+            f = tmp_path / f"s{k}.csv"
+            f.write_text("md_m,inc_deg,azi_deg\n" + "".join(f"{10.0 * j!r},{float(x)!r},{float(y)!r}\n"
+                                                            for j, (x, y) in enumerate(zip(i, a))))
+            files.append(f)
+        rc, out, err = run(capsys, "compare", *files, "--tool-model", tool, "--dip", dip, "--field", tot, "--json")
+        st = json.loads(out)["stations"]
+        d = np.array([x["d_inc_deg"] for x in st])
+        sig = np.array([x["sigma_d_inc_deg"] for x in st])
+        assert np.all(np.isfinite(sig) & (sig > 0)), inc
+        ratio = np.sqrt(np.mean(d ** 2) / np.mean(sig ** 2))
+        if near:
+            assert ratio < 1.0 and rc == 0, (inc, ratio, rc)
+        else:
+            assert 0.85 < ratio < 1.15, (inc, s, ratio)
+        if inc >= 1.0:
+            da = np.array([x["d_azi_deg"] for x in st])
+            sa = np.array([x["sigma_d_azi_deg"] for x in st])
+            assert np.all(np.isfinite(sa)) and 0.85 < np.sqrt(np.mean(da ** 2) / np.mean(sa ** 2)) < 1.15, inc

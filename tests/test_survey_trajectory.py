@@ -294,9 +294,9 @@ def test_tool_model_matches_a_monte_carlo_over_the_calibration_covariance(calibr
     assert np.all(np.abs(ra - 1) <= 0.2 + z * sa), (inc, azi, ra, sa)
 
 
-# welleng evaluates the standard terms the model writes with 0 at the vertical stations too (0 x an infinite
-# azimuth weight); the stations compared below are off the vertical
-@pytest.mark.filterwarnings("ignore:invalid value encountered in multiply:RuntimeWarning")
+# the listing starts vertical: welleng evaluated the terms the model wrote with 0 there (0 x an infinite azimuth
+# weight: a RuntimeWarning, NaN); the model has no such term now, and any warning fails the test
+@pytest.mark.filterwarnings("error::RuntimeWarning")
 def test_welleng_loads_the_written_tool_model(calibration, tmp_path, capsys, rng):
     cal, cal_path = calibration
     out = tmp_path / "tool.json"

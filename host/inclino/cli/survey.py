@@ -290,11 +290,6 @@ def _cmd_toolmodel(args) -> int:
     print(f"projection of the calibration covariance: "
           f"sigma ratio {f['sigma_ratio_min']:.2f}-{f['sigma_ratio_max']:.2f} (RMS {f['sigma_ratio_rms']:.1%} off) "
           f"over {f['attitudes']} attitudes at dip {f['dip_deg']:.2f} deg, {f['field_nT']:.0f} nT")
-    up = f.get("sigma_ratio_min_upward", 1.0)
-    if up < 1.0 - em.MC_LIMIT:
-        print(f"warning: upward holes (inclination above 90 deg): the model's 1-sigma is down to {up:.2f} of the "
-              "calibration covariance's there (its terms are symmetric about 90 deg, the covariance is not): "
-              "ellipses of upward holes are too small")  # a finding of the report; stderr is the verdict's
     mc = f["monte_carlo"]
     print(f"Monte Carlo over the covariance ({mc['draws']} draws, {len(mc['inc_deg'])} attitudes, inclination "
           f"{min(mc['inc_deg']):g}-{max(mc['inc_deg']):g} deg): model/MC 1-sigma inclination "

@@ -134,6 +134,13 @@ class ToolModel:
     # correlated combination terms: name -> {SOURCES name: coefficient (SI per unit)}; magnitude in systematic
     correlated: dict = field(default_factory=dict)
 
+    def __post_init__(self):
+        # a magnitude of 0 is no term: never written (welleng evaluates a term written with 0 as 0 x its weight,
+        # and an azimuth weight is infinite at the vertical: NaN), never evaluated; a file written before with
+        # the standard terms at 0 reads as the same model without them
+        self.systematic = {k: v for k, v in self.systematic.items() if v != 0.0}
+        self.noise = {k: v for k, v in self.noise.items() if v != 0.0}
+
     def to_json(self) -> str:
         return dumps(asdict(self))
 
@@ -142,21 +149,27 @@ class ToolModel:
         MWD+SRGM model, this probe's magnitudes) in `revision` (default its own)."""
         tpl = _template_terms(self.revision if revision is None else revision)
         out = []
-        for g, names in GROUPS.items():
+        for g, names in GROUPS.items():  # the standard terms a model has (none where the combination terms
+            if g not in self.systematic:  # carry the calibration)
+                continue
             for n in names:
                 t = dict(tpl[n])
-                t["value"] = _in_units(float(self.systematic.get(g, 0.0)), t["units"])
+                t["value"] = _in_units(float(self.systematic[g]), t["units"])
                 t["hash_value"] = "0" * 32
                 out.append(t)
         for n, w in self.correlated.items():
-            t = correlated_term(n, float(self.systematic.get(n, 0.0)), w)
+            if n not in self.systematic:
+                continue
+            t = correlated_term(n, float(self.systematic[n]), w)
             t["hash_value"] = "0" * 32
             out.append(t)
         for g, names in NOISE_GROUPS.items():
+            if g not in self.noise:
+                continue
             for n in names:
                 t = dict(tpl[n])
                 t["name"] = _noise_name(n)
-                t["value"] = float(self.noise.get(g, 0.0))
+                t["value"] = float(self.noise[g])
                 t["propagation_mode"] = "Random"
                 t["hash_value"] = "0" * 32
                 out.append(t)
@@ -273,20 +286,20 @@ def station_sigma(tm: ToolModel, inc_deg, azm_deg, dip_deg, field_nT, systematic
     vi = np.zeros(np.shape(inc_deg))
     va = np.zeros(np.shape(inc_deg))
     parts = []
-    if systematic:
-        parts += [(GROUPS[g], tm.systematic.get(g, 0.0)) for g in GROUPS]
+    if systematic:  # the terms the model has (ToolModel holds no magnitude of 0)
+        parts += [(GROUPS[g], tm.systematic[g]) for g in GROUPS if g in tm.systematic]
     if noise:
-        parts += [(NOISE_GROUPS[g], tm.noise.get(g, 0.0)) for g in NOISE_GROUPS]
+        parts += [(NOISE_GROUPS[g], tm.noise[g]) for g in NOISE_GROUPS if g in tm.noise]
     for names, mag in parts:
-        if mag == 0.0:  # a standard term written with 0 (its weight is infinite at the vertical: 0 x inf)
-            continue
         wi, wa = weights(names, inc_deg, azm_deg, dip_deg, field_nT)
         vi += mag ** 2 * np.sum(wi ** 2, axis=0)
         va += mag ** 2 * np.sum(wa ** 2, axis=0)
     if systematic:
         for n, w in tm.correlated.items():
+            if n not in tm.systematic:
+                continue
             wi, wa = correlated_weights(w, inc_deg, azm_deg, dip_deg, field_nT)
-            mag = tm.systematic.get(n, 0.0)
+            mag = tm.systematic[n]
             vi += mag ** 2 * wi ** 2
             va += mag ** 2 * wa ** 2
     return np.degrees(np.sqrt(vi)), np.degrees(np.sqrt(va))
@@ -389,40 +402,6 @@ def linear_variance(cal, cov, inc, azi, tfs, dip, field_nT, gravity=1.0, h=None)
     return v[0].reshape(n, m).mean(axis=1), v[1].reshape(n, m).mean(axis=1)
 
 
-def project_independent(cal, cov, dip, field_nT, gravity=1.0):
-    """The model as it was before the correlated terms (kept to show what
-    they mend: the tests put it in `project`'s place): the eight
-    independent systematic magnitudes (GROUPS) that best reproduce, in
-    relative terms, the toolface-averaged inclination and azimuth variance
-    of the coefficient covariance over the attitude grid."""
-    from scipy.optimize import nnls
-
-    inc, azi, tfs = _grid()
-    vi, va = linear_variance(cal, cov, inc, azi, tfs, dip, field_nT, gravity)
-    cols = []
-    for g, names in GROUPS.items():
-        wi, wa = weights(names, inc, azi, dip, field_nT, gravity * G0)
-        cols.append(np.concatenate([np.sum(wi ** 2, 0), np.sum(wa ** 2, 0)]))
-    Amat = np.array(cols).T
-    y = np.concatenate([vi, va])
-    keep = y > 0
-    sc = 1.0 / y[keep]
-    An = Amat[keep] * sc[:, None]
-    colscale = np.where(An.max(axis=0) > 0, An.max(axis=0), 1.0)
-    x, _ = nnls(An / colscale, np.ones(keep.sum()), maxiter=2000)
-    x = x / colscale
-    pred = Amat @ x
-    rel = np.sqrt(pred[keep] / y[keep]) - 1.0
-    mags = {g: float(math.sqrt(max(v, 0.0))) for g, v in zip(GROUPS, x)}
-    fit = {"attitudes": int(len(inc)), "toolfaces": int(len(tfs)), "dip_deg": float(dip),
-           "field_nT": float(field_nT), "sigma_ratio_rms": float(np.sqrt(np.mean(rel ** 2))),
-           "sigma_ratio_min": float(1 + rel.min()), "sigma_ratio_max": float(1 + rel.max())}
-    up = np.concatenate([inc > 90.0, inc > 90.0])[keep]
-    # the terms are symmetric about 90 deg, a covariance with bias-scale correlations is not: the side it misses
-    fit["sigma_ratio_min_upward"] = float(1 + rel[up].min()) if up.any() else 1.0
-    return mags, fit
-
-
 # The correlated part of the model.  A joint calibration's covariance correlates each axis's bias with its scale,
 # the accelerometer's errors with the fluxgate's, and so on: the error it gives is not symmetric about
 # inclination 90 deg (an ABZ x ASZ cross term goes as sin^2(I) cos(I)), and independent ISCWSA terms, each
@@ -466,20 +445,54 @@ _U0 = {"ACC": ("-Gfield * Sin(Inc)", None, "Gfield * Cos(Inc)"),  # the true rea
                "BField * (Sin(Inc) * Cos(AzM) * Cos(Dip) + Cos(Inc) * Sin(Dip))")}
 
 
-def _sources():
-    """name -> (inclination, azimuth, lateral formula): the toolface-frame errors
-    (ACC/MAG M{ij}: dimensionless, ACC B{i}: m/s^2, MAG B{i}: nT)."""
+_DEN = {"ACC": (" / Gfield", "Gfield"), "MAG": (" / (BField * Cos(Dip))", "(BField * Cos(Dip))")}
+_UNIT = {"ACC": ("Gfield * ", "-Gfield * "), "MAG": ("BField * ", "-BField * ")}
+
+
+def _strip(f: str, suffix: str) -> str:
+    assert f == "0" or f.endswith(suffix), (f, suffix)
+    return f if f == "0" else f[:-len(suffix)]
+
+
+def _unit(f: str, s: str) -> str:
+    """The true reading's component without its field factor (Gfield, BField), sign kept."""
+    plus, minus = _UNIT[s]
+    if f.startswith(minus):
+        return "-" + f[len(minus):]
+    assert f.startswith(plus), f
+    return f[len(plus):]
+
+
+def _source_parts():
+    """name -> (denominator or None, (inclination, azimuth, lateral numerator)):
+    each toolface-frame error's weights with the field factors cancelled
+    (an ACC M term's weight, gradient / Gfield times the reading Gfield x
+    unit, is gradient x unit; a MAG M term's has 1 / Cos(Dip) left)."""
     out = {}
     for s in ("ACC", "MAG"):
-        gi, ga, gl = _GRAD[s]
+        suffix, den = _DEN[s]
+        g = [[_strip(w, suffix) for w in row] for row in _GRAD[s]]
         for i in range(3):
             for j in range(3):
                 if _U0[s][j] is None:
                     continue  # the reading has no such component: no weight
-                out[f"{s}-M{i}{j}"] = tuple("0" if w[i] == "0" else f"({w[i]}) * ({_U0[s][j]})" for w in (gi, ga, gl))
+                u = _unit(_U0[s][j], s)
+                out[f"{s}-M{i}{j}"] = (None if s == "ACC" else "Cos(Dip)",
+                                       tuple("0" if w[i] == "0" else f"({w[i]}) * ({u})" for w in g))
         for i in range(3):
-            out[f"{s}-B{i}"] = (gi[i], ga[i], gl[i])
+            out[f"{s}-B{i}"] = (den, tuple(w[i] for w in g))
     return out
+
+
+_SOURCE_PARTS = _source_parts()
+_DEN_ORDER = (None, "Gfield", "Cos(Dip)", "(BField * Cos(Dip))")
+
+
+def _sources():
+    """name -> (inclination, azimuth, lateral formula): the toolface-frame errors
+    (ACC/MAG M{ij}: dimensionless, ACC B{i}: m/s^2, MAG B{i}: nT)."""
+    return {n: tuple("0" if f == "0" else f if den is None else f"({f}) / {den}" for f in nums)
+            for n, (den, nums) in _SOURCE_PARTS.items()}
 
 
 SOURCES = _sources()
@@ -497,7 +510,17 @@ def is_correlated_name(name) -> bool:
 
 
 def _combine(weights: dict, part: int) -> str:
-    parts = [f"{float(c)!r} * ({SOURCES[n][part]})" for n, c in weights.items() if SOURCES[n][part] != "0"]
+    """The combination's weight formula: the sources' numerators over each common denominator."""
+    groups = {}
+    for n, c in weights.items():
+        den, nums = _SOURCE_PARTS[n]
+        if nums[part] != "0":
+            groups.setdefault(den, []).append(f"{float(c)!r} * ({nums[part]})")
+    parts = []
+    for den in _DEN_ORDER:
+        if den in groups:
+            sum_ = " + ".join(groups[den])
+            parts.append(sum_ if den is None else f"({sum_}) / {den}")
     return " + ".join(parts) if parts else "0"
 
 
@@ -569,10 +592,43 @@ def source_covariance(cal, cov, n_tf=16):
     return names, 0.5 * (S + S.T) / n_tf, 0.5 * (S0 + S0.T)
 
 
-def _eigen_terms(S, names, xy, mags, combos):
+# How the combination terms' coefficients are written: 7 significant digits (a coefficient moves by at most
+# 5e-8 of itself), and a source whose share of a term is below PRUNE_REL of the term's largest possible weight
+# (each source's weight at its largest over the attitude grid, dips -80..80 deg and total fields 25000-65000 nT)
+# left out.  The eigenvectors carry the rounding of the eigensolver (shares of 1e-16 .. 1e-30 of a term): the
+# file held every one of them with 17 digits, 196 kB for one probe.
+COEF_DIGITS = 7
+PRUNE_REL = 1e-7
+_SCALE_DIPS = (-80.0, -60.0, -30.0, 0.0, 30.0, 60.0, 80.0)
+_SCALE_FIELDS = (25000.0, 65000.0)
+
+
+def source_scale(dip, field_nT, gravity_si=G0) -> dict:
+    """source -> the largest |weight| (inclination, and lateral: sin(Inc) x
+    azimuth, finite at the vertical) over the attitude grid, at `dip` and
+    `field_nT` and at dips -80..80 deg and total fields 25000-65000 nT."""
+    from welleng.errors.interpreter import evaluate_formula
+
+    inc, azi, _ = _grid()
+    inc = np.r_[0.0, inc, 180.0]
+    azi = np.r_[0.0, azi, 0.0]
+    out = dict.fromkeys(SOURCES, 0.0)
+    for d in set(_SCALE_DIPS) | {float(dip)}:
+        for f in set(_SCALE_FIELDS) | {float(field_nT)}:
+            b = _bindings(inc, azi, d, f, gravity_si)
+            for n, (fi, _, fl) in SOURCES.items():
+                for form in (fi, fl):
+                    w = np.abs(np.asarray(evaluate_formula(form, b), float))
+                    out[n] = max(out[n], float(np.max(w)))
+    return out
+
+
+def _eigen_terms(S, names, xy, mags, combos, scale=None):
     """The eigenvectors of the source covariance S as combination terms
     (magnitude sqrt(eigenvalue) of the correlation matrix, the weights its
-    eigenvector times the sources' 1-sigma) into mags and combos."""
+    eigenvector times the sources' 1-sigma) into mags and combos; with
+    `scale` (source_scale), each coefficient to COEF_DIGITS and the
+    sources whose share is below PRUNE_REL left out."""
     sd = np.sqrt(np.clip(np.diag(S), 0, None))
     if not sd.max() > 0:
         return
@@ -586,23 +642,28 @@ def _eigen_terms(S, names, xy, mags, combos):
             u = -u
         nm = correlated_name(k, xy)
         mags[nm] = float(math.sqrt(lam[j]))
-        combos[nm] = {n: float(c) for n, c in zip(names_live, u * sd[live]) if c != 0.0}
+        c = {n: float(c) for n, c in zip(names_live, u * sd[live]) if c != 0.0}
+        if scale is not None:
+            top = sum(abs(v) * scale[n] for n, v in c.items())
+            c = {n: float(f"{v:.{COEF_DIGITS}g}") for n, v in c.items() if abs(v) * scale[n] >= PRUNE_REL * top}
+        combos[nm] = c
 
 
 def project(cal, cov, dip, field_nT, gravity=1.0):
     """The probe's systematic terms from the calibration covariance:
     (magnitudes, fit).  The magnitudes are those of the combination terms
     (correlated_name: ABMS-CALnn toolface-independent, ABMSXY-CALnn what a
-    turn changes; the standard GROUPS are written with 0: the
-    combinations carry every sensor error); fit["correlated"] has each
+    turn changes; no standard GROUPS: the combinations carry every
+    sensor error); fit["correlated"] has each
     combination's weights, and the sigma ratios how the model's
     toolface-averaged 1-sigma matches the covariance's linearised one over
     the attitude grid (5-175 deg; 1 up to the linearisation)."""
     names, S, S0 = source_covariance(cal, cov)
-    mags = {g: 0.0 for g in GROUPS}
+    mags = {}
     combos = {}
-    _eigen_terms(S0, names, False, mags, combos)
-    _eigen_terms(S - S0, names, True, mags, combos)
+    scale = source_scale(dip, field_nT, gravity * G0)
+    _eigen_terms(S0, names, False, mags, combos, scale)
+    _eigen_terms(S - S0, names, True, mags, combos, scale)
     inc, azi, tfs = _grid()
     vi, va = linear_variance(cal, cov, inc, azi, tfs, dip, field_nT, gravity)
     pi = np.zeros_like(vi)
@@ -619,8 +680,6 @@ def project(cal, cov, dip, field_nT, gravity=1.0):
            "sigma_ratio_min": float(1 + rel.min()), "sigma_ratio_max": float(1 + rel.max()),
            "form": "correlated combination terms: the eigenvectors of the toolface-averaged covariance of the "
                    "calibration's sensor errors", "correlated": combos}
-    up = np.concatenate([inc > 90.0, inc > 90.0])[keep]
-    fit["sigma_ratio_min_upward"] = float(1 + rel[up].min()) if up.any() else 1.0
     return mags, fit
 
 

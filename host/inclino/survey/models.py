@@ -187,6 +187,13 @@ def load(spec: str) -> Base:
     if not isinstance(d, dict):
         raise DataError(f"{spec}: not an ISCWSA JSON tool model (an object with 'metadata' and 'terms')")
     terms = check_terms(d.get("terms"), spec)
+    # a term of 0 contributes nothing, and welleng evaluates it as 0 x its weight, NaN at a vertical station (an
+    # azimuth weight is infinite there): left out.  inclino toolmodel wrote the standard sensor terms with 0 beside
+    # its combination terms before 2026-11-29; such a file is the same model without them
+    terms = [t for t in terms if t["value"] != 0]
+    if not terms:
+        raise DataError(f"{spec}: every term is 0: the model describes no error (an ISCWSA tool model needs a term "
+                        "above 0)")
     meta = d.get("metadata") if isinstance(d.get("metadata"), dict) else {}
     rev = meta.get("revision_number", 5)
     try:
