@@ -150,14 +150,15 @@ def test_a_moving_log_that_cannot_be_calibrated_is_refused_naming_the_motion(ck_
 
 
 def test_a_moving_log_fitted_on_every_row_names_the_motion_beside_its_residual():
-    """CK-Explorer's hand-tumbled log, both triads: 98 % of its rows read
-    while moving and its 22 holds too few to fit alone, so every row is
+    """CK-Explorer's hand-tumbled log, both triads: 99 % of its rows read
+    while moving (98 % before a run's own steady turn was tested: 22
+    "holds", some the hand turning slowly; 8 now) and its holds too few to fit alone, so every row is
     fitted as before (|g| residual 36 mg, FAIL, written); the verdict's
     |g| reason now names the motion and the fix."""
     ds = _import("ck_acc_mag", "acc_mag_log.csv")
     _, rep = fit(ds, "joint")
     g = [r for r in rep.reasons if r.startswith("|g| residual RMS")]
-    assert not rep.passed and g and "(the motion: 98 % of the 12000 rows were read while moving" in g[0], rep.reasons
+    assert not rep.passed and g and "(the motion: 99 % of the 12000 rows were read while moving" in g[0], rep.reasons
 
 
 def test_a_step_and_hold_log_a_stepped_turn_and_a_wand_keep_their_own_reasons(tedaldi):

@@ -123,15 +123,29 @@ def test_the_six_faces_diagnosis_says_one_triad_not_a_missing_azimuth():
     assert "one triad only" in note and "inc_deg and tf_deg read as rig angles" in note and "azi" not in note, note
 
 
-def test_an_effect_the_rests_do_not_confirm_is_not_also_named_confounded():
+def test_an_effect_the_rests_do_not_confirm_is_not_also_named_confounded(monkeypatch):
     """A MinIMU-9 turned by hand between 176 rests that leave the model
     undetermined: a magnetometer x nonlinearity found on every row is not
     named (the rests alone cannot confirm it), and is no longer reported
-    beside that as a named effect confounded with the motion."""
+    beside that as a named effect confounded with the motion.  Nine of
+    those 176 "rests" (10-15 rows each) turn steadily, 0.6-1.9 deg from
+    their first rows to their last; one of them (rows 2246-2256, 1.9 deg,
+    leverage 0.98) alone kept the others from determining the model.
+    Read as moving (holds._Trend) the rests determine it (leverage 0.64),
+    the rows read while moving are left out and nothing is named; the rule
+    is tested on the rests as they were read before (TREND_CHI2 out of
+    reach)."""
+    from inclino import holds
     from inclino.diagnose.analysis import diagnose
 
     d = REAL / "pololu_minimu9"
-    r = diagnose(_import(d / "data_polulu.txt", (d / "sensor.toml").read_text()))
+    ds = _import(d / "data_polulu.txt", (d / "sensor.toml").read_text())
+    now = diagnose(ds)
+    assert not now.effects and not [c for c in now.confounded if c["named"]], now.confounded
+    assert now.baseline["holds"]["moving_rows_left_out"] and now.baseline["holds"]["leverage_max"] < 0.8
+    monkeypatch.setattr(holds, "TREND_CHI2", float("inf"))
+    r = diagnose(ds)
+    assert r.baseline["holds"]["holds"] == 176 and not r.baseline["holds"]["moving_rows_left_out"]
     assert not r.effects
     demoted = {c["effect"] for c in r.confounded if "share" in c}
     assert demoted, r.confounded

@@ -123,6 +123,7 @@ POSE_GROUP_ROWS = 3       # ... each pose on at least this many rows
 RAW_DIRS_MAX_CV = 0.1     # raw directions compared only when |v| varies less than this (offsets small)
 CHECK_ROWS = 200_000      # rows looked at (stratified random rows beyond: _thin; the lag on the first LAG_ROWS consecutive rows)
 LAG_ROWS = 50_000
+MOTION_MIN_HOLDS = 4       # a log of fewer than this many holds' rows is too short to tell a slow turn by its holds
 HOLDS_MOVING_NOTE = 0.01   # a still log's rows read while moving between holds: a note from this share on
 
 # the time column (the unit it was declared in): what a logger and a turning sensor do
@@ -2234,9 +2235,16 @@ def _motion(ds, rep):
         rep.noise[f"{t}_bound_{unit}"] = bound
     declared = declared_static(ds) or rep.declared_static
     rep.declared_static = declared
-    if all(verdicts):
+    turning = None
+    if all(verdicts) and not declared:
+        turning = _turning_slowly(ds, rep)
+    if all(verdicts) and turning is None:
         rep.static = True
         _holds_note(ds, rep)
+        return
+    if turning is not None:
+        rep.static = False
+        rep.findings.append(Finding("motion", "note", turning[0], None, turning[1]))
         return
     rep.static = False if not declared else None
     steps = ", ".join(f"{'accelerometer' if k.startswith('acc') else 'magnetometer'} "
@@ -2254,6 +2262,35 @@ def _motion(ds, rep):
             f"the sensor moved between rows (hand-held, continuous rotation), or each row is a position of its "
             f"own (declare a step-and-hold run static: --static, or [log] static = true)"), None,
             {k: v for k, v in rep.noise.items() if "_step_" in k}))
+
+
+def _turning_slowly(ds, rep):
+    """(text, figures) when consecutive readings differ by no more than a
+    static sensor's noise but the readings hold still for HOLD_ROWS rows on
+    fewer than STEP_AND_HOLD_FRACTION of the rows (inclino.holds.find: a
+    steady turn is no hold): a sensor turned slowly and smoothly, its step
+    a row within the noise bound (a QMC5883L turned by hand at 50 Hz, or a
+    MEMS triad turned 0.1-1 deg a row, 1.2-6.5 mg a row against 3x the 5 mg
+    bound, were read as static).  None for a log whose rows say which
+    belong together (poses, a pose id), that reads one orientation, or is
+    too short for a hold (fewer than MOTION_MIN_HOLDS x HOLD_ROWS rows)."""
+    from inclino import holds
+
+    if holds.labelled(ds) or rep.one_orientation or len(ds) < MOTION_MIN_HOLDS * holds.HOLD_ROWS:
+        return None
+    h = holds.find(ds)
+    if h.step_and_hold:
+        return None
+    share = h.rows_held / len(ds)
+    steps = ", ".join(f"{'accelerometer' if k.startswith('acc') else 'magnetometer'} "
+                      f"{v * (1e3 if k.startswith('acc') else 1):.3g} {'mg' if k.startswith('acc') else 'nT'}"
+                      for k, v in rep.noise.items() if "_step_" in k and v > 0)
+    return ((f"consecutive readings differ by a median of {steps} per axis, within a static sensor's noise, but "
+             f"only {100 * share:.0f} % of the rows hold still for {holds.HOLD_ROWS} rows ({h.count} holds found in "
+             f"the readings): the sensor turned slowly between rows (hand-held, continuous rotation), not "
+             f"step-and-hold (declare a run static only if every row was read at rest: --static, or [log] "
+             f"static = true)"),
+            {**{k: v for k, v in rep.noise.items() if "_step_" in k}, "rows_held_share": share, "holds": h.count})
 
 
 def _holds_note(ds, rep):

@@ -52,6 +52,8 @@ NOISE_BOUND = {"acc": 5e-3, "mag": 1000.0}  # g, nT
 HOLD_ROWS = 10                 # a hold is at least this many consecutive still rows (and the window's length)
 HOLD_K = 3.0                   # a still window's per-axis standard deviation: at most this many times the noise
 HOLD_TURN_DEG = 0.5            # a run whose direction turns by more than this from its start is cut there
+TREND_SPAN = 8 * HOLD_ROWS     # ... fitted in stretches of this many rows
+TREND_CHI2 = 16.3              # a run's fitted turn (3 components) this many squared standard errors off 0: steady
 HOLD_JUMP_K = 6.0              # neighbouring rows differing by this many times their noise on an axis: a new hold
 STEP_AND_HOLD_FRACTION = 0.5   # holds must hold this share of the rows for a log to be read as step-and-hold
 HOLDS_MAX_LEVERAGE = 0.8       # the holds alone determine a triad's ellipsoid when no hold's leverage exceeds this
@@ -125,6 +127,76 @@ def _first_turn(m, i, b, anchor, cos_turn) -> int:
     return b
 
 
+def _size(ds, t, v) -> float:
+    """The size of the vector a triad reads: gravity (gravity_g, 1 g), the
+    header's field_nT, else the median size of the readings as the holds
+    turn them (_centred)."""
+    if t == "acc":
+        return float(ds.meta.get("gravity_g") or 1.0)
+    return float(ds.meta.get("field_nT") or np.median(np.linalg.norm(v, axis=1)) or 1.0)
+
+
+class _Trend:
+    """The steady turn of a run of rows: the least-squares line through
+    their unit directions against the row (prefix sums: constant time a
+    run), the readings taken over the vector's size (an offset cancels
+    in their change) and their change across the run's mean reading.  A window's mean direction lags its rows, so a run cut where the
+    window means turn by HOLD_TURN_DEG spans HOLD_ROWS - 1 rows more than
+    that: a run turning steadily (a sensor turned slowly by hand) is cut
+    into runs of HOLD_ROWS + 1 rows that each turn by up to 10x the
+    rate at which the window means turn HOLD_TURN_DEG (0.3 deg a row: 3 deg
+    a "hold").  `end(i, j)` is the end of the stretch from row i that
+    turns by no more than HOLD_TURN_DEG at the run's fitted rate, when the
+    rows i .. j - 1 turn steadily (beyond HOLD_TURN_DEG and beyond
+    TREND_CHI2 of the noise about the line); j otherwise."""
+
+    def __init__(self, u):  # (n, 3): the readings over the vector's size
+        self.mean = u.mean(axis=0)
+        u = u - self.mean  # (a line's slope and scatter do not move with it; the sums keep their digits)
+        n = len(u)
+        r = np.arange(n, dtype=float)[:, None]
+        z = np.zeros((1, 3))
+        self.su = np.concatenate([z, np.cumsum(u, axis=0)])
+        self.sru = np.concatenate([z, np.cumsum(r * u, axis=0)])
+        self.suu = np.concatenate([z, np.cumsum(u * u, axis=0)])
+
+    def end(self, i: int, j: int) -> int:
+        # in stretches of TREND_SPAN rows, half overlapping: a line fits a turn of a few degrees, not of a
+        # whole turn about the vertical (the accelerometer still, the field's direction going round)
+        a = i
+        while True:
+            b = min(j, a + TREND_SPAN)
+            k = self._end(a, b)
+            if k < b:
+                return k if a == i else a + TREND_SPAN // 4
+            if b == j:
+                return j
+            a += TREND_SPAN // 2
+
+    def _end(self, i: int, j: int) -> int:
+        L = j - i
+        if L < 3:
+            return j
+        su = self.su[j] - self.su[i]
+        sru = self.sru[j] - self.sru[i] - i * su          # rows counted from i
+        suu = self.suu[j] - self.suu[i]
+        st, stt = L * (L - 1) / 2.0, (L - 1) * L * (2 * L - 1) / 6.0
+        sxx = stt - st * st / L
+        slope = (sru - st * su / L) / sxx                  # per row, each component of the direction
+        res = np.maximum(suu - su * su / L - slope * slope * sxx, 0.0) / (L - 2)
+        # a turn moves the reading across itself; a change of its size along it (a lift's acceleration along
+        # gravity, the airbrake IMU's faces) is no turn
+        c = su / L + self.mean
+        c /= max(float(np.linalg.norm(c)), 1e-300)
+        slope = slope - (slope @ c) * c
+        turn = float(np.linalg.norm(slope)) * (L - 1)       # radians across the run
+        chi2 = float(np.sum(slope * slope * sxx / np.maximum(res, 1e-30)))
+        limit = math.radians(HOLD_TURN_DEG)
+        if turn <= limit or chi2 <= TREND_CHI2:
+            return j
+        return i + 1 + int(limit / (turn / (L - 1)))
+
+
 def find(ds) -> Holds:
     """The static holds of a dataset (module docstring)."""
     n = len(ds)
@@ -134,6 +206,7 @@ def find(ds) -> Holds:
     jump = setting_changes(ds)
     noise = {}
     ref = None
+    dirs = []  # each triad's readings as the holds turn them: a turn about the vertical moves the magnetometer only
     if n >= w:
         quiet = np.ones(n - w + 1, bool)
         for t, unit in (("acc", "g"), ("mag", "nT")):
@@ -145,8 +218,9 @@ def find(ds) -> Holds:
             noise[t] = s
             quiet &= np.all(ws <= HOLD_K * s, axis=1)
             jump[1:] |= np.any(np.abs(np.diff(v, axis=0)) > HOLD_JUMP_K * math.sqrt(2.0) * s, axis=1)
+            dirs.append((t, _centred(ds, t)))
             if ref is None:
-                ref = _centred(ds, t)
+                ref = dirs[-1][1]
         # a row is still when a quiet window covers it
         cover = np.zeros(n + 1, int)
         starts = np.flatnonzero(quiet)
@@ -162,6 +236,10 @@ def find(ds) -> Holds:
         cu = np.concatenate([np.zeros((1, 3)), np.cumsum(u, axis=0)])
         m = (cu[w:] - cu[:-w]) / w  # each window's mean direction
         m /= np.maximum(np.linalg.norm(m, axis=1, keepdims=True), 1e-300)
+        # each triad's own steady turn: a turn about the vertical leaves the accelerometer's direction where it was
+        # (the readings over the vector's size, not their directions: an offset cancels in a turn's difference, and
+        # an accelerometer 0.5 g off reads a hold near the offset turning many times its angle)
+        trends = [_Trend(d / _size(ds, t, d)) for t, d in dirs]
         runs = []
         for a, b in zip(edges[::2], edges[1::2]):
             cuts = [a, *(a + 1 + np.flatnonzero(jump[a + 1:b])).tolist(), b]
@@ -171,6 +249,8 @@ def find(ds) -> Holds:
             while b - i >= w:
                 anchor = m[i]
                 j = _first_turn(m, i, b, anchor, cos_turn)
+                if j - i >= w:
+                    j = min(t.end(i, j) for t in trends)
                 if j - i >= w:
                     labels[i:j] = count
                     count += 1
