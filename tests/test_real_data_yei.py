@@ -31,7 +31,9 @@ def test_the_yei_log_imports_in_step_and_is_refused_by_calibrate_with_the_cause(
     cal = tmp_path / "cal.json"
     assert main(["calibrate", str(run), "-o", str(cal)]) == 3
     err = capsys.readouterr().err
-    assert "holds" in err and "x scale and y scale" in err and "Traceback" not in err, err
+    # the holds (30 at one orientation but one) leave a scale term free: which one depends on where the
+    # holds end (holds.find: a run's own steady turn cuts it), the cause does not
+    assert "holds" in err and "scale term" in err and "nearly free" in err and "Traceback" not in err, err
     assert not cal.exists()
 
 

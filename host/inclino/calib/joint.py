@@ -483,8 +483,11 @@ def _fit_poses(ds, w, sa, sm, sp, fix_dip, nonlinear=False, noise="fit"):
                 best = (cost, d)
         dip0 = best[1]
     g, f = ref.body_vectors(*poses, F, dip0, dec, G)
-    triad.poses_span(g, "the accelerometer's 12 parameters")
-    triad.poses_span(f, "the magnetometer's 12 parameters")
+    try:
+        triad.poses_span(g, "the accelerometer's 12 parameters")
+        triad.poses_span(f, "the magnetometer's 12 parameters")
+    except CalibrationError as e:
+        raise SingularFit(str(e)) from e
     x0 = np.concatenate([_linear_start(ds.acc, ds.mag, g, f), np.zeros(6 if nonlinear else 0), [dip0]])
     P = len(x0)
     keep = np.ones(len(ds), bool)

@@ -198,12 +198,22 @@ def poses_span(truth, what: str = "the triad's 12 parameters") -> None:
     -x, +y, +z in one half: its offsets came out 1e15 g and the refusal
     blamed the unit)."""
     u = np.unique(np.round(truth / max(float(np.abs(truth).max()), 1e-300), 6), axis=0)
-    sv = np.linalg.svd(np.column_stack([u, np.ones(len(u))]), compute_uv=False) if len(u) >= 4 else None
-    if sv is None or sv[-1] <= 1e-6 * sv[0]:
-        raise CalibrationError(
-            f"the poses do not determine {what}: their {len(u)} distinct reference "
-            f"directions lie on one plane, across which an offset is not told from the scale and axes; add poses "
-            f"off that plane (in a six-face session, each axis pointing both up and down)")
+    if len(u) >= 4:
+        _, sv, Vt = np.linalg.svd(np.column_stack([u, np.ones(len(u))]))
+        if sv[-1] > 1e-6 * sv[0]:
+            return
+        normal = Vt[-1, :3] / max(float(np.linalg.norm(Vt[-1, :3])), 1e-300)
+    else:
+        normal = np.cross(u[1] - u[0], u[-1] - u[0]) if len(u) == 3 else np.zeros(3)
+        normal = normal / max(float(np.linalg.norm(normal)), 1e-300)
+    k = int(np.argmax(np.abs(normal)))
+    across = (f" (normal to its {'xyz'[k]} axis: the {'xyz'[k]} offset and the gain on {'xyz'[k]} are undetermined)"
+              if abs(normal[k]) > 0.985 else
+              f" (normal ({normal[0]:+.2f}, {normal[1]:+.2f}, {normal[2]:+.2f}) in its axes)" if len(u) >= 3 else "")
+    raise CalibrationError(
+        f"the poses do not determine {what}: their {len(u)} distinct reference directions lie on one "
+        f"plane{across}, across which an offset is not told from the scale and axes; add poses off that plane (in "
+        f"a six-face session, each axis pointing both up and down)")
 
 
 def pose_mean_covariance(gm, tm, M, b, radial_var):
