@@ -436,11 +436,15 @@ def time_blocks(resid) -> np.ndarray | None:
     BLOCK_MIN_TAU) or too few rows make BLOCK_MIN blocks of 2 rows.  The
     residual is clipped at 3 robust sigma first (an outlier row is no
     correlation)."""
-    n = len(resid)
-    if n < 2 * BLOCK_MIN:
-        return None
-    tau = integrated_time(resid)
-    if tau < BLOCK_MIN_TAU:
+    return blocks_of(len(resid), integrated_time(resid))
+
+
+def blocks_of(n: int, tau: float) -> np.ndarray | None:
+    """Block labels of n consecutive rows for residuals of integrated
+    autocorrelation time tau (rows): blocks BLOCK_TAU_K tau rows long,
+    shortened to leave at least BLOCK_MIN; None when tau < BLOCK_MIN_TAU or
+    the rows make fewer than BLOCK_MIN blocks of 2 rows (time_blocks)."""
+    if n < 2 * BLOCK_MIN or tau < BLOCK_MIN_TAU:
         return None
     L = max(2, min(int(np.ceil(BLOCK_TAU_K * tau)), n // BLOCK_MIN))
     return np.arange(n) // L
