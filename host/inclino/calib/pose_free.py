@@ -132,6 +132,7 @@ def fit(ds, w, sa, sm, fix_dip=False, mag_start=None, labels=None):
     # 1. the accelerometer alone
     Ma, ba, cov_a, ia = triad.fit_sphere(acc, G, sa, min_rows=MIN_ROWS, what="the accelerometer",
                                          blocks=labels is None, refits=triad.REFITS)
+    timed = labels is None  # no holds: any blocks are of consecutive rows, sized by the residuals' correlation
     if ia["blocks"] is not None:
         labels = triad.time_blocks(ia["residual"])  # the magnetometer's dip residuals share those blocks
     # 2. the magnetometer alone
@@ -208,6 +209,21 @@ def fit(ds, w, sa, sm, fix_dip=False, mag_start=None, labels=None):
                                "(they cover too little of the sphere; singular fit)")
     cov_m = s2m * np.linalg.inv(JtJ)
     cov_source = "rows"
+    mag_blocks = None
+    if timed:
+        # the magnetometer's own residuals have their own correlation time: a hand tumble's |b| misfit (a
+        # disturbance, a soft-iron error that the linear model leaves, met while the hand sweeps slowly) stays
+        # alike over hundreds of rows where the hand's acceleration in the dip stays alike over a few (CK-Explorer's
+        # log: |b| 95 rows, the accelerometer's 3); blocks sized by the accelerometer's alone counted the |b|
+        # residuals as 30 times the independent errors they are (split halves' mag_b 4.4 sigma apart, RMS)
+        rm = _mag_residuals(x, mag, ug, F, sm_hat, sd).reshape(2, n)
+        taus = [triad.integrated_time(rm[0][keep]), triad.integrated_time(rm[1][keep])]
+        if ia["blocks"] is not None:
+            taus.append(triad.integrated_time(ia["residual"]))
+        lm = triad.blocks_of(n, max(taus))
+        if lm is not None:
+            labels = lm
+            mag_blocks = {"rows": int(np.bincount(lm).max()), "count": int(lm.max()) + 1}
     if labels is not None:
         # the rows of one hold (or block) share its error: the |b| and the dip residuals alike (an
         # accelerometer's hold error is in the dip alone, so no factor from the magnetometer's ellipsoid can
@@ -215,7 +231,14 @@ def fit(ds, w, sa, sm, fix_dip=False, mag_start=None, labels=None):
         cc = cluster_covariance(J, out.fun, labels, keep)
         if cc is not None and np.all(np.isfinite(cc)):
             cov_source = {"dip_var_ratio": float(cc[-1, -1] / cov_m[-1, -1])}
+            if mag_blocks is not None:
+                mag_blocks["var_ratio"] = float(np.trace(cc[:12, :12]) / np.trace(cov_m[:12, :12]))
             cov_m = cc
+    if not isinstance(cov_source, dict):
+        mag_blocks = None
+    blocks = ia["blocks"]
+    if mag_blocks is not None:  # the magnetometer's blocks (with the dip's), beside the accelerometer's own
+        blocks = {**(blocks or {}), **{"mag_" + k: v for k, v in mag_blocks.items()}}
     if im["refits"] is not None:
         # the magnetometer's ellipsoid curves in the noise (its orientations bunched to one side): what its refits
         # scatter beyond its linearised covariance, carried into M_m = Q S_m and b_m
@@ -264,6 +287,6 @@ def fit(ds, w, sa, sm, fix_dip=False, mag_start=None, labels=None):
             "acc_misfit": acc_bad, "mag_misfit": mag_bad,
             "normal_matrix_cond": float(np.linalg.cond(JtJ)), "dip_fitted": not fix_dip,
             "dip_sigma_deg": None if fix_dip else float(np.sqrt(cov[24, 24])), "mag_covariance": cov_source,
-            "acc_to_mag": K, "cov_mag_own": cov_m, "blocks": ia["blocks"],
+            "acc_to_mag": K, "cov_mag_own": cov_m, "blocks": blocks,
             "refits": {t: i["refits"] for t, i in (("acc", ia), ("mag", im)) if i["refits"] is not None}}
     return (Ma, ba, Mm, bm, dip), cov, info

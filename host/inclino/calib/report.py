@@ -406,10 +406,16 @@ def build(ds: RawDataset, cal: Calibration, method: str, info: dict, refit=None,
                "over the noise assumed: " + "; ".join(f"{t} {v:.3g} {against.get(t, '')}".rstrip()
                                                      for t, v in s2t.items() if v is not None) + ")")
         bl = info.get("blocks")
-        if bl:
+        if bl and "count" in bl:
             src += (f"; counted in {bl['count']} blocks of {bl['rows']} consecutive rows, the residuals being "
                     f"correlated from row to row (a log read while moving: the hand's acceleration): accelerometer "
                     f"x{bl['var_ratio']:.3g} the rows' variance"
+                    + (f", the dip x{bl['dip_var_ratio']:.3g}" if bl.get("dip_var_ratio") and "mag_count" not in bl
+                       else ""))
+        if bl and "mag_count" in bl:
+            src += (f"; the magnetometer's |b| and dip residuals counted in {bl['mag_count']} blocks of "
+                    f"{bl['mag_rows']} consecutive rows (their own correlation from row to row): "
+                    f"x{bl['mag_var_ratio']:.3g} the rows' variance"
                     + (f", the dip x{bl['dip_var_ratio']:.3g}" if bl.get("dip_var_ratio") else ""))
         rf = info.get("refits")
         if rf:

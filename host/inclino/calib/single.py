@@ -179,17 +179,26 @@ def fit(ds, use_poses=None, sigma_acc=None, sigma_mag=None, mount_tolerance_deg=
         if hl is not None:
             # holds that leave a term nearly free: the verdict says which, beside the inclination it predicts
             info["holds_coverage"] = holds.undetermined_text(ds, hl[0], hl[1], kind, what)
-        hold_cov = triad.hold_covariance(raw, hl[0], keep, R, sigma) if hl is not None else None
+        hold_cov = triad.hold_covariance(raw, hl[0], keep, R, sigma, fit=(M, b)) if hl is not None else None
         if hold_cov is not None and np.trace(hold_cov[0]) > np.trace(cov):
             cov = hold_cov[0]
             found = "found in the readings" + ("" if hs is not None else ", too few or too few directions to fit "
                                                                           "alone: every row is fitted")
-            counted = (f"the {hold_cov[1]} static holds' mean readings ({found})" if hold_cov[1] == hold_cov[2] else
-                       f"the mean readings of {hold_cov[1]} orientations held: the {hold_cov[2]} static holds {found}, "
-                       f"neighbours within {holds.HOLD_MERGE_DEG:g} deg of each other counted as one (a hand that "
-                       f"drifts holds one orientation)")
-            info["covariance_source"] = (f"hold level: the fit to {counted}, scaled by their scatter (the rows of "
-                                         f"one hold share its orientation's error)")
+            if hs is not None:  # the holds alone fitted: the rows' fit, each hold's rows sharing an error
+                counted = (f"the {hold_cov[1]} static holds ({found})" if hold_cov[1] == hold_cov[2] else
+                           f"{hold_cov[1]} orientations held: the {hold_cov[2]} static holds {found}, "
+                           f"neighbours within {holds.HOLD_MERGE_DEG:g} deg of each other counted as one (a hand "
+                           f"that drifts holds one orientation)")
+                info["covariance_source"] = (f"hold level: the rows' fit with each of {counted} sharing an error, "
+                                             f"its size from how much more their mean residuals scatter than their "
+                                             f"rows (the rows of one hold share its orientation's error)")
+            else:
+                counted = (f"the {hold_cov[1]} static holds' mean readings ({found})" if hold_cov[1] == hold_cov[2]
+                           else f"the mean readings of {hold_cov[1]} orientations held: the {hold_cov[2]} static "
+                                f"holds {found}, neighbours within {holds.HOLD_MERGE_DEG:g} deg of each other "
+                                f"counted as one (a hand that drifts holds one orientation)")
+                info["covariance_source"] = (f"hold level: the fit to {counted}, scaled by their scatter (the rows "
+                                             f"of one hold share its orientation's error)")
         info["unobservable"] = ("the triad's rotation: without poses |g| (|b|) alone leaves it free; the body frame "
                                 "is the sensor's own axes (M symmetric)")
         if kind == "acc":

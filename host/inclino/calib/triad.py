@@ -468,8 +468,15 @@ def time_blocks(resid) -> np.ndarray | None:
     if n < 2 * BLOCK_MIN:
         return None
     r = np.asarray(resid, float)
-    tau = max(integrated_time(c) for c in r.reshape(n, -1).T)
-    if tau < BLOCK_MIN_TAU:
+    return blocks_of(n, max(integrated_time(c) for c in r.reshape(n, -1).T))
+
+
+def blocks_of(n: int, tau: float) -> np.ndarray | None:
+    """Block labels of n consecutive rows for residuals of integrated
+    autocorrelation time tau (rows): blocks BLOCK_TAU_K tau rows long,
+    shortened to leave at least BLOCK_MIN; None when tau < BLOCK_MIN_TAU or
+    the rows make fewer than BLOCK_MIN blocks of 2 rows (time_blocks)."""
+    if n < 2 * BLOCK_MIN or tau < BLOCK_MIN_TAU:
         return None
     L = max(2, min(int(np.ceil(BLOCK_TAU_K * tau)), n // BLOCK_MIN))
     return np.arange(n) // L
@@ -517,13 +524,28 @@ def block_covariance(J, r, labels, A=None):
     return B / (B - 1.0) * Ai @ (S.T @ S) @ Ai
 
 
-def hold_covariance(raw, labels, keep, R, sigma):
-    """The ellipsoid fit to the holds' mean readings (rows kept by the row
-    fit): its covariance, scaled by the means' own scatter, counts each
-    hold once -- and neighbouring holds within holds.HOLD_MERGE_DEG of each other
-    once together, when that leaves at least 12 (the larger covariance of
-    the two).  (covariance, the holds or clusters it counts, the holds
-    found); None when too few holds keep a row."""
+def hold_covariance(raw, labels, keep, R, sigma, fit=None):
+    """The covariance of a fit whose rows come in static holds that each
+    share an error, counting each hold once -- and neighbouring holds within
+    holds.HOLD_MERGE_DEG of each other once together, when that leaves at
+    least 12 (the larger covariance of the two).  (covariance, the holds or
+    clusters it counts, the holds found); None when too few holds keep a
+    row.
+
+    * The holds alone fitted (every kept row held): the row fit's own
+      covariance with each hold's rows sharing an error (cluster_covariance;
+      fit: the row fit's (M, b) on raw[keep], refitted when not given).  A
+      fit to the holds' mean readings is another estimator: the row fit
+      weighs a hold by its rows (the MPU-6050 session's first hold, 36.5 s
+      still, is half its rows), and that fit of 15 orientations, equal
+      weights and 6 degrees of freedom, stated the offsets' sigma up to 3.5
+      times what holds left out of the fit showed (tests/data/real/
+      mpu6050_tedaldi, a jackknife over its 54 holds).
+    * Rows read while moving fitted too (the holds alone leave the
+      ellipsoid nearly free): the fit to the holds' mean readings, scaled by
+      their scatter, what the holds alone determine: the moving rows' part
+      of the fit errs with the turn's own acceleration (one way, in a turn),
+      which their residuals do not show."""
     from inclino import holds
 
     lab = np.where(keep, labels, -1)
@@ -533,14 +555,64 @@ def hold_covariance(raw, labels, keep, R, sigma):
     idx = np.full(int(labels.max()) + 1, -1)
     idx[used] = np.arange(len(used))
     lab = np.where(lab >= 0, idx[np.maximum(lab, 0)], -1)
+    rows_fit = bool(np.all(lab[keep] >= 0))
+    if rows_fit:
+        if fit is None:
+            try:
+                M, b, _, _ = fit_sphere(raw[keep], R, sigma, min_rows=12)
+            except (DataError, CalibrationError):
+                return None
+        else:
+            M, b = fit
+        x = np.concatenate([np.asarray(M, float)[np.triu_indices(3)], np.asarray(b, float)])
+        J = _sphere_jac(x, raw[keep], R) / sigma
+        r = _sphere_residual(x, raw[keep], R) / sigma
     best = None
     for lab_k, k in ((lab, len(used)), holds.merge_neighbours([raw], lab, len(used))):
         if k < 12 or (best is not None and k == best[1]):
             continue
-        try:
-            _, _, covh, _ = fit_sphere(holds.means(raw, lab_k, k), R, sigma, min_rows=12)
-        except (DataError, CalibrationError):
-            continue
+        if rows_fit:
+            c9 = cluster_covariance(J, r, lab_k[keep])
+            if c9 is None:
+                continue
+            covh = _SYM_TO_FULL @ c9 @ _SYM_TO_FULL.T
+        else:
+            try:
+                _, _, covh, _ = fit_sphere(holds.means(raw, lab_k, k), R, sigma, min_rows=12)
+            except (DataError, CalibrationError):
+                continue
         if best is None or np.trace(covh) > np.trace(best[0]):
             best = (covh, k, len(used))
     return best
+
+
+def cluster_covariance(J, r, labels):
+    """Covariance of a least-squares fit (J, r whitened, the rows fitted)
+    whose rows come in clusters that share an error (labels: each row's
+    cluster, 0 ...): the residual split into a within-cluster variance v_w
+    and a between-clusters one v_b (method of moments, v_b inflated for the
+    k fitted parameters), A^-1 (v_w A + v_b sum_c s_c s_c^T) A^-1, A =
+    J^T J, s_c the sum of cluster c's rows of J: a model of the errors that
+    holds with a dozen clusters, where the scores' own sandwich does not.
+    None with k + 1 clusters or fewer."""
+    m, k = J.shape
+    _, c = np.unique(np.asarray(labels), return_inverse=True)
+    H = int(c.max()) + 1
+    if H <= k + 1:
+        return None
+    cnt = np.bincount(c, minlength=H).astype(float)
+    mean = np.bincount(c, r, minlength=H) / cnt
+    v_w = float(((r - mean[c]) ** 2).sum()) / max(m - H, 1)
+    v_b = max(0.0, float((mean ** 2).mean()) - v_w * float(np.mean(1.0 / cnt))) * H / (H - k)
+    S = np.zeros((H, k))
+    np.add.at(S, c, J)
+    A = J.T @ J
+    Ai = np.linalg.inv(A)
+    return Ai @ (v_w * A + v_b * (S.T @ S)) @ Ai
+
+
+# the 9 numbers of a symmetric M (upper triangle, row-major) and b onto the 12 of (M row-major, b)
+_SYM_TO_FULL = np.zeros((12, 9))
+for _k, (_i, _j) in enumerate(zip(*np.triu_indices(3))):
+    _SYM_TO_FULL[3 * _i + _j, _k] = _SYM_TO_FULL[3 * _j + _i, _k] = 1.0
+_SYM_TO_FULL[9:12, 6:9] = np.eye(3)
