@@ -175,3 +175,14 @@ def test_field_unit_quantities(tmp_path):
 def test_field_is_a_magnetometer_unit_only():
     with pytest.raises(DataError, match="unknown unit 'field'"):
         sensor.from_toml('[accelerometer]\ncolumns = ["ax", "ay", "az"]\nunit = "field"\n')
+
+
+def test_a_line_of_control_bytes_after_the_names_is_named_as_such(tmp_path):
+    """A serial capture whose logger sent NULs before its first row: the line
+    after the names has no number in it, as a units line has, but it is
+    noise on the link, and the import says so (it had been counted as "a
+    second header line (units or descriptions)")."""
+    rows = ["0,0,1", "0.001,0,1", "0,0.002,1"]
+    log, toml = _files(tmp_path, ["ax,ay,az", "\x00\x00,\x00,\x00"] + rows, "[log]\nrate_hz = 50\n" + ACC)
+    ds, rep = importlog.import_log(str(log), sensor.load(str(toml)))
+    assert len(ds) == 3 and rep.dropped == {"a line of control bytes (a serial link's noise)": 1}, rep.dropped

@@ -206,3 +206,19 @@ def test_the_magnetometers_slow_residuals_are_counted_in_their_own_blocks(hand_g
         src.append(rep.uncertainty["source"])
     assert float(np.sqrt(np.mean(np.square(z)))) < 1.6, np.round(z, 2)
     assert all("the magnetometer's |b| and dip residuals counted in 30 blocks" in t for t in src), src[0]
+
+
+def test_a_magnetometer_counted_in_blocks_is_not_said_to_carry_a_hand_s_acceleration():
+    """QMC5883L's hand-turned log (magnetometer only): its rows are counted in
+    blocks, and the reason given is what errs alike on a magnetometer's
+    neighbouring rows, not the hand's acceleration it cannot read."""
+    from pathlib import Path
+
+    from inclino.formats import importlog, sensor
+
+    real = Path(__file__).parent / "data" / "real" / "qmc5883l"
+    ds = importlog.import_log(str(real / "filtered_raw_data.csv"), sensor.load(str(real / "sensor.toml")))[0]
+    info = fit_one(ds)[1]
+    assert info["blocks"] is not None, info["covariance_source"]
+    assert "the field's disturbances" in info["covariance_source"]
+    assert "hand's acceleration" not in info["covariance_source"]

@@ -166,10 +166,13 @@ def fit(ds, use_poses=None, sigma_acc=None, sigma_mag=None, mount_tolerance_deg=
             info["motion"] = motion.figures(ds)  # a log read mostly while moving, fitted on every row (or None)
         if info["blocks"] is not None:
             bl = info["blocks"]
+            # (what errs alike on neighbouring rows: a magnetometer has no hand's acceleration to carry, but the
+            # field's disturbances and its own slow changes as it turns)
+            why = "the hand's acceleration" if kind == "acc" else "the field's disturbances as it turns"
             info["covariance_source"] = (f"blocks of {bl['rows']} consecutive rows ({bl['count']}): the residuals "
-                                         f"are correlated from row to row (a log read while moving: the hand's "
-                                         f"acceleration), so the rows are not independent; the blocks' covariance "
-                                         f"is {bl['var_ratio']:.3g} times the rows'")
+                                         f"are correlated from row to row (a log read while moving: {why}), so the "
+                                         f"rows are not independent; the blocks' covariance is "
+                                         f"{bl['var_ratio']:.3g} times the rows'")
         if info["refits"] is not None:
             info["covariance_source"] = (f"{info['refits']['refits']} refits of readings simulated from the fit, "
                                          f"their scatter and mean shift: {info['refits']['var_ratio']:.3g} times the "

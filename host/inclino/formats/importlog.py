@@ -495,8 +495,11 @@ def _import(lines, path: str, desc: SensorDescription, static, drop_bad=False,
                 return
         vals = []
         if not rows and names is not None and not any(_numeric(cells[j]) for j in idx):
-            # a second header line right after the names (units, descriptions): no cell a number
-            key = "a second header line (units or descriptions)"
+            # a second header line right after the names (units, descriptions): no cell a number; or a line of
+            # control bytes (a serial link's start-up noise: NULs before the logger's header again), not a header
+            key = ("a line of control bytes (a serial link's noise)"
+                   if any(ord(ch) < 32 and ch not in "\t\r\n" for ch in text) else
+                   "a second header line (units or descriptions)")
             if not dropped.get(key):
                 dropped[key] = 1
                 units_lines[0] += 1
