@@ -98,7 +98,11 @@ def test_covariance_holds_when_readings_share_a_pose(noise, ok, rng):
         z.append((common.cal_vector(cal) - truth) / np.sqrt(np.diag(info["covariance"])))
         if noise == "fit":
             nz = info["noise"]
-            assert nz["clusters"] == len(ds) // 40 and nz["rows_per_cluster_max"] == 40
+            # a cluster per pose among the rows kept (a pose whose shared error is drawn 4 sigma off can have
+            # every row set aside: 1 run in ~10, INCLINO_TEST_SEED=1032320833)
+            kept = np.setdiff1d(np.arange(len(ds)), info["outliers"])
+            assert nz["clusters"] == len(np.unique(covariance.cluster_labels(ds)[kept])) >= len(ds) // 40 - 1
+            assert nz["rows_per_cluster_max"] == 40
             assert 0.025 < np.sqrt(np.mean(np.square(list(nz["sigma_pose_deg"].values())))) < 0.1
     zr = float(np.sqrt(np.mean(np.square(z))))
     if ok:
