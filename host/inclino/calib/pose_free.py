@@ -59,44 +59,17 @@ def cluster_covariance(J, r, labels, keep):
     share an error (the rows of one static hold): J (2 m, k) and r (2 m,)
     the whitened Jacobian and residuals of the m kept rows, |b| kind first,
     then the dip kind; labels (n,) each row's cluster (-1: a row of its
-    own); keep (n,) the rows fitted.  Each kind's residual is split into a
-    within-cluster variance and a between-cluster (2 x 2, both kinds)
-    covariance, method of moments with each kind's share of the fitted
-    parameters (its part of the hat matrix's trace) taken out;
-    the fit's covariance is then A^-1 (sum_c J_c^T V_c J_c) A^-1, A = J^T J
-    (the row fit is not the clusters' GLS: its own weights, the clusters'
-    noise).  None when fewer than 12 clusters hold more than one row."""
+    own); keep (n,) the rows fitted.  triad.cluster_covariance with the two
+    kinds (a within-cluster variance each, a 2 x 2 between-cluster
+    covariance).  None when fewer than 12 clusters hold more than one
+    row."""
     m = int(keep.sum())
-    k = J.shape[1]
     lab = np.asarray(labels)[keep]
     lab = np.where(lab >= 0, lab, -1 - np.arange(m))  # a moving row is its own cluster
     _, c = np.unique(lab, return_inverse=True)
-    H = int(c.max()) + 1
-    R = np.column_stack([r[:m], r[m:]])
-    cnt = np.bincount(c, minlength=H).astype(float)
-    if np.sum(cnt > 1) < 12 or H <= k + 1:
+    if np.sum(np.bincount(c) > 1) < 12:
         return None
-    mean = np.zeros((H, 2))
-    np.add.at(mean, c, R)
-    mean /= cnt[:, None]
-    within = R - mean[c]
-    v_w = (within ** 2).sum(0) / max(m - H, 1)  # each kind's within-cluster variance of one row
-    Jb, Jd = J[:m], J[m:]
-    Ai = np.linalg.inv(J.T @ J)
-    # between clusters: the means' scatter less the rows' own share, inflated for what the fitted parameters
-    # absorb of it: each kind's share of the k parameters (its part of the hat matrix's trace)
-    lev = np.array([np.sum(Ai * (Jb.T @ Jb)), np.sum(Ai * (Jd.T @ Jd))])
-    f = np.sqrt(H / np.maximum(H - lev, 1.0))
-    B = ((mean.T @ mean) / H - np.diag(v_w * np.mean(1.0 / cnt))) * np.outer(f, f)
-    wv, V = np.linalg.eigh(B)
-    B = (V * np.clip(wv, 0.0, None)) @ V.T
-    meat = Jb.T @ Jb * v_w[0] + Jd.T @ Jd * v_w[1]
-    Sb = np.zeros((H, k))
-    Sd = np.zeros((H, k))
-    np.add.at(Sb, c, Jb)
-    np.add.at(Sd, c, Jd)
-    meat += Sb.T @ Sb * B[0, 0] + Sd.T @ Sd * B[1, 1] + (Sb.T @ Sd + Sd.T @ Sb) * B[0, 1]
-    return Ai @ meat @ Ai
+    return triad.cluster_covariance(J, r, c, kinds=2)
 
 
 def propagate_acc(cov, K, cov_mag_own=None):

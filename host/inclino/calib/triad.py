@@ -387,11 +387,7 @@ def fit_sphere(raw, R: float, sigma: float, min_rows: int = 10, start=None, what
         if np.trace(cr) > REFIT_RATIO * np.trace(cov9):
             boot = {"refits": refits, "var_ratio": float(np.trace(cr) / np.trace(cov9))}
             cov9_lin, cov9 = cov9, cr
-    T = np.zeros((12, 9))
-    for k, (i, j) in enumerate(zip(*np.triu_indices(3))):
-        T[3 * i + j, k] = 1.0
-        T[3 * j + i, k] = 1.0
-    T[9:12, 6:9] = np.eye(3)
+    T = _SYM_TO_FULL
     cov = T @ cov9 @ T.T
     cov_lin = None if cov9_lin is None else T @ cov9_lin @ T.T
     M, b = _sym(x[:6]), x[6:9]
@@ -586,29 +582,49 @@ def hold_covariance(raw, labels, keep, R, sigma, fit=None):
     return best
 
 
-def cluster_covariance(J, r, labels):
+def cluster_covariance(J, r, labels, kinds: int = 1):
     """Covariance of a least-squares fit (J, r whitened, the rows fitted)
     whose rows come in clusters that share an error (labels: each row's
-    cluster, 0 ...): the residual split into a within-cluster variance v_w
-    and a between-clusters one v_b (method of moments, v_b inflated for the
-    k fitted parameters), A^-1 (v_w A + v_b sum_c s_c s_c^T) A^-1, A =
-    J^T J, s_c the sum of cluster c's rows of J: a model of the errors that
-    holds with a dozen clusters, where the scores' own sandwich does not.
-    None with k + 1 clusters or fewer."""
-    m, k = J.shape
+    cluster, 0 ...; with kinds > 1, J and r stack that many kinds of
+    residual for the same rows, kind after kind, e.g. the |b| and the dip
+    residuals of calib.pose_free).  Each kind's residual is split into a
+    within-cluster variance and a between-cluster (kinds x kinds)
+    covariance, method of moments with each kind's share of the k fitted
+    parameters (its part of the hat matrix's trace: k for one kind) taken
+    out, and the fit's covariance is A^-1 (sum_c J_c^T V_c J_c) A^-1, A =
+    J^T J (the row fit is not the clusters' GLS: its own weights, the
+    clusters' noise): a model of the errors that holds with a dozen
+    clusters, where the scores' own sandwich does not.  None with k + 1
+    clusters or fewer."""
+    k = J.shape[1]
+    m = len(labels)
     _, c = np.unique(np.asarray(labels), return_inverse=True)
     H = int(c.max()) + 1
     if H <= k + 1:
         return None
+    R = np.asarray(r, float).reshape(kinds, m).T
+    Jk = [J[q * m:(q + 1) * m] for q in range(kinds)]
     cnt = np.bincount(c, minlength=H).astype(float)
-    mean = np.bincount(c, r, minlength=H) / cnt
-    v_w = float(((r - mean[c]) ** 2).sum()) / max(m - H, 1)
-    v_b = max(0.0, float((mean ** 2).mean()) - v_w * float(np.mean(1.0 / cnt))) * H / (H - k)
-    S = np.zeros((H, k))
-    np.add.at(S, c, J)
-    A = J.T @ J
-    Ai = np.linalg.inv(A)
-    return Ai @ (v_w * A + v_b * (S.T @ S)) @ Ai
+    mean = np.zeros((H, kinds))
+    np.add.at(mean, c, R)
+    mean /= cnt[:, None]
+    v_w = ((R - mean[c]) ** 2).sum(0) / max(m - H, 1)  # each kind's within-cluster variance of one row
+    Ai = np.linalg.inv(J.T @ J)
+    # between clusters: the means' scatter less the rows' own share, inflated for what the fitted parameters
+    # absorb of it
+    lev = np.array([np.sum(Ai * (Jq.T @ Jq)) for Jq in Jk])
+    f = np.sqrt(H / np.maximum(H - lev, 1.0))
+    B = ((mean.T @ mean) / H - np.diag(v_w * np.mean(1.0 / cnt))) * np.outer(f, f)
+    wv, V = np.linalg.eigh(B)
+    B = (V * np.clip(wv, 0.0, None)) @ V.T
+    S = []
+    for Jq in Jk:
+        Sq = np.zeros((H, k))
+        np.add.at(Sq, c, Jq)
+        S.append(Sq)
+    meat = sum(Jq.T @ Jq * v_w[q] for q, Jq in enumerate(Jk))
+    meat += sum(S[p].T @ S[q] * B[p, q] for p in range(kinds) for q in range(kinds))
+    return Ai @ meat @ Ai
 
 
 # the 9 numbers of a symmetric M (upper triangle, row-major) and b onto the 12 of (M row-major, b)
