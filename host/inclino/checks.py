@@ -2247,9 +2247,7 @@ def _motion(ds, rep):
         rep.findings.append(Finding("motion", "note", turning[0], None, turning[1]))
         return
     rep.static = False if not declared else None
-    steps = ", ".join(f"{'accelerometer' if k.startswith('acc') else 'magnetometer'} "
-                      f"{v * (1e3 if k.startswith('acc') else 1):.3g} {'mg' if k.startswith('acc') else 'nT'}"
-                      for k, v in rep.noise.items() if "_step_" in k and v > 0)
+    steps = _steps_text(rep)
     held = f" ({'; '.join(held)})" if held else ""
     if declared:
         rep.findings.append(Finding("motion", "note", (
@@ -2262,6 +2260,14 @@ def _motion(ds, rep):
             f"the sensor moved between rows (hand-held, continuous rotation), or each row is a position of its "
             f"own (declare a step-and-hold run static: --static, or [log] static = true)"), None,
             {k: v for k, v in rep.noise.items() if "_step_" in k}))
+
+
+def _steps_text(rep) -> str:
+    """The median step between consecutive readings per axis, each triad's
+    in its unit ("accelerometer 2.3 mg, magnetometer 133 nT")."""
+    return ", ".join(f"{'accelerometer' if k.startswith('acc') else 'magnetometer'} "
+                     f"{v * (1e3 if k.startswith('acc') else 1):.3g} {'mg' if k.startswith('acc') else 'nT'}"
+                     for k, v in rep.noise.items() if "_step_" in k and v > 0)
 
 
 def _turning_slowly(ds, rep):
@@ -2282,9 +2288,7 @@ def _turning_slowly(ds, rep):
     if h.step_and_hold:
         return None
     share = h.rows_held / len(ds)
-    steps = ", ".join(f"{'accelerometer' if k.startswith('acc') else 'magnetometer'} "
-                      f"{v * (1e3 if k.startswith('acc') else 1):.3g} {'mg' if k.startswith('acc') else 'nT'}"
-                      for k, v in rep.noise.items() if "_step_" in k and v > 0)
+    steps = _steps_text(rep)
     return ((f"consecutive readings differ by a median of {steps} per axis, within a static sensor's noise, but "
              f"only {100 * share:.0f} % of the rows hold still for {holds.HOLD_ROWS} rows ({h.count} holds found in "
              f"the readings): the sensor turned slowly between rows (hand-held, continuous rotation), not "
