@@ -156,6 +156,8 @@ def _error_model(args, rf=None, default_base=None, add_reference=True):
         rev = int(base.revision) if base is not None and base.revision < 5 else 5
         probe = em.from_calibration(cal, dip, tot, acc_noise_g=an, mag_noise_nT=mn, noise_source=src, revision=rev)
     m = models.ErrorModel(base, probe, getattr(args, "ref_terms", None))
+    if probe is not None:
+        m.calibration = (cal, em.calibration_covariance(cal)[0])
     if add_reference and m.reference is None and not m.has_reference_terms() and rf is not None:
         m.reference = "srgm" if rf.ref_source.startswith(("IGRF", "WMM")) else "ifr1"
         m.notes.append(f"reference-field terms {m.reference} added (the model has none; --ref-terms sets them)")
@@ -353,6 +355,9 @@ def _cmd_trajectory(args) -> int:
     model = _error_model(args, rf, default_base=models.DEFAULT_BASE) if args.uncertainty else None
     if model is not None and len(sv) and sv.md_m[0] > 0:
         model.notes.append(tie_in_note(float(sv.md_m[0])))
+    tf_note = model.toolface_note(sv.extra.get("tf_deg"), len(sv)) if model is not None else None
+    if tf_note:
+        model.notes.append(tf_note)
     with progress.phase(f"trajectory of {len(sv)} stations"):
         tr = wp.trajectory(sv, rf, model)
     with progress.phase(f"writing {len(tr)} stations"):

@@ -376,19 +376,29 @@ def _grid(n_tf=12):
     return I.ravel(), A.ravel(), np.arange(n_tf) * 360.0 / n_tf
 
 
-def linear_variance(cal, cov, inc, azi, tfs, dip, field_nT, gravity=1.0, h=None):
-    """Toolface-averaged inclination/azimuth variance (rad^2) the coefficient
-    covariance gives at each (inc, azi), linearised (central differences)."""
+def station_jacobian(cal, cov, inc, azi, tf, dip, field_nT, gravity=1.0, declination=0.0, h=None):
+    """At each attitude (inclination, magnetic azimuth, gravity toolface,
+    deg; arrays of one length n), how the survey moves with the
+    calibration's 24 coefficients (PARAM_NAMES order), linearised by central
+    differences (steps of each coefficient's 1 sigma in `cov`, or h):
+    (d(inc, azi)/dc, rad per unit, (2, n, 24); d(tool axis)/dc, (n, 3, 24)).
+    The tool axis is the unit vector (sin I cos A, sin I sin A, cos I) in
+    north, east, vertical (down), A the azimuth from true north
+    (magnetic + declination): smooth at the vertical, where the azimuth's
+    derivative is not."""
     from inclino.calib.common import cal_vector
 
     x0 = cal_vector(cal)
-    n, m = len(inc), len(tfs)
-    I = np.repeat(inc, m)
-    A = np.repeat(azi, m)
-    T = np.tile(tfs, n)
-    ra, rm = _truth(cal, I, A, T, dip, field_nT, gravity)
+    inc, azi, tf = (np.asarray(v, float).ravel() for v in (inc, azi, tf))
+    ra, rm = _truth(cal, inc, azi, tf, dip, field_nT, gravity)
     sd = np.sqrt(np.clip(np.diag(cov), 0, None))
-    J = np.zeros((2, len(I), 24))
+
+    def axis(i, a):
+        i, a = np.radians(i), np.radians(a + declination)
+        return np.stack([np.sin(i) * np.cos(a), np.sin(i) * np.sin(a), np.cos(i)], axis=-1)
+
+    J = np.zeros((2, len(inc), 24))
+    T = np.zeros((len(inc), 3, 24))
     for k in range(24):
         step = h if h is not None else max(sd[k], 1e-9 * max(1.0, abs(x0[k])))
         xp, xm = x0.copy(), x0.copy()
@@ -398,8 +408,44 @@ def linear_variance(cal, cov, inc, azi, tfs, dip, field_nT, gravity=1.0, h=None)
         im, am = _attitude(*_apply(xm, ra, rm))
         J[0, :, k] = np.radians(ip - im) / (2 * step)
         J[1, :, k] = np.radians(((ap - am + 180.0) % 360.0) - 180.0) / (2 * step)
+        T[:, :, k] = (axis(ip, ap) - axis(im, am)) / (2 * step)
+    return J, T
+
+
+def linear_variance(cal, cov, inc, azi, tfs, dip, field_nT, gravity=1.0, h=None):
+    """Toolface-averaged inclination/azimuth variance (rad^2) the coefficient
+    covariance gives at each (inc, azi), linearised (central differences)."""
+    n, m = len(inc), len(tfs)
+    J, _ = station_jacobian(cal, cov, np.repeat(inc, m), np.repeat(azi, m), np.tile(tfs, n), dip, field_nT,
+                            gravity, h=h)
     v = np.einsum("snk,kl,snl->sn", J, cov, J)
     return v[0].reshape(n, m).mean(axis=1), v[1].reshape(n, m).mean(axis=1)
+
+
+def run_covariance(cal, cov, md, inc, azi, tf, dip, field_nT, gravity=1.0, declination=0.0):
+    """The position (north, east, vertical; m^2, (n, 3, 3)) and survey
+    (depth, inclination, azimuth; (n, 3, 3)) covariance per station of a
+    run surveyed with this calibration, its coefficients' error one draw
+    for the whole run (systematic), each station at its own toolface.
+
+    The toolface-averaged combination terms (`project`) describe a probe
+    that turns at random between stations; a run at one toolface adds the
+    X/Y errors up along the hole instead, beyond those terms' ellipse (the
+    survey benchmark's one-toolface runs, `inclino bench survey`).  Here each station's error is the calibration's at the
+    attitude it was surveyed in.  Position: the balanced-tangential first
+    order of minimum curvature (as ISCWSA propagates), course j moving
+    station K (K >= j) by dMD_j (e_{j-1} + e_j) / 2, e the tool axis's
+    error; the first station (the tie-in) is taken as exact, its attitude's
+    error moving the course below it."""
+    md = np.asarray(md, float)
+    J, T = station_jacobian(cal, cov, inc, azi, tf, dip, field_nT, gravity, declination)
+    dmd = np.diff(md)
+    course = 0.5 * dmd[:, None, None] * (T[:-1] + T[1:])  # (n-1, 3, 24)
+    M = np.concatenate([np.zeros((1, 3, 24)), np.cumsum(course, axis=0)])
+    nev = np.einsum("nik,kl,njl->nij", M, cov, M)
+    dia = np.zeros((len(md), 3, 3))
+    dia[:, 1:, 1:] = np.einsum("snk,kl,tnl->nst", J, cov, J)
+    return nev, dia
 
 
 # The correlated part of the model.  A joint calibration's covariance correlates each axis's bias with its scale,

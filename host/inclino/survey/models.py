@@ -237,6 +237,9 @@ class ErrorModel:
     probe: object = None  # errormodel.ToolModel: the calibration's terms (replace the base's sensor terms)
     reference: str | None = None  # None: the model's own reference-field terms; else none/srgm/ifr1 replace them
     notes: list = field(default_factory=list)
+    # (Calibration, 24x24 covariance) the probe's terms came from (--cal): with each station's toolface, its
+    # sensor error is propagated at the attitude surveyed (errormodel.run_covariance), not toolface-averaged
+    calibration: tuple | None = None
 
     @property
     def revision(self) -> float:
@@ -325,10 +328,37 @@ class ErrorModel:
         return f"{self.base.label} has none"
 
     # ------------------------------------------------------------ propagation
-    def propagate(self, md, inc, azi_mag, rf, fallback=(60.0, 50000.0)) -> "Propagation":
+    def at_toolface(self, tf, n: int) -> bool:
+        """Whether the probe's sensor terms are propagated at each station's
+        own toolface: a calibration, and a toolface for each of the n stations."""
+        return self.calibration is not None and self.probe is not None and tf is not None and len(tf) == n and \
+            bool(np.all(np.isfinite(tf)))
+
+    def toolface_note(self, tf, n: int) -> str | None:
+        """What the listing's toolfaces made of the probe's sensor terms (a
+        model from a calibration only)."""
+        if self.calibration is None or self.probe is None:
+            return None
+        if self.at_toolface(tf, n):
+            return ("the probe's sensor terms: its calibration's covariance at each station's own attitude and "
+                    "toolface (the listing's tf_deg), one error for the whole run")
+        have = 0 if tf is None else int(np.isfinite(tf).sum())
+        return (f"the probe's sensor terms averaged over the toolface ({n - have} of {n} stations have no tf_deg, or "
+                "repeats at a depth in different toolfaces): they hold for a probe turning between stations; at "
+                "one toolface the X/Y errors add up along the hole and the ellipse can be too small")
+
+    def propagate(self, md, inc, azi_mag, rf, fallback=(60.0, 50000.0), tf=None) -> "Propagation":
         """Position (NEV) and survey (depth, inc, azi) covariance per station,
-        total and per part, and each source's survey covariance."""
+        total and per part, and each source's survey covariance.  With the
+        calibration (`calibration`) and every station's gravity toolface
+        (`tf`, deg), the probe's systematic sensor terms are its coefficients'
+        covariance at each station's own attitude (source ("probe",
+        "CAL-TOOLFACE")), in place of the toolface-averaged combination terms."""
         import warnings
+
+        from inclino.survey import errormodel as em
+
+        exact = self.at_toolface(tf, len(md))
 
         n = len(md)
         total = np.zeros((n, 3, 3))
@@ -350,7 +380,7 @@ class ErrorModel:
                                 "refused (a term that contributes nothing would make the ellipse too small)")
             c = np.zeros((n, 3, 3))
             for code, e in errs.errors.items():
-                if code in drop:
+                if code in drop or (exact and part == "probe" and em.is_correlated_name(code)):
                     continue
                 cov = np.asarray(e.cov_NEV, float)
                 if cov.shape[0] == 3 and cov.shape[-1] == n:  # welleng's (3, 3, n) layout in some versions
@@ -361,6 +391,16 @@ class ErrorModel:
                     d = np.moveaxis(d, -1, 0)
                 dia += d
                 sources[(part, code)] = (e.propagation, d)
+            if exact and part == "probe":
+                dip = rf.dip_deg if math.isfinite(rf.dip_deg) else fallback[0]
+                bt = rf.field_nT if math.isfinite(rf.field_nT) else fallback[1]
+                grav = rf.gravity_g if math.isfinite(rf.gravity_g) else 1.0
+                cal, cov = self.calibration
+                nev, d = em.run_covariance(cal, cov, md, error_model_inc(inc), azi_mag, tf, dip, bt, grav,
+                                           rf.declination_deg)
+                c += nev
+                dia += d
+                sources[(part, "CAL-TOOLFACE")] = ("systematic", d)
             parts[part] = c
             total += c
         return Propagation(total, dia, parts, sources)

@@ -64,7 +64,7 @@ def _num(v, what, where):
 # as docs/conventions.md gives them, field values a probe can report.
 RULES = {"md_m": (-1.0e4, 1.0e5), "inc_deg": (0.0, 180.0), "azi_deg": (-360.0, 720.0),
          "azi_mag_deg": (-360.0, 720.0), "gt_g": (0.0, 4.0), "bt_nT": (0.0, 2.0e5), "dip_deg": (-90.0, 90.0),
-         "flags": (0.0, 2.0**32), "qc": (0.0, 2.0**32)}
+         "tf_deg": (-360.0, 720.0), "flags": (0.0, 2.0**32), "qc": (0.0, 2.0**32)}
 LABELS = {"inc_deg": ("inclination", " deg"), "md_m": ("md_m", " m")}
 MAX_LISTING_BYTES = 256 * 2**20  # a listing of 10^6 stations with every column is about 100 MB
 
@@ -111,7 +111,7 @@ def run_direction(md, path: str = "survey") -> str:
     return "out-run" if len(down) else "in-run" if len(up) else "station"
 
 
-EXTRA = ("gt_g", "bt_nT", "dip_deg", "flags", "qc", "utc_s")
+EXTRA = ("gt_g", "bt_nT", "dip_deg", "tf_deg", "flags", "qc", "utc_s")
 TEXT_OK = ("qc", "flags")  # a trajectory listing's qc column is text: read as absent
 
 
@@ -197,6 +197,11 @@ def _cols_to_survey(cols: dict, n: int, path: str, meta: dict, lines=None, utc_t
     return _merge_repeats(Survey(md[order], inc[order], np.mod(azi[order], 360.0), ex, meta))
 
 
+# repeated surveys at one depth keep a toolface when theirs agree within about 5 deg (their mean resultant
+# length cos 5 deg); turned between them, the station's sensor error is an average over toolfaces: none is kept
+TF_MERGE_RESULTANT = math.cos(math.radians(5.0))
+
+
 def _merge_repeats(sv: Survey) -> Survey:
     """Repeated surveys at one depth (`inclino survey --count N --md M`) as one
     station: inclination and the field values averaged, azimuth the mean
@@ -217,6 +222,12 @@ def _merge_repeats(sv: Survey) -> Survey:
             out = np.zeros(n, np.int64)
             np.bitwise_or.at(out, grp[ok], v[ok].astype(np.int64))
             out = out.astype(float)
+        elif k == "tf_deg":  # the mean direction where the repeats share a toolface, else none (NaN)
+            t = np.radians(v[ok])
+            c, s_ = np.bincount(grp[ok], np.cos(t), n), np.bincount(grp[ok], np.sin(t), n)
+            with np.errstate(invalid="ignore", divide="ignore"):
+                out = np.where(np.hypot(c, s_) >= TF_MERGE_RESULTANT * cnt, np.degrees(np.arctan2(s_, c)) % 360.0,
+                               np.nan)
         else:
             with np.errstate(invalid="ignore", divide="ignore"):
                 out = np.bincount(grp[ok], v[ok], n) / cnt
@@ -358,7 +369,7 @@ def _json_rows(text: str, path: str) -> list:
 
 
 LAS_CURVES = {"INC": "inc_deg", "AZI": "azi_deg", "AZIM": "azi_deg", "GTOT": "gt_g", "BTOT": "bt_nT",
-              "DIP": "dip_deg", "FLAGS": "flags", "QC": "qc"}
+              "DIP": "dip_deg", "GTF": "tf_deg", "FLAGS": "flags", "QC": "qc"}
 
 
 def _las_numbers(c, path: str) -> np.ndarray:
@@ -551,7 +562,8 @@ def trajectory(sv: Survey, rf: ReferenceField, model=None) -> Trajectory:
             ws = _welleng_survey(sv.md_m, sv.inc_deg, sv.azi_mag_deg, rf, None, fb)
         except (ValueError, AssertionError, ArithmeticError, KeyError, IndexError, np.linalg.LinAlgError) as e:
             raise DataError(f"the survey cannot be computed: {e}")
-    prop = model.propagate(sv.md_m, sv.inc_deg, sv.azi_mag_deg, rf, fb) if model is not None else None
+    prop = model.propagate(sv.md_m, sv.inc_deg, sv.azi_mag_deg, rf, fb, tf=sv.extra.get("tf_deg")) \
+        if model is not None else None
     n = len(sv)
     north, east, tvd = np.asarray(ws.n, float) - ws.n[0], np.asarray(ws.e, float) - ws.e[0], \
         np.asarray(ws.tvd, float) - ws.tvd[0]
