@@ -516,7 +516,8 @@ def add_parser(sub) -> None:
                         "iscwsa-mwd-rev4, any name welleng ships) or an ISCWSA JSON file (inclino toolmodel writes "
                         "one) (default with --cal: iscwsa-mwd-rev5)")
     add_cal(p, "with --uncertainty: the probe's calibration: its fitted sensor terms and measured noise replace "
-               "the model's sensor terms")
+               "the model's sensor terms (with the listing's tf_deg at every station: its covariance at each "
+               "station's own toolface, not averaged over the toolface)")
     p.add_argument("--acc-noise", type=float, help="with --cal: accelerometer noise per survey and axis, g "
                                                    "(default: the calibration's fit report)")
     p.add_argument("--mag-noise", type=float, help="with --cal: fluxgate noise per survey and axis, nT "
