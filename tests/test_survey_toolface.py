@@ -24,6 +24,7 @@ from conftest import test_seed
 
 DIP, FIELD = 60.0, 50000.0
 RUNS = 120
+PROBES = 24
 
 
 @pytest.fixture(scope="module")
@@ -73,9 +74,10 @@ def well():
     return md, np.clip((md - 300.0) / 10.0, 0.0, 45.0), np.full(len(md), 60.0)
 
 
-def survey_run(cal, x_true, toolfaces):
+def survey_run(cal, x_true, toolfaces, noise=(0.0, 0.0), rng=None):
     """(inc, azi, gravity toolface) the probe with true coefficients x_true
-    reports at the well's stations when corrected with `cal`."""
+    reports at the well's stations when corrected with `cal` (noise: per
+    axis and survey, g and nT, on the raw readings)."""
     x0 = cal_vector(cal)
     M0a, b0a, M0m, b0m = x0[0:9].reshape(3, 3), x0[9:12], x0[12:21].reshape(3, 3), x0[21:24]
     Ma, ba, Mm, bm = x_true[0:9].reshape(3, 3), x_true[9:12], x_true[12:21].reshape(3, 3), x_true[21:24]
@@ -85,6 +87,8 @@ def survey_run(cal, x_true, toolfaces):
     for I, A, T in zip(*well()[1:], toolfaces):
         C = pose(I, A, T)
         ra, rm = np.linalg.solve(Ma, C @ gw) + ba, np.linalg.solve(Mm, C @ bw) + bm
+        if noise[0] or noise[1]:
+            ra, rm = ra + noise[0] * rng.standard_normal(3), rm + noise[1] * rng.standard_normal(3)
         out.append(attitude(M0a @ (ra - b0a), M0m @ (rm - b0m)))
     return np.array(out)
 
@@ -164,3 +168,45 @@ def test_cli_uses_the_listing_toolface_and_says_so(calibration, tmp_path, capsys
     sv = wp._merge_repeats(wp.Survey(np.array([0.0, 30.0, 30.0]), np.array([0.0, 1.0, 1.0]),
                                      np.array([0.0, 60.0, 60.0]), {"tf_deg": np.array([0.0, 358.0, 2.0])}, {}))
     assert sv.extra["tf_deg"][1] == pytest.approx(0.0, abs=1e-9) or sv.extra["tf_deg"][1] == pytest.approx(360.0)
+
+
+@pytest.mark.parametrize("same_toolface", [True, False], ids=["same-toolface", "turned"])
+def test_compare_expects_the_difference_the_toolfaces_make(calibration, same_toolface, rng):
+    """Two surveys of one probe (one calibration error for both), each
+    station read in both at its own toolface, with noise: the difference
+    over its 1-sigma has unit variance.  Read twice at one toolface the
+    calibration's error is the same in both and only the noise differs;
+    the toolface-averaged terms, counted as independent between the
+    surveys, make that 1-sigma several times too wide."""
+    from inclino.survey import compare as cmp
+
+    cal, _ = calibration
+    cov, _ = em.calibration_covariance(cal)
+    noise = (1e-5, 1.0)  # g, nT per axis and survey: below the calibration error
+    tm = em.from_calibration(cal, DIP, FIELD, acc_noise_g=noise[0], mag_noise_nT=noise[1])
+    exact = models.ErrorModel(None, tm, "none", calibration=(cal, cov))
+    averaged = models.ErrorModel(None, tm, "none")
+    rf = geomag.reference(declination=0.0, dip=DIP, field=FIELD, gravity=1.0)
+    md = well()[0]
+    L = np.linalg.cholesky(cov + 1e-12 * np.diag(np.diag(cov)))
+    x0 = cal_vector(cal)
+    z = {"exact": [], "averaged": []}  # per probe (calibration error): the mean square over its stations
+    for _ in range(PROBES):
+        xt = x0 + L @ rng.standard_normal(24)
+        ta = rng.uniform(0, 360, len(md))
+        tb = ta if same_toolface else rng.uniform(0, 360, len(md))
+        sa, sb = (survey_run(cal, xt, t, noise, rng) for t in (ta, tb))
+        a, b = (wp.Survey(md, s[:, 0], s[:, 1], {"tf_deg": s[:, 2]}, {}) for s in (sa, sb))
+        for name, m in (("exact", exact), ("averaged", averaged)):
+            r = cmp.compare(a, b, m, rf)
+            assert r.toolface == ("averaged" if name == "averaged" else "each station's own (the calibration's "
+                                                                         "covariance)")
+            q = [(st["d_inc_deg"] / st["sigma_d_inc_deg"]) ** 2 + (st["d_azi_deg"] / st["sigma_d_azi_deg"]) ** 2
+                 for st in r.stations if st["inc_deg"] >= 5.0]
+            z[name].append(0.5 * float(np.mean(q)))
+    v = {k: float(np.mean(x)) for k, x in z.items()}
+    # one probe's stations share its error: the probes are the independent draws (their spread sets the bound)
+    se = float(np.std(z["exact"], ddof=1)) / math.sqrt(PROBES)
+    assert abs(v["exact"] - 1.0) < max(4 * se, 0.1), (v, se, test_seed())
+    if same_toolface:
+        assert v["averaged"] < 0.5, v

@@ -435,6 +435,12 @@ def _cmd_compare(args) -> int:
         print(f"{args.first}: {r.runs[0] or 'survey'}; {args.second}: {r.runs[1] or 'survey'}; {model.describe()}")
         for n in model.notes:
             print(f"  {n}")
+        if model.calibration is not None and not args.two_probes:
+            print("  the probe's calibration terms: " + (
+                "its covariance at each station's toolface in both surveys (their tf_deg): a station read twice at "
+                "one toolface differs by the noise alone" if r.toolface != "averaged" else
+                "toolface-averaged, counted as independent between the surveys (a survey without tf_deg at every "
+                "paired station)"))
         print(f"{'MD m':>9} {'MD out m':>9} {'inc':>8} {'d inc':>9} {'k sig':>8} {'d azi':>9} {'k sig':>8}  verdict")
         for s in r.stations:
             da = "" if s["d_azi_deg"] is None else f"{s['d_azi_deg']:9.4f} {r.k * s['sigma_d_azi_deg']:8.4f}"

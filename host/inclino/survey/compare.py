@@ -35,6 +35,8 @@ class CompareResult:
     unmatched_out: list = field(default_factory=list)
     k: float = 3.0
     mode: str = "same probe"
+    # the probe's calibration terms: at each station's own toolface in both surveys, or toolface-averaged
+    toolface: str = "averaged"
     runs: list = field(default_factory=list)  # "in-run"/"out-run" of the two listings
     passed: bool = True
     summary: dict = field(default_factory=dict)
@@ -79,15 +81,20 @@ MIN_STATIONS = 4  # per call of the error model: welleng on 3 stations gives the
 # negative variance; a shorter survey is called with stations added below its last
 
 
-def expected(model, md, inc, azi, rf, two_probes=False, fallback=(60.0, 50000.0), chunk: int = CHUNK):
+def expected(model, md, inc, azi, rf, two_probes=False, fallback=(60.0, 50000.0), chunk: int = CHUNK,
+             skip_calibration: bool = False):
     """1-sigma (deg) of the inclination and azimuth difference between two
-    surveys at each station (md increasing), from the model's terms."""
+    surveys at each station (md increasing), from the model's terms
+    (skip_calibration: without the probe's combination terms, which
+    `at_toolfaces` gives instead)."""
     n = len(md)
     if 1 < n < MIN_STATIONS:  # fewer than the error model needs: stations below the last, their results unused
         k = MIN_STATIONS - n
         si, sa = expected(model, np.r_[md, md[-1] + 10.0 * np.arange(1, k + 1)], np.r_[inc, np.full(k, inc[-1])],
-                          np.r_[azi, np.full(k, azi[-1])], rf, two_probes, fallback, chunk)
+                          np.r_[azi, np.full(k, azi[-1])], rf, two_probes, fallback, chunk, skip_calibration)
         return si[:n], sa[:n]
+    from inclino.survey.errormodel import is_correlated_name
+
     vi = np.zeros(n)
     va = np.zeros(n)
     for lo in range(0, n, chunk):
@@ -99,12 +106,38 @@ def expected(model, md, inc, azi, rf, two_probes=False, fallback=(60.0, 50000.0)
         b = min(n, max(hi, a + MIN_STATIONS))
         prop = model.propagate(md[a:b], inc[a:b], azi[a:b], rf, fallback)
         for (part, code), (propagation, dia) in prop.sources.items():
-            if counts(code, propagation, two_probes):
+            if counts(code, propagation, two_probes) and not (skip_calibration and part == "probe"
+                                                               and is_correlated_name(code)):
                 vi[lo:hi] += dia[lo - a:hi - a, 1, 1]
                 va[lo:hi] += dia[lo - a:hi - a, 2, 2]
         del prop
         gc.collect()  # welleng's survey objects hold reference cycles: a stretch's arrays go before the next
     return np.degrees(np.sqrt(2.0 * vi)), np.degrees(np.sqrt(2.0 * va))
+
+
+def at_toolfaces(model, a, b, ia, ib, rf, fallback=(60.0, 50000.0)):
+    """The variance (deg^2) of the inclination and azimuth difference that
+    the probe's calibration error makes between two surveys of the same
+    probe, each station at the attitude and toolface each survey read it
+    in: (J_b - J_a) C (J_b - J_a)^T, one error for both runs.  A station
+    surveyed twice at one toolface has none (the same error both times); at
+    opposite toolfaces its X/Y part twice over.  None where the surveys do
+    not give every paired station's toolface or the model has no
+    calibration (then the toolface-averaged terms, counted as independent)."""
+    from inclino.survey import errormodel as em
+
+    ta, tb = (s.extra.get("tf_deg") for s in (a, b))
+    if ta is None or tb is None or not (model.at_toolface(ta[ia], len(ia)) and model.at_toolface(tb[ib], len(ib))):
+        return None
+    cal, cov = model.calibration
+    dip = rf.dip_deg if math.isfinite(rf.dip_deg) else fallback[0]
+    bt = rf.field_nT if math.isfinite(rf.field_nT) else fallback[1]
+    grav = rf.gravity_g if math.isfinite(rf.gravity_g) else 1.0
+    Ja, _ = em.station_jacobian(cal, cov, a.inc_deg[ia], a.azi_mag_deg[ia], ta[ia], dip, bt, grav)
+    Jb, _ = em.station_jacobian(cal, cov, b.inc_deg[ib], b.azi_mag_deg[ib], tb[ib], dip, bt, grav)
+    D = Jb - Ja
+    v = np.degrees(np.degrees(np.einsum("snk,kl,snl->sn", D, cov, D)))
+    return v[0], v[1]
 
 
 def compare(a, b, model, rf, k: float = 3.0, md_tol: float = 0.5, two_probes: bool = False,
@@ -133,9 +166,13 @@ def compare(a, b, model, rf, k: float = 3.0, md_tol: float = 0.5, two_probes: bo
     azi = (a.azi_mag_deg[ia] + 0.5 * d_azi) % 360.0
     md = a.md_m[ia]
     pad = len(md) == 1  # welleng needs two stations: one more above, its result unused
+    exact = None if two_probes else at_toolfaces(model, a, b, ia, ib, rf, fallback)
     si, sa = expected(model, np.r_[md[0] - 10.0, md] if pad else md, np.r_[inc[0], inc] if pad else inc,
-                      np.r_[azi[0], azi] if pad else azi, rf, two_probes, fallback)
+                      np.r_[azi[0], azi] if pad else azi, rf, two_probes, fallback, skip_calibration=exact is not None)
     si, sa = (si[1:], sa[1:]) if pad else (si, sa)
+    if exact is not None:
+        si, sa = np.sqrt(si ** 2 + exact[0]), np.sqrt(sa ** 2 + exact[1])
+    res.toolface = "each station's own (the calibration's covariance)" if exact is not None else "averaged"
     si = tilt_length_sigma(si, a.inc_deg[ia], b.inc_deg[ib])
     for n, (i, j) in enumerate(pairs):
         d_inc = float(b.inc_deg[j] - a.inc_deg[i])
