@@ -129,12 +129,12 @@ def at_toolfaces(model, a, b, ia, ib, rf, fallback=(60.0, 50000.0)):
     ta, tb = (s.extra.get("tf_deg") for s in (a, b))
     if ta is None or tb is None or not (model.at_toolface(ta[ia], len(ia)) and model.at_toolface(tb[ib], len(ib))):
         return None
+    from inclino.survey.models import field_of
+
     cal, cov = model.calibration
-    dip = rf.dip_deg if math.isfinite(rf.dip_deg) else fallback[0]
-    bt = rf.field_nT if math.isfinite(rf.field_nT) else fallback[1]
-    grav = rf.gravity_g if math.isfinite(rf.gravity_g) else 1.0
-    Ja, _ = em.station_jacobian(cal, cov, a.inc_deg[ia], a.azi_mag_deg[ia], ta[ia], dip, bt, grav)
-    Jb, _ = em.station_jacobian(cal, cov, b.inc_deg[ib], b.azi_mag_deg[ib], tb[ib], dip, bt, grav)
+    f = field_of(rf, fallback)
+    Ja, _ = em.station_jacobian(cal, cov, a.inc_deg[ia], a.azi_mag_deg[ia], ta[ia], *f)
+    Jb, _ = em.station_jacobian(cal, cov, b.inc_deg[ib], b.azi_mag_deg[ib], tb[ib], *f)
     D = Jb - Ja
     v = np.degrees(np.degrees(np.einsum("snk,kl,snl->sn", D, cov, D)))
     return v[0], v[1]

@@ -392,11 +392,8 @@ class ErrorModel:
                 dia += d
                 sources[(part, code)] = (e.propagation, d)
             if exact and part == "probe":
-                dip = rf.dip_deg if math.isfinite(rf.dip_deg) else fallback[0]
-                bt = rf.field_nT if math.isfinite(rf.field_nT) else fallback[1]
-                grav = rf.gravity_g if math.isfinite(rf.gravity_g) else 1.0
                 cal, cov = self.calibration
-                nev, d = em.run_covariance(cal, cov, md, error_model_inc(inc), azi_mag, tf, dip, bt, grav,
+                nev, d = em.run_covariance(cal, cov, md, error_model_inc(inc), azi_mag, tf, *field_of(rf, fallback),
                                            rf.declination_deg)
                 c += nev
                 dia += d
@@ -460,15 +457,22 @@ class Propagation:
     sources: dict  # (part, code) -> (propagation, (n, 3, 3) DIA covariance)
 
 
+def field_of(rf, fallback=(60.0, 50000.0)) -> tuple:
+    """(dip deg, total field nT, gravity g) of a reference: `fallback` (the
+    tool model's own dip and field) where it has none (declination-only
+    referencing), 1 g without a gravity."""
+    return (rf.dip_deg if math.isfinite(rf.dip_deg) else fallback[0],
+            rf.field_nT if math.isfinite(rf.field_nT) else fallback[1],
+            rf.gravity_g if math.isfinite(rf.gravity_g) else 1.0)
+
+
 def welleng_survey(md, inc, azi_mag, rf, error_model=None, fallback=(60.0, 50000.0)):
     """welleng's Survey of magnetic azimuths.  Dip and field only enter the
     error model's weights; when the reference lacks them (declination-only
     referencing) `fallback` (the tool model's own) stands in."""
     from welleng.survey import Survey as WSurvey, SurveyHeader
 
-    dip = rf.dip_deg if math.isfinite(rf.dip_deg) else fallback[0]
-    bt = rf.field_nT if math.isfinite(rf.field_nT) else fallback[1]
-    grav = rf.gravity_g if math.isfinite(rf.gravity_g) else 1.0
+    dip, bt, grav = field_of(rf, fallback)
     h = SurveyHeader(latitude=rf.lat_deg if rf.lat_deg is not None else 0.0,
                      longitude=rf.lon_deg if rf.lon_deg is not None else 0.0, altitude=rf.alt_m,
                      survey_date=rf.date, b_total=bt, dip=dip, declination=rf.declination_deg,
