@@ -92,3 +92,75 @@ def test_the_pololu_log_is_refused_naming_the_terms_its_holds_leave_free(tmp_pat
     assert "x scale" not in err and "x offset" not in err, err
     assert "add holds with the y and z axes" in err, err
     assert not (tmp_path / "cal.json").exists()
+
+
+NGIMU = Path(__file__).parent / "data" / "real" / "ngimu"
+
+
+def test_readings_on_no_ellipsoid_name_the_motion_first_with_their_size(tmp_path, capsys):
+    """The x-io NGIMU log (tests/data/real/ngimu): four stretches at rest at
+    one orientation, the hand's acceleration between them.  Its refusal
+    offered "a cap of the sphere ... or a moving sensor" with nothing to
+    choose between them; the readings' size, 5th to 95th percentile, does."""
+    run = tmp_path / "ng.csv"
+    assert main(["import", str(NGIMU / "sensors.csv"), "--sensor", str(NGIMU / "sensor.toml"), "-o", str(run)]) == 0
+    size = np.percentile(np.linalg.norm(dataset.read_raw(str(run)).acc, axis=1), [5, 95])
+    assert size[1] - size[0] > 0.5  # the premise: |a| spreads by half a g, no scale error does that
+    capsys.readouterr()
+    code = main(["calibrate", str(run), "-o", str(tmp_path / "cal.json")])
+    err = capsys.readouterr().err
+    assert code == 3, err
+    assert err.count("\n") == 1 and "Traceback" not in err
+    assert f"their size from {size[0]:.2f} to {size[1]:.2f} of 1 g" in err, err
+    assert err.index("moving sensor") < err.index("too few orientations"), err
+
+
+XIO = Path(__file__).parent / "data" / "real" / "xio_fusion"
+
+
+def test_the_hint_asks_for_what_the_holds_lack(tmp_path, capsys):
+    """The x-io log (tests/data/real/xio_fusion): its holds never bring the
+    z axis below the horizontal (z reads -g at most: an axis pointing down
+    reads +1 g, docs/conventions.md), and bring x and y within 45 deg of up
+    and of down.  The hint asks for the z axis down, not for every axis up
+    and down."""
+    run = tmp_path / "xio.csv"
+    assert main(["import", str(XIO / "sensor_data.csv"), "--sensor", str(XIO / "sensor.toml"), "-o", str(run)]) == 0
+    ds = dataset.read_raw(str(run))
+    h = holds.find(ds)
+    m = holds.means(ds.acc, h.labels, h.count)
+    u = m / np.linalg.norm(m, axis=1, keepdims=True)
+    assert u[:, 2].max() < 0 and min(u[:, 0].max(), u[:, 1].max(), -u[:, 0].min(), -u[:, 1].min()) > 0.71
+    capsys.readouterr()
+    code = main(["calibrate", str(run), "-o", str(tmp_path / "cal.json")])
+    err = capsys.readouterr().err
+    assert code == 3 and err.count("\n") == 1, err
+    assert "z scale" in err and "z offset" in err and "add holds with the z axis down," in err, err
+    assert "x and y" not in err.split("add holds with")[1].split(";")[0].replace("(x-y)", ""), err
+
+
+@pytest.mark.parametrize("faces, named", [
+    # half a six-face session: the plane through -x, +y, +z, normal (-1, 1, 1)/sqrt 3; the faces off it are
+    # the other half
+    ([(-1, 0, 0), (0, 1, 0), (0, 0, 1)], ("normal (-0.58, +0.58, +0.58)", "the reference along +x, -y or -z")),
+    # four faces round z: the plane z = 0
+    ([(1, 0, 0), (-1, 0, 0), (0, 1, 0), (0, -1, 0)], ("the z offset and the gain on z", "the reference along +z or -z")),
+])
+def test_poses_on_one_plane_name_the_faces_off_it(faces, named):
+    from inclino.calib import triad
+    from inclino.errors import CalibrationError
+
+    rows = np.repeat(np.array(faces, float), 20, axis=0)
+    with pytest.raises(CalibrationError) as e:
+        triad.poses_span(rows)
+    for text in named:
+        assert text in str(e.value), str(e.value)
+
+
+def test_two_pose_directions_are_not_said_to_lie_on_a_plane():
+    from inclino.calib import triad
+    from inclino.errors import CalibrationError
+
+    with pytest.raises(CalibrationError) as e:
+        triad.poses_span(np.repeat(np.array([(0, 0, 1), (0, 0, -1)], float), 20, axis=0))
+    assert "2 distinct reference directions" in str(e.value) and "lie on one plane" not in str(e.value), str(e.value)

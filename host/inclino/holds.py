@@ -425,7 +425,7 @@ def undetermined_text(ds, labels, count, t: str, what: str) -> str | None:
                f"the least singular value of their directions {ratio:.2g} of the largest")
     return (f"the {count} holds found in the readings leave {what}'s {terms_text(terms)[4:]} nearly free ("
             + sv_text + one + lone + ")"
-            + f": add holds with {coverage_hint(terms)}")
+            + f": add holds with {coverage_hint(terms, u, t == 'acc')}")
 
 
 def means(v, labels, count) -> np.ndarray:

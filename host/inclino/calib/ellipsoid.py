@@ -86,21 +86,50 @@ def terms_text(terms) -> str:
     return "the " + ", ".join(terms[:-1]) + " and " + terms[-1] + " terms"
 
 
-def coverage_hint(terms) -> str:
+SEEN_UP = 0.7     # coverage_hint: an axis within 45 deg of the vertical, up (or down), has been read so
+SEEN_TILT = 0.35  # ... and a pair of axes each at least 20 deg from the horizontal together, tilted between them
+
+
+def coverage_hint(terms, u=None, acc: bool = True) -> str:
     """The orientations that pin down the terms: one term's own hint
     (TERM_HINT); for several, the axes to stand near the vertical (up and
-    down, for an offset) and the pairs of axes to tilt together."""
-    if len(terms) == 1:
+    down, for an offset) and the pairs of axes to tilt together.  With the
+    directions read (u, (n, 3)) only what they lack is asked for: an axis's
+    up or down where no direction comes within 45 deg of it (SEEN_UP), a
+    pair no direction tilts between (SEEN_TILT).  An accelerometer's axis
+    pointing down reads +1 g (docs/conventions.md); a magnetometer's axis
+    along the field reads +F, and its sides are named so (acc False).  An x-io board's 204
+    holds, its z axis never above -0.43, leave the z offset and scale
+    trading off: "the z axis up", not every axis up and down."""
+    if u is None and len(terms) == 1:
         return TERM_HINT[terms[0]]
-    up = sorted({t[0] for t in terms if t.endswith("offset")})
-    near = sorted({t[0] for t in terms if t.endswith("scale")} - set(up))
-    pairs = [t.split()[0] for t in terms if "cross-axis" in t]
+    u = None if u is None else np.asarray(u, float)
+    up, near = [], []
+    for a in sorted({t[0] for t in terms if t.endswith("offset") or t.endswith("scale")}):
+        k = "xyz".index(a)
+        lack_pos = u is None or u[:, k].max() < SEEN_UP
+        lack_neg = u is None or u[:, k].min() > -SEEN_UP
+        if lack_pos and lack_neg:
+            (up if any(t == f"{a} offset" for t in terms) else near).append(a)
+        elif lack_pos or lack_neg:
+            side = ("down" if lack_pos else "up") if acc else ("along the field" if lack_pos else "against the field")
+            up.append(f"{a} {side}")
+    pairs = [t.split()[0] for t in terms if "cross-axis" in t
+             and (u is None or not np.any(np.all(np.abs(u[:, ["xyz".index(c) for c in t[:3:2]]]) > SEEN_TILT,
+                                                 axis=1)))]
 
     def axes(a):
         return f"the {a[0]} axis" if len(a) == 1 else f"the {', '.join(a[:-1])} and {a[-1]} axes"
-    parts = ([f"{axes(up)} up and down"] if up else []) + ([f"{axes(near)} near the vertical"] if near else [])
+    both = [a for a in up if len(a) == 1]
+    one = [a for a in up if len(a) > 1]  # one side of an axis only
+    parts = ([f"{axes(both)} up and down"] if both else []) + \
+        [f"{axes([a[0] for a in one if a[2:] == side])} {side}" for side in dict.fromkeys(a[2:] for a in one)] + \
+        ([f"{axes(near)} near the vertical"] if near else [])
     if pairs:
-        parts.append("two axes tilted from the vertical together (" + ", ".join(pairs) + ")")
+        parts.append(TERM_HINT[f"{pairs[0]} cross-axis"] if len(pairs) == 1 and not parts else
+                     "two axes tilted from the vertical together (" + ", ".join(pairs) + ")")
+    if not parts:  # every orientation the terms ask for read already: the combination is what is free
+        return "orientations between those read"
     return ", and ".join(parts)
 
 
@@ -121,7 +150,7 @@ def rows_coverage(raw, what: str) -> str | None:
     sv = (f"{free} combinations of them with singular values below {FREE_SV:g} of the largest, the least {ratio:.2g}"
           if free > 1 else f"the least singular value of their directions {ratio:.2g} of the largest")
     return (f"the {len(raw)} readings' directions leave {what}'s {terms_text(terms)[4:]} nearly free ({sv}): add "
-            f"readings with {coverage_hint(terms)}")
+            f"readings with {coverage_hint(terms, direction_design(raw)[1], 'acceler' in what)}")
 
 
 def _design(raw):
@@ -184,10 +213,23 @@ def far_mean(raw, R):
     return m if spread > FAR_MEAN_MIN_SPREAD * R else np.zeros(3)
 
 
+MOVED_SIZE = 0.2  # readings whose size (5th to 95th percentile) spreads this share of the vector: moved
 ONE_ORIENTATION_DEG = 10.0  # readings all within this of their mean direction are said to be at one orientation
 
 
-def ellipsoid_start(raw, R, what: str = "the triad"):
+def _as_read(raw, R, shift):
+    """The readings a refusal's figures describe: as logged (raw + shift)
+    where far_mean's shift is within 2 R of the origin (the mean of an
+    accelerometer's readings a hand's acceleration carried past 1 g), else
+    less it (a hard-iron offset of many fields: directions from the origin
+    would all point along it)."""
+    raw = np.asarray(raw, float)
+    if shift is None or np.linalg.norm(shift) > 2.0 * R:
+        return raw
+    return raw + shift
+
+
+def ellipsoid_start(raw, R, what: str = "the triad", _shift=None):
     """Algebraic general ellipsoid fit: (M symmetric, b) with |M (raw - b)| ~ R.
     UndeterminedError (exit 3) naming `what` when the readings determine no ellipsoid.
     Readings whose mean is farther from the origin than R are fitted less
@@ -195,7 +237,7 @@ def ellipsoid_start(raw, R, what: str = "the triad"):
     raw = np.asarray(raw, float)
     m = far_mean(raw, R)
     if np.any(m):
-        M, b = ellipsoid_start(raw - m, R, what)
+        M, b = ellipsoid_start(raw - m, R, what, _shift=m)
         return M, b + m
     D, s = _design(raw)
     _, sv, Vt = np.linalg.svd(D / s, full_matrices=False)
@@ -212,22 +254,34 @@ def ellipsoid_start(raw, R, what: str = "the triad"):
         if len(raw) < 10:
             raise UndeterminedError(f"too few readings to determine {what}'s ellipsoid ({len(raw)}, fewer than its "
                                     f"10 coefficients)")
-        terms, _, _ = free_terms(direction_design(raw)[0], FREE_SV)
+        X, u = direction_design(_as_read(raw, R, _shift))
+        terms, _, _ = free_terms(X, FREE_SV)
         raise UndeterminedError(f"too few orientations to determine {what}'s ellipsoid (readings on a few circles "
                                 f"or in a plane, which leave its {terms_text(terms)[4:]} free: turn the sensor "
-                                f"through more of the sphere, with {coverage_hint(terms)})")
+                                f"through more of the sphere, with {coverage_hint(terms, u, 'acceler' in what)})")
     v = Vt[-1] / s
     Q = np.array([[v[0], v[3], v[4]], [v[3], v[1], v[5]], [v[4], v[5], v[2]]])
     if np.linalg.eigvalsh(Q).min() * np.linalg.eigvalsh(Q).max() <= 0:
         why = ("the readings of a moving sensor, whose acceleration is no sensor effect" if "acceler" in what else
                "a field that changed while they were read (steel or a current near the sensor)")
         # the cap named by the terms its directions leave free, where they leave any
-        terms, ratio, _ = free_terms(direction_design(raw)[0], FREE_SV)
-        cap = (f"too few orientations: a cap of the sphere, as a sensor that hardly tilts reads" if ratio >= FREE_SV
+        read = _as_read(raw, R, _shift)
+        X, u = direction_design(read)
+        terms, ratio, _ = free_terms(X, FREE_SV)
+        # both causes with the figures that decide between them: how far the directions lean to one side (an
+        # x-io NGIMU held at one orientation and moved between: 0.97) and how much the readings' size changes
+        lean = float(np.linalg.norm(u.mean(0)))
+        cap = (f"too few orientations: a cap of the sphere, as a sensor that hardly tilts reads (the directions' "
+               f"mean resultant {lean:.2f}: 0 for every direction, 1 for one)" if ratio >= FREE_SV
                else f"too few orientations, which leave its {terms_text(terms)[4:]} nearly free: add readings with "
-                    f"{coverage_hint(terms)}")
-        raise UndeterminedError(f"{what}'s readings do not lie on an ellipsoid ({cap}; or {why}): log it at rest, or "
-                                f"turned slowly, through more of the sphere")
+                    f"{coverage_hint(terms, u, 'acceler' in what)}")
+        size = np.percentile(np.linalg.norm(read, axis=1), [5, 95]) / R
+        why += (f" (their size from {size[0]:.2f} to {size[1]:.2f} of {R:.4g} {'g' if 'acceler' in what else 'nT'}, "
+                f"5th to 95th percentile)")
+        # the size changing by more than MOVED_SIZE of the vector is the likelier cause, named first
+        first, second = (why, cap) if size[1] - size[0] > MOVED_SIZE else (cap, why)
+        raise UndeterminedError(f"{what}'s readings do not lie on an ellipsoid ({first}; or {second}): log it at "
+                                f"rest, or turned slowly, through more of the sphere")
     if np.trace(Q) < 0:
         Q, v = -Q, -v
     c = -np.linalg.solve(Q, v[6:9])
