@@ -164,3 +164,26 @@ def test_two_pose_directions_are_not_said_to_lie_on_a_plane():
     with pytest.raises(CalibrationError) as e:
         triad.poses_span(np.repeat(np.array([(0, 0, 1), (0, 0, -1)], float), 20, axis=0))
     assert "2 distinct reference directions" in str(e.value) and "lie on one plane" not in str(e.value), str(e.value)
+
+
+IMUCAL = Path(__file__).parent / "data" / "real" / "imucal_ferraris"
+
+
+def test_a_six_face_fit_names_the_terms_its_predicted_inclination_comes_from(tmp_path, capsys):
+    """imucal's six-face session (tests/data/real/imucal_ferraris): its
+    verdict said "coefficients poorly determined" and nothing of which.
+    Inclination is the z axis's angle from the vertical: to first order the
+    tilt of z toward x and toward y, the x-z and y-z cross-axis terms, and
+    six faces never tilt two axes together."""
+    run = tmp_path / "imucal.csv"
+    assert main(["import", str(IMUCAL / "annotated_session.csv"), "--sensor", str(IMUCAL / "sensor.toml"),
+                 "-o", str(run)]) == 0
+    ds = dataset.read_raw(str(run))
+    poses = {(round(float(i)), round(float(t))) for i, t in zip(ds.columns["inc_deg"], ds.columns["tf_deg"])}
+    assert len(poses) == 6  # the premise: six faces
+    capsys.readouterr()
+    assert main(["calibrate", str(run), "-o", str(tmp_path / "cal.json")]) == 1
+    (verdict,) = [ln for ln in capsys.readouterr().out.splitlines() if ln.startswith("verdict:")]
+    clause = verdict.split("coefficients poorly determined", 1)[1]
+    assert "the x-z cross-axis and y-z cross-axis terms" in clause, verdict
+    assert "the poses placed to" in clause and "add poses with two axes tilted from the vertical together" in clause

@@ -689,6 +689,53 @@ def _inc_deg(v) -> np.ndarray:
     return np.degrees(np.arctan2(np.hypot(v[:, 0], v[:, 1]), v[:, 2]))
 
 
+def _pose_coverage(J, cov, truth, info) -> str | None:
+    """One clause: the coefficients the predicted inclination error of a
+    pose fit comes from, and the poses that would pin them down.  The
+    error's largest mode (the top eigenvector of C^1/2 J^T J C^1/2, J the
+    inclination's sensitivity over the grid, C the coefficients'
+    covariance) moves each coefficient by some share of its own sigma;
+    those moved by at least 0.7 sigma are named as terms (a diagonal of M:
+    that axis's scale; an off-diagonal: the pair's cross-axis term; b: the
+    offset), with the poses the reference directions lack
+    (ellipsoid.coverage_hint) and the pose level's placement error where
+    the covariance is the poses' (imucal's six faces, placed to 0.44 deg:
+    the x-y, x-z and y-z cross-axis terms; more poses, tilted between the
+    axes)."""
+    from .ellipsoid import TERMS, coverage_hint, terms_text
+
+    C = 0.5 * (np.asarray(cov, float) + np.asarray(cov, float).T)
+    ev, U = np.linalg.eigh(C)
+    if not np.all(np.isfinite(ev)) or ev.max() <= 0:
+        return None
+    half = U @ np.diag(np.sqrt(np.clip(ev, 0, None))) @ U.T
+    lam, V = np.linalg.eigh(half @ (J.T @ J) @ half)
+    if lam[-1] <= 0:
+        return None
+    sig = np.sqrt(np.clip(np.diag(C), 1e-300, None))
+    names, share = [], 0.0
+    for m in range(len(lam) - 1, -1, -1):  # the largest modes, until they hold 80 % of the error
+        z = np.abs(half @ V[:, m]) / sig
+        for k in np.flatnonzero(z >= 0.7):
+            i, j = (k // 3, k % 3) if k < 9 else (k - 9, None)
+            name = (f"{'xyz'[i]} offset" if j is None else f"{'xyz'[i]} scale" if i == j else
+                    f"{'xyz'[min(i, j)]}-{'xyz'[max(i, j)]} cross-axis")
+            if name not in names:
+                names.append(name)
+        share += lam[m] / lam.sum()
+        if share >= 0.8:
+            break
+    if not names:
+        return None
+    names = sorted(names, key=TERMS.index)
+    u = np.asarray(truth, float)
+    u = u / np.maximum(np.linalg.norm(u, axis=1, keepdims=True), 1e-300)
+    pl = info.get("pose_level")
+    placed = f"; the poses placed to {pl['placement_deg']:.3g} deg" if pl else ""
+    return (f"{share:.0%} of it from {terms_text(names)}{placed}: add poses with "
+            f"{coverage_hint(names, u)}")
+
+
 def build_single(ds: RawDataset, cal: Calibration, info: dict) -> FitReport:
     """The fit report of a one-triad calibration (calib.single)."""
     from .predict import GRID
@@ -763,6 +810,10 @@ def build_single(ds: RawDataset, cal: Calibration, info: dict) -> FitReport:
             J[:, k] = (inc_of(p0 + e) - inc_of(p0 - e)) / (2 * h)
         var = np.einsum("ij,jk,ik->i", J, cov, J)
         rep.uncertainty["predicted_inc_rms_deg"] = float(np.sqrt(np.mean(var)))
+        if info["mode"] == "poses":
+            # which coefficients the inclination's predicted error comes from, and the poses that would pin them
+            # down: the verdict said only "coefficients poorly determined" of a six-face session
+            info["pose_coverage"] = _pose_coverage(J, cov, t, info)
         if info.get("mount_tolerance_deg") is not None:
             # without poses the triad's tilt against the probe's axis is free: the mounting tolerance (1 sigma
             # about each axis) is in the inclination predicted (a block turned 0.3 deg left 0.17 deg inclination
@@ -828,7 +879,8 @@ def build_single(ds: RawDataset, cal: Calibration, info: dict) -> FitReport:
     if p_inc is not None and p_inc > t["predicted_inc_rms_deg"]:
         reasons.append(f"coefficients poorly determined: predicted inclination 1-sigma (deg) {p_inc:.4g} exceeds "
                        f"{t['predicted_inc_rms_deg']:g}"
-                       + (f" ({info['holds_coverage']})" if info.get("holds_coverage") else ""))
+                       + (f" ({info['holds_coverage']})" if info.get("holds_coverage") else
+                          f" ({info['pose_coverage']})" if info.get("pose_coverage") else ""))
     reasons += mount  # after the fit's own: what the data lack before what no such data give
     if info["mode"] != "poses" and eig < t["coverage_min_eig"]:
         reasons.append(f"orientations cover too little of the sphere (min eigenvalue {eig:.3g} < "
