@@ -414,7 +414,7 @@ def undetermined_text(ds, labels, count, t: str, what: str) -> str | None:
     d = u[j]
     big = int(np.argmax(np.abs(d)))
     lone = (f"; hold {j + 1}, near {'-' if d[big] < 0 else '+'}{'xyz'[big]}, has leverage {lev[j]:.2f}: it alone "
-            f"fixes {'it' if len(terms) <= 1 else 'them'}" if lev[j] > HOLDS_MAX_LEVERAGE else "")
+            f"fixes {'it' if len(terms) <= 1 else 'one combination of them'}" if lev[j] > HOLDS_MAX_LEVERAGE else "")
     # holds all near one axis (a sensor set down on one face, turned about the vertical): said so; the terms
     # they leave free are then every one but that axis's scale and offset
     k = int(np.argmax(np.abs(u).mean(0)))
