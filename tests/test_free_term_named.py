@@ -187,3 +187,24 @@ def test_a_six_face_fit_names_the_terms_its_predicted_inclination_comes_from(tmp
     clause = verdict.split("coefficients poorly determined", 1)[1]
     assert "the x-z cross-axis and y-z cross-axis terms" in clause, verdict
     assert "the poses placed to" in clause and "add poses with two axes tilted from the vertical together" in clause
+
+
+BROAD = Path(__file__).parent / "data" / "real" / "broad"
+
+
+def test_a_joint_fit_names_the_terms_its_predicted_azimuth_comes_from(tmp_path, capsys):
+    """BROAD's trial 05 (tests/data/real/broad, with its accelerometer),
+    turned slowly by hand: 2.1 deg of azimuth predicted from its
+    coefficients, and the verdict said only "coefficients poorly
+    determined".  Its accelerometer's residuals are 19 mg per reading:
+    the tilt of its z axis toward x and y (the x-z and y-z cross-axis
+    terms) sets the horizontal plane the azimuth is measured in."""
+    run = tmp_path / "b05.csv"
+    assert main(["import", str(BROAD / "05.csv"), "--sensor", str(BROAD / "with_acc.toml"), "-o", str(run)]) == 0
+    capsys.readouterr()
+    assert main(["calibrate", str(run), "-o", str(tmp_path / "cal.json")]) == 1
+    (verdict,) = [ln for ln in capsys.readouterr().out.splitlines() if ln.startswith("verdict:")]
+    clause = verdict.split("coefficients poorly determined: predicted azimuth", 1)[1].split(";")[0]
+    share = int(clause.split("% of it from")[0].rsplit("(", 1)[1])
+    assert share >= 80, verdict
+    assert "the accelerometer's x-z cross-axis, y-z cross-axis" in clause, verdict
