@@ -49,8 +49,13 @@ def test_a_refusal_of_such_holds_names_the_term_not_the_ellipsoid():
     why = motion.refusal(ds, e, None, (h.labels, h.count))
     assert why.startswith(f"the {h.count} holds found in the readings leave the accelerometer's x-y cross-axis")
     assert "fitted on every row instead" in why and "do not lie on an ellipsoid" in why
-    # holds fitted alone (hs given): the fit's own error stands
-    assert motion.refusal(ds, e, (h.labels, h.count), (h.labels, h.count)) is None
+    # holds fitted alone (hs given, they passed the leverage test): the term they leave free, and what their fit met
+    alone = motion.refusal(ds, e, (h.labels, h.count), (h.labels, h.count))
+    assert alone.startswith(f"the {h.count} holds found in the readings leave the accelerometer's x-y cross-axis")
+    assert "fitted on them alone: the accelerometer's readings do not lie on an ellipsoid" in alone
+    assert "fitted on every row" not in alone
+    # an error that names no triad: the fit's own error stands
+    assert motion.refusal(ds, UndeterminedError("joint: too few rows"), (h.labels, h.count), None) is None
 
 
 def test_a_fit_of_such_holds_fails_on_its_predicted_inclination(tmp_path, capsys):

@@ -61,6 +61,7 @@ HOLDS_CENTRE_FRAC = 0.25       # holds' directions taken from the sphere's centr
 HOLDS_FREE_SV = 0.02           # ... and no term is nearly free: the holds' directions' least singular value over the
                                # largest (undetermined_text; a phone's holds all in the x-z and y-z planes: 0.004)
 LONE_HOLD_MAX_ROWS = 3 * HOLD_ROWS  # a hold this short that alone keeps the others from determining is set aside
+ONE_AXIS_DEG = 20.0            # holds all within this of one axis are said to be (undetermined_text)
 MIN_HOLDS = 12                 # a step-and-hold log's holds are used as its poses from this many on
 
 
@@ -378,64 +379,53 @@ def _leverages(X) -> np.ndarray:
 
 def _hold_design(means):
     """(design, directions) of the linearised pose-free model over mean
-    readings (hold_leverages): the directions from the centre of the best
-    sphere through them where one is determined and lies more than
-    HOLDS_CENTRE_FRAC of its radius from the origin, else from the origin
-    (the leverage limit was set on raw directions: an Xsens log 0.1 g off
-    reads 0.78 from the origin, 0.82 from the centre); a sphere through
-    means in a blob (ellipsoid.on_shell) has no centre to take them from."""
-    from inclino.calib.ellipsoid import on_shell, sphere
+    readings (hold_leverages; ellipsoid.direction_design): the directions
+    from the centre of the best sphere through them where one is determined
+    and lies more than HOLDS_CENTRE_FRAC of its radius from the origin,
+    else from the origin (the leverage limit was set on raw directions: an
+    Xsens log 0.1 g off reads 0.78 from the origin, 0.82 from the centre)."""
+    from inclino.calib.ellipsoid import direction_design
 
-    v = np.asarray(means, float)
-    sph = sphere(v)
-    if sph is not None and np.linalg.norm(sph[0]) > HOLDS_CENTRE_FRAC * sph[1] and on_shell(v, sph):
-        v = v - sph[0]
-    u = v / np.maximum(np.linalg.norm(v, axis=1, keepdims=True), 1e-300)
-    X = np.column_stack([u[:, 0] ** 2, u[:, 1] ** 2, u[:, 2] ** 2, 2 * u[:, 0] * u[:, 1], 2 * u[:, 0] * u[:, 2],
-                         2 * u[:, 1] * u[:, 2], u])
-    return X, u
-
-
-_TERMS = ("x scale", "y scale", "z scale", "x-y cross-axis", "x-z cross-axis", "y-z cross-axis", "x offset",
-          "y offset", "z offset")
-_TERM_HINT = {"x-y cross-axis": "x and y both tilted from the vertical (between the x and y axes)",
-              "x-z cross-axis": "x and z both tilted (between the x and z axes)",
-              "y-z cross-axis": "y and z both tilted (between the y and z axes)",
-              "x scale": "the x axis near the vertical", "y scale": "the y axis near the vertical",
-              "z scale": "the z axis near the vertical", "x offset": "the x axis up and down",
-              "y offset": "the y axis up and down", "z offset": "the z axis up and down"}
+    return direction_design(means, HOLDS_CENTRE_FRAC)
 
 
 def undetermined_text(ds, labels, count, t: str, what: str) -> str | None:
     """Why the holds of a triad do not determine its ellipsoid alone, in
     one clause (None when they do): the model's terms that the holds' mean
-    directions leave nearly free (the least singular vector of
-    hold_leverages' design, its components beyond 0.4), the hold whose
-    leverage is largest, and the orientation that would pin the terms down.
-    Holds all in the x-z and y-z planes leave the x-y cross-axis term free:
-    a phone's six-position accelerometer log was refused as "readings on no
+    directions leave nearly free (ellipsoid.free_terms: the singular
+    vectors below HOLDS_FREE_SV of the largest), the hold whose leverage is
+    largest, and the orientations that would pin the terms down.  Holds all
+    in the x-z and y-z planes leave the x-y cross-axis term free: a phone's
+    six-position accelerometer log was refused as "readings on no
     ellipsoid" (its moving rows, fitted with the holds, were)."""
+    from inclino.calib.ellipsoid import coverage_hint, free_terms, terms_text
+
     v = means(_centred(ds, t), labels, count)
     if len(v) <= 9:
         return (f"the {count} holds found in the readings are too few to determine {what}'s ellipsoid alone "
                 f"(9 terms)")
     X, u = _hold_design(v)
     lev = _leverages(X)
-    _, sv, Vt = np.linalg.svd(X, full_matrices=False)
+    sv = np.linalg.svd(X, compute_uv=False)
     if float(np.max(lev)) <= HOLDS_MAX_LEVERAGE and sv[-1] >= HOLDS_FREE_SV * sv[0]:
         return None
-    w = Vt[-1]
-    terms = [_TERMS[i] for i in np.argsort(-np.abs(w)) if abs(w[i]) > 0.4]
+    terms, ratio, free = free_terms(X, HOLDS_FREE_SV)
     j = int(np.argmax(lev))
     d = u[j]
     big = int(np.argmax(np.abs(d)))
-    hint = _TERM_HINT.get(terms[0]) if terms else None
     lone = (f"; hold {j + 1}, near {'-' if d[big] < 0 else '+'}{'xyz'[big]}, has leverage {lev[j]:.2f}: it alone "
-            f"fixes {'it' if len(terms) <= 1 else 'them'}" if lev[j] > HOLDS_MAX_LEVERAGE else "")
-    return (f"the {count} holds found in the readings leave {what}'s "
-            + (" and ".join(terms) + " term" + ("s" if len(terms) > 1 else "") if terms else "ellipsoid")
-            + f" nearly free (the least singular value of their directions {sv[-1] / sv[0]:.2g} of the largest"
-            + lone + ")" + (f": add holds with {hint}" if hint else ""))
+            f"fixes {'it' if len(terms) <= 1 else 'one combination of them'}" if lev[j] > HOLDS_MAX_LEVERAGE else "")
+    # holds all near one axis (a sensor set down on one face, turned about the vertical): said so; the terms
+    # they leave free are then every one but that axis's scale and offset
+    k = int(np.argmax(np.abs(u).mean(0)))
+    off = float(np.degrees(np.arccos(np.clip(np.abs(u[:, k]).min(), 0.0, 1.0))))
+    one = f"; every one within {off:.2g} deg of the {'xyz'[k]} axis" if off < ONE_AXIS_DEG else ""
+    sv_text = (f"{free} combinations of them with singular values below {HOLDS_FREE_SV:g} of the largest, the "
+               f"least {ratio:.2g}" if free > 1 else
+               f"the least singular value of their directions {ratio:.2g} of the largest")
+    return (f"the {count} holds found in the readings leave {what}'s {terms_text(terms)[4:]} nearly free ("
+            + sv_text + one + lone + ")"
+            + f": add holds with {coverage_hint(terms, u, t == 'acc')}")
 
 
 def means(v, labels, count) -> np.ndarray:

@@ -27,6 +27,132 @@ SPHERE_SHELL = 0.2        # readings' RMS distance from their sphere over its ra
                           # |b| 17 800 nT looked plausible, its sphere of 3 655 nT was set aside, and the 10x passed)
 
 
+# the terms of the linearised pose-free model |M (v - b)| = R in a reading's direction u from the centre: u_i^2
+# (the scale terms), 2 u_i u_j (the cross-axis terms), u_i (the offsets)
+TERMS = ("x scale", "y scale", "z scale", "x-y cross-axis", "x-z cross-axis", "y-z cross-axis", "x offset",
+         "y offset", "z offset")
+TERM_HINT = {"x-y cross-axis": "x and y both tilted from the vertical (between the x and y axes)",
+             "x-z cross-axis": "x and z both tilted (between the x and z axes)",
+             "y-z cross-axis": "y and z both tilted (between the y and z axes)",
+             "x scale": "the x axis near the vertical", "y scale": "the y axis near the vertical",
+             "z scale": "the z axis near the vertical", "x offset": "the x axis up and down",
+             "y offset": "the y axis up and down", "z offset": "the z axis up and down"}
+FREE_SV = 0.02     # the linearised model's singular values below this share of the largest: nearly free terms
+FREE_WEIGHT = 0.4  # a term whose unit vector projects this far into the nearly free subspace is named
+
+
+def direction_design(v, centre_frac: float = 0.25):
+    """(design, directions) of the linearised pose-free model (TERMS) over
+    readings v (rows or mean readings): the directions from the centre of
+    the best sphere through them where one is determined and lies more than
+    centre_frac of its radius from the origin, else from the origin; a
+    sphere through readings in a blob (on_shell) has no centre to take them
+    from."""
+    v = np.asarray(v, float)
+    sph = sphere(v)
+    if sph is not None and np.linalg.norm(sph[0]) > centre_frac * sph[1] and on_shell(v, sph):
+        v = v - sph[0]
+    u = v / np.maximum(np.linalg.norm(v, axis=1, keepdims=True), 1e-300)
+    X = np.column_stack([u[:, 0] ** 2, u[:, 1] ** 2, u[:, 2] ** 2, 2 * u[:, 0] * u[:, 1], 2 * u[:, 0] * u[:, 2],
+                         2 * u[:, 1] * u[:, 2], u])
+    return X, u
+
+
+def free_terms(X, free_sv: float) -> tuple[list, float, int]:
+    """(terms, ratio, k): the terms of the design X (direction_design) that
+    its directions leave nearly free (in the order of TERMS), its least
+    singular value over its largest, and how many independent combinations
+    of them are nearly free.  The nearly free subspace is spanned by the
+    right singular vectors whose singular value is below free_sv of the
+    largest (the least one alone when none is: the caller knows the
+    readings fail); a term is named when its unit vector projects at least
+    FREE_WEIGHT into it, else the terms within 0.7 of the largest
+    projection.  Holds all near one axis leave every term but that axis's
+    scale and offset free: the least singular vector alone named an
+    arbitrary one of them (a Pololu MinIMU-9's holds, all within 6 deg of
+    x, were said to leave its y scale and y-z cross-axis terms free)."""
+    _, sv, Vt = np.linalg.svd(X, full_matrices=False)
+    k = max(1, int(np.sum(sv < free_sv * sv[0])))
+    w = np.linalg.norm(Vt[-k:], axis=0)
+    named = [i for i in np.argsort(-w) if w[i] >= FREE_WEIGHT] or \
+        [i for i in np.argsort(-w) if w[i] >= 0.7 * w.max()]
+    return [TERMS[i] for i in (named if len(named) == 1 else sorted(named))], float(sv[-1] / sv[0]), k
+
+
+def terms_text(terms) -> str:
+    """'the z scale term', 'the y scale and y-z cross-axis terms', ..."""
+    if len(terms) == 1:
+        return f"the {terms[0]} term"
+    return "the " + ", ".join(terms[:-1]) + " and " + terms[-1] + " terms"
+
+
+SEEN_UP = 0.7     # coverage_hint: an axis within 45 deg of the vertical, up (or down), has been read so
+SEEN_TILT = 0.35  # ... and a pair of axes each at least 20 deg from the horizontal together, tilted between them
+
+
+def coverage_hint(terms, u=None, acc: bool = True) -> str:
+    """The orientations that pin down the terms: one term's own hint
+    (TERM_HINT); for several, the axes to stand near the vertical (up and
+    down, for an offset) and the pairs of axes to tilt together.  With the
+    directions read (u, (n, 3)) only what they lack is asked for: an axis's
+    up or down where no direction comes within 45 deg of it (SEEN_UP), a
+    pair no direction tilts between (SEEN_TILT).  An accelerometer's axis
+    pointing down reads +1 g (docs/conventions.md); a magnetometer's axis
+    along the field reads +F, and its sides are named so (acc False).  An x-io board's 204
+    holds, its z axis never above -0.43, leave the z offset and scale
+    trading off: "the z axis up", not every axis up and down."""
+    if u is None and len(terms) == 1:
+        return TERM_HINT[terms[0]]
+    u = None if u is None else np.asarray(u, float)
+    up, near = [], []
+    for a in sorted({t[0] for t in terms if t.endswith("offset") or t.endswith("scale")}):
+        k = "xyz".index(a)
+        lack_pos = u is None or u[:, k].max() < SEEN_UP
+        lack_neg = u is None or u[:, k].min() > -SEEN_UP
+        if lack_pos and lack_neg:
+            (up if any(t == f"{a} offset" for t in terms) else near).append(a)
+        elif lack_pos or lack_neg:
+            side = ("down" if lack_pos else "up") if acc else ("along the field" if lack_pos else "against the field")
+            up.append(f"{a} {side}")
+    pairs = [t.split()[0] for t in terms if "cross-axis" in t
+             and (u is None or not np.any(np.all(np.abs(u[:, ["xyz".index(c) for c in t[:3:2]]]) > SEEN_TILT,
+                                                 axis=1)))]
+
+    def axes(a):
+        return f"the {a[0]} axis" if len(a) == 1 else f"the {', '.join(a[:-1])} and {a[-1]} axes"
+    both = [a for a in up if len(a) == 1]
+    one = [a for a in up if len(a) > 1]  # one side of an axis only
+    parts = ([f"{axes(both)} up and down"] if both else []) + \
+        [f"{axes([a[0] for a in one if a[2:] == side])} {side}" for side in dict.fromkeys(a[2:] for a in one)] + \
+        ([f"{axes(near)} near the vertical"] if near else [])
+    if pairs:
+        parts.append(TERM_HINT[f"{pairs[0]} cross-axis"] if len(pairs) == 1 and not parts else
+                     "two axes tilted from the vertical together (" + ", ".join(pairs) + ")")
+    if not parts:  # every orientation the terms ask for read already: the combination is what is free
+        return "orientations between those read"
+    return ", and ".join(parts)
+
+
+def rows_coverage(raw, what: str) -> str | None:
+    """Why the readings' own directions leave a term of the ellipsoid nearly
+    free, in one clause (None when none is: the linearised model's least
+    singular value at least FREE_SV of its largest): the verdict of a fit
+    of every row names it beside the inclination it predicts, as it names
+    the terms holds leave free (a sensor turned about the vertical at two
+    tilts of 20 deg, its z axis never near the vertical, was said only to
+    have "coefficients poorly determined")."""
+    raw = np.asarray(raw, float)
+    if len(raw) < 10:
+        return None
+    terms, ratio, free = free_terms(direction_design(raw)[0], FREE_SV)
+    if ratio >= FREE_SV:
+        return None
+    sv = (f"{free} combinations of them with singular values below {FREE_SV:g} of the largest, the least {ratio:.2g}"
+          if free > 1 else f"the least singular value of their directions {ratio:.2g} of the largest")
+    return (f"the {len(raw)} readings' directions leave {what}'s {terms_text(terms)[4:]} nearly free ({sv}): add "
+            f"readings with {coverage_hint(terms, direction_design(raw)[1], 'acceler' in what)}")
+
+
 def _design(raw):
     x, y, z = np.asarray(raw, float).T
     D = np.column_stack([x * x, y * y, z * z, 2 * x * y, 2 * x * z, 2 * y * z, 2 * x, 2 * y, 2 * z,
@@ -87,10 +213,23 @@ def far_mean(raw, R):
     return m if spread > FAR_MEAN_MIN_SPREAD * R else np.zeros(3)
 
 
+MOVED_SIZE = 0.2  # readings whose size (5th to 95th percentile) spreads this share of the vector: moved
 ONE_ORIENTATION_DEG = 10.0  # readings all within this of their mean direction are said to be at one orientation
 
 
-def ellipsoid_start(raw, R, what: str = "the triad"):
+def _as_read(raw, R, shift):
+    """The readings a refusal's figures describe: as logged (raw + shift)
+    where far_mean's shift is within 2 R of the origin (the mean of an
+    accelerometer's readings a hand's acceleration carried past 1 g), else
+    less it (a hard-iron offset of many fields: directions from the origin
+    would all point along it)."""
+    raw = np.asarray(raw, float)
+    if shift is None or np.linalg.norm(shift) > 2.0 * R:
+        return raw
+    return raw + shift
+
+
+def ellipsoid_start(raw, R, what: str = "the triad", _shift=None):
     """Algebraic general ellipsoid fit: (M symmetric, b) with |M (raw - b)| ~ R.
     UndeterminedError (exit 3) naming `what` when the readings determine no ellipsoid.
     Readings whose mean is farther from the origin than R are fitted less
@@ -98,7 +237,7 @@ def ellipsoid_start(raw, R, what: str = "the triad"):
     raw = np.asarray(raw, float)
     m = far_mean(raw, R)
     if np.any(m):
-        M, b = ellipsoid_start(raw - m, R, what)
+        M, b = ellipsoid_start(raw - m, R, what, _shift=m)
         return M, b + m
     D, s = _design(raw)
     _, sv, Vt = np.linalg.svd(D / s, full_matrices=False)
@@ -106,19 +245,43 @@ def ellipsoid_start(raw, R, what: str = "the triad"):
         mean = raw.mean(0) if len(raw) else np.zeros(3)
         cap = float(np.degrees(np.arcsin(min(1.0, np.sqrt(((raw - mean) ** 2).sum(1).max()) / np.linalg.norm(mean)))))\
             if len(raw) and np.linalg.norm(mean) > 0 else None
-        where = (f"every reading within {cap:.2g} deg of one direction: the sensor at one orientation, or turned only "
-                 f"about the vector it reads" if cap is not None and cap < ONE_ORIENTATION_DEG else
-                 "readings on a few circles or in a plane")
-        raise UndeterminedError(f"too few orientations to determine {what}'s ellipsoid ({where}: turn the sensor "
-                                f"through more of the sphere)")
+        if cap is not None and cap < ONE_ORIENTATION_DEG:
+            raise UndeterminedError(f"too few orientations to determine {what}'s ellipsoid (every reading within "
+                                    f"{cap:.2g} deg of one direction: the sensor at one orientation, or turned only "
+                                    f"about the vector it reads: turn the sensor through more of the sphere)")
+        # which terms the readings leave free, in the linearised model the holds are judged by: "a few circles"
+        # alone left the user to guess which orientations were missing
+        if len(raw) < 10:
+            raise UndeterminedError(f"too few readings to determine {what}'s ellipsoid ({len(raw)}, fewer than its "
+                                    f"10 coefficients)")
+        X, u = direction_design(_as_read(raw, R, _shift))
+        terms, _, _ = free_terms(X, FREE_SV)
+        raise UndeterminedError(f"too few orientations to determine {what}'s ellipsoid (readings on a few circles "
+                                f"or in a plane, which leave its {terms_text(terms)[4:]} free: turn the sensor "
+                                f"through more of the sphere, with {coverage_hint(terms, u, 'acceler' in what)})")
     v = Vt[-1] / s
     Q = np.array([[v[0], v[3], v[4]], [v[3], v[1], v[5]], [v[4], v[5], v[2]]])
     if np.linalg.eigvalsh(Q).min() * np.linalg.eigvalsh(Q).max() <= 0:
         why = ("the readings of a moving sensor, whose acceleration is no sensor effect" if "acceler" in what else
                "a field that changed while they were read (steel or a current near the sensor)")
-        raise UndeterminedError(f"{what}'s readings do not lie on an ellipsoid (too few orientations: a cap of the sphere, "
-                        f"as a sensor that hardly tilts reads; or {why}): log it at rest, or turned slowly, through "
-                        f"more of the sphere")
+        # the cap named by the terms its directions leave free, where they leave any
+        read = _as_read(raw, R, _shift)
+        X, u = direction_design(read)
+        terms, ratio, _ = free_terms(X, FREE_SV)
+        # both causes with the figures that decide between them: how far the directions lean to one side (an
+        # x-io NGIMU held at one orientation and moved between: 0.97) and how much the readings' size changes
+        lean = float(np.linalg.norm(u.mean(0)))
+        cap = (f"too few orientations: a cap of the sphere, as a sensor that hardly tilts reads (the directions' "
+               f"mean resultant {lean:.2f}: 0 for every direction, 1 for one)" if ratio >= FREE_SV
+               else f"too few orientations, which leave its {terms_text(terms)[4:]} nearly free: add readings with "
+                    f"{coverage_hint(terms, u, 'acceler' in what)}")
+        size = np.percentile(np.linalg.norm(read, axis=1), [5, 95]) / R
+        why += (f" (their size from {size[0]:.2f} to {size[1]:.2f} of {R:.4g} {'g' if 'acceler' in what else 'nT'}, "
+                f"5th to 95th percentile)")
+        # the size changing by more than MOVED_SIZE of the vector is the likelier cause, named first
+        first, second = (why, cap) if size[1] - size[0] > MOVED_SIZE else (cap, why)
+        raise UndeterminedError(f"{what}'s readings do not lie on an ellipsoid ({first}; or {second}): log it at "
+                                f"rest, or turned slowly, through more of the sphere")
     if np.trace(Q) < 0:
         Q, v = -Q, -v
     c = -np.linalg.solve(Q, v[6:9])

@@ -165,22 +165,31 @@ def cause(f: dict) -> str:
 
 
 def refusal(ds, e, hs, hl) -> str | None:
-    """The text of a refusal for a pose-free fit of every row that failed
-    (e: the fit's error; hs: the holds fitted alone, None when every row
-    was; hl: the holds found, determining or not): the motion (named) where
-    a log read mostly while moving failed on its accelerometer; else the
-    holds, where holds were found but leave the failing triad's ellipsoid
-    free (holds.undetermined_text), with what the fit of every row then
-    met; None: the fit's own error stands."""
+    """The text of a refusal for a pose-free fit that failed (e: the fit's
+    error; hs: the holds fitted alone, None when every row was; hl: the
+    holds found, determining or not): where the holds were fitted alone,
+    the terms they leave free (holds.undetermined_text: they passed the
+    leverage test, not the test of free terms); else the motion (named)
+    where a log read mostly while moving failed on its accelerometer; else
+    the holds, where holds were found but leave the failing triad's
+    ellipsoid free, with what the fit of every row then met (its own
+    error whole, which names the terms the rows leave free); None: the
+    fit's own error stands."""
     import re
 
     from inclino import holds
 
     msg = str(e)
     t = "acc" if "accelerometer" in msg else "mag" if "magnetometer" in msg else None
-    if hs is not None or t is None:
+    if t is None:
         return None
     what = "the accelerometer" if t == "acc" else "the magnetometer"
+    met = re.split(r" \(|: ", msg, maxsplit=1)[0]
+    if hs is not None:
+        # the holds fitted alone and failing: what they leave free (a Pololu MinIMU-9's 183 holds, all within
+        # 6 deg of x, passed the leverage test and were refused as "readings on a few circles or in a plane")
+        text = holds.undetermined_text(ds, hs[0], hs[1], t, what) if getattr(ds, f"has_{t}", False) else None
+        return None if text is None else f"{text}; fitted on them alone: {met}; no calibration written"
     if t == "acc":
         cause = named(ds, what)
         if cause is not None:
@@ -190,6 +199,6 @@ def refusal(ds, e, hs, hl) -> str | None:
     text = holds.undetermined_text(ds, hl[0], hl[1], t, what)
     if text is None:
         return None
-    met = re.split(r" \(|: ", msg, maxsplit=1)[0]
+    # the every-row fit's own error whole: which terms its rows leave free (ellipsoid.ellipsoid_start)
     return (f"{text}; fitted on every row instead, the {int(np.sum(hl[0] < 0))} rows read while moving between them "
-            f"too: {met}; no calibration written")
+            f"too: {msg}; no calibration written")

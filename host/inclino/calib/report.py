@@ -459,6 +459,8 @@ def build(ds: RawDataset, cal: Calibration, method: str, info: dict, refit=None,
             bias = (boot.misfit["grid_azi_bias_deg"], boot.misfit["grid_inc_bias_deg"])
             bias_name = "model_misfit"
         p_cal = predict(cal, cov, w, dip, sa, sm, reading_noise=False, nonlinear=nl, bias=bias, bias_name=bias_name)
+        if p_cal.azi_rms_deg > THRESHOLDS["predicted_azi_rms_deg"]:
+            info["azimuth_terms"] = _azimuth_terms(cal, cov, w, dip)  # the verdict names them
         # acceptance: readings taken as the run's -- the run's own noise per channel and its pose error
         # when the fit estimated them (calib/covariance.py); without poses each triad's own residual scale
         # (never one s^2 for both); else the fit's noise model scaled by its s^2
@@ -600,6 +602,9 @@ def _verdict(rep: FitReport, info: dict) -> None:
     else:
         over(u.get("predicted_azi_rms_deg"), "predicted_azi_rms_deg",
              "coefficients poorly determined: predicted azimuth 1-sigma (deg)")
+        if reasons and reasons[-1].startswith("coefficients poorly determined: predicted azimuth") and \
+                info.get("azimuth_terms"):
+            reasons[-1] += f" ({info['azimuth_terms']})"
     q = rep.quantisation
     over(q.get("coef_azi_max_deg"), "coef_quantisation_azi_max_deg", "azimuth lost to coefficient quantisation (deg)")
     over(q.get("fw_azi_max_deg"), "fw_quantisation_azi_max_deg",
@@ -689,6 +694,112 @@ def _inc_deg(v) -> np.ndarray:
     return np.degrees(np.arctan2(np.hypot(v[:, 0], v[:, 1]), v[:, 2]))
 
 
+def _term_of(k: int) -> str:
+    """The term of coefficient k of a triad's 12 (M row-major, b): a
+    diagonal of M that axis's scale, an off-diagonal the pair's cross-axis
+    term, b the offset."""
+    i, j = (k // 3, k % 3) if k < 9 else (k - 9, None)
+    return (f"{'xyz'[i]} offset" if j is None else f"{'xyz'[i]} scale" if i == j else
+            f"{'xyz'[min(i, j)]}-{'xyz'[max(i, j)]} cross-axis")
+
+
+def _error_terms(lam, V, half, C, triads=None) -> tuple[list, float]:
+    """(terms, share): the largest modes of a predicted error (eigenpairs
+    lam, V of C^1/2 J^T J C^1/2, half = C^1/2), as many as hold 80 % of it,
+    and the coefficients each moves by at least 0.7 of its own sigma, as
+    terms (_term_of; with triads, ("acc", "mag"), coefficient k of
+    12 * len(triads) prefixed by its triad's name; coefficients beyond
+    them are not named)."""
+    sig = np.sqrt(np.clip(np.diag(C), 1e-300, None))
+    names, share = [], 0.0
+    for m in range(len(lam) - 1, -1, -1):
+        z = np.abs(half @ V[:, m]) / sig
+        for k in np.flatnonzero(z >= 0.7):
+            if triads is None:
+                if k >= 12:
+                    continue
+                name = _term_of(int(k))
+            else:
+                if k >= 12 * len(triads):
+                    continue
+                who = {"acc": "the accelerometer's", "mag": "the magnetometer's"}[triads[k // 12]]
+                name = f"{who} {_term_of(int(k % 12))}"
+            if name not in names:
+                names.append(name)
+        share += lam[m] / lam.sum()
+        if share >= 0.8:
+            break
+    return names, float(share)
+
+
+def _azimuth_terms(cal, cov, w, dip) -> str | None:
+    """One clause: the coefficients a joint fit's predicted azimuth error
+    over the grid comes from (_error_terms over both triads' 24), the
+    verdict's "coefficients poorly determined" said no more (the BROAD
+    trial 05, read while moving by hand: 2.1 deg predicted)."""
+    from .sensitivity import attitude_sensitivity, grid_readings
+
+    C = np.asarray(cov, float)
+    if C.ndim != 2 or C.shape[0] < 24:
+        return None
+    C = 0.5 * (C[:24, :24] + C[:24, :24].T)
+    _, acc, mag = grid_readings(cal, w, dip)
+    Ja, _ = attitude_sensitivity(cal, acc, mag)
+    ev, U = np.linalg.eigh(C)
+    if not np.all(np.isfinite(ev)) or ev.max() <= 0:
+        return None
+    half = U @ np.diag(np.sqrt(np.clip(ev, 0, None))) @ U.T
+    lam, V = np.linalg.eigh(half @ (Ja.T @ Ja) @ half)
+    if lam[-1] <= 0:
+        return None
+    names, share = _error_terms(lam, V, half, C, ("acc", "mag"))
+    if not names:
+        return None
+    from .ellipsoid import TERMS, terms_text
+
+    parts = []
+    for who in ("the accelerometer's", "the magnetometer's"):
+        mine = sorted((n[len(who) + 1:] for n in names if n.startswith(who)), key=TERMS.index)
+        if mine:
+            parts.append(f"{who} {terms_text(mine)[4:]}")
+    return f"{share:.0%} of it from " + " and ".join(parts)
+
+
+def _pose_coverage(J, cov, truth, info) -> str | None:
+    """One clause: the coefficients the predicted inclination error of a
+    pose fit comes from, and the poses that would pin them down.  The
+    error's largest mode (the top eigenvector of C^1/2 J^T J C^1/2, J the
+    inclination's sensitivity over the grid, C the coefficients'
+    covariance) moves each coefficient by some share of its own sigma;
+    those moved by at least 0.7 sigma are named as terms (a diagonal of M:
+    that axis's scale; an off-diagonal: the pair's cross-axis term; b: the
+    offset), with the poses the reference directions lack
+    (ellipsoid.coverage_hint) and the pose level's placement error where
+    the covariance is the poses' (imucal's six faces, placed to 0.44 deg:
+    the x-y, x-z and y-z cross-axis terms; more poses, tilted between the
+    axes)."""
+    from .ellipsoid import TERMS, coverage_hint, terms_text
+
+    C = 0.5 * (np.asarray(cov, float) + np.asarray(cov, float).T)
+    ev, U = np.linalg.eigh(C)
+    if not np.all(np.isfinite(ev)) or ev.max() <= 0:
+        return None
+    half = U @ np.diag(np.sqrt(np.clip(ev, 0, None))) @ U.T
+    lam, V = np.linalg.eigh(half @ (J.T @ J) @ half)
+    if lam[-1] <= 0:
+        return None
+    names, share = _error_terms(lam, V, half, C)
+    if not names:
+        return None
+    names = sorted(names, key=TERMS.index)
+    u = np.asarray(truth, float)
+    u = u / np.maximum(np.linalg.norm(u, axis=1, keepdims=True), 1e-300)
+    pl = info.get("pose_level")
+    placed = f"; the poses placed to {pl['placement_deg']:.3g} deg" if pl else ""
+    return (f"{share:.0%} of it from {terms_text(names)}{placed}: add poses with "
+            f"{coverage_hint(names, u)}")
+
+
 def build_single(ds: RawDataset, cal: Calibration, info: dict) -> FitReport:
     """The fit report of a one-triad calibration (calib.single)."""
     from .predict import GRID
@@ -763,6 +874,10 @@ def build_single(ds: RawDataset, cal: Calibration, info: dict) -> FitReport:
             J[:, k] = (inc_of(p0 + e) - inc_of(p0 - e)) / (2 * h)
         var = np.einsum("ij,jk,ik->i", J, cov, J)
         rep.uncertainty["predicted_inc_rms_deg"] = float(np.sqrt(np.mean(var)))
+        if info["mode"] == "poses":
+            # which coefficients the inclination's predicted error comes from, and the poses that would pin them
+            # down: the verdict said only "coefficients poorly determined" of a six-face session
+            info["pose_coverage"] = _pose_coverage(J, cov, t, info)
         if info.get("mount_tolerance_deg") is not None:
             # without poses the triad's tilt against the probe's axis is free: the mounting tolerance (1 sigma
             # about each axis) is in the inclination predicted (a block turned 0.3 deg left 0.17 deg inclination
@@ -828,7 +943,8 @@ def build_single(ds: RawDataset, cal: Calibration, info: dict) -> FitReport:
     if p_inc is not None and p_inc > t["predicted_inc_rms_deg"]:
         reasons.append(f"coefficients poorly determined: predicted inclination 1-sigma (deg) {p_inc:.4g} exceeds "
                        f"{t['predicted_inc_rms_deg']:g}"
-                       + (f" ({info['holds_coverage']})" if info.get("holds_coverage") else ""))
+                       + (f" ({info['holds_coverage']})" if info.get("holds_coverage") else
+                          f" ({info['pose_coverage']})" if info.get("pose_coverage") else ""))
     reasons += mount  # after the fit's own: what the data lack before what no such data give
     if info["mode"] != "poses" and eig < t["coverage_min_eig"]:
         reasons.append(f"orientations cover too little of the sphere (min eigenvalue {eig:.3g} < "

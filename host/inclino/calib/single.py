@@ -182,6 +182,11 @@ def fit(ds, use_poses=None, sigma_acc=None, sigma_mag=None, mount_tolerance_deg=
         if hl is not None:
             # holds that leave a term nearly free: the verdict says which, beside the inclination it predicts
             info["holds_coverage"] = holds.undetermined_text(ds, hl[0], hl[1], kind, what)
+        else:
+            # ... and rows whose own directions leave one free, fitted every one
+            from .ellipsoid import rows_coverage
+
+            info["holds_coverage"] = rows_coverage(raw[info["keep"]], what)
         hold_cov = triad.hold_covariance(raw, hl[0], keep, R, sigma, fit=(M, b)) if hl is not None else None
         if hold_cov is not None and np.trace(hold_cov[0]) > np.trace(cov):
             cov = hold_cov[0]

@@ -207,13 +207,26 @@ def poses_span(truth, what: str = "the triad's 12 parameters") -> None:
         normal = np.cross(u[1] - u[0], u[-1] - u[0]) if len(u) == 3 else np.zeros(3)
         normal = normal / max(float(np.linalg.norm(normal)), 1e-300)
     k = int(np.argmax(np.abs(normal)))
+    n_text = f"({normal[0]:+.2f}, {normal[1]:+.2f}, {normal[2]:+.2f})"
     across = (f" (normal to its {'xyz'[k]} axis: the {'xyz'[k]} offset and the gain on {'xyz'[k]} are undetermined)"
               if abs(normal[k]) > 0.985 else
-              f" (normal ({normal[0]:+.2f}, {normal[1]:+.2f}, {normal[2]:+.2f}) in its axes)" if len(u) >= 3 else "")
+              f" (normal {n_text} in its axes: each axis's offset and its gain along that normal are undetermined)")
+    if len(u) < 3:
+        raise CalibrationError(
+            f"the poses do not determine {what}: their {len(u)} distinct reference direction{'s' * (len(u) > 1)} "
+            f"leave the offsets not told from the gains across {'them' if len(u) > 1 else 'it'} (4 off one plane "
+            f"are needed); add poses with the reference along other axes (in a six-face session, each axis pointing "
+            f"both up and down)")
+    # the faces of a six-face session off that plane, named (three faces -x, +y, +z: +x, -y and -z), where the
+    # plane has a normal; the reference is what the triad reads (gravity's direction, an axis down reading +1 g)
+    c = float(np.mean(u @ normal))
+    faces = [f"{'+-'[j]}{'xyz'[i]}" for i in range(3) for j in range(2) if abs((1 - 2 * j) * normal[i] - c) > 0.1]
+    off = (f": the reference along {', '.join(faces[:-1]) + ' or ' + faces[-1] if len(faces) > 1 else faces[0]}"
+           if faces else "")
     raise CalibrationError(
         f"the poses do not determine {what}: their {len(u)} distinct reference directions lie on one "
-        f"plane{across}, across which an offset is not told from the scale and axes; add poses off that plane (in "
-        f"a six-face session, each axis pointing both up and down)")
+        f"plane{across}, across which an offset is not told from the scale and axes; add poses off that plane"
+        f"{off} (in a six-face session, each axis pointing both up and down)")
 
 
 def pose_mean_covariance(gm, tm, M, b, radial_var):
