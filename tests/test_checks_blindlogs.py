@@ -110,3 +110,88 @@ def test_a_unit_slip_is_still_named_as_the_unit(tmp_path):
     ds, _ = importlog.import_log(str(tmp_path / "m.csv"), sensor.from_toml(_MAG))
     (f,) = [f for f in checks.run(ds).findings if f.check == "units"]
     assert f.level == "error" and "a magnet" not in f.message and "look like mG" in f.message
+
+
+def _rig_log(path, hand_mg, seed=11, holds=30, hold_rows=100, between=12):
+    """An accelerometer (scale errors 3 %, offsets 20-40 mg, 2 mg noise)
+    held at `holds` random orientations for hold_rows rows each, with
+    `between` rows stepping from one to the next; those carry hand_mg of
+    acceleration (0: each a station read at rest, as a rig's short stops)."""
+    rng = np.random.default_rng(seed)
+    S = np.diag([1.03, 0.98, 1.01])
+    b = np.array([0.03, -0.02, 0.04])
+    d = rng.normal(size=(holds, 3))
+    d /= np.linalg.norm(d, axis=1)[:, None]
+    rows = []
+    for i in range(holds):
+        rows += [(d[i], 0.0)] * hold_rows
+        if i + 1 < holds:
+            for k in range(1, between + 1):
+                u = d[i] + (d[i + 1] - d[i]) * k / (between + 1)
+                rows.append((u / np.linalg.norm(u), hand_mg * 1e-3))
+    a = np.array([S @ u + b + rng.normal(0, 0.002, 3) + rng.normal(0, s, 3) / np.sqrt(3) for u, s in rows])
+    path.write_text("ax,ay,az\n" + "".join(f"{x:.6f},{y:.6f},{z:.6f}\n" for x, y, z in a))
+
+
+_ACC = '''name = "accelerometer in g"
+[accelerometer]
+columns = ["ax", "ay", "az"]
+unit = "g"
+reads = "up"
+axes = "x = ax, y = ay, z = az"
+'''
+
+
+def _static_moving(rep):
+    return [f for f in rep.findings if f.check == "motion" and f.level == "warning"]
+
+
+def test_a_log_declared_static_whose_rows_between_holds_move_is_warned(tmp_path):
+    # 50 mg of a hand's acceleration on the 12 rows between each pair of holds: declared static, each such row
+    # would be fitted as a station read at rest
+    _rig_log(tmp_path / "a.csv", hand_mg=50.0)
+    ds, _ = importlog.import_log(str(tmp_path / "a.csv"), sensor.from_toml(_ACC), static=True)
+    (f,) = _static_moving(checks.run(ds, declared_static=True))
+    assert abs(f.figures["rows_moving"] - 29 * 12) <= 12 and f.figures["holds"] == 30  # (a step's edge row may join a hold)
+    assert f.figures["moving_misfit_g"] > 3 * f.figures["held_misfit_g"] and "drop the declaration" in f.message
+    # not declared static: the holds are found and the moving rows left out, nothing to warn of
+    ds, _ = importlog.import_log(str(tmp_path / "a.csv"), sensor.from_toml(_ACC))
+    assert _static_moving(checks.run(ds)) == []
+
+
+def test_a_rigs_short_stations_read_at_rest_are_not_taken_for_motion(tmp_path):
+    # the same steps read at rest (no acceleration): short stations, as the declaration says
+    _rig_log(tmp_path / "a.csv", hand_mg=0.0)
+    ds, _ = importlog.import_log(str(tmp_path / "a.csv"), sensor.from_toml(_ACC), static=True)
+    assert _static_moving(checks.run(ds, declared_static=True)) == []
+
+
+def _numbered(header):
+    return sensor.from_toml(f'''name = "numbered columns"
+[log]
+header = {header}
+[accelerometer]
+columns = [1, 2, 3]
+unit = "g"
+reads = "up"
+axes = "x = ax, y = ay, z = az"
+''')
+
+
+def test_a_data_row_read_as_the_header_is_said(tmp_path):
+    # a log without a header line, header = true (the default) and the columns by number: its first row was read
+    # as the names and dropped in silence
+    rng = np.random.default_rng(2)
+    a = rng.normal(size=(200, 3))
+    a /= np.linalg.norm(a, axis=1)[:, None]
+    (tmp_path / "a.txt").write_text("".join(f"{x:.5f} {y:.5f} {z:.5f}\n" for x, y, z in a))
+    ds, rep = importlog.import_log(str(tmp_path / "a.txt"), _numbered("true"))
+    assert len(ds) == 199
+    (note,) = [n for n in rep.notes if "a data row" in n]
+    assert f"{a[0, 0]:.5f}" in note and "header = false" in note
+    ds, rep = importlog.import_log(str(tmp_path / "a.txt"), _numbered("false"))
+    assert len(ds) == 200 and not any("a data row" in n for n in rep.notes)
+    # a header of column indices (pandas writes 0, 1, 2) is a header
+    (tmp_path / "b.csv").write_text("0,1,2\n" + "".join(f"{x:.5f},{y:.5f},{z:.5f}\n" for x, y, z in a))
+    ds, rep = importlog.import_log(str(tmp_path / "b.csv"), _numbered("true"))
+    assert len(ds) == 200 and not any("a data row" in n for n in rep.notes)
