@@ -27,6 +27,7 @@ CORPUS = [
     ("pololu_minimu9/data_polulu.txt", "pololu_minimu9/sensor.toml", "both", 3653),
     ("xio_fusion/sensor_data.csv", "xio_fusion/sensor.toml", "both", 13514),
     ("yei_3space/data_yei.txt", "yei_3space/sensor.toml", "both", 2714),
+    ("mikoff_mpu9150/imu0_rows5001-10900.log", "mikoff_mpu9150/sensor.toml", "acc", 5900),
 ] + [(f"sap6/{d}.csv", "sap6/sensor.toml", "both", 24) for d in SAP6]
 
 

@@ -57,6 +57,8 @@ GRAVITY_REMOVED_SPREAD = 0.2  # |a|'s median deviation over its median, |a| belo
                               # 30 %; 30 hand-held and rig logs of real sensors 0.4 to 16 %)
 # the main field at the Earth's surface (IGRF): 22 000 nT (South Atlantic) to 67 000 nT (magnetic poles)
 GEOMAGNETIC_NT = (22_000.0, 67_000.0)
+MAGNET_MAX_NT = 5e6        # a field up to this (5 mT, the AK8963's full scale) can be a magnet's near the sensor
+MAG_UNIT_TOL = 1.8         # a unit that brings |b| within this factor of 45 000 nT explains it (exp of the guesses' 0.6)
 GEOMAGNETIC_SLACK = 1.5   # a sensor's scale error and a steel building: a warning within 1.5x, an error beyond
 FIELD_TOL = (0.8, 1.25)   # |b| / header field_nT: a warning outside
 FIELD_UNITS = (0.4, 2.5)  # |b| / header field_nT: an error outside (a unit)
@@ -127,6 +129,10 @@ MOTION_MIN_HOLDS = 4       # a log of fewer than this many holds' rows is too sh
 HOLDS_MOVING_NOTE = 0.01   # a still log's rows read while moving between holds: a note from this share on
 
 # the time column (the unit it was declared in): what a logger and a turning sensor do
+STATIC_MOVING_K = 3.0                # a log declared static whose rows between its holds misfit the holds'
+STATIC_MOVING_MIN_ROWS = 20          # ellipsoid this many times its holds' rows (at least this many rows): moving
+UNIX_S = (946_684_800.0, 2_208_988_800.0)  # Unix times of 2000-01-01 and 2040-01-01: a log's clock stamps Unix
+                                     # time in this range; a first row's time beyond it, in s, is no clock's
 ROW_RATE_HZ = (1.0 / 600.0, 1e5)     # rows/s outside it: a warning (a row every 10 min on a moving log; a logger
                                      # writing a row per sample faster than 100 kHz)
 TURN_RATE_DEG_S = (1.0, 5000.0)      # the median rate a hand or a rig turns the sensor at, between its moving rows;
@@ -776,6 +782,14 @@ def _units_mag(ds, rows, rep):
         rep.findings.append(mid)
         return
     guesses, counts = _unit_or_lsb(ds, "mag", m, R / target, MAG_UNIT_GUESS, "nT", 0.6, 0.2 if F else 0.6)
+    magnet = _magnet_text(ds, R, F, guesses, counts)
+    if magnet is not None:
+        rep.findings.append(Finding("units", "error", (
+            f"magnetometer: |b| is {R:.4g} nT ({how}), outside {rng}: {R / target:.3g}x "
+            f"{'the header field' if F else 'a geomagnetic field'}, {magnet[0]}; "
+            + _unit_fix(ds, "mag", guesses, counts, R / target).replace("fix the unit", "if it was logged away from them, fix the unit", 1)),
+            "mag", {**fig, "looks_like": [], "magnet": magnet[1]}))
+        return
     like = (f"the readings look like {' or '.join(guesses)}" if guesses else
             f"{R / target:.3g}x {'the header field' if F else 'a geomagnetic field'}" + (f": {hint}" if hint else "")
             + (f" ({counts})" if counts else ""))
@@ -783,6 +797,42 @@ def _units_mag(ds, rows, rep):
         f"magnetometer: |b| is {R:.4g} nT ({how}), {'not' if F else 'outside'} {rng}: {like}, not {unit}; "
         + _unit_fix(ds, "mag", guesses, counts, R / target)), "mag",
         {**fig, "looks_like": guesses}))
+
+
+def _magnet_text(ds, R: float, F, guesses: list, counts: str):
+    """(text, figures) for a field too strong for the site's that no unit
+    explains, else None: |b| (a sphere's radius) beyond the geomagnetic
+    range by GEOMAGNETIC_SLACK but within what a MEMS magnetometer reads
+    (MAGNET_MAX_NT), in a unit that is a size (not counts), that no other
+    unit of the kind brings within MAG_UNIT_TOL of a geomagnetic field (the
+    guesses found none).  A unit slip is a power of ten (or 10^5); a field
+    4x the earth's read in the declared unit is what a magnet or steel
+    beside the sensor makes (ESPHome's HMC5883L under a wind vane's
+    magnet, logged in uT as ESPHome gives it: 190 uT, was told "not uT",
+    and the first unit named, mG, imported with a warning, every reading
+    10x too small)."""
+    from inclino.formats import sensor
+
+    if F or guesses or counts or not GEOMAGNETIC_NT[1] * GEOMAGNETIC_SLACK < R <= MAGNET_MAX_NT:
+        return None
+    declared = str(ds.meta.get("mag_unit", "nT"))
+    same = sensor.unit_size(declared, "mag")
+    if same is None:
+        return None
+    nearest = None
+    for u in ("uT", "G", "mG", "nT"):
+        x = R * sensor.unit_size(u, "mag") / same
+        if abs(sensor.unit_size(u, "mag") / same - 1.0) > 1e-9:  # the units other than the declared one
+            d = abs(math.log(x / 45_000.0))
+            if nearest is None or d < nearest[0]:
+                nearest = (d, u, x)
+    if nearest is None or math.exp(nearest[0]) < MAG_UNIT_TOL:
+        return None
+    _, u, x = nearest
+    return (f"and no other unit brings it to one ({u}, the nearest, reads {x:.4g} nT, {x / 45_000.0:.2g}x): "
+            f"a magnet or steel near the sensor adds its own field (a wind vane's or a motor's magnet, a speaker, "
+            f"a steel bracket), or a scale error; log the field away from them"), \
+        {"nearest_unit": u, "nearest_nT": x}
 
 
 def intended_reflection(ds, triad) -> bool:
@@ -2240,6 +2290,8 @@ def _motion(ds, rep):
         turning = _turning_slowly(ds, rep)
     if all(verdicts) and turning is None:
         rep.static = True
+        if declared:
+            _declared_static_moving(ds, rep)
         _holds_note(ds, rep)
         return
     if turning is not None:
@@ -2295,6 +2347,59 @@ def _turning_slowly(ds, rep):
              f"step-and-hold (declare a run static only if every row was read at rest: --static, or [log] "
              f"static = true)"),
             {**{k: v for k, v in rep.noise.items() if "_step_" in k}, "rows_held_share": share, "holds": h.count})
+
+
+def _declared_static_moving(ds, rep):
+    """A step-and-hold log declared static whose rows between the holds
+    carry a hand's acceleration: declared static, each stretch read for
+    fewer than HOLD_ROWS rows counts as a station of its own (holds.find),
+    and every such row is fitted as read at rest.  The accelerometer says
+    otherwise: through the ellipsoid of the holds' own rows (HOLD_ROWS or
+    more), rows at rest read |g| within the noise, and those rows misfit it
+    by STATIC_MOVING_K times the holds' rows or more.  A rig's short
+    stations read at rest fit it as the holds do; a sensor turned slowly
+    enough to read no acceleration is as good as at rest and is not named.
+    A warning (mikoff/imu-calib's MPU-9150 logs declared static: 2 459 rows
+    between 118 holds, 17 mg against 4 mg; the calibration fitted 2 435
+    "holds" and its predicted inclination sigma rose from 0.06 to 0.26 deg)."""
+    from inclino import holds
+    from inclino.calib.ellipsoid import determined, ellipsoid_start
+
+    if not ds.has_acc or holds.labelled(ds) or rep.one_orientation or \
+            ("inc_deg" in ds.columns and "tf_deg" in ds.columns):
+        return  # (a log with the accelerometer's poses is fitted against them: declared static or not, the same)
+    h = holds.find(ds)
+    lab = h.labels
+    if h.count < 2:
+        return
+    cnt = np.bincount(lab[lab >= 0], minlength=h.count)
+    still = np.isin(lab, np.flatnonzero(cnt >= holds.HOLD_ROWS))
+    short = ~still
+    n = len(ds)
+    if still.sum() < holds.STEP_AND_HOLD_FRACTION * n or short.sum() < max(STATIC_MOVING_MIN_ROWS,
+                                                                           0.02 * n):
+        return
+    a = np.asarray(ds.acc, float)
+    G = float(ds.meta.get("gravity_g") or 1.0)
+    if not determined(a[still], G):
+        return
+    try:
+        with np.errstate(all="ignore"):
+            M, b = ellipsoid_start(a[still], G)
+    except (DataError, np.linalg.LinAlgError, ValueError):
+        return
+    r = np.abs(np.linalg.norm((a - b) @ M.T, axis=1) - G)
+    held, moved = float(np.median(r[still])), float(np.median(r[short]))
+    if not (np.isfinite(held) and np.isfinite(moved)) or moved < STATIC_MOVING_K * max(held, 1e-9):
+        return
+    k = int(np.sum(cnt >= holds.HOLD_ROWS))
+    rep.findings.append(Finding("motion", "warning", (
+        f"declared static, but the {int(short.sum())} rows between its {k} holds were read while moving: through "
+        f"the holds' own ellipsoid their |g| misfits by a median {1e3 * moved:.3g} mg against {1e3 * held:.3g} mg "
+        f"in the holds ({moved / max(held, 1e-9):.2g}x: a hand's or a motor's acceleration, which no row read at "
+        f"rest has), and declared static each is fitted as a station of its own; drop the declaration (--static, "
+        f"[log] static, # static=true): the holds are found in the readings and the moving rows left out"), "acc",
+        {"rows_moving": int(short.sum()), "holds": k, "moving_misfit_g": moved, "held_misfit_g": held}))
 
 
 def _holds_note(ds, rep):
@@ -2465,6 +2570,49 @@ def _time_factors(ds) -> list:
     return named + more + [f for f in TIME_FACTORS if f not in named]
 
 
+def _unix_time_slow(ds, t, rep) -> bool:
+    """A time column read in too large a unit, where its clock tells:
+    the first row's time beyond UNIX_S[1] (a clock counting from 1970 there
+    is decades ahead; no logger's clock counts so far from any start),
+    which a unit 1000, 10^6 or 10^9 times smaller makes a Unix time within
+    UNIX_S (2000-2040): the log's clock is Unix time in that unit.  A finding
+    (warning), True when made.  The turning and the row rate cannot tell it
+    on a static log or a log of holds (each row read at rest: a row every
+    4 s is a plausible logger, 5 deg a row at 1.3 deg/s a plausible rig):
+    AirbrakesV2's MicroStrain CX5 stamps rows in Unix ns, and declared "us"
+    it imported with every row 1000x further apart in silence.  Only this
+    side: a column too small for a Unix time in the declared unit (1e6 s)
+    is as often an uptime counter, which a Unix time in another unit
+    cannot be told from."""
+    import datetime
+
+    t0 = float(t[0])
+    if not np.isfinite(t0) or t0 <= UNIX_S[1]:
+        return False
+    for f in (1e-3, 1e-6, 1e-9):
+        if UNIX_S[0] <= t0 * f <= UNIX_S[1]:
+            break
+    else:
+        return False
+    fix = _time_unit_text(ds, f)
+    when = datetime.datetime.fromtimestamp(t0 * f, datetime.timezone.utc).strftime("%Y-%m-%d %H:%M:%S UTC")
+    years = t0 / (365.25 * 86400.0)
+    read = f"as {fix[1]}" if fix is not None else f"{1 / f:g}x smaller"
+    what = "declared rate_hz" if ds.meta.get("rate_hz") and _imported(ds) else "time column's unit"
+    msg = (f"the {what} does not fit the rows: the first row's time is {t0:.4g} s, {years:.3g} years after 1970 "
+           f"(no clock counts so far), while read {read} it is {when}: the log's clock is "
+           f"Unix time in that unit, every row {1 / f:g}x further apart than it was logged; "
+           + (f"fix {fix[0]} in the sensor description and import again" if fix and _imported(ds) else
+              f"t_s must be in seconds: {_fix(ds, 'log', 'the time unit')}")
+           + " (the drift over the session, the rates and any lag in seconds use it)")
+    fig = {"first_time_s": t0, "factor": f, "unix_time_s": t0 * f}
+    if fix is not None:
+        fig["looks_like"] = fix[1]
+    rep.time = {**(rep.time or {}), **fig}
+    rep.findings.append(Finding("time", "warning", msg, None, fig))
+    return True
+
+
 def _time_unit(ds, rep):
     """The time column's unit against the physics of the rows it dates: the
     row rate it implies (ROW_RATE_HZ: no logger writes a row per sample
@@ -2504,6 +2652,8 @@ def _time_unit(ds, rep):
             f"(runs joined one after another, each timed from its own start, or parts of one run rearranged); they "
             f"are used as they stand, and what is plotted or tested against time overlays them"), None,
             {"time_back_rows": [int(i) + 1 for i in back[:20]]}))
+    if _unix_time_slow(ds, t, rep):
+        return
     pos = dt[dt > 0]
     if len(pos) < 5:
         return

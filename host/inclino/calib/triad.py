@@ -35,6 +35,9 @@ SEGMENT_MIN_DENSITY = 0.8  # ... and a segment is a run where most rows misfit
 # The report's verdict already fails below 0.02 (calib.report THRESHOLDS["coverage_min_eig"]); this far below it
 # the coefficients are not a calibration at all (offsets of hundreds of g on a hand-turned log: RepoIMU's T-stick).
 SPHERE_RUNAWAY_EIG = 0.005
+RUNAWAY_REFIT_SPREAD = 0.1  # a fit that ran away is fitted again by the readings' distance from the ellipsoid only
+                            # where the readings as logged span 3-D this much (0.14-0.23 on holds to one side of the
+                            # sphere; a wand swung about one axis, near one circle, 0.03: refused as before)
 
 
 def direction_spread(v) -> float:
@@ -309,6 +312,51 @@ def _sphere_jac(x, raw, R):
     return J
 
 
+def _geometric_residual(x, raw, R):
+    """|M (raw - b)| - R in the readings' own units: over |M^T u|, the
+    residual's gradient along the reading (u its corrected direction), to
+    first order the reading's distance from the fitted ellipsoid."""
+    M = _sym(x[:6])
+    g = (raw - x[6:9]) @ M.T
+    n = np.maximum(np.linalg.norm(g, axis=1), 1e-300)
+    grad = np.maximum(np.linalg.norm((g / n[:, None]) @ M, axis=1), 1e-300)
+    return (n - R) / grad
+
+
+def _geometric_refit(raw, R, sigma, M0, b0, robust):
+    """(x, keep, res) of the ellipsoid fitted by the readings' distance from
+    it, from the algebraic start, where the fit of |M (raw - b)| - R ran
+    away; None if this one runs away too.  That residual is in corrected
+    units: a smaller M shrinks it, and on holds to one side of the sphere
+    an ellipsoid through a plane, M a tenth of the start's and b 60 g off,
+    leaves 0.15 mg of it where the start leaves 6 mg, though the readings
+    lie 9.6 mg from that ellipsoid and 5.9 mg from the start's (the first
+    6 000 rows of mikoff's MPU-9150: 61 holds, every x at -0.27 g or more;
+    fitted so, M and b come within 0.005 and 4 mg of the whole log's fit)."""
+    x = np.concatenate([M0[np.triu_indices(3)], b0])
+    keep = np.ones(len(raw), bool)
+    res = None
+    try:
+        for loss in (("soft_l1", "linear") if robust else ("linear",)):
+            r0 = _geometric_residual(x, raw, R) / sigma
+            f_scale = 3.0 * max(1.0, 1.4826 * float(np.median(np.abs(r0)))) if loss == "soft_l1" else 1.0
+            res = optimize.least_squares(lambda p, a: _geometric_residual(p, a, R) / sigma, x, args=(raw[keep],),
+                                         loss=loss, f_scale=f_scale, x_scale="jac",
+                                         method="trf" if loss != "linear" else "lm")
+            x = res.x
+            if loss == "soft_l1":
+                r = _geometric_residual(x, raw, R) / sigma
+                thr, _ = robust_threshold(r ** 2, 1)
+                keep = r ** 2 <= thr
+                if keep.sum() < 10:
+                    return None
+    except (ValueError, np.linalg.LinAlgError):
+        return None
+    if not np.all(np.isfinite(x)):
+        return None
+    return x, keep, res
+
+
 def fit_sphere(raw, R: float, sigma: float, min_rows: int = 10, start=None, what: str = "the triad",
                blocks: bool = False, refits: int = 0):
     """Ellipsoid fit of one triad: (M symmetric, b) with |M (raw - b)| = R,
@@ -368,6 +416,17 @@ def fit_sphere(raw, R: float, sigma: float, min_rows: int = 10, start=None, what
         raise CalibrationError(f"the orientations do not determine {what}'s ellipsoid (they cover too little "
                                "of the sphere)")
     spread = direction_spread((raw[keep] - x[6:9]) @ _sym(x[:6]).T)
+    geo = None
+    if spread < SPHERE_RUNAWAY_EIG and direction_spread(raw) >= RUNAWAY_REFIT_SPREAD:
+        geo = _geometric_refit(raw, R, sigma, M0, b0, robust)
+        if geo is not None:
+            x, keep, res = geo
+            r = _sphere_residual(x, raw[keep], R) / sigma
+            dof = max(1, int(keep.sum()) - 9)
+            s2 = float((r ** 2).sum() / dof)
+            J = _sphere_jac(x, raw[keep], R) / sigma
+            JtJ = J.T @ J
+            spread = direction_spread((raw[keep] - x[6:9]) @ _sym(x[:6]).T)
     if spread < SPHERE_RUNAWAY_EIG:
         swamp = "the motion's acceleration" if "accelerometer" in what else "the noise or a disturbance"
         raise CalibrationError(
@@ -381,14 +440,14 @@ def fit_sphere(raw, R: float, sigma: float, min_rows: int = 10, start=None, what
     if blocks:
         lab = time_blocks(_sphere_residual(x, raw, R))
         if lab is not None:
-            cb = block_covariance(J, res.fun, lab[keep])
+            cb = block_covariance(J, r, lab[keep])
             if cb is not None and np.trace(cb) > np.trace(cov9):
                 blk = {"rows": int(np.bincount(lab).max()), "count": int(lab.max()) + 1,
                        "var_ratio": float(np.trace(cb) / np.trace(cov9))}
                 cov9 = cb
     boot, cov9_lin = None, None
     if refits:
-        cr = sphere_refits(x, raw[keep], R, sigma, s2, refits)
+        cr = sphere_refits(x, raw[keep], R, sigma, s2, refits, geometric=geo is not None)
         if cr is None:
             c = (raw[keep] - x[6:9]) @ _sym(x[:6]).T
             lean = float(np.linalg.norm((c / np.maximum(np.linalg.norm(c, axis=1, keepdims=True), 1e-300)).mean(0)))
@@ -417,7 +476,7 @@ REFIT_RATIO = 1.5   # ... whose covariance replaces the linearised one when its 
                     # 30 refits' own scatter: the linearised one holds)
 
 
-def sphere_refits(x, raw, R, sigma, s2, n):
+def sphere_refits(x, raw, R, sigma, s2, n, geometric: bool = False):
     """The ellipsoid fit's covariance from n refits (a parametric
     bootstrap): each fitted row projected onto the fitted ellipsoid, white
     noise of the fit's own residual size added (isotropic, in the readings'
@@ -427,7 +486,8 @@ def sphere_refits(x, raw, R, sigma, s2, n):
     not converge in REFIT_MAX_NFEV evaluations, or leaves the corrected
     readings within one plane): a fit its refits do not come back to is not
     determined by its orientations.  Seeded: the same readings give the
-    same figures."""
+    same figures.  geometric: the fit was of the readings' distance from
+    the ellipsoid (_geometric_refit), and so is each refit."""
     M, b = _sym(x[:6]), x[6:9]
     c = (raw - b) @ M.T
     u = c / np.maximum(np.linalg.norm(c, axis=1, keepdims=True), 1e-300)
@@ -438,9 +498,13 @@ def sphere_refits(x, raw, R, sigma, s2, n):
     for _ in range(n):
         sim = clean + rng.normal(0.0, sd, clean.shape)
         try:
-            res = optimize.least_squares(lambda p: _sphere_residual(p, sim, R) / sigma, x,
-                                         jac=lambda p: _sphere_jac(p, sim, R) / sigma, method="lm", x_scale="jac",
-                                         max_nfev=REFIT_MAX_NFEV)
+            if geometric:
+                res = optimize.least_squares(lambda p: _geometric_residual(p, sim, R) / sigma, x, method="lm",
+                                             x_scale="jac", max_nfev=REFIT_MAX_NFEV * 10)
+            else:
+                res = optimize.least_squares(lambda p: _sphere_residual(p, sim, R) / sigma, x,
+                                             jac=lambda p: _sphere_jac(p, sim, R) / sigma, method="lm",
+                                             x_scale="jac", max_nfev=REFIT_MAX_NFEV)
             ok = res.success and np.all(np.isfinite(res.x)) and \
                 direction_spread((sim - res.x[6:9]) @ _sym(res.x[:6]).T) >= SPHERE_RUNAWAY_EIG
         except (ValueError, np.linalg.LinAlgError):

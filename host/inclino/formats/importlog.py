@@ -166,6 +166,15 @@ def _index(col, names, what, path, lineno):
                        f"the columns by number)" if mostly else ""))
 
 
+def _header_is_data(names) -> bool:
+    """Whether a header line is a row of readings: every name a number and
+    at least one with a fraction or an exponent (a header of column indices,
+    0, 1, 2 as pandas writes one, names its columns with whole numbers)."""
+    cells = [n.strip() for n in names if n.strip()]
+    return len(cells) >= 2 and all(_is_number(c) for c in cells) and \
+        any(("." in c or "e" in c.lower()) and math.isfinite(float(c)) for c in cells)
+
+
 def _is_number(text: str) -> bool:
     try:
         float(text)
@@ -420,6 +429,13 @@ def _import(lines, path: str, desc: SensorDescription, static, drop_bad=False,
                          + f": the {other} alone is imported"
                          + (f" (the [{section}] table is the preset's; give one of your own to import it)"
                             if absent[0].kind in desc.from_preset else ""))
+    if names is not None and _header_is_data(names):
+        # header = true on a log without a header line, its columns by number: its first data row was read as the
+        # names and left out in silence (mikoff/imu-calib's MPU-9150 logs, "-8.42090 0.06710 5.24511 ...")
+        shown = [n.strip() for n in names if n.strip()]
+        notes.append(f"the line read as the header ({path}:{header_line}: {', '.join(shown[:6])}"
+                     f"{' ...' if len(shown) > 6 else ''}) is numbers: a data row, not imported; if the log has no "
+                     f"header line, [log] header = false (the columns by number)")
     _check_poses(desc, path)
     wanted = {}  # canonical name -> (index, what)
     for t in desc.triads:

@@ -1,0 +1,197 @@
+"""Checks before any fit on slips that logs of sensors outside the corpus
+showed (docs/dataset.md, "Checks before any fit"): a time column stamped in
+Unix time and declared in a unit 1000x too large, which neither the row rate
+nor the turning tells on a log read at rest, and a magnetometer beside a
+magnet, whose field no unit makes the earth's."""
+import numpy as np
+
+from inclino import checks
+from inclino.formats import importlog, sensor
+
+
+def _faces_log(path, t_col, n_hold=300):
+    """A MEMS accelerometer (+1 g on the axis up) held still on its six
+    faces, n_hold rows each, with 2 mg of noise: each row read at rest."""
+    rng = np.random.default_rng(7)
+    faces = np.array([[0, 0, 1], [0, 0, -1], [1, 0, 0], [-1, 0, 0], [0, 1, 0], [0, -1, 0]], float)
+    a = np.repeat(faces, n_hold, axis=0) * 1.01 + [0.02, -0.01, 0.015] + rng.normal(0, 0.002, (6 * n_hold, 3))
+    lines = ["t,ax,ay,az"] + [f"{t_col[i]},{a[i, 0]:.6f},{a[i, 1]:.6f},{a[i, 2]:.6f}" for i in range(len(a))]
+    path.write_text("\n".join(lines) + "\n")
+    return len(a)
+
+
+def _desc(unit):
+    return sensor.from_toml(f'''name = "six faces"
+[log]
+time = "t"
+time_unit = "{unit}"
+[accelerometer]
+columns = ["ax", "ay", "az"]
+unit = "g"
+reads = "up"
+axes = "x = ax, y = ay, z = az"
+''')
+
+
+def _time_findings(rep):
+    return [f for f in rep.findings if f.check == "time"]
+
+
+def test_unix_nanoseconds_declared_microseconds_are_named_on_a_log_read_at_rest(tmp_path):
+    # stamps in Unix ns at 250 rows/s from 2024-10-28 20:31:49 UTC; declared "us", every row reads 4 s apart: a
+    # plausible logger of a static sensor, and its first row 54 800 years after 1970
+    start_s = 1_730_147_509
+    n = 6 * 300
+    t_ns = [start_s * 10**9 + i * 4_000_000 for i in range(n)]
+    _faces_log(tmp_path / "log.csv", t_ns)
+    for static in (True, False):
+        ds, _ = importlog.import_log(str(tmp_path / "log.csv"), _desc("us"), static=static)
+        rep = checks.run(ds, declared_static=static)
+        (f,) = _time_findings(rep)
+        assert f.level == "warning" and f.figures["looks_like"] == "ns"
+        assert 'time_unit = "ns"' in f.message and "2024-10-28 20:31:49 UTC" in f.message
+        assert abs(f.figures["unix_time_s"] - start_s) < 1.0
+        # declared as logged: nothing said about the time
+        ds, _ = importlog.import_log(str(tmp_path / "log.csv"), _desc("ns"), static=static)
+        assert _time_findings(checks.run(ds, declared_static=static)) == []
+
+
+def test_unix_milliseconds_declared_seconds_are_named(tmp_path):
+    start_s = 1_700_000_000
+    t_ms = [start_s * 1000 + i * 10 for i in range(6 * 300)]
+    _faces_log(tmp_path / "log.csv", t_ms)
+    ds, _ = importlog.import_log(str(tmp_path / "log.csv"), _desc("s"), static=True)
+    (f,) = _time_findings(checks.run(ds, declared_static=True))
+    assert f.figures["looks_like"] == "ms" and 'time_unit = "ms"' in f.message
+
+
+def test_an_uptime_counter_is_not_taken_for_a_unix_time(tmp_path):
+    # a board's microsecond counter 21 days after power-up (1.8e12 us): read as us it is 1.8e6 s, which in ms
+    # would be a Unix time of 2027, but nothing tells an uptime from it: no finding
+    t_us = [1_800_000_000_000 + i * 10_000 for i in range(6 * 300)]
+    _faces_log(tmp_path / "log.csv", t_us)
+    ds, _ = importlog.import_log(str(tmp_path / "log.csv"), _desc("us"), static=True)
+    assert _time_findings(checks.run(ds, declared_static=True)) == []
+
+
+def _mag_log(path, radius_uT, centre_uT, n=400, seed=5):
+    """A magnetometer turned through every direction, its readings on a
+    sphere of radius_uT about centre_uT, 0.3 uT of noise, logged in uT."""
+    rng = np.random.default_rng(seed)
+    d = rng.normal(size=(n, 3))
+    d /= np.linalg.norm(d, axis=1)[:, None]
+    m = d * radius_uT + centre_uT + rng.normal(0, 0.3, (n, 3))
+    path.write_text("mx,my,mz\n" + "".join(f"{x:.3f},{y:.3f},{z:.3f}\n" for x, y, z in m))
+
+
+_MAG = '''name = "HMC5883L in uT"
+[magnetometer]
+columns = ["mx", "my", "mz"]
+unit = "uT"
+axes = "x = mx, y = my, z = mz"
+'''
+
+
+def test_a_field_no_unit_explains_names_a_magnet_not_the_unit(tmp_path):
+    # 190 uT, 4.2x a geomagnetic field: the factor of no unit (mG, the nearest, makes it 19 000 nT, 0.42x, and had
+    # been advised first: it imports with a warning, every reading 10x too small)
+    _mag_log(tmp_path / "m.csv", 190.0, [40.0, -90.0, 560.0])
+    ds, _ = importlog.import_log(str(tmp_path / "m.csv"), sensor.from_toml(_MAG))
+    (f,) = [f for f in checks.run(ds).findings if f.check == "units"]
+    assert f.level == "error"
+    assert "a magnet or steel near the sensor" in f.message and "not uT" not in f.message
+    near = f.figures["magnet"]
+    assert near["nearest_unit"] == "mG" and abs(near["nearest_nT"] / f.figures["field_nT"] - 0.1) < 1e-9
+
+
+def test_a_unit_slip_is_still_named_as_the_unit(tmp_path):
+    # 45 uT logged in mG (450) and declared uT: 10x, the factor of mG: the unit is named, no magnet
+    _mag_log(tmp_path / "m.csv", 450.0, [30.0, -20.0, 10.0])
+    ds, _ = importlog.import_log(str(tmp_path / "m.csv"), sensor.from_toml(_MAG))
+    (f,) = [f for f in checks.run(ds).findings if f.check == "units"]
+    assert f.level == "error" and "a magnet" not in f.message and "look like mG" in f.message
+
+
+def _rig_log(path, hand_mg, seed=11, holds=30, hold_rows=100, between=12):
+    """An accelerometer (scale errors 3 %, offsets 20-40 mg, 2 mg noise)
+    held at `holds` random orientations for hold_rows rows each, with
+    `between` rows stepping from one to the next; those carry hand_mg of
+    acceleration (0: each a station read at rest, as a rig's short stops)."""
+    rng = np.random.default_rng(seed)
+    S = np.diag([1.03, 0.98, 1.01])
+    b = np.array([0.03, -0.02, 0.04])
+    d = rng.normal(size=(holds, 3))
+    d /= np.linalg.norm(d, axis=1)[:, None]
+    rows = []
+    for i in range(holds):
+        rows += [(d[i], 0.0)] * hold_rows
+        if i + 1 < holds:
+            for k in range(1, between + 1):
+                u = d[i] + (d[i + 1] - d[i]) * k / (between + 1)
+                rows.append((u / np.linalg.norm(u), hand_mg * 1e-3))
+    a = np.array([S @ u + b + rng.normal(0, 0.002, 3) + rng.normal(0, s, 3) / np.sqrt(3) for u, s in rows])
+    path.write_text("ax,ay,az\n" + "".join(f"{x:.6f},{y:.6f},{z:.6f}\n" for x, y, z in a))
+
+
+_ACC = '''name = "accelerometer in g"
+[accelerometer]
+columns = ["ax", "ay", "az"]
+unit = "g"
+reads = "up"
+axes = "x = ax, y = ay, z = az"
+'''
+
+
+def _static_moving(rep):
+    return [f for f in rep.findings if f.check == "motion" and f.level == "warning"]
+
+
+def test_a_log_declared_static_whose_rows_between_holds_move_is_warned(tmp_path):
+    # 50 mg of a hand's acceleration on the 12 rows between each pair of holds: declared static, each such row
+    # would be fitted as a station read at rest
+    _rig_log(tmp_path / "a.csv", hand_mg=50.0)
+    ds, _ = importlog.import_log(str(tmp_path / "a.csv"), sensor.from_toml(_ACC), static=True)
+    (f,) = _static_moving(checks.run(ds, declared_static=True))
+    assert abs(f.figures["rows_moving"] - 29 * 12) <= 12 and f.figures["holds"] == 30  # (a step's edge row may join a hold)
+    assert f.figures["moving_misfit_g"] > 3 * f.figures["held_misfit_g"] and "drop the declaration" in f.message
+    # not declared static: the holds are found and the moving rows left out, nothing to warn of
+    ds, _ = importlog.import_log(str(tmp_path / "a.csv"), sensor.from_toml(_ACC))
+    assert _static_moving(checks.run(ds)) == []
+
+
+def test_a_rigs_short_stations_read_at_rest_are_not_taken_for_motion(tmp_path):
+    # the same steps read at rest (no acceleration): short stations, as the declaration says
+    _rig_log(tmp_path / "a.csv", hand_mg=0.0)
+    ds, _ = importlog.import_log(str(tmp_path / "a.csv"), sensor.from_toml(_ACC), static=True)
+    assert _static_moving(checks.run(ds, declared_static=True)) == []
+
+
+def _numbered(header):
+    return sensor.from_toml(f'''name = "numbered columns"
+[log]
+header = {header}
+[accelerometer]
+columns = [1, 2, 3]
+unit = "g"
+reads = "up"
+axes = "x = ax, y = ay, z = az"
+''')
+
+
+def test_a_data_row_read_as_the_header_is_said(tmp_path):
+    # a log without a header line, header = true (the default) and the columns by number: its first row was read
+    # as the names and dropped in silence
+    rng = np.random.default_rng(2)
+    a = rng.normal(size=(200, 3))
+    a /= np.linalg.norm(a, axis=1)[:, None]
+    (tmp_path / "a.txt").write_text("".join(f"{x:.5f} {y:.5f} {z:.5f}\n" for x, y, z in a))
+    ds, rep = importlog.import_log(str(tmp_path / "a.txt"), _numbered("true"))
+    assert len(ds) == 199
+    (note,) = [n for n in rep.notes if "a data row" in n]
+    assert f"{a[0, 0]:.5f}" in note and "header = false" in note
+    ds, rep = importlog.import_log(str(tmp_path / "a.txt"), _numbered("false"))
+    assert len(ds) == 200 and not any("a data row" in n for n in rep.notes)
+    # a header of column indices (pandas writes 0, 1, 2) is a header
+    (tmp_path / "b.csv").write_text("0,1,2\n" + "".join(f"{x:.5f},{y:.5f},{z:.5f}\n" for x, y, z in a))
+    ds, rep = importlog.import_log(str(tmp_path / "b.csv"), _numbered("true"))
+    assert len(ds) == 200 and not any("a data row" in n for n in rep.notes)
