@@ -216,7 +216,7 @@ def poses_span(truth, what: str = "the triad's 12 parameters") -> None:
         f"a six-face session, each axis pointing both up and down)")
 
 
-def pose_mean_covariance(gm, tm, M, b, radial_var):
+def pose_mean_covariance(gm, tm, M, b, radial_var, tangential_var=None):
     """The covariance (12: M row-major, b) of fit_poses on poses' mean
     readings gm (n, 3) against their truth tm, under the error a pose's
     placement makes: a small rotation of the truth, which moves a mean
@@ -225,9 +225,14 @@ def pose_mean_covariance(gm, tm, M, b, radial_var):
     s_t^2 (I - u u^T) + s_r^2 u u^T, u the truth's direction: s_r^2 per
     pose (radial_var, (n,), the variance of the mean along u, e.g. the rows'
     scatter over their count), raised to the radial residuals' own level
-    where they have the degrees of freedom to show it; s_t^2 the level
-    the residuals across the directions show, over their expected share
-    (the residual projector's trace).  The covariance is the least squares
+    where they have the degrees of freedom to show it; across u the
+    readings' own noise (tangential_var, (n,), per axis across u: the rows'
+    scatter across it over their count; none given: 0) plus s_t^2, the
+    placement: what the residuals across the directions show beyond that
+    noise, over their expected share (the residual projector's trace).  The
+    noise is the floor: the means' residuals across gravity have few
+    degrees of freedom (~3 on six faces) and can show nothing by chance,
+    and with s_t^2 alone the covariance then held no error across gravity.  The covariance is the least squares
     estimator's under that error (a sandwich: fit_poses is unweighted).
     Returns (cov, {"placement_deg", "radial", "tangential_dof",
     "radial_dof"})."""
@@ -259,8 +264,12 @@ def pose_mean_covariance(gm, tm, M, b, radial_var):
     if dof_r >= 3.0:  # the radial residuals against the readings' own noise, where they can show it
         radial = max(1.0, rr / max(float(np.trace(U @ Q @ Dr @ Q)), 1e-300))
     Dr = Dr * radial
-    st2 = max(rt - float(np.trace(P @ Q @ Dr @ Q)), 0.0) / max(dof_t, 1e-300)
-    Sigma = st2 * P + Dr
+    Dt = np.zeros((3 * n, 3 * n))
+    if tangential_var is not None:
+        for k in range(n):
+            Dt[3 * k:3 * k + 3, 3 * k:3 * k + 3] = tangential_var[k] * (np.eye(3) - np.outer(u[k], u[k]))
+    st2 = max(rt - float(np.trace(P @ Q @ (Dr + Dt) @ Q)), 0.0) / max(dof_t, 1e-300)
+    Sigma = st2 * P + Dt + Dr
     cov_mc = JtJi @ J.T @ Sigma @ J @ JtJi
     T = _mc_to_mb(M, b)
     g = float(np.median(np.linalg.norm(tm, axis=1)))
