@@ -305,6 +305,11 @@ def _sphere_jac(x, raw, R):
     return J
 
 
+SPHERE_SPANNED_EIG = 0.05  # the logged readings' direction spread above which they are not read as one plane: a
+                           # turn about one axis wobbling by 5 deg (1 sigma) reads 0.008, by 18 deg 0.09; a lean
+                           # it cannot see (a hemisphere reads 1/3, as the whole sphere)
+
+
 def fit_sphere(raw, R: float, sigma: float, min_rows: int = 10, start=None, what: str = "the triad",
                blocks: bool = False, refits: int = 0):
     """Ellipsoid fit of one triad: (M symmetric, b) with |M (raw - b)| = R,
@@ -366,11 +371,21 @@ def fit_sphere(raw, R: float, sigma: float, min_rows: int = 10, start=None, what
     spread = direction_spread((raw[keep] - x[6:9]) @ _sym(x[:6]).T)
     if spread < SPHERE_RUNAWAY_EIG:
         swamp = "the motion's acceleration" if "accelerometer" in what else "the noise or a disturbance"
+        logged = direction_spread(raw[keep])
+        head = (f"the orientations do not determine {what}'s ellipsoid: the fit runs away (its corrected readings "
+                f"point within one plane: spread {spread:.2g} < {SPHERE_RUNAWAY_EIG:g}; the readings as logged "
+                f"{logged:.2g}, 1/3 for every direction): ")
+        if logged >= SPHERE_SPANNED_EIG:
+            # the logged readings are not planar: the turn was not about one axis, the orientations lean to one
+            # side of the sphere and the noise or the motion bends the fit off the far side it never saw
+            u = raw[keep] / np.maximum(np.linalg.norm(raw[keep], axis=1, keepdims=True), 1e-300)
+            lean = float(np.linalg.norm(u.mean(0)))
+            raise CalibrationError(
+                head + f"the readings lean to one side of the sphere (their directions' mean resultant {lean:.2f}; "
+                f"0 for every direction, 1 for one) and {swamp} bends the fit off the side they never reached; "
+                f"turn the sensor through more of the sphere, each axis pointing both up and down (or give poses)")
         raise CalibrationError(
-            f"the orientations do not determine {what}'s ellipsoid: the fit runs away (its corrected readings point "
-            f"within one plane: spread {spread:.2g} < {SPHERE_RUNAWAY_EIG:g}; the readings as logged "
-            f"{direction_spread(raw[keep]):.2g}, 1/3 for every direction): the "
-            f"sensor was turned about one axis, or {swamp} swamps the turn out of that plane; "
+            head + f"the sensor was turned about one axis, or {swamp} swamps the turn out of that plane; "
             f"log it turned about more than one axis (or give poses)")
     cov9 = s2 * np.linalg.inv(JtJ)
     blk = None
