@@ -68,6 +68,9 @@ def _noise_var(raw, keep, groups, tm, M, sigma):
     rad, tan, num, den = np.empty(len(tm)), np.empty(len(tm)), 0.0, 0.0
     for k in range(len(tm)):
         v = raw[keep & (groups == k)] @ M.T
+        if not len(v):  # every row of the pose rejected: the pose is left out of the fit to the means
+            rad[k] = tan[k] = sigma ** 2
+            continue
         u = tm[k] / np.linalg.norm(tm[k])
         d = v - v.mean(0)
         x = d @ u
