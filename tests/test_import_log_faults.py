@@ -516,3 +516,38 @@ def test_a_field_outside_the_geomagnetic_range_is_said_outside_it(tmp_path, caps
     desc.write_text(text.replace('unit = "uT"', 'unit = "nT"'))
     rc, out, err = _cli([src / "mpudata.csv", "--sensor", desc, "-o", tmp_path / "run.csv"], capsys)
     assert rc == 2 and "outside the geomagnetic range" in err and "not the geomagnetic range" not in err, err
+
+
+def test_a_mirror_against_the_poses_names_two_swapped_faces_beside_the_map(tmp_path, capsys):
+    """A six-face session whose axis map is right but whose labels of the
+    +x and -x faces are swapped reads mirrored against its poses exactly as
+    a left-handed map would: one axis reversed against the poses.  The
+    refusal named only the map, which is right; it now names the swapped
+    faces beside it.  The log is made here: a MEMS part reading +1 g on the
+    axis pointing up, the body axes from docs/conventions.md (gravity in
+    body axes at I = 90, T = 180 is +x, at T = 0 -x, T = 90 +y, T = 270 -y,
+    I = 0 +z, I = 180 -z), sensor x = body y, sensor y = -body x."""
+    rng = np.random.default_rng(3)
+    faces = {"xd": ((1, 0, 0), (90, 180)), "xu": ((-1, 0, 0), (90, 0)), "yd": ((0, 1, 0), (90, 90)),
+             "yu": ((0, -1, 0), (90, 270)), "zd": ((0, 0, 1), (0, 0)), "zu": ((0, 0, -1), (180, 0))}
+    lines = ["face,sx,sy,sz"]
+    for lab, (g, _) in faces.items():
+        for _ in range(30):
+            b = np.array(g, float) * 1.01 + 0.01 + rng.normal(0, 2e-3, 3)  # body reading, down convention
+            up = -b                                                          # the part reads up
+            lines.append(f"{lab},{up[1]:.5f},{-up[0]:.5f},{up[2]:.5f}")
+    (tmp_path / "faces.csv").write_text("\n".join(lines) + "\n")
+
+    def toml(swap):
+        lab = {"xd": "xu", "xu": "xd"} if swap else {}
+        return ('[accelerometer]\ncolumns = ["sx", "sy", "sz"]\nunit = "g"\nreads = "up"\n'
+                'axes = "x = -y, y = x, z = z"\n[poses]\nlabel = "face"\n[poses.labels]\n'
+                + "".join(f'{lab.get(k, k)} = {{ inc = {p[0]}, azi = 0, tf = {p[1]} }}\n' for k, (_, p) in faces.items()))
+    (tmp_path / "s.toml").write_text(toml(False))
+    assert main(["import", str(tmp_path / "faces.csv"), "--sensor", str(tmp_path / "s.toml"),
+                 "-o", str(tmp_path / "ok.csv")]) == 0
+    capsys.readouterr()
+    (tmp_path / "s.toml").write_text(toml(True))
+    rc, _, err = _cli([tmp_path / "faces.csv", "--sensor", tmp_path / "s.toml", "-o", tmp_path / "r.csv"], capsys)
+    _one_line_error(rc, err, tmp_path / "r.csv")
+    assert "mirrored against the poses" in err and "two opposite faces swapped" in err, err

@@ -2135,7 +2135,8 @@ def _acc_poses(ds, rows, rep):
             rep.findings.append(Finding("handedness", "error", (
                 f"the accelerometer's axes are mirrored against the poses (direction RMS {e_ref:.3g} with a "
                 f"reflection, {e_rot:.3g} with the best rotation, over the best {POSE_FIT_KEEP:.0%} of the rows): "
-                f"a left-handed axis map; "
+                f"a left-handed axis map, or poses that mirror a right one (the poses of two opposite faces "
+                f"swapped: +x labelled as -x); "
                 + ("the declared reflection ([accelerometer] reflection = true) does not fit the data as mapped: "
                    + _fix(ds, "accelerometer", "the axis map (one sign, without reflection = true)")
                    if declared_reflection(ds, "acc") else

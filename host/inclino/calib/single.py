@@ -57,21 +57,33 @@ def truth(ds, kind, w):
     return ref.body_vectors(inc, azi, tf, w["field_nT"], w["dip_deg"], w["declination_deg"], w["gravity_g"])[1]
 
 
-def _radial_var(raw, keep, groups, tm, M, sigma):
-    """Per pose, the variance of its mean reading along the truth's
-    direction, corrected (M): the rows' scatter there over their count
-    (sigma^2 over it for a pose of one row), times (1 + rho) / (1 - rho)
-    for the rows' lag-1 correlation rho pooled over the poses (a reading
-    that wanders while held averages down more slowly)."""
-    out, num, den = np.empty(len(tm)), 0.0, 0.0
+def _noise_var(raw, keep, groups, tm, M, sigma):
+    """Per pose, the variance of its mean reading from the readings' own
+    noise, corrected (M): along the truth's direction (radial, (n,)) and
+    across it (tangential, (n,), per axis of the plane across it): the rows'
+    scatter there over their count (sigma^2 over it for a pose of one row),
+    times (1 + rho) / (1 - rho) for the rows' lag-1 correlation rho pooled
+    over the poses (a reading that wanders while held averages down more
+    slowly)."""
+    rad, tan, num, den = np.empty(len(tm)), np.empty(len(tm)), 0.0, 0.0
     for k in range(len(tm)):
         v = raw[keep & (groups == k)] @ M.T
-        x = v @ (tm[k] / np.linalg.norm(tm[k]))
-        x = x - x.mean()
+        if not len(v):  # every row of the pose rejected: the pose is left out of the fit to the means
+            rad[k] = tan[k] = sigma ** 2
+            continue
+        u = tm[k] / np.linalg.norm(tm[k])
+        d = v - v.mean(0)
+        x = d @ u
         num, den = num + float(x[1:] @ x[:-1]), den + float(x @ x)
-        out[k] = (float(np.var(x, ddof=1)) if len(x) > 1 else sigma ** 2) / max(len(x), 1)
+        n = max(len(x), 1)
+        if len(x) > 1:
+            rad[k] = float(np.var(x, ddof=1)) / n
+            tan[k] = (float(np.sum(d * d)) - float(x @ x)) / (2.0 * (len(x) - 1)) / n
+        else:
+            rad[k] = tan[k] = sigma ** 2 / n
     rho = min(max(num / den, 0.0), 0.95) if den > 0 else 0.0
-    return out * (1.0 + rho) / (1.0 - rho)
+    f = (1.0 + rho) / (1.0 - rho)
+    return rad * f, tan * f
 
 
 def world(ds) -> dict:
@@ -113,13 +125,13 @@ def fit(ds, use_poses=None, sigma_acc=None, sigma_mag=None, mount_tolerance_deg=
             ok = np.all(np.isfinite(gm), axis=1)
             if ok.sum() * 3 > 12:
                 Mp, bp, _, _ = triad.fit_poses(gm[ok], tm[ok], sigma, min_rows=5)
-                cov, pi = triad.pose_mean_covariance(gm[ok], tm[ok], Mp, bp, _radial_var(raw, keep, groups, tm, Mp,
-                                                                                         sigma)[ok])
+                rv, tv = _noise_var(raw, keep, groups, tm, Mp, sigma)
+                cov, pi = triad.pose_mean_covariance(gm[ok], tm[ok], Mp, bp, rv[ok], tangential_var=tv[ok])
                 info["pose_level"] = pi
                 info["covariance_source"] = (
                     f"pose level: the fit to the {int(ok.sum())} poses' mean readings (readings at one pose share "
-                    f"its placement error): their scatter across gravity, a placement error of "
-                    f"{pi['placement_deg']:.3g} deg, and along it the readings' own noise"
+                    f"its placement error): the readings' own noise, and across gravity a placement error of "
+                    f"{pi['placement_deg']:.3g} deg beside it"
                     + (f" ({pi['radial']:.3g}x in the means' scatter)" if pi["radial"] > 1.0 else ""))
         info.setdefault("covariance_source", "row level, scaled by the residual variance")
         info["mode"] = "poses"

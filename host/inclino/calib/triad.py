@@ -38,6 +38,9 @@ SPHERE_RUNAWAY_EIG = 0.005
 RUNAWAY_REFIT_SPREAD = 0.1  # a fit that ran away is fitted again by the readings' distance from the ellipsoid only
                             # where the readings as logged span 3-D this much (0.14-0.23 on holds to one side of the
                             # sphere; a wand swung about one axis, near one circle, 0.03: refused as before)
+SPHERE_SPANNED_EIG = 0.05  # the logged readings' direction spread above which they are not read as one plane: a
+                           # turn about one axis wobbling by 5 deg (1 sigma) reads 0.008, by 18 deg 0.09; a lean
+                           # it cannot see (a hemisphere reads 1/3, as the whole sphere)
 
 
 def direction_spread(v) -> float:
@@ -232,7 +235,7 @@ def poses_span(truth, what: str = "the triad's 12 parameters") -> None:
         f"{off} (in a six-face session, each axis pointing both up and down)")
 
 
-def pose_mean_covariance(gm, tm, M, b, radial_var):
+def pose_mean_covariance(gm, tm, M, b, radial_var, tangential_var=None):
     """The covariance (12: M row-major, b) of fit_poses on poses' mean
     readings gm (n, 3) against their truth tm, under the error a pose's
     placement makes: a small rotation of the truth, which moves a mean
@@ -241,9 +244,14 @@ def pose_mean_covariance(gm, tm, M, b, radial_var):
     s_t^2 (I - u u^T) + s_r^2 u u^T, u the truth's direction: s_r^2 per
     pose (radial_var, (n,), the variance of the mean along u, e.g. the rows'
     scatter over their count), raised to the radial residuals' own level
-    where they have the degrees of freedom to show it; s_t^2 the level
-    the residuals across the directions show, over their expected share
-    (the residual projector's trace).  The covariance is the least squares
+    where they have the degrees of freedom to show it; across u the
+    readings' own noise (tangential_var, (n,), per axis across u: the rows'
+    scatter across it over their count; none given: 0) plus s_t^2, the
+    placement: what the residuals across the directions show beyond that
+    noise, over their expected share (the residual projector's trace).  The
+    noise is the floor: the means' residuals across gravity have few
+    degrees of freedom (~3 on six faces) and can show nothing by chance,
+    and with s_t^2 alone the covariance then held no error across gravity.  The covariance is the least squares
     estimator's under that error (a sandwich: fit_poses is unweighted).
     Returns (cov, {"placement_deg", "radial", "tangential_dof",
     "radial_dof"})."""
@@ -275,8 +283,12 @@ def pose_mean_covariance(gm, tm, M, b, radial_var):
     if dof_r >= 3.0:  # the radial residuals against the readings' own noise, where they can show it
         radial = max(1.0, rr / max(float(np.trace(U @ Q @ Dr @ Q)), 1e-300))
     Dr = Dr * radial
-    st2 = max(rt - float(np.trace(P @ Q @ Dr @ Q)), 0.0) / max(dof_t, 1e-300)
-    Sigma = st2 * P + Dr
+    Dt = np.zeros((3 * n, 3 * n))
+    if tangential_var is not None:
+        for k in range(n):
+            Dt[3 * k:3 * k + 3, 3 * k:3 * k + 3] = tangential_var[k] * (np.eye(3) - np.outer(u[k], u[k]))
+    st2 = max(rt - float(np.trace(P @ Q @ (Dr + Dt) @ Q)), 0.0) / max(dof_t, 1e-300)
+    Sigma = st2 * P + Dt + Dr
     cov_mc = JtJi @ J.T @ Sigma @ J @ JtJi
     T = _mc_to_mb(M, b)
     g = float(np.median(np.linalg.norm(tm, axis=1)))
@@ -429,11 +441,21 @@ def fit_sphere(raw, R: float, sigma: float, min_rows: int = 10, start=None, what
             spread = direction_spread((raw[keep] - x[6:9]) @ _sym(x[:6]).T)
     if spread < SPHERE_RUNAWAY_EIG:
         swamp = "the motion's acceleration" if "accelerometer" in what else "the noise or a disturbance"
+        logged = direction_spread(raw[keep])
+        head = (f"the orientations do not determine {what}'s ellipsoid: the fit runs away (its corrected readings "
+                f"point within one plane: spread {spread:.2g} < {SPHERE_RUNAWAY_EIG:g}; the readings as logged "
+                f"{logged:.2g}, 1/3 for every direction): ")
+        if logged >= SPHERE_SPANNED_EIG:
+            # the logged readings are not planar: the turn was not about one axis, the orientations lean to one
+            # side of the sphere and the noise or the motion bends the fit off the far side it never saw
+            u = raw[keep] / np.maximum(np.linalg.norm(raw[keep], axis=1, keepdims=True), 1e-300)
+            lean = float(np.linalg.norm(u.mean(0)))
+            raise CalibrationError(
+                head + f"the readings lean to one side of the sphere (their directions' mean resultant {lean:.2f}; "
+                f"0 for every direction, 1 for one) and {swamp} bends the fit off the side they never reached; "
+                f"turn the sensor through more of the sphere, each axis pointing both up and down (or give poses)")
         raise CalibrationError(
-            f"the orientations do not determine {what}'s ellipsoid: the fit runs away (its corrected readings point "
-            f"within one plane: spread {spread:.2g} < {SPHERE_RUNAWAY_EIG:g}; the readings as logged "
-            f"{direction_spread(raw[keep]):.2g}, 1/3 for every direction): the "
-            f"sensor was turned about one axis, or {swamp} swamps the turn out of that plane; "
+            head + f"the sensor was turned about one axis, or {swamp} swamps the turn out of that plane; "
             f"log it turned about more than one axis (or give poses)")
     cov9 = s2 * np.linalg.inv(JtJ)
     blk = None
