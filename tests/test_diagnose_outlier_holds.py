@@ -20,7 +20,7 @@ from inclino.diagnose import posefree
 from inclino.formats.dataset import RawDataset
 
 SEEDS = range(12)
-SIZES = (0.0, 0.25e-4, 0.5e-4, 1e-4)  # g/degC on x: 0 .. 0.5 mg over the run's 10 degC
+SIZES = (0.0, 0.25e-4, 0.5e-4, 1e-4)  # g/degC on x: up to +-0.5 mg over the run's +-5 degC
 
 
 def _log(seed, settle_mg=6.0, quiet_offset_mg=0.0):
