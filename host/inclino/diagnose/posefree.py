@@ -129,6 +129,15 @@ class _PF:
             return out / cnt.reshape((-1,) + (1,) * (np.ndim(x) - 1))
         self.acc = mean(ds.acc) if self.has_acc else None
         self.mag = mean(ds.mag) if self.has_mag else None
+
+        self.own_var = {}
+        for tri, ok in (("acc", self.has_acc), ("mag", self.has_mag)):
+            if ok:
+                x = np.asarray(getattr(ds, tri), float)[sel]
+                d = x - getattr(self, tri)[lab]
+                ss = np.zeros((k, 3))
+                np.add.at(ss, lab, d * d)
+                self.own_var[tri] = ss / np.maximum(cnt - 1.0, 1.0)[:, None] / cnt[:, None]
         t = ds.columns.get("t_s")
         self.time_name = "time" if t is not None and np.ptp(t) > 0 else "reading order"
         self.t = mean(t) if t is not None and np.ptp(t) > 0 else mean(np.arange(n0, dtype=float))
@@ -514,9 +523,13 @@ def diagnose_posefree(ds: RawDataset, alpha: float = DEFAULT_ALPHA, folds: int =
 
     def _weights(r):
         """Per channel the residuals' robust spread; rows beyond the chi-square
-        point (Bonferroni) set aside."""
+        point (Bonferroni) set aside, each against the spread and its own
+        noise (_own_noise): a pose is set aside for a residual its own rows
+        do not allow, not for being a short stop whose mean its rows leave
+        uncertain."""
         s = np.maximum(1.4826 * np.median(np.abs(r - np.median(r, 0)), 0), 1e-12)
-        d2 = ((r / s) ** 2).sum(1)
+        own = _own_noise(mdl, state)
+        d2 = (r ** 2 / (s ** 2 + own)).sum(1)
         # the threshold follows the rows' own typical size (as calib.joint.robust_threshold): an effect the
         # model does not hold yet inflates many rows and must not make them outliers; a few spikes do not
         # move the median
@@ -1288,6 +1301,40 @@ def _shift_p(mdl, state, des, S, key, n, threshold) -> float:
     if threshold is None:
         return c
     return float(stats.f.sf(f_obs / c, n, max(dof / c, 1.0)))
+
+
+def _own_noise(mdl, state) -> np.ndarray:
+    """(k, channels): the variance each pose's invariant residuals have from
+    its own rows' scatter (pf.own_var: a pose's mean's variance per raw axis,
+    its rows' scatter about their mean over their count), carried through the
+    model at the state by differences.  A hold of hundreds of quiet rows has
+    next to none; a 16-row stop still settling after a turn (the MPU-6050
+    session's rows 8952-8968: twice the log's noise on each axis, its rows
+    trending) has 1.9 mg on |g|, more than the robust spread of the holds'
+    residuals (0.8-1.2 mg); its residual is 4.3 mg.  Judged against that
+    spread alone, such a stop sat
+    at the chi-square point, and whether it was set aside followed where the
+    median residual sat: out at 0 and 0.25 times an injected temperature
+    bias, in at 0.5 times, another such stop (rows 4749-4765) out at 1 time;
+    and the log's slow structure with it (the slow rivals' level 1.0 or 3.3)."""
+    pf = mdl.pf
+    x, th = mdl.unpack(state["v"]), state["theta"]
+    r0 = mdl.residuals(x, th)
+    out = np.zeros_like(r0)
+    for tri, var in pf.own_var.items():
+        raw = getattr(pf, tri)
+        sd = np.sqrt(var)
+        try:
+            for a in range(3):
+                if not np.any(sd[:, a]):
+                    continue
+                p = raw.copy()
+                p[:, a] += sd[:, a]
+                setattr(pf, tri, p)
+                out += (mdl.residuals(x, th) - r0) ** 2
+        finally:
+            setattr(pf, tri, raw)
+    return out
 
 
 def _weights_of(des):
