@@ -705,6 +705,19 @@ def _term_of(k: int) -> str:
             f"{'xyz'[min(i, j)]}-{'xyz'[max(i, j)]} cross-axis")
 
 
+def _error_modes(C, J):
+    """(lam, V, C^1/2) of the error J's rows take from coefficients of
+    covariance C: the eigenpairs of C^1/2 J^T J C^1/2 (each mode's share
+    of the summed squared error, and its coefficients' move in units of
+    C^1/2); None where C or the error is zero or not finite."""
+    ev, U = np.linalg.eigh(C)
+    if not np.all(np.isfinite(ev)) or ev.max() <= 0:
+        return None
+    half = U @ np.diag(np.sqrt(np.clip(ev, 0, None))) @ U.T
+    lam, V = np.linalg.eigh(half @ (J.T @ J) @ half)
+    return None if lam[-1] <= 0 else (lam, V, half)
+
+
 def _error_terms(lam, V, half, C, triads=None) -> tuple[list, float]:
     """(terms, share): the largest modes of a predicted error (eigenpairs
     lam, V of C^1/2 J^T J C^1/2, half = C^1/2), as many as hold 80 % of it,
@@ -747,14 +760,10 @@ def _azimuth_terms(cal, cov, w, dip) -> str | None:
     C = 0.5 * (C[:24, :24] + C[:24, :24].T)
     _, acc, mag = grid_readings(cal, w, dip)
     Ja, _ = attitude_sensitivity(cal, acc, mag)
-    ev, U = np.linalg.eigh(C)
-    if not np.all(np.isfinite(ev)) or ev.max() <= 0:
+    modes = _error_modes(C, Ja)
+    if modes is None:
         return None
-    half = U @ np.diag(np.sqrt(np.clip(ev, 0, None))) @ U.T
-    lam, V = np.linalg.eigh(half @ (Ja.T @ Ja) @ half)
-    if lam[-1] <= 0:
-        return None
-    names, share = _error_terms(lam, V, half, C, ("acc", "mag"))
+    names, share = _error_terms(*modes, C, ("acc", "mag"))
     if not names:
         return None
     from .ellipsoid import TERMS, terms_text
@@ -783,14 +792,10 @@ def _pose_coverage(J, cov, truth, info) -> str | None:
     from .ellipsoid import TERMS, coverage_hint, terms_text
 
     C = 0.5 * (np.asarray(cov, float) + np.asarray(cov, float).T)
-    ev, U = np.linalg.eigh(C)
-    if not np.all(np.isfinite(ev)) or ev.max() <= 0:
+    modes = _error_modes(C, J)
+    if modes is None:
         return None
-    half = U @ np.diag(np.sqrt(np.clip(ev, 0, None))) @ U.T
-    lam, V = np.linalg.eigh(half @ (J.T @ J) @ half)
-    if lam[-1] <= 0:
-        return None
-    names, share = _error_terms(lam, V, half, C)
+    names, share = _error_terms(*modes, C)
     if not names:
         return None
     names = sorted(names, key=TERMS.index)

@@ -345,27 +345,35 @@ def _geometric_refit(raw, R, sigma, M0, b0, robust):
     lie 9.6 mg from that ellipsoid and 5.9 mg from the start's (the first
     6 000 rows of mikoff's MPU-9150: 61 holds, every x at -0.27 g or more;
     fitted so, M and b come within 0.005 and 4 mg of the whole log's fit)."""
-    x = np.concatenate([M0[np.triu_indices(3)], b0])
-    keep = np.ones(len(raw), bool)
-    res = None
     try:
-        for loss in (("soft_l1", "linear") if robust else ("linear",)):
-            r0 = _geometric_residual(x, raw, R) / sigma
-            f_scale = 3.0 * max(1.0, 1.4826 * float(np.median(np.abs(r0)))) if loss == "soft_l1" else 1.0
-            res = optimize.least_squares(lambda p, a: _geometric_residual(p, a, R) / sigma, x, args=(raw[keep],),
-                                         loss=loss, f_scale=f_scale, x_scale="jac",
-                                         method="trf" if loss != "linear" else "lm")
-            x = res.x
-            if loss == "soft_l1":
-                r = _geometric_residual(x, raw, R) / sigma
-                thr, _ = robust_threshold(r ** 2, 1)
-                keep = r ** 2 <= thr
-                if keep.sum() < 10:
-                    return None
+        out = _robust_fit(np.concatenate([M0[np.triu_indices(3)], b0]), raw,
+                          lambda p, a: _geometric_residual(p, a, R) / sigma, robust)
     except (ValueError, np.linalg.LinAlgError):
         return None
-    if not np.all(np.isfinite(x)):
+    if out is None or not np.all(np.isfinite(out[0])):
         return None
+    return out
+
+
+def _robust_fit(x, raw, resid, robust, jac=None):
+    """(x, keep, res) of the least-squares fit of resid(p, rows) (in units
+    of the noise) from x: where robust, a soft-L1 pass (its scale 3x the
+    residuals' own robust size, not the nominal sigma), the rows beyond the
+    robust threshold dropped, then a plain pass on the rest; None when
+    fewer than 10 rows (the 9 parameters) are left."""
+    keep = np.ones(len(raw), bool)
+    res = None
+    for loss in (("soft_l1", "linear") if robust else ("linear",)):
+        f_scale = 3.0 * max(1.0, 1.4826 * float(np.median(np.abs(resid(x, raw))))) if loss == "soft_l1" else 1.0
+        res = optimize.least_squares(resid, x, jac=jac if jac is not None else "2-point", args=(raw[keep],),
+                                     loss=loss, f_scale=f_scale, x_scale="jac",
+                                     method="trf" if loss != "linear" else "lm")
+        x = res.x
+        if loss == "soft_l1":
+            thr, _ = robust_threshold(resid(x, raw) ** 2, 1)
+            keep = resid(x, raw) ** 2 <= thr
+            if keep.sum() < 10:
+                return None
     return x, keep, res
 
 
@@ -399,25 +407,13 @@ def fit_sphere(raw, R: float, sigma: float, min_rows: int = 10, start=None, what
         M0, b0 = ellipsoid_algebraic(raw, R, what)
     else:
         M0, b0 = start
-    x = np.concatenate([M0[np.triu_indices(3)], b0])
-    keep = np.ones(n, bool)
-    res = None
     robust = n >= MIN_ROWS_REJECT  # fewer rows cannot tell an outlier from the model's misfit: least squares alone
-    for loss in (("soft_l1", "linear") if robust else ("linear",)):
-        # the soft-L1 scale follows the residuals' own robust size (3 sigma), not the nominal sigma
-        r0 = _sphere_residual(x, raw, R) / sigma
-        f_scale = 3.0 * max(1.0, 1.4826 * float(np.median(np.abs(r0)))) if loss == "soft_l1" else 1.0
-        res = optimize.least_squares(lambda p, a: _sphere_residual(p, a, R) / sigma, x,
-                                     jac=lambda p, a: _sphere_jac(p, a, R) / sigma, args=(raw[keep],),
-                                     loss=loss, f_scale=f_scale, x_scale="jac",
-                                     method="trf" if loss != "linear" else "lm")
-        x = res.x
-        if loss == "soft_l1":
-            r = _sphere_residual(x, raw, R) / sigma
-            thr, _ = robust_threshold(r ** 2, 1)
-            keep = r ** 2 <= thr
-            if keep.sum() < 10:  # 9 parameters
-                raise CalibrationError("too many readings rejected as outliers to fit the triad")
+    fitted = _robust_fit(np.concatenate([M0[np.triu_indices(3)], b0]), raw,
+                         lambda p, a: _sphere_residual(p, a, R) / sigma, robust,
+                         jac=lambda p, a: _sphere_jac(p, a, R) / sigma)
+    if fitted is None:
+        raise CalibrationError("too many readings rejected as outliers to fit the triad")
+    x, keep, res = fitted
     r = res.fun
     dof = max(1, int(keep.sum()) - 9)
     s2 = float((r ** 2).sum() / dof)
