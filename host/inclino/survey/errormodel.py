@@ -431,8 +431,9 @@ def run_covariance(cal, cov, md, inc, azi, tf, dip, field_nT, gravity=1.0, decli
     The toolface-averaged combination terms (`project`) describe a probe
     that turns at random between stations; a run at one toolface adds the
     X/Y errors up along the hole instead, beyond those terms' ellipse (the
-    survey benchmark's one-toolface runs, `inclino bench survey`).  Here each station's error is the calibration's at the
-    attitude it was surveyed in.  Position: the balanced-tangential first
+    survey benchmark's one-toolface runs, `inclino bench survey`).  Here
+    each station's error is the calibration's at the attitude it was
+    surveyed in.  Position: the balanced-tangential first
     order of minimum curvature (as ISCWSA propagates), course j moving
     station K (K >= j) by dMD_j (e_{j-1} + e_j) / 2, e the tool axis's
     error; the first station (the tie-in) is taken as exact, its attitude's
