@@ -161,6 +161,16 @@ def test_cli_uses_the_listing_toolface_and_says_so(calibration, tmp_path, capsys
     probe_avg = re.search(r"the probe's terms ([0-9.]+) x ([0-9.]+) m", out).groups()
     # the listing's toolface moves the probe's ellipse off the toolface-averaged one
     assert probe_fixed != probe_avg, (probe_fixed, probe_avg)
+    # a model without the calibration: a listing at one toolface is told what the averaged terms assume
+    named = ["trajectory", str(p), "--declination", "0", "--dip", str(DIP), "--field", str(FIELD), "--uncertainty",
+             "--tool-model", "iscwsa-mwd-rev5", "-o", str(tmp_path / "t.csv")]
+    write({"md_m": md, "inc_deg": inc, "azi_deg": azi, "tf_deg": 30.0 + np.linspace(-5, 5, len(md))})
+    assert cli.main(named) == 0
+    out = capsys.readouterr().out
+    assert "toolfaces stay within about 3 deg" in out and "--cal CAL.json propagates" in out, out
+    write({"md_m": md, "inc_deg": inc, "azi_deg": azi, "tf_deg": np.linspace(0, 350, len(md))})
+    assert cli.main(named) == 0
+    assert "toolfaces stay within" not in capsys.readouterr().out
     # repeats at one depth turned between them keep no toolface
     sv = wp._merge_repeats(wp.Survey(np.array([0.0, 30.0, 30.0]), np.array([0.0, 1.0, 1.0]),
                                      np.array([0.0, 60.0, 60.0]), {"tf_deg": np.array([0.0, 10.0, 100.0])}, {}))

@@ -230,6 +230,10 @@ def load_toolmodel(path: str):
     return b.inclino
 
 
+# a listing whose toolfaces' circular spread is within this is read as surveyed at one toolface
+ONE_TOOLFACE_DEG = 30.0
+
+
 @dataclass
 class ErrorModel:
     """What `trajectory --uncertainty` and `compare` propagate."""
@@ -336,9 +340,21 @@ class ErrorModel:
 
     def toolface_note(self, tf, n: int) -> str | None:
         """What the listing's toolfaces made of the probe's sensor terms (a
-        model from a calibration only)."""
+        model from a calibration), or, for a model without the calibration
+        whose listing keeps one toolface, what its toolface-averaged terms
+        assume and what would do better."""
         if self.calibration is None or self.probe is None:
-            return None
+            t = np.radians(np.asarray(tf, float)) if tf is not None and len(tf) == n and n > 1 else None
+            if t is None or not np.all(np.isfinite(t)):
+                return None
+            spread = math.degrees(math.sqrt(-2.0 * math.log(max(min(float(np.hypot(np.cos(t).mean(), np.sin(
+                t).mean())), 1.0), 1e-300))))
+            if spread > ONE_TOOLFACE_DEG:
+                return None
+            return (f"the listing's toolfaces stay within about {spread:.0f} deg (circular spread) of one another: the "
+                    "model's sensor terms are averaged over the toolface, which holds for a probe turning between "
+                    "stations; at one toolface the X/Y errors add up along the hole and the ellipse can be too "
+                    "small (--cal CAL.json propagates the calibration at each station's own toolface)")
         if self.at_toolface(tf, n):
             return ("the probe's sensor terms: its calibration's covariance at each station's own attitude and "
                     "toolface (the listing's tf_deg), one error for the whole run")
