@@ -571,8 +571,7 @@ def _unit_fix(ds, triad: str, guesses: list, counts: str, ratio: float) -> str:
         from inclino.formats import sensor
 
         same = sensor.unit_size(declared, triad)
-        units = [u for u in (("g", "m/s2", "mg") if triad == "acc" else ("uT", "G", "mG", "nT"))
-                 if same is None or abs(sensor.unit_size(u, triad) / same - 1.0) > 1e-9]
+        units = _other_units(triad, same)
         if same is not None and np.isfinite(ratio) and ratio > 0:
             units.sort(key=lambda u: abs(math.log(ratio * sensor.unit_size(u, triad) / same)))
         said = [f"unit = \"{u}\"" for u in units]
@@ -799,6 +798,15 @@ def _units_mag(ds, rows, rep):
         {**fig, "looks_like": guesses}))
 
 
+def _other_units(triad: str, same) -> list:
+    """The units of a triad's kind (a size each, not counts) other than the
+    declared one, whose size is `same` (None: every one)."""
+    from inclino.formats import sensor
+
+    return [u for u in (("g", "m/s2", "mg") if triad == "acc" else ("uT", "G", "mG", "nT"))
+            if same is None or abs(sensor.unit_size(u, triad) / same - 1.0) > 1e-9]
+
+
 def _magnet_text(ds, R: float, F, guesses: list, counts: str):
     """(text, figures) for a field too strong for the site's that no unit
     explains, else None: |b| (a sphere's radius) beyond the geomagnetic
@@ -820,12 +828,11 @@ def _magnet_text(ds, R: float, F, guesses: list, counts: str):
     if same is None:
         return None
     nearest = None
-    for u in ("uT", "G", "mG", "nT"):
+    for u in _other_units("mag", same):
         x = R * sensor.unit_size(u, "mag") / same
-        if abs(sensor.unit_size(u, "mag") / same - 1.0) > 1e-9:  # the units other than the declared one
-            d = abs(math.log(x / 45_000.0))
-            if nearest is None or d < nearest[0]:
-                nearest = (d, u, x)
+        d = abs(math.log(x / 45_000.0))
+        if nearest is None or d < nearest[0]:
+            nearest = (d, u, x)
     if nearest is None or math.exp(nearest[0]) < MAG_UNIT_TOL:
         return None
     _, u, x = nearest
