@@ -398,7 +398,7 @@ def undetermined_text(ds, labels, count, t: str, what: str) -> str | None:
     in the x-z and y-z planes leave the x-y cross-axis term free: a phone's
     six-position accelerometer log was refused as "readings on no
     ellipsoid" (its moving rows, fitted with the holds, were)."""
-    from inclino.calib.ellipsoid import coverage_hint, free_terms, terms_text
+    from inclino.calib.ellipsoid import coverage_hint, free_terms, free_text, terms_text
 
     v = means(_centred(ds, t), labels, count)
     if len(v) <= 9:
@@ -406,10 +406,9 @@ def undetermined_text(ds, labels, count, t: str, what: str) -> str | None:
                 f"(9 terms)")
     X, u = _hold_design(v)
     lev = _leverages(X)
-    sv = np.linalg.svd(X, compute_uv=False)
-    if float(np.max(lev)) <= HOLDS_MAX_LEVERAGE and sv[-1] >= HOLDS_FREE_SV * sv[0]:
-        return None
     terms, ratio, free = free_terms(X, HOLDS_FREE_SV)
+    if float(np.max(lev)) <= HOLDS_MAX_LEVERAGE and ratio >= HOLDS_FREE_SV:
+        return None
     j = int(np.argmax(lev))
     d = u[j]
     big = int(np.argmax(np.abs(d)))
@@ -420,11 +419,8 @@ def undetermined_text(ds, labels, count, t: str, what: str) -> str | None:
     k = int(np.argmax(np.abs(u).mean(0)))
     off = float(np.degrees(np.arccos(np.clip(np.abs(u[:, k]).min(), 0.0, 1.0))))
     one = f"; every one within {off:.2g} deg of the {'xyz'[k]} axis" if off < ONE_AXIS_DEG else ""
-    sv_text = (f"{free} combinations of them with singular values below {HOLDS_FREE_SV:g} of the largest, the "
-               f"least {ratio:.2g}" if free > 1 else
-               f"the least singular value of their directions {ratio:.2g} of the largest")
     return (f"the {count} holds found in the readings leave {what}'s {terms_text(terms)[4:]} nearly free ("
-            + sv_text + one + lone + ")"
+            + free_text(free, ratio, HOLDS_FREE_SV) + one + lone + ")"
             + f": add holds with {coverage_hint(terms, u, t == 'acc')}")
 
 

@@ -79,6 +79,16 @@ def free_terms(X, free_sv: float) -> tuple[list, float, int]:
     return [TERMS[i] for i in (named if len(named) == 1 else sorted(named))], float(sv[-1] / sv[0]), k
 
 
+def free_text(free: int, ratio: float, free_sv: float) -> str:
+    """How nearly free the terms free_terms named are, for a refusal: the
+    count of combinations below free_sv of the largest singular value and
+    the least ratio, or the least ratio alone when one combination is."""
+    if free > 1:
+        return (f"{free} combinations of them with singular values below {free_sv:g} of the largest, the least "
+                f"{ratio:.2g}")
+    return f"the least singular value of their directions {ratio:.2g} of the largest"
+
+
 def terms_text(terms) -> str:
     """'the z scale term', 'the y scale and y-z cross-axis terms', ..."""
     if len(terms) == 1:
@@ -144,13 +154,12 @@ def rows_coverage(raw, what: str) -> str | None:
     raw = np.asarray(raw, float)
     if len(raw) < 10:
         return None
-    terms, ratio, free = free_terms(direction_design(raw)[0], FREE_SV)
+    X, u = direction_design(raw)
+    terms, ratio, free = free_terms(X, FREE_SV)
     if ratio >= FREE_SV:
         return None
-    sv = (f"{free} combinations of them with singular values below {FREE_SV:g} of the largest, the least {ratio:.2g}"
-          if free > 1 else f"the least singular value of their directions {ratio:.2g} of the largest")
-    return (f"the {len(raw)} readings' directions leave {what}'s {terms_text(terms)[4:]} nearly free ({sv}): add "
-            f"readings with {coverage_hint(terms, direction_design(raw)[1], 'acceler' in what)}")
+    return (f"the {len(raw)} readings' directions leave {what}'s {terms_text(terms)[4:]} nearly free "
+            f"({free_text(free, ratio, FREE_SV)}): add readings with {coverage_hint(terms, u, 'acceler' in what)}")
 
 
 def _design(raw):
