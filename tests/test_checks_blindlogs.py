@@ -195,3 +195,31 @@ def test_a_data_row_read_as_the_header_is_said(tmp_path):
     (tmp_path / "b.csv").write_text("0,1,2\n" + "".join(f"{x:.5f},{y:.5f},{z:.5f}\n" for x, y, z in a))
     ds, rep = importlog.import_log(str(tmp_path / "b.csv"), _numbered("true"))
     assert len(ds) == 200 and not any("a data row" in n for n in rep.notes)
+
+
+def test_a_data_row_of_whole_counts_read_as_the_header_is_said(tmp_path):
+    # a magnetometer logged in whole counts without a header line ("-163 64 1": no fraction, no exponent), read
+    # with header = true and the columns by number: its first row was taken for the names in silence; whole
+    # numbers are a header only as column indices (0, 1, 2 or 1, 2, 3)
+    rng = np.random.default_rng(3)
+    m = rng.normal(size=(200, 3))
+    m = np.rint(170.0 * m / np.linalg.norm(m, axis=1)[:, None] + [-69, 85, -130]).astype(int)
+    (tmp_path / "m.txt").write_text("".join(f"{x} {y} {z}\n" for x, y, z in m))
+    desc = sensor.from_toml('''name = "whole counts"
+[log]
+header = true
+rate_hz = 10
+[magnetometer]
+columns = [1, 2, 3]
+unit = "counts"
+lsb = "0.1 uT"
+axes = "x = mx, y = my, z = mz"
+''')
+    ds, rep = importlog.import_log(str(tmp_path / "m.txt"), desc)
+    assert len(ds) == 199
+    (note,) = [n for n in rep.notes if "a data row" in n]
+    assert f"{m[0, 0]}, {m[0, 1]}, {m[0, 2]}" in note and "header = false" in note
+    # column indices from 1 are a header, as from 0
+    (tmp_path / "i.txt").write_text("1 2 3\n" + "".join(f"{x} {y} {z}\n" for x, y, z in m))
+    ds, rep = importlog.import_log(str(tmp_path / "i.txt"), desc)
+    assert len(ds) == 200 and not any("a data row" in n for n in rep.notes)

@@ -167,12 +167,22 @@ def _index(col, names, what, path, lineno):
 
 
 def _header_is_data(names) -> bool:
-    """Whether a header line is a row of readings: every name a number and
-    at least one with a fraction or an exponent (a header of column indices,
-    0, 1, 2 as pandas writes one, names its columns with whole numbers)."""
+    """Whether a header line is a row of readings: every name a number, and
+    either one at least with a fraction or an exponent, or whole numbers that
+    are no run of column indices (0, 1, 2 as pandas writes one, or 1, 2, 3:
+    each one more than the last, from 0 or 1).  A magnetometer logged in
+    whole counts, "-163 64 1" (aleksandrbazhin/ellipsoid_fit_python's
+    mag_out.txt), has no fraction, and its first row had been read as the
+    names and left out in silence."""
     cells = [n.strip() for n in names if n.strip()]
-    return len(cells) >= 2 and all(_is_number(c) for c in cells) and \
-        any(("." in c or "e" in c.lower()) and math.isfinite(float(c)) for c in cells)
+    if len(cells) < 2 or not all(_is_number(c) for c in cells):
+        return False
+    x = [float(c) for c in cells]
+    if not all(math.isfinite(v) for v in x):
+        return any(("." in c or "e" in c.lower()) and math.isfinite(v) for c, v in zip(cells, x))
+    if any("." in c or "e" in c.lower() for c in cells):
+        return True
+    return not (x[0] in (0.0, 1.0) and all(b - a == 1.0 for a, b in zip(x, x[1:])))
 
 
 def _is_number(text: str) -> bool:
