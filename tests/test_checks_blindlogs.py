@@ -4,8 +4,10 @@ Unix time and declared in a unit 1000x too large, which neither the row rate
 nor the turning tells on a log read at rest, and a magnetometer beside a
 magnet, whose field no unit makes the earth's."""
 import numpy as np
+import pytest
 
 from inclino import checks
+from inclino.cli import main
 from inclino.formats import importlog, sensor
 
 
@@ -223,3 +225,39 @@ axes = "x = mx, y = my, z = mz"
     (tmp_path / "i.txt").write_text("1 2 3\n" + "".join(f"{x} {y} {z}\n" for x, y, z in m))
     ds, rep = importlog.import_log(str(tmp_path / "i.txt"), desc)
     assert len(ds) == 200 and not any("a data row" in n for n in rep.notes)
+
+
+@pytest.mark.parametrize("acc_cols, mag_cols, named", [
+    ("[1, 2, 3]", "[1, 2, 3]", "[magnetometer].columns[1] and [accelerometer].columns[1] both read column 1"),
+    ("[1, 2, 3]", "[4, 5, 5]", "[magnetometer].columns[3] and [magnetometer].columns[2] both read column 5"),
+    ('["ax", "ay", "az"]', '["mx", "ay", "mz"]', "both read column 2 ('ay')"),
+])
+def test_one_column_read_as_two_sensor_axes_is_refused(tmp_path, capsys, acc_cols, mag_cols, named):
+    # a magnetometer's columns copied into the accelerometer's table imported with exit 0, the "accelerometer"
+    # the magnetometer itself (its dip -90 deg on every row); a column typed twice made one axis a copy of another
+    rng = np.random.default_rng(4)
+    g = rng.normal(size=(100, 3))
+    g /= np.linalg.norm(g, axis=1)[:, None]
+    b = 30.0 * rng.normal(size=(100, 3))
+    header = "ax,ay,az,mx,my,mz\n" if "ax" in acc_cols else ""
+    (tmp_path / "log.csv").write_text(header + "".join(
+        ",".join(f"{v:.5f}" for v in (*a, *m)) + "\n" for a, m in zip(g, b)))
+    (tmp_path / "d.toml").write_text(f'''name = "six columns"
+[log]
+header = {"true" if header else "false"}
+rate_hz = 10
+[accelerometer]
+columns = {acc_cols}
+unit = "g"
+reads = "up"
+axes = "x = ax, y = ay, z = az"
+[magnetometer]
+columns = {mag_cols}
+unit = "uT"
+axes = "x = mx, y = my, z = mz"
+''')
+    rc = main(["import", str(tmp_path / "log.csv"), "--sensor", str(tmp_path / "d.toml"),
+               "-o", str(tmp_path / "run.csv")])
+    err = capsys.readouterr().err
+    assert rc == 2 and err.count("\n") == 1 and named in err and "one column is one sensor axis" in err, err
+    assert not (tmp_path / "run.csv").exists()

@@ -448,11 +448,21 @@ def _import(lines, path: str, desc: SensorDescription, static, drop_bad=False,
                      f"header line, [log] header = false (the columns by number)")
     _check_poses(desc, path)
     wanted = {}  # canonical name -> (index, what)
+    axis_of = {}  # a log column -> the sensor axis that reads it
     for t in desc.triads:
         cols = ACC_COLS if t.kind == "acc" else MAG_COLS
         for k, c in enumerate(t.columns):
-            wanted[f"_{cols[k]}"] = _index(c, names, f"[{'accelerometer' if t.kind == 'acc' else 'magnetometer'}]"
-                                                      f".columns[{k + 1}]", path, header_line)
+            what = f"[{'accelerometer' if t.kind == 'acc' else 'magnetometer'}].columns[{k + 1}]"
+            j = _index(c, names, what, path, header_line)
+            if j in axis_of:
+                # one column read as two sensor axes (a triad's columns copied into the other's table, or one
+                # typed twice): the magnetometer read as the accelerometer too had imported, its dip -90 deg on
+                # every row; a triad with a column twice, its third axis a copy of its second
+                col = f"column {j + 1}" + (f" ({names[j].strip()!r})" if names is not None else "")
+                raise DataError(f"{desc.path or 'sensor description'}: {what} and {axis_of[j]} both read {col} of "
+                                f"{path}: one column is one sensor axis; give each axis its own column")
+            axis_of[j] = what
+            wanted[f"_{cols[k]}"] = j
     if desc.time is not None:
         wanted["t_s"] = _index(desc.time, names, "[log].time", path, header_line)
     if desc.temperature is not None:
