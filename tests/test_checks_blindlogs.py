@@ -3,6 +3,8 @@ showed (docs/dataset.md, "Checks before any fit"): a time column stamped in
 Unix time and declared in a unit 1000x too large, which neither the row rate
 nor the turning tells on a log read at rest, and a magnetometer beside a
 magnet, whose field no unit makes the earth's."""
+from pathlib import Path
+
 import numpy as np
 import pytest
 
@@ -261,3 +263,31 @@ axes = "x = mx, y = my, z = mz"
     err = capsys.readouterr().err
     assert rc == 2 and err.count("\n") == 1 and named in err and "one column is one sensor axis" in err, err
     assert not (tmp_path / "run.csv").exists()
+
+
+@pytest.mark.parametrize("encoding", ["utf-16", "utf-16-be", "utf-32"])
+def test_a_log_in_utf16_or_utf32_with_its_mark_imports_as_in_utf8(tmp_path, encoding):
+    # a serial log redirected by Windows PowerShell is UTF-16 with a byte-order mark: it was refused as "not UTF-8
+    # text (byte 0xFF at column 1)"; the mark says how to read it, and the rows are the UTF-8 log's
+    xio = Path(__file__).parent / "data" / "real" / "xio_fusion"
+    text = (xio / "sensor_data.csv").read_text(encoding="utf-8")
+    data = text.encode(encoding)
+    if encoding == "utf-16-be":
+        data = b"\xfe\xff" + data  # the big-endian codec writes no mark of its own
+    (tmp_path / "log.csv").write_bytes(data)
+    desc = sensor.load(str(xio / "sensor.toml"))
+    ds, _ = importlog.import_log(str(tmp_path / "log.csv"), desc)
+    ref, _ = importlog.import_log(str(xio / "sensor_data.csv"), desc)
+    assert len(ds) == len(ref) == 13514
+    for c in ("t_s", "ax_g", "ay_g", "az_g", "mx_nT", "my_nT", "mz_nT"):
+        assert np.array_equal(ds.columns[c], ref.columns[c]), c
+
+
+def test_a_utf16_log_cut_inside_a_character_is_one_line_naming_utf16(tmp_path, capsys):
+    xio = Path(__file__).parent / "data" / "real" / "xio_fusion"
+    data = (xio / "sensor_data.csv").read_text(encoding="utf-8").encode("utf-16")
+    (tmp_path / "log.csv").write_bytes(data[:20001])  # an odd byte count: the last character cut in half
+    rc = main(["import", str(tmp_path / "log.csv"), "--sensor", str(xio / "sensor.toml"),
+               "-o", str(tmp_path / "r.csv")])
+    err = capsys.readouterr().err
+    assert rc == 2 and err.count("\n") == 1 and "not UTF-16 text" in err and "Traceback" not in err, err

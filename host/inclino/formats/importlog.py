@@ -365,7 +365,13 @@ def import_log(path: str, desc: SensorDescription, static: bool | None = None,
 def _read(path: str, desc: SensorDescription, static, drop_bad_rows, absolute_time: bool = False):
     try:
         size = os.path.getsize(path)
-        f = open(path, newline="", encoding="utf-8-sig")
+        with open(path, "rb") as raw:
+            bom = raw.read(4)
+        # text whose byte-order mark says UTF-16 or UTF-32 is read as such: a serial log redirected by Windows
+        # PowerShell ("> log.csv") is UTF-16 with its mark, and was refused as "not UTF-8 text (byte 0xFF ...)"
+        encoding = ("utf-32" if bom in (b"\xff\xfe\x00\x00", b"\x00\x00\xfe\xff") else
+                    "utf-16" if bom[:2] in (b"\xff\xfe", b"\xfe\xff") else "utf-8-sig")
+        f = open(path, newline="", encoding=encoding)
     except OSError as e:
         raise DataError(f"cannot read {path}: {e.strerror}") from None
     if size > MAX_LOG_BYTES:
