@@ -291,3 +291,23 @@ def test_a_utf16_log_cut_inside_a_character_is_one_line_naming_utf16(tmp_path, c
                "-o", str(tmp_path / "r.csv")])
     err = capsys.readouterr().err
     assert rc == 2 and err.count("\n") == 1 and "not UTF-16 text" in err and "Traceback" not in err, err
+
+
+@pytest.mark.parametrize("sep, line, fix", [
+    (",", 'delimiter = ";"', '[log] delimiter = ","'),
+    (",", 'decimal = ","', '[log] decimal = "." (a decimal comma makes the comma no delimiter)'),
+    (";", 'delimiter = ","', '[log] delimiter = ";"'),
+    ("\t", 'delimiter = ";"', '[log] delimiter = "\\t"'),
+])
+def test_a_header_split_at_the_wrong_delimiter_is_named_with_the_delimiter(tmp_path, capsys, sep, line, fix):
+    # x-io's comma-separated log declared delimiter = ";" was told "no column 'Accelerometer X (g)'" and shown its
+    # whole header line as its one column; declared decimal = "," its names were split at their spaces
+    xio = Path(__file__).parent / "data" / "real" / "xio_fusion"
+    rows = (xio / "sensor_data.csv").read_text().splitlines()[:200]
+    (tmp_path / "log.csv").write_text("\n".join(r.replace(",", sep) for r in rows) + "\n")
+    (tmp_path / "d.toml").write_text((xio / "sensor.toml").read_text().replace("[log]\n", f"[log]\n{line}\n", 1))
+    rc = main(["import", str(tmp_path / "log.csv"), "--sensor", str(tmp_path / "d.toml"),
+               "-o", str(tmp_path / "r.csv")])
+    err = capsys.readouterr().err
+    assert rc == 2 and err.count("\n") == 1 and fix in err, err
+    assert "the header line split at" in err

@@ -166,6 +166,36 @@ def _index(col, names, what, path, lineno):
                        f"the columns by number)" if mostly else ""))
 
 
+DELIMITER_NAMES = {",": "commas", ";": "semicolons", "\t": "tabs", "whitespace": "whitespace"}
+
+
+def _delimiter_slip(first: str, delim: str, names, desc: SensorDescription, path: str, lineno: int) -> None:
+    """A header line split at the wrong delimiter: a column the description
+    names is not among the names as split, but split at another delimiter
+    the line names every column the description names.  One error line with
+    the delimiter to write: a comma-separated log declared delimiter = ";"
+    was told "no column 'Accelerometer X (g)'" and listed its one column,
+    the whole line; declared decimal = "," (which makes the comma no
+    delimiter) its names were split at their spaces."""
+    wanted = [c for t in desc.triads for c in t.columns if isinstance(c, str)]
+    wanted += [c for c in (desc.time, desc.temperature) if isinstance(c, str)]
+    have = {n.strip() for n in names}
+    if not wanted or all(c.strip() in have for c in wanted):
+        return
+    for d in (",", ";", "\t", "whitespace"):
+        if d == delim:
+            continue
+        other = {n.strip() for n in _split(first, d)}
+        if all(c.strip() in other for c in wanted):
+            miss = next(c for c in wanted if c.strip() not in have)
+            fix = f'[log] delimiter = "{d}"' if d != "\t" else '[log] delimiter = "\\t"'
+            if d == "," and desc.decimal == ",":
+                fix = '[log] decimal = "." (a decimal comma makes the comma no delimiter)'
+            raise DataError(f"{path}:{lineno}: the header line split at {DELIMITER_NAMES.get(delim, repr(delim))} "
+                            f"has no column {miss!r}, but split at {DELIMITER_NAMES[d]} it names every column the "
+                            f"description gives: the log is separated by {DELIMITER_NAMES[d]}; {fix}")
+
+
 def _header_is_data(names) -> bool:
     """Whether a header line is a row of readings: every name a number, and
     either one at least with a fraction or an exponent, or whole numbers that
@@ -452,6 +482,8 @@ def _import(lines, path: str, desc: SensorDescription, static, drop_bad=False,
         notes.append(f"the line read as the header ({path}:{header_line}: {', '.join(shown[:6])}"
                      f"{' ...' if len(shown) > 6 else ''}) is numbers: a data row, not imported; if the log has no "
                      f"header line, [log] header = false (the columns by number)")
+    if names is not None:
+        _delimiter_slip(first, delim, names, desc, path, header_line)
     _check_poses(desc, path)
     wanted = {}  # canonical name -> (index, what)
     axis_of = {}  # a log column -> the sensor axis that reads it
