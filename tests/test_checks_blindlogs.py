@@ -311,3 +311,23 @@ def test_a_header_split_at_the_wrong_delimiter_is_named_with_the_delimiter(tmp_p
     err = capsys.readouterr().err
     assert rc == 2 and err.count("\n") == 1 and fix in err, err
     assert "the header line split at" in err
+
+
+@pytest.mark.parametrize("preamble, skip, fix", [("", 1, "skip_rows = 0"),
+                                                 ("logger v1.2\nstarted\n", 3, "skip_rows = 2")])
+def test_skip_rows_that_skip_the_header_line_are_named(tmp_path, capsys, preamble, skip, fix):
+    # x-io's log with skip_rows = 1 read its first data row as the names and was told to number its columns
+    xio = Path(__file__).parent / "data" / "real" / "xio_fusion"
+    rows = (xio / "sensor_data.csv").read_text().splitlines()[:200]
+    (tmp_path / "log.csv").write_text(preamble + "\n".join(rows) + "\n")
+    desc = (xio / "sensor.toml").read_text()
+    (tmp_path / "d.toml").write_text(desc.replace("[log]\n", f"[log]\nskip_rows = {skip}\n", 1))
+    rc = main(["import", str(tmp_path / "log.csv"), "--sensor", str(tmp_path / "d.toml"),
+               "-o", str(tmp_path / "r.csv")])
+    err = capsys.readouterr().err
+    assert rc == 2 and err.count("\n") == 1 and "skips this line, the header line" in err, err
+    assert err.rstrip().endswith(fix), err
+    # the skip_rows it names imports the log
+    (tmp_path / "d.toml").write_text(desc.replace("[log]\n", f"[log]\n{fix}\n", 1))
+    ds, _ = importlog.import_log(str(tmp_path / "log.csv"), sensor.load(str(tmp_path / "d.toml")))
+    assert len(ds) == 199

@@ -196,6 +196,26 @@ def _delimiter_slip(first: str, delim: str, names, desc: SensorDescription, path
                             f"description gives: the log is separated by {DELIMITER_NAMES[d]}; {fix}")
 
 
+def _skipped_header(skipped: list, names, desc: SensorDescription, path: str, lineno: int) -> None:
+    """[log] skip_rows that skipped the header line: a column the description
+    names is not in the line read as the header, but a line skip_rows skipped
+    names every column the description gives.  One error line with the
+    skip_rows to write (x-io's log with skip_rows = 1 was told its header
+    line was missing, to number its columns)."""
+    wanted = [c for t in desc.triads for c in t.columns if isinstance(c, str)]
+    wanted += [c for c in (desc.time, desc.temperature) if isinstance(c, str)]
+    have = {n.strip() for n in names}
+    if not wanted or all(c.strip() in have for c in wanted):
+        return
+    for k, (no, line) in enumerate(skipped):
+        d = desc.delimiter if desc.delimiter is not None else _sniff(line, desc.decimal)
+        cells = {n.strip() for n in _split(line, "\t" if d == "\\t" else d)}
+        if all(c.strip() in cells for c in wanted):
+            raise DataError(f"{path}:{no}: [log] skip_rows = {desc.skip_rows} skips this line, the header line "
+                            f"that names the columns the description gives (line {lineno} was read as the header "
+                            f"instead); skip_rows = {k}")
+
+
 def _header_is_data(names) -> bool:
     """Whether a header line is a row of readings: every name a number, and
     either one at least with a fraction or an exponent, or whole numbers that
@@ -414,9 +434,12 @@ def _read(path: str, desc: SensorDescription, static, drop_bad_rows, absolute_ti
 
 def _import(lines, path: str, desc: SensorDescription, static, drop_bad=False,
             absolute_time: bool = False) -> tuple[RawDataset, ImportReport]:
+    skipped = []  # the lines skip_rows skipped, with their numbers: one of them may be the header line
     for _ in range(desc.skip_rows):
-        if next(lines, None) is None:
+        line = next(lines, None)
+        if line is None:
             break
+        skipped.append((lines.lineno, line.rstrip("\r\n")))
     comment = desc.comment or None
     first = None
     log_meta = {}  # a canonical header's '# key=value' lines before the names: the site's field, dip, ...
@@ -483,6 +506,7 @@ def _import(lines, path: str, desc: SensorDescription, static, drop_bad=False,
                      f"{' ...' if len(shown) > 6 else ''}) is numbers: a data row, not imported; if the log has no "
                      f"header line, [log] header = false (the columns by number)")
     if names is not None:
+        _skipped_header(skipped, names, desc, path, header_line)
         _delimiter_slip(first, delim, names, desc, path, header_line)
     _check_poses(desc, path)
     wanted = {}  # canonical name -> (index, what)
