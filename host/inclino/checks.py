@@ -2728,7 +2728,7 @@ def _time_unit(ds, rep):
     elif temp_rate is not None and temp_rate > TEMP_RATE_MAX_C_S:
         problem, sign = (f"the temperature changes at a median {temp_rate:.3g} degC/s along its runs of rows "
                          f"({rows_hz:.3g} rows/s): faster than a sensor's temperature moves (up to "
-                         f"{TEMP_RATE_MAX_C_S:g} degC/s)"), 1
+                         f"{TEMP_RATE_MAX_C_S:g} degC/s), unless [log] temperature is no temperature"), 1
     elif rows_hz > ROW_RATE_HZ[1]:
         problem, sign = (f"{rows_hz:.3g} rows/s (a row every {1e6 / rows_hz:.3g} us): faster than a logger writes "
                          f"a row per sample (up to {ROW_RATE_HZ[1]:.0f} rows/s)"), 1
