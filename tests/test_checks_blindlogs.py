@@ -3,9 +3,13 @@ showed (docs/dataset.md, "Checks before any fit"): a time column stamped in
 Unix time and declared in a unit 1000x too large, which neither the row rate
 nor the turning tells on a log read at rest, and a magnetometer beside a
 magnet, whose field no unit makes the earth's."""
+from pathlib import Path
+
 import numpy as np
+import pytest
 
 from inclino import checks
+from inclino.cli import main
 from inclino.formats import importlog, sensor
 
 
@@ -195,3 +199,135 @@ def test_a_data_row_read_as_the_header_is_said(tmp_path):
     (tmp_path / "b.csv").write_text("0,1,2\n" + "".join(f"{x:.5f},{y:.5f},{z:.5f}\n" for x, y, z in a))
     ds, rep = importlog.import_log(str(tmp_path / "b.csv"), _numbered("true"))
     assert len(ds) == 200 and not any("a data row" in n for n in rep.notes)
+
+
+def test_a_data_row_of_whole_counts_read_as_the_header_is_said(tmp_path):
+    # a magnetometer logged in whole counts without a header line ("-163 64 1": no fraction, no exponent), read
+    # with header = true and the columns by number: its first row was taken for the names in silence; whole
+    # numbers are a header only as column indices (0, 1, 2 or 1, 2, 3)
+    rng = np.random.default_rng(3)
+    m = rng.normal(size=(200, 3))
+    m = np.rint(170.0 * m / np.linalg.norm(m, axis=1)[:, None] + [-69, 85, -130]).astype(int)
+    (tmp_path / "m.txt").write_text("".join(f"{x} {y} {z}\n" for x, y, z in m))
+    desc = sensor.from_toml('''name = "whole counts"
+[log]
+header = true
+rate_hz = 10
+[magnetometer]
+columns = [1, 2, 3]
+unit = "counts"
+lsb = "0.1 uT"
+axes = "x = mx, y = my, z = mz"
+''')
+    ds, rep = importlog.import_log(str(tmp_path / "m.txt"), desc)
+    assert len(ds) == 199
+    (note,) = [n for n in rep.notes if "a data row" in n]
+    assert f"{m[0, 0]}, {m[0, 1]}, {m[0, 2]}" in note and "header = false" in note
+    # column indices from 1 are a header, as from 0
+    (tmp_path / "i.txt").write_text("1 2 3\n" + "".join(f"{x} {y} {z}\n" for x, y, z in m))
+    ds, rep = importlog.import_log(str(tmp_path / "i.txt"), desc)
+    assert len(ds) == 200 and not any("a data row" in n for n in rep.notes)
+
+
+@pytest.mark.parametrize("acc_cols, mag_cols, named", [
+    ("[1, 2, 3]", "[1, 2, 3]", "[magnetometer].columns[1] and [accelerometer].columns[1] both read column 1"),
+    ("[1, 2, 3]", "[4, 5, 5]", "[magnetometer].columns[3] and [magnetometer].columns[2] both read column 5"),
+    ('["ax", "ay", "az"]', '["mx", "ay", "mz"]', "both read column 2 ('ay')"),
+])
+def test_one_column_read_as_two_sensor_axes_is_refused(tmp_path, capsys, acc_cols, mag_cols, named):
+    # a magnetometer's columns copied into the accelerometer's table imported with exit 0, the "accelerometer"
+    # the magnetometer itself (its dip -90 deg on every row); a column typed twice made one axis a copy of another
+    rng = np.random.default_rng(4)
+    g = rng.normal(size=(100, 3))
+    g /= np.linalg.norm(g, axis=1)[:, None]
+    b = 30.0 * rng.normal(size=(100, 3))
+    header = "ax,ay,az,mx,my,mz\n" if "ax" in acc_cols else ""
+    (tmp_path / "log.csv").write_text(header + "".join(
+        ",".join(f"{v:.5f}" for v in (*a, *m)) + "\n" for a, m in zip(g, b)))
+    (tmp_path / "d.toml").write_text(f'''name = "six columns"
+[log]
+header = {"true" if header else "false"}
+rate_hz = 10
+[accelerometer]
+columns = {acc_cols}
+unit = "g"
+reads = "up"
+axes = "x = ax, y = ay, z = az"
+[magnetometer]
+columns = {mag_cols}
+unit = "uT"
+axes = "x = mx, y = my, z = mz"
+''')
+    rc = main(["import", str(tmp_path / "log.csv"), "--sensor", str(tmp_path / "d.toml"),
+               "-o", str(tmp_path / "run.csv")])
+    err = capsys.readouterr().err
+    assert rc == 2 and err.count("\n") == 1 and named in err and "one column is one sensor axis" in err, err
+    assert not (tmp_path / "run.csv").exists()
+
+
+@pytest.mark.parametrize("encoding", ["utf-16", "utf-16-be", "utf-32"])
+def test_a_log_in_utf16_or_utf32_with_its_mark_imports_as_in_utf8(tmp_path, encoding):
+    # a serial log redirected by Windows PowerShell is UTF-16 with a byte-order mark: it was refused as "not UTF-8
+    # text (byte 0xFF at column 1)"; the mark says how to read it, and the rows are the UTF-8 log's
+    xio = Path(__file__).parent / "data" / "real" / "xio_fusion"
+    text = (xio / "sensor_data.csv").read_text(encoding="utf-8")
+    data = text.encode(encoding)
+    if encoding == "utf-16-be":
+        data = b"\xfe\xff" + data  # the big-endian codec writes no mark of its own
+    (tmp_path / "log.csv").write_bytes(data)
+    desc = sensor.load(str(xio / "sensor.toml"))
+    ds, _ = importlog.import_log(str(tmp_path / "log.csv"), desc)
+    ref, _ = importlog.import_log(str(xio / "sensor_data.csv"), desc)
+    assert len(ds) == len(ref) == 13514
+    for c in ("t_s", "ax_g", "ay_g", "az_g", "mx_nT", "my_nT", "mz_nT"):
+        assert np.array_equal(ds.columns[c], ref.columns[c]), c
+
+
+def test_a_utf16_log_cut_inside_a_character_is_one_line_naming_utf16(tmp_path, capsys):
+    xio = Path(__file__).parent / "data" / "real" / "xio_fusion"
+    data = (xio / "sensor_data.csv").read_text(encoding="utf-8").encode("utf-16")
+    (tmp_path / "log.csv").write_bytes(data[:20001])  # an odd byte count: the last character cut in half
+    rc = main(["import", str(tmp_path / "log.csv"), "--sensor", str(xio / "sensor.toml"),
+               "-o", str(tmp_path / "r.csv")])
+    err = capsys.readouterr().err
+    assert rc == 2 and err.count("\n") == 1 and "not UTF-16 text" in err and "Traceback" not in err, err
+
+
+@pytest.mark.parametrize("sep, line, fix", [
+    (",", 'delimiter = ";"', '[log] delimiter = ","'),
+    (",", 'decimal = ","', '[log] decimal = "." (a decimal comma makes the comma no delimiter)'),
+    (";", 'delimiter = ","', '[log] delimiter = ";"'),
+    ("\t", 'delimiter = ";"', '[log] delimiter = "\\t"'),
+])
+def test_a_header_split_at_the_wrong_delimiter_is_named_with_the_delimiter(tmp_path, capsys, sep, line, fix):
+    # x-io's comma-separated log declared delimiter = ";" was told "no column 'Accelerometer X (g)'" and shown its
+    # whole header line as its one column; declared decimal = "," its names were split at their spaces
+    xio = Path(__file__).parent / "data" / "real" / "xio_fusion"
+    rows = (xio / "sensor_data.csv").read_text().splitlines()[:200]
+    (tmp_path / "log.csv").write_text("\n".join(r.replace(",", sep) for r in rows) + "\n")
+    (tmp_path / "d.toml").write_text((xio / "sensor.toml").read_text().replace("[log]\n", f"[log]\n{line}\n", 1))
+    rc = main(["import", str(tmp_path / "log.csv"), "--sensor", str(tmp_path / "d.toml"),
+               "-o", str(tmp_path / "r.csv")])
+    err = capsys.readouterr().err
+    assert rc == 2 and err.count("\n") == 1 and fix in err, err
+    assert "the header line split at" in err
+
+
+@pytest.mark.parametrize("preamble, skip, fix", [("", 1, "skip_rows = 0"),
+                                                 ("logger v1.2\nstarted\n", 3, "skip_rows = 2")])
+def test_skip_rows_that_skip_the_header_line_are_named(tmp_path, capsys, preamble, skip, fix):
+    # x-io's log with skip_rows = 1 read its first data row as the names and was told to number its columns
+    xio = Path(__file__).parent / "data" / "real" / "xio_fusion"
+    rows = (xio / "sensor_data.csv").read_text().splitlines()[:200]
+    (tmp_path / "log.csv").write_text(preamble + "\n".join(rows) + "\n")
+    desc = (xio / "sensor.toml").read_text()
+    (tmp_path / "d.toml").write_text(desc.replace("[log]\n", f"[log]\nskip_rows = {skip}\n", 1))
+    rc = main(["import", str(tmp_path / "log.csv"), "--sensor", str(tmp_path / "d.toml"),
+               "-o", str(tmp_path / "r.csv")])
+    err = capsys.readouterr().err
+    assert rc == 2 and err.count("\n") == 1 and "skips this line, the header line" in err, err
+    assert err.rstrip().endswith(fix), err
+    # the skip_rows it names imports the log
+    (tmp_path / "d.toml").write_text(desc.replace("[log]\n", f"[log]\n{fix}\n", 1))
+    ds, _ = importlog.import_log(str(tmp_path / "log.csv"), sensor.load(str(tmp_path / "d.toml")))
+    assert len(ds) == 199

@@ -339,3 +339,50 @@ def test_a_turntable_session_whose_turns_are_not_logged_gets_no_unit_from_them(t
     every millisecond)."""
     ds, rep = _found(*_turntable_log(tmp_path, seed))
     assert not [f for f in _time(rep) if f.figures.get("looks_like")], _time(rep)
+
+
+def _six_faces_warming(tmp_path, declared, scale=1.0):
+    """An MPU-6050-like log of six faces held 30 s each at 62.5 rows/s, its
+    time an uptime counter in ms (a row every 16 ms, each face's file
+    timed from its own start and joined), its die warming by 0.1 degC over
+    each hold (0.0033 degC/s: a part settling on a bench) and read with a
+    noise of 0.01 degC; `declared` the time unit the description gives,
+    `scale` the warming rate's factor."""
+    rng = np.random.default_rng(11)
+    faces = [(1, 0, 0), (-1, 0, 0), (0, 1, 0), (0, -1, 0), (0, 0, 1), (0, 0, -1)]
+    n = 1875  # 30 s at 62.5 rows/s
+    lines = ["t_ms,ax,ay,az,temp"]
+    for k, f in enumerate(faces):
+        t = 410 + 16 * np.arange(n)
+        T = 26.0 + 0.3 * k + scale * 0.1 * (t - t[0]) / 30_000.0 + rng.normal(0.0, 0.01, n)
+        a = np.asarray(f, float) + rng.normal(0.0, 0.002, (n, 3))
+        lines += [f"{ti},{x:.4f},{y:.4f},{z:.4f},{Ti:.3f}" for ti, (x, y, z), Ti in zip(t, a, T)]
+    (tmp_path / "six.csv").write_text("\n".join(lines) + "\n")
+    (tmp_path / "six.toml").write_text(f'''name = "six faces, millis()"
+[log]
+time = "t_ms"
+time_unit = "{declared}"
+static = true
+temperature = "temp"
+[accelerometer]
+columns = ["ax", "ay", "az"]
+unit = "g"
+reads = "up"
+axes = "x = ax, y = ay, z = az"
+''')
+    return _found(tmp_path / "six.csv", tmp_path / "six.toml")
+
+
+def test_an_uptime_counter_in_ms_declared_us_is_named_by_the_temperature(tmp_path):
+    # a static log: no turning tells the time; 62 500 rows/s is within what a logger writes; the die warming by
+    # 0.1 degC in a 30 s hold read as 30 ms is 3.3 degC/s, which no sensor's temperature does
+    ds, rep = _six_faces_warming(tmp_path, "us")
+    (f,) = _time(rep)
+    assert f.level == "warning" and 'time_unit = "ms" (declared "us")' in f.message and "degC/s" in f.message
+    assert f.figures["looks_like"] == "ms" and 3.0 < f.figures["temp_rate_c_s"] < 3.7
+    # declared as logged: nothing said
+    ds, rep = _six_faces_warming(tmp_path, "ms")
+    assert not _time(rep) and rep.time["temp_rate_c_s"] < 0.004
+    # a chamber ramping fast, 0.33 degC/s (100x the bench's warming), timed in ms as declared, is no time slip
+    ds, rep = _six_faces_warming(tmp_path, "ms", scale=100.0)
+    assert not _time(rep) and 0.3 < rep.time["temp_rate_c_s"] < 0.37

@@ -52,3 +52,17 @@ def test_the_calibrate_report_states_the_step_found(rng, tmp_path, capsys):
     assert main(["calibrate", str(run), "-o", str(tmp_path / "cal.json")]) in (0, 1)
     out = capsys.readouterr().out
     assert "acc 0.0004883 g per count (the step the logged values lie on)" in out, out
+
+
+def test_means_of_n_counts_give_n_times_their_step(rng):
+    # each row the mean of 25 readings of a part counting 1/2048 g (michaelwro/accelerometer-calibration's
+    # record-data.py): the means lie on 1/51200 g, and that step is the count over 25, not the count
+    lsb, n = 1 / 2048, 25
+    v = np.round((_tumbled(rng)[:, None, :] + rng.normal(scale=3e-3, size=(2000, n, 3))) / lsb).mean(axis=1) * lsb
+    step, on = logged_step(v)
+    assert on and step == pytest.approx(lsb / n, rel=1e-6)
+    a, _, whence = input_lsb(_acc(v, {"sensor": "a part", "samples_averaged": n}))
+    assert a == pytest.approx(lsb, rel=1e-6) and "each a mean of 25 counts" in whence
+    # one sample a row: the step is the count
+    assert input_lsb(_acc(np.round(_tumbled(rng) / lsb) * lsb, {"sensor": "a part", "samples_averaged": 1}))[0] \
+        == pytest.approx(lsb, rel=1e-6)

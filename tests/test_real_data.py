@@ -125,6 +125,8 @@ def test_a_preset_with_overrides_imports_a_log(tmp_path):
 
 @pytest.mark.parametrize("toml, message", [
     ('[accelerometer]\ncolumns = ["a", "b", "c"]\nunit = "counts"\n', "needs lsb"),
+    ('[magnetometer]\ncolumns = ["a", "b", "c"]\nunit = "counts"\n',
+     "needs lsb, what one count is (e.g. lsb = '0.15 uT')"),
     ('[accelerometer]\ncolumns = ["a", "b", "c"]\nunit = "furlongs"\n', "unknown unit"),
     ('[accelerometer]\ncolumns = ["a", "b", "c"]\naxes = "x = ax, y = ax, z = az"\n', "uses a sensor axis twice"),
     ('[accelerometer]\ncolumns = ["a", "b", "c"]\nx = "-ax"\ny = "ay"\nz = "az"\n', "reflection"),

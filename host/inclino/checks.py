@@ -149,6 +149,12 @@ NOT_TIME_BACK = 0.02                 # ... and going back on more than this shar
 TIME_FACTORS = (1e-3, 1e3, 1e-6, 1e6, 1e-9, 1e9, 60.0, 1.0 / 60.0, 3600.0, 1.0 / 3600.0)  # units tried (x the
                                      # declared one), in this order: a prefix (ms for s) is the usual slip
 # the temperature column
+TEMP_RATE_MAX_C_S = 2.0              # a sensor's temperature changing faster than this, sustained over a run of rows:
+                                     # no sensor's (a chamber ramps at up to ~0.3 degC/s, a part warming after power-on
+                                     # by a few degC over tens of seconds): the time column's unit is too small
+TEMP_RATE_TYPICAL_C_S = 0.5          # a unit named for it makes the temperature's rate at most this
+TEMP_RATE_MIN_ROWS = 50              # ... judged on runs of rows in time order of at least this many rows ...
+TEMP_RATE_SIGNIF = 10.0              # ... whose trend is this many standard errors from none
 TEMP_EXACT = 1e-6                    # a column equal to another up to scale and offset within this share of its range
 ACC_OFFSET_G = 0.25  # the accelerometer's sphere centred farther from zero on an axis: a warning (MEMS parts'
                     # zero-g offsets are within ~0.15 g; the corpus' largest 0.10 g, a tag's 0.64 g on z)
@@ -2621,6 +2627,35 @@ def _unix_time_slow(ds, t, rep) -> bool:
     return True
 
 
+def _temp_rate(ds, t):
+    """How fast the temperature column changes against the time column t
+    (degC/s): on each run of rows in time order (a joined log is cut where
+    its time goes back) of at least TEMP_RATE_MIN_ROWS rows, the slope of a
+    straight line through temp_c against t_s, kept when it stands
+    TEMP_RATE_SIGNIF standard errors from zero (a trend, not the
+    resolution's noise); their median |slope|, or None."""
+    T = ds.columns.get("temp_c")
+    if T is None or len(T) != len(t):
+        return None
+    T = np.asarray(T, float)
+    cuts = np.flatnonzero(np.diff(t) < 0) + 1
+    rates = []
+    for seg in np.split(np.arange(len(t)), cuts):
+        ts, Ts = t[seg], T[seg]
+        ok = np.isfinite(ts) & np.isfinite(Ts)
+        ts, Ts = ts[ok], Ts[ok]
+        if len(ts) < TEMP_RATE_MIN_ROWS or not np.ptp(ts) > 0.0 or not np.ptp(Ts) > 0.0:
+            continue
+        tc = ts - ts.mean()
+        sxx = float(tc @ tc)
+        b = float(tc @ (Ts - Ts.mean())) / sxx
+        res = Ts - Ts.mean() - b * tc
+        se = float(np.sqrt(res @ res / (len(ts) - 2) / sxx))
+        if abs(b) > TEMP_RATE_SIGNIF * se:
+            rates.append(abs(b))
+    return float(np.median(rates)) if rates else None
+
+
 def _time_unit(ds, rep):
     """The time column's unit against the physics of the rows it dates: the
     row rate it implies (ROW_RATE_HZ: no logger writes a row per sample
@@ -2634,7 +2669,9 @@ def _time_unit(ds, rep):
     error beyond TURN_RATE_MAX_DEG_S.  The slow side only on an imported log
     not declared static: the rows of a turntable run (each a position read at
     rest, minutes apart) turn by degrees a row at any rate; the project's own
-    runs write t_s in seconds from their clock."""
+    runs write t_s in seconds from their clock.  On an imported log the
+    temperature's rate too (_temp_rate: faster than TEMP_RATE_MAX_C_S is the
+    time unit too small), which tells where the turning cannot: a static log."""
     t = ds.columns.get("t_s")
     if t is None or len(ds) < 10:
         return
@@ -2669,7 +2706,14 @@ def _time_unit(ds, rep):
     static = rep.declared_static or declared_static(ds)
     turn = None if static else _turning(ds, t, rep)
     w = turn["deg_per_s"] if turn else None
+    # the temperature tells where the turning cannot (a static log, its rows read at rest): an MPU-6050's millis()
+    # declared "us", six faces held 30 s each, read as 62 500 rows/s, had imported in silence
+    # (an imported log's only: the project's own runs write t_s from their clock, and a generated one steps its
+    # chamber's set points a row apart)
+    temp_rate = _temp_rate(ds, t) if _imported(ds) else None
     fig = {"rows_per_s": rows_hz, "turn_deg_s": w, "turn": turn}
+    if temp_rate is not None:
+        fig["temp_rate_c_s"] = temp_rate
     rep.time = fig
     problem = None
     if w is not None and w > TURN_RATE_DEG_S[1]:
@@ -2681,6 +2725,10 @@ def _time_unit(ds, rep):
                          f"({rows_hz:.3g} rows/s, a row every {1.0 / rows_hz:.3g} s): slower than a hand or a rig "
                          f"turns a sensor ({TURN_RATE_DEG_S[0]:g}-{TURN_RATE_DEG_S[1]:g} deg/s) while its rows change "
                          f"by degrees (a log of one row a position, each read at rest: declare it static)"), -1
+    elif temp_rate is not None and temp_rate > TEMP_RATE_MAX_C_S:
+        problem, sign = (f"the temperature changes at a median {temp_rate:.3g} degC/s along its runs of rows "
+                         f"({rows_hz:.3g} rows/s): faster than a sensor's temperature moves (up to "
+                         f"{TEMP_RATE_MAX_C_S:g} degC/s), unless [log] temperature is no temperature"), 1
     elif rows_hz > ROW_RATE_HZ[1]:
         problem, sign = (f"{rows_hz:.3g} rows/s (a row every {1e6 / rows_hz:.3g} us): faster than a logger writes "
                          f"a row per sample (up to {ROW_RATE_HZ[1]:.0f} rows/s)"), 1
@@ -2696,6 +2744,8 @@ def _time_unit(ds, rep):
         ok = TYPICAL_ROW_RATE_HZ[0] <= rows_hz / f <= TYPICAL_ROW_RATE_HZ[1]
         if w is not None:
             ok = ok and TYPICAL_TURN_DEG_S[0] <= w / f <= TYPICAL_TURN_DEG_S[1]
+        if temp_rate is not None:
+            ok = ok and temp_rate / f <= TEMP_RATE_TYPICAL_C_S
         if ok:
             guess = f
             break
@@ -2726,7 +2776,8 @@ def _time_unit(ds, rep):
         fix = _time_unit_text(ds, guess)
         read = (f"read {guess:g}x slower: " if guess > 1 else f"read {1 / guess:g}x faster: ") if fix is None else \
             f"read as {fix[1]}: "
-        msg += (f"; {read}{rows_hz / guess:.3g} rows/s" + (f", {w / guess:.3g} deg/s" if w is not None else ""))
+        msg += (f"; {read}{rows_hz / guess:.3g} rows/s" + (f", {w / guess:.3g} deg/s" if w is not None else "")
+                + (f", the temperature {temp_rate / guess:.3g} degC/s" if temp_rate is not None else ""))
         msg += ("; " + (f"fix {fix[0]} in the sensor description and import again" if fix and _imported(ds) else
                         f"t_s must be in seconds: {_fix(ds, 'log', 'the time unit')}")
                 + " (the drift over the session, the rates and any lag in seconds use it)")

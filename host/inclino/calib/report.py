@@ -236,7 +236,8 @@ def input_lsb(ds: RawDataset) -> tuple:
     """(acc g, mag nT, whence) per count of the input: the sensor
     description's lsb (acc_lsb_g, mag_lsb_nT); for a log imported without
     one, the step its logged values lie on (logged_step; 0.0 when they lie
-    on none, None when too few distinct values show it); None for the
+    on none, None when too few distinct values show it), times
+    samples_averaged (a mean of n counts lies on 1/n count); None for the
     probe's own runs, whose ADIS16210 and fluxgate ADC counts are assumed
     (ref.ACC_LSB_G, ref.MAG_LSB_NT).  whence says which, per triad."""
     out, say = [], []
@@ -250,6 +251,13 @@ def input_lsb(ds: RawDataset) -> tuple:
             v, why = ((None, f"not in the sensor description: {probe} assumed") if step is None else
                       (step, "the step the logged values lie on") if on else
                       (0.0, "the logged values lie on no step: floats finer than their noise"))
+            n = float(ds.meta.get("samples_averaged") or 1.0)
+            if v and n > 1.0 and n == int(n):
+                # a row the mean of n whole counts lies on 1/n count: the step is the count over n (michaelwro's
+                # accelerometer log, 25 readings a row, lies on 1/51200 g, its part's 1/2048 g over 25; taken for
+                # the count, the resolution at n = 25 came out 25x finer than the part's); a logger that rounds
+                # its means to whole counts has the count as its step, and n x the step then bounds it from above
+                v, why = v * n, f"{n:g} x the step the logged values lie on: each a mean of {n:g} counts"
         else:
             v, why = None, probe
         out.append(v)

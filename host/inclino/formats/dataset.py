@@ -175,6 +175,11 @@ class _Lines:
         except UnicodeDecodeError:  # the text layer decodes ahead: find the byte's own line in the file
             from inclino.formats.safeio import utf8_error
 
+            enc = str(getattr(self.f, "encoding", "utf-8")).lower()
+            if enc.startswith(("utf-16", "utf-32")):  # a log its byte-order mark says is UTF-16 or UTF-32
+                raise DataError(f"{self.path}:{self.lineno + 1}: not {enc.upper()} text from about this line, "
+                                f"as its byte-order mark says it is (a byte cut off or garbled)") from None
+
             where = None
             try:
                 where = utf8_error(self.path)

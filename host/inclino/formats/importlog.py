@@ -166,13 +166,73 @@ def _index(col, names, what, path, lineno):
                        f"the columns by number)" if mostly else ""))
 
 
+DELIMITER_NAMES = {",": "commas", ";": "semicolons", "\t": "tabs", "whitespace": "whitespace"}
+
+
+def _delimiter_slip(first: str, delim: str, names, desc: SensorDescription, path: str, lineno: int) -> None:
+    """A header line split at the wrong delimiter: a column the description
+    names is not among the names as split, but split at another delimiter
+    the line names every column the description names.  One error line with
+    the delimiter to write: a comma-separated log declared delimiter = ";"
+    was told "no column 'Accelerometer X (g)'" and listed its one column,
+    the whole line; declared decimal = "," (which makes the comma no
+    delimiter) its names were split at their spaces."""
+    wanted = [c for t in desc.triads for c in t.columns if isinstance(c, str)]
+    wanted += [c for c in (desc.time, desc.temperature) if isinstance(c, str)]
+    have = {n.strip() for n in names}
+    if not wanted or all(c.strip() in have for c in wanted):
+        return
+    for d in (",", ";", "\t", "whitespace"):
+        if d == delim:
+            continue
+        other = {n.strip() for n in _split(first, d)}
+        if all(c.strip() in other for c in wanted):
+            miss = next(c for c in wanted if c.strip() not in have)
+            fix = f'[log] delimiter = "{d}"' if d != "\t" else '[log] delimiter = "\\t"'
+            if d == "," and desc.decimal == ",":
+                fix = '[log] decimal = "." (a decimal comma makes the comma no delimiter)'
+            raise DataError(f"{path}:{lineno}: the header line split at {DELIMITER_NAMES.get(delim, repr(delim))} "
+                            f"has no column {miss!r}, but split at {DELIMITER_NAMES[d]} it names every column the "
+                            f"description gives: the log is separated by {DELIMITER_NAMES[d]}; {fix}")
+
+
+def _skipped_header(skipped: list, names, desc: SensorDescription, path: str, lineno: int) -> None:
+    """[log] skip_rows that skipped the header line: a column the description
+    names is not in the line read as the header, but a line skip_rows skipped
+    names every column the description gives.  One error line with the
+    skip_rows to write (x-io's log with skip_rows = 1 was told its header
+    line was missing, to number its columns)."""
+    wanted = [c for t in desc.triads for c in t.columns if isinstance(c, str)]
+    wanted += [c for c in (desc.time, desc.temperature) if isinstance(c, str)]
+    have = {n.strip() for n in names}
+    if not wanted or all(c.strip() in have for c in wanted):
+        return
+    for k, (no, line) in enumerate(skipped):
+        d = desc.delimiter if desc.delimiter is not None else _sniff(line, desc.decimal)
+        cells = {n.strip() for n in _split(line, "\t" if d == "\\t" else d)}
+        if all(c.strip() in cells for c in wanted):
+            raise DataError(f"{path}:{no}: [log] skip_rows = {desc.skip_rows} skips this line, the header line "
+                            f"that names the columns the description gives (line {lineno} was read as the header "
+                            f"instead); skip_rows = {k}")
+
+
 def _header_is_data(names) -> bool:
-    """Whether a header line is a row of readings: every name a number and
-    at least one with a fraction or an exponent (a header of column indices,
-    0, 1, 2 as pandas writes one, names its columns with whole numbers)."""
+    """Whether a header line is a row of readings: every name a number, and
+    either one at least with a fraction or an exponent, or whole numbers that
+    are no run of column indices (0, 1, 2 as pandas writes one, or 1, 2, 3:
+    each one more than the last, from 0 or 1).  A magnetometer logged in
+    whole counts, "-163 64 1" (aleksandrbazhin/ellipsoid_fit_python's
+    mag_out.txt), has no fraction, and its first row had been read as the
+    names and left out in silence."""
     cells = [n.strip() for n in names if n.strip()]
-    return len(cells) >= 2 and all(_is_number(c) for c in cells) and \
-        any(("." in c or "e" in c.lower()) and math.isfinite(float(c)) for c in cells)
+    if len(cells) < 2 or not all(_is_number(c) for c in cells):
+        return False
+    x = [float(c) for c in cells]
+    if not all(math.isfinite(v) for v in x):
+        return any(("." in c or "e" in c.lower()) and math.isfinite(v) for c, v in zip(cells, x))
+    if any("." in c or "e" in c.lower() for c in cells):
+        return True
+    return not (x[0] in (0.0, 1.0) and all(b - a == 1.0 for a, b in zip(x, x[1:])))
 
 
 def _is_number(text: str) -> bool:
@@ -355,7 +415,13 @@ def import_log(path: str, desc: SensorDescription, static: bool | None = None,
 def _read(path: str, desc: SensorDescription, static, drop_bad_rows, absolute_time: bool = False):
     try:
         size = os.path.getsize(path)
-        f = open(path, newline="", encoding="utf-8-sig")
+        with open(path, "rb") as raw:
+            bom = raw.read(4)
+        # text whose byte-order mark says UTF-16 or UTF-32 is read as such: a serial log redirected by Windows
+        # PowerShell ("> log.csv") is UTF-16 with its mark, and was refused as "not UTF-8 text (byte 0xFF ...)"
+        encoding = ("utf-32" if bom in (b"\xff\xfe\x00\x00", b"\x00\x00\xfe\xff") else
+                    "utf-16" if bom[:2] in (b"\xff\xfe", b"\xfe\xff") else "utf-8-sig")
+        f = open(path, newline="", encoding=encoding)
     except OSError as e:
         raise DataError(f"cannot read {path}: {e.strerror}") from None
     if size > MAX_LOG_BYTES:
@@ -368,9 +434,12 @@ def _read(path: str, desc: SensorDescription, static, drop_bad_rows, absolute_ti
 
 def _import(lines, path: str, desc: SensorDescription, static, drop_bad=False,
             absolute_time: bool = False) -> tuple[RawDataset, ImportReport]:
+    skipped = []  # the lines skip_rows skipped, with their numbers: one of them may be the header line
     for _ in range(desc.skip_rows):
-        if next(lines, None) is None:
+        line = next(lines, None)
+        if line is None:
             break
+        skipped.append((lines.lineno, line.rstrip("\r\n")))
     comment = desc.comment or None
     first = None
     log_meta = {}  # a canonical header's '# key=value' lines before the names: the site's field, dip, ...
@@ -436,13 +505,26 @@ def _import(lines, path: str, desc: SensorDescription, static, drop_bad=False,
         notes.append(f"the line read as the header ({path}:{header_line}: {', '.join(shown[:6])}"
                      f"{' ...' if len(shown) > 6 else ''}) is numbers: a data row, not imported; if the log has no "
                      f"header line, [log] header = false (the columns by number)")
+    if names is not None:
+        _skipped_header(skipped, names, desc, path, header_line)
+        _delimiter_slip(first, delim, names, desc, path, header_line)
     _check_poses(desc, path)
     wanted = {}  # canonical name -> (index, what)
+    axis_of = {}  # a log column -> the sensor axis that reads it
     for t in desc.triads:
         cols = ACC_COLS if t.kind == "acc" else MAG_COLS
         for k, c in enumerate(t.columns):
-            wanted[f"_{cols[k]}"] = _index(c, names, f"[{'accelerometer' if t.kind == 'acc' else 'magnetometer'}]"
-                                                      f".columns[{k + 1}]", path, header_line)
+            what = f"[{'accelerometer' if t.kind == 'acc' else 'magnetometer'}].columns[{k + 1}]"
+            j = _index(c, names, what, path, header_line)
+            if j in axis_of:
+                # one column read as two sensor axes (a triad's columns copied into the other's table, or one
+                # typed twice): the magnetometer read as the accelerometer too had imported, its dip -90 deg on
+                # every row; a triad with a column twice, its third axis a copy of its second
+                col = f"column {j + 1}" + (f" ({names[j].strip()!r})" if names is not None else "")
+                raise DataError(f"{desc.path or 'sensor description'}: {what} and {axis_of[j]} both read {col} of "
+                                f"{path}: one column is one sensor axis; give each axis its own column")
+            axis_of[j] = what
+            wanted[f"_{cols[k]}"] = j
     if desc.time is not None:
         wanted["t_s"] = _index(desc.time, names, "[log].time", path, header_line)
     if desc.temperature is not None:

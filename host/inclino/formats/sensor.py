@@ -526,7 +526,10 @@ def _triad(spec: dict, section: str, log_what: str, field_nT: float | None = Non
     if unit.lower() in ("count", "counts", "lsb", "raw"):
         unit = "counts"
         if "lsb" not in spec:
-            raise DataError(f"{what}: unit = 'counts' needs lsb, what one count is (e.g. lsb = '1/2048 g')")
+            # the example in the triad's own units: a magnetometer told "lsb = '1/2048 g'" was shown an
+            # accelerometer's resolution (the AK8963's 0.15 uT, 16 bits, for the magnetometer)
+            eg = "1/2048 g" if kind == "acc" else "0.15 uT"
+            raise DataError(f"{what}: unit = 'counts' needs lsb, what one count is (e.g. lsb = '{eg}')")
         scale = _quantity(spec["lsb"], units, canon, f"{what}.lsb", None)
         lsb = scale
     elif kind == "mag" and unit.lower() in (FIELD_UNIT, "fields"):
