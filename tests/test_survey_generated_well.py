@@ -71,3 +71,30 @@ def test_positions_follow_minimum_curvature_and_a_serial_less_calibration_is_nam
     assert np.abs(got - _min_curvature(md, inc, azi)).max() < 1e-4
     # the run names no serial: said so, not "calibration of probe )"
     assert "calibration of probe (no serial))" in text and "of probe )" not in text, text
+
+
+def test_a_one_triad_calibration_is_refused_by_the_survey_error_model_naming_why(tmp_path, capsys):
+    """An accelerometer-only calibration given to toolmodel, trajectory or
+    compare had been refused as 'records no reading noise', and with the
+    noise given as 'covariance must be a list of 24, not a list of 12' (exit 3)."""
+    rng = np.random.default_rng(8)
+    _calibration_run(tmp_path / "both.csv", rng)
+    lines = (tmp_path / "both.csv").read_text().splitlines()
+    keep = [0, 1, 2, 3, 4, 5]  # the poses and the accelerometer's columns
+    (tmp_path / "acc.csv").write_text("\n".join(lines[:3] + [",".join(r.split(",")[i] for i in keep)
+                                                            for r in lines[3:]]) + "\n")
+    cal = tmp_path / "acc.json"
+    assert cli.main(["calibrate", str(tmp_path / "acc.csv"), "-o", str(cal)]) in (0, 1)
+    md, inc, azi = _well()
+    listing = tmp_path / "st.csv"
+    listing.write_text("md_m,inc_deg,azi_deg\n" + "".join(f"{m},{i},{a}\n" for m, i, a in zip(md, inc, azi)))
+    capsys.readouterr()
+    for argv in (["toolmodel", "--cal", str(cal), "--dip", "45", "--field", "50000", "-o", str(tmp_path / "t.json")],
+                 ["toolmodel", "--cal", str(cal), "--dip", "45", "--field", "50000", "--acc-noise", "1e-4",
+                  "--mag-noise", "10", "-o", str(tmp_path / "t.json")],
+                 ["trajectory", str(listing), "--declination", "0", "--uncertainty", "--cal", str(cal),
+                  "-o", str(tmp_path / "o.csv")],
+                 ["compare", str(listing), str(listing), "--cal", str(cal), "--acc-noise", "1e-4", "--mag-noise", "10"]):
+        rc = cli.main(argv)
+        err = capsys.readouterr().err.strip().splitlines()
+        assert rc == 2 and len(err) == 1 and "is an accelerometer-only calibration" in err[0], (argv[0], rc, err)
