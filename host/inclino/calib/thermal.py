@@ -284,6 +284,60 @@ def _cov_24(x, prob: _Problem, order, JtJ, s2, w):
     return covc, cov[nb:, nb:], lin, cov_nl, cond
 
 
+def _effective_linear(x, prob: _Problem, order, t):
+    """The 24 coefficients (PARAM_NAMES order) of the linear calibration the
+    fit amounts to at temperature t: corrected = M (raw_ref - b) with
+    raw_ref = b + (raw - b - bias(t)) / (1 + scale(t)) per axis is
+    M diag(1 / (1 + scale(t))) (raw - (b + bias(t))); M, b the written ones
+    at t_ref (the best linear representation when q is fitted)."""
+    from . import joint
+
+    Ma, ca, Mm, cm, qa, qm, dip, th = prob.unpack(x, order)
+    if prob.nonlinear:
+        lin = joint.best_linear(np.concatenate([x[:30], [dip]]), prob.F, prob.dec, prob.G)
+        Ma, ba, Mm, bm = lin[0:9].reshape(3, 3), lin[9:12], lin[12:21].reshape(3, 3), lin[21:24]
+    else:
+        ba, bm = np.linalg.solve(Ma, ca), np.linalg.solve(Mm, cm)
+    dT = float(t) - prob.t_ref
+    out = []
+    for tri, (M, b) in enumerate(((Ma, ba), (Mm, bm))):
+        bias = sum(th[tri, 0, k] * dT ** (k + 1) for k in range(order)) if order else np.zeros(3)
+        scale = 1e-6 * sum(th[tri, 1, k] * dT ** (k + 1) for k in range(order)) if order else np.zeros(3)
+        out += [np.ravel(M / (1.0 + scale)[None, :]), b + bias]
+    return np.concatenate(out)
+
+
+def _predicted_over_range(x, prob: _Problem, order, JtJ, s2, w, dip):
+    """The calibration's own predicted azimuth and inclination RMS on the
+    Li grid (as the report's "coefficients" term) at the run's lowest
+    temperature, t_ref and its highest: the covariance of every fitted
+    parameter, the temperature terms' included, carried to the linear
+    calibration the fit amounts to at each temperature (central
+    differences of _effective_linear at a hundredth of each parameter's
+    sigma).  The report's own prediction is the one at t_ref; away from it
+    the temperature terms' error adds (about 1.3x at the ends of a -5 to
+    55 degC run of generated probes)."""
+    from .sensitivity import predicted_attitude_rms
+
+    d = np.sqrt(np.diag(JtJ))
+    cov = s2 * np.linalg.inv(JtJ / np.outer(d, d)) / np.outer(d, d)
+    h = 1e-2 * np.sqrt(np.clip(np.diag(cov), 0.0, None))
+    h[h == 0] = 1e-9
+    lo, hi = float(prob.T.min()), float(prob.T.max())
+    rows = []
+    for t in (lo, prob.t_ref, hi):
+        G = np.zeros((24, len(x)))
+        for i in range(len(x)):
+            xp, xm = x.copy(), x.copy()
+            xp[i] += h[i]
+            xm[i] -= h[i]
+            G[:, i] = (_effective_linear(xp, prob, order, t) - _effective_linear(xm, prob, order, t)) / (2 * h[i])
+        cal_t = common.cal_from_vector(_effective_linear(x, prob, order, t))
+        a, i_ = predicted_attitude_rms(cal_t, G @ cov @ G.T, w, dip)
+        rows.append({"temp_c": round(float(t), 2), "azi_rms_deg": a, "inc_rms_deg": i_})
+    return rows
+
+
 def _probe_readings(x, prob: _Problem, order, poses, temps):
     """Noise-free raw readings of the fitted probe at `poses` and each of
     `temps`: the reference reading from the joint model, then the
@@ -548,6 +602,7 @@ def _fit(ds, cal, info, mode, sigma_acc, sigma_mag, sigma_pose_deg, fix_dip, see
     }
     block.update(caltemp.firmware_block(block))  # True when the image (version 2) carries them
     block["error_over_range"] = _errors_over_range(new, block, x, prob, chosen, w)
+    block["predicted_over_range"] = _predicted_over_range(x, prob, chosen, JtJ, s2_cov, w, float(dip))
     new.temperature = block
     info = dict(info)
     info["dip_deg"] = float(dip)
@@ -675,6 +730,10 @@ def summary(block: dict) -> str:
             pw = "" if k == 0 else "^2"
             lines.append(f"    {tri} bias {', '.join(f'{v:.3g}+-{e:.2g}' for v, e in zip(b, sb))} {unit}/degC{pw}; "
                          f"scale {', '.join(f'{v:.3g}+-{e:.2g}' for v, e in zip(s, ss))} ppm/degC{pw}")
+    if block.get("predicted_over_range"):
+        lines.append("    predicted error of the calibration (its coefficients and temperature terms, Li grid): " + "; ".join(
+            f"{r['temp_c']:g} degC azimuth RMS {r['azi_rms_deg']:.4f}, inclination {r['inc_rms_deg']:.4f} deg"
+            for r in block["predicted_over_range"]))
     lines.append("    Li grid, fitted probe: " + "; ".join(
         f"{r['temp_c']:g} degC azimuth RMS {r['azi_rms_with_deg']:.4f} with / {r['azi_rms_without_deg']:.4f} "
         f"without, inclination {r['inc_rms_with_deg']:.4f} / {r['inc_rms_without_deg']:.4f} deg"
