@@ -79,6 +79,11 @@ def fit(ds, method: str = DEFAULT_METHOD, data_hash: dict | None = None, report:
         if method != "joint":
             raise DataError(f"{method} fits both triads; this is an "
                             f"{'accelerometer' if ds.has_acc else 'magnetometer'}-only dataset (--method joint)")
+        if opts.get("temperature", "auto") == "on":  # asked for: fitted or refused, never a calibration without them
+            raise DataError("joint --temperature-terms on needs both triads (the temperature fit is of the turntable's "
+                            f"poses and both triads); this is {'an accelerometer' if ds.has_acc else 'a magnetometer'}"
+                            "-only dataset: calibrate it with --temperature-terms auto or off (inclino diagnose "
+                            "tests its invariants against temp_c)")
         from . import single
 
         t0 = time.perf_counter()

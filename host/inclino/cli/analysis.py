@@ -334,7 +334,9 @@ def add_attitude(sub):
                 "from the geomagnetic range without one) are one warning on stderr: a calibration of another sensor "
                 "or a stale one; the rows are still written (exit 0); the raw readings' own |g| and |b| warnings are "
                 "then left to that check. Rows flagged beyond the probe's input range "
-                "(ATT_F_*_OVERRANGE, *_SATURATED: another sensor's raw readings) are counted in one note on stderr.",
+                "(ATT_F_*_OVERRANGE, *_SATURATED: another sensor's raw readings) are counted in one note on stderr. "
+                "A one-triad dataset gives its triad's columns only: inc_deg, tf_deg, gt_g and flags from an "
+                "accelerometer, bt_nT, mtf_deg and flags from a magnetometer (the azimuth and the dip need both).",
                 ["inclino attitude run.csv --cal cal.json -o attitude.csv",
                  "inclino attitude run.csv --engine reference -o -"])
     a.add_argument("input", action=Input, help="raw dataset CSV")

@@ -148,9 +148,7 @@ def _error_model(args, rf=None, default_base=None, add_reference=True):
         base = models.load(default_base)
     probe = None
     if args.cal:
-        from inclino.formats.calfile import Calibration
-
-        cal = Calibration.load(args.cal)
+        cal = _survey_calibration(args.cal)
         an, mn, src = _noise(args, cal)
         dip, tot = _field_for(rf, cal)
         rev = int(base.revision) if base is not None and base.revision < 5 else 5
@@ -167,6 +165,22 @@ def _error_model(args, rf=None, default_base=None, add_reference=True):
         m.notes.append(f"noise per survey: acc {probe.source['acc_noise_g']:.3g} g, mag "
                        f"{probe.source['mag_noise_nT']:.3g} nT, from {probe.source['noise_source']}")
     return m
+
+
+def _survey_calibration(path):
+    """The calibration for a survey error model: both triads.  A one-triad
+    calibration (calib.single) holds the other triad as an identity
+    placeholder and a 12-term covariance: it had been refused as 'records no
+    reading noise', and with the noise given as 'covariance must be a list of
+    24' (exit 3)."""
+    from inclino.formats.calfile import Calibration
+
+    cal = Calibration.load(path)
+    if cal.triads != "both":
+        which = "an accelerometer" if cal.triads == "acc" else "a magnetometer"
+        raise DataError(f"{path} is {which}-only calibration: the survey's error model needs both triads' terms "
+                        "(the azimuth takes the accelerometer and the magnetometer); calibrate a run with both triads")
+    return cal
 
 
 def _cal_dip(cal) -> float:
@@ -239,12 +253,11 @@ def _open_link(args):
 def _cmd_toolmodel(args) -> int:
     _field_options(args)
     from inclino.survey import errormodel as em, models
-    from inclino.formats.calfile import Calibration
 
     if args.tool_model and args.revision is not None:
         raise DataError("--revision: the model is written in --tool-model's revision; give one of them")
     require(args, "cal", "--cal CAL.json", "the calibration with its fit report")
-    cal = Calibration.load(args.cal)
+    cal = _survey_calibration(args.cal)
     rf = _reference(args) if (args.lat is not None or args.declination is not None or args.ref) else None
     dip = rf.dip_deg if rf is not None and math.isfinite(rf.dip_deg) else \
         args.dip if args.dip is not None else _cal_dip(cal)

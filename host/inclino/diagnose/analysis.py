@@ -168,6 +168,8 @@ def diagnose(ds: RawDataset, effects=None, alpha: float = core.DEFAULT_ALPHA, fo
                if not (ds.has_acc and ds.has_mag) else
                "no turntable poses" if not present else
                f"poses incomplete: no {', '.join(missing)} column; the angles there are read as rig angles")
+        if ds.has_pose:  # the poses are there: what these effects need is the pose-based model's second triad
+            r.baseline["selection"]["needs_label"] = "needs the pose-based model (both triads)"
         r.baseline["selection"]["notes"].insert(0, f"pose-free diagnosis ({why}): the invariants |g|, |b| and the "
                                                    f"dip against time, temperature, reading order and rig angles")
         if thinned:

@@ -146,7 +146,8 @@ class Diagnosis:
             if len(parts) == 3:
                 where.append(f"{parts[1]} {parts[2]}")
         for (name, reason), where in groups.items():
-            needs = "needs the poses" if b.get("mode") == "invariants" and name in sel.get("needs_poses", ()) else \
+            needs = sel.get("needs_label", "needs the poses") if b.get("mode") == "invariants" \
+                and name in sel.get("needs_poses", ()) else \
                 "not testable"
             lines.append(f"  {needs}: {name}" + (f" ({', '.join(where)})" if where else "") + f": {reason}")
         if not self.effects:

@@ -310,7 +310,7 @@ class ErrorModel:
                    (f", {self.base.source}" if self.base.source != "name" else "") + ")"
             if self.probe is not None:
                 what += f" with the probe's sensor terms ({self.probe.source.get('calibration', 'calibration')} " \
-                        f"calibration of probe {self.probe.source.get('probe_serial', '?')}) in place of its own"
+                        f"calibration of probe {self.probe.source.get('probe_serial') or '(no serial)'}) in place of its own"
         else:
             what = f"the probe's terms ({self.probe.name}, revision {self.revision:g})"
         if self.reference is not None:
