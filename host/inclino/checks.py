@@ -62,6 +62,7 @@ MAG_UNIT_TOL = 1.8         # a unit that brings |b| within this factor of 45 000
 GEOMAGNETIC_SLACK = 1.5   # a sensor's scale error and a steel building: a warning within 1.5x, an error beyond
 FIELD_TOL = (0.8, 1.25)   # |b| / header field_nT: a warning outside
 FIELD_UNITS = (0.4, 2.5)  # |b| / header field_nT: an error outside (a unit)
+NORMALISED_TOL = 0.15     # |b| within this of 1 in the declared unit, and no site's field: readings normalised
 RANGE_STEP_TOL = 0.1      # |g| or |b| within 10 % of 2, 4 or 8 times (or 1/2, 1/4, 1/8) the expected: the lsb
                           # or range setting named (a range setting doubles the lsb: the commonest scale mistake)
 DIP_MISMATCH_DEG = 10.0   # |dip - header dip| beyond it: a warning
@@ -751,6 +752,8 @@ def _units_mag(ds, rows, rep):
             f"columns)"), "mag", fig))
         return
     unit = ds.meta.get("mag_unit", "nT")
+    if _normalised(ds, R, F, how, unit, fig, rep):
+        return
     if F:
         ratio = R / float(F)
         fig.update(header_field_nT=F, ratio=ratio)
@@ -802,6 +805,29 @@ def _units_mag(ds, rows, rep):
         f"magnetometer: |b| is {R:.4g} nT ({how}), {'not' if F else 'outside'} {rng}: {like}, not {unit}; "
         + _unit_fix(ds, "mag", guesses, counts, R / target)), "mag",
         {**fig, "looks_like": guesses}))
+
+
+def _normalised(ds, R: float, F, how: str, unit: str, fig: dict, rep) -> bool:
+    """Readings normalised to the site's total field (|b| about 1: an Xsens
+    MT Manager export's magnetometer in a.u., many public datasets) declared
+    in a unit of field: |b| is 1 in the declared unit (within
+    NORMALISED_TOL), which is no geomagnetic field in G, uT, nT or T (the
+    earth's is 0.22-0.67 G), nor the header's field_nT.  Declared G on an
+    Xsens log it had read "+102 % from the header's field_nT: the lsb or
+    range setting looks 2x off"; an error naming unit = "field"."""
+    size = _declared_factor(ds, "mag") if _imported(ds) else None
+    if not size or abs(R / size - 1.0) > NORMALISED_TOL:
+        return False
+    if (FIELD_TOL[0] <= R / float(F) <= FIELD_TOL[1]) if F else GEOMAGNETIC_NT[0] <= R <= GEOMAGNETIC_NT[1]:
+        return False
+    site = (f"the header's field_nT is {float(F):g}" if F else
+            f"a geomagnetic field is {GEOMAGNETIC_NT[0]:.0f}-{GEOMAGNETIC_NT[1]:.0f} nT")
+    rep.findings.append(Finding("units", "error", (
+        f"magnetometer: |b| is {R / size:.4g} {unit} ({how}), {R:.4g} nT, where {site}: 1 in the declared unit, "
+        f"the readings look normalised to the site's total field (a.u., |b| about 1), not {unit}; fix the unit "
+        f"(unit = \"field\", with the site's field: [header] field_nT) in the sensor description's "
+        f"[magnetometer] and import again"), "mag", {**fig, "looks_like": ["field"], "logged_abs": R / size}))
+    return True
 
 
 def _other_units(triad: str, same) -> list:

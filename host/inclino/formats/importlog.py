@@ -166,36 +166,6 @@ def _index(col, names, what, path, lineno):
                        f"the columns by number)" if mostly else ""))
 
 
-DELIMITER_NAMES = {",": "commas", ";": "semicolons", "\t": "tabs", "whitespace": "whitespace"}
-
-
-def _delimiter_slip(first: str, delim: str, names, desc: SensorDescription, path: str, lineno: int) -> None:
-    """A header line split at the wrong delimiter: a column the description
-    names is not among the names as split, but split at another delimiter
-    the line names every column the description names.  One error line with
-    the delimiter to write: a comma-separated log declared delimiter = ";"
-    was told "no column 'Accelerometer X (g)'" and listed its one column,
-    the whole line; declared decimal = "," (which makes the comma no
-    delimiter) its names were split at their spaces."""
-    wanted = [c for t in desc.triads for c in t.columns if isinstance(c, str)]
-    wanted += [c for c in (desc.time, desc.temperature) if isinstance(c, str)]
-    have = {n.strip() for n in names}
-    if not wanted or all(c.strip() in have for c in wanted):
-        return
-    for d in (",", ";", "\t", "whitespace"):
-        if d == delim:
-            continue
-        other = {n.strip() for n in _split(first, d)}
-        if all(c.strip() in other for c in wanted):
-            miss = next(c for c in wanted if c.strip() not in have)
-            fix = f'[log] delimiter = "{d}"' if d != "\t" else '[log] delimiter = "\\t"'
-            if d == "," and desc.decimal == ",":
-                fix = '[log] decimal = "." (a decimal comma makes the comma no delimiter)'
-            raise DataError(f"{path}:{lineno}: the header line split at {DELIMITER_NAMES.get(delim, repr(delim))} "
-                            f"has no column {miss!r}, but split at {DELIMITER_NAMES[d]} it names every column the "
-                            f"description gives: the log is separated by {DELIMITER_NAMES[d]}; {fix}")
-
-
 def _skipped_header(skipped: list, names, desc: SensorDescription, path: str, lineno: int) -> None:
     """[log] skip_rows that skipped the header line: a column the description
     names is not in the line read as the header, but a line skip_rows skipped
@@ -214,6 +184,113 @@ def _skipped_header(skipped: list, names, desc: SensorDescription, path: str, li
             raise DataError(f"{path}:{no}: [log] skip_rows = {desc.skip_rows} skips this line, the header line "
                             f"that names the columns the description gives (line {lineno} was read as the header "
                             f"instead); skip_rows = {k}")
+DELIM_TEXT = {",": "commas", ";": "semicolons", "\t": "tabs", "whitespace": "whitespace"}
+
+
+def _check_split(first: str, delim: str, names, desc: SensorDescription, path: str, lineno: int) -> None:
+    """A header line that names none of the description's columns when split
+    at the delimiter used, and every one of them when split at another: the
+    log's delimiter is that other.  A phyphox export "CSV (Comma, decimal
+    point)" read with decimal = "," (whose delimiter then is a semicolon, tab
+    or whitespace) was "no column 'Acceleration x (m/s^2)'" listing columns
+    cut at its spaces; refused naming the delimiter, and the decimal mark
+    when that is what moved it."""
+    named = [c for t in desc.triads for c in t.columns if isinstance(c, str)]
+    named += [c for c in (desc.time, desc.temperature) if isinstance(c, str)]
+    if not named:
+        return
+
+    def found(ns) -> int:
+        low = {n.strip().lower() for n in ns}
+        return sum(c.strip().lower() in low for c in named)
+
+    if found(names):
+        return
+    _header_further(path, lineno, desc, named, found)
+    for d in (",", ";", "\t", "whitespace"):
+        if d == delim or found(_split(first, d)) < len(named):
+            continue
+        if desc.delimiter is None and desc.decimal == "," and d == ",":
+            raise DataError(f"{path}:{lineno}: the header line names the description's columns when split at commas, "
+                            f"but [log] decimal = \",\" makes the comma the decimal mark (and the delimiter a "
+                            f"semicolon, tab or whitespace): a comma-delimited log writes its decimals with a point; "
+                            f"[log] decimal = \".\" (or leave it out)")
+        how = f"declared: [log] delimiter = {json.dumps(delim)}" if desc.delimiter is not None else "sniffed"
+        raise DataError(f"{path}:{lineno}: the header line names none of the description's columns split at "
+                        f"{DELIM_TEXT.get(delim, repr(delim))} ({how}), and every one of them split at "
+                        f"{DELIM_TEXT[d]}: [log] delimiter = {json.dumps(d)}")
+
+
+LABELLED = re.compile(r"\s*([A-Za-z_][A-Za-z0-9_.]*)\s*:\s*(\S*)\s*")
+
+
+def _labels(cells):
+    """The labels of a line whose every cell is "label:number" (Arduino's
+    Serial Plotter format, "ax:0.01,ay:-0.02,az:0.98": each value printed
+    after its name), two or more, all different; else None."""
+    if len(cells) < 2:
+        return None
+    found = [LABELLED.fullmatch(c) for c in cells]
+    if not all(found):
+        return None
+    labels = [m.group(1) for m in found]
+    if len(set(labels)) < len(labels) or not all(m.group(2) and _numeric(m.group(2)) for m in found):
+        return None
+    return labels
+
+
+def _unlabel(cells, labels, path: str, lineno: int, drop_bad: bool):
+    """The values of a row of "label:value" cells whose labels are the first
+    line's, in its order; a row whose labels differ (a line cut or garbled
+    on the serial link, a label printed in another order) is malformed:
+    None with drop_bad, else refused naming the cell."""
+    out = []
+    for j, c in enumerate(cells):
+        m = LABELLED.fullmatch(c)
+        if m is None or j >= len(labels) or m.group(1) != labels[j]:
+            if drop_bad:
+                return None
+            want = f"'{labels[j]}:'" if j < len(labels) else f"no cell (the first line has {len(labels)})"
+            raise DataError(f"{path}:{lineno}: cell {j + 1} {c.strip()[:40]!r}: the first line's labels give "
+                            f"{want} there (a line of label:value cells, its labels in the first line's order); a "
+                            f"garbled or cut line? [log] bad_rows = \"drop\" (or --drop-bad-rows) drops such rows")
+        out.append(m.group(2))
+    return out
+
+
+HEADER_SEARCH_LINES = 200  # lines searched past the one read as the header for the line that names the columns
+
+
+def _header_further(path: str, lineno: int, desc: SensorDescription, named: list, found) -> None:
+    """The line that names every column the description names, further down
+    than the line read as the header: the lines between are a preamble (an
+    Xsens MT Manager export's "// General information:" lines, a vendor
+    tool's notes); refused naming that line and the comment mark they share
+    ([log] comment = "//"), else the skip_rows that reaches it.  An Xsens
+    export read with the default comment "#" was "no column 'Acc_X' (the
+    log's columns: //, General, information:)"."""
+    try:
+        with open(path, encoding="utf-8-sig", errors="replace", newline="") as f:
+            head = [next(f, "") for _ in range(lineno + HEADER_SEARCH_LINES)]
+    except OSError:
+        return
+    for i in range(lineno, len(head)):
+        line = head[i].rstrip("\r\n").translate(str.maketrans("", "", desc.strip))
+        if not line.strip():
+            continue
+        d = desc.delimiter if desc.delimiter is not None else _sniff(line, desc.decimal)
+        if found(_split(line, "\t" if d == "\\t" else d)) < len(named):
+            continue
+        before = [h.strip() for h in head[lineno - 1:i] if h.strip()]
+        mark = os.path.commonprefix(before)
+        mark = mark[:len(mark) - len(mark.lstrip("/#%;!*-=<>'"))] if before else ""
+        fix = (f"[log] comment = {json.dumps(mark)} (the mark its lines start with)" if mark else
+               f"[log] skip_rows = {i} (the lines before it)")
+        n = i + 1 - lineno
+        raise DataError(f"{path}:{i + 1}: this line names the description's columns, and the {n} "
+                        f"line{'s' if n > 1 else ''} before it from line {lineno} ({before[0][:40]!r}"
+                        f"{' ...' if n > 1 else ''}) {'are a preamble' if n > 1 else 'is a preamble line'}, not "
+                        f"the header: {fix}")
 
 
 def _header_is_data(names) -> bool:
@@ -376,6 +453,105 @@ def _filler(data, keys, line_no, read, path, drop_bad, dropped):
     return np.flatnonzero(keep)
 
 
+INTERLEAVE_MIN_ROWS = 20
+INTERLEAVE_MAX = 4  # sensors (or instances of one) taking turns row by row that are looked for
+INTERLEAVE_RATIO = 0.5  # row i nearer row i + k than row i + 1 by this factor (median |difference| of the triad)
+INTERLEAVE_CELLS = 400  # rows whose cells are searched for the column that tells the sensors apart
+
+
+def _interleaved(data, keys, desc: SensorDescription, cells, used: set, names, path: str) -> None:
+    """Rows of k sensors, or k instances of one, taking turns in one log (an
+    ArduPilot IMU message of two IMUs, I = 0 and 1, written one after the
+    other): a triad's reading lies nearer the one k rows on than the next
+    (one sensor's readings change with time, so a reading k rows on, later,
+    is never much nearer than the next: noise alike, motion further), the
+    median |difference| INTERLEAVE_RATIO or less.  Read as one sensor the
+    log jumps between the sensors' offsets every row, and its time column
+    steps by a fraction of the period (the time unit then misjudged by the
+    checks, two files paired on no sample).  Refused, naming the column whose
+    values take turns with the same period, when one does, and the keep
+    that reads one sensor."""
+    n = len(data)
+    if n < INTERLEAVE_MIN_ROWS:
+        return
+    for t in desc.triads:
+        cols = ACC_COLS if t.kind == "acc" else MAG_COLS
+        v = data[:, [keys.index(f"_{c}") for c in cols]]
+        d1 = float(np.median(np.linalg.norm(v[1:] - v[:-1], axis=1)))
+        if not d1 > 0:
+            continue
+        for k in range(2, INTERLEAVE_MAX + 1):
+            if n < k * INTERLEAVE_MIN_ROWS // 2:
+                break
+            dk = float(np.median(np.linalg.norm(v[k:] - v[:-k], axis=1)))
+            if dk > INTERLEAVE_RATIO * d1 or np.array_equal(v[k:], v[:-k]):
+                continue  # (rows that repeat a cycle exactly carry no sensor's noise: a made-up log, not k sensors)
+            section = "accelerometer" if t.kind == "acc" else "magnetometer"
+            col = _turn_column(cells, used, k, names)
+            fix = (f"keep the rows of one: [log] keep = {{ {col[0]} = [{json.dumps(col[1])}] }} (its column "
+                   f"{col[0]} takes turns with them)" if col else
+                   "keep the rows of one ([log] keep = { COLUMN = [\"VALUE\"] } on a column that tells them "
+                   "apart), or export one sensor alone")
+            raise DataError(f"{path}: the {section}'s readings come back every {k} rows: a row lies a median "
+                            f"{dk:.4g} from the row {k} on and {d1:.4g} (in the logged unit) from the next: rows of "
+                            f"{k} sensors, or {k} instances of one, taking turns in one log, read as one sensor "
+                            f"that jumps between their offsets every row; {fix}")
+
+
+def _turn_column(cells, used: set, k: int, names):
+    """(name, the first row's value) of a column not read whose values
+    repeat every k rows, the k of a turn all different (an instance
+    number), else None."""
+    if len(cells) < 2 * k:
+        return None
+    width = min(len(c) for c in cells)
+    for j in range(width):
+        if j in used:
+            continue
+        col = [c[j] for c in cells]
+        if not all(_instance(x) for x in col[:k]):
+            continue
+        if len(set(col[:k])) == k and all(col[i] == col[i + k] for i in range(len(col) - k)):
+            name = names[j].strip() if names is not None else None
+            if name and re.fullmatch(r"[A-Za-z_][A-Za-z0-9_]*", name):
+                return name, col[0]
+            return (json.dumps(name) if name else str(j + 1)), col[0]
+    return None
+
+
+def _instance(text: str) -> bool:
+    """Whether a cell reads as a sensor's number or name: a whole number
+    0-255, or a word (not a reading)."""
+    if re.fullmatch(r"\d{1,3}", text):
+        return int(text) < 256
+    return bool(re.fullmatch(r"[A-Za-z_][\w.-]*", text))
+
+
+def _triads_in_turn(missing_rows: dict, desc: SensorDescription, kept: int, path: str) -> str:
+    """The cause when most rows hold one triad and not the other (two
+    sensors' streams at their own times in one file, a row for each sample
+    of either, the other's cells empty: PlotJuggler's CSV of two ROS
+    topics, a logger writing each sensor as it reads it): the two are never
+    read together, and a row with both is a coincidence of their clocks.
+    The fix reads the other triad from the same file and pairs it by time;
+    '' when the rows are not so."""
+    if len(desc.triads) != 2 or desc.time is None:
+        return ""
+    gone = {}
+    for cols, (n, _, _) in missing_rows.items():
+        kinds = {"acc" if c.lstrip("_") in ACC_COLS else "mag" for c in cols if c.startswith("_")}
+        if len(kinds) == 1:
+            k = kinds.pop()
+            gone[k] = gone.get(k, 0) + n
+    if len(gone) < 2 or min(gone.values()) <= kept:
+        return ""
+    section = "magnetometer"
+    return (f"{gone['acc']} rows hold no accelerometer reading and {gone['mag']} no magnetometer reading, "
+            f"{kept} both: the two sensors' samples at their own times, one to a row (two streams in one file); "
+            f"pair them by time: [{section}] file = {json.dumps(os.path.basename(path))} (this log again: its rows with "
+            f"a {section} reading, paired with the others' nearest in time)")
+
+
 def _check_poses(desc: SensorDescription, path: str) -> None:
     """Poses with a magnetometer need the azimuth (docs/dataset.md): without
     it no pose tells the magnetometer's reference direction, and the pose
@@ -469,10 +645,15 @@ def _import(lines, path: str, desc: SensorDescription, static, drop_bad=False,
         delim = "\t"
     names = _split(first, delim) if desc.has_header else None
     header_line = lines.lineno
+    labelled = _labels(_split(first, delim))
+    if labelled is not None:  # every cell "label:value" (Arduino's Serial Plotter): the labels name the columns
+        names = labelled
     width = len(names) if names is not None else len(_split(first, delim))
     width_min = width  # a header's trailing empty names (a delimiter after its last name) need no cell
     while names is not None and width_min > 1 and not names[width_min - 1].strip():
         width_min -= 1
+    if names is not None:
+        _check_split(first, delim, names, desc, path, header_line)
     notes = []
     if len(desc.triads) == 2:
         if names is not None:
@@ -507,7 +688,6 @@ def _import(lines, path: str, desc: SensorDescription, static, drop_bad=False,
                      f"header line, [log] header = false (the columns by number)")
     if names is not None:
         _skipped_header(skipped, names, desc, path, header_line)
-        _delimiter_slip(first, delim, names, desc, path, header_line)
     _check_poses(desc, path)
     wanted = {}  # canonical name -> (index, what)
     axis_of = {}  # a log column -> the sensor axis that reads it
@@ -551,9 +731,10 @@ def _import(lines, path: str, desc: SensorDescription, static, drop_bad=False,
     clock = [False]  # the time column holds date-times (ISO 8601) or times of day, not numbers
     dropped: dict = {}
     read = 0
-    pending = [] if names is not None else [first]
+    pending = [] if names is not None and labelled is None else [first]
     need = max(idx + list(keep_idx) + ([label_idx] if label_idx is not None else []))
     bad_lines = []  # malformed rows dropped (drop_bad)
+    cells_seen = []  # the first kept rows' cells, every column (the column that tells interleaved sensors apart)
     first_row = "the header" if names is not None else "the first row"
     drop_hint = "; a garbled or cut line? [log] bad_rows = \"drop\" (or --drop-bad-rows) drops such rows"
 
@@ -568,6 +749,11 @@ def _import(lines, path: str, desc: SensorDescription, static, drop_bad=False,
             dropped[key] = dropped.get(key, 0) + 1
             return
         read += 1
+        if labelled is not None:
+            cells = _unlabel(cells, labelled, path, lineno, drop_bad)
+            if cells is None:
+                bad_lines.append(lineno)
+                return
         # a row of another length than the header is a cut or garbled line (a value cut short, a decimal
         # comma splitting one), even when the columns used are all there: never read by position; cells
         # past the header's that are empty are trailing delimiters (an Arduino's print(",") after each value)
@@ -621,7 +807,7 @@ def _import(lines, path: str, desc: SensorDescription, static, drop_bad=False,
                     vals.append(v)
                     continue
                 hint = (" (a decimal comma? set [log] decimal = \",\" and a delimiter other than the comma)"
-                        if re.fullmatch(r"-?\d+,\d+", text_) else
+                        if re.fullmatch(r"[-+]?\d+,\d+([eE][-+]?\d+)?", text_) else
                         " (a date-time, but not as ISO 8601 writes one: YYYY-MM-DD hh:mm:ss, or hh:mm:ss.sss "
                         "alone; rewrite the column, or time it by [log] rate_hz)"
                         if k == "t_s" and re.fullmatch(r"[\d./ -]+[ T]?\d{1,2}:\d{2}(:\d{2}([.,]\d+)?)?", text_)
@@ -636,6 +822,8 @@ def _import(lines, path: str, desc: SensorDescription, static, drop_bad=False,
                 return
             vals.append(v)
         rows.append(vals)
+        if len(cells_seen) < INTERLEAVE_CELLS:
+            cells_seen.append([c.strip() for c in cells])
         labels.append(lab)
         row_no.append(read - 1 - units_lines[0])
         line_no.append(lineno)
@@ -658,13 +846,20 @@ def _import(lines, path: str, desc: SensorDescription, static, drop_bad=False,
         where = ", ".join(_column_text(k, wanted[k], names) for k in miss)
         lines_ = f"line {first_line}" if n == 1 else f"lines {first_line} ... {last_line}"
         dropped[f"a missing value in {where} ({lines_})"] = n
+    turns = _triads_in_turn(missing_rows, desc, len(rows), path)
     if not rows:
         raise DataError(f"{path}: no usable data rows ({read} read; dropped: "
-                        + (", ".join(f"{n} for {r}" for r, n in dropped.items()) or "none") + ")")
+                        + (", ".join(f"{n} for {r}" for r, n in dropped.items()) or "none") + ")"
+                        + (f"; {turns}" if turns else ""))
+    if turns:
+        notes.append(turns)
     data = np.array(rows, float)
     for t in desc.triads:
         _check_counts(t, data, keys, line_no, names, wanted, path)
     keep_rows = _filler(data, keys, line_no, read, path, drop_bad, dropped)
+    _interleaved(data if keep_rows is None else data[keep_rows], keys, desc,
+                 cells_seen if keep_rows is None else [cells_seen[i] for i in keep_rows if i < len(cells_seen)],
+                 set(idx) | set(keep_idx), names, path)
     if keep_rows is not None:
         data = data[keep_rows]
         labels = [labels[i] for i in keep_rows]
@@ -897,8 +1092,17 @@ def _pair_by_time(a: RawDataset, path_a: str, what_a: str, b: RawDataset, path_b
                         f"to its times)")
     pa, pb = float(np.median(np.diff(ta))), float(np.median(np.diff(tb)))
     if not (pa > 0 and pb > 0):
+        t = ta if pa <= 0 else tb
+        steps = np.diff(t)
+        whole = ""
+        if np.all(t == np.round(t)) and steps.max() > 0 and np.all(np.isin(steps, (0.0, 1.0))):
+            # ROS 2's header.stamp as `ros2 topic echo --csv` writes it: sec and nanosec in two columns
+            whole = (f" (its times are whole seconds, one step every {len(t) / max(1, np.count_nonzero(steps)):.3g} "
+                     f"rows: a stamp whose fraction of a second is in a column of its own, as ROS 2's "
+                     f"header.stamp.sec and .nanosec? the import reads one time column: join the two, sec + "
+                     f"nanosec x 1e-9, into one)")
         raise DataError(f"{path_a if pa <= 0 else path_b}: most rows share their time stamp with the row before: "
-                        f"nothing to pair by")
+                        f"nothing to pair by{whole}")
     slow_is_a = pa >= pb
     ts, tf, pf = (ta, tb, pb) if slow_is_a else (tb, ta, pa)
     j = np.clip(np.searchsorted(tf, ts), 1, len(tf) - 1)
