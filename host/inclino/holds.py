@@ -21,7 +21,10 @@ changes: a hold is at one setting (a column that changes on most rows is
 a variable read with each row, not a setting: setting_changes).
 The noise per axis is the readings' own: the median absolute difference of
 neighbouring rows (/ 0.6745 / sqrt 2), a statistic that the still rows set
-when they are the majority; it is capped at the triad's declared noise, or
+when they are the majority (else, where the windows' lowest tenth is a
+tenth of the median or less and 30 % of the windows are quiet at it, that
+lowest tenth read as a still window's spread: _noise); it is capped at the
+triad's declared noise, or
 at NOISE_BOUND (the most a part of that kind has), so that a log that
 moves all the time is not read as still; and floored at the resolution's
 quantisation noise (LSB / sqrt 12).
@@ -89,12 +92,29 @@ class Holds:
                 "set_aside": list(self.set_aside)}
 
 
+_CHI2_10 = 4.168159  # chi-square's 10 % point at HOLD_ROWS - 1 = 9 degrees of freedom
+MINORITY_RATIO = 10.0  # the median window's spread over the lowest tenth's, from which the still windows may be few
+STILL_MINORITY = 0.3   # ... and the share of windows quiet at the lowest tenth's spread needed to say so
+
+
 def _noise(ws, declared, lsb, bound) -> np.ndarray:
     """Per axis: the median window standard deviation (the still windows'
     when they are the majority; a quantised reading's median difference of
     neighbours would be one LSB or zero), capped at the declared noise (else
     bound), floored at LSB / sqrt 12."""
     s = np.median(ws, axis=0)
+    if len(ws) >= 10 * HOLD_ROWS:
+        # the median is a still window's only when the still windows are the majority.  Held 30 rows
+        # between turns of 20, 21 of every 50 ten-row windows lie wholly in a hold: the median window
+        # moves (900 nT against 5 nT of noise), the rows at either end of each turn pass as still and
+        # the holds' means carry part of the turn.  Where the windows' lowest tenth, read as a still
+        # window's spread, is a tenth of the median or less on every axis and at least
+        # STILL_MINORITY of the windows are quiet at it, the still windows are that minority and set
+        # the noise (quantised or merely quieter windows of a log held most of the time -- the corpus
+        # logs -- leave the ratio below 10 or only a few windows quiet at it)
+        q = np.quantile(ws, 0.1, axis=0) / math.sqrt(_CHI2_10 / (HOLD_ROWS - 1))
+        if np.all(q * MINORITY_RATIO <= s) and np.mean(np.all(ws <= HOLD_K * q, axis=1)) >= STILL_MINORITY:
+            s = q
     cap = float(declared) if declared else bound
     floor = float(lsb) / math.sqrt(12.0) if lsb else 0.0
     return np.maximum(np.minimum(s, cap), max(floor, 1e-12))
