@@ -5,16 +5,8 @@ generated here (docs/conventions.md's pose, an affine sensor, Gaussian
 noise), not with inclino.model."""
 import numpy as np
 
+from indep import body
 from inclino import cli
-
-
-def _body(I, A, T, v):
-    I, A, T = np.radians(I), np.radians(A), np.radians(T)
-    cI, sI, cA, sA, cT, sT = np.cos(I), np.sin(I), np.cos(A), np.sin(A), np.cos(T), np.sin(T)
-    C = np.array([[cT * cI * cA - sT * sA, cT * cI * sA + sT * cA, -cT * sI],
-                  [-sT * cI * cA - cT * sA, -sT * cI * sA + cT * cA, sT * sI],
-                  [sI * cA, sI * sA, cI]])
-    return np.einsum("ijn,j->ni", C, v)
 
 
 def _run(path, rng, triad, posed, n=60):
@@ -25,7 +17,7 @@ def _run(path, rng, triad, posed, n=60):
     else:
         v, sd, b0, names = 50000.0 * np.array([np.cos(np.radians(60)), 0.0, np.sin(np.radians(60))]), 15.0, 300.0, \
             ["mx_nT", "my_nT", "mz_nT"]
-    raw = _body(I, A, T, v) @ (np.eye(3) + rng.normal(0, 4e-3, (3, 3))).T + rng.normal(0, b0, 3)
+    raw = body(I, A, T, v) @ (np.eye(3) + rng.normal(0, 4e-3, (3, 3))).T + rng.normal(0, b0, 3)
     raw += rng.normal(0, sd, raw.shape)
     cols = (["inc_deg", "azi_deg", "tf_deg"] if posed else []) + names
     data = np.column_stack(([I, A, T] if posed else []) + [raw])

@@ -6,16 +6,8 @@ import csv
 
 import numpy as np
 
+from indep import body
 from inclino import cli
-
-
-def _body(I, A, T, v):
-    I, A, T = np.radians(I), np.radians(A), np.radians(T)
-    cI, sI, cA, sA, cT, sT = np.cos(I), np.sin(I), np.cos(A), np.sin(A), np.cos(T), np.sin(T)
-    C = np.array([[cT * cI * cA - sT * sA, cT * cI * sA + sT * cA, -cT * sI],
-                  [-sT * cI * cA - cT * sA, -sT * cI * sA + cT * cA, sT * sI],
-                  [sI * cA, sI * sA, cI]])
-    return np.einsum("ijn,j->ni", C, v)
 
 
 def _well():
@@ -40,9 +32,9 @@ def _calibration_run(path, rng, n=72):
     k = np.arange(n) + 0.5
     I, A, T = np.degrees(np.arccos(1 - 2 * k / n)), np.mod(k * 137.508, 360), np.mod(k * 222.492 + 17, 360)
     field = 50000.0 * np.array([np.cos(np.radians(45.0)), 0.0, np.sin(np.radians(45.0))])
-    acc = _body(I, A, T, np.array([0.0, 0.0, 1.0])) @ (np.eye(3) + rng.normal(0, 3e-3, (3, 3))).T \
+    acc = body(I, A, T, np.array([0.0, 0.0, 1.0])) @ (np.eye(3) + rng.normal(0, 3e-3, (3, 3))).T \
         + rng.normal(0, 5e-3, 3) + rng.normal(0, 1.5e-4, (n, 3))
-    mag = _body(I, A, T, field) @ (np.eye(3) + rng.normal(0, 3e-3, (3, 3))).T \
+    mag = body(I, A, T, field) @ (np.eye(3) + rng.normal(0, 3e-3, (3, 3))).T \
         + rng.normal(0, 300.0, 3) + rng.normal(0, 15.0, (n, 3))
     with open(path, "w") as f:
         f.write("# field_nT=50000\n# dip_deg=45\n# declination_deg=0\n")
