@@ -239,15 +239,12 @@ def _cv(prob: _Problem, x_full: dict, rows: np.ndarray, rng) -> dict:
     return out
 
 
-def _cov_24(x, prob: _Problem, order, JtJ, s2, w):
-    """Covariance of the written (M, b) [and dip], and of the temperature
-    coefficients, from the GLS covariance of x (JtJ: the whitened J^T J);
-    with the scale nonlinearity
-    also the best linear calibration and the covariance of (M, b, q[, dip])
-    for the report's nonlinear block (None, None without it)."""
-    from . import joint
-
-    d = np.sqrt(np.diag(JtJ))  # the parameters' units differ by decades: condition of the scaled matrix
+def _param_cov(JtJ, s2) -> tuple:
+    """(covariance of every fitted parameter, the scaled condition number)
+    from the whitened J^T J and the variance factor s2: inverted with the
+    parameters scaled to unit diagonal (their units differ by decades);
+    refused when a parameter has no effect or the fit is singular."""
+    d = np.sqrt(np.diag(JtJ))
     if not np.all(np.isfinite(d)) or np.any(d == 0):
         raise CalibrationError("the poses at the run's temperatures do not separate the temperature terms "
                                "(a parameter has no effect on the readings)")
@@ -256,7 +253,18 @@ def _cov_24(x, prob: _Problem, order, JtJ, s2, w):
     if not np.isfinite(cond) or cond > 1e12:
         raise CalibrationError("the poses at the run's temperatures do not separate the temperature terms "
                                f"(singular fit, scaled condition number {cond:.3g})")
-    cov = s2 * np.linalg.inv(N) / np.outer(d, d)
+    return s2 * np.linalg.inv(N) / np.outer(d, d), cond
+
+
+def _cov_24(x, prob: _Problem, order, JtJ, s2, w):
+    """Covariance of the written (M, b) [and dip], and of the temperature
+    coefficients, from the GLS covariance of x (JtJ: the whitened J^T J);
+    with the scale nonlinearity
+    also the best linear calibration and the covariance of (M, b, q[, dip])
+    for the report's nonlinear block (None, None without it)."""
+    from . import joint
+
+    cov, cond = _param_cov(JtJ, s2)
     nb = prob.nbase
     dip_i = None if prob.fix_dip else nb - 1
     if prob.nonlinear:
@@ -319,8 +327,7 @@ def _predicted_over_range(x, prob: _Problem, order, JtJ, s2, w, dip):
     55 degC run of generated probes)."""
     from .sensitivity import predicted_attitude_rms
 
-    d = np.sqrt(np.diag(JtJ))
-    cov = s2 * np.linalg.inv(JtJ / np.outer(d, d)) / np.outer(d, d)
+    cov, _ = _param_cov(JtJ, s2)
     h = 1e-2 * np.sqrt(np.clip(np.diag(cov), 0.0, None))
     h[h == 0] = 1e-9
     lo, hi = float(prob.T.min()), float(prob.T.max())

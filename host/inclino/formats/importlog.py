@@ -166,21 +166,36 @@ def _index(col, names, what, path, lineno):
                        f"the columns by number)" if mostly else ""))
 
 
+def _line_delimiter(line: str, desc: SensorDescription) -> str:
+    """The delimiter a line is split at: the declared one, else sniffed."""
+    d = desc.delimiter if desc.delimiter is not None else _sniff(line, desc.decimal)
+    return "\t" if d == "\\t" else d
+
+
+def _named_columns(desc: SensorDescription) -> list:
+    """The columns the description gives by name (triads, time, temperature)."""
+    named = [c for t in desc.triads for c in t.columns if isinstance(c, str)]
+    return named + [c for c in (desc.time, desc.temperature) if isinstance(c, str)]
+
+
+def _names_found(named: list, names) -> int:
+    """How many of the named columns a split line names, as _index finds a
+    name (stripped, case aside)."""
+    low = {n.strip().lower() for n in names}
+    return sum(c.strip().lower() in low for c in named)
+
+
 def _skipped_header(skipped: list, names, desc: SensorDescription, path: str, lineno: int) -> None:
     """[log] skip_rows that skipped the header line: a column the description
     names is not in the line read as the header, but a line skip_rows skipped
     names every column the description gives.  One error line with the
     skip_rows to write (x-io's log with skip_rows = 1 was told its header
     line was missing, to number its columns)."""
-    wanted = [c for t in desc.triads for c in t.columns if isinstance(c, str)]
-    wanted += [c for c in (desc.time, desc.temperature) if isinstance(c, str)]
-    have = {n.strip() for n in names}
-    if not wanted or all(c.strip() in have for c in wanted):
+    wanted = _named_columns(desc)
+    if not wanted or _names_found(wanted, names) == len(wanted):
         return
     for k, (no, line) in enumerate(skipped):
-        d = desc.delimiter if desc.delimiter is not None else _sniff(line, desc.decimal)
-        cells = {n.strip() for n in _split(line, "\t" if d == "\\t" else d)}
-        if all(c.strip() in cells for c in wanted):
+        if _names_found(wanted, _split(line, _line_delimiter(line, desc))) == len(wanted):
             raise DataError(f"{path}:{no}: [log] skip_rows = {desc.skip_rows} skips this line, the header line "
                             f"that names the columns the description gives (line {lineno} was read as the header "
                             f"instead); skip_rows = {k}")
@@ -195,20 +210,12 @@ def _check_split(first: str, delim: str, names, desc: SensorDescription, path: s
     or whitespace) was "no column 'Acceleration x (m/s^2)'" listing columns
     cut at its spaces; refused naming the delimiter, and the decimal mark
     when that is what moved it."""
-    named = [c for t in desc.triads for c in t.columns if isinstance(c, str)]
-    named += [c for c in (desc.time, desc.temperature) if isinstance(c, str)]
-    if not named:
+    named = _named_columns(desc)
+    if not named or _names_found(named, names):
         return
-
-    def found(ns) -> int:
-        low = {n.strip().lower() for n in ns}
-        return sum(c.strip().lower() in low for c in named)
-
-    if found(names):
-        return
-    _header_further(path, lineno, desc, named, found)
+    _header_further(path, lineno, desc, named)
     for d in (",", ";", "\t", "whitespace"):
-        if d == delim or found(_split(first, d)) < len(named):
+        if d == delim or _names_found(named, _split(first, d)) < len(named):
             continue
         if desc.delimiter is None and desc.decimal == "," and d == ",":
             raise DataError(f"{path}:{lineno}: the header line names the description's columns when split at commas, "
@@ -261,7 +268,7 @@ def _unlabel(cells, labels, path: str, lineno: int, drop_bad: bool):
 HEADER_SEARCH_LINES = 200  # lines searched past the one read as the header for the line that names the columns
 
 
-def _header_further(path: str, lineno: int, desc: SensorDescription, named: list, found) -> None:
+def _header_further(path: str, lineno: int, desc: SensorDescription, named: list) -> None:
     """The line that names every column the description names, further down
     than the line read as the header: the lines between are a preamble (an
     Xsens MT Manager export's "// General information:" lines, a vendor
@@ -270,7 +277,7 @@ def _header_further(path: str, lineno: int, desc: SensorDescription, named: list
     export read with the default comment "#" was "no column 'Acc_X' (the
     log's columns: //, General, information:)"."""
     try:
-        with open(path, encoding="utf-8-sig", errors="replace", newline="") as f:
+        with open(path, encoding=_encoding(path), errors="replace", newline="") as f:
             head = [next(f, "") for _ in range(lineno + HEADER_SEARCH_LINES)]
     except OSError:
         return
@@ -278,8 +285,7 @@ def _header_further(path: str, lineno: int, desc: SensorDescription, named: list
         line = head[i].rstrip("\r\n").translate(str.maketrans("", "", desc.strip))
         if not line.strip():
             continue
-        d = desc.delimiter if desc.delimiter is not None else _sniff(line, desc.decimal)
-        if found(_split(line, "\t" if d == "\\t" else d)) < len(named):
+        if _names_found(named, _split(line, _line_delimiter(line, desc))) < len(named):
             continue
         before = [h.strip() for h in head[lineno - 1:i] if h.strip()]
         mark = os.path.commonprefix(before)
@@ -545,11 +551,10 @@ def _triads_in_turn(missing_rows: dict, desc: SensorDescription, kept: int, path
             gone[k] = gone.get(k, 0) + n
     if len(gone) < 2 or min(gone.values()) <= kept:
         return ""
-    section = "magnetometer"
     return (f"{gone['acc']} rows hold no accelerometer reading and {gone['mag']} no magnetometer reading, "
             f"{kept} both: the two sensors' samples at their own times, one to a row (two streams in one file); "
-            f"pair them by time: [{section}] file = {json.dumps(os.path.basename(path))} (this log again: its rows with "
-            f"a {section} reading, paired with the others' nearest in time)")
+            f"pair them by time: [magnetometer] file = {json.dumps(os.path.basename(path))} (this log again: its rows "
+            f"with a magnetometer reading, paired with the others' nearest in time)")
 
 
 def _check_poses(desc: SensorDescription, path: str) -> None:
@@ -588,16 +593,21 @@ def import_log(path: str, desc: SensorDescription, static: bool | None = None,
     return _read(path, desc, static, drop_bad_rows)
 
 
+def _encoding(path: str) -> str:
+    """The text encoding of a log: UTF-16 or UTF-32 where its byte-order mark
+    says so (a serial log redirected by Windows PowerShell, "> log.csv", is
+    UTF-16 with its mark, and was refused as "not UTF-8 text (byte 0xFF
+    ...)"), else UTF-8 (a UTF-8 mark taken off)."""
+    with open(path, "rb") as raw:
+        bom = raw.read(4)
+    return ("utf-32" if bom in (b"\xff\xfe\x00\x00", b"\x00\x00\xfe\xff") else
+            "utf-16" if bom[:2] in (b"\xff\xfe", b"\xfe\xff") else "utf-8-sig")
+
+
 def _read(path: str, desc: SensorDescription, static, drop_bad_rows, absolute_time: bool = False):
     try:
         size = os.path.getsize(path)
-        with open(path, "rb") as raw:
-            bom = raw.read(4)
-        # text whose byte-order mark says UTF-16 or UTF-32 is read as such: a serial log redirected by Windows
-        # PowerShell ("> log.csv") is UTF-16 with its mark, and was refused as "not UTF-8 text (byte 0xFF ...)"
-        encoding = ("utf-32" if bom in (b"\xff\xfe\x00\x00", b"\x00\x00\xfe\xff") else
-                    "utf-16" if bom[:2] in (b"\xff\xfe", b"\xfe\xff") else "utf-8-sig")
-        f = open(path, newline="", encoding=encoding)
+        f = open(path, newline="", encoding=_encoding(path))
     except OSError as e:
         raise DataError(f"cannot read {path}: {e.strerror}") from None
     if size > MAX_LOG_BYTES:
@@ -640,9 +650,7 @@ def _import(lines, path: str, desc: SensorDescription, static, drop_bad=False,
                                 f"site's total field) needs that field: [header] field_nT = ... in the description "
                                 f"(or a '# field_nT=' line in the log)")
             desc = dataclasses.replace(desc, mag=dataclasses.replace(t, scale=float(log_meta["field_nT"])))
-    delim = desc.delimiter if desc.delimiter is not None else _sniff(first, desc.decimal)
-    if delim == "\\t":
-        delim = "\t"
+    delim = _line_delimiter(first, desc)
     names = _split(first, delim) if desc.has_header else None
     header_line = lines.lineno
     labelled = _labels(_split(first, delim))
