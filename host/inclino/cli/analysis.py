@@ -145,8 +145,9 @@ def add_calibrate(subparsers):
                         "them; on: or refuse; off: never)")
     deprecated(c, "--temperature", "--temperature-terms", choices=("auto", "on", "off"))
     c.add_argument("--mount-tolerance-deg", type=float,
-                   help="joint without poses or prior: 1-sigma of the sensor block's unobservable rotation, per axis "
-                        "(default 0.3; docs/calibration.md)")
+                   help="joint without poses or prior: 1-sigma of the sensor block's unobservable rotation, per axis: "
+                        "its mounting and the accelerometer axes' own turn, in quadrature (default 0.3; "
+                        "docs/calibration.md)")
     c.add_argument("--accept-mount-tolerance", action="store_true",
                    help="joint without poses or prior: accept that tolerance (the verdict then judges the fit itself)")
     c.add_argument("--bootstrap", type=int, help=f"paper methods: refits for the uncertainty, 2-{MAX_BOOTSTRAP} "
