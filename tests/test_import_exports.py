@@ -367,6 +367,54 @@ def test_field_normalised_readings_declared_in_a_unit_of_field_name_unit_field(t
     assert abs(errors[0].figures["logged_abs"] - 1.0) < 0.05
 
 
+# the time unit of a tick counter: SampleTimeFine counts 100 us ticks (a 10 kHz clock)
+
+def _time_findings(ds):
+    from inclino import checks
+
+    return [f for f in checks.run(ds).findings if f.check == "time"]
+
+
+@pytest.mark.parametrize("declared", ["us", "s", "ns"])
+def test_a_10khz_tick_counter_declared_in_another_unit_names_the_tick(tmp_path, declared):
+    # declared "us" it was told time_unit = "ms" (10 rows/s, 33 deg/s): every rate 10x slow when followed
+    ds, _ = importlog.import_log(str(_xsens(tmp_path)), _desc(XSENS.format(
+        comment='comment = "//"', mag_unit="field", field="field_nT = 49500").replace('"1/10000 s"', f'"{declared}"')))
+    found = _time_findings(ds)
+    assert len(found) == 1 and f'time_unit = "100 us" (declared "{declared}")' in found[0].message, found
+    assert "read as 100 us: 99 rows/s" in found[0].message and '"ms"' not in found[0].message, found[0].message
+    assert found[0].figures["looks_like"] == "100 us" and "also_fits" not in found[0].figures
+
+
+def test_a_tick_counter_declared_as_its_tick_imports_without_a_word_on_time(tmp_path):
+    ds, _ = importlog.import_log(str(_xsens(tmp_path)), _desc(XSENS.format(
+        comment='comment = "//"', mag_unit="field", field="field_nT = 49500").replace('"1/10000 s"', '"100 us"')))
+    assert ds.meta["time_unit"] == "100 us" and not _time_findings(ds)
+    src = np.array(_xio(1500))
+    assert np.allclose(ds.columns["t_s"], 1000.0 + np.round(src[:, 0] * 1e4) * 1e-4, rtol=0, atol=1e-9)
+
+
+def test_two_units_the_rows_cannot_tell_apart_are_both_named(tmp_path):
+    # millis() at 20 rows/s declared us: read as ms the x-io hand turns at 66 deg/s, as 100 us ticks at 657 deg/s,
+    # both where real hands turn; naming one alone would pick it on a factor of 10 nothing in the rows shows
+    rows = np.array(_xio(1500))
+    p = tmp_path / "millis.csv"
+    with open(p, "w") as f:
+        f.write("t_ms,ax,ay,az,mx,my,mz\n")
+        for r in rows:
+            f.write(f"{round(r[0] * 5000)}," + ",".join(f"{v:.6f}" for v in r[4:10]) + "\n")
+    ds, _ = importlog.import_log(str(p), _desc(
+        '[log]\ntime = "t_ms"\ntime_unit = "us"\n[accelerometer]\ncolumns = ["ax", "ay", "az"]\nunit = "g"\n'
+        'reads = "up"\naxes = "x = ax, y = ay, z = az"\n[magnetometer]\ncolumns = ["mx", "my", "mz"]\nunit = "uT"\n'
+        'axes = "x = mx, y = my, z = mz"\n'))
+    found = _time_findings(ds)
+    assert len(found) == 1, found
+    m = found[0].message
+    assert "read as ms: 20 rows/s, 65.7 deg/s or read as 100 us: 200 rows/s, 657 deg/s" in m, m
+    assert "nothing in the rows tells these apart" in m and '[log] time_unit = "ms" (declared "us") (or "100 us")' in m
+    assert found[0].figures["looks_like"] == "ms" and found[0].figures["also_fits"] == ["100 us"]
+
+
 # ---- ROS: the stamp in two columns, whole seconds and nanoseconds ---------------------------------------------
 # `ros2 topic echo --csv` writes every field of a message in order, no header line: sensor_msgs/Imu is
 # header.stamp.sec, .nanosec, header.frame_id, orientation x y z w, its covariance (9), angular_velocity x y z, its

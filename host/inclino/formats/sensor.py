@@ -60,7 +60,7 @@ MAG_UNITS = {"nt": 1.0, "ut": 1e3, "µt": 1e3, "mt": 1e6, "t": 1e9, "g": 1e5, "g
              "mgauss": 100.0, "gamma": 1.0}
 TRIADS = {"accelerometer": ("acc", ACC_UNITS, "g", "a"), "magnetometer": ("mag", MAG_UNITS, "nT", "m")}
 TIME_UNITS = {"s": 1.0, "ms": 1e-3, "us": 1e-6, "µs": 1e-6, "ns": 1e-9, "min": 60.0, "h": 3600.0}
-TICK_UNITS = {"100us": 1e-4}  # tick counters named as a unit: a 10 kHz counter of 100 us ticks (Xsens MT
+TICK_UNITS = {"100 us": 1e-4}  # tick counters named as a unit: a 10 kHz counter of 100 us ticks (Xsens MT
                               # Manager's SampleTimeFine); declared as a sample period, "100 us" (time_scale)
 SPLIT_STAMP = "s + ns"  # the time_unit recorded for a stamp in two columns, whole seconds and nanoseconds
 NS_PER_S = 1_000_000_000  # a stamp's nanoseconds column reads 0 ... NS_PER_S - 1
