@@ -410,8 +410,8 @@ def test_two_units_the_rows_cannot_tell_apart_are_both_named(tmp_path):
     found = _time_findings(ds)
     assert len(found) == 1, found
     m = found[0].message
-    assert "read as ms: 20 rows/s, 65.7 deg/s or read as 100 us: 200 rows/s, 657 deg/s" in m, m
-    assert "nothing in the rows tells these apart" in m and '[log] time_unit = "ms" (declared "us") (or "100 us")' in m
+    assert "read as ms: 20 rows/s, 65.7 deg/s, or read as 100 us: 200 rows/s, 657 deg/s" in m, m
+    assert "nothing in the rows tells these apart" in m and '[log] time_unit = "ms" (declared "us"), or "100 us"' in m
     assert found[0].figures["looks_like"] == "ms" and found[0].figures["also_fits"] == ["100 us"]
 
 

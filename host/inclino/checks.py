@@ -2797,11 +2797,11 @@ def _time_unit(ds, rep):
     elif guess is not None:
         fig["factor"] = guess
         fix = _time_unit_text(ds, guess)
-        msg += "; " + " or ".join(_read_as(ds, f, rows_hz, w, temp_rate) for f in fits)
+        msg += "; " + ", or ".join(_read_as(ds, f, rows_hz, w, temp_rate) for f in fits)
         also = [_time_unit_text(ds, f) for f in fits[1:]]
         if len(fits) > 1:
             msg += ": nothing in the rows tells these apart, the logger's documentation does"
-        msg += ("; " + (f"fix {fix[0]}" + "".join(f' (or "{a[1]}")' for a in also if a) +
+        msg += ("; " + (f"fix {fix[0]}" + "".join(f', or "{a[1]}"' for a in also if a) +
                         " in the sensor description and import again" if fix and _imported(ds) else
                         f"t_s must be in seconds: {_fix(ds, 'log', 'the time unit')}")
                 + " (the drift over the session, the rates and any lag in seconds use it)")
@@ -2816,16 +2816,18 @@ def _time_unit(ds, rep):
 
 
 def _unit_fits(ds, sign: int, rows_hz: float, w, temp_rate) -> list:
-    """The factors (x the declared unit, _time_factors' order, the side
-    `sign` says: > 1 when the rows read too fast) that bring the row rate,
-    the turning and the temperature's rate within what loggers and hands do
-    (TYPICAL_*).  Where the turning is known, the factors that put it where
-    the corpus' moving logs turn (TURN_SEEN_DEG_S) come first, and are the
-    only ones kept when any does: a 100 us tick counter declared us read as
-    ms turns 10x slower than any of them (x-io's log at 33 deg/s against
-    334 deg/s), and two units that both put it there are both named (a unit
-    of TIME_UNITS or TICK_UNITS: a factor to no unit people log in, 1/3600 x
-    s, is never named beside one)."""
+    """The factors (x the declared unit) to name: of those that bring the
+    row rate, the turning and the temperature's rate within what loggers
+    and hands do (TYPICAL_*; _time_factors' order, on the side `sign` says:
+    > 1 when the rows read too fast), the first, and after it the others
+    that give a unit people log in (_named_unit: never a factor such as
+    1/3600 x s).  Where the turning is known, those that put it where the
+    corpus' moving logs turn (TURN_SEEN_DEG_S), else the first alone: a
+    100 us tick counter declared us turns at 33 deg/s read as ms, 10x slower
+    than any of them, and at 334 deg/s read as 100 us (x-io's log written as
+    an Xsens export); where two units both put it there, both are named.
+    Without the turning (a static log) every such unit the row rate and the
+    temperature's allow: nothing tells them apart."""
     fits = []
     for f in _time_factors(ds):
         if (f > 1) != (sign > 0):
@@ -2837,11 +2839,18 @@ def _unit_fits(ds, sign: int, rows_hz: float, w, temp_rate) -> list:
             ok = ok and temp_rate / f <= TEMP_RATE_TYPICAL_C_S
         if ok:
             fits.append(f)
+    named = fits[:1] + [f for f in fits[1:] if _named_unit(ds, f)]
     if w is None:
-        return fits[:1]
-    named = {f for f in fits if _time_unit_text(ds, f) is not None and not _time_unit_text(ds, f)[1].endswith(" s")}
-    seen = [f for f in fits if TURN_SEEN_DEG_S[0] <= w / f <= TURN_SEEN_DEG_S[1] and (f == fits[0] or f in named)]
+        return named
+    seen = [f for f in named if TURN_SEEN_DEG_S[0] <= w / f <= TURN_SEEN_DEG_S[1]]
     return seen or fits[:1]
+
+
+def _named_unit(ds, f: float) -> bool:
+    """Whether f x the declared unit is a unit of sensor.TIME_UNITS or
+    TICK_UNITS (not a sample period such as "1/3600 s")."""
+    fix = _time_unit_text(ds, f)
+    return fix is not None and not fix[1].endswith(" s")
 
 
 def _read_as(ds, f: float, rows_hz: float, w, temp_rate) -> str:
