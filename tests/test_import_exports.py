@@ -536,6 +536,26 @@ def test_a_ros2_stamp_in_whole_seconds_alone_names_the_columns_by_number(tmp_pat
     assert "whole seconds" in str(e.value) and "[log] time = [1, 2]" in str(e.value), e.value
 
 
+def test_a_whole_second_column_beside_a_sample_index_is_no_split_stamp(tmp_path):
+    # the column after the seconds counts samples within the second (0 ... 99), not nanoseconds: no stamp named
+    rows = _xio(600)
+    p = tmp_path / "gps.csv"
+    with open(p, "w") as f:
+        f.write("gps_s,sample,ax,ay,az\n")
+        for k, r in enumerate(rows):
+            f.write(f"{1_400_000_000 + k // 100},{k % 100},{r[4]},{r[5]},{r[6]}\n")
+    ds, _ = importlog.import_log(str(p), _desc('[log]\ntime = "gps_s"\n[accelerometer]\ncolumns = ["ax", "ay", "az"]\n'
+                                               'unit = "g"\nreads = "up"\naxes = "x = ax, y = ay, z = az"\n'))
+    assert len(ds) == 600
+
+
+def test_a_triad_file_of_its_own_takes_its_stamp_in_two_columns_too(tmp_path):
+    rows, mags = _ros2(tmp_path)
+    text = ROS2.format(time="time = [1, 2]").replace('file = "mag.csv"', 'file = "mag.csv"\ntime = [1, 2]')
+    ds, _ = importlog.import_log(str(tmp_path / "imu.csv"), _desc(text))
+    assert len(ds) == len(mags) and ds.meta["time_unit"] == "s + ns"
+
+
 @pytest.mark.parametrize("time,words", [
     ('["header.stamp.nsecs", "header.stamp.secs"]',
      ['is no nanoseconds of a second', 'swapped', '[log] time = ["header.stamp.secs", "header.stamp.nsecs"]']),

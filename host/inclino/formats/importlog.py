@@ -396,6 +396,8 @@ STAMP_MAX_S = 9e9  # a stamp's whole seconds beyond this (year 2255 as Unix time
 STAMP_SHARED = 0.5  # a time column of whole seconds shared by more than this share of the rows with the row before:
                     # the stamp's fraction of a second in a column of its own (ROS 2's header.stamp.sec, .nanosec)
 STAMP_RISING = 0.9  # ... the column after it, joined as its nanoseconds, rises on at least this share of the rows
+STAMP_SPAN = (0.3, 3.0)  # ... and its median step within a second x the rows a second is this share of a second
+                         # (ROS 2 at 100 Hz: 1e7 ns x 100 rows = 1; a sample index 0..99 within the second: 1e-7)
 
 
 def _cell_text(j: int, names) -> str:
@@ -446,7 +448,8 @@ def _whole_second_stamp(t, cells, j: int, names, path: str) -> None:
     """A time column of whole seconds that most rows share with the row
     before (more than STAMP_SHARED), and the column after it reading the
     nanoseconds of each (whole numbers 0 ... 999 999 999 that, joined to the
-    seconds, rise on STAMP_RISING of the rows and never go back): a stamp in
+    seconds, rise on STAMP_RISING of the rows, never go back, and spread the
+    rows of a second over it, STAMP_SPAN): a stamp in
     two columns (ros2 topic echo --csv writes header.stamp.sec and
     .nanosec) read as its seconds alone, every row's time cut to its second.
     Refused with the line that reads it whole."""
@@ -468,6 +471,10 @@ def _whole_second_stamp(t, cells, j: int, names, path: str) -> None:
     joined = np.diff((sec - sec[0]) * NS_PER_S + ns)
     if np.any(joined < 0) or np.mean(joined > 0) < STAMP_RISING:
         return
+    within = joined[(np.diff(sec) == 0) & (joined > 0)]
+    rows_a_second = len(steps) / max(1, np.count_nonzero(steps))
+    if within.size == 0 or not STAMP_SPAN[0] <= np.median(within) * rows_a_second / NS_PER_S <= STAMP_SPAN[1]:
+        return  # the rows of a second do not spread over it: no nanoseconds (a sample index within the second)
     raise DataError(f"{path}: the time column {_cell_text(j, names)} holds whole seconds, {np.mean(steps == 0):.0%} of "
                     f"the rows sharing theirs with the row before, and the column after it, {_cell_text(j + 1, names)}, "
                     f"the nanoseconds of each (0 ... 999 999 999): a stamp in two columns (ROS 2's header.stamp.sec "
