@@ -399,3 +399,16 @@ def test_a_static_log_names_every_unit_its_rates_allow(tmp_path):
         assert "nothing in the rows tells these apart" in f.message
         assert f.figures["looks_like"] == "ms" and f.figures["also_fits"] == ["100 us"]
 
+
+
+@pytest.mark.parametrize("log, desc, unit, declared", [
+    ("xio_fusion/sensor_data.csv", "xio_fusion/sensor.toml", "s", "h"),
+    ("broad/05.csv", "broad/with_acc.toml", "s", "100 us"),
+    ("pololu_minimu9/data_polulu.txt", "pololu_minimu9/sensor.toml", "ms", "100 us"),
+])
+def test_the_corpus_in_another_unit_is_told_its_own(tmp_path, log, desc, unit, declared):
+    # x-io's seconds declared h had been told "min" (6.95 deg/s, 1.65 rows/s); declared as a tick, BROAD's seconds
+    # "1/10 s" and the MinIMU's ms "1/10 s" (7.07 deg/s): a unit that puts the turning where hands turn comes first
+    d = _desc(tmp_path, REAL / desc, f'time_unit = "{unit}"', f'time_unit = "{declared}"')
+    (f,) = _time(_found(REAL / log, d)[1])
+    assert f'time_unit = "{unit}" (declared "{declared}")' in f.message and "also_fits" not in f.figures, f.message
