@@ -367,26 +367,218 @@ def test_field_normalised_readings_declared_in_a_unit_of_field_name_unit_field(t
     assert abs(errors[0].figures["logged_abs"] - 1.0) < 0.05
 
 
-# ---- ROS 2: `ros2 topic echo --csv`, the stamp in two columns (sec, nanosec) -----------------------------------
+# the time unit of a tick counter: SampleTimeFine counts 100 us ticks (a 10 kHz clock)
 
-def test_a_stamp_in_whole_seconds_is_named_as_a_split_stamp(tmp_path):
-    # time = the sec column: "most rows share their time stamp with the row before: nothing to pair by", no cause
-    rows = _xio(600)
-    cov = ",".join(["0.0"] * 9)
+def _time_findings(ds):
+    from inclino import checks
+
+    return [f for f in checks.run(ds).findings if f.check == "time"]
+
+
+@pytest.mark.parametrize("declared", ["us", "s", "ns"])
+def test_a_10khz_tick_counter_declared_in_another_unit_names_the_tick(tmp_path, declared):
+    # declared "us" it was told time_unit = "ms" (10 rows/s, 33 deg/s): every rate 10x slow when followed
+    ds, _ = importlog.import_log(str(_xsens(tmp_path)), _desc(XSENS.format(
+        comment='comment = "//"', mag_unit="field", field="field_nT = 49500").replace('"1/10000 s"', f'"{declared}"')))
+    found = _time_findings(ds)
+    assert len(found) == 1 and f'time_unit = "100 us" (declared "{declared}")' in found[0].message, found
+    assert "read as 100 us: 99 rows/s" in found[0].message and '"ms"' not in found[0].message, found[0].message
+    assert found[0].figures["looks_like"] == "100 us" and "also_fits" not in found[0].figures
+
+
+def test_a_tick_counter_declared_as_its_tick_imports_without_a_word_on_time(tmp_path):
+    ds, _ = importlog.import_log(str(_xsens(tmp_path)), _desc(XSENS.format(
+        comment='comment = "//"', mag_unit="field", field="field_nT = 49500").replace('"1/10000 s"', '"100 us"')))
+    assert ds.meta["time_unit"] == "100 us" and not _time_findings(ds)
+    src = np.array(_xio(1500))
+    assert np.allclose(ds.columns["t_s"], 1000.0 + np.round(src[:, 0] * 1e4) * 1e-4, rtol=0, atol=1e-9)
+
+
+def test_two_units_the_rows_cannot_tell_apart_are_both_named(tmp_path):
+    # millis() at 20 rows/s declared us: read as ms the x-io hand turns at 66 deg/s, as 100 us ticks at 657 deg/s,
+    # both where real hands turn; naming one alone would pick it on a factor of 10 nothing in the rows shows
+    rows = np.array(_xio(1500))
+    p = tmp_path / "millis.csv"
+    with open(p, "w") as f:
+        f.write("t_ms,ax,ay,az,mx,my,mz\n")
+        for r in rows:
+            f.write(f"{round(r[0] * 5000)}," + ",".join(f"{v:.6f}" for v in r[4:10]) + "\n")
+    ds, _ = importlog.import_log(str(p), _desc(
+        '[log]\ntime = "t_ms"\ntime_unit = "us"\n[accelerometer]\ncolumns = ["ax", "ay", "az"]\nunit = "g"\n'
+        'reads = "up"\naxes = "x = ax, y = ay, z = az"\n[magnetometer]\ncolumns = ["mx", "my", "mz"]\nunit = "uT"\n'
+        'axes = "x = mx, y = my, z = mz"\n'))
+    found = _time_findings(ds)
+    assert len(found) == 1, found
+    m = found[0].message
+    assert "read as ms: 20 rows/s, 65.7 deg/s, or read as 100 us: 200 rows/s, 657 deg/s" in m, m
+    assert "nothing in the rows tells these apart" in m and '[log] time_unit = "ms" (declared "us"), or "100 us"' in m
+    assert found[0].figures["looks_like"] == "ms" and found[0].figures["also_fits"] == ["100 us"]
+
+
+# ---- ROS: the stamp in two columns, whole seconds and nanoseconds ---------------------------------------------
+# `ros2 topic echo --csv` writes every field of a message in order, no header line: sensor_msgs/Imu is
+# header.stamp.sec, .nanosec, header.frame_id, orientation x y z w, its covariance (9), angular_velocity x y z, its
+# covariance (9), linear_acceleration x y z (columns 29-31), its covariance (9); sensor_msgs/MagneticField is
+# header (3 columns), magnetic_field x y z in tesla (4-6), its covariance (9).  A ROS 1 bag read by bagpy
+# (message_by_topic) names its columns: Time (the bag's receive time, float seconds), header.seq,
+# header.stamp.secs, header.stamp.nsecs, header.frame_id, ...
+
+T0_NS = 1_700_000_000 * 10**9 + 987_654_321  # the first stamp: the fraction of a second at the float64 edge
+COV = ",".join(["0.0"] * 9)
+
+ROS2 = """name = "ros2 topic echo --csv /imu/data, /imu/mag"
+[log]
+header = false
+{time}
+[accelerometer]
+columns = [29, 30, 31]
+unit = "m/s2"
+reads = "up"
+axes = "x = ax, y = ay, z = az"
+[magnetometer]
+file = "mag.csv"
+columns = [4, 5, 6]
+unit = "T"
+axes = "x = mx, y = my, z = mz"
+"""
+
+
+def _stamp(r, after_ns=0):
+    """A row's stamp in integer nanoseconds: the x-io row's time, from T0_NS,
+    with a jitter of its own in the last digits (a stamp's nanoseconds)."""
+    return T0_NS + round(r[0] * 1e9) + (int(r[0] * 1e4) * 7919) % 997 + after_ns
+
+
+def _ros2(tmp_path, n=600):
+    rows = _xio(n)
     with open(tmp_path / "imu.csv", "w") as f:
         for r in rows:
-            ns = round(r[0] * 1e9) + 123_456_789
+            ns = _stamp(r)
             a = [v * G for v in r[4:7]]
-            f.write(f"{1_700_000_000 + ns // 10**9},{ns % 10**9},imu_link,0,0,0,1,{cov},0,0,0,{cov},"
-                    f"{a[0]},{a[1]},{a[2]},{cov}\n")
+            f.write(f"{ns // 10**9},{ns % 10**9},imu_link,0.0,0.0,0.0,1.0,{COV},0.0,0.0,0.0,{COV},"
+                    f"{a[0]!r},{a[1]!r},{a[2]!r},{COV}\n")
+    mags = [(k, r) for k, r in enumerate(rows) if k == 0 or r[7:10] != rows[k - 1][7:10]]
     with open(tmp_path / "mag.csv", "w") as f:
-        for r in rows[::5]:
-            ns = round(r[0] * 1e9) + 124_756_789
-            f.write(f"{1_700_000_000 + ns // 10**9},{ns % 10**9},imu_link,{r[7] * 1e-6},{r[8] * 1e-6},"
-                    f"{r[9] * 1e-6},{cov}\n")
-    desc = _desc('name = "ros2 topic echo --csv"\n[log]\nheader = false\ntime = 1\ntime_unit = "s"\n'
-                 '[accelerometer]\ncolumns = [30, 31, 32]\nunit = "m/s2"\nreads = "up"\naxes = "x = ax, y = ay, z = az"\n'
-                 '[magnetometer]\nfile = "mag.csv"\ncolumns = [4, 5, 6]\nunit = "T"\naxes = "x = mx, y = my, z = mz"\n')
+        for _, r in mags:
+            ns = _stamp(r, after_ns=1_300_000)  # 1.3 ms after the IMU sample of its instant
+            f.write(f"{ns // 10**9},{ns % 10**9},imu_link,{r[7] * 1e-6!r},{r[8] * 1e-6!r},{r[9] * 1e-6!r},{COV}\n")
+    return rows, mags
+
+
+def test_a_ros2_stamp_in_two_columns_is_read_whole_and_pairs_two_topics(tmp_path):
+    # before, a description could name one time column: the sec column alone was refused at pairing
+    rows, mags = _ros2(tmp_path)
+    ds, rep = importlog.import_log(str(tmp_path / "imu.csv"), _desc(ROS2.format(time="time = [1, 2]")))
+    assert len(ds) == len(mags) and ds.meta["time_unit"] == "s + ns"
+    assert np.allclose(ds.columns["mx_nT"], [r[7] * 1000 for _, r in mags], rtol=1e-12)
+    # the rows are the magnetometer's (the slower), each with the IMU sample of its instant
+    assert np.allclose(ds.columns["ax_g"], [-r[4] for k, r in mags], rtol=1e-12)
+    # t_s from the first row paired, the log's (IMU) stamps to well within a nanosecond (1 ps: counted from
+    # the log's first whole second while paired, then from the first row)
+    ns = np.array([_stamp(r) for r in rows])[[k for k, _ in mags]]
+    assert np.max(np.abs(ds.columns["t_s"] - (ns - ns[0]) / 1e9)) < 1e-12
+
+
+BAGPY = """name = "bagpy message_by_topic of /imu/data"
+[log]
+time = {time}
+[accelerometer]
+columns = ["linear_acceleration.x", "linear_acceleration.y", "linear_acceleration.z"]
+unit = "m/s2"
+reads = "up"
+axes = "x = ax, y = ay, z = az"
+"""
+
+
+def _bagpy(tmp_path, n=1500):
+    rows = _xio(n)
+    p = tmp_path / "imu-data.csv"
+    with open(p, "w") as f:
+        f.write("Time,header.seq,header.stamp.secs,header.stamp.nsecs,header.frame_id,orientation.x,orientation.y,"
+                "orientation.z,orientation.w,orientation_covariance,angular_velocity.x,angular_velocity.y,"
+                "angular_velocity.z,angular_velocity_covariance,linear_acceleration.x,linear_acceleration.y,"
+                "linear_acceleration.z,linear_acceleration_covariance\n")
+        cov = '"(0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0)"'
+        for k, r in enumerate(rows):
+            ns = _stamp(r)
+            a = [v * G for v in r[4:7]]
+            f.write(f"{(ns + 2_500_000) / 1e9:.9f},{k},{ns // 10**9},{ns % 10**9},imu_link,0.0,0.0,0.0,1.0,{cov},"
+                    f"0.0,0.0,0.0,{cov},{a[0]!r},{a[1]!r},{a[2]!r},{cov}\n")
+    return p, np.array([_stamp(r) for r in rows])
+
+
+def test_a_ros1_stamp_in_two_columns_is_joined_exactly_from_the_first_row(tmp_path):
+    p, ns = _bagpy(tmp_path)
+    ds, _ = importlog.import_log(str(p), _desc(BAGPY.format(time='["header.stamp.secs", "header.stamp.nsecs"]')))
+    exact = (ns - ns[0]) / 1e9
+    assert np.array_equal(ds.columns["t_s"], exact)
+    # sec + nsec x 1e-9 in float64 (an epoch's seconds) rounds each stamp to 0.24 us: what the join keeps
+    naive = (ns // 10**9 + (ns % 10**9) * 1e-9)
+    assert np.max(np.abs((naive - naive[0]) - exact)) > 1e-7
+
+
+def test_a_stamp_in_whole_seconds_alone_names_the_line_that_reads_it_whole(tmp_path, capsys):
+    # time = the secs column alone: every row's time cut to its second, imported with exit 0 in silence
+    p, _ = _bagpy(tmp_path)
+    (tmp_path / "s.toml").write_text(BAGPY.format(time='"header.stamp.secs"'))
+    rc = main(["import", str(p), "--sensor", str(tmp_path / "s.toml"), "-o", str(tmp_path / "run.csv")])
+    err = capsys.readouterr().err
+    assert rc == 2 and len(err.strip().splitlines()) == 1 and "Traceback" not in err, err
+    assert '[log] time = ["header.stamp.secs", "header.stamp.nsecs"]' in err and "whole seconds" in err, err
+    assert not (tmp_path / "run.csv").exists()
+
+
+def test_a_ros2_stamp_in_whole_seconds_alone_names_the_columns_by_number(tmp_path):
+    # time = the sec column: "most rows share their time stamp with the row before: nothing to pair by", no cause
+    _ros2(tmp_path)
     with pytest.raises(DataError) as e:
-        importlog.import_log(str(tmp_path / "imu.csv"), desc)
-    assert "whole seconds" in str(e.value) and "nanosec" in str(e.value), e.value
+        importlog.import_log(str(tmp_path / "imu.csv"), _desc(ROS2.format(time='time = 1\ntime_unit = "s"')))
+    assert "whole seconds" in str(e.value) and "[log] time = [1, 2]" in str(e.value), e.value
+
+
+def test_a_whole_second_column_beside_a_sample_index_is_no_split_stamp(tmp_path):
+    # the column after the seconds counts samples within the second (0 ... 99), not nanoseconds: no stamp named
+    rows = _xio(600)
+    p = tmp_path / "gps.csv"
+    with open(p, "w") as f:
+        f.write("gps_s,sample,ax,ay,az\n")
+        for k, r in enumerate(rows):
+            f.write(f"{1_400_000_000 + k // 100},{k % 100},{r[4]},{r[5]},{r[6]}\n")
+    ds, _ = importlog.import_log(str(p), _desc('[log]\ntime = "gps_s"\n[accelerometer]\ncolumns = ["ax", "ay", "az"]\n'
+                                               'unit = "g"\nreads = "up"\naxes = "x = ax, y = ay, z = az"\n'))
+    assert len(ds) == 600
+
+
+def test_a_triad_file_of_its_own_takes_its_stamp_in_two_columns_too(tmp_path):
+    rows, mags = _ros2(tmp_path)
+    text = ROS2.format(time="time = [1, 2]").replace('file = "mag.csv"', 'file = "mag.csv"\ntime = [1, 2]')
+    ds, _ = importlog.import_log(str(tmp_path / "imu.csv"), _desc(text))
+    assert len(ds) == len(mags) and ds.meta["time_unit"] == "s + ns"
+
+
+@pytest.mark.parametrize("time,words", [
+    ('["header.stamp.nsecs", "header.stamp.secs"]',
+     ['is no nanoseconds of a second', 'swapped', '[log] time = ["header.stamp.secs", "header.stamp.nsecs"]']),
+    ('["header.stamp.secs", "Time"]', ["is no nanoseconds of a second", "not the stamp's nanoseconds column"]),
+    ('["Time", "header.stamp.nsecs"]', ["is no whole second"]),
+    ('["header.stamp.secs", "header.stamp.nanosec"]',
+     ["[log].time[2] (nanoseconds)", "no column 'header.stamp.nanosec'"]),
+])
+def test_a_wrong_pairing_of_the_stamp_columns_is_one_line(tmp_path, capsys, time, words):
+    p, _ = _bagpy(tmp_path, 300)
+    (tmp_path / "s.toml").write_text(BAGPY.format(time=time))
+    rc = main(["import", str(p), "--sensor", str(tmp_path / "s.toml"), "-o", str(tmp_path / "run.csv")])
+    err = capsys.readouterr().err
+    assert rc == 2 and len(err.strip().splitlines()) == 1 and "Traceback" not in err, err
+    assert all(w in err for w in words), err
+
+
+@pytest.mark.parametrize("log,words", [
+    ('time = ["a", "b"]\ntime_unit = "ms"', ["two columns", "leave time_unit out"]),
+    ('time = ["a"]', ["[whole seconds, nanoseconds]"]),
+    ('time = ["a", "b"]\nrate_hz = 100', ["rate_hz and time"]),
+])
+def test_a_stamp_in_two_columns_is_described_as_such(log, words):
+    with pytest.raises(DataError) as e:
+        _desc(f"[log]\n{log}\n[accelerometer]\ncolumns = [\"x\", \"y\", \"z\"]\n")
+    assert all(w in str(e.value) for w in words), e.value

@@ -386,3 +386,29 @@ def test_an_uptime_counter_in_ms_declared_us_is_named_by_the_temperature(tmp_pat
     # a chamber ramping fast, 0.33 degC/s (100x the bench's warming), timed in ms as declared, is no time slip
     ds, rep = _six_faces_warming(tmp_path, "ms", scale=100.0)
     assert not _time(rep) and 0.3 < rep.time["temp_rate_c_s"] < 0.37
+
+
+def test_a_static_log_names_every_unit_its_rates_allow(tmp_path):
+    # without the turning, the row rate and the temperature's are all there is: 62.5 rows/s warming 0.0033 degC/s
+    # (ms) and 625 rows/s warming 0.033 degC/s (a 100 us tick counter) are both what loggers and dies do; "ms"
+    # alone had been named on a factor of 10 nothing in the rows shows
+    for declared in ("us", "ns"):
+        ds, rep = _six_faces_warming(tmp_path, declared)
+        (f,) = _time(rep)
+        assert f'time_unit = "ms" (declared "{declared}"), or "100 us"' in f.message, f.message
+        assert "nothing in the rows tells these apart" in f.message
+        assert f.figures["looks_like"] == "ms" and f.figures["also_fits"] == ["100 us"]
+
+
+
+@pytest.mark.parametrize("log, desc, unit, declared", [
+    ("xio_fusion/sensor_data.csv", "xio_fusion/sensor.toml", "s", "h"),
+    ("broad/05.csv", "broad/with_acc.toml", "s", "100 us"),
+    ("pololu_minimu9/data_polulu.txt", "pololu_minimu9/sensor.toml", "ms", "100 us"),
+])
+def test_the_corpus_in_another_unit_is_told_its_own(tmp_path, log, desc, unit, declared):
+    # x-io's seconds declared h had been told "min" (6.95 deg/s, 1.65 rows/s); declared as a tick, BROAD's seconds
+    # "1/10 s" and the MinIMU's ms "1/10 s" (7.07 deg/s): a unit that puts the turning where hands turn comes first
+    d = _desc(tmp_path, REAL / desc, f'time_unit = "{unit}"', f'time_unit = "{declared}"')
+    (f,) = _time(_found(REAL / log, d)[1])
+    assert f'time_unit = "{unit}" (declared "{declared}")' in f.message and "also_fits" not in f.figures, f.message

@@ -145,6 +145,11 @@ TURN_MAX_CHORD_DEG = 30.0            # ... and turn by less than this (a rate, n
 TURN_MIN_PAIRS = 20                  # ... in at least this many pairs (and 2 % of them) at the shortest lag
 TYPICAL_ROW_RATE_HZ = (0.5, 20000.0) # a unit named for the rows makes their rate this ...
 TYPICAL_TURN_DEG_S = (2.0, 2000.0)   # ... and the turning this
+TURN_SEEN_DEG_S = (50.0, 2000.0)     # the corpus' moving logs turn at a median 99.6 (BROAD 05) to 1291 deg/s
+                                     # (AirbrakesV2's faces lifted and set down): a unit that puts the turning here
+                                     # is named before one that puts it merely within TYPICAL_TURN_DEG_S, and two
+                                     # units that both put it here are named together (nothing in the rows tells
+                                     # them apart: a 100 us tick counter declared us reads as ms too, 10x slower)
 NOT_TIME_STILL = 0.5                 # a time column standing still on more than this share of its steps ...
 NOT_TIME_BACK = 0.02                 # ... and going back on more than this share: not a time
 TIME_FACTORS = (1e-3, 1e3, 1e-6, 1e6, 1e-9, 1e9, 60.0, 1.0 / 60.0, 3600.0, 1.0 / 3600.0)  # units tried (x the
@@ -2578,7 +2583,8 @@ def _time_unit_text(ds, f: float):
         scale = sensor.time_scale(declared) * f
     except DataError:
         return None
-    names = [k for k, x in sensor.TIME_UNITS.items() if k != "µs" and abs(x / scale - 1.0) < 1e-9]
+    units = sensor.TIME_UNITS | sensor.TICK_UNITS
+    names = [k for k, x in units.items() if k != "µs" and abs(x / scale - 1.0) < 1e-9]
     name = names[0] if names else (f"1/{1.0 / scale:.6g} s" if scale < 1.0 else f"{scale:.6g} s")
     return f'[log] time_unit = "{name}" (declared "{declared}")', name
 
@@ -2586,7 +2592,8 @@ def _time_unit_text(ds, f: float):
 def _time_factors(ds) -> list:
     """The factors (x the declared unit) _time_unit tries, in order: those
     to a unit sensor.TIME_UNITS names, first in TIME_FACTORS' order and then
-    the other named units nearest first, then the rest of TIME_FACTORS.  A
+    the other named units nearest first (a tick of sensor.TICK_UNITS among
+    them: a 10 kHz counter of 100 us ticks), then the rest of TIME_FACTORS.  A
     named unit is the likelier slip: ms declared as min read 60 000x slow,
     and 0.06 s (1e-3 x min, first in TIME_FACTORS) made the rows and the
     turning as plausible as ms did, so "1/16.6667 s" was named (a hand-turned
@@ -2598,7 +2605,7 @@ def _time_factors(ds) -> list:
         scale = sensor.time_scale(declared) if declared and declared != "date-time" else None
     except DataError:
         scale = None
-    units = [x for k, x in sensor.TIME_UNITS.items() if k != "µs"]
+    units = [x for k, x in (sensor.TIME_UNITS | sensor.TICK_UNITS).items() if k != "µs"]
 
     def same(a, b):
         return abs(a / b - 1.0) < 1e-9
@@ -2763,18 +2770,8 @@ def _time_unit(ds, rep):
                          f"a logger of a moving sensor writes"), -1
     if problem is None:
         return
-    guess = None
-    for f in _time_factors(ds):
-        if (f > 1) != (sign > 0):
-            continue
-        ok = TYPICAL_ROW_RATE_HZ[0] <= rows_hz / f <= TYPICAL_ROW_RATE_HZ[1]
-        if w is not None:
-            ok = ok and TYPICAL_TURN_DEG_S[0] <= w / f <= TYPICAL_TURN_DEG_S[1]
-        if temp_rate is not None:
-            ok = ok and temp_rate / f <= TEMP_RATE_TYPICAL_C_S
-        if ok:
-            guess = f
-            break
+    fits = _unit_fits(ds, sign, rows_hz, w, temp_rate)
+    guess = fits[0] if fits else None
     level = "error" if w is not None and w > TURN_RATE_MAX_DEG_S else "warning"
     rate = ds.meta.get("rate_hz") and _imported(ds)
     what = "declared rate_hz" if rate else "time column's unit"
@@ -2800,19 +2797,70 @@ def _time_unit(ds, rep):
     elif guess is not None:
         fig["factor"] = guess
         fix = _time_unit_text(ds, guess)
-        read = (f"read {guess:g}x slower: " if guess > 1 else f"read {1 / guess:g}x faster: ") if fix is None else \
-            f"read as {fix[1]}: "
-        msg += (f"; {read}{rows_hz / guess:.3g} rows/s" + (f", {w / guess:.3g} deg/s" if w is not None else "")
-                + (f", the temperature {temp_rate / guess:.3g} degC/s" if temp_rate is not None else ""))
-        msg += ("; " + (f"fix {fix[0]} in the sensor description and import again" if fix and _imported(ds) else
+        msg += "; " + ", or ".join(_read_as(ds, f, rows_hz, w, temp_rate) for f in fits)
+        also = [_time_unit_text(ds, f) for f in fits[1:]]
+        if len(fits) > 1:
+            msg += ": nothing in the rows tells these apart, the logger's documentation does"
+        msg += ("; " + (f"fix {fix[0]}" + "".join(f', or "{a[1]}"' for a in also if a) +
+                        " in the sensor description and import again" if fix and _imported(ds) else
                         f"t_s must be in seconds: {_fix(ds, 'log', 'the time unit')}")
                 + " (the drift over the session, the rates and any lag in seconds use it)")
         if fix is not None:
             fig["looks_like"] = fix[1]
+        if len(fits) > 1:
+            fig["also_fits"] = [a[1] if a else f for a, f in zip(also, fits[1:])]
     else:
         msg += ("; check the time unit ([log] time_unit, or rate_hz): the drift over the session, the rates and any "
                 "lag in seconds use it")
     rep.findings.append(Finding("time", level, msg, None, fig))
+
+
+def _unit_fits(ds, sign: int, rows_hz: float, w, temp_rate) -> list:
+    """The factors (x the declared unit) to name: of those that bring the
+    row rate, the turning and the temperature's rate within what loggers
+    and hands do (TYPICAL_*; _time_factors' order, on the side `sign` says:
+    > 1 when the rows read too fast), the first, and after it the others
+    that give a unit people log in (_named_unit: never a factor such as
+    1/3600 x s).  Where the turning is known, those that put it where the
+    corpus' moving logs turn (TURN_SEEN_DEG_S), else the first alone: a
+    100 us tick counter declared us turns at 33 deg/s read as ms, 10x slower
+    than any of them, and at 334 deg/s read as 100 us (x-io's log written as
+    an Xsens export); where two units both put it there, both are named.
+    Without the turning (a static log) every such unit the row rate and the
+    temperature's allow: nothing tells them apart."""
+    fits = []
+    for f in _time_factors(ds):
+        if (f > 1) != (sign > 0):
+            continue
+        ok = TYPICAL_ROW_RATE_HZ[0] <= rows_hz / f <= TYPICAL_ROW_RATE_HZ[1]
+        if w is not None:
+            ok = ok and TYPICAL_TURN_DEG_S[0] <= w / f <= TYPICAL_TURN_DEG_S[1]
+        if temp_rate is not None:
+            ok = ok and temp_rate / f <= TEMP_RATE_TYPICAL_C_S
+        if ok:
+            fits.append(f)
+    named = fits[:1] + [f for f in fits[1:] if _named_unit(ds, f)]
+    if w is None:
+        return named
+    seen = [f for f in named if TURN_SEEN_DEG_S[0] <= w / f <= TURN_SEEN_DEG_S[1]]
+    return seen or fits[:1]
+
+
+def _named_unit(ds, f: float) -> bool:
+    """Whether f x the declared unit is a unit of sensor.TIME_UNITS or
+    TICK_UNITS (not a sample period such as "1/3600 s")."""
+    fix = _time_unit_text(ds, f)
+    return fix is not None and not fix[1].endswith(" s")
+
+
+def _read_as(ds, f: float, rows_hz: float, w, temp_rate) -> str:
+    """'read as ms: 14.3 rows/s, 99.6 deg/s': the rows' figures in the unit f
+    times the declared one."""
+    fix = _time_unit_text(ds, f)
+    read = (f"read {f:g}x slower: " if f > 1 else f"read {1 / f:g}x faster: ") if fix is None else \
+        f"read as {fix[1]}: "
+    return (f"{read}{rows_hz / f:.3g} rows/s" + (f", {w / f:.3g} deg/s" if w is not None else "")
+            + (f", the temperature {temp_rate / f:.3g} degC/s" if temp_rate is not None else ""))
 
 
 def not_a_temperature(ds) -> tuple | None:

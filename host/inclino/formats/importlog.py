@@ -38,7 +38,7 @@ from inclino.errors import DataError
 
 from . import dataset
 from .dataset import ACC_COLS, MAG_COLS, MAX_LINE_CHARS, RawDataset
-from .sensor import FIELD_UNIT, SensorDescription
+from .sensor import FIELD_UNIT, NS_PER_S, SensorDescription, split_stamp
 
 MAX_LOG_BYTES = 2 << 30  # a log is read whole into memory (8 bytes a value kept)
 MAX_BAD_ROWS_FRACTION = 0.05  # dropping more malformed rows than this: the description does not fit the log
@@ -55,6 +55,8 @@ class ImportReport:
     triads: str = "both"
     notes: list = field(default_factory=list)
     row_index: list | None = field(default=None, repr=False)  # each row's index among the rows read (pairing)
+    time_origin: int | None = field(default=None, repr=False)  # whole seconds taken from a stamp in two columns
+                                                                # read with its own clock (pairing two files)
 
     def to_dict(self) -> dict:
         return {"log": self.log, "sensor": self.sensor, "rows_read": self.rows_read, "rows": self.rows,
@@ -175,7 +177,8 @@ def _line_delimiter(line: str, desc: SensorDescription) -> str:
 def _named_columns(desc: SensorDescription) -> list:
     """The columns the description gives by name (triads, time, temperature)."""
     named = [c for t in desc.triads for c in t.columns if isinstance(c, str)]
-    return named + [c for c in (desc.time, desc.temperature) if isinstance(c, str)]
+    times = list(desc.time) if split_stamp(desc.time) else [desc.time]
+    return named + [c for c in times + [desc.temperature] if isinstance(c, str)]
 
 
 def _names_found(named: list, names) -> int:
@@ -335,7 +338,7 @@ def _missed(missing_rows: dict, columns: list, lineno: int) -> None:
 
 def _column_text(key: str, j: int, names) -> str:
     """A used column as the messages name it: the canonical name and the log's ("temp_c (column 13)")."""
-    what = {"t_s": "time", "temp_c": "temperature", "inc_deg": "pose inc", "azi_deg": "pose azi",
+    what = {"t_s": "time", "t_ns": "time (nanoseconds)", "temp_c": "temperature", "inc_deg": "pose inc", "azi_deg": "pose azi",
             "tf_deg": "pose tf"}.get(key)
     if what is None:  # a sensor axis as logged, before the axis map
         c = key.lstrip("_")
@@ -387,6 +390,96 @@ def _check_counts(t, data, keys, line_no, names, wanted, path) -> None:
                 f"near 0, few between: {n}-bit two's-complement counts read as unsigned (line {line_no[r]}: "
                 f"{v[r]:.0f} is {w[r]:.0f}); declare them: counts = \"int{n}\" in [{section}] (or counts = "
                 f"\"uint{n}\" if they are unsigned)")
+
+
+STAMP_MAX_S = 9e9  # a stamp's whole seconds beyond this (year 2255 as Unix time) do not fit int64 nanoseconds
+STAMP_SHARED = 0.5  # a time column of whole seconds shared by more than this share of the rows with the row before:
+                    # the stamp's fraction of a second in a column of its own (ROS 2's header.stamp.sec, .nanosec)
+STAMP_RISING = 0.9  # ... the column after it, joined as its nanoseconds, rises on at least this share of the rows
+STAMP_SPAN = (0.3, 3.0)  # ... and its median step within a second x the rows a second is this share of a second
+                         # (ROS 2 at 100 Hz: 1e7 ns x 100 rows = 1; a sample index 0..99 within the second: 1e-7)
+
+
+def _cell_text(j: int, names) -> str:
+    """A column as a description names it: its name (JSON) or its number."""
+    return json.dumps(names[j].strip()) if names is not None else str(j + 1)
+
+
+def _join_stamp(data, keys, line_no, names, wanted, path, absolute_time, time_origin):
+    """A stamp in two columns, whole seconds and nanoseconds (ROS 2's
+    header.stamp.sec and .nanosec, ROS 1's .secs and .nsecs), joined into one
+    time exactly: integer nanoseconds from a whole second, then seconds as
+    float64 (sec + nanosec x 1e-9 as float64 rounds an epoch stamp to 0.24 us;
+    counted from the first row it keeps the nanosecond over 104 days).  From
+    the first row's time; with absolute_time from the whole second
+    time_origin (the log's, when a second file is paired with it; else this
+    file's first).  A nanoseconds cell outside 0 ... 999 999 999, or a
+    seconds cell that is not a whole number, is refused naming its line (the
+    columns swapped, or not the stamp's).  (data with the one time column,
+    keys, the whole second the times count from, or None)."""
+    i_s, i_ns = keys.index("t_s"), keys.index("t_ns")
+    sec, ns = data[:, i_s], data[:, i_ns]
+    s_text, ns_text = _column_text("t_s", wanted["t_s"], names), _column_text("t_ns", wanted["t_ns"], names)
+    swap = f"[log] time = [{_cell_text(wanted['t_ns'], names)}, {_cell_text(wanted['t_s'], names)}]"
+    bad = (ns != np.round(ns)) | (ns < 0) | (ns >= NS_PER_S)
+    if bad.any():
+        r = int(np.argmax(bad))
+        swapped = ns[r] >= NS_PER_S and np.all((sec == np.round(sec)) & (sec >= 0) & (sec < NS_PER_S))
+        raise DataError(f"{path}:{line_no[r]}: {ns_text}: {ns[r]:.10g} is no nanoseconds of a second (a stamp's "
+                        f"nanoseconds read 0 ... 999 999 999): "
+                        + (f"the two columns swapped? time = [whole seconds, nanoseconds]: {swap}" if swapped else
+                           "not the stamp's nanoseconds column? [log] time = [whole seconds, nanoseconds]"))
+    bad = (sec != np.round(sec)) | (np.abs(sec) > STAMP_MAX_S)
+    if bad.any():
+        r = int(np.argmax(bad))
+        raise DataError(f"{path}:{line_no[r]}: {s_text}: {sec[r]:.10g} is no whole second: a stamp in two columns is "
+                        f"[whole seconds, nanoseconds]; a time in one column is [log] time = its column alone, with "
+                        f"its time_unit")
+    origin = int(sec[0]) if time_origin is None else int(time_origin)
+    total = (sec.astype(np.int64) - origin) * NS_PER_S + ns.astype(np.int64)
+    if not absolute_time:
+        total = total - total[0]
+    data = data.copy()
+    data[:, i_s] = total / 1e9
+    return np.delete(data, i_ns, axis=1), [k for k in keys if k != "t_ns"], (origin if absolute_time else None)
+
+
+def _whole_second_stamp(t, cells, j: int, names, path: str) -> None:
+    """A time column of whole seconds that most rows share with the row
+    before (more than STAMP_SHARED), and the column after it reading the
+    nanoseconds of each (whole numbers 0 ... 999 999 999 that, joined to the
+    seconds, rise on STAMP_RISING of the rows, never go back, and spread the
+    rows of a second over it, STAMP_SPAN): a stamp in
+    two columns (ros2 topic echo --csv writes header.stamp.sec and
+    .nanosec) read as its seconds alone, every row's time cut to its second.
+    Refused with the line that reads it whole."""
+    n = len(t)
+    if n < 10 or np.any(t != np.round(t)):
+        return
+    steps = np.diff(t)
+    if np.any(steps < 0) or not np.mean(steps == 0) > STAMP_SHARED:
+        return
+    try:
+        pairs = [(float(c[j]), float(c[j + 1])) for c in cells if len(c) > j + 1]
+    except ValueError:
+        return
+    if len(pairs) < 10:
+        return
+    sec, ns = np.array(pairs).T
+    if np.any(ns != np.round(ns)) or np.any(ns < 0) or np.any(ns >= NS_PER_S):
+        return
+    joined = np.diff((sec - sec[0]) * NS_PER_S + ns)
+    if np.any(joined < 0) or np.mean(joined > 0) < STAMP_RISING:
+        return
+    within = joined[(np.diff(sec) == 0) & (joined > 0)]
+    rows_a_second = len(steps) / max(1, np.count_nonzero(steps))
+    if within.size == 0 or not STAMP_SPAN[0] <= np.median(within) * rows_a_second / NS_PER_S <= STAMP_SPAN[1]:
+        return  # the rows of a second do not spread over it: no nanoseconds (a sample index within the second)
+    raise DataError(f"{path}: the time column {_cell_text(j, names)} holds whole seconds, {np.mean(steps == 0):.0%} of "
+                    f"the rows sharing theirs with the row before, and the column after it, {_cell_text(j + 1, names)}, "
+                    f"the nanoseconds of each (0 ... 999 999 999): a stamp in two columns (ROS 2's header.stamp.sec "
+                    f"and .nanosec, ROS 1's .secs and .nsecs), read as its seconds alone; read it whole: [log] time = "
+                    f"[{_cell_text(j, names)}, {_cell_text(j + 1, names)}]")
 
 
 FILLER_MIN_ROWS = 10  # identical rows, time stamp and all, that are no samples
@@ -604,7 +697,8 @@ def _encoding(path: str) -> str:
             "utf-16" if bom[:2] in (b"\xff\xfe", b"\xfe\xff") else "utf-8-sig")
 
 
-def _read(path: str, desc: SensorDescription, static, drop_bad_rows, absolute_time: bool = False):
+def _read(path: str, desc: SensorDescription, static, drop_bad_rows, absolute_time: bool = False,
+          time_origin: int | None = None):
     try:
         size = os.path.getsize(path)
         f = open(path, newline="", encoding=_encoding(path))
@@ -615,11 +709,11 @@ def _read(path: str, desc: SensorDescription, static, drop_bad_rows, absolute_ti
     with f:
         lines = dataset._Lines(f, path)
         drop = desc.bad_rows == "drop" if drop_bad_rows is None else bool(drop_bad_rows)
-        return _import(lines, path, desc, static, drop, absolute_time)
+        return _import(lines, path, desc, static, drop, absolute_time, time_origin)
 
 
-def _import(lines, path: str, desc: SensorDescription, static, drop_bad=False,
-            absolute_time: bool = False) -> tuple[RawDataset, ImportReport]:
+def _import(lines, path: str, desc: SensorDescription, static, drop_bad=False, absolute_time: bool = False,
+            time_origin: int | None = None) -> tuple[RawDataset, ImportReport]:
     skipped = []  # the lines skip_rows skipped, with their numbers: one of them may be the header line
     for _ in range(desc.skip_rows):
         line = next(lines, None)
@@ -713,7 +807,10 @@ def _import(lines, path: str, desc: SensorDescription, static, drop_bad=False,
                                 f"{path}: one column is one sensor axis; give each axis its own column")
             axis_of[j] = what
             wanted[f"_{cols[k]}"] = j
-    if desc.time is not None:
+    if split_stamp(desc.time):  # whole seconds and nanoseconds: joined exactly below (_join_stamp)
+        wanted["t_s"] = _index(desc.time[0], names, "[log].time[1] (whole seconds)", path, header_line)
+        wanted["t_ns"] = _index(desc.time[1], names, "[log].time[2] (nanoseconds)", path, header_line)
+    elif desc.time is not None:
         wanted["t_s"] = _index(desc.time, names, "[log].time", path, header_line)
     if desc.temperature is not None:
         wanted["temp_c"] = _index(desc.temperature, names, "[log].temperature", path, header_line)
@@ -862,6 +959,11 @@ def _import(lines, path: str, desc: SensorDescription, static, drop_bad=False,
     if turns:
         notes.append(turns)
     data = np.array(rows, float)
+    origin = None
+    if "t_ns" in keys:  # a stamp in two columns: one time, exact to the nanosecond, before anything reads it
+        data, keys, origin = _join_stamp(data, keys, line_no, names, wanted, path, absolute_time, time_origin)
+    elif "t_s" in keys and not clock[0]:
+        _whole_second_stamp(data[:, keys.index("t_s")], cells_seen, wanted["t_s"], names, path)
     for t in desc.triads:
         _check_counts(t, data, keys, line_no, names, wanted, path)
     keep_rows = _filler(data, keys, line_no, read, path, drop_bad, dropped)
@@ -897,6 +999,8 @@ def _import(lines, path: str, desc: SensorDescription, static, drop_bad=False,
             out["t_s"] = col["t_s"] if absolute_time else col["t_s"] - col["t_s"][0]
         else:
             out["t_s"] = col["t_s"] * desc.time_scale
+            if absolute_time and time_origin is not None and origin is None:
+                out["t_s"] = out["t_s"] - time_origin  # on the clock of the log's stamp in two columns (pairing)
     if "temp_c" in col:
         # degrees C from the declared unit (C, K, F, or counts: T = offset + counts x lsb)
         out["temp_c"] = col["temp_c"] * desc.temperature_scale + desc.temperature_offset
@@ -934,7 +1038,7 @@ def _import(lines, path: str, desc: SensorDescription, static, drop_bad=False,
     # the values the canonical format's rules refuse (poses, temperature) are refused here too
     _check(ds, path)
     rep = ImportReport(log=path, sensor=desc.name, rows_read=read, rows=len(ds), dropped=dropped, triads=ds.triads,
-                       notes=notes, row_index=row_no[lo:hi])
+                       notes=notes, row_index=row_no[lo:hi], time_origin=origin)
     return ds, rep
 
 
@@ -976,15 +1080,20 @@ def _import_apart(path: str, desc: SensorDescription, apart, static, drop_bad_ro
         raise DataError(f"{desc.path or 'sensor description'}: [{section}].file: no file {other} (a relative path is "
                         f"read beside the log)")
     ds_a, rep_a = _read(path, in_log, static, drop_bad_rows, absolute_time=True)
+    # a stamp in two columns: both files' times from the log's first whole second (the log's times as they stand
+    # otherwise: a second file's stamp in two columns then from 0)
+    origin = rep_a.time_origin
+    clock_b = 0 if origin is None else origin
     timed_b = None  # paired in order while the log has a time column: the file's own times, if it has that column
     if apart.time is None and desc.time is not None:
         try:
             timed_b = _read(other, dataclasses.replace(in_file, time=desc.time, time_unit=desc.time_unit,
                                                        time_scale=desc.time_scale), None, drop_bad_rows,
-                            absolute_time=True)
+                            absolute_time=True, time_origin=clock_b)
         except DataError:
             timed_b = None
-    ds_b, rep_b = timed_b if timed_b is not None else _read(other, in_file, None, drop_bad_rows, absolute_time=True)
+    ds_b, rep_b = timed_b if timed_b is not None else _read(other, in_file, None, drop_bad_rows, absolute_time=True,
+                                                            time_origin=clock_b)
     if apart.time is not None:
         ia, ib, how, unpaired = _pair_by_time(ds_a, path, "accelerometer" if own.kind == "acc" else "magnetometer",
                                               ds_b, other, section, apart.time_offset)
@@ -1013,6 +1122,8 @@ def _import_apart(path: str, desc: SensorDescription, apart, static, drop_bad_ro
     if ds_a.meta.get("time_unit") == "date-time":  # seconds from the first row's date-time, as for one file
         meta["time_unit"] = "date-time"
         out["t_s"] = out["t_s"] - out["t_s"][0]
+    elif (origin is not None or rep_b.time_origin is not None) and "t_s" in out:
+        out["t_s"] = out["t_s"] - out["t_s"][0]  # a stamp in two columns: from the first row, as for one file
     meta["source"] = f"{path} + {other}"
     meta["paired_log_sha256"] = _sha256(other)
     meta["pairing"] = how
@@ -1107,8 +1218,8 @@ def _pair_by_time(a: RawDataset, path_a: str, what_a: str, b: RawDataset, path_b
             # ROS 2's header.stamp as `ros2 topic echo --csv` writes it: sec and nanosec in two columns
             whole = (f" (its times are whole seconds, one step every {len(t) / max(1, np.count_nonzero(steps)):.3g} "
                      f"rows: a stamp whose fraction of a second is in a column of its own, as ROS 2's "
-                     f"header.stamp.sec and .nanosec? the import reads one time column: join the two, sec + "
-                     f"nanosec x 1e-9, into one)")
+                     f"header.stamp.sec and .nanosec? read the two as one time: [log] time = [the seconds column, "
+                     f"the nanoseconds column])")
         raise DataError(f"{path_a if pa <= 0 else path_b}: most rows share their time stamp with the row before: "
                         f"nothing to pair by{whole}")
     slow_is_a = pa >= pb

@@ -60,6 +60,10 @@ MAG_UNITS = {"nt": 1.0, "ut": 1e3, "µt": 1e3, "mt": 1e6, "t": 1e9, "g": 1e5, "g
              "mgauss": 100.0, "gamma": 1.0}
 TRIADS = {"accelerometer": ("acc", ACC_UNITS, "g", "a"), "magnetometer": ("mag", MAG_UNITS, "nT", "m")}
 TIME_UNITS = {"s": 1.0, "ms": 1e-3, "us": 1e-6, "µs": 1e-6, "ns": 1e-9, "min": 60.0, "h": 3600.0}
+TICK_UNITS = {"100 us": 1e-4}  # tick counters named as a unit: a 10 kHz counter of 100 us ticks (Xsens MT
+                              # Manager's SampleTimeFine); declared as a sample period, "100 us" (time_scale)
+SPLIT_STAMP = "s + ns"  # the time_unit recorded for a stamp in two columns, whole seconds and nanoseconds
+NS_PER_S = 1_000_000_000  # a stamp's nanoseconds column reads 0 ... NS_PER_S - 1
 READS = ("up", "down")
 BAD_ROWS = ("refuse", "drop")
 TOP_KEYS = {"name", "preset", "notes", "source", "log", "accelerometer", "magnetometer", "header", "poses"}
@@ -176,8 +180,9 @@ class Triad:
     file: str | None = None         # the triad logged to a file of its own (a path; relative: beside the log),
                                     # its samples paired with the log's by time, or without one row by row
                                     # (inclino.formats.importlog)
-    time: str | int | None = None   # that file's time column (None: the name [log].time gives; without one, or
-                                    # time = false, its rows are paired with the log's in order)
+    time: str | int | tuple | None = None  # that file's time column, or two: (whole seconds, nanoseconds) (None:
+                                    # the column(s) [log].time gives; without one, or time = false, its rows are
+                                    # paired with the log's in order)
     time_unit: str | None = None    # ... and its unit (None: [log].time_unit)
     time_scale: float | None = None
     time_offset: float = 0.0        # seconds added to that file's times before pairing (its clock against the log's)
@@ -225,7 +230,8 @@ class SensorDescription:
     comment: str = "#"
     has_header: bool = True
     skip_rows: int = 0
-    time: str | int | None = None
+    time: str | int | tuple | None = None  # the time column, or two: (whole seconds, nanoseconds), a stamp split
+                                      # as ROS writes header.stamp (sec and nanosec; ROS 1: secs and nsecs)
     time_unit: str = "s"
     time_scale: float = 1.0           # seconds per unit of the time column
     rate_hz: float | None = None      # no time column, a known sample rate: t_s = row index / rate_hz
@@ -347,6 +353,40 @@ def _degrees(value, what: str, positive: bool) -> float:
     if not math.isfinite(v) or (positive and v <= 0):
         raise DataError(f"{what}: {value!r} must be a finite number of degrees C" + (" > 0" if positive else ""))
     return v
+
+
+def split_stamp(time) -> bool:
+    """Whether a description's time is a stamp in two columns (whole
+    seconds, nanoseconds)."""
+    return isinstance(time, tuple)
+
+
+def _time_column(value, what: str, false: bool = False):
+    """A time column as a description gives it: a name, a number from 1, or
+    a list of two, [whole seconds, nanoseconds] (a stamp split as ROS 2's
+    header.stamp.sec and .nanosec, ROS 1's .secs and .nsecs), returned as a
+    tuple; False where `false` allows it (a triad's file paired in order)."""
+    if value is None or (false and value is False):
+        return value
+    if isinstance(value, list):
+        if len(value) == 2 and all(isinstance(c, (str, int)) and not isinstance(c, bool) for c in value) \
+                and value[0] != value[1]:
+            return tuple(value)
+        raise DataError(f"{what}: a stamp in two columns is a list of two different columns, [whole seconds, "
+                        f"nanoseconds] (e.g. [\"header.stamp.sec\", \"header.stamp.nanosec\"]), not {value!r}")
+    if isinstance(value, bool) or not isinstance(value, (str, int)):
+        raise DataError(f"{what}: the name (or 1-based number) of the time column, or two: [whole seconds, "
+                        f"nanoseconds]" + (", or false (its rows paired with the log's in order)" if false else ""))
+    return value
+
+
+def _split_unit(spec: dict, time, what: str) -> None:
+    """A stamp in two columns is whole seconds and nanoseconds: a time_unit
+    other than "s" (the seconds column's) is refused."""
+    if split_stamp(time) and "time_unit" in spec and _unit_key(str(spec["time_unit"]), TIME_UNITS) != "s":
+        raise DataError(f"{what}.time_unit: the time is a stamp in two columns, whole seconds and nanoseconds "
+                        f"(time = [seconds, nanoseconds]); leave time_unit out (or \"s\"), not "
+                        f"{spec['time_unit']!r}")
 
 
 def time_scale(text: str, what: str = "[log].time_unit") -> float:
@@ -584,10 +624,8 @@ def _triad(spec: dict, section: str, log_what: str, field_nT: float | None = Non
             raise DataError(f"{what}.{k}: only for a triad logged to a file of its own (file = ...); the log's time "
                             f"column is [log].{k}")
     if "time" in spec:
-        if spec["time"] is not False and (not isinstance(spec["time"], (str, int)) or isinstance(spec["time"], bool)):
-            raise DataError(f"{what}.time: the name (or 1-based number) of that file's time column, or false (its "
-                            f"rows paired with the log's in order)")
-        t.time = spec["time"]
+        t.time = _time_column(spec["time"], f"{what}.time", false=True)
+        _split_unit(spec, t.time, what)
     if "time_unit" in spec:
         t.time_unit = str(spec["time_unit"]).strip()
         t.time_scale = time_scale(t.time_unit, f"{what}.time_unit")
@@ -701,10 +739,11 @@ def from_dict(d: dict, what: str = "sensor description") -> SensorDescription:
     if not isinstance(sk, int) or isinstance(sk, bool) or sk < 0:
         raise DataError(f"{what}[log].skip_rows: a whole number >= 0")
     s.skip_rows = sk
-    s.time = log.get("time")
+    s.time = _time_column(log.get("time"), f"{what}[log].time")
+    _split_unit(log, s.time, f"{what}[log]")
     tu = str(log.get("time_unit", "s")).strip()
     s.time_scale = time_scale(tu, f"{what}[log].time_unit")
-    s.time_unit = tu
+    s.time_unit = SPLIT_STAMP if split_stamp(s.time) else tu
     rate = log.get("rate_hz")
     if rate is not None:
         try:  # 100, "100 Hz", "1.5 kHz"; within the canonical header's rule
@@ -737,8 +776,10 @@ def from_dict(d: dict, what: str = "sensor description") -> SensorDescription:
                             f"needs its time column ([log].time = ...), or leave time out to pair the rows in order")
         if a.time is None and a.time_scale is not None:
             raise DataError(f"{what}: [{section}].time_unit without a time column: the rows are paired in order")
-        if a.time is not None and a.time_scale is None:
-            a.time_unit, a.time_scale = s.time_unit, s.time_scale
+        if split_stamp(a.time):
+            a.time_unit, a.time_scale = SPLIT_STAMP, 1.0
+        elif a.time is not None and a.time_scale is None:
+            a.time_unit, a.time_scale = ("s", 1.0) if split_stamp(s.time) else (s.time_unit, s.time_scale)
         off = d[section].get("time_offset")
         if off is not None:
             if a.time is None:
