@@ -116,3 +116,14 @@ def test_a_field_drift_under_correlated_noise_is_still_named(tmp_path):
     r = _diagnose(tmp_path, smooth_log(100, 0.9, drift_nT_s=0.2))
     assert r.names() == [("field-drift", "field", "total")], r.names()
     assert not r.unexplained, r.structure["significant"]
+
+
+def test_a_failed_whiteness_test_on_correlated_rows_says_what_it_tested():
+    """On a channel read as serially correlated the whiteness test is of
+    what an AR(p) noise model leaves: a failed one says so (and its order),
+    not that the rows are merely correlated, which they are allowed to be."""
+    from inclino.diagnose.result import _structure_text
+
+    x = {"channel": "|b|", "test": "whiteness", "p": 2e-9, "ar_order": 2}
+    assert _structure_text(x) == ("|b| residual more than serially correlated noise (what an AR(2) noise model "
+                                  "leaves is not white; Ljung-Box p = 2e-09)")

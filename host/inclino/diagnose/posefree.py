@@ -1513,8 +1513,11 @@ def _structure(pf, R, rows, chans, alpha) -> dict:
     p, ch, fam = min(tests) if tests else (1.0, None, None)
     thr = alpha / max(m, 1)
     return {"alpha": alpha, "tests": m, "threshold": thr, "min_p": p, "worst": {"channel": ch, "test": fam},
-            "unexplained": bool(p < thr), "significant": [{"channel": c, "test": f, "p": q}
-                                                           for q, c, f in sorted(tests) if q < thr],
+            "unexplained": bool(p < thr),
+            "significant": [dict({"channel": c, "test": f, "p": q},
+                                 **({"ar_order": serial_by[c]["ar_order"]}
+                                    if f == "whiteness" and serial_by[c]["correlated"] else {}))
+                            for q, c, f in sorted(tests) if q < thr],
             "serial": {"by_channel": serial_by,
                        "what": ("a channel whose residual, its slow part taken off, correlates from row to row "
                                 f"(Ljung-Box of {bartlett.LJUNG_BOX_LAGS} lags, p < {bartlett.GATE_P:g} over the "
