@@ -1456,10 +1456,17 @@ def _separate(a, b, pf) -> str:
 def _structure(pf, R, rows, chans, alpha) -> dict:
     """The final invariant residuals against generic families: time (or the
     reading order), temperature, each rig angle (harmonics 1-2), the
-    channel's own triad's direction (quadratic terms); Ljung-Box in order."""
+    channel's own triad's direction (quadratic terms); Ljung-Box in order.
+    A channel whose residual, its slow part taken off, still correlates
+    from row to row (_row_correlated: a sensor's low-pass filter, the
+    probe's motion) has each family's F-test deflated by the family's
+    Bartlett factor against the residual with it (serial.columns_factor,
+    in time order), and its whiteness test asks for more than AR(p) noise
+    (serial.prewhitened_ljung_box)."""
     from .study import ljung_box
 
     tests = []
+    serial_by = {}
     tau = (pf.t - pf.t.mean()) / max(np.ptp(pf.t), 1e-300)
     fams = {"time" if pf.time_name == "time" else "reading order": np.column_stack([tau, tau ** 2])}
     if pf.temp is not None:
@@ -1474,8 +1481,11 @@ def _structure(pf, R, rows, chans, alpha) -> dict:
         u = raw / np.linalg.norm(raw, axis=1, keepdims=True)
         iu = np.triu_indices(3)
         fams[f"{tri} direction"] = (u[:, :, None] * u[:, None, :])[:, iu[0], iu[1]]
+    order = np.argsort(pf.t[rows], kind="stable")
     for j, ch in enumerate(chans):
         y = R[rows, j]
+        correlated = _row_correlated(y[order], len(chans))
+        factors = {}
         for fam, Z in fams.items():
             X0 = np.ones((len(y), 1))
             X1 = np.column_stack([X0, Z[rows]])
@@ -1487,15 +1497,51 @@ def _structure(pf, R, rows, chans, alpha) -> dict:
                 continue
             rss0, rss1 = float(r0 @ r0), float(r1 @ r1)
             F = ((rss0 - rss1) / q) / (rss1 / dof) if rss1 > 0 else np.inf
+            if correlated:
+                Zc = Z[rows] - Z[rows].mean(0)
+                f = bartlett.columns_factor(Zc[order], r1[order])
+                factors[fam] = f
+                F, dof = F / f, max(dof / f, 1.0)
             tests.append((float(stats.f.sf(F, q, dof)), ch, fam))
-        p_lb, _ = ljung_box(y / max(np.std(y), 1e-300), int(min(10, max(1, len(y) // 5))))
+        if correlated:
+            p_lb, ar = bartlett.prewhitened_ljung_box(y[order])
+        else:
+            (p_lb, _), ar = ljung_box(y / max(np.std(y), 1e-300), int(min(10, max(1, len(y) // 5)))), 0
+        serial_by[ch] = {"correlated": bool(correlated), "ar_order": int(ar), "factors": factors}
         tests.append((p_lb, ch, "whiteness"))
     m = len(tests)
     p, ch, fam = min(tests) if tests else (1.0, None, None)
     thr = alpha / max(m, 1)
     return {"alpha": alpha, "tests": m, "threshold": thr, "min_p": p, "worst": {"channel": ch, "test": fam},
-            "unexplained": bool(p < thr), "significant": [{"channel": c, "test": f, "p": q}
-                                                           for q, c, f in sorted(tests) if q < thr]}
+            "unexplained": bool(p < thr),
+            "significant": [dict({"channel": c, "test": f, "p": q},
+                                 **({"ar_order": serial_by[c]["ar_order"]}
+                                    if f == "whiteness" and serial_by[c]["correlated"] else {}))
+                            for q, c, f in sorted(tests) if q < thr],
+            "serial": {"by_channel": serial_by,
+                       "what": ("a channel whose residual, its slow part taken off, correlates from row to row "
+                                f"(Ljung-Box of {bartlett.LJUNG_BOX_LAGS} lags, p < {bartlett.GATE_P:g} over the "
+                                "channels): each family's F-test is deflated by the Bartlett factor "
+                                "1 + 2 sum_k w_k rho_e(k) rho_Z(k) of its columns Z against the residual e with "
+                                "them (time order), and the whiteness test is of the residual less an AR(p) noise "
+                                f"model (p <= {bartlett.AR_MAX_ORDER}, by AIC)")}}
+
+
+def _row_correlated(y, channels: int) -> bool:
+    """Whether a residual (time order) correlates from row to row once its
+    slow part is taken off (_highpass): a Ljung-Box test of
+    serial.LJUNG_BOX_LAGS lags at serial.GATE_P, Bonferroni over the
+    channels.  Slow structure alone (a drift, a temperature the model
+    lacks) leaves the high-passed residual white, and its tests exact."""
+    from .study import ljung_box
+
+    if len(y) < 5 * bartlett.LJUNG_BOX_LAGS:
+        return False
+    z = _highpass(np.asarray(y, float)[:, None])[:, 0]
+    if not np.any(z):
+        return False
+    p, _ = ljung_box(z / np.std(z), bartlett.LJUNG_BOX_LAGS)
+    return bool(p < bartlett.GATE_P / max(channels, 1))
 
 
 CONFOUND_CORR = 0.9  # a named effect and a rival: this signature correlation, or (its temperature sibling,

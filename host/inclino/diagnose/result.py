@@ -349,6 +349,10 @@ def _structure_text(x: dict) -> str:
     follows (the JSON keeps its `channel` and `test`): a failed whiteness
     (Ljung-Box) test is a residual that is not white noise."""
     p = f"p = {x['p']:.2g}" + (f"; {x['follows']}" if x.get("follows") else "")
+    if x["test"] == "whiteness" and x.get("ar_order"):
+        # a channel whose rows' noise is itself correlated: the test is of what an AR(p) noise model leaves
+        return (f"{x['channel']} residual more than serially correlated noise (what an AR({x['ar_order']}) noise "
+                f"model leaves is not white; Ljung-Box {p})")
     if x["test"] == "whiteness":
         return (f"{x['channel']} residual not white noise (serially correlated: neighbouring rows' residuals alike; "
                 f"Ljung-Box {p})")
