@@ -123,15 +123,18 @@ def fit(ds, w, sa, sm, fix_dip=False, mag_start=None, labels=None):
     if n < MIN_ROWS:
         raise DataError(f"joint without poses needs >= {MIN_ROWS} readings in varied orientations; the data have {n}")
     acc, mag = ds.acc, ds.mag
+    # rows in static holds share each hold's error: the outlier tests judge them by the median row, not by a noise
+    # per axis that a hold's error would be read as (triad.fit_sphere's axis_noise)
+    held = labels is not None
     # 1. the accelerometer alone
     Ma, ba, cov_a, ia = triad.fit_sphere(acc, G, sa, min_rows=MIN_ROWS, what="the accelerometer",
-                                         blocks=labels is None, refits=triad.REFITS)
+                                         blocks=labels is None, refits=triad.REFITS, axis_noise=not held)
     timed = labels is None  # no holds: any blocks are of consecutive rows, sized by the residuals' correlation
     if ia["blocks"] is not None:
         labels = triad.time_blocks(ia["residual"])  # the magnetometer's dip residuals share those blocks
     # 2. the magnetometer alone
     Sm, bm, cov_s, im = triad.fit_sphere(mag, F, sm, min_rows=MIN_ROWS, what="the magnetometer",
-                                         refits=triad.REFITS)
+                                         refits=triad.REFITS, axis_noise=not held)
     g = (acc - ba) @ Ma.T
     ug = g / np.maximum(np.linalg.norm(g, axis=1, keepdims=True), 1e-300)
     bs = (mag - bm) @ Sm.T
@@ -186,7 +189,7 @@ def fit(ds, w, sa, sm, fix_dip=False, mag_start=None, labels=None):
         x = out.x
         if loss == "soft_l1" and n >= triad.MIN_ROWS_REJECT:
             r = fun(x, mag, ug, F, sm_hat, sd).reshape(2, n)
-            d2 = _row_d2(x, acc, mag, Ma, ba, r, sm_hat, sd)
+            d2 = (r ** 2).sum(0) if held else _row_d2(x, acc, mag, Ma, ba, r, sm_hat, sd)
             thr, _ = triad.robust_threshold(d2[use], 2)
             # the rows the magnetometer's own ellipsoid fit set aside are judged again here, by |b| and the dip
             # together: set aside by both tests, clean rows were lost at three times the rate of one test (1.9 of

@@ -335,7 +335,7 @@ def _geometric_residual(x, raw, R):
     return (n - R) / grad
 
 
-def _geometric_refit(raw, R, sigma, M0, b0, robust):
+def _geometric_refit(raw, R, sigma, M0, b0, robust, axis_noise: bool = True):
     """(x, keep, res) of the ellipsoid fitted by the readings' distance from
     it, from the algebraic start, where the fit of |M (raw - b)| - R ran
     away; None if this one runs away too.  That residual is in corrected
@@ -347,7 +347,8 @@ def _geometric_refit(raw, R, sigma, M0, b0, robust):
     fitted so, M and b come within 0.005 and 4 mg of the whole log's fit)."""
     try:
         out = _robust_fit(np.concatenate([M0[np.triu_indices(3)], b0]), raw,
-                          lambda p, a: _geometric_residual(p, a, R) / sigma, robust, geometric=True)
+                          lambda p, a: _geometric_residual(p, a, R) / sigma, robust, geometric=True,
+                          axis_noise=axis_noise)
     except (ValueError, np.linalg.LinAlgError):
         return None
     if out is None or not np.all(np.isfinite(out[0])):
@@ -355,13 +356,14 @@ def _geometric_refit(raw, R, sigma, M0, b0, robust):
     return out
 
 
-def _robust_fit(x, raw, resid, robust, jac=None, geometric: bool = False):
+def _robust_fit(x, raw, resid, robust, jac=None, geometric: bool = False, axis_noise: bool = True):
     """(x, keep, res) of the least-squares fit of resid(p, rows) (in units
     of the noise) from x: where robust, a soft-L1 pass (its scale 3x the
     residuals' own robust size, not the nominal sigma), the rows beyond the
     robust threshold dropped (each row's squared residual over the variance
-    its direction carries, axis_noise_factor; geometric: resid is the
-    readings' distance from the ellipsoid), then a plain pass on the rest;
+    its direction carries, axis_noise_factor, where axis_noise; geometric:
+    resid is the readings' distance from the ellipsoid), then a plain pass
+    on the rest;
     None when fewer than 10 rows (the 9 parameters) are left."""
     keep = np.ones(len(raw), bool)
     res = None
@@ -373,7 +375,7 @@ def _robust_fit(x, raw, resid, robust, jac=None, geometric: bool = False):
         x = res.x
         if loss == "soft_l1":
             r2 = resid(x, raw) ** 2
-            d2 = r2 / axis_noise_factor(x, raw, r2, geometric)
+            d2 = r2 / axis_noise_factor(x, raw, r2, geometric) if axis_noise else r2
             thr, _ = robust_threshold(d2, 1)
             keep = d2 <= thr
             if keep.sum() < 10:
@@ -490,7 +492,7 @@ def row_noise_factor(G, r2):
 
 
 def fit_sphere(raw, R: float, sigma: float, min_rows: int = 10, start=None, what: str = "the triad",
-               blocks: bool = False, refits: int = 0):
+               blocks: bool = False, refits: int = 0, axis_noise: bool = True):
     """Ellipsoid fit of one triad: (M symmetric, b) with |M (raw - b)| = R,
     robust (soft-L1 pass, rows beyond the robust threshold dropped, a final
     least-squares pass).  Returns (M, b, cov (12: M row-major, b; the
@@ -506,6 +508,10 @@ def fit_sphere(raw, R: float, sigma: float, min_rows: int = 10, start=None, what
     holds only where the fit is nearly linear in the noise, and orientations
     bunched in one hemisphere (a hand tumble) make it curve; info["refits"]
     says so.
+    axis_noise: the outlier test weighs each row by the noise its direction
+    carries (axis_noise_factor); off for rows in static holds, whose
+    residuals carry each hold's own error, not the axes' noise (fitted so,
+    a hold's error reads as an axis's noise and its rows stay in).
     CalibrationError when the orientations do not determine the ellipsoid:
     a singular normal matrix, a fit that runs away (its corrected readings
     point within a plane: SPHERE_RUNAWAY_EIG), or (refits) a fit its refits
@@ -522,7 +528,7 @@ def fit_sphere(raw, R: float, sigma: float, min_rows: int = 10, start=None, what
     robust = n >= MIN_ROWS_REJECT  # fewer rows cannot tell an outlier from the model's misfit: least squares alone
     fitted = _robust_fit(np.concatenate([M0[np.triu_indices(3)], b0]), raw,
                          lambda p, a: _sphere_residual(p, a, R) / sigma, robust,
-                         jac=lambda p, a: _sphere_jac(p, a, R) / sigma)
+                         jac=lambda p, a: _sphere_jac(p, a, R) / sigma, axis_noise=axis_noise)
     if fitted is None:
         raise CalibrationError("too many readings rejected as outliers to fit the triad")
     x, keep, res = fitted
@@ -538,7 +544,7 @@ def fit_sphere(raw, R: float, sigma: float, min_rows: int = 10, start=None, what
     spread = direction_spread((raw[keep] - x[6:9]) @ _sym(x[:6]).T)
     geo = None
     if spread < SPHERE_RUNAWAY_EIG and direction_spread(raw) >= RUNAWAY_REFIT_SPREAD:
-        geo = _geometric_refit(raw, R, sigma, M0, b0, robust)
+        geo = _geometric_refit(raw, R, sigma, M0, b0, robust, axis_noise)
         if geo is not None:
             x, keep, res = geo
             r = _sphere_residual(x, raw[keep], R) / sigma
