@@ -590,7 +590,10 @@ def add_parser(sub) -> None:
                         "expected spread (default: the model's own; none for --cal alone, whatever reference is "
                         "given)")
     p.add_argument("--two-probes", action="store_true", help="two probes: every sensor term differs")
-    p.add_argument("--k", type=float, default=3.0, help="pass within k x the expected sigma (default %(default)g)")
+    p.add_argument("--k", type=float, default=3.0,
+                   help="pass within k x the expected sigma (default %(default)g; where the noise is the "
+                        "calibration's residuals, Student's t quantile of k's probability with their degrees of "
+                        "freedom)")
     p.add_argument("--md-tol", type=float, default=0.5,
                    help="pair stations within this many m of MD (default %(default)g)")
     add_json(p)
