@@ -537,7 +537,8 @@ def build(ds: RawDataset, cal: Calibration, method: str, info: dict, refit=None,
     else:
         rep.uncertainty = {"source": "not available (the method could not be refitted on readings simulated from it, "
                                      "or its residuals' noise could not be fitted)"}
-    rep.uncertainty["reading_noise"] = reading_noise(ds, rep.residuals)
+    rep.uncertainty["reading_noise"] = reading_noise(ds, rep.residuals, int(len(rows_used)),
+                                                     "invariants" if info.get("mode") == "invariants" else "poses")
     rep.quantisation = quantisation_loss(used, cal, w, dip, ds.meta.get("samples_averaged"), input_lsb(ds))
     for k in ("s2", "chi2", "dof"):
         if k in info:
@@ -546,14 +547,21 @@ def build(ds: RawDataset, cal: Calibration, method: str, info: dict, refit=None,
     return rep
 
 
-def reading_noise(ds: RawDataset, residuals: dict) -> dict | None:
+# The degrees of freedom of the noise the fit's residuals give (reading_noise's "dof"): the rows used less the
+# coefficients one triad spends on its residual along the vector it reads: 4 with poses (12 coefficients over the
+# three components), the ellipsoid's 9 without.  compare judges its pairs against the noise with them (Student's t).
+NOISE_PARAMS = {"poses": 4, "invariants": 9}
+
+
+def reading_noise(ds: RawDataset, residuals: dict, rows: int | None = None, mode: str = "poses") -> dict | None:
     """The noise of one probe reading per axis (g, nT) the calibration run
     measured, for the survey tools (toolmodel, trajectory --cal, compare
     --cal): the pooled spread of the readings at each pose that acquire
     recorded; else the RMS residual of G total and B total after the fit
     (the noise along the field, plus what the calibration leaves: an upper
-    bound), scaled by the readings averaged into a row; None when neither is
-    known."""
+    bound), scaled by the readings averaged into a row, with its degrees of
+    freedom (rows, the rows fitted, less NOISE_PARAMS[mode]: an estimate
+    from few rows is itself uncertain); None when neither is known."""
     m = ds.meta
     n = m.get("samples_averaged")
     if m.get("reading_noise_acc_g") is not None and m.get("reading_noise_mag_nT") is not None:
@@ -563,7 +571,8 @@ def reading_noise(ds: RawDataset, residuals: dict) -> dict | None:
     ga, bm = residuals.get("acc_norm_rms_mg"), residuals.get("mag_norm_rms_nT")
     if ga is not None and bm is not None and np.isfinite(ga) and np.isfinite(bm):
         r = float(np.sqrt(m.get("readings_per_row") or 1))
-        return {"acc_g": ga * 1e-3 * r, "mag_nT": bm * r, "samples_averaged": n,
+        dof = None if rows is None else max(1, int(rows) - NOISE_PARAMS.get(mode, 4))
+        return {"acc_g": ga * 1e-3 * r, "mag_nT": bm * r, "samples_averaged": n, "dof": dof,
                 "source": "the fit's RMS residual of G total and B total (the noise along the field and what the "
                           "calibration leaves)" + (f", x sqrt({m['readings_per_row']:g} readings per row)"
                                                    if m.get("readings_per_row") else "")}

@@ -159,7 +159,7 @@ def fit(ds, use_poses=None, sigma_acc=None, sigma_mag=None, mount_tolerance_deg=
         # acceleration is the motion's, not the sensor's)
         try:
             M, b, cov, info = triad.fit_sphere(raw[~moving], R, sigma, min_rows=MIN_ROWS_SPHERE, what=what,
-                                               blocks=hl is None, refits=triad.REFITS)
+                                               blocks=hl is None, refits=triad.REFITS, axis_noise=hl is None)
         except (DataError, CalibrationError) as e:
             cause = motion.refusal(ds, e, hs, hl)
             if cause is None:

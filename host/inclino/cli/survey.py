@@ -121,6 +121,18 @@ def _noise(args, cal):
     return a, m, src
 
 
+def _noise_dof(args):
+    """The degrees of freedom of the noise compare's sigma takes from the
+    calibration's fit report (None: given by --acc-noise and --mag-noise, no
+    calibration, or a report that records none, as acquire's measured
+    noise)."""
+    from inclino.survey import errormodel as em
+
+    if not getattr(args, "cal", None) or (args.acc_noise is not None and args.mag_noise is not None):
+        return None
+    return em.calibration_noise_dof(_survey_calibration(args.cal))
+
+
 def _field_for(rf, cal=None):
     dip = rf.dip_deg if rf is not None and math.isfinite(rf.dip_deg) else _cal_dip(cal) if cal else 60.0
     tot = rf.field_nT if rf is not None and math.isfinite(rf.field_nT) else 50000.0
@@ -440,7 +452,8 @@ def _cmd_compare(args) -> int:
     ref = geomag.ReferenceField(rf.declination_deg if rf is not None else 0.0, dip, tot,
                                 rf.gravity_g if rf is not None and math.isfinite(rf.gravity_g) else 1.0)
     with progress.phase(f"comparing {len(a)} and {len(b)} stations"):
-        r = cmp.compare(a, b, model, ref, k=args.k, md_tol=args.md_tol, two_probes=args.two_probes)
+        r = cmp.compare(a, b, model, ref, k=args.k, md_tol=args.md_tol, two_probes=args.two_probes,
+                        noise_dof=_noise_dof(args))
     if args.json:
         r.write_json(sys.stdout)
         print()
@@ -456,11 +469,13 @@ def _cmd_compare(args) -> int:
                 "paired station)"))
         print(f"{'MD m':>9} {'MD out m':>9} {'inc':>8} {'d inc':>9} {'k sig':>8} {'d azi':>9} {'k sig':>8}  verdict")
         for s in r.stations:
-            da = "" if s["d_azi_deg"] is None else f"{s['d_azi_deg']:9.4f} {r.k * s['sigma_d_azi_deg']:8.4f}"
+            da = "" if s["d_azi_deg"] is None else f"{s['d_azi_deg']:9.4f} {r.k_limit * s['sigma_d_azi_deg']:8.4f}"
             print(f"{s['md_m']:9.2f} {s['md_out_m']:9.2f} {s['inc_deg']:8.3f} {s['d_inc_deg']:9.4f} "
-                  f"{r.k * s['sigma_d_inc_deg']:8.4f} {da:18s}  {s['verdict']}")
+                  f"{r.k_limit * s['sigma_d_inc_deg']:8.4f} {da:18s}  {s['verdict']}")
         sm = r.summary
-        print(f"{sm['pairs']} station pairs ({r.mode}, k = {r.k:g}): {sm['pairs'] - sm['failed']} pass, "
+        kt = "" if r.noise_dof is None else (f", limit {r.k_limit:.3g} sigma: Student's t of k's probability, the "
+                                             f"noise estimated on {r.noise_dof:g} degrees of freedom")
+        print(f"{sm['pairs']} station pairs ({r.mode}, k = {r.k:g}{kt}): {sm['pairs'] - sm['failed']} pass, "
               f"{sm['failed']} fail; unmatched {sm['unmatched_in']} + {sm['unmatched_out']}; verdict: "
               + ("PASS" if r.passed else "FAIL"))
     return 0 if r.passed else 1
@@ -575,7 +590,10 @@ def add_parser(sub) -> None:
                         "expected spread (default: the model's own; none for --cal alone, whatever reference is "
                         "given)")
     p.add_argument("--two-probes", action="store_true", help="two probes: every sensor term differs")
-    p.add_argument("--k", type=float, default=3.0, help="pass within k x the expected sigma (default %(default)g)")
+    p.add_argument("--k", type=float, default=3.0,
+                   help="pass within k x the expected sigma (default %(default)g; where the noise is the "
+                        "calibration's residuals, Student's t quantile of k's probability with their degrees of "
+                        "freedom)")
     p.add_argument("--md-tol", type=float, default=0.5,
                    help="pair stations within this many m of MD (default %(default)g)")
     add_json(p)

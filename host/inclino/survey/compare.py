@@ -15,7 +15,10 @@ at the pair's attitude (welleng's per-term station covariance):
 * two probes (two_probes): every sensor term of both.
 
 A station passes when both |d inc| and |d azi| are within k (default 3)
-times their expected sigma.
+times their expected sigma.  Where the noise is an estimate from the
+calibration's residuals with few degrees of freedom (noise_dof), the limit
+is Student's t quantile of the same two-sided probability: the expected
+sigma carries the estimate's own error.
 """
 from __future__ import annotations
 
@@ -34,6 +37,10 @@ class CompareResult:
     unmatched_in: list = field(default_factory=list)
     unmatched_out: list = field(default_factory=list)
     k: float = 3.0
+    # the limit the pairs are judged against: k, or with a noise estimated on noise_dof degrees of freedom Student's
+    # t quantile of k's two-sided probability (k 3: 3.35 at 24, 4.28 at 8)
+    k_limit: float = 3.0
+    noise_dof: float | None = None
     mode: str = "same probe"
     # the probe's calibration terms: at each station's own toolface in both surveys, or toolface-averaged
     toolface: str = "averaged"
@@ -140,16 +147,32 @@ def at_toolfaces(model, a, b, ia, ib, rf, fallback=(60.0, 50000.0)):
     return v[0], v[1]
 
 
+def k_limit(k: float, noise_dof: float | None) -> float:
+    """The pass limit in expected sigmas: k where the noise is known
+    (noise_dof None), else Student's t quantile with noise_dof degrees of
+    freedom of the two-sided probability k leaves under a normal law (a
+    difference over a sigma whose noise is estimated from a few rows is
+    t-distributed, and a fixed k fails correct pairs more often than it
+    says)."""
+    if noise_dof is None:
+        return k
+    from scipy import stats
+
+    return float(stats.t.isf(stats.norm.sf(k), noise_dof))
+
+
 def compare(a, b, model, rf, k: float = 3.0, md_tol: float = 0.5, two_probes: bool = False,
-            fallback=(60.0, 50000.0)) -> CompareResult:
+            fallback=(60.0, 50000.0), noise_dof: float | None = None) -> CompareResult:
     """a, b: wellpath.Survey (in-run and out-run, in either order; each sorted
     by depth when read); model: models.ErrorModel; rf: the reference field
-    (its dip and total field enter the weights)."""
+    (its dip and total field enter the weights); noise_dof: the degrees of
+    freedom of the model's noise where it is an estimate (k_limit)."""
     if not (k > 0 and math.isfinite(k)):
         raise DataError("--k must be > 0")
     if not (md_tol >= 0 and math.isfinite(md_tol)):
         raise DataError("--md-tol must be >= 0")
-    res = CompareResult(k=k, mode="two probes" if two_probes else "same probe")
+    res = CompareResult(k=k, mode="two probes" if two_probes else "same probe", noise_dof=noise_dof)
+    res.k_limit = kl = k_limit(k, noise_dof)
     res.runs = [a.meta.get("run", ""), b.meta.get("run", "")]
     ia, ib = pair_stations(a.md_m, b.md_m, md_tol)
     used = np.zeros(len(b.md_m), bool)
@@ -178,8 +201,8 @@ def compare(a, b, model, rf, k: float = 3.0, md_tol: float = 0.5, two_probes: bo
         d_inc = float(b.inc_deg[j] - a.inc_deg[i])
         azi_defined = (math.isfinite(sa[n]) and min(a.inc_deg[i], b.inc_deg[j]) >= NEAR_VERTICAL_DEG
                        and max(a.inc_deg[i], b.inc_deg[j]) <= 180.0 - NEAR_VERTICAL_DEG)
-        ok_i = abs(d_inc) <= k * si[n]
-        ok_a = (abs(d_azi[n]) <= k * sa[n]) if azi_defined else True
+        ok_i = abs(d_inc) <= kl * si[n]
+        ok_a = (abs(d_azi[n]) <= kl * sa[n]) if azi_defined else True
         res.stations.append({"md_m": float(md[n]), "md_out_m": float(b.md_m[j]), "inc_deg": float(a.inc_deg[i]),
                              "d_inc_deg": d_inc, "sigma_d_inc_deg": float(si[n]),
                              "d_azi_deg": float(d_azi[n]) if azi_defined else None,

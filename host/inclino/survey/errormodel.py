@@ -835,6 +835,17 @@ def calibration_noise(cal) -> tuple[float, float, str]:
                     "(or toolmodel --noise NOISE.csv, repeated surveys at rest); the noise is never taken as zero")
 
 
+def calibration_noise_dof(cal) -> float | None:
+    """The degrees of freedom of the noise calibration_noise takes from the
+    calibration's fit report (report.uncertainty.reading_noise.dof: the
+    rows its residuals come from less the coefficients they spent); None
+    when the report records none (acquire's measured noise, an older
+    report): the noise is then taken as known."""
+    rn = ((cal.report or {}).get("uncertainty") or {}).get("reading_noise")
+    dof = rn.get("dof") if isinstance(rn, dict) else None
+    return float(dof) if isinstance(dof, (int, float)) and math.isfinite(dof) and dof >= 1 else None
+
+
 def noise_from_survey(rows) -> tuple[float, float]:
     """(accelerometer g, fluxgate nT) per-axis noise of one survey from
     repeated surveys at rest: the spread of G total and B total (each the
