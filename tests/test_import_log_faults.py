@@ -294,14 +294,15 @@ def test_the_documented_sensor_description_imports_a_log(tmp_path):
     text = _doc_block('name = "MPU-9250 breakout on the bench"')
     desc = sensor.from_toml(text)
     assert desc.time == "t_ms" and desc.rate_hz is None and desc.acc.counts == "int16"
-    rows = ["t_ms,temp,part,ax,ay,az,mx,my,mz,inc,heading,roll",
-            "0,25,x_p,16384,0,0,20,5,40,90,10,0", "10,25,x_a,49152,0,0,-20,5,40,90,10,180",
-            "20,25,y_p,0,16384,0,20,5,40,90,10,90"]
+    rows = ["t_ms,temp,part,ax,ay,az,mx,my,mz,inc,heading,roll,gx,gy,gz",
+            "0,25,x_p,16384,0,0,20,5,40,90,10,0,1,2,3", "10,25,x_a,49152,0,0,-20,5,40,90,10,180,1,2,3",
+            "20,25,y_p,0,16384,0,20,5,40,90,10,90,1,2,3"]
     (tmp_path / "log.csv").write_text("\n".join(rows) + "\n")
     ds, rep = importlog.import_log(str(tmp_path / "log.csv"), desc)
     assert len(ds) == 2 and list(ds.columns["t_s"]) == [0.0, 0.01]  # y_p not kept
     np.testing.assert_allclose(ds.columns["ax_g"], [-1.0, 1.0])  # 49152 is -16384 (int16), reads = "up"
     assert list(ds.columns["azi_deg"]) == [10.0, 10.0]
+    np.testing.assert_allclose(ds.gyro, [[1.0, -2.0, -3.0]] * 2)  # deg/s, the accelerometer's map (x, -y, -z)
 
 
 def test_the_documented_sample_row_reads_its_own_pose(tmp_path, capsys):
@@ -339,7 +340,8 @@ def test_every_header_key_is_in_the_documented_list():
 def test_every_top_level_key_of_a_description_is_in_the_documented_example():
     text = _doc_block('name = "MPU-9250 breakout on the bench"')
     top = {m.group(1) for m in re.finditer(r"^([a-z_]+) = ", text.split("[log]")[0], re.M)}
-    assert top == sensor.TOP_KEYS - {"log", "accelerometer", "magnetometer", "header", "poses"}, top
+    assert top == sensor.TOP_KEYS - {"log", "accelerometer", "magnetometer", "gyroscope", "header", "poses"}, top
+    assert "\n[gyroscope]" in text  # the optional table, documented in the example too
 
 
 def test_a_normalised_field_is_documented_as_the_unit_the_code_reads():

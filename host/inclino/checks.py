@@ -114,6 +114,12 @@ LAG_LEVER_ROWS = 9        # the lag curve's lever-arm terms: the triads' directi
                           # (Savitzky-Golay, cubic) before the rotation rate is taken from them ...
 LAG_LEVER_ACC_WEIGHT = 0.1  # ... with the accelerometer's direction weighted this much against the magnetometer's
                             # (the accelerometer's carries the hand's acceleration the terms fit out)
+GYRO_LAG_SHARP = 0.96      # a triad's lag against the gyroscope: the residual of its row differences fitted on the
+                           # gyroscope's turn of its vector at the best lag below this share of the residual at either
+                           # neighbouring lag, in each half of the log (measured below)
+GYRO_LAG_MIN_ROWS = 200    # ... on at least this many consecutive rows
+GYRO_LAG_SMOOTH_ROWS = 3   # ... the differences and the turns each summed over this many rows (a linear filter, the
+                           # same at every lag: BROAD 05's accelerometer 0.94 -> 0.84, its hand's jerks averaged)
 AXES_RATIO = 3.0          # dip spread with the declared maps / with the best other map
 HAND_WEAK_RATIO = 1.2     # below AXES_RATIO: a reflection that cuts the dip's spread this much (and HAND_WEAK_DEG) ...
 HAND_WEAK_DEG = 0.2
@@ -1199,6 +1205,19 @@ def _axes_and_lag(ds, rows_all, rep, ug_src=None):
             doubt = Finding("row-alignment", "note", f"the triads may be paired out of step ({how}), but {why}: not "
                             f"named", None, {**rfig, "lag_rows": kb})
         route = None
+    gyro = _gyro_shift(ds, block, ug, ubp) if route is None and ug_src is None else None
+    if gyro is not None and gyro[0] != 0 and abs(gyro[0]) <= MAX_LAG and not (inv is not None and curve is not None):
+        # no dip route or lag curve names a shift (a log turned mostly about the vertical or magnetic north leaves
+        # the dip alone), but each triad's turning against the gyroscope's rate fixes its row
+        kb, gfig = gyro
+        route, sb = "gyroscope", lags.get(kb)
+        if sb is None:
+            sb = _robust_std(_dip(*_paired(ug, ubp, kb)))
+        fig = {**fig, **gfig}
+        how = (f"turned by the gyroscope's rate, the accelerometer's rows follow it with a lag of "
+               f"{gfig['gyro_lag_acc_rows']:+d}, the magnetometer's with {gfig['gyro_lag_mag_rows']:+d} (each half of "
+               f"the log alike, each lag's fit better than at the rows beside it by "
+               f"{100 * (1 - max(gfig['gyro_sharpness_acc'] + gfig['gyro_sharpness_mag'])):.0f} % or more)")
     if route is None and doubt is not None and not (inv is not None and curve is not None):
         # (a route's doubt is not said beside the shift the lag curve then names: GyroLib's log, its
         # magnetometer two rows ahead, was told "+3 ... not named" and "-2 ... re-import with lag")
@@ -1230,13 +1249,15 @@ def _axes_and_lag(ds, rows_all, rep, ug_src=None):
         if rule_s is not None and short["se"] < LAG_CURVE_POSSIBLE_SE:
             rep.findings.append(_possible_shift(short, ks, _short_rule_text()))
     if route is not None:
-        if inv is not None and route not in ("curve", "nearest"):
+        if inv is not None and route not in ("curve", "nearest", "gyroscope"):
             how += f"; the lag curve puts it at {inv['lag']:+.2f} +- {_se_text(inv['se'])} rows"
-        if inv is not None and route != "nearest" and abs(inv["lag"] - kb) > 0.25 and abs(inv["lag"] - kb) > LAG_CURVE_SE * inv["se"]:
+        if inv is not None and route not in ("nearest", "gyroscope") and abs(inv["lag"] - kb) > 0.25 and abs(inv["lag"] - kb) > LAG_CURVE_SE * inv["se"]:
             how += (f" (a whole-row lag leaves {inv['lag'] - kb:+.2f} rows: a skew between the sensors' sampling "
                     f"that no lag removes)")
         _name_shift(ds, rep, route, kb, how, s0, sb, fig)
-    elif ug_src is None and not any(f.check == "row-alignment" for f in rep.findings):
+    elif ug_src is None and not any(f.check == "row-alignment" for f in rep.findings) and \
+            not (gyro is not None and gyro[0] == 0):
+        # (each triad's row fixed against the gyroscope and the two in step: the pairing is checked)
         from inclino import holds as _holds
 
         h = holds_found()
@@ -1246,6 +1267,79 @@ def _axes_and_lag(ds, rows_all, rep, ug_src=None):
         if unseen:
             rep.findings.append(Finding("row-alignment", "note", unseen[0], None, unseen[1]))
     _dip_sign(ds, _dip(*_paired(ug, ubp, rep.lag_rows or 0)), ug_src, rep)  # the dip's sign, as named paired
+
+
+def _gyro_fits(u, w, dt, K: int = MAX_LAG) -> dict:
+    """{lag: (residual share, coefficient)}: the triad's unit directions u
+    turned by the gyroscope's rate w (any unit: the coefficient takes the
+    unit and the step dt), row by row: u[i+1+L] - u[i+L] fitted on
+    -(w x u) dt with the rate of rows i, i+1 averaged (a body-frame vector
+    in a still field turns against the body's rate), both summed over
+    GYRO_LAG_SMOOTH_ROWS rows, for the triad's row
+    i + L read with the gyroscope's row i; the residual as a share of the
+    differences' sum of squares."""
+    n = len(u)
+    i = np.arange(K, n - K - 1)
+    turn = 0.5 * (w[i] + w[i + 1]) * dt[i, None]
+    out = {}
+
+    def summed(a):
+        c = np.cumsum(np.vstack([np.zeros((1, 3)), a]), axis=0)
+        return c[GYRO_LAG_SMOOTH_ROWS:] - c[:-GYRO_LAG_SMOOTH_ROWS]
+    for L in range(-K, K + 1):
+        d = summed(u[i + 1 + L] - u[i + L])
+        x = summed(-np.cross(turn, 0.5 * (u[i + L] + u[i + 1 + L])))
+        xx, dd = float((x * x).sum()), float((d * d).sum())
+        if not (xx > 0 and dd > 0):
+            return {}
+        c = float((d * x).sum()) / xx
+        out[L] = (float(((d - c * x) ** 2).sum()) / dd, c)
+    return out
+
+
+def _gyro_lag(u, w, dt) -> tuple:
+    """(lag, sharpness per half) of a triad against the gyroscope: the lag
+    whose fit (_gyro_fits) leaves the least residual on the whole log, or
+    None unless each half of the log finds the same lag with a positive
+    coefficient and a residual below GYRO_LAG_SHARP times the residual at
+    either neighbouring lag (sharpness: that ratio per half)."""
+    n = len(u)
+    h = n // 2
+    lags, ratios = [], []
+    for sl in (slice(0, n), slice(0, h), slice(h, n)):
+        f = _gyro_fits(u[sl], w[sl], dt[sl])
+        if not f:
+            return None, []
+        best = min(f, key=lambda k: f[k][0])
+        near = min(f[k][0] for k in (best - 1, best + 1) if k in f)
+        lags.append(best if f[best][1] > 0 and best - 1 in f and best + 1 in f else None)
+        ratios.append(f[best][0] / near if near > 0 else 1.0)
+    sharp = all(x is not None and x == lags[0] for x in lags) and max(ratios[1:]) < GYRO_LAG_SHARP
+    return (lags[0] if sharp else None), ratios[1:]
+
+
+def _gyro_shift(ds, block, ug, ubp):
+    """The triads' shift from each one's lag against the gyroscope (a
+    dataset with wx_dps, wy_dps, wz_dps): the magnetometer's lag less the
+    accelerometer's, found on any turn but one about the triad's own vector
+    (the dip invariant sees only turns about magnetic east-west).  None
+    without a gyroscope or when either lag is not sharp; else (shift,
+    figures)."""
+    if not ds.has_gyro or len(block) < GYRO_LAG_MIN_ROWS:
+        return None
+    w = ds.gyro[block]
+    t = ds.columns.get("t_s")
+    dt = np.ones(len(block))
+    if t is not None:
+        step = np.diff(t[block])
+        if np.all(np.isfinite(step)) and np.all(step > 0):
+            dt = np.append(step, np.median(step))
+    la, ra = _gyro_lag(ug, w, dt)
+    lm, rm = _gyro_lag(ubp, w, dt)
+    fig = {"gyro_lag_acc_rows": la, "gyro_lag_mag_rows": lm, "gyro_sharpness_acc": ra, "gyro_sharpness_mag": rm}
+    if la is None or lm is None:
+        return None
+    return lm - la, fig
 
 
 def _name_shift(ds, rep, route: str, kb: int, how: str, s0: float, sb: float, fig: dict) -> None:

@@ -10,7 +10,9 @@ columns in any order, extra columns allowed.  Pose columns (turntable
 reference) and t_s/temp_c may be absent; the sensor columns hold raw,
 uncalibrated readings in nominal units (counts x nominal LSB): both triads,
 or one (an accelerometer-only or a magnetometer-only dataset), each triad's
-three columns together.  The header may record where the data came from and
+three columns together; optionally a gyroscope's rate (wx_dps, wy_dps,
+wz_dps: deg/s, body frame), which only the row-alignment check reads.  The
+header may record where the data came from and
 the sensor description used (`inclino import`, inclino.formats.sensor).
 """
 from __future__ import annotations
@@ -32,7 +34,7 @@ SENSOR_META = ("sensor", "sensor_sha256", "log_sha256", "acc_axes", "acc_unit", 
                "acc_lag_rows", "mag_lag_rows",
                "acc_lsb_g", "acc_noise_g", "acc_range_g", "mag_lsb_nT", "mag_noise_nT", "mag_range_nT",
                "axes_reflection", "reflection", "static", "rows_dropped", "rate_hz", "time_unit",
-               "pairing", "paired_log_sha256", "temp_unit")
+               "pairing", "paired_log_sha256", "temp_unit", "gyro_axes", "gyro_unit")
 META_KEYS = ("field_nT", "dip_deg", "declination_deg", "gravity_g", "lat_deg", "lon_deg",
              "date", "probe_serial", "source", "samples_averaged", "start_utc", "firmware", "calibration_crc",
              "calibration_sequence", "reading_noise_acc_g", "reading_noise_mag_nT", "readings_per_row") + SENSOR_META
@@ -42,10 +44,11 @@ NUMERIC_META = {"field_nT", "dip_deg", "declination_deg", "gravity_g", "lat_deg"
 ACC_COLS = ("ax_g", "ay_g", "az_g")
 MAG_COLS = ("mx_nT", "my_nT", "mz_nT")
 SENSOR_COLS = ACC_COLS + MAG_COLS
+GYRO_COLS = ("wx_dps", "wy_dps", "wz_dps")  # optional: a gyroscope's angular rate, deg/s, body frame (inclino import)
 POSE_COLS = ("inc_deg", "azi_deg", "tf_deg")
 ID_COLUMNS = ("pose_id", "segment", "cluster")  # a column naming each row's pose, if present
 OPTIONAL_COLS = ("t_s", "temp_c") + POSE_COLS
-COLUMN_ORDER = ("t_s",) + POSE_COLS + ("temp_c",) + SENSOR_COLS
+COLUMN_ORDER = ("t_s",) + POSE_COLS + ("temp_c",) + SENSOR_COLS + GYRO_COLS
 
 
 @dataclass
@@ -85,6 +88,17 @@ class RawDataset:
             raise DataError("the dataset has no magnetometer columns (mx_nT, my_nT, mz_nT): an accelerometer-only "
                             "dataset")
         return np.stack([self.columns[c] for c in MAG_COLS], axis=-1)
+
+    @property
+    def has_gyro(self) -> bool:
+        return all(c in self.columns for c in GYRO_COLS)
+
+    @property
+    def gyro(self) -> np.ndarray:
+        """(n, 3) angular rate, deg/s, body frame (the row-alignment check's only)."""
+        if not self.has_gyro:
+            raise DataError("the dataset has no gyroscope columns (wx_dps, wy_dps, wz_dps)")
+        return np.stack([self.columns[c] for c in GYRO_COLS], axis=-1)
 
     @property
     def has_pose(self) -> bool:
@@ -242,7 +256,7 @@ def _read(lines: _Lines, path: str, bar) -> RawDataset:
         raise DataError(f"{path}: no header row")
     header_line = lines.lineno
     header = [h.strip() for h in next(csv.reader([line]))]
-    for cols in (ACC_COLS, MAG_COLS):  # a triad is all three columns or none
+    for cols in (ACC_COLS, MAG_COLS, GYRO_COLS):  # a triad is all three columns or none
         have = [c for c in cols if c in header]
         if have and len(have) < 3:
             raise DataError(f"{path}:{header_line}: missing column(s) {', '.join(c for c in cols if c not in have)} "

@@ -37,7 +37,7 @@ import numpy as np
 from inclino.errors import DataError
 
 from . import dataset
-from .dataset import ACC_COLS, MAG_COLS, MAX_LINE_CHARS, RawDataset
+from .dataset import ACC_COLS, GYRO_COLS, MAG_COLS, MAX_LINE_CHARS, RawDataset
 from .sensor import FIELD_UNIT, NS_PER_S, SensorDescription, split_stamp
 
 MAX_LOG_BYTES = 2 << 30  # a log is read whole into memory (8 bytes a value kept)
@@ -176,7 +176,7 @@ def _line_delimiter(line: str, desc: SensorDescription) -> str:
 
 def _named_columns(desc: SensorDescription) -> list:
     """The columns the description gives by name (triads, time, temperature)."""
-    named = [c for t in desc.triads for c in t.columns if isinstance(c, str)]
+    named = [c for t in desc.triads + ((desc.gyro,) if desc.gyro else ()) for c in t.columns if isinstance(c, str)]
     times = list(desc.time) if split_stamp(desc.time) else [desc.time]
     return named + [c for c in times + [desc.temperature] if isinstance(c, str)]
 
@@ -342,7 +342,7 @@ def _column_text(key: str, j: int, names) -> str:
             "tf_deg": "pose tf"}.get(key)
     if what is None:  # a sensor axis as logged, before the axis map
         c = key.lstrip("_")
-        what = f"{'accelerometer' if c in ACC_COLS else 'magnetometer'} {c[1]}"
+        what = f"{'accelerometer' if c in ACC_COLS else 'gyroscope' if c in GYRO_COLS else 'magnetometer'} {c[1]}"
     return f"{what} ({repr(names[j].strip()) if names is not None else f'column {j + 1}'})"
 
 
@@ -638,7 +638,8 @@ def _triads_in_turn(missing_rows: dict, desc: SensorDescription, kept: int, path
         return ""
     gone = {}
     for cols, (n, _, _) in missing_rows.items():
-        kinds = {"acc" if c.lstrip("_") in ACC_COLS else "mag" for c in cols if c.startswith("_")}
+        kinds = {"acc" if c.lstrip("_") in ACC_COLS else "mag" for c in cols
+                 if c.startswith("_") and c.lstrip("_") not in GYRO_COLS}
         if len(kinds) == 1:
             k = kinds.pop()
             gone[k] = gone.get(k, 0) + n
@@ -793,10 +794,11 @@ def _import(lines, path: str, desc: SensorDescription, static, drop_bad=False, a
     _check_poses(desc, path)
     wanted = {}  # canonical name -> (index, what)
     axis_of = {}  # a log column -> the sensor axis that reads it
-    for t in desc.triads:
-        cols = ACC_COLS if t.kind == "acc" else MAG_COLS
+    section = {"acc": "accelerometer", "mag": "magnetometer", "gyro": "gyroscope"}
+    for t in desc.triads + ((desc.gyro,) if desc.gyro is not None else ()):
+        cols = {"acc": ACC_COLS, "mag": MAG_COLS, "gyro": GYRO_COLS}[t.kind]
         for k, c in enumerate(t.columns):
-            what = f"[{'accelerometer' if t.kind == 'acc' else 'magnetometer'}].columns[{k + 1}]"
+            what = f"[{section[t.kind]}].columns[{k + 1}]"
             j = _index(c, names, what, path, header_line)
             if j in axis_of:
                 # one column read as two sensor axes (a triad's columns copied into the other's table, or one
@@ -986,6 +988,11 @@ def _import(lines, path: str, desc: SensorDescription, static, drop_bad=False, a
         body = t.convert(raw)
         for i, c in enumerate(cols):
             out[c] = np.ascontiguousarray(body[:, i])
+    if desc.gyro is not None:  # the log's own rows (no lag of its own): body frame, deg/s
+        raw = np.stack([col[f"_{c}"] for c in GYRO_COLS], -1)[lo:hi]
+        body = desc.gyro.convert(raw)
+        for i, c in enumerate(GYRO_COLS):
+            out[c] = np.ascontiguousarray(body[:, i])
     col = {k: v[lo:hi] for k, v in col.items()}
     labels = labels[lo:hi]
     if desc.rate_hz is not None:
@@ -1073,7 +1080,9 @@ def _import_apart(path: str, desc: SensorDescription, apart, static, drop_bad_ro
                         f"file)")
     own = held[0]
     in_log = dataclasses.replace(desc, **{apart.kind: None, own.kind: dataclasses.replace(own, lag=0)})
+    # (the gyroscope, if any, is read from the log given, on its rows: as the log's own triad's)
     in_file = dataclasses.replace(desc, **{own.kind: None, apart.kind: dataclasses.replace(apart, lag=0, file=None)},
+                                  gyro=None,
                                   time=apart.time, time_unit=apart.time_unit, time_scale=apart.time_scale,
                                   temperature=None, poses=None, keep=None, header={}, static=None)
     if not os.path.isfile(other):

@@ -33,7 +33,10 @@ keys replace them key by key.  Presets live beside this module
 
 Quantities are strings with a unit ("0.15 uT", "1/2048 g", "16 g",
 "2 counts"); plain numbers are taken in the triad's own logged unit.
-Everything is converted to the canonical units, g and nT.
+Everything is converted to the canonical units, g and nT.  An optional
+[gyroscope] table (columns, unit deg/s, rad/s or counts with lsb, an axis
+map defaulting to the accelerometer's) brings the angular rate in deg/s,
+which only the row-alignment check reads.
 """
 from __future__ import annotations
 
@@ -56,6 +59,9 @@ PRESET_DIR = Path(__file__).with_name("sensors")
 # logged unit -> canonical unit (g or nT) per logged unit
 ACC_UNITS = {"g": 1.0, "mg": 1e-3, "ug": 1e-6, "µg": 1e-6, "m/s2": 1.0 / STANDARD_GRAVITY,
              "m/s^2": 1.0 / STANDARD_GRAVITY, "m/s²": 1.0 / STANDARD_GRAVITY, "mm/s2": 1e-3 / STANDARD_GRAVITY}
+# the gyroscope's angular rate (optional [gyroscope]; only the row-alignment check reads it), in deg/s
+GYRO_UNITS = {"deg/s": 1.0, "dps": 1.0, "°/s": 1.0, "degrees/s": 1.0, "rad/s": 180.0 / math.pi,
+              "mrad/s": 0.18 / math.pi, "rpm": 6.0}
 MAG_UNITS = {"nt": 1.0, "ut": 1e3, "µt": 1e3, "mt": 1e6, "t": 1e9, "g": 1e5, "gauss": 1e5, "mg": 100.0,
              "mgauss": 100.0, "gamma": 1.0}
 TRIADS = {"accelerometer": ("acc", ACC_UNITS, "g", "a"), "magnetometer": ("mag", MAG_UNITS, "nT", "m")}
@@ -66,7 +72,8 @@ SPLIT_STAMP = "s + ns"  # the time_unit recorded for a stamp in two columns, who
 NS_PER_S = 1_000_000_000  # a stamp's nanoseconds column reads 0 ... NS_PER_S - 1
 READS = ("up", "down")
 BAD_ROWS = ("refuse", "drop")
-TOP_KEYS = {"name", "preset", "notes", "source", "log", "accelerometer", "magnetometer", "header", "poses"}
+TOP_KEYS = {"name", "preset", "notes", "source", "log", "accelerometer", "magnetometer", "gyroscope", "header",
+            "poses"}
 LOG_KEYS = {"delimiter", "comment", "header", "skip_rows", "time", "time_unit", "rate_hz", "temperature",
             "temperature_unit", "temperature_lsb", "temperature_offset", "samples_averaged", "static", "keep", "decimal", "bad_rows", "strip"}
 FIELD_UNIT = "field"  # magnetometer readings normalised to the site's total field: 1.0 = field_nT
@@ -80,6 +87,7 @@ DEGREES_C = {"C": 1.0, "degC": 1.0, "°C": 1.0}  # a temperature's lsb and offse
 RATE_UNITS = {"Hz": 1.0, "hz": 1.0, "kHz": 1e3, "khz": 1e3}
 TRIAD_KEYS = {"columns", "unit", "lsb", "reads", "x", "y", "z", "axes", "reflection", "range", "noise", "lag", "zero",
               "file", "time", "time_unit", "time_offset", "counts"}
+GYRO_KEYS = {"columns", "unit", "lsb", "x", "y", "z", "axes", "zero", "counts"}
 POSE_UNITS = {"deg": 1.0, "degree": 1.0, "degrees": 1.0, "rad": 180.0 / math.pi, "radian": 180.0 / math.pi,
               "radians": 180.0 / math.pi}
 POSE_KEYS = {"inc", "azi", "tf", "label", "labels", "unit"}
@@ -161,7 +169,7 @@ def decimal_clean(x):
 class Triad:
     """One triad's reading of the log, in canonical units."""
 
-    kind: str                       # "acc" or "mag"
+    kind: str                       # "acc", "mag" or "gyro" (the gyroscope: deg/s, never one of `triads`)
     columns: list                   # the sensor's x, y, z columns (names, or 1-based numbers)
     unit: str                       # as logged ("g", "m/s2", "uT", "counts", ...)
     scale: float | None             # canonical units (g or nT) per logged unit (None: unit "field" with the
@@ -215,7 +223,7 @@ class Triad:
         return int(self.counts[3:]) if self.counts and self.counts.startswith("int") else None
 
     def axes_text(self) -> str:
-        p = "a" if self.kind == "acc" else "m"
+        p = {"acc": "a", "mag": "m", "gyro": "g"}[self.kind]
         return ", ".join(f"{b} = {'-' if s < 0 else ''}{p}{'xyz'[j]}" for b, (s, j) in zip("xyz", self.axes))
 
 
@@ -224,6 +232,7 @@ class SensorDescription:
     name: str = "the project's probe (ADIS16210 + fluxgate)"
     acc: Triad | None = None
     mag: Triad | None = None
+    gyro: Triad | None = None         # the gyroscope, in deg/s (optional): read by the row-alignment check only
     # the log
     delimiter: str | None = None
     decimal: str = "."                # the decimal mark: "." or "," (then the delimiter is not a comma)
@@ -287,6 +296,12 @@ class SensorDescription:
                 v = getattr(t, k)
                 if v is not None:
                     m[f"{t.kind}_{k}_{u}"] = float(decimal_clean(v))
+        if self.gyro is not None:
+            g = self.gyro
+            m["gyro_axes"] = g.axes_text()
+            m["gyro_unit"] = g.unit + (f" ({g.counts})" if g.counts else "") + \
+                (f" x {g.scale:.10g} deg/s" if g.unit == "counts" else "") + (f", less a zero of {g.zero:.10g}"
+                                                                               if g.zero else "")
         refl = [t.kind for t in self.triads if t.reflection]
         if refl:
             m["axes_reflection"] = ",".join(refl)
@@ -468,7 +483,7 @@ def _field_quantity(value, units, canon, what, scale, lsb=None):
     return _quantity(value, units, canon, what, scale, lsb)
 
 
-_AXIS = re.compile(r"\s*([+-]?)\s*([am]?)([xyz])\s*", re.I)
+_AXIS = re.compile(r"\s*([+-]?)\s*([amg]?)([xyz])\s*", re.I)
 
 
 _COMPACT = re.compile(r"\s*([+-]?)\s*([xyz])\s*,?\s*([+-]?)\s*([xyz])\s*,?\s*([+-]?)\s*([xyz])\s*", re.I)
@@ -493,7 +508,7 @@ def _axis_map(spec: dict, kind: str, what: str, columns=()) -> list:
     string ("x = -ay, y = ax, z = az"; or body x, y, z in order: "-y, -x, z",
     "-Y-X+Z"); a sensor axis by its letter (with or without the triad's
     a/m) or by its column's name ("-acc_y"); default identity."""
-    letter = "a" if kind == "acc" else "m"
+    letter = {"acc": "a", "mag": "m", "gyro": "g"}[kind]
     entries = {}
     if "axes" in spec:
         text = spec["axes"]
@@ -640,6 +655,58 @@ def _triad(spec: dict, section: str, log_what: str, field_nT: float | None = Non
     return t
 
 
+def _gyro(spec, what: str, default_axes: list | None) -> Triad:
+    """The [gyroscope] table: columns, unit (deg/s, rad/s, or counts with
+    lsb), an axis map (default: the accelerometer's, else the
+    magnetometer's: a 9-axis part's gyroscope shares its accelerometer's
+    axes), zero and counts as for a triad."""
+    what = f"{what}[gyroscope]"
+    if not isinstance(spec, dict):
+        raise DataError(f"{what}: must be a table")
+    extra = set(spec) - GYRO_KEYS
+    if extra:
+        raise DataError(f"{what}: unknown key(s) {', '.join(sorted(extra))} (known: {', '.join(sorted(GYRO_KEYS))})")
+    cols = spec.get("columns")
+    if not (isinstance(cols, list) and len(cols) == 3 and all(isinstance(c, (str, int)) and not isinstance(c, bool)
+                                                               for c in cols)):
+        raise DataError(f"{what}.columns: three column names (or 1-based numbers) for the gyroscope's x, y, z")
+    if "unit" not in spec:
+        raise DataError(f"{what}.unit: the angular rate's unit, \"deg/s\", \"rad/s\", or \"counts\" with lsb")
+    unit = str(spec["unit"]).strip()
+    lsb = None
+    if unit.lower() in ("count", "counts", "lsb", "raw"):
+        unit = "counts"
+        if "lsb" not in spec:
+            raise DataError(f"{what}: unit = 'counts' needs lsb, what one count is (e.g. lsb = '1/131 deg/s')")
+        scale = lsb = _quantity(spec["lsb"], GYRO_UNITS, "deg/s", f"{what}.lsb", None)
+    else:
+        k = _unit_key(unit, GYRO_UNITS)
+        if k is None:
+            raise DataError(f"{what}.unit: unknown unit {unit!r} (deg/s, rad/s, mrad/s, rpm, or counts with lsb)")
+        scale = GYRO_UNITS[k]
+        if "lsb" in spec:
+            lsb = _quantity(spec["lsb"], GYRO_UNITS, "deg/s", f"{what}.lsb", scale)
+    given = any(k in spec for k in ("axes", "x", "y", "z"))
+    axes = _axis_map(spec, "gyro", what, cols) if given or default_axes is None else [list(a) for a in default_axes]
+    t = Triad(kind="gyro", columns=list(cols), unit=unit, scale=scale, axes=axes, lsb=lsb)
+    zero = spec.get("zero", 0)
+    if isinstance(zero, bool) or not isinstance(zero, (int, float)) or not np.isfinite(zero):
+        raise DataError(f"{what}.zero: a number, the reading at zero rate in the logged unit")
+    t.zero = float(zero)
+    if "counts" in spec:
+        w = spec["counts"]
+        m = re.fullmatch(r"(u?int)(\d+)", w.strip().lower()) if isinstance(w, str) else None
+        if not m or not 2 <= int(m.group(2)) <= 64 or unit != "counts":
+            raise DataError(f"{what}.counts: with unit = \"counts\", the counts' word as logged (\"int16\", ...)")
+        t.counts = m.group(1) + m.group(2)
+    if t.det < 0:
+        # an angular rate is an axial vector: a mirrored map turns it the other way about the mirrored axes, which
+        # no sign fixes for every turn
+        raise DataError(f"{what}: the axis map ({t.axes_text()}) is a reflection (determinant -1): a gyroscope's "
+                        f"map is a rotation of its axes; fix the map (flip one sign)")
+    return t
+
+
 def _merge(base: dict, over: dict) -> dict:
     out = {k: (dict(v) if isinstance(v, dict) else v) for k, v in base.items()}
     for k, v in over.items():
@@ -718,6 +785,9 @@ def from_dict(d: dict, what: str = "sensor description") -> SensorDescription:
             if not isinstance(d[section], dict):
                 raise DataError(f"{what}: [{section}] must be a table")
             setattr(s, TRIADS[section][0], _triad(d[section], section, what, _field_nT(d.get("header", {}), what)))
+    if "gyroscope" in d:
+        ref = s.acc or s.mag
+        s.gyro = _gyro(d["gyroscope"], what, None if ref is None or ref.det < 0 else ref.axes)
     if not s.triads:
         raise DataError(f"{what}: describes no triad (an [accelerometer] and/or a [magnetometer] table)")
     s.delimiter = log.get("delimiter")
