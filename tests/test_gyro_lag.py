@@ -26,17 +26,17 @@ def _stretch(tmp_path):
     return p
 
 
-def _description(tmp_path, gyro=True, lag=0):
-    """with_acc.toml, with or without its [gyroscope], its magnetometer
-    declared `lag` rows out of step (lag = 1 on a log in step pairs each
-    accelerometer row with the next row's magnetometer)."""
-    text = WITH_ACC
+def _description(tmp_path, gyro=True, lag=0, unit="rad/s"):
+    """with_acc.toml, with or without its [gyroscope] (its unit as given),
+    its magnetometer declared `lag` rows out of step (lag = 1 on a log in
+    step pairs each accelerometer row with the next row's magnetometer)."""
+    text = WITH_ACC.replace('unit = "rad/s"', f'unit = "{unit}"')
     if not gyro:
         start = text.index("[gyroscope]")
         text = text[:start] + text[text.index("[header]"):]
     if lag:
         text = text.replace('axes = "x = mx, y = my, z = mz"', f'axes = "x = mx, y = my, z = mz"\nlag = {lag}')
-    p = tmp_path / f"d_{int(gyro)}_{lag}.toml"
+    p = tmp_path / f"d_{int(gyro)}_{lag}_{unit.replace('/', '')}.toml"
     p.write_text(text, encoding="utf-8")
     return sensor.load(str(p))
 
@@ -57,9 +57,10 @@ def test_gyroscope_imported_in_deg_per_s(tmp_path):
     assert np.allclose(back.gyro, ds.gyro) and back.meta["gyro_unit"] == "rad/s"
 
 
-def test_shift_named_only_with_the_gyroscope(tmp_path):
+@pytest.mark.parametrize("unit", ["rad/s", "deg/s"])  # deg/s: declared wrong, the fit's coefficient takes it
+def test_shift_named_only_with_the_gyroscope(tmp_path, unit):
     log = str(_stretch(tmp_path))
-    ds, _ = importlog.import_log(log, _description(tmp_path, gyro=True, lag=1))
+    ds, _ = importlog.import_log(log, _description(tmp_path, gyro=True, lag=1, unit=unit))
     rep = checks.run(ds)
     named = [f for f in _rows(rep) if f.level in ("warning", "error")]
     assert rep.lag_rows == -1 and len(named) == 1
