@@ -1200,16 +1200,7 @@ SHIFT_MAX_CORR = 0.3
 SHIFT_MIN_COUNT = 20  # fewer unrelated shifts than this: all of them are used (the test errs towards refusing)
 
 
-def _highpass(r, frac: float = 0.02):
-    """r minus its running mean over about frac of the rows (at least 5):
-    what varies from one row to the next, without the slow part."""
-    n = len(r)
-    w = max(5, int(frac * n)) | 1
-    if n < 3 * w:
-        return r - r.mean(0)
-    k = np.ones(w) / w
-    sm = np.column_stack([np.convolve(np.pad(r[:, j], w // 2, mode="edge"), k, mode="valid") for j in range(r.shape[1])])
-    return r - sm
+_highpass = bartlett.highpass  # what varies from one row to the next, without the slow part
 
 
 def _turn_start(g, b) -> np.ndarray:
@@ -1527,21 +1518,7 @@ def _structure(pf, R, rows, chans, alpha) -> dict:
                                 f"model (p <= {bartlett.AR_MAX_ORDER}, by AIC)")}}
 
 
-def _row_correlated(y, channels: int) -> bool:
-    """Whether a residual (time order) correlates from row to row once its
-    slow part is taken off (_highpass): a Ljung-Box test of
-    serial.LJUNG_BOX_LAGS lags at serial.GATE_P, Bonferroni over the
-    channels.  Slow structure alone (a drift, a temperature the model
-    lacks) leaves the high-passed residual white, and its tests exact."""
-    from .study import ljung_box
-
-    if len(y) < 5 * bartlett.LJUNG_BOX_LAGS:
-        return False
-    z = _highpass(np.asarray(y, float)[:, None])[:, 0]
-    if not np.any(z):
-        return False
-    p, _ = ljung_box(z / np.std(z), bartlett.LJUNG_BOX_LAGS)
-    return bool(p < bartlett.GATE_P / max(channels, 1))
+_row_correlated = bartlett.row_correlated  # the row-to-row correlation gate of the structure tests
 
 
 CONFOUND_CORR = 0.9  # a named effect and a rival: this signature correlation, or (its temperature sibling,

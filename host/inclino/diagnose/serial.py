@@ -93,6 +93,36 @@ def ljung_box_q(rho, n) -> tuple:
     return float(stats.chi2.sf(Q, h)), Q
 
 
+def highpass(r, frac: float = 0.02):
+    """r (n, k) minus its running mean over about frac of the rows (at
+    least 5): what varies from one row to the next, without the slow part."""
+    n = len(r)
+    w = max(5, int(frac * n)) | 1
+    if n < 3 * w:
+        return r - r.mean(0)
+    k = np.ones(w) / w
+    sm = np.column_stack([np.convolve(np.pad(r[:, j], w // 2, mode="edge"), k, mode="valid") for j in range(r.shape[1])])
+    return r - sm
+
+
+def row_correlated(y, channels: int) -> bool:
+    """Whether a residual (time order) correlates from row to row once its
+    slow part is taken off (highpass): a Ljung-Box test of LJUNG_BOX_LAGS
+    lags at GATE_P, Bonferroni over the channels.  Slow structure alone (a
+    drift, a temperature the model lacks) leaves the high-passed residual
+    white, and the tests that read it exact."""
+    if len(y) < 5 * LJUNG_BOX_LAGS:
+        return False
+    z = highpass(np.asarray(y, float)[:, None])[:, 0]
+    z = z - z.mean()
+    den = float(z @ z)
+    if den <= 0:
+        return False
+    rho = np.array([float(z[k:] @ z[:-k]) / den for k in range(1, LJUNG_BOX_LAGS + 1)])
+    p, _ = ljung_box_q(rho, len(z))
+    return bool(p < GATE_P / max(channels, 1))
+
+
 def ljung_box_p(ge, n) -> float:
     """The smallest Ljung-Box p-value over the channels of the lags in ge."""
     m = min(LJUNG_BOX_LAGS, ge.shape[0] - 1)

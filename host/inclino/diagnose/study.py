@@ -29,6 +29,7 @@ import numpy as np
 from scipy import stats
 
 from .core import CHANNELS, TRIADS, Data
+from . import serial
 from .serial import ljung_box_q
 
 FAMILIES = ("pose", "temperature", "time", "field", "move", "rate")
@@ -99,6 +100,10 @@ def study(d: Data, bl, R, var, own_cols) -> dict:
         w = 1.0 / var[:, ch]
         base = own_cols[ch]
         rss0, rank0 = _wls_rss(y, base, w)
+        # rows whose noise correlates from one to the next (a sensor's filter read at a high rate while the
+        # table turns): each family's F-test is deflated by its Bartlett factor and the whiteness test asks
+        # for more than AR(p) noise, as the pose-free structure test does
+        correlated = serial.row_correlated(_wls_resid(y, base, w), len(CHANNELS))
         fams = {}
         for fam, Z in family_columns(d, bl, ch).items():
             rss1, rank1 = _wls_rss(y, np.column_stack([base, Z]), w)
@@ -107,15 +112,46 @@ def study(d: Data, bl, R, var, own_cols) -> dict:
             if q <= 0 or dof <= 0:
                 continue
             F = ((rss0 - rss1) / q) / (rss1 / dof) if rss1 > 0 else np.inf
-            fams[fam] = {"p": float(stats.f.sf(F, q, dof)), "F": float(F), "q": int(q),
-                         "explained": float(max(rss0 - rss1, 0.0) / rss0) if rss0 > 0 else 0.0}
+            f = _family_factor(y, base, Z, w) if correlated else 1.0
+            fams[fam] = {"p": float(stats.f.sf(F / f, q, max(dof / f, 1.0))), "F": float(F), "q": int(q),
+                         "explained": float(max(rss0 - rss1, 0.0) / rss0) if rss0 > 0 else 0.0,
+                         **({"serial_factor": f} if correlated else {})}
         h = int(min(10, max(1, d.n // 5)))
-        p_lb, Q = ljung_box(y * np.sqrt(w), h)
+        if correlated:
+            p_lb, ar = serial.prewhitened_ljung_box(_wls_resid(y, base, w))
+            white = {"test": "Ljung-Box of the residual less an AR(p) noise model", "lags": serial.LJUNG_BOX_LAGS,
+                     "p": p_lb, "ar_order": int(ar)}
+        else:
+            p_lb, Q = ljung_box(y * np.sqrt(w), h)
+            white = {"test": "Ljung-Box", "lags": h, "p": p_lb, "Q": Q}
         strongest = min(fams, key=lambda k: fams[k]["p"]) if fams else None
-        out[name] = {"rms": float(np.sqrt(np.mean(y ** 2))), "families": fams,
-                     "whiteness": {"test": "Ljung-Box", "lags": h, "p": p_lb, "Q": Q},
-                     "strongest": strongest}
+        out[name] = {"rms": float(np.sqrt(np.mean(y ** 2))), "families": fams, "whiteness": white,
+                     "serially_correlated": bool(correlated), "strongest": strongest}
     return out
+
+
+def _wls_resid(y, X, w):
+    """The whitened residual (time order) of y on the columns X under the weights w."""
+    sw = np.sqrt(w)
+    A = X * sw[:, None]
+    s = np.sqrt((A ** 2).sum(0))
+    s[s == 0] = 1.0
+    A = A / s
+    beta = np.linalg.lstsq(A, y * sw, rcond=1e-8)[0]
+    return y * sw - A @ beta
+
+
+def _family_factor(y, base, Z, w) -> float:
+    """The Bartlett factor (serial.columns_factor) of a family's columns Z,
+    whitened and with the channel's own columns projected out, against the
+    whitened residual of the model with them."""
+    sw = np.sqrt(w)
+    A = base * sw[:, None]
+    Zw = Z * sw[:, None]
+    s = np.sqrt((A ** 2).sum(0))
+    s[s == 0] = 1.0
+    Zc = Zw - (A / s) @ np.linalg.lstsq(A / s, Zw, rcond=1e-8)[0]
+    return serial.columns_factor(Zc, _wls_resid(y, np.column_stack([base, Z]), w))
 
 
 def structure_verdict(st: dict, alpha: float) -> dict:
@@ -128,4 +164,7 @@ def structure_verdict(st: dict, alpha: float) -> dict:
     p, ch, fam = min(tests) if tests else (1.0, None, None)
     return {"alpha": alpha, "tests": m, "threshold": alpha / max(m, 1), "min_p": p,
             "worst": {"channel": ch, "test": fam}, "unexplained": bool(p < alpha / max(m, 1)),
-            "significant": [{"channel": c, "test": f, "p": q} for q, c, f in sorted(tests) if q < alpha / max(m, 1)]}
+            "significant": [dict({"channel": c, "test": f, "p": q},
+                                 **({"ar_order": st[c]["whiteness"]["ar_order"]}
+                                    if f == "whiteness" and st[c]["whiteness"].get("ar_order") else {}))
+                            for q, c, f in sorted(tests) if q < alpha / max(m, 1)]}
