@@ -202,6 +202,15 @@ class Diagnosis:
                                 if cf.get("p_on_holds") is not None else "cannot confirm")
                              + f"; to tell, {cf['separate_by']}")
                 continue
+            if "beside_cubic" in cf:  # a temperature term an unmodelled cubic of its axis takes as well
+                bc = cf["beside_cubic"]
+                ps = (f"p = {bc['p_beside']:.2g} for the temperature term beside the cubic, "
+                      f"{bc['p_cubic_beside']:.2g} for the cubic beside it")
+                lines.append(f"not named: {e1}: confounded with {e2} (a term the library's model does not have), "
+                             + (f"which takes its place ({ps})" if bc["cubic_takes_it"] else
+                                f"and neither is significant beside the other ({ps}): the data cannot tell them "
+                                f"apart") + f"; to separate them, {cf['separate_by']}")
+                continue
             how = (f"correlation {cf['correlation']:.3f}" if cf.get("gain_share", 0.0) < cf["correlation"] ** 2
                    else f"{e2} in its place keeps {100 * cf['gain_share']:.0f} % of its gain")
             lines.append(f"confounded: {e1} {'(named)' if cf['named'] else '(not a cause)'} and {e2}, {how} in this "
