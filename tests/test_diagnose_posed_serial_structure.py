@@ -13,12 +13,9 @@ project's emulator."""
 import numpy as np
 import pytest
 
-from indep import body
+from indep import DIP_DEG, F_NT, ar1, body
 from inclino.diagnose.analysis import diagnose
 from inclino.formats.dataset import RawDataset
-
-F_NT, DIP_DEG = 50_000.0, 60.0
-
 
 def _continuous_run(seed, rho=0.5, rate=45.0, hz=10.0, lag_s=0.0):
     """The toolface turned once each way at three inclinations and the azimuth
@@ -50,16 +47,8 @@ def _continuous_run(seed, rho=0.5, rate=45.0, hz=10.0, lag_s=0.0):
     def affine(scale, mis_deg):
         return np.eye(3) + np.diag(rng.normal(0, scale, 3)) + np.radians(rng.normal(0, mis_deg, (3, 3))) * (1 - np.eye(3))
 
-    def ar1(sd):
-        w = rng.normal(0.0, sd * np.sqrt(1 - rho ** 2), (n, 3))
-        e = np.empty((n, 3))
-        e[0] = rng.normal(0.0, sd, 3)
-        for i in range(1, n):
-            e[i] = rho * e[i - 1] + w[i]
-        return e
-
-    acc = g @ affine(0.005, 0.3).T + rng.normal(0, 0.01, 3) + ar1(1.5e-4)
-    mag = b @ affine(0.01, 0.5).T + rng.normal(0, 300.0, 3) + ar1(5.0)
+    acc = g @ affine(0.005, 0.3).T + rng.normal(0, 0.01, 3) + ar1(rng, n, rho, 1.5e-4)
+    mag = b @ affine(0.01, 0.5).T + rng.normal(0, 300.0, 3) + ar1(rng, n, rho, 5.0)
     cols = {"t_s": t, "inc_deg": I, "azi_deg": np.mod(A, 360.0), "tf_deg": np.mod(T, 360.0),
             "ax_g": acc[:, 0], "ay_g": acc[:, 1], "az_g": acc[:, 2],
             "mx_nT": mag[:, 0], "my_nT": mag[:, 1], "mz_nT": mag[:, 2]}

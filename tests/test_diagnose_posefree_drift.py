@@ -10,15 +10,12 @@ run is still correlated about 0.3 with itself, so a drift that is there
 leaked into its own null and was refused (0.05 nT/s on |b|, p 7e-15, read as
 p 0.03 against its shifts, on 4 of 4 draws).
 """
-import io
-
 import numpy as np
 import pytest
 
+from indep import DIP_DEG as DIP, F_NT, canonical_csv, sensor_matrix
 from inclino.diagnose.analysis import diagnose
 from inclino.formats.dataset import read_raw
-
-F_NT, DIP = 50000.0, 60.0
 
 
 def _rot(rng):
@@ -29,18 +26,9 @@ def _rot(rng):
                      [2 * (x * z - w * y), 2 * (y * z + w * x), 1 - 2 * (x * x + y * y)]])
 
 
-def _sensor(rng, scale=0.01, cross=0.005, mis=0.5):
-    k = np.eye(3) + np.diag(rng.normal(0, scale, 3))
-    k[np.triu_indices(3, 1)] = rng.normal(0, cross, 3)
-    a = np.radians(rng.normal(0, mis, 3))  # a small rotation, first order
-    rm = np.eye(3) + np.array([[0, -a[2], a[1]], [a[2], 0, -a[0]], [-a[1], a[0], 0]])
-    u, _, vt = np.linalg.svd(rm)
-    return k @ (u @ vt)
-
-
 def hand_holds(seed, drift_nT_s=0.0, holds=40, hold=30, move=20, rate=10.0, mag_mis=0.5):
     rng = np.random.default_rng(seed)
-    sa, sm = _sensor(rng), _sensor(rng, mis=mag_mis)
+    sa, sm = sensor_matrix(rng), sensor_matrix(rng, mis=mag_mis)
     oa, om = rng.normal(0, 0.01, 3), rng.normal(0, 300.0, 3)
     rots = [_rot(rng) for _ in range(holds)]
     cs = []
@@ -60,11 +48,7 @@ def hand_holds(seed, drift_nT_s=0.0, holds=40, hold=30, move=20, rate=10.0, mag_
     b = np.einsum("nij,j->ni", cs, fw) * size[:, None]
     acc = g @ sa.T + oa + rng.normal(0, 1.5e-4, (n, 3))
     mag = b @ sm.T + om + rng.normal(0, 5.0, (n, 3))
-    out = io.StringIO()
-    out.write(f"# field_nT={F_NT:g}\n# dip_deg={DIP:g}\nt_s,ax_g,ay_g,az_g,mx_nT,my_nT,mz_nT\n")
-    for i in range(n):
-        out.write(f"{t[i]:.3f}," + ",".join(f"{v:.9g}" for v in (*acc[i], *mag[i])) + "\n")
-    return out.getvalue()
+    return canonical_csv(t, acc, mag)
 
 
 def _read(tmp_path, text):

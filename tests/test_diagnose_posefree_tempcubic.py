@@ -17,53 +17,9 @@ A real acc z temperature bias of 50 ug/degC on the same logs stays named
 (11 of 12 seeds, as before; seed 100 names nothing either way), and a
 temperature scale of 200 ppm/degC 12 of 12.
 """
-import io
-
-import numpy as np
-
-from indep import body
+from indep import smooth_log
 from inclino.diagnose.analysis import diagnose
 from inclino.formats.dataset import read_raw
-
-F_NT, DIP = 50000.0, 60.0
-
-
-def _sensor(rng, scale=0.01, cross=0.005, mis=0.5):
-    k = np.eye(3) + np.diag(rng.normal(0, scale, 3))
-    k[np.triu_indices(3, 1)] = rng.normal(0, cross, 3)
-    a = np.radians(rng.normal(0, mis, 3))  # a small rotation, first order
-    rm = np.eye(3) + np.array([[0, -a[2], a[1]], [a[2], 0, -a[0]], [-a[1], a[0], 0]])
-    u, _, vt = np.linalg.svd(rm)
-    return k @ (u @ vt)
-
-
-def smooth_log(seed, n=2000, rate=10.0, cubic=0.0, tbias_g_per_c=0.0):
-    """A smoothly turned log with white noise and a temperature ramp
-    (canonical CSV text).  cubic: an acc z term c z^3 (g/g^3);
-    tbias_g_per_c: an acc z temperature bias."""
-    rng = np.random.default_rng(seed)
-    sa, sm = _sensor(rng), _sensor(rng)
-    oa, om = rng.normal(0, 0.01, 3), rng.normal(0, 300.0, 3)
-    t = np.arange(n) / rate
-    T = t[-1]
-    ph = rng.uniform(0, 2 * np.pi, 6)
-    inc = 90 + 85 * np.sin(2 * np.pi * 3.3 * t / T + ph[0]) * (0.6 + 0.4 * np.sin(2 * np.pi * 1.1 * t / T + ph[1]))
-    azi = (360 * 2.7 * t / T + 60 * np.sin(2 * np.pi * 4.1 * t / T + ph[2])) % 360
-    tf = (360 * 5.3 * t / T + 90 * np.sin(2 * np.pi * 2.3 * t / T + ph[3])) % 360
-    dp = np.radians(DIP)
-    g = body(inc, azi, tf, np.array([0, 0, 1.0]))
-    b = body(inc, azi, tf, F_NT * np.array([np.cos(dp), 0.0, np.sin(dp)]))
-    temp = 20 + 15 * (1 - np.exp(-t / (0.4 * T))) + rng.normal(0, 0.02, n)
-    acc = g @ sa.T + oa
-    acc[:, 2] += cubic * acc[:, 2] ** 3 + tbias_g_per_c * (temp - temp.mean())
-    mag = b @ sm.T + om
-    acc = acc + rng.normal(0, 1e-3, (n, 3))
-    mag = mag + rng.normal(0, 20.0, (n, 3))
-    out = io.StringIO()
-    out.write(f"# field_nT={F_NT:g}\n# dip_deg={DIP:g}\nt_s,temp_c,ax_g,ay_g,az_g,mx_nT,my_nT,mz_nT\n")
-    for i in range(n):
-        out.write(f"{t[i]:.3f},{temp[i]:.4f}," + ",".join(f"{v:.9g}" for v in (*acc[i], *mag[i])) + "\n")
-    return out.getvalue()
 
 
 def _diagnose(tmp_path, text):
