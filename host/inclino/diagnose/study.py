@@ -69,15 +69,21 @@ def family_columns(d: Data, bl, ch: int) -> dict:
     return out
 
 
-def _wls_rss(y, X, w):
+def _wls_fit(y, X, w):
+    """(whitened residual, rank) of y on the columns X under the weights w
+    (the columns scaled to unit length before the solve)."""
     sw = np.sqrt(w)
     A = X * sw[:, None]
     s = np.sqrt((A ** 2).sum(0))
     s[s == 0] = 1.0
     A = A / s
     beta, _, rank, _ = np.linalg.lstsq(A, y * sw, rcond=1e-8)
-    r = y * sw - A @ beta
-    return float(r @ r), int(rank)
+    return y * sw - A @ beta, int(rank)
+
+
+def _wls_rss(y, X, w):
+    r, rank = _wls_fit(y, X, w)
+    return float(r @ r), rank
 
 
 def ljung_box(r, h):
@@ -132,13 +138,7 @@ def study(d: Data, bl, R, var, own_cols) -> dict:
 
 def _wls_resid(y, X, w):
     """The whitened residual (time order) of y on the columns X under the weights w."""
-    sw = np.sqrt(w)
-    A = X * sw[:, None]
-    s = np.sqrt((A ** 2).sum(0))
-    s[s == 0] = 1.0
-    A = A / s
-    beta = np.linalg.lstsq(A, y * sw, rcond=1e-8)[0]
-    return y * sw - A @ beta
+    return _wls_fit(y, X, w)[0]
 
 
 def _family_factor(y, base, Z, w) -> float:

@@ -566,16 +566,23 @@ def _field_nT(header: dict, what: str) -> float | None:
     return float(v)
 
 
-def _triad(spec: dict, section: str, log_what: str, field_nT: float | None = None) -> Triad:
-    kind, units, canon, _ = TRIADS[section]
-    what = f"{log_what}[{section}]"
-    extra = set(spec) - TRIAD_KEYS
+def _three_columns(spec: dict, what: str, keys, whose: str) -> list:
+    """A triad table's keys checked against `keys` and its three columns
+    (names or 1-based numbers), each refused in one line naming the table."""
+    extra = set(spec) - keys
     if extra:
-        raise DataError(f"{what}: unknown key(s) {', '.join(sorted(extra))} (known: {', '.join(sorted(TRIAD_KEYS))})")
+        raise DataError(f"{what}: unknown key(s) {', '.join(sorted(extra))} (known: {', '.join(sorted(keys))})")
     cols = spec.get("columns")
     if not (isinstance(cols, list) and len(cols) == 3 and all(isinstance(c, (str, int)) and not isinstance(c, bool)
                                                                for c in cols)):
-        raise DataError(f"{what}.columns: three column names (or 1-based numbers) for the sensor's x, y, z")
+        raise DataError(f"{what}.columns: three column names (or 1-based numbers) for {whose} x, y, z")
+    return cols
+
+
+def _triad(spec: dict, section: str, log_what: str, field_nT: float | None = None) -> Triad:
+    kind, units, canon, _ = TRIADS[section]
+    what = f"{log_what}[{section}]"
+    cols = _three_columns(spec, what, TRIAD_KEYS, "the sensor's")
     unit = str(spec.get("unit", canon)).strip()
     lsb = None
     if unit.lower() in ("count", "counts", "lsb", "raw"):
@@ -663,13 +670,7 @@ def _gyro(spec, what: str, default_axes: list | None) -> Triad:
     what = f"{what}[gyroscope]"
     if not isinstance(spec, dict):
         raise DataError(f"{what}: must be a table")
-    extra = set(spec) - GYRO_KEYS
-    if extra:
-        raise DataError(f"{what}: unknown key(s) {', '.join(sorted(extra))} (known: {', '.join(sorted(GYRO_KEYS))})")
-    cols = spec.get("columns")
-    if not (isinstance(cols, list) and len(cols) == 3 and all(isinstance(c, (str, int)) and not isinstance(c, bool)
-                                                               for c in cols)):
-        raise DataError(f"{what}.columns: three column names (or 1-based numbers) for the gyroscope's x, y, z")
+    cols = _three_columns(spec, what, GYRO_KEYS, "the gyroscope's")
     if "unit" not in spec:
         raise DataError(f"{what}.unit: the angular rate's unit, \"deg/s\", \"rad/s\", or \"counts\" with lsb")
     unit = str(spec["unit"]).strip()
