@@ -556,7 +556,7 @@ def diagnose_posefree(ds: RawDataset, alpha: float = DEFAULT_ALPHA, folds: int =
     des, idx, r_base, rows = design(testable)
     # the noise's own serial correlation between neighbouring rows (in time order), of the baseline's
     # residuals with their slow part (a trend an effect makes) taken off
-    rho = max(_lag1(_highpass(r_base[order_t][rows[order_t]])), _lag1(_highpass(r_base[rows])))
+    rho = max(_lag1(bartlett.highpass(r_base[order_t][rows[order_t]])), _lag1(bartlett.highpass(r_base[rows])))
     serial.update(rho=rho, inflation=(1.0 + rho) / (1.0 - rho))
     des.inflation = serial["inflation"]
     shift_test = serial["rho"] >= SHIFT_TEST_RHO and not declared_static(ds)
@@ -1261,9 +1261,6 @@ SHIFT_MAX_CORR = 0.3
 SHIFT_MIN_COUNT = 20  # fewer unrelated shifts than this: all of them are used (the test errs towards refusing)
 
 
-_highpass = bartlett.highpass  # what varies from one row to the next, without the slow part
-
-
 def _turn_start(g, b) -> np.ndarray:
     """The rotation of the magnetometer's axes onto the accelerometer's that
     makes the dip most nearly constant, as a start (identity when the data
@@ -1510,7 +1507,7 @@ def _structure(pf, R, rows, chans, alpha) -> dict:
     reading order), temperature, each rig angle (harmonics 1-2), the
     channel's own triad's direction (quadratic terms); Ljung-Box in order.
     A channel whose residual, its slow part taken off, still correlates
-    from row to row (_row_correlated: a sensor's low-pass filter, the
+    from row to row (serial.row_correlated: a sensor's low-pass filter, the
     probe's motion) has each family's F-test deflated by the family's
     Bartlett factor against the residual with it (serial.columns_factor,
     in time order), and its whiteness test asks for more than AR(p) noise
@@ -1536,7 +1533,7 @@ def _structure(pf, R, rows, chans, alpha) -> dict:
     order = np.argsort(pf.t[rows], kind="stable")
     for j, ch in enumerate(chans):
         y = R[rows, j]
-        correlated = _row_correlated(y[order], len(chans))
+        correlated = bartlett.row_correlated(y[order], len(chans))
         factors = {}
         for fam, Z in fams.items():
             X0 = np.ones((len(y), 1))
@@ -1577,9 +1574,6 @@ def _structure(pf, R, rows, chans, alpha) -> dict:
                                 "1 + 2 sum_k w_k rho_e(k) rho_Z(k) of its columns Z against the residual e with "
                                 "them (time order), and the whiteness test is of the residual less an AR(p) noise "
                                 f"model (p <= {bartlett.AR_MAX_ORDER}, by AIC)")}}
-
-
-_row_correlated = bartlett.row_correlated  # the row-to-row correlation gate of the structure tests
 
 
 CONFOUND_CORR = 0.9  # a named effect and a rival: this signature correlation, or (its temperature sibling,
